@@ -1,0 +1,53 @@
+# taskspace: the two commands are `make demo` and `make test` (both create .venv).
+PYTHON ?= python3
+VENV := .venv
+PY := $(VENV)/bin/python
+STAMP := $(VENV)/.installed
+SUDO := $(shell [ "$$(id -u)" -eq 0 ] || echo sudo)
+PYTEST_WORKERS ?= 2
+OUT ?= out
+
+.PHONY: demo test lint typecheck pytest chromium bench bench-quick bench-peers clean
+
+$(PY):
+	$(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --upgrade pip
+
+$(STAMP): pyproject.toml | $(PY)
+	$(PY) -m pip install --quiet -e ".[test]"
+	touch $(STAMP)
+
+# Debian's Chromium renders the meshcat snapshots (never a downloaded browser).
+chromium:
+	@command -v chromium >/dev/null 2>&1 || { \
+		echo "installing chromium (apt)"; \
+		$(SUDO) apt-get update -qq && \
+		DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq chromium >/dev/null; }
+
+demo: $(STAMP) chromium
+	$(VENV)/bin/taskspace demo main --html $(OUT)/demo.html --png $(OUT)/demo.png
+
+lint: $(STAMP)
+	$(VENV)/bin/ruff check .
+	$(VENV)/bin/ruff format --check .
+
+typecheck: $(STAMP)
+	$(VENV)/bin/mypy
+
+pytest: $(STAMP) chromium
+	$(PY) -m pytest -n $(PYTEST_WORKERS) --dist loadgroup -q
+
+test: lint typecheck pytest
+
+bench: $(STAMP)
+	$(PY) -m benchmarks.run --save benchmarks/results/latest.json
+
+bench-quick: $(STAMP)
+	$(PY) -m benchmarks.run --quick
+
+# Peer libraries, each in its own environment (they pin other Pinocchio versions).
+bench-peers:
+	bash benchmarks/peers/install.sh
+
+clean:
+	rm -rf $(VENV) .venv-peers out .mypy_cache .ruff_cache .pytest_cache

@@ -1,0 +1,32 @@
+"""taskspace: the algorithms of an introductory robotics course on real robot models."""
+
+from taskspace.errors import (
+    InfeasibleError,
+    InvalidInputError,
+    LimitError,
+    ModelLoadError,
+    NotFiniteError,
+    PlanningError,
+    ShapeError,
+    SolverError,
+    TaskspaceError,
+    TaskspaceWarning,
+    UnknownNameError,
+)
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "InfeasibleError",
+    "InvalidInputError",
+    "LimitError",
+    "ModelLoadError",
+    "NotFiniteError",
+    "PlanningError",
+    "ShapeError",
+    "SolverError",
+    "TaskspaceError",
+    "TaskspaceWarning",
+    "UnknownNameError",
+    "__version__",
+]

@@ -1,0 +1,63 @@
+"""Filter consistency metrics: NEES and NIS with chi-square acceptance bounds.
+
+* NEES (normalized estimation error squared): ``e_k = (x_k - x_hat_k)^T P_k^-1 (x_k - x_hat_k)``,
+  ``chi^2(n)``-distributed for a consistent filter;
+* NIS (normalized innovation squared): ``r_k^T S_k^-1 r_k ~ chi^2(m)``.
+
+Averaged over ``M`` Monte Carlo runs, ``M * mean(e)`` is ``chi^2(M n)``; :func:`chi2_bounds`
+gives the two-sided acceptance interval of the average.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import scipy.stats
+
+from taskspace._validation import FloatArray
+from taskspace.errors import InvalidInputError, NotFiniteError, ShapeError, SolverError
+
+
+def nees(truth: Any, means: Any, covs: Any) -> FloatArray:
+    """NEES of each step: ``(x - x_hat)^T P^-1 (x - x_hat)``.
+
+    Args:
+        truth: ``(T, n)`` true states.
+        means: ``(T, n)`` estimates.
+        covs: ``(T, n, n)`` estimate covariances.
+
+    Returns:
+        ``(T,)`` NEES values.
+    """
+    x = np.asarray(truth, dtype=np.float64)
+    m = np.asarray(means, dtype=np.float64)
+    P = np.asarray(covs, dtype=np.float64)
+    if x.ndim != 2 or m.shape != x.shape:
+        raise ShapeError("means", tuple(x.shape), tuple(m.shape))
+    if P.shape != (*x.shape, x.shape[1]):
+        raise ShapeError("covs", (*x.shape, x.shape[1]), tuple(P.shape))
+    for arr, name in ((x, "truth"), (m, "means"), (P, "covs")):
+        if not np.isfinite(arr).all():
+            raise NotFiniteError(name, [int(i) for i in np.flatnonzero(~np.isfinite(arr))[:20]])
+    e = x - m
+    try:
+        sol = np.linalg.solve(P, e[..., None])[..., 0]
+    except np.linalg.LinAlgError as exc:
+        raise SolverError(f"a covariance is singular: {exc}") from exc
+    return np.einsum("ti,ti->t", e, sol)
+
+
+def chi2_bounds(dof: int, num_runs: int = 1, confidence: float = 0.95) -> tuple[float, float]:
+    """Two-sided acceptance interval of the average of ``num_runs`` ``chi^2(dof)`` variables.
+
+    ``[chi2.ppf((1-c)/2, M dof) / M, chi2.ppf((1+c)/2, M dof) / M]``.
+    """
+    if dof < 1 or num_runs < 1 or not 0.0 < confidence < 1.0:
+        raise InvalidInputError(
+            f"need dof >= 1, num_runs >= 1, 0 < confidence < 1; got {dof}, {num_runs}, {confidence}"
+        )
+    k = dof * num_runs
+    lo = float(scipy.stats.chi2.ppf(0.5 * (1.0 - confidence), k)) / num_runs
+    hi = float(scipy.stats.chi2.ppf(0.5 * (1.0 + confidence), k)) / num_runs
+    return lo, hi

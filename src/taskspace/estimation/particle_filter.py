@@ -1,0 +1,282 @@
+"""Particle filter / Monte Carlo localization (slides 6:11-6:13, 7:21-7:25).
+
+The belief is a weighted particle set ``q(x) = sum_i w_i delta(x - x_i)``. One step of the
+Bayes filter ``p_t(x_t) ~ P(y_t | x_t) int P(x_t | u_{t-1}, x_{t-1}) p_{t-1}(x_{t-1})`` is
+
+1. resample to unit-weight particles (here only when the effective sample size
+   ``N_eff = 1 / sum w_i^2`` falls below ``ess_threshold * N``),
+2. sample the motion model ``x_t^i ~ P(x_t | u_{t-1}, x_{t-1}^i)`` (:meth:`ParticleFilter.predict`),
+3. weight by the observation model ``w_t^i ~ P(y_t | x_t^i)`` (:meth:`ParticleFilter.update`).
+
+Against particle depletion (slide 7:25) a fraction of the particles can be drawn from an
+observation-driven proposal ``x ~ P(y_t | x)`` (sensor resetting; with ``adaptive_mixture``
+the fraction follows the augmented-MCL rule ``max(0, 1 - w_fast / w_slow)`` of Thrun et al.).
+All operations are vectorized over particles; the callables receive the whole ``(N, d)`` array.
+"""
+
+from __future__ import annotations
+
+import enum
+import logging
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from taskspace._validation import FloatArray, check_finite
+from taskspace.errors import InvalidInputError, ShapeError
+from taskspace.estimation.resampling import get_resampler
+
+logger = logging.getLogger(__name__)
+
+MotionSampler = Callable[[FloatArray, Any, np.random.Generator], FloatArray]
+LogLikelihood = Callable[[FloatArray, Any], FloatArray]
+ObservationSampler = Callable[[Any, int, np.random.Generator], FloatArray]
+
+
+@dataclass(frozen=True, kw_only=True)
+class ParticleFilterOptions:
+    """Settings of :class:`ParticleFilter`.
+
+    Attributes:
+        resampling: ``"systematic"``, ``"stratified"``, ``"residual"`` or ``"multinomial"``.
+        ess_threshold: resample when ``N_eff < ess_threshold * N`` (1.0: every step).
+        mixture_fraction: fraction of particles replaced after resampling by draws from the
+            observation proposal (needs ``observation_sampler``).
+        adaptive_mixture: use the augmented-MCL fraction ``max(0, 1 - w_fast / w_slow)``
+            (capped by ``mixture_fraction``) instead of the fixed fraction.
+        alpha_slow: decay rate of the long-term average likelihood ``w_slow``.
+        alpha_fast: decay rate of the short-term average likelihood ``w_fast``.
+        angular_dims: state indices that are angles [rad] (circular mean in :meth:`estimate`).
+    """
+
+    resampling: str = "systematic"
+    ess_threshold: float = 0.5
+    mixture_fraction: float = 0.0
+    adaptive_mixture: bool = False
+    alpha_slow: float = 0.001
+    alpha_fast: float = 0.1
+    angular_dims: tuple[int, ...] = ()
+
+
+class PFStatus(enum.Enum):
+    """Outcome of a particle filter run."""
+
+    SUCCESS = "success"
+    DEGENERATE = "degenerate"
+
+
+@dataclass(frozen=True)
+class ParticleFilterResult:
+    """History of a particle filter run.
+
+    Attributes:
+        success: ``False`` if all weights collapsed to zero at some step.
+        status: outcome.
+        means: ``(T, d)`` weighted means after each update.
+        covs: ``(T, d, d)`` weighted covariances.
+        ess: ``(T,)`` effective sample size after each update (before resampling).
+        num_resamples: number of resampling steps.
+        num_injected: total number of particles drawn from the observation proposal.
+        time_s: wall time [s].
+        message: diagnostic text.
+    """
+
+    success: bool
+    status: PFStatus
+    means: FloatArray
+    covs: FloatArray
+    ess: FloatArray
+    num_resamples: int
+    num_injected: int
+    time_s: float
+    message: str = ""
+
+
+class ParticleFilter:
+    """Sampling-importance-resampling particle filter (slide 7:22).
+
+    Args:
+        particles: ``(N, d)`` initial particles (samples of the prior).
+        motion_sampler: ``f(particles, u, rng) -> (N, d)`` samples of ``P(x_t | u, x_{t-1})``.
+        log_likelihood: ``g(particles, z) -> (N,)`` values of ``log P(z | x)``.
+        rng: random generator (all randomness of the filter).
+        observation_sampler: optional ``h(z, n, rng) -> (n, d)`` draws from a proposal
+            proportional to ``P(z | x)`` (the mixture proposal of slide 7:25).
+        options: settings.
+    """
+
+    def __init__(
+        self,
+        particles: Any,
+        motion_sampler: MotionSampler,
+        log_likelihood: LogLikelihood,
+        rng: np.random.Generator,
+        *,
+        observation_sampler: ObservationSampler | None = None,
+        options: ParticleFilterOptions | None = None,
+    ) -> None:
+        self.options = options or ParticleFilterOptions()
+        o = self.options
+        self._resample = get_resampler(o.resampling)
+        if not 0.0 <= o.ess_threshold <= 1.0:
+            raise InvalidInputError(f"ess_threshold must be in [0, 1], got {o.ess_threshold}")
+        if not 0.0 <= o.mixture_fraction < 1.0:
+            raise InvalidInputError(f"mixture_fraction must be in [0, 1), got {o.mixture_fraction}")
+        if o.mixture_fraction > 0.0 and observation_sampler is None:
+            raise InvalidInputError("mixture_fraction > 0 needs an observation_sampler")
+        p = np.array(particles, dtype=np.float64)
+        if p.ndim == 1:
+            p = p[:, None]
+        if p.ndim != 2 or p.shape[0] < 1:
+            raise ShapeError("particles", (-1, -1), tuple(p.shape))
+        check_finite(p, "particles")
+        self.particles = p
+        self.log_weights = np.full(p.shape[0], -np.log(p.shape[0]))
+        self.motion_sampler = motion_sampler
+        self.log_likelihood = log_likelihood
+        self.observation_sampler = observation_sampler
+        self.rng = rng
+        self._w_slow = 0.0
+        self._w_fast = 0.0
+        self.num_resamples = 0
+        self.num_injected = 0
+
+    @property
+    def num_particles(self) -> int:
+        """Number of particles ``N``."""
+        return int(self.particles.shape[0])
+
+    @property
+    def weights(self) -> FloatArray:
+        """Normalized weights ``w_i``."""
+        w = np.exp(self.log_weights - self.log_weights.max())
+        return w / w.sum()
+
+    def effective_sample_size(self) -> float:
+        """``N_eff = 1 / sum w_i^2``."""
+        w = self.weights
+        return float(1.0 / np.dot(w, w))
+
+    def predict(self, u: Any) -> None:
+        """Move every particle with a sample of the motion model ``P(x_t | u, x_{t-1})``."""
+        new = np.asarray(self.motion_sampler(self.particles, u, self.rng), dtype=np.float64)
+        if new.shape != self.particles.shape:
+            raise ShapeError("motion_sampler output", self.particles.shape, tuple(new.shape))
+        self.particles = new
+
+    def update(self, z: Any) -> float:
+        """Reweight by ``P(z | x_i)``, then resample if ``N_eff < ess_threshold * N``.
+
+        Args:
+            z: measurement passed to ``log_likelihood`` (and ``observation_sampler``).
+
+        Returns:
+            The effective sample size before resampling.
+
+        Raises:
+            InvalidInputError: if the likelihood has the wrong shape or is NaN / +inf.
+        """
+        ll = np.asarray(self.log_likelihood(self.particles, z), dtype=np.float64)
+        N = self.num_particles
+        if ll.shape != (N,):
+            raise ShapeError("log_likelihood output", (N,), tuple(ll.shape))
+        if np.isnan(ll).any() or np.isposinf(ll).any():
+            raise InvalidInputError("log_likelihood returned NaN or +inf")
+        lw = self.log_weights + ll
+        mx = float(lw.max())
+        if not np.isfinite(mx):
+            # Every particle is impossible: keep the predictive set (uniform weights).
+            logger.warning("all particle weights are zero; resetting to uniform weights")
+            lw = np.full(N, -np.log(N))
+            mx = float(lw.max())
+        # Average likelihood of the predictive particles (for augmented MCL).
+        w_avg = float(np.exp(ll.max()) * np.mean(np.exp(ll - ll.max()))) if np.isfinite(
+            ll.max()
+        ) else 0.0
+        lw = lw - (mx + np.log(np.sum(np.exp(lw - mx))))
+        self.log_weights = lw
+        w = np.exp(lw)
+        ess = float(1.0 / np.dot(w, w))
+        o = self.options
+        if o.adaptive_mixture:
+            if self._w_slow == 0.0:
+                self._w_slow = self._w_fast = w_avg
+            self._w_slow += o.alpha_slow * (w_avg - self._w_slow)
+            self._w_fast += o.alpha_fast * (w_avg - self._w_fast)
+        if ess < o.ess_threshold * N or o.ess_threshold >= 1.0:
+            self.resample(z)
+        return ess
+
+    def resample(self, z: Any | None = None) -> None:
+        """Draw ``N`` unit-weight particles, then inject observation-proposal particles."""
+        N = self.num_particles
+        idx = self._resample(np.exp(self.log_weights), self.rng)
+        self.particles = self.particles[idx]
+        self.log_weights = np.full(N, -np.log(N))
+        self.num_resamples += 1
+        o = self.options
+        if o.mixture_fraction > 0.0 and z is not None and self.observation_sampler is not None:
+            frac = o.mixture_fraction
+            if o.adaptive_mixture and self._w_slow > 0.0:
+                frac = min(frac, max(0.0, 1.0 - self._w_fast / self._w_slow))
+            k = int(self.rng.binomial(N, frac)) if frac > 0.0 else 0
+            if k > 0:
+                new = np.asarray(self.observation_sampler(z, k, self.rng), dtype=np.float64)
+                if new.shape != (k, self.particles.shape[1]):
+                    raise ShapeError(
+                        "observation_sampler output", (k, self.particles.shape[1]), new.shape
+                    )
+                slots = self.rng.choice(N, size=k, replace=False)
+                self.particles[slots] = new
+                self.num_injected += k
+
+    def estimate(self) -> tuple[FloatArray, FloatArray]:
+        """Weighted mean ``sum w_i x_i`` (circular for ``angular_dims``) and covariance."""
+        w = self.weights
+        p = self.particles
+        mean = w @ p
+        diff = p - mean
+        for d in self.options.angular_dims:
+            mean[d] = np.arctan2(w @ np.sin(p[:, d]), w @ np.cos(p[:, d]))
+            diff[:, d] = np.angle(np.exp(1j * (p[:, d] - mean[d])))
+        cov = (diff * w[:, None]).T @ diff
+        return mean, cov
+
+    def run(self, controls: Sequence[Any], measurements: Sequence[Any | None]) -> ParticleFilterResult:
+        """For each step ``k``: :meth:`predict` with ``controls[k]``, :meth:`update` with
+        ``measurements[k]`` (skipped when ``None``), and record the estimate.
+
+        Returns:
+            The :class:`ParticleFilterResult`.
+        """
+        if len(controls) != len(measurements):
+            raise InvalidInputError(
+                f"controls and measurements must have the same length, got {len(controls)} "
+                f"and {len(measurements)}"
+            )
+        t0 = time.perf_counter()
+        T = len(controls)
+        d = self.particles.shape[1]
+        means = np.empty((T, d))
+        covs = np.empty((T, d, d))
+        ess = np.full(T, float(self.num_particles))
+        for k in range(T):
+            self.predict(controls[k])
+            if measurements[k] is not None:
+                ess[k] = self.update(measurements[k])
+            means[k], covs[k] = self.estimate()
+        ok = bool(np.isfinite(means).all())
+        return ParticleFilterResult(
+            success=ok,
+            status=PFStatus.SUCCESS if ok else PFStatus.DEGENERATE,
+            means=means,
+            covs=covs,
+            ess=ess,
+            num_resamples=self.num_resamples,
+            num_injected=self.num_injected,
+            time_s=time.perf_counter() - t0,
+            message="" if ok else "non-finite particle estimate",
+        )

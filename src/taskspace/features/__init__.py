@@ -1,0 +1,32 @@
+"""Task variables (features) of the lecture notes: value, Jacobian and drift."""
+
+from taskspace.features.alignment import Alignment
+from taskspace.features.center_of_mass import CenterOfMass
+from taskspace.features.collision import CollisionDistance, CollisionPenetration
+from taskspace.features.feature import Feature
+from taskspace.features.frame_pose import FramePose
+from taskspace.features.joint_configuration import JointConfiguration
+from taskspace.features.joint_limits import JointLimitPenetration
+from taskspace.features.orientation import Orientation
+from taskspace.features.position import Position
+from taskspace.features.relative_alignment import RelativeAlignment
+from taskspace.features.relative_position import RelativePosition
+from taskspace.features.relative_vector import RelativeVector
+from taskspace.features.vector import Vector
+
+__all__ = [
+    "Alignment",
+    "CenterOfMass",
+    "CollisionDistance",
+    "CollisionPenetration",
+    "Feature",
+    "FramePose",
+    "JointConfiguration",
+    "JointLimitPenetration",
+    "Orientation",
+    "Position",
+    "RelativeAlignment",
+    "RelativePosition",
+    "RelativeVector",
+    "Vector",
+]

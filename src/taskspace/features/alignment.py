@@ -1,0 +1,51 @@
+"""Alignment of an attached vector with a world reference (slide 2:50)."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from taskspace._validation import FloatArray, as_vector
+from taskspace.features import _point
+from taskspace.features.feature import Feature
+
+if TYPE_CHECKING:
+    from taskspace.model.robot import Robot
+    from taskspace.model.state import State
+
+
+class Alignment(Feature):
+    """``phi(q) = v*^T R_i(q) v``: 1 aligned, -1 anti-aligned, 0 orthogonal.
+
+    Jacobian ``v*^T J_vec(i, v)``.
+
+    Args:
+        robot: the robot.
+        frame: link i.
+        vector: attached vector ``v`` in i's coordinates.
+        reference: world reference vector ``v*``.
+    """
+
+    dim = 1
+
+    def __init__(self, robot: Robot, frame: str, vector: Any, reference: Any) -> None:
+        super().__init__(robot, f"alignment({frame})")
+        self.frame_id = robot.frame_id(frame)
+        self.vector = as_vector(vector, 3, "vector")
+        self.reference = as_vector(reference, 3, "reference")
+
+    def value(self, state: State) -> FloatArray:
+        """Scalar product, shape (1,)."""
+        self._check_state(state)
+        return np.array([self.reference @ _point.vector_value(state, self.frame_id, self.vector)])
+
+    def jacobian(self, state: State) -> FloatArray:
+        """1 x nv Jacobian."""
+        self._check_state(state)
+        return (self.reference @ _point.vector_jacobian(state, self.frame_id, self.vector))[None]
+
+    def drift(self, state: State) -> FloatArray:
+        """Second derivative at zero joint acceleration, shape (1,)."""
+        self._check_state(state)
+        return np.array([self.reference @ _point.vector_drift(state, self.frame_id, self.vector)])

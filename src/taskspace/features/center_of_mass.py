@@ -1,0 +1,40 @@
+"""Center of mass of the whole robot (slide 2:54)."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from taskspace._validation import FloatArray
+from taskspace.features.feature import Feature
+
+if TYPE_CHECKING:
+    from taskspace.model.robot import Robot
+    from taskspace.model.state import State
+
+
+class CenterOfMass(Feature):
+    """``phi(q) = sum_i m_i T_W,i c_i / M`` [m], Jacobian ``sum_i m_i J_pos(i, c_i) / M``.
+
+    (The notes write the mass-weighted sum; taskspace normalizes by the total mass ``M`` so
+    the value is the CoM position.) Computed by Pinocchio's ``jacobianCenterOfMass``.
+    """
+
+    dim = 3
+
+    def __init__(self, robot: Robot) -> None:
+        super().__init__(robot, "center_of_mass")
+
+    def value(self, state: State) -> FloatArray:
+        """Center of mass in the world [m]."""
+        self._check_state(state)
+        return state.com().copy()
+
+    def jacobian(self, state: State) -> FloatArray:
+        """3 x nv CoM Jacobian."""
+        self._check_state(state)
+        return state.com_jacobian()
+
+    def drift(self, state: State) -> FloatArray:
+        """CoM acceleration at zero joint acceleration [m/s^2]."""
+        self._check_state(state)
+        return state.com_drift()

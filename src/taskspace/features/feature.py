@@ -1,0 +1,75 @@
+"""The task variable (feature) abstraction of the lecture notes (slides 2:15-2:16, 2:45-2:56).
+
+A feature is a differentiable map ``phi: q -> y`` with Jacobian ``J(q) = d phi / dq`` (columns
+in Pinocchio's tangent space, size ``nv``) and drift ``Jdot v`` (for acceleration-level
+control: ``y'' = J q'' + Jdot v``). Every consumer of taskspace (IK, hierarchies,
+operational-space control, path optimization, planning) uses features through this class.
+"""
+
+from __future__ import annotations
+
+import abc
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from taskspace._validation import FloatArray, as_vector
+from taskspace.errors import InvalidInputError
+
+if TYPE_CHECKING:
+    from taskspace.model.robot import Robot
+    from taskspace.model.state import State
+
+
+class Feature(abc.ABC):
+    """Base class of task variables.
+
+    Subclasses implement :meth:`value`, :meth:`jacobian` and :meth:`drift`. Features whose
+    values live on a Lie group (poses, orientations, configurations) also override
+    :meth:`residual` and :meth:`residual_jacobian` with the logarithmic error.
+
+    Attributes:
+        robot: the robot the feature is defined on.
+        name: a descriptive name (used in error messages and results).
+        dim: dimension of the feature's tangent space (rows of the Jacobian).
+    """
+
+    dim: int
+
+    def __init__(self, robot: Robot, name: str) -> None:
+        self.robot = robot
+        self.name = name
+
+    def _check_state(self, state: State) -> None:
+        if state.robot is not self.robot:
+            raise InvalidInputError(
+                f"feature '{self.name}' is defined on robot '{self.robot.name}' but the state "
+                f"belongs to robot '{state.robot.name}'"
+            )
+
+    @abc.abstractmethod
+    def value(self, state: State) -> Any:
+        """Feature value ``y = phi(q)``."""
+
+    @abc.abstractmethod
+    def jacobian(self, state: State) -> FloatArray:
+        """Jacobian ``J = d phi / dq``, shape (dim, nv)."""
+
+    @abc.abstractmethod
+    def drift(self, state: State) -> FloatArray:
+        """Drift ``Jdot v`` (the feature acceleration at zero joint acceleration), (dim,)."""
+
+    def check_target(self, target: Any) -> Any:
+        """Validate a target value for this feature and return it in canonical form."""
+        return as_vector(target, self.dim, f"target of feature '{self.name}'")
+
+    def residual(self, state: State, target: Any) -> FloatArray:
+        """Error ``e = phi(q) - y*`` (a tangent vector of size dim)."""
+        return np.asarray(self.value(state), dtype=float) - target
+
+    def residual_jacobian(self, state: State, target: Any) -> FloatArray:
+        """Jacobian of :meth:`residual` with respect to ``q`` (dim, nv)."""
+        return self.jacobian(state)
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}('{self.name}', dim={self.dim})"

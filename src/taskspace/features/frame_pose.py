@@ -1,0 +1,67 @@
+"""Pose of a frame, with the SE(3) logarithm as error."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import pinocchio as pin
+
+from taskspace._validation import FloatArray
+from taskspace.features.feature import Feature
+from taskspace.model.world import as_se3
+
+if TYPE_CHECKING:
+    from taskspace.model.robot import Robot
+    from taskspace.model.state import State
+
+
+class FramePose(Feature):
+    """Pose ``T_W,i(q)`` of a frame; residual ``log6(T*^-1 T(q))`` (body frame, 6-D).
+
+    The Jacobian is the LOCAL frame Jacobian (body twist ``nu = J v``, rows linear then
+    angular); the residual Jacobian is ``Jlog6(T*^-1 T) J``. The residual's first three
+    entries are a position error [m], the last three a rotation vector [rad].
+
+    Args:
+        robot: the robot.
+        frame: frame name.
+    """
+
+    dim = 6
+
+    def __init__(self, robot: Robot, frame: str) -> None:
+        super().__init__(robot, f"pose({frame})")
+        self.frame = frame
+        self.frame_id = robot.frame_id(frame)
+
+    def check_target(self, target: Any) -> pin.SE3:
+        """Accepts ``pin.SE3``, a 4x4 matrix, ``[x, y, z]`` or ``[x, y, z, qx, qy, qz, qw]``."""
+        return as_se3(target, f"target of feature '{self.name}'")
+
+    def value(self, state: State) -> pin.SE3:
+        """The frame pose (a copy)."""
+        self._check_state(state)
+        return state.frame_placement(self.frame_id).copy()
+
+    def jacobian(self, state: State) -> FloatArray:
+        """6 x nv LOCAL Jacobian."""
+        self._check_state(state)
+        return state.frame_jacobian_local(self.frame_id)
+
+    def drift(self, state: State) -> FloatArray:
+        """Body spatial acceleration at zero joint acceleration (LOCAL)."""
+        self._check_state(state)
+        return state.frame_drift_local(self.frame_id)
+
+    def residual(self, state: State, target: Any) -> FloatArray:
+        """``log6(T*^-1 T)`` (position error [m], rotation vector [rad])."""
+        self._check_state(state)
+        error = target.actInv(state.frame_placement(self.frame_id))
+        return np.asarray(pin.log6(error).vector)
+
+    def residual_jacobian(self, state: State, target: Any) -> FloatArray:
+        """``Jlog6(T*^-1 T) J_local``."""
+        self._check_state(state)
+        error = target.actInv(state.frame_placement(self.frame_id))
+        return np.asarray(pin.Jlog6(error) @ state.frame_jacobian_local(self.frame_id))

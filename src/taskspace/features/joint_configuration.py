@@ -1,0 +1,77 @@
+"""Joint configuration itself ("homing", slide 2:55)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import pinocchio as pin
+
+from taskspace._validation import FloatArray
+from taskspace.features.feature import Feature
+
+if TYPE_CHECKING:
+    from taskspace.model.robot import Robot
+    from taskspace.model.state import State
+
+
+class JointConfiguration(Feature):
+    """``phi(q) = q`` with Jacobian ``I``; on Lie-group joints the error is ``q (-) q*``.
+
+    The target is a full configuration ``q*`` (size nq). The residual is Pinocchio's
+    ``difference(q*, q)`` (size nv), exactly ``q - q*`` for revolute and prismatic joints;
+    its Jacobian is ``dDifference``. With ``joints`` only those joints' rows are kept (e.g.
+    a posture task on the actuated joints of a floating-base robot).
+
+    Args:
+        robot: the robot.
+        joints: names of the joints to include (default: all, including a floating base).
+    """
+
+    def __init__(self, robot: Robot, joints: Sequence[str] | None = None) -> None:
+        super().__init__(robot, "joint_configuration")
+        if joints is None:
+            self.rows: np.ndarray | None = None
+            self.dim = robot.nv
+        else:
+            rows = []
+            for name in joints:
+                joint = robot.model.joints[robot.joint_id(name)]
+                rows.extend(range(joint.idx_v, joint.idx_v + joint.nv))
+            self.rows = np.asarray(rows, dtype=int)
+            self.dim = len(rows)
+        self._identity = np.eye(robot.nv) if self.rows is None else np.eye(robot.nv)[self.rows]
+
+    def check_target(self, target: Any) -> FloatArray:
+        """Validate a target configuration (size nq)."""
+        return self.robot.check_configuration(target, f"target of feature '{self.name}'")
+
+    def value(self, state: State) -> FloatArray:
+        """The configuration ``q`` (size nq)."""
+        self._check_state(state)
+        return state.q.copy()
+
+    def jacobian(self, state: State) -> FloatArray:
+        """Identity rows (dim x nv)."""
+        self._check_state(state)
+        return self._identity
+
+    def drift(self, state: State) -> FloatArray:
+        """Zero."""
+        self._check_state(state)
+        return np.zeros(self.dim)
+
+    def residual(self, state: State, target: Any) -> FloatArray:
+        """``difference(q*, q)`` restricted to the selected rows."""
+        self._check_state(state)
+        diff = np.asarray(pin.difference(self.robot.model, target, state.q))
+        return diff if self.rows is None else diff[self.rows]
+
+    def residual_jacobian(self, state: State, target: Any) -> FloatArray:
+        """``dDifference(q*, q) / dq`` restricted to the selected rows."""
+        self._check_state(state)
+        if not self.robot.is_floating and self.robot.nq == self.robot.nv:
+            return self._identity
+        J = np.asarray(pin.dDifference(self.robot.model, target, state.q, pin.ARG1))
+        return J if self.rows is None else J[self.rows]

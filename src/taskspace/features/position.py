@@ -1,0 +1,49 @@
+"""Position of a point attached to a link (slide 2:46)."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+from taskspace._validation import FloatArray, as_vector
+from taskspace.features import _point
+from taskspace.features.feature import Feature
+
+if TYPE_CHECKING:
+    from taskspace.model.robot import Robot
+    from taskspace.model.state import State
+
+
+class Position(Feature):
+    """World position of a point on a link: ``phi(q) = T_W,i(q) v`` [m].
+
+    Jacobian column k: ``[k < i] a_k x (phi(q) - p_k)`` (slide 2:46), from Pinocchio's frame
+    Jacobian.
+
+    Args:
+        robot: the robot.
+        frame: name of the frame the point is attached to.
+        offset: point coordinates in that frame [m] (default: the frame origin).
+    """
+
+    dim = 3
+
+    def __init__(self, robot: Robot, frame: str, offset: Any = None) -> None:
+        super().__init__(robot, f"position({frame})")
+        self.frame = frame
+        self.frame_id = robot.frame_id(frame)
+        self.offset: FloatArray | None = None if offset is None else as_vector(offset, 3, "offset")
+
+    def value(self, state: State) -> FloatArray:
+        """World position [m]."""
+        self._check_state(state)
+        return _point.point_position(state, self.frame_id, self.offset)
+
+    def jacobian(self, state: State) -> FloatArray:
+        """3 x nv position Jacobian."""
+        self._check_state(state)
+        return _point.point_jacobian(state, self.frame_id, self.offset)
+
+    def drift(self, state: State) -> FloatArray:
+        """Point acceleration at zero joint acceleration [m/s^2]."""
+        self._check_state(state)
+        return _point.point_drift(state, self.frame_id, self.offset)

@@ -1,0 +1,216 @@
+"""``State``: a configuration, a velocity, and the kinematics computed for them once."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import pinocchio as pin
+
+from taskspace._validation import FloatArray
+from taskspace.errors import InvalidInputError
+
+if TYPE_CHECKING:
+    from taskspace.model.robot import Robot
+
+LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+LOCAL = pin.ReferenceFrame.LOCAL
+WORLD = pin.ReferenceFrame.WORLD
+
+
+class State:
+    """Configuration ``q``, velocity ``v`` and their kinematics, computed in one pass.
+
+    :meth:`update` runs Pinocchio once (``computeJointJacobians`` and frame placements, plus
+    ``forwardKinematics`` with ``a = 0`` when a velocity is given, for the drift terms
+    ``Jdot v``). Every feature then reads from it; per-frame Jacobians are cached until the
+    next update. ``q`` and ``v`` are exposed read-only.
+
+    Args:
+        robot: the robot.
+        q: configuration (size nq), validated (shape, finite, unit quaternions).
+        v: velocity (size nv) [rad/s, m/s]; zero if omitted.
+    """
+
+    __slots__ = (
+        "_a0",
+        "_cache_lwa",
+        "_cache_local",
+        "_com",
+        "_com_jacobian",
+        "_com_drift",
+        "_distances_done",
+        "_has_velocity",
+        "_q",
+        "_v",
+        "collision_data",
+        "data",
+        "robot",
+    )
+
+    def __init__(self, robot: Robot, q: Any, v: Any = None) -> None:
+        self.robot = robot
+        self.data = robot.model.createData()
+        self.collision_data = robot.collision_model.createData()
+        self._a0 = np.zeros(robot.nv)
+        self._cache_lwa: dict[int, FloatArray] = {}
+        self._cache_local: dict[int, FloatArray] = {}
+        self.update(q, v)
+
+    # ------------------------------------------------------------------ update
+    def update(self, q: Any, v: Any = None, *, validate: bool = True) -> None:
+        """Recompute the kinematics for a new configuration (and velocity).
+
+        Args:
+            q: configuration (size nq).
+            v: velocity (size nv); zero if omitted.
+            validate: check shapes, finiteness and quaternion norms (turn off only for
+                vectors produced by taskspace itself in a hot loop).
+        """
+        robot = self.robot
+        if validate:
+            q = robot.check_configuration(q)
+            v = robot.check_velocity(v) if v is not None else None
+        else:
+            q = np.array(q, dtype=float)
+            v = np.array(v, dtype=float) if v is not None else None
+        model, data = robot.model, self.data
+        if v is None:
+            self._has_velocity = False
+            v = np.zeros(robot.nv)
+            pin.computeJointJacobians(model, data, q)
+        else:
+            self._has_velocity = True
+            pin.forwardKinematics(model, data, q, v, self._a0)
+            pin.computeJointJacobians(model, data)
+        pin.updateFramePlacements(model, data)
+        q.flags.writeable = False
+        v.flags.writeable = False
+        self._q = q
+        self._v = v
+        self._cache_lwa.clear()
+        self._cache_local.clear()
+        self._com = None
+        self._com_jacobian = None
+        self._com_drift = None
+        self._distances_done = False
+        if robot.collision_data is not None and self.collision_data.oMg.__len__() != (
+            robot.collision_model.ngeoms
+        ):
+            self.collision_data = robot.collision_model.createData()
+
+    # ------------------------------------------------------------------ accessors
+    @property
+    def q(self) -> FloatArray:
+        """Configuration (read-only)."""
+        return self._q
+
+    @property
+    def v(self) -> FloatArray:
+        """Velocity (read-only)."""
+        return self._v
+
+    @property
+    def has_velocity(self) -> bool:
+        """Whether a velocity was given (drift terms need it)."""
+        return self._has_velocity
+
+    def frame_placement(self, frame_id: int) -> pin.SE3:
+        """World pose of a frame (a reference into the state's data; do not modify)."""
+        return self.data.oMf[frame_id]
+
+    def frame_jacobian(self, frame_id: int) -> FloatArray:
+        """6 x nv Jacobian of a frame, LOCAL_WORLD_ALIGNED: rows (linear, angular) [m, rad].
+
+        The linear rows give the velocity of the frame origin in world coordinates.
+        """
+        J = self._cache_lwa.get(frame_id)
+        if J is None:
+            J = pin.getFrameJacobian(self.robot.model, self.data, frame_id, LWA)
+            self._cache_lwa[frame_id] = J
+        return J
+
+    def frame_jacobian_local(self, frame_id: int) -> FloatArray:
+        """6 x nv Jacobian of a frame in its LOCAL coordinates (body twist)."""
+        J = self._cache_local.get(frame_id)
+        if J is None:
+            J = pin.getFrameJacobian(self.robot.model, self.data, frame_id, LOCAL)
+            self._cache_local[frame_id] = J
+        return J
+
+    def joint_jacobian_world(self, joint_id: int) -> FloatArray:
+        """6 x nv spatial Jacobian of a joint in WORLD coordinates.
+
+        The velocity of a point ``p`` (world coordinates) attached to the joint is
+        ``(J[:3] - [p]x J[3:]) v``.
+        """
+        return pin.getJointJacobian(self.robot.model, self.data, joint_id, WORLD)
+
+    def _require_velocity(self, what: str) -> None:
+        if not self._has_velocity:
+            raise InvalidInputError(
+                f"{what} needs the velocity: create the state with v (robot.state(q, v)) or "
+                "call state.update(q, v)"
+            )
+
+    def frame_drift(self, frame_id: int) -> FloatArray:
+        """Classical acceleration of a frame at zero joint acceleration, ``Jdot v``.
+
+        Returns the 6-vector (linear [m/s^2], angular [rad/s^2]) in LOCAL_WORLD_ALIGNED
+        coordinates, the drift of :meth:`frame_jacobian`.
+        """
+        self._require_velocity("the drift Jdot v")
+        acc = pin.getFrameClassicalAcceleration(self.robot.model, self.data, frame_id, LWA)
+        return np.asarray(acc.vector)
+
+    def frame_drift_local(self, frame_id: int) -> FloatArray:
+        """Spatial acceleration of a frame at zero joint acceleration, LOCAL coordinates.
+
+        The drift of :meth:`frame_jacobian_local` (the body twist ``J_local v``).
+        """
+        self._require_velocity("the drift Jdot v")
+        acc = pin.getFrameAcceleration(self.robot.model, self.data, frame_id, LOCAL)
+        return np.asarray(acc.vector)
+
+    def frame_velocity(self, frame_id: int) -> FloatArray:
+        """6-vector velocity (linear, angular) of a frame, LOCAL_WORLD_ALIGNED [m/s, rad/s]."""
+        return self.frame_jacobian(frame_id) @ self._v
+
+    # ------------------------------------------------------------------ center of mass
+    def com(self) -> FloatArray:
+        """Center of mass in the world [m]."""
+        if self._com is None:
+            self.com_jacobian()
+        assert self._com is not None  # noqa: S101 - set by com_jacobian
+        return self._com
+
+    def com_jacobian(self) -> FloatArray:
+        """3 x nv Jacobian of the center of mass."""
+        if self._com_jacobian is None:
+            self._com_jacobian = np.asarray(
+                pin.jacobianCenterOfMass(self.robot.model, self.data, True)
+            )
+            self._com = np.asarray(self.data.com[0]).copy()
+        return self._com_jacobian
+
+    def com_drift(self) -> FloatArray:
+        """Acceleration of the center of mass at zero joint acceleration [m/s^2]."""
+        self._require_velocity("the center-of-mass drift")
+        if self._com_drift is None:
+            pin.centerOfMass(
+                self.robot.model, self.data, pin.KinematicLevel.ACCELERATION, True
+            )
+            self._com_drift = np.asarray(self.data.acom[0]).copy()
+        return self._com_drift
+
+    # ------------------------------------------------------------------ collisions
+    def compute_distances(self) -> None:
+        """Run coal distance queries for every collision pair (once per update)."""
+        if self._distances_done:
+            return
+        robot = self.robot
+        pin.updateGeometryPlacements(
+            robot.model, self.data, robot.collision_model, self.collision_data
+        )
+        pin.computeDistances(robot.collision_model, self.collision_data)
+        self._distances_done = True

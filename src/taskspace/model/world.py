@@ -1,0 +1,140 @@
+"""Obstacle world: primitive and mesh obstacles with poses, as coal collision geometries."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import coal
+import numpy as np
+import pinocchio as pin
+
+from taskspace._validation import as_vector, check_positive
+from taskspace.errors import InvalidInputError, ModelLoadError, UnknownNameError
+
+
+def as_se3(pose: Any, name: str = "pose") -> pin.SE3:
+    """Convert a pose to ``pin.SE3``.
+
+    Args:
+        pose: a ``pin.SE3``, a 4x4 homogeneous matrix, a position ``[x, y, z]`` [m], or a
+            position + quaternion ``[x, y, z, qx, qy, qz, qw]``.
+        name: argument name used in error messages.
+    """
+    if isinstance(pose, pin.SE3):
+        return pose.copy()
+    arr = np.asarray(pose, dtype=float)
+    if arr.shape == (4, 4):
+        if not np.all(np.isfinite(arr)):
+            raise InvalidInputError(f"{name} has non-finite entries")
+        rot = arr[:3, :3]
+        if not np.allclose(rot.T @ rot, np.eye(3), atol=1e-6) or np.linalg.det(rot) < 0:
+            raise InvalidInputError(f"{name} rotation block is not a rotation matrix")
+        return pin.SE3(rot, arr[:3, 3])
+    if arr.shape == (3,):
+        return pin.SE3(np.eye(3), as_vector(arr, 3, name))
+    if arr.shape == (7,):
+        vec = as_vector(arr, 7, name)
+        quat = vec[3:]
+        norm = float(np.linalg.norm(quat))
+        if abs(norm - 1.0) > 1e-6:
+            raise InvalidInputError(f"{name} quaternion (x, y, z, w) must have unit norm, got {norm}")
+        return pin.XYZQUATToSE3(vec)
+    raise InvalidInputError(
+        f"{name} must be a pin.SE3, a 4x4 matrix, [x, y, z] or [x, y, z, qx, qy, qz, qw]; "
+        f"got an array of shape {arr.shape}"
+    )
+
+
+@dataclass
+class Obstacle:
+    """A rigid obstacle fixed in the world.
+
+    Attributes:
+        name: unique name.
+        geometry: coal collision geometry (in its own frame).
+        placement: pose of the geometry frame in the world.
+        color: RGBA color in [0, 1] for viewers.
+        mesh_path: source file for mesh obstacles (viewers load it), else ``None``.
+    """
+
+    name: str
+    geometry: coal.CollisionGeometry
+    placement: pin.SE3
+    color: np.ndarray = field(default_factory=lambda: np.array([0.6, 0.6, 0.65, 1.0]))
+    mesh_path: str | None = None
+
+    @staticmethod
+    def box(name: str, size: Sequence[float], pose: Any = (0.0, 0.0, 0.0), **kw: Any) -> Obstacle:
+        """Box of full side lengths ``size`` [m] centered at ``pose``."""
+        s = as_vector(size, 3, "size")
+        for i in range(3):
+            check_positive(s[i], f"size[{i}]")
+        return Obstacle(name, coal.Box(*s), as_se3(pose), **kw)
+
+    @staticmethod
+    def sphere(name: str, radius: float, pose: Any = (0.0, 0.0, 0.0), **kw: Any) -> Obstacle:
+        """Sphere of ``radius`` [m] centered at ``pose``."""
+        return Obstacle(name, coal.Sphere(check_positive(radius, "radius")), as_se3(pose), **kw)
+
+    @staticmethod
+    def cylinder(
+        name: str, radius: float, length: float, pose: Any = (0.0, 0.0, 0.0), **kw: Any
+    ) -> Obstacle:
+        """Cylinder of ``radius`` and ``length`` [m] along its z axis, centered at ``pose``."""
+        geom = coal.Cylinder(check_positive(radius, "radius"), check_positive(length, "length"))
+        return Obstacle(name, geom, as_se3(pose), **kw)
+
+    @staticmethod
+    def mesh(
+        name: str, path: str | Path, pose: Any = (0.0, 0.0, 0.0), scale: float = 1.0, **kw: Any
+    ) -> Obstacle:
+        """Triangle mesh read from ``path`` (STL, OBJ, DAE...), scaled by ``scale``."""
+        p = Path(path)
+        if not p.is_file():
+            raise ModelLoadError(f"mesh file not found: {p}")
+        loader = coal.MeshLoader()
+        try:
+            geom = loader.load(str(p), np.full(3, float(scale)))
+        except Exception as exc:  # coal raises a generic RuntimeError
+            raise ModelLoadError(f"cannot load mesh {p}: {exc}") from exc
+        return Obstacle(name, geom, as_se3(pose), mesh_path=str(p), **kw)
+
+
+class World:
+    """A named collection of obstacles."""
+
+    def __init__(self, obstacles: Sequence[Obstacle] = ()) -> None:
+        self._obstacles: dict[str, Obstacle] = {}
+        for obstacle in obstacles:
+            self.add(obstacle)
+
+    def add(self, obstacle: Obstacle) -> None:
+        """Add an obstacle; its name must be new."""
+        if obstacle.name in self._obstacles:
+            raise InvalidInputError(f"an obstacle named '{obstacle.name}' already exists")
+        self._obstacles[obstacle.name] = obstacle
+
+    def remove(self, name: str) -> Obstacle:
+        """Remove and return the obstacle called ``name``."""
+        if name not in self._obstacles:
+            raise UnknownNameError("obstacle", name, self._obstacles)
+        return self._obstacles.pop(name)
+
+    def __getitem__(self, name: str) -> Obstacle:
+        if name not in self._obstacles:
+            raise UnknownNameError("obstacle", name, self._obstacles)
+        return self._obstacles[name]
+
+    def __iter__(self) -> Iterator[Obstacle]:
+        return iter(self._obstacles.values())
+
+    def __len__(self) -> int:
+        return len(self._obstacles)
+
+    @property
+    def names(self) -> list[str]:
+        """Obstacle names in insertion order."""
+        return list(self._obstacles)

@@ -1,0 +1,286 @@
+"""Dijkstra and A* on generic weighted graphs (slide 3:26).
+
+Dijkstra labels nodes incrementally with their cost-from-start ``g`` and always expands the
+open node of smallest ``g``; it returns optimal paths for non-negative edge costs. A* expands
+the node of smallest ``f = g + w h`` where ``h`` is a heuristic (cost-to-go estimate); with an
+admissible ``h`` (never over-estimating) and ``w = 1`` it is also optimal, and it expands fewer
+nodes.
+
+The graph can be given as
+
+* a callable ``neighbors(node) -> iterable of (neighbor, edge_cost)`` (any hashable nodes),
+* an adjacency list ``adj[i] = [(j, cost), ...]`` over integer nodes ``0..n-1``,
+* a scipy sparse matrix (CSR or convertible) whose entry ``(i, j)`` is the cost of edge
+  ``i -> j`` (explicitly stored zeros are zero-cost edges).
+
+The same functions serve grid planners and roadmaps (PRM).
+"""
+
+from __future__ import annotations
+
+import enum
+import heapq
+import itertools
+import logging
+import math
+import time
+from collections.abc import Callable, Hashable, Iterable, Sequence
+from dataclasses import dataclass, field
+from typing import Any, Union
+
+import numpy as np
+
+from taskspace.errors import InvalidInputError, PlanningError
+
+logger = logging.getLogger(__name__)
+
+Neighbors = Callable[[Any], Iterable[tuple[Any, float]]]
+Graph = Union[Neighbors, Sequence[Sequence[tuple[int, float]]], Any]
+Heuristic = Union[Callable[[Any], float], Sequence[float], np.ndarray]
+
+
+class SearchStatus(enum.Enum):
+    """Outcome of a graph search."""
+
+    FOUND = "found"
+    """A path to the goal was found."""
+    EXHAUSTED = "exhausted"
+    """No goal was given and every reachable node was labelled (single-source distances)."""
+    UNREACHABLE = "unreachable"
+    """The goal is not reachable from the start."""
+    EXPANSION_LIMIT = "expansion_limit"
+    """``max_expansions`` was reached before the goal."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class GraphSearchOptions:
+    """Settings of :func:`dijkstra` and :func:`astar`.
+
+    Attributes:
+        max_expansions: stop after this many node expansions (``None`` = unlimited).
+        heuristic_weight: ``w`` in ``f = g + w h`` (A* only); ``w > 1`` gives weighted A*,
+            faster but only ``w``-suboptimal.
+    """
+
+    max_expansions: int | None = None
+    heuristic_weight: float = 1.0
+
+
+@dataclass
+class GraphSearchResult:
+    """Result of a graph search.
+
+    Attributes:
+        success: ``True`` if the goal was reached (or, without goal, the search completed).
+        status: why the search stopped.
+        path: nodes from start to goal (``[start]`` without goal; ``[]`` when not found).
+        cost: path cost (``inf`` when not found).
+        distances: cost-from-start ``g`` of every labelled node (final for closed nodes).
+        parents: back-pointers of the search tree.
+        expanded: number of nodes expanded (popped and closed).
+        relaxed: number of edge relaxations that improved a label.
+        time_s: wall-clock time [s].
+    """
+
+    success: bool
+    status: SearchStatus
+    path: list[Any]
+    cost: float
+    distances: dict[Any, float] = field(repr=False)
+    parents: dict[Any, Any] = field(repr=False)
+    expanded: int
+    relaxed: int
+    time_s: float
+
+
+def as_neighbors(graph: Graph) -> Neighbors:
+    """Turn a callable, an adjacency list or a sparse matrix into a neighbor function.
+
+    Args:
+        graph: see the module docstring.
+
+    Returns:
+        ``neighbors(node) -> iterable of (neighbor, cost)``.
+
+    Raises:
+        InvalidInputError: for unsupported graph types.
+    """
+    if callable(graph):
+        return graph  # type: ignore[no-any-return]
+    if hasattr(graph, "tocsr"):
+        csr = graph.tocsr()
+        indptr = csr.indptr.tolist()
+        indices = csr.indices.tolist()
+        data = np.asarray(csr.data, dtype=float).tolist()
+        n = csr.shape[0]
+
+        def csr_neighbors(i: int) -> Iterable[tuple[int, float]]:
+            if not 0 <= i < n:
+                return ()
+            a, b = indptr[i], indptr[i + 1]
+            return zip(indices[a:b], data[a:b])
+
+        return csr_neighbors
+    if isinstance(graph, Sequence):
+        adj = graph
+
+        def list_neighbors(i: int) -> Iterable[tuple[int, float]]:
+            return adj[i] if 0 <= i < len(adj) else ()
+
+        return list_neighbors
+    raise InvalidInputError(
+        "graph must be a callable neighbors(node), an adjacency list or a scipy sparse "
+        f"matrix, got {type(graph).__name__}"
+    )
+
+
+def _as_heuristic(heuristic: Heuristic | None) -> Callable[[Any], float]:
+    if heuristic is None:
+        return lambda _n: 0.0
+    if callable(heuristic):
+        return heuristic
+    values = np.asarray(heuristic, dtype=float).tolist()
+    return lambda n: values[n]
+
+
+def _reconstruct(parents: dict[Any, Any], start: Any, goal: Any) -> list[Any]:
+    path = [goal]
+    while path[-1] != start:
+        path.append(parents[path[-1]])
+    path.reverse()
+    return path
+
+
+def _search(
+    graph: Graph,
+    start: Hashable,
+    goal: Hashable | None,
+    heuristic: Heuristic | None,
+    options: GraphSearchOptions,
+) -> GraphSearchResult:
+    t0 = time.perf_counter()
+    if not math.isfinite(options.heuristic_weight) or options.heuristic_weight < 0:
+        raise InvalidInputError(
+            f"heuristic_weight must be finite and >= 0, got {options.heuristic_weight}"
+        )
+    neighbors = as_neighbors(graph)
+    h = _as_heuristic(heuristic)
+    w = float(options.heuristic_weight)
+    limit = options.max_expansions if options.max_expansions is not None else math.inf
+    g: dict[Any, float] = {start: 0.0}
+    parents: dict[Any, Any] = {}
+    closed: set[Any] = set()
+    counter = itertools.count()
+    h0 = w * h(start) if goal is not None else 0.0
+    # Ties on f are broken towards smaller h (deeper nodes), then FIFO.
+    heap: list[tuple[float, float, int, Any]] = [(h0, h0, next(counter), start)]
+    expanded = relaxed = 0
+    status = SearchStatus.EXHAUSTED if goal is None else SearchStatus.UNREACHABLE
+    use_h = goal is not None and heuristic is not None
+    push, pop = heapq.heappush, heapq.heappop
+    while heap:
+        _, _, _, node = pop(heap)
+        if node in closed:
+            continue
+        if node == goal:
+            status = SearchStatus.FOUND
+            break
+        if expanded >= limit:
+            status = SearchStatus.EXPANSION_LIMIT
+            break
+        closed.add(node)
+        expanded += 1
+        g_node = g[node]
+        for nb, cost in neighbors(node):
+            if cost < 0:
+                raise InvalidInputError(
+                    f"edge {node!r} -> {nb!r} has negative cost {cost}; Dijkstra and A* "
+                    "need non-negative edge costs"
+                )
+            if nb in closed:
+                continue
+            g_new = g_node + cost
+            if g_new < g.get(nb, math.inf):
+                g[nb] = g_new
+                parents[nb] = node
+                relaxed += 1
+                hn = w * h(nb) if use_h else 0.0
+                push(heap, (g_new + hn, hn, next(counter), nb))
+    if status is SearchStatus.FOUND:
+        path = _reconstruct(parents, start, goal)
+        cost_out = g[goal]
+    elif status is SearchStatus.EXHAUSTED:
+        path, cost_out = [start], 0.0
+    else:
+        path, cost_out = [], math.inf
+    success = status in (SearchStatus.FOUND, SearchStatus.EXHAUSTED)
+    dt = time.perf_counter() - t0
+    logger.debug("graph search %s: %d expanded in %.3f s", status.value, expanded, dt)
+    return GraphSearchResult(
+        success=success,
+        status=status,
+        path=path,
+        cost=cost_out,
+        distances=g,
+        parents=parents,
+        expanded=expanded,
+        relaxed=relaxed,
+        time_s=dt,
+    )
+
+
+def dijkstra(
+    graph: Graph,
+    start: Hashable,
+    goal: Hashable | None = None,
+    *,
+    options: GraphSearchOptions | None = None,
+) -> GraphSearchResult:
+    """Dijkstra's algorithm (slide 3:26): optimal paths for non-negative edge costs.
+
+    Repeatedly closes the open node ``n`` of least ``g(n)`` and relaxes
+    ``g(m) <- min(g(m), g(n) + c(n, m))`` for its neighbors ``m``.
+
+    Args:
+        graph: neighbor callable, adjacency list or sparse cost matrix.
+        start: start node.
+        goal: goal node, or ``None`` to label every reachable node.
+        options: search settings.
+
+    Returns:
+        A :class:`GraphSearchResult`; ``distances`` holds ``g`` of the labelled nodes.
+
+    Raises:
+        InvalidInputError: if an edge with negative cost is met.
+    """
+    return _search(graph, start, goal, None, options or GraphSearchOptions())
+
+
+def astar(
+    graph: Graph,
+    start: Hashable,
+    goal: Hashable,
+    heuristic: Heuristic,
+    *,
+    options: GraphSearchOptions | None = None,
+) -> GraphSearchResult:
+    """A* search: Dijkstra ordered by ``f(n) = g(n) + w h(n)``.
+
+    Args:
+        graph: neighbor callable, adjacency list or sparse cost matrix.
+        start: start node.
+        goal: goal node.
+        heuristic: ``h(node)`` callable or a per-node array (integer nodes); admissible
+            (``h <= true cost-to-go``) for optimal paths.
+        options: search settings (``heuristic_weight``, ``max_expansions``).
+
+    Returns:
+        A :class:`GraphSearchResult`.
+
+    Raises:
+        PlanningError: if ``goal`` is ``None``.
+        InvalidInputError: if an edge with negative cost is met.
+    """
+    if goal is None:
+        raise PlanningError("astar needs a goal node; use dijkstra for single-source distances")
+    return _search(graph, start, goal, heuristic, options or GraphSearchOptions())

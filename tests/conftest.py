@@ -1,0 +1,48 @@
+"""Shared fixtures: robots are loaded once per test session."""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable
+
+import numpy as np
+import pytest
+
+from taskspace.model import Robot
+
+os.environ.setdefault("MPLBACKEND", "Agg")
+
+_CACHE: dict[tuple[str, bool], Robot] = {}
+
+
+def load_robot(name: str, convex: bool = False) -> Robot:
+    """Load a registry robot once per session (tests must not add obstacles to it)."""
+    key = (name, convex)
+    if key not in _CACHE:
+        _CACHE[key] = Robot.load(name, convex_collision=convex)
+    return _CACHE[key]
+
+
+@pytest.fixture(scope="session")
+def robot_loader() -> Callable[..., Robot]:
+    return load_robot
+
+
+@pytest.fixture(scope="session")
+def panda() -> Robot:
+    return load_robot("panda")
+
+
+@pytest.fixture(scope="session")
+def talos() -> Robot:
+    return load_robot("talos")
+
+
+@pytest.fixture(scope="session")
+def g1() -> Robot:
+    return load_robot("g1")
+
+
+@pytest.fixture
+def rng() -> np.random.Generator:
+    return np.random.default_rng(12345)
