@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -35,7 +36,7 @@ def as_vector(x: Any, size: int | None, name: str) -> FloatArray:
     if arr.ndim != 1 or (size is not None and arr.shape[0] != size):
         raise ShapeError(name, (size if size is not None else -1,), tuple(arr.shape))
     check_finite(arr, name)
-    return np.ascontiguousarray(arr)
+    return arr if arr.flags.c_contiguous else np.ascontiguousarray(arr)
 
 
 def as_matrix(x: Any, shape: tuple[int | None, int | None], name: str) -> FloatArray:
@@ -53,7 +54,12 @@ def as_matrix(x: Any, shape: tuple[int | None, int | None], name: str) -> FloatA
 
 def check_finite(arr: npt.NDArray[Any], name: str) -> None:
     """Raise :class:`NotFiniteError` if ``arr`` has NaN or inf entries."""
-    if not np.all(np.isfinite(arr)):
+    # Fast path: the sum of squares is finite when every entry is (a huge finite entry may
+    # overflow it; the exact test below then decides).
+    flat = arr.ravel()
+    if math.isfinite(float(flat @ flat)):
+        return
+    if not np.isfinite(arr).all():
         bad = np.flatnonzero(~np.isfinite(arr.ravel()))
         raise NotFiniteError(name, [int(i) for i in bad[:20]])
 

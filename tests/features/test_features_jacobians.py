@@ -162,7 +162,7 @@ def test_frame_pose_residual_jacobian(robot_name: str) -> None:
         target = feature.value(target_state)
         for q in qs:
             state = robot.state(q)
-            expected = fd_jacobian(robot, lambda s: feature.residual(s, target), q)
+            expected = fd_jacobian(robot, lambda s, f=feature, t=target: f.residual(s, t), q)
             assert_close(feature.residual_jacobian(state, target), expected, feature.name)
 
 
@@ -175,9 +175,7 @@ def test_joint_configuration_residual_jacobian_on_floating_base() -> None:
     assert_close(feature.residual_jacobian(state, q_target), expected, "posture residual")
 
 
-def _away_from_kinks(
-    robot: Robot, q: np.ndarray, feature: F.JointLimitPenetration
-) -> np.ndarray:
+def _away_from_kinks(robot: Robot, q: np.ndarray, feature: F.JointLimitPenetration) -> np.ndarray:
     q = q.copy()
     idx = robot.limited_joints_q
     lo, hi = robot.lower_limits[idx], robot.upper_limits[idx]

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from taskspace._validation import FloatArray
 from taskspace.features.feature import Feature
@@ -33,6 +33,13 @@ class CenterOfMass(Feature):
         """3 x nv CoM Jacobian."""
         self._check_state(state)
         return state.com_jacobian()
+
+    def residual_and_jacobian(self, state: State, target: Any) -> tuple[FloatArray, FloatArray]:
+        """``c(q) - c*`` and the CoM Jacobian."""
+        if state.robot is not self.robot:
+            self._check_state(state)
+        J = state.com_jacobian()
+        return state.com() - target, J
 
     def drift(self, state: State) -> FloatArray:
         """CoM acceleration at zero joint acceleration [m/s^2]."""

@@ -73,7 +73,7 @@ class CollisionDistance(Feature):
         return J[:3] + _point.cross_columns(J[3:], p)
 
     def jacobian(self, state: State) -> FloatArray:
-        """dim x nv Jacobian."""
+        """Dim x nv Jacobian."""
         self._check_state(state)
         J = np.zeros((self.dim, self.robot.nv))
         for row, (res, (ja, jb)) in enumerate(zip(self._results(state), self._joints)):

@@ -71,5 +71,9 @@ class Feature(abc.ABC):
         """Jacobian of :meth:`residual` with respect to ``q`` (dim, nv)."""
         return self.jacobian(state)
 
+    def residual_and_jacobian(self, state: State, target: Any) -> tuple[FloatArray, FloatArray]:
+        """Both :meth:`residual` and :meth:`residual_jacobian` (shares their common work)."""
+        return self.residual(state, target), self.residual_jacobian(state, target)
+
     def __repr__(self) -> str:
         return f"{type(self).__name__}('{self.name}', dim={self.dim})"

@@ -60,6 +60,14 @@ class FramePose(Feature):
         error = target.actInv(state.frame_placement(self.frame_id))
         return np.asarray(pin.log6(error).vector)
 
+    def residual_and_jacobian(self, state: State, target: Any) -> tuple[FloatArray, FloatArray]:
+        """``log6(T*^-1 T)`` and ``Jlog6(T*^-1 T) J_local`` from one error computation."""
+        if state.robot is not self.robot:
+            self._check_state(state)
+        error = target.actInv(state.data.oMf[self.frame_id])
+        J = pin.Jlog6(error) @ state.frame_jacobian_local(self.frame_id)
+        return pin.log6(error).vector, J
+
     def residual_jacobian(self, state: State, target: Any) -> FloatArray:
         """``Jlog6(T*^-1 T) J_local``."""
         self._check_state(state)

@@ -35,13 +35,15 @@ class JointConfiguration(Feature):
             self.rows: np.ndarray | None = None
             self.dim = robot.nv
         else:
-            rows = []
+            rows: list[int] = []
             for name in joints:
                 joint = robot.model.joints[robot.joint_id(name)]
                 rows.extend(range(joint.idx_v, joint.idx_v + joint.nv))
             self.rows = np.asarray(rows, dtype=int)
             self.dim = len(rows)
         self._identity = np.eye(robot.nv) if self.rows is None else np.eye(robot.nv)[self.rows]
+        # On vector-space configurations (no quaternions, no unit complexes) q (-) q* = q - q*.
+        self._vector_space = robot.nq == robot.nv
 
     def check_target(self, target: Any) -> FloatArray:
         """Validate a target configuration (size nq)."""
@@ -68,10 +70,17 @@ class JointConfiguration(Feature):
         diff = np.asarray(pin.difference(self.robot.model, target, state.q))
         return diff if self.rows is None else diff[self.rows]
 
+    def residual_and_jacobian(self, state: State, target: Any) -> tuple[FloatArray, FloatArray]:
+        """Both the residual and its Jacobian."""
+        if self._vector_space and state.robot is self.robot:
+            diff = state.q - target
+            return (diff if self.rows is None else diff[self.rows]), self._identity
+        return self.residual(state, target), self.residual_jacobian(state, target)
+
     def residual_jacobian(self, state: State, target: Any) -> FloatArray:
         """``dDifference(q*, q) / dq`` restricted to the selected rows."""
         self._check_state(state)
-        if not self.robot.is_floating and self.robot.nq == self.robot.nv:
+        if self._vector_space:
             return self._identity
         J = np.asarray(pin.dDifference(self.robot.model, target, state.q, pin.ARG1))
         return J if self.rows is None else J[self.rows]

@@ -43,6 +43,18 @@ class Position(Feature):
         self._check_state(state)
         return _point.point_jacobian(state, self.frame_id, self.offset)
 
+    def residual_and_jacobian(self, state: State, target: Any) -> tuple[FloatArray, FloatArray]:
+        """``p(q) - p*`` and the position Jacobian."""
+        if state.robot is not self.robot:
+            self._check_state(state)
+        fid, offset = self.frame_id, self.offset
+        if offset is None:  # fast path: the frame origin
+            return state.data.oMf[fid].translation - target, state.frame_jacobian(fid)[:3]
+        return (
+            _point.point_position(state, fid, offset) - target,
+            _point.point_jacobian(state, fid, offset),
+        )
+
     def drift(self, state: State) -> FloatArray:
         """Point acceleration at zero joint acceleration [m/s^2]."""
         self._check_state(state)

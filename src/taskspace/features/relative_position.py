@@ -30,7 +30,10 @@ def relative_drift(
     omega_j: FloatArray,
     alpha_j: FloatArray,
 ) -> FloatArray:
-    """Drift of ``y = R_j^T d``: ``R_j^T (d'' - alpha x d - 2 omega x d' + omega x (omega x d))``."""
+    """Drift of ``y = R_j^T d``.
+
+    ``R_j^T (d'' - alpha x d - 2 omega x d' + omega x (omega x d))``.
+    """
     return np.asarray(
         R_j.T
         @ (

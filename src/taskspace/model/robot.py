@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import logging
+import math
 import warnings
 from collections.abc import Iterable, Sequence
 from pathlib import Path
@@ -72,6 +73,8 @@ class Robot:
         for ee in end_effectors:
             self.frame_id(ee)
         self.end_effectors = tuple(end_effectors)
+        self._nq = int(model.nq)
+        self._nv = int(model.nv)
         self.data = model.createData()
         self.collision_data = collision_model.createData()
         self._setup_joint_structure()
@@ -348,7 +351,13 @@ class Robot:
             InvalidInputError: a quaternion (or unit complex of a continuous joint) is not
                 normalized; use :meth:`normalize`.
         """
-        arr = as_vector(q, self.model.nq, name).copy()
+        if type(q) is np.ndarray and q.dtype == np.float64 and q.shape == (self._nq,):
+            arr = q.copy()  # fast path for the common case
+            if not math.isfinite(arr @ arr):
+                check_finite(arr, name)
+        else:
+            arr = as_vector(q, self._nq, name)
+            arr = arr.copy() if arr is q else arr
         for idx, size, joint in self._normalized_blocks:
             norm = float(np.linalg.norm(arr[idx : idx + size]))
             if abs(norm - 1.0) > QUATERNION_TOLERANCE:
@@ -361,7 +370,13 @@ class Robot:
 
     def check_velocity(self, v: Any, name: str = "v") -> FloatArray:
         """Validate a tangent vector: shape (nv,), finite. Returns a float64 copy."""
-        return as_vector(v, self.model.nv, name).copy()
+        if type(v) is np.ndarray and v.dtype == np.float64 and v.shape == (self._nv,):
+            arr = v.copy()
+            if not math.isfinite(arr @ arr):
+                check_finite(arr, name)
+            return arr
+        arr = as_vector(v, self._nv, name)
+        return arr.copy() if arr is v else arr
 
     def check_limits(self, q: Any, *, tolerance: float = 0.0, name: str = "q") -> FloatArray:
         """Validate ``q`` and raise :class:`LimitError` if a joint is outside its limits."""
@@ -461,9 +476,7 @@ class Robot:
     def add_obstacle(self, obstacle: Obstacle) -> None:
         """Add a fixed obstacle; it is checked against every robot geometry."""
         self.world.add(obstacle)
-        geom = pin.GeometryObject(
-            obstacle.name, 0, 0, obstacle.placement, obstacle.geometry
-        )
+        geom = pin.GeometryObject(obstacle.name, 0, 0, obstacle.placement, obstacle.geometry)
         geom.meshColor = np.asarray(obstacle.color, dtype=float)
         gid = self.collision_model.addGeometryObject(geom)
         for rid in range(self._robot_geometry_count):
@@ -530,9 +543,9 @@ def _erd_paths(spec: RobotSpec) -> tuple[str, list[str], str | None]:
     if spec.erd_name not in ROBOTS:
         raise UnknownNameError("example-robot-data robot", str(spec.erd_name), ROBOTS)
     loader_cls = ROBOTS[spec.erd_name]
-    from example_robot_data.robots_loader import getModelPath
-
     from os.path import join
+
+    from example_robot_data.robots_loader import getModelPath
 
     df_path = join(loader_cls.path, loader_cls.urdf_subpath, loader_cls.urdf_filename)
     model_path = loader_cls.model_path or getModelPath(df_path)
@@ -571,8 +584,11 @@ def _posture_from_spec(model: pin.Model, spec: RobotSpec, q: FloatArray) -> Floa
 def _remove_adjacent_pairs(
     model: pin.Model, collision: pin.GeometryModel, q_default: FloatArray
 ) -> None:
-    """Without an SRDF: drop pairs on the same or adjacent joints, and pairs touching at the
-    default posture (what MoveIt's setup assistant disables as "adjacent" and "default")."""
+    """Without an SRDF, drop pairs that are always or usually in contact.
+
+    Pairs on the same or adjacent joints, and pairs touching at the default posture (what
+    MoveIt's setup assistant disables as "adjacent" and "default").
+    """
     objs = collision.geometryObjects
     parents = model.parents
     drop = []

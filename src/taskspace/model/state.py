@@ -34,11 +34,11 @@ class State:
 
     __slots__ = (
         "_a0",
-        "_cache_lwa",
         "_cache_local",
+        "_cache_lwa",
         "_com",
-        "_com_jacobian",
         "_com_drift",
+        "_com_jacobian",
         "_distances_done",
         "_has_velocity",
         "_q",
@@ -50,9 +50,13 @@ class State:
 
     def __init__(self, robot: Robot, q: Any, v: Any = None) -> None:
         self.robot = robot
+        self._com: FloatArray | None = None
+        self._com_jacobian: FloatArray | None = None
+        self._com_drift: FloatArray | None = None
         self.data = robot.model.createData()
         self.collision_data = robot.collision_model.createData()
         self._a0 = np.zeros(robot.nv)
+        self._a0.flags.writeable = False  # also serves as the zero velocity
         self._cache_lwa: dict[int, FloatArray] = {}
         self._cache_local: dict[int, FloatArray] = {}
         self.update(q, v)
@@ -70,34 +74,32 @@ class State:
         robot = self.robot
         if validate:
             q = robot.check_configuration(q)
-            v = robot.check_velocity(v) if v is not None else None
+            if v is not None:
+                v = robot.check_velocity(v)
         else:
             q = np.array(q, dtype=float)
-            v = np.array(v, dtype=float) if v is not None else None
+            if v is not None:
+                v = np.array(v, dtype=float)
         model, data = robot.model, self.data
         if v is None:
             self._has_velocity = False
-            v = np.zeros(robot.nv)
+            v = self._a0
             pin.computeJointJacobians(model, data, q)
         else:
             self._has_velocity = True
             pin.forwardKinematics(model, data, q, v, self._a0)
             pin.computeJointJacobians(model, data)
+            v.flags.writeable = False
         pin.updateFramePlacements(model, data)
         q.flags.writeable = False
-        v.flags.writeable = False
         self._q = q
         self._v = v
-        self._cache_lwa.clear()
-        self._cache_local.clear()
-        self._com = None
-        self._com_jacobian = None
-        self._com_drift = None
+        if self._cache_lwa:
+            self._cache_lwa.clear()
+        if self._cache_local:
+            self._cache_local.clear()
+        self._com = self._com_jacobian = self._com_drift = None
         self._distances_done = False
-        if robot.collision_data is not None and self.collision_data.oMg.__len__() != (
-            robot.collision_model.ngeoms
-        ):
-            self.collision_data = robot.collision_model.createData()
 
     # ------------------------------------------------------------------ accessors
     @property
@@ -181,27 +183,27 @@ class State:
         """Center of mass in the world [m]."""
         if self._com is None:
             self.com_jacobian()
-        assert self._com is not None  # noqa: S101 - set by com_jacobian
+        assert self._com is not None
         return self._com
 
     def com_jacobian(self) -> FloatArray:
         """3 x nv Jacobian of the center of mass."""
-        if self._com_jacobian is None:
-            self._com_jacobian = np.asarray(
-                pin.jacobianCenterOfMass(self.robot.model, self.data, True)
-            )
+        J = self._com_jacobian
+        if J is None:
+            J = np.asarray(pin.jacobianCenterOfMass(self.robot.model, self.data, True))
+            self._com_jacobian = J
             self._com = np.asarray(self.data.com[0]).copy()
-        return self._com_jacobian
+        return J
 
     def com_drift(self) -> FloatArray:
         """Acceleration of the center of mass at zero joint acceleration [m/s^2]."""
         self._require_velocity("the center-of-mass drift")
-        if self._com_drift is None:
-            pin.centerOfMass(
-                self.robot.model, self.data, pin.KinematicLevel.ACCELERATION, True
-            )
-            self._com_drift = np.asarray(self.data.acom[0]).copy()
-        return self._com_drift
+        drift = self._com_drift
+        if drift is None:
+            pin.centerOfMass(self.robot.model, self.data, pin.KinematicLevel.ACCELERATION, True)
+            drift = np.asarray(self.data.acom[0]).copy()
+            self._com_drift = drift
+        return drift
 
     # ------------------------------------------------------------------ collisions
     def compute_distances(self) -> None:
@@ -209,6 +211,9 @@ class State:
         if self._distances_done:
             return
         robot = self.robot
+        if len(self.collision_data.oMg) != robot.collision_model.ngeoms:
+            # obstacles were added after this state was created
+            self.collision_data = robot.collision_model.createData()
         pin.updateGeometryPlacements(
             robot.model, self.data, robot.collision_model, self.collision_data
         )

@@ -40,7 +40,9 @@ def as_se3(pose: Any, name: str = "pose") -> pin.SE3:
         quat = vec[3:]
         norm = float(np.linalg.norm(quat))
         if abs(norm - 1.0) > 1e-6:
-            raise InvalidInputError(f"{name} quaternion (x, y, z, w) must have unit norm, got {norm}")
+            raise InvalidInputError(
+                f"{name} quaternion (x, y, z, w) must have unit norm, got {norm}"
+            )
         return pin.XYZQUATToSE3(vec)
     raise InvalidInputError(
         f"{name} must be a pin.SE3, a 4x4 matrix, [x, y, z] or [x, y, z, qx, qy, qz, qw]; "

@@ -1,0 +1,120 @@
+"""State update + features of a 4-task stack, next to the raw Pinocchio calls (the floor)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+import pinocchio as pin
+
+from benchmarks.common import Row, measure
+from taskspace import features as F
+from taskspace.model import Robot
+
+SUITE = "kinematics"
+
+
+def scene(name: str) -> tuple[Robot, list[tuple[F.Feature, object]], list[np.ndarray]]:
+    """Robot, four (feature, target) pairs and a sequence of configurations."""
+    robot = Robot.load(name)
+    rng = np.random.default_rng(0)
+    qs = [robot.random_configuration(rng, base_box=0.1) for _ in range(64)]
+    if name == "panda":
+        feats: list[F.Feature] = [
+            F.FramePose(robot, "panda_hand_tcp"),
+            F.Position(robot, "panda_link4"),
+            F.CenterOfMass(robot),
+            F.JointConfiguration(robot),
+        ]
+    else:
+        feats = [
+            F.FramePose(robot, robot.end_effectors[0]),
+            F.FramePose(robot, robot.end_effectors[1]),
+            F.CenterOfMass(robot),
+            F.FramePose(robot, robot.end_effectors[2]),
+        ]
+    s0 = robot.state(robot.q_default)
+    tasks = []
+    for f in feats:
+        target = f.value(s0) if not isinstance(f, F.JointConfiguration) else robot.q_default
+        if isinstance(f, F.FramePose | F.JointConfiguration):
+            tasks.append((f, target))
+        else:
+            tasks.append((f, np.asarray(target)))
+    return robot, tasks, qs
+
+
+def taskspace_step(robot: Robot, tasks: list, qs: list) -> Callable[[], None]:  # type: ignore[type-arg]
+    state = robot.state(qs[0])
+    k = [0]
+
+    def step() -> None:
+        k[0] = (k[0] + 1) % len(qs)
+        state.update(qs[k[0]])
+        for feature, target in tasks:
+            feature.residual_and_jacobian(state, target)
+
+    return step
+
+
+def raw_step(robot: Robot, tasks: list, qs: list) -> Callable[[], None]:  # type: ignore[type-arg]
+    """The same quantities with direct Pinocchio calls and no validation (the floor)."""
+    model = robot.model
+    data = model.createData()
+    LOCAL = pin.ReferenceFrame.LOCAL
+    LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+    plan = []
+    for feature, target in tasks:
+        if isinstance(feature, F.FramePose):
+            plan.append(("pose", feature.frame_id, target))
+        elif isinstance(feature, F.Position):
+            plan.append(("pos", feature.frame_id, target))
+        elif isinstance(feature, F.CenterOfMass):
+            plan.append(("com", 0, target))
+        else:
+            plan.append(("posture", 0, target))
+    k = [0]
+
+    def step() -> None:
+        k[0] = (k[0] + 1) % len(qs)
+        q = qs[k[0]]
+        pin.computeJointJacobians(model, data, q)
+        pin.updateFramePlacements(model, data)
+        for kind, fid, target in plan:
+            if kind == "pose":
+                err = target.actInv(data.oMf[fid])  # type: ignore[union-attr]
+                pin.log6(err)
+                pin.Jlog6(err) @ pin.getFrameJacobian(model, data, fid, LOCAL)
+            elif kind == "pos":
+                data.oMf[fid].translation - target
+                pin.getFrameJacobian(model, data, fid, LWA)[:3]
+            elif kind == "com":
+                pin.jacobianCenterOfMass(model, data, True)
+                data.com[0] - target
+            else:
+                pin.difference(model, target, q)
+
+    return step
+
+
+def run(quick: bool) -> list[Row]:
+    """Both robots, taskspace vs raw Pinocchio."""
+    rows = []
+    repeat = 300 if quick else 3000
+    for name in ("panda", "talos"):
+        robot, tasks, qs = scene(name)
+        raw = measure(raw_step(robot, tasks, qs), warmup=50, repeat=repeat)
+        ts = measure(taskspace_step(robot, tasks, qs), warmup=50, repeat=repeat)
+        scene_name = f"{name} 4-task update"
+        rows.append(Row(SUITE, scene_name, "raw pinocchio", raw))
+        rows.append(
+            Row(
+                SUITE,
+                scene_name,
+                "taskspace",
+                ts,
+                ratio_to="raw pinocchio",
+                extra={"target_ratio": 1.5},
+            )
+        )
+    return rows

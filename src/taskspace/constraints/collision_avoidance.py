@@ -1,0 +1,74 @@
+"""Collision avoidance as velocity dampers on coal distances."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from taskspace._validation import FloatArray, check_positive
+from taskspace.constraints.constraint import Constraint
+from taskspace.errors import InvalidInputError
+from taskspace.features.collision import CollisionDistance
+from taskspace.qp.problem import INF
+
+if TYPE_CHECKING:
+    from taskspace.model.robot import Robot
+    from taskspace.model.state import State
+
+
+class CollisionAvoidance(Constraint):
+    """Velocity damper ``J_d dq >= -gain (d - d_s)`` for every pair closer than ``d_i``.
+
+    With the linearization ``d(q + dq) ~ d + J_d dq`` and ``gain = 1`` the next distance is at
+    least the safety distance ``d_s``; smaller gains approach obstacles more gently (the
+    classical damper ``d' >= -xi (d - d_s) / (d_i - d_s)`` in step form). Pairs farther than
+    the influence distance ``d_i`` add no row. Use convex collision geometry
+    (``Robot.load(..., convex_collision=True)``): mesh distances cost milliseconds.
+
+    Args:
+        robot: the robot.
+        safety_distance: ``d_s`` [m].
+        influence_distance: ``d_i`` [m].
+        gain: in (0, 1].
+        pairs: pairs to consider (default every collision pair, self and world).
+    """
+
+    def __init__(
+        self,
+        robot: Robot,
+        safety_distance: float = 0.01,
+        influence_distance: float = 0.1,
+        gain: float = 0.5,
+        pairs: Sequence[tuple[str, str]] | None = None,
+    ) -> None:
+        super().__init__(robot, "collision avoidance")
+        self.safety_distance = check_positive(safety_distance, "safety_distance", strict=False)
+        self.influence_distance = check_positive(influence_distance, "influence_distance")
+        if self.influence_distance <= self.safety_distance:
+            raise InvalidInputError("influence_distance must be larger than safety_distance")
+        if not 0.0 < gain <= 1.0:
+            raise InvalidInputError(f"gain must be in (0, 1], got {gain}")
+        self.gain = float(gain)
+        self.distances = CollisionDistance(robot, pairs)
+
+    def inequalities(self, state: State, dt: float) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """Rows for the pairs within the influence distance (possibly zero rows)."""
+        d = self.distances.value(state)
+        near = d < self.influence_distance
+        nv = self.robot.nv
+        if not near.any():
+            return np.zeros((0, nv)), np.zeros(0), np.zeros(0)
+        J = self.distances.jacobian(state)[near]
+        lower = -self.gain * (d[near] - self.safety_distance)
+        return J, lower, np.full(J.shape[0], INF)
+
+    def active_pairs(self, state: State) -> list[tuple[str, str, float]]:
+        """Pairs within the influence distance with their distances [m]."""
+        d = self.distances.value(state)
+        return [
+            (a, b, float(dist))
+            for (a, b), dist in zip(self.distances.pair_names, d)
+            if dist < self.influence_distance
+        ]

@@ -1,0 +1,44 @@
+"""Base class of constraints on a differential step ``dq`` (tangent vector, size nv)."""
+
+from __future__ import annotations
+
+import abc
+from typing import TYPE_CHECKING
+
+from taskspace._validation import FloatArray
+
+if TYPE_CHECKING:
+    from taskspace.model.robot import Robot
+    from taskspace.model.state import State
+
+
+class Constraint(abc.ABC):
+    """A constraint on the step ``dq`` taken from ``state`` during ``dt``.
+
+    Subclasses implement :meth:`bounds` (a box ``lb <= dq <= ub``) or :meth:`inequalities`
+    (rows ``l <= C dq <= u``) or both; a method that does not apply returns ``None``.
+
+    Attributes:
+        name: label used in results and infeasibility diagnoses.
+        hard_bounds: whether the box is physical (velocity/acceleration), so that it wins over
+            softer boxes (position limits) when the two cannot both hold.
+    """
+
+    hard_bounds: bool = False
+
+    def __init__(self, robot: Robot, name: str) -> None:
+        self.robot = robot
+        self.name = name
+
+    def bounds(self, state: State, dt: float) -> tuple[FloatArray, FloatArray] | None:
+        """Box ``(lb, ub)`` on ``dq`` or ``None``."""
+        return None
+
+    def inequalities(
+        self, state: State, dt: float
+    ) -> tuple[FloatArray, FloatArray, FloatArray] | None:
+        """Rows ``(C, l, u)`` with ``l <= C dq <= u`` or ``None``."""
+        return None
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}('{self.name}')"

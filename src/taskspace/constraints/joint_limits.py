@@ -1,0 +1,110 @@
+"""Joint position, velocity and acceleration limits as box bounds on the step."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from taskspace._validation import FloatArray, as_vector, check_positive
+from taskspace.constraints.constraint import Constraint
+from taskspace.errors import InvalidInputError
+from taskspace.qp.problem import INF
+
+if TYPE_CHECKING:
+    from taskspace.model.robot import Robot
+    from taskspace.model.state import State
+
+
+class JointPositionLimits(Constraint):
+    """``q_low + m <= q + dq <= q_high - m`` on every 1-DoF joint with finite limits.
+
+    A configuration outside its limits gives a box that points back inside (it is pulled
+    back, never rejected); velocity limits then bound how fast.
+
+    Args:
+        robot: the robot.
+        margin: distance ``m`` kept from the limits [rad or m].
+    """
+
+    def __init__(self, robot: Robot, margin: float = 0.0) -> None:
+        super().__init__(robot, "joint position limits")
+        self.margin = check_positive(margin, "margin", strict=False)
+        self._iq = robot.limited_joints_q
+        self._iv = robot.limited_joints_v
+        self._low = robot.lower_limits[self._iq] + self.margin
+        self._high = robot.upper_limits[self._iq] - self.margin
+        if np.any(self._low > self._high):
+            raise InvalidInputError(f"margin {margin} is larger than half a joint range")
+        # every joint 1-DoF and limited (fixed-base arms): plain vector operations
+        self._all = (
+            robot.nq == robot.nv
+            and len(self._iq) == robot.nv
+            and bool(np.all(self._iq == np.arange(robot.nv)))
+        )
+
+    def bounds(self, state: State, dt: float) -> tuple[FloatArray, FloatArray]:
+        """Box on ``dq``."""
+        if self._all:
+            q = state.q
+            return self._low - q, self._high - q
+        nv = self.robot.nv
+        lb = np.full(nv, -INF)
+        ub = np.full(nv, INF)
+        q = state.q[self._iq]
+        lb[self._iv] = self._low - q
+        ub[self._iv] = self._high - q
+        return lb, ub
+
+
+class JointVelocityLimits(Constraint):
+    """``|dq| <= v_max dt``.
+
+    Args:
+        robot: the robot.
+        limits: per-joint velocity limits (size nv) [rad/s or m/s]; default the model's
+            (the floating base is unlimited).
+        scale: factor applied to the limits.
+    """
+
+    hard_bounds = True
+
+    def __init__(self, robot: Robot, limits: Any = None, scale: float = 1.0) -> None:
+        super().__init__(robot, "joint velocity limits")
+        lim = robot.velocity_limits if limits is None else as_vector(limits, robot.nv, "limits")
+        if np.any(lim <= 0):
+            raise InvalidInputError("velocity limits must be > 0")
+        self.limits = lim * check_positive(scale, "scale")
+        self._dt = -1.0
+        self._box: tuple[FloatArray, FloatArray] = (self.limits, self.limits)
+
+    def bounds(self, state: State, dt: float) -> tuple[FloatArray, FloatArray]:
+        """Box on ``dq`` (cached per ``dt``; do not modify the returned arrays)."""
+        if dt != self._dt:
+            step = np.minimum(self.limits * dt, INF)
+            self._box = (-step, step)
+            self._dt = dt
+        return self._box
+
+
+class JointAccelerationLimits(Constraint):
+    """``|dq / dt - v| <= a_max dt`` with ``v`` the state's velocity.
+
+    Args:
+        robot: the robot.
+        limits: per-joint acceleration limits (size nv) [rad/s^2 or m/s^2].
+    """
+
+    hard_bounds = True
+
+    def __init__(self, robot: Robot, limits: Any) -> None:
+        super().__init__(robot, "joint acceleration limits")
+        self.limits = as_vector(limits, robot.nv, "limits")
+        if np.any(self.limits <= 0):
+            raise InvalidInputError("acceleration limits must be > 0")
+
+    def bounds(self, state: State, dt: float) -> tuple[FloatArray, FloatArray]:
+        """Box on ``dq`` around ``v dt``."""
+        center = state.v * dt
+        half = self.limits * dt * dt
+        return center - half, center + half

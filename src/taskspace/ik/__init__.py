@@ -1,0 +1,33 @@
+"""Inverse kinematics: weighted and hierarchical differential IK, Gauss-Newton, interpolation."""
+
+from taskspace.ik.differential_ik import (
+    DifferentialIK,
+    DifferentialIKOptions,
+    IKStatus,
+    IKStepResult,
+    combine_bounds,
+)
+from taskspace.ik.hierarchical_ik import HierarchicalIK, HierarchicalIKResult
+from taskspace.ik.interpolation import (
+    InterpolationResult,
+    joint_space_interpolation,
+    task_space_interpolation,
+)
+from taskspace.ik.solve_ik import SolveIKOptions, SolveIKResult, SolveIKStatus, solve_ik
+
+__all__ = [
+    "DifferentialIK",
+    "DifferentialIKOptions",
+    "HierarchicalIK",
+    "HierarchicalIKResult",
+    "IKStatus",
+    "IKStepResult",
+    "InterpolationResult",
+    "SolveIKOptions",
+    "SolveIKResult",
+    "SolveIKStatus",
+    "combine_bounds",
+    "joint_space_interpolation",
+    "solve_ik",
+    "task_space_interpolation",
+]

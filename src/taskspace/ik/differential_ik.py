@@ -1,0 +1,260 @@
+"""Weighted multi-task differential inverse kinematics as one QP (slides 2:25-2:29, 2:39-2:41).
+
+One step solves
+
+``min_dq  sum_i rho_i |J_i dq + gain_i e_i|^2 + mu |dq|^2``
+``s.t.    A dq = b`` (hard tasks), ``l <= C dq <= u`` (collision dampers, feature bounds),
+``lb <= dq <= ub`` (joint position, velocity and acceleration limits),
+
+the linearization of ``min_q |q - q0|^2_W + sum_i rho_i |phi_i(q) - y_i*|^2`` with
+``W = mu I``. ``dq`` is a tangent vector: the next configuration is ``q (+) dq`` and the
+velocity ``dq / dt``.
+"""
+
+from __future__ import annotations
+
+import enum
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import pinocchio as pin
+
+from taskspace._validation import FloatArray, check_positive
+from taskspace.constraints.constraint import Constraint
+from taskspace.errors import InvalidInputError
+from taskspace.model.robot import Robot
+from taskspace.model.state import State
+from taskspace.qp.problem import INF, QPProblem, RowBlock
+from taskspace.qp.result import QPResult, QPStatus
+from taskspace.qp.solver import QPSolver, QPSolverOptions
+from taskspace.tasks import Task
+
+
+class IKStatus(enum.Enum):
+    """Outcome of a differential IK step."""
+
+    SOLVED = "solved"
+    RELAXED = "relaxed"
+    FAILED = "failed"
+
+
+@dataclass
+class IKStepResult:
+    """Result of one differential IK step.
+
+    Attributes:
+        success: the QP was solved with every hard constraint satisfied.
+        status: see :class:`IKStatus`.
+        dq: the step (tangent vector, size nv) [rad, m].
+        velocity: ``dq / dt`` [rad/s, m/s].
+        qp: the QP result (status, backend, iterations, culprits when relaxed).
+        culprits: constraints at fault when the hard constraints conflict.
+        build_time, solve_time: wall times [s].
+    """
+
+    success: bool
+    status: IKStatus
+    dq: FloatArray
+    velocity: FloatArray
+    qp: QPResult
+    culprits: list[str] = field(default_factory=list)
+    build_time: float = 0.0
+    solve_time: float = 0.0
+
+
+@dataclass(frozen=True, kw_only=True)
+class DifferentialIKOptions:
+    """Settings of :class:`DifferentialIK`.
+
+    Attributes:
+        damping: ``mu`` of the regularization ``mu |dq|^2`` (the metric ``W`` of slide 2:26;
+            keeps steps bounded near singularities) [1/rad^2].
+        solver: QP solver settings (backend, fallbacks, tolerances).
+    """
+
+    damping: float = 1e-6
+    solver: QPSolverOptions = field(default_factory=QPSolverOptions)
+
+
+def combine_bounds(
+    constraints: Sequence[Constraint], state: State, dt: float, nv: int
+) -> tuple[FloatArray, FloatArray, list[RowBlock]]:
+    """Intersect the boxes of ``constraints``; physical boxes win where the boxes conflict.
+
+    Where a position box cannot be met within the velocity box (a configuration outside its
+    limits), the step is the velocity-box value nearest to the position box: the joint moves
+    back as fast as allowed.
+    """
+    hard: list[tuple[FloatArray, FloatArray]] = []
+    soft: list[tuple[FloatArray, FloatArray]] = []
+    names: list[RowBlock] = []
+    for c in constraints:
+        box = c.bounds(state, dt)
+        if box is not None:
+            names.append(RowBlock(c.name, 0, nv))
+            (hard if c.hard_bounds else soft).append(box)
+    hard_lb, hard_ub = _intersect(hard, nv)
+    soft_lb, soft_ub = _intersect(soft, nv)
+    bad = hard_lb > hard_ub
+    if bad.any():  # conflicting hard boxes (acceleration vs velocity): midpoint of the gap
+        hard_lb = hard_lb.copy()
+        hard_ub = hard_ub.copy()
+        hard_lb[bad] = hard_ub[bad] = 0.5 * (hard_lb[bad] + hard_ub[bad])
+    if not soft:
+        return hard_lb, hard_ub, names
+    if not hard:
+        bad = soft_lb > soft_ub
+        if bad.any():  # empty soft box (margins): center it
+            soft_lb = soft_lb.copy()
+            soft_ub = soft_ub.copy()
+            soft_lb[bad] = soft_ub[bad] = 0.5 * (soft_lb[bad] + soft_ub[bad])
+        return soft_lb, soft_ub, names
+    lb = np.maximum(hard_lb, soft_lb)
+    ub = np.minimum(hard_ub, soft_ub)
+    bad = lb > ub
+    if bad.any():
+        # soft box entirely above (or below) the hard one: go to the nearest hard bound
+        above = soft_lb > hard_ub
+        below = soft_ub < hard_lb
+        lb = np.where(bad & above, hard_ub, lb)
+        ub = np.where(bad & above, hard_ub, ub)
+        lb = np.where(bad & below, hard_lb, lb)
+        ub = np.where(bad & below, hard_lb, ub)
+        soft_conflict = bad & ~above & ~below  # soft box itself empty (margins): center it
+        if soft_conflict.any():
+            mid = 0.5 * (soft_lb + soft_ub)
+            lb = np.where(soft_conflict, np.clip(mid, hard_lb, hard_ub), lb)
+            ub = np.where(soft_conflict, lb, ub)
+    return lb, ub, names
+
+
+def _intersect(
+    boxes: list[tuple[FloatArray, FloatArray]], nv: int
+) -> tuple[FloatArray, FloatArray]:
+    if not boxes:
+        return np.full(nv, -INF), np.full(nv, INF)
+    lb, ub = boxes[0]
+    for blb, bub in boxes[1:]:
+        lb = np.maximum(lb, blb)
+        ub = np.minimum(ub, bub)
+    return lb, ub
+
+
+class DifferentialIK:
+    """Weighted multi-task differential IK with limits, collisions and hard tasks.
+
+    The proxsuite workspace is kept between steps (updated and warm-started); when the
+    unconstrained minimizer already respects every bound no QP iteration is run.
+
+    Args:
+        robot: the robot.
+        tasks: weighted tasks (their ``priority`` is ignored here).
+        constraints: joint limits, collision avoidance, feature bounds...
+        equality_tasks: tasks imposed exactly (``J dq = -gain e``) as equality constraints.
+        options: settings.
+    """
+
+    def __init__(
+        self,
+        robot: Robot,
+        tasks: Sequence[Task],
+        constraints: Sequence[Constraint] = (),
+        equality_tasks: Sequence[Task] = (),
+        options: DifferentialIKOptions | None = None,
+    ) -> None:
+        self.robot = robot
+        self.tasks = list(tasks)
+        self.constraints = list(constraints)
+        self.equality_tasks = list(equality_tasks)
+        self.options = options or DifferentialIKOptions()
+        check_positive(self.options.damping, "damping", strict=False)
+        for item in [*self.tasks, *self.equality_tasks]:
+            if item.feature.robot is not robot:
+                raise InvalidInputError(f"task '{item.name}' is defined on another robot")
+        for c in self.constraints:
+            if c.robot is not robot:
+                raise InvalidInputError(f"constraint '{c.name}' is defined on another robot")
+        if not self.tasks and not self.equality_tasks:
+            raise InvalidInputError("DifferentialIK needs at least one task")
+        self.solver = QPSolver(self.options.solver)
+        self._inequality_constraints = [
+            c for c in self.constraints if type(c).inequalities is not Constraint.inequalities
+        ]
+        n_rows = sum(t.dim for t in self.tasks)
+        self._M = np.zeros((n_rows, robot.nv))
+        self._r = np.zeros(n_rows)
+        self._reg = self.options.damping * np.eye(robot.nv)
+        self._empty_rows = np.zeros((0, robot.nv))
+        self._empty = np.zeros(0)
+
+    def build(self, state: State, dt: float) -> QPProblem:
+        """Assemble the QP of one step from ``state`` during ``dt`` [s] (inspectable)."""
+        nv = self.robot.nv
+        M, r = self._M, self._r
+        row = 0
+        for task in self.tasks:
+            J, target = task.rows(state)
+            d = task.dim
+            M[row : row + d] = J
+            r[row : row + d] = target
+            row += d
+        H = M.T @ M
+        H += self._reg
+        g = -(M.T @ r)
+        if self.equality_tasks:
+            eq = [t.rows(state) for t in self.equality_tasks]
+            A = np.vstack([e[0] for e in eq])
+            b = np.concatenate([e[1] for e in eq])
+            eq_blocks, k = [], 0
+            for t in self.equality_tasks:
+                eq_blocks.append(RowBlock(f"task '{t.name}'", k, k + t.dim))
+                k += t.dim
+        else:
+            A, b, eq_blocks = self._empty_rows, self._empty, []
+        lb, ub, box_blocks = combine_bounds(self.constraints, state, dt, nv)
+        rows_C, rows_l, rows_u, in_blocks, k = [], [], [], [], 0
+        for c in self._inequality_constraints:
+            ineq = c.inequalities(state, dt)
+            if ineq is None or ineq[0].shape[0] == 0:
+                continue
+            rows_C.append(ineq[0])
+            rows_l.append(ineq[1])
+            rows_u.append(ineq[2])
+            in_blocks.append(RowBlock(c.name, k, k + ineq[0].shape[0]))
+            k += ineq[0].shape[0]
+        if rows_C:
+            C, l, u = np.vstack(rows_C), np.concatenate(rows_l), np.concatenate(rows_u)
+        else:
+            C, l, u = self._empty_rows, self._empty, self._empty
+        return QPProblem(H, g, A, b, C, l, u, lb, ub, eq_blocks, in_blocks, box_blocks)
+
+    def solve(self, state: State, dt: float) -> IKStepResult:
+        """One step: build and solve the QP.
+
+        Args:
+            state: current state (its velocity is used by acceleration limits).
+            dt: time step [s].
+        """
+        dt = check_positive(dt, "dt")
+        t0 = time.perf_counter()
+        problem = self.build(state, dt)
+        t1 = time.perf_counter()
+        result = self.solver.solve(problem)
+        t2 = time.perf_counter()
+        if result.success:
+            status = IKStatus.SOLVED
+        elif result.status is QPStatus.RELAXED:
+            status = IKStatus.RELAXED
+        else:
+            status = IKStatus.FAILED
+        dq = result.x
+        return IKStepResult(
+            result.success, status, dq, dq / dt, result, list(result.culprits), t1 - t0, t2 - t1
+        )
+
+    def step(self, state: State, dt: float) -> tuple[FloatArray, IKStepResult]:
+        """Solve one step and return ``(q (+) dq, result)`` (the state is not modified)."""
+        result = self.solve(state, dt)
+        return np.asarray(pin.integrate(self.robot.model, state.q, result.dq)), result

@@ -1,0 +1,184 @@
+"""Strict task hierarchies for differential IK (slides 2:42-2:44): a cascade of QPs."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import pinocchio as pin
+
+from taskspace._validation import FloatArray, check_positive
+from taskspace.constraints.constraint import Constraint
+from taskspace.errors import InvalidInputError
+from taskspace.ik.differential_ik import combine_bounds
+from taskspace.model.robot import Robot
+from taskspace.model.state import State
+from taskspace.qp.hierarchy import (
+    HierarchyLevel,
+    HierarchyOptions,
+    HierarchyResult,
+    HierarchySolver,
+)
+from taskspace.qp.problem import RowBlock
+from taskspace.tasks import Task
+
+
+@dataclass
+class HierarchicalIKResult:
+    """Result of one hierarchical step.
+
+    Attributes:
+        success: every level was solved.
+        dq: the step (tangent vector) [rad, m].
+        velocity: ``dq / dt``.
+        residuals: per level, the norm of its weighted task residual after the step
+            (linearized: ``|J dq + gain e|``).
+        violations: per level, the largest violation of its inequalities (linearized).
+        hierarchy: the cascade's result (per-level QP results, nullspace dimensions).
+        build_time, solve_time: wall times [s].
+    """
+
+    success: bool
+    dq: FloatArray
+    velocity: FloatArray
+    residuals: list[float]
+    violations: list[float]
+    hierarchy: HierarchyResult
+    build_time: float = 0.0
+    solve_time: float = 0.0
+
+
+class HierarchicalIK:
+    """Differential IK with strict priorities between levels (any number of levels).
+
+    Level ``k`` is solved subject to every level ``j < k`` held at its optimum; inequality
+    constraints placed in a level are minimized in violation at that level and then held.
+    ``constraints`` (joint limits...) bind every level.
+
+    Args:
+        robot: the robot.
+        levels: highest priority first; each level a list of tasks and constraints.
+        constraints: hard constraints for all levels.
+        options: cascade settings (damping, rank tolerance, QP solver).
+    """
+
+    def __init__(
+        self,
+        robot: Robot,
+        levels: Sequence[Sequence[Task | Constraint]],
+        constraints: Sequence[Constraint] = (),
+        options: HierarchyOptions | None = None,
+    ) -> None:
+        if not levels:
+            raise InvalidInputError("HierarchicalIK needs at least one level")
+        self.robot = robot
+        self.levels = [list(level) for level in levels]
+        self.constraints = list(constraints)
+        for level in self.levels:
+            for item in level:
+                item_robot = item.feature.robot if isinstance(item, Task) else item.robot
+                if item_robot is not robot:
+                    raise InvalidInputError(f"'{item.name}' is defined on another robot")
+                if isinstance(item, Constraint) and item.bounds.__func__ is not Constraint.bounds:  # type: ignore[attr-defined]
+                    raise InvalidInputError(
+                        f"'{item.name}' is a box constraint: pass it in `constraints` (boxes "
+                        "bind every level)"
+                    )
+        self.solver = HierarchySolver(options)
+
+    @classmethod
+    def from_priorities(
+        cls,
+        robot: Robot,
+        tasks: Sequence[Task],
+        constraints: Sequence[Constraint] = (),
+        options: HierarchyOptions | None = None,
+    ) -> HierarchicalIK:
+        """Group ``tasks`` into levels by their ``priority`` (0 first)."""
+        priorities = sorted({t.priority for t in tasks})
+        return cls(
+            robot,
+            [[t for t in tasks if t.priority == p] for p in priorities],
+            constraints,
+            options,
+        )
+
+    def build(self, state: State, dt: float) -> list[HierarchyLevel]:
+        """The levels' least-squares rows and inequalities at ``state``."""
+        nv = self.robot.nv
+        out = []
+        for k, level in enumerate(self.levels):
+            Js, rs, Cs, ls, us = [], [], [], [], []
+            for item in level:
+                if isinstance(item, Task):
+                    J, r = item.rows(state)
+                    Js.append(J)
+                    rs.append(r)
+                else:
+                    ineq = item.inequalities(state, dt)
+                    if ineq is not None and ineq[0].shape[0]:
+                        Cs.append(ineq[0])
+                        ls.append(ineq[1])
+                        us.append(ineq[2])
+            names = ", ".join(item.name for item in level)
+            out.append(
+                HierarchyLevel(
+                    f"level {k} ({names})",
+                    np.vstack(Js) if Js else np.zeros((0, nv)),
+                    np.concatenate(rs) if rs else np.zeros(0),
+                    np.vstack(Cs) if Cs else None,
+                    np.concatenate(ls) if ls else None,
+                    np.concatenate(us) if us else None,
+                )
+            )
+        return out
+
+    def solve(self, state: State, dt: float) -> HierarchicalIKResult:
+        """One hierarchical step from ``state`` during ``dt`` [s]."""
+        dt = check_positive(dt, "dt")
+        t0 = time.perf_counter()
+        levels = self.build(state, dt)
+        nv = self.robot.nv
+        lb, ub, _ = combine_bounds(self.constraints, state, dt, nv)
+        rows_C, rows_l, rows_u, blocks, k = [], [], [], [], 0
+        for c in self.constraints:
+            ineq = c.inequalities(state, dt)
+            if ineq is None or ineq[0].shape[0] == 0:
+                continue
+            rows_C.append(ineq[0])
+            rows_l.append(ineq[1])
+            rows_u.append(ineq[2])
+            blocks.append(RowBlock(c.name, k, k + ineq[0].shape[0]))
+            k += ineq[0].shape[0]
+        t1 = time.perf_counter()
+        result = self.solver.solve(
+            levels,
+            nv,
+            lb=lb,
+            ub=ub,
+            C=np.vstack(rows_C) if rows_C else None,
+            l=np.concatenate(rows_l) if rows_l else None,
+            u=np.concatenate(rows_u) if rows_u else None,
+            hard_names=blocks,
+        )
+        t2 = time.perf_counter()
+        return HierarchicalIKResult(
+            result.success,
+            result.x,
+            result.x / dt,
+            result.residuals,
+            result.violations,
+            result,
+            t1 - t0,
+            t2 - t1,
+        )
+
+    def step(self, state: State, dt: float) -> tuple[FloatArray, HierarchicalIKResult]:
+        """Solve one step and return ``(q (+) dq, result)``."""
+        result = self.solve(state, dt)
+        return np.asarray(pin.integrate(self.robot.model, state.q, result.dq)), result
+
+
+__all__ = ["HierarchicalIK", "HierarchicalIKResult"]

@@ -1,0 +1,232 @@
+"""Position-level inverse kinematics: Gauss-Newton to convergence (slides 2:29, 2:34).
+
+Iterates the weighted differential step (all gains 1) from ``q``: ``q <- q (+) alpha dq`` with
+a backtracking line search on ``f(q) = sum_i rho_i |e_i(q)|^2`` and Levenberg-Marquardt
+damping adapted to progress, inside the joint limits. Optional random restarts (seeded).
+"""
+
+from __future__ import annotations
+
+import enum
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import pinocchio as pin
+
+from taskspace._validation import FloatArray
+from taskspace.constraints.constraint import Constraint
+from taskspace.constraints.joint_limits import JointPositionLimits
+from taskspace.errors import InvalidInputError
+from taskspace.features.frame_pose import FramePose
+from taskspace.ik.differential_ik import DifferentialIK, DifferentialIKOptions
+from taskspace.model.robot import Robot
+from taskspace.qp.solver import QPSolverOptions
+from taskspace.tasks import Task
+
+
+class SolveIKStatus(enum.Enum):
+    """Outcome of :func:`solve_ik`."""
+
+    CONVERGED = "converged"
+    MAX_ITERATIONS = "max_iterations"
+    STALLED = "stalled"
+
+
+@dataclass(frozen=True, kw_only=True)
+class SolveIKOptions:
+    """Settings of :func:`solve_ik`.
+
+    Attributes:
+        max_iterations: Gauss-Newton iterations per attempt.
+        position_tolerance: convergence threshold on position errors [m] (and on the norm of
+            non-pose task errors).
+        rotation_tolerance: convergence threshold on rotation errors [rad].
+        initial_damping: initial Levenberg-Marquardt damping ``mu``.
+        max_step: largest joint step per iteration [rad or m] (trust region).
+        restarts: random restarts after a failed first attempt.
+        backend: QP backend.
+    """
+
+    max_iterations: int = 100
+    position_tolerance: float = 1e-6
+    rotation_tolerance: float = 1e-5
+    initial_damping: float = 1e-6
+    max_step: float = 0.5
+    restarts: int = 0
+    backend: str = "proxsuite"
+
+
+@dataclass
+class SolveIKResult:
+    """Result of :func:`solve_ik`.
+
+    Attributes:
+        success: every task converged within tolerance.
+        status: see :class:`SolveIKStatus`.
+        q: final configuration (the best one found).
+        iterations: total Gauss-Newton iterations (all attempts).
+        attempts: 1 + restarts used.
+        errors: per task, the final residual norm.
+        cost_history: ``f(q)`` after each accepted iteration of the returned attempt.
+        solve_time: wall time [s].
+    """
+
+    success: bool
+    status: SolveIKStatus
+    q: FloatArray
+    iterations: int
+    attempts: int
+    errors: dict[str, float]
+    cost_history: list[float] = field(default_factory=list)
+    solve_time: float = 0.0
+
+
+class _StepBox(Constraint):
+    hard_bounds = True
+
+    def __init__(self, robot: Robot, max_step: float) -> None:
+        super().__init__(robot, "step size")
+        self.max_step = max_step
+
+    def bounds(self, state, dt):  # type: ignore[no-untyped-def]
+        return np.full(self.robot.nv, -self.max_step), np.full(self.robot.nv, self.max_step)
+
+
+def _converged(tasks: Sequence[Task], errors: list[FloatArray], opts: SolveIKOptions) -> bool:
+    for task, e in zip(tasks, errors):
+        if isinstance(task.feature, FramePose):
+            if np.linalg.norm(e[:3]) > opts.position_tolerance:
+                return False
+            if np.linalg.norm(e[3:]) > opts.rotation_tolerance:
+                return False
+        elif np.linalg.norm(e) > opts.position_tolerance:
+            return False
+    return True
+
+
+def solve_ik(
+    robot: Robot,
+    tasks: Sequence[Task],
+    q0: object = None,
+    *,
+    constraints: Sequence[Constraint] | None = None,
+    options: SolveIKOptions | None = None,
+    rng: np.random.Generator | None = None,
+) -> SolveIKResult:
+    """Solve ``min_q sum_i rho_i |phi_i(q) - y_i*|^2`` within the joint limits.
+
+    Args:
+        robot: the robot.
+        tasks: tasks with targets (gains are ignored: full Gauss-Newton steps).
+        q0: initial configuration (default: the robot's default posture).
+        constraints: constraints (default: joint position limits).
+        options: settings.
+        rng: random generator for restarts (required when ``options.restarts > 0``).
+
+    Returns:
+        The result; ``success`` tells whether the tolerances were reached.
+    """
+    opts = options or SolveIKOptions()
+    if opts.restarts > 0 and rng is None:
+        raise InvalidInputError("solve_ik with restarts needs rng=np.random.default_rng(seed)")
+    t0 = time.perf_counter()
+    q_start = robot.check_configuration(robot.q_default if q0 is None else q0, "q0")
+    cons: list[Constraint] = (
+        [JointPositionLimits(robot)] if constraints is None else list(constraints)
+    )
+    cons.append(_StepBox(robot, opts.max_step))
+    gains = [t.gain for t in tasks]
+    for t in tasks:
+        t.gain = 1.0
+    try:
+        total_iterations = 0
+        best: SolveIKResult | None = None
+        for attempt in range(1 + opts.restarts):
+            if attempt > 0:
+                assert rng is not None
+                q_start = robot.random_configuration(rng)
+            result = _gauss_newton(robot, tasks, q_start, cons, opts)
+            total_iterations += result.iterations
+            result.attempts = attempt + 1
+            if best is None or sum(result.errors.values()) < sum(best.errors.values()):
+                best = result
+            if result.success:
+                best = result
+                break
+        assert best is not None
+        best.iterations = total_iterations
+        best.solve_time = time.perf_counter() - t0
+        return best
+    finally:
+        for t, g in zip(tasks, gains):
+            t.gain = g
+
+
+def _gauss_newton(
+    robot: Robot,
+    tasks: Sequence[Task],
+    q: FloatArray,
+    constraints: list[Constraint],
+    opts: SolveIKOptions,
+) -> SolveIKResult:
+    mu = opts.initial_damping
+    state = robot.state(q)
+    trial = robot.state(q)
+
+    def cost_and_errors(s: object) -> tuple[float, list[FloatArray]]:
+        errs = [t.error(s) for t in tasks]  # type: ignore[arg-type]
+        c = sum(float(np.sum((np.asarray(t.sqrt_weight) * e) ** 2)) for t, e in zip(tasks, errs))
+        return c, errs
+
+    cost, errors = cost_and_errors(state)
+    history = [cost]
+    status = SolveIKStatus.MAX_ITERATIONS
+    iterations = 0
+    solver_options = QPSolverOptions(backend=opts.backend)
+    for iterations in range(1, opts.max_iterations + 1):
+        if _converged(tasks, errors, opts):
+            status = SolveIKStatus.CONVERGED
+            iterations -= 1
+            break
+        ik = DifferentialIK(
+            robot,
+            tasks,
+            constraints,
+            options=DifferentialIKOptions(damping=mu, solver=solver_options),
+        )
+        step = ik.solve(state, 1.0)
+        dq = step.dq
+        alpha = 1.0
+        accepted = False
+        while alpha > 1e-4:
+            q_new = pin.integrate(robot.model, state.q, alpha * dq)
+            trial.update(q_new, validate=False)
+            new_cost, new_errors = cost_and_errors(trial)
+            if new_cost < cost * (1 - 1e-4 * alpha) or new_cost < 1e-30:
+                accepted = True
+                break
+            alpha *= 0.5
+        if accepted:
+            state.update(trial.q, validate=False)
+            cost, errors = new_cost, new_errors
+            history.append(cost)
+            mu = max(mu / 3.0, 1e-12)
+        else:
+            mu *= 10.0
+            if mu > 1e6:
+                status = SolveIKStatus.STALLED
+                break
+    else:
+        if _converged(tasks, errors, opts):
+            status = SolveIKStatus.CONVERGED
+    return SolveIKResult(
+        status is SolveIKStatus.CONVERGED,
+        status,
+        np.array(state.q),
+        iterations,
+        1,
+        {t.name: float(np.linalg.norm(e)) for t, e in zip(tasks, errors)},
+        history,
+    )

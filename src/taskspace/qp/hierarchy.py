@@ -1,0 +1,253 @@
+"""Strict task hierarchies as a lexicographic cascade of QPs (slides 2:42-2:44).
+
+The limit ``rho_1 >> rho_2 >> ...`` of the weighted problem.
+
+Level k minimizes ``|J_k x - r_k|^2`` plus the squared violations ``w`` of its inequalities
+``l_k <= C_k x <= u_k``, subject to every earlier level held at its optimum and to the hard
+constraints (box bounds and hard inequalities). Earlier equality levels are held exactly by
+searching in the nullspace of their stacked Jacobians, ``x = x_{k-1} + Z_{k-1} z`` (so the
+optimal residuals of earlier levels cannot change); earlier inequalities are held with their
+optimal slacks (``l' = min(l, C x*)``, ``u' = max(u, C x*)``). Each level is one QP solved by a
+persistent :class:`~taskspace.qp.solver.QPSolver` (unconstrained shortcut first).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from taskspace._validation import FloatArray
+from taskspace.qp.problem import INF, QPProblem, RowBlock
+from taskspace.qp.result import QPResult, QPStatus
+from taskspace.qp.solver import QPSolver, QPSolverOptions
+
+
+@dataclass
+class HierarchyLevel:
+    """One priority level.
+
+    Attributes:
+        name: label used in results.
+        J, r: least-squares rows ``min |J x - r|^2`` (0 rows allowed).
+        C, l, u: inequalities of this level, minimized in violation then held (0 rows allowed).
+    """
+
+    name: str
+    J: FloatArray
+    r: FloatArray
+    C: FloatArray | None = None
+    l: FloatArray | None = None
+    u: FloatArray | None = None
+
+    @property
+    def n_in(self) -> int:
+        """Number of inequality rows."""
+        return 0 if self.C is None else int(self.C.shape[0])
+
+
+@dataclass
+class HierarchyResult:
+    """Result of a cascade.
+
+    Attributes:
+        success: every level's QP succeeded.
+        status: the worst status over the levels.
+        x: solution.
+        residuals: per level, ``|J_k x - r_k|`` (equality part).
+        violations: per level, the largest violation of its inequalities at ``x``.
+        nullspace_dims: dimension of the remaining freedom after each level.
+        level_results: the QP result of each level.
+        solve_time: total wall time [s].
+    """
+
+    success: bool
+    status: QPStatus
+    x: FloatArray
+    residuals: list[float] = field(default_factory=list)
+    violations: list[float] = field(default_factory=list)
+    nullspace_dims: list[int] = field(default_factory=list)
+    level_results: list[QPResult] = field(default_factory=list)
+    solve_time: float = 0.0
+
+
+@dataclass(frozen=True, kw_only=True)
+class HierarchyOptions:
+    """Settings of :class:`HierarchySolver`.
+
+    Attributes:
+        damping: ``mu`` of the regularization ``mu |z|^2`` of every level (selects the
+            least-norm solution among a level's minimizers; bounds steps near singularities).
+        rank_tolerance: singular values below ``rank_tolerance * max(1, s_max)`` count as zero
+            when computing nullspaces.
+        solver: options of the per-level QP solvers.
+    """
+
+    damping: float = 1e-9
+    rank_tolerance: float = 1e-8
+    solver: QPSolverOptions = field(default_factory=QPSolverOptions)
+
+
+class HierarchySolver:
+    """Lexicographic cascade over any number of levels (one persistent QP solver per level)."""
+
+    def __init__(self, options: HierarchyOptions | None = None) -> None:
+        self.options = options or HierarchyOptions()
+        self._solvers: list[QPSolver] = []
+
+    def _solver(self, k: int) -> QPSolver:
+        while len(self._solvers) <= k:
+            self._solvers.append(QPSolver(self.options.solver))
+        return self._solvers[k]
+
+    def solve(
+        self,
+        levels: Sequence[HierarchyLevel],
+        n: int,
+        *,
+        lb: FloatArray | None = None,
+        ub: FloatArray | None = None,
+        C: FloatArray | None = None,
+        l: FloatArray | None = None,
+        u: FloatArray | None = None,
+        hard_names: Sequence[RowBlock] = (),
+    ) -> HierarchyResult:
+        """Solve the cascade.
+
+        Args:
+            levels: highest priority first.
+            n: number of variables.
+            lb, ub: hard box bounds (default none).
+            C, l, u: hard inequalities (default none).
+            hard_names: row blocks naming the hard inequalities (for diagnostics).
+        """
+        t0 = time.perf_counter()
+        opts = self.options
+        lb = np.full(n, -INF) if lb is None else lb
+        ub = np.full(n, INF) if ub is None else ub
+        held_C: list[FloatArray] = [] if C is None else [C]
+        held_l: list[FloatArray] = [] if l is None else [l]
+        held_u: list[FloatArray] = [] if u is None else [u]
+        x = np.zeros(n)
+        Z: FloatArray | None = None  # None = identity (no reduction yet)
+        out = HierarchyResult(True, QPStatus.UNCONSTRAINED, x)
+        worst = 0
+        order = [
+            QPStatus.UNCONSTRAINED,
+            QPStatus.SOLVED,
+            QPStatus.MAX_ITERATIONS,
+            QPStatus.RELAXED,
+            QPStatus.FAILED,
+        ]
+        for k, level in enumerate(levels):
+            r_dim = n if Z is None else Z.shape[1]
+            p = level.n_in
+            if r_dim == 0:
+                # no freedom left: the level is only evaluated
+                out.level_results.append(QPResult(True, QPStatus.UNCONSTRAINED, np.zeros(0), 0.0))
+            else:
+                JZ = level.J if Z is None else level.J @ Z
+                res0 = level.J @ x - level.r
+                N = r_dim + p
+                H = np.zeros((N, N))
+                H[:r_dim, :r_dim] = JZ.T @ JZ
+                H[np.arange(r_dim), np.arange(r_dim)] += opts.damping
+                g = np.zeros(N)
+                g[:r_dim] = JZ.T @ res0
+                if p:
+                    H[r_dim:, r_dim:] = np.eye(p)
+                rows_C: list[FloatArray] = []
+                rows_l: list[FloatArray] = []
+                rows_u: list[FloatArray] = []
+                blocks: list[RowBlock] = []
+                row = 0
+                if Z is None:
+                    box_lb = np.concatenate([lb - x, np.zeros(p)])
+                    box_ub = np.concatenate([ub - x, np.full(p, INF)])
+                else:
+                    box_lb = np.concatenate([np.full(r_dim, -INF), np.zeros(p)])
+                    box_ub = np.full(N, INF)
+                    finite = np.flatnonzero((lb > -INF) | (ub < INF))
+                    if finite.size:
+                        block = np.zeros((finite.size, N))
+                        block[:, :r_dim] = Z[finite]
+                        rows_C.append(block)
+                        rows_l.append(lb[finite] - x[finite])
+                        rows_u.append(ub[finite] - x[finite])
+                        blocks.append(RowBlock("bounds", row, row + finite.size))
+                        row += finite.size
+                for Ch, lh, uh in zip(held_C, held_l, held_u):
+                    block = np.zeros((Ch.shape[0], N))
+                    block[:, :r_dim] = Ch if Z is None else Ch @ Z
+                    Cx = Ch @ x
+                    rows_C.append(block)
+                    rows_l.append(lh - Cx)
+                    rows_u.append(uh - Cx)
+                    blocks.append(RowBlock("held inequalities", row, row + Ch.shape[0]))
+                    row += Ch.shape[0]
+                if p:
+                    assert level.C is not None and level.l is not None and level.u is not None
+                    CZ = level.C if Z is None else level.C @ Z
+                    Cx = level.C @ x
+                    # l - w <= C x <= u + w, as two one-sided rows sharing the slack w >= 0
+                    lo = np.zeros((p, N))
+                    lo[:, :r_dim] = CZ
+                    lo[:, r_dim:] = np.eye(p)
+                    hi = np.zeros((p, N))
+                    hi[:, :r_dim] = CZ
+                    hi[:, r_dim:] = -np.eye(p)
+                    rows_C += [lo, hi]
+                    rows_l += [level.l - Cx, np.full(p, -INF)]
+                    rows_u += [np.full(p, INF), level.u - Cx]
+                    blocks.append(RowBlock(level.name, row, row + 2 * p))
+                    row += 2 * p
+                problem = QPProblem(
+                    H,
+                    g,
+                    np.zeros((0, N)),
+                    np.zeros(0),
+                    np.vstack(rows_C) if rows_C else np.zeros((0, N)),
+                    np.concatenate(rows_l) if rows_l else np.zeros(0),
+                    np.concatenate(rows_u) if rows_u else np.zeros(0),
+                    box_lb,
+                    box_ub,
+                    in_blocks=blocks,
+                    box_blocks=[RowBlock("bounds", 0, r_dim)],
+                )
+                result = self._solver(k).solve(problem)
+                out.level_results.append(result)
+                worst = max(worst, order.index(result.status))
+                if not result.success:
+                    out.success = False
+                z = result.x[:r_dim]
+                x = x + (z if Z is None else Z @ z)
+            if p:
+                assert level.C is not None and level.l is not None and level.u is not None
+                Cx = level.C @ x
+                held_C.append(level.C)
+                held_l.append(np.minimum(level.l, Cx))
+                held_u.append(np.maximum(level.u, Cx))
+            # remaining freedom: nullspace of this level's equality rows
+            if level.J.shape[0] and k < len(levels) - 1 and r_dim > 0:
+                JZ = level.J if Z is None else level.J @ Z
+                _, s, Vt = np.linalg.svd(JZ, full_matrices=True)
+                rank = int(np.sum(s > opts.rank_tolerance * max(1.0, s[0] if s.size else 0.0)))
+                basis = Vt[rank:].T
+                Z = basis if Z is None else Z @ basis
+            out.nullspace_dims.append(n if Z is None else Z.shape[1])
+        out.x = x
+        for level in levels:
+            out.residuals.append(float(np.linalg.norm(level.J @ x - level.r)))
+            if level.n_in:
+                assert level.C is not None and level.l is not None and level.u is not None
+                Cx = level.C @ x
+                out.violations.append(
+                    float(np.maximum(level.l - Cx, Cx - level.u).max(initial=0.0))
+                )
+            else:
+                out.violations.append(0.0)
+        out.status = order[worst]
+        out.solve_time = time.perf_counter() - t0
+        return out

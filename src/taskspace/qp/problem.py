@@ -1,0 +1,140 @@
+"""Quadratic programs as data.
+
+``min_x 1/2 x^T H x + g^T x  s.t.  A x = b,  l <= C x <= u,  lb <= x <= ub``.
+Row blocks carry labels so that a solver can name the constraints at fault.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from taskspace._validation import FloatArray
+from taskspace.errors import ShapeError
+
+INF = 1e20
+"""Stand-in for an infinite bound (what the QP backends accept)."""
+
+
+@dataclass
+class RowBlock:
+    """A named block of constraint rows ``[start, stop)`` of ``A``, ``C`` or the box."""
+
+    name: str
+    start: int
+    stop: int
+
+
+@dataclass
+class QPProblem:
+    """A QP ``min 1/2 x'Hx + g'x s.t. Ax = b, l <= Cx <= u, lb <= x <= ub``.
+
+    Attributes:
+        H: (n, n) symmetric positive semi-definite Hessian.
+        g: (n,) linear term.
+        A, b: equality constraints (0 rows when absent).
+        C, l, u: two-sided inequality constraints (0 rows when absent; +-INF for none).
+        lb, ub: box bounds on ``x`` (+-INF for none).
+        eq_blocks, in_blocks, box_blocks: names of the constraint row blocks.
+    """
+
+    H: FloatArray
+    g: FloatArray
+    A: FloatArray
+    b: FloatArray
+    C: FloatArray
+    l: FloatArray
+    u: FloatArray
+    lb: FloatArray
+    ub: FloatArray
+    eq_blocks: list[RowBlock] = field(default_factory=list)
+    in_blocks: list[RowBlock] = field(default_factory=list)
+    box_blocks: list[RowBlock] = field(default_factory=list)
+
+    @staticmethod
+    def unconstrained(H: FloatArray, g: FloatArray) -> QPProblem:
+        """A problem with no constraints."""
+        n = g.shape[0]
+        return QPProblem(
+            H,
+            g,
+            np.zeros((0, n)),
+            np.zeros(0),
+            np.zeros((0, n)),
+            np.zeros(0),
+            np.zeros(0),
+            np.full(n, -INF),
+            np.full(n, INF),
+        )
+
+    @property
+    def n(self) -> int:
+        """Number of variables."""
+        return int(self.g.shape[0])
+
+    @property
+    def n_eq(self) -> int:
+        """Number of equality rows."""
+        return int(self.A.shape[0])
+
+    @property
+    def n_in(self) -> int:
+        """Number of inequality rows."""
+        return int(self.C.shape[0])
+
+    @property
+    def has_box(self) -> bool:
+        """Whether any box bound is finite."""
+        return bool(np.any(self.lb > -INF) or np.any(self.ub < INF))
+
+    def structure(self) -> tuple[int, int, int]:
+        """(n, n_eq, n_in): a backend workspace is reused while this does not change."""
+        return self.n, self.n_eq, self.n_in
+
+    def check(self) -> None:
+        """Raise :class:`ShapeError` if the arrays do not fit together."""
+        n = self.n
+        expected = {
+            "H": (n, n),
+            "A": (self.b.shape[0], n),
+            "C": (self.l.shape[0], n),
+            "u": (self.l.shape[0],),
+            "lb": (n,),
+            "ub": (n,),
+        }
+        for name, shape in expected.items():
+            actual = getattr(self, name).shape
+            if actual != shape:
+                raise ShapeError(f"QP {name}", shape, actual)
+
+    def violations(self, x: FloatArray) -> dict[str, float]:
+        """Largest violation of each named constraint block at ``x`` (positive = violated)."""
+        out: dict[str, float] = {}
+        if self.n_eq:
+            r = np.abs(self.A @ x - self.b)
+            for blk in self.eq_blocks or [RowBlock("equality", 0, self.n_eq)]:
+                out[blk.name] = float(r[blk.start : blk.stop].max(initial=0.0))
+        if self.n_in:
+            Cx = self.C @ x
+            r = np.maximum(self.l - Cx, Cx - self.u)
+            for blk in self.in_blocks or [RowBlock("inequality", 0, self.n_in)]:
+                out[blk.name] = float(r[blk.start : blk.stop].max(initial=0.0))
+        r = np.maximum(self.lb - x, x - self.ub)
+        for blk in self.box_blocks or [RowBlock("bounds", 0, self.n)]:
+            out[blk.name] = max(
+                out.get(blk.name, 0.0), float(r[blk.start : blk.stop].max(initial=0.0))
+            )
+        return out
+
+    def is_feasible(self, x: FloatArray, tolerance: float = 1e-9) -> bool:
+        """Whether ``x`` satisfies every constraint to ``tolerance``."""
+        if np.minimum(x - self.lb, self.ub - x).min() < -tolerance:
+            return False
+        if self.C.shape[0]:
+            Cx = self.C @ x
+            if not ((Cx >= self.l - tolerance).all() and (Cx <= self.u + tolerance).all()):
+                return False
+        if self.A.shape[0] and (np.abs(self.A @ x - self.b) > tolerance).any():
+            return False
+        return True
