@@ -16,6 +16,13 @@ if TYPE_CHECKING:
     from taskspace.model.state import State
 
 
+def _as_slice(indices: np.ndarray) -> slice | None:
+    """The slice equal to ``indices`` when they are consecutive, else ``None``."""
+    if indices.size and np.all(np.diff(indices) == 1):
+        return slice(int(indices[0]), int(indices[-1]) + 1)
+    return None
+
+
 class JointPositionLimits(Constraint):
     """``q_low + m <= q + dq <= q_high - m`` on every 1-DoF joint with finite limits.
 
@@ -36,6 +43,11 @@ class JointPositionLimits(Constraint):
         self._high = robot.upper_limits[self._iq] - self.margin
         if np.any(self._low > self._high):
             raise InvalidInputError(f"margin {margin} is larger than half a joint range")
+        nv = robot.nv
+        self._lb_template = np.full(nv, -INF)
+        self._ub_template = np.full(nv, INF)
+        self._q_slice = _as_slice(self._iq)
+        self._v_slice = _as_slice(self._iv)
         # every joint 1-DoF and limited (fixed-base arms): plain vector operations
         self._all = (
             robot.nq == robot.nv
@@ -48,12 +60,15 @@ class JointPositionLimits(Constraint):
         if self._all:
             q = state.q
             return self._low - q, self._high - q
-        nv = self.robot.nv
-        lb = np.full(nv, -INF)
-        ub = np.full(nv, INF)
-        q = state.q[self._iq]
-        lb[self._iv] = self._low - q
-        ub[self._iv] = self._high - q
+        lb = self._lb_template.copy()
+        ub = self._ub_template.copy()
+        q = state.q[self._q_slice] if self._q_slice is not None else state.q[self._iq]
+        if self._v_slice is not None:
+            lb[self._v_slice] = self._low - q
+            ub[self._v_slice] = self._high - q
+        else:
+            lb[self._iv] = self._low - q
+            ub[self._iv] = self._high - q
         return lb, ub
 
 

@@ -359,7 +359,8 @@ class Robot:
             arr = as_vector(q, self._nq, name)
             arr = arr.copy() if arr is q else arr
         for idx, size, joint in self._normalized_blocks:
-            norm = float(np.linalg.norm(arr[idx : idx + size]))
+            block = arr[idx : idx + size]
+            norm = math.sqrt(float(block @ block))
             if abs(norm - 1.0) > QUATERNION_TOLERANCE:
                 kind = "quaternion" if size == 4 else "unit complex (cos, sin)"
                 raise InvalidInputError(

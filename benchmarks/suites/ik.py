@@ -1,0 +1,214 @@
+"""Differential IK (weighted and hierarchical) and global IK, beside pink, placo and mink.
+
+Scenes (issue 3):
+* ``g1``: G1 with a free flyer (nv = 35): both feet poses fixed, both hands following
+  ``[0.15 sin(0.004k), 0.1 (cos(0.004k) - 1), 0.1 sin(0.002k)]`` m, CoM, posture (1e-3),
+  joint position + velocity limits, dt = 5 ms, 1500 steps.
+* ``panda``: tcp pose (moving the same way) + posture, limits, 1500 steps.
+* ``g1 hierarchy``: the G1 tasks as 4 strict levels (feet + CoM-in-support-box inequality;
+  CoM; hands; posture).
+* ``panda global``: ``solve_ik`` on random reachable tcp poses.
+
+A step is timed from the state update to the integrated configuration (build + solve +
+integrate); the target update of the scene is not timed, for every library alike.
+"""
+
+from __future__ import annotations
+
+import json
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pinocchio as pin
+
+from benchmarks.common import Row, Timing, run_peer
+from taskspace import features as F
+from taskspace.constraints import FeatureBounds, JointPositionLimits, JointVelocityLimits
+from taskspace.ik import DifferentialIK, HierarchicalIK, SolveIKOptions, solve_ik
+from taskspace.model import Robot
+from taskspace.tasks import Task
+
+SUITE = "ik"
+DT = 0.005
+G1_FEET = ("left_ankle_roll_link", "right_ankle_roll_link")
+G1_HANDS = ("left_rubber_hand", "right_rubber_hand")
+
+
+def hand_offset(k: int) -> np.ndarray:
+    """Offset of the moving targets at step ``k`` [m]."""
+    return np.array(
+        [0.15 * np.sin(0.004 * k), 0.1 * (np.cos(0.004 * k) - 1.0), 0.1 * np.sin(0.002 * k)]
+    )
+
+
+def g1_tasks(robot: Robot) -> tuple[dict[str, list[Task]], list[tuple[Task, pin.SE3]]]:
+    """Tasks of the G1 scene grouped by role, and the moving ones with their initial target."""
+    s = robot.state(robot.q_default)
+    feet = [Task(F.FramePose(robot, f), name=f) for f in G1_FEET]
+    hands = [Task(F.FramePose(robot, h), name=h) for h in G1_HANDS]
+    com = [Task(F.CenterOfMass(robot), name="com")]
+    for t in (*feet, *hands, *com):
+        t.set_target_from_state(s)
+    posture = [Task(F.JointConfiguration(robot), robot.q_default, weight=1e-3, name="posture")]
+    moving = [(t, t.target.copy()) for t in hands]
+    return {"feet": feet, "com": com, "hands": hands, "posture": posture}, moving
+
+
+def _loop(robot: Robot, solve: Any, moving: list, steps: int) -> dict[str, Any]:  # type: ignore[type-arg]
+    state = robot.state(robot.q_default)
+    q = robot.q_default.copy()
+    times = np.empty(steps)
+    failed = 0
+    lo, hi = robot.lower_limits, robot.upper_limits
+    worst_violation = 0.0
+    for k in range(steps):
+        off = hand_offset(k)
+        for task, T0 in moving:
+            T = T0.copy()
+            T.translation = T0.translation + off
+            task.set_target(T)
+        t0 = time.perf_counter()
+        state.update(q)
+        result = solve(state, DT)
+        q = pin.integrate(robot.model, q, result.dq)
+        times[k] = time.perf_counter() - t0
+        failed += not result.success
+        idx = robot.limited_joints_q
+        worst_violation = max(
+            worst_violation, float(np.maximum(lo[idx] - q[idx], q[idx] - hi[idx]).max())
+        )
+    tracking = float(np.linalg.norm(moving[0][0].error(state)[:3]))
+    return {
+        "times": times,
+        "failed": failed,
+        "limit_violation": worst_violation,
+        "final_hand_error_m": tracking,
+    }
+
+
+def run_g1(steps: int) -> dict[str, Any]:
+    """Weighted G1 scene."""
+    robot = Robot.load("g1")
+    groups, moving = g1_tasks(robot)
+    tasks = [t for g in groups.values() for t in g]
+    ik = DifferentialIK(robot, tasks, [JointPositionLimits(robot), JointVelocityLimits(robot)])
+    return _loop(robot, ik.solve, moving, steps)
+
+
+def run_g1_hierarchy(steps: int) -> dict[str, Any]:
+    """G1 as 4 strict levels, with an inequality (CoM inside the feet's box) on level 1."""
+    robot = Robot.load("g1")
+    groups, moving = g1_tasks(robot)
+    s = robot.state(robot.q_default)
+    feet_xy = np.array([s.frame_placement(robot.frame_id(f)).translation[:2] for f in G1_FEET])
+    support = FeatureBounds(
+        F.CenterOfMass(robot),
+        [feet_xy[:, 0].min() - 0.05, feet_xy[:, 1].min(), -np.inf],
+        [feet_xy[:, 0].max() + 0.08, feet_xy[:, 1].max(), np.inf],
+        name="CoM over the feet",
+    )
+    levels = [
+        [*groups["feet"], support],
+        groups["com"],
+        groups["hands"],
+        groups["posture"],
+    ]
+    ik = HierarchicalIK(robot, levels, [JointPositionLimits(robot), JointVelocityLimits(robot)])
+    return _loop(robot, ik.solve, moving, steps)
+
+
+def run_panda(steps: int) -> dict[str, Any]:
+    """Panda tcp pose + posture."""
+    robot = Robot.load("panda")
+    s = robot.state(robot.q_default)
+    tcp = Task(F.FramePose(robot, "panda_hand_tcp"), name="tcp")
+    tcp.set_target_from_state(s)
+    posture = Task(F.JointConfiguration(robot), robot.q_default, weight=1e-3)
+    ik = DifferentialIK(
+        robot, [tcp, posture], [JointPositionLimits(robot), JointVelocityLimits(robot)]
+    )
+    return _loop(robot, ik.solve, [(tcp, tcp.target.copy())], steps)
+
+
+def run_global(n: int) -> dict[str, Any]:
+    """``solve_ik`` on ``n`` random reachable Panda tcp poses."""
+    robot = Robot.load("panda")
+    rng = np.random.default_rng(2024)
+    times, success, errors = [], 0, []
+    options = SolveIKOptions(restarts=10)
+    for _ in range(n):
+        target = robot.frame_placement(robot.random_configuration(rng), "panda_hand_tcp")
+        task = Task(F.FramePose(robot, "panda_hand_tcp"), target)
+        result = solve_ik(robot, [task], robot.q_default, options=options, rng=rng)
+        times.append(result.solve_time)
+        success += result.success
+        errors.append(result.errors["pose(panda_hand_tcp)"])
+    return {"times": np.array(times), "success_rate": success / n, "max_error": max(errors)}
+
+
+def _peer_rows(scene: str, steps: int, q0: np.ndarray) -> list[Row]:
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        spec = Path(tmp) / "scene.json"
+        spec.write_text(json.dumps({"scene": scene, "steps": steps, "dt": DT, "q0": q0.tolist()}))
+        for peer in ("placo", "pink", "mink"):
+            try:
+                out = run_peer(peer, f"{peer}_ik.py", [str(spec)])
+            except Exception as exc:
+                rows.append(Row(SUITE, scene, peer, None, note=f"failed: {exc!s:.200}"))
+                continue
+            if out is None:
+                rows.append(
+                    Row(SUITE, scene, peer, None, note="peer env missing (make bench-peers)")
+                )
+                continue
+            if "error" in out:
+                rows.append(Row(SUITE, scene, peer, None, note=out["error"]))
+                continue
+            rows.append(
+                Row(
+                    SUITE,
+                    scene,
+                    peer,
+                    Timing.from_samples(np.array(out["times"])),
+                    extra={k: v for k, v in out.items() if k not in ("times",)},
+                    note=out.get("note", ""),
+                )
+            )
+    return rows
+
+
+def run(quick: bool) -> list[Row]:
+    """All scenes; peers measured in the same run."""
+    steps = 300 if quick else 1500
+    rows: list[Row] = []
+    for scene, fn, robot_name in (
+        ("g1", run_g1, "g1"),
+        ("panda", run_panda, "panda"),
+        ("g1 hierarchy", run_g1_hierarchy, "g1"),
+    ):
+        out = fn(steps)
+        extra = {
+            "failed_steps": out["failed"],
+            "limit_violation": out["limit_violation"],
+            "hand_error_m": out["final_hand_error_m"],
+        }
+        rows.append(Row(SUITE, scene, "taskspace", Timing.from_samples(out["times"]), extra))
+        if scene != "g1 hierarchy":
+            peer_rows = _peer_rows(scene, steps, Robot.load(robot_name).q_default)
+            rows[-1].ratio_to = "placo"
+            rows += peer_rows
+    out = run_global(100 if quick else 1000)
+    rows.append(
+        Row(
+            SUITE,
+            "panda global",
+            "taskspace solve_ik",
+            Timing.from_samples(out["times"]),
+            {"success_rate": out["success_rate"], "max_error": out["max_error"]},
+        )
+    )
+    return rows
