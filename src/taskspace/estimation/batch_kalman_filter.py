@@ -88,7 +88,7 @@ class BatchKalmanFilter:
         return v
 
     def set_belief(self, x: Any, P: Any) -> None:
-        """Replace the beliefs by ``N(x_i, P_i)``; shapes ``(N, n)`` and ``(n, n)`` or ``(N, n, n)``."""
+        """Replace the beliefs by ``N(x_i, P_i)``: ``x (N, n)``, ``P (n, n)`` or ``(N, n, n)``."""
         n = self.dim_x
         xa = np.array(x, dtype=np.float64)
         if xa.ndim != 2 or xa.shape[1] != n:
@@ -161,8 +161,8 @@ class BatchKalmanFilter:
             w1 = (a * r1 - c * r0) * inv
             nis = r0 * w0 + r1 * w1
             ph0, ph1 = HP
-            K0 = (ph0 * (d * inv) - ph1 * (c * inv))
-            K1 = (ph1 * (a * inv) - ph0 * (b * inv))
+            K0 = ph0 * (d * inv) - ph1 * (c * inv)
+            K1 = ph1 * (a * inv) - ph0 * (b * inv)
             self._x = self._x + ph0 * w0 + ph1 * w1
             P = self._P.reshape(n, n, N) - K0[:, None, :] * ph0[None, :, :]
             P -= K1[:, None, :] * ph1[None, :, :]

@@ -69,12 +69,11 @@ def as_covariance(
     return np.ascontiguousarray(sym)
 
 
-def covariance_ellipse(
-    cov: Any, n_sigma: float = 2.0, num_points: int = 64
-) -> FloatArray:
+def covariance_ellipse(cov: Any, n_sigma: float = 2.0, num_points: int = 64) -> FloatArray:
     """Points of the ``n_sigma`` contour of a 2-D Gaussian centred at the origin.
 
-    The contour ``{x : x^T A^-1 x = n_sigma^2}`` is ``n_sigma * V diag(sqrt(lambda)) [cos t; sin t]``
+    The contour ``{x : x^T A^-1 x = n_sigma^2}`` is
+    ``n_sigma * V diag(sqrt(lambda)) [cos t; sin t]``
     with ``A = V diag(lambda) V^T``.
 
     Args:

@@ -82,6 +82,7 @@ class ExtendedKalmanFilter:
         self.dim_x = n
         self.dim_z = self.R.shape[0]
         self._last_F = np.eye(n)
+        self._last_ll = 0.0
 
     def predict(self, u: Any = None) -> None:
         """``x = f(x, u)``, ``P = F P F^T + Q`` with ``F = df/dx`` at the prior mean."""
@@ -142,6 +143,4 @@ class ExtendedKalmanFilter:
                 ll += self._last_ll
                 updates += 1
             means[k], covs[k] = self.x, self.P
-        return _finish(
-            means, covs, pm, pc, Fs, nis, ll, updates, t0, self.options.check_psd
-        )
+        return _finish(means, covs, pm, pc, Fs, nis, ll, updates, t0, self.options.check_psd)

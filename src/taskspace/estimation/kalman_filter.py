@@ -175,7 +175,11 @@ class KalmanFilter:
         """
         zv = as_vector(z, self.dim_z, "z")
         self.x, self.P, nis, _ = kalman_update(
-            self.x, self.P, zv - self.H @ self.x, self.H, self.R,
+            self.x,
+            self.P,
+            zv - self.H @ self.x,
+            self.H,
+            self.R,
             joseph_form=self.options.joseph_form,
         )
         return nis
@@ -215,15 +219,27 @@ class KalmanFilter:
             pm[k], pc[k] = self.x, self.P
             if z is not None:
                 self.x, self.P, nis[k], ll = kalman_update(
-                    self.x, self.P, z - self.H @ self.x, self.H, self.R,
+                    self.x,
+                    self.P,
+                    z - self.H @ self.x,
+                    self.H,
+                    self.R,
                     joseph_form=self.options.joseph_form,
                 )
                 loglik += ll
                 updates += 1
             means[k], covs[k] = self.x, self.P
         return _finish(
-            means, covs, pm, pc, np.broadcast_to(self.F, (T, n, n)).copy(), nis, loglik,
-            updates, t0, self.options.check_psd,
+            means,
+            covs,
+            pm,
+            pc,
+            np.broadcast_to(self.F, (T, n, n)).copy(),
+            nis,
+            loglik,
+            updates,
+            t0,
+            self.options.check_psd,
         )
 
 

@@ -193,9 +193,11 @@ class ParticleFilter:
             lw = np.full(N, -np.log(N))
             mx = float(lw.max())
         # Average likelihood of the predictive particles (for augmented MCL).
-        w_avg = float(np.exp(ll.max()) * np.mean(np.exp(ll - ll.max()))) if np.isfinite(
-            ll.max()
-        ) else 0.0
+        w_avg = (
+            float(np.exp(ll.max()) * np.mean(np.exp(ll - ll.max())))
+            if np.isfinite(ll.max())
+            else 0.0
+        )
         lw = lw - (mx + np.log(np.sum(np.exp(lw - mx))))
         self.log_weights = lw
         w = np.exp(lw)
@@ -245,9 +247,12 @@ class ParticleFilter:
         cov = (diff * w[:, None]).T @ diff
         return mean, cov
 
-    def run(self, controls: Sequence[Any], measurements: Sequence[Any | None]) -> ParticleFilterResult:
-        """For each step ``k``: :meth:`predict` with ``controls[k]``, :meth:`update` with
-        ``measurements[k]`` (skipped when ``None``), and record the estimate.
+    def run(
+        self, controls: Sequence[Any], measurements: Sequence[Any | None]
+    ) -> ParticleFilterResult:
+        """Filter a sequence: predict with ``controls[k]``, update with ``measurements[k]``.
+
+        Updates are skipped for ``None`` measurements; the estimate is recorded each step.
 
         Returns:
             The :class:`ParticleFilterResult`.

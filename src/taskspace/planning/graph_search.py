@@ -26,7 +26,7 @@ import math
 import time
 from collections.abc import Callable, Hashable, Iterable, Sequence
 from dataclasses import dataclass, field
-from typing import Any, Union
+from typing import Any
 
 import numpy as np
 
@@ -35,8 +35,8 @@ from taskspace.errors import InvalidInputError, PlanningError
 logger = logging.getLogger(__name__)
 
 Neighbors = Callable[[Any], Iterable[tuple[Any, float]]]
-Graph = Union[Neighbors, Sequence[Sequence[tuple[int, float]]], Any]
-Heuristic = Union[Callable[[Any], float], Sequence[float], np.ndarray]
+Graph = Neighbors | Sequence[Sequence[tuple[int, float]]] | Any
+Heuristic = Callable[[Any], float] | Sequence[float] | np.ndarray
 
 
 class SearchStatus(enum.Enum):

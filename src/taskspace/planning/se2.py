@@ -116,7 +116,9 @@ def quaternion_distance(r1: Any, r2: Any) -> float:
     b = as_vector(r2, 4, "r2")
     for name, r in (("r1", a), ("r2", b)):
         if abs(float(np.linalg.norm(r)) - 1.0) > 1e-6:
-            raise InvalidInputError(f"{name} must be a unit quaternion, |{name}| = {np.linalg.norm(r)}")
+            raise InvalidInputError(
+                f"{name} must be a unit quaternion, |{name}| = {np.linalg.norm(r)}"
+            )
     return float(min(np.linalg.norm(a - b), np.linalg.norm(a + b)))
 
 
@@ -257,7 +259,7 @@ class CurvePath:
             Array ``(n, 3)`` of poses.
         """
         step = check_positive(step, "step")
-        n = max(int(math.ceil(self.length / step)), 1)
+        n = max(math.ceil(self.length / step), 1)
         return self.pose_at(np.linspace(0.0, self.length, n + 1))
 
     def truncated(self, max_length: float) -> CurvePath:

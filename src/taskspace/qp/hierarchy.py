@@ -18,6 +18,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.linalg.lapack import dposv
 
 from taskspace._validation import FloatArray
 from taskspace.qp.problem import INF, QPProblem, RowBlock
@@ -127,6 +128,17 @@ class HierarchySolver:
         opts = self.options
         lb = np.full(n, -INF) if lb is None else lb
         ub = np.full(n, INF) if ub is None else ub
+        # Fast path: the cascade of the equality rows alone (one SVD per level). When its
+        # solution satisfies every inequality and bound, it is the constrained optimum too.
+        shortcut = self._equality_cascade(levels, n)
+        if shortcut is not None and self._feasible(shortcut[0], levels, lb, ub, C, l, u):
+            x, dims = shortcut
+            return self._finish(
+                HierarchyResult(True, QPStatus.UNCONSTRAINED, x, nullspace_dims=dims),
+                levels,
+                t0,
+                [QPResult(True, QPStatus.UNCONSTRAINED, x, 0.0) for _ in levels],
+            )
         held_C: list[FloatArray] = [] if C is None else [C]
         held_l: list[FloatArray] = [] if l is None else [l]
         held_u: list[FloatArray] = [] if u is None else [u]
@@ -238,6 +250,83 @@ class HierarchySolver:
                 Z = basis if Z is None else Z @ basis
             out.nullspace_dims.append(n if Z is None else Z.shape[1])
         out.x = x
+        out.status = order[worst]
+        return self._finish(out, levels, t0, None)
+
+    def _equality_cascade(
+        self, levels: Sequence[HierarchyLevel], n: int
+    ) -> tuple[FloatArray, list[int]] | None:
+        """Lexicographic damped least squares of the equality rows.
+
+        Level k: ``z = argmin |J_k Z z - (r_k - J_k x)|^2 + mu |z|^2`` by an SVD of ``J_k Z``,
+        which also gives the next nullspace basis ``Z <- Z V_null``; the last level needs no
+        basis and is solved by one Cholesky factorization of the normal equations.
+        """
+        mu = self.options.damping
+        tol = self.options.rank_tolerance
+        x = np.zeros(n)
+        Z: FloatArray | None = None
+        dims = []
+        last = len(levels) - 1
+        for k, level in enumerate(levels):
+            J = level.J
+            if J.shape[0] and (Z is None or Z.shape[1]):
+                JZ = J if Z is None else J @ Z
+                res = level.r - J @ x
+                if k == last:
+                    G = JZ.T @ JZ
+                    G.flat[:: G.shape[0] + 1] += max(mu, 1e-12)
+                    _, z, info = dposv(G, JZ.T @ res)
+                    if info != 0:
+                        return None
+                else:
+                    U, s, Vt = np.linalg.svd(JZ, full_matrices=True)
+                    rank = int(np.count_nonzero(s > tol * max(1.0, float(s[0]) if s.size else 0.0)))
+                    z = Vt[:rank].T @ ((s[:rank] / (s[:rank] ** 2 + mu)) * (U[:, :rank].T @ res))
+                x = x + (z if Z is None else Z @ z)
+                if k < last:
+                    basis = Vt[rank:].T
+                    Z = basis if Z is None else Z @ basis
+            dims.append(n if Z is None else Z.shape[1])
+        if not np.all(np.isfinite(x)):
+            return None
+        return x, dims
+
+    @staticmethod
+    def _feasible(
+        x: FloatArray,
+        levels: Sequence[HierarchyLevel],
+        lb: FloatArray,
+        ub: FloatArray,
+        C: FloatArray | None,
+        l: FloatArray | None,
+        u: FloatArray | None,
+        tol: float = 1e-10,
+    ) -> bool:
+        if np.minimum(x - lb, ub - x).min() < -tol:
+            return False
+        if C is not None and l is not None and u is not None and C.shape[0]:
+            Cx = C @ x
+            if np.minimum(Cx - l, u - Cx).min() < -tol:
+                return False
+        for level in levels:
+            if level.n_in:
+                assert level.C is not None and level.l is not None and level.u is not None
+                Cx = level.C @ x
+                if np.minimum(Cx - level.l, level.u - Cx).min() < -tol:
+                    return False
+        return True
+
+    @staticmethod
+    def _finish(
+        out: HierarchyResult,
+        levels: Sequence[HierarchyLevel],
+        t0: float,
+        level_results: list[QPResult] | None,
+    ) -> HierarchyResult:
+        x = out.x
+        if level_results is not None:
+            out.level_results = level_results
         for level in levels:
             out.residuals.append(float(np.linalg.norm(level.J @ x - level.r)))
             if level.n_in:
@@ -248,6 +337,5 @@ class HierarchySolver:
                 )
             else:
                 out.violations.append(0.0)
-        out.status = order[worst]
         out.solve_time = time.perf_counter() - t0
         return out

@@ -1,0 +1,154 @@
+"""Observation models ``P(y_t | x_t)`` of a planar robot (slides 7:14-7:19).
+
+* :class:`RangeBearingModel`: landmark ``l`` seen at range and bearing
+  ``h(x, l) = (|l - p|, atan2(l_y - p_y, l_x - p_x) - theta)`` plus ``N(0, R)``;
+* :class:`PositionModel`: direct position fix ``h(x) = (p_x, p_y)`` plus ``N(0, R)`` (GPS-like).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from taskspace._validation import FloatArray, as_matrix, as_vector
+from taskspace.errors import InvalidInputError
+from taskspace.estimation.motion_models import wrap_angle
+
+
+@dataclass(frozen=True)
+class LandmarkObservation:
+    """Range-bearing measurements of several landmarks at one time step.
+
+    Attributes:
+        ids: ``(k,)`` landmark indices (ground-truth correspondences; -1 if unknown).
+        z: ``(k, 2)`` measured ``(range [m], bearing [rad])``.
+    """
+
+    ids: np.ndarray
+    z: FloatArray
+
+
+@dataclass(frozen=True, kw_only=True)
+class RangeBearingModel:
+    """Range-bearing sensor with a limited range and field of view.
+
+    Attributes:
+        sigma_range: range noise std [m].
+        sigma_bearing: bearing noise std [rad].
+        max_range: landmarks farther than this are not observed [m].
+        field_of_view: total opening angle [rad] (``2 pi`` sees all around).
+    """
+
+    sigma_range: float = 0.1
+    sigma_bearing: float = 0.02
+    max_range: float = 10.0
+    field_of_view: float = 2.0 * np.pi
+
+    @property
+    def R(self) -> FloatArray:
+        """``(2, 2)`` measurement covariance."""
+        return np.diag([self.sigma_range**2, self.sigma_bearing**2])
+
+    @staticmethod
+    def predict(x: Any, landmarks: Any) -> FloatArray:
+        """``h(x, l)`` for poses ``(..., 3)`` and landmarks ``(..., 2)`` (broadcast)."""
+        X = np.asarray(x, dtype=np.float64)
+        L = np.asarray(landmarks, dtype=np.float64)
+        dx = L[..., 0] - X[..., 0]
+        dy = L[..., 1] - X[..., 1]
+        return np.stack([np.hypot(dx, dy), wrap_angle(np.arctan2(dy, dx) - X[..., 2])], axis=-1)
+
+    @staticmethod
+    def jacobians(x: Any, landmark: Any) -> tuple[FloatArray, FloatArray]:
+        """``dh/dx`` ``(2, 3)`` and ``dh/dl`` ``(2, 2)`` at one pose and landmark."""
+        px, py, _ = as_vector(x, 3, "x")
+        lx, ly = as_vector(landmark, 2, "landmark")
+        dx, dy = lx - px, ly - py
+        q = max(dx * dx + dy * dy, 1e-12)
+        r = np.sqrt(q)
+        Hl = np.array([[dx / r, dy / r], [-dy / q, dx / q]])
+        Hx = np.hstack([-Hl, np.array([[0.0], [-1.0]])])
+        return Hx, Hl
+
+    @staticmethod
+    def inverse(x: Any, z: Any) -> FloatArray:
+        """Landmark position(s) from pose and measurement: ``p + r (cos(th + b), sin(th + b))``."""
+        X = np.asarray(x, dtype=np.float64)
+        Z = np.asarray(z, dtype=np.float64)
+        a = X[..., 2] + Z[..., 1]
+        return np.stack(
+            [X[..., 0] + Z[..., 0] * np.cos(a), X[..., 1] + Z[..., 0] * np.sin(a)], axis=-1
+        )
+
+    def residual(self, z: Any, z_hat: Any) -> FloatArray:
+        """``z - z_hat`` with the bearing wrapped to ``[-pi, pi)``."""
+        d = np.asarray(z, dtype=np.float64) - np.asarray(z_hat, dtype=np.float64)
+        d[..., 1] = wrap_angle(d[..., 1])
+        return d
+
+    def log_likelihood(
+        self, particles: Any, obs: LandmarkObservation, landmarks: Any
+    ) -> FloatArray:
+        """``sum_j log N(z_j | h(x_i, l_{id_j}), R)`` for each particle (known correspondences).
+
+        Args:
+            particles: ``(N, 3)`` poses.
+            obs: the observation (ids index ``landmarks``).
+            landmarks: ``(L, 2)`` landmark map [m].
+
+        Returns:
+            ``(N,)`` log-likelihoods (up to a constant).
+        """
+        P = np.asarray(particles, dtype=np.float64)
+        L = np.asarray(landmarks, dtype=np.float64)[obs.ids]  # (k, 2)
+        zhat = self.predict(P[:, None, :], L[None, :, :])  # (N, k, 2)
+        d = self.residual(obs.z[None, :, :], zhat)
+        return -0.5 * np.sum(
+            (d[..., 0] / self.sigma_range) ** 2 + (d[..., 1] / self.sigma_bearing) ** 2, axis=1
+        )
+
+    def sample(self, x: Any, landmarks: Any, rng: np.random.Generator) -> LandmarkObservation:
+        """Simulate the visible landmarks' noisy measurements from the true pose ``x``."""
+        xv = as_vector(x, 3, "x")
+        L = as_matrix(landmarks, (None, 2), "landmarks")
+        zt = self.predict(xv[None, :], L)
+        visible = (zt[:, 0] <= self.max_range) & (np.abs(zt[:, 1]) <= 0.5 * self.field_of_view)
+        ids = np.flatnonzero(visible)
+        z = zt[ids] + rng.standard_normal((ids.size, 2)) * [self.sigma_range, self.sigma_bearing]
+        z[:, 1] = wrap_angle(z[:, 1])
+        return LandmarkObservation(ids=ids, z=z)
+
+
+@dataclass(frozen=True, kw_only=True)
+class PositionModel:
+    """Position fix ``z = (p_x, p_y) + N(0, R)``.
+
+    Attributes:
+        R: ``(2, 2)`` covariance [m^2].
+    """
+
+    R: FloatArray = field(default_factory=lambda: 0.25 * np.eye(2))
+
+    def __post_init__(self) -> None:
+        R = np.asarray(self.R, dtype=np.float64)
+        if R.shape != (2, 2) or not np.all(np.linalg.eigvalsh(0.5 * (R + R.T)) > 0):
+            raise InvalidInputError("PositionModel.R must be a (2, 2) positive-definite matrix")
+
+    H = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+
+    def predict(self, x: Any) -> FloatArray:
+        """``h(x) = (p_x, p_y)``."""
+        return np.asarray(x, dtype=np.float64)[..., :2]
+
+    def log_likelihood(self, particles: Any, z: Any) -> FloatArray:
+        """``log N(z | p_i, R)`` up to a constant, for each particle."""
+        d = np.asarray(z, dtype=np.float64) - np.asarray(particles, dtype=np.float64)[..., :2]
+        Ri = np.linalg.inv(self.R)
+        return -0.5 * np.einsum("ni,ij,nj->n", d, Ri, d)
+
+    def sample(self, x: Any, rng: np.random.Generator) -> FloatArray:
+        """Noisy position of the true pose ``x``."""
+        xv = np.asarray(x, dtype=np.float64)
+        return xv[:2] + np.linalg.cholesky(self.R) @ rng.standard_normal(2)

@@ -1,0 +1,44 @@
+"""Path planning (lecture section 3): bugs, potential fields, grids, graphs, car curves, RRTs."""
+# ruff: noqa: F401
+
+from taskspace.planning.bug import BugOptions, BugResult, BugStatus, bug1, bug2
+from taskspace.planning.car import CarModel, ControlSamplingOptions, ControlTree, grow_control_tree
+from taskspace.planning.dubins import dubins_distance, dubins_paths, dubins_shortest
+from taskspace.planning.graph_search import (
+    GraphSearchOptions,
+    GraphSearchResult,
+    SearchStatus,
+    astar,
+    dijkstra,
+)
+from taskspace.planning.grid import (
+    GridPathResult,
+    GridSearchOptions,
+    GridStatus,
+    OccupancyGrid,
+    WavefrontResult,
+    grid_search,
+    wavefront,
+    wavefront_path,
+)
+from taskspace.planning.kinodynamic_rrt import (
+    KinodynamicRRTOptions,
+    KinodynamicRRTResult,
+    RRTStatus,
+    kinodynamic_rrt,
+    parking_lot,
+)
+from taskspace.planning.polygon_world import Polygon, PolygonWorld
+from taskspace.planning.potential_field import (
+    PotentialField,
+    PotentialFieldOptions,
+    PotentialFieldResult,
+    PotentialStatus,
+    gradient_descent,
+)
+from taskspace.planning.reeds_shepp import (
+    reeds_shepp_distance,
+    reeds_shepp_paths,
+    reeds_shepp_shortest,
+)
+from taskspace.planning.se2 import CurvePath, angle_distance, se2_distance, wrap_angle
