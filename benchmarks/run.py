@@ -6,11 +6,15 @@ the reference method of the same scene) and optionally saves JSON with the machi
 
 from __future__ import annotations
 
+import os
+
+# Small-matrix timings are steadier with a single BLAS thread on a 2-core machine.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
 import argparse
 import datetime
 import importlib
 import json
-import os
 import platform
 import sys
 import traceback

@@ -14,6 +14,7 @@ import json
 import logging
 import sys
 import time
+from importlib.metadata import version
 
 import numpy as np
 import toppra as ta
@@ -63,7 +64,7 @@ def main() -> None:
         json.dumps(
             {
                 "peer": "toppra",
-                "version": ta.__version__,
+                "version": version("toppra"),
                 "duration": duration,
                 "median_us": float(np.median(a)),
                 "p95_us": float(np.percentile(a, 95)),

@@ -58,7 +58,7 @@ def scene_batch(n: int) -> tuple[BatchKalmanFilter, np.ndarray]:
 
 def scene_pf(n: int) -> tuple[ParticleFilter, np.ndarray]:
     """Particle filter on the CV model with Gaussian position likelihood."""
-    F, Q, H = constant_velocity_model(DT, Q_ACC)
+    F, Q, _H = constant_velocity_model(DT, Q_ACC)
     LQ = np.linalg.cholesky(Q + 1e-12 * np.eye(4))
     Rinv = np.linalg.inv(R)
     FT = F.T
@@ -72,7 +72,10 @@ def scene_pf(n: int) -> tuple[ParticleFilter, np.ndarray]:
 
     rng = np.random.default_rng(2)
     pf = ParticleFilter(
-        rng.normal(size=(n, 4)), motion, loglik, rng,
+        rng.normal(size=(n, 4)),
+        motion,
+        loglik,
+        rng,
         options=ParticleFilterOptions(resampling="systematic", ess_threshold=1.0),
     )
     return pf, rng.normal(size=(4096, 2)) * 0.1
@@ -116,21 +119,30 @@ def run(quick: bool) -> list[Row]:
         (measure(lambda: bkf.step(zb), warmup=3, repeat=20 if quick else 100) for _ in range(reps)),
         key=lambda t: t.median_us,
     )
-    extra_b: dict[str, Any] = {"tracks": n_tracks, "tracks_per_s": n_tracks / (t_b.median_us * 1e-6)}
+    extra_b: dict[str, Any] = {
+        "tracks": n_tracks,
+        "tracks_per_s": n_tracks / (t_b.median_us * 1e-6),
+    }
     peer_b = None
     if peer is not None:
         scale = n_tracks / peer["batch_tracks"]
         pb = peer["batch_sweep"]
         peer_b = Timing(
-            median_us=pb["median_us"] * scale, p95_us=pb["p95_us"] * scale,
-            p99_us=pb["p99_us"] * scale, mean_us=pb["mean_us"] * scale, n=pb["n"],
+            median_us=pb["median_us"] * scale,
+            p95_us=pb["p95_us"] * scale,
+            p99_us=pb["p99_us"] * scale,
+            mean_us=pb["mean_us"] * scale,
+            n=pb["n"],
         )
         extra_b["ratio_vs_filterpy"] = t_b.median_us / peer_b.median_us
         extra_b["throughput_x_filterpy"] = peer_b.median_us / t_b.median_us
     rows.append(Row(SUITE, "batch_kf_10000", "taskspace", t_b, extra_b, ratio_to="filterpy"))
     rows.append(
         Row(
-            SUITE, "batch_kf_10000", "filterpy loop", peer_b,
+            SUITE,
+            "batch_kf_10000",
+            "filterpy loop",
+            peer_b,
             extra={"measured_tracks": peer["batch_tracks"]} if peer else {},
             note=note_missing or "filterpy time scaled linearly to 10,000 tracks",
         )
@@ -145,8 +157,11 @@ def run(quick: bool) -> list[Row]:
             pf.predict(None)
             pf.update(zp[next(c2) & 4095])
 
-        t_pf = measure(pf_step, warmup=3, repeat=(100 if n == 1000 else 10) if quick else
-                       (1000 if n == 1000 else 50))
+        t_pf = measure(
+            pf_step,
+            warmup=3,
+            repeat=(100 if n == 1000 else 10) if quick else (1000 if n == 1000 else 50),
+        )
         ex: dict[str, Any] = {"steps_per_s": 1e6 / t_pf.median_us, "particles": n}
         if peer is not None:
             ex["filterpy_systematic_resample_us"] = peer[f"systematic_resample_{n}"]["median_us"]
@@ -166,7 +181,7 @@ def _pose_graph_rows(quick: bool) -> list[Row]:
         )
     except ImportError as exc:  # pragma: no cover - module under construction
         return [Row(SUITE, "pose_graph_manhattan_3500", "taskspace", None, note=str(exc))]
-    graph, truth = manhattan_pose_graph(3500, rng=np.random.default_rng(3))
+    graph, _truth = manhattan_pose_graph(3500, rng=np.random.default_rng(3))
     samples = []
     result = None
     for _ in range(1 if quick else 3):
@@ -182,4 +197,6 @@ def _pose_graph_rows(quick: bool) -> list[Row]:
         "final_chi2": result.final_cost,
         "success": result.success,
     }
-    return [Row(SUITE, "pose_graph_manhattan_3500", "taskspace", Timing.from_samples(samples), extra)]
+    return [
+        Row(SUITE, "pose_graph_manhattan_3500", "taskspace", Timing.from_samples(samples), extra)
+    ]

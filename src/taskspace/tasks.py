@@ -28,6 +28,9 @@ class Task:
             stack; the relative weight inside a priority level in a hierarchy.
         gain: fraction of the error corrected per step, in (0, 1].
         priority: level in a strict hierarchy (0 = highest). Ignored by weighted solvers.
+        kp: stiffness of the acceleration-level reference (inverse dynamics, operational
+            space control): ``y''* = y''_ref - kp e - kd (e' - y'_ref)`` [1/s^2].
+        kd: damping [1/s]; default ``2 sqrt(kp)`` (critical damping).
         name: label (default: the feature's name).
     """
 
@@ -39,6 +42,8 @@ class Task:
         weight: float | FloatArray = 1.0,
         gain: float = 1.0,
         priority: int = 0,
+        kp: float = 100.0,
+        kd: float | None = None,
         name: str | None = None,
     ) -> None:
         self.feature = feature
@@ -62,6 +67,14 @@ class Task:
         if int(priority) < 0:
             raise InvalidInputError(f"priority of task '{self.name}' must be >= 0")
         self.priority = int(priority)
+        self.kp = check_positive(kp, f"kp of task '{self.name}'", strict=False)
+        self.kd = (
+            2.0 * float(np.sqrt(self.kp))
+            if kd is None
+            else check_positive(kd, f"kd of task '{self.name}'", strict=False)
+        )
+        self.reference_velocity: FloatArray | None = None
+        self.reference_acceleration: FloatArray | None = None
 
     @property
     def dim(self) -> int:
@@ -100,7 +113,38 @@ class Task:
         """Weighted rows ``(sqrt(rho) J, -sqrt(rho) gain e)`` of ``J dq ~ -gain e``."""
         e, J = self.feature.residual_and_jacobian(state, self._require_target())
         w = self.sqrt_weight
-        return w * J if not isinstance(w, float) or w != 1.0 else J, (-self.gain * w) * e
+        if isinstance(w, float):
+            return (J if w == 1.0 else w * J), (-self.gain * w) * e
+        return w[:, None] * J, (-self.gain * w) * e
+
+    def set_reference(self, velocity: Any = None, acceleration: Any = None) -> None:
+        """Feed-forward velocity and acceleration of the target (tangent, size dim)."""
+        d = self.feature.dim
+        self.reference_velocity = (
+            None if velocity is None else as_vector(velocity, d, "reference velocity")
+        )
+        self.reference_acceleration = (
+            None if acceleration is None else as_vector(acceleration, d, "reference acceleration")
+        )
+
+    def acceleration_rows(self, state: State) -> tuple[FloatArray, FloatArray]:
+        """Weighted rows ``(sqrt(rho) J, sqrt(rho)(y''* - Jdot v))`` of ``J a ~ y''* - Jdot v``.
+
+        ``y''* = y''_ref - kp e - kd (J v - y'_ref)`` (slide 5:28 in task space; slide 5:34).
+        The state must carry the velocity (drift terms).
+        """
+        e, J = self.feature.residual_and_jacobian(state, self._require_target())
+        e_dot = J @ state.v
+        if self.reference_velocity is not None:
+            e_dot = e_dot - self.reference_velocity
+        desired = -self.kp * e - self.kd * e_dot
+        if self.reference_acceleration is not None:
+            desired = desired + self.reference_acceleration
+        rhs = desired - self.feature.drift(state)
+        w = self.sqrt_weight
+        if isinstance(w, float) and w == 1.0:
+            return J, rhs
+        return w * J if isinstance(w, float) else w[:, None] * J, w * rhs
 
     def __repr__(self) -> str:
         return f"Task('{self.name}', priority={self.priority}, gain={self.gain})"

@@ -45,7 +45,9 @@ def rs_words() -> list[list[tuple[str, int, str]]]:
 
 
 def dubins_words() -> list[list[tuple[str, int, str]]]:
-    return [[(c, 1, k) for c, k in zip(w, "abc")] for w in ("LSL", "RSR", "LSR", "RSL", "RLR", "LRL")]
+    return [
+        [(c, 1, k) for c, k in zip(w, "abc")] for w in ("LSL", "RSR", "LSR", "RSL", "RLR", "LRL")
+    ]
 
 
 def endpoint(word, params, radius: float) -> np.ndarray:

@@ -71,7 +71,11 @@ def test_curvature_bound_respected_by_samples_and_controls():
         # Menger curvature of consecutive sample triples
         a, b, c = s[:-2, :2], s[1:-1, :2], s[2:, :2]
         cross = np.abs((b - a)[:, 0] * (c - a)[:, 1] - (b - a)[:, 1] * (c - a)[:, 0])
-        den = np.linalg.norm(b - a, axis=1) * np.linalg.norm(c - b, axis=1) * np.linalg.norm(c - a, axis=1)
+        den = (
+            np.linalg.norm(b - a, axis=1)
+            * np.linalg.norm(c - b, axis=1)
+            * np.linalg.norm(c - a, axis=1)
+        )
         kappa = 2 * cross / np.maximum(den, 1e-300)
         assert np.all(kappa[den > 1e-12] <= 1 / r * (1 + 1e-4))
         # step between samples equals the arc spacing (path is parametrized by length)

@@ -1,3 +1,5 @@
+import itertools
+
 import numpy as np
 import pytest
 from _curve_reference import brute_force_length, integrate_car, rs_words
@@ -83,7 +85,7 @@ def test_curvature_bound_and_cusps():
         assert np.all(np.abs(u[:, 1]) <= phi_max + 1e-12)
         assert set(np.sign(u[:, 0])) <= {-1.0, 1.0}
         signs = p.family[1::2]
-        word_cusps = sum(1 for a, b in zip(signs, signs[1:]) if a != b)
+        word_cusps = sum(1 for a, b in itertools.pairwise(signs) if a != b)
         control_cusps = int(np.sum(np.diff(u[:, 0]) != 0))
         assert control_cusps == word_cusps
         assert word_cusps <= 2  # every Reeds-Shepp word has at most two cusps

@@ -250,9 +250,19 @@ class DifferentialIK:
         else:
             status = IKStatus.FAILED
         dq = result.x
-        return IKStepResult(
-            result.success, status, dq, dq / dt, result, list(result.culprits), t1 - t0, t2 - t1
-        )
+        culprits = self._culprits(problem, result, state, dt) if not result.success else []
+        return IKStepResult(result.success, status, dq, dq / dt, result, culprits, t1 - t0, t2 - t1)
+
+    def _culprits(self, problem: QPProblem, result: QPResult, state: State, dt: float) -> list[str]:
+        """Constraints violated by the least-violating step, each box against its own bounds."""
+        box_names = {blk.name for blk in problem.box_blocks}
+        out = [name for name in result.culprits if name not in box_names]
+        x = result.x
+        for c in self.constraints:
+            box = c.bounds(state, dt)
+            if box is not None and np.maximum(box[0] - x, x - box[1]).max() > 1e-6:
+                out.append(c.name)
+        return out
 
     def step(self, state: State, dt: float) -> tuple[FloatArray, IKStepResult]:
         """Solve one step and return ``(q (+) dq, result)`` (the state is not modified)."""

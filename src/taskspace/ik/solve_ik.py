@@ -40,6 +40,8 @@ class SolveIKOptions:
 
     Attributes:
         max_iterations: Gauss-Newton iterations per attempt.
+        stall_window: an attempt stops (and the next restart begins) when the cost fell by
+            less than 1 % over this many iterations (stuck against joint limits).
         position_tolerance: convergence threshold on position errors [m] (and on the norm of
             non-pose task errors).
         rotation_tolerance: convergence threshold on rotation errors [rad].
@@ -49,12 +51,13 @@ class SolveIKOptions:
         backend: QP backend.
     """
 
-    max_iterations: int = 100
+    max_iterations: int = 200
     position_tolerance: float = 1e-6
     rotation_tolerance: float = 1e-5
     initial_damping: float = 1e-6
     max_step: float = 0.5
     restarts: int = 0
+    stall_window: int = 15
     backend: str = "proxsuite"
 
 
@@ -142,21 +145,25 @@ def solve_ik(
         t.gain = 1.0
     try:
         total_iterations = 0
+        attempts = 0
         best: SolveIKResult | None = None
         for attempt in range(1 + opts.restarts):
             if attempt > 0:
-                assert rng is not None
+                if rng is None:  # pragma: no cover - checked above
+                    raise InvalidInputError("restarts need an rng")
                 q_start = robot.random_configuration(rng)
             result = _gauss_newton(robot, tasks, q_start, cons, opts)
             total_iterations += result.iterations
-            result.attempts = attempt + 1
+            attempts = attempt + 1
             if best is None or sum(result.errors.values()) < sum(best.errors.values()):
                 best = result
             if result.success:
                 best = result
                 break
-        assert best is not None
+        if best is None:  # pragma: no cover - the loop runs at least once
+            raise RuntimeError("solve_ik ran no attempt")
         best.iterations = total_iterations
+        best.attempts = attempts
         best.solve_time = time.perf_counter() - t0
         return best
     finally:
@@ -213,6 +220,11 @@ def _gauss_newton(
             cost, errors = new_cost, new_errors
             history.append(cost)
             mu = max(mu / 3.0, 1e-12)
+            w = opts.stall_window
+            if len(history) > w and history[-1] > 0.99 * history[-1 - w]:
+                if not _converged(tasks, errors, opts):
+                    status = SolveIKStatus.STALLED
+                    break
         else:
             mu *= 10.0
             if mu > 1e6:

@@ -85,7 +85,13 @@ class Robot:
 
     # ------------------------------------------------------------------ construction
     @classmethod
-    def load(cls, name: str, *, convex_collision: bool = False) -> Robot:
+    def load(
+        cls,
+        name: str,
+        *,
+        convex_collision: bool = False,
+        locked_values: dict[str, float] | None = None,
+    ) -> Robot:
         """Load a robot of the registry ``robots/registry.yaml``.
 
         Args:
@@ -93,6 +99,9 @@ class Robot:
                 ``planar_2link``, ``planar_3link``, ``pendulum``, ``cartpole``...).
             convex_collision: replace collision meshes by their convex hulls (distance
                 queries become ~30x cheaper; needed for distance-based features).
+            locked_values: values [rad or m] at which the registry's locked joints are held
+                (e.g. ``{"panda_finger_joint1": 0.04, "panda_finger_joint2": 0.04}``);
+                default their default-posture values.
 
         Raises:
             UnknownNameError: ``name`` is not in the registry (the message lists the names).
@@ -114,6 +123,7 @@ class Robot:
             name=name,
             end_effectors=spec.end_effectors,
             convex_collision=convex_collision,
+            locked_values=locked_values,
             _posture=spec,
         )
         robot.description = spec.description
@@ -132,6 +142,7 @@ class Robot:
         end_effectors: Sequence[str] = (),
         default_configuration: Any = None,
         convex_collision: bool = False,
+        locked_values: dict[str, float] | None = None,
         _posture: RobotSpec | None = None,
     ) -> Robot:
         """Load any URDF.
@@ -146,6 +157,7 @@ class Robot:
             end_effectors: names of end-effector frames.
             default_configuration: default posture (size of the unreduced model's nq).
             convex_collision: replace collision meshes by their convex hulls.
+            locked_values: values [rad or m] of locked joints (default: their default value).
 
         Raises:
             ModelLoadError: missing or malformed URDF/SRDF, unknown locked joint.
@@ -181,6 +193,11 @@ class Robot:
         elif default_configuration is not None:
             q_full = as_vector(default_configuration, model.nq, "default_configuration")
 
+        for jname, value in (locked_values or {}).items():
+            if jname not in locked_joints:
+                raise UnknownNameError("locked joint", jname, locked_joints)
+            jid = model.getJointId(jname)
+            q_full[model.joints[jid].idx_q] = float(value)
         if locked_joints:
             names = {n: i for i, n in enumerate(model.names) if i > 0}
             ids = []

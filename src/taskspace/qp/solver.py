@@ -18,7 +18,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from scipy.linalg.lapack import dposv
+from scipy.linalg.lapack import dgesv, dposv
 
 from taskspace._validation import FloatArray
 from taskspace.errors import InvalidInputError, SolverError, UnknownNameError
@@ -195,6 +195,7 @@ class QPSolver:
             qp.settings.eps_abs = self.options.eps_abs
             qp.settings.eps_rel = 0.0
             qp.settings.max_iter = self.options.max_iter
+            qp.settings.max_iter_in = self.options.max_iter
             qp.settings.verbose = False
             qp.settings.initial_guess = proxqp.InitialGuess.NO_INITIAL_GUESS
             qp.init(p.H, p.g, A, b, C, l, u, p.lb, p.ub)
@@ -263,7 +264,7 @@ def _solve_daqp(p: QPProblem, options: QPSolverOptions) -> QPResult:
         bl,
         np.concatenate(sense),
         iter_limit=max(options.max_iter, 1000),
-        eps_prox=-1,
+        eps_prox=0,
     )
     x = np.asarray(x)
     elapsed = time.perf_counter() - t0
@@ -292,7 +293,7 @@ def _solve_qpsolvers(backend: str, p: QPProblem, options: QPSolverOptions) -> QP
             "eps_abs": max(options.eps_abs, 1e-7),
             "eps_rel": 0.0,
             "max_iter": 20000,
-            "polish": True,
+            "polishing": True,
         }
     problem = qpsolvers.Problem(
         p.H, p.g, G, h, p.A if p.n_eq else None, p.b if p.n_eq else None, lb, ub
@@ -326,8 +327,8 @@ def unconstrained_minimizer(p: QPProblem) -> FloatArray | None:
         K[:n, n:] = p.A.T
         K[n:, :n] = p.A
         rhs = np.concatenate([-p.g, p.b])
-        sol = np.linalg.solve(K, rhs)
-        return np.asarray(sol[:n])
+        _, _, sol, info = dgesv(K, rhs)
+        return np.asarray(sol[:n]) if info == 0 else None
     except (np.linalg.LinAlgError, ValueError):
         return None
 

@@ -134,7 +134,7 @@ class MotionProfile(ABC):
         if max_acceleration is not None and math.isfinite(pa):
             candidates.append(math.sqrt(d * pa / max_acceleration))
         if max_jerk is not None and math.isfinite(pj):
-            candidates.append(math.cbrt(d * pj / max_jerk))
+            candidates.append((d * pj / max_jerk) ** (1.0 / 3.0))
         return max(candidates)
 
 
@@ -229,7 +229,7 @@ class _PiecewiseProfile(MotionProfile):
         breaks[-1] = 1.0
         coefs = np.zeros((len(durations), 4))
         p = v = acc = 0.0
-        for k, (h, j) in enumerate(zip(durations, jerks)):
+        for k, (h, j) in enumerate(zip(durations, jerks, strict=True)):
             if accels is not None:
                 acc = accels[k]
             coefs[k] = (p, v, 0.5 * acc, j / 6.0)
@@ -386,7 +386,7 @@ class SCurveProfile(_PiecewiseProfile):
                 vp = 0.5 * (-r + math.sqrt(r * r + 4.0 * d * a))
                 ta = tj + vp / a
             else:
-                tj = math.cbrt(d / (2.0 * j))
+                tj = (d / (2.0 * j)) ** (1.0 / 3.0)
                 ta = 2.0 * tj
         total = 2.0 * ta + tv
         return SCurveProfile(tj / total, ta / total), total

@@ -212,6 +212,8 @@ class TimeParametrizationResult:
 
     def sample(self, dt: float) -> TrajectorySample:
         """Sample uniformly every ``dt`` [s] (the last sample is at ``duration``)."""
+        if self.status is TimeParametrizationStatus.INFEASIBLE:
+            raise InvalidInputError("cannot sample an infeasible time parametrization")
         if not (dt > 0.0 and np.isfinite(dt)):
             raise InvalidInputError(f"dt must be finite and > 0, got {dt!r}")
         n = int(np.ceil(self.duration / dt - 1e-9))
@@ -263,7 +265,6 @@ def _static_bounds(
     Returns:
         ``xs (N+1,)``, ``eU, fU, eL, fL`` of shape ``(N, R)``.
     """
-    n_pts = dq.shape[0]
     # velocity limits: q'_i^2 x <= v_i^2 (a pure x-bound at every grid point)
     dq_abs = np.abs(dq)
     moving = dq_abs > 0.0

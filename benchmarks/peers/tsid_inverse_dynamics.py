@@ -1,0 +1,96 @@
+"""TSID on the inverse-dynamics scene of benchmarks/suites/inverse_dynamics.py (.venv-peers/tsid).
+
+G1 standing on two 6-D contacts (4 corner points each, friction cone, min/max force), torque
+bounds, tasks CoM + both hands + posture; the loop integrates TSID's accelerations (as in its
+demos). A step is timed from computeProblemData to the torques.
+"""
+
+import json
+import sys
+import time
+
+import numpy as np
+
+
+def main():
+    spec = json.load(open(sys.argv[1]))
+    import glob
+    import os
+
+    import pinocchio as pin
+    import tsid
+
+    steps, dt = spec["steps"], spec["dt"]
+    pattern = os.path.join(sys.prefix, "**/share/example-robot-data/robots")
+    share = glob.glob(pattern, recursive=True)[0]
+    urdf = os.path.join(share, "g1_description/urdf/g1_29dof_rev_1_0.urdf")
+    model = pin.buildModelFromUrdf(urdf, pin.JointModelFreeFlyer())
+    robot = tsid.RobotWrapper(model, tsid.FLOATING_BASE_SYSTEM, False)
+    q = np.array(spec["q0"])
+    v = np.zeros(robot.nv)
+    formulation = tsid.InverseDynamicsFormulationAccForce("tsid", robot, False)
+    formulation.computeProblemData(0.0, q, v)
+    data = formulation.data()
+    lx, ly = 0.1, 0.03
+    points = np.array([[lx, lx, -lx, -lx], [ly, -ly, ly, -ly], [0.0, 0.0, 0.0, 0.0]])
+    for name in ("left_ankle_roll_link", "right_ankle_roll_link"):
+        contact = tsid.Contact6d(name, robot, name, points, np.array([0, 0, 1.0]), 0.7, 1.0, 1000.0)
+        contact.setKp(np.zeros(6))
+        contact.setKd(20.0 * np.ones(6))
+        contact.setReference(robot.framePosition(data, model.getFrameId(name)))
+        formulation.addRigidContact(contact, 1e-5, 1.0, 1)
+    com = tsid.TaskComEquality("com", robot)
+    com.setKp(50.0 * np.ones(3))
+    com.setKd(2.0 * np.sqrt(50.0) * np.ones(3))
+    formulation.addMotionTask(com, 1.0, 1, 0.0)
+    com_ref = robot.com(data).copy()
+    com.setReference(tsid.TrajectoryEuclidianConstant("com", com_ref).computeNext())
+    for name in ("left_rubber_hand", "right_rubber_hand"):
+        task = tsid.TaskSE3Equality(name, robot, name)
+        task.setKp(50.0 * np.ones(6))
+        task.setKd(2.0 * np.sqrt(50.0) * np.ones(6))
+        formulation.addMotionTask(task, 0.01, 1, 0.0)
+        ref = robot.framePosition(data, model.getFrameId(name))
+        task.setReference(tsid.TrajectorySE3Constant(name, ref).computeNext())
+    posture = tsid.TaskJointPosture("posture", robot)
+    posture.setKp(30.0 * np.ones(robot.nv - 6))
+    posture.setKd(2.0 * np.sqrt(30.0) * np.ones(robot.nv - 6))
+    formulation.addMotionTask(posture, 1e-4, 1, 0.0)
+    posture.setReference(tsid.TrajectoryEuclidianConstant("posture", q[7:].copy()).computeNext())
+    bounds = tsid.TaskActuationBounds("torques", robot)
+    tau_max = model.effortLimit[6:]
+    bounds.setBounds(-tau_max, tau_max)
+    formulation.addActuationTask(bounds, 1.0, 0, 0.0)
+    solver = tsid.SolverHQuadProgFast("qp")
+    solver.resize(formulation.nVar, formulation.nEq, formulation.nIn)
+    times, failed = [], 0
+    t = 0.0
+    for _ in range(steps):
+        com_k = com_ref + np.array([0.0, 0.04 * np.sin(np.pi * t), 0.0])
+        com.setReference(tsid.TrajectoryEuclidianConstant("com", com_k).computeNext())
+        t0 = time.perf_counter()
+        problem = formulation.computeProblemData(t, q, v)
+        sol = solver.solve(problem)
+        tau = formulation.getActuatorForces(sol)
+        dv = formulation.getAccelerations(sol)
+        times.append(time.perf_counter() - t0)
+        if sol.status != 0:
+            failed += 1
+        v = v + dt * dv
+        q = pin.integrate(model, q, dt * v)
+        t += dt
+    print(
+        json.dumps(
+            {
+                "times": times,
+                "failed_steps": failed,
+                "variables": formulation.nVar,
+                "note": f"{formulation.nVar} variables, HQuadProgFast",
+                "final_tau_norm": float(np.linalg.norm(tau)),
+            }
+        )
+    )
+
+
+if __name__ == "__main__":
+    main()

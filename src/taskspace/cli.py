@@ -1,0 +1,258 @@
+"""The ``taskspace`` command: robots, demos, benchmarks and snapshots.
+
+Usage::
+
+    taskspace robots
+    taskspace demo NAME [--html out.html] [--png out.png] [--no-viewer] [example args...]
+    taskspace bench [SUITE ...] [--quick] [--save FILE]
+    taskspace snapshot ROBOT [--q "0,0.1,..."] --png out.png [--html out.html] [--geometry G]
+
+``demo NAME`` runs an example script of ``examples/`` found by its file stem (``bug_paths``)
+or by ``topic/stem`` (``planning/bug_paths``); ``main`` is ``examples/demo_main.py``. Examples
+accept ``--save DIR`` (figures); those using meshcat also accept ``--html FILE`` and
+``--png FILE``. Bad arguments exit with status 2 and a message naming the valid choices.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import os
+import subprocess
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+from taskspace.errors import TaskspaceError
+
+logger = logging.getLogger(__name__)
+
+REPO_ROOT = Path(__file__).resolve().parents[2]
+"""Source tree root (examples and benchmarks live there; taskspace is installed editable)."""
+
+EXAMPLES_DIR = REPO_ROOT / "examples"
+
+DEMO_ALIASES = {"main": "demo_main"}
+"""Short demo names mapped to example stems."""
+
+
+class CliError(TaskspaceError):
+    """A bad command-line argument (reported with exit status 2)."""
+
+
+# ---------------------------------------------------------------------- examples
+def discover_examples(root: Path = EXAMPLES_DIR) -> dict[str, Path]:
+    """Runnable examples by name: ``topic/stem`` for every script, plus ``stem`` when unique.
+
+    Files whose name starts with ``_`` (shared helpers) are skipped.
+    """
+    found: dict[str, Path] = {}
+    stems: dict[str, list[Path]] = {}
+    if not root.is_dir():
+        return found
+    for path in sorted(root.rglob("*.py")):
+        if path.name.startswith("_") or any(p.startswith(("_", ".")) for p in path.parts[-3:-1]):
+            continue
+        rel = path.relative_to(root).with_suffix("").as_posix()
+        found[rel] = path
+        stems.setdefault(path.stem, []).append(path)
+    for stem, paths in stems.items():
+        if len(paths) == 1 and stem not in found:
+            found[stem] = paths[0]
+    for alias, target in DEMO_ALIASES.items():
+        if target in found:
+            found[alias] = found[target]
+    return found
+
+
+def _example_path(name: str) -> Path:
+    examples = discover_examples()
+    if name not in examples:
+        valid = ", ".join(sorted(examples)) or "(none found in examples/)"
+        raise CliError(f"unknown demo '{name}'; valid demos are: {valid}")
+    return examples[name]
+
+
+# ---------------------------------------------------------------------- commands
+def cmd_robots(args: argparse.Namespace) -> int:
+    """Print the robot registry: nq, nv, floating base and end-effectors."""
+    from taskspace.model import Robot, registry
+
+    specs = registry()
+    names = list(specs)
+    rows = []
+    iterator = _progress(names, "loading robots", enabled=not args.no_load)
+    for name in iterator:
+        spec = specs[name]
+        if args.no_load:
+            rows.append((name, "-", "-", "yes" if spec.free_flyer else "no", spec))
+            continue
+        try:
+            robot = Robot.load(name)
+            rows.append(
+                (name, str(robot.nq), str(robot.nv), "yes" if robot.is_floating else "no", spec)
+            )
+        except TaskspaceError as exc:
+            rows.append((name, "?", "?", "?", spec))
+            logger.warning("cannot load %s: %s", name, exc)
+    header = ("name", "nq", "nv", "floating", "end-effectors", "description")
+    table = [
+        (n, nq, nv, fl, ", ".join(spec.end_effectors), spec.description)
+        for n, nq, nv, fl, spec in rows
+    ]
+    widths = [max(len(str(r[i])) for r in [header, *table]) for i in range(5)]
+    lines = ["  ".join(str(c).ljust(w) for c, w in zip(header[:5], widths)) + "  " + header[5]]
+    lines.append("  ".join("-" * w for w in widths) + "  " + "-" * 11)
+    for r in table:
+        lines.append("  ".join(str(c).ljust(w) for c, w in zip(r[:5], widths)) + "  " + r[5])
+    print("\n".join(lines))
+    return 0
+
+
+def cmd_demo(args: argparse.Namespace, extra: list[str]) -> int:
+    """Run an example script in a subprocess (so its own imports and argparse apply)."""
+    path = _example_path(args.name)
+    forwarded = list(extra)
+    if args.html:
+        forwarded += ["--html", args.html]
+    if args.png:
+        forwarded += ["--png", args.png]
+    if args.no_viewer:
+        forwarded += ["--no-viewer"]
+    command = [sys.executable, str(path), *forwarded]
+    logger.info("running %s", " ".join(command))
+    print(f"# running {path.relative_to(REPO_ROOT)} {' '.join(forwarded)}".rstrip(), flush=True)
+    return subprocess.call(command, cwd=str(REPO_ROOT))
+
+
+def cmd_bench(args: argparse.Namespace) -> int:
+    """Delegate to ``python -m benchmarks.run`` (the benchmark runner of the source tree)."""
+    argv = list(args.suites)
+    if args.quick:
+        argv.append("--quick")
+    if args.save:
+        argv += ["--save", args.save]
+    if not (REPO_ROOT / "benchmarks" / "run.py").is_file():
+        raise CliError(f"benchmarks/run.py not found under {REPO_ROOT} (needs the source tree)")
+    return subprocess.call([sys.executable, "-m", "benchmarks.run", *argv], cwd=str(REPO_ROOT))
+
+
+def parse_configuration(text: str, nq: int) -> list[float]:
+    """Parse ``--q "0,0.1,..."`` (commas and/or spaces) into ``nq`` numbers."""
+    parts = [p for p in text.replace(",", " ").split() if p]
+    values = []
+    for p in parts:
+        try:
+            values.append(float(p))
+        except ValueError:
+            raise CliError(
+                f"--q must be numbers separated by commas; '{p}' is not a number"
+            ) from None
+    if len(values) != nq:
+        raise CliError(f"--q has {len(values)} values but the robot has nq = {nq}")
+    return values
+
+
+def cmd_snapshot(args: argparse.Namespace) -> int:
+    """Render a robot at a configuration to PNG (and optionally static HTML)."""
+    from taskspace.model import Robot, registry
+
+    if args.robot not in registry():
+        raise CliError(
+            f"unknown robot '{args.robot}'; valid robots are: {', '.join(sorted(registry()))}"
+        )
+    if not args.png and not args.html:
+        raise CliError("give --png FILE and/or --html FILE")
+    robot = Robot.load(args.robot)
+    q = robot.q_default if args.q is None else parse_configuration(args.q, robot.nq)
+    from taskspace.viz import Viewer
+
+    viewer = Viewer(robot, q, geometry=args.geometry)
+    if args.frames:
+        viewer.add_robot_frames()
+    if args.html:
+        out = viewer.save_html(args.html)
+        print(f"wrote {out}")
+    if args.png:
+        viewer.snapshot(args.png, size=(args.width, args.height))
+        print(f"wrote {args.png}")
+    return 0
+
+
+def _progress(items: Sequence[str], desc: str, enabled: bool = True) -> Sequence[str]:
+    if not enabled or not sys.stderr.isatty():
+        return items
+    from tqdm import tqdm
+
+    return tqdm(items, desc=desc, leave=False)  # type: ignore[return-value]
+
+
+# ---------------------------------------------------------------------- parser
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of ``taskspace``."""
+    parser = argparse.ArgumentParser(
+        prog="taskspace", description="taskspace: robots, demos, benchmarks, snapshots"
+    )
+    parser.add_argument("-v", "--verbose", action="store_true", help="log at INFO level")
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    p = sub.add_parser("robots", help="list the robot registry (nq, nv, floating, end-effectors)")
+    p.add_argument("--no-load", action="store_true", help="do not load the models (no nq/nv)")
+
+    p = sub.add_parser("demo", help="run an example by name ('main' is examples/demo_main.py)")
+    p.add_argument("name", nargs="?", default="main", help="example name ('list' lists them)")
+    p.add_argument("--html", help="write the meshcat scene as static HTML")
+    p.add_argument("--png", help="write a PNG snapshot of the scene")
+    p.add_argument("--no-viewer", action="store_true", help="do not open a live viewer")
+
+    p = sub.add_parser("bench", help="run benchmarks (python -m benchmarks.run)")
+    p.add_argument("suites", nargs="*", help="suite names (default: all)")
+    p.add_argument("--quick", action="store_true", help="small scenes, few repetitions")
+    p.add_argument("--save", help="write results as JSON to FILE")
+
+    p = sub.add_parser("snapshot", help="render a robot at a configuration to PNG/HTML")
+    p.add_argument("robot", help="registry name (see `taskspace robots`)")
+    p.add_argument("--q", help='configuration, e.g. "0,0.1,0,-2,0,2,0.8" (default posture)')
+    p.add_argument("--png", help="output PNG file")
+    p.add_argument("--html", help="output static HTML file")
+    p.add_argument("--geometry", choices=("visual", "collision"), default="visual")
+    p.add_argument("--frames", action="store_true", help="draw end-effector triads")
+    p.add_argument("--width", type=int, default=640)
+    p.add_argument("--height", type=int, default=480)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the ``taskspace`` command; returns the exit status."""
+    parser = build_parser()
+    args, extra = parser.parse_known_args(argv)
+    logging.basicConfig(
+        level=logging.INFO if args.verbose else logging.WARNING, format="%(levelname)s %(message)s"
+    )
+    if extra and args.command != "demo":
+        parser.error(f"unrecognized arguments: {' '.join(extra)}")
+    try:
+        if args.command == "robots":
+            return cmd_robots(args)
+        if args.command == "demo":
+            if args.name == "list":
+                print("\n".join(sorted(discover_examples())))
+                return 0
+            return cmd_demo(args, extra)
+        if args.command == "bench":
+            return cmd_bench(args)
+        if args.command == "snapshot":
+            return cmd_snapshot(args)
+    except CliError as exc:
+        print(f"taskspace {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+    except TaskspaceError as exc:
+        print(f"taskspace {args.command}: error: {exc}", file=sys.stderr)
+        return 1
+    parser.error(f"unknown command {args.command}")
+    return 2  # pragma: no cover
+
+
+if __name__ == "__main__":
+    os.environ.setdefault("PYTHONUNBUFFERED", "1")
+    raise SystemExit(main())

@@ -1,0 +1,206 @@
+"""Rigid contacts for inverse dynamics: 6-D (flat foot) and point contacts, linearized cones.
+
+A contact adds force variables ``f`` (its ``force_dim`` entries), the rigid-contact
+acceleration constraint ``J_c a + Jdot_c v = -kp e_c - kd J_c v`` (zero contact acceleration
+with Baumgarte stabilization of drift), the force's share ``J_c^T f`` in the dynamics, and
+friction-cone inequalities ``K f >= k``.
+
+* :class:`Contact6D`: wrench ``(f, tau)`` in the contact frame (LOCAL; z is the normal):
+  ``|f_x|, |f_y| <= mu / sqrt(2) f_z`` (inner pyramid of the cone), ``f_z >= f_min``,
+  center of pressure inside the sole rectangle ``|tau_x| <= w f_z``, ``|tau_y| <= l f_z``, and
+  ``|tau_z| <= mu (l + w) f_z`` (a conservative yaw-torque bound).
+* :class:`PointContact`: force in world coordinates with normal ``+z`` (flat ground),
+  ``|f_x|, |f_y| <= mu / sqrt(2) f_z``, ``f_z >= f_min``.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+import pinocchio as pin
+
+from taskspace._validation import FloatArray, check_positive
+
+if TYPE_CHECKING:
+    from taskspace.model.robot import Robot
+    from taskspace.model.state import State
+
+
+class Contact:
+    """Base class of rigid contacts (see the module docstring).
+
+    Attributes:
+        robot: the robot.
+        frame: contact frame name.
+        friction: Coulomb coefficient ``mu``.
+        min_force: smallest normal force [N] (unilaterality with a margin).
+        kp, kd: Baumgarte gains on the contact's position and velocity error [1/s^2, 1/s].
+        force_dim: number of force variables (6 or 3).
+    """
+
+    force_dim: int
+
+    def __init__(
+        self,
+        robot: Robot,
+        frame: str,
+        friction: float = 0.7,
+        min_force: float = 1.0,
+        kp: float = 0.0,
+        kd: float = 20.0,
+    ) -> None:
+        self.robot = robot
+        self.frame = frame
+        self.frame_id = robot.frame_id(frame)
+        self.friction = check_positive(friction, "friction")
+        self.min_force = check_positive(min_force, "min_force", strict=False)
+        self.kp = check_positive(kp, "kp", strict=False)
+        self.kd = check_positive(kd, "kd", strict=False)
+        self.name = f"contact({frame})"
+        self.reference: pin.SE3 | None = None
+
+    def set_reference(self, state: State) -> None:
+        """Anchor the contact where the frame is now (the Baumgarte position reference)."""
+        self.reference = state.frame_placement(self.frame_id).copy()
+
+    def jacobian(self, state: State) -> FloatArray:
+        """(force_dim, nv) contact Jacobian."""
+        raise NotImplementedError
+
+    def acceleration_rhs(self, state: State) -> FloatArray:
+        """Right-hand side ``b`` of ``J_c a = b`` (``-drift`` plus stabilization)."""
+        raise NotImplementedError
+
+    def cone(self) -> tuple[FloatArray, FloatArray]:
+        """``(K, k)`` with the linearized friction cone ``K f >= k``."""
+        raise NotImplementedError
+
+    def wrench_in_world(self, state: State, f: FloatArray) -> FloatArray:
+        """Contact force (and torque) in world coordinates, for display."""
+        raise NotImplementedError
+
+
+class Contact6D(Contact):
+    """A flat rectangular contact (foot sole) with a 6-D wrench in the contact frame.
+
+    Args:
+        robot: the robot.
+        frame: sole frame (z axis normal to the ground, origin at the sole center).
+        half_length: half sole length along x [m].
+        half_width: half sole width along y [m].
+        friction: Coulomb coefficient.
+        min_force: smallest normal force [N].
+        kp, kd: Baumgarte gains.
+    """
+
+    force_dim = 6
+
+    def __init__(
+        self,
+        robot: Robot,
+        frame: str,
+        half_length: float = 0.1,
+        half_width: float = 0.05,
+        friction: float = 0.7,
+        min_force: float = 1.0,
+        kp: float = 0.0,
+        kd: float = 20.0,
+    ) -> None:
+        super().__init__(robot, frame, friction, min_force, kp, kd)
+        self.half_length = check_positive(half_length, "half_length")
+        self.half_width = check_positive(half_width, "half_width")
+        mu = self.friction / np.sqrt(2.0)
+        lx, ly = self.half_length, self.half_width
+        # rows of K f >= k on (fx, fy, fz, tx, ty, tz)
+        K = [
+            [-1, 0, mu, 0, 0, 0],
+            [1, 0, mu, 0, 0, 0],
+            [0, -1, mu, 0, 0, 0],
+            [0, 1, mu, 0, 0, 0],
+            [0, 0, 1, 0, 0, 0],
+            [0, 0, ly, -1, 0, 0],
+            [0, 0, ly, 1, 0, 0],
+            [0, 0, lx, 0, -1, 0],
+            [0, 0, lx, 0, 1, 0],
+            [0, 0, self.friction * (lx + ly), 0, 0, -1],
+            [0, 0, self.friction * (lx + ly), 0, 0, 1],
+        ]
+        self._K = np.array(K, dtype=float)
+        self._k = np.zeros(len(K))
+        self._k[4] = self.min_force
+
+    def jacobian(self, state: State) -> FloatArray:
+        """LOCAL frame Jacobian (6 x nv)."""
+        return state.frame_jacobian_local(self.frame_id)
+
+    def acceleration_rhs(self, state: State) -> FloatArray:
+        """``-Jdot v - kd J v - kp log6(T_ref^-1 T)``."""
+        rhs = -state.frame_drift_local(self.frame_id)
+        if self.kd:
+            rhs = rhs - self.kd * (self.jacobian(state) @ state.v)
+        if self.kp and self.reference is not None:
+            err = self.reference.actInv(state.frame_placement(self.frame_id))
+            rhs = rhs - self.kp * pin.log6(err).vector
+        return np.asarray(rhs)
+
+    def cone(self) -> tuple[FloatArray, FloatArray]:
+        """Linearized cone and center-of-pressure rows."""
+        return self._K, self._k
+
+    def wrench_in_world(self, state: State, f: FloatArray) -> FloatArray:
+        """Force and torque at the contact frame origin, world coordinates."""
+        R = state.frame_placement(self.frame_id).rotation
+        return np.concatenate([R @ f[:3], R @ f[3:]])
+
+
+class PointContact(Contact):
+    """A point contact (quadruped foot) on flat ground, force in world coordinates.
+
+    Args:
+        robot: the robot.
+        frame: foot frame.
+        friction: Coulomb coefficient.
+        min_force: smallest normal force [N].
+        kp, kd: Baumgarte gains.
+    """
+
+    force_dim = 3
+
+    def __init__(
+        self,
+        robot: Robot,
+        frame: str,
+        friction: float = 0.7,
+        min_force: float = 1.0,
+        kp: float = 0.0,
+        kd: float = 20.0,
+    ) -> None:
+        super().__init__(robot, frame, friction, min_force, kp, kd)
+        mu = self.friction / np.sqrt(2.0)
+        self._K = np.array(
+            [[-1, 0, mu], [1, 0, mu], [0, -1, mu], [0, 1, mu], [0, 0, 1]], dtype=float
+        )
+        self._k = np.array([0, 0, 0, 0, self.min_force], dtype=float)
+
+    def jacobian(self, state: State) -> FloatArray:
+        """Linear rows of the LOCAL_WORLD_ALIGNED Jacobian (3 x nv)."""
+        return state.frame_jacobian(self.frame_id)[:3]
+
+    def acceleration_rhs(self, state: State) -> FloatArray:
+        """``-Jdot v - kd J v - kp (p - p_ref)``."""
+        rhs = -state.frame_drift(self.frame_id)[:3]
+        if self.kd:
+            rhs = rhs - self.kd * (self.jacobian(state) @ state.v)
+        if self.kp and self.reference is not None:
+            p = state.frame_placement(self.frame_id).translation
+            rhs = rhs - self.kp * (p - self.reference.translation)
+        return np.asarray(rhs)
+
+    def cone(self) -> tuple[FloatArray, FloatArray]:
+        """Linearized cone rows."""
+        return self._K, self._k
+
+    def wrench_in_world(self, state: State, f: FloatArray) -> FloatArray:
+        """The force (already in world coordinates) and a zero torque."""
+        return np.concatenate([f, np.zeros(3)])

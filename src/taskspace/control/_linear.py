@@ -1,0 +1,53 @@
+"""Validation helpers shared by the linear control-theory modules."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from taskspace._validation import FloatArray, as_matrix
+from taskspace.errors import InvalidInputError
+
+
+def square(x: Any, name: str, n: int | None = None) -> FloatArray:
+    """A finite square float matrix (n x n if given)."""
+    arr = as_matrix(x, (n, n), name)
+    if arr.shape[0] != arr.shape[1]:
+        from taskspace.errors import ShapeError
+
+        raise ShapeError(name, (arr.shape[0], arr.shape[0]), tuple(arr.shape))
+    return arr
+
+
+def system(A: Any, B: Any) -> tuple[FloatArray, FloatArray]:
+    """``A`` (n x n) and ``B`` (n x m) with matching rows; a vector ``B`` is one column."""
+    A = square(A, "A")
+    n = A.shape[0]
+    B_arr = np.asarray(B, dtype=float)
+    if B_arr.ndim == 1:
+        B_arr = B_arr[:, None]
+    B = as_matrix(B_arr, (n, None), "B")
+    return A, B
+
+
+def symmetric_psd(x: Any, name: str, n: int, *, definite: bool) -> FloatArray:
+    """A symmetric positive (semi-)definite n x n matrix (scalars are ``x I``)."""
+    arr = np.asarray(x, dtype=float)
+    if arr.ndim == 0:
+        arr = float(arr) * np.eye(n)
+    arr = square(arr, name, n)
+    scale = max(1.0, float(np.max(np.abs(arr))))
+    if np.max(np.abs(arr - arr.T)) > 1e-9 * scale:
+        raise InvalidInputError(f"{name} must be symmetric")
+    arr = 0.5 * (arr + arr.T)
+    eig_min = float(np.min(np.linalg.eigvalsh(arr))) if n else 0.0
+    if definite and eig_min <= 0.0:
+        raise InvalidInputError(
+            f"{name} must be positive definite, its smallest eigenvalue is {eig_min:.3g}"
+        )
+    if not definite and eig_min < -1e-10 * scale:
+        raise InvalidInputError(
+            f"{name} must be positive semidefinite, its smallest eigenvalue is {eig_min:.3g}"
+        )
+    return arr

@@ -1,0 +1,155 @@
+"""Joint-space computed-torque (inverse-dynamics) tracking control (slides 5:28-5:30).
+
+``q''* = q''_ref + Kp (q_ref - q) + Kd (q'_ref - q')``  (slide 5:30)
+
+``u = M(q) q''* + C(q, q') q' + G(q) = NE(q, q', q''*)``  (slide 5:29, via ``pin.rnea``)
+
+With an exact model every joint error then obeys ``e'' + Kd e' + Kp e = 0``: "all joints
+behave exactly like a 1D point particle around the reference trajectory" (unit mass; the
+gains can be given as wavelength and damping ratio, slide 5:14). Fixed-base robots only: a
+floating base is not actuated (use the inverse-dynamics QP for humanoids and quadrupeds).
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import pinocchio as pin
+
+from taskspace._validation import FloatArray, as_vector, check_positive
+from taskspace.control.reference import JointReference, ReferencePoint, as_reference
+from taskspace.errors import InvalidInputError
+
+if TYPE_CHECKING:
+    from taskspace.model.robot import Robot
+
+
+def _gain(value: Any, n: int, name: str) -> FloatArray:
+    arr = np.asarray(value, dtype=float)
+    if arr.ndim == 0:
+        check_positive(float(arr), name, strict=False)
+        return np.full(n, float(arr))
+    arr = as_vector(arr, n, name)
+    if np.any(arr < 0):
+        raise InvalidInputError(f"{name} must be >= 0, got {value!r}")
+    return arr
+
+
+def _require_fixed_base(robot: Robot, what: str) -> None:
+    if robot.is_floating:
+        raise InvalidInputError(
+            f"{what} needs a fixed-base robot (every joint actuated); '{robot.name}' has a "
+            "floating base: use taskspace.control.inverse_dynamics_qp with contacts"
+        )
+
+
+def gains_from_wavelength(wavelength: float, damping_ratio: float) -> tuple[float, float]:
+    """Unit-mass gains ``(Kp, Kd) = (1 / lambda^2, 2 xi / lambda)`` of the error dynamics.
+
+    Args:
+        wavelength: ``lambda`` [s] (> 0).
+        damping_ratio: ``xi`` (>= 0).
+    """
+    lam = check_positive(wavelength, "wavelength [s]")
+    xi = check_positive(damping_ratio, "damping_ratio", strict=False)
+    return 1.0 / lam**2, 2.0 * xi / lam
+
+
+class ComputedTorqueController:
+    """``u = NE(q, q', q''_ref + Kp (q_ref - q) + Kd (q'_ref - q'))`` (slides 5:29-5:30).
+
+    Args:
+        robot: a fixed-base robot (the model used for the inverse dynamics).
+        reference: ``reference(t) -> ReferencePoint`` or a fixed target configuration.
+        kp: stiffness of the error dynamics, scalar or per joint [1/s^2].
+        kd: damping of the error dynamics, scalar or per joint [1/s]; default
+            ``2 sqrt(kp)`` (critical damping).
+
+    Raises:
+        InvalidInputError: floating-base robot, negative gains, bad reference.
+    """
+
+    def __init__(self, robot: Robot, reference: Any, kp: Any = 100.0, kd: Any = None) -> None:
+        _require_fixed_base(robot, "computed-torque control")
+        self.robot = robot
+        nv = robot.nv
+        self.reference: JointReference = as_reference(reference, robot.nq)
+        self.kp = _gain(kp, nv, "kp [1/s^2]")
+        self.kd = 2.0 * np.sqrt(self.kp) if kd is None else _gain(kd, nv, "kd [1/s]")
+        self._model = robot.model
+        self._data = robot.model.createData()
+
+    @staticmethod
+    def from_wavelength(
+        robot: Robot, reference: Any, wavelength: float, damping_ratio: float = 1.0
+    ) -> ComputedTorqueController:
+        """Gains ``Kp = 1/lambda^2``, ``Kd = 2 xi/lambda`` for the unit-mass error (slide 5:14)."""
+        kp, kd = gains_from_wavelength(wavelength, damping_ratio)
+        return ComputedTorqueController(robot, reference, kp, kd)
+
+    def desired_acceleration(self, t: float, q: FloatArray, v: FloatArray) -> FloatArray:
+        """``q''* = q''_ref + Kp (q_ref (-) q) + Kd (q'_ref - q')`` [rad/s^2] (slide 5:30)."""
+        ref: ReferencePoint = self.reference(t)
+        error = pin.difference(self._model, q, ref.q)
+        return ref.a + self.kp * error + self.kd * (ref.v - v)
+
+    def __call__(self, t: float, q: FloatArray, v: FloatArray) -> FloatArray:
+        """Torques ``u = M q''* + C q' + G`` [N m] at time ``t`` [s]."""
+        a_star = self.desired_acceleration(t, q, v)
+        return np.asarray(pin.rnea(self._model, self._data, q, v, a_star))
+
+
+class JointPDController:
+    """Naive independent-joint PD, optionally with gravity compensation (slide 5:27).
+
+    ``u = Kp (q_ref - q) + Kd (q'_ref - q') [+ G(q)]``: each joint is treated as a separate
+    point mass and the dynamic coupling between joints is ignored ("poor solution: apply
+    very high gains separately in each joint").
+
+    Args:
+        robot: a fixed-base robot.
+        reference: ``reference(t) -> ReferencePoint`` or a fixed target configuration.
+        kp: joint stiffness, scalar or per joint [N m/rad].
+        kd: joint damping, scalar or per joint [N m s/rad]; default ``2 sqrt(kp)``.
+        gravity_compensation: add ``G(q) = NE(q, 0, 0)``.
+    """
+
+    def __init__(
+        self,
+        robot: Robot,
+        reference: Any,
+        kp: Any = 100.0,
+        kd: Any = None,
+        *,
+        gravity_compensation: bool = True,
+    ) -> None:
+        _require_fixed_base(robot, "joint PD control")
+        self.robot = robot
+        nv = robot.nv
+        self.reference: JointReference = as_reference(reference, robot.nq)
+        self.kp = _gain(kp, nv, "kp [N m/rad]")
+        self.kd = 2.0 * np.sqrt(self.kp) if kd is None else _gain(kd, nv, "kd [N m s/rad]")
+        self.gravity_compensation = bool(gravity_compensation)
+        self._model = robot.model
+        self._data = robot.model.createData()
+
+    def __call__(self, t: float, q: FloatArray, v: FloatArray) -> FloatArray:
+        """Torques [N m] at time ``t`` [s]."""
+        ref = self.reference(t)
+        tau = self.kp * pin.difference(self._model, q, ref.q) + self.kd * (ref.v - v)
+        if self.gravity_compensation:
+            tau = tau + np.asarray(pin.computeGeneralizedGravity(self._model, self._data, q))
+        return np.asarray(tau)
+
+
+def tracking_error(times: Any, q: Any, reference: JointReference) -> FloatArray:
+    """Joint-space tracking error ``|q_ref(t_k) - q_k|_inf`` per sample [rad] (vector joints)."""
+    ts = np.asarray(times, dtype=float)
+    qs = np.asarray(q, dtype=float)
+    if qs.ndim != 2 or qs.shape[0] != ts.size:
+        raise InvalidInputError(f"q must have one row per time ({ts.size}), got shape {qs.shape}")
+    out = np.empty(ts.size)
+    for k, t in enumerate(ts):
+        out[k] = float(np.max(np.abs(reference(float(t)).q - qs[k]))) if qs.shape[1] else 0.0
+    return out

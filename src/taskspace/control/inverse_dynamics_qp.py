@@ -1,0 +1,401 @@
+"""Inverse-dynamics QP: operational-space control with torque limits and contacts.
+
+Slides 5:31-5:35.
+
+Decision variables ``x = (a, f)``: joint accelerations and contact forces. Torques are
+eliminated, ``tau = S (M a + h - J_c^T f)``, so the problem reads
+
+``min  sum_i rho_i |J_i a + Jdot_i v - y''_i*|^2 + lambda_a |a|^2 + lambda_f |f|^2``
+``s.t. (M a + h - J_c^T f)_u = 0``            (unactuated rows: floating base, passive joints)
+``     J_c a + Jdot_c v = -kd J_c v (- kp e_c)``  (rigid contacts)
+``     K f >= k``                                (linearized friction cones, CoP)
+``     tau_min <= S (M a + h - J_c^T f) <= tau_max``
+``     a_min <= a <= a_max``                     (joint position and velocity limits)
+
+with ``y''* = y''_ref - kp e - kd e'`` per task. Without contacts on a fixed-base robot this is
+the operational-space controller of slide 5:34 as a QP with torque limits. Tasks are weighted
+in one QP, or strictly prioritized (``hierarchical=True``: dynamics and contacts first, then
+the task priorities, as a cascade of QPs of any depth).
+"""
+
+from __future__ import annotations
+
+import enum
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import pinocchio as pin
+
+from taskspace._validation import FloatArray, check_positive
+from taskspace.constraints.contact import Contact
+from taskspace.errors import InvalidInputError
+from taskspace.model.robot import Robot
+from taskspace.model.state import State
+from taskspace.qp.hierarchy import HierarchyLevel, HierarchyOptions, HierarchySolver
+from taskspace.qp.problem import INF, QPProblem, RowBlock
+from taskspace.qp.result import QPResult, QPStatus
+from taskspace.qp.solver import QPSolver, QPSolverOptions
+from taskspace.tasks import Task
+
+
+class InverseDynamicsStatus(enum.Enum):
+    """Outcome of an inverse-dynamics step."""
+
+    SOLVED = "solved"
+    RELAXED = "relaxed"
+    FAILED = "failed"
+
+
+@dataclass
+class InverseDynamicsResult:
+    """Result of one inverse-dynamics step.
+
+    Attributes:
+        success: every constraint satisfied.
+        status: see :class:`InverseDynamicsStatus`.
+        a: joint accelerations (nv) [rad/s^2, m/s^2].
+        tau: joint torques (nv; zero on unactuated rows) [N m, N].
+        forces: contact forces by contact frame (6-D wrench in the contact frame, or 3-D
+            world force) [N, N m].
+        qp: QP result of the weighted problem (``None`` in hierarchical mode).
+        residuals: per priority level, the task residual norm (hierarchical mode).
+        culprits: constraint blocks at fault when the problem was relaxed.
+        build_time, solve_time: wall times [s].
+    """
+
+    success: bool
+    status: InverseDynamicsStatus
+    a: FloatArray
+    tau: FloatArray
+    forces: dict[str, FloatArray]
+    qp: QPResult | None = None
+    residuals: list[float] = field(default_factory=list)
+    culprits: list[str] = field(default_factory=list)
+    build_time: float = 0.0
+    solve_time: float = 0.0
+
+
+@dataclass(frozen=True, kw_only=True)
+class InverseDynamicsOptions:
+    """Settings of :class:`InverseDynamicsQP`.
+
+    Attributes:
+        acceleration_regularization: ``lambda_a``.
+        force_regularization: ``lambda_f`` [1/N^2].
+        torque_limits: enforce ``|tau| <= effort limits``.
+        joint_limits: bound accelerations so joints stop within their position and
+            velocity limits over ``limits_horizon``.
+        limits_horizon: look-ahead of the joint-limit bounds [s].
+        hierarchical: strict priorities (task ``priority``) instead of weights.
+        solver: QP solver settings of the weighted problem.
+        solver_for_hierarchy: use ``solver`` for the cascade's levels too (default: the
+            cascade's own default, daqp first).
+    """
+
+    acceleration_regularization: float = 1e-6
+    force_regularization: float = 1e-5
+    torque_limits: bool = True
+    joint_limits: bool = True
+    limits_horizon: float = 0.05
+    hierarchical: bool = False
+    solver: QPSolverOptions = field(default_factory=QPSolverOptions)
+    solver_for_hierarchy: bool = False
+
+
+def _as_index(indices: np.ndarray) -> slice | np.ndarray:
+    """A slice when ``indices`` are consecutive (faster indexing), else the array."""
+    if indices.size and np.all(np.diff(indices) == 1):
+        return slice(int(indices[0]), int(indices[-1]) + 1)
+    return indices
+
+
+class InverseDynamicsQP:
+    """Acceleration-level task-space control with contacts and limits (see module docstring).
+
+    Args:
+        robot: the robot.
+        tasks: tasks with targets and PD gains (``Task.kp``, ``Task.kd``).
+        contacts: active contacts.
+        options: settings.
+    """
+
+    def __init__(
+        self,
+        robot: Robot,
+        tasks: Sequence[Task],
+        contacts: Sequence[Contact] = (),
+        options: InverseDynamicsOptions | None = None,
+    ) -> None:
+        self.robot = robot
+        self.tasks = list(tasks)
+        self.contacts = list(contacts)
+        self.options = options or InverseDynamicsOptions()
+        check_positive(self.options.limits_horizon, "limits_horizon")
+        if not self.tasks:
+            raise InvalidInputError("InverseDynamicsQP needs at least one task")
+        for t in self.tasks:
+            if t.feature.robot is not robot:
+                raise InvalidInputError(f"task '{t.name}' is defined on another robot")
+        for c in self.contacts:
+            if c.robot is not robot:
+                raise InvalidInputError(f"contact '{c.name}' is defined on another robot")
+        nv = robot.nv
+        effort = robot.effort_limits
+        self.actuated = np.flatnonzero(effort > 0)
+        self.unactuated = np.flatnonzero(effort <= 0)
+        self._effort = effort[self.actuated]
+        self.nf = sum(c.force_dim for c in self.contacts)
+        self.n = nv + self.nf
+        self._data = robot.model.createData()
+        self._upper = np.triu(np.ones((nv, nv), dtype=bool))
+        self._solver = QPSolver(self.options.solver)
+        self._hierarchy = HierarchySolver(
+            HierarchyOptions(solver=self.options.solver)
+            if self.options.solver_for_hierarchy
+            else None
+        )
+        # static blocks: cone rows
+        cones = [c.cone() for c in self.contacts]
+        n_cone = sum(K.shape[0] for K, _ in cones)
+        self._cone_C = np.zeros((n_cone, self.n))
+        self._cone_l = np.zeros(n_cone)
+        r, col = 0, nv
+        for (K, k), c in zip(cones, self.contacts):
+            self._cone_C[r : r + K.shape[0], col : col + c.force_dim] = K
+            self._cone_l[r : r + K.shape[0]] = k
+            r += K.shape[0]
+            col += c.force_dim
+        self._reg = np.diag(
+            np.concatenate(
+                [
+                    np.full(nv, self.options.acceleration_regularization),
+                    np.full(self.nf, self.options.force_regularization),
+                ]
+            )
+        )
+        n_rows = sum(t.dim for t in self.tasks)
+        self._task_J = np.zeros((n_rows, nv))
+        self._task_r = np.zeros(n_rows)
+        self._u = _as_index(self.unactuated)
+        self._act = _as_index(self.actuated)
+        nu, nc = len(self.unactuated), self.nf
+        self._A = np.zeros((nu + nc, self.n))
+        self._b = np.zeros(nu + nc)
+        n_tau = len(self.actuated) if self.options.torque_limits else 0
+        n_cone = self._cone_C.shape[0]
+        self._C = np.zeros((n_cone + n_tau, self.n))
+        self._C[:n_cone] = self._cone_C
+        self._l = np.full(n_cone + n_tau, -INF)
+        self._l[:n_cone] = self._cone_l
+        self._u_bound = np.full(n_cone + n_tau, INF)
+        self._eq_blocks = ([RowBlock("unactuated dynamics", 0, nu)] if nu else []) + [
+            RowBlock(c.name, nu + k, nu + k + c.force_dim)
+            for c, k in zip(self.contacts, np.cumsum([0] + [c.force_dim for c in self.contacts]))
+        ]
+        self._in_blocks = ([RowBlock("friction cones", 0, n_cone)] if n_cone else []) + (
+            [RowBlock("torque limits", n_cone, n_cone + n_tau)] if n_tau else []
+        )
+        iq, iv = robot.limited_joints_q, robot.limited_joints_v
+        self._limit_iq, self._limit_iv = iq, iv
+        self._limit_lo = robot.lower_limits[iq]
+        self._limit_hi = robot.upper_limits[iq]
+        self._limit_vmax = robot.velocity_limits[iv]
+
+    # ------------------------------------------------------------------ assembly
+    def _dynamics(self, state: State) -> tuple[FloatArray, FloatArray, FloatArray]:
+        model, data = self.robot.model, self._data
+        M = pin.crba(model, data, state.q)  # only the upper triangle is meaningful
+        M = np.where(self._upper, M, M.T)
+        h = pin.nonLinearEffects(model, data, state.q, state.v)
+        Jc = (
+            np.vstack([c.jacobian(state) for c in self.contacts])
+            if self.contacts
+            else np.zeros((0, self.robot.nv))
+        )
+        return M, h, Jc
+
+    def _acceleration_bounds(self, state: State) -> tuple[FloatArray, FloatArray]:
+        robot = self.robot
+        nv = robot.nv
+        lb = np.full(nv, -INF)
+        ub = np.full(nv, INF)
+        if not self.options.joint_limits:
+            return lb, ub
+        T = self.options.limits_horizon
+        iv = self._limit_iv
+        q, v = state.q[self._limit_iq], state.v[iv]
+        # stop at the position limit within the horizon: q + v T + a T^2 / 2 in [lo, hi],
+        # and keep |v + a T| <= v_max
+        c = 2.0 / (T * T)
+        drift = q + v * T
+        lo = np.maximum(c * (self._limit_lo - drift), (-self._limit_vmax - v) / T)
+        hi = np.minimum(c * (self._limit_hi - drift), (self._limit_vmax - v) / T)
+        bad = lo > hi
+        if bad.any():  # already violating: brake as hard as the looser bound allows
+            mid = 0.5 * (lo + hi)
+            lo = np.where(bad, mid, lo)
+            hi = np.where(bad, mid, hi)
+        lb[iv] = lo
+        ub[iv] = hi
+        return lb, ub
+
+    def build(self, state: State) -> QPProblem:
+        """The weighted QP at ``state`` (needs the state's velocity)."""
+        if not state.has_velocity:
+            raise InvalidInputError(
+                "inverse dynamics needs the velocity: use robot.state(q, v) / state.update(q, v)"
+            )
+        nv, n = self.robot.nv, self.n
+        M, h, Jc = self._dynamics(state)
+        Jt, rt = self._task_J, self._task_r
+        row = 0
+        for task in self.tasks:
+            J, rhs = task.acceleration_rows(state)
+            d = J.shape[0]
+            Jt[row : row + d] = J
+            rt[row : row + d] = rhs
+            row += d
+        H = self._reg.copy()
+        H[:nv, :nv] += Jt.T @ Jt
+        g = np.zeros(n)
+        g[:nv] = -(Jt.T @ rt)
+        A, b, eq_blocks = self._equalities(state, M, h, Jc)
+        C, l, u, in_blocks = self._inequalities(M, h, Jc)
+        lb = np.full(n, -INF)
+        ub = np.full(n, INF)
+        lb[:nv], ub[:nv] = self._acceleration_bounds(state)
+        return QPProblem(
+            H, g, A, b, C, l, u, lb, ub, eq_blocks, in_blocks, [RowBlock("joint limits", 0, nv)]
+        )
+
+    def _equalities(
+        self, state: State, M: FloatArray, h: FloatArray, Jc: FloatArray
+    ) -> tuple[FloatArray, FloatArray, list[RowBlock]]:
+        nv = self.robot.nv
+        u = self._u
+        nu = len(self.unactuated)
+        A, b = self._A, self._b
+        if nu:
+            A[:nu, :nv] = M[u]
+            A[:nu, nv:] = -Jc[:, u].T
+            b[:nu] = -h[u]
+        r = nu
+        for c in self.contacts:
+            d = c.force_dim
+            A[r : r + d, :nv] = Jc[r - nu : r - nu + d]
+            b[r : r + d] = c.acceleration_rhs(state)
+            r += d
+        return A, b, self._eq_blocks
+
+    def _inequalities(
+        self, M: FloatArray, h: FloatArray, Jc: FloatArray
+    ) -> tuple[FloatArray, FloatArray, FloatArray, list[RowBlock]]:
+        nv = self.robot.nv
+        C, l, u = self._C, self._l, self._u_bound
+        n_cone = self._cone_C.shape[0]
+        if self.options.torque_limits and len(self.actuated):
+            act = self._act
+            C[n_cone:, :nv] = M[act]
+            C[n_cone:, nv:] = -Jc[:, act].T
+            h_act = h[act]
+            l[n_cone:] = -self._effort - h_act
+            u[n_cone:] = self._effort - h_act
+        return C, l, u, self._in_blocks
+
+    # ------------------------------------------------------------------ solve
+    def solve(self, state: State) -> InverseDynamicsResult:
+        """One control step: accelerations, contact forces and torques at ``state``."""
+        t0 = time.perf_counter()
+        if self.options.hierarchical:
+            return self._solve_hierarchical(state, t0)
+        problem = self.build(state)
+        t1 = time.perf_counter()
+        result = self._solver.solve(problem)
+        t2 = time.perf_counter()
+        if result.success:
+            status = InverseDynamicsStatus.SOLVED
+        elif result.status is QPStatus.RELAXED:
+            status = InverseDynamicsStatus.RELAXED
+        else:
+            status = InverseDynamicsStatus.FAILED
+        return self._result(state, result.x, result.success, status, t1 - t0, t2 - t1, result)
+
+    def _solve_hierarchical(self, state: State, t0: float) -> InverseDynamicsResult:
+        if not state.has_velocity:
+            raise InvalidInputError(
+                "inverse dynamics needs the velocity: use robot.state(q, v) / state.update(q, v)"
+            )
+        nv, n = self.robot.nv, self.n
+        M, h, Jc = self._dynamics(state)
+        A, b, _ = self._equalities(state, M, h, Jc)
+        C, l, u, _ = self._inequalities(M, h, Jc)
+        levels = []
+        for p in sorted({t.priority for t in self.tasks}):
+            Js, rs = [], []
+            for t in self.tasks:
+                if t.priority == p:
+                    J, rhs = t.acceleration_rows(state)
+                    Js.append(J)
+                    rs.append(rhs)
+            J = np.hstack([np.vstack(Js), np.zeros((sum(x.shape[0] for x in Js), self.nf))])
+            levels.append(HierarchyLevel(f"priority {p}", J, np.concatenate(rs)))
+        # last level: force regularization (distributes forces when contacts are redundant)
+        if self.nf:
+            w = np.sqrt(self.options.force_regularization)
+            reg = np.hstack([np.zeros((self.nf, nv)), w * np.eye(self.nf)])
+            levels.append(HierarchyLevel("force regularization", reg, np.zeros(self.nf)))
+        lb = np.full(n, -INF)
+        ub = np.full(n, INF)
+        lb[:nv], ub[:nv] = self._acceleration_bounds(state)
+        t1 = time.perf_counter()
+        result = self._hierarchy.solve(levels, n, lb=lb, ub=ub, C=C, l=l, u=u, A=A, b=b)
+        t2 = time.perf_counter()
+        status = InverseDynamicsStatus.SOLVED if result.success else InverseDynamicsStatus.RELAXED
+        out = self._result(state, result.x, result.success, status, t1 - t0, t2 - t1, None)
+        out.residuals = result.residuals
+        return out
+
+    def _result(
+        self,
+        state: State,
+        x: FloatArray,
+        success: bool,
+        status: InverseDynamicsStatus,
+        build_time: float,
+        solve_time: float,
+        qp: QPResult | None,
+    ) -> InverseDynamicsResult:
+        nv = self.robot.nv
+        a, f = x[:nv], x[nv:]
+        M, h, Jc = self._dynamics(state) if qp is None else self._last_dynamics(state)
+        tau_full = M @ a + h - Jc.T @ f
+        tau = np.zeros(nv)
+        tau[self.actuated] = tau_full[self.actuated]
+        forces, k = {}, 0
+        for c in self.contacts:
+            forces[c.frame] = f[k : k + c.force_dim].copy()
+            k += c.force_dim
+        return InverseDynamicsResult(
+            success,
+            status,
+            a.copy(),
+            tau,
+            forces,
+            qp,
+            culprits=list(qp.culprits) if qp is not None else [],
+            build_time=build_time,
+            solve_time=solve_time,
+        )
+
+    def _last_dynamics(self, state: State) -> tuple[FloatArray, FloatArray, FloatArray]:
+        # crba/nle results are still in self._data from build(); reassemble without recomputing
+        M = np.where(self._upper, self._data.M, self._data.M.T)
+        h = np.asarray(self._data.nle)
+        Jc = (
+            np.vstack([c.jacobian(state) for c in self.contacts])
+            if self.contacts
+            else np.zeros((0, self.robot.nv))
+        )
+        return M, h, Jc

@@ -1,0 +1,149 @@
+"""Linearization of a robot's dynamics about an equilibrium (for LQR).
+
+With the state ``x = (q (-) q_eq, v - v_eq)`` (tangent coordinates) and the input ``u``
+acting on the actuated joints through the selection ``S`` (``tau = tau_eq + S^T u``):
+
+``A = [[0, I], [da/dq, da/dv]]``,  ``B = [[0], [M^-1 S^T]]``
+
+where ``da/dq``, ``da/dv`` and ``M^-1 = da/dtau`` are the derivatives of the forward dynamics
+``a = ABA(q, v, tau)`` (``pin.computeABADerivatives``, analytic, no finite differences).
+
+Fixed-base robots only: for a floating base ``q' != v`` on the base (the ``A`` block
+``[0, I]`` would need the derivative of the exponential map) and the robot is not at an
+equilibrium without contacts.
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import pinocchio as pin
+
+from taskspace._validation import FloatArray, as_vector
+from taskspace.errors import InvalidInputError, TaskspaceWarning
+
+if TYPE_CHECKING:
+    from taskspace.model.robot import Robot
+
+EQUILIBRIUM_TOLERANCE = 1e-8
+"""Largest ``|a(q_eq, v_eq, tau_eq)|`` [rad/s^2] accepted silently as an equilibrium."""
+
+
+@dataclass
+class LinearizedSystem:
+    """``x' = A x + B u`` about ``(q_eq, v_eq, tau_eq)``.
+
+    Attributes:
+        A: (2 nv, 2 nv) system matrix.
+        B: (2 nv, m) input matrix, ``m`` = number of actuated velocity coordinates.
+        q_eq: equilibrium configuration (nq).
+        v_eq: equilibrium velocity (nv) [rad/s] (usually zero).
+        tau_eq: torques holding the equilibrium (nv) [N m].
+        actuated: velocity indices of the actuated joints (m,).
+        equilibrium_acceleration: ``a(q_eq, v_eq, tau_eq)`` (nv); ~0 at an equilibrium.
+    """
+
+    A: FloatArray
+    B: FloatArray
+    q_eq: FloatArray
+    v_eq: FloatArray
+    tau_eq: FloatArray
+    actuated: np.ndarray
+    equilibrium_acceleration: FloatArray
+
+    @property
+    def selection(self) -> FloatArray:
+        """Selection matrix ``S`` (m x nv): ``u = S tau``."""
+        nv = self.tau_eq.size
+        return np.eye(nv)[self.actuated]
+
+
+def _actuated_indices(robot: Robot, actuated: Sequence[str] | None) -> np.ndarray:
+    if actuated is None:
+        return np.arange(robot.nv)
+    idx: list[int] = []
+    for name in actuated:
+        jid = robot.joint_id(name)  # raises UnknownNameError listing the joints
+        joint = robot.model.joints[jid]
+        idx.extend(range(joint.idx_v, joint.idx_v + joint.nv))
+    if not idx:
+        raise InvalidInputError("actuated must name at least one joint")
+    return np.asarray(sorted(set(idx)), dtype=int)
+
+
+def linearize(
+    robot: Robot,
+    q_eq: Any,
+    v_eq: Any = None,
+    tau_eq: Any = None,
+    *,
+    actuated: Sequence[str] | None = None,
+) -> LinearizedSystem:
+    """Linearize ``q'' = ABA(q, v, tau)`` about an equilibrium (fixed-base robots).
+
+    Args:
+        robot: a fixed-base robot.
+        q_eq: equilibrium configuration (nq).
+        v_eq: equilibrium velocity (nv) [rad/s]; zero if omitted.
+        tau_eq: equilibrium torques (nv) [N m]; default: gravity compensation
+            ``G(q_eq)`` on the actuated joints, zero on the others.
+        actuated: names of the actuated joints (``B`` has their columns only); all joints if
+            omitted. For the cart-pole: ``["slider"]``.
+
+    Raises:
+        InvalidInputError: floating-base robot, bad sizes.
+        UnknownNameError: an actuated joint does not exist.
+
+    Warns:
+        TaskspaceWarning: ``(q_eq, v_eq, tau_eq)`` is not an equilibrium (the unactuated
+            joints cannot be held: e.g. the cart-pole's pole away from vertical).
+    """
+    if robot.is_floating:
+        raise InvalidInputError(
+            f"linearize supports fixed-base robots only; '{robot.name}' has a floating base"
+        )
+    model = robot.model
+    data = model.createData()
+    q = robot.check_configuration(q_eq, "q_eq")
+    nv = robot.nv
+    v = np.zeros(nv) if v_eq is None else robot.check_velocity(v_eq, "v_eq")
+    idx = _actuated_indices(robot, actuated)
+    if tau_eq is None:
+        gravity = np.asarray(pin.computeGeneralizedGravity(model, data, q))
+        tau = np.zeros(nv)
+        tau[idx] = gravity[idx]
+        if v_eq is not None:
+            nle = np.asarray(pin.nonLinearEffects(model, data, q, v))
+            tau[idx] = nle[idx]
+    else:
+        tau = as_vector(tau_eq, nv, "tau_eq")
+    ddq_dq, ddq_dv, minv = pin.computeABADerivatives(model, data, q, v, tau)
+    minv = np.triu(minv) + np.triu(minv, 1).T
+    a_eq = np.asarray(data.ddq).copy()
+    if float(np.max(np.abs(a_eq))) > EQUILIBRIUM_TOLERANCE and np.any(v == 0):
+        warnings.warn(
+            f"linearize: ({robot.name}) is not at an equilibrium, |a(q_eq, v_eq, tau_eq)| = "
+            f"{float(np.max(np.abs(a_eq))):.3g} rad/s^2; the linear model is the first-order "
+            "expansion about a moving point",
+            TaskspaceWarning,
+            stacklevel=2,
+        )
+    A = np.zeros((2 * nv, 2 * nv))
+    A[:nv, nv:] = np.eye(nv)
+    A[nv:, :nv] = ddq_dq
+    A[nv:, nv:] = ddq_dv
+    B = np.zeros((2 * nv, idx.size))
+    B[nv:, :] = minv[:, idx]
+    return LinearizedSystem(
+        A=A,
+        B=B,
+        q_eq=q,
+        v_eq=v,
+        tau_eq=tau,
+        actuated=idx,
+        equilibrium_acceleration=a_eq,
+    )

@@ -1,0 +1,150 @@
+"""Lyapunov equations and Lyapunov functions of linear systems.
+
+Continuous time: ``A^T P + P A + Q = 0``; for ``Q > 0`` a solution ``P > 0`` exists iff ``A``
+is stable, and ``V(x) = x^T P x`` is then a Lyapunov function: ``V > 0`` and
+``V' = x^T (A^T P + P A) x = -x^T Q x < 0``. Discrete time: ``A^T P A - P + Q = 0`` with
+``V(x+) - V(x) = -x^T Q x``.
+
+Both equations are solved with the Bartels-Stewart method: complex Schur forms
+``A^T = U R U^H`` and ``A = W S W^H`` turn the equation into a triangular one, solved column
+by column with triangular solves (O(n^3)).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import scipy.linalg as sla
+
+from taskspace._validation import FloatArray
+from taskspace.control._linear import square
+from taskspace.errors import InvalidInputError, SolverError
+
+SINGULARITY_TOLERANCE = 1e-12
+"""Relative size under which a diagonal pivot of the triangular equation counts as zero."""
+
+
+def _schur_pair(A: FloatArray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    R, U = sla.schur(A.T, output="complex")
+    S, W = sla.schur(A, output="complex")
+    return R, U, S, W
+
+
+def _finish(X: np.ndarray) -> FloatArray:
+    P = np.real(X)
+    return 0.5 * (P + P.T)
+
+
+def solve_lyapunov(A: Any, Q: Any) -> FloatArray:
+    """Solve ``A^T P + P A + Q = 0`` (Bartels-Stewart).
+
+    Args:
+        A: system matrix (n x n).
+        Q: right-hand side (n x n), usually symmetric positive definite.
+
+    Returns:
+        ``P`` (n x n), symmetric when ``Q`` is.
+
+    Raises:
+        SolverError: ``A`` has eigenvalues with ``lambda_i + lambda_j = 0`` (no unique
+            solution, e.g. a marginally stable or non-hyperbolic ``A``).
+    """
+    A = square(A, "A")
+    n = A.shape[0]
+    Q = square(Q, "Q", n)
+    R, U, S, W = _schur_pair(A)
+    F = U.conj().T @ (-Q) @ W
+    Y = np.zeros((n, n), dtype=complex)
+    scale = max(1.0, float(np.max(np.abs(A))) if A.size else 1.0)
+    eye = np.eye(n)
+    for k in range(n):
+        lhs = R + S[k, k] * eye
+        pivots = np.abs(np.diag(lhs))
+        if pivots.size and np.min(pivots) <= SINGULARITY_TOLERANCE * scale:
+            raise SolverError(
+                "A^T P + P A + Q = 0 has no unique solution: A has eigenvalues with "
+                "lambda_i + lambda_j = 0 (A must not have opposite or imaginary-axis eigenvalues)"
+            )
+        rhs = F[:, k] - Y[:, :k] @ S[:k, k]
+        Y[:, k] = sla.solve_triangular(lhs, rhs)
+    return _finish(U @ Y @ W.conj().T)
+
+
+def solve_discrete_lyapunov(A: Any, Q: Any) -> FloatArray:
+    """Solve ``A^T P A - P + Q = 0`` (Bartels-Stewart for the Stein equation).
+
+    Raises:
+        SolverError: ``A`` has eigenvalues with ``lambda_i lambda_j = 1`` (no unique solution).
+    """
+    A = square(A, "A")
+    n = A.shape[0]
+    Q = square(Q, "Q", n)
+    R, U, S, W = _schur_pair(A)
+    F = U.conj().T @ (-Q) @ W
+    Y = np.zeros((n, n), dtype=complex)
+    eye = np.eye(n)
+    for k in range(n):
+        lhs = S[k, k] * R - eye
+        pivots = np.abs(np.diag(lhs))
+        if pivots.size and np.min(pivots) <= SINGULARITY_TOLERANCE:
+            raise SolverError(
+                "A^T P A - P + Q = 0 has no unique solution: A has eigenvalues with "
+                "lambda_i lambda_j = 1 (e.g. on the unit circle)"
+            )
+        rhs = F[:, k] - R @ (Y[:, :k] @ S[:k, k])
+        Y[:, k] = sla.solve_triangular(lhs, rhs)
+    return _finish(U @ Y @ W.conj().T)
+
+
+@dataclass
+class LyapunovCertificate:
+    """Result of :func:`lyapunov_check` for ``V(x) = x^T P x``.
+
+    Attributes:
+        valid: ``P > 0`` and ``V`` strictly decreases along every trajectory.
+        min_eigenvalue_P: smallest eigenvalue of ``P`` (> 0 required).
+        max_eigenvalue_decrease: largest eigenvalue of ``A^T P + P A`` (continuous) or
+            ``A^T P A - P`` (discrete) (< 0 required).
+        discrete: discrete-time check.
+    """
+
+    valid: bool
+    min_eigenvalue_P: float
+    max_eigenvalue_decrease: float
+    discrete: bool
+
+    def value(self, P: Any, x: Any) -> float:
+        """``V(x) = x^T P x``."""
+        xa = np.asarray(x, dtype=float)
+        return float(xa @ np.asarray(P, dtype=float) @ xa)
+
+
+def lyapunov_check(A: Any, P: Any, *, discrete: bool = False) -> LyapunovCertificate:
+    """Check that ``V(x) = x^T P x`` is a Lyapunov function of ``x' = A x`` (or ``x+ = A x``).
+
+    ``P > 0`` and ``A^T P + P A < 0`` (continuous) or ``A^T P A - P < 0`` (discrete).
+
+    Args:
+        A: system matrix (n x n).
+        P: candidate (n x n), symmetric.
+        discrete: discrete-time system.
+
+    Raises:
+        InvalidInputError: ``P`` is not symmetric.
+    """
+    A = square(A, "A")
+    n = A.shape[0]
+    P = square(P, "P", n)
+    if np.max(np.abs(P - P.T)) > 1e-9 * max(1.0, float(np.max(np.abs(P)))):
+        raise InvalidInputError("P must be symmetric for V(x) = x^T P x")
+    D = A.T @ P @ A - P if discrete else A.T @ P + P @ A
+    min_p = float(np.min(np.linalg.eigvalsh(P)))
+    max_d = float(np.max(np.linalg.eigvalsh(0.5 * (D + D.T))))
+    return LyapunovCertificate(
+        valid=bool(min_p > 0.0 and max_d < 0.0),
+        min_eigenvalue_P=min_p,
+        max_eigenvalue_decrease=max_d,
+        discrete=discrete,
+    )

@@ -1,0 +1,182 @@
+"""Discrete P, PD and PID controllers (slides 5:6-5:17) with anti-windup.
+
+``u = Kp (q* - q) + Kd (q'* - q') + Ki int_0^t (q* - q(s)) ds``
+
+The gains are set directly or from the wavelength ``lambda`` and damping ratio ``xi`` of the
+closed loop of a point mass of mass ``m`` (slide 5:14): ``Kp = m / lambda^2``,
+``Kd = 2 m xi / lambda``. The controller works on vectors (one independent loop per entry) and
+is the ``controller(t, q, v)`` of :func:`taskspace.dynamics.simulate` for robots whose joints
+are vector-valued (``nq == nv``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from taskspace._validation import FloatArray, as_vector, check_positive
+from taskspace.errors import InvalidInputError
+
+
+@dataclass(frozen=True)
+class PIDGains:
+    """Gains of a PID loop.
+
+    Attributes:
+        kp: proportional gain [N/m or N m/rad].
+        kd: derivative gain [N s/m or N m s/rad].
+        ki: integral gain [N/(m s) or N m/(rad s)].
+    """
+
+    kp: float
+    kd: float = 0.0
+    ki: float = 0.0
+
+    def __post_init__(self) -> None:
+        check_positive(self.kp, "kp", strict=False)
+        check_positive(self.kd, "kd", strict=False)
+        check_positive(self.ki, "ki", strict=False)
+
+    @staticmethod
+    def from_wavelength(
+        mass: float, wavelength: float, damping_ratio: float, ki: float = 0.0
+    ) -> PIDGains:
+        """``Kp = m / lambda^2``, ``Kd = 2 m xi / lambda`` (slide 5:14).
+
+        Args:
+            mass: ``m`` [kg] (> 0).
+            wavelength: ``lambda = 1 / omega_0`` [s] (> 0).
+            damping_ratio: ``xi`` (>= 0): > 1 overdamped, 1 critical, < 1 oscillatory.
+            ki: integral gain.
+        """
+        m = check_positive(mass, "mass [kg]")
+        lam = check_positive(wavelength, "wavelength [s]")
+        xi = check_positive(damping_ratio, "damping_ratio", strict=False)
+        return PIDGains(kp=m / lam**2, kd=2.0 * m * xi / lam, ki=ki)
+
+    def wavelength(self, mass: float) -> float:
+        """``lambda = sqrt(m / Kp)`` [s] of a point mass ``m`` under these gains."""
+        m = check_positive(mass, "mass [kg]")
+        return math.sqrt(m / self.kp) if self.kp > 0 else math.inf
+
+    def damping_ratio(self, mass: float) -> float:
+        """``xi = Kd / sqrt(4 m Kp)`` for a point mass ``m``."""
+        m = check_positive(mass, "mass [kg]")
+        return self.kd / math.sqrt(4.0 * m * self.kp) if self.kp > 0 else math.inf
+
+
+@dataclass(frozen=True, kw_only=True)
+class PIDOptions:
+    """Settings of :class:`PIDController`.
+
+    Attributes:
+        output_limit: saturation ``|u| <= output_limit`` per entry [N or N m]; ``None``: none.
+        anti_windup: while the output saturates, stop integrating errors that push further
+            into saturation (conditional integration); without it the integral winds up.
+        integral_limit: clamp of the integral state ``|int e dt|`` [m s]; ``None``: none.
+    """
+
+    output_limit: float | None = None
+    anti_windup: bool = True
+    integral_limit: float | None = None
+
+
+class PIDController:
+    """Discrete PID ``u = Kp e + Kd (q'* - q') + Ki I``, ``e = q* - q``, ``I += e dt_k``.
+
+    Called as ``u = pid(t, q, v)``; ``dt_k`` is the time since the previous call (the integral
+    uses the rectangle rule with the current error). The derivative acts on the measured
+    velocity ``v`` (no derivative kick when the target jumps).
+
+    Args:
+        gains: :class:`PIDGains` (or ``P``/``PD`` by leaving ``ki``/``kd`` at zero).
+        target: ``q*`` (scalar or vector).
+        target_velocity: ``q'*`` (default zero).
+        options: saturation and anti-windup.
+    """
+
+    def __init__(
+        self,
+        gains: PIDGains,
+        target: Any,
+        target_velocity: Any = None,
+        options: PIDOptions | None = None,
+    ) -> None:
+        if not isinstance(gains, PIDGains):
+            raise InvalidInputError(f"gains must be a PIDGains, got {type(gains).__name__}")
+        self.gains = gains
+        self.options = options or PIDOptions()
+        if self.options.output_limit is not None:
+            check_positive(self.options.output_limit, "output_limit")
+        if self.options.integral_limit is not None:
+            check_positive(self.options.integral_limit, "integral_limit")
+        self.target = as_vector(np.atleast_1d(np.asarray(target, dtype=float)), None, "target")
+        n = self.target.size
+        self.target_velocity = (
+            np.zeros(n)
+            if target_velocity is None
+            else as_vector(
+                np.atleast_1d(np.asarray(target_velocity, dtype=float)), n, "target_velocity"
+            )
+        )
+        self.integral = np.zeros(n)
+        self._t_prev: float | None = None
+        self.saturated = np.zeros(n, dtype=bool)
+
+    @staticmethod
+    def p(kp: float, target: Any) -> PIDController:
+        """Proportional control ``u = Kp (q* - q)`` (slide 5:7)."""
+        return PIDController(PIDGains(kp=kp), target)
+
+    @staticmethod
+    def pd(kp: float, kd: float, target: Any, target_velocity: Any = None) -> PIDController:
+        """PD control ``u = Kp (q* - q) + Kd (q'* - q')`` (slide 5:10)."""
+        return PIDController(PIDGains(kp=kp, kd=kd), target, target_velocity)
+
+    def reset(self) -> None:
+        """Clear the integral and the time of the previous call."""
+        self.integral[:] = 0.0
+        self._t_prev = None
+        self.saturated[:] = False
+
+    def __call__(self, t: float, q: Any, v: Any) -> FloatArray:
+        """Control ``u`` at time ``t`` [s] for position ``q`` and velocity ``v``.
+
+        Raises:
+            InvalidInputError: time went backwards (the controller is stateful).
+            ShapeError, NotFiniteError: bad ``q``/``v``.
+        """
+        n = self.target.size
+        qa = as_vector(np.atleast_1d(np.asarray(q, dtype=float)), n, "q")
+        va = as_vector(np.atleast_1d(np.asarray(v, dtype=float)), n, "v")
+        t = float(t)
+        dt = 0.0 if self._t_prev is None else t - self._t_prev
+        if dt < -1e-9 * max(1.0, abs(t)):
+            raise InvalidInputError(
+                f"PID time went backwards (t={t:g} after {self._t_prev:g}); call reset() "
+                "before restarting"
+            )
+        dt = max(dt, 0.0)
+        self._t_prev = t if self._t_prev is None else max(t, self._t_prev)
+        g, opts = self.gains, self.options
+        e = self.target - qa
+        previous = self.integral.copy()
+        if g.ki != 0.0 and dt > 0.0:
+            self.integral += e * dt
+            if opts.integral_limit is not None:
+                np.clip(self.integral, -opts.integral_limit, opts.integral_limit, self.integral)
+        u = g.kp * e + g.kd * (self.target_velocity - va) + g.ki * self.integral
+        if opts.output_limit is not None:
+            limit = opts.output_limit
+            self.saturated = np.abs(u) > limit
+            if opts.anti_windup and g.ki != 0.0 and np.any(self.saturated):
+                # conditional integration: keep the old integral where the error pushes the
+                # output further into saturation
+                winding = self.saturated & (np.sign(e) == np.sign(u))
+                self.integral[winding] = previous[winding]
+                u = g.kp * e + g.kd * (self.target_velocity - va) + g.ki * self.integral
+            u = np.clip(u, -limit, limit)
+        return u

@@ -1,0 +1,132 @@
+"""Joint-space reference trajectories ``t -> (q_ref, q'_ref, q''_ref)`` (slide 5:30)."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from taskspace._validation import FloatArray, as_matrix, as_vector, check_positive
+from taskspace.errors import InvalidInputError
+
+
+@dataclass(frozen=True)
+class ReferencePoint:
+    """Reference position, velocity and acceleration at one time.
+
+    Attributes:
+        q: position (n,) [rad, m].
+        v: velocity (n,) [rad/s, m/s].
+        a: acceleration (n,) [rad/s^2, m/s^2].
+    """
+
+    q: FloatArray
+    v: FloatArray
+    a: FloatArray
+
+
+JointReference = Callable[[float], ReferencePoint]
+"""A reference trajectory: ``reference(t)`` returns the :class:`ReferencePoint` at ``t`` [s]."""
+
+
+class ConstantReference:
+    """Hold ``q*`` with zero velocity and acceleration (set-point regulation)."""
+
+    def __init__(self, q: Any) -> None:
+        self.q = as_vector(q, None, "reference q")
+        self._zero = np.zeros(self.q.size)
+
+    def __call__(self, t: float) -> ReferencePoint:
+        """The constant reference."""
+        return ReferencePoint(self.q, self._zero, self._zero)
+
+
+class SinusoidalReference:
+    """``q_ref(t) = center + amplitude sin(2 pi f t + phase)`` per joint, with exact derivatives.
+
+    Args:
+        center: mean position (n,) [rad].
+        amplitude: amplitude, scalar or (n,) [rad].
+        frequency: frequency, scalar or (n,) [Hz] (>= 0).
+        phase: phase, scalar or (n,) [rad].
+    """
+
+    def __init__(self, center: Any, amplitude: Any, frequency: Any, phase: Any = 0.0) -> None:
+        self.center = as_vector(center, None, "center")
+        n = self.center.size
+        self.amplitude = as_vector(np.broadcast_to(np.asarray(amplitude, float), n), n, "amplitude")
+        freq = as_vector(np.broadcast_to(np.asarray(frequency, float), n), n, "frequency")
+        if np.any(freq < 0):
+            raise InvalidInputError(f"frequency must be >= 0 [Hz], got {frequency!r}")
+        self.omega = 2.0 * math.pi * freq
+        self.phase = as_vector(np.broadcast_to(np.asarray(phase, float), n), n, "phase")
+
+    def __call__(self, t: float) -> ReferencePoint:
+        """Reference at time ``t`` [s]."""
+        arg = self.omega * t + self.phase
+        s, c = np.sin(arg), np.cos(arg)
+        return ReferencePoint(
+            self.center + self.amplitude * s,
+            self.amplitude * self.omega * c,
+            -self.amplitude * self.omega**2 * s,
+        )
+
+
+class SampledReference:
+    """A reference given by samples ``q_0..q_K`` every ``tau`` seconds (slide 5:30).
+
+    Velocities and accelerations come from finite differences,
+    ``q''_k = (q_{k-1} + q_{k+1} - 2 q_k) / tau^2`` (slide 5:30) and
+    ``q'_k = (q_{k+1} - q_{k-1}) / (2 tau)`` (one-sided at the ends); between samples all three
+    are interpolated linearly; after the last sample the reference holds ``q_K`` at rest.
+
+    Args:
+        samples: (K+1, n) positions [rad, m], K >= 2.
+        tau: sample spacing [s] (> 0).
+    """
+
+    def __init__(self, samples: Any, tau: float) -> None:
+        q = as_matrix(samples, (None, None), "samples")
+        if q.shape[0] < 3:
+            raise InvalidInputError(f"samples needs at least 3 rows, got {q.shape[0]}")
+        self.tau = check_positive(tau, "tau (sample spacing [s])")
+        self.q = q
+        v = np.empty_like(q)
+        v[1:-1] = (q[2:] - q[:-2]) / (2.0 * self.tau)
+        v[0] = (q[1] - q[0]) / self.tau
+        v[-1] = (q[-1] - q[-2]) / self.tau
+        a = np.zeros_like(q)
+        a[1:-1] = (q[:-2] + q[2:] - 2.0 * q[1:-1]) / self.tau**2
+        self.v = v
+        self.a = a
+        self.duration = self.tau * (q.shape[0] - 1)
+
+    def __call__(self, t: float) -> ReferencePoint:
+        """Reference at time ``t`` [s]."""
+        if t >= self.duration:
+            zero = np.zeros(self.q.shape[1])
+            return ReferencePoint(self.q[-1].copy(), zero, zero)
+        s = max(t, 0.0) / self.tau
+        k = int(s)
+        w = s - k
+        return ReferencePoint(
+            (1 - w) * self.q[k] + w * self.q[k + 1],
+            (1 - w) * self.v[k] + w * self.v[k + 1],
+            (1 - w) * self.a[k] + w * self.a[k + 1],
+        )
+
+
+def as_reference(reference: Any, size: int) -> JointReference:
+    """Accept a callable reference or a fixed target vector (held as :class:`ConstantReference`)."""
+    if callable(reference):
+        return reference  # type: ignore[no-any-return]
+    try:
+        return ConstantReference(as_vector(reference, size, "reference"))
+    except InvalidInputError as exc:
+        raise InvalidInputError(
+            f"reference must be callable as reference(t) -> ReferencePoint or a target vector "
+            f"of size {size}: {exc}"
+        ) from exc

@@ -1,0 +1,258 @@
+"""Algebraic Riccati equations of infinite-horizon linear-quadratic control.
+
+Continuous (CARE): ``A^T P + P A - P B R^-1 B^T P + Q = 0``; discrete (DARE):
+``P = Q + A^T P A - A^T P B (R + B^T P B)^-1 B^T P A``. The stabilizing solution is wanted.
+
+Methods:
+* Hamiltonian Schur (Laub): the stable invariant subspace ``[U11; U21]`` of
+  ``H = [[A, -B R^-1 B^T], [-Q, -A^T]]`` (ordered real Schur form) gives ``P = U21 U11^-1``.
+* Newton-Kleinman: from a stabilizing gain ``K_0``, solve the Lyapunov equation
+  ``(A - B K_k)^T P_k + P_k (A - B K_k) + Q + K_k^T R K_k = 0`` and set
+  ``K_{k+1} = R^-1 B^T P_k``; converges quadratically.
+* DARE: the stable deflating subspace of the symplectic pencil
+  ``[[A, 0], [-Q, I]] - z [[I, B R^-1 B^T], [0, A^T]]`` (ordered QZ), ``P = Z21 Z11^-1``
+  (works for singular ``A``).
+"""
+
+from __future__ import annotations
+
+import enum
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import scipy.linalg as sla
+
+from taskspace._validation import FloatArray, as_matrix
+from taskspace.control._linear import symmetric_psd, system
+from taskspace.control.lyapunov import solve_lyapunov
+from taskspace.errors import InvalidInputError, SolverError
+
+
+class RiccatiMethod(enum.Enum):
+    """Algorithm of :func:`solve_continuous_riccati`."""
+
+    SCHUR = "schur"
+    NEWTON_KLEINMAN = "newton_kleinman"
+
+
+class RiccatiStatus(enum.Enum):
+    """Outcome of a Riccati solve."""
+
+    SOLVED = "solved"
+    MAX_ITERATIONS = "max_iterations"
+    """Newton-Kleinman stopped at its iteration limit; ``P`` is its last iterate."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class RiccatiOptions:
+    """Settings of the Riccati solvers.
+
+    Attributes:
+        method: ``"schur"`` (default) or ``"newton_kleinman"`` (continuous only).
+        max_iterations: Newton-Kleinman iteration limit.
+        tolerance: Newton-Kleinman stops when ``|P_k - P_{k-1}|_F <= tolerance |P_k|_F``.
+    """
+
+    method: RiccatiMethod | str = RiccatiMethod.SCHUR
+    max_iterations: int = 100
+    tolerance: float = 1e-13
+
+
+@dataclass
+class RiccatiResult:
+    """Solution of an algebraic Riccati equation.
+
+    Attributes:
+        success: ``P`` is the stabilizing solution within tolerance.
+        status: see :class:`RiccatiStatus`.
+        P: the solution (n x n), symmetric positive semidefinite.
+        residual: relative residual ``|Ric(P)|_F / max(1, |P|_F)``.
+        iterations: Newton iterations (0 for the Schur methods).
+        solve_time: wall time [s].
+        method: the method used.
+    """
+
+    success: bool
+    status: RiccatiStatus
+    P: FloatArray
+    residual: float
+    iterations: int
+    solve_time: float
+    method: str
+
+
+def _problem(
+    A: Any, B: Any, Q: Any, R: Any
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    A, B = system(A, B)
+    n, m = B.shape
+    Q = symmetric_psd(Q, "Q", n, definite=False)
+    R = symmetric_psd(R, "R", m, definite=True)
+    return A, B, Q, R
+
+
+def care_residual(A: Any, B: Any, Q: Any, R: Any, P: Any) -> float:
+    """``|A^T P + P A - P B R^-1 B^T P + Q|_F / max(1, |P|_F)``."""
+    A, B, Q, R = _problem(A, B, Q, R)
+    P = np.asarray(P, dtype=float)
+    res = A.T @ P + P @ A - P @ B @ np.linalg.solve(R, B.T @ P) + Q
+    return float(np.linalg.norm(res) / max(1.0, np.linalg.norm(P)))
+
+
+def dare_residual(A: Any, B: Any, Q: Any, R: Any, P: Any) -> float:
+    """``|Q + A^T P A - A^T P B (R + B^T P B)^-1 B^T P A - P|_F / max(1, |P|_F)``."""
+    A, B, Q, R = _problem(A, B, Q, R)
+    P = np.asarray(P, dtype=float)
+    BtPA = B.T @ P @ A
+    res = Q + A.T @ P @ A - BtPA.T @ np.linalg.solve(R + B.T @ P @ B, BtPA) - P
+    return float(np.linalg.norm(res) / max(1.0, np.linalg.norm(P)))
+
+
+def _method(value: RiccatiMethod | str) -> RiccatiMethod:
+    if isinstance(value, RiccatiMethod):
+        return value
+    try:
+        return RiccatiMethod(value)
+    except ValueError:
+        valid = ", ".join(m.value for m in RiccatiMethod)
+        raise InvalidInputError(
+            f"unknown Riccati method {value!r}; valid methods are: {valid}"
+        ) from None
+
+
+def _care_schur(A: FloatArray, G: FloatArray, Q: FloatArray) -> FloatArray:
+    n = A.shape[0]
+    H = np.block([[A, -G], [-Q, -A.T]])
+    _, U, sdim = sla.schur(H, output="real", sort="lhp")
+    if sdim != n:
+        raise SolverError(
+            f"the Hamiltonian matrix has {2 * n - sdim} eigenvalues with Re >= 0 instead of {n}: "
+            "no stabilizing solution (is (A, B) stabilizable and (A, Q) detectable?)"
+        )
+    U11, U21 = U[:n, :n], U[n:, :n]
+    if np.linalg.cond(U11) > 1e12:
+        raise SolverError(
+            "U11 of the stable invariant subspace is singular: no stabilizing solution"
+        )
+    P = np.linalg.solve(U11.T, U21.T).T
+    return 0.5 * (P + P.T)
+
+
+def solve_continuous_riccati(
+    A: Any,
+    B: Any,
+    Q: Any,
+    R: Any,
+    options: RiccatiOptions | None = None,
+    *,
+    initial_gain: Any = None,
+) -> RiccatiResult:
+    """Stabilizing solution of ``A^T P + P A - P B R^-1 B^T P + Q = 0``.
+
+    Args:
+        A: (n x n); B: (n x m); Q: (n x n) symmetric >= 0; R: (m x m) symmetric > 0 (scalars
+            are multiples of the identity).
+        options: method and Newton-Kleinman settings.
+        initial_gain: stabilizing ``K_0`` (m x n) for Newton-Kleinman; default 0 when ``A``
+            is stable.
+
+    Raises:
+        InvalidInputError: bad shapes, non-symmetric/indefinite ``Q``/``R``; Newton-Kleinman
+            without a stabilizing initial gain.
+        SolverError: no stabilizing solution exists (Schur method).
+    """
+    options = options or RiccatiOptions()
+    method = _method(options.method)
+    A, B, Q, R = _problem(A, B, Q, R)
+    n, m = B.shape
+    t0 = time.perf_counter()
+    G = B @ np.linalg.solve(R, B.T)
+    iterations = 0
+    status = RiccatiStatus.SOLVED
+    if method is RiccatiMethod.SCHUR:
+        P = _care_schur(A, G, Q)
+    else:
+        if initial_gain is None:
+            if np.max(np.linalg.eigvals(A).real) >= 0:
+                raise InvalidInputError(
+                    "newton_kleinman needs a stabilizing initial gain K0 (A - B K0 stable) when "
+                    "A is unstable: pass initial_gain=..., or use method='schur'"
+                )
+            K = np.zeros((m, n))
+        else:
+            K = as_matrix(initial_gain, (m, n), "initial_gain")
+            if np.max(np.linalg.eigvals(A - B @ K).real) >= 0:
+                raise InvalidInputError("initial_gain does not stabilize A - B K0")
+        P = np.zeros((n, n))
+        status = RiccatiStatus.MAX_ITERATIONS
+        for iterations in range(1, options.max_iterations + 1):  # noqa: B007
+            Ak = A - B @ K
+            P_new = solve_lyapunov(Ak, Q + K.T @ R @ K)
+            K = np.linalg.solve(R, B.T @ P_new)
+            change = float(np.linalg.norm(P_new - P))
+            P = P_new
+            if change <= options.tolerance * max(1.0, float(np.linalg.norm(P))):
+                status = RiccatiStatus.SOLVED
+                break
+    residual = care_residual(A, B, Q, R, P)
+    return RiccatiResult(
+        success=status is RiccatiStatus.SOLVED,
+        status=status,
+        P=P,
+        residual=residual,
+        iterations=iterations,
+        solve_time=time.perf_counter() - t0,
+        method=method.value,
+    )
+
+
+def solve_discrete_riccati(
+    A: Any, B: Any, Q: Any, R: Any, options: RiccatiOptions | None = None
+) -> RiccatiResult:
+    """Stabilizing solution of ``P = Q + A^T P A - A^T P B (R + B^T P B)^-1 B^T P A``.
+
+    Ordered QZ on the symplectic pencil (see the module docstring).
+
+    Args:
+        A: (n x n); B: (n x m); Q: (n x n) symmetric >= 0; R: (m x m) symmetric > 0.
+        options: unused except for validation (the method is always the Schur/QZ one).
+
+    Raises:
+        InvalidInputError: bad inputs, or ``method='newton_kleinman'`` (continuous only).
+        SolverError: no stabilizing solution exists.
+    """
+    options = options or RiccatiOptions()
+    if _method(options.method) is not RiccatiMethod.SCHUR:
+        raise InvalidInputError("solve_discrete_riccati supports method='schur' only")
+    A, B, Q, R = _problem(A, B, Q, R)
+    n = A.shape[0]
+    t0 = time.perf_counter()
+    G = B @ np.linalg.solve(R, B.T)
+    eye, zero = np.eye(n), np.zeros((n, n))
+    L = np.block([[A, zero], [-Q, eye]])
+    N = np.block([[eye, G], [zero, A.T]])
+    _, _, alpha, beta, _, Z = sla.ordqz(L, N, sort="iuc", output="real")
+    stable = np.sum(np.abs(alpha) < np.abs(beta) * (1.0 - 1e-12))
+    if stable != n:
+        raise SolverError(
+            f"the symplectic pencil has {stable} stable eigenvalues instead of {n}: no "
+            "stabilizing solution (is (A, B) stabilizable and (A, Q) detectable?)"
+        )
+    Z11, Z21 = Z[:n, :n], Z[n:, :n]
+    if np.linalg.cond(Z11) > 1e12:
+        raise SolverError(
+            "Z11 of the stable deflating subspace is singular: no stabilizing solution"
+        )
+    P = np.linalg.solve(Z11.T, Z21.T).T
+    P = 0.5 * (P + P.T)
+    return RiccatiResult(
+        success=True,
+        status=RiccatiStatus.SOLVED,
+        P=P,
+        residual=dare_residual(A, B, Q, R, P),
+        iterations=0,
+        solve_time=time.perf_counter() - t0,
+        method="schur",
+    )

@@ -1,0 +1,47 @@
+"""Linear state feedback on a robot about an equilibrium: ``tau = tau_eq + S^T (-K x)``.
+
+``x = (q (-) q_eq, v - v_eq)`` in tangent coordinates (``pin.difference``), ``K`` e.g. an LQR
+gain designed on :func:`taskspace.control.linearization.linearize`.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import pinocchio as pin
+
+from taskspace._validation import FloatArray, as_matrix
+from taskspace.control.linearization import LinearizedSystem
+
+if TYPE_CHECKING:
+    from taskspace.model.robot import Robot
+
+
+class StateFeedbackController:
+    """``controller(t, q, v)`` applying ``u = -K x`` on the actuated joints.
+
+    Args:
+        robot: the robot the system was linearized on.
+        system: the linearization (equilibrium and actuated joints).
+        K: gain (m x 2 nv), ``u = -K x``.
+    """
+
+    def __init__(self, robot: Robot, system: LinearizedSystem, K: Any) -> None:
+        self.robot = robot
+        self.system = system
+        m = system.actuated.size
+        self.K = as_matrix(K, (m, 2 * robot.nv), "K")
+        self._model = robot.model
+        self._nv = robot.nv
+
+    def state_error(self, q: FloatArray, v: FloatArray) -> FloatArray:
+        """``x = (q (-) q_eq, v - v_eq)`` (2 nv)."""
+        dq = pin.difference(self._model, self.system.q_eq, q)
+        return np.concatenate([dq, v - self.system.v_eq])
+
+    def __call__(self, t: float, q: FloatArray, v: FloatArray) -> FloatArray:
+        """Torques [N m]: ``tau_eq`` plus ``-K x`` on the actuated joints."""
+        tau = self.system.tau_eq.copy()
+        tau[self.system.actuated] += -self.K @ self.state_error(q, v)
+        return tau

@@ -1,0 +1,138 @@
+"""Forward dynamics ``q'' = M(q)^-1 (u + tau_friction(v) - F(q, v))`` through Pinocchio's ABA.
+
+Slide 5:29: "if we know which torques u we apply, use q''* = M(q)^-1 (u - F(q, q')) to
+simulate the dynamics of the system". Pinocchio's articulated-body algorithm (``pin.aba``)
+computes this in O(n) without forming ``M``; this module adds optional joint friction (viscous
+damping and smoothed Coulomb friction) on top.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import pinocchio as pin
+
+from taskspace._validation import FloatArray, as_vector, check_positive
+from taskspace.errors import InvalidInputError
+
+if TYPE_CHECKING:
+    from taskspace.model.robot import Robot
+
+
+@dataclass(frozen=True, kw_only=True)
+class JointFriction:
+    """Joint friction added to the applied torques by the simulator.
+
+    ``tau_friction(v) = -damping * v - coulomb * tanh(v / coulomb_smoothing)``
+
+    The Coulomb term is the smooth approximation of ``-coulomb * sign(v)`` (an ODE with a
+    discontinuous right-hand side would break the error bounds of the integrators). Friction
+    acts on the joints only, never on a floating base (its first 6 velocity entries).
+
+    Attributes:
+        damping: viscous coefficient, scalar or one per joint [N m s/rad or N s/m].
+        coulomb: Coulomb friction magnitude, scalar or one per joint [N m or N].
+        coulomb_smoothing: velocity scale of the ``tanh`` smoothing [rad/s or m/s].
+    """
+
+    damping: float | tuple[float, ...] = 0.0
+    coulomb: float | tuple[float, ...] = 0.0
+    coulomb_smoothing: float = 1e-2
+
+    @property
+    def is_zero(self) -> bool:
+        """No friction at all."""
+        return not np.any(np.asarray(self.damping)) and not np.any(np.asarray(self.coulomb))
+
+
+def _coefficients(value: Any, size: int, name: str) -> FloatArray:
+    arr = np.asarray(value, dtype=float)
+    if arr.ndim == 0:
+        arr = np.full(size, float(arr))
+    else:
+        arr = as_vector(arr, size, name)
+    if not np.all(np.isfinite(arr)) or np.any(arr < 0.0):
+        raise InvalidInputError(f"{name} must be finite and >= 0, got {value!r}")
+    return arr
+
+
+class ForwardDynamics:
+    """Joint accelerations from torques: ``a = ABA(q, v, u + tau_friction(v))``.
+
+    The object keeps its own ``pin.Data`` so that evaluating it does not disturb other users
+    of the robot. :meth:`acceleration` does no validation (hot path of the integrators); use
+    :func:`forward_dynamics` for a checked one-off evaluation.
+
+    Args:
+        robot: the robot.
+        friction: joint friction (none by default).
+    """
+
+    def __init__(self, robot: Robot, friction: JointFriction | None = None) -> None:
+        self.robot = robot
+        self.model = robot.model
+        self.data = robot.model.createData()
+        friction = friction or JointFriction()
+        self.friction = friction
+        nv = robot.nv
+        start = 6 if robot.is_floating else 0
+        n_joints = nv - start
+        self._start = start
+        self._damping = _coefficients(friction.damping, n_joints, "friction damping")
+        self._coulomb = _coefficients(friction.coulomb, n_joints, "friction coulomb")
+        self._smoothing = check_positive(friction.coulomb_smoothing, "coulomb_smoothing")
+        self._has_friction = bool(np.any(self._damping) or np.any(self._coulomb))
+        self._has_coulomb = bool(np.any(self._coulomb))
+
+    @property
+    def has_friction(self) -> bool:
+        """Whether any friction coefficient is non-zero."""
+        return self._has_friction
+
+    def friction_torque(self, v: FloatArray) -> FloatArray:
+        """``-damping v - coulomb tanh(v / smoothing)`` (zero on a floating base) [N m]."""
+        out = np.zeros(self.model.nv)
+        vj = v[self._start :]
+        f = -self._damping * vj
+        if self._has_coulomb:
+            f -= self._coulomb * np.tanh(vj / self._smoothing)
+        out[self._start :] = f
+        return out
+
+    def acceleration(self, q: FloatArray, v: FloatArray, tau: FloatArray) -> FloatArray:
+        """``q'' = M^-1 (tau + tau_friction(v) - C(q, v) v - G(q))`` [rad/s^2, m/s^2].
+
+        Args:
+            q: configuration (nq), unchecked.
+            v: velocity (nv) [rad/s, m/s], unchecked.
+            tau: applied joint torques (nv) [N m, N], unchecked.
+        """
+        if self._has_friction:
+            tau = tau + self.friction_torque(v)
+        return np.asarray(pin.aba(self.model, self.data, q, v, tau))
+
+
+def forward_dynamics(
+    robot: Robot, q: Any, v: Any, tau: Any, friction: JointFriction | None = None
+) -> FloatArray:
+    """Validated one-off forward dynamics ``q'' = M(q)^-1 (u - F(q, v))`` (slide 5:29).
+
+    Args:
+        robot: the robot.
+        q: configuration (nq).
+        v: velocity (nv) [rad/s, m/s].
+        tau: applied torques ``u`` (nv) [N m, N].
+        friction: optional joint friction added to ``u``.
+
+    Returns:
+        The joint accelerations (nv) [rad/s^2, m/s^2].
+
+    Raises:
+        ShapeError, NotFiniteError: wrong size or NaN/inf input.
+    """
+    qa = robot.check_configuration(q)
+    va = robot.check_velocity(v)
+    ta = as_vector(tau, robot.nv, "tau")
+    return ForwardDynamics(robot, friction).acceleration(qa, va, ta)

@@ -1,0 +1,295 @@
+"""The configuration space ``Q`` of sampling-based planners and its local planner (slide 3:32).
+
+``Q`` is the box ``[lower, upper]`` of R^d with the Euclidean metric
+``d(q, q') = |q - q'|``; ``Q_free`` is decided by a :class:`ValidityChecker`. The local planner
+is the straight line ``q(t) = (1 - t) q + t q'``, tested for collisions up to the resolution
+``delta`` (slide 3:32): with ``n = ceil(|q' - q| / delta)`` segments the interior points
+``t = k / n`` (``k = 1..n-1``, plus ``k = n`` when asked) are checked in *bisection order*
+(midpoint first, then the quarter points, ...: the van der Corput order), so that a collision is
+found after few checks, and the search stops at the first collision. Points are sent to the
+checker in batches of growing size (1, 4, 16, ... up to ``max_batch``), one C++ call per batch.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass
+from functools import lru_cache
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from taskspace._validation import as_vector, check_positive
+from taskspace.errors import InvalidInputError, PlanningError
+from taskspace.model.robot import Robot
+from taskspace.planning.collision_checker import (
+    CollisionChecker,
+    CollisionCheckerOptions,
+    ValidityChecker,
+)
+
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.int64]
+
+
+@lru_cache(maxsize=512)
+def bisection_order(n: int) -> IntArray:
+    """Interior indices ``1..n-1`` of ``n`` segments in bisection (van der Corput) order.
+
+    Breadth-first over intervals: the midpoint of ``[0, n]`` first, then the midpoints of the
+    two halves, and so on. Every interior index appears once.
+
+    Args:
+        n: number of segments (``n >= 1``; ``n = 1`` has no interior point).
+    """
+    out: list[int] = []
+    queue: deque[tuple[int, int]] = deque([(0, n)])
+    while queue:
+        a, b = queue.popleft()
+        if b - a < 2:
+            continue
+        mid = (a + b) // 2
+        out.append(mid)
+        queue.append((a, mid))
+        queue.append((mid, b))
+    arr = np.asarray(out, dtype=np.int64)
+    arr.flags.writeable = False
+    return arr
+
+
+@lru_cache(maxsize=1024)
+def nested_orders(n: int, stride: int) -> tuple[IntArray, IntArray]:
+    """Split the interior indices ``1..n-1`` of ``n`` segments into a coarse and a fine pass.
+
+    The coarse pass holds the multiples of ``stride`` (spacing ``stride`` segments), the fine
+    pass every other interior index; both are in bisection order (:func:`bisection_order`), so
+    checking the coarse pass and later the fine pass checks every interior point exactly once.
+
+    Args:
+        n: number of segments (``n >= 1``).
+        stride: coarse spacing in segments (``stride >= 1``; 1 puts every index in the coarse
+            pass).
+
+    Returns:
+        ``(coarse, fine)`` index arrays.
+    """
+    stride = max(1, stride)
+    n_coarse = max(1, -(-n // stride))
+    coarse = bisection_order(n_coarse) * stride
+    fine = bisection_order(n)
+    if stride > 1:
+        fine = fine[fine % stride != 0]
+    else:
+        fine = fine[:0]
+    coarse = np.ascontiguousarray(coarse)
+    fine = np.ascontiguousarray(fine)
+    coarse.flags.writeable = False
+    fine.flags.writeable = False
+    return coarse, fine
+
+
+@dataclass(frozen=True, kw_only=True)
+class EdgeCheckOptions:
+    """Settings of the straight-line local planner.
+
+    Attributes:
+        resolution: largest C-space distance ``delta`` between checked points [rad or m]
+            (slide 3:32).
+        max_batch: largest number of points sent to the checker in one call.
+    """
+
+    resolution: float = 0.03
+    max_batch: int = 32
+
+
+class ConfigurationSpace:
+    """Box-bounded configuration space with a validity checker and a straight-line local planner.
+
+    Args:
+        lower: lower bounds (size d) [rad or m].
+        upper: upper bounds (size d) [rad or m].
+        checker: decides ``q in Q_free`` (a :class:`CollisionChecker` or any
+            :class:`ValidityChecker`).
+        edge: local-planner settings (resolution ``delta``).
+        names: coordinate names for error messages.
+
+    Attributes:
+        edge_checks: number of local-planner (edge) queries.
+    """
+
+    def __init__(
+        self,
+        lower: Any,
+        upper: Any,
+        checker: ValidityChecker,
+        *,
+        edge: EdgeCheckOptions | None = None,
+        names: list[str] | None = None,
+    ) -> None:
+        lo = as_vector(lower, None, "lower")
+        hi = as_vector(upper, lo.size, "upper")
+        if np.any(hi <= lo):
+            bad = np.flatnonzero(hi <= lo).tolist()
+            raise InvalidInputError(f"upper must be > lower in every coordinate; not at {bad}")
+        self.lower = lo
+        self.upper = hi
+        self.checker = checker
+        self.edge = edge or EdgeCheckOptions()
+        check_positive(self.edge.resolution, "resolution")
+        if self.edge.max_batch < 1:
+            raise InvalidInputError(f"max_batch must be >= 1, got {self.edge.max_batch}")
+        self.names = names or [f"q[{i}]" for i in range(lo.size)]
+        self.edge_checks = 0
+
+    @classmethod
+    def from_robot(
+        cls,
+        robot: Robot,
+        *,
+        edge: EdgeCheckOptions | None = None,
+        checker_options: CollisionCheckerOptions | None = None,
+    ) -> ConfigurationSpace:
+        """Joint-limit box of a fixed-base robot with a :class:`CollisionChecker`.
+
+        Raises:
+            InvalidInputError: the robot is floating or has unlimited joints.
+        """
+        checker = CollisionChecker(robot, checker_options)
+        lo, hi = robot.lower_limits, robot.upper_limits
+        if robot.limited_joints_q.size != robot.nq:
+            raise InvalidInputError(
+                f"robot '{robot.name}' has joints without finite limits; sampling-based "
+                "planners need a bounded configuration space"
+            )
+        names = []
+        for jid in range(1, robot.model.njoints):
+            names.append(str(robot.model.names[jid]))
+        return cls(lo, hi, checker, edge=edge, names=names if len(names) == lo.size else None)
+
+    # ------------------------------------------------------------------ basics
+    @property
+    def dim(self) -> int:
+        """Dimension ``d``."""
+        return int(self.lower.size)
+
+    @property
+    def extent(self) -> float:
+        """Diagonal of the box ``|upper - lower|`` [rad or m]."""
+        return float(np.linalg.norm(self.upper - self.lower))
+
+    @property
+    def checks(self) -> int:
+        """Configurations evaluated by the checker so far."""
+        return int(self.checker.checks)
+
+    def sample_uniform(self, rng: np.random.Generator, n: int | None = None) -> FloatArray:
+        """Uniform samples of the box: shape (d,) if ``n`` is None, else (n, d)."""
+        if n is None:
+            return rng.uniform(self.lower, self.upper)
+        return rng.uniform(self.lower, self.upper, size=(n, self.dim))
+
+    def within_bounds(self, q: FloatArray) -> bool:
+        """True if ``lower <= q <= upper``."""
+        return bool(np.all(q >= self.lower) and np.all(q <= self.upper))
+
+    def first_invalid(self, configurations: FloatArray) -> int:
+        """Index of the first row of ``configurations`` (shape (n, d)) not in Q_free, or -1.
+
+        One checker call that evaluates the rows in order and stops at the first invalid one.
+        """
+        return self.checker.first_invalid(configurations)
+
+    def is_valid(self, q: FloatArray) -> bool:
+        """``q in Q_free`` (one checker call)."""
+        return self.checker.first_invalid(np.asarray(q, dtype=float)[None, :]) < 0
+
+    def check_endpoint(self, q: Any, name: str) -> FloatArray:
+        """Validate a start or goal configuration.
+
+        Returns:
+            ``q`` as a float vector.
+
+        Raises:
+            PlanningError: ``q`` has the wrong size, is not finite, is outside the bounds
+                (the message names the coordinates) or is in collision (the message lists the
+                colliding pairs).
+        """
+        try:
+            qa = as_vector(q, self.dim, name)
+        except InvalidInputError as exc:
+            raise PlanningError(f"{name}: {exc}") from exc
+        out = np.flatnonzero((qa < self.lower) | (qa > self.upper))
+        if out.size:
+            details = ", ".join(
+                f"{self.names[i]}={qa[i]:.4g} not in [{self.lower[i]:.4g}, {self.upper[i]:.4g}]"
+                for i in out.tolist()
+            )
+            raise PlanningError(f"{name} is outside the joint limits: {details}")
+        if not self.is_valid(qa):
+            raise PlanningError(f"{name} is in collision: {self.checker.explain(qa)}")
+        return qa
+
+    # ------------------------------------------------------------------ local planner
+    def segments(self, q0: FloatArray, q1: FloatArray) -> int:
+        """Number of segments ``n = max(1, ceil(|q1 - q0| / delta))``."""
+        diff = q1 - q0
+        length = math.sqrt(float(diff @ diff))
+        return max(1, math.ceil(length / self.edge.resolution - 1e-12))
+
+    def motion_valid(self, q0: FloatArray, q1: FloatArray, *, check_end: bool = False) -> bool:
+        """Straight-line local planner (slide 3:32): is the segment ``q0 -> q1`` in Q_free?
+
+        Points ``q0 + (k / n)(q1 - q0)`` are checked in bisection order with early exit.
+        ``q0`` is assumed valid; ``q1`` is checked only if ``check_end``.
+        """
+        self.edge_checks += 1
+        n = self.segments(q0, q1)
+        order = bisection_order(n)
+        if check_end:
+            if self.checker.first_invalid(q1[None, :]) >= 0:
+                return False
+        if order.size == 0:
+            return True
+        t = order / n
+        points = q0 + t[:, None] * (q1 - q0)
+        start, size, cap = 0, 1, self.edge.max_batch
+        total = points.shape[0]
+        while start < total:
+            stop = min(total, start + size)
+            if self.checker.first_invalid(points[start:stop]) >= 0:
+                return False
+            start = stop
+            size = min(cap, size * 4)
+        return True
+
+    def path_valid(self, path: FloatArray, *, resolution: float | None = None) -> bool:
+        """Every waypoint and every edge of ``path`` (shape (m, d)) is in Q_free.
+
+        Args:
+            path: waypoints.
+            resolution: check edges at this resolution instead of the planner's.
+        """
+        arr = np.atleast_2d(np.asarray(path, dtype=float))
+        if arr.shape[1] != self.dim:
+            raise InvalidInputError(f"path must have shape (m, {self.dim}), got {arr.shape}")
+        if self.checker.first_invalid(arr) >= 0:
+            return False
+        saved = self.edge
+        if resolution is not None:
+            self.edge = EdgeCheckOptions(
+                resolution=check_positive(resolution, "resolution"), max_batch=saved.max_batch
+            )
+        try:
+            return all(self.motion_valid(arr[i], arr[i + 1]) for i in range(arr.shape[0] - 1))
+        finally:
+            self.edge = saved
+
+
+def path_length(path: FloatArray) -> float:
+    """Euclidean length ``sum_i |q_{i+1} - q_i|`` of a waypoint path [rad or m]."""
+    arr = np.atleast_2d(np.asarray(path, dtype=float))
+    if arr.shape[0] < 2:
+        return 0.0
+    return float(np.linalg.norm(np.diff(arr, axis=0), axis=1).sum())

@@ -1,0 +1,83 @@
+"""Result of the sampling-based planners (PRM, Lazy PRM, RRT, RRT-Connect)."""
+
+from __future__ import annotations
+
+import enum
+from dataclasses import dataclass, field
+
+import numpy as np
+import numpy.typing as npt
+
+FloatArray = npt.NDArray[np.float64]
+
+
+class PlannerStatus(enum.Enum):
+    """Why a sampling-based planner stopped."""
+
+    SOLVED = "solved"
+    """A collision-free path from start to goal was found."""
+    TIME_LIMIT = "time_limit"
+    """The wall-clock budget ran out before a path was found."""
+    ITERATION_LIMIT = "iteration_limit"
+    """The iteration (sample) budget ran out before a path was found."""
+    NO_PATH = "no_path"
+    """The roadmap does not connect start and goal (PRM, Lazy PRM)."""
+
+
+@dataclass
+class Tree:
+    """A search tree: node configurations and parent indices (-1 for the root).
+
+    Attributes:
+        nodes: configurations, shape (n, d).
+        parents: parent index of each node, shape (n,).
+    """
+
+    nodes: FloatArray
+    parents: npt.NDArray[np.int64]
+
+    @property
+    def size(self) -> int:
+        """Number of nodes."""
+        return int(self.nodes.shape[0])
+
+    def edges(self) -> FloatArray:
+        """Edges as segments, shape (n - 1, 2, d) (for plots)."""
+        child = np.flatnonzero(self.parents >= 0)
+        return np.stack([self.nodes[self.parents[child]], self.nodes[child]], axis=1)
+
+    def path_to(self, index: int) -> FloatArray:
+        """Configurations from the root to node ``index``, shape (m, d)."""
+        idx = [index]
+        while self.parents[idx[-1]] >= 0:
+            idx.append(int(self.parents[idx[-1]]))
+        return self.nodes[idx[::-1]]
+
+
+@dataclass
+class PlannerResult:
+    """Outcome of a planning query.
+
+    Attributes:
+        success: a path was found.
+        status: why the planner stopped.
+        path: waypoints from start to goal, shape (m, d); shape (0, d) on failure.
+        path_length: Euclidean length of ``path`` [rad or m] (``inf`` on failure).
+        iterations: samples drawn (RRT iterations, PRM samples).
+        collision_checks: configurations evaluated by the validity checker.
+        edge_checks: local-planner (straight-line) queries.
+        time_s: wall-clock planning time [s].
+        trees: search trees (RRT: one, RRT-Connect: start and goal trees; PRM: none).
+        log: extra diagnostics (roadmap sizes, shortcut statistics, ...).
+    """
+
+    success: bool
+    status: PlannerStatus
+    path: FloatArray
+    path_length: float
+    iterations: int
+    collision_checks: int
+    edge_checks: int
+    time_s: float
+    trees: list[Tree] = field(default_factory=list, repr=False)
+    log: dict[str, float] = field(default_factory=dict)

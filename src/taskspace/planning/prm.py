@@ -1,0 +1,305 @@
+"""Probabilistic roadmaps (slides 3:28-3:36; Kavraki, Svestka, Latombe, Overmars 1996).
+
+Generation (slide 3:31)::
+
+    V <- n free samples (uniform, Gaussian or bridge sampling, slide 3:35)
+    for q in V:
+        for q' in the k nearest neighbours of q in V:      (KD-tree, scipy cKDTree)
+            if the straight segment q -> q' is in Q_free:  E <- E + {(q, q')}
+
+A query (slide 3:30) connects ``q_start`` and ``q_goal`` to their k nearest roadmap nodes with
+the same local planner and runs Dijkstra (or A* with the Euclidean distance to the goal as
+admissible heuristic) on the graph with edge cost ``|q - q'|``. The roadmap is not modified
+by queries, so one roadmap answers many queries (slide 3:36).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+import numpy as np
+import numpy.typing as npt
+from scipy.spatial import cKDTree
+
+from taskspace.errors import InvalidInputError
+from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray, path_length
+from taskspace.planning.graph_search import astar, dijkstra
+from taskspace.planning.planner_result import PlannerResult, PlannerStatus
+from taskspace.planning.sampling import Sampler, sample_free
+
+logger = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True, kw_only=True)
+class PRMOptions:
+    """Settings of :func:`build_prm` and :func:`prm_query`.
+
+    Attributes:
+        n_samples: number of roadmap nodes ``n``.
+        k_neighbors: neighbours ``k`` tried per node (slide 3:31).
+        sampler: ``"uniform"``, ``"gaussian"`` or ``"bridge"`` (slide 3:35).
+        sigma: standard deviation of Gaussian/bridge offsets [rad or m].
+        search: ``"dijkstra"`` or ``"astar"`` for queries.
+        seed: random seed used when no ``rng`` is passed.
+    """
+
+    n_samples: int = 500
+    k_neighbors: int = 10
+    sampler: Sampler = "uniform"
+    sigma: float = 0.3
+    search: Literal["dijkstra", "astar"] = "dijkstra"
+    seed: int = 0
+
+
+@dataclass
+class Roadmap:
+    """A roadmap ``G = (V, E)``.
+
+    Attributes:
+        nodes: configurations, shape (n, d).
+        adjacency: ``adjacency[i]`` lists ``(j, cost)`` with ``cost = |q_i - q_j|``.
+        build_time_s: construction time [s].
+        collision_checks: configurations evaluated while building.
+        edges_tried: local-planner queries while building.
+    """
+
+    nodes: FloatArray
+    adjacency: list[list[tuple[int, float]]]
+    build_time_s: float = 0.0
+    collision_checks: int = 0
+    edges_tried: int = 0
+    _tree: Any = field(default=None, repr=False)
+
+    @property
+    def size(self) -> int:
+        """Number of nodes."""
+        return int(self.nodes.shape[0])
+
+    @property
+    def edges(self) -> npt.NDArray[np.int64]:
+        """Undirected edges ``(i, j)`` with ``i < j``, shape (m, 2)."""
+        pairs = [(i, j) for i, nb in enumerate(self.adjacency) for j, _ in nb if i < j]
+        return np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
+
+    @property
+    def kdtree(self) -> Any:
+        """KD-tree over the nodes (built on first use)."""
+        if self._tree is None:
+            self._tree = cKDTree(self.nodes)
+        return self._tree
+
+    def components(self) -> npt.NDArray[np.int64]:
+        """Connected-component label of every node."""
+        from scipy.sparse import coo_matrix
+        from scipy.sparse.csgraph import connected_components
+
+        e = self.edges
+        n = self.size
+        mat = coo_matrix((np.ones(e.shape[0]), (e[:, 0], e[:, 1])), shape=(n, n))
+        return np.asarray(connected_components(mat, directed=False)[1], dtype=np.int64)
+
+
+def _candidate_pairs(nodes: FloatArray, k: int) -> npt.NDArray[np.int64]:
+    """Unique undirected pairs (i, j), i < j, from the k nearest neighbours of every node."""
+    n = nodes.shape[0]
+    if n < 2 or k < 1:
+        return np.empty((0, 2), dtype=np.int64)
+    kk = min(k + 1, n)
+    _, idx = cKDTree(nodes).query(nodes, k=kk)
+    idx = np.asarray(idx).reshape(n, kk)[:, 1:]
+    rows = np.repeat(np.arange(n), idx.shape[1])
+    pairs = np.stack([rows, idx.ravel()], axis=1)
+    pairs = np.sort(pairs, axis=1)
+    return np.unique(pairs, axis=0)
+
+
+def connect_roadmap(
+    space: ConfigurationSpace, nodes: FloatArray, k: int, *, check_edges: bool = True
+) -> tuple[list[list[tuple[int, float]]], int]:
+    """Adjacency lists of the k-nearest-neighbour graph (edges checked if ``check_edges``).
+
+    Returns:
+        ``(adjacency, edges_tried)``.
+    """
+    n = nodes.shape[0]
+    adjacency: list[list[tuple[int, float]]] = [[] for _ in range(n)]
+    pairs = _candidate_pairs(nodes, k)
+    costs = np.linalg.norm(nodes[pairs[:, 1]] - nodes[pairs[:, 0]], axis=1)
+    for (i, j), c in zip(pairs.tolist(), costs.tolist()):
+        if check_edges and not space.motion_valid(nodes[i], nodes[j]):
+            continue
+        adjacency[i].append((j, c))
+        adjacency[j].append((i, c))
+    return adjacency, int(pairs.shape[0])
+
+
+def build_prm(
+    space: ConfigurationSpace,
+    options: PRMOptions | None = None,
+    *,
+    rng: np.random.Generator | None = None,
+) -> Roadmap:
+    """Build a probabilistic roadmap (slide 3:31).
+
+    Args:
+        space: configuration space with checker and straight-line local planner.
+        options: settings (``n``, ``k``, sampler).
+        rng: random generator (default: ``np.random.default_rng(options.seed)``).
+    """
+    opts = options or PRMOptions()
+    if opts.n_samples < 1 or opts.k_neighbors < 1:
+        raise InvalidInputError("n_samples and k_neighbors must be >= 1")
+    rng = rng if rng is not None else np.random.default_rng(opts.seed)
+    t0 = time.perf_counter()
+    checks0 = space.checks
+    nodes = sample_free(space, opts.n_samples, rng, strategy=opts.sampler, sigma=opts.sigma)
+    adjacency, tried = connect_roadmap(space, nodes, opts.k_neighbors)
+    roadmap = Roadmap(
+        nodes=nodes,
+        adjacency=adjacency,
+        build_time_s=time.perf_counter() - t0,
+        collision_checks=space.checks - checks0,
+        edges_tried=tried,
+    )
+    logger.debug("PRM: %d nodes, %d edges", roadmap.size, roadmap.edges.shape[0])
+    return roadmap
+
+
+def _attach(
+    space: ConfigurationSpace, roadmap: Roadmap, q: FloatArray, k: int, check_edges: bool
+) -> list[tuple[int, float]]:
+    """Edges (node, cost) from ``q`` to its k nearest roadmap nodes that pass the local planner."""
+    kk = min(k, roadmap.size)
+    dist, idx = roadmap.kdtree.query(q, k=kk)
+    out = []
+    for d, j in zip(np.atleast_1d(dist).tolist(), np.atleast_1d(idx).tolist()):
+        if not check_edges or space.motion_valid(q, roadmap.nodes[j]):
+            out.append((int(j), float(d)))
+    return out
+
+
+def query_graph(
+    roadmap: Roadmap,
+    start_edges: list[tuple[int, float]],
+    goal_edges: list[tuple[int, float]],
+    goal_cost: float | None,
+    q_goal: FloatArray,
+    search: str,
+    blocked: set[tuple[int, int]] | None = None,
+) -> tuple[list[int], float]:
+    """Shortest path over roadmap + start node ``-1`` + goal node ``-2``; ``([], inf)`` if none."""
+    s, g = -1, -2
+    goal_in = {j: c for j, c in goal_edges}
+    blocked = blocked or set()
+    adjacency = roadmap.adjacency
+
+    def neighbors(node: int) -> Iterable[tuple[int, float]]:
+        if node == s:
+            out = list(start_edges)
+            if goal_cost is not None:
+                out.append((g, goal_cost))
+            return [e for e in out if (min(s, e[0]), max(s, e[0])) not in blocked]
+        if node == g:
+            return ()
+        out = [e for e in adjacency[node] if (min(node, e[0]), max(node, e[0])) not in blocked]
+        if node in goal_in and (min(node, g), max(node, g)) not in blocked:
+            out.append((g, goal_in[node]))
+        return out
+
+    if search == "astar":
+        nodes = roadmap.nodes
+
+        def heuristic(node: int) -> float:
+            # Euclidean distance to the goal: admissible for edge costs |q - q'|.
+            return float(np.linalg.norm(nodes[node] - q_goal)) if node >= 0 else 0.0
+
+        res = astar(neighbors, s, g, heuristic)
+    else:
+        res = dijkstra(neighbors, s, g)
+    if not res.success:
+        return [], math.inf
+    return [int(v) for v in res.path], float(res.cost)
+
+
+def _assemble(
+    roadmap: Roadmap, ids: list[int], q_start: FloatArray, q_goal: FloatArray
+) -> FloatArray:
+    pts = [q_start if v == -1 else q_goal if v == -2 else roadmap.nodes[v] for v in ids]
+    return np.asarray(pts)
+
+
+def prm_query(
+    space: ConfigurationSpace,
+    roadmap: Roadmap,
+    start: Any,
+    goal: Any,
+    options: PRMOptions | None = None,
+) -> PlannerResult:
+    """Answer one query on a roadmap (slide 3:30); the roadmap is left unchanged.
+
+    Args:
+        space: the configuration space the roadmap was built in.
+        roadmap: from :func:`build_prm`.
+        start: ``q_start``.
+        goal: ``q_goal``.
+        options: ``k_neighbors`` and ``search`` are used.
+
+    Returns:
+        A :class:`PlannerResult` (``NO_PATH`` when start and goal are not connected).
+
+    Raises:
+        PlanningError: start or goal outside the bounds or in collision.
+    """
+    opts = options or PRMOptions()
+    t0 = time.perf_counter()
+    checks0, edges0 = space.checks, space.edge_checks
+    q_start = space.check_endpoint(start, "start")
+    q_goal = space.check_endpoint(goal, "goal")
+    start_edges = _attach(space, roadmap, q_start, opts.k_neighbors, True)
+    goal_edges = _attach(space, roadmap, q_goal, opts.k_neighbors, True)
+    direct = float(np.linalg.norm(q_goal - q_start))
+    goal_cost = direct if space.motion_valid(q_start, q_goal) else None
+    ids, cost = query_graph(roadmap, start_edges, goal_edges, goal_cost, q_goal, opts.search)
+    success = bool(ids)
+    path = _assemble(roadmap, ids, q_start, q_goal) if success else np.empty((0, space.dim))
+    return PlannerResult(
+        success=success,
+        status=PlannerStatus.SOLVED if success else PlannerStatus.NO_PATH,
+        path=path,
+        path_length=path_length(path) if success else math.inf,
+        iterations=roadmap.size,
+        collision_checks=space.checks - checks0,
+        edge_checks=space.edge_checks - edges0,
+        time_s=time.perf_counter() - t0,
+        log={"graph_cost": cost, "roadmap_nodes": float(roadmap.size)},
+    )
+
+
+def prm(
+    space: ConfigurationSpace,
+    start: Any,
+    goal: Any,
+    options: PRMOptions | None = None,
+    *,
+    rng: np.random.Generator | None = None,
+) -> tuple[PlannerResult, Roadmap]:
+    """Build a roadmap and answer one query; ``time_s`` includes the construction.
+
+    Returns:
+        ``(result, roadmap)``; reuse the roadmap with :func:`prm_query`.
+    """
+    opts = options or PRMOptions()
+    space.check_endpoint(start, "start")
+    space.check_endpoint(goal, "goal")
+    checks0, edges0 = space.checks, space.edge_checks
+    roadmap = build_prm(space, opts, rng=rng)
+    result = prm_query(space, roadmap, start, goal, opts)
+    result.time_s += roadmap.build_time_s
+    result.collision_checks = space.checks - checks0
+    result.edge_checks = space.edge_checks - edges0
+    return result, roadmap

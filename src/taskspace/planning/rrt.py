@@ -1,0 +1,131 @@
+"""Rapidly-exploring random trees, plain and goal-biased (slides 3:37-3:41).
+
+Slide 3:39 (plain) and 3:40 (goal-biased, with probability ``beta``)::
+
+    V = {q_start}, E = {}
+    for i = 0..n:
+        q_target <- q_goal with probability beta, else a random sample from Q
+        q_near   <- nearest neighbour of q_target in V
+        q_new    <- q_near + alpha / |q_target - q_near| (q_target - q_near)
+        if q_new in Q_free: V <- V + {q_new}, E <- E + {(q_near, q_new)}
+
+Here ``q_new`` is accepted when the whole segment ``q_near -> q_new`` is free (straight-line
+local planner, slide 3:32), and the search succeeds when a new node lies within ``alpha`` of
+``q_goal`` and the segment to it is free. Without a goal the tree just grows for ``n``
+iterations (the figures of slide 3:38).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from taskspace._validation import check_positive
+from taskspace.errors import InvalidInputError
+from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray, path_length
+from taskspace.planning.planner_result import PlannerResult, PlannerStatus
+from taskspace.planning.rrt_connect import _GrowingTree, _steer
+
+logger = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True, kw_only=True)
+class RRTOptions:
+    """Settings of :func:`rrt`.
+
+    Attributes:
+        step_size: extension step ``alpha`` [rad or m] (slide 3:39).
+        goal_bias: probability ``beta`` of taking ``q_goal`` as target (slide 3:40).
+        max_iterations: number of iterations ``n``.
+        time_limit_s: wall-clock budget [s] (``None`` = no limit).
+        seed: random seed used when no ``rng`` is passed.
+    """
+
+    step_size: float = 0.5
+    goal_bias: float = 0.05
+    max_iterations: int = 10_000
+    time_limit_s: float | None = 5.0
+    seed: int = 0
+
+
+def rrt(
+    space: ConfigurationSpace,
+    start: Any,
+    goal: Any = None,
+    options: RRTOptions | None = None,
+    *,
+    rng: np.random.Generator | None = None,
+) -> PlannerResult:
+    """Grow an RRT from ``start``, towards ``goal`` if given (slides 3:39-3:40).
+
+    Args:
+        space: configuration space with validity checker and local planner.
+        start: ``q_start`` (size d).
+        goal: ``q_goal`` (size d), or ``None`` to grow for ``max_iterations`` iterations.
+        options: planner settings (``alpha``, ``beta``, limits).
+        rng: random generator (default: ``np.random.default_rng(options.seed)``).
+
+    Returns:
+        A :class:`PlannerResult` with the tree in ``trees[0]``; without goal ``success`` is
+        False and ``status`` is ``ITERATION_LIMIT`` (or ``TIME_LIMIT``).
+
+    Raises:
+        PlanningError: start or goal outside the bounds or in collision.
+        InvalidInputError: invalid options.
+    """
+    opts = options or RRTOptions()
+    alpha = check_positive(opts.step_size, "step_size")
+    if not 0.0 <= opts.goal_bias <= 1.0:
+        raise InvalidInputError(f"goal_bias must be in [0, 1], got {opts.goal_bias}")
+    rng = rng if rng is not None else np.random.default_rng(opts.seed)
+    checks0, edges0 = space.checks, space.edge_checks
+    t0 = time.perf_counter()
+    q_start = space.check_endpoint(start, "start")
+    q_goal = None if goal is None else space.check_endpoint(goal, "goal")
+    deadline = math.inf if opts.time_limit_s is None else t0 + opts.time_limit_s
+    tree = _GrowingTree(q_start)
+    status = PlannerStatus.ITERATION_LIMIT
+    path: FloatArray = np.empty((0, space.dim))
+    iterations = 0
+    for iterations in range(1, opts.max_iterations + 1):  # noqa: B007
+        if time.perf_counter() > deadline:
+            status = PlannerStatus.TIME_LIMIT
+            break
+        if q_goal is not None and rng.random() < opts.goal_bias:
+            q_target = q_goal
+        else:
+            q_target = space.sample_uniform(rng)
+        i_near, dist = tree.nn.nearest(q_target)
+        if dist == 0.0:
+            continue
+        q_near = tree.nn.points[i_near]
+        q_new = _steer(q_near, q_target, dist, alpha)
+        if not space.motion_valid(q_near, q_new, check_end=True):
+            continue
+        i_new = tree.add(q_new, i_near)
+        if q_goal is not None:
+            gap = float(np.linalg.norm(q_goal - q_new))
+            if gap <= alpha and space.motion_valid(q_new, q_goal):
+                i_goal = i_new if gap == 0.0 else tree.add(q_goal, i_new)
+                path = tree.freeze().path_to(i_goal)
+                status = PlannerStatus.SOLVED
+                break
+    dt = time.perf_counter() - t0
+    success = status is PlannerStatus.SOLVED
+    logger.debug("rrt %s in %.3f s, %d nodes", status.value, dt, len(tree.nn))
+    return PlannerResult(
+        success=success,
+        status=status,
+        path=path,
+        path_length=path_length(path) if success else math.inf,
+        iterations=iterations,
+        collision_checks=space.checks - checks0,
+        edge_checks=space.edge_checks - edges0,
+        time_s=dt,
+        trees=[tree.freeze()],
+    )

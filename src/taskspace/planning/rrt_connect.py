@@ -1,0 +1,413 @@
+"""Bidirectional RRT: RRT-Connect (slide 3:42; Kuffner and LaValle, ICRA 2000).
+
+Two trees grow from ``q_start`` and ``q_goal``; they swap roles every iteration::
+
+    T_a = {q_start}, T_b = {q_goal}
+    for i = 0..n:
+        q_target <- random sample from Q
+        EXTEND(T_a, q_target):  q_near <- nearest(T_a, q_target)
+                                q_new <- q_near + min(alpha, |q_target - q_near|)
+                                                  * unit(q_target - q_near)
+                                add q_new if the segment q_near -> q_new is in Q_free
+        if q_new was added:
+            CONNECT(T_b, q_new): repeat EXTEND(T_b, q_new) until q_new is reached (path found)
+                                 or the extension is blocked
+        swap(T_a, T_b)
+
+"Choose q_new of T_1 as q_target of T_2" (slide 3:42) is the CONNECT step. Since every
+EXTEND of CONNECT moves along the same straight line ``q_near -> q_new``, the whole CONNECT
+is one line of steps of length ``alpha``; its points are sent to the checker in ONE call, step
+after step (each step: its end point first, then its interior points in bisection order, as
+OMPL's ``DiscreteMotionValidator`` does), and the call stops at the first collision: every
+step before it is free and becomes a node, as in the step-by-step loop, with the same
+collision checks.
+
+Lazy fine checking (coarse-to-fine, in the spirit of SBL, Sanchez and Latombe 2001): tree
+edges are checked eagerly only at a coarse resolution ``delta_c`` (nodes are always checked).
+When the trees connect, the interior points at the full resolution ``delta`` of the edges of
+the candidate path (and only those) are checked, in one call. If one is in collision, that
+edge's child and its subtree are removed and the search goes on; otherwise the path is
+returned. Every edge of a returned path is therefore free at resolution ``delta``, the same
+guarantee as checking every tree edge at ``delta``, but the fine points of the many edges that
+never lie on the solution are not checked. ``coarse_resolution=None`` gives the classic eager
+algorithm. Nearest neighbours: :class:`GrowingNearest`.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from taskspace._validation import check_positive
+from taskspace.errors import InvalidInputError
+from taskspace.planning.configuration_space import (
+    ConfigurationSpace,
+    FloatArray,
+    IntArray,
+    nested_orders,
+    path_length,
+)
+from taskspace.planning.nearest import GrowingNearest
+from taskspace.planning.planner_result import PlannerResult, PlannerStatus, Tree
+
+logger = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True, kw_only=True)
+class RRTConnectOptions:
+    """Settings of :func:`rrt_connect`.
+
+    Attributes:
+        step_size: extension step ``alpha`` [rad or m] (slide 3:39).
+        coarse_resolution: eager edge-check resolution ``delta_c`` [rad or m]; the full
+            resolution ``delta`` of the space is checked only on candidate paths. ``None``
+            (or a value <= ``delta``) checks every tree edge at ``delta`` (classic RRT-Connect).
+        max_iterations: number of samples ``n``.
+        time_limit_s: wall-clock budget [s] (``None`` = no limit).
+        seed: random seed used when no ``rng`` is passed.
+    """
+
+    step_size: float = 0.5
+    coarse_resolution: float | None = 0.15
+    max_iterations: int = 100_000
+    time_limit_s: float | None = 1.0
+    seed: int = 0
+
+
+class _GrowingTree:
+    """Nodes (vectorized nearest), parent indices and the edge-check state of each node.
+
+    ``segments[i]`` is the number ``n`` of full-resolution segments of the edge
+    ``parent -> i``; ``pending[i]`` is True while its fine points have not been checked.
+    """
+
+    def __init__(self, root: FloatArray) -> None:
+        self.nn = GrowingNearest(root.size)
+        self.nn.add(root)
+        self.parents: list[int] = [-1]
+        self.segments: list[int] = [0]
+        self.pending: list[bool] = [False]
+        self.removed: dict[int, FloatArray] = {}
+
+    def add(self, q: FloatArray, parent: int, segments: int = 0, pending: bool = False) -> int:
+        self.parents.append(parent)
+        self.segments.append(segments)
+        self.pending.append(pending)
+        return self.nn.add(q)
+
+    def path_indices(self, index: int) -> list[int]:
+        """Node indices from ``index`` up to the root."""
+        out = [index]
+        parents = self.parents
+        while parents[out[-1]] >= 0:
+            out.append(parents[out[-1]])
+        return out
+
+    def remove_subtree(self, index: int) -> int:
+        """Remove node ``index`` and its descendants (children have larger indices)."""
+        dead = {index}
+        parents = self.parents
+        for i in range(index + 1, len(parents)):
+            if parents[i] in dead:
+                dead.add(i)
+        ids = sorted(dead)
+        points = self.nn.points
+        for i in ids:
+            self.removed[i] = points[i].copy()
+            parents[i] = -1
+            self.pending[i] = False
+        self.nn.disable(ids)
+        return len(ids)
+
+    def freeze(self) -> Tree:
+        nodes = self.nn.points.copy()
+        for i, q in self.removed.items():
+            nodes[i] = q
+        return Tree(nodes=nodes, parents=np.asarray(self.parents, dtype=np.int64))
+
+
+def _steer(q_near: FloatArray, q_target: FloatArray, dist: float, alpha: float) -> FloatArray:
+    """``q_near + alpha / |q_target - q_near| (q_target - q_near)``, or ``q_target`` if closer."""
+    if dist <= alpha:
+        return q_target.copy()
+    return q_near + (alpha / dist) * (q_target - q_near)
+
+
+class _LinePlanner:
+    """Check order of straight lines cut into steps of length ``alpha`` (coarse pass).
+
+    For a step of length ``L``: ``n = ceil(L / delta)`` full-resolution segments; the coarse
+    pass checks the step's end point, then the interior points ``k / n`` with ``k`` a multiple
+    of ``stride = floor(delta_c / delta)`` in bisection order (see :func:`nested_orders`).
+    Patterns are cached: planning a line costs a few numpy operations.
+    """
+
+    def __init__(self, alpha: float, delta: float, delta_c: float) -> None:
+        self.alpha = alpha
+        self.delta = delta
+        self.stride = max(1, int(math.floor(delta_c / delta + 1e-9)))
+        self.lazy = self.stride > 1
+        self._patterns: dict[int, FloatArray] = {}
+        self._full: dict[int, tuple[FloatArray, IntArray]] = {}
+        self.full_n = self.segments(alpha)
+        self.full_u = self.pattern(self.full_n)
+
+    def segments(self, length: float) -> int:
+        return max(1, math.ceil(length / self.delta - 1e-12))
+
+    def pattern(self, n: int) -> FloatArray:
+        """Fractions of one step: end point, then the coarse interior in bisection order."""
+        u = self._patterns.get(n)
+        if u is None:
+            coarse, _ = nested_orders(n, self.stride)
+            u = np.concatenate([[1.0], coarse / n])
+            self._patterns[n] = u
+        return u
+
+    def full_steps(self, count: int) -> tuple[FloatArray, IntArray]:
+        """Distances along the line [rad or m] and step indices of ``count`` full steps."""
+        got = self._full.get(count)
+        if got is None:
+            u = self.full_u
+            s = (np.arange(count)[:, None] + u[None, :]).ravel() * self.alpha
+            got = (s, np.repeat(np.arange(count), u.size))
+            if len(self._full) < 256:
+                self._full[count] = got
+        return got
+
+    def plan(
+        self, dist: float, max_steps: int, end_known_valid: bool
+    ) -> tuple[FloatArray, IntArray | None, list[float], list[int]]:
+        """Fractions ``t`` of the points to check (in order), their step, step ends and sizes.
+
+        Args:
+            dist: line length [rad or m].
+            max_steps: largest number of steps (1 for EXTEND).
+            end_known_valid: the line's end point is a known free node (CONNECT).
+
+        Returns:
+            ``(t, step_of_point, ends, n_segments)``; ``step_of_point`` is None for one step.
+        """
+        alpha = self.alpha
+        whole = max(1, math.ceil(dist / alpha - 1e-12))
+        if whole > max_steps:
+            n_full = max_steps
+            s, steps = self.full_steps(n_full)
+            ends = [(k + 1) * alpha / dist for k in range(n_full)]
+            return s / dist, steps if n_full > 1 else None, ends, [self.full_n] * n_full
+        n_full = whole - 1
+        last = dist - n_full * alpha
+        n_last = self.segments(last)
+        u_last = self.pattern(n_last)
+        if end_known_valid:
+            u_last = u_last[1:]
+        if n_full == 0:
+            return u_last, None, [1.0], [n_last]
+        s, steps = self.full_steps(n_full)
+        t = np.concatenate([s / dist, (n_full * alpha + u_last * last) / dist])
+        steps = np.concatenate([steps, np.full(u_last.size, n_full)])
+        ends = [(k + 1) * alpha / dist for k in range(n_full)] + [1.0]
+        return t, steps, ends, [self.full_n] * n_full + [n_last]
+
+
+def _grow(
+    space: ConfigurationSpace,
+    tree: _GrowingTree,
+    lines: _LinePlanner,
+    i_near: int,
+    target: FloatArray,
+    dist: float,
+    max_steps: int,
+    end_known_valid: bool,
+) -> tuple[int, bool]:
+    """Steps from node ``i_near`` towards ``target``; returns (last node added, target reached).
+
+    The last node is ``i_near`` when the first step is blocked.
+    """
+    q0 = tree.nn.points[i_near].copy()
+    t, steps, ends, n_segments = lines.plan(dist, max_steps, end_known_valid)
+    delta = target - q0
+    bad = space.first_invalid(q0 + t[:, None] * delta) if t.size else -1
+    if bad < 0:
+        n_ok = len(ends)
+    else:
+        n_ok = 0 if steps is None else int(steps[bad])
+    parent = i_near
+    lazy = lines.lazy
+    for k in range(n_ok):
+        q = target.copy() if ends[k] == 1.0 else q0 + ends[k] * delta
+        parent = tree.add(q, parent, n_segments[k], lazy)
+    reached = bad < 0 and ends[-1] == 1.0
+    return parent, reached
+
+
+def _verify(
+    space: ConfigurationSpace, trees: list[tuple[_GrowingTree, int]], stride: int
+) -> tuple[bool, int]:
+    """Check the pending fine points of the edges on the root paths of the given leaves.
+
+    Returns ``(all free, nodes removed)``; on a collision the child of the first colliding
+    edge and its subtree are removed from its tree, the edges checked before it are marked.
+    """
+    edges: list[tuple[_GrowingTree, int]] = []
+    chunks: list[FloatArray] = []
+    owner: list[int] = []
+    for tree, leaf in trees:
+        points = tree.nn.points
+        for i in tree.path_indices(leaf):
+            if not tree.pending[i]:
+                continue
+            n = tree.segments[i]
+            _, fine = nested_orders(n, stride)
+            if fine.size:
+                q0, q1 = points[tree.parents[i]], points[i]
+                chunks.append(q0 + (fine / n)[:, None] * (q1 - q0))
+                owner.append(fine.size)
+            else:
+                owner.append(0)
+            edges.append((tree, i))
+    if not edges:
+        return True, 0
+    counts = np.asarray(owner)
+    bad = space.first_invalid(np.vstack(chunks)) if chunks else -1
+    if bad < 0:
+        for tree, i in edges:
+            tree.pending[i] = False
+        return True, 0
+    cum = np.cumsum(counts)
+    failing = int(np.searchsorted(cum, bad, side="right"))
+    for tree, i in edges[:failing]:
+        tree.pending[i] = False
+    tree, i = edges[failing]
+    return False, tree.remove_subtree(i)
+
+
+def rrt_connect(
+    space: ConfigurationSpace,
+    start: Any,
+    goal: Any,
+    options: RRTConnectOptions | None = None,
+    *,
+    rng: np.random.Generator | None = None,
+) -> PlannerResult:
+    """Plan a collision-free path with RRT-Connect (slide 3:42).
+
+    Every edge of the returned path is free at the space's resolution ``delta``
+    (``space.edge.resolution``); tree edges are checked at ``coarse_resolution`` until they
+    lie on a candidate path (see the module docstring).
+
+    Args:
+        space: configuration space with validity checker and local planner.
+        start: start configuration ``q_start`` (size d).
+        goal: goal configuration ``q_goal`` (size d).
+        options: planner settings.
+        rng: random generator (default: ``np.random.default_rng(options.seed)``).
+
+    Returns:
+        A :class:`PlannerResult`; ``trees`` holds the start and goal trees; ``log`` has the
+        node counts, the candidate paths rejected by the fine check (``lazy_rejections``) and
+        the nodes removed with them.
+
+    Raises:
+        PlanningError: start or goal outside the bounds or in collision (the message lists
+            the colliding pairs).
+        InvalidInputError: invalid options.
+    """
+    opts = options or RRTConnectOptions()
+    alpha = check_positive(opts.step_size, "step_size")
+    if opts.max_iterations < 0:
+        raise InvalidInputError(f"max_iterations must be >= 0, got {opts.max_iterations}")
+    delta = space.edge.resolution
+    delta_c = delta
+    if opts.coarse_resolution is not None:
+        delta_c = max(delta, check_positive(opts.coarse_resolution, "coarse_resolution"))
+    rng = rng if rng is not None else np.random.default_rng(opts.seed)
+    checks0, edges0 = space.checks, space.edge_checks
+    t0 = time.perf_counter()
+    q_start = space.check_endpoint(start, "start")
+    q_goal = space.check_endpoint(goal, "goal")
+    deadline = math.inf if opts.time_limit_s is None else t0 + opts.time_limit_s
+    tree_start, tree_goal = _GrowingTree(q_start), _GrowingTree(q_goal)
+    lines = _LinePlanner(alpha, delta, delta_c)
+    status = PlannerStatus.ITERATION_LIMIT
+    path: FloatArray = np.empty((0, space.dim))
+    iterations = rejections = removed = 0
+    if space.motion_valid(q_start, q_goal):
+        path = np.stack([q_start, q_goal])
+        status = PlannerStatus.SOLVED
+    else:
+        tree_a, tree_b = tree_start, tree_goal
+        block = 256
+        samples = space.sample_uniform(rng, block)
+        for iterations in range(1, opts.max_iterations + 1):  # noqa: B007
+            if time.perf_counter() > deadline:
+                status = PlannerStatus.TIME_LIMIT
+                break
+            j = (iterations - 1) % block
+            if j == 0 and iterations > 1:
+                samples = space.sample_uniform(rng, block)
+            q_rand = samples[j]
+            i_near, dist = tree_a.nn.nearest(q_rand)
+            if dist > 0.0:
+                space.edge_checks += 1
+                a_new, _ = _grow(space, tree_a, lines, i_near, q_rand, dist, 1, False)
+                if a_new != i_near:
+                    q_new = tree_a.nn.points[a_new]
+                    j_near, gap = tree_b.nn.nearest(q_new)
+                    if gap == 0.0:
+                        b_new, reached = j_near, True
+                    else:
+                        space.edge_checks += 1
+                        b_new, reached = _grow(
+                            space, tree_b, lines, j_near, q_new, gap, 1 << 30, True
+                        )
+                    if reached:
+                        ok = True
+                        if lines.lazy:
+                            ok, lost = _verify(
+                                space, [(tree_a, a_new), (tree_b, b_new)], lines.stride
+                            )
+                            rejections += not ok
+                            removed += lost
+                        if ok:
+                            half_a = tree_a.nn.points[tree_a.path_indices(a_new)[::-1]]
+                            half_b = tree_b.nn.points[tree_b.path_indices(b_new)[1:]]
+                            path = np.vstack([half_a, half_b])
+                            if tree_a is tree_goal:
+                                path = path[::-1].copy()
+                            status = PlannerStatus.SOLVED
+                            break
+            tree_a, tree_b = tree_b, tree_a
+    dt = time.perf_counter() - t0
+    success = status is PlannerStatus.SOLVED
+    logger.debug(
+        "rrt_connect %s in %.3f s, %d iterations, %d+%d nodes, %d lazy rejections",
+        status.value,
+        dt,
+        iterations,
+        len(tree_start.nn),
+        len(tree_goal.nn),
+        rejections,
+    )
+    return PlannerResult(
+        success=success,
+        status=status,
+        path=path,
+        path_length=path_length(path) if success else math.inf,
+        iterations=iterations,
+        collision_checks=space.checks - checks0,
+        edge_checks=space.edge_checks - edges0,
+        time_s=dt,
+        trees=[tree_start.freeze(), tree_goal.freeze()],
+        log={
+            "start_tree_nodes": float(len(tree_start.nn)),
+            "goal_tree_nodes": float(len(tree_goal.nn)),
+            "lazy_rejections": float(rejections),
+            "nodes_removed": float(removed),
+        },
+    )

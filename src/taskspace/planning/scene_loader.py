@@ -1,0 +1,294 @@
+"""Load MoveIt planning scenes and motion-plan requests (MotionBenchMaker YAML files).
+
+A MoveIt ``PlanningScene`` YAML lists ``world.collision_objects``, each with ``primitives``
+(``type`` box / sphere / cylinder / cone and ``dimensions``) and ``primitive_poses``
+(``position [x, y, z]`` [m] and ``orientation [x, y, z, w]``, a unit quaternion). MoveIt's
+``SolidPrimitive`` conventions: box ``[size_x, size_y, size_z]``, sphere ``[radius]``,
+cylinder and cone ``[height, radius]`` (axis along z, centered at the pose). Each primitive
+becomes one :class:`~taskspace.model.Obstacle` named ``<id>`` (or ``<id>_<k>`` for objects with
+several primitives).
+
+A ``MotionPlanRequest`` YAML gives ``start_state.joint_state`` (names and positions) and
+``goal_constraints[0].joint_constraints`` (one position per joint). Joints that the robot model
+does not have as free joints (the Panda's locked fingers) are ignored and listed in
+:attr:`PlanningRequest.ignored_joints`.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import coal
+import numpy as np
+import pinocchio as pin
+import yaml
+
+from taskspace.errors import InvalidInputError, ModelLoadError
+from taskspace.model.robot import Robot
+from taskspace.model.world import Obstacle
+
+logger = logging.getLogger(__name__)
+
+MOTIONBENCHMAKER_SCENARIOS = (
+    "bookshelf_small",
+    "bookshelf_tall",
+    "bookshelf_thin",
+    "box",
+    "cage",
+    "table_pick",
+    "table_under_pick",
+)
+"""The seven Panda scenarios of MotionBenchMaker (Chamzas et al., RA-L 2022)."""
+
+
+def _read_yaml(path: str | Path) -> dict[str, Any]:
+    p = Path(path)
+    if not p.is_file():
+        raise ModelLoadError(f"YAML file not found: {p}")
+    try:
+        with open(p) as f:
+            data = yaml.safe_load(f)
+    except yaml.YAMLError as exc:
+        raise ModelLoadError(f"cannot parse YAML {p}: {exc}") from exc
+    if not isinstance(data, dict):
+        raise ModelLoadError(f"{p}: expected a mapping at the top level")
+    return data
+
+
+def _pose(entry: dict[str, Any], where: str) -> pin.SE3:
+    try:
+        position = np.asarray(entry["position"], dtype=float).reshape(3)
+        quat = np.asarray(entry["orientation"], dtype=float).reshape(4)  # x, y, z, w
+    except (KeyError, ValueError, TypeError) as exc:
+        raise ModelLoadError(
+            f"{where}: pose needs position [x, y, z] and orientation [x, y, z, w]"
+        ) from exc
+    norm = float(np.linalg.norm(quat))
+    if not np.isfinite(norm) or abs(norm - 1.0) > 1e-3:
+        raise ModelLoadError(f"{where}: orientation quaternion has norm {norm}, expected 1")
+    quat = quat / norm
+    rotation = pin.Quaternion(quat[3], quat[0], quat[1], quat[2]).toRotationMatrix()
+    return pin.SE3(rotation, position)
+
+
+def _primitive(name: str, primitive: dict[str, Any], pose: pin.SE3, where: str) -> Obstacle:
+    kind = str(primitive.get("type", "")).lower()
+    dims = [float(x) for x in primitive.get("dimensions", [])]
+    expected = {"box": 3, "sphere": 1, "cylinder": 2, "cone": 2}
+    if kind not in expected:
+        raise ModelLoadError(
+            f"{where}: unsupported primitive type {kind!r}; supported: {', '.join(expected)}"
+        )
+    if len(dims) != expected[kind] or min(dims) <= 0:
+        raise ModelLoadError(
+            f"{where}: {kind} needs {expected[kind]} positive dimensions, got {dims}"
+        )
+    if kind == "box":
+        return Obstacle.box(name, dims, pose)
+    if kind == "sphere":
+        return Obstacle.sphere(name, dims[0], pose)
+    if kind == "cylinder":
+        return Obstacle.cylinder(name, radius=dims[1], length=dims[0], pose=pose)
+    return Obstacle(name, coal.Cone(dims[1], dims[0]), pose)
+
+
+def load_moveit_scene(path: str | Path) -> list[Obstacle]:
+    """Obstacles of a MoveIt planning-scene YAML file (world frame = scene frame).
+
+    Args:
+        path: ``sceneNNNN.yaml``.
+
+    Returns:
+        One obstacle per primitive, in file order.
+
+    Raises:
+        ModelLoadError: missing file, malformed YAML, unsupported shape (meshes, planes).
+    """
+    data = _read_yaml(path)
+    world = data.get("world") or {}
+    objects = world.get("collision_objects") or []
+    obstacles: list[Obstacle] = []
+    for obj in objects:
+        oid = str(obj.get("id", f"object{len(obstacles)}"))
+        for key in ("meshes", "planes"):
+            if obj.get(key):
+                raise ModelLoadError(f"{path}: object '{oid}' has {key}, which are not supported")
+        prims = obj.get("primitives") or []
+        poses = obj.get("primitive_poses") or []
+        if len(prims) != len(poses):
+            raise ModelLoadError(
+                f"{path}: object '{oid}' has {len(prims)} primitives but {len(poses)} poses"
+            )
+        origin = _pose(obj["pose"], f"{path}: {oid}") if "pose" in obj else pin.SE3.Identity()
+        for k, (prim, pose) in enumerate(zip(prims, poses)):
+            name = oid if len(prims) == 1 else f"{oid}_{k}"
+            where = f"{path}: object '{name}'"
+            obstacles.append(_primitive(name, prim, origin * _pose(pose, where), where))
+    return obstacles
+
+
+@dataclass
+class PlanningRequest:
+    """Start and goal of a MoveIt motion-plan request, mapped onto a robot model.
+
+    Attributes:
+        start: start configuration (size nq) [rad].
+        goal: goal configuration (size nq) [rad].
+        ignored_joints: joints of the request that the model does not have (locked).
+        group: MoveIt planning group name.
+    """
+
+    start: np.ndarray
+    goal: np.ndarray
+    ignored_joints: list[str] = field(default_factory=list)
+    group: str = ""
+
+
+def _to_configuration(
+    robot: Robot, names: Sequence[str], values: Sequence[float], ignored: set[str], where: str
+) -> np.ndarray:
+    q = robot.q_default.copy()
+    known = set(robot.joint_names)
+    for name, value in zip(names, values):
+        if name not in known:
+            ignored.add(name)
+            continue
+        joint = robot.model.joints[robot.joint_id(name)]
+        if joint.nq != 1:
+            raise InvalidInputError(f"{where}: joint '{name}' is not a 1-DoF joint")
+        q[joint.idx_q] = float(value)
+    return q
+
+
+def load_moveit_request(robot: Robot, path: str | Path) -> PlanningRequest:
+    """Start and goal configurations of a MoveIt motion-plan request YAML.
+
+    Args:
+        robot: the robot model (joint names must match the request's).
+        path: ``requestNNNN.yaml``.
+
+    Raises:
+        ModelLoadError: missing file or fields, no joint constraint.
+    """
+    data = _read_yaml(path)
+    try:
+        js = data["start_state"]["joint_state"]
+        names, positions = list(js["name"]), list(js["position"])
+        constraints = data["goal_constraints"][0]["joint_constraints"]
+    except (KeyError, IndexError, TypeError) as exc:
+        raise ModelLoadError(
+            f"{path}: expected start_state.joint_state and goal_constraints[0].joint_constraints"
+        ) from exc
+    if len(names) != len(positions):
+        raise ModelLoadError(f"{path}: start_state has {len(names)} names, {len(positions)} values")
+    ignored: set[str] = set()
+    start = _to_configuration(robot, names, positions, ignored, f"{path} start")
+    goal_names = [str(c["joint_name"]) for c in constraints]
+    goal_values = [float(c["position"]) for c in constraints]
+    goal = start.copy()
+    goal_from = _to_configuration(robot, goal_names, goal_values, ignored, f"{path} goal")
+    for name in goal_names:
+        if name in set(robot.joint_names):
+            idx = robot.model.joints[robot.joint_id(name)].idx_q
+            goal[idx] = goal_from[idx]
+    return PlanningRequest(
+        start=start,
+        goal=goal,
+        ignored_joints=sorted(ignored),
+        group=str(data.get("group_name", "")),
+    )
+
+
+@dataclass
+class MotionBenchMakerProblem:
+    """One MotionBenchMaker problem: file paths and parsed content.
+
+    Attributes:
+        scenario: scenario name (``bookshelf_small``...).
+        index: problem number (1-based, as in the file names).
+        scene_path: scene YAML.
+        request_path: request YAML.
+        obstacles: obstacles of the scene.
+    """
+
+    scenario: str
+    index: int
+    scene_path: Path
+    request_path: Path
+    obstacles: list[Obstacle]
+
+    def request(self, robot: Robot) -> PlanningRequest:
+        """Start and goal on ``robot``'s model."""
+        return load_moveit_request(robot, self.request_path)
+
+    def apply(self, robot: Robot) -> PlanningRequest:
+        """Replace ``robot``'s obstacles by this scene's and return the request."""
+        robot.clear_obstacles()
+        robot.add_obstacles(self.obstacles)
+        return self.request(robot)
+
+
+def motionbenchmaker_panda(*, finger_opening: float = 0.04, convex_collision: bool = True) -> Robot:
+    """The registry's Panda (example-robot-data) with the fingers locked open, as in the requests.
+
+    The MotionBenchMaker requests hold both fingers at 0.065 m, beyond the URDF's 0.04 m
+    limit; the registry Panda locks them closed (0.001 m), which puts them inside the object
+    to grasp at most goals. This model locks them at ``finger_opening`` (default: the limit).
+
+    Args:
+        finger_opening: position of each finger joint [m].
+        convex_collision: check convex hulls of the link meshes (default; about 20 % faster
+            than the meshes with the broadphase) instead of the meshes.
+    """
+    robot = Robot.load(
+        "panda",
+        convex_collision=convex_collision,
+        locked_values={"panda_finger_joint1": finger_opening, "panda_finger_joint2": finger_opening},
+    )
+    robot.description = f"{robot.description}, fingers locked at {finger_opening} m"
+    return robot
+
+
+def motionbenchmaker_problems(
+    root: str | Path, scenario: str, indices: Sequence[int] | None = None
+) -> list[MotionBenchMakerProblem]:
+    """Problems of one MotionBenchMaker scenario found under ``root``.
+
+    Args:
+        root: directory holding ``<scenario>_panda/sceneNNNN.yaml`` and ``requestNNNN.yaml``
+            (or ``<scenario>/...``).
+        scenario: one of :data:`MOTIONBENCHMAKER_SCENARIOS` (or any directory name).
+        indices: problem numbers to load (default: every scene file found).
+
+    Raises:
+        ModelLoadError: the scenario directory does not exist or a file is missing.
+    """
+    base = Path(root)
+    folder = next((d for d in (base / f"{scenario}_panda", base / scenario) if d.is_dir()), None)
+    if folder is None:
+        found = sorted(p.name for p in base.iterdir() if p.is_dir()) if base.is_dir() else []
+        raise ModelLoadError(
+            f"no scenario '{scenario}' under {base}; found: {', '.join(found) or 'nothing'}"
+        )
+    if indices is None:
+        indices = sorted(int(p.stem[5:]) for p in folder.glob("scene*.yaml"))
+    problems = []
+    for i in indices:
+        scene = folder / f"scene{i:04d}.yaml"
+        request = folder / f"request{i:04d}.yaml"
+        if not request.is_file():
+            raise ModelLoadError(f"request file not found: {request}")
+        problems.append(
+            MotionBenchMakerProblem(
+                scenario=scenario,
+                index=int(i),
+                scene_path=scene,
+                request_path=request,
+                obstacles=load_moveit_scene(scene),
+            )
+        )
+    return problems

@@ -1,0 +1,139 @@
+"""Path shortcutting: shorten a collision-free waypoint path with straight segments.
+
+Two passes, both using the straight-line local planner (slide 3:32):
+
+1. greedy vertex reduction: from waypoint ``i`` jump to the farthest waypoint ``j`` such that
+   the segment ``q_i -> q_j`` is in Q_free;
+2. random shortcuts: pick two points ``q(s_1), q(s_2)`` at random arc lengths
+   ``s_1 < s_2`` of the path; if the segment between them is in Q_free, it replaces the
+   part of the path between them (the path never gets longer, by the triangle inequality).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from taskspace.errors import InvalidInputError
+from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray, path_length
+
+
+@dataclass(frozen=True, kw_only=True)
+class ShortcutOptions:
+    """Settings of :func:`shortcut_path`.
+
+    Attributes:
+        max_iterations: random shortcut attempts.
+        time_limit_s: wall-clock budget [s] (``None`` = no limit).
+        greedy: run the greedy vertex-reduction pass first.
+        seed: random seed used when no ``rng`` is passed.
+    """
+
+    max_iterations: int = 60
+    time_limit_s: float | None = 0.2
+    greedy: bool = True
+    seed: int = 0
+
+
+@dataclass
+class ShortcutResult:
+    """Shortened path.
+
+    Attributes:
+        path: waypoints, shape (m, d).
+        length_before: input length [rad or m].
+        length_after: output length [rad or m].
+        accepted: shortcuts accepted (greedy jumps and random shortcuts).
+        collision_checks: configurations evaluated.
+        time_s: wall-clock time [s].
+    """
+
+    path: FloatArray
+    length_before: float
+    length_after: float
+    accepted: int
+    collision_checks: int
+    time_s: float
+
+
+def _point_at(path: FloatArray, cumulative: FloatArray, s: float) -> tuple[int, FloatArray]:
+    """Segment index ``i`` and the point at arc length ``s`` on segment ``i -> i + 1``."""
+    i = int(np.searchsorted(cumulative, s, side="right") - 1)
+    i = min(max(i, 0), path.shape[0] - 2)
+    seg = cumulative[i + 1] - cumulative[i]
+    t = 0.0 if seg <= 0 else (s - cumulative[i]) / seg
+    return i, path[i] + t * (path[i + 1] - path[i])
+
+
+def shortcut_path(
+    space: ConfigurationSpace,
+    path: FloatArray,
+    options: ShortcutOptions | None = None,
+    *,
+    rng: np.random.Generator | None = None,
+) -> ShortcutResult:
+    """Shorten a collision-free path (greedy vertex reduction, then random shortcuts).
+
+    Args:
+        space: configuration space (its local planner checks the new segments).
+        path: waypoints from start to goal, shape (m, d), assumed collision-free.
+        options: settings.
+        rng: random generator (default: ``np.random.default_rng(options.seed)``).
+
+    Returns:
+        A :class:`ShortcutResult` whose path has the same endpoints and is no longer.
+    """
+    opts = options or ShortcutOptions()
+    arr = np.atleast_2d(np.asarray(path, dtype=float)).copy()
+    if arr.ndim != 2 or arr.shape[1] != space.dim or arr.shape[0] < 1:
+        raise InvalidInputError(f"path must have shape (m, {space.dim}), got {arr.shape}")
+    rng = rng if rng is not None else np.random.default_rng(opts.seed)
+    t0 = time.perf_counter()
+    deadline = math.inf if opts.time_limit_s is None else t0 + opts.time_limit_s
+    checks0 = space.checks
+    before = path_length(arr)
+    accepted = 0
+    if opts.greedy and arr.shape[0] > 2:
+        keep = [0]
+        i = 0
+        while i < arr.shape[0] - 1:
+            j = arr.shape[0] - 1
+            while j > i + 1 and not space.motion_valid(arr[i], arr[j]):
+                j -= 1
+            accepted += j > i + 1
+            keep.append(j)
+            i = j
+        arr = arr[keep]
+    for _ in range(opts.max_iterations):
+        if arr.shape[0] < 2 or time.perf_counter() > deadline:
+            break
+        cumulative = np.concatenate(
+            [[0.0], np.cumsum(np.linalg.norm(np.diff(arr, axis=0), axis=1))]
+        )
+        total = float(cumulative[-1])
+        if total <= 0:
+            break
+        s1, s2 = np.sort(rng.uniform(0.0, total, 2))
+        i1, p1 = _point_at(arr, cumulative, float(s1))
+        i2, p2 = _point_at(arr, cumulative, float(s2))
+        if i1 == i2:
+            continue  # same segment: already straight
+        if not space.motion_valid(p1, p2):
+            continue
+        new_length = float(np.linalg.norm(p2 - p1))
+        if new_length >= s2 - s1 - 1e-12:
+            continue
+        arr = np.vstack([arr[: i1 + 1], p1, p2, arr[i2 + 1 :]])
+        accepted += 1
+    after = path_length(arr)
+    return ShortcutResult(
+        path=arr,
+        length_before=before,
+        length_after=after,
+        accepted=accepted,
+        collision_checks=space.checks - checks0,
+        time_s=time.perf_counter() - t0,
+    )

@@ -1,0 +1,62 @@
+"""Visualization: meshcat scenes, static HTML, PNG snapshots and matplotlib helpers.
+
+Names are imported lazily so that ``import taskspace.viz.plots_planning`` stays cheap (meshcat
+and playwright are only imported when a viewer or a snapshot is used).
+"""
+
+from __future__ import annotations
+
+from importlib import import_module
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from taskspace.viz.image_comparison import ImageComparison, compare_images
+    from taskspace.viz.plots import save_or_show, style_figure
+    from taskspace.viz.scene_recorder import SceneRecorder
+    from taskspace.viz.snapshots import (
+        SnapshotError,
+        SnapshotOptions,
+        SnapshotResult,
+        close_browser,
+        render_html,
+        snapshot,
+    )
+    from taskspace.viz.viewer import CameraPose, Viewer
+
+_EXPORTS = {
+    "CameraPose": "taskspace.viz.viewer",
+    "ImageComparison": "taskspace.viz.image_comparison",
+    "SceneRecorder": "taskspace.viz.scene_recorder",
+    "SnapshotError": "taskspace.viz.snapshots",
+    "SnapshotOptions": "taskspace.viz.snapshots",
+    "SnapshotResult": "taskspace.viz.snapshots",
+    "Viewer": "taskspace.viz.viewer",
+    "close_browser": "taskspace.viz.snapshots",
+    "compare_images": "taskspace.viz.image_comparison",
+    "render_html": "taskspace.viz.snapshots",
+    "save_or_show": "taskspace.viz.plots",
+    "snapshot": "taskspace.viz.snapshots",
+    "style_figure": "taskspace.viz.plots",
+}
+
+__all__ = [
+    "CameraPose",
+    "ImageComparison",
+    "SceneRecorder",
+    "SnapshotError",
+    "SnapshotOptions",
+    "SnapshotResult",
+    "Viewer",
+    "close_browser",
+    "compare_images",
+    "render_html",
+    "save_or_show",
+    "snapshot",
+    "style_figure",
+]
+
+
+def __getattr__(name: str) -> Any:
+    if name in _EXPORTS:
+        return getattr(import_module(_EXPORTS[name]), name)
+    raise AttributeError(f"module 'taskspace.viz' has no attribute {name!r}")

@@ -1,0 +1,377 @@
+"""PNG snapshots of meshcat scenes rendered by headless Chromium through Playwright.
+
+The static HTML of a scene (:meth:`taskspace.viz.Viewer.static_html`) is loaded from a
+``file://`` URL in Debian's Chromium (``/usr/bin/chromium``, software WebGL through
+SwiftShader). The renderer waits for
+
+1. the readiness token: the last scene command sets the property ``taskspace_ready_token`` of
+   the node ``/taskspace_ready`` (polled through ``viewer.scene_tree``), so every command was
+   applied;
+2. a still scene: with meshcat's control panel (dat.gui) hidden by injected CSS, consecutive
+   screenshots of the page (the WebGL canvas) are identical; the last one is returned.
+
+One browser is started per process and reused (about 1 s to start, then each snapshot costs
+the page load).
+"""
+
+from __future__ import annotations
+
+import atexit
+import logging
+import shutil
+import tempfile
+import threading
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from taskspace.errors import InvalidInputError, TaskspaceError
+
+logger = logging.getLogger(__name__)
+
+CHROMIUM_PATH = "/usr/bin/chromium"
+"""Browser used for snapshots (Debian's ``chromium`` package, never a downloaded browser)."""
+
+CHROMIUM_ARGS = (
+    "--headless",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-quic",
+    "--no-first-run",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--use-angle=swiftshader",
+    "--enable-unsafe-swiftshader",
+    "--force-device-scale-factor=1",
+    "--hide-scrollbars",
+    "--disable-dev-shm-usage",
+)
+
+HIDE_CONTROLS_CSS = ".dg, .dg.ac, .dg.main { display: none !important; }"
+"""CSS injected before the screenshot: hides meshcat's dat.gui control panel."""
+
+_READY_JS = """() => {
+  try {
+    if (typeof viewer === "undefined") { return null; }
+    const node = viewer.scene_tree.find(["taskspace_ready"]);
+    return node.object.taskspace_ready_token || null;
+  } catch (e) { return null; }
+}"""
+
+_PAUSE_JS = """(t) => {
+  try {
+    const a = viewer.animator;
+    if (a && a.actions && a.actions.length) {
+      // actions only apply once started: start them, stop the clock, then seek
+      a.play(); a.pause(); a.seek(t); viewer.set_dirty(); return true;
+    }
+  } catch (e) { return false; }
+  return false;
+}"""
+
+
+class SnapshotError(TaskspaceError):
+    """The browser could not start, or the scene did not become ready in time."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class SnapshotOptions:
+    """Settings of :func:`render_html`.
+
+    Attributes:
+        timeout: maximum time for loading and settling the scene [s].
+        poll_interval: time between readiness polls and canvas captures [s].
+        stable_captures: number of consecutive identical screenshots required.
+        offline: abort every request that is not ``file:`` or ``data:`` (the static HTML must
+            not need the network).
+        animation_time: pause a meshcat animation at this time [s] before the screenshot
+            (``None`` leaves it playing, and the scene never becomes still).
+    """
+
+    timeout: float = 60.0
+    poll_interval: float = 0.05
+    stable_captures: int = 2
+    offline: bool = True
+    animation_time: float | None = 0.0
+
+
+@dataclass(frozen=True, kw_only=True)
+class SnapshotResult:
+    """Result of :func:`render_html`.
+
+    Attributes:
+        png: the screenshot (PNG bytes).
+        success: whether the token was seen and the scene became still.
+        token: the readiness token read from the page (``None`` if never seen).
+        captures: number of screenshots taken until the scene was still.
+        blocked_requests: URLs aborted by the offline routing.
+        page_errors: JavaScript errors (uncaught, console errors, failed commands).
+        seconds: wall time of the rendering [s].
+    """
+
+    png: bytes
+    success: bool
+    token: str | None
+    captures: int
+    blocked_requests: list[str] = field(default_factory=list)
+    page_errors: list[str] = field(default_factory=list)
+    seconds: float = 0.0
+
+
+class BrowserSession:
+    """One headless Chromium (persistent context in a fresh temporary profile), reused.
+
+    Use :func:`browser_session` to get the process-wide instance; it is closed at exit.
+    """
+
+    def __init__(self, executable: str = CHROMIUM_PATH) -> None:
+        if not Path(executable).is_file():
+            raise SnapshotError(
+                f"Chromium is needed for snapshots but {executable} does not exist: "
+                "install it with `apt-get install chromium` (Debian/Ubuntu)"
+            )
+        try:
+            from playwright.sync_api import sync_playwright
+        except ImportError as exc:  # pragma: no cover - dependency of taskspace
+            raise SnapshotError("snapshots need Python playwright: pip install playwright") from exc
+        self._profile = tempfile.mkdtemp(prefix="taskspace-chromium-")
+        self._playwright = sync_playwright().start()
+        try:
+            self.context = self._playwright.chromium.launch_persistent_context(
+                self._profile,
+                executable_path=executable,
+                headless=True,
+                args=list(CHROMIUM_ARGS),
+                viewport={"width": 640, "height": 480},
+                device_scale_factor=1,
+            )
+        except Exception as exc:
+            self._playwright.stop()
+            shutil.rmtree(self._profile, ignore_errors=True)
+            raise SnapshotError(f"cannot start Chromium ({executable}): {exc}") from exc
+        self.lock = threading.Lock()
+
+    def close(self) -> None:
+        """Close the browser and delete its profile directory."""
+        try:
+            self.context.close()
+        finally:
+            self._playwright.stop()
+            shutil.rmtree(self._profile, ignore_errors=True)
+
+
+_SESSION: BrowserSession | None = None
+
+
+def browser_session() -> BrowserSession:
+    """The process-wide :class:`BrowserSession` (started on first use, closed at exit)."""
+    global _SESSION
+    if _SESSION is None:
+        _SESSION = BrowserSession()
+        atexit.register(close_browser)
+    return _SESSION
+
+
+def close_browser() -> None:
+    """Close the process-wide browser (a later snapshot starts a new one)."""
+    global _SESSION
+    if _SESSION is not None:
+        session, _SESSION = _SESSION, None
+        session.close()
+
+
+def _html_source(scene_or_html: Any) -> tuple[Path, Path | None, str | None]:
+    """(file to load, temporary file to delete, expected token) for a scene or HTML."""
+    from taskspace.viz.scene_recorder import SceneRecorder
+    from taskspace.viz.viewer import Viewer
+
+    token: str | None = None
+    html: str | None = None
+    if isinstance(scene_or_html, Viewer):
+        html = scene_or_html.static_html()
+        token = scene_or_html.recorder.token
+    elif isinstance(scene_or_html, SceneRecorder):
+        html = scene_or_html.static_html()
+        token = scene_or_html.token
+    elif isinstance(scene_or_html, Path):
+        if not scene_or_html.is_file():
+            raise InvalidInputError(f"HTML file not found: {scene_or_html}")
+        return scene_or_html.resolve(), None, None
+    elif isinstance(scene_or_html, str):
+        if "<" not in scene_or_html[:1000]:
+            path = Path(scene_or_html)
+            if not path.is_file():
+                raise InvalidInputError(
+                    f"expected HTML text or an existing .html file, got {scene_or_html[:80]!r}"
+                )
+            return path.resolve(), None, None
+        html = scene_or_html
+    else:
+        raise InvalidInputError(
+            "snapshot needs a Viewer, a SceneRecorder, HTML text or a path to an HTML file; "
+            f"got {type(scene_or_html).__name__}"
+        )
+    tmp = tempfile.NamedTemporaryFile("w", suffix=".html", delete=False, encoding="utf-8")
+    with tmp:
+        tmp.write(html)
+    return Path(tmp.name), Path(tmp.name), token
+
+
+def render_html(
+    scene_or_html: Any,
+    size: tuple[int, int] = (640, 480),
+    options: SnapshotOptions | None = None,
+) -> SnapshotResult:
+    """Render a scene or static meshcat HTML in headless Chromium; return a :class:`SnapshotResult`.
+
+    Args:
+        scene_or_html: a :class:`~taskspace.viz.Viewer`, a
+            :class:`~taskspace.viz.scene_recorder.SceneRecorder`, HTML text, or a path to an
+            HTML file.
+        size: image ``(width, height)`` [px].
+        options: timeouts and network policy.
+
+    Raises:
+        SnapshotError: Chromium missing or failing, or the scene not ready within the timeout.
+    """
+    opts = options if options is not None else SnapshotOptions()
+    width, height = _check_size(size)
+    source, temporary, token = _html_source(scene_or_html)
+    session = browser_session()
+    start = time.perf_counter()
+    blocked: list[str] = []
+    errors: list[str] = []
+    try:
+        with session.lock:
+            page = session.context.new_page()
+            try:
+                page.set_viewport_size({"width": width, "height": height})
+                page.on("pageerror", lambda exc: errors.append(f"pageerror: {exc}"))
+                page.on(
+                    "console",
+                    lambda msg: (
+                        errors.append(f"console: {msg.text}") if msg.type == "error" else None
+                    ),
+                )
+                if opts.offline:
+
+                    def _route(route: Any) -> None:
+                        url = route.request.url
+                        if url.startswith(("file:", "data:", "blob:", "about:")):
+                            route.continue_()
+                        else:
+                            blocked.append(url)
+                            route.abort()
+
+                    page.route("**/*", _route)
+                page.goto(source.as_uri(), wait_until="load", timeout=opts.timeout * 1000)
+                seen, captures, still, png = _wait_ready(page, token, opts, start)
+                errors.extend(page.evaluate("() => window.__taskspace_errors || []"))
+            finally:
+                page.close()
+    except SnapshotError:
+        raise
+    except Exception as exc:  # playwright errors (timeouts, crashes)
+        raise SnapshotError(f"rendering {source.name} in Chromium failed: {exc}") from exc
+    finally:
+        if temporary is not None:
+            temporary.unlink(missing_ok=True)
+    for message in errors:
+        logger.warning("snapshot page: %s", message)
+    return SnapshotResult(
+        png=png,
+        success=seen is not None and still,
+        token=seen,
+        captures=captures,
+        blocked_requests=blocked,
+        page_errors=errors,
+        seconds=time.perf_counter() - start,
+    )
+
+
+def _check_size(size: Any) -> tuple[int, int]:
+    try:
+        width, height = (int(s) for s in size)
+    except (TypeError, ValueError) as exc:
+        raise InvalidInputError(f"size must be (width, height) in pixels, got {size!r}") from exc
+    if not (16 <= width <= 4096 and 16 <= height <= 4096):
+        raise InvalidInputError(f"size must be within 16..4096 pixels, got {size!r}")
+    return width, height
+
+
+def _wait_ready(
+    page: Any, token: str | None, opts: SnapshotOptions, start: float
+) -> tuple[str | None, int, bool, bytes]:
+    """Poll the readiness token, then screenshots until ``stable_captures`` agree.
+
+    Returns ``(token, captures, still, last screenshot)``.
+    """
+    deadline = start + opts.timeout
+    seen: str | None = None
+    while time.perf_counter() < deadline:
+        seen = page.evaluate(_READY_JS)
+        if seen is not None and (token is None or seen == token):
+            break
+        page.wait_for_timeout(opts.poll_interval * 1000)
+    else:
+        raise SnapshotError(
+            f"the scene did not become ready within {opts.timeout:.0f} s (readiness token "
+            f"{'never seen' if seen is None else 'mismatch: ' + seen})"
+        )
+    if opts.animation_time is not None:
+        page.evaluate(_PAUSE_JS, float(opts.animation_time))
+    page.add_style_tag(content=HIDE_CONTROLS_CSS)
+    previous = None
+    identical = 0
+    captures = 0
+    while time.perf_counter() < deadline:
+        capture = page.screenshot(type="png", full_page=False)
+        captures += 1
+        if capture == previous:
+            identical += 1
+            if identical >= opts.stable_captures - 1:
+                return seen, captures, True, capture
+        else:
+            identical = 0
+        previous = capture
+        page.wait_for_timeout(opts.poll_interval * 1000)
+    logger.warning("scene still changing after %.0f s (animation playing?)", opts.timeout)
+    return seen, captures, False, previous if previous is not None else b""
+
+
+def snapshot(
+    scene_or_html: Any,
+    path: str | Path | None = None,
+    size: tuple[int, int] = (640, 480),
+    *,
+    options: SnapshotOptions | None = None,
+) -> bytes:
+    """Render a scene (or its static HTML) to a PNG image.
+
+    Args:
+        scene_or_html: a :class:`~taskspace.viz.Viewer`, a scene recorder, HTML text or a
+            path to an HTML file.
+        path: also write the PNG there (parent directories are created).
+        size: image ``(width, height)`` [px].
+        options: timeouts and network policy (:class:`SnapshotOptions`).
+
+    Returns:
+        The PNG bytes.
+
+    Raises:
+        SnapshotError: Chromium is missing (``apt-get install chromium``) or the scene did
+            not become ready.
+    """
+    result = render_html(scene_or_html, size, options)
+    if not result.success:
+        raise SnapshotError(
+            f"the scene did not settle after {result.captures} screenshots "
+            f"({result.seconds:.1f} s); is an animation playing?"
+        )
+    if path is not None:
+        out = Path(path)
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.write_bytes(result.png)
+    return result.png

@@ -1,0 +1,711 @@
+"""``Viewer``: meshcat scenes of robots, frames, targets, paths, trees, obstacles and forces.
+
+Every command goes to a :class:`~taskspace.viz.scene_recorder.SceneRecorder`, so a scene can be
+exported as self-contained static HTML (:meth:`Viewer.static_html`) and rendered to PNG
+(:meth:`Viewer.snapshot`) without any meshcat server. A live meshcat server (zmq + web
+server) is started only with ``Viewer(..., live=True)``; it then receives the same commands.
+
+Camera: meshcat 0.3.2 has no ``set_cam_target``/``set_cam_pos`` commands and its orbit
+controls always look at the origin. :meth:`Viewer.set_camera` therefore translates the whole
+scene (``/meshcat``, ``/Grid``, ``/Axes``) by ``-target`` and sets the ``position`` property of
+``/Cameras/default/rotated/<object>``, which lives in three.js' y-up frame: a z-up offset
+``(x, y, z)`` is written as ``(x, z, -y)``.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import pinocchio as pin
+
+from taskspace._validation import FloatArray, as_matrix, as_vector, check_positive
+from taskspace.errors import InvalidInputError, UnknownNameError
+from taskspace.model.world import World, as_se3
+from taskspace.viz.meshcat_geometry import (
+    geometry_aabb,
+    geometry_commands,
+    homogeneous,
+    parse_color,
+    phong,
+    rgb_int,
+    rotation_y_to,
+    tube_mesh,
+)
+from taskspace.viz.scene_recorder import SceneRecorder
+
+if TYPE_CHECKING:
+    from taskspace.model.robot import Robot
+
+logger = logging.getLogger(__name__)
+
+CAMERA_FOV_DEG = 75.0
+"""Vertical field of view of meshcat's default perspective camera [deg]."""
+
+DEFAULT_VIEW_DIRECTION = (1.0, 0.75, 0.55)
+"""Direction from the target to the camera used by automatic framing (z up)."""
+
+_AXIS_COLORS = ((0.9, 0.1, 0.1, 1.0), (0.1, 0.75, 0.1, 1.0), (0.1, 0.25, 0.95, 1.0))
+
+
+@dataclass(frozen=True, kw_only=True)
+class CameraPose:
+    """Camera placement in the world (z up).
+
+    Attributes:
+        position: camera position [m].
+        target: point looked at [m].
+    """
+
+    position: tuple[float, float, float]
+    target: tuple[float, float, float]
+
+
+def _root_path(name: str) -> Any:
+    import meshcat.path as mp
+
+    return mp.Path((name,))
+
+
+def _safe(name: str) -> str:
+    return name.replace("/", "_").replace(" ", "_") or "_"
+
+
+class Viewer:
+    """A meshcat scene recorder with robot display, markers, animations and exports.
+
+    Args:
+        robot: robot to display (optional; markers can be drawn without one).
+        q: initial configuration (default posture if omitted).
+        geometry: ``"visual"`` or ``"collision"`` geometry of the robot.
+        color: RGBA override for every robot geometry (default: the model colors).
+        live: also start (or connect to) a meshcat server and send every command to it.
+        zmq_url: URL of an existing meshcat server (implies ``live``).
+        show_obstacles: draw the obstacles of ``robot.world``.
+        floor: draw a floor grid at ``z = 0`` under the scene at export time. meshcat's own
+            20 m grid is hidden: its long lines cross the camera's near plane, and
+            software WebGL (SwiftShader, used for snapshots) then drops them.
+
+    Example:
+        >>> viewer = Viewer(Robot.load("panda"))            # doctest: +SKIP
+        >>> viewer.add_frame("tcp", robot.frame_placement(q, "panda_hand_tcp"))  # doctest: +SKIP
+        >>> viewer.save_html("scene.html"); png = viewer.snapshot("scene.png")  # doctest: +SKIP
+    """
+
+    def __init__(
+        self,
+        robot: Robot | None = None,
+        q: Any = None,
+        *,
+        geometry: str = "visual",
+        color: Any = None,
+        live: bool = False,
+        zmq_url: str | None = None,
+        show_obstacles: bool = True,
+        floor: bool = True,
+    ) -> None:
+        import meshcat
+
+        if geometry not in ("visual", "collision"):
+            raise InvalidInputError(f"geometry must be 'visual' or 'collision', got {geometry!r}")
+        forward = None
+        if live or zmq_url is not None:
+            forward = meshcat.Visualizer(zmq_url=zmq_url).window
+        self.recorder = SceneRecorder(forward=forward)
+        self.vis = meshcat.Visualizer(window=self.recorder)
+        self.robot = robot
+        self.geometry = geometry
+        self._bounds: dict[str, FloatArray] = {}
+        self._camera: CameraPose | None = None
+        self._geom_paths: list[str] = []
+        self._q: FloatArray | None = None
+        self.floor = floor
+        self._floor_drawn = False
+        meshcat.Visualizer.view_into(self.recorder, _root_path("Grid")).set_property(
+            "visible", False
+        )
+        if robot is not None:
+            self._load_robot(robot, color)
+            self.display(robot.q_default if q is None else q)
+            if show_obstacles and len(robot.world):
+                self.add_obstacles()
+
+    # ------------------------------------------------------------------ robot
+    @property
+    def geometry_model(self) -> pin.GeometryModel:
+        """The displayed geometry model (robot geometries only)."""
+        robot = self._require_robot()
+        return robot.visual_model if self.geometry == "visual" else robot.collision_model
+
+    def _require_robot(self) -> Robot:
+        if self.robot is None:
+            raise InvalidInputError("this viewer has no robot: create it with Viewer(robot)")
+        return self.robot
+
+    def _robot_geometries(self) -> list[pin.GeometryObject]:
+        robot = self._require_robot()
+        objs = list(self.geometry_model.geometryObjects)
+        if self.geometry == "collision":
+            objs = objs[: robot.robot_geometry_count]
+        return objs
+
+    def _load_robot(self, robot: Robot, color: Any) -> None:
+        import meshcat.commands as mc
+
+        base = f"robot/{self.geometry}"
+        self._geom_paths = []
+        for k, obj in enumerate(self._robot_geometries()):
+            node = f"{base}/{k:03d}_{_safe(obj.name)}"
+            commands, offset, scaled = geometry_commands(f"/meshcat/{node}/shape", obj, color=color)
+            for command in commands:
+                self.recorder.send(command)
+            if scaled:
+                offset = offset @ np.diag(np.append(np.asarray(obj.meshScale, float), 1.0))
+            if commands and not np.allclose(offset, np.eye(4)):
+                self.recorder.send(mc.SetTransform(offset, self.vis[f"{node}/shape"].path))
+            self._geom_paths.append(node)
+
+    def _placements(self, q: FloatArray) -> list[pin.SE3]:
+        robot = self._require_robot()
+        data = robot.model.createData()
+        gmodel = self.geometry_model
+        gdata = gmodel.createData()
+        pin.forwardKinematics(robot.model, data, q)
+        pin.updateGeometryPlacements(robot.model, data, gmodel, gdata)
+        return [gdata.oMg[k].copy() for k in range(len(self._geom_paths))]
+
+    def display(self, q: Any) -> None:
+        """Place the robot at configuration ``q`` (size nq).
+
+        Raises:
+            ShapeError, NotFiniteError: malformed ``q``.
+        """
+        robot = self._require_robot()
+        qa = robot.check_configuration(q)
+        placements = self._placements(qa)
+        corners = []
+        for node, obj, placement in zip(self._geom_paths, self._robot_geometries(), placements):
+            self.vis[node].set_transform(placement.homogeneous)
+            box = geometry_aabb(obj.geometry, placement)
+            corners.append(box if box is not None else placement.translation[None, :])
+        self._q = qa
+        if corners:
+            self._bounds["__robot__"] = np.vstack(corners)
+
+    @property
+    def q(self) -> FloatArray:
+        """The configuration last displayed."""
+        if self._q is None:
+            raise InvalidInputError("no configuration displayed yet: call display(q)")
+        return self._q
+
+    # ------------------------------------------------------------------ markers
+    def _marker(self, name: str) -> str:
+        if not name or not isinstance(name, str):
+            raise InvalidInputError(f"marker name must be a non-empty string, got {name!r}")
+        return f"markers/{_safe(name)}"
+
+    def add_frame(
+        self, name: str, pose: Any, scale: float = 0.1, radius: float | None = None
+    ) -> None:
+        """Draw a triad (x red, y green, z blue) at ``pose``.
+
+        Args:
+            name: marker name (replaces a marker of the same name).
+            pose: ``pin.SE3``, 4x4 matrix, ``[x, y, z]`` or ``[x, y, z, qx, qy, qz, qw]``.
+            scale: axis length [m].
+            radius: axis radius [m] (default ``scale / 25``).
+        """
+        import meshcat.geometry as mg
+
+        placement = as_se3(pose, "pose")
+        length = check_positive(scale, "scale")
+        r = length / 25.0 if radius is None else check_positive(radius, "radius")
+        node = self._marker(name)
+        self.vis[node].delete()
+        for axis, label in enumerate("xyz"):
+            direction = np.eye(3)[axis]
+            child = self.vis[f"{node}/{label}"]
+            child.set_object(mg.Cylinder(length, r), phong(_AXIS_COLORS[axis]))
+            child.set_transform(homogeneous(rotation_y_to(direction), direction * length / 2))
+        self.vis[node].set_transform(placement.homogeneous)
+        self._bounds[node] = placement.translation + length * np.vstack([np.zeros(3), np.eye(3)])
+
+    def add_target(
+        self, name: str, pose: Any, scale: float = 0.1, color: Any = (1.0, 0.55, 0.0, 0.5)
+    ) -> None:
+        """Draw a target: a triad at ``pose`` inside a translucent sphere of radius ``scale/3``."""
+        import meshcat.geometry as mg
+
+        self.add_frame(name, pose, scale)
+        node = self._marker(name)
+        self.vis[f"{node}/ball"].set_object(mg.Sphere(scale / 3.0), phong(parse_color(color)))
+
+    def add_robot_frames(self, frames: Sequence[str] | None = None, scale: float = 0.1) -> None:
+        """Draw triads at robot frames for the displayed configuration (default: end-effectors)."""
+        robot = self._require_robot()
+        names = list(robot.end_effectors) if frames is None else list(frames)
+        for frame in names:
+            self.add_frame(f"frame_{frame}", robot.frame_placement(self.q, frame), scale)
+
+    def add_points(
+        self, name: str, points: Any, color: Any = (0.95, 0.8, 0.1), size: float = 0.02
+    ) -> None:
+        """Draw points ``(N, 3)`` [m] as squares of side ``size`` [m]."""
+        import meshcat.geometry as mg
+
+        p = as_matrix(points, (None, 3), "points")
+        node = self._marker(name)
+        material = mg.PointsMaterial(
+            size=check_positive(size, "size"), color=rgb_int(parse_color(color))
+        )
+        self.vis[node].set_object(mg.PointsGeometry(p.T.astype(np.float32)), material)
+        self._bounds[node] = p
+
+    def add_path(
+        self,
+        name: str,
+        points: Any,
+        color: Any = (0.95, 0.2, 0.6),
+        radius: float | None = 0.005,
+    ) -> None:
+        """Draw a polyline through ``points (N, 3)`` [m] (end-effector traces, planned paths).
+
+        Args:
+            name: marker name.
+            points: the vertices, ``N >= 2``.
+            color: RGB(A) in [0, 1].
+            radius: tube radius [m] (WebGL lines are 1 pixel wide); ``None`` draws a line.
+        """
+        import meshcat.geometry as mg
+
+        p = as_matrix(points, (None, 3), "points")
+        if p.shape[0] < 2:
+            raise InvalidInputError(f"a path needs at least 2 points, got {p.shape[0]}")
+        node = self._marker(name)
+        rgba = parse_color(color)
+        if radius is None:
+            line = mg.Line(
+                mg.PointsGeometry(p.T.astype(np.float32)),
+                mg.LineBasicMaterial(color=rgb_int(rgba)),
+            )
+            self.vis[node].set_object(line)
+        else:
+            vertices, faces = tube_mesh(p, check_positive(radius, "radius"))
+            self.vis[node].set_object(mg.TriangularMeshGeometry(vertices, faces), phong(rgba))
+        self._bounds[node] = p
+
+    def add_frame_trace(
+        self,
+        name: str,
+        configurations: Any,
+        frame: str | None = None,
+        color: Any = (0.95, 0.2, 0.6),
+        radius: float | None = 0.005,
+    ) -> FloatArray:
+        """Draw the trace of a robot frame (default: first end-effector) along configurations.
+
+        Returns:
+            The traced positions ``(N, 3)`` [m].
+        """
+        robot = self._require_robot()
+        qs = as_matrix(configurations, (None, robot.nq), "configurations")
+        frame_name = frame if frame is not None else robot.end_effectors[0]
+        fid = robot.frame_id(frame_name)
+        data = robot.model.createData()
+        points = np.empty((qs.shape[0], 3))
+        for i, q in enumerate(qs):
+            pin.framesForwardKinematics(robot.model, data, q)
+            points[i] = data.oMf[fid].translation
+        self.add_path(name, points, color, radius)
+        return points
+
+    def add_segments(
+        self, name: str, segments: Any, color: Any = (0.2, 0.2, 0.2), radius: float | None = None
+    ) -> None:
+        """Draw line segments ``(E, 2, 3)`` [m] (trees, roadmaps, visibility graphs).
+
+        Args:
+            name: marker name.
+            segments: segment end points.
+            color: RGB(A) in [0, 1].
+            radius: draw each segment as a tube of this radius [m] instead of a 1-px line.
+        """
+        import meshcat.geometry as mg
+
+        try:
+            s = np.asarray(segments, dtype=float)
+        except (TypeError, ValueError) as exc:
+            raise InvalidInputError(f"segments must be numbers: {exc}") from exc
+        if s.ndim != 3 or s.shape[1:] != (2, 3) or s.shape[0] == 0:
+            raise InvalidInputError(
+                f"segments must have shape (E, 2, 3) with E >= 1, got {s.shape}"
+            )
+        if not np.all(np.isfinite(s)):
+            raise InvalidInputError("segments have non-finite entries")
+        node = self._marker(name)
+        rgba = parse_color(color)
+        flat = s.reshape(-1, 3)
+        if radius is None:
+            obj = mg.LineSegments(
+                mg.PointsGeometry(flat.T.astype(np.float32)),
+                mg.LineBasicMaterial(color=rgb_int(rgba)),
+            )
+            self.vis[node].set_object(obj)
+        else:
+            r = check_positive(radius, "radius")
+            parts = [tube_mesh(seg, r, sides=6) for seg in s]
+            offsets = np.cumsum([0] + [v.shape[0] for v, _ in parts[:-1]])
+            vertices = np.vstack([v for v, _ in parts])
+            faces = np.vstack([f + o for (_, f), o in zip(parts, offsets)])
+            self.vis[node].set_object(mg.TriangularMeshGeometry(vertices, faces), phong(rgba))
+        self._bounds[node] = flat
+
+    def add_tree(
+        self,
+        name: str,
+        nodes: Any,
+        edges: Any,
+        color: Any = (0.2, 0.2, 0.2),
+        radius: float | None = None,
+        node_size: float | None = None,
+    ) -> None:
+        """Draw a planning tree or roadmap: node positions ``(N, 3)`` [m], edges ``(E, 2)``.
+
+        Edges are index pairs into ``nodes`` (for a tree, ``(i, parent[i])``).
+        """
+        p = as_matrix(nodes, (None, 3), "nodes")
+        try:
+            e = np.asarray(edges, dtype=int).reshape(-1, 2)
+        except (TypeError, ValueError) as exc:
+            raise InvalidInputError(f"edges must be integer pairs (E, 2): {exc}") from exc
+        if e.size and (e.min() < 0 or e.max() >= p.shape[0]):
+            raise InvalidInputError(
+                f"edges index nodes 0..{p.shape[0] - 1}, got indices in [{e.min()}, {e.max()}]"
+            )
+        if e.shape[0]:
+            self.add_segments(name, p[e], color, radius)
+        if node_size is not None:
+            self.add_points(f"{name}_nodes", p, color, node_size)
+
+    def add_arrow(
+        self,
+        name: str,
+        origin: Any,
+        vector: Any,
+        color: Any = (0.9, 0.15, 0.1),
+        radius: float = 0.01,
+        on_top: bool = False,
+    ) -> None:
+        """Draw an arrow from ``origin`` along ``vector`` [m] (shaft + cone head).
+
+        ``on_top`` draws it over the robot (visible inside a foot or a hand).
+        """
+        import meshcat.geometry as mg
+
+        from taskspace.viz.meshcat_geometry import ConeGeometry
+
+        o = as_vector(origin, 3, "origin")
+        v = as_vector(vector, 3, "vector")
+        length = float(np.linalg.norm(v))
+        node = self._marker(name)
+        self.vis[node].delete()
+        if length < 1e-9:
+            self._bounds.pop(node, None)
+            return
+        r = check_positive(radius, "radius")
+        head = min(0.3 * length, 5.0 * r)
+        shaft = length - head
+        material = phong(parse_color(color), on_top=on_top)
+        self.vis[f"{node}/shaft"].set_object(mg.Cylinder(shaft, r), material)
+        self.vis[f"{node}/shaft"].set_transform(homogeneous(translation=[0.0, shaft / 2, 0.0]))
+        self.vis[f"{node}/head"].set_object(ConeGeometry(head, 2.2 * r), material)
+        self.vis[f"{node}/head"].set_transform(
+            homogeneous(translation=[0.0, shaft + head / 2, 0.0])
+        )
+        self.vis[node].set_transform(homogeneous(rotation_y_to(v), o))
+        self._bounds[node] = np.vstack([o, o + v])
+
+    def add_force(
+        self,
+        name: str,
+        point: Any,
+        force: Any,
+        scale: float = 0.002,
+        color: Any = (0.9, 0.15, 0.1),
+        radius: float = 0.012,
+        on_top: bool = True,
+    ) -> None:
+        """Draw a contact force [N] applied at ``point`` [m] as an arrow of ``scale`` [m/N].
+
+        The arrow starts at the contact point; by default it is drawn over the robot.
+        """
+        f = as_vector(force, 3, "force")
+        self.add_arrow(name, point, check_positive(scale, "scale") * f, color, radius, on_top)
+
+    def add_com(
+        self,
+        name: str = "com",
+        q: Any = None,
+        radius: float = 0.04,
+        color: Any = (0.95, 0.75, 0.05),
+        on_top: bool = True,
+    ) -> FloatArray:
+        """Draw the robot's center of mass (sphere) and its ground projection (line to z=0).
+
+        ``com = sum_i m_i c_i / sum_i m_i`` (Pinocchio ``centerOfMass``); by default drawn over
+        the robot, since it usually lies inside the body.
+
+        Returns:
+            The center of mass [m].
+        """
+        import meshcat.geometry as mg
+
+        robot = self._require_robot()
+        qa = self.q if q is None else robot.check_configuration(q)
+        com = np.asarray(pin.centerOfMass(robot.model, robot.model.createData(), qa), dtype=float)
+        node = self._marker(name)
+        material = phong(color, on_top=on_top)
+        self.vis[f"{node}/ball"].set_object(mg.Sphere(check_positive(radius, "radius")), material)
+        self.vis[f"{node}/ball"].set_transform(homogeneous(translation=com))
+        ground = np.array([com, [com[0], com[1], 0.0]])
+        vertices, faces = tube_mesh(ground, radius / 6.0)
+        self.vis[f"{node}/drop"].set_object(mg.TriangularMeshGeometry(vertices, faces), material)
+        self._bounds[node] = com[None, :]
+        return com
+
+    def add_obstacles(self, world: World | None = None, color: Any = None) -> None:
+        """Draw the obstacles of ``world`` (default: the robot's world)."""
+        if world is None:
+            world = self._require_robot().world
+        for obstacle in world:
+            node = f"obstacles/{_safe(obstacle.name)}"
+            geom = pin.GeometryObject(obstacle.name, 0, 0, pin.SE3.Identity(), obstacle.geometry)
+            if obstacle.mesh_path:
+                geom.meshPath = obstacle.mesh_path
+            geom.meshColor = np.asarray(obstacle.color, dtype=float)
+            commands, offset, _ = geometry_commands(f"/meshcat/{node}/shape", geom, color)
+            for command in commands:
+                self.recorder.send(command)
+            if not np.allclose(offset, np.eye(4)):
+                self.vis[f"{node}/shape"].set_transform(offset)
+            self.vis[node].set_transform(obstacle.placement.homogeneous)
+            box = geometry_aabb(obstacle.geometry, obstacle.placement)
+            self._bounds[node] = box if box is not None else obstacle.placement.translation[None]
+
+    def delete(self, name: str) -> None:
+        """Remove a marker (or ``"obstacles"``) from the scene."""
+        node = name if name == "obstacles" else self._marker(name)
+        known = {k for k in self._bounds if k.startswith(node)}
+        if not known and name != "obstacles":
+            valid = [k.removeprefix("markers/") for k in self._bounds if k.startswith("markers/")]
+            raise UnknownNameError("marker", name, valid)
+        self.vis[node].delete()
+        for k in known:
+            del self._bounds[k]
+
+    # ------------------------------------------------------------------ animation
+    def play(
+        self,
+        configurations: Any,
+        dt: float,
+        *,
+        fps: float = 30.0,
+        autoplay: bool = True,
+        repetitions: int = 1,
+    ) -> int:
+        """Animate the robot through ``configurations (N, nq)`` sampled every ``dt`` [s].
+
+        The trajectory is resampled at ``fps`` frames per second (configurations interpolated
+        on the configuration manifold, ``pin.interpolate``) and stored as a meshcat animation:
+        the exported HTML has a time slider and play controls. The static scene shows the
+        first configuration.
+
+        Returns:
+            The number of animation frames.
+        """
+        from meshcat.animation import Animation
+
+        robot = self._require_robot()
+        qs = as_matrix(configurations, (None, robot.nq), "configurations")
+        step = check_positive(dt, "dt")
+        rate = check_positive(fps, "fps")
+        if qs.shape[0] < 1:
+            raise InvalidInputError("play needs at least one configuration")
+        for i, q in enumerate(qs):
+            robot.check_configuration(q, f"configurations[{i}]")
+        duration = (qs.shape[0] - 1) * step
+        n_frames = max(1, math.floor(duration * rate + 1e-9) + 1)
+        self.display(qs[0])
+        animation = Animation(default_framerate=rate)
+        for frame in range(n_frames):
+            s = min(frame / rate / step, qs.shape[0] - 1.0)
+            i = min(math.floor(s), qs.shape[0] - 2) if qs.shape[0] > 1 else 0
+            alpha = s - i
+            if qs.shape[0] > 1:
+                q = pin.interpolate(robot.model, qs[i], qs[i + 1], alpha)
+            else:
+                q = qs[0]
+            with animation.at_frame(self.vis, frame) as anim_frame:
+                for node, placement in zip(self._geom_paths, self._placements(q)):
+                    anim_frame[node].set_transform(placement.homogeneous)
+        self.vis.set_animation(animation, play=autoplay, repetitions=int(repetitions))
+        return n_frames
+
+    # ------------------------------------------------------------------ camera
+    def scene_bounds(self) -> tuple[FloatArray, FloatArray]:
+        """Axis-aligned bounds ``(lower, upper)`` [m] of everything drawn so far."""
+        if not self._bounds:
+            return np.full(3, -0.5), np.full(3, 0.5)
+        pts = np.vstack(list(self._bounds.values()))
+        return pts.min(axis=0), pts.max(axis=0)
+
+    def set_camera(self, position: Any, target: Any = (0.0, 0.0, 0.0)) -> CameraPose:
+        """Place the camera at ``position`` looking at ``target`` (world, z up) [m].
+
+        The scene is translated by ``-target`` so that meshcat's orbit target (the origin)
+        coincides with ``target``; the camera offset ``d = position - target`` is written in
+        three.js' y-up frame as ``(d_x, d_z, -d_y)``.
+        """
+        import meshcat
+        import meshcat.path as mp
+
+        p = as_vector(position, 3, "position")
+        t = as_vector(target, 3, "target")
+        d = p - t
+        if float(np.linalg.norm(d)) < 1e-6:
+            raise InvalidInputError("camera position and target must differ")
+        shift = homogeneous(translation=-t)
+        for root in ("meshcat", "Grid", "Axes"):
+            meshcat.Visualizer.view_into(self.recorder, mp.Path((root,))).set_transform(shift)
+        camera = meshcat.Visualizer.view_into(
+            self.recorder, mp.Path(("Cameras", "default", "rotated", "<object>"))
+        )
+        camera.set_property("position", [float(d[0]), float(d[2]), float(-d[1])])
+        self._camera = CameraPose(
+            position=(float(p[0]), float(p[1]), float(p[2])),
+            target=(float(t[0]), float(t[1]), float(t[2])),
+        )
+        return self._camera
+
+    def frame_scene(
+        self, direction: Any = DEFAULT_VIEW_DIRECTION, margin: float = 1.05, aspect: float = 4 / 3
+    ) -> CameraPose:
+        """Point the camera at the center of the scene bounds from ``direction``.
+
+        The distance ``r / sin(fov / 2)`` (with ``r`` the bounding-sphere radius times
+        ``margin`` and ``fov`` the smaller of the vertical and horizontal fields of view) makes
+        the bounding sphere fit in the image.
+        """
+        lo, hi = self.scene_bounds()
+        center = 0.5 * (lo + hi)
+        radius = max(0.5 * float(np.linalg.norm(hi - lo)), 0.1) * check_positive(margin, "margin")
+        fov_v = math.radians(CAMERA_FOV_DEG)
+        fov_h = 2.0 * math.atan(math.tan(fov_v / 2) * check_positive(aspect, "aspect"))
+        half = 0.5 * min(fov_v, fov_h)
+        d = as_vector(direction, 3, "direction")
+        norm = float(np.linalg.norm(d))
+        if norm < 1e-9:
+            raise InvalidInputError("direction must be non-zero")
+        distance = radius / math.sin(half)
+        pose = self.set_camera(center + distance * d / norm, center)
+        return pose
+
+    @property
+    def camera(self) -> CameraPose | None:
+        """The camera pose set by :meth:`set_camera` or :meth:`frame_scene` (or ``None``)."""
+        return self._camera
+
+    def add_floor(
+        self,
+        extent: tuple[float, float, float, float] | None = None,
+        spacing: float = 0.25,
+        color: Any = (0.55, 0.55, 0.6),
+    ) -> None:
+        """Draw a floor grid at ``z = 0`` made of thin triangle strips.
+
+        Args:
+            extent: ``(x_min, y_min, x_max, y_max)`` [m]; default: the scene bounds plus
+                0.5 m, rounded to ``spacing``.
+            spacing: distance between grid lines [m].
+            color: RGB(A) in [0, 1].
+        """
+        import meshcat.geometry as mg
+
+        step = check_positive(spacing, "spacing")
+        if extent is None:
+            lo, hi = self.scene_bounds()
+            x0, y0 = np.floor((lo[:2] - 0.5) / step) * step
+            x1, y1 = np.ceil((hi[:2] + 0.5) / step) * step
+        else:
+            x0, y0, x1, y1 = (float(e) for e in as_vector(extent, 4, "extent"))
+            if not (x1 > x0 and y1 > y0):
+                raise InvalidInputError(f"extent must have x_max > x_min, y_max > y_min: {extent}")
+        xs = np.arange(x0, x1 + 0.5 * step, step)
+        ys = np.arange(y0, y1 + 0.5 * step, step)
+        segments = [((x, y0, 0.0), (x, y1, 0.0)) for x in xs]
+        segments += [((x0, y, 0.0), (x1, y, 0.0)) for y in ys]
+        parts = [tube_mesh(np.array(seg), 0.002, sides=4) for seg in segments]
+        offsets = np.cumsum([0] + [v.shape[0] for v, _ in parts[:-1]])
+        vertices = np.vstack([v for v, _ in parts])
+        faces = np.vstack([f + o for (_, f), o in zip(parts, offsets)])
+        material = mg.MeshBasicMaterial(color=rgb_int(parse_color(color)))
+        self.vis["floor"].set_object(mg.TriangularMeshGeometry(vertices, faces), material)
+        self._floor_drawn = True
+
+    # ------------------------------------------------------------------ export
+    def static_html(self, title: str = "taskspace scene") -> str:
+        """Self-contained HTML of the scene (no network access needed to view it).
+
+        If no camera was set, the scene is framed automatically first; the floor grid is
+        drawn if enabled and not drawn yet.
+        """
+        self._prepare_export()
+        return self.recorder.static_html(title=title)
+
+    def _prepare_export(self, aspect: float = 4 / 3) -> None:
+        if self.floor and not self._floor_drawn:
+            self.add_floor()
+        if self._camera is None:
+            self.frame_scene(aspect=aspect)
+
+    def save_html(self, path: str | Path, title: str = "taskspace scene") -> Path:
+        """Write :meth:`static_html` to ``path`` (parent directories are created)."""
+        out = Path(path)
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.write_text(self.static_html(title), encoding="utf-8")
+        return out
+
+    def snapshot(self, path: str | Path | None = None, size: tuple[int, int] = (640, 480)) -> bytes:
+        """Render the scene to PNG in headless Chromium (see :func:`taskspace.viz.snapshot`)."""
+        from taskspace.viz.snapshots import snapshot
+
+        self._prepare_export(aspect=size[0] / size[1])
+        return snapshot(self, path, size)
+
+    # ------------------------------------------------------------------ live viewer
+    @property
+    def live(self) -> bool:
+        """Whether a live meshcat server receives the commands."""
+        return self.recorder.forward is not None
+
+    def url(self) -> str:
+        """URL of the live meshcat server."""
+        if self.recorder.forward is None:
+            raise InvalidInputError(
+                "this viewer is not live: create it with Viewer(..., live=True)"
+            )
+        return str(self.recorder.forward.web_url)  # type: ignore[attr-defined]
+
+    def open(self) -> None:
+        """Open the live viewer in a web browser."""
+        if self.recorder.forward is None:
+            raise InvalidInputError(
+                "this viewer is not live: create it with Viewer(..., live=True)"
+            )
+        self.recorder.forward.open()  # type: ignore[attr-defined]

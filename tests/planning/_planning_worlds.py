@@ -1,0 +1,29 @@
+"""Shared 2-D point-robot worlds for the sampling-planner tests."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from taskspace.planning.collision_checker import FunctionChecker
+from taskspace.planning.configuration_space import ConfigurationSpace, EdgeCheckOptions
+
+# Axis-aligned boxes (xmin, ymin, xmax, ymax) in [0, 10]^2: a wall with a gap at y in [4, 6].
+WALL = np.array([[4.5, 0.0, 5.5, 4.0], [4.5, 6.0, 5.5, 10.0]])
+
+
+def box_free(boxes: np.ndarray):  # type: ignore[no-untyped-def]
+    def free(q: np.ndarray) -> np.ndarray:
+        x, y = q[:, 0:1], q[:, 1:2]
+        inside = (x >= boxes[:, 0]) & (x <= boxes[:, 2]) & (y >= boxes[:, 1]) & (y <= boxes[:, 3])
+        return ~inside.any(axis=1)
+
+    return free
+
+
+def wall_space(resolution: float = 0.05, boxes: np.ndarray = WALL) -> ConfigurationSpace:
+    return ConfigurationSpace(
+        [0.0, 0.0],
+        [10.0, 10.0],
+        FunctionChecker(box_free(boxes), lambda q: f"point {q} is inside a box"),
+        edge=EdgeCheckOptions(resolution=resolution),
+    )

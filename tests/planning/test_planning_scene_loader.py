@@ -1,0 +1,81 @@
+"""MoveIt / MotionBenchMaker YAML loader, against the numbers written in the files."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from taskspace.errors import ModelLoadError
+from taskspace.planning.scene_loader import (
+    MOTIONBENCHMAKER_SCENARIOS,
+    load_moveit_request,
+    load_moveit_scene,
+    motionbenchmaker_panda,
+    motionbenchmaker_problems,
+)
+
+ROOT = Path("/work/shared/benchmarks/motionbenchmaker_panda")
+pytestmark = pytest.mark.skipif(not ROOT.is_dir(), reason="MotionBenchMaker files not present")
+
+
+def test_reads_every_scene_file() -> None:
+    total = 0
+    for scenario in MOTIONBENCHMAKER_SCENARIOS:
+        problems = motionbenchmaker_problems(ROOT, scenario)
+        assert len(problems) == 50
+        for p in problems:
+            raw = yaml.safe_load(p.scene_path.read_text())
+            n_prims = sum(len(o["primitives"]) for o in raw["world"]["collision_objects"])
+            assert len(p.obstacles) == n_prims
+            total += n_prims
+    assert total > 3000
+
+
+def test_box_pose_and_size_match_yaml() -> None:
+    path = ROOT / "bookshelf_small_panda" / "scene0001.yaml"
+    raw = yaml.safe_load(path.read_text())
+    entry = next(o for o in raw["world"]["collision_objects"] if o["id"] == "shelf_bottom")
+    pose = entry["primitive_poses"][0]
+    obstacles = {o.name: o for o in load_moveit_scene(path)}
+    box = obstacles["shelf_bottom"]
+    np.testing.assert_allclose(box.placement.translation, pose["position"], atol=1e-12)
+    x, y, z, w = pose["orientation"]
+    # Rotation of a unit quaternion (w, x, y, z), written out.
+    ref = np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
+    )
+    np.testing.assert_allclose(box.placement.rotation, ref, atol=1e-9)
+    np.testing.assert_allclose(2 * box.geometry.halfSide, entry["primitives"][0]["dimensions"])
+    can = obstacles["Can1"]
+    assert can.geometry.radius == pytest.approx(0.03)
+    assert 2 * can.geometry.halfLength == pytest.approx(0.14)
+
+
+def test_request_maps_joints_and_ignores_fingers() -> None:
+    robot = motionbenchmaker_panda()
+    req = load_moveit_request(robot, ROOT / "bookshelf_small_panda" / "request0001.yaml")
+    np.testing.assert_allclose(req.start, [0, -0.785, 0, -2.356, 0, 1.571, 0.785])
+    assert req.goal[0] == pytest.approx(1.48904932702624)
+    assert req.ignored_joints == ["panda_finger_joint1", "panda_finger_joint2"]
+
+
+def test_bad_files_raise(tmp_path: Path) -> None:
+    with pytest.raises(ModelLoadError, match="not found"):
+        load_moveit_scene(tmp_path / "missing.yaml")
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(
+        "world:\n  collision_objects:\n    - id: x\n      primitives: [{type: torus, "
+        "dimensions: [1]}]\n      primitive_poses: "
+        "[{position: [0, 0, 0], orientation: [0, 0, 0, 1]}]\n"
+    )
+    with pytest.raises(ModelLoadError, match="unsupported primitive type 'torus'"):
+        load_moveit_scene(bad)
+    with pytest.raises(ModelLoadError, match="no scenario 'nope'"):
+        motionbenchmaker_problems(ROOT, "nope")
