@@ -35,7 +35,7 @@ typecheck: $(STAMP)
 	$(VENV)/bin/mypy
 
 pytest: $(STAMP) chromium
-	$(PY) -m pytest -n $(PYTEST_WORKERS) --dist loadgroup -q
+	OPENBLAS_NUM_THREADS=1 $(PY) -m pytest -n $(PYTEST_WORKERS) --dist loadgroup -q
 
 test: lint typecheck pytest
 

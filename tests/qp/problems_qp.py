@@ -124,7 +124,10 @@ def random_dense_qp(seed: int = 1) -> NamedQP:
         method="SLSQP",
         options={"ftol": 1e-13, "maxiter": 1000},
     )
-    if not ref.success:  # pragma: no cover - the reference itself failed
+    # SLSQP may stop with "positive directional derivative" once it cannot improve at this
+    # ftol (BLAS-threading dependent); accept that end point only if it is feasible
+    stalled = "directional derivative" in str(ref.message)
+    if not (ref.success or (stalled and p.is_feasible(ref.x, 1e-8))):  # pragma: no cover
         raise RuntimeError(f"scipy reference failed: {ref.message}")
     return NamedQP(f"random_dense_{seed}", p, ref.x, "scipy SLSQP")
 

@@ -60,7 +60,7 @@ class CollisionAvoidance(Constraint):
         nv = self.robot.nv
         if not near.any():
             return np.zeros((0, nv)), np.zeros(0), np.zeros(0)
-        J = self.distances.jacobian(state)[near]
+        J = self.distances.jacobian(state, rows=near)
         lower = -self.gain * (d[near] - self.safety_distance)
         return J, lower, np.full(J.shape[0], INF)
 

@@ -9,7 +9,6 @@ import numpy as np
 
 from taskspace._validation import FloatArray, check_positive
 from taskspace.errors import UnknownNameError
-from taskspace.features import _point
 from taskspace.features.feature import Feature
 
 if TYPE_CHECKING:
@@ -57,31 +56,50 @@ class CollisionDistance(Feature):
             for k in self.pair_indices
         ]
         self.pair_names = [all_pairs[k] for k in self.pair_indices]
+        self._pairs = [int(k) for k in self.pair_indices]
 
     def _results(self, state: State) -> list:  # type: ignore[type-arg]
         state.compute_distances()
         res = state.collision_data.distanceResults
-        return [res[int(k)] for k in self.pair_indices]
+        return [res[k] for k in self._pairs]
 
     def value(self, state: State) -> FloatArray:
         """Signed distances [m]."""
         self._check_state(state)
         return np.array([r.min_distance for r in self._results(state)])
 
-    def _point_jacobian(self, state: State, joint: int, p: FloatArray) -> FloatArray:
-        J = state.joint_jacobian_world(joint)
-        return J[:3] + _point.cross_columns(J[3:], p)
+    def jacobian(self, state: State, rows: FloatArray | None = None) -> FloatArray:
+        """Dim x nv Jacobian (only the ``rows`` selected by index or mask, if given).
 
-    def jacobian(self, state: State) -> FloatArray:
-        """Dim x nv Jacobian."""
+        Row k is ``[n; p_b x n]^T J_b - [n; p_a x n]^T J_a`` with ``J`` the WORLD joint
+        Jacobians (the velocity of a point ``p`` is ``v_O + omega x p`` and
+        ``n . (omega x p) = omega . (p x n)``).
+        """
         self._check_state(state)
-        J = np.zeros((self.dim, self.robot.nv))
-        for row, (res, (ja, jb)) in enumerate(zip(self._results(state), self._joints)):
+        results = self._results(state)
+        selected = np.arange(self.dim) if rows is None else np.arange(self.dim)[rows]
+        J = np.zeros((len(selected), self.robot.nv))
+        cache: dict[int, FloatArray] = {}
+
+        def joint_jacobian(joint: int) -> FloatArray:
+            Jw = cache.get(joint)
+            if Jw is None:
+                Jw = state.joint_jacobian_world(joint)
+                cache[joint] = Jw
+            return Jw
+
+        w = np.empty(6)
+        for out_row, k in enumerate(selected):
+            res = results[k]
+            ja, jb = self._joints[k]
             n = np.asarray(res.normal)
-            if ja:
-                J[row] -= n @ self._point_jacobian(state, ja, np.asarray(res.getNearestPoint1()))
+            w[:3] = n
             if jb:
-                J[row] += n @ self._point_jacobian(state, jb, np.asarray(res.getNearestPoint2()))
+                w[3:] = np.cross(np.asarray(res.getNearestPoint2()), n)
+                J[out_row] += w @ joint_jacobian(jb)
+            if ja:
+                w[3:] = np.cross(np.asarray(res.getNearestPoint1()), n)
+                J[out_row] -= w @ joint_jacobian(ja)
         return J
 
     def _point_drift(self, state: State, joint: int, p: FloatArray) -> FloatArray:
