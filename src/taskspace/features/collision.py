@@ -16,6 +16,13 @@ if TYPE_CHECKING:
     from taskspace.model.state import State
 
 
+def _cross(a: FloatArray, b: FloatArray) -> tuple[float, float, float]:
+    """``a x b`` for 3-vectors (np.cross costs ~10 us per call on small inputs)."""
+    a0, a1, a2 = float(a[0]), float(a[1]), float(a[2])
+    b0, b1, b2 = float(b[0]), float(b[1]), float(b[2])
+    return (a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0)
+
+
 class CollisionDistance(Feature):
     """Signed distances ``d_k`` of collision pairs (negative when penetrating) [m].
 
@@ -95,10 +102,10 @@ class CollisionDistance(Feature):
             n = np.asarray(res.normal)
             w[:3] = n
             if jb:
-                w[3:] = np.cross(np.asarray(res.getNearestPoint2()), n)
+                w[3:] = _cross(res.getNearestPoint2(), n)
                 J[out_row] += w @ joint_jacobian(jb)
             if ja:
-                w[3:] = np.cross(np.asarray(res.getNearestPoint1()), n)
+                w[3:] = _cross(res.getNearestPoint1(), n)
                 J[out_row] -= w @ joint_jacobian(ja)
         return J
 
