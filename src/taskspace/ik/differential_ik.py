@@ -130,6 +130,25 @@ def combine_bounds(
     return lb, ub, names
 
 
+def stack_inequalities(
+    constraints: Sequence[Constraint], state: State, dt: float
+) -> tuple[FloatArray, FloatArray, FloatArray, list[RowBlock]] | None:
+    """Stack the rows ``l <= C dq <= u`` of ``constraints`` (``None`` when there are none)."""
+    rows_C, rows_l, rows_u, blocks, k = [], [], [], [], 0
+    for c in constraints:
+        ineq = c.inequalities(state, dt)
+        if ineq is None or ineq[0].shape[0] == 0:
+            continue
+        rows_C.append(ineq[0])
+        rows_l.append(ineq[1])
+        rows_u.append(ineq[2])
+        blocks.append(RowBlock(c.name, k, k + ineq[0].shape[0]))
+        k += ineq[0].shape[0]
+    if not rows_C:
+        return None
+    return np.vstack(rows_C), np.concatenate(rows_l), np.concatenate(rows_u), blocks
+
+
 def _intersect(
     boxes: list[tuple[FloatArray, FloatArray]], nv: int
 ) -> tuple[FloatArray, FloatArray]:
@@ -214,20 +233,12 @@ class DifferentialIK:
         else:
             A, b, eq_blocks = self._empty_rows, self._empty, []
         lb, ub, box_blocks = combine_bounds(self.constraints, state, dt, nv)
-        rows_C, rows_l, rows_u, in_blocks, k = [], [], [], [], 0
-        for c in self._inequality_constraints:
-            ineq = c.inequalities(state, dt)
-            if ineq is None or ineq[0].shape[0] == 0:
-                continue
-            rows_C.append(ineq[0])
-            rows_l.append(ineq[1])
-            rows_u.append(ineq[2])
-            in_blocks.append(RowBlock(c.name, k, k + ineq[0].shape[0]))
-            k += ineq[0].shape[0]
-        if rows_C:
-            C, l, u = np.vstack(rows_C), np.concatenate(rows_l), np.concatenate(rows_u)
-        else:
+        stacked = stack_inequalities(self._inequality_constraints, state, dt)
+        in_blocks: list[RowBlock] = []
+        if stacked is None:
             C, l, u = self._empty_rows, self._empty, self._empty
+        else:
+            C, l, u, in_blocks = stacked
         return QPProblem(H, g, A, b, C, l, u, lb, ub, eq_blocks, in_blocks, box_blocks)
 
     def solve(self, state: State, dt: float) -> IKStepResult:

@@ -12,7 +12,7 @@ import pinocchio as pin
 from taskspace._validation import FloatArray, check_positive
 from taskspace.constraints.constraint import Constraint
 from taskspace.errors import InvalidInputError
-from taskspace.ik.differential_ik import combine_bounds
+from taskspace.ik.differential_ik import combine_bounds, stack_inequalities
 from taskspace.model.robot import Robot
 from taskspace.model.state import State
 from taskspace.qp.hierarchy import (
@@ -21,7 +21,6 @@ from taskspace.qp.hierarchy import (
     HierarchyResult,
     HierarchySolver,
 )
-from taskspace.qp.problem import RowBlock
 from taskspace.tasks import Task
 
 
@@ -142,25 +141,17 @@ class HierarchicalIK:
         levels = self.build(state, dt)
         nv = self.robot.nv
         lb, ub, _ = combine_bounds(self.constraints, state, dt, nv)
-        rows_C, rows_l, rows_u, blocks, k = [], [], [], [], 0
-        for c in self.constraints:
-            ineq = c.inequalities(state, dt)
-            if ineq is None or ineq[0].shape[0] == 0:
-                continue
-            rows_C.append(ineq[0])
-            rows_l.append(ineq[1])
-            rows_u.append(ineq[2])
-            blocks.append(RowBlock(c.name, k, k + ineq[0].shape[0]))
-            k += ineq[0].shape[0]
+        stacked = stack_inequalities(self.constraints, state, dt)
+        C, l, u, blocks = stacked if stacked is not None else (None, None, None, [])
         t1 = time.perf_counter()
         result = self.solver.solve(
             levels,
             nv,
             lb=lb,
             ub=ub,
-            C=np.vstack(rows_C) if rows_C else None,
-            l=np.concatenate(rows_l) if rows_l else None,
-            u=np.concatenate(rows_u) if rows_u else None,
+            C=C,
+            l=l,
+            u=u,
             hard_names=blocks,
         )
         t2 = time.perf_counter()
