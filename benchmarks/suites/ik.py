@@ -154,7 +154,7 @@ def _peer_rows(scene: str, steps: int, q0: np.ndarray) -> list[Row]:
     with tempfile.TemporaryDirectory() as tmp:
         spec = Path(tmp) / "scene.json"
         spec.write_text(json.dumps({"scene": scene, "steps": steps, "dt": DT, "q0": q0.tolist()}))
-        for peer in ("placo", "pink", "mink"):
+        for peer in ("placo", "pink"):
             try:
                 out = run_peer(peer, f"{peer}_ik.py", [str(spec)])
             except Exception as exc:
