@@ -7,10 +7,15 @@ from collections.abc import Callable
 
 import numpy as np
 import pytest
+from hypothesis import settings
 
 from taskspace.model import Robot
 
 os.environ.setdefault("MPLBACKEND", "Agg")
+
+# Property tests draw the same examples on every run: CI must not depend on luck.
+settings.register_profile("taskspace", derandomize=True, deadline=None, print_blob=True)
+settings.load_profile("taskspace")
 
 _CACHE: dict[tuple[str, bool], Robot] = {}
 

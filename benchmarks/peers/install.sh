@@ -23,7 +23,7 @@ command -v apt-get >/dev/null && { dpkg -s liblapack3 >/dev/null 2>&1 || apt-get
 peer robotic robotic numpy
 # OMPL drives taskspace's own collision checker (same Pinocchio/coal as taskspace's .venv)
 peer ompl ompl numpy scipy pin==4.1.0 coal==3.0.3 example-robot-data==5.0.0 example-robot-data-loaders==5.0.0 pyyaml
-peer pyroboplan pyroboplan numpy pyyaml
+peer pyroboplan pyroboplan numpy pyyaml example-robot-data==5.0.0 example-robot-data-loaders==5.0.0
 # TSID: no PyPI build runs here (1.10.0 + pin 4.1.0: MemoryError in RobotWrapper; 1.9.0 does
 # not install; 1.7.1 imports empty). The suite reports the published number instead.
 peer tsid tsid example-robot-data example-robot-data-loaders numpy

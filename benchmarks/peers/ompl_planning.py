@@ -17,6 +17,7 @@ import json
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "src"))
@@ -37,8 +38,14 @@ from taskspace.planning.scene_loader import (  # noqa: E402
 DATA = Path("/work/shared/benchmarks/motionbenchmaker_panda")
 
 
-def solve_one(space: ConfigurationSpace, start: np.ndarray, goal: np.ndarray, rng: float | None,
-              time_limit: float, resolution: float) -> tuple[float, bool, int, float, float]:
+def solve_one(
+    space: ConfigurationSpace,
+    start: np.ndarray,
+    goal: np.ndarray,
+    rng: float | None,
+    time_limit: float,
+    resolution: float,
+) -> tuple[float, bool, int, float, float]:
     """One OMPL RRTConnect query: (time [s], solved, checks, path length [rad], range used)."""
     checker = space.checker
     dim = space.dim
@@ -82,6 +89,7 @@ def solve_one(space: ConfigurationSpace, start: np.ndarray, goal: np.ndarray, rn
 def main() -> None:
     parser = argparse.ArgumentParser()
     parser.add_argument("--quick", action="store_true")
+    parser.add_argument("--problems", type=int, default=None, help="first N problems")
     parser.add_argument("--resolution", type=float, default=0.03)
     parser.add_argument("--range", type=float, default=0.5)
     parser.add_argument("--time", type=float, default=1.0)
@@ -89,14 +97,16 @@ def main() -> None:
     parser.add_argument("--scenarios", default=",".join(MOTIONBENCHMAKER_SCENARIOS))
     args = parser.parse_args()
     ou.setLogLevel(ou.LOG_WARN)
-    indices = list(range(1, 6)) if args.quick else list(range(1, 51))
+    count = args.problems or (5 if args.quick else 50)
+    indices = list(range(1, count + 1))
     robot = motionbenchmaker_panda()
     variants = args.variants.split(",")
-    out: dict[str, dict[str, dict[str, object]]] = {v: {} for v in variants}
+    out: dict[str, dict[str, dict[str, Any]]] = {v: {} for v in variants}
     range_default = None
     for scenario in args.scenarios.split(","):
-        rows = {v: {"valid": 0, "solved": 0, "times": [], "checks": [], "lengths": []}
-                for v in variants}
+        rows: dict[str, dict[str, Any]] = {
+            v: {"valid": 0, "solved": 0, "times": [], "checks": [], "lengths": []} for v in variants
+        }
         for problem in motionbenchmaker_problems(DATA, scenario, indices):
             req = problem.apply(robot)
             space = ConfigurationSpace.from_robot(
@@ -115,18 +125,22 @@ def main() -> None:
                 if v == "default":
                     range_default = used
                 row = rows[v]
-                row["valid"] += 1  # type: ignore[operator]
-                row["solved"] += int(ok)  # type: ignore[operator]
-                row["times"].append(dt)  # type: ignore[union-attr]
-                row["checks"].append(checks)  # type: ignore[union-attr]
-                row["lengths"].append(length)  # type: ignore[union-attr]
+                row["valid"] += 1
+                row["solved"] += int(ok)
+                row["times"].append(dt)
+                row["checks"].append(checks)
+                row["lengths"].append(length)
         for v in variants:
             out[v][scenario] = rows[v]
-    print(json.dumps({
-        "variants": out,
-        "range_default": range_default,
-        "note": "OMPL RRTConnect, taskspace checker as Python callback",
-    }))
+    print(
+        json.dumps(
+            {
+                "variants": out,
+                "range_default": range_default,
+                "note": "OMPL RRTConnect, taskspace checker as Python callback",
+            }
+        )
+    )
 
 
 if __name__ == "__main__":

@@ -2,14 +2,28 @@
 
 Scenes (obstacle worlds, start/goal) are loaded before timing. For every problem: is it valid
 (start and goal inside the limits and collision-free for example-robot-data's Panda, fingers
-locked open, convex-hull collision geometry)? Then RRT-Connect (1 s limit), Lazy PRM (1 s
-limit, 300 nodes) and, in the quick run only, PRM (200 nodes, k = 8; roadmap built per
-problem). Peers in the same run: OMPL's RRTConnect calling OUR collision checker as its
-validity callback (same resolution, same range), and pyroboplan's RRT-Connect.
+locked at 0.04 m, convex-hull collision geometry)? Then, with a 1 s limit:
+
+* taskspace RRT-Connect (default options: step 0.5 rad, lazy fine checking with eager coarse
+  checks at 0.15 rad, full resolution 0.03 rad on candidate paths, local sampling for a
+  trapped tree);
+* taskspace RRT-Connect "classic" (every tree edge checked at 0.03 rad, uniform sampling only:
+  Kuffner and LaValle's algorithm, the same checks as OMPL's RRTConnect at the same range) to
+  show where the collision checks and the time go;
+* taskspace Lazy PRM (single query: roadmap of 300 nodes, k = 12, 20 % of them near start and
+  goal, grown by 300 nodes until connected, all inside the 1 s) and, in the quick run, PRM
+  (200 nodes, k = 8, every edge checked).
+
+Peers in the same run, after ours: OMPL's RRTConnect calling OUR collision checker as its
+validity callback (same resolution; range = our step, and OMPL's default range), and
+pyroboplan's RRT-Connect with its own collision checking. Per scenario and over all
+scenarios ("all"): valid problems, solved within 1 s, median / p95 time, collision checks,
+path length (raw and, for taskspace RRT-Connect, after shortcutting), ratios to OMPL.
 """
 
 from __future__ import annotations
 
+import os
 import time
 from pathlib import Path
 from typing import Any
@@ -20,7 +34,7 @@ from benchmarks.common import Row, Timing, run_peer
 from taskspace.errors import PlanningError
 from taskspace.planning.collision_checker import CollisionChecker
 from taskspace.planning.configuration_space import ConfigurationSpace, EdgeCheckOptions
-from taskspace.planning.lazy_prm import build_lazy_prm, lazy_prm_query
+from taskspace.planning.lazy_prm import lazy_prm
 from taskspace.planning.prm import PRMOptions, prm
 from taskspace.planning.rrt_connect import RRTConnectOptions, rrt_connect
 from taskspace.planning.scene_loader import (
@@ -32,162 +46,230 @@ from taskspace.planning.shortcut import shortcut_path
 
 SUITE = "planning"
 ROOT = Path("/work/shared/benchmarks/motionbenchmaker_panda")
-RESOLUTION = 0.03  # local-planner resolution delta [rad], shared with the OMPL peer
-STEP_SIZE = 1.0  # RRT-Connect range alpha [rad], shared with the OMPL peer
+RESOLUTION = 0.03  # local-planner resolution delta [rad], shared with the peers
+STEP_SIZE = RRTConnectOptions().step_size  # RRT-Connect range alpha [rad], shared with OMPL
 TIME_LIMIT = 1.0  # [s]
+LAZY_PRM = PRMOptions(n_samples=300, k_neighbors=12)
+METHODS = ("rrt_connect", "rrt_connect_classic", "lazy_prm", "prm")
+OMPL_SAME = f"ompl RRTConnect range={STEP_SIZE:g} (our checker)"
+PYROBOPLAN = "pyroboplan RRTConnect (own checker)"
 
 
 def problem_indices(quick: bool) -> list[int]:
     """Problem numbers per scenario (quick: the first five)."""
-    return list(range(1, 6)) if quick else list(range(1, 51))
+    count = int(os.environ.get("TASKSPACE_PLANNING_PROBLEMS", "5" if quick else "50"))
+    return list(range(1, count + 1))
 
 
-def _checker_cost(robot: Any, scenario: str, rng: np.random.Generator) -> dict[str, float]:
+def scenarios() -> list[str]:
+    """Scenarios to run (env ``TASKSPACE_PLANNING_SCENARIOS``, comma-separated)."""
+    chosen = os.environ.get("TASKSPACE_PLANNING_SCENARIOS")
+    return chosen.split(",") if chosen else list(MOTIONBENCHMAKER_SCENARIOS)
+
+
+def checker_cost(robot: Any, rng: np.random.Generator) -> dict[str, float]:
     """Per-configuration cost of the collision check on random configurations [us]."""
     checker = CollisionChecker(robot)
     qs = np.array([robot.random_configuration(rng) for _ in range(2000)])
     checker.are_valid(qs[:100])
-    t0 = time.perf_counter()
-    free = checker.are_valid(qs)
-    batch = (time.perf_counter() - t0) / len(qs)
+    batch = []
+    for _ in range(3):
+        t0 = time.perf_counter()
+        free = checker.are_valid(qs)
+        batch.append((time.perf_counter() - t0) / len(qs))
     t0 = time.perf_counter()
     for q in qs[:500]:
         checker.is_valid(q)
     single = (time.perf_counter() - t0) / 500
-    return {"batch_us": batch * 1e6, "single_us": single * 1e6, "free_fraction": float(free.mean())}
+    return {
+        "check_batch_us": min(batch) * 1e6,
+        "check_single_us": single * 1e6,
+        "free_fraction": float(free.mean()),
+    }
 
 
-def _summary(times: list[float], extra: dict[str, Any]) -> tuple[Timing | None, dict[str, Any]]:
-    timing = Timing.from_samples(times) if times else None
-    return timing, extra
+def _stats(rows: list[dict[str, float]], valid: int) -> dict[str, Any]:
+    times = [r["time"] for r in rows]
+    ok = [r["ok"] for r in rows]
+    lengths = [r["length"] for r in rows if np.isfinite(r["length"])]
+    out: dict[str, Any] = {
+        "valid": valid,
+        "solved_1s": int(sum(ok)),
+        "success_rate": float(np.mean(ok)) if ok else None,
+        "median_ms": float(np.median(times) * 1e3) if times else None,
+        "p95_ms": float(np.percentile(times, 95) * 1e3) if times else None,
+        "median_checks": float(np.median([r["checks"] for r in rows])) if rows else None,
+        "mean_checks": float(np.mean([r["checks"] for r in rows])) if rows else None,
+        "median_path_length_rad": float(np.median(lengths)) if lengths else None,
+    }
+    short = [r["short"] for r in rows if np.isfinite(r.get("short", np.nan))]
+    if short:
+        out["median_shortcut_length_rad"] = float(np.median(short))
+    return out
 
 
-def run(quick: bool) -> list[Row]:
-    rows: list[Row] = []
-    if not ROOT.is_dir():
-        return [Row(SUITE, "motionbenchmaker", "taskspace", None, note=f"{ROOT} missing")]
-    robot = motionbenchmaker_panda()
-    indices = problem_indices(quick)
-    rng = np.random.default_rng(0)
+def _run_ours(
+    robot: Any, scenario: str, quick: bool, rng: np.random.Generator
+) -> tuple[dict[str, list[dict[str, float]]], dict[str, Any]]:
+    """Our planners on one scenario: per-method samples and scenario information."""
     edge = EdgeCheckOptions(resolution=RESOLUTION)
-    ours: dict[str, dict[str, Any]] = {}
-    for scenario in MOTIONBENCHMAKER_SCENARIOS:
-        problems = motionbenchmaker_problems(ROOT, scenario, indices)
-        stats: dict[str, dict[str, list[float]]] = {
-            m: {"time": [], "ok": [], "checks": [], "length": []}
-            for m in ("rrt_connect", "lazy_prm", "prm")
-        }
-        valid = 0
-        invalid_reasons: list[str] = []
-        cost: dict[str, float] = {}
-        for k, problem in enumerate(problems):
-            req = problem.apply(robot)
-            space = ConfigurationSpace.from_robot(robot, edge=edge)
-            if k == 0:
-                cost = _checker_cost(robot, scenario, rng)
-            try:
-                space.check_endpoint(req.start, "start")
-                space.check_endpoint(req.goal, "goal")
-            except PlanningError as exc:
-                invalid_reasons.append(f"{problem.index}: {str(exc)[:80]}")
-                continue
-            valid += 1
-            res = rrt_connect(
-                space,
-                req.start,
-                req.goal,
-                RRTConnectOptions(step_size=STEP_SIZE, time_limit_s=TIME_LIMIT, seed=k),
-            )
-            s = stats["rrt_connect"]
-            s["time"].append(res.time_s)
-            s["ok"].append(float(res.success and res.time_s <= TIME_LIMIT))
-            s["checks"].append(res.collision_checks)
-            if res.success:
-                s["length"].append(shortcut_path(space, res.path).length_after)
-            t0 = time.perf_counter()
-            lazy = build_lazy_prm(space, PRMOptions(n_samples=300, k_neighbors=10, seed=k))
-            lres = lazy_prm_query(
-                space,
-                lazy,
-                req.start,
-                req.goal,
-                PRMOptions(k_neighbors=10),
+    problems = motionbenchmaker_problems(ROOT, scenario, problem_indices(quick))
+    per: dict[str, list[dict[str, float]]] = {m: [] for m in METHODS}
+    invalid: list[str] = []
+    cost: dict[str, float] = {}
+    for k, problem in enumerate(problems):
+        req = problem.apply(robot)
+        space = ConfigurationSpace.from_robot(robot, edge=edge)
+        if k == 0:
+            cost = checker_cost(robot, rng)
+        try:
+            space.check_endpoint(req.start, "start")
+            space.check_endpoint(req.goal, "goal")
+        except PlanningError as exc:
+            invalid.append(f"{problem.index}: {str(exc)[:90]}")
+            continue
+        for method, coarse, local in (
+            ("rrt_connect", 0.15, 0.5),
+            ("rrt_connect_classic", None, 0.0),
+        ):
+            opts = RRTConnectOptions(
+                step_size=STEP_SIZE,
+                coarse_resolution=coarse,
+                local_sampling=local,
                 time_limit_s=TIME_LIMIT,
+                seed=k,
             )
-            lt = time.perf_counter() - t0
-            s = stats["lazy_prm"]
-            s["time"].append(lt)
-            s["ok"].append(float(lres.success and lt <= TIME_LIMIT))
-            s["checks"].append(lres.collision_checks + lazy.roadmap.collision_checks)
-            if lres.success:
-                s["length"].append(lres.path_length)
-            if quick and k < 2:
-                pres, _ = prm(
-                    space, req.start, req.goal, PRMOptions(n_samples=200, k_neighbors=8, seed=k)
-                )
-                s = stats["prm"]
-                s["time"].append(pres.time_s)
-                s["ok"].append(float(pres.success and pres.time_s <= TIME_LIMIT))
-                s["checks"].append(pres.collision_checks)
-                if pres.success:
-                    s["length"].append(pres.path_length)
-        for method, s in stats.items():
-            if not s["time"]:
-                continue
-            extra = {
-                "problems": len(problems),
-                "valid": valid,
-                "solved_1s": int(sum(s["ok"])),
-                "success_rate": float(np.mean(s["ok"])),
-                "median_ms": float(np.median(s["time"]) * 1e3),
-                "p95_ms": float(np.percentile(s["time"], 95) * 1e3),
-                "median_checks": float(np.median(s["checks"])),
-                "median_path_length_rad": float(np.median(s["length"])) if s["length"] else None,
+            res = rrt_connect(space, req.start, req.goal, opts)
+            row = {
+                "time": res.time_s,
+                "ok": float(res.success and res.time_s <= TIME_LIMIT),
+                "checks": float(res.collision_checks),
+                "length": res.path_length,
+                "short": np.nan,
             }
-            if method == "rrt_connect":
-                extra.update({f"check_{k}": v for k, v in cost.items()})
-                extra["invalid"] = invalid_reasons
-                ours[scenario] = extra
-            timing, extra = _summary(s["time"], extra)
-            rows.append(Row(SUITE, scenario, f"taskspace {method}", timing, extra))
+            if res.success and method == "rrt_connect":
+                row["short"] = shortcut_path(space, res.path).length_after
+            per[method].append(row)
+        lres, _ = lazy_prm(
+            space,
+            req.start,
+            req.goal,
+            LAZY_PRM,
+            time_limit_s=TIME_LIMIT,
+            rng=np.random.default_rng(k),
+        )
+        per["lazy_prm"].append(
+            {
+                "time": lres.time_s,
+                "ok": float(lres.success and lres.time_s <= TIME_LIMIT),
+                "checks": float(lres.collision_checks),
+                "length": lres.path_length,
+            }
+        )
+        if quick and k < 2:
+            pres, _ = prm(
+                space, req.start, req.goal, PRMOptions(n_samples=200, k_neighbors=8, seed=k)
+            )
+            per["prm"].append(
+                {
+                    "time": pres.time_s,
+                    "ok": float(pres.success and pres.time_s <= TIME_LIMIT),
+                    "checks": float(pres.collision_checks),
+                    "length": pres.path_length,
+                }
+            )
+    return per, {"problems": len(problems), "invalid": invalid, **cost}
 
-    args = ["--quick"] if quick else []
-    args += ["--resolution", str(RESOLUTION), "--range", str(STEP_SIZE), "--time", str(TIME_LIMIT)]
-    for peer, script, label in (
-        ("ompl", "ompl_planning.py", "ompl RRTConnect (our checker)"),
-        ("pyroboplan", "pyroboplan_planning.py", "pyroboplan RRTConnect"),
-    ):
+
+def _peer_samples(res: dict[str, Any]) -> list[dict[str, float]]:
+    """Samples (time, ok, checks, length) of one peer scenario result."""
+    times = res["times"]
+    checks = res.get("checks", [np.nan] * len(times))
+    lengths = [np.nan if x is None else float(x) for x in res["lengths"]]
+    return [
+        {"time": t, "ok": float(np.isfinite(length)), "checks": float(c), "length": length}
+        for t, c, length in zip(times, checks, lengths)
+    ]
+
+
+def _run_peers(scenario: str, quick: bool) -> tuple[dict[str, list[dict[str, float]]], list[str]]:
+    """OMPL (two range settings) and pyroboplan on one scenario, right after ours."""
+    common = ["--quick"] if quick else []
+    common += ["--resolution", str(RESOLUTION), "--time", str(TIME_LIMIT), "--scenarios", scenario]
+    if "TASKSPACE_PLANNING_PROBLEMS" in os.environ:
+        common += ["--problems", os.environ["TASKSPACE_PLANNING_PROBLEMS"]]
+    peers = (
+        ("ompl", "ompl_planning.py", [*common, "--range", str(STEP_SIZE)]),
+        ("pyroboplan", "pyroboplan_planning.py", common),
+    )
+    samples: dict[str, list[dict[str, float]]] = {}
+    notes: list[str] = []
+    for peer, script, args in peers:
         try:
             out = run_peer(peer, script, args, timeout=7200)
         except Exception as exc:  # a failing peer must not kill the suite
-            rows.append(Row(SUITE, "all", label, None, note=f"peer failed: {str(exc)[-300:]}"))
+            notes.append(f"{peer} failed: {str(exc)[-300:]}")
             continue
         if out is None:
-            rows.append(
-                Row(SUITE, "all", label, None, note=f"peer venv .venv-peers/{peer} missing")
-            )
+            notes.append(f"peer venv .venv-peers/{peer} missing")
             continue
-        for scenario, res in out["scenarios"].items():
-            times = res["times"]
-            extra = {
-                "valid": res["valid"],
-                "solved_1s": res["solved"],
-                "success_rate": res["solved"] / max(1, res["valid"]),
-                "median_ms": float(np.median(times) * 1e3) if times else None,
-                "median_checks": res.get("median_checks"),
-            }
-            mine = ours.get(scenario)
-            if mine and extra["median_ms"]:
-                extra["ratio_median_taskspace_over_peer"] = mine["median_ms"] / extra["median_ms"]
+        if peer == "ompl":
+            samples[OMPL_SAME] = _peer_samples(out["variants"]["same"][scenario])
+            default = f"ompl RRTConnect default range={out['range_default']:.2f} (our checker)"
+            samples[default] = _peer_samples(out["variants"]["default"][scenario])
+        else:
+            samples[PYROBOPLAN] = _peer_samples(out["scenarios"][scenario])
+    return samples, notes
+
+
+def run(quick: bool) -> list[Row]:
+    if not ROOT.is_dir():
+        return [Row(SUITE, "motionbenchmaker", "taskspace", None, note=f"{ROOT} missing")]
+    robot = motionbenchmaker_panda()
+    rng = np.random.default_rng(0)
+    # Scenario by scenario: ours, then the peers, so that all see the same machine load.
+    per_scenario: dict[str, dict[str, list[dict[str, float]]]] = {}
+    info: dict[str, dict[str, Any]] = {}
+    notes: list[str] = []
+    for scenario in scenarios():
+        ours, info[scenario] = _run_ours(robot, scenario, quick, rng)
+        peers, peer_notes = _run_peers(scenario, quick)
+        notes += peer_notes
+        per_scenario[scenario] = {f"taskspace {m}": v for m, v in ours.items()} | peers
+    rows: list[Row] = []
+    labels = list(dict.fromkeys(k for per in per_scenario.values() for k in per))
+    medians: dict[tuple[str, str], float] = {}
+    for scene in [*per_scenario, "all"]:
+        for label in labels:
+            if scene == "all":
+                samples = [s for per in per_scenario.values() for s in per.get(label, [])]
+            else:
+                samples = per_scenario[scene].get(label, [])
+            if not samples:
+                continue
+            extra = _stats(samples, len(samples))
+            if label == "taskspace rrt_connect" and scene != "all":
+                extra.update(info[scene])
+            if label.startswith("pyroboplan"):
+                extra.pop("median_checks")
+                extra.pop("mean_checks")
+            medians[(scene, label)] = extra["median_ms"]
+            peer = not label.startswith("taskspace")
+            if peer:
+                for mine in ("taskspace rrt_connect", "taskspace rrt_connect_classic"):
+                    if medians.get((scene, mine)) and extra["median_ms"]:
+                        key = f"ratio_median_{mine.split()[1]}_over_peer"
+                        extra[key] = medians[(scene, mine)] / extra["median_ms"]
             rows.append(
                 Row(
                     SUITE,
-                    scenario,
+                    scene,
                     label,
-                    Timing.from_samples(times) if times else None,
+                    Timing.from_samples([s["time"] for s in samples]),
                     extra,
-                    ratio_to="taskspace rrt_connect",
-                    note=out.get("note", ""),
+                    ratio_to="taskspace rrt_connect" if peer else None,
                 )
             )
+    for note in dict.fromkeys(notes):
+        rows.append(Row(SUITE, "all", "peers", None, note=note))
     return rows

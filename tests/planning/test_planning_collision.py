@@ -12,6 +12,7 @@ from taskspace.planning.configuration_space import (
     ConfigurationSpace,
     EdgeCheckOptions,
     bisection_order,
+    nested_orders,
 )
 from tests.planning._planning_worlds import wall_space
 
@@ -115,3 +116,38 @@ def test_edge_checker_on_panda_thin_plate() -> None:
     assert space.is_valid(q0) and space.is_valid(q1)
     assert not space.motion_valid(q0, q1)
     assert np.linalg.norm(hand0 - hand_mid) > 0.05
+
+
+@pytest.mark.parametrize("stride", [1, 2, 3, 5, 7])
+def test_nested_orders_cover_each_interior_point_once(stride: int) -> None:
+    for n in range(1, 60):
+        coarse, fine = nested_orders(n, stride)
+        both = np.concatenate([coarse, fine]).tolist()
+        assert sorted(both) == list(range(1, n))  # every interior index exactly once
+        assert np.all(coarse % stride == 0)
+        # Coarse points (with the end points 0 and n) are at most ``stride`` apart.
+        grid = np.sort(np.concatenate([[0, n], coarse]))
+        assert np.all(np.diff(grid) <= stride)
+        if stride == 1:
+            assert coarse.tolist() == bisection_order(n).tolist() and fine.size == 0
+
+
+def test_growing_nearest_matches_kdtree_with_removals() -> None:
+    from scipy.spatial import cKDTree
+
+    from taskspace.planning.nearest import GrowingNearest
+
+    rng = np.random.default_rng(4)
+    pts = rng.uniform(-3, 3, (3000, 7))  # more than the initial capacity: growth is exercised
+    nn = GrowingNearest(7, capacity=16)
+    for p in pts:
+        nn.add(p)
+    removed = rng.choice(3000, 500, replace=False)
+    nn.disable(removed.tolist())
+    keep = np.setdiff1d(np.arange(3000), removed)
+    tree = cKDTree(pts[keep])
+    for q in rng.uniform(-3, 3, (200, 7)):
+        i, d = nn.nearest(q)
+        d_ref, j = tree.query(q)
+        assert i == keep[j]
+        assert d == pytest.approx(d_ref, rel=1e-12)

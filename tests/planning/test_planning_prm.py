@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Literal
+
 import numpy as np
 import pytest
 from scipy.sparse import lil_matrix
@@ -34,7 +36,7 @@ def _reference_cost(space, roadmap, q_s, q_g, k):  # type: ignore[no-untyped-def
 
 
 @pytest.mark.parametrize("search", ["dijkstra", "astar"])
-def test_prm_queries_equal_reference_shortest_paths(search: str) -> None:
+def test_prm_queries_equal_reference_shortest_paths(search: Literal["dijkstra", "astar"]) -> None:
     space = wall_space(resolution=0.05)
     opts = PRMOptions(n_samples=300, k_neighbors=8, search=search, seed=3)
     roadmap = build_prm(space, opts)
@@ -104,3 +106,26 @@ def test_prm_start_in_collision() -> None:
     with pytest.raises(PlanningError, match="start is in collision"):
         prm_query(space, roadmap, [5.0, 1.0], GOAL)
     assert WALL.shape == (2, 4)
+
+
+def test_single_query_lazy_prm_grows_until_connected() -> None:
+    from taskspace.planning.lazy_prm import lazy_prm
+
+    space = wall_space(resolution=0.05)
+    # 20 nodes rarely connect start and goal through the gap: the roadmap must grow.
+    res, lazy = lazy_prm(space, START, GOAL, PRMOptions(n_samples=20, k_neighbors=6, seed=0))
+    assert res.success and res.log["growth_rounds"] >= 1
+    assert lazy.roadmap.size == 20 * res.log["growth_rounds"]
+    assert wall_space(resolution=0.005).path_valid(res.path)
+    # The answer is the shortest path of the fully checked roadmap (same nodes, same k).
+    nodes = lazy.roadmap.nodes
+    adjacency = [[] for _ in range(len(nodes))]  # type: ignore[var-annotated]
+    for (i, j), c in zip(lazy.pairs.tolist(), lazy.costs.tolist()):
+        if space.motion_valid(nodes[i], nodes[j]):
+            adjacency[i].append((j, c))
+            adjacency[j].append((i, c))
+    from taskspace.planning.prm import Roadmap
+
+    full = Roadmap(nodes=nodes, adjacency=adjacency)
+    ref = _reference_cost(space, full, START, GOAL, 6)
+    assert res.path_length == pytest.approx(ref, rel=1e-9)

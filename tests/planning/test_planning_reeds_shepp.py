@@ -105,14 +105,16 @@ def test_length_scales_linearly_with_radius(s, g, r, k):
 def test_reversed_problem_has_same_length_and_rs_is_below_dubins(s, g, r):
     a = reeds_shepp_shortest(s, g, r)
     b = reeds_shepp_shortest(g, s, r)
-    assert b.length == pytest.approx(a.length, rel=1e-9, abs=1e-9)
+    # tolerances 1e-7: the closed forms go through atan2/acos of sums of products (round-off
+    # of about 1e-8 was seen near degenerate words)
+    assert b.length == pytest.approx(a.length, rel=1e-7, abs=1e-7)
     # the time-reversed path is a valid path of the reversed problem
     assert pose_err(a.reversed_in_time().end, s) < 1e-9
-    assert a.length <= dubins_shortest(s, g, r).length + 1e-9
-    assert a.length >= np.hypot(g[0] - s[0], g[1] - s[1]) - 1e-9
+    assert a.length <= dubins_shortest(s, g, r).length + 1e-7
+    assert a.length >= np.hypot(g[0] - s[0], g[1] - s[1]) - 1e-7
     # reflection symmetry (mirror y and headings)
     m = reeds_shepp_shortest((s[0], -s[1], -s[2]), (g[0], -g[1], -g[2]), r)
-    assert m.length == pytest.approx(a.length, rel=1e-9, abs=1e-9)
+    assert m.length == pytest.approx(a.length, rel=1e-7, abs=1e-7)
 
 
 @settings(max_examples=40, deadline=None)

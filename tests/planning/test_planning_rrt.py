@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from taskspace.errors import PlanningError
+from taskspace.errors import InvalidInputError, PlanningError
 from taskspace.planning.configuration_space import path_length
 from taskspace.planning.planner_result import PlannerStatus
 from taskspace.planning.rrt import RRTOptions, rrt
@@ -96,3 +96,49 @@ def test_start_goal_errors() -> None:
         rrt(space, START, [11.0, 5.0])
     with pytest.raises(PlanningError, match="must have shape"):
         rrt_connect(space, [1.0, 1.0, 1.0], GOAL)
+
+
+# The straight line from START to GOAL passes through the gap; these two are blocked by the wall.
+S2, G2 = np.array([1.0, 8.0]), np.array([9.0, 8.0])
+
+
+def test_lazy_rrt_connect_never_crosses_a_wall_thinner_than_the_coarse_step() -> None:
+    # 0.06-wide wall with a gap; the coarse pass (0.6) steps over it, the resolution (0.02)
+    # cannot: a straight segment crossing the wall spends >= 0.06 inside it.
+    thin = np.array([[4.97, 0.0, 5.03, 4.0], [4.97, 6.0, 5.03, 10.0]])
+    space = wall_space(resolution=0.02, boxes=thin)
+    rejected = 0.0
+    for seed in range(6):
+        opts = RRTConnectOptions(step_size=1.0, coarse_resolution=0.6, seed=seed)
+        res = rrt_connect(space, S2, G2, opts)
+        assert res.success
+        rejected += res.log["lazy_rejections"]
+        fine = wall_space(resolution=0.002, boxes=thin)
+        assert fine.path_valid(res.path)
+        for tree in res.trees:  # removed nodes have no parent; the others form trees
+            assert tree.parents[0] == -1 and np.all(tree.parents < np.arange(tree.size))
+    assert rejected > 0  # the fine pass did reject coarse-accepted connections
+
+
+def test_lazy_and_eager_rrt_connect_check_counts() -> None:
+    # Eager: every tree edge checked at delta (the classic algorithm); lazy: fine points only
+    # on candidate paths. Same guarantee for the returned path, fewer checks.
+    space = wall_space(resolution=0.01)
+    eager: list[int] = []
+    lazy: list[int] = []
+    for seed in range(8):
+        for coarse, out in ((None, eager), (0.1, lazy)):
+            res = rrt_connect(space, S2, G2, RRTConnectOptions(coarse_resolution=coarse, seed=seed))
+            assert res.success and wall_space(resolution=0.001).path_valid(res.path)
+            out.append(res.collision_checks)
+    assert np.mean(lazy) < 0.8 * np.mean(eager)
+
+
+def test_rrt_connect_option_errors() -> None:
+    space = wall_space()
+    with pytest.raises(InvalidInputError, match=r"local_sampling must be in \[0, 1\], got 1.5"):
+        rrt_connect(space, START, GOAL, RRTConnectOptions(local_sampling=1.5))
+    with pytest.raises(InvalidInputError, match="coarse_resolution"):
+        rrt_connect(space, START, GOAL, RRTConnectOptions(coarse_resolution=-1.0))
+    with pytest.raises(InvalidInputError, match="step_size"):
+        rrt_connect(space, START, GOAL, RRTConnectOptions(step_size=0.0))

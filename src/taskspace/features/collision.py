@@ -3,9 +3,10 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+import numpy.typing as npt
 
 from taskspace._validation import FloatArray, check_positive
 from taskspace.errors import UnknownNameError
@@ -75,7 +76,7 @@ class CollisionDistance(Feature):
         self._check_state(state)
         return np.array([r.min_distance for r in self._results(state)])
 
-    def jacobian(self, state: State, rows: FloatArray | None = None) -> FloatArray:
+    def jacobian(self, state: State, rows: npt.NDArray[Any] | None = None) -> FloatArray:
         """Dim x nv Jacobian (only the ``rows`` selected by index or mask, if given).
 
         Row k is ``[n; p_b x n]^T J_b - [n; p_a x n]^T J_a`` with ``J`` the WORLD joint

@@ -8,6 +8,11 @@ is the straight line ``q(t) = (1 - t) q + t q'``, tested for collisions up to th
 (midpoint first, then the quarter points, ...: the van der Corput order), so that a collision is
 found after few checks, and the search stops at the first collision. Points are sent to the
 checker in batches of growing size (1, 4, 16, ... up to ``max_batch``), one C++ call per batch.
+
+Lazy planners split the same interior points into a coarse pass (indices that are multiples
+of a stride, checked when an edge is created) and a fine pass (the others, checked only when
+the edge lies on a candidate path), see :func:`nested_orders`: together they are exactly the
+points of the resolution ``delta``.
 """
 
 from __future__ import annotations

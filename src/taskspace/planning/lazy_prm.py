@@ -3,13 +3,16 @@
 The roadmap is built *without* checking edges (nodes are still free samples). A query then
 repeats::
 
-    path <- shortest path in G from q_start to q_goal (Dijkstra / A*)
-    check the edges of path with the local planner (results are cached)
+    path <- shortest path in G from q_start to q_goal (Dijkstra)
+    check the unchecked edges of path (results are kept in the roadmap)
     if all are free: return path
-    else: remove the first colliding edge from G
+    else: remove the colliding edges from G
 
 until a free path is found or start and goal are disconnected. Only edges on candidate
-shortest paths are ever checked, which saves most of the edge checks of a PRM.
+shortest paths are ever checked, which saves most of the edge checks of a PRM. The edges of a
+candidate path are checked together, coarse to fine: one checker call for the coarse points
+of all of them (every colliding edge found is removed at once), then one for the remaining
+full-resolution points, so a round costs one graph search (scipy) and two checker calls.
 """
 
 from __future__ import annotations
@@ -21,11 +24,19 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import dijkstra
 
 from taskspace.errors import InvalidInputError
-from taskspace.planning.configuration_space import ConfigurationSpace, path_length
+from taskspace.planning.configuration_space import (
+    ConfigurationSpace,
+    FloatArray,
+    nested_orders,
+    path_length,
+)
 from taskspace.planning.planner_result import PlannerResult, PlannerStatus
-from taskspace.planning.prm import PRMOptions, Roadmap, _assemble, connect_roadmap, query_graph
+from taskspace.planning.prm import PRMOptions, Roadmap, _candidate_pairs
 from taskspace.planning.sampling import sample_free
 
 logger = logging.getLogger(__name__)
@@ -33,15 +44,27 @@ logger = logging.getLogger(__name__)
 
 @dataclass
 class LazyRoadmap:
-    """A roadmap whose edges are checked on demand.
+    """A roadmap whose edges are checked on demand; the edge states persist across queries.
 
     Attributes:
         roadmap: nodes and unchecked k-nearest-neighbour edges.
-        valid: cache of edge checks ``(i, j) -> free`` (``i < j``), shared by queries.
+        pairs: candidate edges ``(i, j)``, ``i < j``, shape (m, 2).
+        costs: edge lengths ``|q_i - q_j|`` [rad or m], shape (m,).
+        status: per edge 0 = not checked, 1 = free at the full resolution, -1 = in collision.
     """
 
     roadmap: Roadmap
-    valid: dict[tuple[int, int], bool] = field(default_factory=dict)
+    pairs: npt.NDArray[np.int64] = field(default_factory=lambda: np.empty((0, 2), np.int64))
+    costs: FloatArray = field(default_factory=lambda: np.empty(0))
+    status: npt.NDArray[np.int8] = field(default_factory=lambda: np.empty(0, np.int8))
+
+    @property
+    def valid(self) -> dict[tuple[int, int], bool]:
+        """Edges checked so far: ``(i, j) -> free``."""
+        done = np.flatnonzero(self.status != 0)
+        return {
+            (int(self.pairs[e, 0]), int(self.pairs[e, 1])): bool(self.status[e] > 0) for e in done
+        }
 
 
 def build_lazy_prm(
@@ -58,7 +81,12 @@ def build_lazy_prm(
     t0 = time.perf_counter()
     checks0 = space.checks
     nodes = sample_free(space, opts.n_samples, rng, strategy=opts.sampler, sigma=opts.sigma)
-    adjacency, _tried = connect_roadmap(space, nodes, opts.k_neighbors, check_edges=False)
+    pairs = _candidate_pairs(nodes, opts.k_neighbors)
+    costs = np.linalg.norm(nodes[pairs[:, 1]] - nodes[pairs[:, 0]], axis=1)
+    adjacency: list[list[tuple[int, float]]] = [[] for _ in range(nodes.shape[0])]
+    for (i, j), c in zip(pairs.tolist(), costs.tolist()):
+        adjacency[i].append((j, c))
+        adjacency[j].append((i, c))
     roadmap = Roadmap(
         nodes=nodes,
         adjacency=adjacency,
@@ -66,7 +94,42 @@ def build_lazy_prm(
         collision_checks=space.checks - checks0,
         edges_tried=0,
     )
-    return LazyRoadmap(roadmap=roadmap)
+    return LazyRoadmap(
+        roadmap=roadmap, pairs=pairs, costs=costs, status=np.zeros(len(costs), dtype=np.int8)
+    )
+
+
+def _edge_points(
+    space: ConfigurationSpace, q0: FloatArray, q1: FloatArray, stride: int, coarse: bool
+) -> FloatArray:
+    """Coarse-pass or fine-pass interior points of the segment ``q0 -> q1`` (nested orders)."""
+    n = space.segments(q0, q1)
+    first, second = nested_orders(n, stride)
+    idx = first if coarse else second
+    return q0 + (idx / n)[:, None] * (q1 - q0)
+
+
+def _check_edges(
+    space: ConfigurationSpace, ends: list[tuple[FloatArray, FloatArray]], stride: int
+) -> npt.NDArray[np.bool_]:
+    """Which segments are free at the full resolution: coarse pass on all, then fine pass.
+
+    A segment with a colliding coarse point is not fine-checked; every point is checked at
+    most once. Segment end points are assumed free.
+    """
+    free = np.ones(len(ends), dtype=bool)
+    for coarse in (True, False):
+        todo = np.flatnonzero(free)
+        chunks = [_edge_points(space, *ends[e], stride, coarse) for e in todo]
+        sizes = np.array([c.shape[0] for c in chunks])
+        if sizes.sum() == 0:
+            continue
+        ok = space.checker.are_valid(np.vstack(chunks))
+        owner = np.repeat(todo, sizes)
+        free[np.unique(owner[~ok])] = False
+        if coarse and not free.all():
+            break  # some edges failed: the caller searches again before fine checks
+    return free
 
 
 def lazy_prm_query(
@@ -77,16 +140,26 @@ def lazy_prm_query(
     options: PRMOptions | None = None,
     *,
     time_limit_s: float | None = None,
+    coarse_resolution: float = 0.15,
 ) -> PlannerResult:
     """Answer a query on a lazy roadmap, checking only edges of candidate shortest paths.
 
+    Each round: shortest path from ``q_start`` to ``q_goal`` over the edges not known to
+    collide (scipy's Dijkstra on the sparse graph; start and goal are joined to their k
+    nearest nodes and to each other); its unchecked edges are checked together, first at
+    ``coarse_resolution`` (every colliding edge found is removed, and the search is redone),
+    then at the full resolution. The path is returned when all its edges are free, so it is
+    the shortest path of the fully checked roadmap (the PRM's answer, slide 3:30). Edge
+    states are stored in ``lazy`` and reused by later queries.
+
     Args:
         space: the configuration space of the roadmap.
-        lazy: from :func:`build_lazy_prm` (its edge cache grows).
+        lazy: from :func:`build_lazy_prm` (its edge states are updated).
         start: ``q_start``.
         goal: ``q_goal``.
-        options: ``k_neighbors`` and ``search`` are used.
+        options: ``k_neighbors`` is used.
         time_limit_s: wall-clock budget [s].
+        coarse_resolution: first-pass resolution [rad or m].
 
     Raises:
         PlanningError: start or goal outside the bounds or in collision.
@@ -98,53 +171,63 @@ def lazy_prm_query(
     q_start = space.check_endpoint(start, "start")
     q_goal = space.check_endpoint(goal, "goal")
     roadmap = lazy.roadmap
-    kk = min(opts.k_neighbors, roadmap.size)
-
-    def near(q: Any) -> list[tuple[int, float]]:
-        dist, idx = roadmap.kdtree.query(q, k=kk)
-        return list(zip(np.atleast_1d(idx).tolist(), np.atleast_1d(dist).tolist()))
-
-    start_edges, goal_edges = near(q_start), near(q_goal)
-    direct = float(np.linalg.norm(q_goal - q_start))
-    blocked: set[tuple[int, int]] = {k for k, ok in lazy.valid.items() if not ok}
-    status = PlannerStatus.NO_PATH
+    n = roadmap.size
+    s, g = n, n + 1
+    kk = min(opts.k_neighbors, n)
+    stride = max(1, math.floor(coarse_resolution / space.edge.resolution + 1e-9))
+    points = np.vstack([roadmap.nodes, q_start, q_goal])
+    extra_pairs = [[s, g]]
+    for v in (s, g):
+        _, idx = roadmap.kdtree.query(points[v], k=kk)
+        extra_pairs += [[min(v, j), max(v, j)] for j in np.atleast_1d(idx).tolist()]
+    extra = np.asarray(extra_pairs, dtype=np.int64)
+    pairs = np.vstack([lazy.pairs, extra])
+    costs = np.concatenate(
+        [lazy.costs, np.linalg.norm(points[extra[:, 1]] - points[extra[:, 0]], axis=1)]
+    )
+    status = np.concatenate([lazy.status, np.zeros(len(extra), dtype=np.int8)])
+    index = {(int(a), int(b)): e for e, (a, b) in enumerate(pairs.tolist())}
+    m = len(lazy.costs)
+    status_out = PlannerStatus.NO_PATH
     ids: list[int] = []
     rounds = 0
-    points = {-1: q_start, -2: q_goal}
-
-    def point(v: int) -> Any:
-        return points[v] if v < 0 else roadmap.nodes[v]
-
     while True:
         if time.perf_counter() > deadline:
-            status = PlannerStatus.TIME_LIMIT
+            status_out = PlannerStatus.TIME_LIMIT
             break
         rounds += 1
-        ids, _ = query_graph(roadmap, start_edges, goal_edges, direct, q_goal, opts.search, blocked)
-        if not ids:
-            status = PlannerStatus.NO_PATH
+        keep = status >= 0
+        # Zero-length edges would vanish from the sparse matrix: give them a tiny cost.
+        weights = np.maximum(costs[keep], 1e-12)
+        graph = csr_matrix((weights, (pairs[keep, 0], pairs[keep, 1])), shape=(n + 2, n + 2))
+        dist, pred = dijkstra(graph, directed=False, indices=s, return_predecessors=True)
+        if not np.isfinite(dist[g]):
+            status_out = PlannerStatus.NO_PATH
             break
-        bad = None
-        for a, b in zip(ids[:-1], ids[1:]):  # noqa: RUF007
-            key = (min(a, b), max(a, b))
-            ok = lazy.valid.get(key) if a >= 0 and b >= 0 else None
-            if ok is None:
-                ok = space.motion_valid(point(a), point(b))
-                if a >= 0 and b >= 0:
-                    lazy.valid[key] = ok
-            if not ok:
-                bad = key
-                break
-        if bad is None:
-            status = PlannerStatus.SOLVED
+        ids = [g]
+        while ids[-1] != s:
+            ids.append(int(pred[ids[-1]]))
+        ids.reverse()
+        path_edges = [index[(min(a, b), max(a, b))] for a, b in zip(ids[:-1], ids[1:])]  # noqa: RUF007
+        unknown = [e for e in path_edges if status[e] == 0]
+        if not unknown:
+            status_out = PlannerStatus.SOLVED
             break
-        blocked.add(bad)
-    # Edges already known to be invalid are removed in later queries as well.
-    success = status is PlannerStatus.SOLVED
-    path = _assemble(roadmap, ids, q_start, q_goal) if success else np.empty((0, space.dim))
+        space.edge_checks += len(unknown)
+        ends = [(points[pairs[e, 0]], points[pairs[e, 1]]) for e in unknown]
+        free = _check_edges(space, ends, stride)
+        bad = [e for e, ok in zip(unknown, free) if not ok]
+        for e in bad:
+            status[e] = -1
+        if not bad:
+            for e in unknown:
+                status[e] = 1
+    lazy.status[:] = status[:m]  # roadmap edge states are kept for later queries
+    success = status_out is PlannerStatus.SOLVED
+    path = points[ids] if success else np.empty((0, space.dim))
     return PlannerResult(
         success=success,
-        status=status,
+        status=status_out,
         path=path,
         path_length=path_length(path) if success else math.inf,
         iterations=rounds,
@@ -153,3 +236,90 @@ def lazy_prm_query(
         time_s=time.perf_counter() - t0,
         log={"search_rounds": float(rounds), "roadmap_nodes": float(roadmap.size)},
     )
+
+
+def grow_lazy_prm(
+    space: ConfigurationSpace, lazy: LazyRoadmap, new_nodes: FloatArray, k: int
+) -> LazyRoadmap:
+    """Add nodes to a lazy roadmap; edge states of edges that stay candidates are kept.
+
+    The k-nearest-neighbour candidate edges are recomputed over all nodes (old node indices are
+    unchanged, new nodes are appended).
+    """
+    old = lazy.roadmap
+    nodes = np.vstack([old.nodes, new_nodes]) if new_nodes.shape[0] else old.nodes
+    pairs = _candidate_pairs(nodes, k)
+    costs = np.linalg.norm(nodes[pairs[:, 1]] - nodes[pairs[:, 0]], axis=1)
+    status = np.zeros(len(costs), dtype=np.int8)
+    known = {(int(a), int(b)): int(st) for (a, b), st in zip(lazy.pairs.tolist(), lazy.status)}
+    for e, (a, b) in enumerate(pairs.tolist()):
+        status[e] = known.get((a, b), 0)
+    adjacency: list[list[tuple[int, float]]] = [[] for _ in range(nodes.shape[0])]
+    for (i, j), c in zip(pairs.tolist(), costs.tolist()):
+        adjacency[i].append((j, c))
+        adjacency[j].append((i, c))
+    roadmap = Roadmap(
+        nodes=nodes,
+        adjacency=adjacency,
+        build_time_s=old.build_time_s,
+        collision_checks=old.collision_checks,
+        edges_tried=old.edges_tried,
+    )
+    return LazyRoadmap(roadmap=roadmap, pairs=pairs, costs=costs, status=status)
+
+
+def lazy_prm(
+    space: ConfigurationSpace,
+    start: Any,
+    goal: Any,
+    options: PRMOptions | None = None,
+    *,
+    time_limit_s: float | None = 1.0,
+    endpoint_fraction: float = 0.2,
+    rng: np.random.Generator | None = None,
+) -> tuple[PlannerResult, LazyRoadmap]:
+    """Single-query Lazy PRM that grows its roadmap until start and goal are connected.
+
+    Round ``r`` adds ``n_samples`` free nodes: a fraction ``endpoint_fraction`` drawn from
+    ``N(q_start, sigma^2 I)`` and ``N(q_goal, sigma^2 I)`` (the tight start and goal regions
+    of manipulation problems), the rest uniform; then :func:`lazy_prm_query` runs on the grown
+    roadmap (edge states carried over). Stops when a path is found or the time runs out.
+
+    Returns:
+        ``(result, lazy roadmap)``; ``time_s`` and ``collision_checks`` include construction.
+    """
+    opts = options or PRMOptions()
+    rng = rng if rng is not None else np.random.default_rng(opts.seed)
+    t0 = time.perf_counter()
+    deadline = math.inf if time_limit_s is None else t0 + time_limit_s
+    checks0, edges0 = space.checks, space.edge_checks
+    q_start = space.check_endpoint(start, "start")
+    q_goal = space.check_endpoint(goal, "goal")
+    lazy: LazyRoadmap | None = None
+    rounds = 0
+    while True:
+        rounds += 1
+        n_end = int(endpoint_fraction * opts.n_samples) // 2
+        near = []
+        for q in (q_start, q_goal):
+            cand = np.clip(
+                q + opts.sigma * rng.standard_normal((4 * n_end, space.dim)),
+                space.lower,
+                space.upper,
+            )
+            near.append(cand[space.checker.are_valid(cand)][:n_end])
+        uniform = sample_free(space, opts.n_samples - 2 * n_end, rng)
+        fresh = np.vstack([*near, uniform])
+        if lazy is None:
+            base = Roadmap(nodes=np.empty((0, space.dim)), adjacency=[])
+            lazy = LazyRoadmap(roadmap=base)
+        lazy = grow_lazy_prm(space, lazy, fresh, opts.k_neighbors)
+        remaining = None if time_limit_s is None else max(0.0, deadline - time.perf_counter())
+        result = lazy_prm_query(space, lazy, q_start, q_goal, opts, time_limit_s=remaining)
+        if result.success or time.perf_counter() > deadline:
+            break
+    result.time_s = time.perf_counter() - t0
+    result.collision_checks = space.checks - checks0
+    result.edge_checks = space.edge_checks - edges0
+    result.log["growth_rounds"] = float(rounds)
+    return result, lazy

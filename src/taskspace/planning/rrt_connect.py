@@ -31,6 +31,20 @@ returned. Every edge of a returned path is therefore free at resolution ``delta`
 guarantee as checking every tree edge at ``delta``, but the fine points of the many edges that
 never lie on the solution are not checked. ``coarse_resolution=None`` gives the classic eager
 algorithm. Nearest neighbours: :class:`GrowingNearest`.
+
+Trapped trees: in pick problems the goal often lies in a tight region (fingers around an
+object in a shelf) from which steps towards uniform samples nearly always collide; the goal
+tree then stays at a few nodes while the start tree grows to thousands. When a tree has fewer
+than a quarter of the other's nodes, its target is, with probability ``local_sampling``, drawn
+around one of its own nodes (a Gaussian of standard deviation ``local_sigma``), which lets it
+grow out of the region (on the 313 valid MotionBenchMaker Panda problems: 313 instead of 309
+solved within 1 s).
+
+Measured (same problems, same checker, 2-core machine; see ``benchmarks/suites/planning.py``):
+the lazy coarse-to-fine checks need about 35 % fewer collision checks than checking every
+edge at ``delta`` (which needs the same checks as OMPL's RRTConnect at the same range and
+resolution), and the batched calls cost about 10 us per configuration instead of about 15 us
+one by one.
 """
 
 from __future__ import annotations
@@ -67,6 +81,14 @@ class RRTConnectOptions:
         coarse_resolution: eager edge-check resolution ``delta_c`` [rad or m]; the full
             resolution ``delta`` of the space is checked only on candidate paths. ``None``
             (or a value <= ``delta``) checks every tree edge at ``delta`` (classic RRT-Connect).
+        partial_extend: EXTEND checks the step's coarse points in order and keeps the last
+            free one (instead of all-or-nothing, end point first); measured worse on the
+            MotionBenchMaker Panda problems, off by default.
+        local_sampling: probability ``p`` of drawing the target of a *trapped* tree (fewer
+            than a quarter of the other tree's nodes: typically the goal tree in a tight grasp
+            region) as ``q_i + sigma N(0, I)`` around one of its own random nodes ``q_i``
+            instead of uniformly; uniform samples keep probability ``>= 1 - p``.
+        local_sigma: ``sigma`` of those local targets [rad or m].
         max_iterations: number of samples ``n``.
         time_limit_s: wall-clock budget [s] (``None`` = no limit).
         seed: random seed used when no ``rng`` is passed.
@@ -74,6 +96,9 @@ class RRTConnectOptions:
 
     step_size: float = 0.5
     coarse_resolution: float | None = 0.15
+    partial_extend: bool = False
+    local_sampling: float = 0.5
+    local_sigma: float = 0.5
     max_iterations: int = 100_000
     time_limit_s: float | None = 1.0
     seed: int = 0
@@ -150,10 +175,11 @@ class _LinePlanner:
     def __init__(self, alpha: float, delta: float, delta_c: float) -> None:
         self.alpha = alpha
         self.delta = delta
-        self.stride = max(1, int(math.floor(delta_c / delta + 1e-9)))
+        self.stride = max(1, math.floor(delta_c / delta + 1e-9))
         self.lazy = self.stride > 1
         self._patterns: dict[int, FloatArray] = {}
         self._full: dict[int, tuple[FloatArray, IntArray]] = {}
+        self._sequences: dict[int, tuple[FloatArray, IntArray]] = {}
         self.full_n = self.segments(alpha)
         self.full_u = self.pattern(self.full_n)
 
@@ -168,6 +194,19 @@ class _LinePlanner:
             u = np.concatenate([[1.0], coarse / n])
             self._patterns[n] = u
         return u
+
+    def sequence(self, n: int) -> tuple[FloatArray, IntArray]:
+        """Coarse points of one step of ``n`` segments in order along it (end point last).
+
+        Returns the fractions and the grid index of each point.
+        """
+        got = self._sequences.get(n)
+        if got is None:
+            n_coarse = max(1, -(-n // self.stride))
+            grid = np.append(np.arange(1, n_coarse) * self.stride, n).astype(np.int64)
+            got = (grid / n, grid)
+            self._sequences[n] = got
+        return got
 
     def full_steps(self, count: int) -> tuple[FloatArray, IntArray]:
         """Distances along the line [rad or m] and step indices of ``count`` full steps."""
@@ -246,10 +285,51 @@ def _grow(
     return parent, reached
 
 
+def _extend(
+    space: ConfigurationSpace,
+    tree: _GrowingTree,
+    lines: _LinePlanner,
+    q_rand: FloatArray,
+    partial: bool,
+) -> int:
+    """EXTEND(T, q_rand): one step of length <= alpha from the nearest node; new node or -1.
+
+    Default: the step's end point is checked first, then its coarse interior (OMPL's order);
+    with ``partial`` the coarse points are checked in order along the step and the last free
+    one becomes the new node.
+    """
+    i_near, dist = tree.nn.nearest(q_rand)
+    if dist == 0.0:
+        return -1
+    space.edge_checks += 1
+    q_near = tree.nn.points[i_near]
+    alpha = lines.alpha
+    n_seg = lines.full_n if dist > alpha else lines.segments(dist)
+    step = min(1.0, alpha / dist)
+    if partial:
+        u, grid = lines.sequence(n_seg)
+        points = q_near + (u * step)[:, None] * (q_rand - q_near)
+        bad = space.checker.first_invalid(points)
+        if bad == 0:
+            return -1
+        if bad > 0:
+            return tree.add(points[bad - 1].copy(), i_near, int(grid[bad - 1]), lines.lazy)
+    else:
+        points = q_near + (lines.pattern(n_seg) * step)[:, None] * (q_rand - q_near)
+        if space.checker.first_invalid(points) >= 0:
+            return -1
+    q_new = points[0 if not partial else -1].copy() if dist > alpha else q_rand.copy()
+    return tree.add(q_new, i_near, n_seg, lines.lazy)
+
+
 def _verify(
     space: ConfigurationSpace, trees: list[tuple[_GrowingTree, int]], stride: int
 ) -> tuple[bool, int]:
     """Check the pending fine points of the edges on the root paths of the given leaves.
+
+    Edges are checked tree after tree, from the root outwards: edges near the roots (the tight
+    start and goal regions of manipulation problems) are where the coarse pass misses thin
+    obstacles most often, and once verified they serve every later candidate path.
 
     Returns ``(all free, nodes removed)``; on a collision the child of the first colliding
     edge and its subtree are removed from its tree, the edges checked before it are marked.
@@ -259,7 +339,7 @@ def _verify(
     owner: list[int] = []
     for tree, leaf in trees:
         points = tree.nn.points
-        for i in tree.path_indices(leaf):
+        for i in tree.path_indices(leaf)[::-1]:
             if not tree.pending[i]:
                 continue
             n = tree.segments[i]
@@ -322,6 +402,9 @@ def rrt_connect(
     alpha = check_positive(opts.step_size, "step_size")
     if opts.max_iterations < 0:
         raise InvalidInputError(f"max_iterations must be >= 0, got {opts.max_iterations}")
+    if not 0.0 <= opts.local_sampling <= 1.0:
+        raise InvalidInputError(f"local_sampling must be in [0, 1], got {opts.local_sampling}")
+    check_positive(opts.local_sigma, "local_sigma")
     delta = space.edge.resolution
     delta_c = delta
     if opts.coarse_resolution is not None:
@@ -343,8 +426,9 @@ def rrt_connect(
     else:
         tree_a, tree_b = tree_start, tree_goal
         block = 256
+        local = opts.local_sampling
         samples = space.sample_uniform(rng, block)
-        for iterations in range(1, opts.max_iterations + 1):  # noqa: B007
+        for iterations in range(1, opts.max_iterations + 1):
             if time.perf_counter() > deadline:
                 status = PlannerStatus.TIME_LIMIT
                 break
@@ -352,36 +436,38 @@ def rrt_connect(
             if j == 0 and iterations > 1:
                 samples = space.sample_uniform(rng, block)
             q_rand = samples[j]
-            i_near, dist = tree_a.nn.nearest(q_rand)
-            if dist > 0.0:
-                space.edge_checks += 1
-                a_new, _ = _grow(space, tree_a, lines, i_near, q_rand, dist, 1, False)
-                if a_new != i_near:
-                    q_new = tree_a.nn.points[a_new]
-                    j_near, gap = tree_b.nn.nearest(q_new)
-                    if gap == 0.0:
-                        b_new, reached = j_near, True
-                    else:
-                        space.edge_checks += 1
-                        b_new, reached = _grow(
-                            space, tree_b, lines, j_near, q_new, gap, 1 << 30, True
-                        )
-                    if reached:
-                        ok = True
-                        if lines.lazy:
-                            ok, lost = _verify(
-                                space, [(tree_a, a_new), (tree_b, b_new)], lines.stride
-                            )
-                            rejections += not ok
-                            removed += lost
-                        if ok:
-                            half_a = tree_a.nn.points[tree_a.path_indices(a_new)[::-1]]
-                            half_b = tree_b.nn.points[tree_b.path_indices(b_new)[1:]]
-                            path = np.vstack([half_a, half_b])
-                            if tree_a is tree_goal:
-                                path = path[::-1].copy()
-                            status = PlannerStatus.SOLVED
-                            break
+            if local > 0.0 and 4 * len(tree_a.nn) < len(tree_b.nn) and rng.random() < local:
+                # T_a is trapped (typically in a tight goal region): aim near one of its nodes.
+                node = tree_a.nn.points[int(rng.integers(len(tree_a.nn)))]
+                q_rand = node + opts.local_sigma * rng.standard_normal(space.dim)
+                q_rand = np.clip(q_rand, space.lower, space.upper)
+            a_new = _extend(space, tree_a, lines, q_rand, opts.partial_extend)
+            if a_new >= 0:
+                # CONNECT(T_b, q_new): the whole line of steps in one checker call.
+                q_new = tree_a.nn.points[a_new]
+                j_near, gap = tree_b.nn.nearest(q_new)
+                if gap == 0.0:
+                    b_new, reached = j_near, True
+                else:
+                    space.edge_checks += 1
+                    b_new, reached = _grow(space, tree_b, lines, j_near, q_new, gap, 1 << 30, True)
+                if reached:
+                    ok = True
+                    if lines.lazy:
+                        leaves = [(tree_a, a_new), (tree_b, b_new)]
+                        if tree_a is tree_start:
+                            leaves.reverse()  # goal tree first
+                        ok, lost = _verify(space, leaves, lines.stride)
+                        rejections += not ok
+                        removed += lost
+                    if ok:
+                        half_a = tree_a.nn.points[tree_a.path_indices(a_new)[::-1]]
+                        half_b = tree_b.nn.points[tree_b.path_indices(b_new)[1:]]
+                        path = np.vstack([half_a, half_b])
+                        if tree_a is tree_goal:
+                            path = path[::-1].copy()
+                        status = PlannerStatus.SOLVED
+                        break
             tree_a, tree_b = tree_b, tree_a
     dt = time.perf_counter() - t0
     success = status is PlannerStatus.SOLVED

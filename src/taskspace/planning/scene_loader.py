@@ -247,7 +247,10 @@ def motionbenchmaker_panda(*, finger_opening: float = 0.04, convex_collision: bo
     robot = Robot.load(
         "panda",
         convex_collision=convex_collision,
-        locked_values={"panda_finger_joint1": finger_opening, "panda_finger_joint2": finger_opening},
+        locked_values={
+            "panda_finger_joint1": finger_opening,
+            "panda_finger_joint2": finger_opening,
+        },
     )
     robot.description = f"{robot.description}, fingers locked at {finger_opening} m"
     return robot

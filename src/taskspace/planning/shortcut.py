@@ -7,6 +7,9 @@ Two passes, both using the straight-line local planner (slide 3:32):
 2. random shortcuts: pick two points ``q(s_1), q(s_2)`` at random arc lengths
    ``s_1 < s_2`` of the path; if the segment between them is in Q_free, it replaces the
    part of the path between them (the path never gets longer, by the triangle inequality).
+   The two cut pieces of the old edges are checked as well: a piece of an edge checked at
+   the points ``k / n`` is a new segment whose own points ``k / n'`` were not checked, and
+   the result must be free at the resolution ``delta`` segment by segment.
 """
 
 from __future__ import annotations
@@ -121,10 +124,17 @@ def shortcut_path(
         i2, p2 = _point_at(arr, cumulative, float(s2))
         if i1 == i2:
             continue  # same segment: already straight
-        if not space.motion_valid(p1, p2):
-            continue
         new_length = float(np.linalg.norm(p2 - p1))
         if new_length >= s2 - s1 - 1e-12:
+            continue
+        # The pieces q_i1 -> p1 and p2 -> q_(i2+1) lie on free edges but are new segments whose
+        # own points (k / n of each piece) were never checked: check them too, so that every
+        # segment of the result is free at the resolution delta.
+        if not (
+            space.motion_valid(p1, p2)
+            and space.motion_valid(arr[i1], p1)
+            and space.motion_valid(p2, arr[i2 + 1])
+        ):
             continue
         arr = np.vstack([arr[: i1 + 1], p1, p2, arr[i2 + 1 :]])
         accepted += 1
