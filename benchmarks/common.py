@@ -87,6 +87,28 @@ def measure(fn: Callable[[], Any], *, warmup: int = 20, repeat: int = 200) -> Ti
     return Timing.from_samples(samples)
 
 
+def measure_interleaved(
+    fns: list[Callable[[], Any]], *, warmup: int = 50, rounds: int = 200, block: int = 20
+) -> list[Timing]:
+    """Time several functions in alternating blocks so that they see the same machine load.
+
+    Each round times ``block`` consecutive calls of every function in turn; a sample is the
+    per-call mean of one block. Use it for ratios between methods measured in one process.
+    """
+    for fn in fns:
+        for _ in range(warmup):
+            fn()
+    clock = time.perf_counter
+    samples = np.empty((len(fns), rounds))
+    for r in range(rounds):
+        for i, fn in enumerate(fns):
+            t0 = clock()
+            for _ in range(block):
+                fn()
+            samples[i, r] = (clock() - t0) / block
+    return [Timing.from_samples(s) for s in samples]
+
+
 def peer_python(peer: str) -> Path | None:
     """Python interpreter of a peer's virtual environment, or ``None`` if not installed."""
     exe = PEERS_DIR / peer / "bin" / "python"

@@ -38,8 +38,8 @@ class CenterOfMass(Feature):
         """``c(q) - c*`` and the CoM Jacobian."""
         if state.robot is not self.robot:
             self._check_state(state)
-        J = state.com_jacobian()
-        return state.com() - target, J
+        J = state.com_jacobian()  # also computes the CoM
+        return state.data.com[0] - target, J
 
     def drift(self, state: State) -> FloatArray:
         """CoM acceleration at zero joint acceleration [m/s^2]."""

@@ -28,6 +28,8 @@ if TYPE_CHECKING:
 
 logger = logging.getLogger(__name__)
 
+_F64 = np.dtype(np.float64)
+
 QUATERNION_TOLERANCE = 1e-6
 """Largest accepted deviation of a quaternion's (or unit complex's) norm from 1."""
 
@@ -75,6 +77,8 @@ class Robot:
         self.end_effectors = tuple(end_effectors)
         self._nq = int(model.nq)
         self._nv = int(model.nv)
+        self._q_shape = (self._nq,)
+        self._v_shape = (self._nv,)
         self.data = model.createData()
         self.collision_data = collision_model.createData()
         self._setup_joint_structure()
@@ -368,9 +372,9 @@ class Robot:
             InvalidInputError: a quaternion (or unit complex of a continuous joint) is not
                 normalized; use :meth:`normalize`.
         """
-        if type(q) is np.ndarray and q.dtype == np.float64 and q.shape == (self._nq,):
+        if type(q) is np.ndarray and q.dtype is _F64 and q.shape == self._q_shape:
             arr = q.copy()  # fast path for the common case
-            if not math.isfinite(arr @ arr):
+            if not math.isfinite(arr.dot(arr)):
                 check_finite(arr, name)
         else:
             arr = as_vector(q, self._nq, name)
@@ -388,9 +392,9 @@ class Robot:
 
     def check_velocity(self, v: Any, name: str = "v") -> FloatArray:
         """Validate a tangent vector: shape (nv,), finite. Returns a float64 copy."""
-        if type(v) is np.ndarray and v.dtype == np.float64 and v.shape == (self._nv,):
+        if type(v) is np.ndarray and v.dtype is _F64 and v.shape == self._v_shape:
             arr = v.copy()
-            if not math.isfinite(arr @ arr):
+            if not math.isfinite(arr.dot(arr)):
                 check_finite(arr, name)
             return arr
         arr = as_vector(v, self._nv, name)

@@ -13,6 +13,11 @@ from taskspace.errors import InvalidInputError
 if TYPE_CHECKING:
     from taskspace.model.robot import Robot
 
+_compute_joint_jacobians = pin.computeJointJacobians
+_forward_kinematics = pin.forwardKinematics
+_update_frame_placements = pin.updateFramePlacements
+_get_frame_jacobian = pin.getFrameJacobian
+
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 LOCAL = pin.ReferenceFrame.LOCAL
 WORLD = pin.ReferenceFrame.WORLD
@@ -80,17 +85,17 @@ class State:
             q = np.array(q, dtype=float)
             if v is not None:
                 v = np.array(v, dtype=float)
-        model, data = robot.model, self.data
+        data = self.data
         if v is None:
             self._has_velocity = False
             v = self._a0
-            pin.computeJointJacobians(model, data, q)
+            _compute_joint_jacobians(robot.model, data, q)
         else:
             self._has_velocity = True
-            pin.forwardKinematics(model, data, q, v, self._a0)
-            pin.computeJointJacobians(model, data)
+            _forward_kinematics(robot.model, data, q, v, self._a0)
+            _compute_joint_jacobians(robot.model, data)
             v.flags.writeable = False
-        pin.updateFramePlacements(model, data)
+        _update_frame_placements(robot.model, data)
         q.flags.writeable = False
         self._q = q
         self._v = v
@@ -128,7 +133,7 @@ class State:
         """
         J = self._cache_lwa.get(frame_id)
         if J is None:
-            J = pin.getFrameJacobian(self.robot.model, self.data, frame_id, LWA)
+            J = _get_frame_jacobian(self.robot.model, self.data, frame_id, LWA)
             self._cache_lwa[frame_id] = J
         return J
 
@@ -136,7 +141,7 @@ class State:
         """6 x nv Jacobian of a frame in its LOCAL coordinates (body twist)."""
         J = self._cache_local.get(frame_id)
         if J is None:
-            J = pin.getFrameJacobian(self.robot.model, self.data, frame_id, LOCAL)
+            J = _get_frame_jacobian(self.robot.model, self.data, frame_id, LOCAL)
             self._cache_local[frame_id] = J
         return J
 
