@@ -5,7 +5,8 @@ The headline of taskspace in one script:
 1. kinematics: the tcp pose, its Jacobian (slide 2:16) and the manipulability at the default
    posture;
 2. weighted multi-task differential IK solved as a QP (slides 2:25-2:41): a tcp pose task whose
-   target slides through a sphere obstacle, a low-weight posture task, joint position and
+   target slides through a sphere obstacle, a posture task of weight 1e-5 (weighted tasks
+   trade off: with 1e-3 the tcp would stop 12 mm short of its goal), joint position and
    velocity limits, and collision avoidance as velocity dampers on coal distances;
 3. a meshcat scene of the motion (robot, obstacle, target triads, the tcp trace, animated)
    written as self-contained HTML and as a PNG rendered in headless Chromium.
@@ -69,7 +70,7 @@ def main(argv: list[str] | None = None) -> int:
     robot.add_obstacle(Obstacle.sphere("ball", 0.07, ball_center, color=[0.85, 0.3, 0.2, 1.0]))
 
     pose = Task(F.FramePose(robot, tcp), weight=1.0, gain=0.5, name="tcp")
-    posture = Task(F.JointConfiguration(robot), robot.q_default, weight=1e-3, name="posture")
+    posture = Task(F.JointConfiguration(robot), robot.q_default, weight=1e-5, name="posture")
     avoid = CollisionAvoidance(robot, safety_distance=0.02, influence_distance=0.12, gain=0.5)
     ik = DifferentialIK(
         robot,
