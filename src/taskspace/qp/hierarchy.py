@@ -18,7 +18,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.linalg.lapack import dposv
+from scipy.linalg.lapack import dgeqrf, dorgqr, dposv, dtrtrs
 
 from taskspace._validation import FloatArray
 from taskspace.qp.problem import INF, QPProblem, RowBlock
@@ -97,6 +97,33 @@ class HierarchyOptions:
     solver: QPSolverOptions = field(
         default_factory=lambda: QPSolverOptions(backend="daqp", fallbacks=("proxsuite",))
     )
+
+
+def _qr_level(JZ: FloatArray, res: FloatArray) -> tuple[FloatArray, FloatArray] | None:
+    """Least-norm solution of ``JZ z = res`` and a basis of ``null(JZ)`` by one QR of ``JZ^T``.
+
+    ``JZ^T = Q R``: ``z = Q_1 R_1^-T res``, ``null(JZ) = span(Q_2)``. About twice as fast as
+    the SVD on G1-sized blocks; returns ``None`` (the caller uses the damped SVD) when ``JZ``
+    has more rows than columns or is close to rank-deficient.
+    """
+    m, r = JZ.shape
+    if m >= r:
+        return None
+    qr, tau, _, info = dgeqrf(JZ.T)
+    if info != 0:
+        return None
+    diag = np.abs(qr.diagonal())
+    if diag.min() <= 1e-6 * max(1.0, float(diag.max())):
+        return None
+    padded = np.zeros((r, r))
+    padded[:, :m] = qr
+    Q, _, info = dorgqr(padded, tau)
+    if info != 0:
+        return None
+    y, info = dtrtrs(qr[:m, :m], res, lower=0, trans=1)
+    if info != 0:
+        return None
+    return Q[:, :m] @ y, Q[:, m:]
 
 
 def _affine_start(
@@ -270,9 +297,13 @@ class HierarchySolver:
             # remaining freedom: nullspace of this level's equality rows
             if level.J.shape[0] and k < len(levels) - 1 and r_dim > 0:
                 JZ = level.J if Z is None else level.J @ Z
-                _, s, Vt = np.linalg.svd(JZ, full_matrices=True)
-                rank = int(np.sum(s > opts.rank_tolerance * max(1.0, s[0] if s.size else 0.0)))
-                basis = Vt[rank:].T
+                step = _qr_level(JZ, np.zeros(JZ.shape[0]))
+                if step is None:
+                    _, s, Vt = np.linalg.svd(JZ, full_matrices=True)
+                    smax = max(1.0, float(s[0]) if s.size else 0.0)
+                    basis = Vt[int(np.count_nonzero(s > opts.rank_tolerance * smax)) :].T
+                else:
+                    basis = step[1]
                 Z = basis if Z is None else Z @ basis
             out.nullspace_dims.append(n if Z is None else Z.shape[1])
         out.x = x
@@ -311,12 +342,19 @@ class HierarchySolver:
                     if info != 0:
                         return None
                 else:
-                    U, s, Vt = np.linalg.svd(JZ, full_matrices=True)
-                    rank = int(np.count_nonzero(s > tol * max(1.0, float(s[0]) if s.size else 0.0)))
-                    z = Vt[:rank].T @ ((s[:rank] / (s[:rank] ** 2 + mu)) * (U[:, :rank].T @ res))
+                    step = _qr_level(JZ, res)
+                    if step is None:  # rank-deficient or ill-conditioned: damped SVD
+                        U, s, Vt = np.linalg.svd(JZ, full_matrices=True)
+                        smax = max(1.0, float(s[0]) if s.size else 0.0)
+                        rank = int(np.count_nonzero(s > tol * smax))
+                        z = Vt[:rank].T @ (
+                            (s[:rank] / (s[:rank] ** 2 + mu)) * (U[:, :rank].T @ res)
+                        )
+                        basis = Vt[rank:].T
+                    else:
+                        z, basis = step
                 x = x + (z if Z is None else Z @ z)
                 if k < last:
-                    basis = Vt[rank:].T
                     Z = basis if Z is None else Z @ basis
             dims.append(n if Z is None else Z.shape[1])
         if not np.all(np.isfinite(x)):
