@@ -7,6 +7,7 @@ matplotlib is imported inside the functions (Agg-safe, cheap to import). The top
 
 from __future__ import annotations
 
+import argparse
 import logging
 import os
 from pathlib import Path
@@ -86,3 +87,37 @@ def save_or_show(
     if plt.get_backend().lower() != "agg":
         plt.show()
     return None
+
+
+def parse_example_args(description: str) -> argparse.Namespace:
+    """Arguments shared by the example scripts: ``--save DIR_OR_PNG``; selects Agg if headless."""
+    parser = argparse.ArgumentParser(description=description)
+    parser.add_argument("--save", default=None, help="directory or .png file for the figures")
+    args = parser.parse_args()
+    use_agg_if_headless(args.save)
+    return args
+
+
+def fast_mode() -> bool:
+    """Whether ``TASKSPACE_FAST=1`` asks the examples for short runs (the test suite sets it)."""
+    return os.environ.get("TASKSPACE_FAST", "") == "1"
+
+
+def save_figures(figures: dict[str, Any], save: str | Path | None) -> None:
+    """Save each named figure (into ``save``, a directory or a single ``.png``) or show them."""
+    import matplotlib.pyplot as plt
+
+    if save is None:
+        if plt.get_backend().lower() != "agg":
+            plt.show()
+        return
+    out = Path(save)
+    if out.suffix == ".png" and len(figures) == 1:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        next(iter(figures.values())).savefig(out, dpi=DEFAULT_DPI)
+    else:
+        base = out.with_suffix("") if out.suffix == ".png" else out
+        base.mkdir(parents=True, exist_ok=True)
+        for name, fig in figures.items():
+            fig.savefig(base / f"{name}.png", dpi=DEFAULT_DPI)
+    plt.close("all")
