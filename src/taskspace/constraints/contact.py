@@ -80,6 +80,10 @@ class Contact:
         """Contact force (and torque) in world coordinates, for display."""
         raise NotImplementedError
 
+    def regularization_weights(self) -> FloatArray:
+        """Relative weights of the force variables in the force regularization."""
+        return np.ones(self.force_dim)
+
 
 class Contact6D(Contact):
     """A flat rectangular contact (foot sole) with a 6-D wrench in the contact frame.
@@ -147,6 +151,16 @@ class Contact6D(Contact):
     def cone(self) -> tuple[FloatArray, FloatArray]:
         """Linearized cone and center-of-pressure rows."""
         return self._K, self._k
+
+    def regularization_weights(self) -> FloatArray:
+        """Torques weighted by the inverse squared sole half-sizes [1/m^2].
+
+        A torque ``tau_x`` costs as much as the normal-force difference ``tau_x / w`` between
+        the sole edges that would produce it, so the QP prefers shifting normal forces to
+        pushing the center of pressure toward the sole's edges.
+        """
+        lx, ly = self.half_length, self.half_width
+        return np.array([1.0, 1.0, 1.0, 1.0 / ly**2, 1.0 / lx**2, 1.0 / (lx**2 + ly**2)])
 
     def wrench_in_world(self, state: State, f: FloatArray) -> FloatArray:
         """Force and torque at the contact frame origin, world coordinates."""

@@ -83,7 +83,8 @@ class InverseDynamicsOptions:
 
     Attributes:
         acceleration_regularization: ``lambda_a``.
-        force_regularization: ``lambda_f`` [1/N^2].
+        force_regularization: ``lambda_f`` [1/N^2] (torques of 6-D contacts are weighted by
+            the inverse squared sole half-sizes, see ``Contact6D.regularization_weights``).
         torque_limits: enforce ``|tau| <= effort limits``.
         joint_limits: bound accelerations so joints stop within their position and
             velocity limits over ``limits_horizon``.
@@ -153,6 +154,7 @@ class InverseDynamicsQP:
         self.nf = sum(c.force_dim for c in self.contacts)
         self.n = nv + self.nf
         self._data = robot.model.createData()
+        self._last: tuple[FloatArray, FloatArray, FloatArray] | None = None
         self._upper = np.triu(np.ones((nv, nv), dtype=bool))
         self._solver = QPSolver(self.options.solver)
         self._hierarchy = HierarchySolver(
@@ -171,11 +173,16 @@ class InverseDynamicsQP:
             self._cone_l[r : r + K.shape[0]] = k
             r += K.shape[0]
             col += c.force_dim
+        force_weights = (
+            np.concatenate([c.regularization_weights() for c in self.contacts])
+            if self.contacts
+            else np.zeros(0)
+        )
         self._reg = np.diag(
             np.concatenate(
                 [
                     np.full(nv, self.options.acceleration_regularization),
-                    np.full(self.nf, self.options.force_regularization),
+                    self.options.force_regularization * force_weights,
                 ]
             )
         )
@@ -253,6 +260,7 @@ class InverseDynamicsQP:
             )
         nv, n = self.robot.nv, self.n
         M, h, Jc = self._dynamics(state)
+        self._last = (M, h, Jc)
         Jt, rt = self._task_J, self._task_r
         row = 0
         for task in self.tasks:
@@ -347,8 +355,8 @@ class InverseDynamicsQP:
             levels.append(HierarchyLevel(f"priority {p}", J, np.concatenate(rs)))
         # last level: force regularization (distributes forces when contacts are redundant)
         if self.nf:
-            w = np.sqrt(self.options.force_regularization)
-            reg = np.hstack([np.zeros((self.nf, nv)), w * np.eye(self.nf)])
+            w = np.sqrt(np.diag(self._reg)[nv:])
+            reg = np.hstack([np.zeros((self.nf, nv)), np.diag(w)])
             levels.append(HierarchyLevel("force regularization", reg, np.zeros(self.nf)))
         lb = np.full(n, -INF)
         ub = np.full(n, INF)
@@ -373,7 +381,8 @@ class InverseDynamicsQP:
     ) -> InverseDynamicsResult:
         nv = self.robot.nv
         a, f = x[:nv], x[nv:]
-        M, h, Jc = self._dynamics(state) if qp is None else self._last_dynamics(state)
+        last = self._last
+        M, h, Jc = self._dynamics(state) if qp is None or last is None else last
         tau_full = M @ a + h - Jc.T @ f
         tau = np.zeros(nv)
         tau[self.actuated] = tau_full[self.actuated]
@@ -392,14 +401,3 @@ class InverseDynamicsQP:
             build_time=build_time,
             solve_time=solve_time,
         )
-
-    def _last_dynamics(self, state: State) -> tuple[FloatArray, FloatArray, FloatArray]:
-        # crba/nle results are still in self._data from build(); reassemble without recomputing
-        M = np.where(self._upper, self._data.M, self._data.M.T)
-        h = np.asarray(self._data.nle)
-        Jc = (
-            np.vstack([c.jacobian(state) for c in self.contacts])
-            if self.contacts
-            else np.zeros((0, self.robot.nv))
-        )
-        return M, h, Jc
