@@ -188,16 +188,18 @@ class State:
         """Center of mass in the world [m]."""
         if self._com is None:
             self.com_jacobian()
-        assert self._com is not None
-        return self._com
+        com = self._com
+        if com is None:  # pragma: no cover - set by com_jacobian
+            raise RuntimeError("center of mass not computed")
+        return com
 
     def com_jacobian(self) -> FloatArray:
         """3 x nv Jacobian of the center of mass."""
         J = self._com_jacobian
         if J is None:
-            J = np.asarray(pin.jacobianCenterOfMass(self.robot.model, self.data, True))
+            J = pin.jacobianCenterOfMass(self.robot.model, self.data, True)
             self._com_jacobian = J
-            self._com = np.asarray(self.data.com[0]).copy()
+            self._com = self.data.com[0]  # valid until the next update (reset there)
         return J
 
     def com_drift(self) -> FloatArray:
