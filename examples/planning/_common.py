@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import argparse
 import os
-from pathlib import Path
+
+from taskspace.viz.plots import save_or_show
 
 
 def parse_args(description: str) -> argparse.Namespace:
@@ -22,17 +23,7 @@ def fast() -> bool:
     return os.environ.get("TASKSPACE_FAST", "") not in ("", "0")
 
 
-def finish(fig, save: str | None, name: str) -> None:
-    import matplotlib.pyplot as plt
-
-    if save is not None:
-        out = Path(save)
-        if out.suffix.lower() != ".png":
-            out.mkdir(parents=True, exist_ok=True)
-            out = out / f"{name}.png"
-        else:
-            out.parent.mkdir(parents=True, exist_ok=True)
-        fig.savefig(out, dpi=110)
+def finish(fig, save: str | None, name: str) -> None:  # type: ignore[no-untyped-def]
+    out = save_or_show(fig, save, name)
+    if out is not None:
         print(f"saved {out}")
-    elif plt.get_backend().lower() != "agg":
-        plt.show()

@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import argparse
 import os
-from pathlib import Path
 
 import numpy as np
 
@@ -31,6 +30,7 @@ from taskspace.trajopt.path_optimization import (
     PathProblem,
     optimize_path,
 )
+from taskspace.viz.plots import save_or_show
 
 TCP = "panda_hand_tcp"
 MARGIN = 0.02
@@ -101,7 +101,9 @@ def main() -> None:
     ax.set_title(f"Panda around a sphere, T = {T}")
     ax.legend()
     fig.tight_layout()
-    _finish(fig, args.save, "panda_path_optimization")
+    out = save_or_show(fig, args.save, "panda_path_optimization")
+    if out is not None:
+        print(f"saved {out}")
 
     if args.html is not None:
         try:
@@ -114,22 +116,6 @@ def main() -> None:
         viewer.play(result.path, duration / T)
         out = viewer.save_html(args.html, title="Panda path optimization")
         print(f"saved {out}")
-
-
-def _finish(fig, save: str | None, name: str) -> None:  # type: ignore[no-untyped-def]
-    import matplotlib.pyplot as plt
-
-    if save is not None:
-        out = Path(save)
-        if out.suffix.lower() != ".png":
-            out.mkdir(parents=True, exist_ok=True)
-            out = out / f"{name}.png"
-        else:
-            out.parent.mkdir(parents=True, exist_ok=True)
-        fig.savefig(out, dpi=110)
-        print(f"saved {out}")
-    elif plt.get_backend().lower() != "agg":
-        plt.show()
 
 
 if __name__ == "__main__":

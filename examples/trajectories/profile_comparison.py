@@ -12,12 +12,11 @@ from __future__ import annotations
 
 import argparse
 import os
-from pathlib import Path
-from typing import Any
 
 import numpy as np
 
 from taskspace.trajopt import plan_motion, synchronize
+from taskspace.viz.plots import save_figures as finish
 from taskspace.viz.plots_trajectories import plot_motions
 
 PROFILES = ["ramp", "sine", "trapezoidal", "minimum_jerk", "scurve"]
@@ -32,24 +31,6 @@ def parse() -> argparse.Namespace:
 
         matplotlib.use("Agg")
     return args
-
-
-def finish(figs: dict[str, Any], save: str | None) -> None:
-    import matplotlib.pyplot as plt
-
-    if save:
-        out = Path(save)
-        base = out.with_suffix("") if out.suffix == ".png" else out
-        if out.suffix == ".png" and len(figs) == 1:
-            out.parent.mkdir(parents=True, exist_ok=True)
-            next(iter(figs.values())).savefig(out, dpi=110)
-        else:
-            base.mkdir(parents=True, exist_ok=True)
-            for name, fig in figs.items():
-                fig.savefig(base / f"{name}.png", dpi=110)
-        plt.close("all")
-    elif plt.get_backend().lower() != "agg":
-        plt.show()
 
 
 def main() -> None:
