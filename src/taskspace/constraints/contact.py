@@ -40,6 +40,8 @@ class Contact:
     """
 
     force_dim: int
+    _K: FloatArray
+    _k: FloatArray
 
     def __init__(
         self,
@@ -68,13 +70,26 @@ class Contact:
         """(force_dim, nv) contact Jacobian."""
         raise NotImplementedError
 
-    def acceleration_rhs(self, state: State) -> FloatArray:
-        """Right-hand side ``b`` of ``J_c a = b`` (``-drift`` plus stabilization)."""
+    def drift(self, state: State) -> FloatArray:
+        """Contact acceleration at zero joint acceleration, ``Jdot_c v``."""
         raise NotImplementedError
+
+    def position_error(self, state: State) -> FloatArray:
+        """Drift of the contact from its reference (``set_reference``), same rows as ``J_c``."""
+        raise NotImplementedError
+
+    def acceleration_rhs(self, state: State) -> FloatArray:
+        """Right-hand side ``b`` of ``J_c a = b``: ``-Jdot_c v - kd J_c v - kp e_c``."""
+        rhs = -self.drift(state)
+        if self.kd:
+            rhs = rhs - self.kd * (self.jacobian(state) @ state.v)
+        if self.kp and self.reference is not None:
+            rhs = rhs - self.kp * self.position_error(state)
+        return np.asarray(rhs)
 
     def cone(self) -> tuple[FloatArray, FloatArray]:
         """``(K, k)`` with the linearized friction cone ``K f >= k``."""
-        raise NotImplementedError
+        return self._K, self._k
 
     def wrench_in_world(self, state: State, f: FloatArray) -> FloatArray:
         """Contact force (and torque) in world coordinates, for display."""
@@ -138,19 +153,17 @@ class Contact6D(Contact):
         """LOCAL frame Jacobian (6 x nv)."""
         return state.frame_jacobian_local(self.frame_id)
 
-    def acceleration_rhs(self, state: State) -> FloatArray:
-        """``-Jdot v - kd J v - kp log6(T_ref^-1 T)``."""
-        rhs = -state.frame_drift_local(self.frame_id)
-        if self.kd:
-            rhs = rhs - self.kd * (self.jacobian(state) @ state.v)
-        if self.kp and self.reference is not None:
-            err = self.reference.actInv(state.frame_placement(self.frame_id))
-            rhs = rhs - self.kp * pin.log6(err).vector
-        return np.asarray(rhs)
+    def drift(self, state: State) -> FloatArray:
+        """Body spatial acceleration at zero joint acceleration (LOCAL)."""
+        return state.frame_drift_local(self.frame_id)
 
-    def cone(self) -> tuple[FloatArray, FloatArray]:
-        """Linearized cone and center-of-pressure rows."""
-        return self._K, self._k
+    def position_error(self, state: State) -> FloatArray:
+        """``log6(T_ref^-1 T)``."""
+        if self.reference is None:
+            return np.zeros(6)
+        return np.asarray(
+            pin.log6(self.reference.actInv(state.frame_placement(self.frame_id))).vector
+        )
 
     def regularization_weights(self) -> FloatArray:
         """Torques weighted by the inverse squared sole half-sizes [1/m^2].
@@ -201,19 +214,17 @@ class PointContact(Contact):
         """Linear rows of the LOCAL_WORLD_ALIGNED Jacobian (3 x nv)."""
         return state.frame_jacobian(self.frame_id)[:3]
 
-    def acceleration_rhs(self, state: State) -> FloatArray:
-        """``-Jdot v - kd J v - kp (p - p_ref)``."""
-        rhs = -state.frame_drift(self.frame_id)[:3]
-        if self.kd:
-            rhs = rhs - self.kd * (self.jacobian(state) @ state.v)
-        if self.kp and self.reference is not None:
-            p = state.frame_placement(self.frame_id).translation
-            rhs = rhs - self.kp * (p - self.reference.translation)
-        return np.asarray(rhs)
+    def drift(self, state: State) -> FloatArray:
+        """Classical acceleration of the foot at zero joint acceleration (world)."""
+        return state.frame_drift(self.frame_id)[:3]
 
-    def cone(self) -> tuple[FloatArray, FloatArray]:
-        """Linearized cone rows."""
-        return self._K, self._k
+    def position_error(self, state: State) -> FloatArray:
+        """``p - p_ref`` [m]."""
+        if self.reference is None:
+            return np.zeros(3)
+        return np.asarray(
+            state.frame_placement(self.frame_id).translation - self.reference.translation
+        )
 
     def wrench_in_world(self, state: State, f: FloatArray) -> FloatArray:
         """The force (already in world coordinates) and a zero torque."""
