@@ -39,7 +39,7 @@ class CenterOfMass(Feature):
         if state.robot is not self.robot:
             self._check_state(state)
         J = state.com_jacobian()  # also computes the CoM
-        return state.data.com[0] - target, J
+        return state.com() - target, J
 
     def drift(self, state: State) -> FloatArray:
         """CoM acceleration at zero joint acceleration [m/s^2]."""

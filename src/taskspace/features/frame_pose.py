@@ -64,8 +64,10 @@ class FramePose(Feature):
         """``log6(T*^-1 T)`` and ``Jlog6(T*^-1 T) J_local`` from one error computation."""
         if state.robot is not self.robot:
             self._check_state(state)
-        error = target.actInv(state.data.oMf[self.frame_id])
-        J = pin.Jlog6(error) @ state.frame_jacobian_local(self.frame_id)
+        fid = self.frame_id
+        error = target.actInv(state.frame_placement(fid))
+        # ndarray.dot: half the call overhead of ``@`` on these small matrices.
+        J = pin.Jlog6(error).dot(state.frame_jacobian_local(fid))
         return pin.log6(error).vector, J
 
     def residual_jacobian(self, state: State, target: Any) -> FloatArray:

@@ -49,7 +49,7 @@ class Position(Feature):
             self._check_state(state)
         fid, offset = self.frame_id, self.offset
         if offset is None:  # fast path: the frame origin
-            return state.data.oMf[fid].translation - target, state.frame_jacobian(fid)[:3]
+            return state.frame_placement(fid).translation - target, state.frame_jacobian(fid)[:3]
         return (
             _point.point_position(state, fid, offset) - target,
             _point.point_jacobian(state, fid, offset),

@@ -381,7 +381,7 @@ class Robot:
             arr = arr.copy() if arr is q else arr
         for idx, size, joint in self._normalized_blocks:
             block = arr[idx : idx + size]
-            norm = math.sqrt(float(block @ block))
+            norm = math.sqrt(block.dot(block))
             if abs(norm - 1.0) > QUATERNION_TOLERANCE:
                 kind = "quaternion" if size == 4 else "unit complex (cos, sin)"
                 raise InvalidInputError(

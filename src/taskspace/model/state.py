@@ -44,8 +44,11 @@ class State:
         "_com",
         "_com_drift",
         "_com_jacobian",
+        "_com_ref",
         "_distances_done",
         "_has_velocity",
+        "_model",
+        "_placements",
         "_q",
         "_v",
         "collision_data",
@@ -55,10 +58,15 @@ class State:
 
     def __init__(self, robot: Robot, q: Any, v: Any = None) -> None:
         self.robot = robot
+        self._model = robot.model
         self._com: FloatArray | None = None
         self._com_jacobian: FloatArray | None = None
         self._com_drift: FloatArray | None = None
         self.data = robot.model.createData()
+        # References into ``data`` (Pinocchio returns views that follow every update); taking
+        # them once saves building a new Python object at each access.
+        self._com_ref: FloatArray = self.data.com[0]
+        self._placements: dict[int, pin.SE3] = {}
         self.collision_data = robot.collision_model.createData()
         self._a0 = np.zeros(robot.nv)
         self._a0.flags.writeable = False  # also serves as the zero velocity
@@ -76,8 +84,8 @@ class State:
             validate: check shapes, finiteness and quaternion norms (turn off only for
                 vectors produced by taskspace itself in a hot loop).
         """
-        robot = self.robot
         if validate:
+            robot = self.robot
             q = robot.check_configuration(q)
             if v is not None:
                 v = robot.check_velocity(v)
@@ -86,17 +94,18 @@ class State:
             if v is not None:
                 v = np.array(v, dtype=float)
         data = self.data
+        model = self._model
         if v is None:
             self._has_velocity = False
             v = self._a0
-            _compute_joint_jacobians(robot.model, data, q)
+            _compute_joint_jacobians(model, data, q)
         else:
             self._has_velocity = True
-            _forward_kinematics(robot.model, data, q, v, self._a0)
-            _compute_joint_jacobians(robot.model, data)
-            v.flags.writeable = False
-        _update_frame_placements(robot.model, data)
-        q.flags.writeable = False
+            _forward_kinematics(model, data, q, v, self._a0)
+            _compute_joint_jacobians(model, data)
+            v.setflags(write=False)
+        _update_frame_placements(model, data)
+        q.setflags(write=False)
         self._q = q
         self._v = v
         if self._cache_lwa:
@@ -123,8 +132,14 @@ class State:
         return self._has_velocity
 
     def frame_placement(self, frame_id: int) -> pin.SE3:
-        """World pose of a frame (a reference into the state's data; do not modify)."""
-        return self.data.oMf[frame_id]
+        """World pose of a frame (a reference into the state's data; do not modify).
+
+        The object follows the state: after :meth:`update` it holds the new pose.
+        """
+        M = self._placements.get(frame_id)
+        if M is None:
+            M = self._placements[frame_id] = self.data.oMf[frame_id]
+        return M
 
     def frame_jacobian(self, frame_id: int) -> FloatArray:
         """6 x nv Jacobian of a frame, LOCAL_WORLD_ALIGNED: rows (linear, angular) [m, rad].
@@ -133,7 +148,7 @@ class State:
         """
         J = self._cache_lwa.get(frame_id)
         if J is None:
-            J = _get_frame_jacobian(self.robot.model, self.data, frame_id, LWA)
+            J = _get_frame_jacobian(self._model, self.data, frame_id, LWA)
             self._cache_lwa[frame_id] = J
         return J
 
@@ -141,7 +156,7 @@ class State:
         """6 x nv Jacobian of a frame in its LOCAL coordinates (body twist)."""
         J = self._cache_local.get(frame_id)
         if J is None:
-            J = _get_frame_jacobian(self.robot.model, self.data, frame_id, LOCAL)
+            J = _get_frame_jacobian(self._model, self.data, frame_id, LOCAL)
             self._cache_local[frame_id] = J
         return J
 
@@ -151,7 +166,7 @@ class State:
         The velocity of a point ``p`` (world coordinates) attached to the joint is
         ``(J[:3] - [p]x J[3:]) v``.
         """
-        return pin.getJointJacobian(self.robot.model, self.data, joint_id, WORLD)
+        return pin.getJointJacobian(self._model, self.data, joint_id, WORLD)
 
     def _require_velocity(self, what: str) -> None:
         if not self._has_velocity:
@@ -167,7 +182,7 @@ class State:
         coordinates, the drift of :meth:`frame_jacobian`.
         """
         self._require_velocity("the drift Jdot v")
-        acc = pin.getFrameClassicalAcceleration(self.robot.model, self.data, frame_id, LWA)
+        acc = pin.getFrameClassicalAcceleration(self._model, self.data, frame_id, LWA)
         return np.asarray(acc.vector)
 
     def frame_drift_local(self, frame_id: int) -> FloatArray:
@@ -176,7 +191,7 @@ class State:
         The drift of :meth:`frame_jacobian_local` (the body twist ``J_local v``).
         """
         self._require_velocity("the drift Jdot v")
-        acc = pin.getFrameAcceleration(self.robot.model, self.data, frame_id, LOCAL)
+        acc = pin.getFrameAcceleration(self._model, self.data, frame_id, LOCAL)
         return np.asarray(acc.vector)
 
     def frame_velocity(self, frame_id: int) -> FloatArray:
@@ -197,9 +212,9 @@ class State:
         """3 x nv Jacobian of the center of mass."""
         J = self._com_jacobian
         if J is None:
-            J = pin.jacobianCenterOfMass(self.robot.model, self.data, True)
+            J = pin.jacobianCenterOfMass(self._model, self.data, True)
             self._com_jacobian = J
-            self._com = self.data.com[0]  # valid until the next update (reset there)
+            self._com = self._com_ref  # a view into data: valid until the next update
         return J
 
     def com_drift(self) -> FloatArray:
@@ -207,7 +222,7 @@ class State:
         self._require_velocity("the center-of-mass drift")
         drift = self._com_drift
         if drift is None:
-            pin.centerOfMass(self.robot.model, self.data, pin.KinematicLevel.ACCELERATION, True)
+            pin.centerOfMass(self._model, self.data, pin.KinematicLevel.ACCELERATION, True)
             drift = np.asarray(self.data.acom[0]).copy()
             self._com_drift = drift
         return drift
