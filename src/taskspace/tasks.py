@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -133,18 +134,106 @@ class Task:
         ``y''* = y''_ref - kp e - kd (J v - y'_ref)`` (slide 5:28 in task space; slide 5:34).
         The state must carry the velocity (drift terms).
         """
+        d, nv = self.feature.dim, state.v.shape[0]
+        J, rhs = np.empty((d, nv)), np.empty(d)
+        self.acceleration_rows_into(state, J, rhs)
+        return J, rhs
+
+    def acceleration_rows_into(self, state: State, J_out: FloatArray, rhs_out: FloatArray) -> None:
+        """:meth:`acceleration_rows` written into ``J_out`` (dim, nv) and ``rhs_out`` (dim).
+
+        The controllers' hot path: the rows land in their preallocated stack without copies.
+        """
         e, J = self.feature.residual_and_jacobian(state, self._require_target())
-        e_dot = J @ state.v
+        # rhs = -(kp e + kd (J v - y'_ref) + Jdot v - y''_ref), built in place
+        np.multiply(J.dot(state.v), self.kd, out=rhs_out)
         if self.reference_velocity is not None:
-            e_dot = e_dot - self.reference_velocity
-        desired = -self.kp * e - self.kd * e_dot
+            rhs_out -= self.kd * self.reference_velocity
+        rhs_out += self.kp * e
+        rhs_out += self.feature.drift(state)
         if self.reference_acceleration is not None:
-            desired = desired + self.reference_acceleration
-        rhs = desired - self.feature.drift(state)
+            rhs_out -= self.reference_acceleration
         w = self.sqrt_weight
-        if isinstance(w, float) and w == 1.0:
-            return J, rhs
-        return w * J if isinstance(w, float) else w[:, None] * J, w * rhs
+        if isinstance(w, float):
+            np.multiply(rhs_out, -w, out=rhs_out)
+            np.multiply(J, w, out=J_out)
+        else:
+            np.multiply(rhs_out, -w, out=rhs_out)
+            np.multiply(J, w[:, None], out=J_out)
 
     def __repr__(self) -> str:
         return f"Task('{self.name}', priority={self.priority}, gain={self.gain})"
+
+
+class AccelerationStack:
+    """The :meth:`Task.acceleration_rows` of several tasks, stacked and refilled in place.
+
+    ``J`` (m, nv) and ``rhs`` (m,) hold the weighted rows of every task, in order. The
+    per-task work is reduced to copying the feature's residual, Jacobian and drift into the
+    stack; the PD law and the weighting run once on the whole stack (on the G1
+    inverse-dynamics benchmark this halves the cost of the task rows). Gains and weights are
+    re-read from the tasks when they change.
+
+    Args:
+        tasks: the tasks (each with a target when :meth:`fill` is called).
+        nv: tangent dimension of the robot.
+    """
+
+    def __init__(self, tasks: Sequence[Task], nv: int) -> None:
+        self.tasks = list(tasks)
+        m = sum(t.dim for t in self.tasks)
+        self.J = np.zeros((m, nv))
+        self.rhs = np.zeros(m)
+        self._J_raw = np.zeros((m, nv))
+        self._e = np.zeros(m)
+        self._drift = np.zeros(m)
+        self._kp = np.zeros(m)
+        self._kd = np.zeros(m)
+        self._w = np.ones(m)
+        self._neg_w = -self._w
+        self._w_column = self._w[:, None]  # a view: follows _w
+        self._slices: list[slice] = []
+        row = 0
+        for t in self.tasks:
+            self._slices.append(slice(row, row + t.dim))
+            row += t.dim
+        self._gains: list[tuple[float, float, Any]] = [(-1.0, -1.0, None)] * len(self.tasks)
+
+    def _refresh_gains(self) -> None:
+        for i, (task, rows) in enumerate(zip(self.tasks, self._slices)):
+            kp, kd, w = self._gains[i]
+            if task.kp is kp and task.kd is kd and task.sqrt_weight is w:
+                continue
+            self._kp[rows] = task.kp
+            self._kd[rows] = task.kd
+            self._w[rows] = task.sqrt_weight
+            np.negative(self._w, out=self._neg_w)
+            self._gains[i] = (task.kp, task.kd, task.sqrt_weight)
+
+    def fill(self, state: State) -> tuple[FloatArray, FloatArray]:
+        """Recompute ``(J, rhs)`` at ``state`` (which must carry the velocity)."""
+        self._refresh_gains()
+        J_raw, e_all, drift = self._J_raw, self._e, self._drift
+        offset: FloatArray | None = None
+        for task, rows in zip(self.tasks, self._slices):
+            e, J = task.feature.residual_and_jacobian(state, task._require_target())
+            J_raw[rows] = J
+            e_all[rows] = e
+            drift[rows] = task.feature.drift(state)
+            if task.reference_velocity is not None or task.reference_acceleration is not None:
+                if offset is None:
+                    offset = np.zeros_like(e_all)
+                if task.reference_velocity is not None:
+                    offset[rows] += task.kd * task.reference_velocity
+                if task.reference_acceleration is not None:
+                    offset[rows] += task.reference_acceleration
+        # rhs = -w (kd J v + kp e + Jdot v - kd y'_ref - y''_ref)
+        rhs = self.rhs
+        np.multiply(J_raw.dot(state.v), self._kd, out=rhs)
+        rhs += self._kp * e_all
+        rhs += drift
+        if offset is not None:
+            rhs -= offset
+        rhs *= self._neg_w
+        np.multiply(J_raw, self._w_column, out=self.J)
+        return self.J, rhs

@@ -37,7 +37,7 @@ from taskspace.qp.hierarchy import HierarchyLevel, HierarchyOptions, HierarchySo
 from taskspace.qp.problem import INF, QPProblem, RowBlock
 from taskspace.qp.result import QPResult, QPStatus
 from taskspace.qp.solver import QPSolver, QPSolverOptions
-from taskspace.tasks import Task
+from taskspace.tasks import AccelerationStack, Task
 
 
 class InverseDynamicsStatus(enum.Enum):
@@ -151,6 +151,7 @@ class InverseDynamicsQP:
         self.actuated = np.flatnonzero(effort > 0)
         self.unactuated = np.flatnonzero(effort <= 0)
         self._effort = effort[self.actuated]
+        self._neg_effort = -self._effort
         self.nf = sum(c.force_dim for c in self.contacts)
         self.n = nv + self.nf
         self._data = robot.model.createData()
@@ -186,9 +187,21 @@ class InverseDynamicsQP:
                 ]
             )
         )
-        n_rows = sum(t.dim for t in self.tasks)
-        self._task_J = np.zeros((n_rows, nv))
-        self._task_r = np.zeros(n_rows)
+        self._task_rows = AccelerationStack(self.tasks, nv)
+        # per-step buffers, refilled in place (the force block of H is constant)
+        self._H = self._reg.copy()
+        self._HJ = np.zeros((nv, nv))
+        self._g = np.zeros(self.n)
+        self._lb = np.full(self.n, -INF)
+        self._ub = np.full(self.n, INF)
+        self._Jc = np.zeros((self.nf, nv))
+        self._contact_rows = []
+        row = 0
+        for c in self.contacts:
+            self._contact_rows.append((c, slice(row, row + c.force_dim)))
+            row += c.force_dim
+        self._contact_neg_kd = np.zeros(self.nf)
+        self._contact_kd: list[float | None] = [None] * len(self.contacts)
         self._u = _as_index(self.unactuated)
         self._act = _as_index(self.actuated)
         nu, nc = len(self.unactuated), self.nf
@@ -208,43 +221,66 @@ class InverseDynamicsQP:
         self._in_blocks = ([RowBlock("friction cones", 0, n_cone)] if n_cone else []) + (
             [RowBlock("torque limits", n_cone, n_cone + n_tau)] if n_tau else []
         )
+        self._problem = QPProblem(
+            self._H,
+            self._g,
+            self._A,
+            self._b,
+            self._C,
+            self._l,
+            self._u_bound,
+            self._lb,
+            self._ub,
+            self._eq_blocks,
+            self._in_blocks,
+            [RowBlock("joint limits", 0, nv)],
+        )
         iq, iv = robot.limited_joints_q, robot.limited_joints_v
-        self._limit_iq, self._limit_iv = iq, iv
-        self._limit_lo = robot.lower_limits[iq]
-        self._limit_hi = robot.upper_limits[iq]
-        self._limit_vmax = robot.velocity_limits[iv]
+        self._limit_iq, self._limit_iv = _as_index(iq), _as_index(iv)
+        # joint-limit acceleration bounds (see _acceleration_bounds), constant parts
+        horizon = self.options.limits_horizon
+        self._limit_c = 2.0 / (horizon * horizon)
+        self._limit_c_lo = self._limit_c * robot.lower_limits[iq]
+        self._limit_c_hi = self._limit_c * robot.upper_limits[iq]
+        self._limit_vmax_T = robot.velocity_limits[iv] / horizon
+        self._limit_neg_vmax_T = -self._limit_vmax_T
 
     # ------------------------------------------------------------------ assembly
+    def _refresh_contact_gains(self) -> None:
+        """Per-row ``-kd`` of the contacts (re-read when a contact's ``kd`` changed)."""
+        for i, (c, rows) in enumerate(self._contact_rows):
+            if c.kd is not self._contact_kd[i]:
+                self._contact_neg_kd[rows] = -c.kd
+                self._contact_kd[i] = c.kd
+
     def _dynamics(self, state: State) -> tuple[FloatArray, FloatArray, FloatArray]:
         model, data = self.robot.model, self._data
         M = pin.crba(model, data, state.q)  # only the upper triangle is meaningful
         M = np.where(self._upper, M, M.T)
         h = pin.nonLinearEffects(model, data, state.q, state.v)
-        Jc = (
-            np.vstack([c.jacobian(state) for c in self.contacts])
-            if self.contacts
-            else np.zeros((0, self.robot.nv))
-        )
+        Jc = self._Jc
+        for c, rows in self._contact_rows:
+            Jc[rows] = c.jacobian(state)
         return M, h, Jc
 
     def _acceleration_bounds(self, state: State) -> tuple[FloatArray, FloatArray]:
-        robot = self.robot
-        nv = robot.nv
-        lb = np.full(nv, -INF)
-        ub = np.full(nv, INF)
+        """Acceleration bounds (size n, refilled in place; force entries stay infinite)."""
+        lb, ub = self._lb, self._ub
         if not self.options.joint_limits:
             return lb, ub
         T = self.options.limits_horizon
         iv = self._limit_iv
         q, v = state.q[self._limit_iq], state.v[iv]
         # stop at the position limit within the horizon: q + v T + a T^2 / 2 in [lo, hi],
-        # and keep |v + a T| <= v_max
-        c = 2.0 / (T * T)
-        drift = q + v * T
-        lo = np.maximum(c * (self._limit_lo - drift), (-self._limit_vmax - v) / T)
-        hi = np.minimum(c * (self._limit_hi - drift), (self._limit_vmax - v) / T)
-        bad = lo > hi
-        if bad.any():  # already violating: brake as hard as the looser bound allows
+        # i.e. c (lo - q) - 2 v / T <= a <= c (hi - q) - 2 v / T with c = 2 / T^2,
+        # and keep |v + a T| <= v_max: (-v_max - v) / T <= a <= (v_max - v) / T
+        shift = self._limit_c * q
+        shift += (2.0 / T) * v
+        v_T = v / T
+        lo = np.maximum(self._limit_c_lo - shift, self._limit_neg_vmax_T - v_T)
+        hi = np.minimum(self._limit_c_hi - shift, self._limit_vmax_T - v_T)
+        if (hi - lo).min(initial=0.0) < 0.0:  # already violating: brake as hard as allowed
+            bad = lo > hi
             mid = 0.5 * (lo + hi)
             lo = np.where(bad, mid, lo)
             hi = np.where(bad, mid, hi)
@@ -258,29 +294,22 @@ class InverseDynamicsQP:
             raise InvalidInputError(
                 "inverse dynamics needs the velocity: use robot.state(q, v) / state.update(q, v)"
             )
-        nv, n = self.robot.nv, self.n
+        nv = self.robot.nv
         M, h, Jc = self._dynamics(state)
         self._last = (M, h, Jc)
-        Jt, rt = self._task_J, self._task_r
-        row = 0
-        for task in self.tasks:
-            J, rhs = task.acceleration_rows(state)
-            d = J.shape[0]
-            Jt[row : row + d] = J
-            rt[row : row + d] = rhs
-            row += d
-        H = self._reg.copy()
-        H[:nv, :nv] += Jt.T @ Jt
-        g = np.zeros(n)
-        g[:nv] = -(Jt.T @ rt)
-        A, b, eq_blocks = self._equalities(state, M, h, Jc)
-        C, l, u, in_blocks = self._inequalities(M, h, Jc)
-        lb = np.full(n, -INF)
-        ub = np.full(n, INF)
-        lb[:nv], ub[:nv] = self._acceleration_bounds(state)
-        return QPProblem(
-            H, g, A, b, C, l, u, lb, ub, eq_blocks, in_blocks, [RowBlock("joint limits", 0, nv)]
-        )
+        Jt, rt = self._task_rows.fill(state)
+        # H = reg + [Jt^T Jt, 0; 0, 0] (the force block is the constant regularization)
+        HJ = self._HJ
+        np.dot(Jt.T, Jt, out=HJ)
+        HJ.flat[:: nv + 1] += self.options.acceleration_regularization
+        H = self._H
+        H[:nv, :nv] = HJ
+        g = self._g
+        np.negative(Jt.T.dot(rt), out=g[:nv])
+        self._equalities(state, M, h, Jc)
+        self._inequalities(M, h, Jc)
+        self._acceleration_bounds(state)
+        return self._problem  # its arrays are the buffers refilled above
 
     def _equalities(
         self, state: State, M: FloatArray, h: FloatArray, Jc: FloatArray
@@ -291,14 +320,18 @@ class InverseDynamicsQP:
         A, b = self._A, self._b
         if nu:
             A[:nu, :nv] = M[u]
-            A[:nu, nv:] = -Jc[:, u].T
-            b[:nu] = -h[u]
-        r = nu
-        for c in self.contacts:
-            d = c.force_dim
-            A[r : r + d, :nv] = Jc[r - nu : r - nu + d]
-            b[r : r + d] = c.acceleration_rhs(state)
-            r += d
+            np.negative(Jc[:, u].T, out=A[:nu, nv:])
+            np.negative(h[u], out=b[:nu])
+        A[nu:, :nv] = Jc
+        if self.nf:
+            # b_c = -kd J_c v - Jdot_c v (- kp e_c): one product for all contacts
+            self._refresh_contact_gains()
+            b_c = b[nu:]
+            np.multiply(Jc.dot(state.v), self._contact_neg_kd, out=b_c)
+            for c, rows in self._contact_rows:
+                b_c[rows] -= c.drift(state)
+                if c.kp and c.reference is not None:
+                    b_c[rows] -= c.kp * c.position_error(state)
         return A, b, self._eq_blocks
 
     def _inequalities(
@@ -310,10 +343,10 @@ class InverseDynamicsQP:
         if self.options.torque_limits and len(self.actuated):
             act = self._act
             C[n_cone:, :nv] = M[act]
-            C[n_cone:, nv:] = -Jc[:, act].T
+            np.negative(Jc[:, act].T, out=C[n_cone:, nv:])
             h_act = h[act]
-            l[n_cone:] = -self._effort - h_act
-            u[n_cone:] = self._effort - h_act
+            np.subtract(self._neg_effort, h_act, out=l[n_cone:])
+            np.subtract(self._effort, h_act, out=u[n_cone:])
         return C, l, u, self._in_blocks
 
     # ------------------------------------------------------------------ solve
@@ -341,6 +374,7 @@ class InverseDynamicsQP:
             )
         nv, n = self.robot.nv, self.n
         M, h, Jc = self._dynamics(state)
+        self._last = (M, h, Jc)
         A, b, _ = self._equalities(state, M, h, Jc)
         C, l, u, _ = self._inequalities(M, h, Jc)
         levels = []
@@ -358,9 +392,7 @@ class InverseDynamicsQP:
             w = np.sqrt(np.diag(self._reg)[nv:])
             reg = np.hstack([np.zeros((self.nf, nv)), np.diag(w)])
             levels.append(HierarchyLevel("force regularization", reg, np.zeros(self.nf)))
-        lb = np.full(n, -INF)
-        ub = np.full(n, INF)
-        lb[:nv], ub[:nv] = self._acceleration_bounds(state)
+        lb, ub = self._acceleration_bounds(state)
         t1 = time.perf_counter()
         result = self._hierarchy.solve(levels, n, lb=lb, ub=ub, C=C, l=l, u=u, A=A, b=b)
         t2 = time.perf_counter()
@@ -381,15 +413,14 @@ class InverseDynamicsQP:
     ) -> InverseDynamicsResult:
         nv = self.robot.nv
         a, f = x[:nv], x[nv:]
-        last = self._last
-        M, h, Jc = self._dynamics(state) if qp is None or last is None else last
-        tau_full = M @ a + h - Jc.T @ f
+        M, h, Jc = self._dynamics(state) if self._last is None else self._last
+        tau_full = M.dot(a)
+        tau_full += h
+        if self.nf:
+            tau_full -= Jc.T.dot(f)
         tau = np.zeros(nv)
-        tau[self.actuated] = tau_full[self.actuated]
-        forces, k = {}, 0
-        for c in self.contacts:
-            forces[c.frame] = f[k : k + c.force_dim].copy()
-            k += c.force_dim
+        tau[self._act] = tau_full[self._act]
+        forces = {c.frame: f[rows].copy() for c, rows in self._contact_rows}
         return InverseDynamicsResult(
             success,
             status,

@@ -129,12 +129,16 @@ class QPProblem:
 
     def is_feasible(self, x: FloatArray, tolerance: float = 1e-9) -> bool:
         """Whether ``x`` satisfies every constraint to ``tolerance``."""
-        if np.minimum(x - self.lb, self.ub - x).min() < -tolerance:
+        neg = -tolerance
+        if (x - self.lb).min() < neg or (self.ub - x).min() < neg:
             return False
         if self.C.shape[0]:
-            Cx = self.C @ x
-            if not ((Cx >= self.l - tolerance).all() and (Cx <= self.u + tolerance).all()):
+            Cx = self.C.dot(x)
+            if (Cx - self.l).min() < neg or (self.u - Cx).min() < neg:
                 return False
-        if self.A.shape[0] and (np.abs(self.A @ x - self.b) > tolerance).any():
-            return False
+        if self.A.shape[0]:
+            r = self.A.dot(x)
+            r -= self.b
+            if r.max() > tolerance or r.min() < neg:
+                return False
         return True

@@ -90,6 +90,7 @@ class QPSolver:
             check_backend(name)
         self._proxsuite: Any = None
         self._proxsuite_structure: tuple[int, int, int] | None = None
+        self._kkt = KKTWorkspace()
 
     # ------------------------------------------------------------------ public
     def solve(self, problem: QPProblem) -> QPResult:
@@ -97,7 +98,7 @@ class QPSolver:
         t0 = time.perf_counter()
         opts = self.options
         if opts.try_unconstrained:
-            x = unconstrained_minimizer(problem)
+            x = self._kkt.solve(problem)
             if x is not None and problem.is_feasible(x, opts.feasibility_tolerance):
                 return QPResult(
                     True,
@@ -126,6 +127,10 @@ class QPSolver:
         assert last is not None
         last.solve_time = time.perf_counter() - t0
         return last
+
+    def equality_minimizer(self, problem: QPProblem) -> FloatArray | None:
+        """Minimizer under the equalities only (the shortcut of :meth:`solve`), or ``None``."""
+        return self._kkt.solve(problem)
 
     def solve_relaxed(self, problem: QPProblem) -> QPResult:
         """Least-violating solution: every constraint row gets a slack with a large penalty.
@@ -308,29 +313,59 @@ def _solve_qpsolvers(backend: str, p: QPProblem, options: QPSolverOptions) -> QP
 
 # ---------------------------------------------------------------------- helpers
 def _objective(p: QPProblem, x: FloatArray) -> float:
-    return float(0.5 * x @ p.H @ x + p.g @ x)
+    return float(0.5 * x.dot(p.H.dot(x)) + p.g.dot(x))
 
 
-def unconstrained_minimizer(p: QPProblem) -> FloatArray | None:
+def unconstrained_minimizer(
+    p: QPProblem, workspace: KKTWorkspace | None = None
+) -> FloatArray | None:
     """Minimizer of the objective subject to the equality constraints only.
+
+    Args:
+        p: the problem (inequalities and bounds are ignored).
+        workspace: buffers reused between calls of the same size (a :class:`QPSolver`
+            keeps one); a fresh one when omitted.
 
     Returns ``None`` when ``H`` (or the KKT matrix) is singular.
     """
-    try:
-        if not p.A.shape[0]:
-            # Cholesky solve through LAPACK directly (np.linalg.solve costs 4x more on 7x7)
-            _, x, info = dposv(p.H, -p.g)
-            return x if info == 0 else None
-        n, m = p.n, p.n_eq
-        K = np.zeros((n + m, n + m))
-        K[:n, :n] = p.H
-        K[:n, n:] = p.A.T
-        K[n:, :n] = p.A
-        rhs = np.concatenate([-p.g, p.b])
-        _, _, sol, info = dgesv(K, rhs)
-        return np.asarray(sol[:n]) if info == 0 else None
-    except (np.linalg.LinAlgError, ValueError):
-        return None
+    return (workspace or KKTWorkspace()).solve(p)
+
+
+class KKTWorkspace:
+    """Buffers of the equality-constrained solve ``[H A^T; A 0] [x; y] = [-g; b]``.
+
+    The KKT matrix and right-hand side are refilled in place and factorized by LAPACK's
+    ``dgesv`` overwriting them, so a step allocates nothing of size ``(n + m)^2``.
+    """
+
+    def __init__(self) -> None:
+        self._shape = (-1, -1)
+        self._K = np.zeros((0, 0), order="F")
+        self._rhs = np.zeros(0)
+
+    def solve(self, p: QPProblem) -> FloatArray | None:
+        """The equality-constrained minimizer of ``p``, or ``None`` if singular."""
+        try:
+            if not p.A.shape[0]:
+                # Cholesky solve through LAPACK directly (np.linalg.solve costs 4x more on 7x7)
+                _, x, info = dposv(p.H, -p.g)
+                return x if info == 0 else None
+            n, m = p.n, p.n_eq
+            if self._shape != (n, m):
+                self._shape = (n, m)
+                self._K = np.zeros((n + m, n + m), order="F")
+                self._rhs = np.zeros(n + m)
+            K, rhs = self._K, self._rhs
+            K[:n, :n] = p.H
+            K[:n, n:] = p.A.T
+            K[n:, :n] = p.A
+            K[n:, n:] = 0.0
+            np.negative(p.g, out=rhs[:n])
+            rhs[n:] = p.b
+            _, _, sol, info = dgesv(K, rhs, overwrite_a=1, overwrite_b=1)
+            return np.array(sol[:n]) if info == 0 else None
+        except (np.linalg.LinAlgError, ValueError):
+            return None
 
 
 def _relaxed_problem(p: QPProblem, weight: float) -> QPProblem:
@@ -387,6 +422,7 @@ def validate_problem(problem: QPProblem) -> None:
 
 __all__ = [
     "BACKENDS",
+    "KKTWorkspace",
     "QPSolver",
     "QPSolverOptions",
     "RowBlock",

@@ -1,0 +1,63 @@
+"""The batched task and contact rows of the inverse-dynamics QP equal the per-object ones."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from taskspace import features as F
+from taskspace.constraints import Contact6D
+from taskspace.control.inverse_dynamics_qp import InverseDynamicsQP
+from taskspace.tasks import AccelerationStack, Task
+from tests.conftest import load_robot
+
+
+def _random_state(robot, rng):  # type: ignore[no-untyped-def]
+    q = robot.q_default.copy()
+    q[7:] += rng.normal(scale=0.1, size=robot.nq - 7)
+    v = rng.normal(scale=0.5, size=robot.nv)
+    return robot.state(q, v)
+
+
+def test_stack_equals_the_rows_of_each_task() -> None:
+    robot = load_robot("g1")
+    rng = np.random.default_rng(3)
+    s0 = robot.state(robot.q_default, np.zeros(robot.nv))
+    com = Task(F.CenterOfMass(robot), kp=50.0, weight=np.array([1.0, 4.0, 9.0]))
+    com.set_target_from_state(s0)
+    hand = Task(F.FramePose(robot, "left_rubber_hand"), kp=20.0, kd=3.0, weight=0.1)
+    hand.set_target_from_state(s0)
+    posture = Task(F.JointConfiguration(robot), robot.q_default, weight=1e-2, kp=30.0)
+    tasks = [com, hand, posture]
+    stack = AccelerationStack(tasks, robot.nv)
+    for step in range(4):
+        state = _random_state(robot, rng)
+        if step == 2:  # gains and references changed between calls are picked up
+            hand.kp, hand.kd = 80.0, 1.0
+            com.set_reference(velocity=rng.normal(size=3), acceleration=rng.normal(size=3))
+        J, rhs = stack.fill(state)
+        rows = [t.acceleration_rows(state) for t in tasks]
+        np.testing.assert_allclose(J, np.vstack([r[0] for r in rows]), rtol=0, atol=1e-12)
+        np.testing.assert_allclose(rhs, np.concatenate([r[1] for r in rows]), rtol=1e-12, atol=1e-9)
+
+
+def test_contact_rows_of_the_qp_equal_each_contact_rhs() -> None:
+    robot = load_robot("g1")
+    rng = np.random.default_rng(4)
+    s0 = robot.state(robot.q_default, np.zeros(robot.nv))
+    feet = ["left_ankle_roll_link", "right_ankle_roll_link"]
+    contacts = [Contact6D(robot, f, kp=10.0) for f in feet]
+    for c in contacts:
+        c.set_reference(s0)
+    posture = Task(F.JointConfiguration(robot), robot.q_default)
+    ctrl = InverseDynamicsQP(robot, [posture], contacts)
+    nu = len(ctrl.unactuated)
+    for step in range(3):
+        state = _random_state(robot, rng)
+        if step == 1:
+            contacts[0].kd = 5.0
+        problem = ctrl.build(state)
+        expected = np.concatenate([c.acceleration_rhs(state) for c in contacts])
+        np.testing.assert_allclose(problem.b[nu:], expected, rtol=1e-12, atol=1e-9)
+        np.testing.assert_allclose(
+            problem.A[nu:, : robot.nv], np.vstack([c.jacobian(state) for c in contacts])
+        )
