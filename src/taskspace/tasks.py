@@ -165,18 +165,12 @@ class Task:
         return f"Task('{self.name}', priority={self.priority}, gain={self.gain})"
 
 
-class AccelerationStack:
-    """The :meth:`Task.acceleration_rows` of several tasks, stacked and refilled in place.
+class _RowStack:
+    """Rows of several tasks stacked in preallocated buffers, refilled in place.
 
-    ``J`` (m, nv) and ``rhs`` (m,) hold the weighted rows of every task, in order. The
-    per-task work is reduced to copying the feature's residual, Jacobian and drift into the
-    stack; the PD law and the weighting run once on the whole stack (on the G1
-    inverse-dynamics benchmark this halves the cost of the task rows). Gains and weights are
-    re-read from the tasks when they change.
-
-    Args:
-        tasks: the tasks (each with a target when :meth:`fill` is called).
-        nv: tangent dimension of the robot.
+    The per-task work is reduced to copying each feature's residual and Jacobian into the
+    stack; gains and weights apply once to the whole stack (per-row vectors, re-read from
+    the tasks when one of them changed).
     """
 
     def __init__(self, tasks: Sequence[Task], nv: int) -> None:
@@ -186,54 +180,91 @@ class AccelerationStack:
         self.rhs = np.zeros(m)
         self._J_raw = np.zeros((m, nv))
         self._e = np.zeros(m)
-        self._drift = np.zeros(m)
-        self._kp = np.zeros(m)
-        self._kd = np.zeros(m)
         self._w = np.ones(m)
-        self._neg_w = -self._w
         self._w_column = self._w[:, None]  # a view: follows _w
         self._slices: list[slice] = []
         row = 0
         for t in self.tasks:
             self._slices.append(slice(row, row + t.dim))
             row += t.dim
-        self._gains: list[tuple[float, float, Any]] = [(-1.0, -1.0, None)] * len(self.tasks)
+        self._keys: list[tuple[Any, ...]] = [()] * len(self.tasks)
 
-    def _refresh_gains(self) -> None:
-        for i, (task, rows) in enumerate(zip(self.tasks, self._slices)):
-            kp, kd, w = self._gains[i]
-            if task.kp is kp and task.kd is kd and task.sqrt_weight is w:
+    def _refresh(self) -> None:
+        """Re-read the weights and gains of the tasks whose values were reassigned."""
+        keys = self._keys
+        for i, task in enumerate(self.tasks):
+            k = keys[i]
+            if (
+                k
+                and task.sqrt_weight is k[0]
+                and task.gain is k[1]
+                and task.kp is k[2]
+                and task.kd is k[3]
+            ):
                 continue
-            self._kp[rows] = task.kp
-            self._kd[rows] = task.kd
+            rows = self._slices[i]
             self._w[rows] = task.sqrt_weight
-            np.negative(self._w, out=self._neg_w)
-            self._gains[i] = (task.kp, task.kd, task.sqrt_weight)
+            self._set_gains(task, rows)
+            keys[i] = (task.sqrt_weight, task.gain, task.kp, task.kd)
 
-    def fill(self, state: State) -> tuple[FloatArray, FloatArray]:
-        """Recompute ``(J, rhs)`` at ``state`` (which must carry the velocity)."""
-        self._refresh_gains()
-        J_raw, e_all, drift = self._J_raw, self._e, self._drift
-        offset: FloatArray | None = None
+    def _set_gains(self, task: Task, rows: slice) -> None:
+        raise NotImplementedError
+
+    def _gather(self, state: State) -> None:
+        J_raw, e_all = self._J_raw, self._e
         for task, rows in zip(self.tasks, self._slices):
             e, J = task.feature.residual_and_jacobian(state, task._require_target())
             J_raw[rows] = J
             e_all[rows] = e
+
+
+class AccelerationStack(_RowStack):
+    """The :meth:`Task.acceleration_rows` of several tasks, stacked and refilled in place.
+
+    ``J`` (m, nv) and ``rhs`` (m,) hold the weighted rows of every task, in order; the PD
+    law and the weighting run once on the whole stack (on the G1 inverse-dynamics benchmark
+    this halves the cost of the task rows).
+
+    Args:
+        tasks: the tasks (each with a target when :meth:`fill` is called).
+        nv: tangent dimension of the robot.
+    """
+
+    def __init__(self, tasks: Sequence[Task], nv: int) -> None:
+        super().__init__(tasks, nv)
+        m = self.rhs.shape[0]
+        self._drift = np.zeros(m)
+        self._kp = np.zeros(m)
+        self._kd = np.zeros(m)
+        self._neg_w = -self._w
+
+    def _set_gains(self, task: Task, rows: slice) -> None:
+        self._kp[rows] = task.kp
+        self._kd[rows] = task.kd
+        np.negative(self._w, out=self._neg_w)
+
+    def fill(self, state: State) -> tuple[FloatArray, FloatArray]:
+        """Recompute ``(J, rhs)`` at ``state`` (which must carry the velocity)."""
+        self._refresh()
+        self._gather(state)
+        drift = self._drift
+        offset: FloatArray | None = None
+        for task, rows in zip(self.tasks, self._slices):
             drift[rows] = task.feature.drift(state)
             if task.reference_velocity is not None or task.reference_acceleration is not None:
                 if offset is None:
-                    offset = np.zeros_like(e_all)
+                    offset = np.zeros_like(drift)
                 if task.reference_velocity is not None:
                     offset[rows] += task.kd * task.reference_velocity
                 if task.reference_acceleration is not None:
                     offset[rows] += task.reference_acceleration
         # rhs = -w (kd J v + kp e + Jdot v - kd y'_ref - y''_ref)
         rhs = self.rhs
-        np.multiply(J_raw.dot(state.v), self._kd, out=rhs)
-        rhs += self._kp * e_all
+        np.multiply(self._J_raw.dot(state.v), self._kd, out=rhs)
+        rhs += self._kp * self._e
         rhs += drift
         if offset is not None:
             rhs -= offset
         rhs *= self._neg_w
-        np.multiply(J_raw, self._w_column, out=self.J)
+        np.multiply(self._J_raw, self._w_column, out=self.J)
         return self.J, rhs
