@@ -289,7 +289,11 @@ class InverseDynamicsQP:
         return lb, ub
 
     def build(self, state: State) -> QPProblem:
-        """The weighted QP at ``state`` (needs the state's velocity)."""
+        """The weighted QP at ``state`` (needs the state's velocity).
+
+        The same :class:`QPProblem` object is returned at every call: its arrays are buffers
+        refilled in place by the next ``build`` (copy them to keep a snapshot).
+        """
         if not state.has_velocity:
             raise InvalidInputError(
                 "inverse dynamics needs the velocity: use robot.state(q, v) / state.update(q, v)"
