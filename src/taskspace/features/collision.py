@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import weakref
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
@@ -17,11 +18,41 @@ if TYPE_CHECKING:
     from taskspace.model.state import State
 
 
-def _cross(a: FloatArray, b: FloatArray) -> tuple[float, float, float]:
-    """``a x b`` for 3-vectors (np.cross costs ~10 us per call on small inputs)."""
-    a0, a1, a2 = float(a[0]), float(a[1]), float(a[2])
-    b0, b1, b2 = float(b[0]), float(b[1]), float(b[2])
-    return (a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0)
+# Python handles of the coal distance results of each state's collision data, keyed by
+# ``id(state.data)``: iterating ``collision_data.distanceResults`` builds a new Python object
+# per pair (~1 us each, more than the distance queries of convex shapes), while the handles
+# taken once follow every later ``computeDistances``. The handles keep the collision data
+# alive, so an entry is dropped by a weak-reference callback when the state's Pinocchio data
+# (owned by the state) is freed, and rebuilt when the state replaces its collision data.
+_DISTANCE_RESULTS: dict[int, tuple[weakref.ref[Any], Any, list[Any]]] = {}
+
+
+def _forget_results(key: int, ref: weakref.ref[Any]) -> None:
+    entry = _DISTANCE_RESULTS.get(key)
+    if entry is not None and entry[0] is ref:
+        del _DISTANCE_RESULTS[key]
+
+
+def distance_results(state: State) -> list[Any]:
+    """The coal distance results of every collision pair of ``state`` (computed once).
+
+    Returns handles into the state's collision data (valid until its next update: they
+    then hold the new results); do not modify them.
+    """
+    state.compute_distances()
+    collision_data = state.collision_data
+    data = state.data
+    key = id(data)
+    entry = _DISTANCE_RESULTS.get(key)
+    if entry is not None and entry[1] is collision_data and entry[0]() is data:
+        return entry[2]
+    handles = list(collision_data.distanceResults)
+    ref = weakref.ref(data, lambda r, key=key: _forget_results(key, r))  # type: ignore[misc]
+    _DISTANCE_RESULTS[key] = (ref, collision_data, handles)
+    return handles
+
+
+_ZERO6 = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
 
 
 class CollisionDistance(Feature):
@@ -65,11 +96,24 @@ class CollisionDistance(Feature):
         ]
         self.pair_names = [all_pairs[k] for k in self.pair_indices]
         self._pairs = [int(k) for k in self.pair_indices]
+        # joint Jacobian of joint j in WORLD coordinates = data.J with the columns outside
+        # the support of j zeroed: one mask row per pair and side (universe: all zero)
+        model = robot.model
+        support = np.zeros((model.njoints, robot.nv))
+        for j in range(1, model.njoints):
+            for s in model.supports[j]:
+                if s:
+                    joint = model.joints[s]
+                    support[j, joint.idx_v : joint.idx_v + joint.nv] = 1.0
+        self._mask_a = support[[ja for ja, _ in self._joints]].reshape(self.dim, robot.nv)
+        self._mask_b = support[[jb for _, jb in self._joints]].reshape(self.dim, robot.nv)
+        self._moving_a_list = [ja != 0 for ja, _ in self._joints]
+        self._moving_b_list = [jb != 0 for _, jb in self._joints]
+        self._any_moving_a = any(self._moving_a_list)
 
-    def _results(self, state: State) -> list:  # type: ignore[type-arg]
-        state.compute_distances()
-        res = state.collision_data.distanceResults
-        return [res[k] for k in self._pairs]
+    def _results(self, state: State) -> list[Any]:
+        results = distance_results(state)
+        return [results[k] for k in self._pairs]
 
     def value(self, state: State) -> FloatArray:
         """Signed distances [m]."""
@@ -81,33 +125,43 @@ class CollisionDistance(Feature):
 
         Row k is ``[n; p_b x n]^T J_b - [n; p_a x n]^T J_a`` with ``J`` the WORLD joint
         Jacobians (the velocity of a point ``p`` is ``v_O + omega x p`` and
-        ``n . (omega x p) = omega . (p x n)``).
+        ``n . (omega x p) = omega . (p x n)``). ``J_a``, ``J_b`` are the columns of
+        Pinocchio's ``data.J`` (computed by the state's update) in the support of the
+        geometries' parent joints.
         """
         self._check_state(state)
         results = self._results(state)
-        selected = np.arange(self.dim) if rows is None else np.arange(self.dim)[rows]
-        J = np.zeros((len(selected), self.robot.nv))
-        cache: dict[int, FloatArray] = {}
-
-        def joint_jacobian(joint: int) -> FloatArray:
-            Jw = cache.get(joint)
-            if Jw is None:
-                Jw = state.joint_jacobian_world(joint)
-                cache[joint] = Jw
-            return Jw
-
-        w = np.empty(6)
-        for out_row, k in enumerate(selected):
+        if rows is None:
+            selected: npt.NDArray[np.intp] = np.arange(self.dim)
+        else:
+            selected = np.arange(self.dim)[rows]
+        m = len(selected)
+        nv = self.robot.nv
+        if m == 0:
+            return np.zeros((0, nv))
+        zero = _ZERO6
+        moving_a, moving_b = self._moving_a_list, self._moving_b_list
+        w_a: list[Sequence[float]] = []
+        w_b: list[Sequence[float]] = []
+        for k in selected.tolist():
             res = results[k]
-            ja, jb = self._joints[k]
-            n = np.asarray(res.normal)
-            w[:3] = n
-            if jb:
-                w[3:] = _cross(res.getNearestPoint2(), n)
-                J[out_row] += w @ joint_jacobian(jb)
-            if ja:
-                w[3:] = _cross(res.getNearestPoint1(), n)
-                J[out_row] -= w @ joint_jacobian(ja)
+            n0, n1, n2 = res.normal.tolist()
+            # [n; p x n] for each moving side (scalar arithmetic: numpy is slower for 3-vectors)
+            if moving_b[k]:
+                p0, p1, p2 = res.getNearestPoint2().tolist()
+                w_b.append((n0, n1, n2, p1 * n2 - p2 * n1, p2 * n0 - p0 * n2, p0 * n1 - p1 * n0))
+            else:
+                w_b.append(zero)
+            if moving_a[k]:
+                p0, p1, p2 = res.getNearestPoint1().tolist()
+                w_a.append((n0, n1, n2, p1 * n2 - p2 * n1, p2 * n0 - p0 * n2, p0 * n1 - p1 * n0))
+            else:
+                w_a.append(zero)
+        J0 = state.data.J  # 6 x nv, WORLD: column i is the motion of joint dof i
+        J = np.array(w_b).dot(J0)
+        J *= self._mask_b[selected]
+        if self._any_moving_a:
+            J -= np.array(w_a).dot(J0) * self._mask_a[selected]
         return J
 
     def _point_drift(self, state: State, joint: int, p: FloatArray) -> FloatArray:

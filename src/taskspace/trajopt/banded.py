@@ -10,11 +10,33 @@ factorization cost ``O(T nv ((k + 1) nv)^2)``: linear in the number of time slic
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
-import scipy.linalg
+import numpy.typing as npt
+from scipy.linalg import blas, lapack
 
 from taskspace._validation import FloatArray
 from taskspace.errors import InvalidInputError, ShapeError, SolverError
+
+IntArray = npt.NDArray[np.intp]
+
+
+@lru_cache(maxsize=64)
+def _block_indices(blocks: int, b: int) -> tuple[IntArray, IntArray, IntArray, IntArray]:
+    """Index arrays scattering the lower halves of ``blocks`` diagonal blocks into the band.
+
+    Entry (a, c) with a >= c of block t goes to ``ab[a - c, t b + c]``. Returns the rows
+    ``a`` and columns ``c`` inside a block and the band row and column of every entry of
+    every block (read-only: shared by all matrices of the same structure).
+    """
+    rows, cols = (np.asarray(x, dtype=np.intp) for x in np.tril_indices(b))
+    offsets = np.arange(blocks, dtype=np.intp)[:, None] * b
+    diag_r = np.tile(rows - cols, blocks)
+    diag_c = (offsets + cols[None, :]).ravel()
+    for arr in (rows, cols, diag_r, diag_c):
+        arr.flags.writeable = False
+    return rows, cols, diag_r, diag_c
 
 
 class SymmetricBlockBanded:
@@ -40,14 +62,9 @@ class SymmetricBlockBanded:
         self.block_bandwidth = int(block_bandwidth)
         self.size = self.blocks * self.block_size
         self.ab = np.zeros((self.bandwidth, self.size))
-        b = self.block_size
-        rows, cols = np.tril_indices(b)  # (a, c) with a >= c inside one block
-        self._block_rows = rows
-        self._block_cols = cols
-        # entry (a, c) of block t goes to ab[a - c, t b + c]
-        offsets = np.arange(self.blocks)[:, None] * b
-        self._diag_r = np.broadcast_to(rows - cols, (self.blocks, rows.size)).ravel()
-        self._diag_c = (offsets + cols[None, :]).ravel()
+        self._block_rows, self._block_cols, self._diag_r, self._diag_c = _block_indices(
+            self.blocks, self.block_size
+        )
 
     @property
     def bandwidth(self) -> int:
@@ -55,9 +72,10 @@ class SymmetricBlockBanded:
         return (self.block_bandwidth + 1) * self.block_size
 
     def copy(self) -> SymmetricBlockBanded:
-        """A deep copy."""
-        out = SymmetricBlockBanded(self.blocks, self.block_size, self.block_bandwidth)
-        out.ab[:] = self.ab
+        """A deep copy (the band storage is copied; index tables are shared)."""
+        out = object.__new__(SymmetricBlockBanded)
+        out.__dict__.update(self.__dict__)
+        out.ab = self.ab.copy()
         return out
 
     def fill(self, other: SymmetricBlockBanded) -> None:
@@ -73,6 +91,18 @@ class SymmetricBlockBanded:
                 "diagonal blocks", (self.blocks, self.block_size, self.block_size), blocks.shape
             )
         self.ab[self._diag_r, self._diag_c] += blocks[:, self._block_rows, self._block_cols].ravel()
+
+    def add_block(self, t: int, block: FloatArray) -> None:
+        """``A_tt += B`` for one symmetric ``b x b`` block ``B`` (lower half read)."""
+        b = self.block_size
+        if block.shape != (b, b):
+            raise ShapeError("diagonal block", (b, b), block.shape)
+        if not 0 <= t < self.blocks:
+            raise InvalidInputError(f"block index {t} outside 0..{self.blocks - 1}")
+        c0 = t * b
+        for o in range(b):
+            # sub-diagonal o of the block: entries (c + o, c) -> ab[o, c0 + c]
+            self.ab[o, c0 : c0 + b - o] += np.diagonal(block, -o)
 
     def add_diagonal(self, values: FloatArray | float) -> None:
         """``A_ii += values_i`` (a scalar or a vector of size ``n b``)."""
@@ -94,14 +124,11 @@ class SymmetricBlockBanded:
         self.ab[::b] += np.repeat(scalar_band, b, axis=1)
 
     def matvec(self, x: FloatArray) -> FloatArray:
-        """``A x`` from the band storage (``O(n b^2 k)``)."""
-        ab, n = self.ab, self.size
-        y = ab[0] * x
-        for o in range(1, self.bandwidth):
-            d = ab[o, : n - o]
-            y[o:] += d * x[: n - o]
-            y[: n - o] += d * x[o:]
-        return y
+        """``A x`` from the band storage (``O(n b^2 k)``, BLAS ``dsbmv``)."""
+        if x.shape != (self.size,):
+            raise ShapeError("vector", (self.size,), x.shape)
+        y = blas.dsbmv(self.bandwidth - 1, 1.0, self.ab, np.asarray(x, dtype=float), lower=1)
+        return np.asarray(y, dtype=float)
 
     def to_dense(self) -> FloatArray:
         """The full matrix (for tests and inspection only: ``O((n b)^2)`` memory)."""
@@ -114,18 +141,22 @@ class SymmetricBlockBanded:
         return A
 
     def solve(self, rhs: FloatArray) -> FloatArray:
-        """Solve ``A x = rhs`` by a banded Cholesky factorization (``scipy.linalg``).
+        """Solve ``A x = rhs`` by a banded Cholesky factorization (LAPACK ``dpbtrf``, ``dpbtrs``).
 
         Raises:
             SolverError: ``A`` is not (numerically) positive definite.
         """
-        try:
-            factor = scipy.linalg.cholesky_banded(self.ab, lower=True, check_finite=False)
-        except np.linalg.LinAlgError as exc:
+        factor, info = lapack.dpbtrf(self.ab, lower=1)
+        if info != 0:
+            reason = f"leading minor {info} is not positive" if info > 0 else f"argument {-info}"
             raise SolverError(
-                f"banded Cholesky failed ({exc}): the pseudo-Hessian is not positive definite; "
-                "increase the damping"
-            ) from exc
-        return np.asarray(
-            scipy.linalg.cho_solve_banded((factor, True), rhs, check_finite=False), dtype=float
-        )
+                f"banded Cholesky failed ({reason}): the pseudo-Hessian is not positive "
+                "definite; increase the damping"
+            )
+        b = np.asarray(rhs, dtype=float)
+        if b.shape[0] != self.size:
+            raise ShapeError("right-hand side", (self.size,), b.shape)
+        x, info = lapack.dpbtrs(factor, b, lower=1)
+        if info != 0:  # pragma: no cover - only for invalid arguments
+            raise SolverError(f"banded Cholesky solve failed (LAPACK info {info})")
+        return np.asarray(x, dtype=float)

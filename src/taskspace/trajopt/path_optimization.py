@@ -30,6 +30,7 @@ or unit complex numbers in ``q``) are rejected with an error.
 from __future__ import annotations
 
 import enum
+import inspect
 import logging
 import math
 import time
@@ -38,6 +39,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+import numpy.typing as npt
 
 from taskspace._validation import FloatArray, as_matrix, check_positive
 from taskspace.errors import InvalidInputError, ShapeError
@@ -47,6 +49,7 @@ if TYPE_CHECKING:
     import scipy.sparse
 
     from taskspace.constraints.feature_bounds import FeatureBounds
+    from taskspace.features.feature import Feature
     from taskspace.model.robot import Robot
     from taskspace.model.state import State
     from taskspace.tasks import Task
@@ -226,24 +229,117 @@ class _SliceTerms:
     n_in: int = 0
 
 
-@dataclass
-class _SliceValues:
-    """Raw values of one slice: weighted cost residuals, equality values, inequality values."""
+@dataclass(eq=False)
+class _Term:
+    """A cost, equality or inequality term and the slices it acts on.
 
-    e: FloatArray
-    h: FloatArray
-    g: FloatArray
+    Attributes:
+        feature: the term's feature.
+        dim: rows per slice (``feature.dim``; inequalities have ``2 dim``: lower, upper).
+        slices: slice indices (0-based: slice ``t`` is ``slices[i] + 1``), increasing.
+        offsets: first row of the term inside the slice's cost, equality or inequality block
+            (the per-slice layout of :meth:`PathProblem.residual` and of the multipliers).
+        task: the task (costs and equalities).
+        bounds: the bounds (inequalities).
+        row_jacobian: ``feature.jacobian`` accepts ``rows=`` (computes selected rows only).
+    """
+
+    feature: Feature
+    dim: int
+    slices: list[int]
+    offsets: list[int]
+    task: Task | None = None
+    bounds: FeatureBounds | None = None
+    row_jacobian: bool = False
+
+    @property
+    def slice_array(self) -> npt.NDArray[np.intp]:
+        """:attr:`slices` as an integer array."""
+        return np.asarray(self.slices, dtype=np.intp)
+
+    @property
+    def name(self) -> str:
+        """Name of the task or bounds."""
+        item = self.task if self.task is not None else self.bounds
+        return item.name if item is not None else self.feature.name
+
+
+@dataclass
+class _TermMultipliers:
+    """Multipliers per term (the solver's layout of :class:`PathMultipliers`).
+
+    Attributes:
+        equality: per equality term, shape (slices, dim).
+        inequality: per inequality term, shape (slices, 2 dim): lower rows then upper rows.
+        limits: joint limits, shape (T, 2 m): lower rows then upper rows.
+    """
+
+    equality: list[FloatArray]
+    inequality: list[FloatArray]
+    limits: FloatArray
+
+
+@dataclass
+class _CandidateRows:
+    """Inactive inequality rows kept in the step's model as hinges ``[r + j dx]_+^2``.
+
+    Attributes:
+        slices: slice index (0-based) of each row, shape (k,).
+        jacobian: the rows ``j`` of the residual Jacobian (signed, scaled by ``sqrt(rho)``),
+            shape (k, nv).
+        residual: the unclipped residual values ``r = sqrt(rho)(g + lambda / 2 rho) <= 0``,
+            shape (k,).
+        term: index of the inequality term of each row, shape (k,).
+        index: index of the row's slice among the term's slices, shape (k,).
+        row: row inside the term's slice block (lower rows, then upper rows), shape (k,).
+    """
+
+    slices: npt.NDArray[np.intp]
+    jacobian: FloatArray
+    residual: FloatArray
+    term: npt.NDArray[np.intp]
+    index: npt.NDArray[np.intp]
+    row: npt.NDArray[np.intp]
+
+    @property
+    def size(self) -> int:
+        """Number of rows."""
+        return int(self.slices.size)
+
+    def linearized(self, dx: FloatArray) -> FloatArray:
+        """``r + j dx`` for a step ``dx`` of shape (T, nv)."""
+        if not self.size:
+            return np.zeros(0)
+        return self.residual + np.einsum("ij,ij->i", self.jacobian, dx[self.slices])
+
+
+_NO_INDEX = np.zeros(0, dtype=np.intp)
+_NO_CANDIDATES = _CandidateRows(
+    _NO_INDEX, np.zeros((0, 0)), np.zeros(0), _NO_INDEX, _NO_INDEX, _NO_INDEX
+)
 
 
 @dataclass
 class _Evaluation:
-    """Everything computed at one path (features once; residual rows per penalty)."""
+    """Everything computed at one path (features once; residual rows per penalty).
+
+    Values are stored per term, one row per slice of the term: ``costs`` the weighted cost
+    residuals ``e``, ``eqs`` the equality values ``h``, ``ineqs`` the inequality values
+    ``g`` (lower rows ``lower - phi``, then upper rows ``phi - upper``), ``limits`` the
+    joint-limit values (T, 2 m). The ``*_rows`` are the augmented Lagrangian residual rows
+    for the current penalty and multipliers (set by :meth:`PathProblem._set_rows`).
+    """
 
     path: FloatArray
     states: list[State]
     control: dict[int, FloatArray]
-    values: list[_SliceValues]
-    rows: list[FloatArray] = field(default_factory=list)
+    costs: list[FloatArray]
+    eqs: list[FloatArray]
+    ineqs: list[FloatArray]
+    limits: FloatArray
+    eq_rows: list[FloatArray] = field(default_factory=list)
+    ineq_rows: list[FloatArray] = field(default_factory=list)
+    limit_rows: FloatArray = field(default_factory=lambda: np.zeros((0, 0)))
 
 
 class PathProblem:
@@ -327,26 +423,49 @@ class PathProblem:
         self.inequalities = list(inequalities)
         self.joint_limits = bool(joint_limits)
         self._slices = [_SliceTerms() for _ in range(T)]
+        self._cost_terms: list[_Term] = []
+        self._eq_terms: list[_Term] = []
+        self._ineq_terms: list[_Term] = []
         for cost in self.costs:
             self._check_robot(cost.task.feature.robot, cost.task.name)
             _require_target(cost.task)
+            term = _Term(cost.task.feature, cost.task.dim, [], [], task=cost.task)
             for t in self._times(cost.times, cost.task.name):
                 s = self._slices[t - 1]
+                term.slices.append(t - 1)
+                term.offsets.append(s.n_cost)
                 s.costs.append(cost.task)
                 s.n_cost += cost.task.dim
+            self._cost_terms.append(term)
         for eq in self.equalities:
             self._check_robot(eq.task.feature.robot, eq.task.name)
             _require_target(eq.task)
+            term = _Term(eq.task.feature, eq.task.dim, [], [], task=eq.task)
             for t in self._times(eq.times, eq.task.name):
                 s = self._slices[t - 1]
+                term.slices.append(t - 1)
+                term.offsets.append(s.n_eq)
                 s.equalities.append(eq.task)
                 s.n_eq += eq.task.dim
+            self._eq_terms.append(term)
         for ineq in self.inequalities:
             self._check_robot(ineq.bounds.robot, ineq.bounds.name)
+            feature = ineq.bounds.feature
+            term = _Term(
+                feature,
+                feature.dim,
+                [],
+                [],
+                bounds=ineq.bounds,
+                row_jacobian=_accepts_rows(feature),
+            )
             for t in self._times(ineq.times, ineq.bounds.name):
                 s = self._slices[t - 1]
+                term.slices.append(t - 1)
+                term.offsets.append(s.n_in)
                 s.inequalities.append(ineq.bounds)
-                s.n_in += 2 * ineq.bounds.feature.dim
+                s.n_in += 2 * feature.dim
+            self._ineq_terms.append(term)
         self._limit_v = robot.limited_joints_v if self.joint_limits else np.zeros(0, dtype=int)
         self._limit_q = robot.limited_joints_q if self.joint_limits else np.zeros(0, dtype=int)
         self._limit_low = robot.lower_limits[self._limit_q]
@@ -431,170 +550,354 @@ class PathProblem:
             out[k] = scale * np.diff(ext[self.order - k :], n=k, axis=0)[1:]
         return out
 
-    def _slice_values(self, t: int, state: State) -> _SliceValues:
-        """Feature values of slice ``t`` (1..T): cost residuals, ``h`` and ``g``."""
-        terms = self._slices[t - 1]
-        e = np.empty(terms.n_cost)
-        row = 0
-        for task in terms.costs:
-            d = task.dim
-            e[row : row + d] = task.sqrt_weight * task.feature.residual(state, task.target)
-            row += d
-        h = np.empty(terms.n_eq)
-        row = 0
-        for task in terms.equalities:
-            d = task.dim
-            h[row : row + d] = task.sqrt_weight * task.feature.residual(state, task.target)
-            row += d
-        g = np.empty(terms.n_in + self._n_limit_rows)
-        row = 0
-        for bounds in terms.inequalities:
-            d = bounds.feature.dim
-            y = np.asarray(bounds.feature.value(state), dtype=float)
-            g[row : row + d] = bounds.lower - y
-            g[row + d : row + 2 * d] = y - bounds.upper
-            row += 2 * d
-        if self._n_limit_rows:
-            qi = state.q[self._limit_q]
-            m = self._n_limit_rows // 2
-            g[row : row + m] = self._limit_low - qi
-            g[row + m :] = qi - self._limit_high
-        return _SliceValues(e, h, g)
-
-    def _slice_residual(
-        self, t: int, values: _SliceValues, penalty: float, multipliers: PathMultipliers
-    ) -> FloatArray:
-        """Rows of slice ``t``: ``e``, ``sqrt(rho)(h + lambda/2rho)``, ``sqrt(rho)[g + ..]_+``."""
-        sqrt_rho = math.sqrt(penalty)
-        half = 0.5 / penalty
-        shifted = values.g + half * multipliers.inequality[t - 1]
-        return np.concatenate(
-            [
-                values.e,
-                sqrt_rho * (values.h + half * multipliers.equality[t - 1]),
-                sqrt_rho * np.maximum(shifted, 0.0),
-            ]
-        )
-
-    def _slice_jacobian(
-        self,
-        t: int,
-        state: State,
-        values: _SliceValues,
-        penalty: float,
-        multipliers: PathMultipliers,
-    ) -> FloatArray:
-        """Jacobian (rows x nv) of :meth:`_slice_residual`; inactive inequality rows are 0."""
-        terms = self._slices[t - 1]
-        n = terms.n_cost + terms.n_eq + terms.n_in + self._n_limit_rows
-        active = (values.g + (0.5 / penalty) * multipliers.inequality[t - 1]) > 0
-        J = np.zeros((n, self.nv))
-        if not (terms.n_cost or terms.n_eq or active.any()):
-            return J
-        sqrt_rho = math.sqrt(penalty)
-        row = 0
-        for task in terms.costs:
-            d = task.dim
-            J[row : row + d] = task.sqrt_weight * task.feature.residual_jacobian(state, task.target)
-            row += d
-        for task in terms.equalities:
-            d = task.dim
-            Je = task.feature.residual_jacobian(state, task.target)
-            J[row : row + d] = (sqrt_rho * task.sqrt_weight) * Je
-            row += d
-        i = 0
-        for bounds in terms.inequalities:
-            d = bounds.feature.dim
-            act = active[i : i + 2 * d]
-            if act.any():
-                Jy = bounds.feature.jacobian(state)
-                J[row : row + d] = (-sqrt_rho * act[:d, None]) * Jy
-                J[row + d : row + 2 * d] = (sqrt_rho * act[d:, None]) * Jy
-            row += 2 * d
-            i += 2 * d
-        if self._n_limit_rows:
-            J[row:] = (sqrt_rho * active[i:, None]) * self._limit_jacobian
-        return J
-
     def _evaluate(self, path: FloatArray, states: list[State], update: bool = True) -> _Evaluation:
-        """Feature values along ``path`` (kinematics in ``states``, updated unless told)."""
+        """Feature values along ``path`` (kinematics in ``states``, updated unless told).
+
+        One feature call per term and slice; everything else is vectorized over the slices.
+        """
         if update:
             self._update_states(path, states)
-        values = [self._slice_values(t, states[t - 1]) for t in range(1, self.horizon + 1)]
-        return _Evaluation(path, states, self._control_residuals(path), values)
+        costs = []
+        for term in self._cost_terms:
+            task = _task(term)
+            residual, target = term.feature.residual, task.target
+            E = np.array([residual(states[t], target) for t in term.slices], dtype=float)
+            E = E.reshape(len(term.slices), term.dim)
+            E *= task.sqrt_weight
+            costs.append(E)
+        eqs = []
+        for term in self._eq_terms:
+            task = _task(term)
+            residual, target = term.feature.residual, task.target
+            Hv = np.array([residual(states[t], target) for t in term.slices], dtype=float)
+            Hv = Hv.reshape(len(term.slices), term.dim)
+            Hv *= task.sqrt_weight
+            eqs.append(Hv)
+        ineqs = []
+        for term in self._ineq_terms:
+            bounds = _bounds(term)
+            value, d = term.feature.value, term.dim
+            Y = np.array([value(states[t]) for t in term.slices], dtype=float)
+            Y = Y.reshape(len(term.slices), d)
+            G = np.empty((len(term.slices), 2 * d))
+            np.subtract(bounds.lower, Y, out=G[:, :d])
+            np.subtract(Y, bounds.upper, out=G[:, d:])
+            ineqs.append(G)
+        m = self._n_limit_rows // 2
+        limits = np.empty((self.horizon, 2 * m))
+        if m:
+            Q = path[1:, self._limit_q]
+            np.subtract(self._limit_low, Q, out=limits[:, :m])
+            np.subtract(Q, self._limit_high, out=limits[:, m:])
+        return _Evaluation(path, states, self._control_residuals(path), costs, eqs, ineqs, limits)
 
-    def _set_rows(self, ev: _Evaluation, penalty: float, multipliers: PathMultipliers) -> None:
-        ev.rows = [
-            self._slice_residual(t + 1, v, penalty, multipliers) for t, v in enumerate(ev.values)
-        ]
+    def _term_multipliers(self, multipliers: PathMultipliers | None) -> _TermMultipliers:
+        """Multipliers in the solver's per-term layout (zero if ``None``).
 
-    def _jacobians(
-        self, ev: _Evaluation, penalty: float, multipliers: PathMultipliers
-    ) -> list[FloatArray]:
-        return [
-            self._slice_jacobian(t + 1, ev.states[t], v, penalty, multipliers)
-            for t, v in enumerate(ev.values)
+        Raises:
+            ShapeError: a slice's multiplier vector has the wrong size.
+        """
+        T, n_lim = self.horizon, self._n_limit_rows
+        if multipliers is None:
+            return _TermMultipliers(
+                [np.zeros((len(term.slices), term.dim)) for term in self._eq_terms],
+                [np.zeros((len(term.slices), 2 * term.dim)) for term in self._ineq_terms],
+                np.zeros((T, n_lim)),
+            )
+        if len(multipliers.equality) != T or len(multipliers.inequality) != T:
+            raise ShapeError(
+                "multipliers", (T,), (len(multipliers.equality), len(multipliers.inequality))
+            )
+        lam_eq = [np.asarray(lam, dtype=float).ravel() for lam in multipliers.equality]
+        lam_in = [np.asarray(lam, dtype=float).ravel() for lam in multipliers.inequality]
+        for t, s in enumerate(self._slices):
+            if lam_eq[t].size != s.n_eq:
+                raise ShapeError(
+                    f"equality multipliers of slice {t + 1}", (s.n_eq,), lam_eq[t].shape
+                )
+            if lam_in[t].size != s.n_in + n_lim:
+                raise ShapeError(
+                    f"inequality multipliers of slice {t + 1}", (s.n_in + n_lim,), lam_in[t].shape
+                )
+        eq = [
+            np.array(
+                [lam_eq[t][o : o + term.dim] for t, o in zip(term.slices, term.offsets)]
+            ).reshape(len(term.slices), term.dim)
+            for term in self._eq_terms
         ]
+        ineq = [
+            np.array(
+                [lam_in[t][o : o + 2 * term.dim] for t, o in zip(term.slices, term.offsets)]
+            ).reshape(len(term.slices), 2 * term.dim)
+            for term in self._ineq_terms
+        ]
+        limits = np.array([lam[lam.size - n_lim :] for lam in lam_in]).reshape(T, n_lim)
+        return _TermMultipliers(eq, ineq, limits)
+
+    def _set_rows(self, ev: _Evaluation, penalty: float, multipliers: _TermMultipliers) -> None:
+        """Residual rows ``sqrt(rho)(h + lambda/2rho)``, ``sqrt(rho)[g + lambda/2rho]_+``."""
+        sqrt_rho = math.sqrt(penalty)
+        half = 0.5 / penalty
+        ev.eq_rows = [sqrt_rho * (h + half * lam) for h, lam in zip(ev.eqs, multipliers.equality)]
+        ev.ineq_rows = [
+            sqrt_rho * np.maximum(g + half * lam, 0.0)
+            for g, lam in zip(ev.ineqs, multipliers.inequality)
+        ]
+        ev.limit_rows = sqrt_rho * np.maximum(ev.limits + half * multipliers.limits, 0.0)
+
+    def _update_multipliers(
+        self, ev: _Evaluation, penalty: float, multipliers: _TermMultipliers
+    ) -> None:
+        """``lambda_h += 2 rho h``, ``lambda_g = [lambda_g + 2 rho g]_+`` (in place)."""
+        two_rho = 2.0 * penalty
+        for lam, h in zip(multipliers.equality, ev.eqs):
+            lam += two_rho * h
+        for lam, g in zip(multipliers.inequality, ev.ineqs):
+            np.maximum(lam + two_rho * g, 0.0, out=lam)
+        lim = multipliers.limits
+        np.maximum(lim + two_rho * ev.limits, 0.0, out=lim)
 
     def _assemble(
-        self, ev: _Evaluation, penalty: float, multipliers: PathMultipliers
-    ) -> tuple[SymmetricBlockBanded, FloatArray]:
-        """``J^T J`` (banded) and ``J^T r`` at an evaluation (rows set for the penalty)."""
+        self,
+        ev: _Evaluation,
+        penalty: float,
+        multipliers: _TermMultipliers,
+        watch: list[npt.NDArray[np.bool_]] | None = None,
+    ) -> tuple[SymmetricBlockBanded, FloatArray, _CandidateRows]:
+        """``J^T J`` (banded) and ``J^T r`` at an evaluation (rows set for the penalty).
+
+        Feature Jacobians are computed only where rows are nonzero: every slice of a cost or
+        equality term, the active rows of inequalities (``rows=`` when the feature supports
+        it); joint-limit rows are unit rows, added to the diagonal directly.
+
+        ``watch`` (per inequality term, the mask of its (slices, 2 dim) rows) selects
+        inactive rows whose linearization is returned as :class:`_CandidateRows` (not added
+        to ``J^T J``).
+        """
         T, nv = self.horizon, self.nv
+        states = ev.states
+        blocks = np.zeros((T, nv, nv))
+        grad = np.zeros((T, nv))
+        for term, E in zip(self._cost_terms, ev.costs):
+            task = _task(term)
+            jac, target = term.feature.residual_jacobian, task.target
+            w = np.reshape(task.sqrt_weight, (-1, 1))
+            for i, t in enumerate(term.slices):
+                J = w * jac(states[t], target)
+                JT = J.T
+                blocks[t] += JT.dot(J)
+                grad[t] += JT.dot(E[i])
+        sqrt_rho = math.sqrt(penalty)
+        for term, R in zip(self._eq_terms, ev.eq_rows):
+            task = _task(term)
+            jac, target = term.feature.residual_jacobian, task.target
+            w = sqrt_rho * np.reshape(task.sqrt_weight, (-1, 1))
+            for i, t in enumerate(term.slices):
+                J = w * jac(states[t], target)
+                JT = J.T
+                blocks[t] += JT.dot(J)
+                grad[t] += JT.dot(R[i])
+        # inequality rows: gathered over all slices, then added in a few vectorized operations
+        row_t: list[npt.NDArray[np.intp]] = []
+        row_J: list[FloatArray] = []
+        row_w: list[FloatArray] = []
+        row_r: list[FloatArray] = []
+        cand_t: list[npt.NDArray[np.intp]] = []
+        cand_J: list[FloatArray] = []
+        cand_r: list[FloatArray] = []
+        cand_id: list[tuple[npt.NDArray[np.intp], npt.NDArray[np.intp], npt.NDArray[np.intp]]] = []
+        half = 0.5 / penalty
+        for n, (term, R) in enumerate(zip(self._ineq_terms, ev.ineq_rows)):
+            d = term.dim
+            active = R > 0.0
+            lower, upper = active[:, :d], active[:, d:]
+            needed = lower | upper  # feature rows whose Jacobian is needed, (slices, d)
+            cand = None
+            if watch is not None and watch[n].any():
+                cand = watch[n] & ~active
+                needed |= cand[:, :d] | cand[:, d:]
+            if not needed.any():
+                continue
+            used = np.flatnonzero(needed.any(axis=1))
+            feature = term.feature
+            if term.row_jacobian:
+                Jy = np.vstack(
+                    [
+                        feature.jacobian(states[term.slices[i]], rows=needed[i])  # type: ignore[call-arg]
+                        for i in used.tolist()
+                    ]
+                )
+            else:
+                Jy = np.vstack(
+                    [feature.jacobian(states[term.slices[i]])[needed[i]] for i in used.tolist()]
+                )
+            ii, kk = np.nonzero(needed[used])  # row-major: the order of Jy's rows
+            I = used[ii]
+            t_rows = term.slice_array[I]
+            # d(lower row)/dq = -sqrt(rho) J, d(upper row)/dq = +sqrt(rho) J
+            w = penalty * (lower[I, kk].astype(float) + upper[I, kk])
+            on = w > 0.0
+            if on.any():
+                row_t.append(t_rows[on])
+                row_J.append(Jy[on])
+                row_w.append(w[on])
+                row_r.append(sqrt_rho * (R[I[on], d + kk[on]] - R[I[on], kk[on]]))
+            if cand is not None:
+                shifted = sqrt_rho * (ev.ineqs[n] + half * multipliers.inequality[n])
+                for offset, sign in ((0, -sqrt_rho), (d, sqrt_rho)):
+                    pick = cand[I, offset + kk]
+                    if pick.any():
+                        cand_t.append(t_rows[pick])
+                        cand_J.append(sign * Jy[pick])
+                        cand_r.append(shifted[I[pick], offset + kk[pick]])
+                        cand_id.append((np.full(int(pick.sum()), n), I[pick], offset + kk[pick]))
+        if row_t:
+            t_all = np.concatenate(row_t)
+            J_all = np.vstack(row_J)
+            WJ = np.concatenate(row_w)[:, None] * J_all
+            _add_rows_to_blocks(blocks, t_all, WJ, J_all)
+            np.add.at(grad, t_all, np.concatenate(row_r)[:, None] * J_all)
+        m = self._n_limit_rows // 2
+        if m:
+            R = ev.limit_rows
+            active = R > 0.0
+            lv = self._limit_v
+            blocks[:, lv, lv] += penalty * (active[:, :m].astype(float) + active[:, m:])
+            grad[:, lv] += sqrt_rho * (R[:, m:] - R[:, :m])
         H = SymmetricBlockBanded(T, nv, self.order)
         H.add_scalar_band_kron(self._control_band)
-        blocks = np.empty((T, nv, nv))
-        grad = np.zeros((T, nv))
-        for t, (J, r) in enumerate(zip(self._jacobians(ev, penalty, multipliers), ev.rows)):
-            blocks[t] = J.T @ J
-            grad[t] = J.T @ r
         H.add_diagonal_blocks(blocks)
-        for k, R in ev.control.items():
+        for k, Rc in ev.control.items():
             c = FINITE_DIFFERENCE_COEFFICIENTS[k]
             scale = self._scales[k]
             for j, cj in enumerate(c):
                 # d Psi_t / d q_(t-j) = scale c_j I; q_s with s = t - j, t = s + j <= T
-                grad[: T - j] += (scale * cj) * R[j:]
-        return H, grad.ravel()
+                grad[: T - j] += (scale * cj) * Rc[j:]
+        if not cand_t:
+            return H, grad.ravel(), _NO_CANDIDATES
+        candidates = _CandidateRows(
+            np.concatenate(cand_t),
+            np.vstack(cand_J),
+            np.concatenate(cand_r),
+            np.concatenate([c[0] for c in cand_id]),
+            np.concatenate([c[1] for c in cand_id]),
+            np.concatenate([c[2] for c in cand_id]),
+        )
+        return H, grad.ravel(), candidates
 
     @staticmethod
     def _objective(ev: _Evaluation) -> float:
-        return float(
-            sum(float(np.sum(R * R)) for R in ev.control.values())
-            + sum(float(r @ r) for r in ev.rows)
-        )
+        """The augmented Lagrangian ``L = |r|^2``."""
+        total = PathProblem._cost(ev)
+        for R in ev.eq_rows:
+            total += float(np.vdot(R, R))
+        for R in ev.ineq_rows:
+            total += float(np.vdot(R, R))
+        return total + float(np.vdot(ev.limit_rows, ev.limit_rows))
 
     @staticmethod
     def _cost(ev: _Evaluation) -> float:
         """``f``: control and task costs only."""
-        total = sum(float(np.sum(R * R)) for R in ev.control.values())
-        return total + sum(float(v.e @ v.e) for v in ev.values)
+        total = 0.0
+        for R in ev.control.values():
+            total += float(np.vdot(R, R))
+        for E in ev.costs:
+            total += float(np.vdot(E, E))
+        return total
 
     @staticmethod
     def _max_violation(ev: _Evaluation) -> float:
         """``max(max |h|, max g, 0)`` over the whole path."""
-        h = np.concatenate([v.h for v in ev.values])
-        g = np.concatenate([v.g for v in ev.values])
-        return max(float(np.max(np.abs(h), initial=0.0)), float(np.max(g, initial=0.0)))
+        out = float(np.max(ev.limits, initial=0.0))
+        for Hv in ev.eqs:
+            out = max(out, float(np.max(np.abs(Hv), initial=0.0)))
+        for G in ev.ineqs:
+            out = max(out, float(np.max(G, initial=0.0)))
+        return out
 
     def _violations(self, ev: _Evaluation) -> dict[str, float]:
         out: dict[str, float] = {}
-        for v, terms in zip(ev.values, self._slices):
-            i = 0
-            for task in terms.equalities:
-                x = float(np.max(np.abs(v.h[i : i + task.dim]), initial=0.0))
-                out[task.name] = max(out.get(task.name, 0.0), x)
-                i += task.dim
-            i = 0
-            for bounds in terms.inequalities:
-                d = 2 * bounds.feature.dim
-                x = float(np.max(v.g[i : i + d], initial=0.0))
-                out[bounds.name] = max(out.get(bounds.name, 0.0), x)
-                i += d
-            if self._n_limit_rows:
-                x = float(np.max(v.g[i:], initial=0.0))
-                out["joint limits"] = max(out.get("joint limits", 0.0), x)
+        for term, Hv in zip(self._eq_terms, ev.eqs):
+            if term.slices:
+                x = float(np.max(np.abs(Hv), initial=0.0))
+                out[term.name] = max(out.get(term.name, 0.0), x)
+        for term, G in zip(self._ineq_terms, ev.ineqs):
+            if term.slices:
+                x = float(np.max(G, initial=0.0))
+                out[term.name] = max(out.get(term.name, 0.0), x)
+        if self._n_limit_rows:
+            x = float(np.max(ev.limits, initial=0.0))
+            out["joint limits"] = max(out.get("joint limits", 0.0), x)
         return out
+
+    # ------------------------------------------------------------------ per-slice layout
+    def _slice_sizes(self) -> list[tuple[int, int, int, int]]:
+        """Per slice: first row of the equalities, inequalities, limits; number of rows."""
+        n_lim = self._n_limit_rows
+        return [
+            (
+                s.n_cost,
+                s.n_cost + s.n_eq,
+                s.n_cost + s.n_eq + s.n_in,
+                s.n_cost + s.n_eq + s.n_in + n_lim,
+            )
+            for s in self._slices
+        ]
+
+    def _slice_rows(self, ev: _Evaluation) -> list[FloatArray]:
+        """The residual rows of each slice (task costs, equalities, inequalities, limits)."""
+        sizes = self._slice_sizes()
+        rows = [np.zeros(n) for *_, n in sizes]
+        for term, E in zip(self._cost_terms, ev.costs):
+            for i, (t, o) in enumerate(zip(term.slices, term.offsets)):
+                rows[t][o : o + term.dim] = E[i]
+        for term, R in zip(self._eq_terms, ev.eq_rows):
+            for i, (t, o) in enumerate(zip(term.slices, term.offsets)):
+                b = sizes[t][0] + o
+                rows[t][b : b + term.dim] = R[i]
+        for term, R in zip(self._ineq_terms, ev.ineq_rows):
+            for i, (t, o) in enumerate(zip(term.slices, term.offsets)):
+                b = sizes[t][1] + o
+                rows[t][b : b + 2 * term.dim] = R[i]
+        for t, (_, _, b, _) in enumerate(sizes):
+            rows[t][b:] = ev.limit_rows[t]
+        return rows
+
+    def _slice_jacobians(self, ev: _Evaluation, penalty: float) -> list[FloatArray]:
+        """Jacobian (rows x nv) of :meth:`_slice_rows` per slice; inactive rows are 0.
+
+        Built independently of :meth:`_assemble` (full feature Jacobians, then masked): the
+        two must agree.
+        """
+        sizes = self._slice_sizes()
+        jac = [np.zeros((n, self.nv)) for *_, n in sizes]
+        states = ev.states
+        sqrt_rho = math.sqrt(penalty)
+        for term in self._cost_terms:
+            task = _task(term)
+            w = np.reshape(task.sqrt_weight, (-1, 1))
+            for t, o in zip(term.slices, term.offsets):
+                Jr = term.feature.residual_jacobian(states[t], task.target)
+                jac[t][o : o + term.dim] = w * Jr
+        for term in self._eq_terms:
+            task = _task(term)
+            w = sqrt_rho * np.reshape(task.sqrt_weight, (-1, 1))
+            for t, o in zip(term.slices, term.offsets):
+                b = sizes[t][0] + o
+                Jr = term.feature.residual_jacobian(states[t], task.target)
+                jac[t][b : b + term.dim] = w * Jr
+        for term, R in zip(self._ineq_terms, ev.ineq_rows):
+            d = term.dim
+            for i, (t, o) in enumerate(zip(term.slices, term.offsets)):
+                b = sizes[t][1] + o
+                Jy = term.feature.jacobian(states[t])
+                act = R[i] > 0.0
+                jac[t][b : b + d] = (-sqrt_rho * act[:d, None]) * Jy
+                jac[t][b + d : b + 2 * d] = (sqrt_rho * act[d:, None]) * Jy
+        for t, (_, _, b, _) in enumerate(sizes):
+            act = ev.limit_rows[t] > 0.0
+            jac[t][b:] = (sqrt_rho * act[:, None]) * self._limit_jacobian
+        return jac
 
     # ------------------------------------------------------------------ public inspection
     def residual(
@@ -613,10 +916,10 @@ class PathProblem:
         """
         p = self.check_path(path)
         rho = check_positive(penalty, "penalty")
-        mult = multipliers or self.zero_multipliers()
+        mult = self._term_multipliers(multipliers)
         ev = self._evaluate(p, self._states)
         self._set_rows(ev, rho, mult)
-        return np.concatenate([R.ravel() for R in ev.control.values()] + ev.rows)
+        return np.concatenate([R.ravel() for R in ev.control.values()] + self._slice_rows(ev))
 
     def residual_jacobian(
         self, path: Any, *, penalty: float = 1.0, multipliers: PathMultipliers | None = None
@@ -626,8 +929,9 @@ class PathProblem:
 
         p = self.check_path(path)
         rho = check_positive(penalty, "penalty")
-        mult = multipliers or self.zero_multipliers()
+        mult = self._term_multipliers(multipliers)
         ev = self._evaluate(p, self._states)
+        self._set_rows(ev, rho, mult)
         T, nv = self.horizon, self.nv
         blocks: list[Any] = []
         eye = scipy.sparse.identity(nv, format="csr")
@@ -638,7 +942,7 @@ class PathProblem:
                 [np.full(T - j, c[j]) for j in offsets], [-j for j in offsets], shape=(T, T)
             )
             blocks.append(self._scales[k] * scipy.sparse.kron(C, eye))
-        jacobians = [scipy.sparse.csr_matrix(J) for J in self._jacobians(ev, rho, mult)]
+        jacobians = [scipy.sparse.csr_matrix(J) for J in self._slice_jacobians(ev, rho)]
         blocks.append(scipy.sparse.block_diag(jacobians, format="csr"))
         return scipy.sparse.vstack(blocks, format="csr")
 
@@ -648,10 +952,11 @@ class PathProblem:
         """The banded pseudo-Hessian ``J^T J`` and the gradient half ``J^T r`` at ``path``."""
         p = self.check_path(path)
         rho = check_positive(penalty, "penalty")
-        mult = multipliers or self.zero_multipliers()
+        mult = self._term_multipliers(multipliers)
         ev = self._evaluate(p, self._states)
         self._set_rows(ev, rho, mult)
-        return self._assemble(ev, rho, mult)
+        H, g, _ = self._assemble(ev, rho, mult)
+        return H, g
 
     def initial_path(self, waypoints: Any = None) -> FloatArray:
         """A full path ``q_0..q_T`` from waypoints (e.g. a planner's), resampled by arc length.
@@ -690,6 +995,38 @@ class PathProblem:
         return np.column_stack([np.interp(u, s, pts[:, j]) for j in range(pts.shape[1])])
 
 
+def _add_rows_to_blocks(
+    blocks: FloatArray, slices: npt.NDArray[np.intp], A: FloatArray, B: FloatArray
+) -> None:
+    """``blocks[slices[k]] += outer(A[k], B[k])`` summed over rows k (any order of slices)."""
+    order = np.argsort(slices, kind="stable")
+    t = slices[order]
+    outer = A[order, :, None] * B[order, None, :]
+    start = np.flatnonzero(np.concatenate([[True], t[1:] != t[:-1]]))
+    blocks[t[start]] += np.add.reduceat(outer, start, axis=0)
+
+
+def _task(term: _Term) -> Task:
+    if term.task is None:  # pragma: no cover - set for every cost and equality term
+        raise RuntimeError("term without task")
+    return term.task
+
+
+def _bounds(term: _Term) -> FeatureBounds:
+    if term.bounds is None:  # pragma: no cover - set for every inequality term
+        raise RuntimeError("term without bounds")
+    return term.bounds
+
+
+def _accepts_rows(feature: Feature) -> bool:
+    """Whether ``feature.jacobian(state, rows=...)`` computes only the selected rows."""
+    try:
+        params = inspect.signature(feature.jacobian).parameters
+    except (TypeError, ValueError):  # pragma: no cover - builtins without a signature
+        return False
+    return "rows" in params
+
+
 def _require_target(task: Task) -> None:
     if task.target is None:
         raise InvalidInputError(
@@ -699,14 +1036,29 @@ def _require_target(task: Task) -> None:
 
 
 # ---------------------------------------------------------------------- solver
-def _repair(problem: PathProblem, path: FloatArray, opts: PathOptimizationOptions) -> int:
-    """Push slices violating an inequality out along its gradient (min-norm Gauss-Newton)."""
+def _repair(
+    problem: PathProblem,
+    path: FloatArray,
+    opts: PathOptimizationOptions,
+    slices: Iterable[int] | None = None,
+) -> int:
+    """Push slices violating an inequality out along its gradient (min-norm Gauss-Newton).
+
+    Args:
+        problem: the problem.
+        path: the path, modified in place.
+        opts: settings (``repair_iterations``, ``max_step``).
+        slices: the slices ``t`` (1..T) to check; default all.
+
+    Returns:
+        The number of slices moved.
+    """
     if not problem.inequalities:
         return 0
     repaired = 0
     robot = problem.robot
     lo, hi = robot.lower_limits, robot.upper_limits
-    for t in range(1, problem.horizon + 1):
+    for t in range(1, problem.horizon + 1) if slices is None else slices:
         terms = problem._slices[t - 1]
         if not terms.inequalities:
             continue
@@ -739,6 +1091,114 @@ def _repair(problem: PathProblem, path: FloatArray, opts: PathOptimizationOption
     return repaired
 
 
+_WATCH_IDLE_ITERATIONS = 0
+"""Accepted iterations a watched inequality row may stay out of the step's active set before
+it is dropped from the model (0: dropped at the first accepted step that did not need it;
+keeping rows longer costs their Jacobians at every assembly and did not save iterations)."""
+
+
+def _age_watch(
+    watch: list[npt.NDArray[np.bool_]],
+    idle: list[npt.NDArray[np.intp]],
+    candidates: _CandidateRows,
+    used: npt.NDArray[np.bool_],
+    limit: int,
+) -> None:
+    """Count accepted iterations since each candidate row was last predicted active.
+
+    ``used``: the row's linearization is positive at the step. Rows idle for more than
+    ``limit`` iterations leave ``watch``.
+    """
+    for n, (w, age) in enumerate(zip(watch, idle)):
+        mine = candidates.term == n
+        if not mine.any():
+            continue
+        i, k = candidates.index[mine], candidates.row[mine]
+        age[i, k] = np.where(used[mine], 0, age[i, k] + 1)
+        w[i[age[i, k] > limit], k[age[i, k] > limit]] = False
+
+
+def _damped_step(
+    H: SymmetricBlockBanded,
+    grad: FloatArray,
+    mu: float,
+    candidates: _CandidateRows,
+    nv: int,
+    passes: int = 6,
+) -> FloatArray:
+    """Levenberg-Marquardt step: the minimizer of the damped model with hinge rows.
+
+    The model is ``m(dx) = 2 g.dx + dx.(J^T J + mu I).dx + sum_c [r_c + j_c dx]_+^2`` with
+    ``g = J^T r``; without candidate rows (or none of them positive at the plain step) the
+    step solves ``(J^T J + mu I) dx = -g``. Otherwise ``m`` (convex, piecewise quadratic) is
+    minimized by a finite Newton iteration: solve with the candidate rows positive at the
+    current step added as quadratics, then an exact line search along the change (the
+    model's derivative is piecewise linear along a line); at most ``passes`` solves. Every
+    iterate lowers ``m``, and the first is the better of ``0`` and the plain step, so
+    ``m(dx) <= 0``.
+    """
+    damped = H.copy()
+    damped.add_diagonal(mu)
+    x = damped.solve(-grad)
+    if not candidates.size:
+        return x
+    J, r = candidates.jacobian, candidates.residual
+    z = candidates.linearized(x.reshape(-1, nv))
+    if not np.any(z > 0.0):
+        return x
+    # start from the better of the plain step and no step (m(0) = 0)
+    Hx = damped.matvec(x)
+    if (
+        2.0 * float(grad.dot(x)) + float(x.dot(Hx)) + float(np.sum(np.square(np.maximum(z, 0.0))))
+        > 0.0
+    ):
+        x = np.zeros_like(x)
+        Hx = np.zeros_like(x)
+        z = r.copy()
+    active: npt.NDArray[np.bool_] | None = None
+    for _ in range(passes - 1):
+        now = z > 0.0
+        if active is not None and np.array_equal(now, active):
+            break  # x minimizes the quadratic of this active set, which holds at x
+        active = now
+        A = damped.copy()
+        rhs = -grad.reshape(-1, nv)
+        if active.any():
+            Ja, ta = J[active], candidates.slices[active]
+            blocks = np.zeros((H.blocks, nv, nv))
+            _add_rows_to_blocks(blocks, ta, Ja, Ja)
+            A.add_diagonal_blocks(blocks)
+            np.subtract.at(rhs, ta, r[active, None] * Ja)
+        d = A.solve(rhs.ravel()) - x
+        # exact line search: phi'(a) / 2 = b + a c + sum_k [z_k + a s_k]_+ s_k
+        Hd = damped.matvec(d)
+        c = float(d.dot(Hd))
+        b = float(d.dot(grad + Hx))
+        s = candidates.linearized(d.reshape(-1, nv)) - r
+        slope0 = b + float(np.maximum(z, 0.0).dot(s))
+        if slope0 >= 0.0 or c <= 0.0:
+            break  # no descent along d
+        with np.errstate(divide="ignore", invalid="ignore"):
+            breaks = -z / s
+        breaks = np.sort(breaks[(breaks > 0.0) & (breaks < 1.0)])
+        alphas = np.append(breaks, 1.0)
+        slopes = b + alphas * c + (np.maximum(z + alphas[:, None] * s, 0.0) * s).sum(axis=1)
+        up = np.flatnonzero(slopes >= 0.0)
+        if not up.size:
+            alpha = 1.0
+        else:
+            i = int(up[0])
+            lo, lo_slope = (0.0, slope0) if i == 0 else (float(alphas[i - 1]), float(slopes[i - 1]))
+            hi, hi_slope = float(alphas[i]), float(slopes[i])
+            alpha = lo + (hi - lo) * (-lo_slope) / (hi_slope - lo_slope)
+        x = x + alpha * d
+        Hx = Hx + alpha * Hd
+        z = z + alpha * s
+        if alpha < 1.0:
+            active = None  # not at the active set's minimizer yet: recompute the set
+    return x
+
+
 def optimize_path(
     problem: PathProblem,
     initial_path: Any = None,
@@ -753,6 +1213,13 @@ def optimize_path(
     of actual to predicted decrease (Nielsen's rule). When the inner loop stalls, the
     multipliers are updated (``lambda_h += 2 rho h``, ``lambda_g = [lambda_g + 2 rho g]_+``)
     and ``rho`` grows unless the violation shrank enough.
+
+    Inactive inequality rows are invisible to the Gauss-Newton model, so a step may cross
+    them (e.g. move a link through an obstacle) and be rejected. The rows found active at a
+    rejected trial point are then kept in the model as hinges ``[r + j dx]_+^2`` (see
+    :func:`_damped_step`) and the step is recomputed with the same damping, instead of
+    only raising ``mu``; such a row leaves the model at the first accepted step that did
+    not need it.
 
     Args:
         problem: the problem.
@@ -772,16 +1239,28 @@ def optimize_path(
     t_start = time.perf_counter()
     path = problem.initial_path(initial_path)
     T, nv = problem.horizon, problem.nv
-    repaired = _repair(problem, path, opts) if opts.repair else 0
     states = problem._states
     trial_states = problem._trial_states
-    mult = problem.zero_multipliers()
+    mult = problem._term_multipliers(None)
     rho = opts.initial_penalty
     eval_time = 0.0
     solve_time = 0.0
 
     t0 = time.perf_counter()
     ev = problem._evaluate(path, states)
+    repaired = 0
+    if opts.repair:
+        # only the slices that violate an inequality (the evaluation tells which)
+        violating = sorted(
+            {
+                term.slices[i] + 1
+                for term, G in zip(problem._ineq_terms, ev.ineqs)
+                for i in np.flatnonzero((G > 0.0).any(axis=1))
+            }
+        )
+        if violating:
+            repaired = _repair(problem, path, opts, violating)
+            ev = problem._evaluate(path, states)
     problem._set_rows(ev, rho, mult)
     eval_time += time.perf_counter() - t0
     objective = problem._objective(ev)
@@ -797,6 +1276,13 @@ def optimize_path(
     inner_done = False
     H: SymmetricBlockBanded | None = None
     grad = np.zeros(T * nv)
+    candidates = _NO_CANDIDATES
+    rejected_step: FloatArray | None = None
+    # inequality rows found active at a rejected trial point: modeled as hinges from then on
+    watch = [np.zeros((len(term.slices), 2 * term.dim), dtype=bool) for term in problem._ineq_terms]
+    # iterations since a watched row was last predicted active (rows unused for long are
+    # dropped: their Jacobians cost time at every assembly)
+    idle = [np.zeros(w.shape, dtype=np.intp) for w in watch]
     while iterations < opts.max_iterations:
         if inner_done:
             inner_done = False
@@ -806,9 +1292,9 @@ def optimize_path(
             if outer >= opts.max_outer_iterations:
                 break
             outer += 1
-            for t, v in enumerate(ev.values):
-                mult.equality[t] += 2.0 * rho * v.h
-                np.maximum(mult.inequality[t] + 2.0 * rho * v.g, 0.0, out=mult.inequality[t])
+            if logger.isEnabledFor(logging.DEBUG):
+                logger.debug("outer %d: violations %s", outer, problem._violations(ev))
+            problem._update_multipliers(ev, rho, mult)
             if violation > opts.violation_decrease * previous_violation:
                 if rho >= opts.max_penalty:
                     status = PathOptimizationStatus.INFEASIBLE
@@ -822,22 +1308,30 @@ def optimize_path(
             nu = 2.0
         if H is None:
             t0 = time.perf_counter()
-            H, grad = problem._assemble(ev, rho, mult)
+            H, grad, candidates = problem._assemble(ev, rho, mult, watch)
             eval_time += time.perf_counter() - t0
             if mu < 0:
                 mu = opts.initial_damping * float(np.max(H.ab[0]))
         iterations += 1
         t0 = time.perf_counter()
-        damped = H.copy()
-        damped.add_diagonal(mu)
-        dx = damped.solve(-grad)
+        dx = _damped_step(H, grad, mu, candidates, nv)
         solve_time += time.perf_counter() - t0
         largest = float(np.max(np.abs(dx))) if dx.size else 0.0
         if largest > opts.max_step:
             dx *= opts.max_step / largest
             largest = opts.max_step
-        # predicted decrease of |r + J dx|^2: -(2 g.dx + dx.JTJ.dx)
-        predicted = -(2.0 * float(grad @ dx) + float(dx @ H.matvec(dx)))
+        if rejected_step is not None and np.array_equal(dx, rejected_step):
+            # the rows learned at the rejection do not change the step: damp more instead
+            # of evaluating the same trial again
+            rejected_step = None
+            mu *= nu
+            nu *= 2.0
+            continue
+        rejected_step = None
+        # predicted decrease of the model |r + J dx|^2 + sum [r_c + j_c dx]_+^2
+        z = candidates.linearized(dx.reshape(T, nv))
+        hinge = float(np.sum(np.square(np.maximum(z, 0.0))))
+        predicted = -(2.0 * float(grad.dot(dx)) + float(dx.dot(H.matvec(dx)))) - hinge
         trial = path.copy()
         trial[1:] += dx.reshape(T, nv)
         t0 = time.perf_counter()
@@ -846,12 +1340,26 @@ def optimize_path(
         eval_time += time.perf_counter() - t0
         trial_objective = problem._objective(trial_ev)
         decrease = objective - trial_objective
+        logger.debug(
+            "LM %d (outer %d): rho %.3g mu %.3g |dx| %.3g L %.6g -> %.6g predicted %.3g",
+            iterations,
+            outer,
+            rho,
+            mu,
+            largest,
+            objective,
+            trial_objective,
+            predicted,
+        )
         if decrease > 0 and predicted > 0:
             ratio = decrease / predicted
             mu *= max(1.0 / 3.0, 1.0 - (2.0 * ratio - 1.0) ** 3)
             nu = 2.0
             path, ev, objective = trial, trial_ev, trial_objective
             states, trial_states = trial_states, states
+            if candidates.size:
+                # (only at accepted steps: rows learned at a rejection stay until one is)
+                _age_watch(watch, idle, candidates, z > 0.0, _WATCH_IDLE_ITERATIONS)
             H = None
             violation = problem._max_violation(ev)
             cost_history.append(problem._cost(ev))
@@ -859,8 +1367,21 @@ def optimize_path(
             if largest < opts.step_tolerance or decrease < opts.cost_tolerance * objective:
                 inner_done = True
         else:
-            mu *= nu
-            nu *= 2.0
+            # inequality rows the model missed (inactive here, active at the trial): model
+            # them from now on and retry with the same damping; otherwise damp more
+            learned = False
+            for w, age, row_trial, row in zip(watch, idle, trial_ev.ineq_rows, ev.ineq_rows):
+                new = (row_trial > 0.0) & (row <= 0.0) & ~w
+                if new.any():
+                    w |= new
+                    age[new] = 0
+                    learned = True
+            if learned:
+                H = None
+                rejected_step = dx
+            else:
+                mu *= nu
+                nu *= 2.0
             if largest < opts.step_tolerance or not math.isfinite(mu) or mu > 1e20:
                 inner_done = True
     if status is PathOptimizationStatus.MAX_ITERATIONS and inner_done:
