@@ -11,7 +11,6 @@ from taskspace import features as F
 from taskspace.constraints import FeatureBounds
 from taskspace.errors import InvalidInputError, NotFiniteError, ShapeError, SolverError
 from taskspace.model import Robot
-from taskspace.model.world import Obstacle
 from taskspace.tasks import Task
 from taskspace.trajopt.banded import SymmetricBlockBanded
 from taskspace.trajopt.path_optimization import (
@@ -25,6 +24,7 @@ from taskspace.trajopt.path_optimization import (
     optimize_path,
 )
 from tests.conftest import load_robot
+from tests.trajopt._path_problems import perturbed_start, sphere_scene
 
 TCP = "panda_hand_tcp"
 MARGIN = 0.02
@@ -33,14 +33,7 @@ MARGIN = 0.02
 @pytest.fixture(scope="module")
 def scene() -> tuple[Robot, np.ndarray, np.ndarray, list[tuple[str, str]]]:
     """A Panda (own instance: obstacles are added) reaching around a sphere."""
-    robot = Robot.load("panda", convex_collision=True)
-    robot.add_obstacle(Obstacle.sphere("ball", 0.12, [0.35, 0.0, 0.4]))
-    q0 = robot.q_default.copy()
-    q0[0] = -0.8
-    qg = robot.q_default.copy()
-    qg[0] = 0.8
-    pairs = [p for p in robot.collision_pairs if "ball" in p]  # every link against the ball
-    return robot, q0, qg, pairs
+    return sphere_scene()
 
 
 def reach_problem(scene, T: int, **kw) -> PathProblem:  # type: ignore[no-untyped-def]
@@ -83,14 +76,7 @@ def small_problem(scene) -> tuple[PathProblem, np.ndarray, PathMultipliers]:  # 
         acceleration_weight=1.0,
         jerk_weight=0.01,
     )
-    rng = np.random.default_rng(3)
-    path = np.linspace(q0, qg, T + 1) + 0.05 * rng.normal(size=(T + 1, robot.nq))
-    path[0] = q0
-    mult = problem.zero_multipliers()
-    for lam in mult.equality:
-        lam[:] = rng.normal(size=lam.size)
-    for lam in mult.inequality:
-        lam[:] = rng.uniform(0.0, 0.5, size=lam.size)
+    path, mult = perturbed_start(problem, q0, qg, seed=3)
     return problem, path, mult
 
 

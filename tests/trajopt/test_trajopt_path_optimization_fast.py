@@ -18,7 +18,6 @@ from taskspace.constraints import FeatureBounds
 from taskspace.errors import ShapeError
 from taskspace.features import collision as collision_module
 from taskspace.model import Robot
-from taskspace.model.world import Obstacle
 from taskspace.tasks import Task
 from taskspace.trajopt.banded import SymmetricBlockBanded
 from taskspace.trajopt.path_optimization import (
@@ -31,6 +30,7 @@ from taskspace.trajopt.path_optimization import (
     _damped_step,
     optimize_path,
 )
+from tests.trajopt._path_problems import perturbed_start, sphere_scene
 
 TCP = "panda_hand_tcp"
 
@@ -38,14 +38,7 @@ TCP = "panda_hand_tcp"
 @pytest.fixture(scope="module")
 def scene() -> tuple[Robot, np.ndarray, np.ndarray, list[tuple[str, str]]]:
     """A Panda (own instance: an obstacle is added) with self-collision pairs and a sphere."""
-    robot = Robot.load("panda", convex_collision=True)
-    robot.add_obstacle(Obstacle.sphere("ball", 0.12, [0.35, 0.0, 0.4]))
-    q0 = robot.q_default.copy()
-    q0[0] = -0.8
-    qg = robot.q_default.copy()
-    qg[0] = 0.8
-    pairs = [p for p in robot.collision_pairs if "ball" in p]
-    return robot, q0, qg, pairs
+    return sphere_scene()
 
 
 def random_configurations(robot: Robot, n: int, seed: int) -> list[np.ndarray]:
@@ -196,14 +189,7 @@ def small_problem(scene) -> tuple[PathProblem, np.ndarray, PathMultipliers]:  # 
         ],
         velocity_weight=0.2,
     )
-    rng = np.random.default_rng(7)
-    path = np.linspace(q0, qg, T + 1) + 0.05 * rng.normal(size=(T + 1, robot.nq))
-    path[0] = q0
-    mult = problem.zero_multipliers()
-    for lam in mult.equality:
-        lam[:] = rng.normal(size=lam.size)
-    for lam in mult.inequality:
-        lam[:] = rng.uniform(0.0, 0.5, size=lam.size)
+    path, mult = perturbed_start(problem, q0, qg, seed=7)
     return problem, path, mult
 
 

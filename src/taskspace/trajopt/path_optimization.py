@@ -557,22 +557,8 @@ class PathProblem:
         """
         if update:
             self._update_states(path, states)
-        costs = []
-        for term in self._cost_terms:
-            task = _task(term)
-            residual, target = term.feature.residual, task.target
-            E = np.array([residual(states[t], target) for t in term.slices], dtype=float)
-            E = E.reshape(len(term.slices), term.dim)
-            E *= task.sqrt_weight
-            costs.append(E)
-        eqs = []
-        for term in self._eq_terms:
-            task = _task(term)
-            residual, target = term.feature.residual, task.target
-            Hv = np.array([residual(states[t], target) for t in term.slices], dtype=float)
-            Hv = Hv.reshape(len(term.slices), term.dim)
-            Hv *= task.sqrt_weight
-            eqs.append(Hv)
+        costs = [_weighted_residuals(term, states) for term in self._cost_terms]
+        eqs = [_weighted_residuals(term, states) for term in self._eq_terms]
         ineqs = []
         for term in self._ineq_terms:
             bounds = _bounds(term)
@@ -1010,6 +996,16 @@ def _task(term: _Term) -> Task:
     if term.task is None:  # pragma: no cover - set for every cost and equality term
         raise RuntimeError("term without task")
     return term.task
+
+
+def _weighted_residuals(term: _Term, states: list[State]) -> FloatArray:
+    """``sqrt(rho) (phi(q_t) - y*)`` of a task term at its slices, shape (slices, dim)."""
+    task = _task(term)
+    residual, target = term.feature.residual, task.target
+    E = np.array([residual(states[t], target) for t in term.slices], dtype=float)
+    E = E.reshape(len(term.slices), term.dim)
+    E *= task.sqrt_weight
+    return E
 
 
 def _bounds(term: _Term) -> FeatureBounds:
