@@ -175,3 +175,37 @@ def test_first_level_with_box_matches_scipy() -> None:
         options={"ftol": 1e-15, "gtol": 1e-12},
     )
     assert result.residuals[0] == pytest.approx(np.linalg.norm(J @ ref.x - r), abs=1e-6)
+
+
+@pytest.mark.parametrize("shape", [(3, 8), (8, 8), (12, 5)])
+def test_qr_level_matches_the_pseudo_inverse_and_nullspace(shape: tuple[int, int]) -> None:
+    """One level of the cascade by QR: least-norm / least-squares step and null(J)."""
+    from taskspace.qp.hierarchy import _affine_start, _qr_level
+
+    rng = np.random.default_rng(sum(shape))
+    J = rng.normal(size=shape)
+    r = rng.normal(size=shape[0])
+    step = _qr_level(J, r)
+    assert step is not None
+    z, basis = step
+    np.testing.assert_allclose(z, np.linalg.pinv(J) @ r, atol=1e-10)
+    assert basis.shape == (shape[1], max(shape[1] - shape[0], 0))
+    np.testing.assert_allclose(J @ basis, 0.0, atol=1e-12)
+    np.testing.assert_allclose(basis.T @ basis, np.eye(basis.shape[1]), atol=1e-12)
+    if shape[0] < shape[1]:  # the affine start of hard equalities uses the same QR
+        x0, Z = _affine_start(J, r, shape[1], 1e-8)
+        np.testing.assert_allclose(x0, z, atol=1e-12)
+        assert Z is not None and Z.shape == basis.shape
+
+
+def test_qr_level_declines_rank_deficient_blocks() -> None:
+    """Rank-deficient levels go to the damped SVD (the QR answer would be meaningless)."""
+    from taskspace.qp.hierarchy import _qr_level
+
+    rng = np.random.default_rng(0)
+    J = rng.normal(size=(3, 8))
+    J[2] = J[0] + J[1]
+    assert _qr_level(J, rng.normal(size=3)) is None
+    tall = rng.normal(size=(10, 4))
+    tall[:, 3] = tall[:, 0]
+    assert _qr_level(tall, rng.normal(size=10)) is None
