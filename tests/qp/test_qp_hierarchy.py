@@ -209,3 +209,32 @@ def test_qr_level_declines_rank_deficient_blocks() -> None:
     tall = rng.normal(size=(10, 4))
     tall[:, 3] = tall[:, 0]
     assert _qr_level(tall, rng.normal(size=10)) is None
+
+
+@pytest.mark.parametrize("shape,rank", [((35, 14), 9), ((6, 10), 4), ((10, 10), 7), ((5, 3), 3)])
+def test_pivoted_qr_level_matches_the_svd_on_rank_deficient_blocks(
+    shape: tuple[int, int], rank: int
+) -> None:
+    """Rank-deficient levels: least-norm least-squares step and null(J) as the SVD gives."""
+    from taskspace.qp.hierarchy import _pivoted_qr_level
+
+    rng = np.random.default_rng(rank)
+    J = rng.normal(size=(shape[0], rank)) @ rng.normal(size=(rank, shape[1]))
+    r = rng.normal(size=shape[0])
+    step = _pivoted_qr_level(J, r, 1e-8)
+    assert step is not None
+    z, basis = step
+    np.testing.assert_allclose(z, np.linalg.pinv(J, rcond=1e-10) @ r, atol=1e-9)
+    assert basis.shape == (shape[1], shape[1] - rank)
+    np.testing.assert_allclose(J @ basis, 0.0, atol=1e-10)
+    np.testing.assert_allclose(basis.T @ basis, np.eye(shape[1] - rank), atol=1e-12)
+
+
+def test_pivoted_qr_level_leaves_ill_conditioned_blocks_to_the_damped_svd() -> None:
+    from taskspace.qp.hierarchy import _pivoted_qr_level
+
+    rng = np.random.default_rng(1)
+    U, _ = np.linalg.qr(rng.normal(size=(6, 6)))
+    V, _ = np.linalg.qr(rng.normal(size=(6, 6)))
+    J = U @ np.diag([1.0, 0.5, 0.2, 1e-7, 0.0, 0.0]) @ V.T  # 1e-7: between 1e-8 and 1e-6
+    assert _pivoted_qr_level(J, rng.normal(size=6), 1e-8) is None

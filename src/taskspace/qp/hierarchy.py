@@ -18,7 +18,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.linalg.lapack import dgeqrf, dorgqr, dposv, dtrtrs
+from scipy.linalg.lapack import dgeqp3, dgeqrf, dorgqr, dposv, dtrtrs
 
 from taskspace._validation import FloatArray
 from taskspace.qp.problem import INF, QPProblem, RowBlock
@@ -141,6 +141,77 @@ def _qr_level(JZ: FloatArray, res: FloatArray) -> tuple[FloatArray, FloatArray] 
     if info != 0:
         return None
     return Q[:, :m] @ y, Q[:, m:]
+
+
+def _pivoted_qr_level(
+    JZ: FloatArray, res: FloatArray, tol: float
+) -> tuple[FloatArray, FloatArray] | None:
+    """:func:`_qr_level` for rank-deficient blocks: a QR with column pivoting of ``JZ^T``.
+
+    ``JZ^T P = Q R`` (LAPACK ``dgeqp3``, about 8x cheaper than the SVD of a 35 x 14 block)
+    reveals the rank ``k`` (diagonal of ``R`` above ``tol`` times its largest entry):
+    ``range(JZ^T) = span(Q_1)``, ``null(JZ) = span(Q_2)``, and the least-norm least-squares
+    step is ``z = Q_1 y`` with ``R_1^T y ~ P^T res``. Returns ``None`` (the caller uses the
+    damped SVD) when the diagonal has entries between ``tol`` and ``1e-6`` of its largest,
+    where the damping of the SVD step would matter.
+    """
+    m, r = JZ.shape
+    p = min(m, r)
+    if p == 0:
+        return np.zeros(r), np.eye(r)
+    qr, jpvt, tau, _, info = dgeqp3(JZ.T)
+    if info != 0:
+        return None
+    d = np.abs(qr.diagonal())
+    scale = max(1.0, float(d[0]))
+    k = int(np.count_nonzero(d > tol * scale))
+    if k != int(np.count_nonzero(d > 1e-6 * scale)):
+        return None
+    padded = np.zeros((r, r))
+    padded[:, :p] = qr[:, :p]
+    Q, _, info = dorgqr(padded, tau)
+    if info != 0:
+        return None
+    if k == 0:
+        return np.zeros(r), Q
+    R1 = np.triu(qr[:k])  # k x m, full row rank
+    w = R1.dot(res[jpvt - 1])
+    # y = (R1 R1^T)^-1 R1 P^T res through the triangular factor of R1^T (semi-normal equations)
+    if k == m:
+        Rt = R1[:, :k]
+        y, info = dtrtrs(Rt, res[jpvt - 1], lower=0, trans=1)
+    else:
+        qr2, _, _, info = dgeqrf(R1.T)
+        if info != 0:
+            return None
+        Rt = qr2[:k]
+        t, info = dtrtrs(Rt, w, lower=0, trans=1)
+        if info != 0:
+            return None
+        y, info = dtrtrs(Rt, t, lower=0)
+    if info != 0:
+        return None
+    return Q[:, :k].dot(y), Q[:, k:]
+
+
+def _level_step(
+    JZ: FloatArray, res: FloatArray, mu: float, tol: float
+) -> tuple[FloatArray, FloatArray]:
+    """Step ``z`` of one equality level and the basis of ``null(JZ)``.
+
+    QR when ``JZ`` is well conditioned, pivoted QR when it is clearly rank-deficient, else
+    the damped SVD ``z = V diag(s / (s^2 + mu)) U^T res`` with rank cut at ``tol``.
+    """
+    step = _qr_level(JZ, res)
+    if step is None:
+        step = _pivoted_qr_level(JZ, res, tol)
+    if step is not None:
+        return step
+    U, s, Vt = np.linalg.svd(JZ, full_matrices=True)
+    smax = max(1.0, float(s[0]) if s.size else 0.0)
+    rank = int(np.count_nonzero(s > tol * smax))
+    z = Vt[:rank].T @ ((s[:rank] / (s[:rank] ** 2 + mu)) * (U[:, :rank].T @ res))
+    return z, Vt[rank:].T
 
 
 def _affine_start(
@@ -324,13 +395,7 @@ class HierarchySolver:
             # remaining freedom: nullspace of this level's equality rows
             if level.J.shape[0] and k < len(levels) - 1 and r_dim > 0:
                 JZ = level.J if Z is None else level.J @ Z
-                step = _qr_level(JZ, np.zeros(JZ.shape[0]))
-                if step is None:
-                    _, s, Vt = np.linalg.svd(JZ, full_matrices=True)
-                    smax = max(1.0, float(s[0]) if s.size else 0.0)
-                    basis = Vt[int(np.count_nonzero(s > opts.rank_tolerance * smax)) :].T
-                else:
-                    basis = step[1]
+                _, basis = _level_step(JZ, np.zeros(JZ.shape[0]), 0.0, opts.rank_tolerance)
                 Z = basis if Z is None else Z @ basis
             out.nullspace_dims.append(n if Z is None else Z.shape[1])
         out.x = x
@@ -369,17 +434,7 @@ class HierarchySolver:
                     if info != 0:
                         return None
                 else:
-                    step = _qr_level(JZ, res)
-                    if step is None:  # rank-deficient or ill-conditioned: damped SVD
-                        U, s, Vt = np.linalg.svd(JZ, full_matrices=True)
-                        smax = max(1.0, float(s[0]) if s.size else 0.0)
-                        rank = int(np.count_nonzero(s > tol * smax))
-                        z = Vt[:rank].T @ (
-                            (s[:rank] / (s[:rank] ** 2 + mu)) * (U[:, :rank].T @ res)
-                        )
-                        basis = Vt[rank:].T
-                    else:
-                        z, basis = step
+                    z, basis = _level_step(JZ, res, mu, tol)
                 x = x + (z if Z is None else Z @ z)
                 if k < last:
                     Z = basis if Z is None else Z @ basis
