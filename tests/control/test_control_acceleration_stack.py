@@ -61,3 +61,35 @@ def test_contact_rows_of_the_qp_equal_each_contact_rhs() -> None:
         np.testing.assert_allclose(
             problem.A[nu:, : robot.nv], np.vstack([c.jacobian(state) for c in contacts])
         )
+
+
+def test_hierarchy_levels_follow_priority_changes() -> None:
+    """The cascade's preallocated levels are rebuilt when a task's priority changes."""
+    from taskspace.control.inverse_dynamics_qp import InverseDynamicsOptions
+
+    robot = load_robot("g1")
+    rng = np.random.default_rng(5)
+    s0 = robot.state(robot.q_default, np.zeros(robot.nv))
+    feet = ["left_ankle_roll_link", "right_ankle_roll_link"]
+
+    def controller() -> tuple[InverseDynamicsQP, list[Task]]:
+        com = Task(F.CenterOfMass(robot), kp=50.0, priority=0)
+        com.set_target_from_state(s0)
+        hand = Task(F.FramePose(robot, "left_rubber_hand"), kp=50.0, priority=1)
+        hand.set_target_from_state(s0)
+        posture = Task(F.JointConfiguration(robot), robot.q_default, kp=30.0, priority=2)
+        tasks = [com, hand, posture]
+        contacts = [Contact6D(robot, f, half_length=0.1, half_width=0.03) for f in feet]
+        opts = InverseDynamicsOptions(hierarchical=True)
+        return InverseDynamicsQP(robot, tasks, contacts, opts), tasks
+
+    ctrl, tasks = controller()
+    state = _random_state(robot, rng)
+    first = ctrl.solve(state)
+    tasks[1].priority, tasks[2].priority = 2, 1  # posture above the hand now
+    swapped = ctrl.solve(state)
+    fresh_ctrl, fresh_tasks = controller()
+    fresh_tasks[1].priority, fresh_tasks[2].priority = 2, 1
+    expected = fresh_ctrl.solve(state)
+    np.testing.assert_allclose(swapped.a, expected.a, atol=1e-8)
+    assert np.abs(swapped.a - first.a).max() > 1e-3  # the order matters here

@@ -188,6 +188,10 @@ class InverseDynamicsQP:
             )
         )
         self._task_rows = AccelerationStack(self.tasks, nv)
+        self._level_key: tuple[int, ...] | None = None
+        self._levels: list[HierarchyLevel] = []
+        self._level_slices: list[slice] = []
+        self._level_rows = self._task_rows
         # per-step buffers, refilled in place (the force block of H is constant)
         self._H = self._reg.copy()
         self._HJ = np.zeros((nv, nv))
@@ -381,21 +385,10 @@ class InverseDynamicsQP:
         self._last = (M, h, Jc)
         A, b, _ = self._equalities(state, M, h, Jc)
         C, l, u, _ = self._inequalities(M, h, Jc)
-        levels = []
-        for p in sorted({t.priority for t in self.tasks}):
-            Js, rs = [], []
-            for t in self.tasks:
-                if t.priority == p:
-                    J, rhs = t.acceleration_rows(state)
-                    Js.append(J)
-                    rs.append(rhs)
-            J = np.hstack([np.vstack(Js), np.zeros((sum(x.shape[0] for x in Js), self.nf))])
-            levels.append(HierarchyLevel(f"priority {p}", J, np.concatenate(rs)))
-        # last level: force regularization (distributes forces when contacts are redundant)
-        if self.nf:
-            w = np.sqrt(np.diag(self._reg)[nv:])
-            reg = np.hstack([np.zeros((self.nf, nv)), np.diag(w)])
-            levels.append(HierarchyLevel("force regularization", reg, np.zeros(self.nf)))
+        levels = self._hierarchy_levels()
+        Jt, _ = self._level_rows.fill(state)
+        for level, rows in zip(levels, self._level_slices):
+            level.J[:, :nv] = Jt[rows]  # level.r is a view into the stack's rhs
         lb, ub = self._acceleration_bounds(state)
         t1 = time.perf_counter()
         result = self._hierarchy.solve(levels, n, lb=lb, ub=ub, C=C, l=l, u=u, A=A, b=b)
@@ -404,6 +397,35 @@ class InverseDynamicsQP:
         out = self._result(state, result.x, result.success, status, t1 - t0, t2 - t1, None)
         out.residuals = result.residuals
         return out
+
+    def _hierarchy_levels(self) -> list[HierarchyLevel]:
+        """Levels of the cascade (one per task priority, then the force regularization).
+
+        Built once (again if a task's priority changed): their arrays are buffers refilled at
+        every step, the task rows by one :class:`AccelerationStack` ordered by priority.
+        """
+        key = tuple(t.priority for t in self.tasks)
+        if key == self._level_key:
+            return self._levels
+        nv, n = self.robot.nv, self.n
+        ordered = sorted(self.tasks, key=lambda t: t.priority)
+        self._level_rows = AccelerationStack(ordered, nv)
+        levels, slices, row = [], [], 0
+        for p in sorted(set(key)):
+            d = sum(t.dim for t in ordered if t.priority == p)
+            rows = slice(row, row + d)
+            levels.append(
+                HierarchyLevel(f"priority {p}", np.zeros((d, n)), self._level_rows.rhs[rows])
+            )
+            slices.append(rows)
+            row += d
+        # last level: force regularization (distributes forces when contacts are redundant)
+        if self.nf:
+            w = np.sqrt(np.diag(self._reg)[nv:])
+            reg = np.hstack([np.zeros((self.nf, nv)), np.diag(w)])
+            levels.append(HierarchyLevel("force regularization", reg, np.zeros(self.nf)))
+        self._levels, self._level_slices, self._level_key = levels, slices, key
+        return levels
 
     def _result(
         self,
