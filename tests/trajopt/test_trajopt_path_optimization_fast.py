@@ -7,8 +7,6 @@ Jacobians, dense matrices, a generic minimizer).
 
 from __future__ import annotations
 
-import gc
-
 import numpy as np
 import pytest
 import scipy.optimize
@@ -16,7 +14,6 @@ import scipy.optimize
 from taskspace import features as F
 from taskspace.constraints import FeatureBounds
 from taskspace.errors import ShapeError
-from taskspace.features import collision as collision_module
 from taskspace.model import Robot
 from taskspace.tasks import Task
 from taskspace.trajopt.banded import SymmetricBlockBanded
@@ -91,20 +88,6 @@ def test_collision_values_follow_updates_and_match_fresh_states(scene) -> None: 
     expected = feature.value(robot.state(q + 0.05))
     np.testing.assert_allclose(moved, expected, atol=1e-6)
     assert np.abs(moved - before).max() > 1e-3
-
-
-def test_cached_collision_results_are_released_with_the_state(scene) -> None:  # type: ignore[no-untyped-def]
-    robot = scene[0]
-    feature = F.CollisionDistance(robot)
-    gc.collect()
-    n_before = len(collision_module._DISTANCE_RESULTS)
-    states = [robot.state(q) for q in random_configurations(robot, 5, seed=3)]
-    for state in states:
-        feature.value(state)
-    assert len(collision_module._DISTANCE_RESULTS) == n_before + 5
-    del states, state
-    gc.collect()
-    assert len(collision_module._DISTANCE_RESULTS) == n_before
 
 
 def test_collision_jacobian_rows_match_per_joint_reference(scene) -> None:  # type: ignore[no-untyped-def]

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import weakref
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
@@ -16,40 +15,6 @@ from taskspace.features.feature import Feature
 if TYPE_CHECKING:
     from taskspace.model.robot import Robot
     from taskspace.model.state import State
-
-
-# Python handles of the coal distance results of each state's collision data, keyed by
-# ``id(state.data)``: iterating ``collision_data.distanceResults`` builds a new Python object
-# per pair (~1 us each, more than the distance queries of convex shapes), while the handles
-# taken once follow every later ``computeDistances``. The handles keep the collision data
-# alive, so an entry is dropped by a weak-reference callback when the state's Pinocchio data
-# (owned by the state) is freed, and rebuilt when the state replaces its collision data.
-_DISTANCE_RESULTS: dict[int, tuple[weakref.ref[Any], Any, list[Any]]] = {}
-
-
-def _forget_results(key: int, ref: weakref.ref[Any]) -> None:
-    entry = _DISTANCE_RESULTS.get(key)
-    if entry is not None and entry[0] is ref:
-        del _DISTANCE_RESULTS[key]
-
-
-def distance_results(state: State) -> list[Any]:
-    """The coal distance results of every collision pair of ``state`` (computed once).
-
-    Returns handles into the state's collision data (valid until its next update: they
-    then hold the new results); do not modify them.
-    """
-    state.compute_distances()
-    collision_data = state.collision_data
-    data = state.data
-    key = id(data)
-    entry = _DISTANCE_RESULTS.get(key)
-    if entry is not None and entry[1] is collision_data and entry[0]() is data:
-        return entry[2]
-    handles = list(collision_data.distanceResults)
-    ref = weakref.ref(data, lambda r, key=key: _forget_results(key, r))  # type: ignore[misc]
-    _DISTANCE_RESULTS[key] = (ref, collision_data, handles)
-    return handles
 
 
 _ZERO6 = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
@@ -112,7 +77,7 @@ class CollisionDistance(Feature):
         self._any_moving_a = any(self._moving_a_list)
 
     def _results(self, state: State) -> list[Any]:
-        results = distance_results(state)
+        results = state.distance_results()
         return [results[k] for k in self._pairs]
 
     def value(self, state: State) -> FloatArray:

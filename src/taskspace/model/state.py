@@ -45,6 +45,7 @@ class State:
         "_com_drift",
         "_com_jacobian",
         "_com_ref",
+        "_distance_handles",
         "_distances_done",
         "_has_velocity",
         "_model",
@@ -68,6 +69,7 @@ class State:
         self._com_ref: FloatArray = self.data.com[0]
         self._placements: dict[int, pin.SE3] = {}
         self.collision_data = robot.collision_model.createData()
+        self._distance_handles: tuple[Any, list[Any]] | None = None
         self._a0 = np.zeros(robot.nv)
         self._a0.flags.writeable = False  # also serves as the zero velocity
         self._cache_lwa: dict[int, FloatArray] = {}
@@ -241,3 +243,19 @@ class State:
         )
         pin.computeDistances(robot.collision_model, self.collision_data)
         self._distances_done = True
+
+    def distance_results(self) -> list[Any]:
+        """Distance results (coal) of every collision pair, queries run once per update.
+
+        Handles into :attr:`collision_data`, taken once: building a Python object per pair at
+        every access costs about 1 us each, more than the distance queries of convex shapes.
+        They follow every later update (read them, do not modify them); a replaced
+        :attr:`collision_data` gets new handles.
+        """
+        self.compute_distances()
+        cached = self._distance_handles
+        if cached is not None and cached[0] is self.collision_data:
+            return cached[1]
+        handles = list(self.collision_data.distanceResults)
+        self._distance_handles = (self.collision_data, handles)
+        return handles
