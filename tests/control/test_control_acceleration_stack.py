@@ -93,3 +93,34 @@ def test_hierarchy_levels_follow_priority_changes() -> None:
     expected = fresh_ctrl.solve(state)
     np.testing.assert_allclose(swapped.a, expected.a, atol=1e-8)
     assert np.abs(swapped.a - first.a).max() > 1e-3  # the order matters here
+
+
+def test_stacked_feasibility_test_agrees_with_the_blockwise_one() -> None:
+    """The QP's stacked rows (G, lo, hi) describe exactly its C, A and box constraints."""
+    import dataclasses
+
+    from taskspace.qp.solver import unconstrained_minimizer
+
+    robot = load_robot("g1")
+    rng = np.random.default_rng(6)
+    s0 = robot.state(robot.q_default, np.zeros(robot.nv))
+    feet = ["left_ankle_roll_link", "right_ankle_roll_link"]
+    contacts = [Contact6D(robot, f, half_length=0.1, half_width=0.03) for f in feet]
+    com = Task(F.CenterOfMass(robot), kp=50.0)
+    com.set_target_from_state(s0)
+    ctrl = InverseDynamicsQP(robot, [com], contacts)
+    for _ in range(3):
+        problem = ctrl.build(_random_state(robot, rng))
+        plain = dataclasses.replace(problem, stacked=None)
+        x = unconstrained_minimizer(problem)
+        assert x is not None
+        candidates = [x, x + 1e-3 * rng.normal(size=x.size)]
+        for k in range(problem.n):  # push each variable past its bound, one at a time
+            if problem.ub[k] < 1e19:
+                y = x.copy()
+                y[k] = problem.ub[k] + 1e-6
+                candidates.append(y)
+        for y in candidates:
+            for tol in (1e-10, 1e-4):
+                assert problem.is_feasible(y, tol) == plain.is_feasible(y, tol)
+        assert any(not plain.is_feasible(y, 1e-10) for y in candidates)

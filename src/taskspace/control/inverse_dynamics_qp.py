@@ -209,15 +209,26 @@ class InverseDynamicsQP:
         self._u = _as_index(self.unactuated)
         self._act = _as_index(self.actuated)
         nu, nc = len(self.unactuated), self.nf
-        self._A = np.zeros((nu + nc, self.n))
-        self._b = np.zeros(nu + nc)
         n_tau = len(self.actuated) if self.options.torque_limits else 0
         n_cone = self._cone_C.shape[0]
-        self._C = np.zeros((n_cone + n_tau, self.n))
+        # Every constraint as lo <= G x <= hi, G = [C; A; unit rows of the limited joints]:
+        # C, l, u, A and b are views into G, lo and hi (one product tests feasibility).
+        n_in, n_eq = n_cone + n_tau, nu + nc
+        box = robot.limited_joints_v if self.options.joint_limits else np.zeros(0, dtype=int)
+        self._G = np.zeros((n_in + n_eq + box.size, self.n))
+        self._G[n_in + n_eq + np.arange(box.size), box] = 1.0
+        self._lo = np.full(self._G.shape[0], -INF)
+        self._hi = np.full(self._G.shape[0], INF)
+        self._C = self._G[:n_in]
         self._C[:n_cone] = self._cone_C
-        self._l = np.full(n_cone + n_tau, -INF)
+        self._l = self._lo[:n_in]
         self._l[:n_cone] = self._cone_l
-        self._u_bound = np.full(n_cone + n_tau, INF)
+        self._u_bound = self._hi[:n_in]
+        self._A = self._G[n_in : n_in + n_eq]
+        self._b = self._lo[n_in : n_in + n_eq]
+        self._b_hi = self._hi[n_in : n_in + n_eq]
+        self._box_lo = self._lo[n_in + n_eq :]
+        self._box_hi = self._hi[n_in + n_eq :]
         self._eq_blocks = ([RowBlock("unactuated dynamics", 0, nu)] if nu else []) + [
             RowBlock(c.name, nu + k, nu + k + c.force_dim)
             for c, k in zip(self.contacts, np.cumsum([0] + [c.force_dim for c in self.contacts]))
@@ -238,6 +249,7 @@ class InverseDynamicsQP:
             self._eq_blocks,
             self._in_blocks,
             [RowBlock("joint limits", 0, nv)],
+            stacked=(self._G, self._lo, self._hi),
         )
         iq, iv = robot.limited_joints_q, robot.limited_joints_v
         self._limit_iq, self._limit_iv = _as_index(iq), _as_index(iv)
@@ -290,6 +302,8 @@ class InverseDynamicsQP:
             hi = np.where(bad, mid, hi)
         lb[iv] = lo
         ub[iv] = hi
+        self._box_lo[:] = lo
+        self._box_hi[:] = hi
         return lb, ub
 
     def build(self, state: State) -> QPProblem:
@@ -340,6 +354,7 @@ class InverseDynamicsQP:
                 b_c[rows] -= c.drift(state)
                 if c.kp and c.reference is not None:
                     b_c[rows] -= c.kp * c.position_error(state)
+        self._b_hi[:] = b
         return A, b, self._eq_blocks
 
     def _inequalities(

@@ -37,6 +37,10 @@ class QPProblem:
         C, l, u: two-sided inequality constraints (0 rows when absent; +-INF for none).
         lb, ub: box bounds on ``x`` (+-INF for none).
         eq_blocks, in_blocks, box_blocks: names of the constraint row blocks.
+        stacked: optionally, every constraint as ``lo <= G x <= hi`` (inequality rows,
+            equality rows with ``lo = hi = b``, unit rows for the finite box bounds), kept
+            consistent with the other arrays by the builder (e.g. ``C`` and ``A`` as views
+            into ``G``): :meth:`is_feasible` is then one product and two reductions.
     """
 
     H: FloatArray
@@ -51,6 +55,7 @@ class QPProblem:
     eq_blocks: list[RowBlock] = field(default_factory=list)
     in_blocks: list[RowBlock] = field(default_factory=list)
     box_blocks: list[RowBlock] = field(default_factory=list)
+    stacked: tuple[FloatArray, FloatArray, FloatArray] | None = None
 
     @staticmethod
     def unconstrained(H: FloatArray, g: FloatArray) -> QPProblem:
@@ -130,6 +135,10 @@ class QPProblem:
     def is_feasible(self, x: FloatArray, tolerance: float = 1e-9) -> bool:
         """Whether ``x`` satisfies every constraint to ``tolerance``."""
         neg = -tolerance
+        if self.stacked is not None:
+            G, lo, hi = self.stacked
+            Gx = G.dot(x)
+            return bool((Gx - lo).min(initial=0.0) >= neg and (hi - Gx).min(initial=0.0) >= neg)
         if (x - self.lb).min() < neg or (self.ub - x).min() < neg:
             return False
         if self.C.shape[0]:
