@@ -105,3 +105,25 @@ def test_level_inequality_in_ik_respected(panda: Robot) -> None:
     J = tcp.jacobian(state)
     assert (J @ result.dq)[2] == pytest.approx(-1e-3, abs=1e-8)  # stops on the (linear) floor
     assert result.violations[0] <= 1e-9
+
+
+def test_build_refills_each_level_with_the_rows_of_its_tasks(panda: Robot) -> None:
+    """The preallocated level rows equal the stacked Task.rows at every new state."""
+    s0 = panda.state(panda.q_default)
+    tcp = Task(FramePose(panda, "panda_hand_tcp"), weight=2.0, gain=0.5)
+    tcp.set_target_from_state(s0)
+    link = Task(Position(panda, "panda_link4"), [0.1, 0.0, 0.5], weight=np.array([1.0, 2.0, 3.0]))
+    posture = Task(JointConfiguration(panda), panda.q_default, weight=1e-3)
+    bounds = FeatureBounds(Position(panda, "panda_link6"), [-1, -1, 0.3], [1, 1, 2])
+    ik = HierarchicalIK(panda, [[tcp, bounds, link], [posture]])
+    rng = np.random.default_rng(8)
+    for _ in range(3):
+        q = panda.q_default + 0.3 * rng.uniform(-1, 1, panda.nq)
+        state = panda.state(q)
+        levels = ik.build(state, DT)
+        for level, tasks in zip(levels, [[tcp, link], [posture]]):
+            rows = [t.rows(state) for t in tasks]
+            np.testing.assert_allclose(level.J, np.vstack([r[0] for r in rows]), atol=1e-14)
+            np.testing.assert_allclose(level.r, np.concatenate([r[1] for r in rows]), atol=1e-14)
+        assert levels[0].C is not None and levels[0].C.shape[0] == 3  # l <= C dq <= u
+        assert levels[1].C is None

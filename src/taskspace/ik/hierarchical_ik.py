@@ -86,6 +86,26 @@ class HierarchicalIK:
                         "bind every level)"
                     )
         self.solver = HierarchySolver(options)
+        # per level: its label, the row slice of each task and buffers refilled at each build
+        nv = robot.nv
+        self._names = [
+            f"level {k} ({', '.join(item.name for item in level)})"
+            for k, level in enumerate(self.levels)
+        ]
+        self._task_rows: list[list[tuple[Task, slice]]] = []
+        self._inequality_items: list[list[Constraint]] = []
+        self._J: list[FloatArray] = []
+        self._r: list[FloatArray] = []
+        for level in self.levels:
+            rows, row = [], 0
+            for item in level:
+                if isinstance(item, Task):
+                    rows.append((item, slice(row, row + item.dim)))
+                    row += item.dim
+            self._task_rows.append(rows)
+            self._inequality_items.append([c for c in level if isinstance(c, Constraint)])
+            self._J.append(np.zeros((row, nv)))
+            self._r.append(np.zeros(row))
 
     @classmethod
     def from_priorities(
@@ -105,33 +125,30 @@ class HierarchicalIK:
         )
 
     def build(self, state: State, dt: float) -> list[HierarchyLevel]:
-        """The levels' least-squares rows and inequalities at ``state``."""
-        nv = self.robot.nv
+        """The levels' least-squares rows and inequalities at ``state``.
+
+        The rows ``J`` and ``r`` of each level are buffers refilled by the next call (copy
+        them to keep them).
+        """
         out = []
-        for k, level in enumerate(self.levels):
-            Js, rs, Cs, ls, us = [], [], [], [], []
-            for item in level:
-                if isinstance(item, Task):
-                    J, r = item.rows(state)
-                    Js.append(J)
-                    rs.append(r)
-                else:
-                    ineq = item.inequalities(state, dt)
-                    if ineq is not None and ineq[0].shape[0]:
-                        Cs.append(ineq[0])
-                        ls.append(ineq[1])
-                        us.append(ineq[2])
-            names = ", ".join(item.name for item in level)
-            out.append(
-                HierarchyLevel(
-                    f"level {k} ({names})",
-                    np.vstack(Js) if Js else np.zeros((0, nv)),
-                    np.concatenate(rs) if rs else np.zeros(0),
-                    np.vstack(Cs) if Cs else None,
-                    np.concatenate(ls) if ls else None,
-                    np.concatenate(us) if us else None,
-                )
-            )
+        for k in range(len(self.levels)):
+            J, r = self._J[k], self._r[k]
+            for task, rows in self._task_rows[k]:
+                J[rows], r[rows] = task.rows(state)
+            Cs, ls, us = [], [], []
+            for item in self._inequality_items[k]:
+                ineq = item.inequalities(state, dt)
+                if ineq is not None and ineq[0].shape[0]:
+                    Cs.append(ineq[0])
+                    ls.append(ineq[1])
+                    us.append(ineq[2])
+            if not Cs:
+                out.append(HierarchyLevel(self._names[k], J, r))
+            elif len(Cs) == 1:
+                out.append(HierarchyLevel(self._names[k], J, r, Cs[0], ls[0], us[0]))
+            else:
+                C, l, u = np.vstack(Cs), np.concatenate(ls), np.concatenate(us)
+                out.append(HierarchyLevel(self._names[k], J, r, C, l, u))
         return out
 
     def solve(self, state: State, dt: float) -> HierarchicalIKResult:
