@@ -24,6 +24,10 @@ peer robotic robotic numpy
 # OMPL drives taskspace's own collision checker (same Pinocchio/coal as taskspace's .venv)
 peer ompl ompl numpy scipy pin==4.1.0 coal==3.0.3 example-robot-data==5.0.0 example-robot-data-loaders==5.0.0 pyyaml
 peer pyroboplan pyroboplan numpy pyyaml example-robot-data==5.0.0 example-robot-data-loaders==5.0.0
-# TSID: no PyPI build runs here (1.10.0 + pin 4.1.0: MemoryError in RobotWrapper; 1.9.0 does
-# not install; 1.7.1 imports empty). The suite reports the published number instead.
-peer tsid tsid example-robot-data example-robot-data-loaders numpy
+# TSID: the 1.10.0 wheel (pin 4.1.0) raises MemoryError in RobotWrapper and aborts with
+# "free(): invalid pointer"; 1.9.0 does not install. The 1.7.1 wheel works with pin 3.4.0 and
+# the urdfdom/tinyxml2 libraries it was linked against (its extension sits one directory down;
+# the peer script imports it from there). The robot files are example-robot-data 5.0.0, as in
+# taskspace's .venv (installed without dependencies: it would pull a newer pin).
+peer tsid "tsid==1.7.1" "pin==3.4.0" "cmeel-urdfdom<5" "cmeel-tinyxml2<11" numpy
+".venv-peers/tsid/bin/pip" install --quiet --no-deps "example-robot-data==5.0.0" || echo "!! tsid robot data"
