@@ -128,10 +128,6 @@ class QPSolver:
         last.solve_time = time.perf_counter() - t0
         return last
 
-    def equality_minimizer(self, problem: QPProblem) -> FloatArray | None:
-        """Minimizer under the equalities only (the shortcut of :meth:`solve`), or ``None``."""
-        return self._kkt.solve(problem)
-
     def solve_relaxed(self, problem: QPProblem) -> QPResult:
         """Least-violating solution: every constraint row gets a slack with a large penalty.
 
