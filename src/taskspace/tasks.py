@@ -132,34 +132,22 @@ class Task:
         """Weighted rows ``(sqrt(rho) J, sqrt(rho)(y''* - Jdot v))`` of ``J a ~ y''* - Jdot v``.
 
         ``y''* = y''_ref - kp e - kd (J v - y'_ref)`` (slide 5:28 in task space; slide 5:34).
-        The state must carry the velocity (drift terms).
-        """
-        d, nv = self.feature.dim, state.v.shape[0]
-        J, rhs = np.empty((d, nv)), np.empty(d)
-        self.acceleration_rows_into(state, J, rhs)
-        return J, rhs
-
-    def acceleration_rows_into(self, state: State, J_out: FloatArray, rhs_out: FloatArray) -> None:
-        """:meth:`acceleration_rows` written into ``J_out`` (dim, nv) and ``rhs_out`` (dim).
-
-        The controllers' hot path: the rows land in their preallocated stack without copies.
+        The state must carry the velocity (drift terms). Controllers stack many tasks with
+        :class:`AccelerationStack`, which computes the same rows in place.
         """
         e, J = self.feature.residual_and_jacobian(state, self._require_target())
-        # rhs = -(kp e + kd (J v - y'_ref) + Jdot v - y''_ref), built in place
-        np.multiply(J.dot(state.v), self.kd, out=rhs_out)
+        # rhs = -(kp e + kd (J v - y'_ref) + Jdot v - y''_ref)
+        rhs = self.kd * J.dot(state.v)
         if self.reference_velocity is not None:
-            rhs_out -= self.kd * self.reference_velocity
-        rhs_out += self.kp * e
-        rhs_out += self.feature.drift(state)
+            rhs -= self.kd * self.reference_velocity
+        rhs += self.kp * e
+        rhs += self.feature.drift(state)
         if self.reference_acceleration is not None:
-            rhs_out -= self.reference_acceleration
+            rhs -= self.reference_acceleration
         w = self.sqrt_weight
         if isinstance(w, float):
-            np.multiply(rhs_out, -w, out=rhs_out)
-            np.multiply(J, w, out=J_out)
-        else:
-            np.multiply(rhs_out, -w, out=rhs_out)
-            np.multiply(J, w[:, None], out=J_out)
+            return w * J, -w * rhs
+        return w[:, None] * J, -w * rhs
 
     def __repr__(self) -> str:
         return f"Task('{self.name}', priority={self.priority}, gain={self.gain})"

@@ -80,19 +80,12 @@ class Contact:
 
     def acceleration_rhs(self, state: State) -> FloatArray:
         """Right-hand side ``b`` of ``J_c a = b``: ``-Jdot_c v - kd J_c v - kp e_c``."""
-        out = np.empty(self.force_dim)
-        self.acceleration_rhs_into(state, out)
-        return out
-
-    def acceleration_rhs_into(self, state: State, out: FloatArray) -> None:
-        """:meth:`acceleration_rhs` written into ``out`` (force_dim) without temporaries."""
+        rhs = -self.drift(state)
         if self.kd:
-            np.multiply(self.jacobian(state).dot(state.v), -self.kd, out=out)
-            out -= self.drift(state)
-        else:
-            np.negative(self.drift(state), out=out)
+            rhs -= self.kd * self.jacobian(state).dot(state.v)
         if self.kp and self.reference is not None:
-            out -= self.kp * self.position_error(state)
+            rhs -= self.kp * self.position_error(state)
+        return np.asarray(rhs)
 
     def cone(self) -> tuple[FloatArray, FloatArray]:
         """``(K, k)`` with the linearized friction cone ``K f >= k``."""

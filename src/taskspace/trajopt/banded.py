@@ -92,18 +92,6 @@ class SymmetricBlockBanded:
             )
         self.ab[self._diag_r, self._diag_c] += blocks[:, self._block_rows, self._block_cols].ravel()
 
-    def add_block(self, t: int, block: FloatArray) -> None:
-        """``A_tt += B`` for one symmetric ``b x b`` block ``B`` (lower half read)."""
-        b = self.block_size
-        if block.shape != (b, b):
-            raise ShapeError("diagonal block", (b, b), block.shape)
-        if not 0 <= t < self.blocks:
-            raise InvalidInputError(f"block index {t} outside 0..{self.blocks - 1}")
-        c0 = t * b
-        for o in range(b):
-            # sub-diagonal o of the block: entries (c + o, c) -> ab[o, c0 + c]
-            self.ab[o, c0 : c0 + b - o] += np.diagonal(block, -o)
-
     def add_diagonal(self, values: FloatArray | float) -> None:
         """``A_ii += values_i`` (a scalar or a vector of size ``n b``)."""
         self.ab[0] += values
