@@ -277,6 +277,7 @@ class InverseDynamicsQP:
         Jc = self._Jc
         for c, rows in self._contact_rows:
             Jc[rows] = c.jacobian(state)
+        self._last = (M, h, Jc)  # reused by _result
         return M, h, Jc
 
     def _acceleration_bounds(self, state: State) -> tuple[FloatArray, FloatArray]:
@@ -318,7 +319,6 @@ class InverseDynamicsQP:
             )
         nv = self.robot.nv
         M, h, Jc = self._dynamics(state)
-        self._last = (M, h, Jc)
         Jt, rt = self._task_rows.fill(state)
         # H = reg + [Jt^T Jt, 0; 0, 0] (the force block is the constant regularization)
         HJ = self._HJ
@@ -397,7 +397,6 @@ class InverseDynamicsQP:
             )
         nv, n = self.robot.nv, self.n
         M, h, Jc = self._dynamics(state)
-        self._last = (M, h, Jc)
         A, b, _ = self._equalities(state, M, h, Jc)
         C, l, u, _ = self._inequalities(M, h, Jc)
         levels = self._hierarchy_levels()
