@@ -7,15 +7,28 @@ SUDO := $(shell [ "$$(id -u)" -eq 0 ] || echo sudo)
 PYTEST_WORKERS ?= 2
 OUT ?= out
 
-.PHONY: demo test lint typecheck pytest chromium bench bench-quick bench-peers clean
+.PHONY: native demo test lint typecheck pytest chromium bench bench-quick bench-peers clean
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
 
 $(STAMP): pyproject.toml | $(PY)
-	$(PY) -m pip install --quiet -e ".[test]"
+	$(PY) -m pip install --quiet -e ".[test,native]"
 	touch $(STAMP)
+
+# The compiled kernels (C++ on the installed Pinocchio; about a minute). Without them
+# taskspace runs its Python path; `make demo` and `make test` build them.
+NATIVE := src/taskspace/_native/.built
+$(NATIVE): $(STAMP) src/taskspace/_native/ik_kernel.cpp src/taskspace/_native/build.py
+	@command -v g++ >/dev/null 2>&1 || { \
+		echo "installing g++ (apt)"; \
+		$(SUDO) apt-get update -qq && \
+		DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq g++ >/dev/null; }
+	$(PY) -m taskspace._native.build
+	touch $(NATIVE)
+
+native: $(NATIVE)
 
 # Debian's Chromium renders the meshcat snapshots (never a downloaded browser).
 chromium:
@@ -24,7 +37,7 @@ chromium:
 		$(SUDO) apt-get update -qq && \
 		DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq chromium >/dev/null; }
 
-demo: $(STAMP) chromium
+demo: $(STAMP) $(NATIVE) chromium
 	$(VENV)/bin/taskspace demo main --html $(OUT)/demo.html --png $(OUT)/demo.png
 
 lint: $(STAMP)
@@ -34,15 +47,15 @@ lint: $(STAMP)
 typecheck: $(STAMP)
 	$(VENV)/bin/mypy
 
-pytest: $(STAMP) chromium
-	OPENBLAS_NUM_THREADS=1 $(PY) -m pytest -n $(PYTEST_WORKERS) --dist loadgroup -q
+pytest: $(STAMP) $(NATIVE) chromium
+	TASKSPACE_REQUIRE_NATIVE=1 OPENBLAS_NUM_THREADS=1 $(PY) -m pytest -n $(PYTEST_WORKERS) --dist loadgroup -q
 
 test: lint typecheck pytest
 
-bench: $(STAMP)
+bench: $(STAMP) $(NATIVE)
 	$(PY) -m benchmarks.run --save benchmarks/results/latest.json
 
-bench-quick: $(STAMP)
+bench-quick: $(STAMP) $(NATIVE)
 	$(PY) -m benchmarks.run --quick
 
 # Peer libraries, each in its own environment (they pin other Pinocchio versions).
@@ -50,4 +63,4 @@ bench-peers:
 	bash benchmarks/peers/install.sh
 
 clean:
-	rm -rf $(VENV) .venv-peers out .mypy_cache .ruff_cache .pytest_cache
+	rm -rf $(VENV) .venv-peers out .mypy_cache .ruff_cache .pytest_cache src/taskspace/_native/*.so src/taskspace/_native/.built

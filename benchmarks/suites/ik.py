@@ -26,8 +26,15 @@ import pinocchio as pin
 
 from benchmarks.common import Row, Timing, run_peer
 from taskspace import features as F
+from taskspace._native import ik_kernel
 from taskspace.constraints import FeatureBounds, JointPositionLimits, JointVelocityLimits
-from taskspace.ik import DifferentialIK, HierarchicalIK, SolveIKOptions, solve_ik
+from taskspace.ik import (
+    DifferentialIK,
+    DifferentialIKOptions,
+    HierarchicalIK,
+    SolveIKOptions,
+    solve_ik,
+)
 from taskspace.model import Robot
 from taskspace.tasks import Task
 
@@ -89,12 +96,17 @@ def _loop(robot: Robot, solve: Any, moving: list, steps: int) -> dict[str, Any]:
     }
 
 
-def run_g1(steps: int) -> dict[str, Any]:
-    """Weighted G1 scene."""
+def run_g1(steps: int, native: bool = True) -> dict[str, Any]:
+    """Weighted G1 scene (``native``: the compiled kernel when built, else the Python path)."""
     robot = Robot.load("g1")
     groups, moving = g1_tasks(robot)
     tasks = [t for g in groups.values() for t in g]
-    ik = DifferentialIK(robot, tasks, [JointPositionLimits(robot), JointVelocityLimits(robot)])
+    ik = DifferentialIK(
+        robot,
+        tasks,
+        [JointPositionLimits(robot), JointVelocityLimits(robot)],
+        options=DifferentialIKOptions(native=native),
+    )
     return _loop(robot, ik.solve, moving, steps)
 
 
@@ -120,15 +132,18 @@ def run_g1_hierarchy(steps: int) -> dict[str, Any]:
     return _loop(robot, ik.solve, moving, steps)
 
 
-def run_panda(steps: int) -> dict[str, Any]:
-    """Panda tcp pose + posture."""
+def run_panda(steps: int, native: bool = True) -> dict[str, Any]:
+    """Panda tcp pose + posture (``native`` as in :func:`run_g1`)."""
     robot = Robot.load("panda")
     s = robot.state(robot.q_default)
     tcp = Task(F.FramePose(robot, "panda_hand_tcp"), name="tcp")
     tcp.set_target_from_state(s)
     posture = Task(F.JointConfiguration(robot), robot.q_default, weight=1e-3)
     ik = DifferentialIK(
-        robot, [tcp, posture], [JointPositionLimits(robot), JointVelocityLimits(robot)]
+        robot,
+        [tcp, posture],
+        [JointPositionLimits(robot), JointVelocityLimits(robot)],
+        options=DifferentialIKOptions(native=native),
     )
     return _loop(robot, ik.solve, [(tcp, tcp.target.copy())], steps)
 
@@ -196,11 +211,23 @@ def run(quick: bool) -> list[Row]:
             "limit_violation": out["limit_violation"],
             "hand_error_m": out["final_hand_error_m"],
         }
-        rows.append(Row(SUITE, scene, "taskspace", Timing.from_samples(out["times"]), extra))
+        method = "taskspace" if scene == "g1 hierarchy" or ik_kernel() else "taskspace (no kernel)"
+        rows.append(Row(SUITE, scene, method, Timing.from_samples(out["times"]), extra))
         if scene != "g1 hierarchy":
-            peer_rows = _peer_rows(scene, steps, Robot.load(robot_name).q_default)
             rows[-1].ratio_to = "placo"
-            rows += peer_rows
+            if ik_kernel() is not None:  # the same stack on the Python path, for reference
+                py = fn(steps, native=False)  # type: ignore[call-arg]
+                rows.append(
+                    Row(
+                        SUITE,
+                        scene,
+                        "taskspace, Python path",
+                        Timing.from_samples(py["times"]),
+                        {"failed_steps": py["failed"]},
+                        ratio_to="placo",
+                    )
+                )
+            rows += _peer_rows(scene, steps, Robot.load(robot_name).q_default)
     out = run_global(100 if quick else 1000)
     rows.append(
         Row(

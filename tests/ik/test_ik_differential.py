@@ -177,14 +177,18 @@ def test_singular_stretched_arm_damped_steps_bounded_error_decreasing(
     assert errors[-1] == pytest.approx(best, abs=1e-6)
 
 
-def test_singular_stretched_arm_with_velocity_limits(robot_loader: Callable[..., Robot]) -> None:
+@pytest.mark.parametrize("native", [True, False])
+def test_singular_stretched_arm_with_velocity_limits(
+    robot_loader: Callable[..., Robot], native: bool
+) -> None:
     robot = robot_loader("planar_2link")
     target = np.array([2.2, 1.0, 0.0])
     best = np.linalg.norm(target) - 2.0
     state = robot.state(np.zeros(2))
     task = Task(Position(robot, "ee"), target, gain=0.5)
     velocity = JointVelocityLimits(robot)
-    ik = DifferentialIK(robot, [task], [JointPositionLimits(robot), velocity])
+    options = DifferentialIKOptions(native=native)
+    ik = DifferentialIK(robot, [task], [JointPositionLimits(robot), velocity], options=options)
     errors = [float(np.linalg.norm(task.error(state)))]
     for _ in range(300):
         q, result = ik.step(state, 0.01)
@@ -194,7 +198,8 @@ def test_singular_stretched_arm_with_velocity_limits(robot_loader: Callable[...,
     # small chattering near the singular optimum (< 1 mm), otherwise decreasing
     assert np.max(np.diff(errors)) < 1e-3
     assert errors[-1] < 0.5 * errors[0]
-    assert errors[-1] == pytest.approx(best, abs=1e-4)
+    assert min(errors[-50:]) == pytest.approx(best, abs=2e-4)
+    assert max(errors[-50:]) < best + 1e-3
 
 
 @pytest.mark.parametrize("damping", [1e-6, 1e-2])

@@ -24,6 +24,8 @@ import pinocchio as pin
 from taskspace._validation import FloatArray, check_positive
 from taskspace.constraints.constraint import Constraint
 from taskspace.errors import InvalidInputError
+from taskspace.ik._native_stack import NativeWeightedStack
+from taskspace.ik._native_stack import supported as native_supported
 from taskspace.model.robot import Robot
 from taskspace.model.state import State
 from taskspace.qp.problem import INF, QPProblem, RowBlock
@@ -72,10 +74,17 @@ class DifferentialIKOptions:
         damping: ``mu`` of the regularization ``mu |dq|^2`` (the metric ``W`` of slide 2:26;
             keeps steps bounded near singularities) [1/rad^2].
         solver: QP solver settings (backend, fallbacks, tolerances).
+        native: run the compiled kernel (``taskspace/_native``) when it is built and the
+            stack is one it serves: frame pose / frame position / center-of-mass / posture
+            tasks with box constraints only (joint position, velocity, acceleration
+            limits). It solves the same QP exactly (a primal active-set method on the box);
+            every other stack, and any step whose active set does not settle, takes the
+            Python path with ``solver``.
     """
 
     damping: float = 1e-6
     solver: QPSolverOptions = field(default_factory=QPSolverOptions)
+    native: bool = True
 
 
 def combine_bounds(
@@ -207,6 +216,21 @@ class DifferentialIK:
         self._reg = self.options.damping * np.eye(robot.nv)
         self._empty_rows = np.zeros((0, robot.nv))
         self._empty = np.zeros(0)
+        self._native: NativeWeightedStack | None = None
+        self._native_checked = False
+
+    @property
+    def native(self) -> bool:
+        """Whether steps run on the compiled kernel (see :class:`DifferentialIKOptions`)."""
+        if not self._native_checked:
+            self._native_checked = True
+            if (
+                self.options.native
+                and not self.equality_tasks
+                and native_supported(self.tasks, self.constraints)
+            ):
+                self._native = NativeWeightedStack(self.robot, self.tasks, self.constraints)
+        return self._native is not None
 
     def build(self, state: State, dt: float) -> QPProblem:
         """Assemble the QP of one step from ``state`` during ``dt`` [s] (inspectable)."""
@@ -249,6 +273,10 @@ class DifferentialIK:
             dt: time step [s].
         """
         dt = check_positive(dt, "dt")
+        if self._native is not None or (not self._native_checked and self.native):
+            native = self._solve_native(state, dt)
+            if native is not None:
+                return native
         t0 = time.perf_counter()
         problem = self.build(state, dt)
         t1 = time.perf_counter()
@@ -263,6 +291,23 @@ class DifferentialIK:
         dq = result.x
         culprits = self._culprits(problem, result, state, dt) if not result.success else []
         return IKStepResult(result.success, status, dq, dq / dt, result, culprits, t1 - t0, t2 - t1)
+
+    def _solve_native(self, state: State, dt: float) -> IKStepResult | None:
+        if state.robot is not self.robot:
+            self.tasks[0].feature._check_state(state)
+        native = self._native
+        assert native is not None
+        t0 = time.perf_counter()
+        out = native.solve(state, dt, self.options.damping)
+        if out is None:
+            return None
+        status, iterations, objective, build_time, qp_time = out
+        dq = native.x.copy()
+        qp_status = QPStatus.UNCONSTRAINED if status == 0 else QPStatus.SOLVED
+        qp = QPResult(
+            True, qp_status, dq, objective, iterations, time.perf_counter() - t0, "native"
+        )
+        return IKStepResult(True, IKStatus.SOLVED, dq, dq / dt, qp, [], build_time, qp_time)
 
     def _culprits(self, problem: QPProblem, result: QPResult, state: State, dt: float) -> list[str]:
         """Constraints violated by the least-violating step, each box against its own bounds."""

@@ -1,0 +1,133 @@
+"""Compile taskspace's native kernels against the installed Pinocchio.
+
+Run ``python -m taskspace._native.build`` (``make native``; ``make demo`` and ``make test`` do).
+
+The kernels are optional: without them taskspace runs its Python implementation. They are
+built with the C++ compiler of the machine against the headers and libraries that the
+``pin``, ``eigenpy`` and ``cmeel-eigen`` wheels install under ``cmeel.prefix``; the
+Pinocchio version is recorded in the module, and the kernel is only used when it matches the
+Pinocchio imported at run time.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import shutil
+import subprocess
+import sys
+import sysconfig
+import time
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+SOURCES = {"_ik_kernel": HERE / "ik_kernel.cpp"}
+# Compile definitions exported by Pinocchio's CMake targets (they fix the joint variant).
+DEFINES = (
+    "BOOST_MPL_LIMIT_LIST_SIZE=30",
+    "BOOST_MPL_LIMIT_VECTOR_SIZE=30",
+    "BOOST_MPL_CFG_NO_PREPROCESSED_HEADERS",
+    "BOOST_FUSION_INVOKE_MAX_ARITY=12",
+    "PINOCCHIO_ENABLE_TEMPLATE_INSTANTIATION",
+    "NDEBUG",
+)
+
+# Vector instructions of the building machine (the kernels are built where they run). The
+# alignment of fixed-size Eigen types stays at the 16 bytes of the Pinocchio wheels, so that
+# Model and Data keep the layout of the library they come from.
+ARCH_FLAGS = (
+    "-march=native",
+    "-DEIGEN_MAX_ALIGN_BYTES=16",
+    "-DEIGEN_MAX_STATIC_ALIGN_BYTES=16",
+)
+
+
+class BuildError(RuntimeError):
+    """The kernels could not be compiled (the message says what is missing)."""
+
+
+def prefix() -> Path:
+    """``cmeel.prefix`` of the environment (where the pin wheel put its headers)."""
+    import cmeel  # type: ignore[import-untyped]
+
+    for base in (
+        Path(cmeel.__file__).resolve().parent.parent,
+        Path(sysconfig.get_paths()["purelib"]),
+    ):
+        candidate = base / "cmeel.prefix"
+        if (candidate / "include" / "pinocchio").is_dir():
+            return candidate
+    raise BuildError("no cmeel.prefix with Pinocchio headers (is the 'pin' wheel installed?)")
+
+
+def command(name: str, source: Path, output: Path) -> list[str]:
+    """The compiler command line of one kernel."""
+    import numpy as np
+
+    p = prefix()
+    eigen = p / "include" / "eigen3"
+    if not (eigen / "Eigen").is_dir():
+        raise BuildError(f"Eigen headers not found in {eigen} (pip install 'cmeel-eigen>=3.4.1')")
+    cxx = os.environ.get("CXX") or shutil.which("g++") or shutil.which("c++")
+    if cxx is None:
+        raise BuildError("no C++ compiler (install g++)")
+    py_lib = f"boost_python{sys.version_info.major}{sys.version_info.minor}"
+    return [
+        cxx,
+        "-std=c++17",
+        "-O3",
+        *ARCH_FLAGS,
+        "-fPIC",
+        "-shared",
+        "-fvisibility=hidden",
+        "-w",
+        *[f"-D{d}" for d in DEFINES],
+        f"-I{p / 'include'}",
+        f"-I{eigen}",
+        f"-I{sysconfig.get_paths()['include']}",
+        f"-I{np.get_include()}",
+        str(source),
+        "-o",
+        str(output),
+        f"-L{p / 'lib'}",
+        f"-Wl,-rpath,{p / 'lib'}",
+        "-lpinocchio_default",
+        "-leigenpy",
+        f"-l{py_lib}",
+    ]
+
+
+def build(force: bool = False, verbose: bool = True) -> list[Path]:
+    """Compile every kernel whose library is missing or older than its source."""
+    suffix = sysconfig.get_config_var("EXT_SUFFIX")
+    built = []
+    for name, source in SOURCES.items():
+        output = HERE / f"{name}{suffix}"
+        if not force and output.exists() and output.stat().st_mtime >= source.stat().st_mtime:
+            continue
+        cmd = command(name, source, output)
+        t0 = time.perf_counter()
+        proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
+        if proc.returncode != 0:
+            raise BuildError(f"compiling {source.name} failed:\n{proc.stderr[-4000:]}")
+        if verbose:
+            print(f"built {output.name} in {time.perf_counter() - t0:.0f} s")
+        built.append(output)
+    return built
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Command-line entry point."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--force", action="store_true", help="rebuild even if up to date")
+    args = parser.parse_args(argv)
+    try:
+        build(force=args.force)
+    except BuildError as exc:
+        print(f"taskspace native kernels not built: {exc}", file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,133 @@
+"""The compiled path of :class:`~taskspace.ik.DifferentialIK` (``taskspace/_native/ik_kernel.cpp``).
+
+It evaluates the same QP as :meth:`DifferentialIK.build` (task rows from the state's
+Pinocchio data, ``H = M^T M + mu I``, boxes combined by the rules of ``combine_bounds``) and
+solves it exactly with a primal active-set method on the box. It serves stacks made of frame
+poses, frame positions, the center of mass and posture tasks, with box constraints only
+(joint position, velocity and acceleration limits); anything else takes the Python path.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from taskspace._native import ik_kernel
+from taskspace.constraints.constraint import Constraint
+from taskspace.features.center_of_mass import CenterOfMass
+from taskspace.features.frame_pose import FramePose
+from taskspace.features.joint_configuration import JointConfiguration
+from taskspace.features.position import Position
+from taskspace.model.robot import Robot
+from taskspace.model.state import State
+from taskspace.tasks import Task
+
+MAX_ACTIVE_SET_ITERATIONS = 200
+
+
+def supported(tasks: Sequence[Task], constraints: Sequence[Constraint]) -> bool:
+    """Whether the compiled kernel can run this stack."""
+    if ik_kernel() is None or not tasks:
+        return False
+    for c in constraints:
+        if type(c).inequalities is not Constraint.inequalities:
+            return False
+    for t in tasks:
+        f: Any = t.feature
+        kind = type(f)
+        if kind is Position:
+            if f.offset is not None:
+                return False
+        elif kind not in (FramePose, CenterOfMass, JointConfiguration):
+            return False
+    return True
+
+
+class NativeWeightedStack:
+    """Owns one compiled kernel for a fixed list of tasks and box constraints."""
+
+    def __init__(self, robot: Robot, tasks: Sequence[Task], constraints: Sequence[Constraint]):
+        module = ik_kernel()
+        assert module is not None
+        self.module = module
+        model = robot.model
+        kernel = module.WeightedIKKernel(robot.nv, robot.nq)
+        rows = [t for t in tasks if type(t.feature) is not JointConfiguration]
+        posture = [t for t in tasks if type(t.feature) is JointConfiguration]
+        for t in rows:
+            f: Any = t.feature
+            if type(f) is FramePose:
+                kernel.add_pose(model, f.frame_id)
+            elif type(f) is Position:
+                kernel.add_position(model, f.frame_id)
+            else:
+                kernel.add_com()
+        for t in posture:
+            sel = t.feature.rows  # type: ignore[attr-defined]
+            kernel.add_posture(None if sel is None else [int(i) for i in sel])
+        self.kernel = kernel
+        self.tasks = rows + posture
+        self._n_rows = sum(t.dim for t in rows)
+        self._posture = posture
+        self._keys: list[tuple[Any, float]] = []
+        self._hard = [c for c in constraints if c.hard_bounds and _has_bounds(c)]
+        self._soft = [c for c in constraints if not c.hard_bounds and _has_bounds(c)]
+        self.x = np.zeros(robot.nv)
+        self.nv = robot.nv
+
+    def _scale(self) -> None:
+        keys = [(t.sqrt_weight, t.gain) for t in self.tasks]
+        if len(keys) == len(self._keys) and all(
+            a[0] is b[0] and a[1] is b[1] for a, b in zip(keys, self._keys)
+        ):
+            return
+        nv = self.nv
+        w = np.zeros(self._n_rows + nv * len(self._posture))
+        c = np.zeros_like(w)
+        k = 0
+        for t in self.tasks:
+            f: Any = t.feature
+            if type(f) is JointConfiguration and f.rows is not None:
+                sel = k + f.rows
+                w[sel] = t.sqrt_weight
+                c[sel] = -t.gain * np.asarray(t.sqrt_weight)
+                k += nv
+                continue
+            d = nv if type(t.feature) is JointConfiguration else t.dim
+            w[k : k + d] = t.sqrt_weight
+            c[k : k + d] = -t.gain * np.asarray(t.sqrt_weight)
+            k += d
+        self.kernel.set_scaling(w, c)
+        self._keys = keys
+
+    def solve(
+        self, state: State, dt: float, damping: float
+    ) -> tuple[int, int, float, float, float] | None:
+        """``(status, iterations, objective, build_time, qp_time)``, the step in ``self.x``.
+
+        ``None`` when the active set did not settle (the caller takes the Python path).
+        """
+        self._scale()
+        targets = [t._require_target() for t in self.tasks]
+        hard = [b for c in self._hard if (b := c.bounds(state, dt)) is not None]
+        soft = [b for c in self._soft if (b := c.bounds(state, dt)) is not None]
+        status, iterations, objective, t_build, t_qp, _ = self.kernel.solve(
+            state.robot.model,
+            state.data,
+            state.q,
+            targets,
+            hard,
+            soft,
+            damping,
+            self.x,
+            MAX_ACTIVE_SET_ITERATIONS,
+        )
+        if status == self.module.MAX_ITERATIONS:
+            return None
+        return status, iterations, objective, t_build, t_qp
+
+
+def _has_bounds(c: Constraint) -> bool:
+    return type(c).bounds is not Constraint.bounds

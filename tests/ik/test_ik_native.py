@@ -1,0 +1,180 @@
+"""The compiled weighted-IK kernel (taskspace/_native) against the Python path it replaces.
+
+Both solve the same QP (``DifferentialIK.build``); the kernel with an exact active-set method
+on the box, the reference with the Python path and quadprog (an exact dual active-set
+solver; proxsuite's default eps stops ~1e-6 short of active bounds). Every test runs both on
+the same states and compares the steps.
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from taskspace._native import ik_kernel, status
+from taskspace.constraints import (
+    CollisionAvoidance,
+    JointAccelerationLimits,
+    JointPositionLimits,
+    JointVelocityLimits,
+)
+from taskspace.errors import InvalidInputError
+from taskspace.features import CenterOfMass, FramePose, JointConfiguration, Orientation, Position
+from taskspace.ik import DifferentialIK, DifferentialIKOptions
+from taskspace.model import Robot
+from taskspace.qp import QPSolverOptions, QPStatus
+from taskspace.tasks import Task
+from tests.ik.ik_scenarios import DT, benchmark_offset
+
+STEP_TOL = 1e-8
+
+if os.environ.get("TASKSPACE_REQUIRE_NATIVE"):
+
+    def test_kernel_is_built() -> None:
+        assert ik_kernel() is not None, status()
+
+
+pytestmark = pytest.mark.skipif(ik_kernel() is None, reason=f"native kernel: {status()}")
+
+
+def _pair(robot: Robot, tasks, constraints) -> tuple[DifferentialIK, DifferentialIK]:  # type: ignore[no-untyped-def]
+    native = DifferentialIK(robot, tasks, constraints)
+    reference = DifferentialIKOptions(native=False, solver=QPSolverOptions(backend="quadprog"))
+    python = DifferentialIK(robot, tasks, constraints, options=reference)
+    assert native.native and not python.native
+    return native, python
+
+
+def _g1_tasks(g1: Robot) -> tuple[list[Task], list[tuple[Task, pin.SE3]]]:
+    s = g1.state(g1.q_default)
+    feet = [Task(FramePose(g1, f)) for f in ("left_ankle_roll_link", "right_ankle_roll_link")]
+    hands = [Task(FramePose(g1, h)) for h in ("left_rubber_hand", "right_rubber_hand")]
+    com = Task(CenterOfMass(g1))
+    for t in (*feet, *hands, com):
+        t.set_target_from_state(s)
+    posture = Task(JointConfiguration(g1), g1.q_default, weight=1e-3)
+    return [*feet, *hands, com, posture], [(t, t.target.copy()) for t in hands]
+
+
+def test_g1_benchmark_scene_matches_python_path(g1: Robot) -> None:
+    tasks, moving = _g1_tasks(g1)
+    native, python = _pair(g1, tasks, [JointPositionLimits(g1), JointVelocityLimits(g1)])
+    state = g1.state(g1.q_default)
+    q = g1.q_default.copy()
+    statuses = set()
+    for k in range(0, 1500, 5):  # the benchmark's targets, every 5th step
+        for task, T0 in moving:
+            T = T0.copy()
+            T.translation = T0.translation + benchmark_offset(k)
+            task.set_target(T)
+        state.update(q)
+        a, b = native.solve(state, DT), python.solve(state, DT)
+        assert a.success and a.qp.backend == "native"
+        statuses.add(a.qp.status)
+        np.testing.assert_allclose(a.dq, b.dq, atol=STEP_TOL, rtol=0)
+        np.testing.assert_allclose(a.velocity, a.dq / DT)
+        q = pin.integrate(g1.model, q, a.dq)
+    assert QPStatus.UNCONSTRAINED in statuses
+
+
+def test_active_position_and_velocity_limits_match_python_path(panda: Robot) -> None:
+    """A target far outside the workspace drives joints into their limits: the active set
+    works, and its optimum equals proxsuite's."""
+    tcp = Task(FramePose(panda, "panda_hand_tcp"), [1.5, 0.8, 1.2])
+    posture = Task(JointConfiguration(panda), panda.q_default, weight=1e-3)
+    limits = [JointPositionLimits(panda), JointVelocityLimits(panda)]
+    native, python = _pair(panda, [tcp, posture], limits)
+    state = panda.state(panda.q_default)
+    q = panda.q_default.copy()
+    solved_with_active_set = 0
+    for _ in range(400):
+        state.update(q)
+        a, b = native.solve(state, 0.02), python.solve(state, 0.02)
+        np.testing.assert_allclose(a.dq, b.dq, atol=STEP_TOL, rtol=0)
+        solved_with_active_set += a.qp.status is QPStatus.SOLVED and a.qp.iterations > 0
+        q = pin.integrate(panda.model, q, a.dq)
+        idx = panda.limited_joints_q
+        assert np.all(q[idx] >= panda.lower_limits[idx] - 1e-9)
+        assert np.all(q[idx] <= panda.upper_limits[idx] + 1e-9)
+    assert solved_with_active_set > 50
+
+
+def test_start_outside_limits_with_acceleration_limits(
+    panda: Robot, rng: np.random.Generator
+) -> None:
+    """Boxes that conflict (outside the position limits, acceleration-bounded velocity):
+    the kernel combines them by the same rules as ``combine_bounds``."""
+    tcp = Task(Position(panda, "panda_hand_tcp"), [0.4, 0.2, 0.5], weight=[1.0, 2.0, 0.5])
+    posture = Task(JointConfiguration(panda), panda.q_default, weight=1e-2, gain=0.5)
+    limits = [
+        JointPositionLimits(panda, margin=0.05),
+        JointVelocityLimits(panda),
+        JointAccelerationLimits(panda, np.full(panda.nv, 5.0)),
+    ]
+    native, python = _pair(panda, [tcp, posture], limits)
+    for _ in range(20):
+        q = panda.q_default.copy()
+        idx = panda.limited_joints_q
+        q[idx] = panda.upper_limits[idx] + rng.uniform(-0.2, 0.1, idx.size)
+        v = rng.uniform(-1.0, 1.0, panda.nv)
+        state = panda.state(q, v)
+        a, b = native.solve(state, 0.01), python.solve(state, 0.01)
+        np.testing.assert_allclose(a.dq, b.dq, atol=STEP_TOL, rtol=0)
+
+
+def test_posture_on_selected_joints_and_free_flyer(g1: Robot, rng: np.random.Generator) -> None:
+    """Posture rows on a subset of joints and a quaternion base (dDifference blocks)."""
+    s = g1.state(g1.q_default)
+    hand = Task(Position(g1, "left_rubber_hand"))
+    hand.set_target_from_state(s)
+    hand.set_target(hand.target + np.array([0.05, 0.02, -0.03]))
+    legs = [j for j in g1.model.names[2:] if "leg" in j or "knee" in j or "ankle" in j]
+    legs_posture = Task(JointConfiguration(g1, legs), g1.q_default, weight=0.3)
+    full = Task(JointConfiguration(g1), g1.q_default, weight=1e-3, gain=0.7)
+    native, python = _pair(g1, [hand, legs_posture, full], [JointVelocityLimits(g1)])
+    for _ in range(10):
+        q = pin.randomConfiguration(g1.model, -np.ones(g1.nq), np.ones(g1.nq))
+        q[:3] = rng.uniform(-0.5, 0.5, 3)
+        state = g1.state(q)
+        a, b = native.solve(state, DT), python.solve(state, DT)
+        np.testing.assert_allclose(a.dq, b.dq, atol=STEP_TOL, rtol=0)
+
+
+def test_weights_changed_between_steps_are_used(panda: Robot) -> None:
+    tcp = Task(FramePose(panda, "panda_hand_tcp"), [0.5, 0.1, 0.4])
+    posture = Task(JointConfiguration(panda), panda.q_default, weight=1e-3)
+    native, python = _pair(panda, [tcp, posture], [JointVelocityLimits(panda)])
+    state = panda.state(panda.q_default)
+    first = native.solve(state, DT).dq
+    posture.sqrt_weight = 1.0  # a much stronger posture
+    a, b = native.solve(state, DT), python.solve(state, DT)
+    np.testing.assert_allclose(a.dq, b.dq, atol=STEP_TOL, rtol=0)
+    assert np.linalg.norm(a.dq - first) > 1e-4
+
+
+def test_unsupported_stacks_take_the_python_path(panda: Robot) -> None:
+    s = panda.state(panda.q_default)
+    tcp = Task(FramePose(panda, "panda_hand_tcp"))
+    tcp.set_target_from_state(s)
+    orient = Task(Orientation(panda, "panda_hand_tcp"))
+    orient.set_target_from_state(s)
+    offset = Task(Position(panda, "panda_hand_tcp", offset=[0.0, 0.0, 0.1]), [0.4, 0.0, 0.5])
+    assert not DifferentialIK(panda, [tcp, orient]).native
+    assert not DifferentialIK(panda, [offset]).native
+    assert not DifferentialIK(panda, [tcp], equality_tasks=[orient]).native
+    assert not DifferentialIK(panda, [tcp], [CollisionAvoidance(panda)]).native
+    assert DifferentialIK(panda, [tcp], [JointPositionLimits(panda)]).native
+
+
+def test_errors_on_the_native_path(panda: Robot, g1: Robot) -> None:
+    tcp = Task(FramePose(panda, "panda_hand_tcp"))
+    ik = DifferentialIK(panda, [tcp])
+    assert ik.native
+    with pytest.raises(InvalidInputError, match="no target"):
+        ik.solve(panda.state(), DT)
+    tcp.set_target([0.4, 0.0, 0.5])
+    with pytest.raises(InvalidInputError, match="state belongs to robot"):
+        ik.solve(g1.state(), DT)
