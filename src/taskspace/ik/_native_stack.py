@@ -78,11 +78,13 @@ class NativeWeightedStack:
         self.nv = robot.nv
 
     def _scale(self) -> None:
+        if self._keys:
+            for t, (w, g) in zip(self.tasks, self._keys):
+                if t.sqrt_weight is not w or t.gain is not g:
+                    break
+            else:
+                return
         keys = [(t.sqrt_weight, t.gain) for t in self.tasks]
-        if len(keys) == len(self._keys) and all(
-            a[0] is b[0] and a[1] is b[1] for a, b in zip(keys, self._keys)
-        ):
-            return
         nv = self.nv
         w = np.zeros(self._n_rows + nv * len(self._posture))
         c = np.zeros_like(w)
@@ -110,7 +112,10 @@ class NativeWeightedStack:
         ``None`` when the active set did not settle (the caller takes the Python path).
         """
         self._scale()
-        targets = [t._require_target() for t in self.tasks]
+        targets = [t._target for t in self.tasks]
+        for target, t in zip(targets, self.tasks):
+            if target is None:
+                t._require_target()  # raises, naming the task
         hard = [b for c in self._hard if (b := c.bounds(state, dt)) is not None]
         soft = [b for c in self._soft if (b := c.bounds(state, dt)) is not None]
         status, iterations, objective, t_build, t_qp, _ = self.kernel.solve(
