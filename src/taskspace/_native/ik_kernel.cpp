@@ -96,7 +96,6 @@ class WeightedIKKernel {
   }
 
   int rows() const { return m_; }
-  int n_posture() const { return static_cast<int>(posture_.size()); }
 
   // Per-row sqrt(weight) and -gain * sqrt(weight) of the row tasks (in order), then of the
   // posture tasks (nv entries each: zero on unselected rows); set when weights change.
@@ -159,13 +158,6 @@ class WeightedIKKernel {
     const auto sec = [](auto a, auto b) { return std::chrono::duration<double>(b - a).count(); };
     return bp::make_tuple(status, iterations, objective, sec(t0, t2), sec(t2, t3), sec(t0, t1));
   }
-
-  // The weighted rows (M, r) of the last call, for tests.
-  MatrixXd last_rows() const { return M_; }
-  VectorXd last_rhs() const { return r_; }
-  bp::tuple last_bounds() const { return bp::make_tuple(lb_, ub_); }
-  MatrixXd last_hessian() const { return H_; }
-  VectorXd last_gradient() const { return g_; }
 
  private:
   // Tangent indices of the joints that move a frame (its Jacobian is zero elsewhere).
@@ -459,12 +451,6 @@ BOOST_PYTHON_MODULE(_ik_kernel) {
       .def("add_com", &WeightedIKKernel::add_com)
       .def("add_posture", &WeightedIKKernel::add_posture)
       .add_property("rows", &WeightedIKKernel::rows)
-      .add_property("n_posture", &WeightedIKKernel::n_posture)
       .def("set_scaling", &WeightedIKKernel::set_scaling)
-      .def("solve", &WeightedIKKernel::solve)
-      .def("last_rows", &WeightedIKKernel::last_rows)
-      .def("last_rhs", &WeightedIKKernel::last_rhs)
-      .def("last_bounds", &WeightedIKKernel::last_bounds)
-      .def("last_hessian", &WeightedIKKernel::last_hessian)
-      .def("last_gradient", &WeightedIKKernel::last_gradient);
+      .def("solve", &WeightedIKKernel::solve);
 }
