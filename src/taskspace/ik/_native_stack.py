@@ -27,13 +27,10 @@ from taskspace.tasks import Task
 MAX_ACTIVE_SET_ITERATIONS = 200
 
 
-def supported(tasks: Sequence[Task], constraints: Sequence[Constraint]) -> bool:
-    """Whether the compiled kernel can run this stack."""
+def supported(tasks: Sequence[Task]) -> bool:
+    """Whether the compiled kernel can run these tasks (with box constraints only)."""
     if ik_kernel() is None or not tasks:
         return False
-    for c in constraints:
-        if type(c).inequalities is not Constraint.inequalities:
-            return False
     for t in tasks:
         f: Any = t.feature
         kind = type(f)

@@ -227,7 +227,8 @@ class DifferentialIK:
             if (
                 self.options.native
                 and not self.equality_tasks
-                and native_supported(self.tasks, self.constraints)
+                and not self._inequality_constraints
+                and native_supported(self.tasks)
             ):
                 self._native = NativeWeightedStack(self.robot, self.tasks, self.constraints)
         return self._native is not None
