@@ -51,7 +51,8 @@ struct Item {
   int frame;
   int row;
   int dim;
-  std::vector<int> rows;  // posture: selected tangent rows (empty: all)
+  std::vector<int> rows;  // frame tasks: support columns; posture: selected rows (empty: all)
+  MatrixXd J;             // weighted rows on the support columns (dim x |support|)
 };
 
 // Status codes returned to Python.
@@ -113,14 +114,36 @@ class WeightedIKKernel {
     scaled_ = true;
   }
 
-  // Evaluate the stack at (model, data, q) and solve; returns (status, iterations, objective).
-  // The step is written into ``out`` (size nv).
+  // Joint position limits evaluated here from q (the box of taskspace's JointPositionLimits:
+  // lb[iv] = low - q[iq], ub[iv] = high - q[iq], unbounded elsewhere), in the hard or the
+  // soft group of the box rules.
+  void set_position_limits(bp::object iq, bp::object iv, const Eigen::Ref<const VectorXd>& low,
+                           const Eigen::Ref<const VectorXd>& high, bool hard) {
+    const long n = bp::len(iq);
+    if (bp::len(iv) != n || low.size() != n || high.size() != n)
+      throw std::invalid_argument("position limits: sizes differ");
+    pl_iq_.clear();
+    pl_iv_.clear();
+    for (long i = 0; i < n; ++i) {
+      const int a = bp::extract<int>(iq[i]), b = bp::extract<int>(iv[i]);
+      if (a < 0 || a >= nq_ || b < 0 || b >= nv_)
+        throw std::invalid_argument("position limits: index out of range");
+      pl_iq_.push_back(a);
+      pl_iv_.push_back(b);
+    }
+    pl_low_ = low;
+    pl_high_ = high;
+    pl_lb_.setConstant(nv_, -kInf);
+    pl_ub_.setConstant(nv_, kInf);
+    pl_hard_ = hard;
+    pl_set_ = true;
+  }
+
+  // Evaluate the stack at (model, data, q) and solve; returns (status, iterations, objective,
+  // build time, QP time, row time) [s]. The step is written into ``out`` (size nv).
   bp::tuple solve(const Model& model, Data& data, const Eigen::Ref<const VectorXd>& q,
                   bp::list targets, bp::list hard_boxes, bp::list soft_boxes, double damping,
                   Eigen::Ref<VectorXd> out, int max_iter) {
-    combine_bounds(hard_boxes, soft_boxes);
-    const VectorXd& lb = lb_;
-    const VectorXd& ub = ub_;
     if (model.nv != nv_ || model.nq != nq_) throw std::invalid_argument("model size mismatch");
     if (q.size() != nq_ || out.size() != nv_)
       throw std::invalid_argument("vector size mismatch");
@@ -128,18 +151,31 @@ class WeightedIKKernel {
       throw std::invalid_argument("one target per task expected");
     if (!scaled_) throw std::invalid_argument("set_scaling was not called");
     const auto t0 = std::chrono::steady_clock::now();
-    fill_rows(model, data, q, targets);
-    const auto t1 = std::chrono::steady_clock::now();
-    // H = M^T M + mu I (lower triangle), g = -M^T r
+    if (pl_set_) {
+      for (std::size_t k = 0; k < pl_iq_.size(); ++k) {
+        const double qk = q[pl_iq_[k]];
+        pl_lb_[pl_iv_[k]] = pl_low_[k] - qk;
+        pl_ub_[pl_iv_[k]] = pl_high_[k] - qk;
+      }
+    }
+    combine_bounds(hard_boxes, soft_boxes);
+    // H = M^T M + mu I (lower triangle), g = -M^T r, task by task on its support columns S:
+    // H(S, S) += Js^T Js, g(S) -= Js^T r_s
     H_.setZero();
     g_.setZero();
-    for (const Item& it : items_) {  // H(S, S) += Js^T Js and g(S) -= Js^T r on the support S
+    fill_rows(model, data, targets);
+    const auto t1 = std::chrono::steady_clock::now();
+    for (Item& it : items_) {
       const int ns = static_cast<int>(it.rows.size());
-      Js_.resize(it.dim, ns);
-      for (int a = 0; a < ns; ++a) Js_.col(a) = M_.block(it.row, it.rows[a], it.dim, 1);
+      const auto r = r_.segment(it.row, it.dim);
+      if (ns == nv_) {  // every column (CoM): no scatter
+        H_.noalias() += it.J.transpose().lazyProduct(it.J);
+        g_.noalias() -= it.J.transpose() * r;
+        continue;
+      }
       Hs_.resize(ns, ns);
-      Hs_.noalias() = Js_.transpose().lazyProduct(Js_);
-      gs_.noalias() = Js_.transpose() * r_.segment(it.row, it.dim);
+      Hs_.noalias() = it.J.transpose().lazyProduct(it.J);
+      gs_.noalias() = it.J.transpose() * r;
       for (int b = 0; b < ns; ++b) {
         const int j = it.rows[b];
         g_[j] -= gs_[b];
@@ -151,9 +187,10 @@ class WeightedIKKernel {
     H_.triangularView<Eigen::StrictlyUpper>() = H_.transpose();
     const auto t2 = std::chrono::steady_clock::now();
     int iterations = 0;
-    const int status = box_qp(lb, ub, max_iter, iterations);
+    const int status = box_qp(lb_, ub_, max_iter, iterations);
     out = x_;
-    const double objective = 0.5 * x_.dot(H_ * x_) + g_.dot(x_);
+    // 1/2 x^T H x + g^T x, with H x = grad - g (box_qp leaves grad = H x + g at x)
+    const double objective = 0.5 * x_.dot(grad_) + 0.5 * g_.dot(x_);
     const auto t3 = std::chrono::steady_clock::now();
     const auto sec = [](auto a, auto b) { return std::chrono::duration<double>(b - a).count(); };
     return bp::make_tuple(status, iterations, objective, sec(t0, t2), sec(t2, t3), sec(t0, t1));
@@ -174,57 +211,59 @@ class WeightedIKKernel {
   }
 
   int add(Item item) {
+    item.J.setZero(item.dim, static_cast<Eigen::Index>(item.rows.size()));
     items_.push_back(item);
     m_ += item.dim;
-    M_.setZero(m_, nv_);
     r_.setZero(m_);
     e_.setZero(m_);
     return item.row;
   }
 
-  void fill_rows(const Model& model, Data& data, const Eigen::Ref<const VectorXd>& q,
-                 bp::list& targets) {
+  // Weighted task rows on the support columns (it.J = sqrt(w) J(:, S)) and the weighted
+  // targets r = -gain sqrt(w) e of every row task.
+  void fill_rows(const Model& model, Data& data, bp::list& targets) {
     bool com_done = false;
     for (std::size_t k = 0; k < items_.size(); ++k) {
-      const Item& it = items_[k];
-      auto rows = M_.middleRows(it.row, it.dim);
+      Item& it = items_[k];
+      const int ns = static_cast<int>(it.rows.size());
       auto e = e_.segment(it.row, it.dim);
       bp::object target = targets[k];
       switch (it.kind) {
         case kPose: {
           const SE3& T = bp::extract<const SE3&>(target);
           const SE3 err = T.actInv(data.oMf[it.frame]);
-          J6_.setZero();
           pinocchio::getFrameJacobian(model, data, it.frame, pinocchio::LOCAL, J6_);
           pinocchio::Jlog6(err, Jlog_);
-          rows.noalias() = Jlog_.lazyProduct(J6_);
+          Jg_.resize(6, ns);
+          for (int a = 0; a < ns; ++a) Jg_.col(a) = J6_.col(it.rows[a]);
+          it.J.noalias() = Jlog_ * Jg_;
           e = pinocchio::log6(err).toVector();
           break;
         }
         case kPosition: {
-          const VectorXd p = bp::extract<VectorXd>(target);
-          J6_.setZero();
+          const Eigen::Ref<const VectorXd> p = bp::extract<Eigen::Ref<const VectorXd>>(target);
+          if (p.size() != 3) throw std::invalid_argument("position target size != 3");
           pinocchio::getFrameJacobian(model, data, it.frame, pinocchio::LOCAL_WORLD_ALIGNED, J6_);
-          rows = J6_.topRows(3);
+          for (int a = 0; a < ns; ++a) it.J.col(a) = J6_.col(it.rows[a]).head<3>();
           e = data.oMf[it.frame].translation() - p;
           break;
         }
         case kCom: {
-          const VectorXd c = bp::extract<VectorXd>(target);
+          const Eigen::Ref<const VectorXd> c = bp::extract<Eigen::Ref<const VectorXd>>(target);
+          if (c.size() != 3) throw std::invalid_argument("CoM target size != 3");
           if (!com_done) {
             pinocchio::jacobianCenterOfMass(model, data, true);
             com_done = true;
           }
-          rows = data.Jcom;
+          it.J = data.Jcom;
           e = data.com[0] - c;
           break;
         }
         default:
           throw std::logic_error("unknown task kind");
       }
+      it.J.array().colwise() *= w_.segment(it.row, it.dim).array();
     }
-    // weighted rows: sqrt(w) J and -gain sqrt(w) e
-    M_.array().colwise() *= w_.array();
     r_ = c_.cwiseProduct(e_);
   }
 
@@ -248,15 +287,25 @@ class WeightedIKKernel {
   void combine_bounds(bp::list& hard, bp::list& soft) {
     const int n = nv_;
     intersect(hard, n, hlb_, hub_);
+    const bool pl_hard = pl_set_ && pl_hard_, pl_soft = pl_set_ && !pl_hard_;
+    if (pl_hard) {
+      hlb_ = hlb_.cwiseMax(pl_lb_);
+      hub_ = hub_.cwiseMin(pl_ub_);
+    }
+    const bool any_hard = pl_hard || bp::len(hard) > 0;
     for (int i = 0; i < n; ++i)
       if (hlb_[i] > hub_[i]) hlb_[i] = hub_[i] = 0.5 * (hlb_[i] + hub_[i]);
-    if (bp::len(soft) == 0) {
+    if (!pl_soft && bp::len(soft) == 0) {
       lb_ = hlb_;
       ub_ = hub_;
       return;
     }
     intersect(soft, n, slb_, sub_);
-    if (bp::len(hard) == 0) {
+    if (pl_soft) {
+      slb_ = slb_.cwiseMax(pl_lb_);
+      sub_ = sub_.cwiseMin(pl_ub_);
+    }
+    if (!any_hard) {
       for (int i = 0; i < n; ++i)
         if (slb_[i] > sub_[i]) slb_[i] = sub_[i] = 0.5 * (slb_[i] + sub_[i]);
       lb_ = slb_;
@@ -339,7 +388,10 @@ class WeightedIKKernel {
         break;
       }
     }
-    if (feasible) return kUnconstrained;
+    if (feasible) {
+      grad_.setZero();  // H x + g = 0 at the unconstrained minimizer
+      return kUnconstrained;
+    }
     // feasible start: the unconstrained minimizer clipped to the box
     for (int i = 0; i < n; ++i) {
       if (ub[i] <= lb[i]) {
@@ -428,8 +480,11 @@ class WeightedIKKernel {
   static constexpr double kInf = 1e20;  // taskspace.qp.problem.INF
   VectorXd diff_;
   bool scaled_ = false;
-  MatrixXd M_, Jdiff_, H_, Js_, Hs_;
-  Eigen::Matrix<double, 6, Eigen::Dynamic> J6_;
+  MatrixXd Jdiff_, H_, Hs_;
+  Eigen::Matrix<double, 6, Eigen::Dynamic> J6_, Jg_;
+  std::vector<int> pl_iq_, pl_iv_;
+  VectorXd pl_low_, pl_high_, pl_lb_, pl_ub_;
+  bool pl_set_ = false, pl_hard_ = false;
   VectorXd gs_;
   Eigen::Matrix<double, 6, 6> Jlog_;
   VectorXd r_, e_, w_, c_, g_, x_, grad_;
@@ -452,5 +507,6 @@ BOOST_PYTHON_MODULE(_ik_kernel) {
       .def("add_posture", &WeightedIKKernel::add_posture)
       .add_property("rows", &WeightedIKKernel::rows)
       .def("set_scaling", &WeightedIKKernel::set_scaling)
+      .def("set_position_limits", &WeightedIKKernel::set_position_limits)
       .def("solve", &WeightedIKKernel::solve);
 }

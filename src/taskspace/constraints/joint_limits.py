@@ -71,6 +71,19 @@ class JointPositionLimits(Constraint):
             ub[self._iv] = self._high - q
         return lb, ub
 
+    def kernel_arguments(self) -> tuple[list[int], list[int], FloatArray, FloatArray, bool]:
+        """``(iq, iv, low, high, hard)``: what a compiled kernel needs to evaluate :meth:`bounds`.
+
+        ``lb[iv] = low - q[iq]``, ``ub[iv] = high - q[iq]``, unbounded elsewhere [rad or m].
+        """
+        return (
+            [int(i) for i in self._iq],
+            [int(i) for i in self._iv],
+            self._low,
+            self._high,
+            bool(self.hard_bounds),
+        )
+
 
 class JointVelocityLimits(Constraint):
     """``|dq| <= v_max dt``.

@@ -16,6 +16,7 @@ import numpy as np
 
 from taskspace._native import ik_kernel
 from taskspace.constraints.constraint import Constraint
+from taskspace.constraints.joint_limits import JointPositionLimits
 from taskspace.features.center_of_mass import CenterOfMass
 from taskspace.features.frame_pose import FramePose
 from taskspace.features.joint_configuration import JointConfiguration
@@ -69,8 +70,14 @@ class NativeWeightedStack:
         self._n_rows = sum(t.dim for t in rows)
         self._posture = posture
         self._keys: list[tuple[Any, float]] = []
-        self._hard = [c for c in constraints if c.hard_bounds and _has_bounds(c)]
-        self._soft = [c for c in constraints if not c.hard_bounds and _has_bounds(c)]
+        boxes = [c for c in constraints if _has_bounds(c)]
+        # the first joint-position box is evaluated by the kernel from q (the others here)
+        position = next((c for c in boxes if type(c) is JointPositionLimits), None)
+        if position is not None:
+            kernel.set_position_limits(*position.kernel_arguments())
+            boxes.remove(position)
+        self._hard = [c for c in boxes if c.hard_bounds]
+        self._soft = [c for c in boxes if not c.hard_bounds]
         self.x = np.zeros(robot.nv)
         self.nv = robot.nv
 
