@@ -20,7 +20,8 @@ $(STAMP): pyproject.toml | $(PY)
 # The compiled kernels (C++ on the installed Pinocchio; about a minute). Without them
 # taskspace runs its Python path; `make demo` and `make test` build them.
 NATIVE := src/taskspace/_native/.built
-$(NATIVE): $(STAMP) src/taskspace/_native/ik_kernel.cpp src/taskspace/_native/build.py
+$(NATIVE): $(STAMP) src/taskspace/_native/ik_kernel.cpp src/taskspace/_native/planning_kernel.cpp \
+		src/taskspace/_native/build.py
 	@command -v g++ >/dev/null 2>&1 || { \
 		echo "installing g++ (apt)"; \
 		$(SUDO) apt-get update -qq && \

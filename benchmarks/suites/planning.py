@@ -6,10 +6,11 @@ locked at 0.04 m, convex-hull collision geometry)? Then, with a 1 s limit:
 
 * taskspace RRT-Connect (default options: step 0.5 rad, lazy fine checking with eager coarse
   checks at 0.15 rad, full resolution 0.03 rad on candidate paths, local sampling for a
-  trapped tree);
+  trapped tree), run by the compiled planner (``taskspace/_native/planning_kernel.cpp``) when
+  it is built, and the same algorithm in Python (``rrt_connect_python``, ``native=False``);
 * taskspace RRT-Connect "classic" (every tree edge checked at 0.03 rad, uniform sampling only:
-  Kuffner and LaValle's algorithm, the same checks as OMPL's RRTConnect at the same range) to
-  show where the collision checks and the time go;
+  Kuffner and LaValle's algorithm, the same checks as OMPL's RRTConnect at the same range;
+  compiled when built) to show where the collision checks and the time go;
 * taskspace Lazy PRM (single query: roadmap of 300 nodes, k = 12, 20 % of them near start and
   goal, grown by 300 nodes until connected, all inside the 1 s) and, in the quick run, PRM
   (200 nodes, k = 8, every edge checked).
@@ -50,7 +51,7 @@ RESOLUTION = 0.03  # local-planner resolution delta [rad], shared with the peers
 STEP_SIZE = RRTConnectOptions().step_size  # RRT-Connect range alpha [rad], shared with OMPL
 TIME_LIMIT = 1.0  # [s]
 LAZY_PRM = PRMOptions(n_samples=300, k_neighbors=12)
-METHODS = ("rrt_connect", "rrt_connect_classic", "lazy_prm", "prm")
+METHODS = ("rrt_connect", "rrt_connect_python", "rrt_connect_classic", "lazy_prm", "prm")
 OMPL_SAME = f"ompl RRTConnect range={STEP_SIZE:g} (our checker)"
 PYROBOPLAN = "pyroboplan RRTConnect (own checker)"
 
@@ -81,11 +82,20 @@ def checker_cost(robot: Any, rng: np.random.Generator) -> dict[str, float]:
     for q in qs[:500]:
         checker.is_valid(q)
     single = (time.perf_counter() - t0) / 500
-    return {
+    out = {
         "check_batch_us": min(batch) * 1e6,
         "check_single_us": single * 1e6,
         "free_fraction": float(free.mean()),
     }
+    kernel = checker.native_kernel()
+    if kernel is not None:  # the compiled checker used by the compiled planner
+        native = []
+        for _ in range(3):
+            t0 = time.perf_counter()
+            kernel.collisions(qs)
+            native.append((time.perf_counter() - t0) / len(qs))
+        out["check_native_us"] = min(native) * 1e6
+    return out
 
 
 def _stats(rows: list[dict[str, float]], valid: int) -> dict[str, Any]:
@@ -128,9 +138,10 @@ def _run_ours(
         except PlanningError as exc:
             invalid.append(f"{problem.index}: {str(exc)[:90]}")
             continue
-        for method, coarse, local in (
-            ("rrt_connect", 0.15, 0.5),
-            ("rrt_connect_classic", None, 0.0),
+        for method, coarse, local, native in (
+            ("rrt_connect", 0.15, 0.5, True),
+            ("rrt_connect_python", 0.15, 0.5, False),
+            ("rrt_connect_classic", None, 0.0, True),
         ):
             opts = RRTConnectOptions(
                 step_size=STEP_SIZE,
@@ -138,6 +149,7 @@ def _run_ours(
                 local_sampling=local,
                 time_limit_s=TIME_LIMIT,
                 seed=k,
+                native=native,
             )
             res = rrt_connect(space, req.start, req.goal, opts)
             row = {
@@ -256,7 +268,11 @@ def run(quick: bool) -> list[Row]:
             medians[(scene, label)] = extra["median_ms"]
             peer = not label.startswith("taskspace")
             if peer:
-                for mine in ("taskspace rrt_connect", "taskspace rrt_connect_classic"):
+                for mine in (
+                    "taskspace rrt_connect",
+                    "taskspace rrt_connect_python",
+                    "taskspace rrt_connect_classic",
+                ):
                     if medians.get((scene, mine)) and extra["median_ms"]:
                         key = f"ratio_median_{mine.split()[1]}_over_peer"
                         extra[key] = medians[(scene, mine)] / extra["median_ms"]

@@ -18,10 +18,47 @@ import subprocess
 import sys
 import sysconfig
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
-SOURCES = {"_ik_kernel": HERE / "ik_kernel.cpp"}
+
+
+@dataclass(frozen=True)
+class Kernel:
+    """One kernel: its source and what it needs beyond Pinocchio's default library.
+
+    Attributes:
+        source: the C++ file.
+        libs: extra libraries (``-l`` names) linked after ``pinocchio_default``.
+        defines: extra compile definitions (those of the Pinocchio/coal CMake targets used).
+    """
+
+    source: Path
+    libs: tuple[str, ...] = ()
+    defines: tuple[str, ...] = ()
+
+
+# Compile definitions of the pinocchio_collision and coal CMake targets (they fix the layout
+# of GeometryModel/GeometryData and of coal's classes).
+COLLISION_DEFINES = (
+    "PINOCCHIO_WITH_COLLISION",
+    "PINOCCHIO_WITH_HPP_FCL",
+    "COAL_BACKWARD_COMPATIBILITY_WITH_HPP_FCL",
+    "COAL_HAS_OCTOMAP",
+    "COAL_HAVE_OCTOMAP",
+    "OCTOMAP_MAJOR_VERSION=1",
+    "OCTOMAP_MINOR_VERSION=10",
+    "OCTOMAP_PATCH_VERSION=0",
+)
+SOURCES = {
+    "_ik_kernel": Kernel(HERE / "ik_kernel.cpp"),
+    "_planning_kernel": Kernel(
+        HERE / "planning_kernel.cpp",
+        libs=("pinocchio_collision", "coal"),
+        defines=COLLISION_DEFINES,
+    ),
+}
 # Compile definitions exported by Pinocchio's CMake targets (they fix the joint variant).
 DEFINES = (
     "BOOST_MPL_LIMIT_LIST_SIZE=30",
@@ -60,7 +97,7 @@ def prefix() -> Path:
     raise BuildError("no cmeel.prefix with Pinocchio headers (is the 'pin' wheel installed?)")
 
 
-def command(name: str, source: Path, output: Path) -> list[str]:
+def command(name: str, kernel: Kernel, output: Path) -> list[str]:
     """The compiler command line of one kernel."""
     import numpy as np
 
@@ -81,31 +118,41 @@ def command(name: str, source: Path, output: Path) -> list[str]:
         "-shared",
         "-fvisibility=hidden",
         "-w",
-        *[f"-D{d}" for d in DEFINES],
+        *[f"-D{d}" for d in (*DEFINES, *kernel.defines)],
         f"-I{p / 'include'}",
         f"-I{eigen}",
         f"-I{sysconfig.get_paths()['include']}",
         f"-I{np.get_include()}",
-        str(source),
+        str(kernel.source),
         "-o",
         str(output),
         f"-L{p / 'lib'}",
         f"-Wl,-rpath,{p / 'lib'}",
         "-lpinocchio_default",
+        *[f"-l{lib}" for lib in kernel.libs],
         "-leigenpy",
         f"-l{py_lib}",
     ]
 
 
-def build(force: bool = False, verbose: bool = True) -> list[Path]:
-    """Compile every kernel whose library is missing or older than its source."""
+def build(force: bool = False, verbose: bool = True, only: list[str] | None = None) -> list[Path]:
+    """Compile every kernel whose library is missing or older than its source.
+
+    Args:
+        force: rebuild even if up to date.
+        verbose: print the build time of each kernel.
+        only: names of the kernels to consider (default: all of :data:`SOURCES`).
+    """
     suffix = sysconfig.get_config_var("EXT_SUFFIX")
     built = []
-    for name, source in SOURCES.items():
+    for name, kernel in SOURCES.items():
+        if only is not None and name not in only:
+            continue
+        source = kernel.source
         output = HERE / f"{name}{suffix}"
         if not force and output.exists() and output.stat().st_mtime >= source.stat().st_mtime:
             continue
-        cmd = command(name, source, output)
+        cmd = command(name, kernel, output)
         t0 = time.perf_counter()
         proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
         if proc.returncode != 0:
@@ -120,9 +167,12 @@ def main(argv: list[str] | None = None) -> int:
     """Command-line entry point."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--force", action="store_true", help="rebuild even if up to date")
+    parser.add_argument(
+        "--only", action="append", choices=sorted(SOURCES), help="build only this kernel"
+    )
     args = parser.parse_args(argv)
     try:
-        build(force=args.force)
+        build(force=args.force, only=args.only)
     except BuildError as exc:
         print(f"taskspace native kernels not built: {exc}", file=sys.stderr)
         return 1

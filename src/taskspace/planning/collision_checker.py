@@ -53,6 +53,9 @@ logger = logging.getLogger(__name__)
 FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
 
+NATIVE_PAIR_CACHE = 1
+"""Colliding pairs remembered by the compiled checker and tested first (0 disables it)."""
+
 
 class ValidityChecker(Protocol):
     """What planners need to decide ``q in Q_free`` (implemented by :class:`CollisionChecker`).
@@ -114,6 +117,7 @@ class CollisionChecker:
         self._nq = robot.nq
         self._pool: Any = None
         self._geometry_pool: Any = None
+        self._kernel: Any = None
         self.update_world()
 
     # ------------------------------------------------------------------ set-up
@@ -135,6 +139,28 @@ class CollisionChecker:
         self._geom_data = geom.createData()
         self._ngeoms = geom.ngeoms
         self._npairs = len(geom.collisionPairs)
+        self._kernel = None
+
+    def native_kernel(self) -> Any:
+        """The compiled checker on copies of the robot's models, or ``None`` (not built).
+
+        It is ``taskspace._native.planning_kernel().CollisionKernel`` (used by the compiled
+        RRT-Connect); it is rebuilt after :meth:`update_world`. ``None`` when the kernel is
+        not built or the broad phase is disabled in the options.
+        """
+        self._sync()
+        if self._kernel is None and self.options.broadphase:
+            from taskspace._native import planning_kernel
+
+            module = planning_kernel()
+            if module is None:
+                return None
+            model = self.robot.model.copy()
+            geom = self.robot.collision_model.copy()
+            self._kernel = module.CollisionKernel(
+                model, model.createData(), geom, geom.createData(), NATIVE_PAIR_CACHE
+            )
+        return self._kernel
 
     def _sync(self) -> None:
         geom = self.robot.collision_model

@@ -59,6 +59,7 @@ import numpy as np
 
 from taskspace._validation import check_positive
 from taskspace.errors import InvalidInputError
+from taskspace.planning.collision_checker import CollisionChecker
 from taskspace.planning.configuration_space import (
     ConfigurationSpace,
     FloatArray,
@@ -92,6 +93,10 @@ class RRTConnectOptions:
         max_iterations: number of samples ``n``.
         time_limit_s: wall-clock budget [s] (``None`` = no limit).
         seed: random seed used when no ``rng`` is passed.
+        native: run the compiled planner (``taskspace/_native/planning_kernel.cpp``: the same
+            algorithm, with its own random stream) when it is built and the space's checker
+            is a :class:`~taskspace.planning.CollisionChecker`; otherwise, or with
+            ``partial_extend``, this module's Python implementation runs.
     """
 
     step_size: float = 0.5
@@ -102,6 +107,7 @@ class RRTConnectOptions:
     max_iterations: int = 100_000
     time_limit_s: float | None = 1.0
     seed: int = 0
+    native: bool = True
 
 
 class _GrowingTree:
@@ -367,6 +373,105 @@ def _verify(
     return False, tree.remove_subtree(i)
 
 
+def _native_kernel(space: ConfigurationSpace, opts: RRTConnectOptions) -> Any:
+    """The compiled checker of the space if the compiled planner can run, else ``None``."""
+    if not opts.native or opts.partial_extend or type(space.checker) is not CollisionChecker:
+        return None
+    return space.checker.native_kernel()
+
+
+_NATIVE_STATUS = (PlannerStatus.SOLVED, PlannerStatus.TIME_LIMIT, PlannerStatus.ITERATION_LIMIT)
+
+
+def _rrt_connect_native(
+    space: ConfigurationSpace,
+    kernel: Any,
+    q_start: FloatArray,
+    q_goal: FloatArray,
+    opts: RRTConnectOptions,
+    resolutions: tuple[float, float, float],
+    seed: int,
+    t0: float,
+    checks0: int,
+) -> PlannerResult:
+    """:func:`rrt_connect` by the compiled kernel (inputs already validated).
+
+    Args:
+        space: configuration space whose checker is a ``CollisionChecker``.
+        kernel: that checker's compiled kernel.
+        q_start: validated start (size d).
+        q_goal: validated goal (size d).
+        opts: planner settings.
+        resolutions: ``(alpha, delta, delta_c)`` [rad or m].
+        seed: seed of the kernel's random generator.
+        t0: ``time.perf_counter()`` at the call of :func:`rrt_connect` [s].
+        checks0: ``space.checks`` at that call.
+    """
+    from taskspace._native import planning_kernel
+
+    module = planning_kernel()
+    assert module is not None  # the kernel exists, so does its module
+    alpha, delta, delta_c = resolutions
+    remaining = -1.0
+    if opts.time_limit_s is not None:
+        remaining = max(0.0, opts.time_limit_s - (time.perf_counter() - t0))
+    kernel_checks0 = kernel.checks
+    out = module.rrt_connect(
+        kernel,
+        q_start,
+        q_goal,
+        space.lower,
+        space.upper,
+        alpha,
+        delta,
+        delta_c,
+        opts.local_sampling,
+        opts.local_sigma,
+        opts.max_iterations,
+        remaining,
+        seed,
+    )
+    status_code, path, iterations, edges, rejections, removed, start_tree, goal_tree = out
+    checks = int(kernel.checks - kernel_checks0)
+    space.checker.checks += checks
+    space.edge_checks += int(edges)
+    status = _NATIVE_STATUS[int(status_code)]
+    success = status is PlannerStatus.SOLVED
+    path = np.asarray(path, dtype=np.float64).reshape(-1, space.dim)
+    trees = [
+        Tree(nodes=np.asarray(nodes, dtype=np.float64), parents=np.asarray(parents, np.int64))
+        for nodes, parents in (start_tree, goal_tree)
+    ]
+    dt = time.perf_counter() - t0
+    logger.debug(
+        "rrt_connect (native) %s in %.3f s, %d iterations, %d+%d nodes, %d lazy rejections",
+        status.value,
+        dt,
+        iterations,
+        trees[0].size,
+        trees[1].size,
+        rejections,
+    )
+    return PlannerResult(
+        success=success,
+        status=status,
+        path=path if success else np.empty((0, space.dim)),
+        path_length=path_length(path) if success else math.inf,
+        iterations=int(iterations),
+        collision_checks=space.checks - checks0,
+        edge_checks=int(edges),
+        time_s=dt,
+        trees=trees,
+        log={
+            "start_tree_nodes": float(trees[0].size),
+            "goal_tree_nodes": float(trees[1].size),
+            "lazy_rejections": float(rejections),
+            "nodes_removed": float(removed),
+            "native": 1.0,
+        },
+    )
+
+
 def rrt_connect(
     space: ConfigurationSpace,
     start: Any,
@@ -386,7 +491,8 @@ def rrt_connect(
         start: start configuration ``q_start`` (size d).
         goal: goal configuration ``q_goal`` (size d).
         options: planner settings.
-        rng: random generator (default: ``np.random.default_rng(options.seed)``).
+        rng: random generator (default: ``np.random.default_rng(options.seed)``); the
+            compiled planner draws its seed from it.
 
     Returns:
         A :class:`PlannerResult`; ``trees`` holds the start and goal trees; ``log`` has the
@@ -409,11 +515,17 @@ def rrt_connect(
     delta_c = delta
     if opts.coarse_resolution is not None:
         delta_c = max(delta, check_positive(opts.coarse_resolution, "coarse_resolution"))
-    rng = rng if rng is not None else np.random.default_rng(opts.seed)
     checks0, edges0 = space.checks, space.edge_checks
     t0 = time.perf_counter()
     q_start = space.check_endpoint(start, "start")
     q_goal = space.check_endpoint(goal, "goal")
+    kernel = _native_kernel(space, opts)
+    if kernel is not None:
+        seed = opts.seed if rng is None else int(rng.integers(1 << 63))
+        return _rrt_connect_native(
+            space, kernel, q_start, q_goal, opts, (alpha, delta, delta_c), seed, t0, checks0
+        )
+    rng = rng if rng is not None else np.random.default_rng(opts.seed)
     deadline = math.inf if opts.time_limit_s is None else t0 + opts.time_limit_s
     tree_start, tree_goal = _GrowingTree(q_start), _GrowingTree(q_goal)
     lines = _LinePlanner(alpha, delta, delta_c)

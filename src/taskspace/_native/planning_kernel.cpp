@@ -1,0 +1,528 @@
+// Compiled kernel of taskspace's RRT-Connect and of its collision check.
+//
+// The Python implementation in taskspace/planning/rrt_connect.py is the reference (same
+// algorithm: EXTEND with the step's end point first then its coarse interior in bisection
+// order, CONNECT as one line of steps, lazy coarse-to-fine edge checking with removal of the
+// subtree of a rejected edge, local sampling for a trapped tree); tests compare the collision
+// answers with taskspace.planning.CollisionChecker and re-check every returned path.
+//
+// Collision checking is Pinocchio's and coal's own: updateGeometryPlacements, the tree
+// broad phase (one dynamic AABB tree per joint subtree, the manager used by the Python
+// CollisionChecker) with Pinocchio's default callback stopping at the first colliding pair,
+// and computeCollision for a single pair. The only addition is a cache of the last colliding
+// pairs: they are tested first (one narrow-phase call each) before the broad phase.
+
+#include <boost/python.hpp>
+#include <eigenpy/eigenpy.hpp>
+
+#include <pinocchio/multibody.hpp>
+#include <pinocchio/algorithm/geometry.hpp>
+#include <pinocchio/collision/broadphase.hpp>
+#include <pinocchio/collision/collision.hpp>
+#include <pinocchio/collision/tree-broadphase-manager.hpp>
+
+#include <coal/broadphase/broadphase_dynamic_AABB_tree.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <memory>
+#include <random>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace bp = boost::python;
+using pinocchio::Data;
+using pinocchio::GeometryData;
+using pinocchio::GeometryModel;
+using pinocchio::Model;
+using Eigen::MatrixXd;
+using Eigen::VectorXd;
+using RowMatrixXd = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+using Manager = pinocchio::TreeBroadPhaseManagerTpl<coal::DynamicAABBTreeCollisionManager>;
+
+namespace {
+
+// Status codes returned to Python (taskspace.planning.PlannerStatus).
+constexpr int kSolved = 0;
+constexpr int kTimeLimit = 1;
+constexpr int kIterationLimit = 2;
+
+// ---------------------------------------------------------------------------- collision
+class CollisionKernel {
+ public:
+  // The model, geometry model and their data are Python objects (created by Pinocchio's
+  // library, copies owned by taskspace's CollisionChecker); the kernel keeps references to
+  // them so that they outlive it.
+  CollisionKernel(bp::object model, bp::object data, bp::object geom, bp::object gdata,
+                  int cache_size)
+      : py_{model, data, geom, gdata},
+        model_(bp::extract<const Model&>(model)),
+        data_(bp::extract<Data&>(data)),
+        geom_(bp::extract<const GeometryModel&>(geom)),
+        gdata_(bp::extract<GeometryData&>(gdata)) {
+    if (model_.nq != model_.nv) throw std::invalid_argument("the kernel needs nq == nv");
+    if (gdata_.oMg.size() != geom_.geometryObjects.size())
+      throw std::invalid_argument("geometry data does not belong to the geometry model");
+    manager_ = std::make_unique<Manager>(&model_, &geom_, &gdata_);
+    set_cache_size(cache_size);
+  }
+
+  int nq() const { return model_.nq; }
+  long checks() const { return checks_; }
+  void reset_checks() { checks_ = 0; }
+  int ngeoms() const { return static_cast<int>(geom_.ngeoms); }
+  int npairs() const { return static_cast<int>(geom_.collisionPairs.size()); }
+
+  void set_cache_size(int n) {
+    cache_size_ = std::max(0, n);
+    cache_.clear();
+  }
+
+  // True if q is in collision; stops at the first colliding pair.
+  template <typename Vec>
+  bool collides(const Eigen::MatrixBase<Vec>& q) {
+    ++checks_;
+    pinocchio::updateGeometryPlacements(model_, data_, geom_, gdata_, q);
+    for (std::size_t k = 0; k < cache_.size(); ++k) {
+      const pinocchio::PairIndex p = cache_[k];
+      if (pinocchio::computeCollision(geom_, gdata_, p)) {
+        // move to front (most recent first)
+        std::rotate(cache_.begin(), cache_.begin() + k, cache_.begin() + k + 1);
+        return true;
+      }
+    }
+    manager_->update(false);
+    pinocchio::CollisionCallBackDefault callback(geom_, gdata_, true);
+    manager_->collide(&callback);
+    if (!callback.collision) return false;
+    if (cache_size_ > 0) {
+      cache_.insert(cache_.begin(), callback.collisionPairIndex);
+      if (static_cast<int>(cache_.size()) > cache_size_) cache_.pop_back();
+    }
+    return true;
+  }
+
+  // Collision flags (1 = in collision) of every row, shape (n, nq).
+  Eigen::VectorXi collisions(const Eigen::Ref<const RowMatrixXd>& qs) {
+    check_cols(qs);
+    Eigen::VectorXi out(qs.rows());
+    for (Eigen::Index i = 0; i < qs.rows(); ++i) out[i] = collides(qs.row(i).transpose()) ? 1 : 0;
+    return out;
+  }
+
+  // Index of the first colliding row, or -1 (rows evaluated in order).
+  long first_invalid(const Eigen::Ref<const RowMatrixXd>& qs) {
+    check_cols(qs);
+    for (Eigen::Index i = 0; i < qs.rows(); ++i)
+      if (collides(qs.row(i).transpose())) return static_cast<long>(i);
+    return -1;
+  }
+
+ private:
+  void check_cols(const Eigen::Ref<const RowMatrixXd>& qs) const {
+    if (qs.cols() != model_.nq) throw std::invalid_argument("configurations must have nq columns");
+  }
+
+  bp::object py_[4];
+  const Model& model_;
+  Data& data_;
+  const GeometryModel& geom_;
+  GeometryData& gdata_;
+  std::unique_ptr<Manager> manager_;
+  std::vector<pinocchio::PairIndex> cache_;
+  int cache_size_ = 0;
+  long checks_ = 0;
+};
+
+// ---------------------------------------------------------------------------- check orders
+// Interior indices 1..n-1 of n segments in bisection (breadth-first midpoint) order, as
+// taskspace.planning.configuration_space.bisection_order.
+std::vector<int> bisection_order(int n) {
+  std::vector<int> out;
+  std::vector<std::pair<int, int>> queue{{0, n}};
+  for (std::size_t h = 0; h < queue.size(); ++h) {
+    const int a = queue[h].first, b = queue[h].second;
+    if (b - a < 2) continue;
+    const int mid = (a + b) / 2;
+    out.push_back(mid);
+    queue.push_back({a, mid});
+    queue.push_back({mid, b});
+  }
+  return out;
+}
+
+// Coarse and fine passes of n segments (nested_orders of the Python module).
+struct Orders {
+  std::vector<double> pattern;  // EXTEND fractions: 1 (end point), then coarse k / n
+  std::vector<double> fine;     // fine fractions k / n (bisection order)
+};
+
+class LinePlanner {
+ public:
+  LinePlanner(double alpha, double delta, double delta_c) : alpha(alpha), delta(delta) {
+    stride = std::max(1, static_cast<int>(std::floor(delta_c / delta + 1e-9)));
+    lazy = stride > 1;
+    full_n = segments(alpha);
+  }
+
+  int segments(double length) const {
+    return std::max(1, static_cast<int>(std::ceil(length / delta - 1e-12)));
+  }
+
+  const Orders& orders(int n) {
+    if (n >= static_cast<int>(cache_.size())) cache_.resize(n + 1);
+    Orders& o = cache_[n];
+    if (o.pattern.empty()) {
+      const int n_coarse = std::max(1, (n + stride - 1) / stride);
+      o.pattern.push_back(1.0);
+      for (int k : bisection_order(n_coarse)) o.pattern.push_back(double(k * stride) / n);
+      if (stride > 1)
+        for (int k : bisection_order(n))
+          if (k % stride != 0) o.fine.push_back(double(k) / n);
+    }
+    return o;
+  }
+
+  double alpha, delta;
+  int stride, full_n;
+  bool lazy;
+
+ private:
+  std::vector<Orders> cache_;
+};
+
+// ---------------------------------------------------------------------------- trees
+struct Tree {
+  int d;
+  std::vector<double> q;  // node coordinates, row after row
+  std::vector<int> parent, segments;
+  std::vector<char> pending, alive;
+
+  Tree(const VectorXd& root) : d(static_cast<int>(root.size())) { add(root.data(), -1, 0, false); }
+
+  int size() const { return static_cast<int>(parent.size()); }
+  const double* node(int i) const { return q.data() + static_cast<std::size_t>(i) * d; }
+
+  int add(const double* x, int par, int seg, bool pend) {
+    q.insert(q.end(), x, x + d);
+    parent.push_back(par);
+    segments.push_back(seg);
+    pending.push_back(pend);
+    alive.push_back(1);
+    return size() - 1;
+  }
+
+  // Nearest alive node to x: (index, distance).
+  std::pair<int, double> nearest(const double* x) const {
+    int best = -1;
+    double best_d2 = std::numeric_limits<double>::infinity();
+    const int n = size();
+    for (int i = 0; i < n; ++i) {
+      if (!alive[i]) continue;
+      const double* p = node(i);
+      double s = 0.0;
+      for (int k = 0; k < d; ++k) {
+        const double t = p[k] - x[k];
+        s += t * t;
+      }
+      if (s < best_d2) {
+        best_d2 = s;
+        best = i;
+      }
+    }
+    return {best, std::sqrt(best_d2)};
+  }
+
+  std::vector<int> path_indices(int i) const {  // i up to the root
+    std::vector<int> out{i};
+    while (parent[out.back()] >= 0) out.push_back(parent[out.back()]);
+    return out;
+  }
+
+  // Remove node i and its descendants (children have larger indices); returns the count.
+  int remove_subtree(int i) {
+    std::vector<char> dead(size(), 0);
+    dead[i] = 1;
+    int count = 1;
+    for (int j = i + 1; j < size(); ++j) {
+      if (parent[j] >= 0 && dead[parent[j]]) {
+        dead[j] = 1;
+        ++count;
+      }
+    }
+    for (int j = i; j < size(); ++j) {
+      if (!dead[j]) continue;
+      parent[j] = -1;
+      pending[j] = 0;
+      alive[j] = 0;
+    }
+    return count;
+  }
+};
+
+struct Result {
+  int status = kIterationLimit;
+  long iterations = 0, edge_checks = 0, rejections = 0, removed = 0;
+  std::vector<double> path;
+};
+
+class RRTConnect {
+ public:
+  RRTConnect(CollisionKernel& ck, const VectorXd& lower, const VectorXd& upper, double alpha,
+             double delta, double delta_c, double local, double sigma, std::uint64_t seed)
+      : ck_(ck), lower_(lower), upper_(upper), lines_(alpha, delta, delta_c), local_(local),
+        sigma_(sigma), rng_(seed), d_(static_cast<int>(lower.size())) {
+    a_.resize(d_);
+    b_.resize(d_);
+    x_.resize(d_);
+  }
+
+  // Straight line q0 -> q1 free at the full resolution (interior points, bisection order).
+  bool motion_valid(const VectorXd& q0, const VectorXd& q1) {
+    const int n = lines_.segments((q1 - q0).norm());
+    for (int k : bisection_order(n)) {
+      x_ = q0 + (double(k) / n) * (q1 - q0);
+      if (ck_.collides(x_)) return false;
+    }
+    return true;
+  }
+
+  // EXTEND(T, target): new node index or -1.
+  int extend(Tree& t, const double* target) {
+    auto [i_near, dist] = t.nearest(target);
+    if (dist == 0.0) return -1;
+    ++res.edge_checks;
+    const double alpha = lines_.alpha;
+    const int n_seg = dist > alpha ? lines_.full_n : lines_.segments(dist);
+    const double step = std::min(1.0, alpha / dist);
+    const double* qn = t.node(i_near);
+    for (int k = 0; k < d_; ++k) {
+      a_[k] = qn[k];
+      b_[k] = target[k] - qn[k];
+    }
+    for (double u : lines_.orders(n_seg).pattern) {
+      x_ = a_ + (u * step) * b_;
+      if (ck_.collides(x_)) return -1;
+    }
+    if (dist > alpha) {
+      x_ = a_ + step * b_;
+      return t.add(x_.data(), i_near, n_seg, lines_.lazy);
+    }
+    return t.add(target, i_near, n_seg, lines_.lazy);
+  }
+
+  // CONNECT(T, target): steps of length alpha from node i_near along the line to target (a
+  // free node of the other tree); returns (last node added, target reached).
+  std::pair<int, bool> connect(Tree& t, int i_near, const double* target, double dist) {
+    const double alpha = lines_.alpha;
+    const int whole = std::max(1, static_cast<int>(std::ceil(dist / alpha - 1e-12)));
+    const int n_full = whole - 1;
+    const double last = dist - n_full * alpha;
+    VectorXd q0 = Eigen::Map<const VectorXd>(t.node(i_near), d_);
+    VectorXd delta = Eigen::Map<const VectorXd>(target, d_) - q0;
+    int par = i_near;
+    for (int s = 0; s < whole; ++s) {
+      const bool final_step = s == n_full;
+      const int n = final_step ? lines_.segments(last) : lines_.full_n;
+      const double start = s * alpha, len = final_step ? last : alpha;
+      const std::vector<double>& pattern = lines_.orders(n).pattern;
+      // the target is a free node: its own check is skipped
+      for (std::size_t j = final_step ? 1 : 0; j < pattern.size(); ++j) {
+        x_ = q0 + ((start + pattern[j] * len) / dist) * delta;
+        if (ck_.collides(x_)) return {par, false};
+      }
+      if (final_step) {
+        par = t.add(target, par, n, lines_.lazy);
+      } else {
+        x_ = q0 + ((s + 1) * alpha / dist) * delta;
+        par = t.add(x_.data(), par, n, lines_.lazy);
+      }
+    }
+    return {par, true};
+  }
+
+  // Fine points of the pending edges on the root paths of the leaves (tree after tree, root
+  // outwards). On a collision, the child of the colliding edge and its subtree are removed.
+  bool verify(Tree& t1, int leaf1, Tree& t2, int leaf2) {
+    Tree* trees[2] = {&t1, &t2};
+    int leaves[2] = {leaf1, leaf2};
+    for (int h = 0; h < 2; ++h) {
+      Tree& t = *trees[h];
+      std::vector<int> ids = t.path_indices(leaves[h]);
+      for (auto it = ids.rbegin(); it != ids.rend(); ++it) {
+        const int i = *it;
+        if (!t.pending[i]) continue;
+        const int n = t.segments[i];
+        const auto p0 = Eigen::Map<const VectorXd>(t.node(t.parent[i]), d_);
+        const auto p1 = Eigen::Map<const VectorXd>(t.node(i), d_);
+        for (double u : lines_.orders(n).fine) {
+          x_ = p0 + u * (p1 - p0);
+          if (ck_.collides(x_)) {
+            ++res.rejections;
+            res.removed += t.remove_subtree(i);
+            return false;
+          }
+        }
+        t.pending[i] = 0;
+      }
+    }
+    return true;
+  }
+
+  void run(const VectorXd& qs, const VectorXd& qg, long max_iterations, double time_limit) {
+    using clock = std::chrono::steady_clock;
+    const auto t0 = clock::now();
+    const bool limited = time_limit >= 0.0;
+    const auto deadline =
+        t0 + std::chrono::duration_cast<clock::duration>(std::chrono::duration<double>(
+                 limited ? time_limit : 0.0));
+    start_ = std::make_unique<Tree>(qs);
+    goal_ = std::make_unique<Tree>(qg);
+    ++res.edge_checks;
+    if (motion_valid(qs, qg)) {
+      res.status = kSolved;
+      res.path.assign(qs.data(), qs.data() + d_);
+      res.path.insert(res.path.end(), qg.data(), qg.data() + d_);
+      return;
+    }
+    Tree* ta = start_.get();
+    Tree* tb = goal_.get();
+    std::uniform_real_distribution<double> unit(0.0, 1.0);
+    std::normal_distribution<double> normal(0.0, 1.0);
+    VectorXd target(d_);
+    for (long it = 1; it <= max_iterations; ++it) {
+      if (limited && clock::now() > deadline) {
+        res.status = kTimeLimit;
+        break;
+      }
+      res.iterations = it;
+      if (local_ > 0.0 && 4 * ta->size() < tb->size() && unit(rng_) < local_) {
+        // T_a is trapped (typically in a tight goal region): aim near one of its nodes.
+        std::uniform_int_distribution<int> pick(0, ta->size() - 1);
+        const double* node = ta->node(pick(rng_));
+        for (int k = 0; k < d_; ++k)
+          target[k] = std::clamp(node[k] + sigma_ * normal(rng_), lower_[k], upper_[k]);
+      } else {
+        for (int k = 0; k < d_; ++k) target[k] = lower_[k] + (upper_[k] - lower_[k]) * unit(rng_);
+      }
+      const int a_new = extend(*ta, target.data());
+      if (a_new >= 0) {
+        const double* q_new = ta->node(a_new);
+        auto [j_near, gap] = tb->nearest(q_new);
+        int b_new = j_near;
+        bool reached = true;
+        if (gap != 0.0) {
+          ++res.edge_checks;
+          std::tie(b_new, reached) = connect(*tb, j_near, q_new, gap);
+        }
+        if (reached) {
+          bool ok = true;
+          if (lines_.lazy) {
+            ok = ta == goal_.get() ? verify(*ta, a_new, *tb, b_new) : verify(*tb, b_new, *ta, a_new);
+          }
+          if (ok) {
+            std::vector<int> ia = ta->path_indices(a_new);  // a_new .. root
+            std::vector<int> ib = tb->path_indices(b_new);
+            std::vector<int> order;  // rows of the path from T_a's root to T_b's root
+            std::vector<Tree*> owner;
+            for (auto r = ia.rbegin(); r != ia.rend(); ++r) {
+              order.push_back(*r);
+              owner.push_back(ta);
+            }
+            for (std::size_t j = 1; j < ib.size(); ++j) {
+              order.push_back(ib[j]);
+              owner.push_back(tb);
+            }
+            if (ta == goal_.get()) {
+              std::reverse(order.begin(), order.end());
+              std::reverse(owner.begin(), owner.end());
+            }
+            for (std::size_t j = 0; j < order.size(); ++j) {
+              const double* x = owner[j]->node(order[j]);
+              res.path.insert(res.path.end(), x, x + d_);
+            }
+            res.status = kSolved;
+            break;
+          }
+        }
+      }
+      std::swap(ta, tb);
+    }
+  }
+
+  Result res;
+  std::unique_ptr<Tree> start_, goal_;
+
+ private:
+  CollisionKernel& ck_;
+  VectorXd lower_, upper_;
+  LinePlanner lines_;
+  double local_, sigma_;
+  std::mt19937_64 rng_;
+  int d_;
+  VectorXd a_, b_, x_;
+};
+
+MatrixXd rows_matrix(const std::vector<double>& flat, int d) {
+  const Eigen::Index n = static_cast<Eigen::Index>(flat.size()) / d;
+  MatrixXd out(n, d);
+  for (Eigen::Index i = 0; i < n; ++i)
+    for (int k = 0; k < d; ++k) out(i, k) = flat[i * d + k];
+  return out;
+}
+
+bp::tuple tree_tuple(const Tree& t) {
+  Eigen::VectorXi parents(t.size());
+  for (int i = 0; i < t.size(); ++i) parents[i] = t.parent[i];
+  return bp::make_tuple(rows_matrix(t.q, t.d), parents);
+}
+
+// Plan with RRT-Connect; returns (status, path, iterations, edge_checks, rejections, removed,
+// (start nodes, start parents), (goal nodes, goal parents)). Collision checks are counted by
+// the kernel (CollisionKernel.checks).
+bp::tuple rrt_connect(CollisionKernel& ck, const VectorXd& start, const VectorXd& goal,
+                      const VectorXd& lower, const VectorXd& upper, double alpha, double delta,
+                      double delta_c, double local, double sigma, long max_iterations,
+                      double time_limit, unsigned long seed) {
+  const long d = ck.nq();
+  if (start.size() != d || goal.size() != d || lower.size() != d || upper.size() != d)
+    throw std::invalid_argument("start, goal, lower and upper must have size nq");
+  if (!(alpha > 0.0) || !(delta > 0.0) || !(sigma > 0.0))
+    throw std::invalid_argument("alpha, delta and sigma must be positive");
+  RRTConnect planner(ck, lower, upper, alpha, delta, std::max(delta, delta_c), local, sigma,
+                     static_cast<std::uint64_t>(seed));
+  planner.run(start, goal, max_iterations, time_limit);
+  const Result& r = planner.res;
+  return bp::make_tuple(r.status, rows_matrix(r.path, static_cast<int>(d)), r.iterations,
+                        r.edge_checks, r.rejections, r.removed, tree_tuple(*planner.start_),
+                        tree_tuple(*planner.goal_));
+}
+
+}  // namespace
+
+BOOST_PYTHON_MODULE(_planning_kernel) {
+  eigenpy::enableEigenPy();
+  bp::scope().attr("PINOCCHIO_VERSION") = std::string(PINOCCHIO_VERSION);
+  bp::scope().attr("SOLVED") = kSolved;
+  bp::scope().attr("TIME_LIMIT") = kTimeLimit;
+  bp::scope().attr("ITERATION_LIMIT") = kIterationLimit;
+  bp::class_<CollisionKernel, boost::noncopyable>(
+      "CollisionKernel",
+      bp::init<bp::object, bp::object, bp::object, bp::object, int>(bp::args(
+          "self", "model", "data", "geometry_model", "geometry_data", "cache_size")))
+      .add_property("nq", &CollisionKernel::nq)
+      .add_property("checks", &CollisionKernel::checks)
+      .add_property("ngeoms", &CollisionKernel::ngeoms)
+      .add_property("npairs", &CollisionKernel::npairs)
+      .def("reset_checks", &CollisionKernel::reset_checks)
+      .def("set_cache_size", &CollisionKernel::set_cache_size)
+      .def("collisions", &CollisionKernel::collisions)
+      .def("first_invalid", &CollisionKernel::first_invalid);
+  bp::def("rrt_connect", &rrt_connect,
+          bp::args("checker", "start", "goal", "lower", "upper", "alpha", "delta", "delta_c",
+                   "local", "sigma", "max_iterations", "time_limit", "seed"));
+}

@@ -1,0 +1,177 @@
+"""The compiled RRT-Connect and collision check (taskspace/_native) against the Python path."""
+
+from __future__ import annotations
+
+import math
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import taskspace._native
+from taskspace._native import planning_kernel, status
+from taskspace.errors import PlanningError
+from taskspace.planning.collision_checker import CollisionChecker
+from taskspace.planning.configuration_space import ConfigurationSpace, EdgeCheckOptions
+from taskspace.planning.planner_result import PlannerStatus
+from taskspace.planning.rrt_connect import RRTConnectOptions, rrt_connect
+from taskspace.planning.scene_loader import motionbenchmaker_panda, motionbenchmaker_problems
+from tests.planning._planning_worlds import wall_space
+
+ROOT = Path("/work/shared/benchmarks/motionbenchmaker_panda")
+DELTA = 0.03  # planner resolution [rad]
+
+if os.environ.get("TASKSPACE_REQUIRE_NATIVE"):
+
+    def test_kernel_is_built() -> None:
+        assert planning_kernel() is not None, status()
+
+
+pytestmark = [
+    pytest.mark.skipif(planning_kernel() is None, reason=f"native kernel: {status()}"),
+    pytest.mark.skipif(not ROOT.is_dir(), reason="MotionBenchMaker files not present"),
+]
+
+
+@pytest.fixture(scope="module")
+def robot():  # type: ignore[no-untyped-def]
+    return motionbenchmaker_panda()
+
+
+def _space(robot, scenario: str, index: int):  # type: ignore[no-untyped-def]
+    req = motionbenchmaker_problems(ROOT, scenario, [index])[0].apply(robot)
+    space = ConfigurationSpace.from_robot(robot, edge=EdgeCheckOptions(resolution=DELTA))
+    return space, req.start, req.goal
+
+
+def _edge_points(path: np.ndarray, resolution: float) -> np.ndarray:
+    """Points k / n of every edge, n = ceil(|edge| / resolution) (end points included)."""
+    out = []
+    for a, b in zip(path[:-1], path[1:]):  # noqa: RUF007
+        n = max(1, math.ceil(float(np.linalg.norm(b - a)) / resolution - 1e-12))
+        out.append(a + (np.arange(n + 1) / n)[:, None] * (b - a))
+    return np.vstack(out)
+
+
+@pytest.mark.parametrize("scenario", ["bookshelf_small", "cage", "table_under_pick"])
+def test_compiled_checker_agrees_with_python_checker(robot, scenario: str) -> None:  # type: ignore[no-untyped-def]
+    space, _, _ = _space(robot, scenario, 2)
+    checker = space.checker
+    assert isinstance(checker, CollisionChecker)
+    kernel = checker.native_kernel()
+    rng = np.random.default_rng(1)
+    qs = rng.uniform(space.lower, space.upper, size=(1500, space.dim))
+    reference = ~checker.are_valid(qs)
+    got = np.asarray(kernel.collisions(qs), dtype=bool)
+    assert 0.05 < reference.mean() < 0.95  # both answers occur
+    differ = np.flatnonzero(got != reference)
+    # coal's GJK keeps a warm start per pair, so a configuration that grazes an obstacle
+    # (|penetration| below a millimetre) may be answered differently after another history.
+    assert differ.size <= 3
+    for i in differ:
+        assert abs(checker.distance(qs[i])[0]) < 1e-3
+    # first_invalid: the index of the first colliding row
+    first = int(np.argmax(got))
+    assert kernel.first_invalid(qs) == first
+    assert kernel.first_invalid(qs[~got][:50]) == -1
+
+
+@pytest.mark.parametrize(
+    ("scenario", "index"),
+    [("bookshelf_small", 3), ("bookshelf_tall", 1), ("box", 2), ("table_under_pick", 13)],
+)
+def test_compiled_paths_are_free(robot, scenario: str, index: int) -> None:  # type: ignore[no-untyped-def]
+    space, start, goal = _space(robot, scenario, index)
+    reference = CollisionChecker(robot)  # the Python checker, its own broad-phase pool
+    for seed in range(2):
+        res = rrt_connect(space, start, goal, RRTConnectOptions(seed=seed, time_limit_s=1.0))
+        assert res.log.get("native") == 1.0
+        assert res.success and res.status is PlannerStatus.SOLVED
+        assert res.time_s < 1.0
+        np.testing.assert_allclose(res.path[0], start)
+        np.testing.assert_allclose(res.path[-1], goal)
+        assert res.path_length == pytest.approx(
+            float(np.linalg.norm(np.diff(res.path, axis=0), axis=1).sum())
+        )
+        # The promise (as for the Python planner): every edge is free at the resolution delta.
+        assert reference.are_valid(_edge_points(res.path, DELTA)).all()
+        # Twice finer, a path may graze an obstacle between two checked points, only there.
+        assert reference.are_valid(_edge_points(res.path, DELTA / 2)).mean() > 0.98
+        assert res.collision_checks > 0 and res.edge_checks > 0
+        # Tree edges are steps of at most alpha; removed nodes have no parent.
+        for tree in res.trees:
+            child = np.flatnonzero(tree.parents >= 0)
+            seg = np.linalg.norm(tree.nodes[child] - tree.nodes[tree.parents[child]], axis=1)
+            assert np.all(seg <= 0.5 + 1e-9)
+
+
+def test_seeded_runs_are_deterministic(robot) -> None:  # type: ignore[no-untyped-def]
+    space, start, goal = _space(robot, "bookshelf_small", 3)
+    runs = [rrt_connect(space, start, goal, RRTConnectOptions(seed=s)) for s in (4, 4, 5)]
+    assert runs[0].success and runs[1].success
+    np.testing.assert_array_equal(runs[0].path, runs[1].path)
+    assert runs[0].collision_checks == runs[1].collision_checks
+    assert runs[0].iterations == runs[1].iterations
+    assert runs[2].collision_checks != runs[0].collision_checks  # the seed matters
+    # a passed generator seeds the kernel
+    a = rrt_connect(space, start, goal, rng=np.random.default_rng(7))
+    b = rrt_connect(space, start, goal, rng=np.random.default_rng(7))
+    np.testing.assert_array_equal(a.path, b.path)
+
+
+def test_trivial_and_limited_problems_end(robot) -> None:  # type: ignore[no-untyped-def]
+    space, start, goal = _space(robot, "cage", 3)
+    # start == goal
+    res = rrt_connect(space, start, start)
+    assert res.success and res.path.shape == (2, space.dim) and res.log.get("native") == 1.0
+    # a straight line that is free: solved without a tree
+    near = start + 0.01
+    assert space.is_valid(near)
+    res = rrt_connect(space, start, near)
+    assert res.success and res.iterations == 0 and res.path.shape == (2, space.dim)
+    # iteration limit
+    opts = RRTConnectOptions(max_iterations=3, time_limit_s=None)
+    res = rrt_connect(space, start, goal, opts)
+    assert not res.success and res.status is PlannerStatus.ITERATION_LIMIT
+    assert res.iterations == 3 and res.path.shape == (0, space.dim)
+    assert res.path_length == math.inf
+    # time limit (the iteration budget would last far longer)
+    opts = RRTConnectOptions(max_iterations=10**9, time_limit_s=0.003, local_sampling=0.0)
+    res = rrt_connect(space, start, goal, opts)
+    assert res.status in (PlannerStatus.TIME_LIMIT, PlannerStatus.SOLVED)
+    assert res.time_s < 0.2
+    res = rrt_connect(space, start, goal, RRTConnectOptions(time_limit_s=0.0))
+    assert res.status is PlannerStatus.TIME_LIMIT and res.time_s < 0.1
+
+
+def test_bad_input_raises_before_the_kernel(robot) -> None:  # type: ignore[no-untyped-def]
+    space, start, goal = _space(robot, "bookshelf_small", 1)
+    bad = start.copy()
+    bad[0] = np.nan
+    with pytest.raises(PlanningError, match="start"):
+        rrt_connect(space, bad, goal)
+    with pytest.raises(PlanningError, match="goal"):
+        rrt_connect(space, start, goal[:3])
+    closed = motionbenchmaker_panda(finger_opening=0.001)  # closed fingers hit the can
+    space_c, start_c, goal_c = _space(closed, "bookshelf_small", 1)
+    with pytest.raises(PlanningError, match="goal is in collision: colliding pairs"):
+        rrt_connect(space_c, start_c, goal_c)
+
+
+def test_python_path_without_kernel(robot, monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    monkeypatch.setattr(taskspace._native, "planning_kernel", lambda: None)
+    space, start, goal = _space(robot, "table_pick", 1)
+    assert space.checker.native_kernel() is None  # type: ignore[attr-defined]
+    res = rrt_connect(space, start, goal)
+    assert res.success and "native" not in res.log
+    assert CollisionChecker(robot).are_valid(_edge_points(res.path, DELTA)).all()
+
+
+def test_other_checkers_and_options_take_the_python_path(robot) -> None:  # type: ignore[no-untyped-def]
+    res = rrt_connect(wall_space(), np.array([1.0, 1.0]), np.array([9.0, 9.0]))
+    assert res.success and "native" not in res.log
+    space, start, goal = _space(robot, "table_pick", 1)
+    for opts in (RRTConnectOptions(native=False), RRTConnectOptions(partial_extend=True)):
+        res = rrt_connect(space, start, goal, opts)
+        assert res.success and "native" not in res.log
