@@ -165,23 +165,18 @@ class WeightedIKKernel {
     g_.setZero();
     fill_rows(model, data, targets);
     const auto t1 = std::chrono::steady_clock::now();
-    for (Item& it : items_) {
+    // one dense product on the stacked rows (zero outside each task's support columns)
+    for (const Item& it : items_) {
       const int ns = static_cast<int>(it.rows.size());
-      const auto r = r_.segment(it.row, it.dim);
-      if (ns == nv_) {  // every column (CoM): no scatter
-        H_.noalias() += it.J.transpose().lazyProduct(it.J);
-        g_.noalias() -= it.J.transpose() * r;
-        continue;
-      }
-      Hs_.resize(ns, ns);
-      Hs_.noalias() = it.J.transpose().lazyProduct(it.J);
-      gs_.noalias() = it.J.transpose() * r;
-      for (int b = 0; b < ns; ++b) {
-        const int j = it.rows[b];
-        g_[j] -= gs_[b];
-        for (int a = b; a < ns; ++a) H_(it.rows[a], j) += Hs_(a, b);
+      auto rows = M_.middleRows(it.row, it.dim);
+      if (ns == nv_) {
+        rows = it.J;
+      } else {
+        for (int a = 0; a < ns; ++a) rows.col(it.rows[a]) = it.J.col(a);
       }
     }
+    H_.selfadjointView<Eigen::Lower>().rankUpdate(M_.transpose());
+    g_.noalias() -= M_.transpose() * r_;
     H_.diagonal().array() += damping;
     add_posture_terms(model, q, targets);
     H_.triangularView<Eigen::StrictlyUpper>() = H_.transpose();
@@ -214,6 +209,7 @@ class WeightedIKKernel {
     item.J.setZero(item.dim, static_cast<Eigen::Index>(item.rows.size()));
     items_.push_back(item);
     m_ += item.dim;
+    M_.setZero(m_, nv_);
     r_.setZero(m_);
     e_.setZero(m_);
     return item.row;
@@ -480,7 +476,7 @@ class WeightedIKKernel {
   static constexpr double kInf = 1e20;  // taskspace.qp.problem.INF
   VectorXd diff_;
   bool scaled_ = false;
-  MatrixXd Jdiff_, H_, Hs_;
+  MatrixXd M_, Jdiff_, H_, Hs_;
   Eigen::Matrix<double, 6, Eigen::Dynamic> J6_, Jg_;
   std::vector<int> pl_iq_, pl_iv_;
   VectorXd pl_low_, pl_high_, pl_lb_, pl_ub_;
