@@ -67,7 +67,7 @@ def check_finite(arr: npt.NDArray[Any], name: str) -> None:
 def check_positive(value: float, name: str, *, strict: bool = True) -> float:
     """Return ``value`` as float if it is (strictly) positive and finite, else raise."""
     v = float(value)
-    if not np.isfinite(v) or (v <= 0.0 if strict else v < 0.0):
+    if not math.isfinite(v) or (v <= 0.0 if strict else v < 0.0):
         relation = "> 0" if strict else ">= 0"
         raise InvalidInputError(f"{name} must be finite and {relation}, got {value!r}")
     return v

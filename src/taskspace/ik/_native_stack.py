@@ -78,7 +78,6 @@ class NativeWeightedStack:
             boxes.remove(position)
         self._hard = [c for c in boxes if c.hard_bounds]
         self._soft = [c for c in boxes if not c.hard_bounds]
-        self.x = np.zeros(robot.nv)
         self.nv = robot.nv
 
     def _scale(self) -> None:
@@ -109,30 +108,30 @@ class NativeWeightedStack:
         self._keys = keys
 
     def solve(
-        self, state: State, dt: float, damping: float
+        self, state: State, dt: float, damping: float, out: np.ndarray
     ) -> tuple[int, int, float, float, float] | None:
-        """``(status, iterations, objective, build_time, qp_time)``, the step in ``self.x``.
+        """``(status, iterations, objective, build_time, qp_time)``; the step is written to ``out``.
 
         ``None`` when the active set did not settle (the caller takes the Python path).
         """
         self._scale()
         targets = [t._target for t in self.tasks]
-        for target, t in zip(targets, self.tasks):
-            if target is None:
-                t._require_target()  # raises, naming the task
-        hard = [b for c in self._hard if (b := c.bounds(state, dt)) is not None]
-        soft = [b for c in self._soft if (b := c.bounds(state, dt)) is not None]
-        status, iterations, objective, t_build, t_qp, _ = self.kernel.solve(
-            state.robot.model,
-            state.data,
-            state.q,
-            targets,
-            hard,
-            soft,
-            damping,
-            self.x,
-            MAX_ACTIVE_SET_ITERATIONS,
-        )
+        try:
+            status, iterations, objective, t_build, t_qp, _ = self.kernel.solve(
+                state.robot.model,
+                state.data,
+                state.q,
+                targets,
+                [c.bounds(state, dt) for c in self._hard] if self._hard else [],
+                [c.bounds(state, dt) for c in self._soft] if self._soft else [],
+                damping,
+                out,
+                MAX_ACTIVE_SET_ITERATIONS,
+            )
+        except (TypeError, ValueError, RuntimeError):
+            for t in self.tasks:
+                t._require_target()  # a task without a target: raises, naming it
+            raise
         if status == self.module.MAX_ITERATIONS:
             return None
         return status, iterations, objective, t_build, t_qp

@@ -299,14 +299,19 @@ class DifferentialIK:
         native = self._native
         assert native is not None
         t0 = time.perf_counter()
-        out = native.solve(state, dt, self.options.damping)
+        dq = np.empty(self.robot.nv)
+        out = native.solve(state, dt, self.options.damping, dq)
         if out is None:
             return None
         status, iterations, objective, build_time, qp_time = out
-        dq = native.x.copy()
-        qp_status = QPStatus.UNCONSTRAINED if status == 0 else QPStatus.SOLVED
         qp = QPResult(
-            True, qp_status, dq, objective, iterations, time.perf_counter() - t0, "native"
+            True,
+            QPStatus.UNCONSTRAINED if status == 0 else QPStatus.SOLVED,
+            dq,
+            objective,
+            iterations,
+            time.perf_counter() - t0,
+            "native",
         )
         return IKStepResult(True, IKStatus.SOLVED, dq, dq / dt, qp, [], build_time, qp_time)
 
