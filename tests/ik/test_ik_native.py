@@ -125,6 +125,33 @@ def test_start_outside_limits_with_acceleration_limits(
         np.testing.assert_allclose(a.dq, b.dq, atol=STEP_TOL, rtol=0)
 
 
+def test_position_limits_evaluated_in_the_kernel_on_a_floating_base(
+    g1: Robot, rng: np.random.Generator
+) -> None:
+    """The kernel evaluates the first joint-position box from q (floating base: the q and v
+    indices of the limited joints differ); a second, looser one comes from Python."""
+    tasks, _ = _g1_tasks(g1)
+    limits = [
+        JointPositionLimits(g1, margin=0.02),
+        JointVelocityLimits(g1),
+        JointPositionLimits(g1),
+    ]
+    native, python = _pair(g1, tasks, limits)
+    idx = g1.limited_joints_q
+    assert not np.array_equal(idx, g1.limited_joints_v)
+    active = 0
+    for _ in range(10):
+        q = g1.q_default.copy()
+        near = rng.random(idx.size) < 0.5  # half the joints at or just outside a limit
+        edge = np.where(rng.random(idx.size) < 0.5, g1.lower_limits[idx], g1.upper_limits[idx])
+        q[idx] = np.where(near, edge + rng.uniform(-0.03, 0.03, idx.size), q[idx])
+        state = g1.state(q)
+        a, b = native.solve(state, DT), python.solve(state, DT)
+        np.testing.assert_allclose(a.dq, b.dq, atol=STEP_TOL, rtol=0)
+        active += a.qp.status is QPStatus.SOLVED
+    assert active > 0
+
+
 def test_posture_on_selected_joints_and_free_flyer(g1: Robot, rng: np.random.Generator) -> None:
     """Posture rows on a subset of joints and a quaternion base (dDifference blocks)."""
     s = g1.state(g1.q_default)
