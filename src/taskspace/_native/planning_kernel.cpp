@@ -6,11 +6,18 @@
 // subtree of a rejected edge, local sampling for a trapped tree); tests compare the collision
 // answers with taskspace.planning.CollisionChecker and re-check every returned path.
 //
-// Collision checking is Pinocchio's and coal's own: updateGeometryPlacements, the tree
-// broad phase (one dynamic AABB tree per joint subtree, the manager used by the Python
-// CollisionChecker) with Pinocchio's default callback stopping at the first colliding pair,
-// and computeCollision for a single pair. The only addition is a cache of the last colliding
-// pairs: they are tested first (one narrow-phase call each) before the broad phase.
+// Collision checking is Pinocchio's and coal's own: updateGeometryPlacements, Pinocchio's
+// tree broad phase (one coal manager per joint, pairs of managers collided) with Pinocchio's
+// default callback stopping at the first colliding pair, and computeCollision for a single
+// pair. Differences to the Python CollisionChecker (same answers, exact narrow phase):
+//  * the per-joint coal managers are coal's NaiveCollisionManager (AABB overlap test of every
+//    object pair of two managers) instead of dynamic AABB trees: a link holds 1-3 objects, and
+//    re-inserting the moved leaves of the trees at every configuration cost more than the
+//    pairwise box tests (MotionBenchMaker Panda, inside RRT-Connect: 2.4 instead of 3.6 us
+//    per configuration, planner included);
+//  * the update of the managers skips what does not change between configurations (the
+//    static universe manager, the inflation pass over all pairs), see fast_update;
+//  * the last colliding pair is tested first (about 2 % faster inside RRT-Connect).
 
 #include <boost/python.hpp>
 #include <eigenpy/eigenpy.hpp>
@@ -21,6 +28,7 @@
 #include <pinocchio/collision/collision.hpp>
 #include <pinocchio/collision/tree-broadphase-manager.hpp>
 
+#include <coal/broadphase/broadphase_bruteforce.h>
 #include <coal/broadphase/broadphase_dynamic_AABB_tree.h>
 
 #include <algorithm>
@@ -42,7 +50,7 @@ using pinocchio::Model;
 using Eigen::MatrixXd;
 using Eigen::VectorXd;
 using RowMatrixXd = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
-using Manager = pinocchio::TreeBroadPhaseManagerTpl<coal::DynamicAABBTreeCollisionManager>;
+using Manager = pinocchio::TreeBroadPhaseManagerTpl<coal::NaiveCollisionManager>;
 
 namespace {
 
@@ -68,7 +76,35 @@ class CollisionKernel {
     if (gdata_.oMg.size() != geom_.geometryObjects.size())
       throw std::invalid_argument("geometry data does not belong to the geometry model");
     manager_ = std::make_unique<Manager>(&model_, &geom_, &gdata_);
+    // One complete update of Pinocchio's managers: registers the active objects and computes
+    // their inflation (per pair settings), which later updates reuse.
+    const VectorXd q0 = VectorXd::Zero(model_.nq);  // any configuration: obstacles are static
+    pinocchio::updateGeometryPlacements(model_, data_, geom_, gdata_, q0);
+    manager_->update(false);
     set_cache_size(cache_size);
+  }
+
+  // Pinocchio's TreeBroadPhaseManager::update without the parts that do not change between
+  // configurations: the manager of the universe (joint 0: obstacles and the fixed base) is
+  // static, and the per-object inflation (a pass over all collision pairs in every manager's
+  // update) is the one computed at construction. The moving objects get their placement,
+  // coal's computeAABB and the inflation, then coal's manager update, as in Pinocchio's.
+  void fast_update() {
+    auto& managers = manager_->getBroadPhaseManagers();
+    for (std::size_t m = 1; m < managers.size(); ++m) {
+      auto& bm = managers[m];
+      auto& objects = bm.getCollisionObjects();
+      const auto& inflation = bm.getCollisionObjectInflation();
+      const auto& active = bm.getCollisionObjectStatus();
+      for (std::size_t k = 0; k < objects.size(); ++k) {
+        if (!active[k]) continue;
+        pinocchio::CollisionObject& obj = objects[k];
+        obj.setTransform(pinocchio::toCoalTransform3s(gdata_.oMg[obj.geometryObjectIndex]));
+        obj.computeAABB();
+        obj.getAABB().expand(inflation[static_cast<Eigen::Index>(k)]);
+      }
+      bm.getManager().update();
+    }
   }
 
   int nq() const { return model_.nq; }
@@ -76,6 +112,8 @@ class CollisionKernel {
   void reset_checks() { checks_ = 0; }
   int ngeoms() const { return static_cast<int>(geom_.ngeoms); }
   int npairs() const { return static_cast<int>(geom_.collisionPairs.size()); }
+
+  void set_fast_update(bool on) { fast_ = on; }
 
   void set_cache_size(int n) {
     cache_size_ = std::max(0, n);
@@ -95,7 +133,7 @@ class CollisionKernel {
         return true;
       }
     }
-    manager_->update(false);
+    if (fast_) fast_update(); else manager_->update(false);
     pinocchio::CollisionCallBackDefault callback(geom_, gdata_, true);
     manager_->collide(&callback);
     if (!callback.collision) return false;
@@ -135,6 +173,7 @@ class CollisionKernel {
   std::unique_ptr<Manager> manager_;
   std::vector<pinocchio::PairIndex> cache_;
   int cache_size_ = 0;
+  bool fast_ = true;
   long checks_ = 0;
 };
 
@@ -520,6 +559,7 @@ BOOST_PYTHON_MODULE(_planning_kernel) {
       .add_property("npairs", &CollisionKernel::npairs)
       .def("reset_checks", &CollisionKernel::reset_checks)
       .def("set_cache_size", &CollisionKernel::set_cache_size)
+      .def("set_fast_update", &CollisionKernel::set_fast_update)
       .def("collisions", &CollisionKernel::collisions)
       .def("first_invalid", &CollisionKernel::first_invalid);
   bp::def("rrt_connect", &rrt_connect,
