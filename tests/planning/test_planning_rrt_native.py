@@ -12,7 +12,7 @@ import pytest
 import taskspace._native
 from taskspace._native import planning_kernel, status
 from taskspace.errors import PlanningError
-from taskspace.planning.collision_checker import CollisionChecker
+from taskspace.planning.collision_checker import CollisionChecker, CollisionCheckerOptions
 from taskspace.planning.configuration_space import ConfigurationSpace, EdgeCheckOptions
 from taskspace.planning.planner_result import PlannerStatus
 from taskspace.planning.rrt_connect import RRTConnectOptions, rrt_connect
@@ -21,6 +21,7 @@ from tests.planning._planning_worlds import wall_space
 
 ROOT = Path("/work/shared/benchmarks/motionbenchmaker_panda")
 DELTA = 0.03  # planner resolution [rad]
+POOL = CollisionCheckerOptions(native=False)  # Pinocchio's broad-phase pool, no kernel
 
 if os.environ.get("TASKSPACE_REQUIRE_NATIVE"):
 
@@ -57,9 +58,8 @@ def _edge_points(path: np.ndarray, resolution: float) -> np.ndarray:
 @pytest.mark.parametrize("scenario", ["bookshelf_small", "cage", "table_under_pick"])
 def test_compiled_checker_agrees_with_python_checker(robot, scenario: str) -> None:  # type: ignore[no-untyped-def]
     space, _, _ = _space(robot, scenario, 2)
-    checker = space.checker
-    assert isinstance(checker, CollisionChecker)
-    kernel = checker.native_kernel()
+    checker = CollisionChecker(robot, POOL)
+    kernel = CollisionChecker(robot).native_kernel()
     rng = np.random.default_rng(1)
     qs = rng.uniform(space.lower, space.upper, size=(1500, space.dim))
     reference = ~checker.are_valid(qs)
@@ -75,6 +75,11 @@ def test_compiled_checker_agrees_with_python_checker(robot, scenario: str) -> No
     first = int(np.argmax(got))
     assert kernel.first_invalid(qs) == first
     assert kernel.first_invalid(qs[~got][:50]) == -1
+    # CollisionChecker's queries through the kernel (options.native, the default)
+    native = CollisionChecker(robot)
+    assert native.first_invalid(qs) == first and native.checks == first + 1
+    assert native.is_valid(qs[~got][0]) and not native.is_valid(qs[first])
+    np.testing.assert_array_equal(native.are_valid(qs[:200]), ~got[:200])
 
 
 @pytest.mark.parametrize(
@@ -83,7 +88,7 @@ def test_compiled_checker_agrees_with_python_checker(robot, scenario: str) -> No
 )
 def test_compiled_paths_are_free(robot, scenario: str, index: int) -> None:  # type: ignore[no-untyped-def]
     space, start, goal = _space(robot, scenario, index)
-    reference = CollisionChecker(robot)  # the Python checker, its own broad-phase pool
+    reference = CollisionChecker(robot, POOL)  # Pinocchio's broad-phase pool, not the kernel
     for seed in range(2):
         res = rrt_connect(space, start, goal, RRTConnectOptions(seed=seed, time_limit_s=1.0))
         assert res.log.get("native") == 1.0

@@ -90,9 +90,14 @@ class CollisionCheckerOptions:
         broadphase: use the dynamic AABB tree broad phase, one tree per joint subtree
             (exact, only skips pairs whose axis-aligned bounding boxes are disjoint);
             ``False`` runs the narrow phase on every pair (Pinocchio's ``computeCollisions``).
+        native: answer the queries with the compiled checker
+            (``taskspace/_native/planning_kernel.cpp``, same broad phase structure and exact
+            narrow phase) when it is built and ``broadphase`` is on; otherwise Pinocchio's
+            ``computeCollisionsInParallel`` on a broad-phase pool.
     """
 
     broadphase: bool = True
+    native: bool = True
 
 
 class CollisionChecker:
@@ -118,6 +123,7 @@ class CollisionChecker:
         self._pool: Any = None
         self._geometry_pool: Any = None
         self._kernel: Any = None
+        self._kernel_checked = False
         self.update_world()
 
     # ------------------------------------------------------------------ set-up
@@ -140,6 +146,15 @@ class CollisionChecker:
         self._ngeoms = geom.ngeoms
         self._npairs = len(geom.collisionPairs)
         self._kernel = None
+        self._kernel_checked = False
+
+    def _query_kernel(self) -> Any:
+        """The compiled checker if the queries use it (``options.native``), else ``None``."""
+        if not self.options.native or (self._kernel_checked and self._kernel is None):
+            return None
+        if self._kernel is not None:
+            return self._kernel
+        return self.native_kernel()
 
     def native_kernel(self) -> Any:
         """The compiled checker on copies of the robot's models, or ``None`` (not built).
@@ -152,6 +167,7 @@ class CollisionChecker:
         if self._kernel is None and self.options.broadphase:
             from taskspace._native import planning_kernel
 
+            self._kernel_checked = True
             module = planning_kernel()
             if module is None:
                 return None
@@ -191,6 +207,16 @@ class CollisionChecker:
     # ------------------------------------------------------------------ queries
     def _batch(self, configurations: FloatArray, stop_in_batch: bool) -> BoolArray:
         """Collision flags (True = in collision) of the rows, one C++ call."""
+        kernel = self._query_kernel()
+        if kernel is not None:
+            rows = np.ascontiguousarray(configurations)
+            if stop_in_batch:
+                hits = np.zeros(rows.shape[0], dtype=bool)
+                bad = kernel.first_invalid(rows)
+                if bad >= 0:
+                    hits[bad:] = True  # rows after the first collision are not evaluated
+                return hits
+            return np.asarray(kernel.collisions(rows), dtype=bool)
         qs = configurations.T  # column-major (nq, n) view: what Eigen expects, no copy
         if not qs.flags.f_contiguous:
             qs = np.asfortranarray(qs)
@@ -223,6 +249,9 @@ class CollisionChecker:
         else:
             column = self._as_rows(q)[:1].T.copy(order="F")
         self.checks += 1
+        kernel = self._query_kernel()
+        if kernel is not None:
+            return bool(kernel.first_invalid(column.T) < 0)
         if self._pool is not None:
             return not pin.computeCollisionsInParallel(1, self._pool, column, True, True)[0]
         return not bool(self._batch(column.T, True)[0])
@@ -244,6 +273,11 @@ class CollisionChecker:
         rows = self._as_rows(configurations)
         if rows.shape[0] == 0:
             return -1
+        kernel = self._query_kernel()
+        if kernel is not None:
+            bad = int(kernel.first_invalid(rows))
+            self.checks += rows.shape[0] if bad < 0 else bad + 1
+            return bad
         if self._pool is not None and rows.flags.c_contiguous:
             hits = pin.computeCollisionsInParallel(1, self._pool, rows.T, True, True)
         else:
