@@ -189,7 +189,7 @@ def _peer_rows(scene: str, steps: int, q0: np.ndarray) -> list[Row]:
                     scene,
                     peer,
                     Timing.from_samples(np.array(out["times"])),
-                    extra={k: v for k, v in out.items() if k not in ("times",)},
+                    extra={k: v for k, v in out.items() if k not in ("times", "note")},
                     note=out.get("note", ""),
                 )
             )
