@@ -27,7 +27,7 @@ Compiled checker (``CollisionCheckerOptions.native``, default when
 ``taskspace/_native/planning_kernel.cpp`` is built): the queries go to a C++ checker on
 copies of the models with the same pairs, boxes and exact narrow phase (Pinocchio's placements,
 coal's ``computeAABB``, Pinocchio's ``computeCollision``), a broad phase over the pair list
-grouped by moving object, the last colliding pair tested first; about 2.4-3.7 us per random
+grouped by moving object, the last colliding pair tested first; about 1.8-3.0 us per random
 configuration over the seven scenarios and 1.9 us per check inside the compiled RRT-Connect
 (planner included), see the kernel's header. Answers agree with the pool up to configurations
 that graze an obstacle by less than a millimetre (coal's GJK warm start depends on the history
