@@ -19,12 +19,19 @@
 //     universe manager: obstacles and fixed base; the inflation pass over all pairs);
 //  2. (default) a list of pairs grouped by moving object: the boxes of the moving objects are
 //     updated, a group's static partners are skipped at once when the object's box misses the
-//     union of their boxes, the others are tested pair by pair.
+//     union of their boxes, the others are tested pair by pair; a pair whose boxes overlap
+//     goes through coal's separating-axis test of the two oriented boxes (each object's local
+//     AABB, inflated, at its placement: coal::obbDisjoint, as coal's OBB::overlap) before the
+//     narrow phase: about 2-3 narrow-phase calls of 0.4 us per configuration had overlapping
+//     world boxes, most of them are disjoint oriented boxes.
 // In every mode the last colliding pair is tested first. Measured on the MotionBenchMaker
 // Panda problems inside RRT-Connect (planner included, 2-core machine): 6.3 us per check with
 // dynamic AABB trees per joint, 3.6 us with mode 1 on them, 2.4 us with mode 1 on coal's
 // NaiveCollisionManager (a link holds 1-3 objects: re-inserting tree leaves costs more than
-// the box tests), 1.9 us with mode 2. The Python path costs 10-13 us per check.
+// the box tests), 1.9 us with mode 2 without and 1.35 us with the oriented boxes (random
+// configurations: 1.1-1.3 us; placements 0.3 us of it). The Python path: 10-13 us per check.
+// On 42,000 random configurations over the seven scenes the answers differed from the Python
+// pool's once, at a configuration 0.6 mm inside an obstacle.
 
 #include <boost/python.hpp>
 #include <eigenpy/eigenpy.hpp>
@@ -36,6 +43,7 @@
 #include <pinocchio/collision/tree-broadphase-manager.hpp>
 
 #include <coal/broadphase/broadphase_bruteforce.h>
+#include <coal/BV/OBB.h>
 #include <coal/broadphase/broadphase_dynamic_AABB_tree.h>
 
 #include <algorithm>
@@ -111,6 +119,18 @@ class CollisionKernel {
       inflation_[pair.second] = std::max(inflation_[pair.second], infl);
       used[pair.first] = used[pair.second] = 1;
       pairs_.push_back(p);
+    }
+    local_center_.resize(ng);
+    half_.resize(ng);
+    centers_.resize(ng);
+    obb_ok_.assign(ng, 0);
+    for (std::size_t i = 0; i < ng; ++i) {
+      const coal::AABB& local = geom_.geometryObjects[i].geometry->aabb_local;
+      local_center_[i] = local.center();
+      half_[i] = (local.max_ - local.min_) * 0.5 + coal::Vec3s::Constant(inflation_[i]);
+      obb_ok_[i] = local_center_[i].allFinite() && half_[i].allFinite() &&
+                   half_[i].maxCoeff() < 1e6 && half_[i].minCoeff() >= 0.0;
+      centers_[i] = gdata_.oMg[i].rotation() * local_center_[i] + gdata_.oMg[i].translation();
     }
     for (std::size_t i = 0; i < ng; ++i) {
       objects_.push_back(std::make_unique<coal::CollisionObject>(
@@ -227,12 +247,14 @@ class CollisionKernel {
       obj.computeAABB();
       boxes_[i] = obj.getAABB();
       boxes_[i].expand(inflation_[i]);
+      centers_[i].noalias() = gdata_.oMg[i].rotation() * local_center_[i];
+      centers_[i] += gdata_.oMg[i].translation();
     }
     for (std::size_t k = 0; k < cache_.size(); ++k) {
       const pinocchio::PairIndex p = cache_[k];
       const auto& pair = geom_.collisionPairs[p];
       if (boxes_[pair.first].overlap(boxes_[pair.second]) &&
-          pinocchio::computeCollision(geom_, gdata_, p)) {
+          !separated(pair.first, pair.second) && pinocchio::computeCollision(geom_, gdata_, p)) {
         std::rotate(cache_.begin(), cache_.begin() + k, cache_.begin() + k + 1);
         return true;
       }
@@ -245,6 +267,7 @@ class CollisionKernel {
         const GroupPair& gp = group_pairs_[j];
         if (gp.partner_static && !near_static) continue;
         if (!box.overlap(boxes_[gp.partner])) continue;
+        if (separated(g.object, gp.partner)) continue;
         if (pinocchio::computeCollision(geom_, gdata_, gp.pair)) {
           remember(gp.pair);
           return true;
@@ -252,6 +275,19 @@ class CollisionKernel {
       }
     }
     return false;
+  }
+
+  // True if the oriented boxes of objects a and b (their local AABBs, inflated, at their
+  // placements) are disjoint (coal::obbDisjoint, separating-axis test): the objects, which
+  // lie inside, cannot touch. False when either box is not finite.
+  bool separated(std::size_t a, std::size_t b) const {
+    if (!obb_ok_[a] || !obb_ok_[b]) return false;
+    const auto& Ra = gdata_.oMg[a].rotation();
+    const auto& Rb = gdata_.oMg[b].rotation();
+    // as coal's OBB::overlap: box a in the frame of box b, b's half sizes first
+    const coal::Matrix3s B = Rb.transpose() * Ra;
+    const coal::Vec3s T = Rb.transpose() * (centers_[a] - centers_[b]);
+    return coal::obbDisjoint(B, T, half_[b], half_[a]);
   }
 
   void remember(pinocchio::PairIndex p) {
@@ -297,6 +333,8 @@ class CollisionKernel {
   std::vector<double> inflation_;
   std::vector<std::unique_ptr<coal::CollisionObject>> objects_;
   std::vector<coal::AABB> boxes_;
+  std::vector<coal::Vec3s> local_center_, half_, centers_;  // oriented boxes (separated)
+  std::vector<char> obb_ok_;
   struct GroupPair {
     std::size_t partner;
     pinocchio::PairIndex pair;

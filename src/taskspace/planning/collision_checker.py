@@ -27,11 +27,11 @@ Compiled checker (``CollisionCheckerOptions.native``, default when
 ``taskspace/_native/planning_kernel.cpp`` is built): the queries go to a C++ checker on
 copies of the models with the same pairs, boxes and exact narrow phase (Pinocchio's placements,
 coal's ``computeAABB``, Pinocchio's ``computeCollision``), a broad phase over the pair list
-grouped by moving object, the last colliding pair tested first; about 1.8-3.0 us per random
-configuration over the seven scenarios and 1.9 us per check inside the compiled RRT-Connect
-(planner included), see the kernel's header. Answers agree with the pool up to configurations
-that graze an obstacle by less than a millimetre (coal's GJK warm start depends on the history
-of calls).
+grouped by moving object with coal's oriented-box test before the narrow phase, the last
+colliding pair tested first; about 1.1-1.3 us per random configuration and 1.35 us per check
+inside the compiled RRT-Connect (planner included), see the kernel's header. Answers agree
+with the pool up to configurations that graze an obstacle by less than a millimetre (coal's
+GJK warm start depends on the history of calls).
 
 Tried and not used in the pool path: (1) testing the last colliding pair first (the compiled
 checker does it; it gains about 2 % there): the batched broad-phase call does not report which

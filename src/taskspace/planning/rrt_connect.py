@@ -43,7 +43,7 @@ solved within 1 s).
 Compiled planner: ``RRTConnectOptions.native`` (default) runs this algorithm in C++
 (``taskspace/_native/planning_kernel.cpp``, built by ``python -m taskspace._native.build``)
 when the space's checker is a :class:`~taskspace.planning.CollisionChecker`; the collision
-checks call Pinocchio and coal directly (about 1.9 us per configuration inside the planner on
+checks call Pinocchio and coal directly (about 1.35 us per configuration inside the planner on
 the MotionBenchMaker Panda scenes, against 10-13 us through Python). Its random stream is its
 own (seeded by ``seed`` or by the ``rng`` passed), so its trees differ from this module's; its
 paths carry the same guarantee. Inputs are validated here before the call. Measured on the 313
