@@ -48,8 +48,9 @@ the MotionBenchMaker Panda scenes, against 10-13 us through Python). Its random 
 own (seeded by ``seed`` or by the ``rng`` passed), so its trees differ from this module's; its
 paths carry the same guarantee. Inputs are validated here before the call. Measured on the 313
 valid MotionBenchMaker Panda problems (2026-11-25, ``benchmarks/results/planning_full.json``):
-313 solved within 1 s, median 0.80 ms; this module with the same compiled checker 2.01 ms; OMPL's
-RRTConnect at the same range calling the same checker through Python 3.30 ms (0.24x).
+313 solved within 1 s, median 0.55 ms (per scenario 0.29-0.70 ms, cage 7.0 ms); this module
+with the same compiled checker 1.70 ms; OMPL's RRTConnect at the same range calling the same
+checker through Python 3.28 ms (0.17x; per scenario 0.13-0.23x, cage 0.36x).
 
 Measured for the Python path (same problems, same checker, 2-core machine; see
 ``benchmarks/suites/planning.py``):
