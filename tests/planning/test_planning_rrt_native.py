@@ -128,6 +128,29 @@ def test_seeded_runs_are_deterministic(robot) -> None:  # type: ignore[no-untype
     np.testing.assert_array_equal(a.path, b.path)
 
 
+@pytest.mark.parametrize("n", [1, 7, 8, 9, 300, 1001])
+def test_tree_nearest_is_exact(n: int) -> None:
+    """The blocked nearest-neighbour scan of the kernel's trees against a brute force.
+
+    Sizes around the block width, removed nodes (never returned), duplicated nodes (the lowest
+    index wins) and queries on the nodes themselves.
+    """
+    module = planning_kernel()
+    rng = np.random.default_rng(n)
+    nodes = rng.uniform(-3.0, 3.0, (n, 7))
+    if n > 8:
+        nodes[n // 2] = nodes[n // 3]  # a tie
+    removed = rng.choice(np.arange(1, n), size=(n - 1) // 3, replace=False) if n > 1 else []
+    removed = np.asarray(removed, dtype=np.int32)
+    queries = np.vstack([rng.uniform(-3.5, 3.5, (200, 7)), nodes, nodes[:: max(1, n // 5)] + 1e-9])
+    got = module.tree_nearest(nodes, removed, queries)
+    alive = np.setdiff1d(np.arange(n), removed)
+    d2 = ((queries[:, None, :] - nodes[None, alive, :]) ** 2).sum(axis=2)
+    expected = alive[np.argmin(d2, axis=1)]  # argmin: the first (lowest index) of equal ones
+    np.testing.assert_array_equal(got, expected)
+    assert not np.isin(got, removed).any()
+
+
 def test_trivial_and_limited_problems_end(robot) -> None:  # type: ignore[no-untyped-def]
     space, start, goal = _space(robot, "cage", 3)
     # start == goal

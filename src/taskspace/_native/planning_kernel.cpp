@@ -32,6 +32,19 @@
 // configurations: 1.1-1.3 us; placements 0.3 us of it). The Python path: 10-13 us per check.
 // On 42,000 random configurations over the seven scenes the answers differed from the Python
 // pool's once, at a configuration 0.6 mm inside an obstacle.
+//
+// Where the time goes on cage (16 valid problems x 3 seeds, 2026-11-25): 6,900 checks and
+// 2,060 iterations per problem on average (median 4,200 / 1,250), at most 31,000 checks and
+// 4,300 + 830 nodes. The goal lies inside the cage: the goal tree's EXTEND succeeds in 11 %
+// (uniform targets) and 16 % (local targets) of its tries, the start tree's in 86 %; of 48,900
+// CONNECT lines 192 reach their target. Checks: 75 % in EXTEND (about half of all for the
+// start tree growing in free space, 4 per step), 19 % in CONNECT, 5 % in the fine pass
+// (3 lazy rejections per problem); nearest neighbours were 20-23 % of the time with the
+// scalar scan (1.8 ns per node, mean tree 460 nodes, 4,300 at most), about 11 % with the
+// blocked scan below. The other scenes: nearest 1-6 %, the rest the checks.
+// Tried, not adopted: giving the big tree's turn to the trapped tree (size < 1/4) with
+// probability 0.5 or 0.75 (same run, interleaved, 3 seeds): cage 12 % / 6 % lower median,
+// 18 % / 25 % lower mean, but box 8 % / 18 % higher mean and bookshelf_tall mixed.
 
 #include <boost/python.hpp>
 #include <eigenpy/eigenpy.hpp>
@@ -50,6 +63,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 #include <memory>
 #include <random>
@@ -407,8 +421,16 @@ class LinePlanner {
 
 // ---------------------------------------------------------------------------- trees
 struct Tree {
+  // Nearest-neighbour layout: blocks of kLanes nodes with coordinate k of the block's nodes
+  // contiguous (cols[(b * d + k) * kLanes + lane]), so that the squared distances of a block
+  // are computed with vector operations; unused lanes and removed nodes hold +inf (never
+  // nearer than a node). An exact linear scan, as before: the same nearest node (the lowest
+  // index among equal distances), about twice as fast (cage: 1.8 -> 0.9 ns per node).
+  static constexpr int kLanes = 8;
+  typedef double Lanes __attribute__((vector_size(kLanes * sizeof(double))));
   int d;
   std::vector<double> q;  // node coordinates, row after row
+  std::vector<double> cols;
   std::vector<int> parent, segments;
   std::vector<char> pending, alive;
 
@@ -418,30 +440,48 @@ struct Tree {
   const double* node(int i) const { return q.data() + static_cast<std::size_t>(i) * d; }
 
   int add(const double* x, int par, int seg, bool pend) {
+    const int i = size();
     q.insert(q.end(), x, x + d);
+    if (i % kLanes == 0)
+      cols.resize(cols.size() + static_cast<std::size_t>(d) * kLanes,
+                  std::numeric_limits<double>::infinity());
+    set_cols(i, x);
     parent.push_back(par);
     segments.push_back(seg);
     pending.push_back(pend);
     alive.push_back(1);
-    return size() - 1;
+    return i;
   }
 
-  // Nearest alive node to x: (index, distance).
+  // Coordinates of node i in the block layout (x = nullptr: +inf, the node is removed).
+  void set_cols(int i, const double* x) {
+    double* c = cols.data() + static_cast<std::size_t>(i / kLanes) * d * kLanes + i % kLanes;
+    for (int k = 0; k < d; ++k)
+      c[k * kLanes] = x ? x[k] : std::numeric_limits<double>::infinity();
+  }
+
+  // Nearest alive node to x: (index, distance), the lowest index among equal distances.
   std::pair<int, double> nearest(const double* x) const {
     int best = -1;
     double best_d2 = std::numeric_limits<double>::infinity();
-    const int n = size();
-    for (int i = 0; i < n; ++i) {
-      if (!alive[i]) continue;
-      const double* p = node(i);
-      double s = 0.0;
+    const int nb = (size() + kLanes - 1) / kLanes;
+    const double* c = cols.data();
+    for (int b = 0; b < nb; ++b, c += static_cast<std::size_t>(d) * kLanes) {
+      Lanes acc = {};
       for (int k = 0; k < d; ++k) {
-        const double t = p[k] - x[k];
-        s += t * t;
+        Lanes ck;
+        std::memcpy(&ck, c + k * kLanes, sizeof(ck));
+        const Lanes t = ck - x[k];
+        acc += t * t;
       }
-      if (s < best_d2) {
-        best_d2 = s;
-        best = i;
+      double m = acc[0];
+      for (int l = 1; l < kLanes; ++l) m = std::min(m, acc[l]);
+      if (!(m < best_d2)) continue;
+      for (int l = 0; l < kLanes; ++l) {
+        if (acc[l] < best_d2) {
+          best_d2 = acc[l];
+          best = b * kLanes + l;
+        }
       }
     }
     return {best, std::sqrt(best_d2)};
@@ -469,6 +509,7 @@ struct Tree {
       parent[j] = -1;
       pending[j] = 0;
       alive[j] = 0;
+      set_cols(j, nullptr);
     }
     return count;
   }
@@ -712,6 +753,31 @@ bp::tuple rrt_connect(CollisionKernel& ck, const VectorXd& start, const VectorXd
                         tree_tuple(*planner.goal_));
 }
 
+// Nearest node (Tree::nearest) of every query row in the tree whose nodes are the rows of
+// `nodes` (row 0 the root, every other row a child of the root) after the removal of the rows
+// in `removed` (> 0, with their subtrees: none here). For the tests (against a brute force).
+Eigen::VectorXi tree_nearest(const Eigen::Ref<const RowMatrixXd>& nodes,
+                             const Eigen::VectorXi& removed,
+                             const Eigen::Ref<const RowMatrixXd>& queries) {
+  if (nodes.rows() < 1 || queries.cols() != nodes.cols())
+    throw std::invalid_argument("nodes (at least one row) and queries need the same columns");
+  Tree t(nodes.row(0).transpose());
+  for (Eigen::Index i = 1; i < nodes.rows(); ++i) {
+    const VectorXd x = nodes.row(i).transpose();
+    t.add(x.data(), 0, 1, false);
+  }
+  for (Eigen::Index j = 0; j < removed.size(); ++j) {
+    if (removed[j] <= 0 || removed[j] >= t.size()) throw std::invalid_argument("bad removed row");
+    if (t.alive[removed[j]]) t.remove_subtree(removed[j]);
+  }
+  Eigen::VectorXi out(queries.rows());
+  for (Eigen::Index i = 0; i < queries.rows(); ++i) {
+    const VectorXd x = queries.row(i).transpose();
+    out[i] = t.nearest(x.data()).first;
+  }
+  return out;
+}
+
 }  // namespace
 
 BOOST_PYTHON_MODULE(_planning_kernel) {
@@ -733,6 +799,7 @@ BOOST_PYTHON_MODULE(_planning_kernel) {
       .add_property("mode", &CollisionKernel::mode, &CollisionKernel::set_mode)
       .def("collisions", &CollisionKernel::collisions)
       .def("first_invalid", &CollisionKernel::first_invalid);
+  bp::def("tree_nearest", &tree_nearest, bp::args("nodes", "removed", "queries"));
   bp::def("rrt_connect", &rrt_connect,
           bp::args("checker", "start", "goal", "lower", "upper", "alpha", "delta", "delta_c",
                    "local", "sigma", "max_iterations", "time_limit", "seed"));
