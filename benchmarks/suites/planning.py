@@ -5,12 +5,13 @@ Scenes (obstacle worlds, start/goal) are loaded before timing. For every problem
 locked at 0.04 m, convex-hull collision geometry)? Then, with a 1 s limit:
 
 * taskspace RRT-Connect (default options: step 0.5 rad, lazy fine checking with eager coarse
-  checks at 0.15 rad, full resolution 0.03 rad on candidate paths, local sampling for a
-  trapped tree), run by the compiled planner (``taskspace/_native/planning_kernel.cpp``) when
-  it is built, and the same algorithm in Python (``rrt_connect_python``, ``native=False``);
-* taskspace RRT-Connect "classic" (every tree edge checked at 0.03 rad, uniform sampling only:
-  Kuffner and LaValle's algorithm, the same checks as OMPL's RRTConnect at the same range;
-  compiled when built) to show where the collision checks and the time go;
+  checks at 0.15 rad, full resolution 0.03 rad on candidate paths, local sampling and turns
+  for a trapped tree), run by the compiled planner
+  (``taskspace/_native/planning_kernel.cpp``) when it is built, and the same algorithm in
+  Python (``rrt_connect_python``, ``native=False``);
+* taskspace RRT-Connect "classic" (every tree edge checked at 0.03 rad, uniform sampling and
+  alternate turns only: Kuffner and LaValle's algorithm, the same checks as OMPL's RRTConnect
+  at the same range; compiled when built) to show where the collision checks and the time go;
 * taskspace Lazy PRM (single query: roadmap of 300 nodes, k = 12, 20 % of them near start and
   goal, grown by 300 nodes until connected, all inside the 1 s) and, in the quick run, PRM
   (200 nodes, k = 8, every edge checked).
@@ -147,6 +148,7 @@ def _run_ours(
                 step_size=STEP_SIZE,
                 coarse_resolution=coarse,
                 local_sampling=local,
+                trapped_priority=0.75 if local > 0.0 else 0.0,
                 time_limit_s=TIME_LIMIT,
                 seed=k,
                 native=native,

@@ -101,3 +101,28 @@ def test_local_sampling_frees_a_trapped_goal_tree() -> None:
             assert res.success
             iterations[local].append(res.iterations)
     assert np.median(iterations[0.5]) < np.median(iterations[0.0]) / 3
+
+
+@pytest.mark.parametrize("native", [True, False])
+def test_trapped_tree_takes_the_other_trees_turns(native: bool) -> None:
+    # cage 3: the goal (inside the cage) is trapped; the start tree grows in free space. With
+    # trapped_priority the goal tree takes some of the start tree's turns and keeps about a
+    # quarter of its nodes; with 0 the trees alternate (no turn taken) and it falls behind.
+    robot = motionbenchmaker_panda()
+    req = motionbenchmaker_problems(ROOT, "cage", [3])[0].apply(robot)
+    space = ConfigurationSpace.from_robot(robot, edge=EdgeCheckOptions(resolution=0.03))
+    share: dict[float, list[float]] = {0.0: [], 0.75: []}
+    turns: dict[float, float] = {0.0: 0.0, 0.75: 0.0}
+    for priority in share:
+        for seed in range(4):
+            opts = RRTConnectOptions(
+                trapped_priority=priority, native=native, time_limit_s=None, seed=seed
+            )
+            res = rrt_connect(space, req.start, req.goal, opts)
+            assert res.success
+            assert _reference_free(robot, res.path, 0.03).mean() > 0.98
+            goal, start = res.log["goal_tree_nodes"], res.log["start_tree_nodes"]
+            share[priority].append(goal / (goal + start))
+            turns[priority] += res.log["trapped_turns"]
+    assert turns[0.0] == 0 and turns[0.75] > 0
+    assert np.median(share[0.75]) > np.median(share[0.0]) + 0.02

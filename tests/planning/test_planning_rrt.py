@@ -138,6 +138,8 @@ def test_rrt_connect_option_errors() -> None:
     space = wall_space()
     with pytest.raises(InvalidInputError, match=r"local_sampling must be in \[0, 1\], got 1.5"):
         rrt_connect(space, START, GOAL, RRTConnectOptions(local_sampling=1.5))
+    with pytest.raises(InvalidInputError, match=r"trapped_priority must be in \[0, 1\], got -0.1"):
+        rrt_connect(space, START, GOAL, RRTConnectOptions(trapped_priority=-0.1))
     with pytest.raises(InvalidInputError, match="coarse_resolution"):
         rrt_connect(space, START, GOAL, RRTConnectOptions(coarse_resolution=-1.0))
     with pytest.raises(InvalidInputError, match="step_size"):

@@ -38,7 +38,14 @@ tree then stays at a few nodes while the start tree grows to thousands. When a t
 than a quarter of the other's nodes, its target is, with probability ``local_sampling``, drawn
 around one of its own nodes (a Gaussian of standard deviation ``local_sigma``), which lets it
 grow out of the region (on the 313 valid MotionBenchMaker Panda problems: 313 instead of 309
-solved within 1 s).
+solved within 1 s). Such a tree also takes the other tree's turn with probability
+``trapped_priority`` (the other tree then CONNECTs towards its new node): the free tree, whose
+EXTEND nearly always succeeds, would otherwise spend most of the collision checks on growing
+(cage: 86 % of the start tree's EXTEND succeed, 11-16 % of the goal tree's; half the checks
+went into the start tree's steps). Measured for the compiled planner against alternate turns
+(0) in the same runs, interleaved, on the 313 problems with three sets of 20 seeds: median time
+per scenario 2-15 % lower (cage 11-13 %) but box's in one set (+2 %), mean time 1-29 % lower
+but box's in one set (+5 %), all solved; for this module (3 seeds) 0.81x the total time.
 
 Compiled planner: ``RRTConnectOptions.native`` (default) runs this algorithm in C++
 (``taskspace/_native/planning_kernel.cpp``, built by ``python -m taskspace._native.build``)
@@ -103,6 +110,9 @@ class RRTConnectOptions:
             region) as ``q_i + sigma N(0, I)`` around one of its own random nodes ``q_i``
             instead of uniformly; uniform samples keep probability ``>= 1 - p``.
         local_sigma: ``sigma`` of those local targets [rad or m].
+        trapped_priority: probability that a trapped tree (as above) takes the other tree's
+            turn: it EXTENDs and the other tree CONNECTs towards its new node; 0 alternates
+            the trees as the classic algorithm.
         max_iterations: number of samples ``n``.
         time_limit_s: wall-clock budget [s] (``None`` = no limit).
         seed: random seed used when no ``rng`` is passed.
@@ -117,6 +127,7 @@ class RRTConnectOptions:
     partial_extend: bool = False
     local_sampling: float = 0.5
     local_sigma: float = 0.5
+    trapped_priority: float = 0.75
     max_iterations: int = 100_000
     time_limit_s: float | None = 1.0
     seed: int = 0
@@ -440,11 +451,12 @@ def _rrt_connect_native(
         delta_c,
         opts.local_sampling,
         opts.local_sigma,
+        opts.trapped_priority,
         opts.max_iterations,
         remaining,
         seed,
     )
-    status_code, path, iterations, edges, rejections, removed, start_tree, goal_tree = out
+    status_code, path, iterations, edges, rejections, removed, turns, start_tree, goal_tree = out
     checks = int(kernel.checks - kernel_checks0)
     space.checker.checks += checks
     space.edge_checks += int(edges)
@@ -480,6 +492,7 @@ def _rrt_connect_native(
             "goal_tree_nodes": float(trees[1].size),
             "lazy_rejections": float(rejections),
             "nodes_removed": float(removed),
+            "trapped_turns": float(turns),
             "native": 1.0,
         },
     )
@@ -509,8 +522,8 @@ def rrt_connect(
 
     Returns:
         A :class:`PlannerResult`; ``trees`` holds the start and goal trees; ``log`` has the
-        node counts, the candidate paths rejected by the fine check (``lazy_rejections``) and
-        the nodes removed with them.
+        node counts, the candidate paths rejected by the fine check (``lazy_rejections``),
+        the nodes removed with them and the turns taken by a trapped tree (``trapped_turns``).
 
     Raises:
         PlanningError: start or goal outside the bounds or in collision (the message lists
@@ -524,6 +537,8 @@ def rrt_connect(
     if not 0.0 <= opts.local_sampling <= 1.0:
         raise InvalidInputError(f"local_sampling must be in [0, 1], got {opts.local_sampling}")
     check_positive(opts.local_sigma, "local_sigma")
+    if not 0.0 <= opts.trapped_priority <= 1.0:
+        raise InvalidInputError(f"trapped_priority must be in [0, 1], got {opts.trapped_priority}")
     delta = space.edge.resolution
     delta_c = delta
     if opts.coarse_resolution is not None:
@@ -544,7 +559,7 @@ def rrt_connect(
     lines = _LinePlanner(alpha, delta, delta_c)
     status = PlannerStatus.ITERATION_LIMIT
     path: FloatArray = np.empty((0, space.dim))
-    iterations = rejections = removed = 0
+    iterations = rejections = removed = turns = 0
     if space.motion_valid(q_start, q_goal):
         path = np.stack([q_start, q_goal])
         status = PlannerStatus.SOLVED
@@ -552,6 +567,7 @@ def rrt_connect(
         tree_a, tree_b = tree_start, tree_goal
         block = 256
         local = opts.local_sampling
+        trapped = opts.trapped_priority
         samples = space.sample_uniform(rng, block)
         for iterations in range(1, opts.max_iterations + 1):
             if time.perf_counter() > deadline:
@@ -561,6 +577,10 @@ def rrt_connect(
             if j == 0 and iterations > 1:
                 samples = space.sample_uniform(rng, block)
             q_rand = samples[j]
+            if trapped > 0.0 and 4 * len(tree_b.nn) < len(tree_a.nn) and rng.random() < trapped:
+                # T_b is trapped: it takes T_a's turn (the trees are swapped back below).
+                tree_a, tree_b = tree_b, tree_a
+                turns += 1
             if local > 0.0 and 4 * len(tree_a.nn) < len(tree_b.nn) and rng.random() < local:
                 # T_a is trapped (typically in a tight goal region): aim near one of its nodes.
                 node = tree_a.nn.points[int(rng.integers(len(tree_a.nn)))]
@@ -620,5 +640,6 @@ def rrt_connect(
             "goal_tree_nodes": float(len(tree_goal.nn)),
             "lazy_rejections": float(rejections),
             "nodes_removed": float(removed),
+            "trapped_turns": float(turns),
         },
     )
