@@ -55,9 +55,13 @@ the MotionBenchMaker Panda scenes, against 10-13 us through Python). Its random 
 own (seeded by ``seed`` or by the ``rng`` passed), so its trees differ from this module's; its
 paths carry the same guarantee. Inputs are validated here before the call. Measured on the 313
 valid MotionBenchMaker Panda problems (2026-11-25, ``benchmarks/results/planning_full.json``):
-313 solved within 1 s, median 0.55 ms (per scenario 0.29-0.70 ms, cage 7.0 ms); this module
+313 solved within 1 s, median 0.56 ms (per scenario 0.35-0.75 ms, cage 3.3 ms); this module
 with the same compiled checker 1.70 ms; OMPL's RRTConnect at the same range calling the same
-checker through Python 3.28 ms (0.17x; per scenario 0.13-0.23x, cage 0.36x).
+checker through Python 3.29 ms (0.17x; per scenario 0.11-0.23x, cage 0.24x). OMPL's time is
+about 1 ms per query plus 2.7-2.9 us per check (fit of the scenario medians), ours about
+1.1-1.5 us per check: the ratio is lowest on the easy problems and tends to the ratio of the
+costs per check times that of the checks on the long ones (cage: 2,250 against 4,560 checks,
+median).
 
 Measured for the Python path (same problems, same checker, 2-core machine; see
 ``benchmarks/suites/planning.py``):
