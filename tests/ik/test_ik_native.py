@@ -205,3 +205,51 @@ def test_errors_on_the_native_path(panda: Robot, g1: Robot) -> None:
     tcp.set_target([0.4, 0.0, 0.5])
     with pytest.raises(InvalidInputError, match="state belongs to robot"):
         ik.solve(g1.state(), DT)
+
+
+@pytest.mark.parametrize("name", ["ur5", "talos", "solo12", "panda", "g1"])
+def test_random_stacks_match_python_path_on_every_robot(robot_loader, name: str) -> None:  # type: ignore[no-untyped-def]
+    """Random stacks (end effectors as poses or positions, CoM, posture) with random
+    weights, gains and targets, at random configurations near the limits: the kernel's step
+    equals the Python path's (quadprog) on fixed- and floating-base robots."""
+    robot = robot_loader(name)
+    rng = np.random.default_rng(sum(map(ord, name)))
+    frames = list(robot.end_effectors) or [robot.model.frames[-1].name]
+    compared = solved = 0
+    for trial in range(6):
+        q = pin.randomConfiguration(robot.model, -np.ones(robot.nq), np.ones(robot.nq))
+        if robot.is_floating:
+            q[:3] = rng.uniform(-0.3, 0.3, 3)
+        idx = robot.limited_joints_q
+        lo, hi = robot.lower_limits[idx], robot.upper_limits[idx]
+        q[idx] = lo + rng.uniform(-0.02, 1.02, idx.size) * (hi - lo)  # some just outside
+        state = robot.state(q)
+        tasks = []
+        for f in frames:
+            kind = FramePose if rng.random() < 0.6 else Position
+            task = Task(
+                kind(robot, f), weight=float(rng.uniform(0.1, 2.0)), gain=rng.uniform(0.2, 1)
+            )
+            task.set_target_from_state(state)
+            if kind is Position:
+                task.set_target(task.target + rng.normal(0.0, 0.05, 3))
+            else:
+                offset = pin.SE3(pin.exp3(rng.normal(0.0, 0.2, 3)), rng.normal(0.0, 0.05, 3))
+                task.set_target(task.target * offset)
+            tasks.append(task)
+        if robot.is_floating or trial % 2:
+            com = Task(CenterOfMass(robot), weight=float(rng.uniform(0.5, 5.0)))
+            com.set_target_from_state(state)
+            tasks.append(com)
+        posture_target = pin.randomConfiguration(robot.model, -np.ones(robot.nq), np.ones(robot.nq))
+        tasks.append(
+            Task(JointConfiguration(robot), posture_target, weight=float(rng.uniform(1e-4, 1e-1)))
+        )
+        limits = [JointPositionLimits(robot), JointVelocityLimits(robot, scale=rng.uniform(0.2, 1))]
+        native, python = _pair(robot, tasks, limits)
+        a, b = native.solve(state, 0.01), python.solve(state, 0.01)
+        assert a.success and a.qp.backend == "native"
+        np.testing.assert_allclose(a.dq, b.dq, atol=STEP_TOL, rtol=0)
+        compared += 1
+        solved += a.qp.status is QPStatus.SOLVED
+    assert compared == 6 and solved > 0  # the active set was exercised
