@@ -31,11 +31,12 @@ from taskspace.errors import PlanningError  # noqa: E402
 from taskspace.planning.configuration_space import ConfigurationSpace, EdgeCheckOptions  # noqa: E402
 from taskspace.planning.scene_loader import (  # noqa: E402
     MOTIONBENCHMAKER_SCENARIOS,
+    motionbenchmaker_dir,
     motionbenchmaker_panda,
     motionbenchmaker_problems,
 )
 
-DATA = Path("/work/shared/benchmarks/motionbenchmaker_panda")
+DATA = motionbenchmaker_dir()
 
 
 def solve_one(

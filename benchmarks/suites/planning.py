@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import os
 import time
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -41,13 +40,14 @@ from taskspace.planning.prm import PRMOptions, prm
 from taskspace.planning.rrt_connect import RRTConnectOptions, rrt_connect
 from taskspace.planning.scene_loader import (
     MOTIONBENCHMAKER_SCENARIOS,
+    motionbenchmaker_dir,
     motionbenchmaker_panda,
     motionbenchmaker_problems,
 )
 from taskspace.planning.shortcut import shortcut_path
 
 SUITE = "planning"
-ROOT = Path("/work/shared/benchmarks/motionbenchmaker_panda")
+ROOT = motionbenchmaker_dir()
 RESOLUTION = 0.03  # local-planner resolution delta [rad], shared with the peers
 STEP_SIZE = RRTConnectOptions().step_size  # RRT-Connect range alpha [rad], shared with OMPL
 TIME_LIMIT = 1.0  # [s]

@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import argparse
 import os
-from pathlib import Path
 
 import numpy as np
 
@@ -23,12 +22,16 @@ from taskspace.planning.configuration_space import ConfigurationSpace, EdgeCheck
 from taskspace.planning.prm import PRMOptions, prm
 from taskspace.planning.rrt import RRTOptions, rrt
 from taskspace.planning.rrt_connect import RRTConnectOptions, rrt_connect
-from taskspace.planning.scene_loader import motionbenchmaker_panda, motionbenchmaker_problems
+from taskspace.planning.scene_loader import (
+    motionbenchmaker_dir,
+    motionbenchmaker_panda,
+    motionbenchmaker_problems,
+)
 from taskspace.planning.shortcut import shortcut_path
 from taskspace.viz.plots import save_or_show, style_figure, use_agg_if_headless
 
 FAST = os.environ.get("TASKSPACE_FAST") == "1"
-DATA = Path("/work/shared/benchmarks/motionbenchmaker_panda")
+DATA = motionbenchmaker_dir()
 BOXES = np.array([[3.0, 0.0, 4.0, 6.5], [6.0, 3.5, 7.0, 10.0], [1.0, 7.5, 4.5, 8.5]])
 
 

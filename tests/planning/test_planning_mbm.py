@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pinocchio as pin
 import pytest
@@ -11,10 +9,14 @@ import pytest
 from taskspace.errors import PlanningError
 from taskspace.planning.configuration_space import ConfigurationSpace, EdgeCheckOptions
 from taskspace.planning.rrt_connect import RRTConnectOptions, rrt_connect
-from taskspace.planning.scene_loader import motionbenchmaker_panda, motionbenchmaker_problems
+from taskspace.planning.scene_loader import (
+    motionbenchmaker_dir,
+    motionbenchmaker_panda,
+    motionbenchmaker_problems,
+)
 from taskspace.planning.shortcut import shortcut_path
 
-ROOT = Path("/work/shared/benchmarks/motionbenchmaker_panda")
+ROOT = motionbenchmaker_dir()
 pytestmark = pytest.mark.skipif(not ROOT.is_dir(), reason="MotionBenchMaker files not present")
 
 

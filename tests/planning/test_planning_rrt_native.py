@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import math
 import os
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -16,10 +15,14 @@ from taskspace.planning.collision_checker import CollisionChecker, CollisionChec
 from taskspace.planning.configuration_space import ConfigurationSpace, EdgeCheckOptions
 from taskspace.planning.planner_result import PlannerStatus
 from taskspace.planning.rrt_connect import RRTConnectOptions, rrt_connect
-from taskspace.planning.scene_loader import motionbenchmaker_panda, motionbenchmaker_problems
+from taskspace.planning.scene_loader import (
+    motionbenchmaker_dir,
+    motionbenchmaker_panda,
+    motionbenchmaker_problems,
+)
 from tests.planning._planning_worlds import wall_space
 
-ROOT = Path("/work/shared/benchmarks/motionbenchmaker_panda")
+ROOT = motionbenchmaker_dir()
 DELTA = 0.03  # planner resolution [rad]
 POOL = CollisionCheckerOptions(native=False)  # Pinocchio's broad-phase pool, no kernel
 

@@ -10,14 +10,16 @@ import yaml
 
 from taskspace.errors import ModelLoadError
 from taskspace.planning.scene_loader import (
+    MOTIONBENCHMAKER_ENV,
     MOTIONBENCHMAKER_SCENARIOS,
     load_moveit_request,
     load_moveit_scene,
+    motionbenchmaker_dir,
     motionbenchmaker_panda,
     motionbenchmaker_problems,
 )
 
-ROOT = Path("/work/shared/benchmarks/motionbenchmaker_panda")
+ROOT = motionbenchmaker_dir()
 pytestmark = pytest.mark.skipif(not ROOT.is_dir(), reason="MotionBenchMaker files not present")
 
 
@@ -79,3 +81,15 @@ def test_bad_files_raise(tmp_path: Path) -> None:
         load_moveit_scene(bad)
     with pytest.raises(ModelLoadError, match="no scenario 'nope'"):
         motionbenchmaker_problems(ROOT, "nope")
+
+
+def test_motionbenchmaker_dir_is_found_and_can_be_overridden(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    assert (ROOT / "cage_panda").is_dir()
+    monkeypatch.setenv(MOTIONBENCHMAKER_ENV, str(tmp_path))
+    assert motionbenchmaker_dir() == tmp_path
+    monkeypatch.setenv(MOTIONBENCHMAKER_ENV, str(tmp_path / "missing"))
+    monkeypatch.chdir(tmp_path)
+    found = motionbenchmaker_dir()  # the env path is missing: the checkout's neighbour
+    assert found.resolve() == ROOT.resolve()

@@ -63,6 +63,7 @@ from taskspace.planning.scene_loader import (
     MOTIONBENCHMAKER_SCENARIOS,
     load_moveit_request,
     load_moveit_scene,
+    motionbenchmaker_dir,
     motionbenchmaker_panda,
     motionbenchmaker_problems,
 )

@@ -17,6 +17,7 @@ does not have as free joints (the Panda's locked fingers) are ignored and listed
 from __future__ import annotations
 
 import logging
+import os
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -254,6 +255,35 @@ def motionbenchmaker_panda(*, finger_opening: float = 0.04, convex_collision: bo
     )
     robot.description = f"{robot.description}, fingers locked at {finger_opening} m"
     return robot
+
+
+MOTIONBENCHMAKER_ENV = "TASKSPACE_MOTIONBENCHMAKER_DIR"
+"""Environment variable naming the MotionBenchMaker Panda directory."""
+
+
+def motionbenchmaker_dir() -> Path:
+    """Directory of the MotionBenchMaker Panda problems (``<scenario>_panda/*.yaml``).
+
+    Searched in order: ``$TASKSPACE_MOTIONBENCHMAKER_DIR``; ``shared/benchmarks/
+    motionbenchmaker_panda`` beside the working directory or beside the taskspace checkout
+    (the project's layout: the repository and ``shared/`` side by side); ``/work/shared/...``.
+
+    Raises:
+        ModelLoadError: none of these exists (the message lists the places searched).
+    """
+    rel = Path("shared") / "benchmarks" / "motionbenchmaker_panda"
+    env = os.environ.get(MOTIONBENCHMAKER_ENV)
+    candidates = [Path(env)] if env else []
+    checkout = Path(__file__).resolve().parents[3]  # src/taskspace/planning/ -> checkout
+    candidates += [Path.cwd().parent / rel, checkout.parent / rel, Path("/work") / rel]
+    for c in candidates:
+        if c.is_dir():
+            return c
+    raise ModelLoadError(
+        "MotionBenchMaker Panda problems not found; searched: "
+        + ", ".join(str(c) for c in candidates)
+        + f" (set {MOTIONBENCHMAKER_ENV})"
+    )
 
 
 def motionbenchmaker_problems(
