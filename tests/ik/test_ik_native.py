@@ -253,3 +253,16 @@ def test_random_stacks_match_python_path_on_every_robot(robot_loader, name: str)
         compared += 1
         solved += a.qp.status is QPStatus.SOLVED
     assert compared == 6 and solved > 0  # the active set was exercised
+
+
+def test_kernel_frees_what_pinocchio_allocated(robot_loader) -> None:  # type: ignore[no-untyped-def]
+    """A Data and the neutral vector made by Pinocchio's library are freed by the kernel: the
+    kernel's Eigen allocator matches the wheels' (a mismatch crashes this test's process)."""
+    module = ik_kernel()
+    for name in ("panda", "talos"):
+        robot = robot_loader(name)
+        data = robot.model.createData()
+        pin.forwardKinematics(robot.model, data, pin.neutral(robot.model))
+        expected = np.linalg.norm(data.oMi[robot.model.njoints - 1].translation)
+        for _ in range(20):
+            assert module.abi_selfcheck(robot.model) == pytest.approx(expected, abs=1e-12)

@@ -71,11 +71,16 @@ DEFINES = (
 
 # Vector instructions of the building machine (the kernels are built where they run). The
 # alignment of fixed-size Eigen types stays at the 16 bytes of the Pinocchio wheels, so that
-# Model and Data keep the layout of the library they come from.
+# Model and Data keep the layout of the library they come from. Eigen's heap allocator must
+# match the wheels' too: with AVX the ideal alignment (32 or 64 bytes) exceeds 16, and Eigen
+# would then allocate with its own offset-storing aligned malloc, so that freeing in a kernel
+# what Pinocchio's library allocated (a pinocchio::Data, the vector of pinocchio::neutral)
+# crashes; glibc's malloc already gives the 16 bytes that dynamic-size objects assume here.
 ARCH_FLAGS = (
     "-march=native",
     "-DEIGEN_MAX_ALIGN_BYTES=16",
     "-DEIGEN_MAX_STATIC_ALIGN_BYTES=16",
+    "-DEIGEN_MALLOC_ALREADY_ALIGNED=1",
 )
 
 
@@ -136,7 +141,7 @@ def command(name: str, kernel: Kernel, output: Path) -> list[str]:
 
 
 def build(force: bool = False, verbose: bool = True, only: list[str] | None = None) -> list[Path]:
-    """Compile every kernel whose library is missing or older than its source.
+    """Compile every kernel whose library is missing or older than its source or this file.
 
     Args:
         force: rebuild even if up to date.
@@ -150,7 +155,8 @@ def build(force: bool = False, verbose: bool = True, only: list[str] | None = No
             continue
         source = kernel.source
         output = HERE / f"{name}{suffix}"
-        if not force and output.exists() and output.stat().st_mtime >= source.stat().st_mtime:
+        newest = max(source.stat().st_mtime, Path(__file__).stat().st_mtime)  # flags live here
+        if not force and output.exists() and output.stat().st_mtime >= newest:
             continue
         cmd = command(name, kernel, output)
         t0 = time.perf_counter()

@@ -25,6 +25,7 @@
 #include <pinocchio/algorithm/frames.hpp>
 #include <pinocchio/algorithm/jacobian.hpp>
 #include <pinocchio/algorithm/joint-configuration.hpp>
+#include <pinocchio/algorithm/kinematics.hpp>
 
 #include <algorithm>
 #include <chrono>
@@ -488,6 +489,16 @@ class WeightedIKKernel {
   MatrixXd L_;
 };
 
+// Objects allocated by Pinocchio's library and freed here (a Data, the vector of neutral):
+// crashes when the kernel's Eigen allocator differs from the wheels' (see build.py). Returns
+// the distance of the last joint from the origin at the neutral configuration [m].
+double abi_selfcheck(const Model& model) {
+  Data data(model);
+  const VectorXd q = pinocchio::neutral(model);
+  pinocchio::forwardKinematics(model, data, q);
+  return data.oMi[model.njoints - 1].translation().norm();
+}
+
 }  // namespace
 
 BOOST_PYTHON_MODULE(_ik_kernel) {
@@ -496,6 +507,7 @@ BOOST_PYTHON_MODULE(_ik_kernel) {
   bp::scope().attr("UNCONSTRAINED") = kUnconstrained;
   bp::scope().attr("SOLVED") = kSolved;
   bp::scope().attr("MAX_ITERATIONS") = kMaxIterations;
+  bp::def("abi_selfcheck", &abi_selfcheck, bp::args("model"));
   bp::class_<WeightedIKKernel>("WeightedIKKernel", bp::init<int, int>(bp::args("self", "nv", "nq")))
       .def("add_pose", &WeightedIKKernel::add_pose)
       .def("add_position", &WeightedIKKernel::add_position)
