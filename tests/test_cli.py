@@ -112,3 +112,28 @@ def test_demo_main_writes_outputs(tmp_path):
     assert proc.returncode == 0, proc.stderr
     assert "manipulability sqrt(det(J J^T)) = " in proc.stdout
     assert (tmp_path / "d.png").stat().st_size > 10_000
+
+
+def test_info_reports_versions_and_kernels(capsys, monkeypatch):
+    import re
+
+    import pinocchio as pin
+
+    from taskspace import _native
+
+    assert main(["info"]) == 0
+    lines = dict(
+        re.split(r"\s{2,}", line, maxsplit=1)
+        for line in capsys.readouterr().out.split("\n")
+        if re.search(r"\S\s{2,}\S", line)
+    )
+    assert lines["pinocchio"] == pin.__version__
+    ik = lines["IK kernel (weighted differential IK)"]
+    assert ik == ("compiled, in use" if _native.ik_kernel() is not None else "not in use")
+    # without the kernels: said so, with the reason
+    monkeypatch.setattr(_native, "ik_kernel", lambda: None)
+    monkeypatch.setattr(_native, "planning_kernel", lambda: None)
+    monkeypatch.setattr(_native, "status", lambda: "not built (test)")
+    assert main(["info"]) == 0
+    out = capsys.readouterr().out
+    assert out.count("not in use") == 2 and "not built (test)" in out

@@ -2,6 +2,7 @@
 
 Usage::
 
+    taskspace info
     taskspace robots
     taskspace demo NAME [--html out.html] [--png out.png] [--no-viewer] [example args...]
     taskspace bench [SUITE ...] [--quick] [--save FILE]
@@ -187,6 +188,48 @@ def _progress(items: Sequence[str], desc: str, enabled: bool = True) -> Sequence
     return tqdm(items, desc=desc, leave=False)  # type: ignore[return-value]
 
 
+# ---------------------------------------------------------------------- info
+def cmd_info(args: argparse.Namespace) -> int:
+    """Versions of taskspace and of the libraries it runs on, and whether the kernels are used."""
+    from importlib import metadata
+
+    from taskspace import _native
+
+    def version(dist: str) -> str:
+        try:
+            return metadata.version(dist)
+        except metadata.PackageNotFoundError:
+            return "not installed"
+
+    rows = [(name, version(dist)) for name, dist in INFO_PACKAGES]
+    kernels = [
+        ("IK kernel (weighted differential IK)", _native.ik_kernel()),
+        ("planning kernel (RRT-Connect, collision check)", _native.planning_kernel()),
+    ]
+    width = max(len(n) for n, _ in [*rows, *kernels])
+    for name, value in rows:
+        print(f"{name:<{width}}  {value}")
+    for name, module in kernels:
+        print(f"{name:<{width}}  {'compiled, in use' if module is not None else 'not in use'}")
+    reason = _native.status()
+    if reason:
+        print(f"\nPython paths are used where a kernel is missing: {reason}")
+    return 0
+
+
+INFO_PACKAGES = (
+    ("taskspace", "taskspace"),
+    ("pinocchio", "pin"),
+    ("coal", "coal"),
+    ("proxsuite", "proxsuite"),
+    ("qpsolvers", "qpsolvers"),
+    ("meshcat", "meshcat"),
+    ("example-robot-data", "example-robot-data"),
+    ("numpy", "numpy"),
+)
+"""(name shown, distribution) of the packages ``taskspace info`` reports."""
+
+
 # ---------------------------------------------------------------------- parser
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of ``taskspace``."""
@@ -195,6 +238,8 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("-v", "--verbose", action="store_true", help="log at INFO level")
     sub = parser.add_subparsers(dest="command", required=True)
+
+    sub.add_parser("info", help="versions of the libraries and whether the compiled kernels run")
 
     p = sub.add_parser("robots", help="list the robot registry (nq, nv, floating, end-effectors)")
     p.add_argument("--no-load", action="store_true", help="do not load the models (no nq/nv)")
@@ -232,6 +277,8 @@ def main(argv: list[str] | None = None) -> int:
     if extra and args.command != "demo":
         parser.error(f"unrecognized arguments: {' '.join(extra)}")
     try:
+        if args.command == "info":
+            return cmd_info(args)
         if args.command == "robots":
             return cmd_robots(args)
         if args.command == "demo":
