@@ -53,7 +53,6 @@ struct Item {
   int row;
   int dim;
   std::vector<int> rows;  // frame tasks: support columns; posture: selected rows (empty: all)
-  MatrixXd J;             // weighted rows on the support columns (dim x |support|)
 };
 
 // Status codes returned to Python.
@@ -160,22 +159,12 @@ class WeightedIKKernel {
       }
     }
     combine_bounds(hard_boxes, soft_boxes);
-    // H = M^T M + mu I (lower triangle), g = -M^T r, task by task on its support columns S:
-    // H(S, S) += Js^T Js, g(S) -= Js^T r_s
+    // H = M^T M + mu I (lower triangle), g = -M^T r: one symmetric rank update of the stacked
+    // rows (zero outside each task's support columns)
     H_.setZero();
     g_.setZero();
     fill_rows(model, data, targets);
     const auto t1 = std::chrono::steady_clock::now();
-    // one dense product on the stacked rows (zero outside each task's support columns)
-    for (const Item& it : items_) {
-      const int ns = static_cast<int>(it.rows.size());
-      auto rows = M_.middleRows(it.row, it.dim);
-      if (ns == nv_) {
-        rows = it.J;
-      } else {
-        for (int a = 0; a < ns; ++a) rows.col(it.rows[a]) = it.J.col(a);
-      }
-    }
     H_.selfadjointView<Eigen::Lower>().rankUpdate(M_.transpose());
     g_.noalias() -= M_.transpose() * r_;
     H_.diagonal().array() += damping;
@@ -207,7 +196,6 @@ class WeightedIKKernel {
   }
 
   int add(Item item) {
-    item.J.setZero(item.dim, static_cast<Eigen::Index>(item.rows.size()));
     items_.push_back(item);
     m_ += item.dim;
     M_.setZero(m_, nv_);
@@ -216,13 +204,14 @@ class WeightedIKKernel {
     return item.row;
   }
 
-  // Weighted task rows on the support columns (it.J = sqrt(w) J(:, S)) and the weighted
-  // targets r = -gain sqrt(w) e of every row task.
+  // Weighted task rows sqrt(w) J in M (written on each task's support columns S only: the
+  // other columns stay zero) and the weighted targets r = -gain sqrt(w) e.
   void fill_rows(const Model& model, Data& data, bp::list& targets) {
     bool com_done = false;
     for (std::size_t k = 0; k < items_.size(); ++k) {
-      Item& it = items_[k];
+      const Item& it = items_[k];
       const int ns = static_cast<int>(it.rows.size());
+      auto rows = M_.middleRows(it.row, it.dim);
       auto e = e_.segment(it.row, it.dim);
       bp::object target = targets[k];
       switch (it.kind) {
@@ -233,7 +222,8 @@ class WeightedIKKernel {
           pinocchio::Jlog6(err, Jlog_);
           Jg_.resize(6, ns);
           for (int a = 0; a < ns; ++a) Jg_.col(a) = J6_.col(it.rows[a]);
-          it.J.noalias() = Jlog_ * Jg_;
+          Jw_.noalias() = Jlog_ * Jg_;
+          for (int a = 0; a < ns; ++a) rows.col(it.rows[a]) = Jw_.col(a);
           e = pinocchio::log6(err).toVector();
           break;
         }
@@ -241,7 +231,7 @@ class WeightedIKKernel {
           const Eigen::Ref<const VectorXd> p = bp::extract<Eigen::Ref<const VectorXd>>(target);
           if (p.size() != 3) throw std::invalid_argument("position target size != 3");
           pinocchio::getFrameJacobian(model, data, it.frame, pinocchio::LOCAL_WORLD_ALIGNED, J6_);
-          for (int a = 0; a < ns; ++a) it.J.col(a) = J6_.col(it.rows[a]).head<3>();
+          for (int a = 0; a < ns; ++a) rows.col(it.rows[a]) = J6_.col(it.rows[a]).head<3>();
           e = data.oMf[it.frame].translation() - p;
           break;
         }
@@ -252,14 +242,14 @@ class WeightedIKKernel {
             pinocchio::jacobianCenterOfMass(model, data, true);
             com_done = true;
           }
-          it.J = data.Jcom;
+          rows = data.Jcom;
           e = data.com[0] - c;
           break;
         }
         default:
           throw std::logic_error("unknown task kind");
       }
-      it.J.array().colwise() *= w_.segment(it.row, it.dim).array();
+      rows.array().colwise() *= w_.segment(it.row, it.dim).array();
     }
     r_ = c_.cwiseProduct(e_);
   }
@@ -477,12 +467,11 @@ class WeightedIKKernel {
   static constexpr double kInf = 1e20;  // taskspace.qp.problem.INF
   VectorXd diff_;
   bool scaled_ = false;
-  MatrixXd M_, Jdiff_, H_, Hs_;
-  Eigen::Matrix<double, 6, Eigen::Dynamic> J6_, Jg_;
+  MatrixXd M_, Jdiff_, H_;
+  Eigen::Matrix<double, 6, Eigen::Dynamic> J6_, Jg_, Jw_;
   std::vector<int> pl_iq_, pl_iv_;
   VectorXd pl_low_, pl_high_, pl_lb_, pl_ub_;
   bool pl_set_ = false, pl_hard_ = false;
-  VectorXd gs_;
   Eigen::Matrix<double, 6, 6> Jlog_;
   VectorXd r_, e_, w_, c_, g_, x_, grad_;
   std::vector<int> state_;
