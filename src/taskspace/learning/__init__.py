@@ -1,0 +1,1 @@
+"""Learning in robotics: datasets, MDPs, policy search, movement primitives."""
