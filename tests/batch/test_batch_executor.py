@@ -194,3 +194,12 @@ def test_ctrl_c_stops_cleanly_and_keeps_what_was_written(tmp_path: Path) -> None
     time.sleep(0.5)
     ps = subprocess.run(["ps", "-eo", "pid,ppid,args"], capture_output=True, text=True).stdout
     assert str(proc.pid) not in {line.split()[1] for line in ps.splitlines()[1:] if line.split()}
+
+
+def test_executor_keeps_workers_and_contexts_between_runs() -> None:
+    with Executor(_opts("processes", workers=2, chunk_size=1)) as ex:
+        first = ex.map(T.context_pid, range(10), context=T.make_context).values
+        second = ex.map(T.context_pid, range(10), context=T.make_context).values
+    pids = {r[0] for r in first}
+    assert {r[0] for r in second} <= pids  # the same worker processes
+    assert all(r[2] == 1 for r in first + second)  # each built its context once in all

@@ -9,8 +9,10 @@ factory (a robot model, a scene) instead of being shipped with every task.
 
 from __future__ import annotations
 
+import hashlib
 import math
 import os
+import pickle
 import time
 import uuid
 from collections.abc import Callable, Iterator, Sequence
@@ -21,7 +23,7 @@ from typing import Any, Literal
 from tqdm import tqdm
 
 from taskspace.batch.chunk import Chunk, make_chunks
-from taskspace.batch.processes import run_processes
+from taskspace.batch.processes import ProcessPool, run_processes
 from taskspace.batch.ray_backend import run_ray
 from taskspace.batch.records import BatchError, BatchResult, ResultsFile, TaskRecord, roundtrip
 from taskspace.batch.serial import run_serial
@@ -103,6 +105,23 @@ class Executor:
     def __init__(self, options: BatchOptions | None = None) -> None:
         self.options = options or BatchOptions()
         self.workers = self.options.workers or os.cpu_count() or 1
+        self._pool = ProcessPool(self.workers, self.options.start_method)
+        self.last_chunk_size = 0
+
+    def close(self) -> None:
+        """Stop the worker processes kept between runs (the processes backend)."""
+        self._pool.discard()
+
+    def __enter__(self) -> Executor:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def __del__(self) -> None:
+        pool = getattr(self, "_pool", None)
+        if pool is not None:
+            pool.discard()
 
     def as_completed(
         self,
@@ -152,7 +171,7 @@ class Executor:
             yield from done.values()
             if not todo:
                 return
-            key = uuid.uuid4().hex
+            key = _context_key(context)
             probe: list[TaskRecord] = []
             chunk_size = opts.chunk_size
             if opts.backend == "serial":
@@ -184,7 +203,7 @@ class Executor:
         if opts.backend == "serial":
             return run_serial(*args)
         if opts.backend == "processes":
-            return run_processes(*args, start_method=opts.start_method)
+            return run_processes(*args, pools=self._pool)
         return run_ray(*args, address=opts.ray_address)
 
     @staticmethod
@@ -223,10 +242,21 @@ class Executor:
             records=records,
             backend=self.options.backend,
             workers=1 if self.options.backend == "serial" else self.workers,
-            chunk_size=getattr(self, "last_chunk_size", 0),
+            chunk_size=self.last_chunk_size,
             seconds=time.perf_counter() - t0,
             n_resumed=sum(r.resumed for r in records),
         )
+
+
+def _context_key(factory: Callable[[], Any] | None) -> str:
+    """A name for a context factory, equal for equal factories (e.g. the same ``partial``).
+
+    A worker thus reuses the context it built in an earlier run of the same executor.
+    """
+    try:
+        return hashlib.sha1(pickle.dumps(factory)).hexdigest()
+    except Exception:  # not picklable: only the serial backend can run it anyway
+        return uuid.uuid4().hex
 
 
 def run_batch(
@@ -238,7 +268,8 @@ def run_batch(
     options: BatchOptions | None = None,
 ) -> BatchResult:
     """Run ``fn`` over ``items`` with an :class:`Executor` of ``options`` (see its ``map``)."""
-    return Executor(options).map(fn, items, context=context, results_file=results_file)
+    with Executor(options) as executor:
+        return executor.map(fn, items, context=context, results_file=results_file)
 
 
 __all__ = ["BatchError", "BatchOptions", "Executor", "run_batch"]

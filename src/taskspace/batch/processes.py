@@ -42,6 +42,29 @@ def _stop(pool: ProcessPoolExecutor | None) -> None:
         p.join(timeout=5)
 
 
+class ProcessPool:
+    """A pool kept between runs, replaced when a worker death breaks it.
+
+    Worker start-up and imports are thus paid once per executor, not once per run.
+    """
+
+    def __init__(self, workers: int, start_method: str) -> None:
+        self.workers = workers
+        self.start_method = start_method
+        self._pool: ProcessPoolExecutor | None = None
+
+    def get(self) -> ProcessPoolExecutor:
+        """The live pool (started on first use)."""
+        if self._pool is None:
+            self._pool = _new_pool(self.workers, self.start_method)
+        return self._pool
+
+    def discard(self) -> None:
+        """Stop the pool and its workers; the next :meth:`get` starts a new one."""
+        _stop(self._pool)
+        self._pool = None
+
+
 def run_processes(
     fn: TaskFunction,
     key: str,
@@ -50,24 +73,25 @@ def run_processes(
     seed: int,
     workers: int,
     retries: int,
-    start_method: str = "forkserver",
+    pools: ProcessPool,
 ) -> Iterator[list[TaskRecord]]:
-    """Yield each chunk's records as it finishes, in completion order."""
+    """Yield each chunk's records as it finishes, in completion order.
+
+    An interruption (Ctrl-C, or the caller closing the generator) stops the pool's workers.
+    """
     queue: deque[Chunk] = deque(chunks)
     suspects: deque[Chunk] = deque()
-    pool: ProcessPoolExecutor | None = None
+    finished = False
     try:
         while queue or suspects:
-            if pool is None:
-                pool = _new_pool(workers, start_method)
+            pool = pools.get()
             if suspects:  # alone in the pool: a death is this chunk's
                 chunk = suspects.popleft()
                 chunk.attempts += 1
                 try:
                     records = pool.submit(run_chunk, fn, key, factory, chunk.tasks, seed).result()
                 except BrokenProcessPool as exc:
-                    _stop(pool)
-                    pool = None
+                    pools.discard()
                     chunk.crashes += 1
                     if chunk.crashes <= retries:
                         suspects.appendleft(chunk)
@@ -101,7 +125,8 @@ def run_processes(
                         yield chunk.stamp(future.result())
                     else:
                         suspects.append(chunk)
-                _stop(pool)
-                pool = None
+                pools.discard()
+        finished = True
     finally:
-        _stop(pool)
+        if not finished:
+            pools.discard()
