@@ -10,6 +10,7 @@ worker is reported as failed with its input.
 from __future__ import annotations
 
 import os
+import sys
 from collections import deque
 from collections.abc import Callable, Iterator
 from typing import Any
@@ -28,13 +29,26 @@ def _ray() -> Any:
     return ray
 
 
+def _driver_path() -> str:
+    """The driver's import path outside the interpreter's own folders, as a PYTHONPATH."""
+    prefixes = {os.path.realpath(p) for p in (sys.prefix, sys.base_prefix, sys.exec_prefix)}
+    keep = []
+    for entry in sys.path:
+        path = os.path.realpath(entry or os.getcwd())
+        if os.path.isdir(path) and not any(path.startswith(p) for p in prefixes):
+            keep.append(path)
+    return os.pathsep.join(dict.fromkeys(keep))
+
+
 def connect(address: str | None, workers: int) -> Any:
     """The ``ray`` module, connected (a local runtime when ``address`` is None)."""
     ray = _ray()
     if not ray.is_initialized():
         kwargs: dict[str, Any] = {"log_to_driver": False, "include_dashboard": False}
         if address is None:
+            # As a forked worker would: what the driver can import, the workers can.
             kwargs["num_cpus"] = workers
+            kwargs["runtime_env"] = {"env_vars": {"PYTHONPATH": _driver_path()}}
         else:
             kwargs = {"address": address, "log_to_driver": False}
         try:
