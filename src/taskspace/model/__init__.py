@@ -9,13 +9,11 @@ from __future__ import annotations
 import importlib
 from typing import TYPE_CHECKING, Any
 
+# The registry is light (no Pinocchio): imported now, so that the function ``registry``, not
+# the submodule of the same name, is the package attribute.
+from taskspace.model.registry import RobotSpec, available_robots, registry, robot_spec
+
 if TYPE_CHECKING:
-    from taskspace.model.registry import (
-        RobotSpec,
-        available_robots,
-        registry,
-        robot_spec,
-    )
     from taskspace.model.robot import (
         CollisionPruningOptions,
         PrunedCollisionPairs,
@@ -27,10 +25,6 @@ if TYPE_CHECKING:
     from taskspace.model.world import Obstacle, World, as_se3
 
 _SOURCES = {
-    "RobotSpec": "registry",
-    "available_robots": "registry",
-    "registry": "registry",
-    "robot_spec": "registry",
     "CollisionPruningOptions": "robot",
     "PrunedCollisionPairs": "robot",
     "Robot": "robot",
