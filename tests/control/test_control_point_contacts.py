@@ -126,7 +126,7 @@ def test_mixed_and_bad_contact_arguments() -> None:
     assert roll.forces["FL_FOOT"].shape[1] == 3
     assert roll.forces["FR_FOOT"].shape[1] == 6
     assert set(roll.cone_violations) == {"FL_FOOT", "FR_FOOT"}  # names are not checked
-    with pytest.raises(InvalidInputError, match="frame names .* or Contact objects"):
+    with pytest.raises(InvalidInputError, match=r"frame names .* or Contact objects"):
         simulate_with_contacts(robot, limp, robot.q_default, np.zeros(robot.nv), 0.01, 0.005, [3])
     with pytest.raises(InvalidInputError, match="held by two contacts"):
         simulate_with_contacts(
