@@ -177,7 +177,8 @@ class Robot:
         self._setup_actuation_limits(passive_joints)
         if default_configuration is None:
             default_configuration = pin.neutral(model)
-        self._q_default = self.check_configuration(default_configuration, "default_configuration")
+        q_default = self.check_configuration(default_configuration, "default_configuration")
+        self._q_default = self._posture_into_limits(q_default)
         self._q_default.flags.writeable = False
 
     # ------------------------------------------------------------------ construction
@@ -497,6 +498,7 @@ class Robot:
                     "taskspace does not support; supported: revolute, prismatic, continuous "
                     "(RUB), spherical, planar, free-flyer and the other joints with nq = nv"
                 )
+        self._linear_q = frozenset(linear_q)
         self.is_floating = (
             model.njoints > 1 and model.joints[1].shortname() == "JointModelFreeFlyer"
         )
@@ -512,6 +514,41 @@ class Robot:
         self._unbounded_lengths = np.concatenate(
             [unbounded[linear], np.asarray(self._free_translations, dtype=int)]
         ).astype(int)
+
+    def _posture_into_limits(self, q: FloatArray) -> FloatArray:
+        """The default posture moved inside the joint limits (descriptions get this wrong).
+
+        A revolute coordinate outside its limits is first shifted by a multiple of 2 pi (the
+        same pose: an SRDF's ``-pi/2`` for a joint limited to ``[0.33, 5.95]``); what is still
+        outside (and prismatic coordinates) is clipped, with a :class:`ModelWarning`.
+        """
+        idx = self._limited_q
+        lo = np.asarray(self.model.lowerPositionLimit)[idx]
+        hi = np.asarray(self.model.upperPositionLimit)[idx]
+        outside = np.flatnonzero((q[idx] < lo) | (q[idx] > hi))
+        if outside.size == 0:
+            return q
+        q = q.copy()
+        clipped: list[str] = []
+        for k in outside:
+            i = int(idx[k])
+            value = q[i]
+            if i not in self._linear_q:
+                turns = math.ceil((lo[k] - value) / (2 * math.pi))
+                shifted = value + 2 * math.pi * turns
+                if lo[k] <= shifted <= hi[k]:
+                    q[i] = shifted
+                    continue
+            q[i] = min(max(value, lo[k]), hi[k])
+            clipped.append(f"{self._joint_name_at_q(i)}={value:.4g} -> {q[i]:.4g}")
+        if clipped:
+            warnings.warn(
+                f"robot '{self.name}': the default posture is outside the joint limits; "
+                f"clipped: {', '.join(clipped)}",
+                ModelWarning,
+                stacklevel=4,
+            )
+        return q
 
     def _setup_actuation_limits(self, passive_joints: Sequence[str]) -> None:
         """Effort and velocity limits, with the documented choice for missing ones."""
