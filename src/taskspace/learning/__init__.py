@@ -5,6 +5,7 @@ in :mod:`taskspace.learning.ik_dataset`. Dynamic programming and the HJB equatio
 model-based side) live in :mod:`taskspace.optimal_control`.
 """
 
+from taskspace.learning.dmp import DiscreteDMP, DMPOptions, DMPTrajectory, RhythmicDMP
 from taskspace.learning.policies import LinearPolicy, Policy, RBFPolicy
 from taskspace.learning.policy_search import (
     PolicySearchOptions,
@@ -38,6 +39,9 @@ from taskspace.learning.tabular import (
 )
 
 __all__ = [
+    "DMPOptions",
+    "DMPTrajectory",
+    "DiscreteDMP",
     "Episode",
     "LinearPolicy",
     "LinearQuadraticTask",
@@ -47,6 +51,7 @@ __all__ = [
     "PolicySearchResult",
     "PolicySearchStatus",
     "RBFPolicy",
+    "RhythmicDMP",
     "Rollout",
     "TabularOptions",
     "TabularResult",
