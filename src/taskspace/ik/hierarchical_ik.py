@@ -11,7 +11,7 @@ import pinocchio as pin
 
 from taskspace._validation import FloatArray, check_positive
 from taskspace.constraints.constraint import Constraint
-from taskspace.errors import InvalidInputError
+from taskspace.errors import InvalidInputError, SolverError
 from taskspace.ik.differential_ik import combine_bounds, stack_inequalities
 from taskspace.model.robot import Robot
 from taskspace.model.state import State
@@ -47,6 +47,10 @@ class HierarchicalIKResult:
     hierarchy: HierarchyResult
     build_time: float = 0.0
     solve_time: float = 0.0
+
+
+MAX_WEIGHTED_RESIDUAL = 1e30
+"""Largest weighted task residual a step accepts (beyond it the QP cascade loses accuracy)."""
 
 
 def _check_levels(levels: object) -> list[list[Task | Constraint]]:
@@ -219,6 +223,13 @@ class HierarchicalIK:
         dt = check_positive(dt, "dt")
         t0 = time.perf_counter()
         levels = self.build(state, dt)
+        for level in levels:
+            if level.r.size and not float(np.abs(level.r).max()) <= MAX_WEIGHTED_RESIDUAL:
+                raise SolverError(
+                    f"{level.name}: the weighted task residual |sqrt(weight) * gain * error| = "
+                    f"{float(np.abs(level.r).max()):.3g} is not finite or above "
+                    f"{MAX_WEIGHTED_RESIDUAL:g}; check the targets and weights"
+                )
         nv = self.robot.nv
         lb, ub, _ = combine_bounds(self.constraints, state, dt, nv)
         stacked = stack_inequalities(self.constraints, state, dt)
@@ -235,6 +246,12 @@ class HierarchicalIK:
             hard_names=blocks,
         )
         t2 = time.perf_counter()
+        if not np.isfinite(result.x).all():
+            raise SolverError(
+                "the hierarchical step is not finite (overflow): the weighted task residuals "
+                "are too large; check the targets and weights (|weight * error| must stay far "
+                "below 1e150)"
+            )
         return HierarchicalIKResult(
             result.success,
             result.x,
