@@ -883,6 +883,13 @@ class Robot:
         for obstacle in obstacles:
             self.add_obstacle(obstacle)
 
+    def remove_obstacle(self, name: str) -> Obstacle:
+        """Remove the obstacle ``name`` (raises UnknownNameError listing the obstacles)."""
+        obstacle = self.world.remove(name)
+        self.collision_model.removeGeometryObject(name)
+        self.collision_data = self.collision_model.createData()
+        return obstacle
+
     def clear_obstacles(self) -> None:
         """Remove every obstacle."""
         for obstacle in list(self.world):
