@@ -1,0 +1,32 @@
+"""Gymnasium environments on taskspace robots, registered on import.
+
+* ``taskspace/Pendulum-v0``: pendulum swing-up (:class:`PendulumEnv`, 200 steps).
+* ``taskspace/CartPole-v0``: cart-pole balancing (:class:`CartPoleEnv`, 500 steps), with the
+  batched :class:`CartPoleVectorEnv` as its vector entry point.
+"""
+
+import gymnasium as gym
+
+from taskspace.learning.envs.cartpole import (
+    CartPoleEnv,
+    CartPoleVectorEnv,
+    cartpole_acceleration,
+)
+from taskspace.learning.envs.pendulum import PendulumEnv
+
+if "taskspace/Pendulum-v0" not in gym.registry:
+    gym.register(
+        id="taskspace/Pendulum-v0",
+        entry_point="taskspace.learning.envs.pendulum:PendulumEnv",
+        max_episode_steps=200,
+    )
+if "taskspace/CartPole-v0" not in gym.registry:
+    gym.register(
+        id="taskspace/CartPole-v0",
+        entry_point="taskspace.learning.envs.cartpole:CartPoleEnv",
+        vector_entry_point="taskspace.learning.envs.cartpole:CartPoleVectorEnv",
+        max_episode_steps=500,
+        reward_threshold=475.0,
+    )
+
+__all__ = ["CartPoleEnv", "CartPoleVectorEnv", "PendulumEnv", "cartpole_acceleration"]
