@@ -182,7 +182,7 @@ class Task:
 
 
 def _label(task: Task) -> str:
-    return task.__dict__.get("name", "?")
+    return getattr(task, "name", "?")
 
 
 MAX_WEIGHT = 1e100
