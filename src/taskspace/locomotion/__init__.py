@@ -1,5 +1,14 @@
 """Legged locomotion: support polygons, ZMP, LIPM preview control, footsteps, gaits, hopper."""
 
+from taskspace.locomotion.compass_gait import (
+    CompassGait,
+    LimitCycle,
+    LimitCycleOptions,
+    StepResult,
+    find_limit_cycle,
+    return_map,
+    simulate_step,
+)
 from taskspace.locomotion.foot import FOOT_ROBOTS, ContactKind, FootGeometry, robot_feet
 from taskspace.locomotion.footsteps import (
     Footstep,
@@ -18,6 +27,12 @@ from taskspace.locomotion.preview_control import (
     PreviewOptions,
     WalkingPattern,
     preview_walking_pattern,
+)
+from taskspace.locomotion.raibert_hopper import (
+    HopperParameters,
+    HopperResult,
+    RaibertOptions,
+    simulate_hopper,
 )
 from taskspace.locomotion.support_polygon import (
     StaticStability,
@@ -45,18 +60,25 @@ from taskspace.locomotion.zmp_reference import (
 __all__ = [
     "FOOT_ROBOTS",
     "CartTable",
+    "CompassGait",
     "ContactKind",
     "ContactWrench",
     "FootGeometry",
     "Footstep",
     "FootstepPlan",
+    "HopperParameters",
+    "HopperResult",
+    "LimitCycle",
+    "LimitCycleOptions",
     "LipmTrajectory",
     "Phase",
     "PhaseKind",
     "PreviewController",
     "PreviewOptions",
+    "RaibertOptions",
     "SoleSize",
     "StaticStability",
+    "StepResult",
     "StepTiming",
     "SupportPolygon",
     "SwingSample",
@@ -68,10 +90,14 @@ __all__ = [
     "arc_walk",
     "center_of_pressure",
     "contact_wrench_from_dynamics",
+    "find_limit_cycle",
     "footsteps_along_poses",
     "mpc_walking_pattern",
     "preview_walking_pattern",
+    "return_map",
     "robot_feet",
+    "simulate_hopper",
+    "simulate_step",
     "static_stability",
     "straight_walk",
     "support_polygon",
