@@ -304,3 +304,20 @@ def test_bad_input() -> None:
         force_closure([contact([0, 0, 0], [0, 0, 1])], method="qhull")
     with pytest.raises(InvalidInputError):
         force_closure([])
+
+
+def test_epsilon_matches_the_one_qp_per_facet_reference() -> None:
+    from benchmarks.ferrari_canny_reference import epsilon_reference
+
+    rng = np.random.default_rng(11)
+    checked = 0
+    for _ in range(12):
+        k = int(rng.integers(3, 6))
+        normals = rng.standard_normal((k, 3))
+        positions = -normals / np.linalg.norm(normals, axis=1, keepdims=True) * 0.05
+        grasp = [contact(p, n, mu=0.6) for p, n in zip(positions, normals)]
+        W, _ = primitive_wrenches(grasp, edges=6)
+        ours = epsilon_l1(W)
+        assert ours == pytest.approx(epsilon_reference(W), abs=1e-7)
+        checked += ours > 0
+    assert checked >= 4
