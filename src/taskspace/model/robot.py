@@ -512,7 +512,7 @@ class Robot:
         linear = np.isin(unbounded, np.asarray(linear_q, dtype=int))
         self._unbounded_angles = unbounded[~linear]
         self._unbounded_lengths = np.concatenate(
-            [unbounded[linear], np.asarray(self._free_translations, dtype=int)]
+            [np.asarray(self._free_translations, dtype=int), unbounded[linear]]
         ).astype(int)
 
     def _posture_into_limits(self, q: FloatArray) -> FloatArray:
@@ -795,12 +795,6 @@ class Robot:
         hi = self.model.upperPositionLimit
         idx = self._limited_q
         q[idx] = rng.uniform(lo[idx], hi[idx])
-        if self._unbounded_angles.size:
-            q[self._unbounded_angles] = rng.uniform(-np.pi, np.pi, self._unbounded_angles.size)
-        if self._unbounded_lengths.size:
-            q[self._unbounded_lengths] = rng.uniform(
-                -base_box, base_box, self._unbounded_lengths.size
-            )
         for start, size, _ in self._normalized_blocks:
             if size == 2:
                 angle = rng.uniform(-np.pi, np.pi)
@@ -808,6 +802,13 @@ class Robot:
             else:
                 x = rng.normal(size=4)
                 q[start : start + 4] = x / np.linalg.norm(x)
+        # (this order keeps the random stream of earlier versions on fixed and floating bases)
+        if self._unbounded_lengths.size:
+            q[self._unbounded_lengths] = rng.uniform(
+                -base_box, base_box, self._unbounded_lengths.size
+            )
+        if self._unbounded_angles.size:
+            q[self._unbounded_angles] = rng.uniform(-np.pi, np.pi, self._unbounded_angles.size)
         return q
 
     def interpolate(self, q0: Any, q1: Any, t: float) -> FloatArray:
