@@ -10,12 +10,8 @@ from gymnasium.utils.env_checker import check_env
 
 from taskspace.dynamics.pendulum import pendulum_acceleration
 from taskspace.errors import InvalidInputError
-from taskspace.learning.envs import (
-    CartPoleEnv,
-    CartPoleVectorEnv,
-    PendulumEnv,
-    cartpole_acceleration,
-)
+from taskspace.learning.envs import CartPoleEnv, CartPoleVectorEnv, PendulumEnv
+from taskspace.optimal_control import cartpole_acceleration
 
 
 @pytest.mark.parametrize("env_id", ["taskspace/Pendulum-v0", "taskspace/CartPole-v0"])

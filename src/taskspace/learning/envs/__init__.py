@@ -7,11 +7,7 @@
 
 import gymnasium as gym
 
-from taskspace.learning.envs.cartpole import (
-    CartPoleEnv,
-    CartPoleVectorEnv,
-    cartpole_acceleration,
-)
+from taskspace.learning.envs.cartpole import CartPoleEnv, CartPoleVectorEnv
 from taskspace.learning.envs.pendulum import PendulumEnv
 
 if "taskspace/Pendulum-v0" not in gym.registry:
@@ -29,4 +25,4 @@ if "taskspace/CartPole-v0" not in gym.registry:
         reward_threshold=475.0,
     )
 
-__all__ = ["CartPoleEnv", "CartPoleVectorEnv", "PendulumEnv", "cartpole_acceleration"]
+__all__ = ["CartPoleEnv", "CartPoleVectorEnv", "PendulumEnv"]

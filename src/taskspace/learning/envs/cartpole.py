@@ -7,8 +7,8 @@ step, termination when ``|theta| > 12 deg`` or ``|x| > 2.4 m``. Observation
 ``[x, x', theta, theta']`` (Gymnasium's order).
 
 :class:`CartPoleVectorEnv` steps N copies at once with the closed-form equations of motion
-of the same point-mass cart-pole (checked against ABA in the tests), without a Python loop
-over the copies.
+of the same point-mass cart-pole (:func:`taskspace.optimal_control.cartpole_acceleration`,
+checked against ABA in the tests), without a Python loop over the copies.
 """
 
 from __future__ import annotations
@@ -24,6 +24,7 @@ from gymnasium.vector.utils import batch_space
 
 from taskspace.errors import InvalidInputError
 from taskspace.model.robot import Robot
+from taskspace.optimal_control.problems import cartpole_acceleration
 
 THETA_LIMIT = 12 * 2 * np.pi / 360
 X_LIMIT = 2.4
@@ -89,33 +90,6 @@ class CartPoleEnv(gym.Env[np.ndarray, np.int64]):
             self.q = self.q + h * self.v
         terminated = bool(abs(self.q[0]) > X_LIMIT or abs(self.q[1]) > THETA_LIMIT)
         return self._obs(), 1.0, terminated, False, {}
-
-
-def cartpole_acceleration(
-    q: np.ndarray,
-    v: np.ndarray,
-    force: np.ndarray,
-    *,
-    cart_mass: float = 1.0,
-    pole_mass: float = 0.1,
-    length: float = 0.5,
-    gravity: float = 9.81,
-) -> np.ndarray:
-    """Closed-form accelerations (N x 2) of the URDF's cart-pole for batches (N x 2) of q, v.
-
-    ``M(q) a = tau - h``: ``M = [[M + m, m l cos th], [m l cos th, m l^2]]``,
-    ``h = [-m l sin(th) th'^2, -m g l sin th]``, ``tau = [F, 0]`` (``theta`` about +y, 0 up).
-    """
-    th, w = q[:, 1], v[:, 1]
-    c, s = np.cos(th), np.sin(th)
-    m, M, l = pole_mass, cart_mass, length
-    m11 = (M + m) * np.ones_like(th)
-    m12 = m * l * c
-    m22 = m * l * l * np.ones_like(th)
-    b1 = force + m * l * s * w * w
-    b2 = m * gravity * l * s
-    det = m11 * m22 - m12 * m12
-    return np.stack([(m22 * b1 - m12 * b2) / det, (m11 * b2 - m12 * b1) / det], axis=1)
 
 
 class CartPoleVectorEnv(VectorEnv):
