@@ -299,6 +299,7 @@ class HierarchySolver:
         order = [
             QPStatus.UNCONSTRAINED,
             QPStatus.SOLVED,
+            QPStatus.INACCURATE,
             QPStatus.MAX_ITERATIONS,
             QPStatus.RELAXED,
             QPStatus.FAILED,
