@@ -28,7 +28,7 @@ from taskspace.model import Robot
 from tests.conftest import load_robot
 
 FUZZ = settings(
-    max_examples=40,
+    max_examples=30,
     deadline=None,
     suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture],
 )
@@ -95,6 +95,21 @@ def anything(size: int | None = None) -> st.SearchStrategy[Any]:
     return st.one_of(scalars(), arrays(size))
 
 
+def _not_complex(x: Any) -> bool:
+    if isinstance(x, (complex, np.complexfloating)):
+        return False
+    return not (isinstance(x, np.ndarray) and np.iscomplexobj(x))
+
+
+def real_anything(size: int | None = None) -> st.SearchStrategy[Any]:
+    """As :func:`anything` without complex values (for the xfail-documented trajopt gap)."""
+    return anything(size).filter(_not_complex)
+
+
+def real_scalars() -> st.SearchStrategy[Any]:
+    return scalars().filter(_not_complex)
+
+
 def _fail(
     fn: Callable[..., Any], args: tuple[Any, ...], kwargs: dict[str, Any], exc: BaseException
 ) -> None:
@@ -109,8 +124,9 @@ def _fail(
 def call(fn: Callable[..., Any], *args: Any, **kwargs: Any) -> tuple[bool, Any]:
     """``(True, result)`` or ``(False, error)`` for a TaskspaceError; fails on anything else."""
     with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # overflow in huge but finite inputs
+        # ComplexWarning is a RuntimeWarning: this filter, inserted in front, wins
         warnings.simplefilter("error", np.exceptions.ComplexWarning)
-        warnings.simplefilter("ignore", RuntimeWarning)
         try:
             return True, fn(*args, **kwargs)
         except TaskspaceError as exc:
@@ -441,13 +457,14 @@ def test_solve_ik_arguments(ur5: Robot, q0: Any, tasks_kind: str) -> None:
 @FUZZ
 @given(
     profile=st.one_of(
-        st.sampled_from(["scurve", "trapezoidal", "minimum_jerk", "sine", "ramp"]), scalars()
+        st.sampled_from(["scurve", "trapezoidal", "minimum_jerk", "sine", "ramp"]),
+        real_scalars(),
     ),
-    start=scalars(),
-    goal=scalars(),
-    vmax=scalars(),
-    amax=st.one_of(st.none(), scalars()),
-    jmax=st.one_of(st.none(), scalars()),
+    start=real_scalars(),
+    goal=real_scalars(),
+    vmax=real_scalars(),
+    amax=st.one_of(st.none(), real_scalars()),
+    jmax=st.one_of(st.none(), real_scalars()),
 )
 def test_plan_motion(profile: Any, start: Any, goal: Any, vmax: Any, amax: Any, jmax: Any) -> None:
     from taskspace.trajopt import plan_motion
@@ -474,7 +491,7 @@ NUMBERS = st.one_of(
     profile=st.sampled_from(["TrapezoidalProfile", "SCurveProfile"]),
     a=NUMBERS,
     b=NUMBERS,
-    s=anything(),
+    s=real_anything(),
 )
 def test_motion_profiles(profile: str, a: Any, b: Any, s: Any) -> None:
     """Numeric fractions only: None or text fractions are the xfail test below."""
@@ -503,12 +520,28 @@ def test_motion_profile_fraction_types(fraction: Any) -> None:
     call(SCurveProfile, fraction, 0.25)
 
 
+@pytest.mark.xfail(
+    strict=True,
+    reason="plan_motion and cubic_spline convert with np.asarray(x, float): complex inputs are "
+    "truncated with only a ComplexWarning; trajopt/motion_profile.py and trajopt/spline.py "
+    "belong to helper H3",
+)
+@pytest.mark.parametrize("which", ["plan_motion", "cubic_spline"])
+def test_trajopt_refuses_complex(which: str) -> None:
+    from taskspace.trajopt import cubic_spline, plan_motion
+
+    if which == "plan_motion":
+        call(plan_motion, 0.0, np.complex128(1 + 0j), 1.0, 1.0, 1.0, "scurve")
+    else:
+        call(cubic_spline, np.array([[0.0], [1.0], [0.5]]) + 0j)
+
+
 @FUZZ
 @given(
-    waypoints=anything(),
-    knots=st.one_of(st.none(), anything()),
+    waypoints=real_anything(),
+    knots=st.one_of(st.none(), real_anything()),
     kind=st.sampled_from(["cubic", "quintic"]),
-    t=anything(),
+    t=real_anything(),
 )
 def test_splines(waypoints: Any, knots: Any, kind: str, t: Any) -> None:
     from taskspace.trajopt import cubic_spline, quintic_spline
@@ -702,6 +735,55 @@ def test_snapshot_size(size: Any) -> None:
         assert 16 <= w <= 4096 and 16 <= h <= 4096
 
 
+@pytest.fixture(scope="module")
+def viewer(ur5: Robot) -> Any:
+    pytest.importorskip("meshcat")
+    from taskspace.viz import Viewer
+
+    return Viewer(ur5)
+
+
+VIEWER_CALLS = [
+    "display",
+    "add_frame",
+    "add_target",
+    "add_points",
+    "add_path",
+    "add_arrow",
+    "add_force",
+    "add_com",
+    "set_camera",
+    "frame_scene",
+    "add_floor",
+    "add_frame_trace",
+    "add_segments",
+]
+
+
+@FUZZ
+@given(
+    method=st.sampled_from(VIEWER_CALLS),
+    name=st.one_of(st.sampled_from(["m", "", None, 3, "a/b"]), st.text(max_size=4)),
+    a=anything(3),
+    b=st.one_of(anything(3), scalars()),
+)
+def test_viewer_methods(viewer: Any, method: str, name: Any, a: Any, b: Any) -> None:
+    """Scene building with random arguments (no browser: the scene is only recorded)."""
+    fn = getattr(viewer, method)
+    if method == "display":
+        call(fn, a)
+    elif method == "add_com":
+        call(fn, "com", a, b)
+    elif method in {"set_camera"}:
+        call(fn, a, b)
+    elif method in {"frame_scene", "add_floor"}:
+        call(fn, b)
+    elif method == "add_frame_trace":
+        call(fn, name, a)
+    else:
+        call(fn, name, a, b)
+
+
 @pytest.mark.parametrize(
     "size", [(640, 0), (0, 480), (640,), None, (640.5, 480), ("a", 480), (math.nan, 1)]
 )
@@ -776,3 +858,41 @@ def test_extreme_ik_arguments_differential(
 ) -> None:
     assert extreme_ik_runs["bad"]["differential"] == []
     assert extreme_ik_runs["bare"]["differential"] == []
+
+
+# ---- the defects named in #15, one explicit test each ---------------------------------------
+
+
+def test_complex_configuration_is_refused_not_truncated(ur5: Robot) -> None:
+    from taskspace.errors import InvalidInputError
+
+    q = ur5.q_default + 0.1j
+    with pytest.raises(InvalidInputError, match="complex"):
+        ur5.state(q)
+    with pytest.raises(InvalidInputError, match="complex"):
+        ur5.check_configuration(q.real + 0j)  # even a zero imaginary part: pass q.real
+
+
+@pytest.mark.parametrize("dt", [None, math.nan, -0.01, 0.0, "0.01", 1j])
+def test_dt_is_checked_by_both_ik_solvers(ur5: Robot, dt: Any) -> None:
+    from taskspace.errors import InvalidInputError
+    from taskspace.ik import DifferentialIK, HierarchicalIK
+
+    t1, _ = _tasks(ur5)
+    state = ur5.state(ur5.q_default)
+    for ik in (DifferentialIK(ur5, [t1]), HierarchicalIK(ur5, [[t1]])):
+        with pytest.raises(InvalidInputError, match="dt"):
+            ik.step(state, dt)
+
+
+@pytest.mark.xfail(
+    strict=False,
+    reason="model.world.as_se3 converts with np.asarray(pose, float): a dict gives a bare "
+    "TypeError and a complex pose is truncated with a ComplexWarning; model/world.py belongs "
+    "to helper H1 (FramePose targets and Viewer poses are checked before it)",
+)
+@pytest.mark.parametrize("pose", [{}, np.eye(4) + 0j])
+def test_as_se3_refuses_non_real_poses(pose: Any) -> None:
+    from taskspace.model import as_se3
+
+    call(as_se3, pose)
