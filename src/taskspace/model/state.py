@@ -131,24 +131,21 @@ class State:
             q = np.array(q, dtype=float)
             if v is not None:
                 v = np.array(v, dtype=float)
-        if q.base is not None:  # a view of the caller's array: take a copy of our own
-            q = q.copy()
-        if v is not None and v.base is not None:
-            v = v.copy()
         data = self._data
         model = self._model
-        # Private copies made read-only for good: the buffer is locked and only a view is
-        # kept, and numpy refuses to make a view of a locked buffer writable again.
-        q.flags.writeable = False
-        q = q[:]
+        # ``q`` and ``v`` are private copies (check_configuration/check_velocity and
+        # np.array copy). They are made read-only for good: the buffer is locked and only a
+        # view of it is kept; numpy refuses to make a view of a locked buffer writable.
+        q.setflags(write=False)
+        q = q.view()
         if v is None:
             self._has_velocity = False
             v = self._a0
             _compute_joint_jacobians(model, data, q)
         else:
             self._has_velocity = True
-            v.flags.writeable = False
-            v = v[:]
+            v.setflags(write=False)
+            v = v.view()
             _forward_kinematics(model, data, q, v, self._a0)
             _compute_joint_jacobians(model, data)
         _update_frame_placements(model, data)
@@ -338,8 +335,8 @@ class State:
 
 def _frozen(array: FloatArray) -> FloatArray:
     """A read-only view of ``array`` whose buffer is locked (cannot be made writable)."""
-    array.flags.writeable = False
-    return array[:]
+    array.setflags(write=False)
+    return array.view()
 
 
 def _read_only(name: str) -> NoReturn:
