@@ -423,3 +423,28 @@ def test_velocity_limits_of_a_floating_base_are_accepted() -> None:
     ]:
         with pytest.raises(InvalidInputError, match=message):
             JointVelocityLimits(solo, limits=bad)
+
+
+def test_default_posture_is_moved_into_the_limits(tiny_urdf) -> None:  # type: ignore[no-untyped-def]
+    from taskspace.errors import ModelWarning
+
+    q = [0.0, 2 * np.pi + 0.05, 0.5, 0.0]  # j2: same pose as 0.05; j3: beyond its 0.1 limit
+    with pytest.warns(ModelWarning, match=r"outside the joint limits; clipped: j3=0\.5 -> 0\.1"):
+        robot = Robot.from_urdf(tiny_urdf, default_configuration=q, passive_joints=["j2"])
+    np.testing.assert_allclose(robot.q_default, [0.0, 0.05, 0.1, 0.0], atol=1e-12)
+    robot.check_limits(robot.q_default)
+
+
+def test_kinova_reference_posture_is_wrapped_not_clipped() -> None:
+    """kinova.srdf's arm_up has joint 3 at -pi/2, outside [0.33, 5.95]: the same pose + 2 pi."""
+    import example_robot_data
+
+    kinova = load_robot("kinova")
+    reference = example_robot_data.load("kinova")
+    kinova.check_limits(kinova.q_default)
+    for frame in ("j2s6s200_end_effector", "j2s6s200_link_6"):
+        fid = reference.model.getFrameId(frame)
+        pin.framesForwardKinematics(reference.model, reference.data, reference.q0)
+        expected = reference.data.oMf[fid]
+        actual = kinova.frame_placement(kinova.q_default, frame)
+        np.testing.assert_allclose(actual.homogeneous, expected.homogeneous, atol=1e-12)
