@@ -29,6 +29,7 @@ and treated as unlimited (``inf``), with a warning. The floating base is never a
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import math
 import os
@@ -348,12 +349,13 @@ class Robot:
     ) -> Robot:
         """A robot built by an example-robot-data loader of its own (SDF, reduced models...)."""
         try:
-            with warnings.catch_warnings(), open(os.devnull, "w") as devnull:
+            with (
+                warnings.catch_warnings(),
+                open(os.devnull, "w") as devnull,
+                contextlib.redirect_stdout(devnull),
+            ):
                 warnings.simplefilter("ignore")
-                import contextlib
-
-                with contextlib.redirect_stdout(devnull):
-                    inst = loader()
+                inst = loader()
         except Exception as exc:  # any failure of the third-party loader
             raise ModelLoadError(
                 f"example-robot-data cannot load '{name}': {type(exc).__name__}: {exc}"
