@@ -41,6 +41,12 @@ from taskspace.locomotion.support_polygon import (
     support_polygon,
 )
 from taskspace.locomotion.swing_trajectory import SwingSample, SwingTrajectory
+from taskspace.locomotion.whole_body_walking import (
+    WalkingOptions,
+    WalkingResult,
+    plan_from_robot,
+    walk,
+)
 from taskspace.locomotion.zmp import (
     ContactWrench,
     center_of_pressure,
@@ -83,7 +89,9 @@ __all__ = [
     "SupportPolygon",
     "SwingSample",
     "SwingTrajectory",
+    "WalkingOptions",
     "WalkingPattern",
+    "WalkingResult",
     "ZmpMpc",
     "ZmpMpcOptions",
     "ZmpMpcResult",
@@ -93,6 +101,7 @@ __all__ = [
     "find_limit_cycle",
     "footsteps_along_poses",
     "mpc_walking_pattern",
+    "plan_from_robot",
     "preview_walking_pattern",
     "return_map",
     "robot_feet",
@@ -105,6 +114,7 @@ __all__ = [
     "support_polygons",
     "total_wrench",
     "turn_in_place",
+    "walk",
     "zmp_from_dynamics",
     "zmp_from_wrenches",
     "zmp_reference",
