@@ -348,6 +348,13 @@ class Robot:
         _posture: RobotSpec | None,
     ) -> Robot:
         """A robot built by an example-robot-data loader of its own (SDF, reduced models...)."""
+        if getattr(loader, "sdf_filename", "") and not hasattr(pin, "buildModelFromSdf"):
+            raise ModelLoadError(
+                f"example-robot-data describes '{name}' with an SDF file "
+                f"({loader.sdf_filename}), and this Pinocchio {pin.__version__} is built without "
+                "SDF support (pin.buildModelFromSdf is missing); install a Pinocchio built with "
+                "SDFormat or load another robot"
+            )
         try:
             with (
                 warnings.catch_warnings(),
