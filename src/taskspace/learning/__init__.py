@@ -6,6 +6,11 @@ model-based side) live in :mod:`taskspace.optimal_control`.
 """
 
 from taskspace.learning.dmp import DiscreteDMP, DMPOptions, DMPTrajectory, RhythmicDMP
+from taskspace.learning.orientation_dmp import (
+    OrientationDMP,
+    OrientationTrajectory,
+    quaternion,
+)
 from taskspace.learning.policies import LinearPolicy, Policy, RBFPolicy
 from taskspace.learning.policy_search import (
     PolicySearchOptions,
@@ -46,6 +51,8 @@ __all__ = [
     "LinearPolicy",
     "LinearQuadraticTask",
     "MDPSimulator",
+    "OrientationDMP",
+    "OrientationTrajectory",
     "Policy",
     "PolicySearchOptions",
     "PolicySearchResult",
@@ -65,6 +72,7 @@ __all__ = [
     "policy_rollout",
     "power",
     "q_learning",
+    "quaternion",
     "reinforce",
     "reinforce_gradient",
     "reinforce_terms",
