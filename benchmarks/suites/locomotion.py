@@ -10,9 +10,13 @@ Scenes:
 * ``compass_gait_limit_cycle``: Newton on the Poincare map from ``(-0.2, 1.0, -0.4)``
   (Tedrake's parameters); the fixed point and its residual.
 * ``hopper_2ms``: 20 s of the Raibert hopper ramped to 2 m/s; steady-state speed error.
+* ``g1_walk``: whole-body walking of G1 (0.1 m steps; 3 steps quick, 10 otherwise): time of
+  one inverse-dynamics QP control step (switching contact sets), and the real-time factor of
+  the whole simulated walk (control + rigid-contact simulation + logging).
 
 No peer runs here yet: ``qpmpc`` (LIPM MPC) and ``drake`` (compass gait) are on PyPI but have
-no peer environment in ``benchmarks/peers/install.sh``.
+no peer environment in ``benchmarks/peers/install.sh``; the TSID peer of the walking loop
+is not wired either.
 """
 
 from __future__ import annotations
@@ -32,11 +36,14 @@ from taskspace.locomotion import (
     StepTiming,
     ZmpMpc,
     find_limit_cycle,
+    plan_from_robot,
     simulate_hopper,
     straight_walk,
     support_polygons,
+    walk,
     zmp_reference,
 )
+from taskspace.model import Robot
 
 SUITE = "locomotion"
 TARGET_RMS_MM = 1.0
@@ -171,6 +178,43 @@ def run(quick: bool) -> list[Row]:
                 "success": hop.success,
                 "speed_error_last5_max": float(np.abs(hop.apex_speeds[-5:] - 2.0).max()),
                 "real_time_factor": 20.0 / (timing.median_us * 1e-6),
+            },
+        )
+    )
+    # ------------------------------------------------------------ whole-body walking
+    robot = Robot.load("g1")
+    n_steps = 3 if quick else 10
+    walk_timing = StepTiming(
+        single_support=0.6,
+        double_support=0.2,
+        initial_double_support=1.0,
+        final_double_support=1.0,
+        weight_shift=0.4,
+    )
+    plan_g1 = plan_from_robot(robot, robot.q_default, n_steps, step_length=0.1, timing=walk_timing)
+    t0 = time.perf_counter()
+    walked = walk(robot, plan_g1)
+    wall = time.perf_counter() - t0
+    ct = walked.control_times * 1e6
+    rows.append(
+        Row(
+            SUITE,
+            f"g1_walk_{n_steps}steps",
+            "taskspace (inverse-dynamics QP per control step)",
+            Timing(
+                median_us=float(np.median(ct)),
+                p95_us=float(np.percentile(ct, 95)),
+                p99_us=float(np.percentile(ct, 99)),
+                mean_us=float(np.mean(ct)),
+                n=int(ct.size),
+            ),
+            extra={
+                "success": walked.success,
+                "simulated_s": float(walked.times[-1]),
+                "wall_s": wall,
+                "real_time_factor": float(walked.times[-1]) / wall,
+                "min_zmp_margin_mm": 1000 * float(walked.zmp_margin.min()),
+                "cone_violation_N": walked.cone_violation,
             },
         )
     )
