@@ -3,11 +3,14 @@
 * ``taskspace/Pendulum-v0``: pendulum swing-up (:class:`PendulumEnv`, 200 steps).
 * ``taskspace/CartPole-v0``: cart-pole balancing (:class:`CartPoleEnv`, 500 steps), with the
   batched :class:`CartPoleVectorEnv` as its vector entry point.
+* ``taskspace/PandaReach-v0``: Panda reaching with joint velocities, terminated on collision
+  (:class:`PandaReachEnv`, 100 steps).
 """
 
 import gymnasium as gym
 
 from taskspace.learning.envs.cartpole import CartPoleEnv, CartPoleVectorEnv
+from taskspace.learning.envs.panda_reach import PandaReachEnv
 from taskspace.learning.envs.pendulum import PendulumEnv
 
 if "taskspace/Pendulum-v0" not in gym.registry:
@@ -25,4 +28,11 @@ if "taskspace/CartPole-v0" not in gym.registry:
         reward_threshold=475.0,
     )
 
-__all__ = ["CartPoleEnv", "CartPoleVectorEnv", "PendulumEnv"]
+if "taskspace/PandaReach-v0" not in gym.registry:
+    gym.register(
+        id="taskspace/PandaReach-v0",
+        entry_point="taskspace.learning.envs.panda_reach:PandaReachEnv",
+        max_episode_steps=100,
+    )
+
+__all__ = ["CartPoleEnv", "CartPoleVectorEnv", "PandaReachEnv", "PendulumEnv"]
