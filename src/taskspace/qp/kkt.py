@@ -13,9 +13,10 @@ sign them (positive on an active upper bound, negative on an active lower bound)
 A solution is accepted when ``r_p <= eps_abs + eps_rel s_p``, ``r_d <= eps_abs + eps_rel s_d``
 and ``r_c <= eps_abs + eps_rel s_c`` with the scales ``s_p = max(|x|, |b|, |Cx| on finite
 bounds)``, ``s_d = max(|Hx|, |g|, |A'y + C'z + z_box|)`` and ``s_c = max(1, |x'Hx|,
-|g'x|)`` (the scales of proxsuite's and OSQP's own stopping tests, with complementarity
-added: proxsuite's default test omits it and then stops at points whose multipliers belong to
-another active set).
+|g'x|, |b'y|, sum of |u_i z_i^+| and |l_i z_i^-| over finite bounds)`` (the scales of
+proxsuite's own primal, dual and duality-gap tests, with complementarity added: proxsuite's
+default test omits the gap and then stops at points whose multipliers belong to another
+active set).
 """
 
 from __future__ import annotations
@@ -25,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from taskspace._validation import FloatArray
-from taskspace.qp.problem import QPProblem
+from taskspace.qp.problem import INF, QPProblem
 
 _max = np.maximum.reduce  # twice as fast as ndarray.max on small vectors
 
@@ -91,11 +92,13 @@ def kkt_residuals(
     primal = 0.0
     primal_scale = float(np.abs(x).max(initial=0.0))
     gap = xHx + gx
+    by = 0.0
     if p.n_eq:
         force += p.A.T.dot(y)
         primal = float(np.abs(p.A.dot(x) - p.b).max(initial=0.0))
         primal_scale = max(primal_scale, float(np.abs(p.b).max(initial=0.0)))
-        gap += float(p.b.dot(y))
+        by = float(p.b.dot(y))
+        gap += by
     if p.n_in:
         force += p.C.T.dot(z)
         values = np.concatenate((p.C.dot(x), x))
@@ -112,7 +115,10 @@ def kkt_residuals(
     pushes_up = w > 0.0
     # slack of the bound each multiplier pushes against, times the multiplier
     comp = float(np.abs(w * np.where(pushes_up, above, below)).max(initial=0.0))
-    gap += float(np.where(pushes_up, hi, lo).dot(w))
+    support = np.where(pushes_up, hi, lo)
+    support *= w
+    gap += float(support.sum())
+    finite = np.abs(support) < INF * np.abs(w)  # infinite bounds stay out of the scale
     stationarity = Hx + p.g
     stationarity += force
     return KKTResiduals(
@@ -126,7 +132,9 @@ def kkt_residuals(
             float(np.abs(p.g).max(initial=0.0)),
             float(np.abs(force).max(initial=0.0)),
         ),
-        gap_scale=max(1.0, abs(xHx), abs(gx)),
+        gap_scale=max(
+            1.0, abs(xHx), abs(gx), abs(by), float(np.abs(support[finite]).sum(initial=0.0))
+        ),
     )
 
 
@@ -144,9 +152,11 @@ def equality_kkt_residuals(
     gx = float(p.g.dot(x))
     stationarity = Hx + p.g
     gap = xHx + gx
+    by = 0.0
     if p.n_eq:
         stationarity += p.A.T.dot(y)
-        gap += float(p.b.dot(y))
+        by = float(p.b.dot(y))
+        gap += by
     return KKTResiduals(
         primal=primal,
         dual=float(_max(np.abs(stationarity))),
@@ -154,7 +164,7 @@ def equality_kkt_residuals(
         duality_gap=abs(gap),
         primal_scale=float(_max(np.abs(x))),
         dual_scale=max(float(_max(np.abs(Hx))), float(_max(np.abs(p.g)))),
-        gap_scale=max(1.0, abs(xHx), abs(gx)),
+        gap_scale=max(1.0, abs(xHx), abs(gx), abs(by)),
     )
 
 
@@ -187,7 +197,11 @@ def stacked_kkt_residuals(
     pushes_up = w > 0.0
     comp = np.where(pushes_up, above, below)
     comp *= w
-    gap = xHx + gx + float(np.where(pushes_up, hi, lo).dot(w))
+    support = np.where(pushes_up, hi, lo)
+    support *= w
+    gap = xHx + gx + float(support.sum())
+    support = np.abs(support)
+    finite_support = float(support[support < 1e19 * np.abs(w)].sum())  # bounds < 1e19
     return KKTResiduals(
         primal=max(0.0, float(_max(above)), float(_max(below))),
         dual=float(_max(np.abs(stationarity))),
@@ -195,7 +209,7 @@ def stacked_kkt_residuals(
         duality_gap=abs(gap),
         primal_scale=float(_max(np.abs(values))),
         dual_scale=max(float(_max(np.abs(Hx))), float(_max(np.abs(g)))),
-        gap_scale=max(1.0, abs(xHx), abs(gx)),
+        gap_scale=max(1.0, abs(xHx), abs(gx), finite_support),
     )
 
 
