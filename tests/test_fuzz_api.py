@@ -522,26 +522,31 @@ def test_motion_profile_fraction_types(fraction: Any) -> None:
 
 @pytest.mark.xfail(
     strict=True,
-    reason="plan_motion and cubic_spline convert with np.asarray(x, float): complex inputs are "
-    "truncated with only a ComplexWarning; trajopt/motion_profile.py and trajopt/spline.py "
-    "belong to helper H3",
+    reason="plan_motion, cubic_spline and Spline.evaluate convert with np.asarray(x, float) or "
+    "float(x): complex inputs are truncated with only a ComplexWarning, text or a dict gives a "
+    "bare ValueError/TypeError; trajopt/motion_profile.py and trajopt/spline.py belong to "
+    "helper H3",
 )
-@pytest.mark.parametrize("which", ["plan_motion", "cubic_spline"])
+@pytest.mark.parametrize("which", ["plan_motion", "cubic_spline", "evaluate"])
 def test_trajopt_refuses_complex(which: str) -> None:
     from taskspace.trajopt import cubic_spline, plan_motion
 
     if which == "plan_motion":
         call(plan_motion, 0.0, np.complex128(1 + 0j), 1.0, 1.0, 1.0, "scurve")
-    else:
+    elif which == "cubic_spline":
         call(cubic_spline, np.array([[0.0], [1.0], [0.5]]) + 0j)
+    else:
+        call(cubic_spline([0.0, 1.0, 0.5]).evaluate, "abc")
 
 
 @FUZZ
 @given(
-    waypoints=real_anything(),
-    knots=st.one_of(st.none(), real_anything()),
+    waypoints=st.one_of(
+        real_anything(), st.just([[0.0, 1.0], [1.0, 0.5], [0.5, 0.0]]), st.just([0.0, 2.0])
+    ),
+    knots=st.one_of(st.none(), real_anything(), st.just([0.0, 1.0, 3.0])),
     kind=st.sampled_from(["cubic", "quintic"]),
-    t=real_anything(),
+    t=st.one_of(arrays(), NUMBERS).filter(_not_complex),
 )
 def test_splines(waypoints: Any, knots: Any, kind: str, t: Any) -> None:
     from taskspace.trajopt import cubic_spline, quintic_spline
@@ -550,7 +555,7 @@ def test_splines(waypoints: Any, knots: Any, kind: str, t: Any) -> None:
     ok, spline = call(make, waypoints, knots)
     if not ok:
         return
-    ok, value = call(spline, t)
+    ok, value = call(spline.evaluate, t)
     if ok:
         assert finite(value)
 
@@ -664,6 +669,51 @@ def test_histogram_filter(prior: Any, transition: Any, likelihood: Any) -> None:
     assert finite(hf.belief) and abs(hf.belief.sum() - 1.0) < 1e-9
     if ok:
         assert math.isfinite(evidence) and evidence > 0
+
+
+def _estimation_calls() -> dict[str, tuple[Callable[..., Any], int]]:
+    from taskspace import estimation as E
+    from taskspace.estimation.consistency import chi2_bounds, nees
+    from taskspace.estimation.gaussian import gaussian_logpdf
+    from taskspace.estimation.resampling import normalize_weights
+
+    velocity = E.VelocityMotionModel(dt=0.1)
+    odometry = E.OdometryMotionModel()
+    car = E.KinematicCarModel(dt=0.1, wheelbase=1.0)
+    return {
+        "gaussian_logpdf": (gaussian_logpdf, 3),
+        "gaussian_product": (E.gaussian_product, 4),
+        "gaussian_propagation": (E.gaussian_propagation, 5),
+        "nees": (nees, 3),
+        "chi2_bounds": (chi2_bounds, 3),
+        "normalize_weights": (normalize_weights, 1),
+        "effective_sample_size": (E.effective_sample_size, 1),
+        "velocity.mean": (velocity.mean, 2),
+        "velocity.jacobians": (velocity.jacobians, 2),
+        "odometry.mean": (odometry.mean, 2),
+        "car.mean": (car.mean, 2),
+        "range_bearing.predict": (E.RangeBearingModel.predict, 2),
+        "range_bearing.inverse": (E.RangeBearingModel.inverse, 2),
+        "discrete_white_noise": (E.discrete_white_noise, 3),
+        "continuous_white_noise": (E.continuous_white_noise, 3),
+        "angle_residual": (lambda i, a, b: E.angle_residual(i)(a, b), 3),
+        "angle_mean": (lambda i, a, b: E.angle_mean(i)(a, b), 3),
+    }
+
+
+@FUZZ
+@given(
+    name=st.sampled_from(sorted(_estimation_calls())),
+    args=st.lists(anything(3), min_size=5, max_size=5),
+)
+def test_estimation_functions(name: str, args: list[Any]) -> None:
+    fn, arity = _estimation_calls()[name]
+    ok, out = call(fn, *args[:arity])
+    if ok:
+        values = out if isinstance(out, tuple) else (out,)
+        for v in values:
+            if isinstance(v, (float, np.ndarray)):
+                assert not np.isnan(v).any(), (name, out)
 
 
 # ---- control -----------------------------------------------------------------------------
