@@ -42,6 +42,7 @@ from taskspace.learning.tabular import (
     sarsa,
     td_lambda,
 )
+from taskspace.learning.via_point import ViaPointTask
 
 __all__ = [
     "DMPOptions",
@@ -62,6 +63,7 @@ __all__ = [
     "Rollout",
     "TabularOptions",
     "TabularResult",
+    "ViaPointTask",
     "cma_es",
     "enac",
     "enac_gradient",
