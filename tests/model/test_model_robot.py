@@ -242,10 +242,15 @@ def test_robot_listing_is_cached(tmp_path, monkeypatch) -> None:  # type: ignore
 
     reg = importlib.import_module("taskspace.model.registry")  # the module, not the function
     monkeypatch.setenv(reg.CACHE_ENVIRONMENT_VARIABLE, str(tmp_path))
+    everything = reg.available_robots()
+    some = {n: everything[n] for n in ("panda", "go2", "kinova", "cassie", "planar_2link")}
+    monkeypatch.setattr(reg, "available_robots", lambda: some)  # a fast cold listing
     first = reg.robot_summaries()
+    assert set(first) == set(some)
     files = list(tmp_path.glob("robots-*.json"))
     assert len(files) == 1
     assert first["panda"]["nq"] == 7 and first["go2"]["nq"] == 19 and first["kinova"]["nv"] == 6
+    assert first["planar_2link"]["source"] == "registry" and first["go2"]["floating"]
     assert first["cassie"]["nq"] is None and "SDF" in first["cassie"]["error"]
 
     def fail(spec):  # type: ignore[no-untyped-def]
