@@ -200,18 +200,21 @@ class DiscreteDMP:
         Ydd = np.empty((steps, d))
         X = np.empty(steps)
         v0 = self.initial_velocity if yd0 is None else np.asarray(yd0, dtype=float).reshape(d)
-        y, z, x = start.copy(), tau * v0, 1.0
+        y, z = start.copy(), tau * v0
         o = self.options
+        # The phase does not depend on the state: its samples and the weighted basis come first.
+        X[:] = (1.0 - dt * o.alpha_x / tau) ** np.arange(steps)
+        shape = self.weights @ self.basis(X).T  # (d x K): sum psi w / sum psi * x
+        unscaled = np.abs(self.goal - self.y0) < 1e-10
         for k in range(steps):
             t = k * dt
             while events and events[0][0] <= t + 1e-12:
                 g_target = events.pop(0)[1]
-            f = self.forcing(x, g, start)
+            f = shape[:, k] * np.where(unscaled, 1.0, g - start)
             zd = (o.alpha_z * (self.beta_z * (g - y) - z) + f) / tau
-            Y[k], Yd[k], Ydd[k], X[k] = y, z / tau, zd / tau, x
+            Y[k], Yd[k], Ydd[k] = y, z / tau, zd / tau
             z = z + dt * zd
             y = y + dt * z / tau
-            x = x - dt * o.alpha_x * x / tau
             g = g + dt * o.alpha_g * (g_target - g) / tau
         return DMPTrajectory(
             time=np.arange(steps, dtype=np.float64) * float(dt), y=Y, yd=Yd, ydd=Ydd, phase=X
@@ -302,13 +305,13 @@ class RhythmicDMP:
             np.empty(steps),
         )
         o = self.options
+        P[:] = phi + np.arange(steps) * dt / tau
+        forcing = amplitude * (self.weights @ self.basis(P).T)  # (d x K)
         for k in range(steps):
-            f = amplitude * (self.weights @ self.basis(phi)[0])
-            zd = (o.alpha_z * (o.alpha_z / 4.0 * (self.anchor - y) - z) + f) / tau
-            Y[k], Yd[k], Ydd[k], P[k] = y, z / tau, zd / tau, phi
+            zd = (o.alpha_z * (o.alpha_z / 4.0 * (self.anchor - y) - z) + forcing[:, k]) / tau
+            Y[k], Yd[k], Ydd[k] = y, z / tau, zd / tau
             z = z + dt * zd
             y = y + dt * z / tau
-            phi = phi + dt / tau
         return DMPTrajectory(
             time=np.arange(steps, dtype=np.float64) * float(dt), y=Y, yd=Yd, ydd=Ydd, phase=P
         )

@@ -149,14 +149,14 @@ class OrientationDMP:
         Rs = np.empty((steps, 3, 3))
         Q = np.empty((steps, 4))
         W = np.empty((steps, 3))
-        x = 1.0
+        X = (1.0 - dt * o.alpha_x / tau) ** np.arange(steps)
+        shape = self.weights @ self._phase.basis(X).T  # (3 x K)
         for k in range(steps):
             Rs[k], Q[k], W[k] = R, quaternion(R), eta / tau
-            f = D0 * (self.weights @ self._phase.basis(x)[0])
+            f = D0 * shape[:, k]
             eta_d = (o.alpha_z * (beta * pin.log3(g @ R.T) - eta) + f) / tau
             eta = eta + dt * eta_d
             R = pin.exp3(dt * eta / tau) @ R
-            x = x - dt * o.alpha_x * x / tau
         return OrientationTrajectory(
             time=np.arange(steps, dtype=np.float64) * float(dt),
             rotations=Rs,
