@@ -453,3 +453,23 @@ def test_kinova_reference_posture_is_wrapped_not_clipped() -> None:
         expected = reference.data.oMf[fid]
         actual = kinova.frame_placement(kinova.q_default, frame)
         np.testing.assert_allclose(actual.homogeneous, expected.homogeneous, atol=1e-12)
+
+
+def test_geometries_of_missing_joints_are_dropped() -> None:
+    """example-robot-data's talos_legs keeps the whole robot's collision geometry on a legs-only
+    model; Pinocchio would read past the end of Data for those geometries."""
+    import coal
+
+    from taskspace.errors import ModelWarning
+    from taskspace.model.robot import _drop_orphan_geometries
+
+    model = pin.Model()
+    model.addJoint(0, pin.JointModelRZ(), pin.SE3.Identity(), "j")
+    geometry = pin.GeometryModel()
+    for name, joint in (("ok", 1), ("orphan", 7)):
+        geometry.addGeometryObject(
+            pin.GeometryObject(name, joint, 0, pin.SE3.Identity(), coal.Sphere(0.1))
+        )
+    with pytest.warns(ModelWarning, match=r"1 collision geometries .* removed: \['orphan'\]"):
+        _drop_orphan_geometries(model, geometry, "test", "collision")
+    assert [g.name for g in geometry.geometryObjects] == ["ok"]
