@@ -9,6 +9,7 @@ import pytest
 
 from taskspace.locomotion.footsteps import StepTiming
 from taskspace.locomotion.whole_body_walking import plan_from_robot, walk
+from taskspace.locomotion.zmp import zmp_from_dynamics
 
 TIMING = StepTiming(
     single_support=0.5,
@@ -55,3 +56,21 @@ def test_feet_land_on_their_footsteps(short_walk):
         [robot.frame_placement(q, "right_ankle_roll_link").translation[2] for q in res.q[::5]]
     )
     assert np.ptp(z) == pytest.approx(0.04, abs=0.01)
+
+
+@pytest.mark.slow
+def test_measured_zmp_equals_zmp_of_simulated_motion(short_walk):
+    """The ZMP of the simulator's contact wrenches equals the one of the centroidal momentum
+    rate of the simulated motion (semi-implicit Euler: ``a_k = (v_{k+1} - v_k) / dt``)."""
+    robot, _plan, res = short_walk
+    height = robot.frame_placement(robot.q_default, "left_ankle_roll_link").translation[2]
+    checked = 0
+    for k in range(0, len(res.times) - 1, 23):
+        dt = res.times[k + 1] - res.times[k]
+        if dt < 1e-9:  # phase boundary: the same instant twice
+            continue
+        a = (res.v[k + 1] - res.v[k]) / dt
+        zmp = zmp_from_dynamics(robot, res.q[k], res.v[k], a, height=height)
+        assert zmp[:2] == pytest.approx(res.zmp[k], abs=1e-9)
+        checked += 1
+    assert checked > 20

@@ -15,7 +15,9 @@ positions of the foot frames on the ground. Per contact phase:
 One :class:`~taskspace.control.InverseDynamicsQP` per contact set (both feet, left, right)
 computes the torques; the robot is simulated phase by phase with rigid contacts
 (:func:`~taskspace.control.simulate_with_contacts`), the contact set switched at lift-off and
-touchdown, a landing foot anchored where it touches down.
+touchdown, a landing foot anchored where it touches down. The contacts, their CoP rectangles
+and the measured ZMP live in the plane of the foot frames at the start (for G1 the ankle-roll
+frames, 35 mm above the soles; for Talos the sole frames).
 """
 
 from __future__ import annotations
