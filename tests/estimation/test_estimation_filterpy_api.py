@@ -332,7 +332,7 @@ def test_ukf_nan_model_raises_and_keeps_belief() -> None:
         np.eye(2),
     )
     x, P = ukf.x.copy(), ukf.P.copy()
-    with pytest.raises(TaskspaceError, match="non-finite"):
+    with pytest.raises(TaskspaceError, match="returned non-finite"):
         ukf.predict(1)
     np.testing.assert_array_equal(ukf.x, x)
     np.testing.assert_array_equal(ukf.P, P)
@@ -352,7 +352,7 @@ def test_ekf_nan_jacobian_raises() -> None:
         [0.0],
         1.0,
     )
-    with pytest.raises(TaskspaceError, match="non-finite"):
+    with pytest.raises(TaskspaceError, match="returned non-finite"):
         ekf.predict()
     assert ekf.x[0] == 0.0 and ekf.P[0, 0] == 1.0
 
@@ -365,3 +365,13 @@ def test_complex_inputs_are_refused() -> None:
         kf.update(np.array([1 + 2j]))
     with pytest.raises(InvalidInputError, match="complex"):
         kf.update(1.0, R=np.array([[1 + 0j]]))
+
+
+def test_overflowing_update_raises_and_keeps_belief() -> None:
+    """A residual that overflows (1e308 - (-1e308)) is refused instead of a NaN mean."""
+    from taskspace.errors import SolverError
+
+    kf = KalmanFilter([[1.0]], [[1.0]], [[0.0]], [[1.0]], [-1e308], [[1.0]])
+    with np.errstate(over="ignore", invalid="ignore"), pytest.raises(SolverError, match="overflow"):
+        kf.update(1e308)
+    assert kf.x[0] == -1e308 and kf.P[0, 0] == 1.0
