@@ -98,6 +98,8 @@ class WalkingResult:
         zmp_margin: (T,) distance of the ZMP to the edge of the CoP rectangles' hull [m].
         cone_violation: largest violation of a friction cone over the walk [N].
         phases: (kind, start, end) of each simulated phase.
+        wrenches: per side (``"left"``, ``"right"``), (T, 6) simulated contact wrench in the
+            foot frame [N, N m]; zero while the foot swings.
         control_times: (T,) wall time of each QP solve [s].
         message: why the walk stopped early, if it did.
     """
@@ -113,6 +115,7 @@ class WalkingResult:
     zmp_margin: FloatArray
     cone_violation: float
     phases: list[tuple[str, float, float]]
+    wrenches: dict[str, FloatArray]
     control_times: FloatArray
     message: str = ""
 
@@ -259,6 +262,7 @@ def walk(robot: Any, plan: FootstepPlan, options: WalkingOptions | None = None) 
 
     t_all, q_all, v_all, tau_all, com_all, cref_all, zmp_all, margin_all = ([] for _ in range(8))
     control_times: list[float] = []
+    wrench_log: dict[str, list[FloatArray]] = {"left": [], "right": []}
     phases_done: list[tuple[str, float, float]] = []
     worst_cone = -np.inf
     q, v = q0, v0
@@ -307,6 +311,11 @@ def walk(robot: Any, plan: FootstepPlan, options: WalkingOptions | None = None) 
         )
         phases_done.append((phase.kind.value, phase.start, phase.end))
         worst_cone = max(worst_cone, *roll.cone_violations.values())
+        for side in ("left", "right"):
+            frame = foot_frames[side]
+            wrench_log[side].append(
+                roll.forces[frame] if side in stance_sides else np.zeros((len(roll.t), 6))
+            )
         for k in range(len(roll.t)):
             wrenches = []
             pts = []
@@ -359,6 +368,7 @@ def walk(robot: Any, plan: FootstepPlan, options: WalkingOptions | None = None) 
         zmp_margin=margins,
         cone_violation=float(worst_cone),
         phases=phases_done,
+        wrenches={side: np.vstack(w) for side, w in wrench_log.items()},
         control_times=np.array(control_times),
         message=message,
     )
