@@ -293,16 +293,16 @@ class DifferentialIK:
         dt = check_positive(dt, "dt")
         self._acquire()  # bound methods: about half the cost of ``with self._lock``
         try:
-            return self._solve(state, dt)
+            if self._native is not None or (not self._native_checked and self.native):
+                native = self._solve_native(state, dt)
+                if native is not None:
+                    return native
+            return self._solve_python(state, dt)
         finally:
             self._release()
 
-    def _solve(self, state: State, dt: float) -> IKStepResult:
-        """:meth:`solve` without the lock (the caller holds it)."""
-        if self._native is not None or (not self._native_checked and self.native):
-            native = self._solve_native(state, dt)
-            if native is not None:
-                return native
+    def _solve_python(self, state: State, dt: float) -> IKStepResult:
+        """:meth:`solve` by the Python path (the caller holds the lock)."""
         t0 = time.perf_counter()
         problem = self._build(state, dt)
         t1 = time.perf_counter()
@@ -319,7 +319,7 @@ class DifferentialIK:
         return IKStepResult(result.success, status, dq, dq / dt, result, culprits, t1 - t0, t2 - t1)
 
     def _solve_native(self, state: State, dt: float) -> IKStepResult | None:
-        if state.robot is not self.robot:
+        if state._robot is not self.robot:  # the slot: cheaper than the read-only property
             self.tasks[0].feature._check_state(state)
         native = self._native
         assert native is not None
