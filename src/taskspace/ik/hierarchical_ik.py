@@ -50,7 +50,9 @@ class HierarchicalIKResult:
 
 
 MAX_WEIGHTED_RESIDUAL = 1e30
-"""Largest weighted task residual a step accepts (beyond it the QP cascade loses accuracy)."""
+"""Largest norm of a level's weighted task residual that a step accepts (beyond it the QP
+cascade loses accuracy and can take minutes)."""
+_MAX_SQUARED_RESIDUAL = MAX_WEIGHTED_RESIDUAL**2
 
 
 def _check_levels(levels: object) -> list[list[Task | Constraint]]:
@@ -154,6 +156,11 @@ class HierarchicalIK:
         self._inequality_items: list[list[Constraint]] = []
         self._J: list[FloatArray] = []
         self._r: list[FloatArray] = []
+        # every level's r is a view of one buffer: one dot product checks them all
+        self._r_all = np.zeros(
+            sum(item.dim for level in self.levels for item in level if isinstance(item, Task))
+        )
+        start = 0
         for level in self.levels:
             rows, row = [], 0
             for item in level:
@@ -163,7 +170,8 @@ class HierarchicalIK:
             self._task_rows.append(rows)
             self._inequality_items.append([c for c in level if isinstance(c, Constraint)])
             self._J.append(np.zeros((row, nv)))
-            self._r.append(np.zeros(row))
+            self._r.append(self._r_all[start : start + row])
+            start += row
 
     @classmethod
     def from_priorities(
@@ -223,13 +231,9 @@ class HierarchicalIK:
         dt = check_positive(dt, "dt")
         t0 = time.perf_counter()
         levels = self.build(state, dt)
-        for level in levels:
-            if level.r.size and not float(np.abs(level.r).max()) <= MAX_WEIGHTED_RESIDUAL:
-                raise SolverError(
-                    f"{level.name}: the weighted task residual |sqrt(weight) * gain * error| = "
-                    f"{float(np.abs(level.r).max()):.3g} is not finite or above "
-                    f"{MAX_WEIGHTED_RESIDUAL:g}; check the targets and weights"
-                )
+        r_all = self._r_all
+        if not float(r_all.dot(r_all)) <= _MAX_SQUARED_RESIDUAL:  # also NaN and overflow
+            self._residual_error(levels)
         nv = self.robot.nv
         lb, ub, _ = combine_bounds(self.constraints, state, dt, nv)
         stacked = stack_inequalities(self.constraints, state, dt)
@@ -261,6 +265,22 @@ class HierarchicalIK:
             result,
             t1 - t0,
             t2 - t1,
+        )
+
+    def _residual_error(self, levels: list[HierarchyLevel]) -> None:
+        """Raise the error naming the level whose weighted residual is too large."""
+        for level in levels:
+            with np.errstate(over="ignore", invalid="ignore"):
+                norm = float(np.linalg.norm(level.r))
+            if not norm <= MAX_WEIGHTED_RESIDUAL:
+                raise SolverError(
+                    f"{level.name}: the weighted task residual |sqrt(weight) * gain * error| = "
+                    f"{norm:.3g} is not finite or above {MAX_WEIGHTED_RESIDUAL:g}; check the "
+                    "targets and weights"
+                )
+        raise SolverError(
+            f"the weighted task residuals of the levels together exceed {MAX_WEIGHTED_RESIDUAL:g}"
+            "; check the targets and weights"
         )
 
     def step(self, state: State, dt: float) -> tuple[FloatArray, HierarchicalIKResult]:
