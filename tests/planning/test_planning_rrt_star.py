@@ -102,3 +102,46 @@ def test_interpolate_and_errors() -> None:
         rrt_star(space, [0.5, 0.5], [0.9, 0.5])
     with pytest.raises(InvalidInputError):
         rrt_star(space, [0.1, 0.5], [0.9, 0.5], RRTStarOptions(time_limit_s=float("nan")))
+
+
+def test_multiple_goals_end_at_the_cheaper_one() -> None:
+    space = square_world()
+    goals = np.array([[0.9, 0.5], [0.1, 0.9]])  # the second is nearer and in plain sight
+    result = rrt_star(
+        space,
+        [0.1, 0.5],
+        goals,
+        RRTStarOptions(step_size=0.2, max_iterations=800, time_limit_s=None),
+    )
+    assert result.success and np.allclose(result.path[-1], goals[1])
+    assert result.path_length == pytest.approx(0.4, rel=0.05)
+
+
+class Disk:
+    """A goal region: the disk of radius r about c (sampled uniformly)."""
+
+    def __init__(self, c: list[float], r: float) -> None:
+        self.c, self.r = np.array(c), r
+
+    def contains(self, q: np.ndarray) -> bool:
+        return bool(np.linalg.norm(q - self.c) <= self.r)
+
+    def sample(self, rng: np.random.Generator) -> np.ndarray:
+        a, u = rng.uniform(0, 2 * np.pi), np.sqrt(rng.random())
+        return self.c + self.r * u * np.array([np.cos(a), np.sin(a)])
+
+
+def test_goal_region_is_reached_within_its_tolerance() -> None:
+    space = square_world()
+    region = Disk([0.9, 0.5], 0.05)
+    result = rrt_star(
+        space,
+        [0.1, 0.5],
+        region,
+        RRTStarOptions(step_size=0.2, max_iterations=2000, time_limit_s=None),
+    )
+    assert result.success and region.contains(result.path[-1])
+    # the optimum to the disk: around the square's corner to the disk's nearest point
+    corner = np.array([0.6, 0.7])
+    optimum = np.hypot(0.3, 0.2) + 0.2 + np.linalg.norm(region.c - corner) - region.r
+    assert optimum - 1e-9 <= result.path_length <= optimum * 1.05

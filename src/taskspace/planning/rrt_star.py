@@ -20,7 +20,7 @@ import itertools
 import math
 import time
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
@@ -91,6 +91,68 @@ def _rotation_to_world(start: FloatArray, goal: FloatArray) -> FloatArray:
     return u @ np.diag(diag) @ vt
 
 
+@runtime_checkable
+class GoalRegion(Protocol):
+    """A set of goal configurations (OMPL's ``GoalSampleableRegion``).
+
+    ``contains(q)`` says whether ``q`` reaches the goal; ``sample(rng)`` returns a goal
+    configuration or ``None`` (a region that cannot be sampled is only recognised when the
+    tree reaches it). A pose within tolerances sampled by IK
+    (:class:`taskspace.ik.PoseGoalRegion`) or any feature within bounds fit this protocol.
+    """
+
+    def contains(self, q: FloatArray) -> bool:
+        """Whether ``q`` is a goal configuration."""
+
+    def sample(self, rng: np.random.Generator) -> FloatArray | None:
+        """A goal configuration, or ``None`` when none was found."""
+
+
+class _RRTStarTree:
+    """Nodes, parents, costs-to-come and children of the tree (grown by doubling)."""
+
+    def __init__(self, root: FloatArray) -> None:
+        d = root.size
+        self.nodes = np.empty((1024, d))
+        self.parents = np.full(1024, -1, dtype=np.int64)
+        self.cost = np.zeros(1024)
+        self.children: list[list[int]] = [[]]
+        self.nodes[0] = root
+        self.n = 1
+
+    def add(self, q: FloatArray, parent: int, cost: float) -> int:
+        if self.n == len(self.cost):
+            size = 2 * self.n
+            self.nodes = np.resize(self.nodes, (size, self.nodes.shape[1]))
+            self.parents = np.resize(self.parents, size)
+            self.cost = np.resize(self.cost, size)
+        i = self.n
+        self.nodes[i], self.parents[i], self.cost[i] = q, parent, cost
+        self.children.append([])
+        if parent >= 0:
+            self.children[parent].append(i)
+        self.n += 1
+        return i
+
+    def reparent(self, i: int, parent: int, cost: float) -> None:
+        self.children[int(self.parents[i])].remove(i)
+        self.parents[i] = parent
+        self.children[parent].append(i)
+        _propagate(i, cost - self.cost[i], self.cost, self.children)
+
+
+def _goal_states(space: ConfigurationSpace, goal: Any) -> tuple[list[FloatArray], Any]:
+    """Goal configurations (validated) and the goal region (or None)."""
+    if isinstance(goal, GoalRegion):
+        return [], goal
+    arr = np.asarray(goal, dtype=np.float64) if not isinstance(goal, np.ndarray) else goal
+    if arr.ndim == 2:
+        if arr.shape[0] == 0:
+            raise InvalidInputError("goal: an empty list of goal configurations")
+        return [space.check_endpoint(g, f"goal[{i}]") for i, g in enumerate(arr)], None
+    return [space.check_endpoint(goal, "goal")], None
+
+
 def rrt_star(
     space: ConfigurationSpace,
     start: Any,
@@ -99,11 +161,21 @@ def rrt_star(
     *,
     rng: np.random.Generator | None = None,
 ) -> PlannerResult:
-    """Plan a short collision-free path from ``start`` to ``goal`` with (informed) RRT*.
+    """Plan a short collision-free path from ``start`` to a goal with (informed) RRT*.
+
+    Args:
+        space: configuration space with validity checker and local planner.
+        start: ``q_start`` (size d).
+        goal: one goal configuration (d,), several (k, d) (the path ends at whichever is
+            cheaper to reach), or a :class:`GoalRegion` (sampled for the goal bias; every
+            tree node inside it ends a candidate path).
+        options: planner settings.
+        rng: random generator (default: ``np.random.default_rng(options.seed)``).
 
     Returns:
         The best path found within the limits; ``log`` holds ``cost_times`` and ``costs``
         (the best cost each time it improved), ``first_solution_s`` and the tree size.
+        Informed sampling is used with a single goal configuration only.
 
     Raises:
         PlanningError: start or goal outside the bounds or in collision.
@@ -118,7 +190,7 @@ def rrt_star(
     check_positive(opts.gamma_factor, "gamma_factor")
     rng = rng or np.random.default_rng(check_seed(opts.seed))
     q_start = space.check_endpoint(start, "start")
-    q_goal = space.check_endpoint(goal, "goal")
+    goals, region = _goal_states(space, goal)
     d = space.dim
     volume = float(np.prod(space.upper - space.lower))
     k_rrg = opts.gamma_factor * math.e * (1 + 1 / d)
@@ -128,15 +200,23 @@ def rrt_star(
     checks0, edges0 = space.checks, space.edge_checks
     t0 = time.perf_counter()
 
-    capacity = 1024
-    nodes = np.empty((capacity, d))
-    parents = np.full(capacity, -1, dtype=np.int64)
-    cost = np.zeros(capacity)
-    children: list[list[int]] = [[]]
-    nodes[0] = q_start
-    n = 1
-    goal_node = -1
-    rotation = _rotation_to_world(q_start, q_goal) if np.linalg.norm(q_goal - q_start) > 0 else None
+    tree = _RRTStarTree(q_start)
+    goal_nodes: dict[int, int] = {}  # goal state index -> its tree node
+    region_nodes: list[int] = []
+    rotation = None
+    if opts.informed and region is None and len(goals) == 1:
+        if np.linalg.norm(goals[0] - q_start) > 0:
+            rotation = _rotation_to_world(q_start, goals[0])
+    if region is not None and region.contains(q_start):
+        region_nodes.append(0)
+
+    def best_goal() -> tuple[int, float]:
+        candidates = list(goal_nodes.values()) + region_nodes
+        if not candidates:
+            return -1, math.inf
+        i = min(candidates, key=lambda j: tree.cost[j])
+        return i, float(tree.cost[i])
+
     cost_times: list[float] = []
     costs: list[float] = []
     status = PlannerStatus.ITERATION_LIMIT
@@ -146,21 +226,27 @@ def rrt_star(
         if time.perf_counter() - t0 > limit:
             status = PlannerStatus.TIME_LIMIT
             break
-        c_best = cost[goal_node] if goal_node >= 0 else math.inf
-        if goal_node < 0 and rng.random() < opts.goal_bias:
-            target = q_goal
-        elif opts.informed and goal_node >= 0 and rotation is not None:
+        _, c_best = best_goal()
+        target = None
+        if not math.isfinite(c_best) and rng.random() < opts.goal_bias:
+            if region is not None:
+                sampled = region.sample(rng)
+                if sampled is not None and space.within_bounds(sampled) and space.is_valid(sampled):
+                    goals.append(np.asarray(sampled, dtype=np.float64))
+                    target = goals[-1]
+            elif goals:
+                target = goals[int(rng.integers(len(goals)))]
+        if target is None and rotation is not None and math.isfinite(c_best):
             for _ in range(100):  # rejection against the bounds
-                target = informed_sample(rng, q_start, q_goal, c_best, rotation)
-                if space.within_bounds(target):
+                candidate = informed_sample(rng, q_start, goals[0], c_best, rotation)
+                if space.within_bounds(candidate):
+                    target = candidate
                     break
-            else:
-                target = space.sample_uniform(rng)
-        else:
+        if target is None:
             target = space.sample_uniform(rng)
-        diff = nodes[:n] - target
-        dist2 = np.einsum("ij,ij->i", diff, diff)
-        near_i = int(dist2.argmin())
+        nodes = tree.nodes[: tree.n]
+        diff = nodes - target
+        near_i = int(np.einsum("ij,ij->i", diff, diff).argmin())
         step = target - nodes[near_i]
         length = math.sqrt(float(step @ step))
         if length < 1e-12:
@@ -168,7 +254,8 @@ def rrt_star(
         x_new = nodes[near_i] + step * min(1.0, eta / length)
         if not space.is_valid(x_new) or not space.motion_valid(nodes[near_i], x_new):
             continue
-        delta = nodes[:n] - x_new
+        n = tree.n
+        delta = nodes - x_new
         dist = np.sqrt(np.einsum("ij,ij->i", delta, delta))
         if opts.k_nearest:
             k = min(n, math.ceil(k_rrg * math.log(n + 1)))
@@ -177,8 +264,9 @@ def rrt_star(
             radius = min(gamma * (math.log(n + 1) / (n + 1)) ** (1 / d), eta)
             near = np.flatnonzero(dist <= radius)
         # Choose the parent of least cost-to-come among the neighbours.
+        cost = tree.cost
         best_parent = near_i
-        best_cost = cost[near_i] + float(np.linalg.norm(x_new - nodes[near_i]))
+        best_cost = cost[near_i] + dist[near_i]
         for j in near[np.argsort(cost[near] + dist[near])]:
             c = cost[j] + dist[j]
             if c >= best_cost:
@@ -186,64 +274,47 @@ def rrt_star(
             if j != near_i and space.motion_valid(nodes[j], x_new):
                 best_parent, best_cost = int(j), c
                 break
-        if n == capacity:
-            capacity *= 2
-            nodes = np.resize(nodes, (capacity, d))
-            parents = np.resize(parents, capacity)
-            cost = np.resize(cost, capacity)
-        new = n
-        nodes[new], parents[new], cost[new] = x_new, best_parent, best_cost
-        children.append([])
-        children[best_parent].append(new)
-        n += 1
+        new = tree.add(x_new, best_parent, float(best_cost))
         # Rewire the neighbours through x_new.
         for j in near:
             j = int(j)
             c = best_cost + dist[j]
-            if j == best_parent or c >= cost[j] - 1e-12:
+            if j == best_parent or c >= tree.cost[j] - 1e-12:
                 continue
-            if space.motion_valid(x_new, nodes[j]):
-                children[int(parents[j])].remove(j)
-                parents[j] = new
-                children[new].append(j)
-                _propagate(j, c - cost[j], cost, children)
-        # Connect to the goal.
-        to_goal = float(np.linalg.norm(q_goal - x_new))
-        if to_goal <= eta and best_cost + to_goal < (
-            cost[goal_node] if goal_node >= 0 else math.inf
-        ):
+            if space.motion_valid(x_new, tree.nodes[j]):
+                tree.reparent(j, new, float(c))
+        # Connect to the goals.
+        if region is not None and region.contains(x_new):
+            region_nodes.append(new)
+        for g, q_goal in enumerate(goals):
+            to_goal = float(np.linalg.norm(q_goal - x_new))
+            node = goal_nodes.get(g, -1)
+            if to_goal > eta or best_cost + to_goal >= (tree.cost[node] if node >= 0 else math.inf):
+                continue
             if space.motion_valid(x_new, q_goal):
-                if goal_node < 0:
-                    if n == capacity:
-                        capacity *= 2
-                        nodes = np.resize(nodes, (capacity, d))
-                        parents = np.resize(parents, capacity)
-                        cost = np.resize(cost, capacity)
-                    goal_node = n
-                    nodes[n] = q_goal
-                    children.append([])
-                    n += 1
+                if node < 0:
+                    goal_nodes[g] = tree.add(q_goal, new, best_cost + to_goal)
                 else:
-                    children[int(parents[goal_node])].remove(goal_node)
-                parents[goal_node] = new
-                children[new].append(goal_node)
-                cost[goal_node] = best_cost + to_goal
-        if goal_node >= 0 and (not costs or cost[goal_node] < costs[-1] - 1e-12):
+                    tree.reparent(node, new, best_cost + to_goal)
+        _, c_now = best_goal()
+        if math.isfinite(c_now) and (not costs or c_now < costs[-1] - 1e-12):
             cost_times.append(time.perf_counter() - t0)
-            costs.append(float(cost[goal_node]))
+            costs.append(c_now)
             if opts.stop_at_first:
                 status = PlannerStatus.SOLVED
                 break
     elapsed = time.perf_counter() - t0
-    tree = Tree(nodes[:n].copy(), parents[:n].copy())
+    result_tree = Tree(tree.nodes[: tree.n].copy(), tree.parents[: tree.n].copy())
+    goal_node, _ = best_goal()
     success = goal_node >= 0
-    path = tree.path_to(goal_node) if success else np.zeros((0, d))
+    path = result_tree.path_to(goal_node) if success else np.zeros((0, d))
     log: dict[str, Any] = {
-        "tree_size": float(n),
+        "tree_size": float(tree.n),
         "first_solution_s": cost_times[0] if cost_times else math.inf,
         "cost_times": cost_times,
         "costs": costs,
         "gamma": gamma,
+        "goal_states": float(len(goals)),
     }
     return PlannerResult(
         success=success,
@@ -254,7 +325,7 @@ def rrt_star(
         collision_checks=space.checks - checks0,
         edge_checks=space.edge_checks - edges0,
         time_s=elapsed,
-        trees=[tree],
+        trees=[result_tree],
         log=log,
     )
 
