@@ -10,7 +10,7 @@ from gymnasium.utils.env_checker import check_env
 
 from taskspace.dynamics.pendulum import pendulum_acceleration
 from taskspace.errors import InvalidInputError
-from taskspace.learning.envs import CartPoleEnv, CartPoleVectorEnv, PendulumEnv
+from taskspace.learning.envs import CartPoleEnv, CartPoleVectorEnv, PendulumEnv, PendulumVectorEnv
 from taskspace.optimal_control import cartpole_acceleration
 
 
@@ -83,6 +83,26 @@ def test_vector_env_matches_the_single_env() -> None:
         assert obs[1] == pytest.approx(o1, abs=1e-6)
         if term[1]:
             break
+
+
+def test_pendulum_vector_env_matches_the_single_env() -> None:
+    vec = PendulumVectorEnv(num_envs=4)
+    vec.reset(seed=0)
+    single = PendulumEnv()
+    single.reset(seed=0)
+    single.state = vec.state[2].copy()
+    rng = np.random.default_rng(1)
+    for _ in range(30):
+        u = rng.uniform(-5, 5, (4, 1)).astype(np.float32)
+        obs, rew, *_ = vec.step(u)
+        o1, r1, *_ = single.step(u[2])
+        assert obs[2] == pytest.approx(o1, abs=1e-5)
+        assert rew[2] == pytest.approx(r1, rel=1e-6)
+    made = gym.make_vec(
+        "taskspace/Pendulum-v0", num_envs=3, vectorization_mode="vector_entry_point"
+    )
+    obs, _ = made.reset(seed=0)
+    assert obs.shape == (3, 3)
 
 
 def test_vector_env_via_make_vec_and_autoreset() -> None:
