@@ -375,3 +375,25 @@ def test_overflowing_update_raises_and_keeps_belief() -> None:
     with np.errstate(over="ignore", invalid="ignore"), pytest.raises(SolverError, match="overflow"):
         kf.update(1e308)
     assert kf.x[0] == -1e308 and kf.P[0, 0] == 1.0
+
+
+def _spd(rng: np.random.Generator, n: int) -> np.ndarray:
+    A = rng.normal(size=(n, n))
+    return A @ A.T + 0.1 * np.eye(n)
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_random_kalman_steps_match_information_form(seed: int) -> None:
+    """Predict + update (per-call H and R, column z) against the information-form closed form."""
+    rng = np.random.default_rng(seed)
+    n, m = int(rng.integers(1, 5)), int(rng.integers(1, 4))
+    F, H, Q, R = rng.normal(size=(n, n)), rng.normal(size=(m, n)), _spd(rng, n), _spd(rng, m)
+    x0, P0, z = rng.normal(size=n), _spd(rng, n), rng.normal(size=m)
+    kf = KalmanFilter(F, np.eye(n), Q, np.eye(n), x0[:, None], P0)
+    kf.predict()
+    kf.update(z[:, None], R=R, H=H)
+    xp, Pp = F @ x0, F @ P0 @ F.T + Q
+    P_ref = np.linalg.inv(np.linalg.inv(Pp) + H.T @ np.linalg.solve(R, H))
+    x_ref = P_ref @ (np.linalg.solve(Pp, xp) + H.T @ np.linalg.solve(R, z))
+    np.testing.assert_allclose(kf.x, x_ref, rtol=1e-8, atol=1e-10)
+    np.testing.assert_allclose(kf.P, P_ref, rtol=1e-8, atol=1e-10)
