@@ -61,6 +61,8 @@ class InverseDynamicsResult:
             world force) [N, N m].
         qp: QP result of the weighted problem (``None`` in hierarchical mode).
         residuals: per priority level, the task residual norm (hierarchical mode).
+        level_results: per level of the cascade, its QP result with KKT residuals
+            (hierarchical mode; empty levels solved without a QP are ``UNCONSTRAINED``).
         culprits: constraint blocks at fault when the problem was relaxed.
         build_time, solve_time: wall times [s].
     """
@@ -72,6 +74,7 @@ class InverseDynamicsResult:
     forces: dict[str, FloatArray]
     qp: QPResult | None = None
     residuals: list[float] = field(default_factory=list)
+    level_results: list[QPResult] = field(default_factory=list)
     culprits: list[str] = field(default_factory=list)
     build_time: float = 0.0
     solve_time: float = 0.0
@@ -424,6 +427,7 @@ class InverseDynamicsQP:
         status = InverseDynamicsStatus.SOLVED if result.success else InverseDynamicsStatus.RELAXED
         out = self._result(state, result.x, result.success, status, t1 - t0, t2 - t1, None)
         out.residuals = result.residuals
+        out.level_results = result.level_results
         return out
 
     def _hierarchy_levels(self) -> list[HierarchyLevel]:
