@@ -946,3 +946,24 @@ def test_as_se3_refuses_non_real_poses(pose: Any) -> None:
     from taskspace.model import as_se3
 
     call(as_se3, pose)
+
+
+@pytest.mark.xfail(
+    strict=False,
+    reason="DifferentialIK does not check the structure of tasks / constraints (a nested list, a "
+    "single Task, None or a Task among the constraints give a bare AttributeError or "
+    "TypeError): ik/differential_ik.py belongs to helper H1",
+)
+@pytest.mark.parametrize("case", ["nested", "single", "none", "task_as_constraint"])
+def test_differential_ik_checks_its_lists(ur5: Robot, case: str) -> None:
+    from taskspace.ik import DifferentialIK
+
+    t1, _ = _tasks(ur5)
+    args: dict[str, tuple[Any, Any]] = {
+        "nested": ([[t1]], ()),
+        "single": (t1, ()),
+        "none": (None, ()),
+        "task_as_constraint": ([t1], [t1]),
+    }
+    tasks, constraints = args[case]
+    call(DifferentialIK, ur5, tasks, constraints)
