@@ -1,11 +1,17 @@
 """Learning in robotics: datasets, MDPs, policy search, movement primitives.
 
-Chapter 10 of the lecture notes (tabular RL, policy search, movement primitives); IK datasets
+Chapter 10 of the lecture notes (tabular RL, policy search, movement primitives,
+apprenticeship learning); IK datasets
 in :mod:`taskspace.learning.ik_dataset`. Dynamic programming and the HJB equation (the
 model-based side) live in :mod:`taskspace.optimal_control`.
 """
 
 from taskspace.learning.dmp import DiscreteDMP, DMPOptions, DMPTrajectory, RhythmicDMP
+from taskspace.learning.inverse_rl import (
+    ApprenticeshipResult,
+    apprenticeship_learning,
+    feature_expectations,
+)
 from taskspace.learning.orientation_dmp import (
     OrientationDMP,
     OrientationTrajectory,
@@ -45,6 +51,7 @@ from taskspace.learning.tabular import (
 from taskspace.learning.via_point import ViaPointTask
 
 __all__ = [
+    "ApprenticeshipResult",
     "DMPOptions",
     "DMPTrajectory",
     "DiscreteDMP",
@@ -64,11 +71,13 @@ __all__ = [
     "TabularOptions",
     "TabularResult",
     "ViaPointTask",
+    "apprenticeship_learning",
     "cma_es",
     "enac",
     "enac_gradient",
     "enac_regression",
     "evaluate_population",
+    "feature_expectations",
     "mu_lambda_es",
     "pi2",
     "policy_rollout",
