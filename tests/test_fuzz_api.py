@@ -967,3 +967,12 @@ def test_differential_ik_checks_its_lists(ur5: Robot, case: str) -> None:
     }
     tasks, constraints = args[case]
     call(DifferentialIK, ur5, tasks, constraints)
+
+
+@pytest.mark.parametrize("kind", ["Vector", "Alignment", "RelativeVector", "RelativeAlignment"])
+def test_zero_direction_is_refused(ur5: Robot, kind: str) -> None:
+    """A zero direction made the feature identically zero (a task that can never act)."""
+    from taskspace.errors import InvalidInputError
+
+    with pytest.raises(InvalidInputError, match="non-zero direction"):
+        _feature_factories()[kind](ur5, FRAME, [0.0, 0.0, 0.0])
