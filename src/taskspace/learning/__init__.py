@@ -1,12 +1,13 @@
 """Learning in robotics: datasets, MDPs, policy search, movement primitives.
 
-Chapter 10 of the lecture notes (tabular RL, policy search, movement primitives,
-apprenticeship learning); IK datasets
-in :mod:`taskspace.learning.ik_dataset`. Dynamic programming and the HJB equation (the
-model-based side) live in :mod:`taskspace.optimal_control`.
+Chapter 10 of the lecture notes: tabular RL, policy search, movement primitives, behaviour
+cloning, apprenticeship learning; Gymnasium environments in :mod:`taskspace.learning.envs`;
+IK datasets in :mod:`taskspace.learning.ik_dataset`. Dynamic programming and the HJB
+equation (the model-based side) live in :mod:`taskspace.optimal_control`.
 """
 
 from taskspace.learning.dmp import DiscreteDMP, DMPOptions, DMPTrajectory, RhythmicDMP
+from taskspace.learning.imitation import BehaviourCloningResult, behaviour_cloning
 from taskspace.learning.inverse_rl import (
     ApprenticeshipResult,
     apprenticeship_learning,
@@ -52,6 +53,7 @@ from taskspace.learning.via_point import ViaPointTask
 
 __all__ = [
     "ApprenticeshipResult",
+    "BehaviourCloningResult",
     "DMPOptions",
     "DMPTrajectory",
     "DiscreteDMP",
@@ -72,6 +74,7 @@ __all__ = [
     "TabularResult",
     "ViaPointTask",
     "apprenticeship_learning",
+    "behaviour_cloning",
     "cma_es",
     "enac",
     "enac_gradient",
