@@ -9,7 +9,7 @@ import numpy as np
 import numpy.typing as npt
 
 from taskspace._validation import FloatArray, check_positive
-from taskspace.errors import UnknownNameError
+from taskspace.errors import InvalidInputError, UnknownNameError
 from taskspace.features.feature import Feature
 
 if TYPE_CHECKING:
@@ -42,6 +42,21 @@ class CollisionDistance(Feature):
         if pairs is None:
             self.pair_indices = np.arange(len(all_pairs))
         else:
+            if isinstance(pairs, (str, bytes)) or not isinstance(pairs, Sequence) or not pairs:
+                raise InvalidInputError(
+                    "pairs must be a non-empty list of (geometry name, geometry name) pairs "
+                    f"(robot.collision_pairs lists them), got {pairs!r}"
+                )
+            for pair in pairs:
+                if (
+                    isinstance(pair, (str, bytes))
+                    or not isinstance(pair, Sequence)
+                    or len(pair) != 2
+                    or not all(isinstance(g, str) for g in pair)
+                ):
+                    raise InvalidInputError(
+                        f"each collision pair must be two geometry names, got {pair!r}"
+                    )
             lookup = {p: k for k, p in enumerate(all_pairs)}
             lookup.update({(b, a): k for (a, b), k in list(lookup.items())})
             idx = []
