@@ -412,11 +412,6 @@ def test_differential_ik_step_arguments(ur5: Robot, dt: Any) -> None:
         assert isinstance(dt, (int, float)) and 0 < dt < math.inf
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="DifferentialIK.solve does not check that `state` is a State (AttributeError on a "
-    "plain q array or None): ik/differential_ik.py belongs to helper H1",
-)
 @pytest.mark.parametrize("state", [None, "q"])
 def test_differential_ik_state_must_be_a_state(ur5: Robot, state: Any) -> None:
     from taskspace.ik import DifferentialIK
@@ -948,12 +943,6 @@ def test_as_se3_refuses_non_real_poses(pose: Any) -> None:
     call(as_se3, pose)
 
 
-@pytest.mark.xfail(
-    strict=False,
-    reason="DifferentialIK does not check the structure of tasks / constraints (a nested list, a "
-    "single Task, None or a Task among the constraints give a bare AttributeError or "
-    "TypeError): ik/differential_ik.py belongs to helper H1",
-)
 @pytest.mark.parametrize("case", ["nested", "single", "none", "task_as_constraint"])
 def test_differential_ik_checks_its_lists(ur5: Robot, case: str) -> None:
     from taskspace.ik import DifferentialIK

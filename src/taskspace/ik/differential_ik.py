@@ -16,7 +16,7 @@ from __future__ import annotations
 import enum
 import threading
 import time
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -159,6 +159,35 @@ def stack_inequalities(
     return np.vstack(rows_C), np.concatenate(rows_l), np.concatenate(rows_u), blocks
 
 
+def _require_state(state: object) -> None:
+    raise InvalidInputError(
+        f"state must be a taskspace State (robot.state(q) or robot.state(q, v)), got "
+        f"{type(state).__name__}"
+    )
+
+
+def _flat_list(items: object, kind: type, name: str) -> list:  # type: ignore[type-arg]
+    """``items`` as a list whose elements are all ``kind``; else a clear error."""
+    what = kind.__name__
+    if isinstance(items, (kind, str, bytes)) or not isinstance(items, Iterable):
+        hint = f": write [{name[:-1]}]" if isinstance(items, kind) else ""
+        raise InvalidInputError(
+            f"{name} must be a list of {what} objects, got {type(items).__name__}{hint}"
+        )
+    items = list(items)
+    for i, item in enumerate(items):
+        if not isinstance(item, kind):
+            hint = (
+                "; DifferentialIK takes one flat list (HierarchicalIK takes levels)"
+                if isinstance(item, (list, tuple))
+                else ""
+            )
+            raise InvalidInputError(
+                f"{name}[{i}] must be a {what}, got {type(item).__name__}{hint}"
+            )
+    return items
+
+
 def _intersect(
     boxes: list[tuple[FloatArray, FloatArray]], nv: int
 ) -> tuple[FloatArray, FloatArray]:
@@ -201,10 +230,18 @@ class DifferentialIK:
         equality_tasks: Sequence[Task] = (),
         options: DifferentialIKOptions | None = None,
     ) -> None:
+        if not isinstance(robot, Robot):
+            raise InvalidInputError(
+                f"robot must be a taskspace Robot (Robot.load(name)), got {type(robot).__name__}"
+            )
         self.robot = robot
-        self.tasks = list(tasks)
-        self.constraints = list(constraints)
-        self.equality_tasks = list(equality_tasks)
+        self.tasks = _flat_list(tasks, Task, "tasks")
+        self.constraints = _flat_list(constraints, Constraint, "constraints")
+        self.equality_tasks = _flat_list(equality_tasks, Task, "equality_tasks")
+        if options is not None and not isinstance(options, DifferentialIKOptions):
+            raise InvalidInputError(
+                f"options must be a DifferentialIKOptions, got {type(options).__name__}"
+            )
         self.options = options or DifferentialIKOptions()
         check_positive(self.options.damping, "damping", strict=False)
         for item in [*self.tasks, *self.equality_tasks]:
@@ -247,6 +284,8 @@ class DifferentialIK:
 
     def build(self, state: State, dt: float) -> QPProblem:
         """Assemble the QP of one step from ``state`` during ``dt`` [s] (inspectable)."""
+        if not isinstance(state, State):
+            _require_state(state)
         with self._lock:
             return self._build(state, dt)
 
@@ -290,6 +329,8 @@ class DifferentialIK:
             state: current state (its velocity is used by acceleration limits).
             dt: time step [s].
         """
+        if type(state) is not State and not isinstance(state, State):
+            _require_state(state)
         dt = check_positive(dt, "dt")
         self._acquire()  # bound methods: about half the cost of ``with self._lock``
         try:
