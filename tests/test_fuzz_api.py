@@ -930,12 +930,6 @@ def test_dt_is_checked_by_both_ik_solvers(ur5: Robot, dt: Any) -> None:
             ik.step(state, dt)
 
 
-@pytest.mark.xfail(
-    strict=False,
-    reason="model.world.as_se3 converts with np.asarray(pose, float): a dict gives a bare "
-    "TypeError and a complex pose is truncated with a ComplexWarning; model/world.py belongs "
-    "to helper H1 (FramePose targets and Viewer poses are checked before it)",
-)
 @pytest.mark.parametrize("pose", [{}, np.eye(4) + 0j])
 def test_as_se3_refuses_non_real_poses(pose: Any) -> None:
     from taskspace.model import as_se3
