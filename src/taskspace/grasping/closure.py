@@ -24,8 +24,15 @@ import numpy.typing as npt
 from scipy.optimize import linprog
 from scipy.spatial import ConvexHull, QhullError
 
+from taskspace._validation import as_float_array, check_positive
 from taskspace.errors import InvalidInputError
-from taskspace.grasping.contact import ContactType, GraspContact, primitive_wrenches
+from taskspace.grasping.contact import (
+    ContactType,
+    GraspContact,
+    check_contacts,
+    check_edges,
+    primitive_wrenches,
+)
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -53,7 +60,35 @@ class ClosureResult:
 
 
 def _rank(W: FloatArray) -> int:
-    return int(np.linalg.matrix_rank(W, tol=1e-9 * max(1.0, float(np.abs(W).max()))))
+    """Numerical rank of ``W`` relative to its largest entry (closure is scale-invariant)."""
+    scale = float(np.abs(W).max())
+    return int(np.linalg.matrix_rank(W, tol=1e-9 * scale)) if scale > 0 else 0
+
+
+def check_wrenches(W: object, name: str = "W") -> tuple[FloatArray, float]:
+    """``(W / s, s)``: finite ``(K, d)`` wrenches (``K, d >= 1``) divided by ``s = max |W|``.
+
+    Closure does not depend on the scale of the wrenches; dividing by the largest entry keeps
+    the LP and qhull in a well-conditioned range (wrenches of 1e300 or 1e-300 N).
+    """
+    arr = as_float_array(W, name)
+    if arr.ndim != 2 or arr.shape[0] == 0 or arr.shape[1] == 0:
+        raise InvalidInputError(
+            f"{name} must be a (K, d) array of wrenches, one a row (K, d >= 1), got shape "
+            f"{arr.shape}"
+        )
+    if not np.all(np.isfinite(arr)):
+        raise InvalidInputError(f"{name} must be finite (no NaN or inf entries)")
+    scale = float(np.abs(arr).max())
+    if scale == 0.0:
+        return arr, 1.0
+    return arr / scale, scale
+
+
+def _check_tolerance(tolerance: object) -> float:
+    if isinstance(tolerance, (bool, np.bool_)):
+        raise InvalidInputError(f"tolerance must be a number >= 0, got {tolerance!r}")
+    return check_positive(tolerance, "tolerance", strict=False)
 
 
 def closure_lp(W: FloatArray, tolerance: float = 1e-9) -> ClosureResult:
@@ -61,11 +96,11 @@ def closure_lp(W: FloatArray, tolerance: float = 1e-9) -> ClosureResult:
 
     Args:
         W: primitive wrenches, shape ``(K, 6)`` (any dimension ``d`` works: ``(K, d)``).
-        tolerance: the least margin counted as strictly inside.
+        tolerance: the least margin counted as strictly inside (the margin, a convex
+            combination coefficient, does not depend on the scale of ``W``).
     """
-    W = np.asarray(W, dtype=np.float64)
-    if W.ndim != 2 or W.shape[0] == 0 or not np.all(np.isfinite(W)):
-        raise InvalidInputError(f"W must be a finite (K, d) array of wrenches, got {W.shape}")
+    W, _ = check_wrenches(W)
+    tolerance = _check_tolerance(tolerance)
     k, d = W.shape
     rank = _rank(W)
     # Certificate LP: W c >= 0 and sum(W c) = 1, c free. Feasible <=> not in closure.
@@ -105,16 +140,21 @@ def closure_hull(W: FloatArray, tolerance: float = 1e-9) -> ClosureResult:
     """Force closure of primitive wrenches ``W`` (rows) by the convex-hull criterion.
 
     The margin is ``min_facets -b`` for the hull's facets ``a^T w + b <= 0`` (``|a| = 1``):
-    the radius of the largest ball around the origin inside the hull.
+    the radius of the largest ball around the origin inside the hull (in the units of ``W``;
+    ``tolerance`` is relative to the largest entry of ``W``).
     """
-    W = np.asarray(W, dtype=np.float64)
-    if W.ndim != 2 or W.shape[0] == 0 or not np.all(np.isfinite(W)):
-        raise InvalidInputError(f"W must be a finite (K, d) array of wrenches, got {W.shape}")
+    W, scale = check_wrenches(W)
+    tolerance = _check_tolerance(tolerance)
     d = W.shape[1]
     rank = _rank(W)
     if rank < d or W.shape[0] <= d:
         c = np.linalg.svd(W)[2][-1] if rank < d else closure_lp(W).certificate
         return ClosureResult(False, c, 0.0, "hull", rank)
+    if d == 1:  # qhull needs 2-D points; the hull of scalars is [min, max]
+        margin = min(-float(W.min()), float(W.max()))
+        if margin <= tolerance:
+            return ClosureResult(False, np.array([1.0 if W.min() >= 0 else -1.0]), 0.0, "hull", 1)
+        return ClosureResult(True, None, margin * scale, "hull", 1)
     try:
         hull = ConvexHull(W)
     except QhullError:
@@ -126,7 +166,7 @@ def closure_hull(W: FloatArray, tolerance: float = 1e-9) -> ClosureResult:
     if margin <= tolerance:
         a = hull.equations[worst, :-1]  # a^T w <= -b <= 0 for all w: c = -a
         return ClosureResult(False, -a / np.linalg.norm(a), 0.0, "hull", rank)
-    return ClosureResult(True, None, margin, "hull", rank)
+    return ClosureResult(True, None, margin * scale, "hull", rank)
 
 
 def force_closure(
@@ -154,7 +194,11 @@ def force_closure(
         The answer with a certificate when not in closure.
     """
     tests = {"lp": closure_lp, "hull": closure_hull}
-    if method not in tests:
+    contacts = check_contacts(contacts)
+    edges = check_edges(edges)
+    if not isinstance(exact_cone, (bool, np.bool_)):
+        raise InvalidInputError(f"exact_cone must be True or False, got {exact_cone!r}")
+    if not isinstance(method, str) or method not in tests:
         raise InvalidInputError(f"unknown closure method {method!r}; valid methods are: hull, lp")
     test = tests[method]
 
@@ -183,5 +227,5 @@ def form_closure(
     contacts: list[GraspContact], *, method: str = "lp", center: FloatArray | None = None
 ) -> ClosureResult:
     """First-order form closure: force closure with the contacts taken frictionless."""
-    frictionless = [replace(c, type=ContactType.FRICTIONLESS) for c in contacts]
+    frictionless = [replace(c, type=ContactType.FRICTIONLESS) for c in check_contacts(contacts)]
     return force_closure(frictionless, method=method, center=center)

@@ -23,8 +23,12 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 
-from taskspace._validation import as_float_array
+from taskspace._validation import as_float_array, as_vector, check_positive
 from taskspace.errors import InvalidInputError, ShapeError
+
+#: The most edges a linearized friction cone may have (``force_closure(exact_cone=True)``
+#: stops doubling at 1024; more only costs memory and LP time).
+MAX_EDGES = 4096
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -75,9 +79,11 @@ class GraspContact:
                 f"got {self.type!r}"
             )
         for name in ("mu", "torsion"):
-            value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and np.isfinite(value) and value >= 0):
-                raise InvalidInputError(f"{name} must be a finite number >= 0, got {value!r}")
+            object.__setattr__(self, name, nonnegative(getattr(self, name), name))
+        if self.frame is not None and not isinstance(self.frame, str):
+            raise InvalidInputError(
+                f"frame must be the name (str) of the finger frame or None, got {self.frame!r}"
+            )
         object.__setattr__(self, "position", p.copy())
         object.__setattr__(self, "normal", n / norm)
 
@@ -91,9 +97,57 @@ class GraspContact:
         return {ContactType.FRICTIONLESS: 1, ContactType.POINT_FRICTION: 3}.get(self.type, 4)
 
 
+def nonnegative(value: object, name: str) -> float:
+    """``value`` as a float if it is a finite real number ``>= 0`` (booleans refused)."""
+    if isinstance(value, (bool, np.bool_)):
+        raise InvalidInputError(f"{name} must be a finite number >= 0, got {value!r}")
+    return check_positive(value, name, strict=False)
+
+
+def check_edges(edges: object) -> int:
+    """``edges`` as an int if it is an integer in ``[3, MAX_EDGES]``."""
+    if (
+        isinstance(edges, (bool, np.bool_))
+        or not isinstance(edges, (int, np.integer))
+        or not 3 <= edges <= MAX_EDGES
+    ):
+        raise InvalidInputError(f"edges must be an integer in [3, {MAX_EDGES}], got {edges!r}")
+    return int(edges)
+
+
+def check_contacts(contacts: object) -> list[GraspContact]:
+    """``contacts`` as a non-empty list of :class:`GraspContact`."""
+    if isinstance(contacts, GraspContact):
+        contacts = [contacts]
+    try:
+        out = list(contacts)  # type: ignore[call-overload]
+    except TypeError:
+        raise InvalidInputError(
+            f"contacts must be a list of GraspContact, got {type(contacts).__name__}"
+        ) from None
+    if not out:
+        raise InvalidInputError("a grasp needs at least one contact")
+    for i, c in enumerate(out):
+        if not isinstance(c, GraspContact):
+            raise InvalidInputError(
+                f"contacts[{i}] must be a GraspContact (position, normal, type, mu...), "
+                f"got {type(c).__name__}"
+            )
+    return out
+
+
+def check_center(center: object) -> FloatArray:
+    """The moment reference point as a finite (3,) vector (the origin for ``None``)."""
+    return np.zeros(3) if center is None else as_vector(center, 3, "center")
+
+
 def contact_frame(normal: FloatArray) -> FloatArray:
     """A rotation ``[t1 t2 n]`` whose third column is the unit ``normal`` (deterministic)."""
-    n = np.asarray(normal, dtype=np.float64) / np.linalg.norm(normal)
+    v = as_vector(normal, 3, "normal")
+    norm = float(np.linalg.norm(v))
+    if not norm > 1e-12:
+        raise InvalidInputError("normal must not be zero")
+    n = v / norm
     helper = np.array([1.0, 0.0, 0.0]) if abs(n[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
     t1 = np.cross(helper, n)
     t1 /= np.linalg.norm(t1)
@@ -111,13 +165,14 @@ def contact_edges(contact: GraspContact, edges: int = 8, mu: float | None = None
     Returns an array ``(k, 4)``: columns force in the world (3) and torsional moment about
     the normal (1). ``mu`` overrides the contact's coefficient (used to build an outer cone).
     """
-    if not isinstance(edges, (int, np.integer)) or edges < 3:
-        raise InvalidInputError(f"edges must be an integer >= 3, got {edges!r}")
+    edges = check_edges(edges)
+    if not isinstance(contact, GraspContact):
+        raise InvalidInputError(f"contact must be a GraspContact, got {type(contact).__name__}")
     R = contact.rotation
     n = R[:, 2]
     if contact.type is ContactType.FRICTIONLESS:
         return np.hstack([n, 0.0])[None, :]
-    m = contact.mu if mu is None else mu
+    m = contact.mu if mu is None else nonnegative(mu, "mu")
     theta = 2.0 * np.pi * np.arange(edges) / edges
     forces = n[None, :] + m * (np.cos(theta)[:, None] * R[:, 0] + np.sin(theta)[:, None] * R[:, 1])
     out = np.hstack([forces, np.zeros((edges, 1))])
@@ -150,12 +205,16 @@ def primitive_wrenches(
         ``(W, owner)``: ``W`` of shape ``(K, 6)``, one primitive wrench a row, and the index of
         the contact each row belongs to.
     """
-    if not contacts:
-        raise InvalidInputError("a grasp needs at least one contact")
-    c = np.zeros(3) if center is None else as_float_array(center, "center").reshape(3)
-    rho = torque_scale if torque_scale is not None else grasp_radius(contacts, c)
-    if not (np.isfinite(rho) and rho > 0):
-        raise InvalidInputError(f"torque_scale must be a positive length [m], got {rho!r}")
+    contacts = check_contacts(contacts)
+    edges = check_edges(edges)
+    mu_scale = nonnegative(mu_scale, "mu_scale")
+    c = check_center(center)
+    if torque_scale is None:
+        rho = grasp_radius(contacts, c)
+    elif isinstance(torque_scale, (bool, np.bool_)):
+        raise InvalidInputError(f"torque_scale must be a length [m] > 0, got {torque_scale!r}")
+    else:
+        rho = check_positive(torque_scale, "torque_scale [m]")
     rows, owner = [], []
     for i, contact in enumerate(contacts):
         gens = contact_edges(contact, edges, mu=contact.mu * mu_scale)
@@ -169,6 +228,7 @@ def primitive_wrenches(
 
 def grasp_radius(contacts: list[GraspContact], center: FloatArray | None = None) -> float:
     """The largest distance of a contact from ``center`` [m] (1 when every contact is on it)."""
-    c = np.zeros(3) if center is None else np.asarray(center, dtype=np.float64)
+    contacts = check_contacts(contacts)
+    c = check_center(center)
     r = max(float(np.linalg.norm(k.position - c)) for k in contacts)
     return r if r > 1e-12 else 1.0

@@ -17,9 +17,16 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from taskspace._validation import as_float_array
+from taskspace._validation import as_float_array, as_matrix, as_vector
 from taskspace.errors import InfeasibleError, InvalidInputError
-from taskspace.grasping.contact import GraspContact, contact_edges, primitive_wrenches
+from taskspace.grasping.contact import (
+    GraspContact,
+    check_contacts,
+    check_edges,
+    contact_edges,
+    nonnegative,
+    primitive_wrenches,
+)
 from taskspace.qp import INF, QPProblem, QPResult, QPSolver, QPSolverOptions
 
 FloatArray = npt.NDArray[np.float64]
@@ -81,9 +88,14 @@ def balance_forces(
     Raises:
         InfeasibleError: when no forces inside the cones (and torque limits) balance the wrench.
     """
+    contacts = check_contacts(contacts)
+    edges = check_edges(edges)
     w = as_float_array(external_wrench, "external_wrench").reshape(-1)
     if w.shape != (6,) or not np.all(np.isfinite(w)):
         raise InvalidInputError(f"external_wrench must be 6 finite numbers, got {w}")
+    regularization = nonnegative(regularization, "regularization")
+    if hand_jacobian is None and torque_limits is not None:
+        raise InvalidInputError("torque_limits given without hand_jacobian (J^T f are the torques)")
     W, _ = primitive_wrenches(contacts, edges=edges, torque_scale=1.0)
     E, _ = edge_matrix(contacts, edges)
     k = W.shape[0]
@@ -93,13 +105,13 @@ def balance_forces(
     C = np.zeros((0, k))
     lo = hi = np.zeros(0)
     if hand_jacobian is not None:
-        J = as_float_array(hand_jacobian, "hand_jacobian")
-        if J.ndim != 2 or J.shape[0] != 3 * n:
-            raise InvalidInputError(f"hand_jacobian must have {3 * n} rows, got {J.shape}")
+        J = as_matrix(hand_jacobian, (3 * n, None), "hand_jacobian")
         if torque_limits is None:
             raise InvalidInputError("hand_jacobian given without torque_limits")
-        tau = as_float_array(torque_limits, "torque_limits").reshape(-1)
-        if tau.shape != (J.shape[1],) or np.any(tau < 0):
+        tau = as_vector(
+            as_float_array(torque_limits, "torque_limits").reshape(-1), J.shape[1], "torque_limits"
+        )
+        if np.any(tau < 0):
             raise InvalidInputError(f"torque_limits must be {J.shape[1]} numbers >= 0")
         C = J.T @ F
         lo, hi = -tau, tau

@@ -16,9 +16,14 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
-from taskspace._validation import as_float_array
 from taskspace.errors import InvalidInputError
-from taskspace.grasping.contact import ContactType, GraspContact, _skew
+from taskspace.grasping.contact import (
+    ContactType,
+    GraspContact,
+    _skew,
+    check_center,
+    check_contacts,
+)
 from taskspace.model import Robot, State
 
 FloatArray = npt.NDArray[np.float64]
@@ -40,9 +45,8 @@ def grasp_matrix(contacts: list[GraspContact], center: FloatArray | None = None)
         contacts: the contacts (positions in the object frame [m]).
         center: the point the moments are taken about [m] (default: the origin).
     """
-    if not contacts:
-        raise InvalidInputError("a grasp needs at least one contact")
-    c = np.zeros(3) if center is None else as_float_array(center, "center").reshape(3)
+    contacts = check_contacts(contacts)
+    c = check_center(center)
     blocks = []
     for contact in contacts:
         R = contact.rotation
@@ -68,6 +72,11 @@ def hand_jacobian(
         contacts: contacts in the object frame; each names the finger ``frame`` touching.
         object_pose: the object's pose in the world.
     """
+    contacts = check_contacts(contacts)
+    if not isinstance(object_pose, pin.SE3):
+        raise InvalidInputError(
+            f"object_pose must be a pinocchio.SE3, got {type(object_pose).__name__}"
+        )
     rows = []
     for contact in contacts:
         if contact.frame is None:

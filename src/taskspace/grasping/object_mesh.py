@@ -8,7 +8,7 @@ import coal
 import numpy as np
 import numpy.typing as npt
 
-from taskspace._validation import as_float_array
+from taskspace._validation import as_float_array, as_vector, check_count, check_positive
 from taskspace.errors import InvalidInputError
 
 FloatArray = npt.NDArray[np.float64]
@@ -58,7 +58,15 @@ class TriangleMesh:
         self, n: int, rng: np.random.Generator
     ) -> tuple[FloatArray, FloatArray, npt.NDArray[np.int64]]:
         """``n`` points uniform over the surface: ``(points, outward normals, face indices)``."""
+        n = check_count(n, "n")
+        if not isinstance(rng, np.random.Generator):
+            raise InvalidInputError(
+                f"rng must be a numpy.random.Generator (np.random.default_rng(seed)), got "
+                f"{type(rng).__name__}"
+            )
         areas = self.areas
+        if not areas.sum() > 0:
+            raise InvalidInputError("the mesh has zero surface area: no point to sample")
         faces = rng.choice(len(areas), size=n, p=areas / areas.sum())
         u, v = rng.random(n), rng.random(n)
         flip = u + v > 1
@@ -109,7 +117,9 @@ class TriangleMesh:
 
 def box_mesh(size: FloatArray) -> TriangleMesh:
     """A box of full side lengths ``size`` [m] centered at the origin."""
-    s = as_float_array(size, "size").reshape(3) / 2
+    s = as_vector(as_float_array(size, "size").reshape(-1), 3, "size") / 2
+    if np.any(s <= 0):
+        raise InvalidInputError(f"box size must be 3 side lengths > 0 [m], got {2 * s}")
     corners = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)]) * s
     faces = np.array(
         [[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1],
@@ -120,6 +130,9 @@ def box_mesh(size: FloatArray) -> TriangleMesh:
 
 def cylinder_mesh(radius: float, length: float, segments: int = 32) -> TriangleMesh:
     """A cylinder along z, centered at the origin (``segments`` sides)."""
+    radius = _length(radius, "radius")
+    length = _length(length, "length")
+    segments = check_count(segments, "segments", minimum=3)
     a = 2 * np.pi * np.arange(segments) / segments
     ring = np.column_stack([radius * np.cos(a), radius * np.sin(a)])
     bottom = np.column_stack([ring, np.full(segments, -length / 2)])
@@ -134,7 +147,13 @@ def cylinder_mesh(radius: float, length: float, segments: int = 32) -> TriangleM
 
 
 def sphere_mesh(radius: float, subdivisions: int = 2) -> TriangleMesh:
-    """An icosphere of ``radius`` [m]."""
+    """An icosphere of ``radius`` [m] (``20 * 4**subdivisions`` faces; at most 7 subdivisions)."""
+    radius = _length(radius, "radius")
+    subdivisions = check_count(subdivisions, "subdivisions")
+    if subdivisions > 7:
+        raise InvalidInputError(
+            f"subdivisions must be at most 7 (327680 faces), got {subdivisions}"
+        )
     g = (1 + 5**0.5) / 2
     v = [[-1, g, 0], [1, g, 0], [-1, -g, 0], [1, -g, 0], [0, -1, g], [0, 1, g],
          [0, -1, -g], [0, 1, -g], [g, 0, -1], [g, 0, 1], [-g, 0, -1], [-g, 0, 1]]  # fmt: skip
@@ -160,6 +179,12 @@ def sphere_mesh(radius: float, subdivisions: int = 2) -> TriangleMesh:
             new += [[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]
         faces = new
     return _outward(TriangleMesh(np.array(vertices) * radius, np.array(faces)))
+
+
+def _length(value: object, name: str) -> float:
+    if isinstance(value, (bool, np.bool_)):
+        raise InvalidInputError(f"{name} must be a length > 0 [m], got {value!r}")
+    return check_positive(value, f"{name} [m]")
 
 
 def _outward(mesh: TriangleMesh) -> TriangleMesh:

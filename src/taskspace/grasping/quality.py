@@ -21,8 +21,14 @@ from scipy.spatial import ConvexHull, QhullError
 
 from taskspace._validation import as_float_array
 from taskspace.errors import InvalidInputError
-from taskspace.grasping.closure import closure_lp
-from taskspace.grasping.contact import GraspContact, grasp_radius, primitive_wrenches
+from taskspace.grasping.closure import check_wrenches, closure_lp
+from taskspace.grasping.contact import (
+    GraspContact,
+    check_center,
+    check_contacts,
+    grasp_radius,
+    primitive_wrenches,
+)
 from taskspace.grasping.grasp_matrix import grasp_matrix
 
 FloatArray = npt.NDArray[np.float64]
@@ -62,7 +68,17 @@ def _margin(hull: ConvexHull | None) -> float:
 
 def wrench_space_l1(W: FloatArray) -> ConvexHull | None:
     """The L1 grasp wrench space ``conv{w_k}`` (None when it is flat)."""
-    return _hull(np.asarray(W, dtype=np.float64))
+    return _hull(_wrenches(W))
+
+
+def _wrenches(W: object) -> FloatArray:
+    """Finite ``(K, d)`` wrenches with ``d >= 2`` (qhull's least dimension)."""
+    normalized, scale = check_wrenches(W)
+    if normalized.shape[1] < 2:
+        raise InvalidInputError(
+            f"W must have at least 2 columns (wrench components) for a hull, got {normalized.shape}"
+        )
+    return normalized * scale
 
 
 def wrench_space_linf(W: FloatArray, owner: list[int]) -> ConvexHull | None:
@@ -71,9 +87,18 @@ def wrench_space_linf(W: FloatArray, owner: list[int]) -> ConvexHull | None:
     Built contact by contact, keeping only the hull's vertices after each sum (the sum of two
     polytopes is the hull of the pairwise sums of their vertices).
     """
-    W = np.asarray(W, dtype=np.float64)
+    W = _wrenches(W)
     d = W.shape[1]
-    owners = np.asarray(owner)
+    try:
+        owners = np.asarray(owner)
+    except (TypeError, ValueError):
+        owners = np.zeros(0)
+    if owners.shape != (len(W),) or owners.dtype.kind not in "iu":
+        raise InvalidInputError(
+            f"owner must give the contact index (an int) of each of the {len(W)} rows of W, "
+            f"as returned by primitive_wrenches; got {np.shape(owners)} {owners.dtype} values"
+        )
+    owner = owners.tolist()
     points = np.zeros((1, d))
     for i in sorted(set(owner)):
         generators = np.vstack([np.zeros((1, d)), W[owners == i]])
@@ -110,9 +135,10 @@ def grasp_quality(
         center: moment reference point [m] (default: origin of the object frame).
         torque_scale: moment scale ``rho`` [m] (default: the grasp radius).
     """
-    c = None if center is None else as_float_array(center, "center").reshape(3)
-    rho = torque_scale if torque_scale is not None else grasp_radius(contacts, c)
-    W, owner = primitive_wrenches(contacts, edges=edges, center=c, torque_scale=rho)
+    contacts = check_contacts(contacts)
+    c = check_center(center)
+    W, owner = primitive_wrenches(contacts, edges=edges, center=c, torque_scale=torque_scale)
+    rho = float(torque_scale) if torque_scale is not None else grasp_radius(contacts, c)
     l1 = wrench_space_l1(W)
     G = grasp_matrix(contacts, c)
     G = G / np.array([1, 1, 1, rho, rho, rho])[:, None]
@@ -138,7 +164,15 @@ def task_wrench_scale(W: FloatArray, task_wrenches: FloatArray) -> float:
         ``k`` (``inf`` when every task wrench is zero; 0 when the origin is not inside the
         GWS): the grasp can apply every task wrench scaled by ``k``.
     """
-    T = np.atleast_2d(np.asarray(task_wrenches, dtype=np.float64))
+    W = _wrenches(W)
+    T = np.atleast_2d(as_float_array(task_wrenches, "task_wrenches"))
+    if T.ndim != 2 or T.shape[1] != W.shape[1] or T.shape[0] == 0:
+        raise InvalidInputError(
+            f"task_wrenches must be wrenches of {W.shape[1]} components (one a row, like W), "
+            f"got shape {np.shape(task_wrenches)}"
+        )
+    if not np.all(np.isfinite(T)):
+        raise InvalidInputError("task_wrenches must be finite (no NaN or inf entries)")
     hull = wrench_space_l1(W)
     if hull is None or _margin(hull) <= 0:
         return 0.0
@@ -162,13 +196,12 @@ def minimal_closure_subset(
     frictionless, fewer with friction); the subsets are enumerated by increasing size, so the
     answer is a smallest one. None when the full grasp is not in closure.
     """
+    contacts = check_contacts(contacts)
     if len(contacts) > 16:
         raise InvalidInputError(
             f"at most 16 contacts can be pruned by enumeration, got {len(contacts)}"
         )
-    c = None if center is None else as_float_array(center, "center").reshape(3)
-    rho = torque_scale if torque_scale is not None else grasp_radius(contacts, c)
-    W, owner = primitive_wrenches(contacts, edges=edges, center=c, torque_scale=rho)
+    W, owner = primitive_wrenches(contacts, edges=edges, center=center, torque_scale=torque_scale)
     owners = np.asarray(owner)
     for size in range(1, len(contacts) + 1):
         for subset in itertools.combinations(range(len(contacts)), size):

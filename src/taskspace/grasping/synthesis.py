@@ -22,8 +22,15 @@ import numpy.typing as npt
 import pinocchio as pin
 
 from taskspace import features as F
+from taskspace._validation import check_count
 from taskspace.errors import InvalidInputError
-from taskspace.grasping.contact import ContactType, GraspContact, primitive_wrenches
+from taskspace.grasping.contact import (
+    ContactType,
+    GraspContact,
+    check_edges,
+    nonnegative,
+    primitive_wrenches,
+)
 from taskspace.grasping.object_mesh import TriangleMesh
 from taskspace.grasping.quality import epsilon_l1
 from taskspace.ik import SolveIKOptions, solve_ik
@@ -55,12 +62,10 @@ class AntipodalOptions:
     edges: int = 8
 
     def __post_init__(self) -> None:
-        if not isinstance(self.samples, int) or self.samples < 1:
-            raise InvalidInputError(f"samples must be a positive integer, got {self.samples!r}")
+        object.__setattr__(self, "samples", check_count(self.samples, "samples", minimum=1))
         for name in ("mu", "torsion", "min_width", "max_width"):
-            value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and np.isfinite(value) and value >= 0):
-                raise InvalidInputError(f"{name} must be a finite number >= 0, got {value!r}")
+            object.__setattr__(self, name, nonnegative(getattr(self, name), name))
+        object.__setattr__(self, "edges", check_edges(self.edges))
         if self.max_width <= self.min_width:
             raise InvalidInputError("max_width must be larger than min_width")
 
