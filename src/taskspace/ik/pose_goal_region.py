@@ -14,7 +14,7 @@ import numpy.typing as npt
 import pinocchio as pin
 
 from taskspace import features as F
-from taskspace._validation import check_positive
+from taskspace._validation import check_count, check_positive
 from taskspace.errors import InvalidInputError
 from taskspace.ik.solve_ik import SolveIKOptions, solve_ik
 from taskspace.model import Robot
@@ -51,9 +51,7 @@ class PoseGoalRegion:
         self.pose = as_se3(pose)
         self.position_tolerance = check_positive(position_tolerance, "position_tolerance")
         self.rotation_tolerance = check_positive(rotation_tolerance, "rotation_tolerance")
-        if not isinstance(attempts, int) or attempts < 1:
-            raise InvalidInputError(f"attempts must be a positive integer, got {attempts!r}")
-        self.attempts = attempts
+        self.attempts = check_count(attempts, "attempts", minimum=1)
         self._task = Task(F.FramePose(robot, frame))
 
     def errors(self, q: FloatArray) -> tuple[float, float]:
@@ -70,6 +68,11 @@ class PoseGoalRegion:
 
     def sample(self, rng: np.random.Generator) -> FloatArray | None:
         """A goal configuration within the joint limits, or ``None`` after ``attempts``."""
+        if not isinstance(rng, np.random.Generator):
+            raise InvalidInputError(
+                f"rng must be a numpy.random.Generator (np.random.default_rng(seed)), got "
+                f"{type(rng).__name__}"
+            )
         for _ in range(self.attempts):
             offset = rng.standard_normal(3)
             offset *= self.position_tolerance * rng.random() ** (1 / 3) / np.linalg.norm(offset)

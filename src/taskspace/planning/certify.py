@@ -1,11 +1,13 @@
 """Certified paths: collision-free everywhere along each segment, not only at its samples.
 
-A straight segment ``q(t) = q0 + t (q1 - q0)``, ``t in [0, 1]``, is certified by conservative
-advancement (Schwarzer, Saha and Latombe 2005): at ``q(t)`` the least distance ``d`` between
+A straight segment ``q(t) = q0 (+) t (q1 (-) q0)``, ``t in [0, 1]`` (``(+)``, ``(-)``:
+Pinocchio's ``integrate`` and ``difference``, so a continuous joint turns the short way), is
+certified by conservative advancement (Schwarzer, Saha and Latombe 2005): at ``q(t)`` the
+least distance ``d`` between
 the robot and the obstacles (and ``d_s`` between checked robot links) is computed with coal;
 no point of any link moves farther than ``B |dt|`` while ``t`` changes by ``dt``, where
 
-    B = sum_j R_j |q1_j - q0_j|,
+    B = sum_j R_j |(q1 (-) q0)_j|,
 
 ``R_j`` bounding the distance from joint ``j``'s axis to any point of a link moved by it (the
 joint offsets along the chain plus the farthest corner of the geometry's bounding box; 1 for a
@@ -24,7 +26,7 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
-from taskspace._validation import as_float_array, check_positive
+from taskspace._validation import as_float_array, check_count, check_positive
 from taskspace.errors import InvalidInputError
 from taskspace.model import Robot
 
@@ -86,7 +88,8 @@ def motion_bounds(robot: Robot) -> FloatArray:
         if joint.nv != 1:
             raise InvalidInputError(
                 f"certify_path handles joints of one degree of freedom; joint "
-                f"'{model.names[j]}' has {joint.nv}"
+                f"'{model.names[j]}' has {joint.nv}; certify the arm with the base fixed "
+                f"(a fixed-base model, e.g. pinocchio.buildReducedModel) instead"
             )
         prismatic = "Prismatic" in joint.shortname()
         bounds[joint.idx_v] = 1.0 if prismatic else reach[j]
@@ -114,7 +117,10 @@ def certify_path(
         raise InvalidInputError(f"path must have shape (m, {robot.nq}), got {arr.shape}")
     if not np.all(np.isfinite(arr)):
         raise InvalidInputError("path must be finite")
+    if isinstance(tolerance, (bool, np.bool_)):
+        raise InvalidInputError(f"tolerance must be a distance > 0 [m], got {tolerance!r}")
     check_positive(tolerance, "tolerance")
+    max_queries = check_count(max_queries, "max_queries", minimum=1)
     R = motion_bounds(robot)
     model, gm = robot.model, robot.collision_model
     data, gd = model.createData(), gm.createData()
@@ -134,11 +140,11 @@ def certify_path(
     for s in range(arr.shape[0] - 1 if arr.shape[0] > 1 else 1):
         q0 = arr[s]
         q1 = arr[s + 1] if arr.shape[0] > 1 else arr[s]
-        delta = q1 - q0
+        delta = pin.difference(model, q0, q1)  # (nv,): joint motions, continuous joints too
         rate = float(R @ np.abs(delta))
         t = 0.0
         while True:
-            d_obs, d_self = distances(q0 + t * delta)
+            d_obs, d_self = distances(pin.integrate(model, q0, t * delta))
             queries += 1
             d = min(d_obs, d_self)
             least = min(least, d)
