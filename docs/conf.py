@@ -82,7 +82,7 @@ sphinx_gallery_conf = {
     "examples_dirs": os.path.relpath(_gallery_src, DOCS),
     "gallery_dirs": "_generated/gallery",
     "filename_pattern": _pattern if _pattern not in ("", "0", "1") else r"/[^_][^/]*\.py$",
-    "ignore_pattern": r"(__init__|/_[^/]*)\.py$",
+    "ignore_pattern": r"__init__\.py$",
     "plot_gallery": "False" if _pattern == "0" else "True",
     "reset_argv": "taskspace_gallery.reset_argv",
     "image_scrapers": ("taskspace_gallery.png_scraper",),

@@ -84,10 +84,9 @@ def mirror_examples(src: Path = EXAMPLES, dest: Path = GALLERY_SRC) -> Path:
         rel = path.relative_to(src)
         if "__pycache__" in rel.parts:
             continue
-        text = path.read_text(encoding="utf-8")
-        if not path.name.startswith("_"):
-            text = _titled(text, path.stem)
-        write(dest / rel, text)
+        if path.name.startswith("_"):
+            continue  # helpers (``_common.py``) are imported from examples/ itself
+        write(dest / rel, _titled(path.read_text(encoding="utf-8"), path.stem))
     for folder in sorted(p for p in src.iterdir() if p.is_dir() and p.name != "__pycache__"):
         if not any(folder.glob("[!_]*.py")):
             continue
@@ -112,15 +111,17 @@ def _output_dir(src_file: str | Path) -> Path:
 def reset_argv(gallery_conf: dict[str, Any], script_vars: dict[str, Any]) -> list[str]:
     """Arguments of each example: ``--save`` into a fresh directory of its own.
 
-    Also defines ``__file__`` and puts the script's folder first on ``sys.path`` so that its
-    own ``_common`` module is imported (sphinx-gallery restores ``sys.path`` afterwards).
+    Also defines ``__file__`` (the script in ``examples/``) and puts its folder first on
+    ``sys.path`` so that its own ``_common`` module is imported (sphinx-gallery restores
+    ``sys.path`` afterwards).
     """
     src = Path(script_vars["src_file"]).resolve()
+    original = EXAMPLES / src.relative_to(GALLERY_SRC.resolve())
     example_globals = script_vars.get("example_globals")
     if example_globals is not None:
-        example_globals["__file__"] = str(src)
+        example_globals["__file__"] = str(original)
     sys.modules.pop("_common", None)
-    sys.path.insert(0, str(src.parent))
+    sys.path.insert(0, str(original.parent))
     out = _output_dir(src)
     shutil.rmtree(out, ignore_errors=True)
     out.mkdir(parents=True)
