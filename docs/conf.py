@@ -42,7 +42,12 @@ extensions = [
     "sphinx_gallery.gen_gallery",
 ]
 
-exclude_patterns = ["_build", "_generated/gallery_src", "_generated/example_outputs"]
+exclude_patterns = [
+    "_build",
+    "_generated/gallery_src",
+    "_generated/example_outputs",
+    "_generated/slides",  # included by the guide pages
+]
 templates_path = ["_templates"]
 
 # Theme: furo (PyPI), Sphinx's alabaster when furo is not installed.

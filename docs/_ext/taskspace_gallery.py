@@ -120,6 +120,10 @@ def reset_argv(gallery_conf: dict[str, Any], script_vars: dict[str, Any]) -> lis
     example_globals = script_vars.get("example_globals")
     if example_globals is not None:
         example_globals["__file__"] = str(original)
+        # sphinx-gallery blanks __doc__; the scripts' argparse descriptions read it
+        example_globals["__doc__"] = ast.get_docstring(
+            ast.parse(original.read_text(encoding="utf-8"))
+        )
     sys.modules.pop("_common", None)
     sys.path.insert(0, str(original.parent))
     out = _output_dir(src)
