@@ -99,6 +99,7 @@ sphinx_gallery_conf = {
     "remove_config_comments": True,
     "capture_repr": (),
     "show_memory": False,
+    "write_computation_times": False,
     "copyfile_regex": "",
 }
 
