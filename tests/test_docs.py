@@ -21,6 +21,9 @@ TIMEOUT = 1200  # seconds for the whole build
 pytest.importorskip("sphinx")
 pytest.importorskip("sphinx_gallery")
 
+# One build shared by every test here: keep them on one xdist worker (--dist loadgroup).
+pytestmark = pytest.mark.xdist_group("docs_build")
+
 
 @pytest.fixture(scope="module")
 def html(tmp_path_factory: pytest.TempPathFactory) -> Path:
