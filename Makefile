@@ -7,7 +7,7 @@ SUDO := $(shell [ "$$(id -u)" -eq 0 ] || echo sudo)
 PYTEST_WORKERS ?= 2
 OUT ?= out
 
-.PHONY: native demo test lint typecheck pytest chromium bench bench-quick bench-peers clean
+.PHONY: native demo test lint typecheck pytest docs chromium bench bench-quick bench-peers clean
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -53,6 +53,11 @@ pytest: $(STAMP) $(NATIVE) chromium
 
 test: lint typecheck pytest
 
+# The documentation site (Sphinx + sphinx-gallery; the gallery runs every example). The
+# whole-suite `make test` builds it too (tests/test_docs.py).
+docs: $(STAMP) $(NATIVE) chromium
+	TASKSPACE_FAST=1 MPLBACKEND=Agg $(PY) -m sphinx -W --keep-going -b html docs docs/_build/html
+
 bench: $(STAMP) $(NATIVE)
 	$(PY) -m benchmarks.run --save benchmarks/results/latest.json
 
@@ -64,4 +69,5 @@ bench-peers:
 	bash benchmarks/peers/install.sh
 
 clean:
-	rm -rf $(VENV) .venv-peers out .mypy_cache .ruff_cache .pytest_cache src/taskspace/_native/*.so src/taskspace/_native/.built
+	rm -rf $(VENV) .venv-peers out .mypy_cache .ruff_cache .pytest_cache src/taskspace/_native/*.so src/taskspace/_native/.built \
+		docs/_build docs/_generated
