@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from benchmarks.common import Row, Timing
+from benchmarks.common import Row, Timing, run_peer
 from benchmarks.suites import _batch_tasks as T
 from taskspace.batch import BatchOptions, Executor
 
@@ -74,6 +74,20 @@ def _overhead(quick: bool, ray_ok: bool) -> list[Row]:
             {"tasks": n, "overhead": t_plain / ideal - 1},
         )
     )
+    dask = run_peer("dask", "dask_batch.py", [str(n), str(seconds), "20"])
+    rows.append(
+        Row(
+            SUITE,
+            "overhead 10 ms tasks",
+            "dask.distributed (LocalCluster)",
+            Timing.from_samples([dask["overhead"] / n]) if dask else None,
+            {"tasks": n, "overhead": dask["overhead"] / ideal - 1, "startup_s": dask["startup"]}
+            if dask
+            else {},
+            ratio_to="multiprocessing.Pool",
+            note="" if dask else "peer not installed (make bench-peers)",
+        )
+    )
     backends = [("processes", "taskspace processes")]
     if ray_ok:
         backends.append(("ray", "taskspace ray"))
@@ -114,18 +128,18 @@ def _per_task(quick: bool, ray_ok: bool) -> list[Row]:
                 ratio_to="taskspace serial",
             )
         )
-    try:
-        import distributed  # noqa: F401
-    except ImportError:
-        rows.append(
-            Row(
-                SUITE,
-                "per task (no-op)",
-                "dask.distributed",
-                None,
-                note="dask distributed not installed in this environment",
-            )
+    dask = run_peer("dask", "dask_batch.py", ["4", "0.01", str(n)])
+    rows.append(
+        Row(
+            SUITE,
+            "per task (no-op)",
+            "dask.distributed",
+            Timing.from_samples([dask["per_task"] / n]) if dask else None,
+            {"tasks": n},
+            ratio_to="taskspace serial",
+            note="" if dask else "peer not installed (make bench-peers)",
         )
+    )
     return rows
 
 
