@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import enum
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -69,6 +70,8 @@ class PlannerResult:
         time_s: wall-clock planning time [s].
         trees: search trees (RRT: one, RRT-Connect: start and goal trees; PRM: none).
         log: extra diagnostics (roadmap sizes, shortcut statistics, ...).
+        cost: the optimal planners' objective cost of ``path`` (``inf`` on failure; ``None``
+            for planners without an objective).
     """
 
     success: bool
@@ -80,4 +83,5 @@ class PlannerResult:
     edge_checks: int
     time_s: float
     trees: list[Tree] = field(default_factory=list, repr=False)
-    log: dict[str, float] = field(default_factory=dict)
+    log: dict[str, Any] = field(default_factory=dict)
+    cost: float | None = None

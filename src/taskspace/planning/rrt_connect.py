@@ -81,7 +81,7 @@ from typing import Any
 
 import numpy as np
 
-from taskspace._validation import check_count, check_positive, check_seed, check_time_limit
+from taskspace._validation import check_positive, check_seed
 from taskspace.errors import InvalidInputError
 from taskspace.planning.collision_checker import CollisionChecker
 from taskspace.planning.configuration_space import (
@@ -91,6 +91,7 @@ from taskspace.planning.configuration_space import (
     nested_orders,
     path_length,
 )
+from taskspace.planning.limits import planner_limits
 from taskspace.planning.nearest import GrowingNearest
 from taskspace.planning.planner_result import PlannerResult, PlannerStatus, Tree
 
@@ -118,7 +119,7 @@ class RRTConnectOptions:
             turn: it EXTENDs and the other tree CONNECTs towards its new node; 0 alternates
             the trees as the classic algorithm.
         max_iterations: number of samples ``n`` (an integer >= 0; values beyond ``2**63 - 1``
-            are that).
+            are that; ``None`` with a finite time limit: :mod:`taskspace.planning.limits`).
         time_limit_s: wall-clock budget [s] (``None`` or ``math.inf`` = no limit; NaN is
             refused).
         seed: random seed (an integer >= 0) used when no ``rng`` is passed; the compiled
@@ -135,7 +136,7 @@ class RRTConnectOptions:
     local_sampling: float = 0.5
     local_sigma: float = 0.5
     trapped_priority: float = 0.75
-    max_iterations: int = 100_000
+    max_iterations: int | None = 100_000
     time_limit_s: float | None = 1.0
     seed: int = 0
     native: bool = True
@@ -556,8 +557,7 @@ def rrt_connect(
     """
     opts = options or RRTConnectOptions()
     alpha = check_positive(opts.step_size, "step_size")
-    max_iterations = check_count(opts.max_iterations, "max_iterations")
-    time_limit = check_time_limit(opts.time_limit_s)
+    max_iterations, time_limit = planner_limits(opts.max_iterations, opts.time_limit_s)
     seed = check_seed(opts.seed)
     if not 0.0 <= opts.local_sampling <= 1.0:
         raise InvalidInputError(f"local_sampling must be in [0, 1], got {opts.local_sampling}")

@@ -24,9 +24,10 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
-from taskspace._validation import check_count, check_positive, check_seed, check_time_limit
+from taskspace._validation import check_positive, check_seed
 from taskspace.errors import InvalidInputError
 from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray, path_length
+from taskspace.planning.limits import planner_limits
 from taskspace.planning.planner_result import PlannerResult, PlannerStatus, Tree
 
 
@@ -39,7 +40,8 @@ class RRTStarOptions:
         goal_bias: probability of sampling the goal (before a solution exists).
         gamma_factor: ``gamma = gamma_factor * gamma*`` (must exceed 1 for the guarantee).
         informed: sample the informed set once a solution exists (informed RRT*).
-        max_iterations: iterations (an integer >= 0); with no time limit it must be finite.
+        max_iterations: iterations (an integer >= 0, or ``None`` with a finite time limit:
+            :mod:`taskspace.planning.limits`).
         time_limit_s: wall-clock budget [s] (``None`` or ``math.inf`` = none; NaN refused).
         seed: random seed (an integer >= 0) used when no ``rng`` is passed.
         stop_at_first: return as soon as a first solution exists (not anytime).
@@ -52,7 +54,7 @@ class RRTStarOptions:
     goal_bias: float = 0.05
     gamma_factor: float = 1.1
     informed: bool = True
-    max_iterations: int = 5_000
+    max_iterations: int | None = 5_000
     time_limit_s: float | None = 1.0
     seed: int = 0
     stop_at_first: bool = False
@@ -141,7 +143,7 @@ class _RRTStarTree:
         _propagate(i, cost - self.cost[i], self.cost, self.children)
 
 
-def _goal_states(space: ConfigurationSpace, goal: Any) -> tuple[list[FloatArray], Any]:
+def goal_states(space: ConfigurationSpace, goal: Any) -> tuple[list[FloatArray], Any]:
     """Goal configurations (validated) and the goal region (or None)."""
     if isinstance(goal, GoalRegion):
         return [], goal
@@ -183,14 +185,13 @@ def rrt_star(
     """
     opts = options or RRTStarOptions()
     eta = check_positive(opts.step_size, "step_size")
-    limit = check_time_limit(opts.time_limit_s)
-    iterations = check_count(opts.max_iterations, "max_iterations")
+    iterations, limit = planner_limits(opts.max_iterations, opts.time_limit_s)
     if not 0.0 <= opts.goal_bias <= 1.0:
         raise InvalidInputError(f"goal_bias must be in [0, 1], got {opts.goal_bias}")
     check_positive(opts.gamma_factor, "gamma_factor")
     rng = rng or np.random.default_rng(check_seed(opts.seed))
     q_start = space.check_endpoint(start, "start")
-    goals, region = _goal_states(space, goal)
+    goals, region = goal_states(space, goal)
     d = space.dim
     volume = float(np.prod(space.upper - space.lower))
     k_rrg = opts.gamma_factor * math.e * (1 + 1 / d)
