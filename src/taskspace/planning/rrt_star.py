@@ -28,6 +28,7 @@ from taskspace._validation import check_positive, check_seed
 from taskspace.errors import InvalidInputError
 from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray, path_length
 from taskspace.planning.limits import planner_limits
+from taskspace.planning.objectives import OptimizationObjective, check_objective
 from taskspace.planning.planner_result import PlannerResult, PlannerStatus, Tree
 
 
@@ -161,6 +162,7 @@ def rrt_star(
     goal: Any,
     options: RRTStarOptions | None = None,
     *,
+    objective: OptimizationObjective | None = None,
     rng: np.random.Generator | None = None,
 ) -> PlannerResult:
     """Plan a short collision-free path from ``start`` to a goal with (informed) RRT*.
@@ -172,12 +174,15 @@ def rrt_star(
             cheaper to reach), or a :class:`GoalRegion` (sampled for the goal bias; every
             tree node inside it ends a candidate path).
         options: planner settings.
+        objective: path cost (default: Euclidean :class:`~taskspace.planning.PathLength`);
+            nearest neighbours stay Euclidean, parents and rewiring use its motion costs.
         rng: random generator (default: ``np.random.default_rng(options.seed)``).
 
     Returns:
-        The best path found within the limits; ``log`` holds ``cost_times`` and ``costs``
-        (the best cost each time it improved), ``first_solution_s`` and the tree size.
-        Informed sampling is used with a single goal configuration only.
+        The best path found within the limits; ``cost`` is its objective cost; ``log``
+        holds ``cost_times`` and ``costs`` (the best cost each time it improved),
+        ``first_solution_s``, the tree size and ``stopped_by``. Informed sampling is used
+        with a single goal configuration and the Euclidean length only.
 
     Raises:
         PlanningError: start or goal outside the bounds or in collision.
@@ -189,6 +194,7 @@ def rrt_star(
     if not 0.0 <= opts.goal_bias <= 1.0:
         raise InvalidInputError(f"goal_bias must be in [0, 1], got {opts.goal_bias}")
     check_positive(opts.gamma_factor, "gamma_factor")
+    cost_of = check_objective(objective)
     rng = rng or np.random.default_rng(check_seed(opts.seed))
     q_start = space.check_endpoint(start, "start")
     goals, region = goal_states(space, goal)
@@ -205,7 +211,7 @@ def rrt_star(
     goal_nodes: dict[int, int] = {}  # goal state index -> its tree node
     region_nodes: list[int] = []
     rotation = None
-    if opts.informed and region is None and len(goals) == 1:
+    if opts.informed and region is None and len(goals) == 1 and cost_of.is_euclidean_length:
         if np.linalg.norm(goals[0] - q_start) > 0:
             rotation = _rotation_to_world(q_start, goals[0])
     if region is not None and region.contains(q_start):
@@ -266,10 +272,13 @@ def rrt_star(
             near = np.flatnonzero(dist <= radius)
         # Choose the parent of least cost-to-come among the neighbours.
         cost = tree.cost
+        edge = np.zeros(n)
+        candidates = np.union1d(near, [near_i])
+        edge[candidates] = cost_of.motion_costs(nodes[candidates], x_new)
         best_parent = near_i
-        best_cost = cost[near_i] + dist[near_i]
-        for j in near[np.argsort(cost[near] + dist[near])]:
-            c = cost[j] + dist[j]
+        best_cost = cost[near_i] + edge[near_i]
+        for j in near[np.argsort(cost[near] + edge[near])]:
+            c = cost[j] + edge[j]
             if c >= best_cost:
                 break
             if j != near_i and space.motion_valid(nodes[j], x_new):
@@ -279,7 +288,7 @@ def rrt_star(
         # Rewire the neighbours through x_new.
         for j in near:
             j = int(j)
-            c = best_cost + dist[j]
+            c = best_cost + edge[j]
             if j == best_parent or c >= tree.cost[j] - 1e-12:
                 continue
             if space.motion_valid(x_new, tree.nodes[j]):
@@ -288,9 +297,11 @@ def rrt_star(
         if region is not None and region.contains(x_new):
             region_nodes.append(new)
         for g, q_goal in enumerate(goals):
-            to_goal = float(np.linalg.norm(q_goal - x_new))
+            if float(np.linalg.norm(q_goal - x_new)) > eta:
+                continue
+            to_goal = cost_of.motion_cost(x_new, q_goal)
             node = goal_nodes.get(g, -1)
-            if to_goal > eta or best_cost + to_goal >= (tree.cost[node] if node >= 0 else math.inf):
+            if best_cost + to_goal >= (tree.cost[node] if node >= 0 else math.inf):
                 continue
             if space.motion_valid(x_new, q_goal):
                 if node < 0:
@@ -316,12 +327,18 @@ def rrt_star(
         "costs": costs,
         "gamma": gamma,
         "goal_states": float(len(goals)),
+        "stopped_by": {
+            PlannerStatus.TIME_LIMIT: "time",
+            PlannerStatus.ITERATION_LIMIT: "iterations",
+            PlannerStatus.SOLVED: "first solution",
+        }[status],
     }
     return PlannerResult(
         success=success,
         status=PlannerStatus.SOLVED if success else status,
         path=path,
         path_length=path_length(path) if success else math.inf,
+        cost=float(tree.cost[goal_node]) if success else math.inf,
         iterations=it,
         collision_checks=space.checks - checks0,
         edge_checks=space.edge_checks - edges0,
