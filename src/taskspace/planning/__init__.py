@@ -90,7 +90,8 @@ from taskspace.planning.scene_loader import (
     motionbenchmaker_problems,
 )
 from taskspace.planning.se2 import CurvePath, angle_distance, se2_distance, wrap_angle
-from taskspace.planning.shortcut import ShortcutOptions, shortcut_path
+from taskspace.planning.shortcut import ShortcutOptions, ShortcutResult, shortcut_path
+from taskspace.planning.smoothing import SmoothingOptions, SmoothingResult, smooth_bspline
 
 __all__ = [
     "MOTIONBENCHMAKER_SCENARIOS",
@@ -139,6 +140,9 @@ __all__ = [
     "Roadmap",
     "SearchStatus",
     "ShortcutOptions",
+    "ShortcutResult",
+    "SmoothingOptions",
+    "SmoothingResult",
     "Tree",
     "WavefrontResult",
     "WeightedSum",
@@ -185,6 +189,7 @@ __all__ = [
     "sample_free",
     "se2_distance",
     "shortcut_path",
+    "smooth_bspline",
     "wavefront",
     "wavefront_path",
     "wrap_angle",

@@ -23,6 +23,9 @@ class PlannerStatus(enum.Enum):
     """The iteration (sample) budget ran out before a path was found."""
     NO_PATH = "no_path"
     """The roadmap does not connect start and goal (PRM, Lazy PRM)."""
+    UNCERTIFIED = "uncertified"
+    """Paths were found but none could be certified free between its checked points
+    (``certify=True``); ``path`` holds the last one and ``log`` the failing segment."""
 
 
 @dataclass

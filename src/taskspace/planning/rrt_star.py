@@ -16,6 +16,7 @@ metric.
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 import time
@@ -26,6 +27,7 @@ import numpy as np
 
 from taskspace._validation import check_positive, check_seed
 from taskspace.errors import InvalidInputError
+from taskspace.planning.certify import certify_planned
 from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray, path_length
 from taskspace.planning.limits import planner_limits
 from taskspace.planning.objectives import OptimizationObjective, check_objective
@@ -49,6 +51,11 @@ class RRTStarOptions:
         k_nearest: rewire the ``k_n = gamma_factor e (1 + 1/d) log n`` nearest nodes (the
             k-nearest RRT*, as OMPL does by default) instead of those within ``r_n``; in high
             dimensions the ball of radius ``r_n <= eta`` is almost always empty.
+        certify: prove the returned path free between its checked points (see
+            :func:`rrt_star`); needs a space built on a robot.
+        certify_retries: re-plans (next seeds) after an uncertified path.
+        certify_tolerance: the least robot-obstacle (and self) distance [m] along the path
+            counted as free by the certification.
     """
 
     step_size: float = 0.5
@@ -60,6 +67,9 @@ class RRTStarOptions:
     seed: int = 0
     stop_at_first: bool = False
     k_nearest: bool = True
+    certify: bool = False
+    certify_retries: int = 2
+    certify_tolerance: float = 1e-4
 
 
 def unit_ball_volume(d: int) -> float:
@@ -186,9 +196,44 @@ def rrt_star(
 
     Raises:
         PlanningError: start or goal outside the bounds or in collision.
-        InvalidInputError: invalid options.
+        InvalidInputError: invalid options; ``certify`` on a space without a robot.
+
+    Certified paths: with ``options.certify`` the best path is proven free between its
+    checked points by :func:`~taskspace.planning.certify_path`; an uncertified path is
+    re-planned with the next seeds (``certify_retries`` times, within the time limit), and
+    if none can be certified the result has ``success=False``, status ``UNCERTIFIED`` and
+    the failing segment in ``log``.
     """
     opts = options or RRTStarOptions()
+    if not opts.certify:
+        return _plan(space, start, goal, opts, objective, rng)
+    _, limit = planner_limits(opts.max_iterations, opts.time_limit_s)
+    seed = check_seed(opts.seed)
+
+    def plan(attempt: int, left: float) -> PlannerResult:
+        again = dataclasses.replace(
+            opts, seed=seed + attempt, time_limit_s=left if math.isfinite(left) else None
+        )
+        return _plan(space, start, goal, again, objective, rng)
+
+    return certify_planned(
+        space,
+        plan,
+        time_limit_s=limit,
+        retries=opts.certify_retries,
+        tolerance=opts.certify_tolerance,
+    )
+
+
+def _plan(
+    space: ConfigurationSpace,
+    start: Any,
+    goal: Any,
+    opts: RRTStarOptions,
+    objective: OptimizationObjective | None,
+    rng: np.random.Generator | None,
+) -> PlannerResult:
+    """:func:`rrt_star` without certification."""
     eta = check_positive(opts.step_size, "step_size")
     iterations, limit = planner_limits(opts.max_iterations, opts.time_limit_s)
     if not 0.0 <= opts.goal_bias <= 1.0:
