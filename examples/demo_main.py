@@ -119,6 +119,7 @@ def main(argv: list[str] | None = None) -> int:
         html.write_text(page, encoding="utf-8")
         print(f"wrote {html.resolve()} ({len(page) / 1e6:.1f} MB)")
     if pngs:
+        print("rendering the PNG snapshot in headless Chromium (a few seconds)...", flush=True)
         image = viewer.snapshot(pngs[0])
         for png in pngs[1:]:
             png.parent.mkdir(parents=True, exist_ok=True)

@@ -82,6 +82,7 @@ def main(argv: Sequence[str] | None = None) -> None:
         html = viewer.save_html(out / "panda_box_grasps.html", title="Panda grasps on a box")
         print(f"wrote {html}")
         png = out / "panda_box_grasps.png"
+        print("rendering the PNG snapshot in headless Chromium (a few seconds)...", flush=True)
         viewer.snapshot(png)
         print(f"wrote {png}")
 

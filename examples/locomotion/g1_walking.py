@@ -85,6 +85,7 @@ def main() -> None:
         html = viewer.save_html(out / "g1_walking.html", title="G1 walking")
         print(f"wrote {html}")
         try:
+            print("rendering the PNG snapshot in headless Chromium (a few seconds)...", flush=True)
             viewer.snapshot(out / "g1_walking_snapshot.png")
             print(f"wrote {out / 'g1_walking_snapshot.png'}")
         except Exception as exc:  # no headless Chromium on this machine

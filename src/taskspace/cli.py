@@ -28,6 +28,7 @@ import shutil
 import subprocess
 import sys
 import tempfile
+import time
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -350,11 +351,14 @@ def cmd_snapshot(args: argparse.Namespace) -> int:
     if args.frames:
         viewer.add_robot_frames()
     if args.html:
-        out = viewer.save_html(args.html)
+        out = viewer.save_html(_caller_path(args.html) or args.html)
         print(f"wrote {out}")
     if args.png:
-        viewer.snapshot(args.png, size=(args.width, args.height))
-        print(f"wrote {args.png}")
+        png = _caller_path(args.png) or Path(args.png)
+        print("rendering the PNG snapshot in headless Chromium (a few seconds)...", flush=True)
+        start = time.perf_counter()
+        viewer.snapshot(png, size=(args.width, args.height))
+        print(f"wrote {png} ({time.perf_counter() - start:.1f} s)")
     return 0
 
 
