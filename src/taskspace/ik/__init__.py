@@ -12,6 +12,7 @@ from taskspace.ik.interpolation import (
     joint_space_interpolation,
     task_space_interpolation,
 )
+from taskspace.ik.pose_goal_region import PoseGoalRegion
 from taskspace.ik.solve_ik import SolveIKOptions, SolveIKResult, SolveIKStatus, solve_ik
 from taskspace.qp.rows import combine_bounds
 
@@ -23,6 +24,7 @@ __all__ = [
     "IKStatus",
     "IKStepResult",
     "InterpolationResult",
+    "PoseGoalRegion",
     "SolveIKOptions",
     "SolveIKResult",
     "SolveIKStatus",
