@@ -154,6 +154,7 @@ def bit_star(
         InvalidInputError: bad options (see :mod:`taskspace.planning.limits`).
     """
     opts = options or BITStarOptions()
+    space.require_euclidean("bit_star")
     cap, limit = planner_limits(opts.max_iterations, opts.time_limit_s)
     batch = check_count(opts.batch_size, "batch_size", minimum=1)
     check_positive(opts.gamma_factor, "gamma_factor")

@@ -52,7 +52,7 @@ import numpy.typing as npt
 import pinocchio as pin
 
 from taskspace._validation import as_matrix
-from taskspace.errors import InvalidInputError, PlanningError
+from taskspace.errors import PlanningError
 from taskspace.model.robot import Robot
 
 logger = logging.getLogger(__name__)
@@ -148,11 +148,6 @@ class CollisionChecker:
     def update_world(self) -> None:
         """Rebuild the internal geometry copies from ``robot.collision_model``."""
         robot = self.robot
-        if robot.is_floating or robot.nq != robot.nv:
-            raise InvalidInputError(
-                "CollisionChecker needs a fixed-base robot whose configuration is a plain "
-                f"vector (nq == nv); '{robot.name}' has nq={robot.nq}, nv={robot.nv}"
-            )
         model, geom = robot.model, robot.collision_model
         if self.options.broadphase:
             pool = pin.TreeBroadPhaseManagerPool_DynamicAABBTreeCollisionManager
@@ -181,7 +176,9 @@ class CollisionChecker:
         """The compiled checker on copies of the robot's models, or ``None`` (not built).
 
         It is ``taskspace._native.planning_kernel().CollisionKernel`` (used by the compiled
-        RRT-Connect). The handle answers for the world as it was at this call: after any
+        RRT-Connect; ``None`` for robots whose configuration is not a plain vector,
+        ``nq != nv``: those use Pinocchio's broad-phase pool). The handle answers for the
+        world as it was at this call: after any
         change of the world, call this method again (it then returns a new handle built on
         the current world; the compiled planner does so at every plan). ``None`` when the
         kernel is not built or the broad phase is disabled in the options.
@@ -190,6 +187,9 @@ class CollisionChecker:
         if len(geom.collisionPairs) != self._npairs:  # pairs edited on the model directly
             self.update_world()
         self._sync()
+        if self.robot.nq != self.robot.nv:  # the compiled checker takes plain vectors only
+            self._kernel_checked = True
+            return None
         if self._kernel is None and self.options.broadphase:
             from taskspace._native import planning_kernel
 

@@ -17,6 +17,7 @@ points of the resolution ``delta``.
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections import deque
 from dataclasses import dataclass
@@ -34,6 +35,7 @@ from taskspace.planning.collision_checker import (
     CollisionCheckerOptions,
     ValidityChecker,
 )
+from taskspace.planning.joint_manifold import JointManifold
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
@@ -112,6 +114,13 @@ class EdgeCheckOptions:
 class ConfigurationSpace:
     """Box-bounded configuration space with a validity checker and a straight-line local planner.
 
+    With a :class:`~taskspace.planning.joint_manifold.JointManifold` (robots with continuous
+    joints, planar joints, spherical joints or a floating base, or a weighted metric), the
+    distance is the manifold's weighted metric ``|W (q1 (-) q0)|``, the "straight line" is
+    Pinocchio's interpolation ``q0 (+) t (q1 (-) q0)`` and samples are uniform on the
+    manifold; :attr:`is_euclidean` is then False. The planners that support such spaces say
+    so (RRT-Connect, RRT*); the others refuse them.
+
     Args:
         lower: lower bounds (size d) [rad or m].
         upper: upper bounds (size d) [rad or m].
@@ -119,6 +128,8 @@ class ConfigurationSpace:
             :class:`ValidityChecker`).
         edge: local-planner settings (resolution ``delta``).
         names: coordinate names for error messages.
+        manifold: the joint manifold (``None``: the Euclidean box). Its bounds are used and
+            ``lower``/``upper`` must equal them.
 
     Attributes:
         edge_checks: number of local-planner (edge) queries.
@@ -141,7 +152,9 @@ class ConfigurationSpace:
         *,
         edge: EdgeCheckOptions | None = None,
         names: list[str] | None = None,
+        manifold: JointManifold | None = None,
     ) -> None:
+        self.manifold = manifold
         lo = as_vector(lower, None, "lower")
         hi = as_vector(upper, lo.size, "upper")
         if np.any(hi <= lo):
@@ -164,29 +177,108 @@ class ConfigurationSpace:
         *,
         edge: EdgeCheckOptions | None = None,
         checker_options: CollisionCheckerOptions | None = None,
+        base_lower: Any = None,
+        base_upper: Any = None,
+        weights: Any = None,
     ) -> ConfigurationSpace:
-        """Joint-limit box of a fixed-base robot with a :class:`CollisionChecker`.
+        """The configuration space of a robot with a :class:`CollisionChecker`.
+
+        A robot whose joints are all bounded revolute or prismatic joints gives the
+        Euclidean joint-limit box; any continuous, planar, spherical or floating joint (or
+        ``weights``) gives a space on its :class:`~taskspace.planning.joint_manifold.
+        JointManifold`.
+
+        Args:
+            robot: the robot and its obstacle world.
+            edge: local-planner settings.
+            checker_options: collision checker settings.
+            base_lower: lower corner of the base translation box [m] (x, y for a planar
+                root joint, x, y, z for a floating base); required for such robots.
+            base_upper: upper corner of that box [m].
+            weights: metric weights per velocity coordinate (size nv; default 1).
 
         Raises:
-            InvalidInputError: the robot is floating or has unlimited joints.
+            InvalidInputError: a joint without finite limits that is not continuous, a
+                moving base without its translation box, a joint type that cannot be
+                planned on.
         """
+        manifold = None
+        simple = robot.limited_joints_q.size == robot.nq and robot.nq == robot.nv
+        simple = simple and not robot.is_floating
+        if not simple or weights is not None or base_lower is not None:
+            manifold = JointManifold(
+                robot.model, weights=weights, base_lower=base_lower, base_upper=base_upper
+            )
+            if manifold.is_euclidean and weights is None:
+                manifold = None
         checker = CollisionChecker(robot, checker_options)
         lo, hi = robot.lower_limits, robot.upper_limits
-        if robot.limited_joints_q.size != robot.nq:
-            raise InvalidInputError(
-                f"robot '{robot.name}' has joints without finite limits; sampling-based "
-                "planners need a bounded configuration space"
-            )
+        if manifold is not None:
+            lo, hi = manifold.lower, manifold.upper
         names = []
         for jid in range(1, robot.model.njoints):
             names.append(str(robot.model.names[jid]))
-        return cls(lo, hi, checker, edge=edge, names=names if len(names) == lo.size else None)
+        return cls(
+            lo,
+            hi,
+            checker,
+            edge=edge,
+            names=names if len(names) == lo.size else None,
+            manifold=manifold,
+        )
 
     # ------------------------------------------------------------------ basics
     @property
     def dim(self) -> int:
-        """Dimension ``d``."""
+        """Size ``d`` of a configuration vector (``nq`` of a robot)."""
         return int(self.lower.size)
+
+    @property
+    def is_euclidean(self) -> bool:
+        """True for the Euclidean box (no manifold or a Euclidean one with unit weights)."""
+        return self.manifold is None
+
+    @property
+    def tangent_dim(self) -> int:
+        """Dimension of the space as a manifold (``nv`` of a robot; ``d`` for a box)."""
+        return self.dim if self.manifold is None else self.manifold.nv
+
+    def require_euclidean(self, who: str) -> None:
+        """Raise unless the space is the Euclidean box (for algorithms that need one).
+
+        Raises:
+            InvalidInputError: the space is on a joint manifold.
+        """
+        if self.manifold is not None:
+            raise InvalidInputError(
+                f"{who} plans in a Euclidean box and this space is a joint manifold "
+                "(continuous, planar, spherical or floating joints, or a weighted metric); "
+                "use rrt_connect or rrt_star, which plan on the manifold"
+            )
+
+    def distance(self, q0: FloatArray, q1: FloatArray) -> float:
+        """Metric distance ``d(q0, q1)`` [rad or m] (Euclidean, or the manifold's)."""
+        if self.manifold is None:
+            diff = q1 - q0
+            return math.sqrt(float(diff @ diff))
+        return float(self.manifold.distances(q0, q1)[0])
+
+    def distances(self, points: FloatArray, q: FloatArray) -> FloatArray:
+        """``d(points_i, q)`` for the rows of ``points``, shape (n,)."""
+        if self.manifold is None:
+            diff = points - q
+            return np.sqrt(np.einsum("ij,ij->i", diff, diff))
+        return self.manifold.distances(points, q)
+
+    def interpolate(self, q0: FloatArray, q1: FloatArray, t: Any) -> FloatArray:
+        """Points of the local path ``q0 -> q1`` at fractions ``t`` (shape (len(t), d)).
+
+        ``(1 - t) q0 + t q1`` in the box, Pinocchio's ``interpolate`` on a manifold.
+        """
+        if self.manifold is None:
+            ts = np.atleast_1d(np.asarray(t, dtype=np.float64))
+            return np.asarray(q0 + ts[:, None] * (q1 - q0), dtype=np.float64)
+        return self.manifold.interpolate(q0, q1, t)
 
     @property
     def extent(self) -> float:
@@ -210,8 +302,29 @@ class ConfigurationSpace:
         """Configurations evaluated by the checker so far."""
         return int(self.checker.checks)
 
+    def interpolate_path(self, path: Any, resolution: float) -> FloatArray:
+        """The path with points of the local paths inserted every ``resolution`` at most.
+
+        Consecutive waypoints of the result are at most ``resolution`` apart in the space's
+        metric, on the manifold (Pinocchio's ``interpolate``) for a joint-manifold space; the
+        original waypoints are kept.
+        """
+        arr = np.atleast_2d(np.asarray(path, dtype=np.float64))
+        if arr.ndim != 2 or arr.shape[1] != self.dim or not np.all(np.isfinite(arr)):
+            raise InvalidInputError(
+                f"path must be a finite (m, {self.dim}) array, got shape {arr.shape}"
+            )
+        step = check_positive(resolution, "resolution")
+        out = [arr[:1]]
+        for a, b in itertools.pairwise(arr):
+            k = max(1, math.ceil(self.distance(a, b) / step - 1e-12))
+            out.append(self.interpolate(a, b, np.arange(1, k + 1) / k))
+        return np.vstack(out)
+
     def sample_uniform(self, rng: np.random.Generator, n: int | None = None) -> FloatArray:
         """Uniform samples of the box: shape (d,) if ``n`` is None, else (n, d)."""
+        if self.manifold is not None:
+            return self.manifold.sample(rng, 1)[0] if n is None else self.manifold.sample(rng, n)
         if n is None:
             return rng.uniform(self.lower, self.upper)
         return rng.uniform(self.lower, self.upper, size=(n, self.dim))
@@ -253,15 +366,19 @@ class ConfigurationSpace:
                 for i in out.tolist()
             )
             raise PlanningError(f"{name} is outside the joint limits: {details}")
+        if self.manifold is not None and self.manifold.unit_error(qa) > 1e-6:
+            raise PlanningError(
+                f"{name} is not a valid configuration: a quaternion or (cos, sin) pair is not "
+                "of unit norm; normalize it (robot.normalize(q) or pinocchio.normalize)"
+            )
         if not self.is_valid(qa):
             raise PlanningError(f"{name} is in collision: {self.checker.explain(qa)}")
         return qa
 
     # ------------------------------------------------------------------ local planner
     def segments(self, q0: FloatArray, q1: FloatArray) -> int:
-        """Number of segments ``n = max(1, ceil(|q1 - q0| / delta))``."""
-        diff = q1 - q0
-        length = math.sqrt(float(diff @ diff))
+        """Number of segments ``n = max(1, ceil(d(q0, q1) / delta))``."""
+        length = self.distance(q0, q1)
         return max(1, math.ceil(length / self.edge.resolution - 1e-12))
 
     def motion_valid(self, q0: FloatArray, q1: FloatArray, *, check_end: bool = False) -> bool:
@@ -278,8 +395,7 @@ class ConfigurationSpace:
                 return False
         if order.size == 0:
             return True
-        t = order / n
-        points = q0 + t[:, None] * (q1 - q0)
+        points = self.interpolate(q0, q1, order / n)
         start, size, cap = 0, 1, self.edge.max_batch
         total = points.shape[0]
         while start < total:

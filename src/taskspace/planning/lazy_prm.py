@@ -82,6 +82,7 @@ def build_lazy_prm(
 ) -> LazyRoadmap:
     """Sample free nodes and connect k nearest neighbours without checking the edges."""
     opts = options or PRMOptions()
+    space.require_euclidean("build_lazy_prm")
     check_count(opts.n_samples, "n_samples", minimum=1)
     check_count(opts.k_neighbors, "k_neighbors", minimum=1)
     rng = rng if rng is not None else np.random.default_rng(check_seed(opts.seed))
@@ -335,6 +336,7 @@ def lazy_prm(
             and ``max_rounds`` both ``None``), bad options.
     """
     opts = options or PRMOptions()
+    space.require_euclidean("lazy_prm")
     cap, limit = check_limits(
         max_rounds, time_limit_s, names=("max_rounds", "time_limit_s"), minimum=1
     )

@@ -9,6 +9,7 @@ the winner only, which beats tree structures for the tree sizes of single-query 
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -22,9 +23,13 @@ class GrowingNearest:
     Args:
         dim: dimension ``d``.
         capacity: initial capacity (doubled when exceeded).
+        metric: ``metric(points, q) -> distances`` (shape (n,)) for a non-Euclidean space
+            (e.g. :meth:`ConfigurationSpace.distances` on a joint manifold); ``None``: the
+            Euclidean distance by the fast ranking above.
     """
 
-    def __init__(self, dim: int, capacity: int = 1024) -> None:
+    def __init__(self, dim: int, capacity: int = 1024, metric: Any = None) -> None:
+        self._metric = metric
         self._points = np.empty((max(1, capacity), dim))
         self._sq = np.empty(max(1, capacity))
         self._n = 0
@@ -65,6 +70,10 @@ class GrowingNearest:
         """Index of the stored point closest to ``q`` and the distance ``|q_i - q|``."""
         n = self._n
         points = self._points
+        if self._metric is not None:
+            dist = np.where(np.isinf(self._sq[:n]), np.inf, self._metric(points[:n], q))
+            i = int(dist.argmin())
+            return i, float(dist[i])
         i = int((self._sq[:n] - 2.0 * (points[:n] @ q)).argmin())
         diff = points[i] - q
         return i, math.sqrt(float(diff @ diff))

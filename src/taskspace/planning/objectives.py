@@ -111,6 +111,28 @@ class PathLength(OptimizationObjective):
         return self.motion_costs(q0, q1)
 
 
+class MetricLength(OptimizationObjective):
+    """Path length in a given metric: ``c(a, b) = distances(a, b)`` (e.g. a joint manifold's).
+
+    Args:
+        distances: ``distances(Q0, Q1) -> (n,)``, a symmetric metric between rows, for which
+            the straight local path is a shortest path (so ``c_hat = c``), e.g.
+            :meth:`~taskspace.planning.joint_manifold.JointManifold.distances`.
+    """
+
+    def __init__(self, distances: Callable[[FloatArray, FloatArray], Any]) -> None:
+        self.distances = distances
+
+    def motion_costs(self, q0: FloatArray, q1: FloatArray) -> FloatArray:
+        """``distances(q0, q1)``."""
+        a, b = _pairs(q0, q1)
+        return np.asarray(self.distances(a, b), dtype=np.float64).reshape(a.shape[0])
+
+    def cost_lower_bounds(self, q0: FloatArray, q1: FloatArray) -> FloatArray:
+        """The motion cost (geodesics are shortest)."""
+        return self.motion_costs(q0, q1)
+
+
 class Clearance(OptimizationObjective):
     """Cost integral of ``1 / (epsilon + d(q))`` along the path: keep away from obstacles.
 

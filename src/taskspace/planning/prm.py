@@ -192,6 +192,7 @@ def build_prm(
         rng: random generator (default: ``np.random.default_rng(options.seed)``).
     """
     opts = options or PRMOptions()
+    space.require_euclidean("build_prm")
     check_count(opts.n_samples, "n_samples", minimum=1)
     check_count(opts.k_neighbors, "k_neighbors", minimum=1)
     rng = rng if rng is not None else np.random.default_rng(check_seed(opts.seed))

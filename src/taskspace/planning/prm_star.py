@@ -158,6 +158,7 @@ def _plan(
     lazy: bool,
 ) -> tuple[PlannerResult, _Graph, int | None]:
     opts = options or PRMStarOptions()
+    space.require_euclidean("prm_star" if not lazy else "lazy_prm_star")
     cap, limit = planner_limits(opts.max_iterations, opts.time_limit_s)
     batch = check_count(opts.batch_size, "batch_size", minimum=1)
     check_positive(opts.gamma_factor, "gamma_factor")

@@ -87,6 +87,7 @@ def rrt(
         InvalidInputError: invalid options.
     """
     opts = options or RRTOptions()
+    space.require_euclidean("rrt")
     alpha = check_positive(opts.step_size, "step_size")
     if not 0.0 <= opts.goal_bias <= 1.0:
         raise InvalidInputError(f"goal_bias must be in [0, 1], got {opts.goal_bias}")

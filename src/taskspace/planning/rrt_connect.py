@@ -159,8 +159,8 @@ class _GrowingTree:
     ``parent -> i``; ``pending[i]`` is True while its fine points have not been checked.
     """
 
-    def __init__(self, root: FloatArray) -> None:
-        self.nn = GrowingNearest(root.size)
+    def __init__(self, root: FloatArray, metric: Any = None) -> None:
+        self.nn = GrowingNearest(root.size, metric=metric)
         self.nn.add(root)
         self.parents: list[int] = [-1]
         self.segments: list[int] = [0]
@@ -318,8 +318,7 @@ def _grow(
     """
     q0 = tree.nn.points[i_near].copy()
     t, steps, ends, n_segments = lines.plan(dist, max_steps, end_known_valid)
-    delta = target - q0
-    bad = space.first_invalid(q0 + t[:, None] * delta) if t.size else -1
+    bad = space.first_invalid(space.interpolate(q0, target, t)) if t.size else -1
     if bad < 0:
         n_ok = len(ends)
     else:
@@ -327,7 +326,7 @@ def _grow(
     parent = i_near
     lazy = lines.lazy
     for k in range(n_ok):
-        q = target.copy() if ends[k] == 1.0 else q0 + ends[k] * delta
+        q = target.copy() if ends[k] == 1.0 else space.interpolate(q0, target, ends[k])[0]
         parent = tree.add(q, parent, n_segments[k], lazy)
     reached = bad < 0 and ends[-1] == 1.0
     return parent, reached
@@ -356,14 +355,14 @@ def _extend(
     step = min(1.0, alpha / dist)
     if partial:
         u, grid = lines.sequence(n_seg)
-        points = q_near + (u * step)[:, None] * (q_rand - q_near)
+        points = space.interpolate(q_near, q_rand, u * step)
         bad = space.checker.first_invalid(points)
         if bad == 0:
             return -1
         if bad > 0:
             return tree.add(points[bad - 1].copy(), i_near, int(grid[bad - 1]), lines.lazy)
     else:
-        points = q_near + (lines.pattern(n_seg) * step)[:, None] * (q_rand - q_near)
+        points = space.interpolate(q_near, q_rand, lines.pattern(n_seg) * step)
         if space.checker.first_invalid(points) >= 0:
             return -1
     q_new = points[0 if not partial else -1].copy() if dist > alpha else q_rand.copy()
@@ -394,7 +393,7 @@ def _verify(
             _, fine = nested_orders(n, stride)
             if fine.size:
                 q0, q1 = points[tree.parents[i]], points[i]
-                chunks.append(q0 + (fine / n)[:, None] * (q1 - q0))
+                chunks.append(space.interpolate(q0, q1, fine / n))
                 owner.append(fine.size)
             else:
                 owner.append(0)
@@ -418,6 +417,8 @@ def _verify(
 def _native_kernel(space: ConfigurationSpace, opts: RRTConnectOptions) -> Any:
     """The compiled checker of the space if the compiled planner can run, else ``None``."""
     if not opts.native or opts.partial_extend or type(space.checker) is not CollisionChecker:
+        return None
+    if not space.is_euclidean:  # the compiled planner moves along straight lines in R^d
         return None
     return space.checker.native_kernel()
 
@@ -641,7 +642,8 @@ def _plan(
         )
     rng = rng if rng is not None else np.random.default_rng(seed)
     deadline = t0 + time_limit
-    tree_start, tree_goal = _GrowingTree(q_start), _GrowingTree(q_goal)
+    metric = None if space.is_euclidean else space.distances
+    tree_start, tree_goal = _GrowingTree(q_start, metric), _GrowingTree(q_goal, metric)
     lines = _LinePlanner(alpha, delta, delta_c)
     status = PlannerStatus.ITERATION_LIMIT
     path: FloatArray = np.empty((0, space.dim))
@@ -670,8 +672,13 @@ def _plan(
             if local > 0.0 and 4 * len(tree_a.nn) < len(tree_b.nn) and rng.random() < local:
                 # T_a is trapped (typically in a tight goal region): aim near one of its nodes.
                 node = tree_a.nn.points[int(rng.integers(len(tree_a.nn)))]
-                q_rand = node + opts.local_sigma * rng.standard_normal(space.dim)
-                q_rand = np.clip(q_rand, space.lower, space.upper)
+                if space.is_euclidean:
+                    q_rand = node + opts.local_sigma * rng.standard_normal(space.dim)
+                    q_rand = np.clip(q_rand, space.lower, space.upper)
+                else:  # towards a random sample, at most sigma away (on the manifold)
+                    far = space.sample_uniform(rng)
+                    gap_r = space.distance(node, far)
+                    q_rand = space.interpolate(node, far, min(1.0, opts.local_sigma / gap_r))[0]
             a_new = _extend(space, tree_a, lines, q_rand, opts.partial_extend)
             if a_new >= 0:
                 # CONNECT(T_b, q_new): the whole line of steps in one checker call.

@@ -30,7 +30,7 @@ from taskspace.errors import InvalidInputError
 from taskspace.planning.certify import certify_planned
 from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray, path_length
 from taskspace.planning.limits import planner_limits
-from taskspace.planning.objectives import OptimizationObjective, check_objective
+from taskspace.planning.objectives import MetricLength, OptimizationObjective, check_objective
 from taskspace.planning.planner_result import PlannerResult, PlannerStatus, Tree
 
 
@@ -239,12 +239,21 @@ def _plan(
     if not 0.0 <= opts.goal_bias <= 1.0:
         raise InvalidInputError(f"goal_bias must be in [0, 1], got {opts.goal_bias}")
     check_positive(opts.gamma_factor, "gamma_factor")
-    cost_of = check_objective(objective)
+    if space.manifold is not None:
+        if objective is not None:
+            raise InvalidInputError(
+                "on a joint-manifold space rrt_star minimizes the path length in the space's "
+                "metric; pass objective=None (or plan in a Euclidean space)"
+            )
+        cost_of: OptimizationObjective = MetricLength(space.manifold.distances)
+    else:
+        cost_of = check_objective(objective)
     rng = rng or np.random.default_rng(check_seed(opts.seed))
     q_start = space.check_endpoint(start, "start")
     goals, region = goal_states(space, goal)
-    d = space.dim
-    volume = float(np.prod(space.upper - space.lower))
+    d = space.tangent_dim
+    bounded = np.ones(space.dim, bool) if space.manifold is None else space.manifold.bounded_mask()
+    volume = float(np.prod((space.upper - space.lower)[bounded]))
     k_rrg = opts.gamma_factor * math.e * (1 + 1 / d)
     gamma = (
         opts.gamma_factor * 2 * (1 + 1 / d) ** (1 / d) * (volume / unit_ball_volume(d)) ** (1 / d)
@@ -256,7 +265,8 @@ def _plan(
     goal_nodes: dict[int, int] = {}  # goal state index -> its tree node
     region_nodes: list[int] = []
     rotation = None
-    if opts.informed and region is None and len(goals) == 1 and cost_of.is_euclidean_length:
+    euclidean = cost_of.is_euclidean_length and space.is_euclidean
+    if opts.informed and region is None and len(goals) == 1 and euclidean:
         if np.linalg.norm(goals[0] - q_start) > 0:
             rotation = _rotation_to_world(q_start, goals[0])
     if region is not None and region.contains(q_start):
@@ -297,18 +307,16 @@ def _plan(
         if target is None:
             target = space.sample_uniform(rng)
         nodes = tree.nodes[: tree.n]
-        diff = nodes - target
-        near_i = int(np.einsum("ij,ij->i", diff, diff).argmin())
-        step = target - nodes[near_i]
-        length = math.sqrt(float(step @ step))
+        to_target = space.distances(nodes, target)
+        near_i = int(to_target.argmin())
+        length = float(to_target[near_i])
         if length < 1e-12:
             continue
-        x_new = nodes[near_i] + step * min(1.0, eta / length)
+        x_new = space.interpolate(nodes[near_i], target, min(1.0, eta / length))[0]
         if not space.is_valid(x_new) or not space.motion_valid(nodes[near_i], x_new):
             continue
         n = tree.n
-        delta = nodes - x_new
-        dist = np.sqrt(np.einsum("ij,ij->i", delta, delta))
+        dist = space.distances(nodes, x_new)
         if opts.k_nearest:
             k = min(n, math.ceil(k_rrg * math.log(n + 1)))
             near = np.argpartition(dist, k - 1)[:k] if k < n else np.arange(n)
@@ -342,7 +350,7 @@ def _plan(
         if region is not None and region.contains(x_new):
             region_nodes.append(new)
         for g, q_goal in enumerate(goals):
-            if float(np.linalg.norm(q_goal - x_new)) > eta:
+            if space.distance(q_goal, x_new) > eta:
                 continue
             to_goal = cost_of.motion_cost(x_new, q_goal)
             node = goal_nodes.get(g, -1)

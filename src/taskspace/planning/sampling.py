@@ -69,6 +69,8 @@ def sample_free(
     """
     if strategy not in SAMPLERS:
         raise UnknownNameError("sampler", str(strategy), SAMPLERS)
+    if strategy != "uniform":
+        space.require_euclidean(f"the {strategy!r} sampler")
     if n < 0:
         raise InvalidInputError(f"n must be >= 0, got {n}")
     check_positive(sigma, "sigma")

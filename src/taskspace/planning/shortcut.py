@@ -129,6 +129,7 @@ def shortcut_path(
             offending waypoint or edge).
     """
     opts = options or ShortcutOptions()
+    space.require_euclidean("shortcut_path")
     arr = as_matrix(np.atleast_2d(np.asarray(path, dtype=float)), (None, space.dim), "path")
     arr = arr.copy()
     if arr.shape[0] < 1:

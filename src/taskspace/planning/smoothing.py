@@ -95,6 +95,7 @@ def smooth_bspline(
             offending waypoint or edge).
     """
     opts = options or SmoothingOptions()
+    space.require_euclidean("smooth_bspline")
     arr = as_matrix(np.atleast_2d(np.asarray(path, dtype=float)), (None, space.dim), "path")
     if arr.shape[0] < 1:
         raise InvalidInputError(f"path must have shape (m, {space.dim}) with m >= 1")
