@@ -25,6 +25,12 @@ as *unknown* and the joint is treated as actuated without limit (``inf``), with 
 :class:`ModelWarning`; a joint that is really passive (unactuated) must be declared in
 ``passive_joints`` (registry key ``passive_joints``). A velocity limit of 0 is read as unknown
 and treated as unlimited (``inf``), with a warning. The floating base is never actuated.
+
+Joints that move no mass: a joint whose diagonal entry of the mass matrix is zero at the
+default posture (every body it carries is massless, e.g. romeo's fingers) makes the mass
+matrix singular and forward dynamics undefined (NaN accelerations). Such joints get a rotor
+inertia (``model.armature``) of 1 % of the smallest nonzero diagonal entry of the mass matrix,
+listed in :attr:`Robot.massless_joints`, with a :class:`ModelWarning`.
 """
 
 from __future__ import annotations
@@ -139,6 +145,8 @@ class Robot:
         world: the obstacles (also present in ``collision_model``).
         passive_joints: names of the unactuated joints (effort limit 0).
         pruned_collision_pairs: collision pairs disabled on load and why.
+        massless_joints: joints that move no mass and were given an armature (see the
+            module docstring).
     """
 
     def __init__(
@@ -181,6 +189,7 @@ class Robot:
         q_default = self.check_configuration(default_configuration, "default_configuration")
         self._q_default = self._posture_into_limits(q_default)
         self._q_default.flags.writeable = False
+        self._setup_massless_joints()
 
     # ------------------------------------------------------------------ construction
     @classmethod
@@ -191,6 +200,7 @@ class Robot:
         convex_collision: bool = False,
         locked_values: dict[str, float] | None = None,
         collision_pruning: CollisionPruningOptions | None = None,
+        geometry: bool = True,
     ) -> Robot:
         """Load a robot by name: our registry, or any robot of example-robot-data.
 
@@ -210,11 +220,17 @@ class Robot:
                 default their default-posture values.
             collision_pruning: how collision pairs are checked on load (default
                 :class:`CollisionPruningOptions`).
+            geometry: read the collision and visual geometry (meshes). ``False`` gives a
+                kinematics and dynamics model only, with empty geometry models (like a URDF
+                without ``<collision>`` and ``<visual>`` elements): it loads several times
+                faster, and its self-collision checks see no robot geometry.
 
         Raises:
             UnknownNameError: ``name`` is not a known robot (the message lists the names).
             ModelLoadError: the description files cannot be read (missing meshes...).
         """
+        if not isinstance(geometry, bool):
+            raise InvalidInputError(f"geometry must be True or False, got {geometry!r}")
         spec = robot_spec(name)
         common: dict[str, Any] = {
             "locked_joints": spec.locked_joints,
@@ -225,6 +241,7 @@ class Robot:
             "passive_joints": spec.passive_joints,
             "collision_pruning": collision_pruning,
             "_posture": spec,
+            "geometry": geometry,
         }
         if spec.source == "example-robot-data":
             loaders = example_robot_data_loaders()
@@ -268,6 +285,7 @@ class Robot:
         locked_values: dict[str, float] | None = None,
         passive_joints: Sequence[str] = (),
         collision_pruning: CollisionPruningOptions | None = None,
+        geometry: bool = True,
         _posture: RobotSpec | None = None,
     ) -> Robot:
         """Load any URDF.
@@ -286,11 +304,15 @@ class Robot:
             passive_joints: unactuated joints (their effort limit is 0); any other joint
                 whose effort limit is 0 or missing is treated as unlimited, with a warning.
             collision_pruning: how collision pairs are checked on load.
+            geometry: read the collision and visual geometry (``False``: empty geometry
+                models, see :meth:`load`).
 
         Raises:
             ModelLoadError: missing or malformed URDF/SRDF, unknown locked joint, missing
                 meshes, unsupported joint type.
         """
+        if not isinstance(geometry, bool):
+            raise InvalidInputError(f"geometry must be True or False, got {geometry!r}")
         path = Path(path)
         if not path.is_file():
             raise ModelLoadError(f"URDF file not found: {path}")
@@ -303,8 +325,11 @@ class Robot:
                     model = pin.buildModelFromUrdf(str(path))
                 else:
                     model = pin.buildModelFromUrdf(str(path), root)
-                collision = pin.buildGeomFromUrdf(model, str(path), pin.COLLISION, dirs)
-                visual = pin.buildGeomFromUrdf(model, str(path), pin.VISUAL, dirs)
+                if geometry:
+                    collision = pin.buildGeomFromUrdf(model, str(path), pin.COLLISION, dirs)
+                    visual = pin.buildGeomFromUrdf(model, str(path), pin.VISUAL, dirs)
+                else:
+                    collision, visual = pin.GeometryModel(), pin.GeometryModel()
         except Exception as exc:  # pinocchio raises ValueError/RuntimeError with C++ text
             raise ModelLoadError(f"cannot load URDF {path}: {exc}") from exc
         if srdf is not None:
@@ -345,6 +370,7 @@ class Robot:
         locked_values: dict[str, float] | None,
         passive_joints: Sequence[str],
         collision_pruning: CollisionPruningOptions | None,
+        geometry: bool,
         _posture: RobotSpec | None,
     ) -> Robot:
         """A robot built by an example-robot-data loader of its own (SDF, reduced models...)."""
@@ -372,8 +398,8 @@ class Robot:
         srdf = getattr(inst, "srdf_path", None)
         return cls._assemble(
             wrapper.model,
-            wrapper.collision_model,
-            wrapper.visual_model,
+            wrapper.collision_model if geometry else pin.GeometryModel(),
+            wrapper.visual_model if geometry else pin.GeometryModel(),
             q_full=q0,
             srdf=srdf,
             name=name,
@@ -607,6 +633,33 @@ class Robot:
         self._velocity_limits = velocity
         self._effort_limits.flags.writeable = False
         self._velocity_limits.flags.writeable = False
+
+    def _setup_massless_joints(self) -> None:
+        """Give joints that move no mass a small armature (see the module docstring)."""
+        model = self.model
+        M = pin.crba(model, model.createData(), self._q_default)
+        diagonal = np.diag(M).copy()
+        scale = float(np.max(diagonal)) if diagonal.size else 0.0
+        empty = diagonal <= 1e-12 * max(scale, 1.0)
+        names: list[str] = []
+        if np.any(empty) and np.any(~empty):
+            armature = np.asarray(model.armature, dtype=float).copy()
+            added = 0.01 * float(np.min(diagonal[~empty]))
+            for jid in range(1, model.njoints):
+                joint = model.joints[jid]
+                block = slice(joint.idx_v, joint.idx_v + joint.nv)
+                if joint.nv and np.any(empty[block]):
+                    names.append(str(model.names[jid]))
+                    armature[block] = np.where(empty[block], added, armature[block])
+            model.armature = armature
+            warnings.warn(
+                f"robot '{self.name}': joints {names} move no mass (zero diagonal of the mass "
+                f"matrix: forward dynamics would be undefined); they get a rotor inertia "
+                f"(armature) of {added:.3g} kg m^2 (1 % of the smallest other diagonal entry)",
+                ModelWarning,
+                stacklevel=3,
+            )
+        self.massless_joints = tuple(names)
 
     @property
     def nq(self) -> int:
