@@ -91,7 +91,7 @@ def test_errors():
         bug1(RECT, (0, 0), (20, 0))
     with pytest.raises(UnknownNameError, match="valid turns are: left, right"):
         bug1(RECT, (0, 0), (11, 0), options=BugOptions(turn="up"))  # type: ignore[arg-type]
-    with pytest.raises(InvalidInputError, match="max_hits must be >= 1"):
+    with pytest.raises(InvalidInputError, match="max_hits must be an integer >= 1"):
         bug2(RECT, (0, 0), (11, 0), options=BugOptions(max_hits=0))
 
 

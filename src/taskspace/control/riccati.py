@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 import scipy.linalg as sla
 
-from taskspace._validation import FloatArray, as_matrix
+from taskspace._validation import FloatArray, as_matrix, check_count
 from taskspace.control._linear import symmetric_psd, system
 from taskspace.control.lyapunov import solve_lyapunov
 from taskspace.errors import InvalidInputError, SolverError
@@ -197,7 +197,8 @@ def solve_continuous_riccati(
                 raise InvalidInputError("initial_gain does not stabilize A - B K0")
         P = np.zeros((n, n))
         status = RiccatiStatus.MAX_ITERATIONS
-        for iterations in range(1, options.max_iterations + 1):  # noqa: B007
+        max_iterations = check_count(options.max_iterations, "max_iterations", minimum=1)
+        for iterations in range(1, max_iterations + 1):  # noqa: B007
             Ak = A - B @ K
             P_new = solve_lyapunov(Ak, Q + K.T @ R @ K)
             K = np.linalg.solve(R, B.T @ P_new)

@@ -40,7 +40,7 @@ import numpy as np
 import numpy.typing as npt
 from scipy.integrate import solve_ivp
 
-from taskspace._validation import FloatArray, as_vector, check_positive
+from taskspace._validation import FloatArray, as_vector, check_count, check_positive
 from taskspace.errors import InvalidInputError, SolverError
 
 
@@ -376,11 +376,12 @@ def find_limit_cycle(
     """
     opts = options or LimitCycleOptions()
     t0 = time.perf_counter()
+    max_iterations = check_count(opts.max_iterations, "max_iterations")
     z = as_vector(initial_guess, 3, "initial_guess").copy()
     kw = {"rtol": opts.rtol, "atol": opts.atol}
     residual = np.inf
     iterations = 0
-    for iterations in range(1, opts.max_iterations + 1):  # noqa: B007
+    for iterations in range(1, max_iterations + 1):  # noqa: B007
         F = return_map(walker, z, **kw) - z
         residual = float(np.abs(F).max())
         if residual < opts.tolerance:

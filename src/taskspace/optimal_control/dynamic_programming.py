@@ -25,7 +25,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from taskspace._validation import FloatArray
+from taskspace._validation import FloatArray, check_count
 from taskspace.errors import InvalidInputError, SolverError
 from taskspace.optimal_control.mdp import MDP
 
@@ -136,11 +136,12 @@ def value_iteration(mdp: MDP, options: ValueIterationOptions | None = None) -> D
     """
     options = options or ValueIterationOptions()
     t0 = time.perf_counter()
+    max_iterations = check_count(options.max_iterations, "max_iterations")
     V = _initial(mdp, options.initial_value)
     history: list[float] = []
     status = DPStatus.MAX_ITERATIONS
     k = 0
-    for k in range(1, options.max_iterations + 1):  # noqa: B007
+    for k in range(1, max_iterations + 1):  # noqa: B007
         V_new = np.max(mdp.q_values(V), axis=1)
         delta = float(np.max(np.abs(V_new - V))) if V.size else 0.0
         history.append(delta)
@@ -195,13 +196,14 @@ def policy_iteration(mdp: MDP, options: ValueIterationOptions | None = None) -> 
     """
     options = options or ValueIterationOptions()
     t0 = time.perf_counter()
+    max_iterations = check_count(options.max_iterations, "max_iterations")
     pi = greedy_policy(mdp, _initial(mdp, options.initial_value))
     history: list[float] = []
     V = evaluate_policy(mdp, pi)
     status = DPStatus.MAX_ITERATIONS
     k = 0
     rows = np.arange(mdp.num_states)
-    for k in range(1, options.max_iterations + 1):  # noqa: B007
+    for k in range(1, max_iterations + 1):  # noqa: B007
         Q = mdp.q_values(V)
         best = np.argmax(Q, axis=1)
         improve = Q[rows, best] > Q[rows, pi] + options.tolerance

@@ -27,7 +27,8 @@ from typing import Any, Literal
 import numpy as np
 import numpy.typing as npt
 
-from taskspace.errors import InvalidInputError, PlanningError, UnknownNameError
+from taskspace._validation import check_count
+from taskspace.errors import PlanningError, UnknownNameError
 from taskspace.planning.polygon_world import PolygonWorld, SegmentHit
 
 logger = logging.getLogger(__name__)
@@ -156,8 +157,7 @@ def _run(
     t0 = time.perf_counter()
     if options.turn not in ("left", "right"):
         raise UnknownNameError("turn", str(options.turn), ["left", "right"])
-    if options.max_hits < 1:
-        raise InvalidInputError(f"max_hits must be >= 1, got {options.max_hits}")
+    max_hits = check_count(options.max_hits, "max_hits", minimum=1)
     s = world.check_free_point(start, "start")
     g = world.check_free_point(goal, "goal")
     tol = float(options.tolerance)
@@ -182,7 +182,7 @@ def _run(
             time_s=time.perf_counter() - t0,
         )
 
-    for _ in range(options.max_hits):
+    for _ in range(max_hits):
         hit = _first_hit(world, x, g, tol)
         if hit is None:
             path.append(g.copy())
@@ -239,7 +239,7 @@ def _run(
             if h2 is not None and np.linalg.norm(h2.point - best_p) <= 1e-9:
                 return done(BugStatus.GOAL_UNREACHABLE)
             x = best_p
-    logger.info("%s stopped after %d obstacle hits", variant, options.max_hits)
+    logger.info("%s stopped after %d obstacle hits", variant, max_hits)
     return done(BugStatus.ITERATION_LIMIT)
 
 

@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from taskspace._validation import as_vector, check_positive
+from taskspace._validation import as_vector, check_count, check_positive
 from taskspace.errors import InvalidInputError, LimitError, PlanningError, UnknownNameError
 from taskspace.planning.polygon_world import PolygonWorld
 from taskspace.planning.se2 import arc_pose, wrap_angle
@@ -165,8 +165,8 @@ class ControlSamplingOptions:
     """Settings of :func:`grow_control_tree` (slide 3:51).
 
     Attributes:
-        n_nodes: number of tree nodes to add.
-        max_attempts: number of sampled motions (attempts may collide).
+        n_nodes: number of tree nodes to add (an integer >= 0).
+        max_attempts: number of sampled motions (attempts may collide; an integer >= 0).
         duration: ``(min, max)`` duration ``tau`` of one motion [s].
         allow_reverse: sample negative speeds too.
         steering: ``"both"`` or ``"left_only"`` (the "only left-steering" car of slide 3:55).
@@ -242,6 +242,8 @@ def grow_control_tree(
     """
     t0 = time.perf_counter()
     opts = options or ControlSamplingOptions()
+    n_nodes = check_count(opts.n_nodes, "n_nodes")
+    max_attempts = check_count(opts.max_attempts, "max_attempts")
     rng = rng if rng is not None else np.random.default_rng(opts.seed)
     q0 = as_vector(start, 3, "start")
     if not model.poses_free(world, q0)[0]:
@@ -253,7 +255,7 @@ def grow_control_tree(
     controls = [np.zeros(3)]
     attempts = collisions = 0
     lo = 0.0 if opts.steering == "left_only" else -model.max_steering
-    while len(nodes) < opts.n_nodes + 1 and attempts < opts.max_attempts:
+    while len(nodes) < n_nodes + 1 and attempts < max_attempts:
         attempts += 1
         i = int(rng.integers(len(nodes)))
         v = model.max_speed * (rng.choice([-1.0, 1.0]) if opts.allow_reverse else 1.0)

@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from taskspace._validation import as_vector, check_positive
+from taskspace._validation import as_vector, check_count, check_positive
 from taskspace.planning.polygon_world import PolygonWorld
 
 logger = logging.getLogger(__name__)
@@ -54,7 +54,7 @@ class PotentialFieldOptions:
         stall_window: iterations over which a net displacement below ``stall_distance``
             declares a local minimum (catches oscillation around a minimum).
         stall_distance: see ``stall_window`` [m].
-        max_iterations: iteration limit.
+        max_iterations: iteration limit (an integer >= 0).
     """
 
     zeta: float = 1.0
@@ -177,8 +177,10 @@ def gradient_descent(field: PotentialField, start: Any) -> PotentialFieldResult:
     pts = [q.copy()]
     status = PotentialStatus.ITERATION_LIMIT
     grad = field.gradient(q)[0]
+    max_iterations = check_count(o.max_iterations, "max_iterations")
+    stall_window = check_count(o.stall_window, "stall_window", minimum=1)
     it = 0
-    for it in range(1, o.max_iterations + 1):
+    for it in range(1, max_iterations + 1):
         if np.linalg.norm(q - field.goal) <= o.goal_tolerance:
             status = PotentialStatus.REACHED
             it -= 1
@@ -200,8 +202,8 @@ def gradient_descent(field: PotentialField, start: Any) -> PotentialFieldResult:
         pts.append(q.copy())
         grad = field.gradient(q)[0]
         if (
-            len(pts) > o.stall_window
-            and np.linalg.norm(pts[-1] - pts[-1 - o.stall_window]) < o.stall_distance
+            len(pts) > stall_window
+            and np.linalg.norm(pts[-1] - pts[-1 - stall_window]) < o.stall_distance
         ):
             status = PotentialStatus.LOCAL_MINIMUM
             break
