@@ -78,6 +78,53 @@ def test_value_near_origin_matches_lqr_riccati() -> None:
     assert not np.allclose(P / dt, Pc, rtol=0.01)
 
 
+def test_pendulum_value_near_the_upright_matches_the_discrete_lqr() -> None:
+    # The swing-up (periodic angle, |u| <= 4 N m < m g l) near the upright. The reference is
+    # the LQR of the discrete problem that fitted value iteration solves: the RK4 map
+    # linearized at the upright (exact: RK4's stages all sit at the equilibrium), stage cost
+    # (Q, R) dt, discount gamma = exp(-rho dt) (the DARE of sqrt(gamma) A, sqrt(gamma) B).
+    # Three discretization errors are kept below 1 %: the interpolation error (a geometric
+    # grid about the upright: the cell size is proportional to the distance, down to 1e-4),
+    # the control error (local action refinement to 8 / 2^13 N m) and the nonlinearity
+    # (O(|x|), small in the neighbourhood). Inside it, LQR's torque stays below the bound,
+    # so the bounded problem has the unbounded value.
+    prob = PendulumSwingUp()
+    dt, rho, substeps = 0.2, 1.0, 2
+    th = np.pi + geometric_axis(3.0, 1e-4, 1.15)
+    om = geometric_axis(8.0, 3e-4, 1.15)
+    grid = make_grid([th, om], periods=[2 * np.pi, 0.0])
+    A, B = prob.linearization()
+    lin = lambda X, U: X @ A.T + U @ B.T  # noqa: E731
+    Ad = rk4_step(lin, np.eye(2), np.zeros((2, 1)), dt, substeps).T
+    Bd = rk4_step(lin, np.zeros((1, 2)), np.ones((1, 1)), dt, substeps).T
+    g = np.sqrt(np.exp(-rho * dt))
+    ref = dlqr(g * Ad, g * Bd, np.diag(prob.q) * dt, np.eye(1) * prob.r * dt)
+    X = grid.points()
+    d = np.stack([wrap_angle(X[:, 0] - np.pi), X[:, 1]], axis=1)
+    J_lqr = np.einsum("ki,ij,kj->k", d, ref.P, d)
+    near = (J_lqr > 0.003**2) & (J_lqr < 0.1**2)  # x^T P x in [1e-5, 1e-2]: 7000 points
+    assert np.abs(d[near] @ ref.K.T).max() < 4.0
+    worst = {}
+    for refinements in (0, 12):
+        res = fitted_value_iteration(
+            grid,
+            np.linspace(-4, 4, 9),
+            prob.dynamics,
+            prob.cost,
+            FittedValueIterationOptions(
+                dt=dt, substeps=substeps, discount_rate=rho, refinements=refinements
+            ),
+        )
+        assert res.success
+        worst[refinements] = np.abs(res.J[near] / J_lqr[near] - 1.0).max()
+    assert worst[12] < 0.01, worst
+    # The greedy torque is LQR's within the final control resolution (plus the rest).
+    u_lqr = -(d[near] @ ref.K.T)[:, 0]
+    assert np.abs(res.greedy_action[near, 0] - u_lqr).max() < 0.05
+    # Without the refinement the 1 N m action spacing alone costs far more than 1 %.
+    assert worst[0] > 0.1, worst
+
+
 def test_min_time_double_integrator_switching_curve() -> None:
     prob = DoubleIntegrator()
     errors = []
@@ -150,6 +197,10 @@ def test_errors() -> None:
     with pytest.raises(InvalidInputError, match="dt"):
         fitted_value_iteration(
             grid, [0.0], prob.dynamics, prob.cost, FittedValueIterationOptions(dt=0.0)
+        )
+    with pytest.raises(InvalidInputError, match="refinements"):
+        fitted_value_iteration(
+            grid, [0.0], prob.dynamics, prob.cost, FittedValueIterationOptions(refinements=-1)
         )
     with pytest.raises(InvalidInputError, match="increasing"):
         make_grid([[0.0, 0.0, 1.0]])

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -55,11 +55,19 @@ class FittedValueIterationOptions:
         substeps: RK4 steps per ``dt``.
         discount_rate: ``rho`` [1/s], ``gamma = exp(-rho dt)``.
         value_iteration: options of the discrete value iteration (tolerance on ``J``).
+        refinements: rounds of local action refinement after the solve on the action set
+            (0: none). Each round re-solves (warm-started) with, at every grid point, the
+            greedy action of the last round plus ``{-2, -1, 0, 1, 2} delta / 4`` per input
+            component (clipped to the action set's box), ``delta`` starting at the largest gap
+            of the action set and halved every round: the control resolution becomes
+            ``delta_0 / 2^(refinements + 1)`` at the cost of ``5^m`` actions per point and
+            round, instead of a global action set that fine.
     """
 
     dt: float = 0.05
     substeps: int = 2
     discount_rate: float = 0.0
+    refinements: int = 0
     value_iteration: ValueIterationOptions = field(
         default_factory=lambda: ValueIterationOptions(tolerance=1e-9, max_iterations=20_000)
     )
@@ -74,12 +82,15 @@ class FittedValueIterationResult:
         grid: the state grid.
         actions: the action set (A x m).
         J: cost-to-go at the grid points (N,).
-        policy: index of the greedy action at the grid points (N,).
+        policy: index of the greedy action at the grid points (N,) in ``actions`` (without
+            refinement) or in the last round's local set.
+        greedy_action: the greedy action at the grid points (N x m).
         hjb_residual: ``min_u [l + dJ/dx f] - rho J`` at the grid points (N,) (large where ``J``
             has kinks, e.g. on switching curves, and at clipped boundaries).
         target: mask of target grid points (N,).
         mdp: the discrete MDP that was solved.
-        dp: the value-iteration result.
+        dp: the value-iteration result (of the last round).
+        iterations: value-iteration backups over all rounds.
         solve_time: wall time of building and solving [s].
     """
 
@@ -88,11 +99,13 @@ class FittedValueIterationResult:
     actions: FloatArray
     J: FloatArray
     policy: np.ndarray
+    greedy_action: FloatArray
     hjb_residual: FloatArray
     target: np.ndarray
     mdp: MDP
     dp: DPResult
     solve_time: float
+    iterations: int = 0
 
     def value(self, X: Any) -> FloatArray:
         """Interpolated cost-to-go at states X (K x d)."""
@@ -158,12 +171,66 @@ def fitted_value_iteration(
         U = U[:, None]
     if U.ndim != 2 or U.shape[0] == 0 or not np.all(np.isfinite(U)):
         raise InvalidInputError("actions must be a non-empty finite (A x m) array")
+    if options.refinements < 0:
+        raise InvalidInputError(f"refinements must be >= 0, got {options.refinements}")
     X = grid.points()
-    N, A = X.shape[0], U.shape[0]
+    N, m = X.shape[0], U.shape[1]
     goal = np.zeros(N, dtype=bool) if target is None else np.asarray(target(X), dtype=bool)
     # All (state, action) pairs at once, row s A + a (the MDP's stacked order).
-    XX = np.repeat(X, A, axis=0)
     UU = np.tile(U, (N, 1))
+    mdp, dp, c, XX = _solve(grid, X, UU, U.shape[0], goal, dynamics, cost, options)
+    iterations = dp.iterations
+    lo, hi = U.min(axis=0), U.max(axis=0)
+    gaps = [np.diff(np.unique(U[:, j])) for j in range(m)]
+    delta = np.array([g.max() if g.size else 0.0 for g in gaps])
+    offsets = np.stack(np.meshgrid(*[np.arange(-2, 3)] * m, indexing="ij"), -1).reshape(-1, m)
+    for _ in range(options.refinements):
+        best = UU.reshape(N, -1, m)[np.arange(N), dp.policy]
+        local = np.clip(best[:, None, :] + 0.25 * offsets[None, :, :] * delta, lo, hi)
+        UU = local.reshape(-1, m)
+        options_k = replace(
+            options,
+            value_iteration=replace(options.value_iteration, initial_value=dp.V),
+        )
+        mdp, dp, c, XX = _solve(grid, X, UU, offsets.shape[0], goal, dynamics, cost, options_k)
+        iterations += dp.iterations
+        delta = 0.5 * delta
+    A = UU.shape[0] // N
+    J = -dp.V
+    # HJB residual: min_u [l + grad J . f] - rho J.
+    G = grid.gradient(J)
+    ham = (c + np.sum(np.repeat(G, A, axis=0) * dynamics(XX, UU), axis=1)).reshape(N, A)
+    residual = np.min(ham, axis=1) - options.discount_rate * J
+    residual[goal] = 0.0
+    return FittedValueIterationResult(
+        success=dp.success,
+        grid=grid,
+        actions=U,
+        J=J,
+        policy=dp.policy,
+        greedy_action=np.asarray(UU.reshape(N, A, m)[np.arange(N), dp.policy], dtype=float),
+        hjb_residual=residual,
+        target=goal,
+        mdp=mdp,
+        dp=dp,
+        solve_time=time.perf_counter() - t0,
+        iterations=iterations,
+    )
+
+
+def _solve(
+    grid: StateGrid,
+    X: FloatArray,
+    UU: FloatArray,
+    A: int,
+    goal: np.ndarray,
+    dynamics: Dynamics,
+    cost: Cost,
+    options: FittedValueIterationOptions,
+) -> tuple[MDP, DPResult, FloatArray, FloatArray]:
+    """Build and solve the MDP of the (state, action) rows ``UU`` (row ``s A + a``)."""
+    N = X.shape[0]
+    XX = np.repeat(X, A, axis=0)
     Xn = rk4_step(dynamics, XX, UU, options.dt, options.substeps)
     if not np.all(np.isfinite(Xn)):
         raise InvalidInputError("the dynamics gave non-finite successors")
@@ -188,21 +255,4 @@ def fitted_value_iteration(
     mdp = make_mdp(mats, R, gamma, tolerance=1e-8)
     mdp.__dict__["stacked"] = W  # already in the stacked row order
     dp = value_iteration(mdp, options.value_iteration)
-    J = -dp.V
-    # HJB residual: min_u [l + grad J . f] - rho J.
-    G = grid.gradient(J)
-    ham = (c + np.sum(np.repeat(G, A, axis=0) * dynamics(XX, UU), axis=1)).reshape(N, A)
-    residual = np.min(ham, axis=1) - options.discount_rate * J
-    residual[goal] = 0.0
-    return FittedValueIterationResult(
-        success=dp.success,
-        grid=grid,
-        actions=U,
-        J=J,
-        policy=dp.policy,
-        hjb_residual=residual,
-        target=goal,
-        mdp=mdp,
-        dp=dp,
-        solve_time=time.perf_counter() - t0,
-    )
+    return mdp, dp, c, XX
