@@ -32,7 +32,6 @@ import pinocchio as pin
 from taskspace._validation import FloatArray, check_positive
 from taskspace.constraints.contact import Contact
 from taskspace.errors import InvalidInputError
-from taskspace.features.rows import Box
 from taskspace.model.robot import Robot
 from taskspace.model.state import State
 from taskspace.qp.hierarchy import HierarchyLevel, HierarchyOptions, HierarchySolver
@@ -320,8 +319,8 @@ class InverseDynamicsQP:
         shift += (2.0 / T) * v
         v_T = v / T
         # both boxes are physical: where they conflict (already violating), the midpoint
-        position = Box(self._limit_c_lo - shift, self._limit_c_hi - shift)
-        velocity = Box(self._limit_neg_vmax_T - v_T, self._limit_vmax_T - v_T)
+        position = (self._limit_c_lo - shift, self._limit_c_hi - shift)
+        velocity = (self._limit_neg_vmax_T - v_T, self._limit_vmax_T - v_T)
         lo, hi = combine_boxes((position, velocity), (), v.shape[0])
         lb[iv] = lo
         ub[iv] = hi

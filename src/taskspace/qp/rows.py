@@ -128,10 +128,10 @@ class TaskRowStack:
         J_raw, e_all, drift = self._J_raw, self._e, self._drift
         offset: FloatArray | None = None
         for task, rows in self._pairs:
-            f = task.feature_rows(state, drift=True)
-            J_raw[rows] = f.jacobian
-            e_all[rows] = f.residual
-            drift[rows] = f.drift
+            # the feature's values directly (Task.feature_rows without the tuple: hot loop)
+            feature = task.feature
+            e_all[rows], J_raw[rows] = feature.residual_and_jacobian(state, task._require_target())
+            drift[rows] = feature.drift(state)
             if task.reference_velocity is not None or task.reference_acceleration is not None:
                 if offset is None:
                     offset = np.zeros_like(drift)
@@ -152,17 +152,24 @@ class TaskRowStack:
 
 
 # ---------------------------------------------------------------------- boxes
-def _intersect(boxes: Sequence[Box], nv: int) -> tuple[FloatArray, FloatArray]:
+def _intersect(
+    boxes: Sequence[tuple[FloatArray, FloatArray]], nv: int
+) -> tuple[FloatArray, FloatArray]:
     if not boxes:
         return np.full(nv, -INF), np.full(nv, INF)
     lb, ub = boxes[0]
-    for blb, bub in boxes[1:]:
+    for k in range(1, len(boxes)):
+        blb, bub = boxes[k]
         lb = np.maximum(lb, blb)
         ub = np.minimum(ub, bub)
     return lb, ub
 
 
-def combine_boxes(hard: Sequence[Box], soft: Sequence[Box], nv: int) -> Box:
+def combine_boxes(
+    hard: Sequence[tuple[FloatArray, FloatArray]],
+    soft: Sequence[tuple[FloatArray, FloatArray]],
+    nv: int,
+) -> tuple[FloatArray, FloatArray]:
     """Intersect boxes; physical (``hard``) boxes win where the boxes conflict.
 
     Hard boxes (velocity, acceleration limits) intersect; where they conflict the bound is
@@ -172,6 +179,14 @@ def combine_boxes(hard: Sequence[Box], soft: Sequence[Box], nv: int) -> Box:
     configuration outside its limits moves back as fast as allowed), an empty soft box its
     midpoint clipped to the hard box. The returned arrays may be those of a single input
     box: do not modify them.
+
+    Args:
+        hard, soft: boxes (:class:`~taskspace.features.rows.Box` or ``(lower, upper)``
+            pairs) of size ``nv``.
+        nv: number of variables.
+
+    Returns:
+        ``(lower, upper)``.
     """
     hard_lb, hard_ub = _intersect(hard, nv)
     bad = hard_lb > hard_ub
@@ -180,7 +195,7 @@ def combine_boxes(hard: Sequence[Box], soft: Sequence[Box], nv: int) -> Box:
         hard_ub = hard_ub.copy()
         hard_lb[bad] = hard_ub[bad] = 0.5 * (hard_lb[bad] + hard_ub[bad])
     if not soft:
-        return Box(hard_lb, hard_ub)
+        return hard_lb, hard_ub
     soft_lb, soft_ub = _intersect(soft, nv)
     if not hard:
         bad = soft_lb > soft_ub
@@ -188,7 +203,7 @@ def combine_boxes(hard: Sequence[Box], soft: Sequence[Box], nv: int) -> Box:
             soft_lb = soft_lb.copy()
             soft_ub = soft_ub.copy()
             soft_lb[bad] = soft_ub[bad] = 0.5 * (soft_lb[bad] + soft_ub[bad])
-        return Box(soft_lb, soft_ub)
+        return soft_lb, soft_ub
     lb = np.maximum(hard_lb, soft_lb)
     ub = np.minimum(hard_ub, soft_ub)
     bad = lb > ub
@@ -205,7 +220,7 @@ def combine_boxes(hard: Sequence[Box], soft: Sequence[Box], nv: int) -> Box:
             mid = 0.5 * (soft_lb + soft_ub)
             lb = np.where(soft_conflict, np.clip(mid, hard_lb, hard_ub), lb)
             ub = np.where(soft_conflict, lb, ub)
-    return Box(lb, ub)
+    return lb, ub
 
 
 def combine_bounds(
