@@ -198,3 +198,20 @@ def test_roadmaps_refuse_a_changed_world(panda: Robot) -> None:
         prm_query(space, rebuilt, q0, q1, PRMOptions(k_neighbors=4))
     finally:
         robot.remove_obstacle("ball")
+
+
+def test_kinodynamic_rrt_follows_the_limit_convention() -> None:
+    from taskspace.planning.car import CarModel
+    from taskspace.planning.kinodynamic_rrt import (
+        KinodynamicRRTOptions,
+        kinodynamic_rrt,
+        parking_lot,
+    )
+
+    scene = parking_lot(lane_width=8.4)
+    with pytest.raises(InvalidInputError, match="max_iterations=None needs a finite time_limit_s"):
+        kinodynamic_rrt(CarModel(), *scene, options=KinodynamicRRTOptions(max_iterations=None))
+    res = kinodynamic_rrt(
+        CarModel(), *scene, options=KinodynamicRRTOptions(max_iterations=None, time_limit_s=0.0)
+    )
+    assert not res.success and res.status.value == "time_limit"

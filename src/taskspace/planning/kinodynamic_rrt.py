@@ -40,11 +40,11 @@ from taskspace._validation import (
     check_count,
     check_positive,
     check_seed,
-    check_time_limit,
 )
 from taskspace.errors import InvalidInputError, PlanningError, UnknownNameError
 from taskspace.planning.car import CarModel, sample_motion
 from taskspace.planning.dubins import dubins_distance, dubins_shortest
+from taskspace.planning.limits import planner_limits
 from taskspace.planning.polygon_world import PolygonWorld
 from taskspace.planning.reeds_shepp import reeds_shepp_distance, reeds_shepp_shortest
 from taskspace.planning.se2 import CurvePath, angle_distance, se2_distance
@@ -63,7 +63,8 @@ class KinodynamicRRTOptions:
     Attributes:
         steering: ``"reeds_shepp"`` (forward and reverse), ``"dubins"`` (forward only) or
             ``"controls"`` (random constant controls, slide 3:51).
-        max_iterations: number of sampling iterations ``k`` (an integer >= 1).
+        max_iterations: number of sampling iterations ``k`` (an integer >= 0, or ``None``
+            with a finite time limit: :mod:`taskspace.planning.limits`).
         goal_bias: probability ``beta`` of sampling the goal.
         step_length: arc length driven per extension, ``|v| tau`` [m].
         connect_distance: try the exact curve to the goal from new nodes closer than this
@@ -80,7 +81,7 @@ class KinodynamicRRTOptions:
     """
 
     steering: Literal["reeds_shepp", "dubins", "controls"] = "reeds_shepp"
-    max_iterations: int = 5000
+    max_iterations: int | None = 5000
     goal_bias: float = 0.1
     step_length: float = 2.0
     connect_distance: float = 8.0
@@ -151,9 +152,9 @@ def _validate(opts: KinodynamicRRTOptions) -> None:
         raise UnknownNameError("steering", str(opts.steering), _STEERINGS)
     if not 0.0 <= opts.goal_bias <= 1.0:
         raise InvalidInputError(f"goal_bias must be in [0, 1], got {opts.goal_bias}")
-    for name in ("max_iterations", "nearest_candidates", "n_control_samples"):
+    for name in ("nearest_candidates", "n_control_samples"):
         check_count(getattr(opts, name), name, minimum=1)
-    check_time_limit(opts.time_limit_s)
+    planner_limits(opts.max_iterations, opts.time_limit_s)
     check_seed(opts.seed)
     for name in ("step_length", "connect_distance", "collision_step", "rotation_weight"):
         check_positive(getattr(opts, name), name)
@@ -253,8 +254,8 @@ def kinodynamic_rrt(
         return n - 1
 
     it = 0
-    time_limit = check_time_limit(opts.time_limit_s)
-    for it in range(1, check_count(opts.max_iterations, "max_iterations") + 1):
+    cap, time_limit = planner_limits(opts.max_iterations, opts.time_limit_s)
+    for it in range(1, cap + 1):
         if time.perf_counter() - t_start > time_limit:
             status = RRTStatus.TIME_LIMIT
             it -= 1
