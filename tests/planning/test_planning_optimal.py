@@ -215,3 +215,29 @@ def test_kinodynamic_rrt_follows_the_limit_convention() -> None:
         CarModel(), *scene, options=KinodynamicRRTOptions(max_iterations=None, time_limit_s=0.0)
     )
     assert not res.success and res.status.value == "time_limit"
+
+
+class Disk:
+    """A goal region: the disk of radius r about c (sampled uniformly)."""
+
+    def __init__(self, c: list[float], r: float) -> None:
+        self.c, self.r = np.array(c), r
+
+    def contains(self, q: np.ndarray) -> bool:
+        return bool(np.linalg.norm(q - self.c) <= self.r)
+
+    def sample(self, rng: np.random.Generator) -> np.ndarray:
+        a, u = rng.uniform(0, 2 * np.pi), np.sqrt(rng.random())
+        return self.c + self.r * u * np.array([np.cos(a), np.sin(a)])
+
+
+@pytest.mark.parametrize("name", ["prm_star", "lazy_prm_star", "bit_star"])
+def test_goal_region_is_reached_near_its_analytic_optimum(name: str) -> None:
+    """Around the square's corner to the nearest point of a disk behind it."""
+    region = Disk([0.9, 0.5], 0.05)
+    result = _plan(name, square_world(), START_2D, region, 400)
+    assert result.success and region.contains(result.path[-1])
+    corner = np.array([0.6, 0.7])
+    optimum = math.hypot(0.3, 0.2) + 0.2 + float(np.linalg.norm(region.c - corner)) - region.r
+    assert optimum - 1e-9 <= result.path_length <= optimum * 1.05
+    assert square_world().path_valid(result.path)
