@@ -7,6 +7,7 @@ equation (the model-based side) live in :mod:`taskspace.optimal_control`.
 """
 
 from taskspace.learning.dmp import DiscreteDMP, DMPOptions, DMPTrajectory, RhythmicDMP
+from taskspace.learning.dmp_task import Coupling, DMPStep, DMPTaskTarget, SphereRepulsion
 from taskspace.learning.imitation import BehaviourCloningResult, behaviour_cloning
 from taskspace.learning.inverse_rl import (
     ApprenticeshipResult,
@@ -64,7 +65,10 @@ from taskspace.learning.via_point import ViaPointTask
 __all__ = [
     "ApprenticeshipResult",
     "BehaviourCloningResult",
+    "Coupling",
     "DMPOptions",
+    "DMPStep",
+    "DMPTaskTarget",
     "DMPTrajectory",
     "DiscreteDMP",
     "Episode",
@@ -84,6 +88,7 @@ __all__ = [
     "RhythmicDMP",
     "Rollout",
     "SoftPolicy",
+    "SphereRepulsion",
     "TabularOptions",
     "TabularResult",
     "ViaPointTask",
