@@ -199,7 +199,8 @@ def bit_star(
 
     queue_v: list[tuple[float, int]] = []
     in_qv: set[int] = set()
-    queue_e: list[tuple[float, float, int, int]] = []
+    queue_e: list[tuple[float, float, float, int, int]] = []  # key, g(v) + c_hat, c_hat, v, x
+    exact = cost_of.bound_is_exact
     failed: set[tuple[int, int]] = set()
     cost_times: list[float] = []
     costs: list[float] = []
@@ -282,7 +283,7 @@ def bit_star(
             c_hat = cost_of.cost_lower_bounds(S.q[v], S.q[near])
             for x, ch in zip(near.tolist(), c_hat.tolist()):
                 if ghv + ch + S.h_hat[x] < c_best:
-                    heapq.heappush(queue_e, (gv + ch + S.h_hat[x], gv + ch, v, x))
+                    heapq.heappush(queue_e, (gv + ch + S.h_hat[x], gv + ch, ch, v, x))
         if S.old[v]:
             return
         near = nearest(v, S.in_tree[:n])
@@ -295,7 +296,7 @@ def bit_star(
                     and S.parent[v] != x
                     and S.parent[x] != v
                 ):
-                    heapq.heappush(queue_e, (gv + ch + S.h_hat[x], gv + ch, v, x))
+                    heapq.heappush(queue_e, (gv + ch + S.h_hat[x], gv + ch, ch, v, x))
 
     while True:
         if not queue_e and not queue_v:
@@ -344,17 +345,16 @@ def bit_star(
         if not queue_e:
             queue_v = []
             continue
-        _, _, v, x = heapq.heappop(queue_e)
+        _, _, c_hat, v, x = heapq.heappop(queue_e)
         if not S.in_tree[v]:
             continue
-        c_hat = float(cost_of.cost_lower_bounds(S.q[v], S.q[x])[0])
         if S.g[v] + c_hat + S.h_hat[x] >= c_best:
             queue_e, queue_v = [], []  # nothing left in this batch can improve the solution
             in_qv = set()
             continue
         if S.g[v] + c_hat >= S.g[x] or (v, x) in failed:
             continue
-        c = cost_of.motion_cost(S.q[v], S.q[x])
+        c = c_hat if exact else cost_of.motion_cost(S.q[v], S.q[x])
         if S.g_hat[v] + c + S.h_hat[x] >= c_best or S.g[v] + c >= S.g[x]:
             continue
         if not space.motion_valid(S.q[v], S.q[x]):

@@ -55,6 +55,11 @@ class OptimizationObjective(abc.ABC):
         """True when the cost is the plain Euclidean path length (informed ellipsoid sampling)."""
         return False
 
+    @property
+    def bound_is_exact(self) -> bool:
+        """True when ``cost_lower_bounds`` equals ``motion_costs`` (a metric length)."""
+        return False
+
     def motion_cost(self, q0: FloatArray, q1: FloatArray) -> float:
         """Cost of one straight motion ``q0 -> q1``."""
         return float(self.motion_costs(q0[None, :], q1[None, :])[0])
@@ -110,6 +115,11 @@ class PathLength(OptimizationObjective):
         """The motion cost itself (a straight line is shortest in any norm)."""
         return self.motion_costs(q0, q1)
 
+    @property
+    def bound_is_exact(self) -> bool:
+        """True."""
+        return True
+
 
 class MetricLength(OptimizationObjective):
     """Path length in a given metric: ``c(a, b) = distances(a, b)`` (e.g. a joint manifold's).
@@ -131,6 +141,11 @@ class MetricLength(OptimizationObjective):
     def cost_lower_bounds(self, q0: FloatArray, q1: FloatArray) -> FloatArray:
         """The motion cost (geodesics are shortest)."""
         return self.motion_costs(q0, q1)
+
+    @property
+    def bound_is_exact(self) -> bool:
+        """True."""
+        return True
 
 
 class Clearance(OptimizationObjective):
