@@ -414,7 +414,9 @@ def interpolate(path: Any, resolution: float) -> FloatArray:
     """The path with waypoints inserted every ``resolution`` [rad or m] at most.
 
     Consecutive waypoints of the result are at most ``resolution`` apart (Euclidean); the
-    original waypoints are kept.
+    original waypoints are kept. For a space on a joint manifold (continuous joints, planar or
+    floating bases) use :meth:`ConfigurationSpace.interpolate_path`, which interpolates on
+    the manifold.
     """
     arr = np.atleast_2d(np.asarray(path, dtype=np.float64))
     if arr.ndim != 2 or arr.shape[0] == 0 or not np.all(np.isfinite(arr)):
