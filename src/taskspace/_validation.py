@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
+import yaml
 
-from taskspace.errors import InvalidInputError, NotFiniteError, ShapeError
+from taskspace.errors import InvalidInputError, ModelLoadError, NotFiniteError, ShapeError
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -54,7 +56,21 @@ def as_float_array(x: Any, name: str) -> FloatArray:
             )
         )
     try:
-        return np.asarray(x, dtype=np.float64)
+        if not isinstance(x, (list, tuple)):
+            return np.asarray(x, dtype=np.float64)
+        # nested sequences may hold complex, text or None entries (NumPy would truncate
+        # complex values, parse text and turn None into NaN)
+        raw = np.asarray(x)
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise InvalidInputError(
+            f"{name} must be an array of real numbers (one shape, no None): {exc}"
+        ) from exc
+    if raw.dtype.kind in _REJECTED_KINDS:
+        return as_float_array(raw, name)
+    if raw.dtype.kind == "O" and any(item is None for item in raw.flat):
+        raise InvalidInputError(f"{name} must be an array of real numbers, got a None entry")
+    try:
+        return raw.astype(np.float64, copy=False)
     except (TypeError, ValueError, OverflowError) as exc:
         raise InvalidInputError(
             f"{name} must be an array of real numbers (one shape, no None): {exc}"
@@ -245,3 +261,76 @@ def check_seed(value: Any, name: str = "seed") -> int:
     if int(value) < 0:
         raise InvalidInputError(f"{name} must be an integer >= 0, got {int(value)}")
     return int(value)
+
+
+# ---------------------------------------------------------------------------- YAML files
+class YamlLines:
+    """Where the parts of a YAML document are: ``where(*keys)`` gives ``"file:line"``.
+
+    Keys walk the document as the parsed data would be indexed: mapping keys (compared as
+    text) and sequence indices. A key that is not found gives the line of the deepest node
+    found (or the file alone).
+    """
+
+    def __init__(self, path: Path, root: yaml.Node | None) -> None:
+        self.path = path
+        self._root = root
+
+    def line(self, *keys: Any) -> int | None:
+        """1-based line of the node at ``keys`` (or of its deepest existing ancestor)."""
+        node = self._root
+        if node is None:
+            return None
+        for key in keys:
+            child: yaml.Node | None = None
+            if isinstance(node, yaml.MappingNode):
+                for key_node, value_node in node.value:
+                    if isinstance(key_node, yaml.ScalarNode) and key_node.value == str(key):
+                        child = value_node
+                        break
+            elif isinstance(node, yaml.SequenceNode) and isinstance(key, int):
+                if 0 <= key < len(node.value):
+                    child = node.value[key]
+            if child is None:
+                break
+            node = child
+        return int(node.start_mark.line) + 1
+
+    def where(self, *keys: Any) -> str:
+        """``"file:line"`` of the node at ``keys``."""
+        line = self.line(*keys)
+        return f"{self.path}:{line}" if line is not None else str(self.path)
+
+
+def read_yaml(path: str | Path, what: str = "YAML file") -> tuple[Any, YamlLines]:
+    """Parse a YAML file (safe loader) and keep the line of every node.
+
+    Args:
+        path: the file.
+        what: what the file is, for error messages (``"robot registry"``...).
+
+    Returns:
+        ``(data, lines)``: the parsed document and its :class:`YamlLines`.
+
+    Raises:
+        ModelLoadError: missing or unreadable file, or malformed YAML (the message gives
+            ``file:line:column`` of the problem).
+    """
+    p = Path(path)
+    if not p.is_file():
+        raise ModelLoadError(f"{what} not found: {p}")
+    try:
+        text = p.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ModelLoadError(f"cannot read {what} {p}: {exc}") from exc
+    try:
+        root = yaml.compose(text, Loader=yaml.SafeLoader)
+        data = yaml.safe_load(text)
+    except yaml.MarkedYAMLError as exc:
+        mark = exc.problem_mark or exc.context_mark
+        place = f"{p}:{mark.line + 1}:{mark.column + 1}" if mark is not None else str(p)
+        problem = " ".join(str(x) for x in (exc.context, exc.problem) if x)
+        raise ModelLoadError(f"{place}: malformed YAML in {what}: {problem}") from exc
+    except yaml.YAMLError as exc:
+        raise ModelLoadError(f"{p}: malformed YAML in {what}: {exc}") from exc
+    return data, YamlLines(p, root)

@@ -131,7 +131,7 @@ def test_nan_and_inf(panda: Robot) -> None:
 
 
 def test_non_numeric(panda: Robot) -> None:
-    with pytest.raises(InvalidInputError, match=r"q must be an array of (real )?numbers"):
+    with pytest.raises(InvalidInputError, match=r"q must be (an array of )?real numbers"):
         panda.state(["a"] * 7)
 
 

@@ -224,7 +224,7 @@ def test_error_paths():
         time_parametrize(w, 1.0, 1.0, options=TimeParametrizationOptions(grid_points=1))
     with pytest.raises(UnknownNameError, match="valid discretizations are: collocation"):
         time_parametrize(w, 1.0, 1.0, options=TimeParametrizationOptions(discretization="x"))
-    with pytest.raises(InvalidInputError, match="start/end path velocities must be finite"):
+    with pytest.raises(InvalidInputError, match="start_path_velocity must be finite and >= 0"):
         time_parametrize(w, 1.0, 1.0, options=TimeParametrizationOptions(start_path_velocity=-1.0))
     with pytest.raises(ShapeError, match="path function output dq/ds"):
         time_parametrize(lambda s: (np.zeros((s.size, 2)), np.zeros((s.size, 3)), 0), 1.0, 1.0)

@@ -21,8 +21,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-import yaml
-
+from taskspace._validation import YamlLines, read_yaml
 from taskspace.errors import ModelLoadError, UnknownNameError
 
 logger = logging.getLogger(__name__)
@@ -84,48 +83,126 @@ def data_directory() -> Path:
     return root
 
 
-def _registry_entries(raw: Any, source_file: Path) -> dict[str, RobotSpec]:
+_ENTRY_KEYS = (
+    "source",
+    "name",
+    "urdf",
+    "description",
+    "free_flyer",
+    "end_effectors",
+    "locked_joints",
+    "passive_joints",
+    "default_posture",
+)
+_POSTURE_KEYS = ("srdf", "srdf_optional", "joints", "base")
+
+
+def _registry_entries(
+    raw: Any, source_file: Path, lines: YamlLines | None = None
+) -> dict[str, RobotSpec]:
+    """Check and convert the entries of a registry file (errors give ``file:line``)."""
+    lines = lines or YamlLines(source_file, None)
     if not isinstance(raw, dict):
-        raise ModelLoadError(f"{source_file}: the registry must be a mapping of robot names")
+        raise ModelLoadError(
+            f"{lines.where()}: the registry must be a mapping of robot names to entries, "
+            f"got {type(raw).__name__}"
+        )
     specs: dict[str, RobotSpec] = {}
     root = source_file.parent
     for name, entry in raw.items():
+        where = lines.where(name)
         if not isinstance(entry, dict):
-            raise ModelLoadError(f"{source_file}: entry '{name}' must be a mapping")
+            raise ModelLoadError(f"{where}: entry '{name}' must be a mapping")
+
+        def fail(key: str, message: str, name: Any = name) -> ModelLoadError:
+            return ModelLoadError(f"{lines.where(name, key)}: entry '{name}': {message}")
+
+        unknown = [k for k in entry if k not in _ENTRY_KEYS]
+        if unknown:
+            raise fail(
+                str(unknown[0]),
+                f"unknown key {unknown[0]!r}; valid keys are: {', '.join(_ENTRY_KEYS)}",
+            )
         source = entry.get("source")
         if source not in ("example-robot-data", "urdf"):
-            raise ModelLoadError(
-                f"{source_file}: entry '{name}': unknown source {source!r}; valid sources are: "
-                "example-robot-data, urdf"
+            raise fail(
+                "source",
+                f"unknown source {source!r}; valid sources are: example-robot-data, urdf",
             )
-        try:
-            specs[str(name)] = RobotSpec(
-                name=str(name),
-                source=source,
-                description=str(entry.get("description", "")),
-                erd_name=entry.get("name"),
-                urdf=(root / entry["urdf"]) if "urdf" in entry else None,
-                free_flyer=bool(entry.get("free_flyer", False)),
-                end_effectors=tuple(entry.get("end_effectors", ())),
-                locked_joints=tuple(entry.get("locked_joints", ())),
-                default_posture=dict(entry.get("default_posture") or {}),
-                passive_joints=tuple(entry.get("passive_joints", ())),
+        required = "name" if source == "example-robot-data" else "urdf"
+        if not isinstance(entry.get(required), str) or not entry[required]:
+            raise fail(
+                required,
+                f"source {source} needs '{required}' (a string), got {entry.get(required)!r}",
             )
-        except (TypeError, ValueError) as exc:
-            raise ModelLoadError(f"{source_file}: entry '{name}' is malformed: {exc}") from exc
+        for key in ("description", "name", "urdf"):
+            if key in entry and not isinstance(entry[key], str):
+                raise fail(key, f"'{key}' must be a string, got {entry[key]!r}")
+        if not isinstance(entry.get("free_flyer", False), bool):
+            raise fail(
+                "free_flyer", f"free_flyer must be true or false, got {entry['free_flyer']!r}"
+            )
+        names: dict[str, tuple[str, ...]] = {}
+        for key in ("end_effectors", "locked_joints", "passive_joints"):
+            value = entry.get(key, [])
+            if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+                raise fail(key, f"'{key}' must be a list of names, got {value!r}")
+            names[key] = tuple(value)
+        posture = entry.get("default_posture") or {}
+        if not isinstance(posture, dict):
+            raise fail("default_posture", f"default_posture must be a mapping, got {posture!r}")
+        unknown = [k for k in posture if k not in _POSTURE_KEYS]
+        if unknown:
+            raise fail(
+                "default_posture",
+                f"default_posture: unknown key {unknown[0]!r}; valid keys are: "
+                f"{', '.join(_POSTURE_KEYS)}",
+            )
+        joints = posture.get("joints", {}) or {}
+        if not isinstance(joints, dict) or not all(
+            isinstance(v, (int, float)) and not isinstance(v, bool) for v in joints.values()
+        ):
+            raise fail(
+                "default_posture",
+                f"default_posture.joints must map joint names to numbers, got {joints!r}",
+            )
+        base = posture.get("base")
+        if base is not None and not (
+            isinstance(base, list)
+            and len(base) == 3
+            and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in base)
+        ):
+            raise fail("default_posture", f"default_posture.base must be [x, y, z], got {base!r}")
+        specs[str(name)] = RobotSpec(
+            name=str(name),
+            source=source,
+            description=entry.get("description", ""),
+            erd_name=entry.get("name"),
+            urdf=(root / entry["urdf"]) if "urdf" in entry else None,
+            free_flyer=entry.get("free_flyer", False),
+            end_effectors=names["end_effectors"],
+            locked_joints=names["locked_joints"],
+            default_posture=dict(posture),
+            passive_joints=names["passive_joints"],
+        )
     return specs
+
+
+def read_registry(path: str | Path) -> dict[str, RobotSpec]:
+    """Entries of a registry file (the format of ``registry.yaml``) by name.
+
+    Raises:
+        ModelLoadError: missing file, malformed YAML or a malformed entry; the message gives
+            ``file:line`` and the valid keys or values.
+    """
+    raw, lines = read_yaml(path, "robot registry")
+    return _registry_entries(raw, Path(path), lines)
 
 
 @lru_cache(maxsize=1)
 def registry() -> dict[str, RobotSpec]:
     """Entries of our registry (``registry.yaml``) by name."""
-    path = data_directory() / "registry.yaml"
-    try:
-        with open(path) as f:
-            raw = yaml.safe_load(f)
-    except yaml.YAMLError as exc:
-        raise ModelLoadError(f"{path}: malformed YAML: {exc}") from exc
-    return _registry_entries(raw, path)
+    return read_registry(data_directory() / "registry.yaml")
 
 
 @lru_cache(maxsize=1)

@@ -17,6 +17,7 @@ does not have as free joints (the Panda's locked fingers) are ignored and listed
 from __future__ import annotations
 
 import logging
+import math
 import os
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -26,8 +27,8 @@ from typing import Any
 import coal
 import numpy as np
 import pinocchio as pin
-import yaml
 
+from taskspace._validation import YamlLines, as_float_array, as_scalar, read_yaml
 from taskspace.errors import InvalidInputError, ModelLoadError
 from taskspace.model.robot import Robot
 from taskspace.model.world import Obstacle
@@ -46,24 +47,17 @@ MOTIONBENCHMAKER_SCENARIOS = (
 """The seven Panda scenarios of MotionBenchMaker (Chamzas et al., RA-L 2022)."""
 
 
-def _read_yaml(path: str | Path) -> dict[str, Any]:
-    p = Path(path)
-    if not p.is_file():
-        raise ModelLoadError(f"YAML file not found: {p}")
-    try:
-        with open(p) as f:
-            data = yaml.safe_load(f)
-    except yaml.YAMLError as exc:
-        raise ModelLoadError(f"cannot parse YAML {p}: {exc}") from exc
+def _read_yaml(path: str | Path) -> tuple[dict[str, Any], YamlLines]:
+    data, lines = read_yaml(path, "YAML file")
     if not isinstance(data, dict):
-        raise ModelLoadError(f"{p}: expected a mapping at the top level")
-    return data
+        raise ModelLoadError(f"{lines.where()}: expected a mapping at the top level")
+    return data, lines
 
 
-def _pose(entry: dict[str, Any], where: str) -> pin.SE3:
+def _pose(entry: Any, where: str) -> pin.SE3:
     try:
-        position = np.asarray(entry["position"], dtype=float).reshape(3)
-        quat = np.asarray(entry["orientation"], dtype=float).reshape(4)  # x, y, z, w
+        position = as_float_array(entry["position"], "position").reshape(3)
+        quat = as_float_array(entry["orientation"], "orientation").reshape(4)  # x, y, z, w
     except (KeyError, ValueError, TypeError) as exc:
         raise ModelLoadError(
             f"{where}: pose needs position [x, y, z] and orientation [x, y, z, w]"
@@ -76,15 +70,20 @@ def _pose(entry: dict[str, Any], where: str) -> pin.SE3:
     return pin.SE3(rotation, position)
 
 
-def _primitive(name: str, primitive: dict[str, Any], pose: pin.SE3, where: str) -> Obstacle:
+def _primitive(name: str, primitive: Any, pose: pin.SE3, where: str) -> Obstacle:
+    if not isinstance(primitive, dict):
+        raise ModelLoadError(f"{where}: a primitive must be a mapping, got {primitive!r}")
     kind = str(primitive.get("type", "")).lower()
-    dims = [float(x) for x in primitive.get("dimensions", [])]
+    try:
+        dims = as_float_array(primitive.get("dimensions", []), "dimensions").ravel().tolist()
+    except InvalidInputError as exc:
+        raise ModelLoadError(f"{where}: {exc}") from exc
     expected = {"box": 3, "sphere": 1, "cylinder": 2, "cone": 2}
     if kind not in expected:
         raise ModelLoadError(
             f"{where}: unsupported primitive type {kind!r}; supported: {', '.join(expected)}"
         )
-    if len(dims) != expected[kind] or min(dims) <= 0:
+    if len(dims) != expected[kind] or not all(math.isfinite(d) and d > 0 for d in dims):
         raise ModelLoadError(
             f"{where}: {kind} needs {expected[kind]} positive dimensions, got {dims}"
         )
@@ -109,26 +108,43 @@ def load_moveit_scene(path: str | Path) -> list[Obstacle]:
     Raises:
         ModelLoadError: missing file, malformed YAML, unsupported shape (meshes, planes).
     """
-    data = _read_yaml(path)
+    data, lines = _read_yaml(path)
     world = data.get("world") or {}
+    if not isinstance(world, dict):
+        raise ModelLoadError(f"{lines.where('world')}: 'world' must be a mapping")
     objects = world.get("collision_objects") or []
+    if not isinstance(objects, list):
+        raise ModelLoadError(
+            f"{lines.where('world', 'collision_objects')}: collision_objects must be a list"
+        )
     obstacles: list[Obstacle] = []
-    for obj in objects:
+    for i, obj in enumerate(objects):
+        at = ("world", "collision_objects", i)
+        if not isinstance(obj, dict):
+            raise ModelLoadError(f"{lines.where(*at)}: a collision object must be a mapping")
         oid = str(obj.get("id", f"object{len(obstacles)}"))
         for key in ("meshes", "planes"):
             if obj.get(key):
-                raise ModelLoadError(f"{path}: object '{oid}' has {key}, which are not supported")
+                raise ModelLoadError(
+                    f"{lines.where(*at, key)}: object '{oid}' has {key}, which are not supported"
+                )
         prims = obj.get("primitives") or []
         poses = obj.get("primitive_poses") or []
-        if len(prims) != len(poses):
+        if not isinstance(prims, list) or not isinstance(poses, list) or len(prims) != len(poses):
             raise ModelLoadError(
-                f"{path}: object '{oid}' has {len(prims)} primitives but {len(poses)} poses"
+                f"{lines.where(*at)}: object '{oid}' needs lists of primitives and "
+                "primitive_poses of the same length"
             )
-        origin = _pose(obj["pose"], f"{path}: {oid}") if "pose" in obj else pin.SE3.Identity()
+        origin = (
+            _pose(obj["pose"], f"{lines.where(*at, 'pose')}: {oid}")
+            if "pose" in obj
+            else pin.SE3.Identity()
+        )
         for k, (prim, pose) in enumerate(zip(prims, poses)):
             name = oid if len(prims) == 1 else f"{oid}_{k}"
-            where = f"{path}: object '{name}'"
-            obstacles.append(_primitive(name, prim, origin * _pose(pose, where), where))
+            pose_at = f"{lines.where(*at, 'primitive_poses', k)}: object '{name}'"
+            where = f"{lines.where(*at, 'primitives', k)}: object '{name}'"
+            obstacles.append(_primitive(name, prim, origin * _pose(pose, pose_at), where))
     return obstacles
 
 
@@ -161,7 +177,10 @@ def _to_configuration(
         joint = robot.model.joints[robot.joint_id(name)]
         if joint.nq != 1:
             raise InvalidInputError(f"{where}: joint '{name}' is not a 1-DoF joint")
-        q[joint.idx_q] = float(value)
+        try:
+            q[joint.idx_q] = as_scalar(value, f"position of joint '{name}'")
+        except InvalidInputError as exc:
+            raise ModelLoadError(f"{where}: {exc}") from exc
     return q
 
 
@@ -175,23 +194,37 @@ def load_moveit_request(robot: Robot, path: str | Path) -> PlanningRequest:
     Raises:
         ModelLoadError: missing file or fields, no joint constraint.
     """
-    data = _read_yaml(path)
+    data, lines = _read_yaml(path)
     try:
         js = data["start_state"]["joint_state"]
         names, positions = list(js["name"]), list(js["position"])
-        constraints = data["goal_constraints"][0]["joint_constraints"]
+        constraints = list(data["goal_constraints"][0]["joint_constraints"])
     except (KeyError, IndexError, TypeError) as exc:
         raise ModelLoadError(
-            f"{path}: expected start_state.joint_state and goal_constraints[0].joint_constraints"
+            f"{lines.where('goal_constraints' if 'start_state' in data else 'start_state')}: "
+            "expected start_state.joint_state (name, position) and "
+            "goal_constraints[0].joint_constraints"
         ) from exc
+    state_at = lines.where("start_state", "joint_state")
     if len(names) != len(positions):
-        raise ModelLoadError(f"{path}: start_state has {len(names)} names, {len(positions)} values")
+        raise ModelLoadError(
+            f"{state_at}: start_state has {len(names)} names, {len(positions)} values"
+        )
     ignored: set[str] = set()
-    start = _to_configuration(robot, names, positions, ignored, f"{path} start")
-    goal_names = [str(c["joint_name"]) for c in constraints]
-    goal_values = [float(c["position"]) for c in constraints]
+    start = _to_configuration(robot, [str(n) for n in names], positions, ignored, state_at)
+    goal_names: list[str] = []
+    goal_values: list[Any] = []
+    for k, c in enumerate(constraints):
+        if not isinstance(c, dict) or "joint_name" not in c or "position" not in c:
+            raise ModelLoadError(
+                f"{lines.where('goal_constraints', 0, 'joint_constraints', k)}: a joint "
+                "constraint needs joint_name and position"
+            )
+        goal_names.append(str(c["joint_name"]))
+        goal_values.append(c["position"])
     goal = start.copy()
-    goal_from = _to_configuration(robot, goal_names, goal_values, ignored, f"{path} goal")
+    goal_at = lines.where("goal_constraints", 0, "joint_constraints")
+    goal_from = _to_configuration(robot, goal_names, goal_values, ignored, goal_at)
     for name in goal_names:
         if name in set(robot.joint_names):
             idx = robot.model.joints[robot.joint_id(name)].idx_q

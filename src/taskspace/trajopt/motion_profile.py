@@ -35,7 +35,14 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from taskspace._validation import FloatArray, as_vector, check_finite, check_positive
+from taskspace._validation import (
+    FloatArray,
+    as_float_array,
+    as_scalar,
+    as_vector,
+    check_finite,
+    check_positive,
+)
 from taskspace.errors import InvalidInputError, ShapeError, UnknownNameError
 
 __all__ = [
@@ -59,7 +66,7 @@ PROFILE_NAMES = ("ramp", "sine", "trapezoidal", "minimum_jerk", "scurve")
 
 def _as_s(s: Any) -> FloatArray:
     """Normalized time as a float array clipped to ``[0, 1]``."""
-    arr = np.asarray(s, dtype=np.float64)
+    arr = as_float_array(s, "s")
     check_finite(arr, "s")
     return np.clip(arr, 0.0, 1.0)
 
@@ -128,13 +135,16 @@ class MotionProfile(ABC):
         Returns:
             The duration [s] (0 for a zero distance).
         """
-        d = abs(float(distance))
+        d = abs(as_scalar(distance, "distance"))
+        v = check_positive(max_velocity, "max_velocity")
+        a = _check_limit(max_acceleration, "max_acceleration", False, self.name)
+        j = _check_limit(max_jerk, "max_jerk", False, self.name)
         pv, pa, pj = self.peaks
-        candidates = [d * pv / max_velocity]
-        if max_acceleration is not None and math.isfinite(pa):
-            candidates.append(math.sqrt(d * pa / max_acceleration))
-        if max_jerk is not None and math.isfinite(pj):
-            candidates.append((d * pj / max_jerk) ** (1.0 / 3.0))
+        candidates = [d * pv / v]
+        if a is not None and math.isfinite(pa):
+            candidates.append(math.sqrt(d * pa / a))
+        if j is not None and math.isfinite(pj):
+            candidates.append((d * pj / j) ** (1.0 / 3.0))
         return max(candidates)
 
 
@@ -275,7 +285,7 @@ class TrapezoidalProfile(_PiecewiseProfile):
     name = "trapezoidal"
 
     def __init__(self, accel_fraction: float = 0.25) -> None:
-        f = float(accel_fraction)
+        f = as_scalar(accel_fraction, "accel_fraction")
         if not (0.0 < f <= 0.5):
             raise InvalidInputError(f"accel_fraction must be in (0, 0.5], got {accel_fraction!r}")
         self.accel_fraction = f
@@ -301,7 +311,9 @@ class TrapezoidalProfile(_PiecewiseProfile):
             The normalized profile and the duration [s] (a ramp-free profile with ``T = 0``
             for a zero distance).
         """
-        d, v, a = abs(float(distance)), max_velocity, max_acceleration
+        d = abs(as_scalar(distance, "distance"))
+        v = check_positive(max_velocity, "max_velocity")
+        a = check_positive(max_acceleration, "max_acceleration")
         if d == 0.0:
             return TrapezoidalProfile(0.5), 0.0
         if d >= v * v / a:
@@ -328,7 +340,8 @@ class SCurveProfile(_PiecewiseProfile):
     name = "scurve"
 
     def __init__(self, jerk_fraction: float = 0.125, accel_fraction: float = 0.25) -> None:
-        tj, ta = float(jerk_fraction), float(accel_fraction)
+        tj = as_scalar(jerk_fraction, "jerk_fraction")
+        ta = as_scalar(accel_fraction, "accel_fraction")
         if not (0.0 < tj and 2.0 * tj <= ta * (1.0 + 1e-12) and ta <= 0.5 * (1.0 + 1e-12)):
             raise InvalidInputError(
                 "S-curve fractions must satisfy 0 < jerk_fraction, 2 jerk_fraction <= "
@@ -368,7 +381,10 @@ class SCurveProfile(_PiecewiseProfile):
         Returns:
             The normalized profile and the duration [s].
         """
-        d, v, a, j = abs(float(distance)), max_velocity, max_acceleration, max_jerk
+        d = abs(as_scalar(distance, "distance"))
+        v = check_positive(max_velocity, "max_velocity")
+        a = check_positive(max_acceleration, "max_acceleration")
+        j = check_positive(max_jerk, "max_jerk")
         if d == 0.0:
             return SCurveProfile(0.125, 0.25), 0.0
         if v * j >= a * a:
@@ -433,9 +449,7 @@ def profile_for_limits(
     """
     if profile not in PROFILE_NAMES:
         raise UnknownNameError("motion profile", profile, PROFILE_NAMES)
-    d = float(distance)
-    if not math.isfinite(d):
-        raise InvalidInputError(f"distance must be finite, got {distance!r}")
+    d = as_scalar(distance, "distance")
     v = check_positive(max_velocity, "max_velocity")
     needs_a = profile in ("trapezoidal", "scurve")
     a = _check_limit(max_acceleration, "max_acceleration", needs_a, profile)
@@ -500,7 +514,7 @@ class PointToPointMotion:
 
         Times outside ``[0, T]`` hold the start or goal at rest.
         """
-        t = np.atleast_1d(np.asarray(t, dtype=np.float64))
+        t = np.atleast_1d(as_float_array(t, "t"))
         check_finite(t, "t")
         d = self.goal - self.start
         p, v, a, j = _scaled(self.profile, t, self.duration)
@@ -565,7 +579,7 @@ class SynchronizedMotion:
 
     def evaluate(self, t: Any) -> MotionSample:
         """Sample the joint motion at times ``t`` [s]; arrays have shape ``(m, n)``."""
-        t = np.atleast_1d(np.asarray(t, dtype=np.float64))
+        t = np.atleast_1d(as_float_array(t, "t"))
         check_finite(t, "t")
         d = self.goal - self.start
         out = np.empty((4, t.shape[0], d.shape[0]))
@@ -585,7 +599,7 @@ class SynchronizedMotion:
 def _limit_vector(x: Any, n: int, name: str) -> FloatArray | None:
     if x is None:
         return None
-    arr = np.asarray(x, dtype=np.float64)
+    arr = as_float_array(x, name)
     if arr.ndim == 0:
         arr = np.full(n, float(arr))
     vec = as_vector(arr, n, name)

@@ -34,7 +34,13 @@ from typing import Any
 import numpy as np
 from scipy.linalg import LinAlgError, solve_banded
 
-from taskspace._validation import FloatArray, as_vector, check_finite
+from taskspace._validation import (
+    FloatArray,
+    as_float_array,
+    as_vector,
+    check_count,
+    check_finite,
+)
 from taskspace.errors import InvalidInputError, ShapeError, SolverError, UnknownNameError
 
 __all__ = ["BoundaryCondition", "Spline", "cubic_spline", "quintic_spline"]
@@ -107,8 +113,9 @@ class Spline:
             side: ``"right"`` uses the segment starting at a knot (right limit),
                 ``"left"`` the segment ending there (left limit).
         """
-        t = np.atleast_1d(np.asarray(t, dtype=np.float64))
+        t = np.atleast_1d(as_float_array(t, "t"))
         check_finite(t, "t")
+        max_order = check_count(max_order, "max_order")
         u, idx = self._locate(t, side)
         c = self.coefficients[idx]  # (len(t), p+1, n)
         p = self.degree
@@ -126,6 +133,7 @@ class Spline:
 
     def evaluate(self, t: Any, order: int = 0, *, side: str = "right") -> FloatArray:
         """Return ``q^(order)(t)`` with shape ``(len(t), n)`` (``(n,)`` for scalar ``t``)."""
+        order = check_count(order, "order")
         scalar = np.ndim(t) == 0
         val = self.evaluate_derivatives(t, order, side=side)[order]
         return val[0] if scalar else val
@@ -149,10 +157,7 @@ class Spline:
 
 def _validate(knots: Any, waypoints: Any) -> tuple[FloatArray, FloatArray]:
     """Knots ``(m+1,)`` strictly increasing, waypoints ``(m+1, n)`` finite."""
-    try:
-        q = np.asarray(waypoints, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise InvalidInputError(f"waypoints must be an array of numbers: {exc}") from exc
+    q = as_float_array(waypoints, "waypoints")
     if q.ndim == 1:
         q = q[:, None]
     if q.ndim != 2 or q.shape[0] < 2 or q.shape[1] < 1:
@@ -177,7 +182,7 @@ def _validate(knots: Any, waypoints: Any) -> tuple[FloatArray, FloatArray]:
 def _end_vector(x: Any, n: int, name: str) -> FloatArray:
     if x is None:
         return np.zeros(n)
-    arr = np.asarray(x, dtype=np.float64)
+    arr = as_float_array(x, name)
     if arr.ndim == 0:
         arr = np.full(n, float(arr))
     return as_vector(arr, n, name)
@@ -380,10 +385,7 @@ def quintic_spline(
 
 
 def _as_points(x: Any, shape: tuple[int, int], name: str) -> FloatArray:
-    try:
-        arr = np.asarray(x, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise InvalidInputError(f"{name} must be an array of numbers: {exc}") from exc
+    arr = as_float_array(x, name)
     if arr.ndim == 1 and shape[1] == 1:
         arr = arr[:, None]
     if arr.shape != shape:

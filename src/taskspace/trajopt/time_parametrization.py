@@ -44,7 +44,13 @@ from typing import Any
 
 import numpy as np
 
-from taskspace._validation import FloatArray, check_count, check_finite, check_positive
+from taskspace._validation import (
+    FloatArray,
+    as_float_array,
+    check_count,
+    check_finite,
+    check_positive,
+)
 from taskspace.errors import InvalidInputError, ShapeError, UnknownNameError
 from taskspace.trajopt.motion_profile import _limit_vector
 from taskspace.trajopt.spline import BoundaryCondition, Spline, cubic_spline
@@ -60,6 +66,9 @@ __all__ = [
 ]
 
 logger = logging.getLogger(__name__)
+
+MAX_GRID_POINTS = 10_000_000
+"""Largest ``grid_points`` (a few arrays of this size are allocated)."""
 
 PathFunction = Callable[[FloatArray], tuple[Any, Any, Any]]
 _BIG = 1e300
@@ -200,7 +209,9 @@ class TimeParametrizationResult:
             raise InvalidInputError("cannot evaluate an infeasible time parametrization")
         if self.path is None:
             raise InvalidInputError("result has no path to evaluate")
-        t = np.clip(np.atleast_1d(np.asarray(t, dtype=np.float64)), 0.0, self.duration)
+        t = np.atleast_1d(as_float_array(t, "t"))
+        check_finite(t, "t")
+        t = np.clip(t, 0.0, self.duration)
         n_seg = self.times.shape[0] - 1
         k = np.clip(np.searchsorted(self.times, t, side="right") - 1, 0, n_seg - 1)
         tau = t - self.times[k]
@@ -401,17 +412,17 @@ def time_parametrize(
         raise UnknownNameError(
             "discretization", str(opts.discretization), [d.value for d in Discretization]
         ) from None
-    n_grid = opts.grid_points
-    if not isinstance(n_grid, (int, np.integer)) or n_grid < 2:
-        raise InvalidInputError(f"grid_points must be an integer >= 2, got {n_grid!r}")
+    n_grid = check_count(opts.grid_points, "grid_points", minimum=2)
+    if n_grid > MAX_GRID_POINTS:
+        raise InvalidInputError(
+            f"grid_points must be at most {MAX_GRID_POINTS} (the grid's arrays are allocated "
+            f"at once), got {n_grid}"
+        )
     check_count(opts.jerk_max_iterations, "jerk_max_iterations")
     check_positive(opts.jerk_tolerance, "jerk_tolerance", strict=False)
     check_positive(opts.active_tolerance, "active_tolerance", strict=False)
-    sd0, sd1 = float(opts.start_path_velocity), float(opts.end_path_velocity)
-    if not (np.isfinite(sd0) and np.isfinite(sd1) and sd0 >= 0.0 and sd1 >= 0.0):
-        raise InvalidInputError(
-            f"start/end path velocities must be finite and >= 0, got {sd0!r}, {sd1!r}"
-        )
+    sd0 = check_positive(opts.start_path_velocity, "start_path_velocity", strict=False)
+    sd1 = check_positive(opts.end_path_velocity, "end_path_velocity", strict=False)
     geo = _as_path(path, opts.spline_boundary)
     if isinstance(geo, Spline):
         s0, s1 = geo.interval
