@@ -500,3 +500,45 @@ def test_path_problem_residual_is_the_stacked_task_rows() -> None:
             tail.append(2.0 * final.feature.residual(state, final.target))
     expected = np.concatenate(tail)
     np.testing.assert_allclose(r[r.size - expected.size :], expected, rtol=0, atol=1e-12)
+
+
+def test_path_problem_normal_equations_are_the_stacked_task_rows() -> None:
+    """``J^T J`` and ``J^T r`` of the task rows per slice, by hand (no control cost)."""
+    from taskspace.trajopt.path_optimization import PathCost, PathEquality, PathProblem
+
+    robot = load_robot("ur5")
+    rng = np.random.default_rng(8)
+    T = 5
+    tasks = _random_tasks(robot, rng, 3)
+    final = _random_tasks(robot, rng, 1)[0]
+    times = [[1, 3, T], [2, T], None]
+    problem = PathProblem(
+        robot,
+        robot.q_default,
+        T,
+        costs=[PathCost(t, times=s) for t, s in zip(tasks, times)],
+        equalities=[PathEquality(final, times=[4, T])],
+        acceleration_weight=0.0,
+        joint_limits=False,
+    )
+    path = problem.initial_path(np.array([robot.q_default, _random_q(robot, rng)]))
+    rho = 3.0
+    H, g = problem.normal_equations(path, penalty=rho)
+    nv = robot.nv
+    H_ref, g_ref = np.zeros((T * nv, T * nv)), np.zeros(T * nv)
+    for t in range(1, T + 1):
+        state = robot.state(path[t])
+        block = slice((t - 1) * nv, t * nv)
+        for task, s in [*zip(tasks, times), (final, [4, T])]:
+            if s is not None and t not in s:
+                continue
+            w = np.broadcast_to(np.sqrt(np.asarray(task.weight, dtype=float)), (task.dim,))
+            if task is final:
+                w = np.sqrt(rho) * w
+            J = w[:, None] * task.feature.residual_jacobian(state, task.target)
+            e = w * task.feature.residual(state, task.target)
+            H_ref[block, block] += J.T @ J
+            g_ref[block] += J.T @ e
+    scale = np.abs(H_ref).max()
+    np.testing.assert_allclose(H.to_dense(), H_ref, rtol=0, atol=1e-10 * scale)
+    np.testing.assert_allclose(g, g_ref, rtol=0, atol=1e-10 * max(1.0, np.abs(g_ref).max()))

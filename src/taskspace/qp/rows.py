@@ -5,11 +5,12 @@ module holds the one set of rules that stacks them, used by every consumer:
 
 * :class:`TaskRowStack`: the weighted least-squares rows of several tasks in preallocated
   buffers, at velocity level (``sqrt(rho) J dq ~ -sqrt(rho) gain e``, each task's
-  :meth:`~taskspace.tasks.Task.rows`) or acceleration level (``sqrt(rho) J a ~ sqrt(rho)
+  :meth:`~taskspace.tasks.Task.rows`), acceleration level (``sqrt(rho) J a ~ sqrt(rho)
   (y''* - Jdot v)`` with ``y''* = y''_ref - kp e - kd (J v - y'_ref)``, the PD law applied
-  once to the whole stack). Used by :class:`~taskspace.ik.DifferentialIK`,
-  :class:`~taskspace.ik.HierarchicalIK`, the inverse-dynamics QP and operational-space
-  control.
+  once to the whole stack) or as Gauss-Newton rows of the weighted residuals
+  (``sqrt(rho) J``, ``sqrt(rho) e``). Used by :class:`~taskspace.ik.DifferentialIK`,
+  :class:`~taskspace.ik.HierarchicalIK`, the inverse-dynamics QP, operational-space
+  control and path optimization (the task rows of each time slice).
 * :func:`combine_boxes`: the intersection of boxes with the rule for conflicts (physical
   boxes win over position boxes); :func:`combine_bounds` applies it to constraints.
 * :class:`InequalityStack`: the inequality rows of constraints in preallocated buffers.
@@ -95,6 +96,24 @@ class TaskRowStack:
             J[rows] = Ji
             rhs[rows] = ri
         return TaskRows(J, rhs)
+
+    def residual(self, state: State) -> TaskRows:
+        """Gauss-Newton rows ``(sqrt(rho) J, sqrt(rho) e)`` of ``sum_i rho_i |phi_i (-) y_i*|^2``.
+
+        The cost near ``q`` is ``|J dx + e|^2`` in these rows; the velocity rows of
+        :meth:`velocity` are the same with ``rhs = -gain sqrt(rho) e``.
+        """
+        self._refresh()
+        if self._J_raw is None:
+            self._J_raw = np.zeros_like(self.J)
+        J_raw, e_all = self._J_raw, self._e
+        for task, rows in self._pairs:
+            e_all[rows], J_raw[rows] = task.feature.residual_and_jacobian(
+                state, task._require_target()
+            )
+        np.multiply(J_raw, self._w_column, out=self.J)
+        np.multiply(e_all, self._w, out=self.rhs)
+        return TaskRows(self.J, self.rhs)
 
     def _refresh(self) -> None:
         """Re-read the weights and gains of the tasks whose values were reassigned."""

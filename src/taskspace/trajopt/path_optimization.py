@@ -43,6 +43,7 @@ import numpy.typing as npt
 
 from taskspace._validation import FloatArray, as_matrix, check_count, check_positive
 from taskspace.errors import InvalidInputError, ShapeError
+from taskspace.qp.rows import TaskRowStack
 from taskspace.trajopt.banded import SymmetricBlockBanded
 
 if TYPE_CHECKING:
@@ -476,6 +477,11 @@ class PathProblem:
         self._limit_jacobian[np.arange(n_lim), self._limit_v] = -1.0
         self._limit_jacobian[n_lim + np.arange(n_lim), self._limit_v] = 1.0
         self._control_band = self._build_control_band()
+        # the Gauss-Newton rows of each slice's task costs and equalities, stacked by the
+        # stacking layer in the slice's row layout (term offsets)
+        self._cost_rows = [TaskRowStack(s.costs, nv) for s in self._slices]
+        self._eq_rows = [TaskRowStack(s.equalities, nv) for s in self._slices]
+        self._eq_slices = [t for t, s in enumerate(self._slices) if s.n_eq]
         self._states: list[State] = [robot.state(self.q_start) for _ in range(T)]
         self._trial_states: list[State] = [robot.state(self.q_start) for _ in range(T)]
 
@@ -664,25 +670,26 @@ class PathProblem:
         states = ev.states
         blocks = np.zeros((T, nv, nv))
         grad = np.zeros((T, nv))
-        for term, E in zip(self._cost_terms, ev.costs):
-            task = _task(term)
-            jac, target = term.feature.residual_jacobian, task.target
-            w = np.reshape(task.sqrt_weight, (-1, 1))
-            for i, t in enumerate(term.slices):
-                J = w * jac(states[t], target)
+        # task costs: per slice, rows sqrt(rho) J and sqrt(rho) e of its tasks
+        for t, stack in enumerate(self._cost_rows):
+            if stack.size:
+                J, E = stack.residual(states[t])
                 JT = J.T
                 blocks[t] += JT.dot(J)
-                grad[t] += JT.dot(E[i])
+                grad[t] += JT.dot(E)
         sqrt_rho = math.sqrt(penalty)
-        for term, R in zip(self._eq_terms, ev.eq_rows):
-            task = _task(term)
-            jac, target = term.feature.residual_jacobian, task.target
-            w = sqrt_rho * np.reshape(task.sqrt_weight, (-1, 1))
-            for i, t in enumerate(term.slices):
-                J = w * jac(states[t], target)
+        if self._eq_slices:
+            # equalities: rows sqrt(rho_AL) sqrt(rho) J against the shifted rows R
+            R_slices = [np.empty(s.n_eq) for s in self._slices]
+            for term, R in zip(self._eq_terms, ev.eq_rows):
+                d = term.dim
+                for i, (t, o) in enumerate(zip(term.slices, term.offsets)):
+                    R_slices[t][o : o + d] = R[i]
+            for t in self._eq_slices:
+                J = sqrt_rho * self._eq_rows[t].residual(states[t]).jacobian
                 JT = J.T
                 blocks[t] += JT.dot(J)
-                grad[t] += JT.dot(R[i])
+                grad[t] += JT.dot(R_slices[t])
         # inequality rows: gathered over all slices, then added in a few vectorized operations
         row_t: list[npt.NDArray[np.intp]] = []
         row_J: list[FloatArray] = []
