@@ -3,10 +3,12 @@
 For each scenario and planner, several seeded runs within one time limit; each run becomes a
 row of an SQLite database (``runs``: planner, scenario, problem, seed, success, time, cost,
 first-solution time, checks, known optimum; ``progress``: the anytime planners' cost over
-time), and matplotlib figures show per scenario the success rate, the time and the cost
-distributions (cost divided by the known optimum where there is one) and the median cost over
-time. Scenarios: a 2-D square obstacle (optimum known), the Panda in free space (optimum: the
-straight line), and MotionBenchMaker Panda problems (when the data set is present).
+time). OMPL's planners run on the same problems with the same checker when their peer
+environment is installed (``benchmarks/peers/ompl_arena.py``). Matplotlib figures show per
+scenario the success rate, the time and the cost distributions (cost divided by the known
+optimum where there is one) and the median cost over time. Scenarios: a 2-D square obstacle
+(optimum known), the Panda in free space (optimum: the straight line), and MotionBenchMaker
+Panda problems (when the data set is present).
 
 Run: ``python -m benchmarks.run planner_arena [--quick]`` (table) or
 ``python -m benchmarks.suites.planner_arena [--quick] [--out DIR]`` (table, database and
@@ -29,7 +31,7 @@ from typing import Any
 
 import numpy as np
 
-from benchmarks.common import ROOT, Row, Timing
+from benchmarks.common import ROOT, Row, Timing, run_peer
 from taskspace.errors import PlanningError
 from taskspace.planning.bit_star import BITStarOptions, bit_star
 from taskspace.planning.collision_checker import FunctionChecker
@@ -177,6 +179,40 @@ def record(db: sqlite3.Connection, date: str, planner: str, p: Problem, seed: in
     )
 
 
+def record_peers(db: sqlite3.Connection, problems: list[Problem], quick: bool, limit: float,
+                 seeds: int) -> str:  # fmt: skip
+    """OMPL's planners on the same problems (``benchmarks/peers/ompl_arena.py``) into ``db``.
+
+    Returns a note ("" when the peer ran).
+    """
+    args = ["--time", str(limit), "--seeds", str(seeds)] + (["--quick"] if quick else [])
+    try:
+        out = run_peer("ompl", "ompl_arena.py", args)
+    except RuntimeError as exc:
+        return f"OMPL peer failed: {str(exc)[-300:]}"
+    if out is None:
+        return "OMPL peer not installed (.venv-peers/ompl, make bench-peers)"
+    optimum = {p.scenario: p.optimum for p in problems}
+    date = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
+    for r in out["runs"]:
+        opt = optimum.get(r["scenario"], math.nan)
+        ok = bool(r["success"])
+        cur = db.execute(
+            "INSERT INTO runs (date, planner, scenario, problem, seed, time_limit_s, success, "
+            "status, time_s, cost, path_length, first_solution_s, collision_checks, optimum) "
+            "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+            (date, r["planner"], r["scenario"], r["problem"], r["seed"], limit, int(ok),
+             "solved" if ok else "not solved", r["time_s"], r["cost"] if ok else None,
+             r["cost"] if ok else None, None, None, None if math.isnan(opt) else opt),
+        )  # fmt: skip
+        if ok:
+            db.execute(
+                "INSERT INTO progress VALUES (?, ?, ?)", (cur.lastrowid, r["time_s"], r["cost"])
+            )
+    db.commit()
+    return ""
+
+
 def arena(problems: list[Problem], limit: float, seeds: int, db: sqlite3.Connection) -> None:
     """Every planner on every problem with ``seeds`` seeds; rows into ``db``."""
     date = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
@@ -262,7 +298,9 @@ def table(db: sqlite3.Connection) -> list[Row]:
         extra: dict[str, Any] = {"runs": len(runs), "success": len(ok) / len(runs)}
         if ok:
             extra["median_cost"] = float(np.median([r[2] for r in ok]))
-            extra["median_first_s"] = float(np.median([r[4] for r in ok]))
+            first = [r[4] for r in ok if r[4] is not None]
+            if first:
+                extra["median_first_s"] = float(np.median(first))
             if ok[0][3]:
                 extra["median_cost/optimum"] = float(np.median([r[2] / r[3] for r in ok]))
         timing = Timing.from_samples([r[1] for r in runs])
@@ -288,10 +326,14 @@ def run(quick: bool, out: Path | None = None) -> list[Row]:
     db.executescript(SCHEMA)
     db.execute("DELETE FROM progress")  # the database holds the latest arena
     db.execute("DELETE FROM runs")
-    arena(_problems(quick), limit, seeds, db)
+    problems = _problems(quick)
+    arena(problems, limit, seeds, db)
+    note = record_peers(db, problems, quick, limit, seeds)
     plot(db, out)
     rows = table(db)
     db.close()
+    if note:
+        rows.append(Row(SUITE, "-", "ompl", None, note=note))
     return rows
 
 
