@@ -434,14 +434,20 @@ def build_parser() -> argparse.ArgumentParser:
         description="Run an example of examples/ by name. Output paths are relative to the "
         "current directory. Other arguments go to the example itself.",
     )
-    p.add_argument("name", nargs="?", default="main", help="demo name, or 'list' to list them")
     p.add_argument(
-        "--html", help="write the meshcat animation (else a page of the figures) to FILE"
+        "name", nargs="?", default="main", help="demo name (default: main), or 'list' to list them"
     )
     p.add_argument(
-        "--png", help="write the demo's picture (meshcat snapshot, else first figure) to FILE"
+        "--html",
+        metavar="FILE",
+        help="write the meshcat animation (else a page of the figures) to FILE",
     )
-    p.add_argument("--save", help="write every figure, scene and snapshot into DIR")
+    p.add_argument(
+        "--png",
+        metavar="FILE",
+        help="write the demo's picture (meshcat snapshot, else first figure) to FILE",
+    )
+    p.add_argument("--save", metavar="DIR", help="write every figure, scene and snapshot into DIR")
     p.add_argument(
         "--no-viewer", action="store_true", help="no live meshcat viewer, no figure window"
     )
