@@ -241,3 +241,16 @@ def test_goal_region_is_reached_near_its_analytic_optimum(name: str) -> None:
     optimum = math.hypot(0.3, 0.2) + 0.2 + float(np.linalg.norm(region.c - corner)) - region.r
     assert optimum - 1e-9 <= result.path_length <= optimum * 1.05
     assert square_world().path_valid(result.path)
+
+
+def test_prm_time_limit_cuts_the_roadmap_and_says_so() -> None:
+    """PRM's n_samples is its cap; a time limit that ends the edge checks gives TIME_LIMIT."""
+    res, roadmap = prm(
+        square_world(), START_2D, GOAL_2D, PRMOptions(n_samples=200, time_limit_s=0.0)
+    )
+    assert not res.success and res.status is PlannerStatus.TIME_LIMIT
+    assert roadmap.edges_tried == 0 and roadmap.edges.shape[0] == 0
+    res, roadmap = prm(
+        square_world(), START_2D, GOAL_2D, PRMOptions(n_samples=200, time_limit_s=None)
+    )
+    assert res.success and roadmap.edges_tried > 0
