@@ -120,9 +120,70 @@ def test_vector_env_via_make_vec_and_autoreset() -> None:
 
 
 def test_errors() -> None:
-    with pytest.raises(InvalidInputError, match="render_mode"):
-        PendulumEnv(render_mode="human")
+    with pytest.raises(
+        InvalidInputError,
+        match="render_mode 'ansi' is not supported; use None, 'rgb_array', 'human'",
+    ):
+        PendulumEnv(render_mode="ansi")
+    with pytest.raises(InvalidInputError, match="batched"):
+        CartPoleVectorEnv(2, render_mode="rgb_array")
     env = CartPoleEnv()
     env.reset(seed=0)
     with pytest.raises(InvalidInputError, match="0 or 1"):
         env.step(3)
+
+
+def _red(image: np.ndarray) -> np.ndarray:
+    """Pixel coordinates (row, col) of the red pole."""
+    r, g, b = (image[:, :, i].astype(int) for i in range(3))
+    return np.argwhere((r > 150) & (g < 100) & (b < 100))
+
+
+@pytest.mark.parametrize("env_id", ["taskspace/Pendulum-v0", "taskspace/CartPole-v0"])
+def test_rgb_array_rendering_passes_check_env(env_id: str) -> None:
+    env = gym.make(env_id, render_mode="rgb_array")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)
+        check_env(env.unwrapped)
+    env.reset(seed=0)
+    image = env.render()
+    assert isinstance(image, np.ndarray)
+    assert image.shape == (400, 400, 3) and image.dtype == np.uint8
+    env.close()
+
+
+def test_pendulum_image_shows_the_angle() -> None:
+    env = PendulumEnv(render_mode="rgb_array")
+    env.reset(seed=0)
+    rows = {}
+    for name, th in (("hanging", 0.0), ("upright", np.pi), ("right", np.pi / 2)):
+        env.state = np.array([th, 0.0])
+        pix = _red(env.render())
+        assert pix.size > 0
+        rows[name] = pix.mean(axis=0)  # (row, col); image rows grow downwards
+    assert rows["hanging"][0] > 230 and rows["upright"][0] < 170
+    assert rows["right"][1] > 230 and abs(rows["right"][0] - 200) < 10
+
+
+def test_cartpole_image_follows_the_cart() -> None:
+    env = CartPoleEnv(render_mode="rgb_array")
+    env.reset(seed=0)
+    cols = []
+    for x in (-1.0, 1.0):
+        env.q = np.array([x, 0.0])
+        cols.append(_red(env.render())[:, 1].mean())
+    # 2 m over a 5.4 m wide view of 400 pixels.
+    assert cols[1] - cols[0] == pytest.approx(2.0 / 5.4 * 400, abs=5)
+
+
+def test_human_rendering_draws_a_window_on_every_step() -> None:
+    import matplotlib.pyplot as plt
+
+    env = PendulumEnv(render_mode="human")
+    env.reset(seed=0)
+    assert env.render() is None
+    env.step(np.zeros(1, dtype=np.float32))
+    window = env._window
+    assert window is not None and plt.fignum_exists(window.number)
+    env.close()
+    assert not plt.fignum_exists(window.number)

@@ -15,15 +15,11 @@ from __future__ import annotations
 
 from typing import Any
 
-import gymnasium as gym
 import numpy as np
-import pinocchio as pin
 from gymnasium import spaces
-from gymnasium.vector import VectorEnv
-from gymnasium.vector.utils import batch_space
 
 from taskspace.errors import InvalidInputError
-from taskspace.model.robot import Robot
+from taskspace.learning.envs.robot_env import RobotEnv, RobotVectorEnv
 from taskspace.optimal_control.problems import cartpole_acceleration
 
 THETA_LIMIT = 12 * 2 * np.pi / 360
@@ -35,15 +31,15 @@ def _spaces() -> tuple[spaces.Discrete, spaces.Box]:
     return spaces.Discrete(2), spaces.Box(-high, high, dtype=np.float32)
 
 
-class CartPoleEnv(gym.Env[np.ndarray, np.int64]):
+class CartPoleEnv(RobotEnv):
     """Cart-pole balancing; registered as ``taskspace/CartPole-v0`` (500 steps).
 
     Args:
         force: push magnitude [N]; dt: control period [s]; substeps: ABA steps per period.
-        render_mode: only ``None`` (no rendering yet).
+        render_mode: ``None``, ``"rgb_array"`` (a 400 x 400 x 3 image) or ``"human"``.
     """
 
-    metadata = {"render_modes": [], "render_fps": 50}  # noqa: RUF012
+    metadata = {**RobotEnv.metadata, "render_fps": 50}  # noqa: RUF012
 
     def __init__(
         self,
@@ -52,15 +48,8 @@ class CartPoleEnv(gym.Env[np.ndarray, np.int64]):
         substeps: int = 2,
         render_mode: str | None = None,
     ) -> None:
-        if render_mode is not None:
-            raise InvalidInputError(f"render_mode {render_mode!r} is not supported; use None")
-        self.robot = Robot.load("cartpole")
-        self.model = self.robot.model
-        self.data = self.model.createData()
+        super().__init__("cartpole", dt, substeps, render_mode)
         self.force = float(force)
-        self.dt = float(dt)
-        self.substeps = int(substeps)
-        self.render_mode = render_mode
         self.action_space, self.observation_space = _spaces()
         self.q = np.zeros(2)
         self.v = np.zeros(2)
@@ -76,6 +65,7 @@ class CartPoleEnv(gym.Env[np.ndarray, np.int64]):
         s = self.np_random.uniform(-0.05, 0.05, 4)
         self.q = s[:2].copy()
         self.v = s[2:].copy()
+        self._after_step()
         return self._obs(), {}
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
@@ -83,16 +73,30 @@ class CartPoleEnv(gym.Env[np.ndarray, np.int64]):
         if not self.action_space.contains(action):
             raise InvalidInputError(f"action must be 0 or 1, got {action!r}")
         tau = np.array([self.force if int(action) == 1 else -self.force, 0.0])
-        h = self.dt / self.substeps
-        for _ in range(self.substeps):
-            a = pin.aba(self.model, self.data, self.q, self.v, tau)
-            self.v = self.v + h * a
-            self.q = self.q + h * self.v
+        self.q, self.v = self._integrate(self.q, self.v, tau)
         terminated = bool(abs(self.q[0]) > X_LIMIT or abs(self.q[1]) > THETA_LIMIT)
+        self._after_step()
         return self._obs(), 1.0, terminated, False, {}
 
+    def _draw(self, ax: Any) -> None:
+        """Track, cart and pole (0.5 m drawn as 1 m, as Gymnasium's picture)."""
+        x, th = float(self.q[0]), float(self.q[1])
+        ax.set_xlim(-X_LIMIT - 0.3, X_LIMIT + 0.3)
+        ax.set_ylim(-0.6, 1.6)
+        ax.axis("off")
+        ax.plot([-X_LIMIT, X_LIMIT], [0.0, 0.0], color="0.3", lw=1)
+        ax.add_patch(_rectangle((x - 0.25, -0.075), 0.5, 0.15, color="#34495e"))
+        tip = (x + np.sin(th), np.cos(th))
+        ax.plot([x, tip[0]], [0.0, tip[1]], color="#c0392b", lw=6, solid_capstyle="round")
 
-class CartPoleVectorEnv(VectorEnv):
+
+def _rectangle(xy: tuple[float, float], width: float, height: float, **kw: Any) -> Any:
+    from matplotlib.patches import Rectangle
+
+    return Rectangle(xy, width, height, **kw)
+
+
+class CartPoleVectorEnv(RobotVectorEnv):
     """N cart-poles stepped together (numpy, no loop over copies), auto-reset on termination.
 
     Same dynamics, rewards and termination as :class:`CartPoleEnv`; truncation after
@@ -100,8 +104,6 @@ class CartPoleVectorEnv(VectorEnv):
     ``gymnasium.make_vec("taskspace/CartPole-v0", num_envs=N,
     vectorization_mode="vector_entry_point")``.
     """
-
-    metadata = {"render_modes": [], "autoreset_mode": gym.vector.AutoresetMode.NEXT_STEP}  # noqa: RUF012
 
     def __init__(
         self,
@@ -113,39 +115,24 @@ class CartPoleVectorEnv(VectorEnv):
         max_episode_steps: int = 500,
         render_mode: str | None = None,
     ) -> None:
-        if render_mode is not None:
-            raise InvalidInputError(f"render_mode {render_mode!r} is not supported; use None")
-        if num_envs < 1:
-            raise InvalidInputError(f"num_envs must be >= 1, got {num_envs}")
-        self.num_envs = int(num_envs)
+        super().__init__(num_envs, dt, substeps, max_episode_steps, render_mode)
         self.force = float(force)
-        self.dt = float(dt)
-        self.substeps = int(substeps)
-        self.max_episode_steps = int(max_episode_steps)
-        self.render_mode = render_mode
-        self.single_action_space, self.single_observation_space = _spaces()
-        self.action_space = batch_space(self.single_action_space, self.num_envs)
-        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+        self._set_spaces(*_spaces())
         self.q = np.zeros((self.num_envs, 2))
         self.v = np.zeros((self.num_envs, 2))
-        self.steps = np.zeros(self.num_envs, dtype=np.int64)
-        self.prev_done = np.zeros(self.num_envs, dtype=bool)
 
     def _obs(self) -> np.ndarray:
         return np.stack([self.q[:, 0], self.v[:, 0], self.q[:, 1], self.v[:, 1]], axis=1).astype(
             np.float32
         )
 
-    def reset(
-        self, *, seed: int | None = None, options: dict[str, Any] | None = None
-    ) -> tuple[np.ndarray, dict[str, Any]]:
-        """Reset every copy (states uniform in ``[-0.05, 0.05]``)."""
-        super().reset(seed=seed)
-        s = self.np_random.uniform(-0.05, 0.05, (self.num_envs, 4))
-        self.q, self.v = s[:, :2].copy(), s[:, 2:].copy()
-        self.steps[:] = 0
-        self.prev_done[:] = False
-        return self._obs(), {}
+    def _reset_copies(self, mask: np.ndarray) -> None:
+        """States uniform in ``[-0.05, 0.05]``."""
+        s = self.np_random.uniform(-0.05, 0.05, (int(mask.sum()), 4))
+        if np.all(mask):
+            self.q, self.v = s[:, :2].copy(), s[:, 2:].copy()
+        else:
+            self.q[mask], self.v[mask] = s[:, :2], s[:, 2:]
 
     def step(
         self, actions: Any
@@ -164,14 +151,5 @@ class CartPoleVectorEnv(VectorEnv):
         terminated = (np.abs(self.q[:, 0]) > X_LIMIT) | (np.abs(self.q[:, 1]) > THETA_LIMIT)
         truncated = self.steps >= self.max_episode_steps
         reward = np.ones(self.num_envs)
-        done = self.prev_done
-        if np.any(done):
-            k = int(done.sum())
-            s = self.np_random.uniform(-0.05, 0.05, (k, 4))
-            self.q[done], self.v[done] = s[:, :2], s[:, 2:]
-            self.steps[done] = 0
-            reward[done] = 0.0
-            terminated[done] = False
-            truncated[done] = False
-        self.prev_done = terminated | truncated
+        self._autoreset(reward, terminated, truncated)
         return self._obs(), reward, terminated, truncated, {}

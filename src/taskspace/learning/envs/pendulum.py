@@ -10,32 +10,26 @@ from __future__ import annotations
 
 from typing import Any
 
-import gymnasium as gym
 import numpy as np
-import pinocchio as pin
 from gymnasium import spaces
-from gymnasium.vector import VectorEnv
-from gymnasium.vector.utils import batch_space
 
 from taskspace.dynamics.pendulum import pendulum_acceleration
-from taskspace.errors import InvalidInputError
-from taskspace.model.robot import Robot
+from taskspace.learning.envs.robot_env import RobotEnv, RobotVectorEnv
 
 
 def _wrap(a: float) -> float:
     return float((a + np.pi) % (2 * np.pi) - np.pi)
 
 
-class PendulumEnv(gym.Env[np.ndarray, np.ndarray]):
+class PendulumEnv(RobotEnv):
     """Pendulum swing-up; registered as ``taskspace/Pendulum-v0`` (200 steps).
 
     Args:
         max_torque: torque bound [N m] (below ``m g l`` = 9.81 N m: the pendulum must swing).
         dt: control period [s]; substeps: ABA + semi-implicit Euler steps per period.
-        render_mode: only ``None`` (no rendering yet).
+        max_speed: velocity bound [rad/s].
+        render_mode: ``None``, ``"rgb_array"`` (a 400 x 400 x 3 image) or ``"human"``.
     """
-
-    metadata = {"render_modes": [], "render_fps": 20}  # noqa: RUF012
 
     def __init__(
         self,
@@ -45,16 +39,9 @@ class PendulumEnv(gym.Env[np.ndarray, np.ndarray]):
         max_speed: float = 8.0,
         render_mode: str | None = None,
     ) -> None:
-        if render_mode is not None:
-            raise InvalidInputError(f"render_mode {render_mode!r} is not supported; use None")
-        self.robot = Robot.load("pendulum")
-        self.model = self.robot.model
-        self.data = self.model.createData()
+        super().__init__("pendulum", dt, substeps, render_mode)
         self.max_torque = float(max_torque)
         self.max_speed = float(max_speed)
-        self.dt = float(dt)
-        self.substeps = int(substeps)
-        self.render_mode = render_mode
         self.action_space = spaces.Box(-self.max_torque, self.max_torque, (1,), np.float32)
         high = np.array([1.0, 1.0, self.max_speed], dtype=np.float32)
         self.observation_space = spaces.Box(-high, high, dtype=np.float32)
@@ -72,6 +59,7 @@ class PendulumEnv(gym.Env[np.ndarray, np.ndarray]):
         self.state = np.array(
             [self.np_random.uniform(-np.pi, np.pi), self.np_random.uniform(-1, 1)]
         )
+        self._after_step()
         return self._obs(), {}
 
     def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
@@ -83,17 +71,24 @@ class PendulumEnv(gym.Env[np.ndarray, np.ndarray]):
         )
         th, w = self.state
         reward = -(_wrap(th - np.pi) ** 2 + 0.1 * w**2 + 0.001 * u**2)
-        h = self.dt / self.substeps
-        q, v, tau = np.array([th]), np.array([w]), np.array([u])
-        for _ in range(self.substeps):
-            a = pin.aba(self.model, self.data, q, v, tau)
-            v = np.clip(v + h * a, -self.max_speed, self.max_speed)
-            q = q + h * v
+        q, v = self._integrate(np.array([th]), np.array([w]), np.array([u]), self.max_speed)
         self.state = np.array([_wrap(float(q[0])), float(v[0])])
+        self._after_step()
         return self._obs(), float(reward), False, False, {}
 
+    def _draw(self, ax: Any) -> None:
+        """The pole (length 1 m, angle from hanging down) and the applied torque's sign."""
+        th = float(self.state[0])
+        tip = (np.sin(th), -np.cos(th))
+        ax.set_xlim(-1.3, 1.3)
+        ax.set_ylim(-1.3, 1.3)
+        ax.set_aspect("equal")
+        ax.axis("off")
+        ax.plot([0.0, tip[0]], [0.0, tip[1]], color="#c0392b", lw=10, solid_capstyle="round")
+        ax.plot(0.0, 0.0, "ko", ms=8)
 
-class PendulumVectorEnv(VectorEnv):
+
+class PendulumVectorEnv(RobotVectorEnv):
     """N pendulums stepped together with numpy (no loop over copies), auto-reset.
 
     Same dynamics (the closed form :func:`taskspace.dynamics.pendulum.pendulum_acceleration`
@@ -101,8 +96,6 @@ class PendulumVectorEnv(VectorEnv):
     :class:`PendulumEnv`; truncation after ``max_episode_steps``. The vector entry point of
     ``taskspace/Pendulum-v0``.
     """
-
-    metadata = {"render_modes": [], "autoreset_mode": gym.vector.AutoresetMode.NEXT_STEP}  # noqa: RUF012
 
     def __init__(
         self,
@@ -115,25 +108,15 @@ class PendulumVectorEnv(VectorEnv):
         max_episode_steps: int = 200,
         render_mode: str | None = None,
     ) -> None:
-        if render_mode is not None:
-            raise InvalidInputError(f"render_mode {render_mode!r} is not supported; use None")
-        if num_envs < 1:
-            raise InvalidInputError(f"num_envs must be >= 1, got {num_envs}")
-        self.num_envs = int(num_envs)
+        super().__init__(num_envs, dt, substeps, max_episode_steps, render_mode)
         self.max_torque = float(max_torque)
         self.max_speed = float(max_speed)
-        self.dt = float(dt)
-        self.substeps = int(substeps)
-        self.max_episode_steps = int(max_episode_steps)
-        self.render_mode = render_mode
-        self.single_action_space = spaces.Box(-self.max_torque, self.max_torque, (1,), np.float32)
         high = np.array([1.0, 1.0, self.max_speed], dtype=np.float32)
-        self.single_observation_space = spaces.Box(-high, high, dtype=np.float32)
-        self.action_space = batch_space(self.single_action_space, self.num_envs)
-        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+        self._set_spaces(
+            spaces.Box(-self.max_torque, self.max_torque, (1,), np.float32),
+            spaces.Box(-high, high, dtype=np.float32),
+        )
         self.state = np.zeros((self.num_envs, 2))
-        self.steps = np.zeros(self.num_envs, dtype=np.int64)
-        self.prev_done = np.zeros(self.num_envs, dtype=bool)
 
     def _obs(self) -> np.ndarray:
         th, w = self.state[:, 0], self.state[:, 1]
@@ -144,15 +127,12 @@ class PendulumVectorEnv(VectorEnv):
             [self.np_random.uniform(-np.pi, np.pi, k), self.np_random.uniform(-1, 1, k)], axis=1
         )
 
-    def reset(
-        self, *, seed: int | None = None, options: dict[str, Any] | None = None
-    ) -> tuple[np.ndarray, dict[str, Any]]:
-        """Reset every copy (as :meth:`PendulumEnv.reset`)."""
-        super().reset(seed=seed)
-        self.state = self._sample(self.num_envs)
-        self.steps[:] = 0
-        self.prev_done[:] = False
-        return self._obs(), {}
+    def _reset_copies(self, mask: np.ndarray) -> None:
+        """As :meth:`PendulumEnv.reset`."""
+        if np.all(mask):
+            self.state = self._sample(self.num_envs)
+        else:
+            self.state[mask] = self._sample(int(mask.sum()))
 
     def step(
         self, actions: Any
@@ -174,11 +154,5 @@ class PendulumVectorEnv(VectorEnv):
         self.steps += 1
         terminated = np.zeros(self.num_envs, dtype=bool)
         truncated = self.steps >= self.max_episode_steps
-        done = self.prev_done
-        if np.any(done):
-            self.state[done] = self._sample(int(done.sum()))
-            self.steps[done] = 0
-            reward[done] = 0.0
-            truncated[done] = False
-        self.prev_done = truncated.copy()
+        self._autoreset(reward, terminated, truncated)
         return self._obs(), reward, terminated, truncated, {}

@@ -1,0 +1,185 @@
+"""Base classes of the Gymnasium environments on registry robots (single and batched).
+
+:class:`RobotEnv` holds what the single environments share: the robot and its Pinocchio data,
+the ABA + semi-implicit Euler substeps, the render mode and the rendering. Rendering draws the
+state with matplotlib: ``"rgb_array"`` returns an ``H x W x 3`` ``uint8`` image (an off-screen
+Agg canvas, no display needed); ``"human"`` draws into a pyplot window after every step and
+reset (with a non-interactive backend such as Agg nothing is shown). Subclasses implement
+``_draw(ax)``.
+
+:class:`RobotVectorEnv` holds what the batched environments share: the batched spaces, the
+step counters and the next-step auto-reset of ``gymnasium.vector`` (a copy that ended on the
+previous step is reset instead of stepped, with reward 0).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import pinocchio as pin
+from gymnasium import spaces
+from gymnasium.vector import VectorEnv
+from gymnasium.vector.utils import batch_space
+
+from taskspace.errors import InvalidInputError
+from taskspace.model.robot import Robot
+
+RENDER_MODES = ("rgb_array", "human")
+IMAGE_SIZE = 400
+"""Side of the rendered square images [pixels]."""
+
+
+def check_render_mode(render_mode: str | None, modes: tuple[str, ...]) -> str | None:
+    """``render_mode`` if it is ``None`` or one of ``modes``, else an error listing them."""
+    if render_mode is not None and render_mode not in modes:
+        valid = ", ".join(repr(m) for m in (None, *modes))
+        raise InvalidInputError(f"render_mode {render_mode!r} is not supported; use {valid}")
+    return render_mode
+
+
+class RobotEnv(gym.Env[np.ndarray, Any]):
+    """A single environment on a registry robot, stepped with Pinocchio's ABA.
+
+    Args:
+        robot_name: registry name (``Robot.load``).
+        dt: control period [s]; substeps: ABA + semi-implicit Euler steps per period.
+        render_mode: ``None``, ``"rgb_array"`` or ``"human"``.
+    """
+
+    metadata = {"render_modes": list(RENDER_MODES), "render_fps": 20}  # noqa: RUF012
+
+    def __init__(self, robot_name: str, dt: float, substeps: int, render_mode: str | None) -> None:
+        self.render_mode = check_render_mode(render_mode, RENDER_MODES)
+        self.robot = Robot.load(robot_name)
+        self.model = self.robot.model
+        self.data = self.model.createData()
+        self.dt = float(dt)
+        self.substeps = int(substeps)
+        self._figure: Any = None
+        self._window: Any = None
+
+    def _integrate(
+        self, q: np.ndarray, v: np.ndarray, tau: np.ndarray, max_speed: float = np.inf
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """``substeps`` steps ``v += h ABA(q, v, tau)`` (clipped to ``max_speed``), ``q += h v``."""
+        h = self.dt / self.substeps
+        for _ in range(self.substeps):
+            a = pin.aba(self.model, self.data, q, v, tau)
+            v = v + h * a
+            if max_speed < np.inf:
+                v = np.clip(v, -max_speed, max_speed)
+            q = q + h * v
+        return q, v
+
+    def _draw(self, ax: Any) -> None:
+        """Draw the current state on a matplotlib ``Axes``."""
+        raise NotImplementedError
+
+    def render(self) -> np.ndarray | None:  # type: ignore[override]
+        """Render the current state.
+
+        Returns:
+            An ``IMAGE_SIZE x IMAGE_SIZE x 3`` ``uint8`` image for ``"rgb_array"``; ``None``
+            for ``"human"`` (drawn into the window) and without a render mode.
+        """
+        if self.render_mode is None:
+            gym.logger.warn("render() called without a render_mode; pass render_mode=...")
+            return None
+        if self.render_mode == "rgb_array":
+            from matplotlib.backends.backend_agg import FigureCanvasAgg
+            from matplotlib.figure import Figure
+
+            if self._figure is None:
+                self._figure = Figure(figsize=(4, 4), dpi=IMAGE_SIZE / 4)
+                FigureCanvasAgg(self._figure)
+            fig = self._figure
+            fig.clear()
+            self._draw(fig.add_axes((0.0, 0.0, 1.0, 1.0)))
+            fig.canvas.draw()
+            return np.asarray(fig.canvas.buffer_rgba())[:, :, :3].copy()  # type: ignore[attr-defined]
+        import matplotlib.pyplot as plt
+
+        if self._window is None or not plt.fignum_exists(self._window.number):
+            self._window = plt.figure(figsize=(4, 4))
+        self._window.clear()
+        self._draw(self._window.add_axes((0.0, 0.0, 1.0, 1.0)))
+        if plt.get_backend().lower() != "agg":
+            plt.pause(1.0 / float(self.metadata["render_fps"]))
+        return None
+
+    def _after_step(self) -> None:
+        if self.render_mode == "human":
+            self.render()
+
+    def close(self) -> None:
+        """Close the rendering window."""
+        if self._window is not None:
+            import matplotlib.pyplot as plt
+
+            plt.close(self._window)
+            self._window = None
+        self._figure = None
+
+
+class RobotVectorEnv(VectorEnv):
+    """N copies stepped together with numpy, next-step auto-reset (no rendering).
+
+    Subclasses set ``single_action_space`` / ``single_observation_space`` through
+    :meth:`_set_spaces` and implement ``_reset_copies(mask)``.
+    """
+
+    metadata = {"render_modes": [], "autoreset_mode": gym.vector.AutoresetMode.NEXT_STEP}  # noqa: RUF012
+
+    def __init__(
+        self, num_envs: int, dt: float, substeps: int, max_episode_steps: int, render_mode: Any
+    ) -> None:
+        if render_mode is not None:
+            raise InvalidInputError(
+                f"render_mode {render_mode!r} is not supported by the batched environments; "
+                "use None (render a single environment instead)"
+            )
+        if num_envs < 1:
+            raise InvalidInputError(f"num_envs must be >= 1, got {num_envs}")
+        self.num_envs = int(num_envs)
+        self.dt = float(dt)
+        self.substeps = int(substeps)
+        self.max_episode_steps = int(max_episode_steps)
+        self.render_mode = render_mode
+        self.steps = np.zeros(self.num_envs, dtype=np.int64)
+        self.prev_done = np.zeros(self.num_envs, dtype=bool)
+
+    def _set_spaces(self, action: spaces.Space[Any], observation: spaces.Space[Any]) -> None:
+        self.single_action_space = action
+        self.single_observation_space = observation
+        self.action_space = batch_space(action, self.num_envs)
+        self.observation_space = batch_space(observation, self.num_envs)
+
+    def _reset_copies(self, mask: np.ndarray) -> None:
+        """Draw new initial states for the copies in ``mask``."""
+        raise NotImplementedError
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[np.ndarray, dict[str, Any]]:
+        """Reset every copy."""
+        super().reset(seed=seed)
+        self._reset_copies(np.ones(self.num_envs, dtype=bool))
+        self.steps[:] = 0
+        self.prev_done[:] = False
+        return self._obs(), {}
+
+    def _obs(self) -> np.ndarray:
+        raise NotImplementedError
+
+    def _autoreset(self, reward: np.ndarray, terminated: np.ndarray, truncated: np.ndarray) -> None:
+        """Count the step, truncate, and reset the copies that ended on the previous step."""
+        done = self.prev_done
+        if np.any(done):
+            self._reset_copies(done)
+            self.steps[done] = 0
+            reward[done] = 0.0
+            terminated[done] = False
+            truncated[done] = False
+        self.prev_done = terminated | truncated
