@@ -7,6 +7,13 @@ SUDO := $(shell [ "$$(id -u)" -eq 0 ] || echo sudo)
 PYTEST_WORKERS ?= 2
 OUT ?= out
 
+# The MotionBenchMaker problems are not shipped with taskspace: the project keeps them in
+# shared/ beside the checkout (tests, benchmarks and examples read the variable).
+MOTIONBENCHMAKER_BESIDE := $(abspath $(CURDIR)/../shared/benchmarks/motionbenchmaker_panda)
+ifneq ($(wildcard $(MOTIONBENCHMAKER_BESIDE)),)
+export TASKSPACE_MOTIONBENCHMAKER_DIR ?= $(MOTIONBENCHMAKER_BESIDE)
+endif
+
 .PHONY: native demo test lint typecheck pytest chromium bench bench-quick bench-peers clean apt-tools wheel-smoke
 
 $(PY):
