@@ -140,11 +140,19 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("--quick", action="store_true", help="small scenes, few repetitions")
     parser.add_argument("--save", help="write the results as JSON to this file")
+    parser.add_argument(
+        "--executor",
+        choices=["serial", "processes", "ray"],
+        help="run the suites' independent problems through taskspace.batch on this backend "
+        "(suites that support it: planning, batch); timings are then per worker core",
+    )
     parser.add_argument("--compare", nargs=2, metavar=("A", "B"), help="compare two saved runs")
     args = parser.parse_args(argv)
     if args.compare:
         print(compare(*args.compare))
         return 0
+    if args.executor:
+        os.environ["TASKSPACE_BENCH_EXECUTOR"] = args.executor
     names = args.suites or available_suites()
     unknown = [n for n in names if n not in available_suites()]
     if unknown:

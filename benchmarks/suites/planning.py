@@ -32,6 +32,7 @@ from typing import Any
 import numpy as np
 
 from benchmarks.common import Row, Timing, run_peer
+from taskspace.batch import BatchOptions, Executor
 from taskspace.errors import PlanningError
 from taskspace.planning.collision_checker import CollisionChecker
 from taskspace.planning.configuration_space import ConfigurationSpace, EdgeCheckOptions
@@ -119,80 +120,84 @@ def _stats(rows: list[dict[str, float]], valid: int) -> dict[str, Any]:
     return out
 
 
+def _plan_problem(item: tuple[Any, ...], rng: np.random.Generator, robot: Any) -> dict[str, Any]:
+    """Our planners on one problem (a task of ``taskspace.batch``): per-method samples."""
+    scenario, index, k, quick = item
+    problem = motionbenchmaker_problems(ROOT, scenario, [index])[0]
+    req = problem.apply(robot)
+    space = ConfigurationSpace.from_robot(robot, edge=EdgeCheckOptions(resolution=RESOLUTION))
+    out: dict[str, Any] = {"cost": checker_cost(robot, rng) if k == 0 else {}, "samples": {}}
+    try:
+        space.check_endpoint(req.start, "start")
+        space.check_endpoint(req.goal, "goal")
+    except PlanningError as exc:
+        out["invalid"] = f"{problem.index}: {str(exc)[:90]}"
+        return out
+    per = out["samples"]
+    for method, coarse, local, native in (
+        ("rrt_connect", 0.15, 0.5, True),
+        ("rrt_connect_python", 0.15, 0.5, False),
+        ("rrt_connect_classic", None, 0.0, True),
+    ):
+        opts = RRTConnectOptions(
+            step_size=STEP_SIZE,
+            coarse_resolution=coarse,
+            local_sampling=local,
+            trapped_priority=0.75 if local > 0.0 else 0.0,
+            time_limit_s=TIME_LIMIT,
+            seed=k,
+            native=native,
+        )
+        res = rrt_connect(space, req.start, req.goal, opts)
+        row = {
+            "time": res.time_s,
+            "ok": float(res.success and res.time_s <= TIME_LIMIT),
+            "checks": float(res.collision_checks),
+            "length": res.path_length,
+            "short": np.nan,
+        }
+        if res.success and method == "rrt_connect":
+            row["short"] = shortcut_path(space, res.path).length_after
+        per[method] = row
+    lres, _ = lazy_prm(
+        space, req.start, req.goal, LAZY_PRM, time_limit_s=TIME_LIMIT, rng=np.random.default_rng(k)
+    )
+    per["lazy_prm"] = {
+        "time": lres.time_s,
+        "ok": float(lres.success and lres.time_s <= TIME_LIMIT),
+        "checks": float(lres.collision_checks),
+        "length": lres.path_length,
+    }
+    if quick and k < 2:  # quick runs: PRM on the first two problems
+        pres, _ = prm(space, req.start, req.goal, PRMOptions(n_samples=200, k_neighbors=8, seed=k))
+        per["prm"] = {
+            "time": pres.time_s,
+            "ok": float(pres.success and pres.time_s <= TIME_LIMIT),
+            "checks": float(pres.collision_checks),
+            "length": pres.path_length,
+        }
+    return out
+
+
+def _executor() -> Executor:
+    """The executor of ``--executor`` (serial by default: one problem after another)."""
+    backend = os.environ.get("TASKSPACE_BENCH_EXECUTOR", "serial")
+    return Executor(BatchOptions(backend=backend, chunk_size=1, progress=False))  # type: ignore[arg-type]
+
+
 def _run_ours(
-    robot: Any, scenario: str, quick: bool, rng: np.random.Generator
+    executor: Executor, scenario: str, quick: bool
 ) -> tuple[dict[str, list[dict[str, float]]], dict[str, Any]]:
     """Our planners on one scenario: per-method samples and scenario information."""
-    edge = EdgeCheckOptions(resolution=RESOLUTION)
-    problems = motionbenchmaker_problems(ROOT, scenario, problem_indices(quick))
+    indices = problem_indices(quick)
+    items = [(scenario, index, k, quick) for k, index in enumerate(indices)]
+    outs = executor.map(_plan_problem, items, context=motionbenchmaker_panda).values
     per: dict[str, list[dict[str, float]]] = {m: [] for m in METHODS}
-    invalid: list[str] = []
-    cost: dict[str, float] = {}
-    for k, problem in enumerate(problems):
-        req = problem.apply(robot)
-        space = ConfigurationSpace.from_robot(robot, edge=edge)
-        if k == 0:
-            cost = checker_cost(robot, rng)
-        try:
-            space.check_endpoint(req.start, "start")
-            space.check_endpoint(req.goal, "goal")
-        except PlanningError as exc:
-            invalid.append(f"{problem.index}: {str(exc)[:90]}")
-            continue
-        for method, coarse, local, native in (
-            ("rrt_connect", 0.15, 0.5, True),
-            ("rrt_connect_python", 0.15, 0.5, False),
-            ("rrt_connect_classic", None, 0.0, True),
-        ):
-            opts = RRTConnectOptions(
-                step_size=STEP_SIZE,
-                coarse_resolution=coarse,
-                local_sampling=local,
-                trapped_priority=0.75 if local > 0.0 else 0.0,
-                time_limit_s=TIME_LIMIT,
-                seed=k,
-                native=native,
-            )
-            res = rrt_connect(space, req.start, req.goal, opts)
-            row = {
-                "time": res.time_s,
-                "ok": float(res.success and res.time_s <= TIME_LIMIT),
-                "checks": float(res.collision_checks),
-                "length": res.path_length,
-                "short": np.nan,
-            }
-            if res.success and method == "rrt_connect":
-                row["short"] = shortcut_path(space, res.path).length_after
+    for out in outs:
+        for method, row in out["samples"].items():
             per[method].append(row)
-        lres, _ = lazy_prm(
-            space,
-            req.start,
-            req.goal,
-            LAZY_PRM,
-            time_limit_s=TIME_LIMIT,
-            rng=np.random.default_rng(k),
-        )
-        per["lazy_prm"].append(
-            {
-                "time": lres.time_s,
-                "ok": float(lres.success and lres.time_s <= TIME_LIMIT),
-                "checks": float(lres.collision_checks),
-                "length": lres.path_length,
-            }
-        )
-        if quick and k < 2:
-            pres, _ = prm(
-                space, req.start, req.goal, PRMOptions(n_samples=200, k_neighbors=8, seed=k)
-            )
-            per["prm"].append(
-                {
-                    "time": pres.time_s,
-                    "ok": float(pres.success and pres.time_s <= TIME_LIMIT),
-                    "checks": float(pres.collision_checks),
-                    "length": pres.path_length,
-                }
-            )
-    return per, {"problems": len(problems), "invalid": invalid, **cost}
+    invalid = [out["invalid"] for out in outs if "invalid" in out]
+    return per, {"problems": len(indices), "invalid": invalid, **outs[0]["cost"]}
 
 
 def _peer_samples(res: dict[str, Any]) -> list[dict[str, float]]:
@@ -239,14 +244,13 @@ def _run_peers(scenario: str, quick: bool) -> tuple[dict[str, list[dict[str, flo
 def run(quick: bool) -> list[Row]:
     if not ROOT.is_dir():
         return [Row(SUITE, "motionbenchmaker", "taskspace", None, note=f"{ROOT} missing")]
-    robot = motionbenchmaker_panda()
-    rng = np.random.default_rng(0)
+    executor = _executor()
     # Scenario by scenario: ours, then the peers, so that all see the same machine load.
     per_scenario: dict[str, dict[str, list[dict[str, float]]]] = {}
     info: dict[str, dict[str, Any]] = {}
     notes: list[str] = []
     for scenario in scenarios():
-        ours, info[scenario] = _run_ours(robot, scenario, quick, rng)
+        ours, info[scenario] = _run_ours(executor, scenario, quick)
         peers, peer_notes = _run_peers(scenario, quick)
         notes += peer_notes
         per_scenario[scenario] = {f"taskspace {m}": v for m, v in ours.items()} | peers

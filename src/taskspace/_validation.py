@@ -13,6 +13,54 @@ from taskspace.errors import InvalidInputError, NotFiniteError, ShapeError
 FloatArray = npt.NDArray[np.float64]
 
 
+_REJECTED_KINDS = {"c": "complex", "U": "text", "S": "bytes", "M": "datetime", "m": "timedelta"}
+
+
+def as_float_array(x: Any, name: str) -> FloatArray:
+    """Convert ``x`` to a float64 array of any shape, refusing what is not real numbers.
+
+    NumPy would turn ``None`` into NaN, drop the imaginary part of complex values (with only
+    a warning) and parse strings; each of these is an error here.
+
+    Args:
+        x: array-like input.
+        name: argument name used in error messages.
+
+    Returns:
+        A float64 array (``x`` itself when it already is one).
+
+    Raises:
+        InvalidInputError: if ``x`` is ``None``, complex, text, or not numeric.
+    """
+    if isinstance(x, np.ndarray):
+        if x.dtype == np.float64:
+            return x
+        kind = _REJECTED_KINDS.get(x.dtype.kind)
+    elif x is None:
+        raise InvalidInputError(f"{name} must be an array of real numbers, got None")
+    elif isinstance(x, (complex, np.complexfloating)):
+        kind = "complex"
+    elif isinstance(x, (str, bytes)):
+        kind = "text"
+    else:
+        kind = None
+    if kind is not None:
+        raise InvalidInputError(
+            f"{name} must be real numbers, got {kind} values"
+            + (
+                " (pass x.real if the imaginary part is meant to be zero)"
+                if kind == "complex"
+                else ""
+            )
+        )
+    try:
+        return np.asarray(x, dtype=np.float64)
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise InvalidInputError(
+            f"{name} must be an array of real numbers (one shape, no None): {exc}"
+        ) from exc
+
+
 def as_vector(x: Any, size: int | None, name: str) -> FloatArray:
     """Convert ``x`` to a finite float64 vector of the given size.
 
@@ -27,12 +75,9 @@ def as_vector(x: Any, size: int | None, name: str) -> FloatArray:
     Raises:
         ShapeError: if ``x`` is not 1-D of length ``size``.
         NotFiniteError: if ``x`` has NaN or inf entries.
-        InvalidInputError: if ``x`` cannot be converted to floats.
+        InvalidInputError: if ``x`` is not real numbers (``None``, strings, complex...).
     """
-    try:
-        arr = np.asarray(x, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise InvalidInputError(f"{name} must be an array of numbers: {exc}") from exc
+    arr = as_float_array(x, name)
     if arr.ndim != 1 or (size is not None and arr.shape[0] != size):
         raise ShapeError(name, (size if size is not None else -1,), tuple(arr.shape))
     check_finite(arr, name)
@@ -40,11 +85,14 @@ def as_vector(x: Any, size: int | None, name: str) -> FloatArray:
 
 
 def as_matrix(x: Any, shape: tuple[int | None, int | None], name: str) -> FloatArray:
-    """Convert ``x`` to a finite float64 matrix of the given shape (``None`` = any)."""
-    try:
-        arr = np.asarray(x, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise InvalidInputError(f"{name} must be an array of numbers: {exc}") from exc
+    """Convert ``x`` to a finite float64 matrix of the given shape (``None`` = any).
+
+    Raises:
+        ShapeError: if ``x`` is not 2-D of the given shape.
+        NotFiniteError: if ``x`` has NaN or inf entries.
+        InvalidInputError: if ``x`` is not real numbers (``None``, strings, complex...).
+    """
+    arr = as_float_array(x, name)
     if arr.ndim != 2 or any(s is not None and s != a for s, a in zip(shape, arr.shape)):
         expected = tuple(-1 if s is None else s for s in shape)
         raise ShapeError(name, expected, tuple(arr.shape))
@@ -64,10 +112,136 @@ def check_finite(arr: npt.NDArray[Any], name: str) -> None:
         raise NotFiniteError(name, [int(i) for i in bad[:20]])
 
 
-def check_positive(value: float, name: str, *, strict: bool = True) -> float:
+def as_scalar(value: Any, name: str) -> float:
+    """Return ``value`` as a finite float, or raise :class:`InvalidInputError`.
+
+    Accepts Python and NumPy real numbers and one-element real arrays; refuses ``None``,
+    strings, complex numbers, NaN and inf.
+    """
+    v = _to_float(value, name)
+    if not math.isfinite(v):
+        raise InvalidInputError(f"{name} must be a finite number, got {value!r}")
+    return v
+
+
+def check_int(value: Any, name: str, *, minimum: int | None = None) -> int:
+    """Return ``value`` as an ``int`` if it is an integer ``>= minimum``, else raise.
+
+    Floats are accepted only when integral (``3.0``); booleans, NaN and inf are refused.
+    """
+    if isinstance(value, (bool, np.bool_)) or value is None:
+        raise InvalidInputError(f"{name} must be an integer, got {value!r}")
+    if isinstance(value, (int, np.integer)):
+        out = int(value)
+    else:
+        v = _to_float(value, name)
+        if not (math.isfinite(v) and v == int(v)):
+            raise InvalidInputError(f"{name} must be an integer, got {value!r}")
+        out = int(v)
+    if minimum is not None and out < minimum:
+        raise InvalidInputError(f"{name} must be an integer >= {minimum}, got {value!r}")
+    return out
+
+
+def _to_float(value: Any, name: str) -> float:
+    if isinstance(value, np.ndarray):
+        if value.size != 1 or value.dtype.kind not in "biuf":
+            raise InvalidInputError(
+                f"{name} must be a real number, got an array of shape {value.shape} and dtype "
+                f"{value.dtype}"
+            )
+        value = value.reshape(()).item()
+    if isinstance(value, (complex, np.complexfloating)):
+        raise InvalidInputError(f"{name} must be a real number, got the complex {value!r}")
+    if isinstance(value, (str, bytes)) or value is None:
+        raise InvalidInputError(f"{name} must be a number, got {value!r}")
+    try:
+        return float(value)
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise InvalidInputError(f"{name} must be a number, got {value!r}") from exc
+
+
+def check_positive(value: Any, name: str, *, strict: bool = True) -> float:
     """Return ``value`` as float if it is (strictly) positive and finite, else raise."""
-    v = float(value)
+    if value.__class__ is float:  # fast path (the hot loops pass floats)
+        v = value
+    else:
+        v = _to_float(value, name)
     if not math.isfinite(v) or (v <= 0.0 if strict else v < 0.0):
         relation = "> 0" if strict else ">= 0"
         raise InvalidInputError(f"{name} must be finite and {relation}, got {value!r}")
     return v
+
+
+# Iteration caps and time limits of iterative algorithms (one convention, issue #15): a cap is
+# a non-negative integer (a bool or a float such as 2.5 is refused; caps beyond int64 are
+# clamped, never reached anyway); a time limit is a number of seconds >= 0, ``None`` or
+# ``math.inf`` meaning no limit, NaN refused; no limit at all (no time limit and no cap) is
+# refused where a cap may be ``None``.
+MAX_INT64 = (1 << 63) - 1
+
+
+def check_count(value: Any, name: str, *, minimum: int = 0) -> int:
+    """Return ``value`` as an int if it is an integer ``>= minimum``, else raise.
+
+    Integers beyond ``2**63 - 1`` are clamped to it (a compiled kernel counts with int64).
+    """
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+        raise InvalidInputError(
+            f"{name} must be an integer >= {minimum}, got {value!r} ({type(value).__name__})"
+        )
+    v = int(value)
+    if v < minimum:
+        raise InvalidInputError(f"{name} must be an integer >= {minimum}, got {v}")
+    return min(v, MAX_INT64)
+
+
+def check_time_limit(value: Any, name: str = "time_limit_s") -> float:
+    """Return a time limit [s] as a float, ``math.inf`` for ``None`` (no limit); NaN refused."""
+    if value is None:
+        return math.inf
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.number)):
+        raise InvalidInputError(
+            f"{name} must be a number of seconds >= 0 or None (no limit), got {value!r}"
+        )
+    v = float(value)
+    if math.isnan(v) or v < 0.0:
+        raise InvalidInputError(
+            f"{name} must be a number of seconds >= 0, math.inf or None (no limit), got {v}"
+        )
+    return v
+
+
+def check_limits(
+    max_iterations: Any,
+    time_limit_s: Any,
+    *,
+    names: tuple[str, str] = ("max_iterations", "time_limit_s"),
+    minimum: int = 0,
+) -> tuple[int | None, float]:
+    """Validate an iteration cap (``None`` = none) and a time limit together.
+
+    Returns:
+        ``(cap or None, time limit [s], math.inf for none)``.
+
+    Raises:
+        InvalidInputError: a bad value, or neither a finite time limit nor a cap (the loop
+            could never end).
+    """
+    limit = check_time_limit(time_limit_s, names[1])
+    cap = None if max_iterations is None else check_count(max_iterations, names[0], minimum=minimum)
+    if cap is None and math.isinf(limit):
+        raise InvalidInputError(
+            f"{names[0]}=None needs a finite {names[1]} (otherwise the loop may never end); "
+            f"give {names[0]} an integer or {names[1]} a number of seconds"
+        )
+    return cap, limit
+
+
+def check_seed(value: Any, name: str = "seed") -> int:
+    """Return a random seed as an int ``>= 0`` (what ``np.random.default_rng`` accepts)."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+        raise InvalidInputError(f"{name} must be an integer >= 0, got {value!r}")
+    if int(value) < 0:
+        raise InvalidInputError(f"{name} must be an integer >= 0, got {int(value)}")
+    return int(value)

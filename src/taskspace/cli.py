@@ -23,6 +23,7 @@ import subprocess
 import sys
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 from taskspace.errors import TaskspaceError
 
@@ -76,36 +77,56 @@ def _example_path(name: str) -> Path:
 
 # ---------------------------------------------------------------------- commands
 def cmd_robots(args: argparse.Namespace) -> int:
-    """Print the robot registry: nq, nv, floating base and end-effectors."""
-    from taskspace.model import Robot, registry
+    """Print every robot ``Robot.load`` accepts: nq, nv, floating base, source, end-effectors.
 
-    specs = registry()
-    names = list(specs)
-    rows = []
-    iterator = _progress(names, "loading robots", enabled=not args.no_load)
-    for name in iterator:
-        spec = specs[name]
-        if args.no_load:
-            rows.append((name, "-", "-", "yes" if spec.free_flyer else "no", spec))
-            continue
-        try:
-            robot = Robot.load(name)
-            rows.append(
-                (name, str(robot.nq), str(robot.nv), "yes" if robot.is_floating else "no", spec)
+    Sizes come from the kinematic trees (no meshes) and are cached on disk, so the listing
+    takes well under a second once the cache is filled.
+    """
+    from taskspace.model.registry import available_robots, robot_summaries
+
+    summaries: dict[str, dict[str, Any]]
+    if args.no_load:
+        specs = available_robots()
+        summaries = {
+            n: {
+                "nq": None,
+                "nv": None,
+                "floating": s.free_flyer,
+                "source": "registry" if s.in_registry else "example-robot-data",
+                "end_effectors": s.end_effectors,
+                "description": s.description,
+            }
+            for n, s in specs.items()
+        }
+    else:
+        summaries = robot_summaries()
+    header = ("name", "nq", "nv", "floating", "source", "end-effectors", "description")
+    table = []
+    for name, info in summaries.items():
+        nq = "?" if info.get("error") else ("-" if info["nq"] is None else str(info["nq"]))
+        nv = "?" if info.get("error") else ("-" if info["nv"] is None else str(info["nv"]))
+        description = str(info["description"])
+        if info.get("error"):
+            description = f"{description} (cannot be read: {str(info['error'])[:80]})"
+        table.append(
+            (
+                name,
+                nq,
+                nv,
+                "yes" if info["floating"] else "no",
+                info["source"],
+                ", ".join(info["end_effectors"]) or "-",
+                description,
             )
-        except TaskspaceError as exc:
-            rows.append((name, "?", "?", "?", spec))
-            logger.warning("cannot load %s: %s", name, exc)
-    header = ("name", "nq", "nv", "floating", "end-effectors", "description")
-    table = [
-        (n, nq, nv, fl, ", ".join(spec.end_effectors), spec.description)
-        for n, nq, nv, fl, spec in rows
+        )
+    n_cols = len(header) - 1
+    widths = [max(len(str(r[i])) for r in [header, *table]) for i in range(n_cols)]
+    lines = [
+        "  ".join(str(c).ljust(w) for c, w in zip(header[:n_cols], widths)) + "  " + header[-1]
     ]
-    widths = [max(len(str(r[i])) for r in [header, *table]) for i in range(5)]
-    lines = ["  ".join(str(c).ljust(w) for c, w in zip(header[:5], widths)) + "  " + header[5]]
     lines.append("  ".join("-" * w for w in widths) + "  " + "-" * 11)
     for r in table:
-        lines.append("  ".join(str(c).ljust(w) for c, w in zip(r[:5], widths)) + "  " + r[5])
+        lines.append("  ".join(str(c).ljust(w) for c, w in zip(r[:n_cols], widths)) + "  " + r[-1])
     print("\n".join(lines))
     return 0
 
@@ -156,12 +177,12 @@ def parse_configuration(text: str, nq: int) -> list[float]:
 
 def cmd_snapshot(args: argparse.Namespace) -> int:
     """Render a robot at a configuration to PNG (and optionally static HTML)."""
-    from taskspace.model import Robot, registry
+    from taskspace.model import Robot
+    from taskspace.model.registry import available_robots
 
-    if args.robot not in registry():
-        raise CliError(
-            f"unknown robot '{args.robot}'; valid robots are: {', '.join(sorted(registry()))}"
-        )
+    if args.robot not in available_robots():
+        valid = ", ".join(sorted(available_robots()))
+        raise CliError(f"unknown robot '{args.robot}'; valid robots are: {valid}")
     if not args.png and not args.html:
         raise CliError("give --png FILE and/or --html FILE")
     robot = Robot.load(args.robot)
@@ -248,8 +269,10 @@ def build_parser() -> argparse.ArgumentParser:
 
     sub.add_parser("info", help="versions of the libraries and whether the compiled kernels run")
 
-    p = sub.add_parser("robots", help="list the robot registry (nq, nv, floating, end-effectors)")
-    p.add_argument("--no-load", action="store_true", help="do not load the models (no nq/nv)")
+    p = sub.add_parser(
+        "robots", help="list every robot: our registry and all of example-robot-data"
+    )
+    p.add_argument("--no-load", action="store_true", help="do not read the models (no nq/nv)")
 
     p = sub.add_parser("demo", help="run an example by name ('main' is examples/demo_main.py)")
     p.add_argument("name", nargs="?", default="main", help="example name ('list' lists them)")

@@ -19,6 +19,10 @@ class TaskspaceWarning(UserWarning):
     """Base class of every warning emitted by taskspace."""
 
 
+class ModelWarning(TaskspaceWarning):
+    """A robot description was corrected on load (collision pairs pruned, limits missing)."""
+
+
 class InvalidInputError(TaskspaceError, ValueError):
     """An argument has the wrong shape, is not finite, or is out of its domain."""
 

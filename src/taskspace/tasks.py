@@ -2,16 +2,24 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import math
+from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from taskspace._validation import FloatArray, as_vector, check_positive
+from taskspace._validation import (
+    FloatArray,
+    as_float_array,
+    as_scalar,
+    as_vector,
+    check_int,
+    check_positive,
+)
 from taskspace.errors import InvalidInputError
+from taskspace.features.feature import Feature
 
 if TYPE_CHECKING:
-    from taskspace.features.feature import Feature
     from taskspace.model.state import State
 
 
@@ -35,6 +43,14 @@ class Task:
         name: label (default: the feature's name).
     """
 
+    # Plain attributes (read on every step without a property call), validated on assignment
+    # by __setattr__: assigning an invalid value raises and leaves the task unchanged.
+    sqrt_weight: float | FloatArray
+    gain: float
+    priority: int
+    kp: float
+    kd: float
+
     def __init__(
         self,
         feature: Feature,
@@ -47,35 +63,45 @@ class Task:
         kd: float | None = None,
         name: str | None = None,
     ) -> None:
+        if not isinstance(feature, Feature):
+            raise InvalidInputError(
+                f"Task needs a feature (taskspace.features: Position, FramePose, ...), got "
+                f"{type(feature).__name__}"
+            )
+        if name is not None and not isinstance(name, str):
+            raise InvalidInputError(f"task name must be a string, got {type(name).__name__}")
         self.feature = feature
         self.name = name or feature.name
         self._target: Any = None
         if target is not None:
             self.set_target(target)
-        w = np.asarray(weight, dtype=float)
-        if w.ndim == 0:
-            check_positive(float(w), f"weight of task '{self.name}'", strict=False)
-            self.sqrt_weight: float | FloatArray = float(np.sqrt(w))
-        else:
-            w = as_vector(w, feature.dim, f"weight of task '{self.name}'")
-            if np.any(w < 0):
-                raise InvalidInputError(f"weight of task '{self.name}' must be >= 0")
-            self.sqrt_weight = np.sqrt(w)
-        g = float(gain)
-        if not 0.0 < g <= 1.0:
-            raise InvalidInputError(f"gain of task '{self.name}' must be in (0, 1], got {gain}")
-        self.gain = g
-        if int(priority) < 0:
-            raise InvalidInputError(f"priority of task '{self.name}' must be >= 0")
-        self.priority = int(priority)
-        self.kp = check_positive(kp, f"kp of task '{self.name}'", strict=False)
-        self.kd = (
-            2.0 * float(np.sqrt(self.kp))
-            if kd is None
-            else check_positive(kd, f"kd of task '{self.name}'", strict=False)
-        )
+        self.weight = weight
+        self.gain = gain
+        self.priority = priority
+        self.kp = kp
+        self.kd = 2.0 * math.sqrt(self.kp) if kd is None else kd
         self.reference_velocity: FloatArray | None = None
         self.reference_acceleration: FloatArray | None = None
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        check = _SETTERS.get(name)
+        if check is not None:
+            value = check(self, value)
+        object.__setattr__(self, name, value)
+
+    @property
+    def weight(self) -> float | FloatArray:
+        """Precision ``rho = sqrt_weight^2`` (scalar or one value per dimension).
+
+        Assigning it validates the value (finite, ``>= 0``, scalar or of size ``dim``) and
+        sets :attr:`sqrt_weight`.
+        """
+        w = self.sqrt_weight
+        return w * w if isinstance(w, float) else np.square(w)
+
+    @weight.setter
+    def weight(self, value: Any) -> None:
+        self.sqrt_weight = _sqrt_of_weight(self, value)
 
     @property
     def dim(self) -> int:
@@ -151,6 +177,74 @@ class Task:
 
     def __repr__(self) -> str:
         return f"Task('{self.name}', priority={self.priority}, gain={self.gain})"
+
+
+def _label(task: Task) -> str:
+    return task.__dict__.get("name", "?")
+
+
+def _sqrt_of_weight(task: Task, value: Any) -> float | FloatArray:
+    """``sqrt(weight)`` of a validated weight (finite, >= 0, scalar or of size dim)."""
+    name = f"weight of task '{_label(task)}'"
+    if isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool):
+        return math.sqrt(check_positive(value, name, strict=False))
+    w = as_float_array(value, name)
+    if w.ndim == 0:
+        return math.sqrt(check_positive(float(w), name, strict=False))
+    w = as_vector(w, task.feature.dim, name)
+    if np.any(w < 0):
+        raise InvalidInputError(f"{name} must be >= 0")
+    return np.sqrt(w)
+
+
+def _check_sqrt_weight(task: Task, value: Any) -> float | FloatArray:
+    name = f"sqrt_weight of task '{_label(task)}'"
+    if isinstance(value, float) and math.isfinite(value) and value >= 0.0:
+        return value  # fast path; keeps the identity of the object (stacks compare it)
+    if isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool):
+        return check_positive(value, name, strict=False)
+    w = as_float_array(value, name)
+    if w.ndim == 0:
+        return check_positive(float(w), name, strict=False)
+    w = as_vector(w, task.feature.dim, name)
+    if np.any(w < 0):
+        raise InvalidInputError(f"{name} must be >= 0")
+    w = w.copy() if w is value else w
+    w.setflags(write=False)  # an in-place change would bypass this check and the stacks
+    return w
+
+
+def _check_gain(task: Task, value: Any) -> float:
+    if value.__class__ is float and 0.0 < value <= 1.0:
+        return value  # fast path (solve_ik and interpolation save and restore gains)
+    g = as_scalar(value, f"gain of task '{_label(task)}'")
+    if not 0.0 < g <= 1.0:
+        raise InvalidInputError(f"gain of task '{_label(task)}' must be in (0, 1], got {value!r}")
+    return g
+
+
+def _check_priority(task: Task, value: Any) -> int:
+    p = check_int(value, f"priority of task '{_label(task)}'")
+    if p < 0:
+        raise InvalidInputError(f"priority of task '{_label(task)}' must be >= 0")
+    return p
+
+
+def _check_kp(task: Task, value: Any) -> float:
+    return check_positive(value, f"kp of task '{_label(task)}'", strict=False)
+
+
+def _check_kd(task: Task, value: Any) -> float:
+    return check_positive(value, f"kd of task '{_label(task)}'", strict=False)
+
+
+_SETTERS: dict[str, Callable[[Task, Any], Any]] = {
+    "sqrt_weight": _check_sqrt_weight,
+    "gain": _check_gain,
+    "priority": _check_priority,
+    "kp": _check_kp,
+    "kd": _check_kd,
+}
 
 
 class _RowStack:

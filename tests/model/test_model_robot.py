@@ -131,7 +131,7 @@ def test_nan_and_inf(panda: Robot) -> None:
 
 
 def test_non_numeric(panda: Robot) -> None:
-    with pytest.raises(InvalidInputError, match="q must be an array of numbers"):
+    with pytest.raises(InvalidInputError, match=r"q must be an array of (real )?numbers"):
         panda.state(["a"] * 7)
 
 
@@ -195,3 +195,231 @@ def test_from_urdf_with_free_flyer() -> None:
     spec = robot_spec("planar_2link")
     robot = Robot.from_urdf(spec.urdf, free_flyer=True)  # type: ignore[arg-type]
     assert robot.is_floating and robot.nq == 9 and robot.nv == 8
+
+
+# ---------------------------------------------------------------------- package data, names
+def test_registry_ships_inside_the_package() -> None:
+    from importlib import resources
+
+    from taskspace.model.registry import data_directory
+
+    root = data_directory()
+    assert root == resources.files("taskspace") / "robots_data"
+    assert (root / "registry.yaml").is_file()
+    spec = registry()["planar_2link"]
+    assert spec.urdf is not None and spec.urdf.is_file()
+    assert str(spec.urdf).startswith(str(root))
+
+
+def test_every_example_robot_data_name_is_available() -> None:
+    from example_robot_data.robots_loader import ROBOTS
+
+    from taskspace.model import available_robots
+
+    names = available_robots()
+    assert set(ROBOTS) <= set(names)
+    assert set(registry()) <= set(names)
+    go2 = names["go2"]
+    assert go2.free_flyer and not go2.in_registry and go2.default_posture["srdf"] == "standing"
+    with pytest.raises(UnknownNameError) as err:
+        Robot.load("go3")
+    assert "go2" in str(err.value) and "planar_2link" in str(err.value)
+
+
+def test_erd_robot_outside_the_registry_loads_with_its_srdf_posture() -> None:
+    import example_robot_data
+
+    robot = Robot.load("go2")
+    reference = example_robot_data.load("go2")
+    assert (robot.nq, robot.nv, robot.is_floating) == (reference.model.nq, reference.model.nv, True)
+    np.testing.assert_allclose(robot.q_default, reference.q0, atol=1e-12)
+    assert robot.srdf_path is not None and robot.srdf_path.endswith("go2.srdf")
+    assert robot.is_collision_free(robot.q_default)
+
+
+def test_robot_listing_is_cached(tmp_path, monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    import importlib
+
+    reg = importlib.import_module("taskspace.model.registry")  # the module, not the function
+    monkeypatch.setenv(reg.CACHE_ENVIRONMENT_VARIABLE, str(tmp_path))
+    first = reg.robot_summaries()
+    files = list(tmp_path.glob("robots-*.json"))
+    assert len(files) == 1
+    assert first["panda"]["nq"] == 7 and first["go2"]["nq"] == 19 and first["kinova"]["nv"] == 6
+    assert first["cassie"]["nq"] is None and "SDF" in first["cassie"]["error"]
+
+    def fail(spec):  # type: ignore[no-untyped-def]
+        raise AssertionError("a warm listing must not read the models")
+
+    monkeypatch.setattr(reg, "_kinematic_size", fail)
+    assert reg.robot_summaries() == first
+
+
+def test_malformed_registry_gives_the_file(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    from taskspace.model.registry import _registry_entries
+
+    path = tmp_path / "registry.yaml"
+    with pytest.raises(ModelLoadError, match=r"registry.yaml: entry 'x': unknown source 'git'"):
+        _registry_entries({"x": {"source": "git"}}, path)
+    with pytest.raises(ModelLoadError, match="must be a mapping"):
+        _registry_entries(["x"], path)
+
+
+# ---------------------------------------------------------------------- checks on load
+TINY_URDF = """<robot name="tiny">
+  <link name="base">
+    <collision><origin xyz="2 0 0"/><geometry><sphere radius="0.05"/></geometry></collision>
+  </link>
+  <link name="l1">
+    <inertial><mass value="1"/>{INERTIA}</inertial>
+    <collision><geometry><sphere radius="0.5"/></geometry></collision>
+  </link>
+  <link name="l2">
+    <inertial><mass value="1"/>{INERTIA}</inertial>
+  </link>
+  <link name="l3">
+    <inertial><mass value="1"/>{INERTIA}</inertial>
+    <collision><geometry><sphere radius="0.2"/></geometry></collision>
+  </link>
+  <link name="l4">
+    <inertial><mass value="1"/>{INERTIA}</inertial>
+    <collision><origin xyz="1.6 0 0"/><geometry><sphere radius="0.1"/></geometry></collision>
+  </link>
+  <joint name="j1" type="revolute"><parent link="base"/><child link="l1"/><axis xyz="0 0 1"/>
+    <limit lower="-3.14" upper="3.14" effort="5" velocity="1"/></joint>
+  <joint name="j2" type="revolute"><parent link="l1"/><child link="l2"/><origin xyz="0.1 0 0"/>
+    <axis xyz="0 0 1"/><limit lower="-0.1" upper="0.1" effort="0" velocity="1"/></joint>
+  <joint name="j3" type="revolute"><parent link="l2"/><child link="l3"/><origin xyz="0.1 0 0"/>
+    <axis xyz="0 0 1"/><limit lower="-0.1" upper="0.1" effort="5" velocity="0"/></joint>
+  <joint name="j4" type="revolute"><parent link="l3"/><child link="l4"/><origin xyz="0.2 0 0"/>
+    <axis xyz="0 0 1"/><limit lower="-0.1" upper="0.1" effort="5" velocity="1"/></joint>
+</robot>
+"""
+TINY_URDF = TINY_URDF.replace(
+    "{INERTIA}", '<inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/>'
+)
+SRDF_L3_L4 = """<robot name="tiny">
+  <disable_collisions link1="l3" link2="l4" reason="Adjacent"/>
+</robot>
+"""
+
+
+@pytest.fixture
+def tiny_urdf(tmp_path):  # type: ignore[no-untyped-def]
+    path = tmp_path / "tiny.urdf"
+    path.write_text(TINY_URDF)
+    return path
+
+
+def _collision_frequency(robot: Robot, pair: tuple[str, str], n: int = 400) -> float:
+    """Fraction of random configurations where ``pair`` collides, with Pinocchio directly."""
+    cm = pin.GeometryModel()
+    for g in robot.collision_model.geometryObjects:
+        cm.addGeometryObject(g)
+    cm.addCollisionPair(pin.CollisionPair(cm.getGeometryId(pair[0]), cm.getGeometryId(pair[1])))
+    cd = cm.createData()
+    data = robot.model.createData()
+    rng = np.random.default_rng(99)
+    hits = 0
+    for _ in range(n):
+        q = robot.random_configuration(rng)
+        hits += bool(pin.computeCollisions(robot.model, data, cm, cd, q, True))
+    return hits / n
+
+
+def test_pruning_rules_without_srdf(tiny_urdf) -> None:  # type: ignore[no-untyped-def]
+    from taskspace.errors import ModelWarning
+
+    with pytest.warns(ModelWarning, match="in collision at the default posture") as record:
+        robot = Robot.from_urdf(tiny_urdf, passive_joints=["j2"])
+    pruned = robot.pruned_collision_pairs
+    assert set(pruned.adjacent) == {("base_0", "l1_0"), ("l3_0", "l4_0")}
+    assert set(pruned.default_posture) == {("base_0", "l4_0"), ("l1_0", "l3_0")}
+    assert robot.collision_pairs == [("base_0", "l3_0"), ("l1_0", "l4_0")]
+    assert robot.is_collision_free(robot.q_default)
+    messages = " ".join(str(w.message) for w in record)
+    assert "j3" in messages and "no velocity limit" in messages
+    assert "no effort limit" not in messages  # j2 is declared passive
+
+
+def test_always_rule_matches_an_independent_count(tiny_urdf) -> None:  # type: ignore[no-untyped-def]
+    from taskspace.errors import ModelWarning
+    from taskspace.model import CollisionPruningOptions
+
+    options = CollisionPruningOptions(default_posture=False)
+    with pytest.warns(ModelWarning, match=r">= 95% of 100 random configurations"):
+        robot = Robot.from_urdf(tiny_urdf, collision_pruning=options, passive_joints=["j2"])
+    assert robot.pruned_collision_pairs.always == (("l1_0", "l3_0"),)
+    assert ("base_0", "l4_0") in robot.collision_pairs  # collides at q = 0 only
+    assert _collision_frequency(robot, ("l1_0", "l3_0")) == 1.0
+    for pair in robot.collision_pairs:
+        assert _collision_frequency(robot, pair) < 0.95, pair
+    kept = Robot.from_urdf(
+        tiny_urdf, collision_pruning=CollisionPruningOptions(enabled=False), passive_joints=["j2"]
+    )
+    assert ("l1_0", "l3_0") in kept.collision_pairs and ("l3_0", "l4_0") in kept.collision_pairs
+
+
+def test_pruning_also_applies_with_an_srdf(tiny_urdf, tmp_path) -> None:  # type: ignore[no-untyped-def]
+    from taskspace.errors import ModelWarning
+
+    srdf = tmp_path / "tiny.srdf"
+    srdf.write_text(SRDF_L3_L4)
+    with pytest.warns(ModelWarning, match="left by its SRDF were disabled"):
+        robot = Robot.from_urdf(tiny_urdf, srdf=srdf, passive_joints=["j2"])
+    assert robot.pruned_collision_pairs.adjacent == ()  # the SRDF decides adjacency
+    assert ("l3_0", "l4_0") not in robot.collision_pairs
+    assert ("l1_0", "l3_0") not in robot.collision_pairs
+
+
+def test_missing_effort_is_unlimited_with_a_warning(tiny_urdf) -> None:  # type: ignore[no-untyped-def]
+    from taskspace.errors import ModelWarning
+
+    with pytest.warns(ModelWarning, match=r"\['j2'\] have no effort limit"):
+        robot = Robot.from_urdf(tiny_urdf)
+    np.testing.assert_array_equal(robot.effort_limits, [5.0, np.inf, 5.0, 5.0])
+    np.testing.assert_array_equal(robot.velocity_limits, [1.0, 1.0, np.inf, 1.0])
+    assert robot.passive_joints == ()
+    with pytest.warns(ModelWarning):
+        passive = Robot.from_urdf(tiny_urdf, passive_joints=["j2"])
+    np.testing.assert_array_equal(passive.effort_limits, [5.0, 0.0, 5.0, 5.0])
+    assert passive.passive_joints == ("j2",)
+    with pytest.raises(UnknownNameError, match="unknown joint 'j9'"):
+        Robot.from_urdf(tiny_urdf, passive_joints=["j9"])
+
+
+def test_cartpole_hinge_is_declared_passive() -> None:
+    cartpole = load_robot("cartpole")
+    assert cartpole.passive_joints == ("hinge",)
+    np.testing.assert_array_equal(cartpole.effort_limits, [50.0, 0.0])
+
+
+def test_erd_robot_without_effort_limits_is_actuated() -> None:
+    """double_pendulum has effort="0" everywhere: unlimited and actuated, never silently passive."""
+    from taskspace.errors import ModelWarning
+
+    with pytest.warns(ModelWarning, match="no effort limit"):
+        robot = Robot.load("double_pendulum")
+    assert np.all(robot.effort_limits == np.inf)
+    assert np.all(robot.velocity_limits == np.inf)
+
+
+def test_velocity_limits_of_a_floating_base_are_accepted() -> None:
+    from taskspace.constraints import JointVelocityLimits
+
+    solo = load_robot("solo12")
+    limits = solo.velocity_limits
+    assert np.all(np.isinf(limits[:6])) and np.all(np.isfinite(limits[6:]))
+    constraint = JointVelocityLimits(solo, limits=limits)
+    lb, ub = constraint.bounds(solo.state(), 0.01)
+    np.testing.assert_allclose(ub[6:], limits[6:] * 0.01)
+    assert np.all(ub[:6] >= 1e19) and np.all(lb[:6] <= -1e19)
+    for bad, message in [
+        (np.zeros(solo.nv), "must be > 0"),
+        (np.full(solo.nv, np.nan), "must be > 0"),
+        (np.full(solo.nv, -np.inf), "must be > 0"),
+        (np.ones(3), r"limits must have shape \(18,\)"),
+        (["a"] * solo.nv, "real numbers"),
+    ]:
+        with pytest.raises(InvalidInputError, match=message):
+            JointVelocityLimits(solo, limits=bad)

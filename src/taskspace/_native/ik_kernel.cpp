@@ -55,6 +55,25 @@ struct Item {
   std::vector<int> rows;  // frame tasks: support columns; posture: selected rows (empty: all)
 };
 
+// Raise the taskspace.errors exception `name` (a TaskspaceError) with the message; the GIL is
+// held (every entry point is called from Python and keeps it).
+[[noreturn]] void raise_error(const char* name, const std::string& message) {
+  bp::object cls = bp::import("taskspace.errors").attr(name);
+  PyErr_SetString(cls.ptr(), message.c_str());
+  bp::throw_error_already_set();
+  throw std::logic_error(message);  // not reached
+}
+
+[[noreturn]] void raise_invalid(const std::string& message) {
+  raise_error("InvalidInputError", message);
+}
+
+[[noreturn]] void raise_not_positive_definite() {
+  raise_error("SolverError",
+              "the IK Hessian H = M^T M + mu I is not positive definite (damping 0 and a "
+              "rank-deficient task stack, or a NaN weight); use a damping > 0");
+}
+
 // Status codes returned to Python.
 constexpr int kUnconstrained = 0;
 constexpr int kSolved = 1;
@@ -63,7 +82,7 @@ constexpr int kMaxIterations = 2;
 class WeightedIKKernel {
  public:
   WeightedIKKernel(int nv, int nq) : nv_(nv), nq_(nq), m_(0) {
-    if (nv <= 0 || nq <= 0) throw std::invalid_argument("nv and nq must be positive");
+    if (nv <= 0 || nq <= 0) raise_invalid("nv and nq must be positive");
     J6_.setZero(6, nv);
     Jlog_.setZero(6, 6);
     Jdiff_.setZero(nv, nv);
@@ -102,7 +121,9 @@ class WeightedIKKernel {
   // posture tasks (nv entries each: zero on unselected rows); set when weights change.
   void set_scaling(const Eigen::Ref<const VectorXd>& w, const Eigen::Ref<const VectorXd>& c) {
     const long n = m_ + static_cast<long>(posture_.size()) * nv_;
-    if (w.size() != n || c.size() != n) throw std::invalid_argument("scaling size mismatch");
+    if (w.size() != n || c.size() != n) raise_invalid("scaling size mismatch");
+    if (!w.allFinite() || !c.allFinite())
+      raise_invalid("task weights and gains must be finite (a sqrt_weight or gain is NaN or inf)");
     w_ = w.head(m_);
     c_ = c.head(m_);
     pw_.resize(posture_.size());
@@ -121,16 +142,17 @@ class WeightedIKKernel {
                            const Eigen::Ref<const VectorXd>& high, bool hard) {
     const long n = bp::len(iq);
     if (bp::len(iv) != n || low.size() != n || high.size() != n)
-      throw std::invalid_argument("position limits: sizes differ");
+      raise_invalid("position limits: sizes differ");
     pl_iq_.clear();
     pl_iv_.clear();
     for (long i = 0; i < n; ++i) {
       const int a = bp::extract<int>(iq[i]), b = bp::extract<int>(iv[i]);
       if (a < 0 || a >= nq_ || b < 0 || b >= nv_)
-        throw std::invalid_argument("position limits: index out of range");
+        raise_invalid("position limits: index out of range");
       pl_iq_.push_back(a);
       pl_iv_.push_back(b);
     }
+    if (low.hasNaN() || high.hasNaN()) raise_invalid("position limits must not be NaN");
     pl_low_ = low;
     pl_high_ = high;
     pl_lb_.setConstant(nv_, -kInf);
@@ -144,12 +166,16 @@ class WeightedIKKernel {
   bp::tuple solve(const Model& model, Data& data, const Eigen::Ref<const VectorXd>& q,
                   bp::list targets, bp::list hard_boxes, bp::list soft_boxes, double damping,
                   Eigen::Ref<VectorXd> out, int max_iter) {
-    if (model.nv != nv_ || model.nq != nq_) throw std::invalid_argument("model size mismatch");
+    if (model.nv != nv_ || model.nq != nq_) raise_invalid("model size mismatch");
     if (q.size() != nq_ || out.size() != nv_)
-      throw std::invalid_argument("vector size mismatch");
+      raise_invalid("vector size mismatch");
     if (bp::len(targets) != static_cast<long>(items_.size() + posture_.size()))
-      throw std::invalid_argument("one target per task expected");
-    if (!scaled_) throw std::invalid_argument("set_scaling was not called");
+      raise_invalid("one target per task expected");
+    if (!scaled_) raise_invalid("set_scaling was not called");
+    if (!(damping >= 0.0) || !std::isfinite(damping))
+      raise_invalid("damping must be finite and >= 0, got " + std::to_string(damping));
+    if (max_iter < 0) raise_invalid("max_iter must be >= 0, got " + std::to_string(max_iter));
+    if (!q.allFinite()) raise_invalid("q must be finite");
     const auto t0 = std::chrono::steady_clock::now();
     if (pl_set_) {
       for (std::size_t k = 0; k < pl_iq_.size(); ++k) {
@@ -173,6 +199,8 @@ class WeightedIKKernel {
     const auto t2 = std::chrono::steady_clock::now();
     int iterations = 0;
     const int status = box_qp(lb_, ub_, max_iter, iterations);
+    if (!x_.allFinite())
+      raise_invalid("the IK step is not finite: a task target, weight or bound is NaN or inf");
     out = x_;
     // 1/2 x^T H x + g^T x, with H x = grad - g (box_qp leaves grad = H x + g at x)
     const double objective = 0.5 * x_.dot(grad_) + 0.5 * g_.dot(x_);
@@ -184,9 +212,9 @@ class WeightedIKKernel {
  private:
   // Tangent indices of the joints that move a frame (its Jacobian is zero elsewhere).
   std::vector<int> support_columns(const Model& model, int frame) const {
-    if (model.nv != nv_) throw std::invalid_argument("model size mismatch");
+    if (model.nv != nv_) raise_invalid("model size mismatch");
     if (frame < 0 || frame >= static_cast<int>(model.frames.size()))
-      throw std::invalid_argument("frame index out of range");
+      raise_invalid("frame index out of range");
     std::vector<int> cols;
     for (const auto j : model.supports[model.frames[frame].parentJoint]) {
       for (int k = 0; k < model.nvs[j]; ++k) cols.push_back(model.idx_vs[j] + k);
@@ -229,7 +257,7 @@ class WeightedIKKernel {
         }
         case kPosition: {
           const Eigen::Ref<const VectorXd> p = bp::extract<Eigen::Ref<const VectorXd>>(target);
-          if (p.size() != 3) throw std::invalid_argument("position target size != 3");
+          if (p.size() != 3) raise_invalid("position target size != 3");
           pinocchio::getFrameJacobian(model, data, it.frame, pinocchio::LOCAL_WORLD_ALIGNED, J6_);
           for (int a = 0; a < ns; ++a) rows.col(it.rows[a]) = J6_.col(it.rows[a]).head<3>();
           e = data.oMf[it.frame].translation() - p;
@@ -237,7 +265,7 @@ class WeightedIKKernel {
         }
         case kCom: {
           const Eigen::Ref<const VectorXd> c = bp::extract<Eigen::Ref<const VectorXd>>(target);
-          if (c.size() != 3) throw std::invalid_argument("CoM target size != 3");
+          if (c.size() != 3) raise_invalid("CoM target size != 3");
           if (!com_done) {
             pinocchio::jacobianCenterOfMass(model, data, true);
             com_done = true;
@@ -265,7 +293,8 @@ class WeightedIKKernel {
       bp::object box = boxes[i];
       const Eigen::Ref<const VectorXd> l = bp::extract<Eigen::Ref<const VectorXd>>(box[0]);
       const Eigen::Ref<const VectorXd> u = bp::extract<Eigen::Ref<const VectorXd>>(box[1]);
-      if (l.size() != n || u.size() != n) throw std::invalid_argument("box size != nv");
+      if (l.size() != n || u.size() != n) raise_invalid("box size != nv");
+      if (l.hasNaN() || u.hasNaN()) raise_invalid("a constraint's bounds are NaN");
       lb = lb.cwiseMax(l);
       ub = ub.cwiseMin(u);
     }
@@ -321,7 +350,7 @@ class WeightedIKKernel {
                          bp::list& targets) {
     for (std::size_t k = 0; k < posture_.size(); ++k) {
       const VectorXd qt = bp::extract<VectorXd>(targets[items_.size() + k]);
-      if (qt.size() != nq_) throw std::invalid_argument("posture target size != nq");
+      if (qt.size() != nq_) raise_invalid("posture target size != nq");
       diff_.resize(nv_);
       pinocchio::difference(model, qt, q, diff_);
       const VectorXd& w = pw_[k];
@@ -365,7 +394,7 @@ class WeightedIKKernel {
     const int n = nv_;
     const double tol = 1e-10;
     L_ = H_;
-    if (!cholesky(L_)) throw std::runtime_error("H is not positive definite");
+    if (!cholesky(L_)) raise_not_positive_definite();
     x_ = -g_;
     cholesky_solve(L_, x_);
     bool feasible = true;
@@ -414,7 +443,7 @@ class WeightedIKKernel {
           rhs[a] = s;
           for (int b = 0; b <= a; ++b) Hff(a, b) = H_(i, free_idx[b]);
         }
-        if (!cholesky(Hff)) throw std::runtime_error("H is not positive definite");
+        if (!cholesky(Hff)) raise_not_positive_definite();
         xf = rhs;
         cholesky_solve(Hff, xf);
       }

@@ -71,6 +71,7 @@
 #include <cstring>
 #include <limits>
 #include <memory>
+#include <mutex>
 #include <random>
 #include <stdexcept>
 #include <string>
@@ -92,6 +93,64 @@ namespace {
 constexpr int kSolved = 0;
 constexpr int kTimeLimit = 1;
 constexpr int kIterationLimit = 2;
+
+// ---------------------------------------------------------------------------- Python glue
+// Raise taskspace.errors.InvalidInputError (a TaskspaceError and a ValueError) from C++ (the
+// GIL must be held). The Python callers validate first; this guards direct calls.
+[[noreturn]] void raise_invalid(const std::string& message) {
+  bp::object cls = bp::import("taskspace.errors").attr("InvalidInputError");
+  PyErr_SetString(cls.ptr(), message.c_str());
+  bp::throw_error_already_set();
+  throw std::logic_error(message);  // not reached
+}
+
+// The GIL released for the lifetime of the object (reacquired by the destructor, also when a
+// C++ exception unwinds). poll() takes the GIL back for a moment and runs Python's signal
+// handlers (PyErr_CheckSignals: only the main thread runs them); it returns true when a
+// handler raised (KeyboardInterrupt for Ctrl-C), the exception then pending in this thread.
+class GilRelease {
+ public:
+  GilRelease() : state_(PyEval_SaveThread()) {}
+  ~GilRelease() {
+    if (state_ != nullptr) PyEval_RestoreThread(state_);
+  }
+  GilRelease(const GilRelease&) = delete;
+  GilRelease& operator=(const GilRelease&) = delete;
+
+  bool poll() {
+    PyEval_RestoreThread(state_);
+    const bool raised = PyErr_CheckSignals() != 0;
+    state_ = PyEval_SaveThread();
+    return raised;
+  }
+
+ private:
+  PyThreadState* state_;
+};
+
+// Interval between two polls of Python's signal handlers while the GIL is released.
+constexpr auto kPollInterval = std::chrono::milliseconds(2);
+
+// Lock a kernel's mutex from a thread that holds the GIL: at once when it is free, else with
+// the GIL released while waiting (a planner that holds the lock takes the GIL back to poll
+// signals: waiting with the GIL would deadlock), polling signals. Throws the pending Python
+// exception when a signal handler raised while waiting.
+std::unique_lock<std::timed_mutex> lock_with_gil(std::timed_mutex& mutex) {
+  std::unique_lock<std::timed_mutex> lock(mutex, std::try_to_lock);
+  if (lock.owns_lock()) return lock;
+  bool raised = false;
+  {
+    GilRelease gil;
+    while (!lock.try_lock_for(kPollInterval)) {
+      if (gil.poll()) {
+        raised = true;
+        break;
+      }
+    }
+  }
+  if (raised) bp::throw_error_already_set();
+  return lock;
+}
 
 // ---------------------------------------------------------------------------- collision
 constexpr int kManager = 0;
@@ -222,13 +281,15 @@ class CollisionKernel {
 
   // 0: Pinocchio's tree manager and its update; 1: the same with fast_update; 2: pair list.
   void set_mode(int mode) {
-    if (mode < 0 || mode > 2) throw std::invalid_argument("mode must be 0, 1 or 2");
+    if (mode < 0 || mode > 2) raise_invalid("mode must be 0, 1 or 2, got " + std::to_string(mode));
+    const auto lock = lock_with_gil(mutex_);
     mode_ = mode;
     cache_.clear();
   }
   int mode() const { return mode_; }
 
   void set_cache_size(int n) {
+    const auto lock = lock_with_gil(mutex_);
     cache_size_ = std::max(0, n);
     cache_.clear();
   }
@@ -319,6 +380,7 @@ class CollisionKernel {
   // Collision flags (1 = in collision) of every row, shape (n, nq).
   Eigen::VectorXi collisions(const Eigen::Ref<const RowMatrixXd>& qs) {
     check_cols(qs);
+    const auto lock = lock_with_gil(mutex_);
     Eigen::VectorXi out(qs.rows());
     for (Eigen::Index i = 0; i < qs.rows(); ++i) out[i] = collides(qs.row(i).transpose()) ? 1 : 0;
     return out;
@@ -327,6 +389,7 @@ class CollisionKernel {
   // Index of the first colliding row, or -1 (rows evaluated in order).
   long first_invalid(const Eigen::Ref<const RowMatrixXd>& qs) {
     check_cols(qs);
+    const auto lock = lock_with_gil(mutex_);
     for (Eigen::Index i = 0; i < qs.rows(); ++i)
       if (collides(qs.row(i).transpose())) return static_cast<long>(i);
     return -1;
@@ -334,8 +397,18 @@ class CollisionKernel {
 
  private:
   void check_cols(const Eigen::Ref<const RowMatrixXd>& qs) const {
-    if (qs.cols() != model_.nq) throw std::invalid_argument("configurations must have nq columns");
+    if (qs.cols() != model_.nq)
+      raise_invalid("configurations must have nq = " + std::to_string(model_.nq) +
+                    " columns, got " + std::to_string(qs.cols()));
   }
+
+ public:
+  // Serializes the queries and plans on this kernel (its Pinocchio and coal data are shared by
+  // them): one thread at a time, the others wait (see lock_with_gil).
+  std::timed_mutex& mutex() { return mutex_; }
+
+ private:
+  std::timed_mutex mutex_;
 
   bp::object py_[4];
   const Model& model_;
@@ -538,12 +611,33 @@ class RRTConnect {
     x_.resize(d_);
   }
 
+  // True once the plan must stop: the time limit has passed, or a Python signal handler raised
+  // (Ctrl-C: interrupted = true, the exception pending). Called before every collision check
+  // and iteration; the clock is read every 16 calls, the signal handlers run every
+  // kPollInterval (gil: the released GIL; nullptr = no polling).
+  bool stop() {
+    if (stopped_) return true;
+    if ((++ticks_ & 15) != 0) return false;
+    const auto now = clock::now();
+    if (limited_ && now > deadline_) {
+      stopped_ = true;
+    } else if (gil_ != nullptr && now >= next_poll_) {
+      next_poll_ = now + kPollInterval;
+      if (gil_->poll()) stopped_ = interrupted = true;
+    }
+    return stopped_;
+  }
+
+  // A collision check, or true (blocked) once the plan must stop: the callers treat the
+  // motion as blocked, so that the trees only ever hold checked nodes.
+  bool collides_or_stop(const VectorXd& q) { return stop() || ck_.collides(q); }
+
   // Straight line q0 -> q1 free at the full resolution (interior points, bisection order).
   bool motion_valid(const VectorXd& q0, const VectorXd& q1) {
     const int n = lines_.segments((q1 - q0).norm());
     for (int k : bisection_order(n)) {
       x_ = q0 + (double(k) / n) * (q1 - q0);
-      if (ck_.collides(x_)) return false;
+      if (collides_or_stop(x_)) return false;
     }
     return true;
   }
@@ -563,7 +657,7 @@ class RRTConnect {
     }
     for (double u : lines_.orders(n_seg).pattern) {
       x_ = a_ + (u * step) * b_;
-      if (ck_.collides(x_)) return -1;
+      if (collides_or_stop(x_)) return -1;
     }
     if (dist > alpha) {
       x_ = a_ + step * b_;
@@ -590,7 +684,7 @@ class RRTConnect {
       // the target is a free node: its own check is skipped
       for (std::size_t j = final_step ? 1 : 0; j < pattern.size(); ++j) {
         x_ = q0 + ((start + pattern[j] * len) / dist) * delta;
-        if (ck_.collides(x_)) return {par, false};
+        if (collides_or_stop(x_)) return {par, false};
       }
       if (final_step) {
         par = t.add(target, par, n, lines_.lazy);
@@ -618,6 +712,7 @@ class RRTConnect {
         const auto p1 = Eigen::Map<const VectorXd>(t.node(i), d_);
         for (double u : lines_.orders(n).fine) {
           x_ = p0 + u * (p1 - p0);
+          if (stop()) return false;  // the plan ends: nothing is removed
           if (ck_.collides(x_)) {
             ++res.rejections;
             res.removed += t.remove_subtree(i);
@@ -630,13 +725,20 @@ class RRTConnect {
     return true;
   }
 
-  void run(const VectorXd& qs, const VectorXd& qg, long max_iterations, double time_limit) {
-    using clock = std::chrono::steady_clock;
+  // Plan (the GIL released: gil polls the signal handlers; nullptr: no polling). time_limit
+  // [s]: negative or +inf = none; the deadline saturates (a limit beyond the clock's range,
+  // about 292 years, is no limit) instead of overflowing.
+  void run(const VectorXd& qs, const VectorXd& qg, long max_iterations, double time_limit,
+           GilRelease* gil) {
     const auto t0 = clock::now();
-    const bool limited = time_limit >= 0.0;
-    const auto deadline =
-        t0 + std::chrono::duration_cast<clock::duration>(std::chrono::duration<double>(
-                 limited ? time_limit : 0.0));
+    gil_ = gil;
+    next_poll_ = t0 + kPollInterval;
+    const double horizon =
+        0.5 * std::chrono::duration<double>(clock::time_point::max() - t0).count();
+    limited_ = time_limit >= 0.0 && time_limit < horizon;  // false for +inf
+    deadline_ = limited_ ? t0 + std::chrono::duration_cast<clock::duration>(
+                                    std::chrono::duration<double>(time_limit))
+                         : clock::time_point::max();
     start_ = std::make_unique<Tree>(qs);
     goal_ = std::make_unique<Tree>(qg);
     ++res.edge_checks;
@@ -651,12 +753,10 @@ class RRTConnect {
     std::uniform_real_distribution<double> unit(0.0, 1.0);
     std::normal_distribution<double> normal(0.0, 1.0);
     VectorXd target(d_);
-    for (long it = 1; it <= max_iterations; ++it) {
-      if (limited && clock::now() > deadline) {
-        res.status = kTimeLimit;
-        break;
-      }
-      res.iterations = it;
+    while (res.iterations < max_iterations) {  // no overflow at max_iterations = LONG_MAX
+      ticks_ |= 15;  // read the clock before every iteration
+      if (stop()) break;
+      ++res.iterations;
       if (trapped_ > 0.0 && 4 * tb->size() < ta->size() && unit(rng_) < trapped_) {
         std::swap(ta, tb);  // the trapped tree takes the big tree's turn (swapped back below)
         ++res.trapped_turns;
@@ -713,12 +813,19 @@ class RRTConnect {
       }
       std::swap(ta, tb);
     }
+    if (res.status != kSolved && stopped_) res.status = kTimeLimit;
   }
 
   Result res;
   std::unique_ptr<Tree> start_, goal_;
+  bool interrupted = false;  // a signal handler raised (the Python exception is pending)
 
  private:
+  using clock = std::chrono::steady_clock;
+  GilRelease* gil_ = nullptr;
+  bool limited_ = false, stopped_ = false;
+  unsigned ticks_ = 0;
+  clock::time_point deadline_, next_poll_;
   CollisionKernel& ck_;
   VectorXd lower_, upper_;
   LinePlanner lines_;
@@ -744,22 +851,43 @@ bp::tuple tree_tuple(const Tree& t) {
 
 // Plan with RRT-Connect; returns (status, path, iterations, edge_checks, rejections, removed,
 // trapped_turns, (start nodes, start parents), (goal nodes, goal parents)). Collision checks
-// are counted by the kernel (CollisionKernel.checks).
+// are counted by the kernel (CollisionKernel.checks). time_limit [s]: negative or +inf = no
+// limit. Every argument is checked (InvalidInputError); the plan runs with the GIL released
+// and the kernel locked (other threads may plan on other kernels meanwhile), polling Python's
+// signal handlers every kPollInterval: Ctrl-C stops it and raises KeyboardInterrupt.
 bp::tuple rrt_connect(CollisionKernel& ck, const VectorXd& start, const VectorXd& goal,
                       const VectorXd& lower, const VectorXd& upper, double alpha, double delta,
                       double delta_c, double local, double sigma, double trapped,
-                      long max_iterations,
-                      double time_limit, unsigned long seed) {
+                      long max_iterations, double time_limit, unsigned long seed) {
   const long d = ck.nq();
   if (start.size() != d || goal.size() != d || lower.size() != d || upper.size() != d)
-    throw std::invalid_argument("start, goal, lower and upper must have size nq");
-  if (!(alpha > 0.0) || !(delta > 0.0) || !(sigma > 0.0))
-    throw std::invalid_argument("alpha, delta and sigma must be positive");
+    raise_invalid("start, goal, lower and upper must have size nq = " + std::to_string(d));
+  if (!start.allFinite() || !goal.allFinite() || !lower.allFinite() || !upper.allFinite())
+    raise_invalid("start, goal, lower and upper must be finite");
+  if (!(lower.array() <= upper.array()).all()) raise_invalid("lower must be <= upper");
+  if (!(alpha > 0.0) || !(delta > 0.0) || !(sigma > 0.0) || !std::isfinite(alpha) ||
+      !std::isfinite(delta) || !std::isfinite(sigma) || std::isnan(delta_c))
+    raise_invalid("alpha, delta and sigma must be finite and > 0, delta_c not NaN");
   if (!(trapped >= 0.0 && trapped <= 1.0) || !(local >= 0.0 && local <= 1.0))
-    throw std::invalid_argument("local and trapped must be probabilities");
+    raise_invalid("local and trapped must be probabilities (in [0, 1])");
+  if (max_iterations < 0) raise_invalid("max_iterations must be >= 0");
+  if (std::isnan(time_limit)) raise_invalid("time_limit must not be NaN (negative: no limit)");
+  // Every line is cut into at most diameter / min(alpha, delta) pieces: keep them countable
+  // by an int (and the check patterns in memory).
+  const double diameter = (upper - lower).norm();
+  const double cap = std::ldexp(1.0, 30);
+  if (diameter / std::min(alpha, delta) > cap || std::max(delta_c, delta) / delta > cap ||
+      alpha / delta > cap)
+    raise_invalid("alpha and delta are too small for the bounds: a line of the space would "
+                  "need more than 2^30 steps or checks");
   RRTConnect planner(ck, lower, upper, alpha, delta, std::max(delta, delta_c), local, sigma,
                      trapped, static_cast<std::uint64_t>(seed));
-  planner.run(start, goal, max_iterations, time_limit);
+  {
+    std::unique_lock<std::timed_mutex> lock = lock_with_gil(ck.mutex());
+    GilRelease gil;
+    planner.run(start, goal, max_iterations, time_limit, &gil);
+  }
+  if (planner.interrupted) bp::throw_error_already_set();
   const Result& r = planner.res;
   return bp::make_tuple(r.status, rows_matrix(r.path, static_cast<int>(d)), r.iterations,
                         r.edge_checks, r.rejections, r.removed, r.trapped_turns,

@@ -8,7 +8,7 @@ import numpy as np
 
 from taskspace._validation import FloatArray, as_vector, check_positive
 from taskspace.constraints.constraint import Constraint
-from taskspace.errors import InvalidInputError
+from taskspace.errors import InvalidInputError, ShapeError
 from taskspace.qp.problem import INF
 
 if TYPE_CHECKING:
@@ -21,6 +21,25 @@ def _as_slice(indices: np.ndarray) -> slice | None:
     if indices.size and np.all(np.diff(indices) == 1):
         return slice(int(indices[0]), int(indices[-1]) + 1)
     return None
+
+
+def _positive_limits(limits: Any, size: int) -> FloatArray:
+    """``limits`` as a float vector of ``size`` entries in ``(0, inf]`` (inf: unlimited)."""
+    raw = np.asarray(limits) if not isinstance(limits, np.ndarray) else limits
+    if raw.dtype.kind not in "biuf":
+        raise InvalidInputError(
+            f"velocity limits must be real numbers (inf where unlimited), got dtype {raw.dtype}"
+        )
+    lim = raw.astype(np.float64)
+    if lim.shape != (size,):
+        raise ShapeError("limits", (size,), lim.shape)
+    bad = np.flatnonzero(~(lim > 0))
+    if bad.size:
+        raise InvalidInputError(
+            f"velocity limits must be > 0 (inf where unlimited); entries {bad.tolist()} are "
+            f"{lim[bad].tolist()}"
+        )
+    return lim
 
 
 class JointPositionLimits(Constraint):
@@ -90,8 +109,8 @@ class JointVelocityLimits(Constraint):
 
     Args:
         robot: the robot.
-        limits: per-joint velocity limits (size nv) [rad/s or m/s]; default the model's
-            (the floating base is unlimited).
+        limits: per-joint velocity limits (size nv) [rad/s or m/s], ``inf`` where
+            unlimited; default ``robot.velocity_limits`` (the floating base is unlimited).
         scale: factor applied to the limits.
     """
 
@@ -99,9 +118,7 @@ class JointVelocityLimits(Constraint):
 
     def __init__(self, robot: Robot, limits: Any = None, scale: float = 1.0) -> None:
         super().__init__(robot, "joint velocity limits")
-        lim = robot.velocity_limits if limits is None else as_vector(limits, robot.nv, "limits")
-        if np.any(lim <= 0):
-            raise InvalidInputError("velocity limits must be > 0")
+        lim = robot.velocity_limits if limits is None else _positive_limits(limits, robot.nv)
         self.limits = lim * check_positive(scale, "scale")
         self._dt = -1.0
         self._box: tuple[FloatArray, FloatArray] = (self.limits, self.limits)

@@ -4,6 +4,13 @@ Slides 5:5-5:35 and the control-theory chapter of the lecture notes. The inverse
 QP (torque limits, contacts) lives in :mod:`taskspace.control.inverse_dynamics_qp`.
 """
 
+from taskspace.control.adaptive import (
+    AdaptiveOptions,
+    AdaptivePendulumController,
+    AdaptiveSimulation,
+    ReferenceModel,
+    simulate_adaptive_pendulum,
+)
 from taskspace.control.computed_torque import (
     ComputedTorqueController,
     JointPDController,
@@ -36,6 +43,14 @@ from taskspace.control.lyapunov import (
     solve_discrete_lyapunov,
     solve_lyapunov,
 )
+from taskspace.control.observability import (
+    KalmanDecomposition,
+    ObservabilityResult,
+    is_observable,
+    kalman_decomposition,
+    observability,
+    observability_matrix,
+)
 from taskspace.control.operational_space import (
     OperationalSpaceController,
     OperationalSpaceOptions,
@@ -55,6 +70,15 @@ from taskspace.control.point_mass import (
     point_mass_pid_matrix,
     point_mass_robot,
     underdamped_response,
+)
+from taskspace.control.pole_placement import (
+    PolePlacementMethod,
+    PolePlacementOptions,
+    PolePlacementResult,
+    acker,
+    observer_gain,
+    place,
+    place_poles,
 )
 from taskspace.control.reference import (
     ConstantReference,
@@ -77,6 +101,9 @@ from taskspace.control.stability import StabilityResult, is_stable, stability
 from taskspace.control.state_feedback import StateFeedbackController
 
 __all__ = [
+    "AdaptiveOptions",
+    "AdaptivePendulumController",
+    "AdaptiveSimulation",
     "ComputedTorqueController",
     "ConstantReference",
     "ContactRollout",
@@ -89,11 +116,13 @@ __all__ = [
     "InverseDynamicsStatus",
     "JointPDController",
     "JointReference",
+    "KalmanDecomposition",
     "LQROptions",
     "LQRResult",
     "LQRStatus",
     "LinearizedSystem",
     "LyapunovCertificate",
+    "ObservabilityResult",
     "OperationalSpaceController",
     "OperationalSpaceOptions",
     "OperationalSpaceResult",
@@ -102,6 +131,10 @@ __all__ = [
     "PIDGains",
     "PIDOptions",
     "PointMassResponse",
+    "PolePlacementMethod",
+    "PolePlacementOptions",
+    "PolePlacementResult",
+    "ReferenceModel",
     "ReferencePoint",
     "RiccatiMethod",
     "RiccatiOptions",
@@ -111,6 +144,7 @@ __all__ = [
     "SinusoidalReference",
     "StabilityResult",
     "StateFeedbackController",
+    "acker",
     "care_residual",
     "controllability",
     "controllability_matrix",
@@ -121,15 +155,23 @@ __all__ = [
     "dlqr",
     "gains_from_wavelength",
     "is_controllable",
+    "is_observable",
     "is_stable",
+    "kalman_decomposition",
     "linearize",
     "lqr",
     "lyapunov_check",
+    "observability",
+    "observability_matrix",
+    "observer_gain",
     "operational_space_control",
     "overdamped_response",
     "pd_response",
+    "place",
+    "place_poles",
     "point_mass_pid_matrix",
     "point_mass_robot",
+    "simulate_adaptive_pendulum",
     "simulate_with_contacts",
     "solve_continuous_riccati",
     "solve_discrete_lyapunov",

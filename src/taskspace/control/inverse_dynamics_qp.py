@@ -5,7 +5,7 @@ Slides 5:31-5:35.
 Decision variables ``x = (a, f)``: joint accelerations and contact forces. Torques are
 eliminated, ``tau = S (M a + h - J_c^T f)``, so the problem reads
 
-``min  sum_i rho_i |J_i a + Jdot_i v - y''_i*|^2 + lambda_a |a|^2 + lambda_f |f|^2``
+``min  sum_i rho_i |J_i a + Jdot_i v - y''_i*|^2 + lambda_a |a|^2 + lambda_f |W f|^2 / (m g)^2``
 ``s.t. (M a + h - J_c^T f)_u = 0``            (unactuated rows: floating base, passive joints)
 ``     J_c a + Jdot_c v = -kd J_c v (- kp e_c)``  (rigid contacts)
 ``     K f >= k``                                (linearized friction cones, CoP)
@@ -82,9 +82,16 @@ class InverseDynamicsOptions:
     """Settings of :class:`InverseDynamicsQP`.
 
     Attributes:
-        acceleration_regularization: ``lambda_a``.
-        force_regularization: ``lambda_f`` [1/N^2] (torques of 6-D contacts are weighted by
-            the inverse squared sole half-sizes, see ``Contact6D.regularization_weights``).
+        acceleration_regularization: ``lambda_a`` [s^4/rad^2].
+        force_regularization: ``lambda_f``, relative to the robot's weight: the cost is
+            ``lambda_f |W f|^2 / (m g)^2`` with ``m g`` the robot's weight [N] and ``W`` the
+            contacts' relative weights (torques of 6-D contacts weighted by the inverse
+            squared sole half-sizes, see ``Contact6D.regularization_weights``). The term only
+            makes the split of forces between redundant contacts unique; it pulls the forces
+            toward zero, against gravity, so it must stay small next to the task costs: a
+            standing robot carries its weight at a cost ``lambda_f``, and the QP gives up a
+            task acceleration error (a CoM offset of that error over ``kp``) to save it. The
+            relative weight keeps that trade negligible on every robot, light or heavy.
         torque_limits: enforce ``|tau| <= effort limits``.
         joint_limits: bound accelerations so joints stop within their position and
             velocity limits over ``limits_horizon``.
@@ -174,8 +181,12 @@ class InverseDynamicsQP:
             self._cone_l[r : r + K.shape[0]] = k
             r += K.shape[0]
             col += c.force_dim
+        weight = pin.computeTotalMass(robot.model) * float(
+            np.linalg.norm(robot.model.gravity.linear)
+        )
         force_weights = (
             np.concatenate([c.regularization_weights() for c in self.contacts])
+            / max(weight, 1e-9) ** 2
             if self.contacts
             else np.zeros(0)
         )

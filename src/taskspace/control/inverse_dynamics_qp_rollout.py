@@ -2,9 +2,13 @@
 
 Forward dynamics with bilateral rigid contacts through Pinocchio's ``constraintDynamics``
 (contact forces as Lagrange multipliers, Baumgarte stabilization), semi-implicit Euler on the
-configuration manifold. Contacts are bilateral in the simulator: the rollout records the
-simulated contact forces so that a test can check that they stay unilateral and inside the
-friction cone (a foot that would lift or slip shows up there).
+configuration manifold. A contact is 6-D (a flat foot welded to the ground: wrench in the
+contact frame) or 3-D (a point foot: force in world-aligned axes, free to rotate). Contacts
+are bilateral in the simulator: the rollout records the simulated contact forces and, for
+contacts given as :class:`~taskspace.constraints.contact.Contact` objects, checks them against
+their linearized friction cones ``K f >= k`` (a foot that would lift or slip shows up as a
+violation in ``ContactRollout.cone_violations``, or as a :class:`ContactViolationError` with
+``raise_on_violation``).
 """
 
 from __future__ import annotations
@@ -17,8 +21,33 @@ import numpy as np
 import pinocchio as pin
 
 from taskspace._validation import FloatArray, check_positive
-from taskspace.errors import InvalidInputError
+from taskspace.constraints.contact import Contact, PointContact
+from taskspace.errors import InvalidInputError, TaskspaceError
 from taskspace.model.robot import Robot
+
+
+class ContactViolationError(TaskspaceError):
+    """A simulated contact force left its friction cone (the foot would lift or slip).
+
+    Attributes:
+        rollout: the rollout up to and including the offending step.
+        contact: frame name of the contact.
+        time: time of the violation [s].
+        violation: largest ``k - K f`` at that time [N].
+    """
+
+    def __init__(self, rollout: ContactRollout, contact: str, time: float, violation: float):
+        super().__init__(
+            f"contact '{contact}' left its friction cone at t = {time:.3f} s by {violation:.3g} N "
+            "(the foot would lift or slip): lower the task gains, raise the friction "
+            "coefficient or the contacts' min_force, or pass raise_on_violation=False to "
+            "record the violations in ContactRollout.cone_violations"
+        )
+        self.rollout = rollout
+        self.contact = contact
+        self.time = time
+        self.violation = violation
+
 
 Controller = Callable[[float, FloatArray, FloatArray], FloatArray]
 """``tau = controller(t, q, v)`` (size nv)."""
@@ -33,8 +62,11 @@ class ContactRollout:
         q: configurations (N, nq).
         v: velocities (N, nv).
         tau: applied torques (N, nv).
-        forces: per contact frame, simulated wrenches in the contact frame (N, 6).
+        forces: per contact frame, simulated forces: (N, 6) wrenches in the contact frame
+            for 6-D contacts, (N, 3) forces in world-aligned axes for point contacts [N, N m].
         com: center of mass (N, 3) [m].
+        cone_violations: per contact given as a ``Contact``, the largest violation of its
+            cone ``max_t max(k - K f(t))`` [N] (<= 0 when the forces stay inside).
     """
 
     t: FloatArray
@@ -43,6 +75,12 @@ class ContactRollout:
     tau: FloatArray
     forces: dict[str, FloatArray] = field(default_factory=dict)
     com: FloatArray = field(default_factory=lambda: np.zeros((0, 3)))
+    cone_violations: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def inside_cones(self) -> bool:
+        """Whether every checked contact force stayed inside its cone (to 1e-6 N)."""
+        return all(v <= 1e-6 for v in self.cone_violations.values())
 
 
 def simulate_with_contacts(
@@ -52,11 +90,12 @@ def simulate_with_contacts(
     v0: Any,
     duration: float,
     dt: float,
-    contact_frames: Sequence[str],
+    contact_frames: Sequence[str | Contact],
     *,
     baumgarte: tuple[float, float] = (0.0, 20.0),
+    raise_on_violation: bool = False,
 ) -> ContactRollout:
-    """Simulate ``duration`` [s] with 6-D rigid contacts at ``contact_frames``.
+    """Simulate ``duration`` [s] with rigid contacts at ``contact_frames``.
 
     Args:
         robot: the robot.
@@ -64,8 +103,14 @@ def simulate_with_contacts(
         q0, v0: initial state.
         duration: simulated time [s].
         dt: time step [s].
-        contact_frames: frames held by 6-D contacts (anchored where they start).
+        contact_frames: the contacts, anchored where they start: a frame name (a 6-D
+            contact), or a :class:`~taskspace.constraints.contact.Contact` (a
+            :class:`~taskspace.constraints.contact.PointContact` is simulated as a 3-D point
+            contact, any other as 6-D), whose friction cone is then checked at every step.
         baumgarte: (Kp, Kd) of the contact drift stabilization.
+        raise_on_violation: raise :class:`ContactViolationError` as soon as a checked contact
+            force leaves its cone by more than 1e-6 N (default: record it in
+            ``ContactRollout.cone_violations``).
     """
     check_positive(duration, "duration")
     check_positive(dt, "dt")
@@ -73,25 +118,44 @@ def simulate_with_contacts(
     data = model.createData()
     q = robot.check_configuration(q0, "q0")
     v = robot.check_velocity(v0, "v0")
+    contacts: list[tuple[str, Contact | None]] = []
+    for item in contact_frames:
+        if isinstance(item, Contact):
+            if item.robot is not robot:
+                raise InvalidInputError(f"contact '{item.name}' is defined on another robot")
+            contacts.append((item.frame, item))
+        elif isinstance(item, str):
+            contacts.append((item, None))
+        else:
+            raise InvalidInputError(
+                "contact_frames takes frame names (6-D contacts) or Contact objects "
+                f"(Contact6D, PointContact), got {type(item).__name__}"
+            )
+    names = [name for name, _ in contacts]
+    if len(set(names)) != len(names):
+        raise InvalidInputError(f"a frame is held by two contacts: {names}")
     pin.framesForwardKinematics(model, data, q)
     models = []
-    for name in contact_frames:
+    dims = []
+    for name, contact in contacts:
         fid = robot.frame_id(name)
         frame = model.frames[fid]
+        point = isinstance(contact, PointContact)
         cm = pin.RigidConstraintModel(
-            pin.ContactType.CONTACT_6D,
+            pin.ContactType.CONTACT_3D if point else pin.ContactType.CONTACT_6D,
             model,
             frame.parentJoint,
             frame.placement,
             0,
             data.oMf[fid],
-            pin.LOCAL,
+            pin.LOCAL_WORLD_ALIGNED if point else pin.LOCAL,
         )
         params = cm.m_baumgarte_parameters
         params.Kp = baumgarte[0]
         params.Kd = baumgarte[1]
         cm.setBaumgarteCorrectorParameters(params)
         models.append(cm)
+        dims.append(3 if point else 6)
     cmodels = pin.StdVec_RigidConstraintModel()
     for cm in models:
         cmodels.append(cm)
@@ -105,8 +169,11 @@ def simulate_with_contacts(
     Q = np.zeros((steps + 1, model.nq))
     V = np.zeros((steps + 1, model.nv))
     TAU = np.zeros((steps + 1, model.nv))
-    F = {name: np.zeros((steps + 1, 6)) for name in contact_frames}
+    F = {name: np.zeros((steps + 1, d)) for name, d in zip(names, dims)}
     COM = np.zeros((steps + 1, 3))
+    offsets = np.concatenate([[0], np.cumsum(dims)]).astype(int)
+    cones = {name: c.cone() for name, c in contacts if c is not None}
+    worst = {name: -np.inf for name in cones}
     for k in range(steps + 1):
         tau = np.asarray(controller(float(ts[k]), q, v), dtype=float)
         if tau.shape != (model.nv,) or not np.all(np.isfinite(tau)):
@@ -116,10 +183,24 @@ def simulate_with_contacts(
         a = pin.constraintDynamics(model, data, q, v, tau, cmodels, cdatas, settings)
         Q[k], V[k], TAU[k] = q, v, tau
         lam = np.asarray(data.lambda_c)
-        for i, name in enumerate(contact_frames):
-            F[name][k] = lam[6 * i : 6 * i + 6]
+        for i, name in enumerate(names):
+            F[name][k] = lam[offsets[i] : offsets[i + 1]]
         COM[k] = pin.centerOfMass(model, data, q, False)
+        for name, (K, kk) in cones.items():
+            violation = float((kk - K.dot(F[name][k])).max())
+            worst[name] = max(worst[name], violation)
+            if raise_on_violation and violation > 1e-6:
+                partial = ContactRollout(
+                    ts[: k + 1],
+                    Q[: k + 1],
+                    V[: k + 1],
+                    TAU[: k + 1],
+                    {n: f[: k + 1] for n, f in F.items()},
+                    COM[: k + 1],
+                    dict(worst),
+                )
+                raise ContactViolationError(partial, name, float(ts[k]), violation)
         if k < steps:
             v = v + dt * np.asarray(a)
             q = pin.integrate(model, q, v * dt)
-    return ContactRollout(ts, Q, V, TAU, F, COM)
+    return ContactRollout(ts, Q, V, TAU, F, COM, worst)

@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from taskspace._validation import FloatArray
+from taskspace._validation import FloatArray, as_matrix
 from taskspace.control._linear import symmetric_psd, system
 from taskspace.control.controllability import controllability
 from taskspace.control.riccati import (
@@ -148,10 +148,22 @@ def lqr(
     return _result(A, B, K, ric, False, t0)
 
 
-def dlqr(A: Any, B: Any, Q: Any, R: Any, options: LQROptions | None = None) -> LQRResult:
-    """Discrete-time LQR gain ``K = (R + B^T P B)^-1 B^T P A`` (``u_k = -K x_k``).
+def dlqr(
+    A: Any, B: Any, Q: Any, R: Any, options: LQROptions | None = None, *, N: Any = None
+) -> LQRResult:
+    """Discrete-time LQR gain ``K = (R + B^T P B)^-1 (B^T P A + N^T)`` (``u_k = -K x_k``).
 
-    Args and raises as :func:`lqr`.
+    With a cross term the stage cost is ``x^T Q x + u^T R u + 2 x^T N u``; substituting
+    ``u = v - R^-1 N^T x`` removes it: the DARE is solved for ``A - B R^-1 N^T`` and
+    ``Q - N R^-1 N^T`` (which must be positive semidefinite, i.e. ``[[Q, N], [N^T, R]] >= 0``).
+
+    Args:
+        A, B, Q, R, options: as :func:`lqr`.
+        N: cross weight (n x m); ``None`` is zero.
+
+    Raises:
+        InvalidInputError: as :func:`lqr`, or ``[[Q, N], [N^T, R]]`` not positive semidefinite.
+        SolverError: no stabilizing Riccati solution.
     """
     options = options or LQROptions()
     t0 = time.perf_counter()
@@ -160,7 +172,23 @@ def dlqr(A: Any, B: Any, Q: Any, R: Any, options: LQROptions | None = None) -> L
     Q = symmetric_psd(Q, "Q", n, definite=False)
     R = symmetric_psd(R, "R", m, definite=True)
     _check_pair(A, B, options, discrete=True)
-    ric = solve_discrete_riccati(A, B, Q, R, options.riccati)
+    if N is None:
+        ric = solve_discrete_riccati(A, B, Q, R, options.riccati)
+        P = ric.P
+        K = np.linalg.solve(R + B.T @ P @ B, B.T @ P @ A)
+        return _result(A, B, K, ric, True, t0)
+    N_arr = np.asarray(N, dtype=float)
+    N = as_matrix(N_arr[:, None] if N_arr.ndim == 1 else N_arr, (n, m), "N")
+    RinvNt = np.linalg.solve(R, N.T)
+    Qbar = Q - N @ RinvNt
+    Qbar = 0.5 * (Qbar + Qbar.T)
+    eig_min = float(np.min(np.linalg.eigvalsh(Qbar))) if n else 0.0
+    if eig_min < -1e-10 * max(1.0, float(np.max(np.abs(Q)))):
+        raise InvalidInputError(
+            "the stage cost [[Q, N], [N^T, R]] must be positive semidefinite: Q - N R^-1 N^T "
+            f"has the eigenvalue {eig_min:.3g}; reduce N or increase Q"
+        )
+    ric = solve_discrete_riccati(A - B @ RinvNt, B, Qbar, R, options.riccati)
     P = ric.P
-    K = np.linalg.solve(R + B.T @ P @ B, B.T @ P @ A)
+    K = np.linalg.solve(R + B.T @ P @ B, B.T @ P @ A + N.T)
     return _result(A, B, K, ric, True, t0)

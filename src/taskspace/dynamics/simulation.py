@@ -14,6 +14,7 @@ from __future__ import annotations
 import enum
 import logging
 import math
+import os
 import sys
 import time
 from collections.abc import Callable
@@ -32,6 +33,9 @@ if TYPE_CHECKING:
     from taskspace.model.robot import Robot
 
 logger = logging.getLogger(__name__)
+
+MAX_RECORD_BYTES = 1 << 36
+"""Largest record :func:`simulate` allocates [bytes] (64 GiB), below half the free memory."""
 
 Controller = Callable[[float, FloatArray, FloatArray], Any]
 """Controller protocol: ``tau = controller(t, q, v)``, torques of size nv [N m, N]."""
@@ -155,6 +159,54 @@ def _integrator(value: Integrator | str) -> Integrator:
         ) from None
 
 
+def available_memory_bytes() -> int | None:
+    """Memory the process may still allocate [bytes], ``None`` when the platform does not tell.
+
+    ``MemAvailable`` of ``/proc/meminfo`` (else ``sysconf``), capped by a cgroup v2
+    ``memory.max``.
+    """
+    available: int | None = None
+    try:
+        with open("/proc/meminfo", encoding="ascii") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    available = int(line.split()[1]) * 1024
+                    break
+    except (OSError, ValueError, IndexError):
+        available = None
+    if available is None:
+        try:
+            available = os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+        except (AttributeError, OSError, ValueError):
+            return None
+    try:
+        with open("/sys/fs/cgroup/memory.max", encoding="ascii") as f:
+            limit = f.read().strip()
+        with open("/sys/fs/cgroup/memory.current", encoding="ascii") as f:
+            used = int(f.read().strip())
+        if limit != "max":
+            available = min(available, max(0, int(limit) - used))
+    except (OSError, ValueError):
+        pass
+    return available
+
+
+def _check_record_size(n_steps: int, nq: int, nv: int, T: float, dt: float) -> None:
+    """Raise before allocating a record that would not fit in half the available memory."""
+    row = 8 * (nq + 3 * nv + 3)  # t, q, v, a, tau, kinetic and potential energy
+    needed = (n_steps + 1) * row
+    available = available_memory_bytes()
+    budget = MAX_RECORD_BYTES if available is None else min(MAX_RECORD_BYTES, available // 2)
+    if needed > budget:
+        raise InvalidInputError(
+            f"simulate(T={T:g}, dt={dt:g}) would record {n_steps + 1:,} samples "
+            f"({needed / 1e9:.3g} GB) but the budget is {budget / 1e9:.3g} GB (half the "
+            "available memory, at most "
+            f"{MAX_RECORD_BYTES / 2**30:g} GiB); shorten T, increase dt, or run several shorter "
+            "simulations from the last state"
+        )
+
+
 def _show_progress(options: SimulationOptions, steps: int) -> bool:
     if options.progress is not None:
         return bool(options.progress)
@@ -176,7 +228,7 @@ def simulate(
         controller: ``tau = controller(t, q, v)`` returning nv torques [N m, N]; ``None`` for
             a passive run (zero torque).
         x0: initial state, ``(q0, v0)`` or the concatenated vector of size nq + nv.
-        T: duration [s] (> 0); the run has ``N = round(T / dt)`` steps.
+        T: duration [s] (> 0, finite); the run has ``N = round(T / dt)`` steps.
         dt: time step [s] (> 0, <= T).
         options: see :class:`SimulationOptions`.
 
@@ -185,7 +237,10 @@ def simulate(
         diverged: ``success=False``, ``status=DIVERGED``).
 
     Raises:
-        InvalidInputError: bad ``T``, ``dt``, controller, integrator or initial state.
+        InvalidInputError: bad ``T``, ``dt``, controller, integrator or initial state; a
+            record (``N + 1`` rows of ``t, q, v, a, tau`` and energies) that would need more
+            than half the available memory (checked before allocating).
+        KeyboardInterrupt: Ctrl-C stops a long run between two steps.
         ShapeError, NotFiniteError: the controller returned a wrong-size or non-finite torque.
     """
     options = options or SimulationOptions()
@@ -202,6 +257,7 @@ def simulate(
     q, v = _initial_state(robot, x0)
     n_steps = max(1, round(T / dt))
     nq, nv = robot.nq, robot.nv
+    _check_record_size(n_steps, nq, nv, T, dt)
     model = robot.model
     dynamics = ForwardDynamics(robot, options.friction)
     energy_data = model.createData()

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from taskspace.estimation.angles import angle_mean, angle_residual
 from taskspace.estimation.batch_kalman_filter import BatchKalmanFilter
 from taskspace.estimation.consistency import chi2_bounds, nees
 from taskspace.estimation.constant_velocity_filter import (
@@ -24,6 +25,7 @@ from taskspace.estimation.motion_models import (
 from taskspace.estimation.observation_models import PositionModel, RangeBearingModel
 from taskspace.estimation.particle_filter import ParticleFilter, ParticleFilterOptions
 from taskspace.estimation.pose_graph import PoseGraph, PoseGraphOptions, optimize_pose_graph
+from taskspace.estimation.process_noise import continuous_white_noise, discrete_white_noise
 from taskspace.estimation.resampling import effective_sample_size
 from taskspace.estimation.rts_smoother import rts_smooth
 from taskspace.estimation.unscented_kalman_filter import UnscentedKalmanFilter, UnscentedOptions
@@ -54,8 +56,12 @@ __all__ = [
     "UnscentedKalmanFilter",
     "UnscentedOptions",
     "VelocityMotionModel",
+    "angle_mean",
+    "angle_residual",
     "chi2_bounds",
     "constant_velocity_model",
+    "continuous_white_noise",
+    "discrete_white_noise",
     "effective_sample_size",
     "gaussian_product",
     "gaussian_propagation",

@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from taskspace._validation import FloatArray
+from taskspace._validation import FloatArray, as_float_array
 from taskspace.errors import InvalidInputError, NotFiniteError, ShapeError
 
 _SYM_RTOL = 1e-8
@@ -37,10 +37,7 @@ def as_covariance(
         NotFiniteError: if ``x`` has NaN or inf entries.
         InvalidInputError: if ``x`` is not symmetric or not positive (semi-)definite.
     """
-    try:
-        arr = np.asarray(x, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise InvalidInputError(f"{name} must be an array of numbers: {exc}") from exc
+    arr = as_float_array(x, name)
     if arr.ndim == 0 and size == 1:
         arr = arr.reshape(1, 1)
     if arr.ndim != 2 or arr.shape[0] != arr.shape[1] or (size is not None and arr.shape[0] != size):

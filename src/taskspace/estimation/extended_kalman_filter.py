@@ -13,14 +13,22 @@ On a linear model (``f = F x + B u``, ``h = H x``) it is exactly the Kalman filt
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
 
-from taskspace._validation import FloatArray, as_vector
-from taskspace.errors import InvalidInputError, ShapeError
+from taskspace._validation import FloatArray
+from taskspace.errors import InvalidInputError
+from taskspace.estimation._inputs import (
+    as_measurement,
+    as_noise_covariance,
+    as_state,
+    model_output,
+)
+from taskspace.estimation.angles import subtract
 from taskspace.estimation.covariance import as_covariance
 from taskspace.estimation.filter_result import FilterResult
 from taskspace.estimation.kalman_filter import (
@@ -34,8 +42,10 @@ MeasFn = Callable[[FloatArray], FloatArray]
 Residual = Callable[[FloatArray, FloatArray], FloatArray]
 
 
-def _subtract(a: FloatArray, b: FloatArray) -> FloatArray:
-    return a - b
+def _length(value: Any) -> int:
+    """Length of a model output (a vector, a column or a scalar)."""
+    shape = np.shape(value)
+    return 1 if not shape else int(shape[0])
 
 
 class ExtendedKalmanFilter:
@@ -70,13 +80,27 @@ class ExtendedKalmanFilter:
         state_normalize: Callable[[FloatArray], FloatArray] | None = None,
         options: KalmanFilterOptions | None = None,
     ) -> None:
-        self.x = as_vector(x0, None, "x0")
+        self.x = as_state(x0, None, "x0")
         n = self.x.shape[0]
         self.P = as_covariance(P0, n, "P0")
         self.Q = as_covariance(Q, n, "Q")
-        self.R = as_covariance(R, None, "R", positive_definite=True)
+        self.R = as_noise_covariance(R, None, "R")
+        for label, fn in (
+            ("f", f),
+            ("F_jacobian", F_jacobian),
+            ("h", h),
+            ("H_jacobian", H_jacobian),
+            ("residual", residual),
+            ("state_normalize", state_normalize),
+        ):
+            if fn is not None and not callable(fn):
+                raise InvalidInputError(f"{label} must be a function, got {type(fn).__name__}")
+        if options is not None and not isinstance(options, KalmanFilterOptions):
+            raise InvalidInputError(
+                f"options must be a KalmanFilterOptions, got {type(options).__name__}"
+            )
         self.f, self.F_jacobian, self.h, self.H_jacobian = f, F_jacobian, h, H_jacobian
-        self.residual = residual or _subtract
+        self.residual = residual or subtract
         self.state_normalize = state_normalize
         self.options = options or KalmanFilterOptions()
         self.dim_x = n
@@ -85,31 +109,73 @@ class ExtendedKalmanFilter:
         self._last_ll = 0.0
 
     def predict(self, u: Any = None) -> None:
-        """``x = f(x, u)``, ``P = F P F^T + Q`` with ``F = df/dx`` at the prior mean."""
+        """``x = f(x, u)``, ``P = F P F^T + Q`` with ``F = df/dx`` at the prior mean.
+
+        Raises:
+            ShapeError, InvalidInputError: ``f`` or ``F_jacobian`` returned a wrong shape or
+                non-finite values (the belief is left unchanged).
+        """
         n = self.dim_x
-        F = np.asarray(self.F_jacobian(self.x, u), dtype=np.float64)
-        if F.shape != (n, n):
-            raise ShapeError("F_jacobian output", (n, n), tuple(F.shape))
-        x = np.asarray(self.f(self.x, u), dtype=np.float64)
-        if x.shape != (n,):
-            raise ShapeError("f output", (n,), tuple(x.shape))
+        F = model_output(self.F_jacobian(self.x, u), (n, n), "F_jacobian")
+        x = model_output(self.f(self.x, u), (n,), "f")
         if self.state_normalize is not None:
-            x = self.state_normalize(x)
+            x = model_output(self.state_normalize(x), (n,), "state_normalize")
         P = F @ self.P @ F.T + self.Q
         self.x, self.P, self._last_F = x, 0.5 * (P + P.T), F
 
-    def update(self, z: Any) -> float:
-        """Condition on ``z`` with ``H = dh/dx`` at the predicted mean; returns the NIS."""
-        zv = as_vector(z, self.dim_z, "z")
-        H = np.asarray(self.H_jacobian(self.x), dtype=np.float64)
-        if H.shape != (self.dim_z, self.dim_x):
-            raise ShapeError("H_jacobian output", (self.dim_z, self.dim_x), tuple(H.shape))
-        r = np.asarray(self.residual(zv, np.asarray(self.h(self.x), dtype=np.float64)))
-        self.x, self.P, nis, self._last_ll = kalman_update(
-            self.x, self.P, r, H, self.R, joseph_form=self.options.joseph_form
+    def update(
+        self,
+        z: Any,
+        R: Any | None = None,
+        *,
+        h: MeasFn | None = None,
+        H_jacobian: MeasFn | None = None,
+        residual: Residual | None = None,
+    ) -> float:
+        """Condition on ``z`` with ``H = dh/dx`` at the predicted mean; returns the NIS.
+
+        Args:
+            z: measurement ``(m,)``, a column ``(m, 1)``, a scalar when ``m == 1``, or
+                ``None`` (no measurement: the belief is unchanged and the NIS is NaN).
+            R: noise covariance of this measurement only (``(m, m)`` or a scalar ``r`` for
+                ``r I``); required when ``h`` gives another size than the filter's ``R``.
+            h, H_jacobian: measurement model of this measurement only (both or neither);
+                e.g. a second sensor.
+            residual: ``residual(z, z_hat)`` of this measurement only (e.g. bearings:
+                :func:`~taskspace.estimation.angle_residual`).
+
+        Raises:
+            ShapeError, InvalidInputError: a wrong size, or a model returned non-finite
+                values (the belief is left unchanged).
+        """
+        if z is None:
+            return math.nan
+        if (h is None) != (H_jacobian is None):
+            raise InvalidInputError("pass both h and H_jacobian for a per-call measurement model")
+        h_fn = self.h if h is None else h
+        H_fn = self.H_jacobian if H_jacobian is None else H_jacobian
+        res_fn = self.residual if residual is None else residual
+        raw = h_fn(self.x)
+        zhat = model_output(raw, (_length(raw),), "h")
+        m = zhat.shape[0]
+        if R is None:
+            if m != self.dim_z:
+                raise InvalidInputError(
+                    f"h returns {m} values but the filter's R is {self.dim_z} x {self.dim_z}: "
+                    "pass the noise covariance R of this measurement"
+                )
+            Rm = self.R
+        else:
+            Rm = as_noise_covariance(R, m, "R")
+        zv = as_measurement(z, m, "z")
+        H = model_output(H_fn(self.x), (m, self.dim_x), "H_jacobian")
+        r = model_output(res_fn(zv, zhat), (m,), "residual")
+        x, P, nis, ll = kalman_update(
+            self.x, self.P, r, H, Rm, joseph_form=self.options.joseph_form
         )
         if self.state_normalize is not None:
-            self.x = self.state_normalize(self.x)
+            x = model_output(self.state_normalize(x), (self.dim_x,), "state_normalize")
+        self.x, self.P, self._last_ll = x, P, ll
         return nis
 
     def run(

@@ -14,14 +14,15 @@ from __future__ import annotations
 import logging
 import math
 import time
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from taskspace._validation import FloatArray, as_matrix, as_vector
+from taskspace._validation import FloatArray, as_float_array, as_matrix
 from taskspace.errors import InvalidInputError, NotFiniteError, ShapeError, SolverError
+from taskspace.estimation._inputs import as_measurement, as_noise_covariance, as_state
 from taskspace.estimation.covariance import as_covariance
 from taskspace.estimation.filter_result import FilterResult, FilterStatus
 
@@ -143,10 +144,14 @@ class KalmanFilter:
         self.H = as_matrix(H, (None, n), "H")
         m = self.H.shape[0]
         self.Q = as_covariance(Q, n, "Q")
-        self.R = as_covariance(R, m, "R", positive_definite=True)
+        self.R = as_noise_covariance(R, m, "R")
         self.B = None if B is None else as_matrix(B, (n, None), "B")
+        if options is not None and not isinstance(options, KalmanFilterOptions):
+            raise InvalidInputError(
+                f"options must be a KalmanFilterOptions, got {type(options).__name__}"
+            )
         self.options = options or KalmanFilterOptions()
-        self.x = as_vector(x0, n, "x0")
+        self.x = as_state(x0, n, "x0")
         self.P = as_covariance(P0, n, "P0")
         self.dim_x = n
         self.dim_z = m
@@ -155,31 +160,51 @@ class KalmanFilter:
         """Propagate the belief one step: ``x = F x + B u``, ``P = F P F^T + Q``.
 
         Args:
-            u: optional ``(p,)`` control (requires ``B``).
+            u: optional ``(p,)`` control (requires ``B``); a scalar or a column ``(p, 1)``
+                is accepted.
         """
         Bu = None
         if u is not None:
             if self.B is None:
                 raise InvalidInputError("a control u was given but the filter has no B matrix")
-            Bu = self.B @ as_vector(u, self.B.shape[1], "u")
+            Bu = self.B @ as_measurement(u, self.B.shape[1], "u")
         self.x, self.P = kalman_predict(self.x, self.P, self.F, self.Q, Bu)
 
-    def update(self, z: Any) -> float:
+    def update(self, z: Any, R: Any | None = None, H: Any | None = None) -> float:
         """Condition the belief on a measurement ``z`` (product identity, slide 6:10).
 
         Args:
-            z: ``(m,)`` measurement.
+            z: ``(m,)`` measurement, a column ``(m, 1)``, a scalar when ``m == 1``, or
+                ``None`` (no measurement: the belief is left unchanged, NIS is NaN).
+            R: noise covariance of this measurement only (``(m, m)``, or a scalar ``r``
+                for ``r I``); default the filter's ``R``.
+            H: measurement matrix of this measurement only (``(m', n)``; then ``z`` has
+                ``m'`` entries and ``R`` must be given when ``m' != m``); default the
+                filter's ``H``.
 
         Returns:
-            The normalized innovation squared ``r^T S^-1 r``.
+            The normalized innovation squared ``r^T S^-1 r`` (NaN without a measurement).
         """
-        zv = as_vector(z, self.dim_z, "z")
+        if z is None:
+            return math.nan
+        Hm = self.H if H is None else as_matrix(H, (None, self.dim_x), "H")
+        m = Hm.shape[0]
+        if R is None:
+            if m != self.dim_z:
+                raise InvalidInputError(
+                    f"this H has {m} rows but the filter's R is {self.dim_z} x {self.dim_z}: pass "
+                    "the noise covariance R of this measurement too"
+                )
+            Rm = self.R
+        else:
+            Rm = as_noise_covariance(R, m, "R")
+        zv = as_measurement(z, m, "z")
         self.x, self.P, nis, _ = kalman_update(
             self.x,
             self.P,
-            zv - self.H @ self.x,
-            self.H,
-            self.R,
+            zv - Hm @ self.x,
+            Hm,
+            Rm,
             joseph_form=self.options.joseph_form,
         )
         return nis
@@ -245,19 +270,26 @@ class KalmanFilter:
 
 def _as_measurement_list(measurements: Any, m: int) -> list[FloatArray | None]:
     """Validate a measurement sequence; ``None`` entries mean 'no measurement'."""
-    if isinstance(measurements, np.ndarray):
-        arr = np.asarray(measurements, dtype=np.float64)
+    if isinstance(measurements, np.ndarray) and measurements.dtype != object:
+        arr = as_float_array(measurements, "measurements")
         if arr.ndim == 1 and m == 1:
             arr = arr[:, None]
+        if arr.ndim == 3 and arr.shape[2] == 1:  # a sequence of columns
+            arr = arr[:, :, 0]
         if arr.ndim != 2 or arr.shape[1] != m:
             raise ShapeError("measurements", (-1, m), tuple(arr.shape))
         if not np.all(np.isfinite(arr)):
             bad = np.flatnonzero(~np.all(np.isfinite(arr), axis=1))
             raise NotFiniteError("measurements", [int(i) for i in bad[:20]])
         return list(arr)
+    if isinstance(measurements, (str, bytes)) or not isinstance(measurements, Iterable):
+        raise InvalidInputError(
+            "measurements must be a (T, m) array or a sequence of measurements (or None), got "
+            f"{type(measurements).__name__}"
+        )
     out: list[FloatArray | None] = []
     for k, z in enumerate(measurements):
-        out.append(None if z is None else as_vector(z, m, f"measurements[{k}]"))
+        out.append(None if z is None else as_measurement(z, m, f"measurements[{k}]"))
     return out
 
 

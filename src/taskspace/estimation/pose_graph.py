@@ -27,7 +27,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from taskspace._validation import FloatArray
+from taskspace._validation import FloatArray, check_count
 from taskspace.errors import InvalidInputError, ShapeError
 from taskspace.estimation.motion_models import wrap_angle
 
@@ -125,9 +125,11 @@ class PoseGraphOptions:
 
     Attributes:
         method: ``"gauss_newton"`` or ``"levenberg_marquardt"``.
-        max_iterations: iteration limit.
+        max_iterations: limit on the linear solves (an integer >= 1; rejected damped steps
+            count).
         tolerance: stop when the relative cost decrease or the step norm is below this.
-        initial_lambda: initial LM damping (relative to the mean diagonal of ``J^T J``).
+        initial_lambda: initial LM damping (relative to the mean diagonal of ``J^T J``;
+            absolute when that mean is 0).
     """
 
     method: str = "levenberg_marquardt"
@@ -318,14 +320,28 @@ def optimize_pose_graph(
         The :class:`PoseGraphResult`.
 
     Raises:
-        InvalidInputError: malformed graph or unknown method.
+        InvalidInputError: malformed graph (also: several poses and no edge nor landmark
+            observation, so that nothing determines them), bad options or unknown method.
     """
     o = options or PoseGraphOptions()
     if o.method not in ("gauss_newton", "levenberg_marquardt"):
         from taskspace.errors import UnknownNameError
 
         raise UnknownNameError("method", o.method, ["gauss_newton", "levenberg_marquardt"])
+    max_iterations = check_count(o.max_iterations, "max_iterations", minimum=1)
+    for name in ("tolerance", "initial_lambda"):
+        value = getattr(o, name)
+        if isinstance(value, bool) or not isinstance(value, (int, float, np.floating)):
+            raise InvalidInputError(f"{name} must be a number >= 0, got {value!r}")
+        if not (np.isfinite(value) and value >= 0.0):
+            raise InvalidInputError(f"{name} must be finite and >= 0, got {value!r}")
     graph.validate()
+    if len(graph.poses) > 1 and not graph.edges and not graph.landmark_edges:
+        raise InvalidInputError(
+            f"the pose graph has {len(graph.poses)} poses but no edge and no landmark "
+            "observation: nothing determines the poses other than the fixed one; add "
+            "PoseEdge or LandmarkEdge factors"
+        )
     t0 = time.perf_counter()
     prob = _Problem(graph)
     X = np.array(graph.poses, dtype=np.float64)
@@ -338,14 +354,16 @@ def optimize_pose_graph(
     status = PoseGraphStatus.MAX_ITERATIONS
     message = ""
     it = 0
-    while it < o.max_iterations:
+    while it < max_iterations:
         J = prob.jacobian(X, Lm)
         Jt = J.T.tocsr()
         H = (Jt @ J).tocsc()
         g = Jt @ r
         diag = H.diagonal()
         if lam is None:
-            lam = o.initial_lambda * float(np.mean(diag)) if o.method != "gauss_newton" else 0.0
+            scale = float(np.mean(diag)) if diag.size else 0.0
+            scale = scale if np.isfinite(scale) and scale > 0.0 else 1.0
+            lam = o.initial_lambda * scale if o.method != "gauss_newton" else 0.0
         accepted = False
         while True:
             it += 1
@@ -363,10 +381,10 @@ def optimize_pose_graph(
                 dx = np.full(g.shape, np.nan)
                 logger.debug("pose-graph factorization failed: %s", exc)
             if not np.all(np.isfinite(dx)):
-                if o.method == "gauss_newton" or lam > 1e12:
+                if o.method == "gauss_newton" or lam > 1e12 or it >= max_iterations:
                     status, message = PoseGraphStatus.FAILED, "singular normal equations"
                     break
-                lam *= 10.0
+                lam = 10.0 * lam if lam > 0.0 else 1e-12  # damping 0 would stay 0
                 continue
             Xn, Ln = prob.retract(X, Lm, dx)
             rn = prob.residual(Xn, Ln)
@@ -374,8 +392,8 @@ def optimize_pose_graph(
             if cn <= cost or o.method == "gauss_newton":
                 accepted = True
                 break
-            lam *= 10.0
-            if lam > 1e12 or it >= o.max_iterations:
+            lam = 10.0 * lam if lam > 0.0 else 1e-12
+            if lam > 1e12 or it >= max_iterations:
                 break
         if status is PoseGraphStatus.FAILED:
             break

@@ -23,8 +23,15 @@ from typing import Any
 
 import numpy as np
 
-from taskspace._validation import FloatArray, as_vector
-from taskspace.errors import InvalidInputError, ShapeError, SolverError
+from taskspace._validation import FloatArray, as_scalar
+from taskspace.errors import InvalidInputError, SolverError
+from taskspace.estimation._inputs import (
+    as_measurement,
+    as_noise_covariance,
+    as_state,
+    model_output,
+)
+from taskspace.estimation.angles import MeanFn, subtract, weighted_mean
 from taskspace.estimation.covariance import as_covariance
 from taskspace.estimation.filter_result import FilterResult
 from taskspace.estimation.kalman_filter import _finish
@@ -80,6 +87,11 @@ def sigma_points(
 class UnscentedKalmanFilter:
     """Unscented Kalman filter (equations in the module docstring).
 
+    States or measurements holding angles need a residual and a mean that know the circle
+    (:func:`~taskspace.estimation.angle_residual`, :func:`~taskspace.estimation.angle_mean`):
+    with them ``d_i = residual_x(f(chi_i), x^-)``, ``e_i = residual(h(chi_i), z_hat)`` and the
+    means are ``mean_x(Y, W^m)``, ``mean_z(Z, W^m)``.
+
     Args:
         f: transition ``f(x, u) -> (n,)`` applied to each sigma point.
         h: measurement ``h(x) -> (m,)``.
@@ -88,6 +100,9 @@ class UnscentedKalmanFilter:
         x0: ``(n,)`` prior mean.
         P0: ``(n, n)`` prior covariance.
         residual: ``residual(z, z_hat)`` for measurement differences (default subtraction).
+        residual_x: ``residual_x(x, x_mean)`` for state differences (default subtraction).
+        mean_x: ``mean_x(points (N, n), weights (N,)) -> (n,)`` (default weighted sum).
+        mean_z: ``mean_z(points (N, m), weights (N,)) -> (m,)`` (default weighted sum).
         options: sigma-point parameters.
     """
 
@@ -101,50 +116,133 @@ class UnscentedKalmanFilter:
         P0: Any,
         *,
         residual: Residual | None = None,
+        residual_x: Residual | None = None,
+        mean_x: MeanFn | None = None,
+        mean_z: MeanFn | None = None,
         options: UnscentedOptions | None = None,
     ) -> None:
-        self.x = as_vector(x0, None, "x0")
+        self.x = as_state(x0, None, "x0")
         n = self.x.shape[0]
         self.P = as_covariance(P0, n, "P0")
         self.Q = as_covariance(Q, n, "Q")
-        self.R = as_covariance(R, None, "R", positive_definite=True)
-        self.f, self.h = f, h
-        self.residual = residual or (lambda a, b: a - b)
+        self.R = as_noise_covariance(R, None, "R")
+        for label, fn in (
+            ("f", f),
+            ("h", h),
+            ("residual", residual),
+            ("residual_x", residual_x),
+            ("mean_x", mean_x),
+            ("mean_z", mean_z),
+        ):
+            if fn is not None and not callable(fn):
+                raise InvalidInputError(f"{label} must be a function, got {type(fn).__name__}")
+        if options is not None and not isinstance(options, UnscentedOptions):
+            raise InvalidInputError(
+                f"options must be an UnscentedOptions, got {type(options).__name__}"
+            )
         self.options = options or UnscentedOptions()
+        for label, value in (
+            ("alpha", self.options.alpha),
+            ("beta", self.options.beta),
+            ("kappa", self.options.kappa),
+        ):
+            as_scalar(value, f"UnscentedOptions.{label}")
+        if not 0.0 < self.options.alpha <= 1.0:
+            raise InvalidInputError(
+                f"UnscentedOptions.alpha must be in (0, 1], got {self.options.alpha!r}"
+            )
+        self.f, self.h = f, h
+        self.residual = residual or subtract
+        self.residual_x = residual_x or subtract
+        self.mean_x = mean_x or weighted_mean
+        self.mean_z = mean_z or weighted_mean
         self.dim_x = n
         self.dim_z = self.R.shape[0]
         self._last_ll = 0.0
 
+    def _propagate(self, pts: FloatArray, u: Any) -> FloatArray:
+        """``f`` at every sigma point, checked (shape, finiteness)."""
+        n = self.dim_x
+        return np.array(
+            [model_output(self.f(p, u), (n,), f"f (sigma point {i})") for i, p in enumerate(pts)]
+        ).reshape(pts.shape[0], n)
+
     def predict(self, u: Any = None) -> None:
-        """Unscented prediction ``x^- = sum W^m f(chi)``, ``P^- = sum W^c d d^T + Q``."""
+        """Unscented prediction ``x^- = mean_x(f(chi), W^m)``, ``P^- = sum W^c d d^T + Q``.
+
+        Raises:
+            ShapeError, InvalidInputError: ``f`` returned a wrong shape or non-finite values
+                at a sigma point (the belief is left unchanged).
+        """
         n = self.dim_x
         pts, wm, wc = sigma_points(self.x, self.P, self.options)
-        Y = np.array([np.asarray(self.f(p, u), dtype=np.float64) for p in pts])
-        if Y.shape != (2 * n + 1, n):
-            raise ShapeError("f output", (n,), tuple(Y.shape[1:]))
-        x = wm @ Y
-        D = Y - x
+        Y = self._propagate(pts, u)
+        x = model_output(self.mean_x(Y, wm), (n,), "mean_x")
+        D = np.array([model_output(self.residual_x(y, x), (n,), "residual_x") for y in Y]).reshape(
+            Y.shape
+        )
         P = (D * wc[:, None]).T @ D + self.Q
         self.x, self.P = x, 0.5 * (P + P.T)
 
-    def update(self, z: Any) -> float:
-        """Unscented update; returns the NIS ``r^T S^-1 r``."""
-        m = self.dim_z
-        zv = as_vector(z, m, "z")
+    def update(
+        self,
+        z: Any,
+        R: Any | None = None,
+        *,
+        h: MeasFn | None = None,
+        residual: Residual | None = None,
+    ) -> float:
+        """Unscented update; returns the NIS ``r^T S^-1 r``.
+
+        Args:
+            z: measurement ``(m,)``, a column ``(m, 1)``, a scalar when ``m == 1``, or
+                ``None`` (no measurement: the belief is unchanged and the NIS is NaN).
+            R: noise covariance of this measurement only (``(m, m)`` or a scalar ``r`` for
+                ``r I``); required when ``h`` gives another size than the filter's ``R``.
+            h: measurement function of this measurement only.
+            residual: measurement residual of this measurement only.
+
+        Raises:
+            ShapeError, InvalidInputError: a wrong size, or ``h`` returned non-finite values
+                (the belief is left unchanged).
+            SolverError: the innovation covariance is not positive definite.
+        """
+        if z is None:
+            return math.nan
+        h_fn = self.h if h is None else h
+        res_fn = self.residual if residual is None else residual
         pts, wm, wc = sigma_points(self.x, self.P, self.options)
-        Z = np.array([np.asarray(self.h(p), dtype=np.float64) for p in pts])
-        if Z.shape != (pts.shape[0], m):
-            raise ShapeError("h output", (m,), tuple(Z.shape[1:]))
-        zhat = wm @ Z
-        E = np.array([self.residual(zi, zhat) for zi in Z])
-        D = pts - self.x
-        S = (E * wc[:, None]).T @ E + self.R
+        first = h_fn(pts[0])
+        m = 1 if not np.shape(first) else int(np.shape(first)[0])
+        if R is None:
+            if m != self.dim_z:
+                raise InvalidInputError(
+                    f"h returns {m} values but the filter's R is {self.dim_z} x {self.dim_z}: "
+                    "pass the noise covariance R of this measurement"
+                )
+            Rm = self.R
+        else:
+            Rm = as_noise_covariance(R, m, "R")
+        zv = as_measurement(z, m, "z")
+        rows = [model_output(first, (m,), "h (sigma point 0)")]
+        rows += [
+            model_output(h_fn(p), (m,), f"h (sigma point {i})") for i, p in enumerate(pts) if i
+        ]
+        Z = np.array(rows).reshape(pts.shape[0], m)
+        zhat = model_output(self.mean_z(Z, wm), (m,), "mean_z")
+        E = np.array([model_output(res_fn(zi, zhat), (m,), "residual") for zi in Z]).reshape(
+            Z.shape
+        )
+        D = np.array(
+            [model_output(self.residual_x(p, self.x), (self.dim_x,), "residual_x") for p in pts]
+        ).reshape(pts.shape)
+        S = (E * wc[:, None]).T @ E + Rm
         C = (D * wc[:, None]).T @ E
         try:
             L = np.linalg.cholesky(0.5 * (S + S.T))
         except np.linalg.LinAlgError as exc:
             raise SolverError(f"innovation covariance S is not positive definite: {exc}") from exc
-        r = np.asarray(self.residual(zv, zhat), dtype=np.float64)
+        r = model_output(res_fn(zv, zhat), (m,), "residual")
         Kt = np.linalg.solve(L.T, np.linalg.solve(L, C.T))
         w = np.linalg.solve(L, r)
         nis = float(w @ w)
@@ -182,7 +280,7 @@ class UnscentedKalmanFilter:
         for k in range(T):
             u = None if controls is None else controls[k]
             pts, wm, wc = sigma_points(self.x, self.P, self.options)
-            Y = np.array([np.asarray(self.f(p, u), dtype=np.float64) for p in pts])
+            Y = self._propagate(pts, u)
             Cxy = ((pts - self.x) * wc[:, None]).T @ (Y - wm @ Y)
             Fs[k] = np.linalg.lstsq(self.P, Cxy, rcond=None)[0].T
             self.predict(u)

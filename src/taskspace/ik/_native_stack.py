@@ -17,6 +17,7 @@ import numpy as np
 from taskspace._native import ik_kernel
 from taskspace.constraints.constraint import Constraint
 from taskspace.constraints.joint_limits import JointPositionLimits
+from taskspace.errors import InvalidInputError
 from taskspace.features.center_of_mass import CenterOfMass
 from taskspace.features.frame_pose import FramePose
 from taskspace.features.joint_configuration import JointConfiguration
@@ -44,13 +45,23 @@ def supported(tasks: Sequence[Task]) -> bool:
 
 
 class NativeWeightedStack:
-    """Owns one compiled kernel for a fixed list of tasks and box constraints."""
+    """Owns one compiled kernel for a fixed list of tasks and box constraints.
+
+    The kernel is built for ``robot.model`` and only ever receives that model and the
+    ``pin.Data`` of a :class:`~taskspace.model.State` made from it (a state's data cannot be
+    replaced); a state of another model is refused before the kernel is called.
+
+    Thread safety: not thread-safe (the kernel holds the QP workspace);
+    :class:`~taskspace.ik.DifferentialIK` serializes its calls with its lock.
+    """
 
     def __init__(self, robot: Robot, tasks: Sequence[Task], constraints: Sequence[Constraint]):
         module = ik_kernel()
         assert module is not None
         self.module = module
         model = robot.model
+        self.robot = robot
+        self.model = model
         kernel = module.WeightedIKKernel(robot.nv, robot.nq)
         rows = [t for t in tasks if type(t.feature) is not JointConfiguration]
         posture = [t for t in tasks if type(t.feature) is JointConfiguration]
@@ -114,12 +125,18 @@ class NativeWeightedStack:
 
         ``None`` when the active set did not settle (the caller takes the Python path).
         """
+        model = self.model
+        if state._model is not model:  # the kernel must never see a Data of another model
+            raise InvalidInputError(
+                f"this IK solver is built for robot '{self.robot.name}'; the state belongs to "
+                f"robot '{state.robot.name}': make the state with this robot's state(q)"
+            )
         self._scale()
         targets = [t._target for t in self.tasks]
         try:
             status, iterations, objective, t_build, t_qp, _ = self.kernel.solve(
-                state.robot.model,
-                state.data,
+                model,
+                state._data,  # made by the state for ``state._model``, cannot be replaced
                 state.q,
                 targets,
                 [b for c in self._hard if (b := c.bounds(state, dt)) is not None],

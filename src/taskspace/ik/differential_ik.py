@@ -14,6 +14,7 @@ velocity ``dq / dt``.
 from __future__ import annotations
 
 import enum
+import threading
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -176,6 +177,14 @@ class DifferentialIK:
     The proxsuite workspace is kept between steps (updated and warm-started); when the
     unconstrained minimizer already respects every bound no QP iteration is run.
 
+    Thread safety: :meth:`solve`, :meth:`step` and :meth:`build` may be called from several
+    threads on one solver: they hold the solver's lock while they use its workspaces (the
+    stacked task matrix, the QP workspace, the compiled kernel), so the calls run one at a
+    time and each gives the result it would give alone (up to the QP warm start). Each
+    thread needs its own :class:`~taskspace.model.State`, and the tasks' targets, weights and
+    gains must not be changed while another thread steps. For parallel speed, give each
+    thread its own solver.
+
     Args:
         robot: the robot.
         tasks: weighted tasks (their ``priority`` is ignored here).
@@ -218,6 +227,7 @@ class DifferentialIK:
         self._empty = np.zeros(0)
         self._native: NativeWeightedStack | None = None
         self._native_checked = False
+        self._lock = threading.Lock()
 
     @property
     def native(self) -> bool:
@@ -235,6 +245,11 @@ class DifferentialIK:
 
     def build(self, state: State, dt: float) -> QPProblem:
         """Assemble the QP of one step from ``state`` during ``dt`` [s] (inspectable)."""
+        with self._lock:
+            return self._build(state, dt)
+
+    def _build(self, state: State, dt: float) -> QPProblem:
+        """:meth:`build` without the lock (the caller holds it)."""
         nv = self.robot.nv
         M, r = self._M, self._r
         row = 0
@@ -274,12 +289,17 @@ class DifferentialIK:
             dt: time step [s].
         """
         dt = check_positive(dt, "dt")
+        with self._lock:
+            return self._solve(state, dt)
+
+    def _solve(self, state: State, dt: float) -> IKStepResult:
+        """:meth:`solve` without the lock (the caller holds it)."""
         if self._native is not None or (not self._native_checked and self.native):
             native = self._solve_native(state, dt)
             if native is not None:
                 return native
         t0 = time.perf_counter()
-        problem = self.build(state, dt)
+        problem = self._build(state, dt)
         t1 = time.perf_counter()
         result = self.solver.solve(problem)
         t2 = time.perf_counter()

@@ -49,6 +49,55 @@ class HierarchicalIKResult:
     solve_time: float = 0.0
 
 
+def _check_levels(levels: object) -> list[list[Task | Constraint]]:
+    """Validate the nested structure ``[[task or constraint, ...], ...]`` of the levels."""
+    if isinstance(levels, Sequence) and not isinstance(levels, str) and len(levels) == 0:
+        raise InvalidInputError("HierarchicalIK needs at least one level")
+    if isinstance(levels, (Task, Constraint, str)) or not isinstance(levels, Sequence):
+        raise InvalidInputError(
+            "levels must be a non-empty list of levels, each a list of tasks and constraints "
+            "(highest priority first), e.g. [[task1], [task2, task3]]; got "
+            f"{type(levels).__name__}"
+        )
+    out: list[list[Task | Constraint]] = []
+    for k, level in enumerate(levels):
+        if isinstance(level, (Task, Constraint)):
+            raise InvalidInputError(
+                f"levels[{k}] is a single {type(level).__name__}, not a level: levels are lists "
+                "of tasks, e.g. HierarchicalIK(robot, [[task1], [task2]]); "
+                "HierarchicalIK.from_priorities(robot, tasks) groups tasks by their priority"
+            )
+        if not isinstance(level, Sequence) or isinstance(level, str):
+            raise InvalidInputError(
+                f"levels[{k}] must be a list of tasks and constraints, got {type(level).__name__}"
+            )
+        for j, item in enumerate(level):
+            if not isinstance(item, (Task, Constraint)):
+                raise InvalidInputError(
+                    f"levels[{k}][{j}] must be a Task or a Constraint, got {type(item).__name__}"
+                )
+        if not level:
+            raise InvalidInputError(f"levels[{k}] is empty: every level needs a task or constraint")
+        out.append(list(level))
+    return out
+
+
+def _check_constraints(constraints: object) -> list[Constraint]:
+    if isinstance(constraints, Constraint):
+        return [constraints]
+    if not isinstance(constraints, Sequence) or isinstance(constraints, str):
+        raise InvalidInputError(
+            f"constraints must be a list of Constraint, got {type(constraints).__name__}"
+        )
+    for j, c in enumerate(constraints):
+        if not isinstance(c, Constraint):
+            raise InvalidInputError(
+                f"constraints[{j}] must be a Constraint (joint limits, collision avoidance...), "
+                f"got {type(c).__name__}"
+            )
+    return list(constraints)
+
+
 class HierarchicalIK:
     """Differential IK with strict priorities between levels (any number of levels).
 
@@ -70,11 +119,9 @@ class HierarchicalIK:
         constraints: Sequence[Constraint] = (),
         options: HierarchyOptions | None = None,
     ) -> None:
-        if not levels:
-            raise InvalidInputError("HierarchicalIK needs at least one level")
         self.robot = robot
-        self.levels = [list(level) for level in levels]
-        self.constraints = list(constraints)
+        self.levels = _check_levels(levels)
+        self.constraints = _check_constraints(constraints)
         for level in self.levels:
             for item in level:
                 item_robot = item.feature.robot if isinstance(item, Task) else item.robot
@@ -85,6 +132,13 @@ class HierarchicalIK:
                         f"'{item.name}' is a box constraint: pass it in `constraints` (boxes "
                         "bind every level)"
                     )
+        for c in self.constraints:
+            if c.robot is not robot:
+                raise InvalidInputError(f"constraint '{c.name}' is defined on another robot")
+        if options is not None and not isinstance(options, HierarchyOptions):
+            raise InvalidInputError(
+                f"options must be a HierarchyOptions, got {type(options).__name__}"
+            )
         self.solver = HierarchySolver(options)
         # per level: its label, the row slice of each task and buffers refilled at each build
         nv = robot.nv
@@ -116,6 +170,11 @@ class HierarchicalIK:
         options: HierarchyOptions | None = None,
     ) -> HierarchicalIK:
         """Group ``tasks`` into levels by their ``priority`` (0 first)."""
+        if isinstance(tasks, Task) or not isinstance(tasks, Sequence) or not tasks:
+            raise InvalidInputError("from_priorities needs a non-empty list of tasks")
+        for j, t in enumerate(tasks):
+            if not isinstance(t, Task):
+                raise InvalidInputError(f"tasks[{j}] must be a Task, got {type(t).__name__}")
         priorities = sorted({t.priority for t in tasks})
         return cls(
             robot,
@@ -153,6 +212,10 @@ class HierarchicalIK:
 
     def solve(self, state: State, dt: float) -> HierarchicalIKResult:
         """One hierarchical step from ``state`` during ``dt`` [s]."""
+        if not isinstance(state, State):
+            raise InvalidInputError(
+                f"state must be a taskspace State (robot.state(q)), got {type(state).__name__}"
+            )
         dt = check_positive(dt, "dt")
         t0 = time.perf_counter()
         levels = self.build(state, dt)

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pinocchio as pin
 
-from taskspace._validation import FloatArray
+from taskspace._validation import FloatArray, check_count, check_positive
 from taskspace.constraints.constraint import Constraint
 from taskspace.constraints.joint_limits import JointPositionLimits
 from taskspace.errors import InvalidInputError
@@ -132,6 +132,11 @@ def solve_ik(
         The result; ``success`` tells whether the tolerances were reached.
     """
     opts = options or SolveIKOptions()
+    check_count(opts.max_iterations, "max_iterations", minimum=1)
+    check_count(opts.restarts, "restarts")
+    check_count(opts.stall_window, "stall_window", minimum=1)
+    check_positive(opts.initial_damping, "initial_damping", strict=False)
+    check_positive(opts.max_step, "max_step")
     if opts.restarts > 0 and rng is None:
         raise InvalidInputError("solve_ik with restarts needs rng=np.random.default_rng(seed)")
     t0 = time.perf_counter()
@@ -226,7 +231,7 @@ def _gauss_newton(
                     status = SolveIKStatus.STALLED
                     break
         else:
-            mu *= 10.0
+            mu = max(10.0 * mu, 1e-12)  # a damping of 0 would stay 0
             if mu > 1e6:
                 status = SolveIKStatus.STALLED
                 break

@@ -1,11 +1,40 @@
-"""``Robot``: a Pinocchio model, its coal collision geometry and an obstacle world."""
+"""``Robot``: a Pinocchio model, its coal collision geometry and an obstacle world.
+
+Every joint type of Pinocchio is handled (:meth:`Robot.check_configuration`,
+:meth:`Robot.random_configuration`, :meth:`Robot.neutral`, :meth:`Robot.interpolate`,
+:meth:`Robot.distance`, limits): revolute and prismatic joints on any axis (bounded or not),
+continuous joints (``JointModelRUBX/Y/Z``, ``RevoluteUnboundedUnaligned``: ``(cos, sin)``,
+nq = 2, nv = 1), spherical (unit quaternion), planar (``x, y, cos, sin``) and free-flyer
+(``x, y, z`` and a unit quaternion) joints, and the other joints with nq = nv (spherical ZYX,
+translation, universal, helical). Composite joints raise :class:`ModelLoadError`.
+
+Models are checked on load (:func:`prune_collision_pairs`, :class:`CollisionPruningOptions`):
+
+* collision pairs of geometries on the same or adjacent joints are disabled when no SRDF is
+  given (with an SRDF its ``disable_collisions`` list is applied instead);
+* pairs in collision at the default posture are disabled (MoveIt setup assistant's "default");
+* pairs in collision in at least ``fraction`` (95 %) of ``samples`` (100) random
+  configurations within the joint limits are disabled (MoveIt's "always"), also when an SRDF
+  is given;
+
+each disabled pair of the last two rules is reported with a :class:`ModelWarning` and listed in
+:attr:`Robot.pruned_collision_pairs`.
+
+Missing limits: an effort limit of 0 in the description (URDF ``effort="0"``, or none) is read
+as *unknown* and the joint is treated as actuated without limit (``inf``), with a
+:class:`ModelWarning`; a joint that is really passive (unactuated) must be declared in
+``passive_joints`` (registry key ``passive_joints``). A velocity limit of 0 is read as unknown
+and treated as unlimited (``inf``), with a warning. The floating base is never actuated.
+"""
 
 from __future__ import annotations
 
 import logging
 import math
+import os
 import warnings
 from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -17,10 +46,11 @@ from taskspace.errors import (
     InvalidInputError,
     LimitError,
     ModelLoadError,
+    ModelWarning,
     ShapeError,
     UnknownNameError,
 )
-from taskspace.model.registry import RobotSpec, robot_spec
+from taskspace.model.registry import RobotSpec, example_robot_data_loaders, robot_spec
 from taskspace.model.world import Obstacle, World
 
 if TYPE_CHECKING:
@@ -33,13 +63,71 @@ _F64 = np.dtype(np.float64)
 QUATERNION_TOLERANCE = 1e-6
 """Largest accepted deviation of a quaternion's (or unit complex's) norm from 1."""
 
+_UNIT_COMPLEX_JOINTS = ("JointModelRUBX", "JointModelRUBY", "JointModelRUBZ")
+_LINEAR_JOINTS = (
+    "JointModelPX",
+    "JointModelPY",
+    "JointModelPZ",
+    "JointModelPrismaticUnaligned",
+    "JointModelTranslation",
+)
+
+
+@dataclass(frozen=True, kw_only=True)
+class CollisionPruningOptions:
+    """How collision pairs are checked and pruned on load (see the module docstring).
+
+    Attributes:
+        enabled: prune at all (False keeps every pair the SRDF or the adjacency rule leaves).
+        adjacent: without an SRDF, disable pairs on the same or adjacent joints.
+        default_posture: disable pairs in collision at the default posture.
+        samples: number ``N`` of random configurations of the "always in collision" test.
+        fraction: a pair in collision in at least ``fraction * N`` of them is disabled.
+        seed: seed of the random configurations (the result is reproducible).
+    """
+
+    enabled: bool = True
+    adjacent: bool = True
+    default_posture: bool = True
+    samples: int = 100
+    fraction: float = 0.95
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        if isinstance(self.samples, bool) or not isinstance(self.samples, int):
+            raise InvalidInputError(f"samples must be an int, got {self.samples!r}")
+        if self.samples < 0:
+            raise InvalidInputError(f"samples must be >= 0, got {self.samples}")
+        if not (isinstance(self.fraction, (int, float)) and 0.0 < self.fraction <= 1.0):
+            raise InvalidInputError(f"fraction must be in (0, 1], got {self.fraction!r}")
+
+
+@dataclass(frozen=True)
+class PrunedCollisionPairs:
+    """Collision pairs disabled on load, by rule, as (geometry name, geometry name).
+
+    Attributes:
+        adjacent: same or adjacent joints (only without an SRDF).
+        default_posture: in collision at the default posture.
+        always: in collision in at least ``fraction`` of ``samples`` random configurations.
+        samples: number of random configurations of the last rule.
+        fraction: its threshold.
+    """
+
+    adjacent: tuple[tuple[str, str], ...] = ()
+    default_posture: tuple[tuple[str, str], ...] = ()
+    always: tuple[tuple[str, str], ...] = ()
+    samples: int = 0
+    fraction: float = 1.0
+
 
 class Robot:
     """A robot: kinematic/dynamic model, collision and visual geometry, obstacle world.
 
-    Create with :meth:`load` (registry name) or :meth:`from_urdf`. The Pinocchio objects are
-    exposed as ``model``, ``collision_model`` and ``visual_model``; never modify them in
-    place, use the methods of this class (obstacles, collision pairs).
+    Create with :meth:`load` (any name of :func:`~taskspace.model.registry.available_robots`:
+    our registry and every robot of example-robot-data) or :meth:`from_urdf`. The Pinocchio
+    objects are exposed as ``model``, ``collision_model`` and ``visual_model``; never modify
+    them in place, use the methods of this class (obstacles, collision pairs).
 
     Attributes:
         name: robot name.
@@ -48,6 +136,8 @@ class Robot:
         visual_model: ``pin.GeometryModel`` for display.
         end_effectors: names of the end-effector frames.
         world: the obstacles (also present in ``collision_model``).
+        passive_joints: names of the unactuated joints (effort limit 0).
+        pruned_collision_pairs: collision pairs disabled on load and why.
     """
 
     def __init__(
@@ -61,6 +151,7 @@ class Robot:
         default_configuration: FloatArray | None = None,
         srdf_path: str | None = None,
         description: str = "",
+        passive_joints: Sequence[str] = (),
     ) -> None:
         self.name = name
         self.description = description
@@ -69,6 +160,7 @@ class Robot:
         self.collision_model = collision_model
         self.srdf_path = srdf_path
         self.world = World()
+        self.pruned_collision_pairs = PrunedCollisionPairs()
         self._robot_geometry_count = collision_model.ngeoms
         self._frame_ids = {f.name: i for i, f in enumerate(model.frames)}
         self._joint_ids = {n: i for i, n in enumerate(model.names) if i > 0}
@@ -82,9 +174,11 @@ class Robot:
         self.data = model.createData()
         self.collision_data = collision_model.createData()
         self._setup_joint_structure()
+        self._setup_actuation_limits(passive_joints)
         if default_configuration is None:
             default_configuration = pin.neutral(model)
-        self._q_default = self.check_configuration(default_configuration, "default_configuration")
+        q_default = self.check_configuration(default_configuration, "default_configuration")
+        self._q_default = self._posture_into_limits(q_default)
         self._q_default.flags.writeable = False
 
     # ------------------------------------------------------------------ construction
@@ -95,41 +189,65 @@ class Robot:
         *,
         convex_collision: bool = False,
         locked_values: dict[str, float] | None = None,
+        collision_pruning: CollisionPruningOptions | None = None,
     ) -> Robot:
-        """Load a robot of the registry ``robots/registry.yaml``.
+        """Load a robot by name: our registry, or any robot of example-robot-data.
+
+        Our registry (``taskspace/robots_data/registry.yaml``) adds end effectors, locked
+        joints and a default posture to some robots; any other robot that example-robot-data
+        provides loads with its loader's free flyer, SRDF (collision pairs, reference
+        posture) and reference posture. See :func:`~taskspace.model.registry.available_robots`
+        or ``taskspace robots`` for the names.
 
         Args:
-            name: registry name (``panda``, ``ur5``, ``talos``, ``g1``, ``solo12``,
-                ``planar_2link``, ``planar_3link``, ``pendulum``, ``cartpole``...).
+            name: robot name (``panda``, ``ur5``, ``talos``, ``g1``, ``solo12``, ``go2``,
+                ``kinova``, ``tiago``, ``planar_2link``, ``pendulum``, ``cartpole``...).
             convex_collision: replace collision meshes by their convex hulls (distance
                 queries become ~30x cheaper; needed for distance-based features).
             locked_values: values [rad or m] at which the registry's locked joints are held
                 (e.g. ``{"panda_finger_joint1": 0.04, "panda_finger_joint2": 0.04}``);
                 default their default-posture values.
+            collision_pruning: how collision pairs are checked on load (default
+                :class:`CollisionPruningOptions`).
 
         Raises:
-            UnknownNameError: ``name`` is not in the registry (the message lists the names).
-            ModelLoadError: the description files cannot be read.
+            UnknownNameError: ``name`` is not a known robot (the message lists the names).
+            ModelLoadError: the description files cannot be read (missing meshes...).
         """
         spec = robot_spec(name)
+        common: dict[str, Any] = {
+            "locked_joints": spec.locked_joints,
+            "name": name,
+            "end_effectors": spec.end_effectors,
+            "convex_collision": convex_collision,
+            "locked_values": locked_values,
+            "passive_joints": spec.passive_joints,
+            "collision_pruning": collision_pruning,
+            "_posture": spec,
+        }
         if spec.source == "example-robot-data":
-            urdf, package_dirs, srdf = _erd_paths(spec)
+            loaders = example_robot_data_loaders()
+            if spec.erd_name not in loaders:
+                raise ModelLoadError(
+                    f"registry entry '{name}' names example-robot-data robot "
+                    f"'{spec.erd_name}', which this example-robot-data does not provide; "
+                    f"its robots are: {', '.join(sorted(loaders))}"
+                )
+            loader = loaders[spec.erd_name]
+            if _is_plain_loader(loader):
+                urdf, package_dirs, srdf = _erd_paths(loader)
+                robot = cls.from_urdf(
+                    urdf, free_flyer=spec.free_flyer, package_dirs=package_dirs, srdf=srdf, **common
+                )
+            else:
+                robot = cls._from_erd_loader(loader, **common)
         else:
             if spec.urdf is None:
                 raise ModelLoadError(f"registry entry '{name}' has no urdf path")
-            urdf, package_dirs, srdf = str(spec.urdf), [str(spec.urdf.parent)], None
-        robot = cls.from_urdf(
-            urdf,
-            free_flyer=spec.free_flyer,
-            package_dirs=package_dirs,
-            srdf=srdf,
-            locked_joints=spec.locked_joints,
-            name=name,
-            end_effectors=spec.end_effectors,
-            convex_collision=convex_collision,
-            locked_values=locked_values,
-            _posture=spec,
-        )
+            dirs = [str(spec.urdf.parent)]
+            robot = cls.from_urdf(
+                spec.urdf, free_flyer=spec.free_flyer, package_dirs=dirs, **common
+            )
         robot.description = spec.description
         return robot
 
@@ -147,6 +265,8 @@ class Robot:
         default_configuration: Any = None,
         convex_collision: bool = False,
         locked_values: dict[str, float] | None = None,
+        passive_joints: Sequence[str] = (),
+        collision_pruning: CollisionPruningOptions | None = None,
         _posture: RobotSpec | None = None,
     ) -> Robot:
         """Load any URDF.
@@ -162,9 +282,13 @@ class Robot:
             default_configuration: default posture (size of the unreduced model's nq).
             convex_collision: replace collision meshes by their convex hulls.
             locked_values: values [rad or m] of locked joints (default: their default value).
+            passive_joints: unactuated joints (their effort limit is 0); any other joint
+                whose effort limit is 0 or missing is treated as unlimited, with a warning.
+            collision_pruning: how collision pairs are checked on load.
 
         Raises:
-            ModelLoadError: missing or malformed URDF/SRDF, unknown locked joint.
+            ModelLoadError: missing or malformed URDF/SRDF, unknown locked joint, missing
+                meshes, unsupported joint type.
         """
         path = Path(path)
         if not path.is_file():
@@ -182,9 +306,6 @@ class Robot:
                 visual = pin.buildGeomFromUrdf(model, str(path), pin.VISUAL, dirs)
         except Exception as exc:  # pinocchio raises ValueError/RuntimeError with C++ text
             raise ModelLoadError(f"cannot load URDF {path}: {exc}") from exc
-
-        # Default posture on the full model.
-        q_full = pin.neutral(model)
         if srdf is not None:
             if not Path(srdf).is_file():
                 raise ModelLoadError(f"SRDF file not found: {srdf}")
@@ -192,11 +313,91 @@ class Robot:
                 pin.loadReferenceConfigurations(model, str(srdf), False)
             except Exception as exc:
                 raise ModelLoadError(f"cannot read SRDF {srdf}: {exc}") from exc
-        if _posture is not None:
-            q_full = _posture_from_spec(model, _posture, q_full)
-        elif default_configuration is not None:
+        q_full = pin.neutral(model)
+        if _posture is None and default_configuration is not None:
             q_full = as_vector(default_configuration, model.nq, "default_configuration")
+        return cls._assemble(
+            model,
+            collision,
+            visual,
+            q_full=q_full,
+            srdf=str(srdf) if srdf is not None else None,
+            name=name or path.stem,
+            locked_joints=locked_joints,
+            end_effectors=end_effectors,
+            convex_collision=convex_collision,
+            locked_values=locked_values,
+            passive_joints=passive_joints,
+            collision_pruning=collision_pruning,
+            posture=_posture,
+        )
 
+    @classmethod
+    def _from_erd_loader(
+        cls,
+        loader: Any,
+        *,
+        locked_joints: Sequence[str],
+        name: str,
+        end_effectors: Sequence[str],
+        convex_collision: bool,
+        locked_values: dict[str, float] | None,
+        passive_joints: Sequence[str],
+        collision_pruning: CollisionPruningOptions | None,
+        _posture: RobotSpec | None,
+    ) -> Robot:
+        """A robot built by an example-robot-data loader of its own (SDF, reduced models...)."""
+        try:
+            with warnings.catch_warnings(), open(os.devnull, "w") as devnull:
+                warnings.simplefilter("ignore")
+                import contextlib
+
+                with contextlib.redirect_stdout(devnull):
+                    inst = loader()
+        except Exception as exc:  # any failure of the third-party loader
+            raise ModelLoadError(
+                f"example-robot-data cannot load '{name}': {type(exc).__name__}: {exc}"
+            ) from exc
+        wrapper = inst.robot
+        q0 = np.asarray(wrapper.q0, dtype=float).copy()
+        srdf = getattr(inst, "srdf_path", None)
+        return cls._assemble(
+            wrapper.model,
+            wrapper.collision_model,
+            wrapper.visual_model,
+            q_full=q0,
+            srdf=srdf,
+            name=name,
+            locked_joints=locked_joints,
+            end_effectors=end_effectors,
+            convex_collision=convex_collision,
+            locked_values=locked_values,
+            passive_joints=passive_joints,
+            collision_pruning=collision_pruning,
+            posture=_posture if _posture is not None and _posture.in_registry else None,
+        )
+
+    @classmethod
+    def _assemble(
+        cls,
+        model: pin.Model,
+        collision: pin.GeometryModel,
+        visual: pin.GeometryModel,
+        *,
+        q_full: FloatArray,
+        srdf: str | None,
+        name: str,
+        locked_joints: Sequence[str],
+        end_effectors: Sequence[str],
+        convex_collision: bool,
+        locked_values: dict[str, float] | None,
+        passive_joints: Sequence[str],
+        collision_pruning: CollisionPruningOptions | None,
+        posture: RobotSpec | None,
+    ) -> Robot:
+        """Posture, locked joints, unlimited floating base, collision pairs, then the Robot."""
+        if posture is not None:
+            q_full = _posture_from_spec(model, posture, q_full)
         for jname, value in (locked_values or {}).items():
             if jname not in locked_joints:
                 raise UnknownNameError("locked joint", jname, locked_joints)
@@ -220,60 +421,183 @@ class Robot:
             ]
             q_full = q_full[keep]
             model = model_r
+        q_full = np.asarray(pin.normalize(model, q_full))
 
+        # Unlimited floating bases (Pinocchio stores +-max float, example-robot-data +-1).
+        lower = model.lowerPositionLimit.copy()
+        upper = model.upperPositionLimit.copy()
+        for jid in range(1, model.njoints):
+            joint = model.joints[jid]
+            if joint.shortname() == "JointModelFreeFlyer":
+                lower[joint.idx_q : joint.idx_q + 7] = -np.inf
+                upper[joint.idx_q : joint.idx_q + 7] = np.inf
+        model.lowerPositionLimit = lower
+        model.upperPositionLimit = upper
+
+        _drop_orphan_geometries(model, collision, name, "collision")
+        _drop_orphan_geometries(model, visual, name, "visual")
         if convex_collision:
             _convexify(collision)
+        collision.removeAllCollisionPairs()
         collision.addAllCollisionPairs()
+        options = collision_pruning or CollisionPruningOptions()
+        adjacent: list[tuple[str, str]] = []
         if srdf is not None:
             try:
                 pin.removeCollisionPairs(model, collision, str(srdf), False)
             except Exception as exc:
                 raise ModelLoadError(f"cannot read collision pairs of SRDF {srdf}: {exc}") from exc
-        else:
-            _remove_adjacent_pairs(model, collision, q_full)
-        if free_flyer:
-            # Unlimited floating base (Pinocchio stores +-max float; keep it explicit).
-            lower = model.lowerPositionLimit.copy()
-            upper = model.upperPositionLimit.copy()
-            lower[:7] = -np.inf
-            upper[:7] = np.inf
-            model.lowerPositionLimit = lower
-            model.upperPositionLimit = upper
-        return cls(
+        elif options.enabled and options.adjacent:
+            adjacent = _remove_adjacent_pairs(model, collision)
+        robot = cls(
             model,
             collision,
             visual,
-            name=name or path.stem,
+            name=name,
             end_effectors=end_effectors,
             default_configuration=q_full,
-            srdf_path=str(srdf) if srdf is not None else None,
+            srdf_path=srdf,
+            passive_joints=passive_joints,
         )
+        if options.enabled:
+            prune_collision_pairs(robot, options, adjacent=adjacent)
+        return robot
 
     # ------------------------------------------------------------------ structure
     def _setup_joint_structure(self) -> None:
+        """Classify the joints: normalized blocks, scalar coordinates, unbounded ones."""
         model = self.model
         self._normalized_blocks: list[tuple[int, int, str]] = []  # (idx_q, size, joint name)
         scalar_q: list[int] = []
         scalar_v: list[int] = []
+        linear_q: list[int] = []  # unbounded translations: sampled in a box
+        self._free_translations: list[int] = []  # idx_q of free-flyer / planar positions
         for jid in range(1, model.njoints):
             joint = model.joints[jid]
             short = joint.shortname()
-            if "FreeFlyer" in short:
-                self._normalized_blocks.append((joint.idx_q + 3, 4, model.names[jid]))
-            elif "Spherical" in short and "ZYX" not in short:
-                self._normalized_blocks.append((joint.idx_q, 4, model.names[jid]))
-            elif "Unbounded" in short or "Planar" in short:
-                offset = 2 if "Planar" in short else 0
-                self._normalized_blocks.append((joint.idx_q + offset, 2, model.names[jid]))
-            elif joint.nq == 1 and joint.nv == 1:
-                scalar_q.append(joint.idx_q)
-                scalar_v.append(joint.idx_v)
-        self.is_floating = model.njoints > 1 and "FreeFlyer" in model.joints[1].shortname()
-        lower = model.lowerPositionLimit[scalar_q]
-        upper = model.upperPositionLimit[scalar_q]
+            jname = str(model.names[jid])
+            if short == "JointModelFreeFlyer":
+                self._free_translations += [joint.idx_q, joint.idx_q + 1, joint.idx_q + 2]
+                self._normalized_blocks.append((joint.idx_q + 3, 4, jname))
+            elif short == "JointModelSpherical":
+                self._normalized_blocks.append((joint.idx_q, 4, jname))
+            elif short == "JointModelPlanar":
+                self._free_translations += [joint.idx_q, joint.idx_q + 1]
+                self._normalized_blocks.append((joint.idx_q + 2, 2, jname))
+            elif short in _UNIT_COMPLEX_JOINTS or short == "JointModelRevoluteUnboundedUnaligned":
+                self._normalized_blocks.append((joint.idx_q, 2, jname))
+            elif joint.nq == joint.nv:
+                for k in range(joint.nq):
+                    scalar_q.append(joint.idx_q + k)
+                    scalar_v.append(joint.idx_v + k)
+                    if short in _LINEAR_JOINTS:
+                        linear_q.append(joint.idx_q + k)
+            else:
+                raise ModelLoadError(
+                    f"joint '{jname}' has type {short} (nq={joint.nq}, nv={joint.nv}), which "
+                    "taskspace does not support; supported: revolute, prismatic, continuous "
+                    "(RUB), spherical, planar, free-flyer and the other joints with nq = nv"
+                )
+        self._linear_q = frozenset(linear_q)
+        self.is_floating = (
+            model.njoints > 1 and model.joints[1].shortname() == "JointModelFreeFlyer"
+        )
+        sq = np.asarray(scalar_q, dtype=int)
+        lower = np.asarray(model.lowerPositionLimit)[sq] if sq.size else np.empty(0)
+        upper = np.asarray(model.upperPositionLimit)[sq] if sq.size else np.empty(0)
         finite = np.isfinite(lower) & np.isfinite(upper) & (upper > lower) & (upper - lower < 1e10)
-        self._limited_q = np.asarray(scalar_q, dtype=int)[finite]
+        self._limited_q = sq[finite]
         self._limited_v = np.asarray(scalar_v, dtype=int)[finite]
+        unbounded = sq[~finite]
+        linear = np.isin(unbounded, np.asarray(linear_q, dtype=int))
+        self._unbounded_angles = unbounded[~linear]
+        self._unbounded_lengths = np.concatenate(
+            [unbounded[linear], np.asarray(self._free_translations, dtype=int)]
+        ).astype(int)
+
+    def _posture_into_limits(self, q: FloatArray) -> FloatArray:
+        """The default posture moved inside the joint limits (descriptions get this wrong).
+
+        A revolute coordinate outside its limits is first shifted by a multiple of 2 pi (the
+        same pose: an SRDF's ``-pi/2`` for a joint limited to ``[0.33, 5.95]``); what is still
+        outside (and prismatic coordinates) is clipped, with a :class:`ModelWarning`.
+        """
+        idx = self._limited_q
+        lo = np.asarray(self.model.lowerPositionLimit)[idx]
+        hi = np.asarray(self.model.upperPositionLimit)[idx]
+        outside = np.flatnonzero((q[idx] < lo) | (q[idx] > hi))
+        if outside.size == 0:
+            return q
+        q = q.copy()
+        clipped: list[str] = []
+        for k in outside:
+            i = int(idx[k])
+            value = q[i]
+            if i not in self._linear_q:
+                turns = math.ceil((lo[k] - value) / (2 * math.pi))
+                shifted = value + 2 * math.pi * turns
+                if lo[k] <= shifted <= hi[k]:
+                    q[i] = shifted
+                    continue
+            q[i] = min(max(value, lo[k]), hi[k])
+            clipped.append(f"{self._joint_name_at_q(i)}={value:.4g} -> {q[i]:.4g}")
+        if clipped:
+            warnings.warn(
+                f"robot '{self.name}': the default posture is outside the joint limits; "
+                f"clipped: {', '.join(clipped)}",
+                ModelWarning,
+                stacklevel=4,
+            )
+        return q
+
+    def _setup_actuation_limits(self, passive_joints: Sequence[str]) -> None:
+        """Effort and velocity limits, with the documented choice for missing ones."""
+        model = self.model
+        for j in passive_joints:
+            self.joint_id(j)
+        passive = set(passive_joints)
+        effort = np.asarray(model.effortLimit, dtype=float).copy()
+        velocity = np.asarray(model.velocityLimit, dtype=float).copy()
+        no_effort: list[str] = []
+        no_velocity: list[str] = []
+        for jid in range(1, model.njoints):
+            joint = model.joints[jid]
+            if joint.nv == 0:
+                continue
+            block = slice(joint.idx_v, joint.idx_v + joint.nv)
+            jname = str(model.names[jid])
+            if joint.shortname() == "JointModelFreeFlyer":
+                effort[block] = 0.0  # a floating base is never actuated
+                velocity[block] = np.inf
+                continue
+            if jname in passive:
+                effort[block] = 0.0
+            elif np.any(~(effort[block] > 0)):
+                no_effort.append(jname)
+                effort[block] = np.where(effort[block] > 0, effort[block], np.inf)
+            if np.any(~(velocity[block] > 0)):
+                no_velocity.append(jname)
+                velocity[block] = np.where(velocity[block] > 0, velocity[block], np.inf)
+        if no_effort:
+            warnings.warn(
+                f"robot '{self.name}': joints {no_effort} have no effort limit (0 or missing in "
+                "the description); they are treated as actuated without torque limit. Declare "
+                "really unactuated joints with passive_joints=[...].",
+                ModelWarning,
+                stacklevel=4,
+            )
+        if no_velocity:
+            warnings.warn(
+                f"robot '{self.name}': joints {no_velocity} have no velocity limit (0 or "
+                "missing in the description); they are treated as unlimited (inf).",
+                ModelWarning,
+                stacklevel=4,
+            )
+        self.passive_joints = tuple(j for j in self._joint_ids if j in passive)
+        self._effort_limits = effort
+        self._velocity_limits = velocity
+        self._effort_limits.flags.writeable = False
+        self._velocity_limits.flags.writeable = False
 
     @property
     def nq(self) -> int:
@@ -315,7 +639,7 @@ class Robot:
 
     @property
     def limited_joints_q(self) -> np.ndarray:
-        """Configuration indices of the 1-DoF joints with finite position limits."""
+        """Configuration indices of the joint coordinates (nq = nv joints) with finite limits."""
         return self._limited_q
 
     @property
@@ -335,20 +659,20 @@ class Robot:
 
     @property
     def velocity_limits(self) -> FloatArray:
-        """Velocity limits (size nv) [rad/s or m/s]; inf where unlimited (floating base)."""
-        lim = np.asarray(self.model.velocityLimit, dtype=float).copy()
-        if self.is_floating:
-            lim[:6] = np.inf
-        lim[lim <= 0] = np.inf
-        return lim
+        """Velocity limits (size nv) [rad/s or m/s]; inf where unlimited or unknown.
+
+        The floating base is unlimited; a limit of 0 in the description is read as unknown.
+        """
+        return self._velocity_limits.copy()
 
     @property
     def effort_limits(self) -> FloatArray:
-        """Torque/force limits (size nv) [N m or N]; 0 on the unactuated floating base."""
-        lim = np.asarray(self.model.effortLimit, dtype=float).copy()
-        if self.is_floating:
-            lim[:6] = 0.0
-        return lim
+        """Torque/force limits (size nv) [N m or N].
+
+        0 on unactuated coordinates (floating base, :attr:`passive_joints`); inf where the
+        description gives none (0 or missing) for another joint.
+        """
+        return self._effort_limits.copy()
 
     @property
     def q_default(self) -> FloatArray:
@@ -379,6 +703,8 @@ class Robot:
         else:
             arr = as_vector(q, self._nq, name)
             arr = arr.copy() if arr is q else arr
+        if not self._normalized_blocks or pin.isNormalized(self.model, arr, QUATERNION_TOLERANCE):
+            return arr
         for idx, size, joint in self._normalized_blocks:
             block = arr[idx : idx + size]
             norm = math.sqrt(block.dot(block))
@@ -432,12 +758,21 @@ class Robot:
         return f"q[{idx_q}]"
 
     def normalize(self, q: Any) -> FloatArray:
-        """Return ``q`` with its quaternions normalized."""
+        """``q`` with its quaternions and ``(cos, sin)`` pairs normalized (``pin.normalize``).
+
+        Raises:
+            InvalidInputError: a block is zero (no direction to normalize to).
+        """
         arr = as_vector(q, self.model.nq, "q")
+        for idx, size, joint in self._normalized_blocks:
+            if not np.linalg.norm(arr[idx : idx + size]) > 1e-12:
+                raise InvalidInputError(
+                    f"q[{idx}:{idx + size}] of joint '{joint}' is zero and cannot be normalized"
+                )
         return np.asarray(pin.normalize(self.model, arr))
 
     def neutral(self) -> FloatArray:
-        """The neutral configuration (zero joint angles, identity base)."""
+        """The neutral configuration (``pin.neutral``: zero angles, identity rotations)."""
         return np.asarray(pin.neutral(self.model))
 
     def random_configuration(
@@ -445,23 +780,60 @@ class Robot:
     ) -> FloatArray:
         """Uniform random configuration within the joint limits.
 
+        Coordinates with finite limits are uniform between them; unbounded revolute and
+        continuous joints are uniform in angle on ``[-pi, pi)``; spherical joints and
+        floating-base orientations are uniform on SO(3) (normalized Gaussian quaternion);
+        unbounded translations (free-flyer, planar, prismatic without limits) are uniform in
+        ``[-base_box, base_box]``.
+
         Args:
             rng: random generator.
-            base_box: floating-base positions are drawn in ``[-base_box, base_box]^3`` [m];
-                orientations uniformly on SO(3).
+            base_box: half side of the box of unbounded translations [m].
         """
-        q = np.empty(self.model.nq)
+        q = np.asarray(pin.neutral(self.model)).copy()
         lo = self.model.lowerPositionLimit
         hi = self.model.upperPositionLimit
         idx = self._limited_q
-        q[:] = pin.neutral(self.model)
         q[idx] = rng.uniform(lo[idx], hi[idx])
+        if self._unbounded_angles.size:
+            q[self._unbounded_angles] = rng.uniform(-np.pi, np.pi, self._unbounded_angles.size)
+        if self._unbounded_lengths.size:
+            q[self._unbounded_lengths] = rng.uniform(
+                -base_box, base_box, self._unbounded_lengths.size
+            )
         for start, size, _ in self._normalized_blocks:
-            x = rng.normal(size=size)
-            q[start : start + size] = x / np.linalg.norm(x)
-        if self.is_floating:
-            q[:3] = rng.uniform(-base_box, base_box, 3)
+            if size == 2:
+                angle = rng.uniform(-np.pi, np.pi)
+                q[start : start + 2] = (math.cos(angle), math.sin(angle))
+            else:
+                x = rng.normal(size=4)
+                q[start : start + 4] = x / np.linalg.norm(x)
         return q
+
+    def interpolate(self, q0: Any, q1: Any, t: float) -> FloatArray:
+        """Configuration a fraction ``t`` of the way from ``q0`` to ``q1`` on the manifold.
+
+        ``q(t) = q0 (+) t (q1 (-) q0)`` (``pin.interpolate``): geodesic on rotations, the
+        shorter way round on continuous joints, straight on the other coordinates.
+
+        Args:
+            q0: start configuration.
+            q1: end configuration.
+            t: fraction in [0, 1] (values outside extrapolate along the same geodesic).
+        """
+        a = self.check_configuration(q0, "q0")
+        b = self.check_configuration(q1, "q1")
+        if not (isinstance(t, (int, float, np.floating, np.integer)) and math.isfinite(t)):
+            raise InvalidInputError(f"t must be a finite number, got {t!r}")
+        return np.asarray(pin.interpolate(self.model, a, b, float(t)))
+
+    def distance(self, q0: Any, q1: Any) -> float:
+        """Length of the tangent vector from ``q0`` to ``q1``: ``||q1 (-) q0||`` [rad and m].
+
+        Unweighted Euclidean norm of ``pin.difference``: angles in radians, translations in
+        meters, rotations of spherical/free-flyer joints by their angle.
+        """
+        return float(np.linalg.norm(self.difference(q0, q1)))
 
     def integrate(self, q: Any, v: Any, dt: float = 1.0) -> FloatArray:
         """Configuration reached from ``q`` moving with velocity ``v`` for ``dt`` [s]."""
@@ -555,26 +927,28 @@ class Robot:
 
 
 # ---------------------------------------------------------------------- helpers
-def _erd_paths(spec: RobotSpec) -> tuple[str, list[str], str | None]:
-    try:
-        from example_robot_data.robots_loader import ROBOTS
-    except ImportError as exc:  # pragma: no cover - dependency missing
-        raise ModelLoadError(
-            "example_robot_data is not installed: pip install example-robot-data-loaders"
-        ) from exc
-    if spec.erd_name not in ROBOTS:
-        raise UnknownNameError("example-robot-data robot", str(spec.erd_name), ROBOTS)
-    loader_cls = ROBOTS[spec.erd_name]
+def _is_plain_loader(loader: Any) -> bool:
+    """True when an example-robot-data loader only reads a URDF (and SRDF) of its package."""
+    from example_robot_data.utils import RobotLoader
+
+    return bool(loader.urdf_filename) and loader.__init__ is RobotLoader.__init__
+
+
+def _erd_paths(loader: Any) -> tuple[str, list[str], str | None]:
+    """(URDF, package directories, SRDF or None) of a plain example-robot-data loader."""
     from os.path import join
 
     from example_robot_data.robots_loader import getModelPath
 
-    df_path = join(loader_cls.path, loader_cls.urdf_subpath, loader_cls.urdf_filename)
-    model_path = loader_cls.model_path or getModelPath(df_path)
+    df_path = join(loader.path, loader.urdf_subpath, loader.urdf_filename)
+    try:
+        model_path = loader.model_path or getModelPath(df_path)
+    except OSError as exc:
+        raise ModelLoadError(f"example-robot-data has no file {df_path}: {exc}") from exc
     urdf = join(model_path, df_path)
     srdf = None
-    if loader_cls.srdf_filename:
-        srdf = join(model_path, loader_cls.path, loader_cls.srdf_subpath, loader_cls.srdf_filename)
+    if loader.srdf_filename:
+        srdf = join(model_path, loader.path, loader.srdf_subpath, loader.srdf_filename)
     return urdf, [join(model_path, "../.."), model_path], srdf
 
 
@@ -583,12 +957,21 @@ def _posture_from_spec(model: pin.Model, spec: RobotSpec, q: FloatArray) -> Floa
     posture = spec.default_posture
     if "srdf" in posture:
         ref = posture["srdf"]
-        names = [k for k in model.referenceConfigurations]
-        names = [str(k.key()) if hasattr(k, "key") else str(k) for k in names]
-        try:
+        names = [
+            str(k.key()) if hasattr(k, "key") else str(k) for k in model.referenceConfigurations
+        ]
+        if ref in names:
             q = np.asarray(model.referenceConfigurations[ref]).copy()
-        except Exception:
-            raise UnknownNameError("reference configuration", ref, names) from None
+        elif posture.get("srdf_optional"):
+            logger.info(
+                "robot '%s': the SRDF has no reference configuration '%s' (it has: %s); "
+                "default posture = neutral",
+                spec.name,
+                ref,
+                ", ".join(names) or "none",
+            )
+        else:
+            raise UnknownNameError("reference configuration", ref, names)
     joints = posture.get("joints", {}) or {}
     names_map = {n: i for i, n in enumerate(model.names)}
     for jname, value in joints.items():
@@ -603,14 +986,38 @@ def _posture_from_spec(model: pin.Model, spec: RobotSpec, q: FloatArray) -> Floa
     return q
 
 
-def _remove_adjacent_pairs(
-    model: pin.Model, collision: pin.GeometryModel, q_default: FloatArray
+def _drop_orphan_geometries(
+    model: pin.Model, geometry: pin.GeometryModel, name: str, kind: str
 ) -> None:
-    """Without an SRDF, drop pairs that are always or usually in contact.
+    """Remove geometries attached to joints or frames the model does not have.
 
-    Pairs on the same or adjacent joints, and pairs touching at the default posture (what
-    MoveIt's setup assistant disables as "adjacent" and "default").
+    Pinocchio would read past the end of ``Data`` for them (example-robot-data's
+    ``talos_legs`` keeps the collision geometry of the whole robot on a legs-only model).
     """
+    orphans = [
+        str(g.name)
+        for g in geometry.geometryObjects
+        if g.parentJoint >= model.njoints or g.parentFrame >= model.nframes
+    ]
+    for gname in orphans:
+        geometry.removeGeometryObject(gname)
+    if orphans:
+        warnings.warn(
+            f"robot '{name}': {len(orphans)} {kind} geometries are attached to joints or "
+            f"frames the model does not have and were removed: {orphans[:8]}"
+            + ("..." if len(orphans) > 8 else ""),
+            ModelWarning,
+            stacklevel=4,
+        )
+
+
+def _pair_names(collision: pin.GeometryModel, first: int, second: int) -> tuple[str, str]:
+    objs = collision.geometryObjects
+    return (str(objs[first].name), str(objs[second].name))
+
+
+def _remove_adjacent_pairs(model: pin.Model, collision: pin.GeometryModel) -> list[tuple[str, str]]:
+    """Drop the pairs of geometries on the same or adjacent joints; return their names."""
     objs = collision.geometryObjects
     parents = model.parents
     drop = []
@@ -620,22 +1027,111 @@ def _remove_adjacent_pairs(
             drop.append((int(pair.first), int(pair.second)))
     for first, second in drop:
         collision.removeCollisionPair(pin.CollisionPair(first, second))
+    return [_pair_names(collision, a, b) for a, b in drop]
+
+
+def prune_collision_pairs(
+    robot: Robot,
+    options: CollisionPruningOptions | None = None,
+    *,
+    adjacent: Sequence[tuple[str, str]] = (),
+) -> PrunedCollisionPairs:
+    """Disable the self-collision pairs that collide at the default posture or almost always.
+
+    Rules (MoveIt setup assistant's "default" and "always"):
+
+    * a pair in collision at ``robot.q_default`` is disabled;
+    * a pair in collision in at least ``ceil(fraction * samples)`` of ``samples`` random
+      configurations (:meth:`Robot.random_configuration`, seed ``options.seed``) is
+      disabled. Each pair is dropped from the test once it has missed more than
+      ``samples - ceil(fraction * samples)`` times, so the cost is a few full checks.
+
+    Each disabled pair is reported with a :class:`ModelWarning`; the result is stored in
+    ``robot.pruned_collision_pairs``. Only robot-robot pairs are considered (call before
+    adding obstacles).
+
+    Args:
+        robot: the robot (its ``collision_model`` is modified).
+        options: thresholds (default :class:`CollisionPruningOptions`).
+        adjacent: pairs already disabled by the adjacency rule (recorded in the result).
+
+    Returns:
+        The disabled pairs by rule.
+    """
+    options = options or CollisionPruningOptions()
+    model, collision = robot.model, robot.collision_model
     data = model.createData()
     geom_data = collision.createData()
-    pin.computeCollisions(model, data, collision, geom_data, q_default, False)
-    touching = [
+    n_robot = robot.robot_geometry_count
+    pairs = [
         (int(p.first), int(p.second))
-        for k, p in enumerate(collision.collisionPairs)
-        if geom_data.collisionResults[k].isCollision()
+        for p in collision.collisionPairs
+        if p.first < n_robot and p.second < n_robot
     ]
-    for first, second in touching:
+    index = {(int(p.first), int(p.second)): k for k, p in enumerate(collision.collisionPairs)}
+
+    def colliding(q: FloatArray, candidates: list[tuple[int, int]]) -> list[bool]:
+        pin.updateGeometryPlacements(model, data, collision, geom_data, q)
+        return [bool(pin.computeCollision(collision, geom_data, index[c])) for c in candidates]
+
+    default: list[tuple[int, int]] = []
+    if options.default_posture and pairs:
+        hits = colliding(np.asarray(robot.q_default), pairs)
+        default = [c for c, h in zip(pairs, hits) if h]
+    remaining = [c for c in pairs if c not in set(default)]
+    always: list[tuple[int, int]] = []
+    if options.samples > 0 and remaining:
+        rng = np.random.default_rng(options.seed)
+        needed = math.ceil(options.fraction * options.samples - 1e-9)
+        allowed_misses = options.samples - needed
+        misses = dict.fromkeys(remaining, 0)
+        candidates = list(remaining)
+        for _ in range(options.samples):
+            if not candidates:
+                break
+            hits = colliding(robot.random_configuration(rng), candidates)
+            survivors = []
+            for c, h in zip(candidates, hits):
+                if not h:
+                    misses[c] += 1
+                if misses[c] <= allowed_misses:
+                    survivors.append(c)
+            candidates = survivors
+        always = candidates
+    for first, second in default + always:
         collision.removeCollisionPair(pin.CollisionPair(first, second))
-    if drop or touching:
+    robot.collision_data = collision.createData()
+    result = PrunedCollisionPairs(
+        adjacent=tuple(adjacent),
+        default_posture=tuple(_pair_names(collision, a, b) for a, b in default),
+        always=tuple(_pair_names(collision, a, b) for a, b in always),
+        samples=options.samples,
+        fraction=options.fraction,
+    )
+    robot.pruned_collision_pairs = result
+    if adjacent:
         logger.info(
-            "no SRDF: disabled %d adjacent and %d default-posture collision pairs",
-            len(drop),
-            len(touching),
+            "robot '%s' has no SRDF: disabled %d collision pairs of adjacent links",
+            robot.name,
+            len(adjacent),
         )
+    if result.default_posture or result.always:
+        source = "its SRDF" if robot.srdf_path else "the adjacency rule"
+        parts = []
+        if result.default_posture:
+            parts.append(f"in collision at the default posture: {list(result.default_posture)}")
+        if result.always:
+            parts.append(
+                f"in collision in >= {options.fraction:.0%} of {options.samples} random "
+                f"configurations: {list(result.always)}"
+            )
+        warnings.warn(
+            f"robot '{robot.name}': collision pairs left by {source} were disabled, "
+            + "; ".join(parts),
+            ModelWarning,
+            stacklevel=3,
+        )
+    return result
 
 
 def _convexify(geometry_model: pin.GeometryModel) -> None:

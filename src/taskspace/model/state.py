@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+import operator
+from typing import TYPE_CHECKING, Any, NoReturn
 
 import numpy as np
 import pinocchio as pin
@@ -29,7 +30,19 @@ class State:
     :meth:`update` runs Pinocchio once (``computeJointJacobians`` and frame placements, plus
     ``forwardKinematics`` with ``a = 0`` when a velocity is given, for the drift terms
     ``Jdot v``). Every feature then reads from it; per-frame Jacobians are cached until the
-    next update. ``q`` and ``v`` are exposed read-only.
+    next update.
+
+    Invariants (by construction): ``q``, ``v``, ``robot``, ``data`` and ``collision_data``
+    are read-only. ``q`` and ``v`` are private copies whose buffers cannot be made writable
+    again, so the kinematics always belong to the ``q`` and ``v`` the state reports: the
+    only way to change them is :meth:`update`, which recomputes everything. ``data`` is the
+    ``pin.Data`` of ``robot.model`` made by this state; it cannot be replaced (a ``Data`` of
+    another model would make Pinocchio and the compiled kernels write out of bounds). The
+    collision data follow the robot's obstacle world by its
+    :attr:`~taskspace.model.World.version`.
+
+    Thread safety: a state is a workspace and is not thread-safe; use one state per thread
+    (reading the same state from several threads without updating it is safe).
 
     Args:
         robot: the robot.
@@ -41,40 +54,63 @@ class State:
         "_a0",
         "_cache_local",
         "_cache_lwa",
+        "_collision_data",
+        "_collision_version",
         "_com",
         "_com_drift",
         "_com_jacobian",
         "_com_ref",
+        "_data",
         "_distance_handles",
         "_distances_done",
         "_has_velocity",
         "_model",
+        "_nframes",
+        "_njoints",
         "_placements",
         "_q",
+        "_robot",
         "_v",
-        "collision_data",
-        "data",
-        "robot",
     )
 
     def __init__(self, robot: Robot, q: Any, v: Any = None) -> None:
-        self.robot = robot
+        self._robot = robot
         self._model = robot.model
+        self._nframes = int(robot.model.nframes)
+        self._njoints = int(robot.model.njoints)
         self._com: FloatArray | None = None
         self._com_jacobian: FloatArray | None = None
         self._com_drift: FloatArray | None = None
-        self.data = robot.model.createData()
+        self._data = robot.model.createData()
         # References into ``data`` (Pinocchio returns views that follow every update); taking
         # them once saves building a new Python object at each access.
-        self._com_ref: FloatArray = self.data.com[0]
+        self._com_ref: FloatArray = self._data.com[0]
         self._placements: dict[int, pin.SE3] = {}
-        self.collision_data = robot.collision_model.createData()
+        self._collision_data = robot.collision_model.createData()
+        self._collision_version = robot.world.version
         self._distance_handles: tuple[Any, list[Any]] | None = None
-        self._a0 = np.zeros(robot.nv)
-        self._a0.flags.writeable = False  # also serves as the zero velocity
+        self._a0 = _frozen(np.zeros(robot.nv))  # also serves as the zero velocity
         self._cache_lwa: dict[int, FloatArray] = {}
         self._cache_local: dict[int, FloatArray] = {}
         self.update(q, v)
+
+    # Read-only attributes: C-level getters (``attrgetter``), as fast as they come.
+    robot = property(
+        operator.attrgetter("_robot"),
+        lambda self, value: _read_only("robot"),
+        doc="The robot whose model made this state (read-only).",
+    )
+    data = property(
+        operator.attrgetter("_data"),
+        lambda self, value: _read_only("data"),
+        doc="The ``pin.Data`` of ``robot.model`` holding the kinematics (read-only; do not "
+        "pass it to Pinocchio functions that modify it).",
+    )
+    collision_data = property(
+        operator.attrgetter("_collision_data"),
+        lambda self, value: _read_only("collision_data"),
+        doc="The ``pin.GeometryData`` of ``robot.collision_model`` (read-only).",
+    )
 
     # ------------------------------------------------------------------ update
     def update(self, q: Any, v: Any = None, *, validate: bool = True) -> None:
@@ -87,7 +123,7 @@ class State:
                 vectors produced by taskspace itself in a hot loop).
         """
         if validate:
-            robot = self.robot
+            robot = self._robot
             q = robot.check_configuration(q)
             if v is not None:
                 v = robot.check_velocity(v)
@@ -95,19 +131,27 @@ class State:
             q = np.array(q, dtype=float)
             if v is not None:
                 v = np.array(v, dtype=float)
-        data = self.data
+        if q.base is not None:  # a view of the caller's array: take a copy of our own
+            q = q.copy()
+        if v is not None and v.base is not None:
+            v = v.copy()
+        data = self._data
         model = self._model
+        # Private copies made read-only for good: the buffer is locked and only a view is
+        # kept, and numpy refuses to make a view of a locked buffer writable again.
+        q.flags.writeable = False
+        q = q[:]
         if v is None:
             self._has_velocity = False
             v = self._a0
             _compute_joint_jacobians(model, data, q)
         else:
             self._has_velocity = True
+            v.flags.writeable = False
+            v = v[:]
             _forward_kinematics(model, data, q, v, self._a0)
             _compute_joint_jacobians(model, data)
-            v.setflags(write=False)
         _update_frame_placements(model, data)
-        q.setflags(write=False)
         self._q = q
         self._v = v
         if self._cache_lwa:
@@ -140,7 +184,8 @@ class State:
         """
         M = self._placements.get(frame_id)
         if M is None:
-            M = self._placements[frame_id] = self.data.oMf[frame_id]
+            frame_id = self._frame_index(frame_id)
+            M = self._placements[frame_id] = self._data.oMf[frame_id]
         return M
 
     def frame_jacobian(self, frame_id: int) -> FloatArray:
@@ -150,7 +195,8 @@ class State:
         """
         J = self._cache_lwa.get(frame_id)
         if J is None:
-            J = _get_frame_jacobian(self._model, self.data, frame_id, LWA)
+            frame_id = self._frame_index(frame_id)
+            J = _get_frame_jacobian(self._model, self._data, frame_id, LWA)
             self._cache_lwa[frame_id] = J
         return J
 
@@ -158,7 +204,8 @@ class State:
         """6 x nv Jacobian of a frame in its LOCAL coordinates (body twist)."""
         J = self._cache_local.get(frame_id)
         if J is None:
-            J = _get_frame_jacobian(self._model, self.data, frame_id, LOCAL)
+            frame_id = self._frame_index(frame_id)
+            J = _get_frame_jacobian(self._model, self._data, frame_id, LOCAL)
             self._cache_local[frame_id] = J
         return J
 
@@ -168,7 +215,28 @@ class State:
         The velocity of a point ``p`` (world coordinates) attached to the joint is
         ``(J[:3] - [p]x J[3:]) v``.
         """
-        return pin.getJointJacobian(self._model, self.data, joint_id, WORLD)
+        joint_id = self._index(joint_id, self._njoints, "joint", "robot.joint_id(name)")
+        return pin.getJointJacobian(self._model, self._data, joint_id, WORLD)
+
+    def _frame_index(self, frame_id: Any) -> int:
+        return self._index(frame_id, self._nframes, "frame", "robot.frame_id(name)")
+
+    def _index(self, index: Any, count: int, kind: str, hint: str) -> int:
+        """``index`` as an int in ``[0, count)``, else an error giving the valid range."""
+        if type(index) is int and 0 <= index < count:
+            return index
+        if isinstance(index, (bool, np.bool_)) or not isinstance(index, (int, np.integer)):
+            raise InvalidInputError(
+                f"{kind} index must be an integer in [0, {count - 1}], got "
+                f"{type(index).__name__} {index!r}; use {hint} to get it from a name"
+            )
+        if not 0 <= int(index) < count:
+            raise InvalidInputError(
+                f"{kind} index {int(index)} is out of range: robot '{self._robot.name}' has "
+                f"{count} {kind}s, valid indices are 0..{count - 1}; use {hint} to get it "
+                "from a name"
+            )
+        return int(index)
 
     def _require_velocity(self, what: str) -> None:
         if not self._has_velocity:
@@ -184,7 +252,8 @@ class State:
         coordinates, the drift of :meth:`frame_jacobian`.
         """
         self._require_velocity("the drift Jdot v")
-        acc = pin.getFrameClassicalAcceleration(self._model, self.data, frame_id, LWA)
+        frame_id = self._frame_index(frame_id)
+        acc = pin.getFrameClassicalAcceleration(self._model, self._data, frame_id, LWA)
         return np.asarray(acc.vector)
 
     def frame_drift_local(self, frame_id: int) -> FloatArray:
@@ -193,7 +262,8 @@ class State:
         The drift of :meth:`frame_jacobian_local` (the body twist ``J_local v``).
         """
         self._require_velocity("the drift Jdot v")
-        acc = pin.getFrameAcceleration(self._model, self.data, frame_id, LOCAL)
+        frame_id = self._frame_index(frame_id)
+        acc = pin.getFrameAcceleration(self._model, self._data, frame_id, LOCAL)
         return np.asarray(acc.vector)
 
     def frame_velocity(self, frame_id: int) -> FloatArray:
@@ -214,7 +284,7 @@ class State:
         """3 x nv Jacobian of the center of mass."""
         J = self._com_jacobian
         if J is None:
-            J = pin.jacobianCenterOfMass(self._model, self.data, True)
+            J = pin.jacobianCenterOfMass(self._model, self._data, True)
             self._com_jacobian = J
             self._com = self._com_ref  # a view into data: valid until the next update
         return J
@@ -224,8 +294,8 @@ class State:
         self._require_velocity("the center-of-mass drift")
         drift = self._com_drift
         if drift is None:
-            pin.centerOfMass(self._model, self.data, pin.KinematicLevel.ACCELERATION, True)
-            drift = np.asarray(self.data.acom[0]).copy()
+            pin.centerOfMass(self._model, self._data, pin.KinematicLevel.ACCELERATION, True)
+            drift = np.asarray(self._data.acom[0]).copy()
             self._com_drift = drift
         return drift
 
@@ -234,14 +304,19 @@ class State:
         """Run coal distance queries for every collision pair (once per update)."""
         if self._distances_done:
             return
-        robot = self.robot
-        if len(self.collision_data.oMg) != robot.collision_model.ngeoms:
-            # obstacles were added after this state was created
-            self.collision_data = robot.collision_model.createData()
-        pin.updateGeometryPlacements(
-            robot.model, self.data, robot.collision_model, self.collision_data
-        )
-        pin.computeDistances(robot.collision_model, self.collision_data)
+        robot = self._robot
+        geom = robot.collision_model
+        version = robot.world.version
+        if (
+            version != self._collision_version
+            or len(self._collision_data.oMg) != geom.ngeoms
+            or len(self._collision_data.distanceResults) != len(geom.collisionPairs)
+        ):
+            # the world (obstacles or collision pairs) changed since the data were made
+            self._collision_data = geom.createData()
+            self._collision_version = version
+        pin.updateGeometryPlacements(self._model, self._data, geom, self._collision_data)
+        pin.computeDistances(geom, self._collision_data)
         self._distances_done = True
 
     def distance_results(self) -> list[Any]:
@@ -254,8 +329,21 @@ class State:
         """
         self.compute_distances()
         cached = self._distance_handles
-        if cached is not None and cached[0] is self.collision_data:
+        if cached is not None and cached[0] is self._collision_data:
             return cached[1]
-        handles = list(self.collision_data.distanceResults)
-        self._distance_handles = (self.collision_data, handles)
+        handles = list(self._collision_data.distanceResults)
+        self._distance_handles = (self._collision_data, handles)
         return handles
+
+
+def _frozen(array: FloatArray) -> FloatArray:
+    """A read-only view of ``array`` whose buffer is locked (cannot be made writable)."""
+    array.flags.writeable = False
+    return array[:]
+
+
+def _read_only(name: str) -> NoReturn:
+    raise InvalidInputError(
+        f"State.{name} is read-only: a state owns its kinematics; call state.update(q, v) "
+        "for a new configuration or robot.state(q) for a new state"
+    )

@@ -1,7 +1,16 @@
-"""Obstacle world: primitive and mesh obstacles with poses, as coal collision geometries."""
+"""Obstacle world: primitive and mesh obstacles with poses, as coal collision geometries.
+
+Obstacles are immutable values (a frozen dataclass: "moving" one means removing it and adding
+a new one) and a :class:`World` carries a :attr:`~World.version` that changes at every
+mutation. Objects derived from a world (collision checkers, configuration spaces, compiled
+checkers, the collision data of a state) record the version they were built from and rebuild
+when it changed: they are invalidated by construction, not by comparing counts (clearing the
+world and adding the same number of obstacles keeps the counts and changes the version).
+"""
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -50,9 +59,14 @@ def as_se3(pose: Any, name: str = "pose") -> pin.SE3:
     )
 
 
-@dataclass
+@dataclass(frozen=True)
 class Obstacle:
-    """A rigid obstacle fixed in the world.
+    """A rigid obstacle fixed in the world (an immutable value).
+
+    Its fields cannot be reassigned: to move an obstacle, remove it and add a new one
+    (``robot.clear_obstacles()`` / ``robot.add_obstacle(...)``), which changes the world's
+    :attr:`World.version`. Do not modify ``placement`` or ``geometry`` in place either: the
+    robot's collision model and the checkers built from it hold their own copies.
 
     Attributes:
         name: unique name.
@@ -105,25 +119,64 @@ class Obstacle:
         return Obstacle(name, geom, as_se3(pose), mesh_path=str(p), **kw)
 
 
+_VERSIONS = itertools.count(1)
+"""Source of world versions, shared by every world (a version is never reused)."""
+
+
 class World:
-    """A named collection of obstacles."""
+    """A named collection of obstacles with a version that changes at every mutation.
+
+    :attr:`version` is drawn from one process-wide increasing counter, so it never takes the
+    same value twice, also across worlds: an object that recorded ``world.version`` is stale
+    exactly when the version differs. Mutations: :meth:`add`, :meth:`remove`, :meth:`clear`
+    and :meth:`mark_changed` (called by the robot when it changes its collision pairs).
+
+    Thread safety: a world is not locked; do not mutate it while another thread plans or
+    checks collisions against it.
+    """
 
     def __init__(self, obstacles: Sequence[Obstacle] = ()) -> None:
         self._obstacles: dict[str, Obstacle] = {}
+        self._version = next(_VERSIONS)
         for obstacle in obstacles:
             self.add(obstacle)
 
+    @property
+    def version(self) -> int:
+        """Identifier of the current content; changes at every mutation, never reused."""
+        return self._version
+
+    def mark_changed(self) -> None:
+        """Give the world a new :attr:`version` (e.g. after the collision pairs changed)."""
+        self._version = next(_VERSIONS)
+
     def add(self, obstacle: Obstacle) -> None:
         """Add an obstacle; its name must be new."""
+        if not isinstance(obstacle, Obstacle):
+            raise InvalidInputError(
+                f"expected an Obstacle (Obstacle.box, .sphere, .cylinder, .mesh), got "
+                f"{type(obstacle).__name__}"
+            )
         if obstacle.name in self._obstacles:
-            raise InvalidInputError(f"an obstacle named '{obstacle.name}' already exists")
+            raise InvalidInputError(
+                f"an obstacle named '{obstacle.name}' already exists; remove it first or "
+                "choose another name"
+            )
         self._obstacles[obstacle.name] = obstacle
+        self._version = next(_VERSIONS)
 
     def remove(self, name: str) -> Obstacle:
         """Remove and return the obstacle called ``name``."""
         if name not in self._obstacles:
             raise UnknownNameError("obstacle", name, self._obstacles)
-        return self._obstacles.pop(name)
+        obstacle = self._obstacles.pop(name)
+        self._version = next(_VERSIONS)
+        return obstacle
+
+    def clear(self) -> None:
+        """Remove every obstacle."""
+        self._obstacles.clear()
+        self._version = next(_VERSIONS)
 
     def __getitem__(self, name: str) -> Obstacle:
         if name not in self._obstacles:

@@ -110,9 +110,17 @@ class CollisionCheckerOptions:
 class CollisionChecker:
     """Exact self- and world-collision test of a :class:`~taskspace.model.Robot`.
 
-    Build it after the obstacles are added to the robot (``robot.add_obstacle``); call
-    :meth:`update_world` after changing them. The checker keeps its own Pinocchio data, so
-    using it does not touch ``robot.data``.
+    The checker keeps its own copies of the robot's models (a broad-phase pool, the compiled
+    checker) and records the :attr:`~taskspace.model.World.version` of the robot's world it
+    was built from; every query compares it with the current version (one integer
+    comparison) and rebuilds the copies when the world changed (obstacles added, removed,
+    cleared, or the robot's collision pairs changed through its methods), so it always
+    answers for the current world. :meth:`update_world` forces a rebuild. The checker keeps
+    its own Pinocchio data, so using it does not touch ``robot.data``.
+
+    Thread safety: a checker is not thread-safe (its Pinocchio data, pool and compiled
+    checker are workspaces); give each thread its own checker. The world must not be changed
+    while a query runs.
 
     Args:
         robot: the robot with its obstacle world.
@@ -131,6 +139,9 @@ class CollisionChecker:
         self._geometry_pool: Any = None
         self._kernel: Any = None
         self._kernel_checked = False
+        self._world: Any = None
+        self._world_version = -1
+        self._geometry_model: Any = None
         self.update_world()
 
     # ------------------------------------------------------------------ set-up
@@ -154,6 +165,9 @@ class CollisionChecker:
         self._npairs = len(geom.collisionPairs)
         self._kernel = None
         self._kernel_checked = False
+        self._world = robot.world
+        self._world_version = robot.world.version
+        self._geometry_model = geom
 
     def _query_kernel(self) -> Any:
         """The compiled checker if the queries use it (``options.native``), else ``None``."""
@@ -167,9 +181,14 @@ class CollisionChecker:
         """The compiled checker on copies of the robot's models, or ``None`` (not built).
 
         It is ``taskspace._native.planning_kernel().CollisionKernel`` (used by the compiled
-        RRT-Connect); it is rebuilt after :meth:`update_world`. ``None`` when the kernel is
-        not built or the broad phase is disabled in the options.
+        RRT-Connect). The handle answers for the world as it was at this call: after any
+        change of the world, call this method again (it then returns a new handle built on
+        the current world; the compiled planner does so at every plan). ``None`` when the
+        kernel is not built or the broad phase is disabled in the options.
         """
+        geom = self.robot.collision_model
+        if len(geom.collisionPairs) != self._npairs:  # pairs edited on the model directly
+            self.update_world()
         self._sync()
         if self._kernel is None and self.options.broadphase:
             from taskspace._native import planning_kernel
@@ -185,10 +204,33 @@ class CollisionChecker:
             )
         return self._kernel
 
+    @property
+    def world_version(self) -> int:
+        """:attr:`~taskspace.model.World.version` of the world the checker answers for.
+
+        Objects that cache validity answers (roadmaps) record it and compare it with the
+        current ``robot.world.version``.
+        """
+        self._sync()
+        return self._world_version
+
     def _sync(self) -> None:
-        geom = self.robot.collision_model
-        if geom.ngeoms != self._ngeoms or len(geom.collisionPairs) != self._npairs:
-            logger.debug("collision model changed; rebuilding the collision checker")
+        """Rebuild the copies if the robot's world changed since they were made.
+
+        The world's version changes at every obstacle or collision-pair change made through
+        the robot; the identity and geometry-count checks also catch a replaced world or
+        collision model.
+        """
+        robot = self.robot
+        world = robot.world
+        geom = robot.collision_model
+        if (
+            world.version != self._world_version
+            or world is not self._world
+            or geom is not self._geometry_model
+            or geom.ngeoms != self._ngeoms
+        ):
+            logger.debug("robot world changed; rebuilding the collision checker")
             self.update_world()
 
     @property

@@ -122,6 +122,15 @@ class ConfigurationSpace:
 
     Attributes:
         edge_checks: number of local-planner (edge) queries.
+
+    A space built on a robot (:meth:`from_robot`) holds nothing derived from the obstacle
+    world besides its :class:`CollisionChecker`, which follows the world's version (see
+    there): after ``robot.clear_obstacles()`` / ``robot.add_obstacle(...)`` the same space
+    answers for the new world. Results cached outside the space (roadmaps) can record
+    :attr:`world_version` and compare it later.
+
+    Thread safety: not thread-safe (counters and the checker's workspaces); one space per
+    thread.
     """
 
     def __init__(
@@ -183,6 +192,18 @@ class ConfigurationSpace:
     def extent(self) -> float:
         """Diagonal of the box ``|upper - lower|`` [rad or m]."""
         return float(np.linalg.norm(self.upper - self.lower))
+
+    @property
+    def world_version(self) -> int | None:
+        """Version of the obstacle world the checker answers for, ``None`` without a world.
+
+        It is :attr:`CollisionChecker.world_version` (the robot's
+        :attr:`~taskspace.model.World.version`, the checker having rebuilt itself first if
+        the world changed); a checker without a world (:class:`FunctionChecker`) gives
+        ``None``.
+        """
+        version = getattr(self.checker, "world_version", None)
+        return None if version is None else int(version)
 
     @property
     def checks(self) -> int:

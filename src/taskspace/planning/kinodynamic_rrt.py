@@ -35,7 +35,13 @@ from typing import Any, Literal
 import numpy as np
 import numpy.typing as npt
 
-from taskspace._validation import as_vector, check_positive
+from taskspace._validation import (
+    as_vector,
+    check_count,
+    check_positive,
+    check_seed,
+    check_time_limit,
+)
 from taskspace.errors import InvalidInputError, PlanningError, UnknownNameError
 from taskspace.planning.car import CarModel, sample_motion
 from taskspace.planning.dubins import dubins_distance, dubins_shortest
@@ -57,7 +63,7 @@ class KinodynamicRRTOptions:
     Attributes:
         steering: ``"reeds_shepp"`` (forward and reverse), ``"dubins"`` (forward only) or
             ``"controls"`` (random constant controls, slide 3:51).
-        max_iterations: number of sampling iterations ``k``.
+        max_iterations: number of sampling iterations ``k`` (an integer >= 1).
         goal_bias: probability ``beta`` of sampling the goal.
         step_length: arc length driven per extension, ``|v| tau`` [m].
         connect_distance: try the exact curve to the goal from new nodes closer than this
@@ -68,8 +74,9 @@ class KinodynamicRRTOptions:
         nearest_candidates: nodes pre-selected by the SE(2) metric before exact ranking.
         rotation_weight: length scale [m] of the heading in the SE(2) metric.
         n_control_samples: random controls tried per extension (``"controls"``).
-        time_limit_s: wall-clock budget [s] (``None`` = no limit).
-        seed: random seed used when no ``rng`` is passed.
+        time_limit_s: wall-clock budget [s] (``None`` or ``math.inf`` = no limit; NaN is
+            refused).
+        seed: random seed (an integer >= 0) used when no ``rng`` is passed.
     """
 
     steering: Literal["reeds_shepp", "dubins", "controls"] = "reeds_shepp"
@@ -144,10 +151,10 @@ def _validate(opts: KinodynamicRRTOptions) -> None:
         raise UnknownNameError("steering", str(opts.steering), _STEERINGS)
     if not 0.0 <= opts.goal_bias <= 1.0:
         raise InvalidInputError(f"goal_bias must be in [0, 1], got {opts.goal_bias}")
-    if opts.max_iterations < 1 or opts.nearest_candidates < 1 or opts.n_control_samples < 1:
-        raise InvalidInputError(
-            "max_iterations, nearest_candidates and n_control_samples must be >= 1"
-        )
+    for name in ("max_iterations", "nearest_candidates", "n_control_samples"):
+        check_count(getattr(opts, name), name, minimum=1)
+    check_time_limit(opts.time_limit_s)
+    check_seed(opts.seed)
     for name in ("step_length", "connect_distance", "collision_step", "rotation_weight"):
         check_positive(getattr(opts, name), name)
 
@@ -242,8 +249,9 @@ def kinodynamic_rrt(
         return n - 1
 
     it = 0
-    for it in range(1, opts.max_iterations + 1):
-        if opts.time_limit_s is not None and time.perf_counter() - t_start > opts.time_limit_s:
+    time_limit = check_time_limit(opts.time_limit_s)
+    for it in range(1, check_count(opts.max_iterations, "max_iterations") + 1):
+        if time.perf_counter() - t_start > time_limit:
             status = RRTStatus.TIME_LIMIT
             it -= 1
             break

@@ -28,6 +28,13 @@ import numpy.typing as npt
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
+from taskspace._validation import (
+    check_count,
+    check_limits,
+    check_positive,
+    check_seed,
+    check_time_limit,
+)
 from taskspace.errors import InvalidInputError
 from taskspace.planning.configuration_space import (
     ConfigurationSpace,
@@ -75,9 +82,9 @@ def build_lazy_prm(
 ) -> LazyRoadmap:
     """Sample free nodes and connect k nearest neighbours without checking the edges."""
     opts = options or PRMOptions()
-    if opts.n_samples < 1 or opts.k_neighbors < 1:
-        raise InvalidInputError("n_samples and k_neighbors must be >= 1")
-    rng = rng if rng is not None else np.random.default_rng(opts.seed)
+    check_count(opts.n_samples, "n_samples", minimum=1)
+    check_count(opts.k_neighbors, "k_neighbors", minimum=1)
+    rng = rng if rng is not None else np.random.default_rng(check_seed(opts.seed))
     t0 = time.perf_counter()
     checks0 = space.checks
     nodes = sample_free(space, opts.n_samples, rng, strategy=opts.sampler, sigma=opts.sigma)
@@ -158,15 +165,18 @@ def lazy_prm_query(
         start: ``q_start``.
         goal: ``q_goal``.
         options: ``k_neighbors`` is used.
-        time_limit_s: wall-clock budget [s].
+        time_limit_s: wall-clock budget [s] (``None`` or ``math.inf``: none; every round
+            removes an edge or ends, so the query ends without one).
         coarse_resolution: first-pass resolution [rad or m].
 
     Raises:
         PlanningError: start or goal outside the bounds or in collision.
+        InvalidInputError: a NaN or negative time limit, a bad resolution.
     """
     opts = options or PRMOptions()
     t0 = time.perf_counter()
-    deadline = math.inf if time_limit_s is None else t0 + time_limit_s
+    deadline = t0 + check_time_limit(time_limit_s)
+    check_positive(coarse_resolution, "coarse_resolution")
     checks0, edges0 = space.checks, space.edge_checks
     q_start = space.check_endpoint(start, "start")
     q_goal = space.check_endpoint(goal, "goal")
@@ -275,6 +285,7 @@ def lazy_prm(
     options: PRMOptions | None = None,
     *,
     time_limit_s: float | None = 1.0,
+    max_rounds: int | None = 100,
     endpoint_fraction: float = 0.2,
     rng: np.random.Generator | None = None,
 ) -> tuple[PlannerResult, LazyRoadmap]:
@@ -283,15 +294,41 @@ def lazy_prm(
     Round ``r`` adds ``n_samples`` free nodes: a fraction ``endpoint_fraction`` drawn from
     ``N(q_start, sigma^2 I)`` and ``N(q_goal, sigma^2 I)`` (the tight start and goal regions
     of manipulation problems), the rest uniform; then :func:`lazy_prm_query` runs on the grown
-    roadmap (edge states carried over). Stops when a path is found or the time runs out.
+    roadmap (edge states carried over). Stops when a path is found, after ``max_rounds``
+    rounds or when the time runs out.
+
+    Args:
+        space: the configuration space.
+        start: ``q_start``.
+        goal: ``q_goal``.
+        options: ``n_samples`` (nodes added per round), ``k_neighbors``, ``sigma``, ``seed``.
+        time_limit_s: wall-clock budget [s] (``None`` or ``math.inf``: none, then
+            ``max_rounds`` must be an integer).
+        max_rounds: largest number of growth rounds (``None``: none, then ``time_limit_s``
+            must be finite).
+        endpoint_fraction: fraction of each round's nodes drawn near start and goal.
+        rng: random generator (default: ``np.random.default_rng(options.seed)``).
 
     Returns:
-        ``(result, lazy roadmap)``; ``time_s`` and ``collision_checks`` include construction.
+        ``(result, lazy roadmap)``; ``time_s`` and ``collision_checks`` include construction;
+        status ``ITERATION_LIMIT`` after ``max_rounds`` rounds without a path.
+
+    Raises:
+        PlanningError: start or goal outside the bounds or in collision.
+        InvalidInputError: a NaN or negative time limit, no limit at all (``time_limit_s``
+            and ``max_rounds`` both ``None``), bad options.
     """
     opts = options or PRMOptions()
-    rng = rng if rng is not None else np.random.default_rng(opts.seed)
+    cap, limit = check_limits(
+        max_rounds, time_limit_s, names=("max_rounds", "time_limit_s"), minimum=1
+    )
+    if not 0.0 <= endpoint_fraction <= 1.0:
+        raise InvalidInputError(f"endpoint_fraction must be in [0, 1], got {endpoint_fraction}")
+    check_count(opts.n_samples, "n_samples", minimum=1)
+    check_count(opts.k_neighbors, "k_neighbors", minimum=1)
+    rng = rng if rng is not None else np.random.default_rng(check_seed(opts.seed))
     t0 = time.perf_counter()
-    deadline = math.inf if time_limit_s is None else t0 + time_limit_s
+    deadline = t0 + limit
     checks0, edges0 = space.checks, space.edge_checks
     q_start = space.check_endpoint(start, "start")
     q_goal = space.check_endpoint(goal, "goal")
@@ -314,9 +351,12 @@ def lazy_prm(
             base = Roadmap(nodes=np.empty((0, space.dim)), adjacency=[])
             lazy = LazyRoadmap(roadmap=base)
         lazy = grow_lazy_prm(space, lazy, fresh, opts.k_neighbors)
-        remaining = None if time_limit_s is None else max(0.0, deadline - time.perf_counter())
+        remaining = None if math.isinf(limit) else max(0.0, deadline - time.perf_counter())
         result = lazy_prm_query(space, lazy, q_start, q_goal, opts, time_limit_s=remaining)
         if result.success or time.perf_counter() > deadline:
+            break
+        if cap is not None and rounds >= cap:
+            result.status = PlannerStatus.ITERATION_LIMIT
             break
     result.time_s = time.perf_counter() - t0
     result.collision_checks = space.checks - checks0

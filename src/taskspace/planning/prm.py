@@ -26,7 +26,7 @@ import numpy as np
 import numpy.typing as npt
 from scipy.spatial import cKDTree
 
-from taskspace.errors import InvalidInputError
+from taskspace._validation import check_count, check_seed
 from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray, path_length
 from taskspace.planning.graph_search import astar, dijkstra
 from taskspace.planning.planner_result import PlannerResult, PlannerStatus
@@ -152,9 +152,9 @@ def build_prm(
         rng: random generator (default: ``np.random.default_rng(options.seed)``).
     """
     opts = options or PRMOptions()
-    if opts.n_samples < 1 or opts.k_neighbors < 1:
-        raise InvalidInputError("n_samples and k_neighbors must be >= 1")
-    rng = rng if rng is not None else np.random.default_rng(opts.seed)
+    check_count(opts.n_samples, "n_samples", minimum=1)
+    check_count(opts.k_neighbors, "k_neighbors", minimum=1)
+    rng = rng if rng is not None else np.random.default_rng(check_seed(opts.seed))
     t0 = time.perf_counter()
     checks0 = space.checks
     nodes = sample_free(space, opts.n_samples, rng, strategy=opts.sampler, sigma=opts.sigma)

@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from taskspace._validation import check_positive
+from taskspace._validation import check_count, check_positive, check_seed, check_time_limit
 from taskspace.errors import InvalidInputError
 from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray, path_length
 from taskspace.planning.planner_result import PlannerResult, PlannerStatus
@@ -41,9 +41,10 @@ class RRTOptions:
     Attributes:
         step_size: extension step ``alpha`` [rad or m] (slide 3:39).
         goal_bias: probability ``beta`` of taking ``q_goal`` as target (slide 3:40).
-        max_iterations: number of iterations ``n``.
-        time_limit_s: wall-clock budget [s] (``None`` = no limit).
-        seed: random seed used when no ``rng`` is passed.
+        max_iterations: number of iterations ``n`` (an integer >= 0).
+        time_limit_s: wall-clock budget [s] (``None`` or ``math.inf`` = no limit; NaN is
+            refused).
+        seed: random seed (an integer >= 0) used when no ``rng`` is passed.
     """
 
     step_size: float = 0.5
@@ -82,17 +83,19 @@ def rrt(
     alpha = check_positive(opts.step_size, "step_size")
     if not 0.0 <= opts.goal_bias <= 1.0:
         raise InvalidInputError(f"goal_bias must be in [0, 1], got {opts.goal_bias}")
-    rng = rng if rng is not None else np.random.default_rng(opts.seed)
+    max_iterations = check_count(opts.max_iterations, "max_iterations")
+    time_limit = check_time_limit(opts.time_limit_s)
+    rng = rng if rng is not None else np.random.default_rng(check_seed(opts.seed))
     checks0, edges0 = space.checks, space.edge_checks
     t0 = time.perf_counter()
     q_start = space.check_endpoint(start, "start")
     q_goal = None if goal is None else space.check_endpoint(goal, "goal")
-    deadline = math.inf if opts.time_limit_s is None else t0 + opts.time_limit_s
+    deadline = t0 + time_limit
     tree = _GrowingTree(q_start)
     status = PlannerStatus.ITERATION_LIMIT
     path: FloatArray = np.empty((0, space.dim))
     iterations = 0
-    for iterations in range(1, opts.max_iterations + 1):  # noqa: B007
+    for iterations in range(1, max_iterations + 1):  # noqa: B007
         if time.perf_counter() > deadline:
             status = PlannerStatus.TIME_LIMIT
             break

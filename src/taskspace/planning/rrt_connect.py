@@ -81,7 +81,7 @@ from typing import Any
 
 import numpy as np
 
-from taskspace._validation import check_positive
+from taskspace._validation import check_count, check_positive, check_seed, check_time_limit
 from taskspace.errors import InvalidInputError
 from taskspace.planning.collision_checker import CollisionChecker
 from taskspace.planning.configuration_space import (
@@ -117,9 +117,12 @@ class RRTConnectOptions:
         trapped_priority: probability that a trapped tree (as above) takes the other tree's
             turn: it EXTENDs and the other tree CONNECTs towards its new node; 0 alternates
             the trees as the classic algorithm.
-        max_iterations: number of samples ``n``.
-        time_limit_s: wall-clock budget [s] (``None`` = no limit).
-        seed: random seed used when no ``rng`` is passed.
+        max_iterations: number of samples ``n`` (an integer >= 0; values beyond ``2**63 - 1``
+            are that).
+        time_limit_s: wall-clock budget [s] (``None`` or ``math.inf`` = no limit; NaN is
+            refused).
+        seed: random seed (an integer >= 0) used when no ``rng`` is passed; the compiled
+            planner uses it modulo ``2**64``.
         native: run the compiled planner (``taskspace/_native/planning_kernel.cpp``: the same
             algorithm, with its own random stream) when it is built and the space's checker
             is a :class:`~taskspace.planning.CollisionChecker`; otherwise, or with
@@ -409,6 +412,9 @@ def _native_kernel(space: ConfigurationSpace, opts: RRTConnectOptions) -> Any:
 
 
 _NATIVE_STATUS = (PlannerStatus.SOLVED, PlannerStatus.TIME_LIMIT, PlannerStatus.ITERATION_LIMIT)
+_SEED_MASK = (1 << 64) - 1
+# A line of the space is cut into at most diameter / min(alpha, delta) steps or checks.
+_MAX_LINE_PIECES = float(1 << 30)
 
 
 def _rrt_connect_native(
@@ -418,6 +424,7 @@ def _rrt_connect_native(
     q_goal: FloatArray,
     opts: RRTConnectOptions,
     resolutions: tuple[float, float, float],
+    limits: tuple[int, float],
     seed: int,
     t0: float,
     checks0: int,
@@ -431,7 +438,8 @@ def _rrt_connect_native(
         q_goal: validated goal (size d).
         opts: planner settings.
         resolutions: ``(alpha, delta, delta_c)`` [rad or m].
-        seed: seed of the kernel's random generator.
+        limits: validated ``(max_iterations, time limit [s])``, ``math.inf`` for none.
+        seed: seed of the kernel's random generator (>= 0).
         t0: ``time.perf_counter()`` at the call of :func:`rrt_connect` [s].
         checks0: ``space.checks`` at that call.
     """
@@ -440,9 +448,9 @@ def _rrt_connect_native(
     module = planning_kernel()
     assert module is not None  # the kernel exists, so does its module
     alpha, delta, delta_c = resolutions
-    remaining = -1.0
-    if opts.time_limit_s is not None:
-        remaining = max(0.0, opts.time_limit_s - (time.perf_counter() - t0))
+    remaining = -1.0  # the kernel's "no limit"
+    if limits[1] != math.inf:
+        remaining = max(0.0, limits[1] - (time.perf_counter() - t0))
     kernel_checks0 = kernel.checks
     out = module.rrt_connect(
         kernel,
@@ -456,9 +464,9 @@ def _rrt_connect_native(
         opts.local_sampling,
         opts.local_sigma,
         opts.trapped_priority,
-        opts.max_iterations,
+        limits[0],
         remaining,
-        seed,
+        seed & _SEED_MASK,
     )
     status_code, path, iterations, edges, rejections, removed, turns, start_tree, goal_tree = out
     checks = int(kernel.checks - kernel_checks0)
@@ -529,15 +537,27 @@ def rrt_connect(
         node counts, the candidate paths rejected by the fine check (``lazy_rejections``),
         the nodes removed with them and the turns taken by a trapped tree (``trapped_turns``).
 
+    Interrupts and threads: the compiled planner runs with the GIL released and polls
+    Python's signal handlers every 2 ms, so Ctrl-C stops it (``KeyboardInterrupt``) as it
+    stops the Python path. Two threads may plan at the same time on spaces with *different*
+    checkers (each compiled checker is locked by the plan that uses it: plans and queries on
+    one shared checker run one after the other, with the same answers); the random streams
+    are per call, so a seeded plan gives the same path in a thread as alone. A space, its
+    checker and the robot's world must not be modified while a plan on them runs.
+
     Raises:
         PlanningError: start or goal outside the bounds or in collision (the message lists
             the colliding pairs).
-        InvalidInputError: invalid options.
+        InvalidInputError: invalid options (a non-integer or negative ``max_iterations`` or
+            ``seed``, a NaN or negative ``time_limit_s``, a step or resolution too small for
+            the bounds).
+        KeyboardInterrupt: Ctrl-C (SIGINT) during the plan.
     """
     opts = options or RRTConnectOptions()
     alpha = check_positive(opts.step_size, "step_size")
-    if opts.max_iterations < 0:
-        raise InvalidInputError(f"max_iterations must be >= 0, got {opts.max_iterations}")
+    max_iterations = check_count(opts.max_iterations, "max_iterations")
+    time_limit = check_time_limit(opts.time_limit_s)
+    seed = check_seed(opts.seed)
     if not 0.0 <= opts.local_sampling <= 1.0:
         raise InvalidInputError(f"local_sampling must be in [0, 1], got {opts.local_sampling}")
     check_positive(opts.local_sigma, "local_sigma")
@@ -547,18 +567,34 @@ def rrt_connect(
     delta_c = delta
     if opts.coarse_resolution is not None:
         delta_c = max(delta, check_positive(opts.coarse_resolution, "coarse_resolution"))
+    diameter = float(np.linalg.norm(space.upper - space.lower))
+    if diameter / min(alpha, delta) > _MAX_LINE_PIECES or delta_c / delta > _MAX_LINE_PIECES:
+        raise InvalidInputError(
+            f"step_size={alpha:g} and the space's resolution {delta:g} are too small for bounds "
+            f"of diameter {diameter:g}: a line would need more than 2^30 steps or checks; "
+            "use larger values"
+        )
     checks0, edges0 = space.checks, space.edge_checks
     t0 = time.perf_counter()
     q_start = space.check_endpoint(start, "start")
     q_goal = space.check_endpoint(goal, "goal")
     kernel = _native_kernel(space, opts)
     if kernel is not None:
-        seed = opts.seed if rng is None else int(rng.integers(1 << 63))
+        seed = seed if rng is None else int(rng.integers(1 << 63))
         return _rrt_connect_native(
-            space, kernel, q_start, q_goal, opts, (alpha, delta, delta_c), seed, t0, checks0
+            space,
+            kernel,
+            q_start,
+            q_goal,
+            opts,
+            (alpha, delta, delta_c),
+            (max_iterations, time_limit),
+            seed,
+            t0,
+            checks0,
         )
-    rng = rng if rng is not None else np.random.default_rng(opts.seed)
-    deadline = math.inf if opts.time_limit_s is None else t0 + opts.time_limit_s
+    rng = rng if rng is not None else np.random.default_rng(seed)
+    deadline = t0 + time_limit
     tree_start, tree_goal = _GrowingTree(q_start), _GrowingTree(q_goal)
     lines = _LinePlanner(alpha, delta, delta_c)
     status = PlannerStatus.ITERATION_LIMIT
@@ -573,7 +609,7 @@ def rrt_connect(
         local = opts.local_sampling
         trapped = opts.trapped_priority
         samples = space.sample_uniform(rng, block)
-        for iterations in range(1, opts.max_iterations + 1):
+        for iterations in range(1, max_iterations + 1):
             if time.perf_counter() > deadline:
                 status = PlannerStatus.TIME_LIMIT
                 break

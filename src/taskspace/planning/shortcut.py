@@ -14,13 +14,13 @@ Two passes, both using the straight-line local planner (slide 3:32):
 
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import dataclass
 
 import numpy as np
 
-from taskspace.errors import InvalidInputError
+from taskspace._validation import as_matrix, check_count, check_seed, check_time_limit
+from taskspace.errors import InvalidInputError, PlanningError
 from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray, path_length
 
 
@@ -29,10 +29,11 @@ class ShortcutOptions:
     """Settings of :func:`shortcut_path`.
 
     Attributes:
-        max_iterations: random shortcut attempts.
-        time_limit_s: wall-clock budget [s] (``None`` = no limit).
+        max_iterations: random shortcut attempts (an integer >= 0).
+        time_limit_s: wall-clock budget [s] of the random shortcuts (``None`` or
+            ``math.inf`` = no limit; NaN is refused).
         greedy: run the greedy vertex-reduction pass first.
-        seed: random seed used when no ``rng`` is passed.
+        seed: random seed (an integer >= 0) used when no ``rng`` is passed.
     """
 
     max_iterations: int = 60
@@ -71,6 +72,28 @@ def _point_at(path: FloatArray, cumulative: FloatArray, s: float) -> tuple[int, 
     return i, path[i] + t * (path[i + 1] - path[i])
 
 
+def _check_input(space: ConfigurationSpace, path: FloatArray) -> None:
+    """Raise :class:`PlanningError` unless every waypoint and edge of ``path`` is free."""
+    outside = np.flatnonzero(((path < space.lower) | (path > space.upper)).any(axis=1))
+    if outside.size:
+        i = int(outside[0])
+        raise PlanningError(
+            f"path waypoint {i} is outside the bounds of the space: {path[i].tolist()}"
+        )
+    bad = space.first_invalid(path)
+    if bad >= 0:
+        raise PlanningError(
+            f"path waypoint {bad} is in collision: {space.checker.explain(path[bad])}; "
+            "shortcut_path needs a collision-free path"
+        )
+    for i in range(path.shape[0] - 1):
+        if not space.motion_valid(path[i], path[i + 1]):
+            raise PlanningError(
+                f"path edge {i} -> {i + 1} is in collision at the resolution "
+                f"{space.edge.resolution:g}; shortcut_path needs a collision-free path"
+            )
+
+
 def shortcut_path(
     space: ConfigurationSpace,
     path: FloatArray,
@@ -80,23 +103,40 @@ def shortcut_path(
 ) -> ShortcutResult:
     """Shorten a collision-free path (greedy vertex reduction, then random shortcuts).
 
+    The input path is checked first (every waypoint inside the bounds and free, every edge
+    free at the space's resolution, as the local planner checks it); every segment of the
+    result is free at that resolution too, so a free path stays free and a colliding one is
+    refused instead of being returned shortened.
+
     Args:
-        space: configuration space (its local planner checks the new segments).
-        path: waypoints from start to goal, shape (m, d), assumed collision-free.
+        space: configuration space (its local planner checks the segments).
+        path: waypoints from start to goal, shape (m, d), collision-free.
         options: settings.
         rng: random generator (default: ``np.random.default_rng(options.seed)``).
 
     Returns:
-        A :class:`ShortcutResult` whose path has the same endpoints and is no longer.
+        A :class:`ShortcutResult` whose path has the same endpoints and is no longer;
+        ``collision_checks`` includes the check of the input.
+
+    Raises:
+        InvalidInputError: ``path`` is not a finite (m, d) array with m >= 1, bad options.
+        PlanningError: ``path`` leaves the bounds or collides (the message names the first
+            offending waypoint or edge).
     """
     opts = options or ShortcutOptions()
-    arr = np.atleast_2d(np.asarray(path, dtype=float)).copy()
-    if arr.ndim != 2 or arr.shape[1] != space.dim or arr.shape[0] < 1:
-        raise InvalidInputError(f"path must have shape (m, {space.dim}), got {arr.shape}")
-    rng = rng if rng is not None else np.random.default_rng(opts.seed)
+    arr = as_matrix(np.atleast_2d(np.asarray(path, dtype=float)), (None, space.dim), "path")
+    arr = arr.copy()
+    if arr.shape[0] < 1:
+        raise InvalidInputError(
+            f"path must have shape (m, {space.dim}) with m >= 1, got {arr.shape}"
+        )
+    max_iterations = check_count(opts.max_iterations, "max_iterations")
+    time_limit = check_time_limit(opts.time_limit_s)
+    rng = rng if rng is not None else np.random.default_rng(check_seed(opts.seed))
     t0 = time.perf_counter()
-    deadline = math.inf if opts.time_limit_s is None else t0 + opts.time_limit_s
     checks0 = space.checks
+    _check_input(space, arr)
+    deadline = time.perf_counter() + time_limit
     before = path_length(arr)
     accepted = 0
     if opts.greedy and arr.shape[0] > 2:
@@ -110,7 +150,7 @@ def shortcut_path(
             keep.append(j)
             i = j
         arr = arr[keep]
-    for _ in range(opts.max_iterations):
+    for _ in range(max_iterations):
         if arr.shape[0] < 2 or time.perf_counter() > deadline:
             break
         cumulative = np.concatenate(

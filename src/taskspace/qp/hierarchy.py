@@ -89,13 +89,19 @@ class HierarchyOptions:
         solver: options of the per-level QP solvers. The default is daqp's active-set method
             with proxsuite as fallback: the levels after the first hold earlier inequalities
             (degenerate, many active), where proxsuite stalled at its iteration limit
-            (75-470 ms) and daqp solved in 0.2 ms (G1 inverse dynamics, measured).
+            (75-470 ms) and daqp solved in 0.2 ms (G1 inverse dynamics, measured). The
+            KKT tolerance is relative ``1e-6``: a level's Hessian is ``JZ^T JZ + damping``,
+            conditioned like ``|J|^2 / damping`` (1e10 with the default damping), and its
+            degenerate held inequalities leave complementarity residuals near ``1e-6``
+            relative where no backend reaches ``1e-9``.
     """
 
     damping: float = 1e-9
     rank_tolerance: float = 1e-8
     solver: QPSolverOptions = field(
-        default_factory=lambda: QPSolverOptions(backend="daqp", fallbacks=("proxsuite",))
+        default_factory=lambda: QPSolverOptions(
+            backend="daqp", fallbacks=("proxsuite",), eps_rel=1e-6
+        )
     )
 
 

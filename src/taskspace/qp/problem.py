@@ -13,6 +13,8 @@ import numpy as np
 from taskspace._validation import FloatArray
 from taskspace.errors import ShapeError
 
+_max = np.maximum.reduce  # twice as fast as ndarray.max on small vectors
+
 INF = 1e20
 """Stand-in for an infinite bound (what the QP backends accept)."""
 
@@ -131,6 +133,22 @@ class QPProblem:
                 out.get(blk.name, 0.0), float(r[blk.start : blk.stop].max(initial=0.0))
             )
         return out
+
+    def max_violation(self, x: FloatArray) -> float:
+        """Largest violation of any constraint at ``x`` (0 when feasible)."""
+        if self.stacked is not None:
+            G, lo, hi = self.stacked
+            Gx = G.dot(x)
+            if not Gx.shape[0]:
+                return 0.0
+            return max(0.0, float(_max(lo - Gx)), float(_max(Gx - hi)))
+        worst = max(0.0, float((self.lb - x).max()), float((x - self.ub).max()))
+        if self.C.shape[0]:
+            Cx = self.C.dot(x)
+            worst = max(worst, float((self.l - Cx).max()), float((Cx - self.u).max()))
+        if self.A.shape[0]:
+            worst = max(worst, float(np.abs(self.A.dot(x) - self.b).max()))
+        return worst
 
     def is_feasible(self, x: FloatArray, tolerance: float = 1e-9) -> bool:
         """Whether ``x`` satisfies every constraint to ``tolerance``."""

@@ -8,17 +8,20 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from taskspace._validation import FloatArray
+from taskspace.qp.kkt import KKTResiduals
 
 
 class QPStatus(enum.Enum):
     """Outcome of a QP solve."""
 
     SOLVED = "solved"
-    """Optimal within tolerance."""
+    """Optimal: the KKT residuals (``QPResult.kkt``) meet the solver's tolerances."""
     UNCONSTRAINED = "unconstrained"
     """The unconstrained minimizer already satisfied every constraint (no QP iteration)."""
     RELAXED = "relaxed"
     """The constraints conflict; ``x`` is the least-violating solution (see ``culprits``)."""
+    INACCURATE = "inaccurate"
+    """The backend stopped, but its KKT residuals (``QPResult.kkt``) exceed the tolerances."""
     MAX_ITERATIONS = "max_iterations"
     """The backend stopped at its iteration limit; ``x`` is its last iterate."""
     FAILED = "failed"
@@ -39,6 +42,11 @@ class QPResult:
         backend: name of the backend that produced ``x``.
         culprits: constraint blocks violated by the least-violating solution (when relaxed).
         violations: largest violation per constraint block.
+        kkt: KKT residuals of ``(x, y, z, z_box)`` (primal, dual, complementarity, duality
+            gap; NaN when not computed).
+        y: equality multipliers (n_eq; empty when not computed).
+        z: inequality multipliers (n_in).
+        z_box: bound multipliers (n).
     """
 
     success: bool
@@ -50,6 +58,25 @@ class QPResult:
     backend: str = ""
     culprits: list[str] = field(default_factory=list)
     violations: dict[str, float] = field(default_factory=dict)
+    kkt: KKTResiduals = field(default_factory=KKTResiduals.unknown)
+    y: FloatArray = field(default_factory=lambda: np.zeros(0))
+    z: FloatArray = field(default_factory=lambda: np.zeros(0))
+    z_box: FloatArray = field(default_factory=lambda: np.zeros(0))
+
+    @property
+    def primal_residual(self) -> float:
+        """Largest constraint violation at ``x``."""
+        return self.kkt.primal
+
+    @property
+    def dual_residual(self) -> float:
+        """Largest stationarity error at ``(x, y, z, z_box)``."""
+        return self.kkt.dual
+
+    @property
+    def duality_gap(self) -> float:
+        """Primal minus dual objective."""
+        return self.kkt.duality_gap
 
     @staticmethod
     def failed(n: int, backend: str, solve_time: float) -> QPResult:

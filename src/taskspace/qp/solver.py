@@ -22,6 +22,7 @@ from scipy.linalg.lapack import dgesv, dposv
 
 from taskspace._validation import FloatArray
 from taskspace.errors import InvalidInputError, SolverError, UnknownNameError
+from taskspace.qp.kkt import equality_kkt_residuals, kkt_residuals, stacked_kkt_residuals
 from taskspace.qp.problem import INF, QPProblem, RowBlock
 from taskspace.qp.result import QPResult, QPStatus
 
@@ -29,6 +30,10 @@ logger = logging.getLogger(__name__)
 
 BACKENDS = ("proxsuite", "daqp", "osqp", "quadprog")
 """Backend names accepted by :class:`QPSolver`."""
+
+
+_POLISHABLE = (QPStatus.INACCURATE, QPStatus.MAX_ITERATIONS)
+"""Statuses whose ``x`` is close enough to the optimum for :meth:`QPSolver._polish`."""
 
 
 def available_backends() -> list[str]:
@@ -57,10 +62,13 @@ class QPSolverOptions:
 
     Attributes:
         backend: ``proxsuite`` (default), ``daqp``, ``osqp`` or ``quadprog``.
-        eps_abs: absolute tolerance of the backends.
+        eps_abs: absolute tolerance of the KKT residuals (and of the backends).
+        eps_rel: relative tolerance of the KKT residuals (see :mod:`taskspace.qp.kkt`): a
+            result is ``SOLVED`` only when its primal, dual and complementarity residuals are
+            below ``eps_abs + eps_rel * scale``; otherwise the next backend is tried.
         max_iter: iteration limit of the backends.
         try_unconstrained: try the unconstrained minimizer before calling the backend.
-        fallbacks: backends tried, in order, when the main one fails.
+        fallbacks: backends tried, in order, when the main one fails or is inaccurate.
         relax_on_failure: compute the least-violating solution when no backend succeeds.
         relaxation_weight: penalty on squared constraint violations in the relaxed problem.
         feasibility_tolerance: tolerance of the unconstrained-shortcut feasibility test.
@@ -68,6 +76,7 @@ class QPSolverOptions:
 
     backend: str = "proxsuite"
     eps_abs: float = 1e-9
+    eps_rel: float = 1e-9
     max_iter: int = 1000
     try_unconstrained: bool = True
     fallbacks: tuple[str, ...] = ("daqp",)
@@ -98,17 +107,27 @@ class QPSolver:
         t0 = time.perf_counter()
         opts = self.options
         if opts.try_unconstrained:
-            x = self._kkt.solve(problem)
-            if x is not None and problem.is_feasible(x, opts.feasibility_tolerance):
-                return QPResult(
-                    True,
-                    QPStatus.UNCONSTRAINED,
-                    x,
-                    float(0.5 * (problem.g @ x)) if not problem.n_eq else _objective(problem, x),
-                    0,
-                    time.perf_counter() - t0,
-                    "cholesky",
-                )
+            solved = self._kkt.solve_with_multipliers(problem)
+            if solved is not None:
+                x, y = solved
+                violation = problem.max_violation(x)
+                if violation <= opts.feasibility_tolerance:
+                    kkt = equality_kkt_residuals(problem, x, y, violation)
+                    if kkt.within(opts.eps_abs, opts.eps_rel):
+                        z, z_box = self._zeros(problem)
+                        return QPResult(
+                            True,
+                            QPStatus.UNCONSTRAINED,
+                            x,
+                            _objective(problem, x),
+                            0,
+                            time.perf_counter() - t0,
+                            "cholesky",
+                            kkt=kkt,
+                            y=y,
+                            z=z,
+                            z_box=z_box,
+                        )
         last: QPResult | None = None
         for backend in (opts.backend, *[b for b in opts.fallbacks if b != opts.backend]):
             try:
@@ -116,6 +135,8 @@ class QPSolver:
             except Exception as exc:  # a backend raising is a failure of that backend
                 logger.debug("QP backend %s raised %r", backend, exc)
                 result = QPResult.failed(problem.n, backend, 0.0)
+            if not result.success and result.status in _POLISHABLE:
+                result = self._polish(problem, result) or result
             if result.success:
                 result.solve_time = time.perf_counter() - t0
                 return result
@@ -128,11 +149,129 @@ class QPSolver:
         last.solve_time = time.perf_counter() - t0
         return last
 
+    def _polish(self, p: QPProblem, start: QPResult) -> QPResult | None:
+        """Refine an inaccurate result by solving the KKT system of its active set.
+
+        The active set is guessed from ``start`` (rows at their bound or with a multiplier
+        of the bound's sign), the KKT system ``[H G_a^T; G_a 0] [x; w] = [-g; h_a]`` is solved in
+        the least-squares sense (degenerate active sets are rank-deficient), then rows whose
+        multiplier has the wrong sign are released and violated rows added, a few times over
+        (a primal-dual active-set iteration). Returns a ``SOLVED`` result when the KKT
+        residuals meet the tolerances, else ``None``.
+        """
+        if not np.all(np.isfinite(start.x)):
+            return None
+        t0 = time.perf_counter()
+        n = p.n
+        # all bounds as rows of one system: G x {<=, >=, =} h
+        G = np.vstack([p.C, np.eye(n)])
+        lo = np.concatenate([p.l, p.lb])
+        hi = np.concatenate([p.u, p.ub])
+        z0 = np.concatenate(
+            [
+                start.z if start.z.size == p.n_in else np.zeros(p.n_in),
+                start.z_box if start.z_box.size == n else np.zeros(n),
+            ]
+        )
+        Gx = G.dot(start.x)
+        scale = max(1.0, float(np.abs(Gx).max(initial=0.0)))
+        tol = 1e-6 * scale
+        zscale = max(1e-12, 1e-9 * float(np.abs(z0).max(initial=0.0)))
+        upper = (hi < INF) & ((hi - Gx <= tol) | (z0 > zscale))
+        lower = (lo > -INF) & ((Gx - lo <= tol) | (z0 < -zscale)) & ~upper
+        for _ in range(2 * (G.shape[0] + 1)):
+            iu, il = np.flatnonzero(upper), np.flatnonzero(lower)
+            rows = np.vstack([p.A, G[iu], G[il]])
+            rhs_c = np.concatenate([p.b, hi[iu], lo[il]])
+            m = rows.shape[0]
+            K = np.zeros((n + m, n + m))
+            K[:n, :n] = p.H
+            K[:n, n:] = rows.T
+            K[n:, :n] = rows
+            sol = np.linalg.lstsq(K, np.concatenate([-p.g, rhs_c]), rcond=1e-13)[0]
+            x, w = sol[:n], sol[n:]
+            zz = np.zeros(G.shape[0])
+            zz[iu] += w[p.n_eq : p.n_eq + iu.size]
+            zz[il] += w[p.n_eq + iu.size :]
+            Gx = G.dot(x)
+            wrong = (upper & (zz < 0)) | (lower & (zz > 0))
+            violated_u = ~upper & (Gx > hi + tol * 1e-3)
+            violated_l = ~lower & (Gx < lo - tol * 1e-3)
+            if not (wrong.any() or violated_u.any() or violated_l.any()):
+                break
+            if wrong.any():  # release the most wrong multiplier
+                k = int(np.argmax(np.abs(np.where(wrong, zz, 0.0))))
+                upper[k] = lower[k] = False
+            else:  # add the most violated row
+                viol = np.maximum(
+                    np.where(violated_u, Gx - hi, 0), np.where(violated_l, lo - Gx, 0)
+                )
+                k = int(np.argmax(viol))
+                upper[k], lower[k] = bool(violated_u[k]), bool(violated_l[k])
+        out = self._finish(
+            start.backend + "+polish",
+            p,
+            True,
+            x,
+            w[: p.n_eq].copy(),
+            zz[: p.n_in].copy(),
+            zz[p.n_in :].copy(),
+            start.iterations,
+            time.perf_counter() - t0,
+        )
+        return out if out.success else None
+
+    def _zeros(self, p: QPProblem) -> tuple[FloatArray, FloatArray]:
+        """Zero inequality and bound multipliers (fresh arrays: results keep them)."""
+        return np.zeros(p.n_in), np.zeros(p.n)
+
+    def _finish(
+        self,
+        backend: str,
+        p: QPProblem,
+        converged: bool,
+        x: FloatArray,
+        y: FloatArray,
+        z: FloatArray,
+        z_box: FloatArray,
+        iterations: int,
+        elapsed: float,
+        status: QPStatus = QPStatus.FAILED,
+    ) -> QPResult:
+        """Result of a backend run, ``SOLVED`` only when the KKT residuals meet the tolerances.
+
+        Args:
+            converged: the backend reported success; otherwise ``status`` is reported.
+        """
+        kkt = kkt_residuals(p, x, y, z, z_box)
+        if converged:
+            ok = kkt.within(self.options.eps_abs, self.options.eps_rel)
+            status = QPStatus.SOLVED if ok else QPStatus.INACCURATE
+            if not ok:
+                logger.debug("QP backend %s inaccurate: %s", backend, kkt)
+        return QPResult(
+            status is QPStatus.SOLVED,
+            status,
+            x,
+            _objective(p, x),
+            iterations,
+            elapsed,
+            backend,
+            kkt=kkt,
+            y=y,
+            z=z,
+            z_box=z_box,
+        )
+
     def solve_relaxed(self, problem: QPProblem) -> QPResult:
         """Least-violating solution: every constraint row gets a slack with a large penalty.
 
         ``min f(x) + w/2 |s|^2`` s.t. ``A x - s_eq = b``, ``l - s_in <= C x <= u + s_in``,
-        ``lb - s_box <= x <= ub + s_box``, ``s >= 0`` for inequality slacks.
+        ``lb - s_box <= x <= ub + s_box``, ``s >= 0`` for inequality slacks. When the slacks
+        vanish (the constraints are compatible after all) and the KKT residuals of the
+        original problem meet the tolerances, the result is ``SOLVED``; when they vanish but
+        the residuals do not (the penalty leaves violations of order ``|z| / w``), it is
+        ``INACCURATE``.
         """
         relaxed, n = _relaxed_problem(problem, self.options.relaxation_weight), problem.n
         solver = QPSolver(
@@ -141,28 +280,27 @@ class QPSolver:
                 fallbacks=("proxsuite",),
                 relax_on_failure=False,
                 try_unconstrained=False,
+                eps_abs=self.options.eps_abs,
+                eps_rel=self.options.eps_rel,
             )
         )
         inner = solver.solve(relaxed)
         x = inner.x[:n]
         violations = problem.violations(x)
         culprits = [name for name, v in violations.items() if v > 1e-6]
-        status = QPStatus.RELAXED if inner.status is not QPStatus.FAILED else QPStatus.FAILED
-        if not culprits and inner.status is not QPStatus.FAILED:
-            # The relaxation found the constraints compatible after all: a genuine solution.
-            return QPResult(
-                True,
-                QPStatus.SOLVED,
-                x,
-                _objective(problem, x),
-                inner.iterations,
-                inner.solve_time,
-                inner.backend,
-                [],
-                violations,
-            )
+        y, z, z_box = _original_multipliers(problem, inner)
+        kkt = kkt_residuals(problem, x, y, z, z_box)
+        if inner.status is QPStatus.FAILED:
+            status = QPStatus.FAILED
+        elif culprits:
+            status = QPStatus.RELAXED
+        elif kkt.within(self.options.eps_abs, self.options.eps_rel):
+            status = QPStatus.SOLVED  # the constraints were compatible: a genuine solution
+            culprits = []
+        else:
+            status = QPStatus.INACCURATE
         return QPResult(
-            False,
+            status is QPStatus.SOLVED,
             status,
             x,
             _objective(problem, x),
@@ -171,6 +309,10 @@ class QPSolver:
             inner.backend,
             culprits,
             violations,
+            kkt=kkt,
+            y=y,
+            z=z,
+            z_box=z_box,
         )
 
     # ------------------------------------------------------------------ backends
@@ -178,8 +320,26 @@ class QPSolver:
         if backend == "proxsuite":
             return self._solve_proxsuite(problem)
         if backend == "daqp":
-            return _solve_daqp(problem, self.options)
-        return _solve_qpsolvers(backend, problem, self.options)
+            return self._solve_daqp(problem)
+        return self._solve_qpsolvers(backend, problem)
+
+    def _proxsuite_settings(self, qp: Any) -> None:
+        from proxsuite import proxqp
+
+        opts = self.options
+        settings = qp.settings
+        settings.eps_abs = opts.eps_abs
+        settings.eps_rel = opts.eps_rel
+        # proxsuite's default test checks primal and dual residuals only: it then stops at
+        # points whose multipliers belong to another active set (steps 1e-5..5e-2 from the
+        # optimum on IK problems). The duality-gap test closes that hole.
+        settings.check_duality_gap = True
+        settings.eps_duality_gap_abs = opts.eps_abs
+        settings.eps_duality_gap_rel = opts.eps_rel
+        settings.max_iter = opts.max_iter
+        settings.max_iter_in = opts.max_iter
+        settings.verbose = False
+        settings.initial_guess = proxqp.InitialGuess.NO_INITIAL_GUESS
 
     def _solve_proxsuite(self, p: QPProblem) -> QPResult:
         from proxsuite import proxqp
@@ -193,12 +353,7 @@ class QPSolver:
         u = p.u if p.n_in else None
         if self._proxsuite is None or self._proxsuite_structure != structure:
             qp = proxqp.dense.QP(p.n, p.n_eq, p.n_in, True)
-            qp.settings.eps_abs = self.options.eps_abs
-            qp.settings.eps_rel = 0.0
-            qp.settings.max_iter = self.options.max_iter
-            qp.settings.max_iter_in = self.options.max_iter
-            qp.settings.verbose = False
-            qp.settings.initial_guess = proxqp.InitialGuess.NO_INITIAL_GUESS
+            self._proxsuite_settings(qp)
             qp.init(p.H, p.g, A, b, C, l, u, p.lb, p.ub)
             qp.solve()
             # warm start only once a previous result exists (setting it before the first
@@ -210,104 +365,161 @@ class QPSolver:
             qp = self._proxsuite
             qp.update(p.H, p.g, A, b, C, l, u, p.lb, p.ub, update_preconditioner=False)
             qp.solve()
-        info = qp.results.info
-        x = np.array(qp.results.x)
+        results = qp.results
+        info = results.info
         status = info.status
-        elapsed = time.perf_counter() - t0
-        if status == proxqp.PROXQP_SOLVED:
-            return QPResult(
-                True, QPStatus.SOLVED, x, _objective(p, x), int(info.iter), elapsed, "proxsuite"
-            )
-        if status == proxqp.PROXQP_MAX_ITER_REACHED:
-            # the preconditioner may be stale: rebuild the workspace next time
+        x = np.array(results.x)
+        z_all = np.array(results.z)
+        out = self._finish(
+            "proxsuite",
+            p,
+            status == proxqp.PROXQP_SOLVED,
+            x,
+            np.array(results.y),
+            z_all[: p.n_in],
+            z_all[p.n_in :],
+            int(info.iter),
+            time.perf_counter() - t0,
+            QPStatus.MAX_ITERATIONS
+            if status == proxqp.PROXQP_MAX_ITER_REACHED
+            else QPStatus.FAILED,
+        )
+        if not out.success:
+            # the preconditioner or the warm start may be stale: rebuild the workspace next time
             self._proxsuite = None
-            return QPResult(
-                False,
-                QPStatus.MAX_ITERATIONS,
-                x,
-                _objective(p, x),
-                int(info.iter),
-                elapsed,
-                "proxsuite",
-            )
-        self._proxsuite = None
+        return out
+
+    def _solve_daqp(self, p: QPProblem) -> QPResult:
+        import daqp
+
+        t0 = time.perf_counter()
+        rows = []
+        upper = [p.ub]
+        lower = [p.lb]
+        sense = [np.zeros(p.n, dtype=np.int32)]
+        if p.n_eq:
+            rows.append(p.A)
+            upper.append(p.b)
+            lower.append(p.b)
+            sense.append(np.full(p.n_eq, 5, dtype=np.int32))
+        if p.n_in:
+            rows.append(p.C)
+            upper.append(p.u)
+            lower.append(p.l)
+            sense.append(np.zeros(p.n_in, dtype=np.int32))
+        A = np.vstack(rows) if rows else np.zeros((0, p.n))
+        bu = np.minimum(np.concatenate(upper), 1e30)
+        bl = np.maximum(np.concatenate(lower), -1e30)
+        x, _, exitflag, info = daqp.solve(
+            np.ascontiguousarray(p.H),
+            np.ascontiguousarray(p.g),
+            np.ascontiguousarray(A),
+            bu,
+            bl,
+            np.concatenate(sense),
+            iter_limit=max(self.options.max_iter, 1000),
+            eps_prox=0,
+            # primal_tol=min(1e-6, max(self.options.eps_abs, 1e-12)),
+        )
+        x = np.asarray(x)
+        elapsed = time.perf_counter() - t0
+        iterations = int(info.get("iterations", 0)) if isinstance(info, dict) else 0
+        lam = info.get("lam") if isinstance(info, dict) else None
+        if lam is None or len(lam) != p.n + p.n_eq + p.n_in:
+            lam = np.zeros(p.n + p.n_eq + p.n_in)
+        lam = np.asarray(lam, dtype=float)
+        n, m = p.n, p.n_eq
+        kkt = stacked_kkt_residuals(p.H, p.g, x, A, bl, bu, lam)
+        converged = exitflag >= 1
+        if converged and kkt.within(self.options.eps_abs, self.options.eps_rel):
+            status = QPStatus.SOLVED
+        elif converged:
+            status = QPStatus.INACCURATE
+        else:
+            status = QPStatus.MAX_ITERATIONS if exitflag == -4 else QPStatus.FAILED
         return QPResult(
-            False, QPStatus.FAILED, x, _objective(p, x), int(info.iter), elapsed, "proxsuite"
+            status is QPStatus.SOLVED,
+            status,
+            x,
+            _objective(p, x),
+            iterations,
+            elapsed,
+            "daqp",
+            kkt=kkt,
+            y=lam[n : n + m],
+            z=lam[n + m :],
+            z_box=lam[:n],
+        )
+
+    def _solve_qpsolvers(self, backend: str, p: QPProblem) -> QPResult:
+        import qpsolvers
+
+        t0 = time.perf_counter()
+        options = self.options
+        G = h = None
+        finite_u = p.u < INF
+        finite_l = p.l > -INF
+        if p.n_in:
+            G = np.vstack([p.C[finite_u], -p.C[finite_l]])
+            h = np.concatenate([p.u[finite_u], -p.l[finite_l]])
+        lb = np.where(p.lb > -INF, p.lb, -np.inf)
+        ub = np.where(p.ub < INF, p.ub, np.inf)
+        kwargs: dict[str, Any] = {}
+        if backend == "osqp":
+            kwargs = {
+                "eps_abs": max(options.eps_abs, 1e-7),
+                "eps_rel": 0.0,
+                "max_iter": 20000,
+                "polishing": True,
+            }
+        problem = qpsolvers.Problem(
+            p.H, p.g, G, h, p.A if p.n_eq else None, p.b if p.n_eq else None, lb, ub
+        )
+        solution = qpsolvers.solve_problem(problem, solver=backend, **kwargs)
+        elapsed = time.perf_counter() - t0
+        if not solution.found or solution.x is None:
+            return QPResult.failed(p.n, backend, elapsed)
+        x = np.asarray(solution.x, dtype=float)
+        y = np.asarray(solution.y, dtype=float) if p.n_eq and solution.y is not None else None
+        z = np.zeros(p.n_in)
+        if p.n_in and solution.z is not None:
+            k = int(finite_u.sum())
+            z[finite_u] += solution.z[:k]
+            z[finite_l] -= solution.z[k:]
+        z_box = (
+            np.asarray(solution.z_box, dtype=float) if solution.z_box is not None else np.zeros(p.n)
+        )
+        return self._finish(
+            backend,
+            p,
+            True,
+            x,
+            y if y is not None else np.zeros(p.n_eq),
+            z,
+            z_box,
+            0,
+            elapsed,
         )
 
 
-def _solve_daqp(p: QPProblem, options: QPSolverOptions) -> QPResult:
-    import daqp
-
-    t0 = time.perf_counter()
-    rows = []
-    upper = [p.ub]
-    lower = [p.lb]
-    sense = [np.zeros(p.n, dtype=np.int32)]
-    if p.n_eq:
-        rows.append(p.A)
-        upper.append(p.b)
-        lower.append(p.b)
-        sense.append(np.full(p.n_eq, 5, dtype=np.int32))
-    if p.n_in:
-        rows.append(p.C)
-        upper.append(p.u)
-        lower.append(p.l)
-        sense.append(np.zeros(p.n_in, dtype=np.int32))
-    A = np.vstack(rows) if rows else np.zeros((0, p.n))
-    bu = np.minimum(np.concatenate(upper), 1e30)
-    bl = np.maximum(np.concatenate(lower), -1e30)
-    x, _, exitflag, info = daqp.solve(
-        np.ascontiguousarray(p.H),
-        np.ascontiguousarray(p.g),
-        np.ascontiguousarray(A),
-        bu,
-        bl,
-        np.concatenate(sense),
-        iter_limit=max(options.max_iter, 1000),
-        eps_prox=0,
-    )
-    x = np.asarray(x)
-    elapsed = time.perf_counter() - t0
-    iterations = int(info.get("iterations", 0)) if isinstance(info, dict) else 0
-    if exitflag >= 1:
-        return QPResult(True, QPStatus.SOLVED, x, _objective(p, x), iterations, elapsed, "daqp")
-    status = QPStatus.MAX_ITERATIONS if exitflag == -4 else QPStatus.FAILED
-    return QPResult(False, status, x, _objective(p, x), iterations, elapsed, "daqp")
-
-
-def _solve_qpsolvers(backend: str, p: QPProblem, options: QPSolverOptions) -> QPResult:
-    import qpsolvers
-
-    t0 = time.perf_counter()
-    G = h = None
-    if p.n_in:
-        finite_u = p.u < INF
-        finite_l = p.l > -INF
-        G = np.vstack([p.C[finite_u], -p.C[finite_l]])
-        h = np.concatenate([p.u[finite_u], -p.l[finite_l]])
-    lb = np.where(p.lb > -INF, p.lb, -np.inf)
-    ub = np.where(p.ub < INF, p.ub, np.inf)
-    kwargs: dict[str, Any] = {}
-    if backend == "osqp":
-        kwargs = {
-            "eps_abs": max(options.eps_abs, 1e-7),
-            "eps_rel": 0.0,
-            "max_iter": 20000,
-            "polishing": True,
-        }
-    problem = qpsolvers.Problem(
-        p.H, p.g, G, h, p.A if p.n_eq else None, p.b if p.n_eq else None, lb, ub
-    )
-    solution = qpsolvers.solve_problem(problem, solver=backend, **kwargs)
-    elapsed = time.perf_counter() - t0
-    if solution.found and solution.x is not None:
-        x = np.asarray(solution.x)
-        return QPResult(True, QPStatus.SOLVED, x, _objective(p, x), 0, elapsed, backend)
-    return QPResult.failed(p.n, backend, elapsed)
-
-
 # ---------------------------------------------------------------------- helpers
+def _original_multipliers(
+    p: QPProblem, inner: QPResult
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Multipliers of ``p`` from those of its relaxation (see :func:`_relaxed_problem`)."""
+    m_eq, m_in, n = p.n_eq, p.n_in, p.n
+    y = inner.y[:m_eq] if inner.y.size == m_eq else np.zeros(m_eq)
+    box_rows = np.flatnonzero((p.lb > -INF) | (p.ub < INF))
+    k = len(box_rows)
+    z = np.zeros(m_in)
+    z_box = np.zeros(n)
+    if inner.z.size == 2 * (m_in + k):
+        z = inner.z[:m_in] + inner.z[m_in : 2 * m_in]
+        r0 = 2 * m_in
+        z_box[box_rows] = inner.z[r0 : r0 + k] + inner.z[r0 + k :]
+    return y, z, z_box
+
+
 def _objective(p: QPProblem, x: FloatArray) -> float:
     return float(0.5 * x.dot(p.H.dot(x)) + p.g.dot(x))
 
@@ -341,11 +553,19 @@ class KKTWorkspace:
 
     def solve(self, p: QPProblem) -> FloatArray | None:
         """The equality-constrained minimizer of ``p``, or ``None`` if singular."""
+        solved = self.solve_with_multipliers(p)
+        return None if solved is None else solved[0]
+
+    def solve_with_multipliers(self, p: QPProblem) -> tuple[FloatArray, FloatArray] | None:
+        """The equality-constrained minimizer and its multipliers, or ``None`` if singular.
+
+        Returns ``(x, y)`` with ``H x + g + A^T y = 0`` and ``A x = b``.
+        """
         try:
             if not p.A.shape[0]:
                 # Cholesky solve through LAPACK directly (np.linalg.solve costs 4x more on 7x7)
                 _, x, info = dposv(p.H, -p.g)
-                return x if info == 0 else None
+                return (x, np.zeros(0)) if info == 0 else None
             n, m = p.n, p.n_eq
             if self._shape != (n, m):
                 self._shape = (n, m)
@@ -359,7 +579,7 @@ class KKTWorkspace:
             np.negative(p.g, out=rhs[:n])
             rhs[n:] = p.b
             _, _, sol, info = dgesv(K, rhs, overwrite_a=1, overwrite_b=1)
-            return np.array(sol[:n]) if info == 0 else None
+            return (np.array(sol[:n]), np.array(sol[n:])) if info == 0 else None
         except (np.linalg.LinAlgError, ValueError):
             return None
 

@@ -41,7 +41,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import numpy.typing as npt
 
-from taskspace._validation import FloatArray, as_matrix, check_positive
+from taskspace._validation import FloatArray, as_matrix, check_count, check_positive
 from taskspace.errors import InvalidInputError, ShapeError
 from taskspace.trajopt.banded import SymmetricBlockBanded
 
@@ -1195,6 +1195,21 @@ def _damped_step(
     return x
 
 
+def _check_options(opts: PathOptimizationOptions) -> None:
+    """Iteration counts are integers (a float cap such as ``math.inf`` would never stop)."""
+    check_count(opts.max_iterations, "max_iterations")
+    check_count(opts.max_outer_iterations, "max_outer_iterations")
+    check_count(opts.repair_iterations, "repair_iterations")
+    for name in ("constraint_tolerance", "step_tolerance", "cost_tolerance", "initial_damping"):
+        check_positive(getattr(opts, name), name, strict=False)
+    for name in ("initial_penalty", "max_penalty", "max_step", "violation_decrease"):
+        check_positive(getattr(opts, name), name)
+    if not opts.penalty_growth > 1.0 or not math.isfinite(opts.penalty_growth):
+        raise InvalidInputError(
+            f"penalty_growth must be finite and > 1, got {opts.penalty_growth!r}"
+        )
+
+
 def optimize_path(
     problem: PathProblem,
     initial_path: Any = None,
@@ -1229,9 +1244,12 @@ def optimize_path(
 
     Raises:
         ShapeError, NotFiniteError: bad ``initial_path``.
+        InvalidInputError: a non-integer or negative iteration count, a NaN or negative
+            tolerance, penalty or damping.
         SolverError: the banded factorization failed even with large damping.
     """
     opts = options or PathOptimizationOptions()
+    _check_options(opts)
     t_start = time.perf_counter()
     path = problem.initial_path(initial_path)
     T, nv = problem.horizon, problem.nv

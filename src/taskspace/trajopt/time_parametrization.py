@@ -44,7 +44,7 @@ from typing import Any
 
 import numpy as np
 
-from taskspace._validation import FloatArray, check_finite
+from taskspace._validation import FloatArray, check_count, check_finite, check_positive
 from taskspace.errors import InvalidInputError, ShapeError, UnknownNameError
 from taskspace.trajopt.motion_profile import _limit_vector
 from taskspace.trajopt.spline import BoundaryCondition, Spline, cubic_spline
@@ -103,7 +103,7 @@ class TimeParametrizationOptions:
         end_path_velocity: ``sdot(s_1)`` [1/s] (0 = stop at the end).
         spline_boundary: boundary condition of the cubic spline built through waypoints
             (``"clamped"``: zero path derivative at both ends, or ``"natural"``).
-        jerk_max_iterations: iterations of the jerk slowdown heuristic.
+        jerk_max_iterations: iterations of the jerk slowdown heuristic (an integer >= 0).
         jerk_tolerance: relative tolerance on the jerk limit.
         active_tolerance: a limit is reported active when ``|value| >= (1 - tol) limit``.
     """
@@ -404,6 +404,9 @@ def time_parametrize(
     n_grid = opts.grid_points
     if not isinstance(n_grid, (int, np.integer)) or n_grid < 2:
         raise InvalidInputError(f"grid_points must be an integer >= 2, got {n_grid!r}")
+    check_count(opts.jerk_max_iterations, "jerk_max_iterations")
+    check_positive(opts.jerk_tolerance, "jerk_tolerance", strict=False)
+    check_positive(opts.active_tolerance, "active_tolerance", strict=False)
     sd0, sd1 = float(opts.start_path_velocity), float(opts.end_path_velocity)
     if not (np.isfinite(sd0) and np.isfinite(sd1) and sd0 >= 0.0 and sd1 >= 0.0):
         raise InvalidInputError(

@@ -22,10 +22,14 @@ import shutil
 import tempfile
 import threading
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
+from taskspace._validation import check_int
 from taskspace.errors import InvalidInputError, TaskspaceError
 
 logger = logging.getLogger(__name__)
@@ -237,7 +241,7 @@ def render_html(
         SnapshotError: Chromium missing or failing, or the scene not ready within the timeout.
     """
     opts = options if options is not None else SnapshotOptions()
-    width, height = _check_size(size)
+    width, height = check_size(size)
     source, temporary, token = _html_source(scene_or_html)
     session = browser_session()
     start = time.perf_counter()
@@ -291,13 +295,21 @@ def render_html(
     )
 
 
-def _check_size(size: Any) -> tuple[int, int]:
-    try:
-        width, height = (int(s) for s in size)
-    except (TypeError, ValueError) as exc:
-        raise InvalidInputError(f"size must be (width, height) in pixels, got {size!r}") from exc
+def check_size(size: Any) -> tuple[int, int]:
+    """Validate an image size ``(width, height)``: two integers in 16..4096 [px].
+
+    Raises:
+        InvalidInputError: otherwise (the message gives the valid range).
+    """
+    if isinstance(size, (str, bytes)) or not isinstance(size, Sequence | np.ndarray):
+        raise InvalidInputError(f"size must be (width, height) in pixels, got {size!r}")
+    if len(size) != 2:
+        raise InvalidInputError(f"size must be (width, height) in pixels, got {size!r}")
+    width, height = (check_int(s, "size (width, height) [px]") for s in size)
     if not (16 <= width <= 4096 and 16 <= height <= 4096):
-        raise InvalidInputError(f"size must be within 16..4096 pixels, got {size!r}")
+        raise InvalidInputError(
+            f"size (width, height) must be within 16..4096 pixels each, got {size!r}"
+        )
     return width, height
 
 

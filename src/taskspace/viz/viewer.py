@@ -683,9 +683,10 @@ class Viewer:
 
     def snapshot(self, path: str | Path | None = None, size: tuple[int, int] = (640, 480)) -> bytes:
         """Render the scene to PNG in headless Chromium (see :func:`taskspace.viz.snapshot`)."""
-        from taskspace.viz.snapshots import snapshot
+        from taskspace.viz.snapshots import check_size, snapshot
 
-        self._prepare_export(aspect=size[0] / size[1])
+        width, height = check_size(size)
+        self._prepare_export(aspect=width / height)
         return snapshot(self, path, size)
 
     # ------------------------------------------------------------------ live viewer

@@ -1,0 +1,227 @@
+"""Batch work through ``taskspace.batch``: backends, per-task overhead, campaigns, datasets.
+
+* ``overhead``: CPU-bound tasks of 10 ms on 2 workers, one task per chunk, against a plain
+  ``multiprocessing.Pool`` (same start method, chunksize 1), pool start-up included in both;
+  the overhead is the wall time over the ideal ``n * 10 ms / workers``.
+* ``per_task``: tiny tasks, one per chunk: what each backend costs per task (Ray's runtime
+  start-up excluded, reported apart).
+* ``mbm_campaign``: the MotionBenchMaker Panda problems x 3 seeds (compiled and Python
+  RRT-Connect on each), serially and on 2 workers: wall time and speed-up.
+* ``ik_dataset``: ``learning.ik_dataset`` on random reachable Panda poses: poses per second
+  per core.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+import time
+from typing import Any
+
+import numpy as np
+
+from benchmarks.common import Row, Timing
+from benchmarks.suites import _batch_tasks as T
+from taskspace.batch import BatchOptions, Executor
+
+SUITE = "batch"
+WORKERS = 2
+
+
+def _wall(fn: Any) -> tuple[float, Any]:
+    t0 = time.perf_counter()
+    out = fn()
+    return time.perf_counter() - t0, out
+
+
+def _ray_ready() -> float | None:
+    """Start a local Ray runtime; its start-up time [s] (None when Ray is missing)."""
+    try:
+        import ray
+    except ImportError:
+        return None
+    os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
+    here = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    t0 = time.perf_counter()
+    if not ray.is_initialized():
+        ray.init(
+            num_cpus=WORKERS,
+            include_dashboard=False,
+            log_to_driver=False,
+            runtime_env={"env_vars": {"PYTHONPATH": here}},
+        )
+    return time.perf_counter() - t0
+
+
+def _overhead(quick: bool, ray_ok: bool) -> list[Row]:
+    n, seconds = (40, 0.01) if quick else (400, 0.01)
+    items = [seconds] * n
+    ideal = n * seconds / WORKERS
+    rows = []
+    ctx = multiprocessing.get_context("forkserver")
+
+    def plain() -> Any:
+        with ctx.Pool(WORKERS) as pool:
+            return pool.map(T.spin_plain, items, chunksize=1)
+
+    t_plain, _ = _wall(plain)
+    rows.append(
+        Row(
+            SUITE,
+            "overhead 10 ms tasks",
+            "multiprocessing.Pool",
+            Timing.from_samples([t_plain / n]),
+            {"tasks": n, "overhead": t_plain / ideal - 1},
+        )
+    )
+    backends = [("processes", "taskspace processes")]
+    if ray_ok:
+        backends.append(("ray", "taskspace ray"))
+    for backend, label in backends:
+        ex = Executor(BatchOptions(backend=backend, workers=WORKERS, chunk_size=1, progress=False))  # type: ignore[arg-type]
+        t, result = _wall(lambda ex=ex: ex.map(T.spin, items))
+        assert result.success
+        rows.append(
+            Row(
+                SUITE,
+                "overhead 10 ms tasks",
+                label,
+                Timing.from_samples([t / n]),
+                {"tasks": n, "overhead": t / ideal - 1, "vs_plain": t / t_plain - 1},
+                ratio_to="multiprocessing.Pool",
+            )
+        )
+    return rows
+
+
+def _per_task(quick: bool, ray_ok: bool) -> list[Row]:
+    n = 200 if quick else 2000
+    rows = []
+    for backend in ("serial", "processes", "ray"):
+        if backend == "ray" and not ray_ok:
+            continue
+        ex = Executor(BatchOptions(backend=backend, workers=WORKERS, chunk_size=1, progress=False))  # type: ignore[arg-type]
+        ex.map(T.noop, range(20))  # warm: pools, imports
+        t, result = _wall(lambda ex=ex: ex.map(T.noop, range(n)))
+        assert result.success
+        rows.append(
+            Row(
+                SUITE,
+                "per task (no-op)",
+                f"taskspace {backend}",
+                Timing.from_samples([t / n]),
+                {"tasks": n},
+                ratio_to="taskspace serial",
+            )
+        )
+    try:
+        import distributed  # noqa: F401
+    except ImportError:
+        rows.append(
+            Row(
+                SUITE,
+                "per task (no-op)",
+                "dask.distributed",
+                None,
+                note="dask distributed not installed in this environment",
+            )
+        )
+    return rows
+
+
+def _campaign(quick: bool, ray_ok: bool) -> list[Row]:
+    from taskspace.planning.scene_loader import MOTIONBENCHMAKER_SCENARIOS, motionbenchmaker_dir
+
+    if not motionbenchmaker_dir().is_dir():
+        return [Row(SUITE, "mbm_campaign", "taskspace", None, note="MotionBenchMaker data missing")]
+    scenarios = list(MOTIONBENCHMAKER_SCENARIOS)[:2] if quick else list(MOTIONBENCHMAKER_SCENARIOS)
+    problems = range(1, 6 if quick else 51)
+    items = [(s, p, seed) for s in scenarios for p in problems for seed in range(3)]
+    rows = []
+    serial_t = None
+    reference = None
+    for backend in ("serial", "processes", "ray"):
+        if backend == "ray" and not ray_ok:
+            continue
+        ex = Executor(BatchOptions(backend=backend, workers=WORKERS, progress=False))  # type: ignore[arg-type]
+        t, result = _wall(lambda ex=ex: ex.map(T.mbm_plan, items, context=T.mbm_context))
+        values = result.values
+        solved = [v["compiled"][0] for v in values if v["valid"]]
+        py_time = float(np.median([v["python"][1] for v in values if v["valid"]]))
+        if backend == "serial":
+            serial_t, reference = t, values
+        extra: dict[str, Any] = {
+            "runs": len(items),
+            "valid": len(solved),
+            "solved": int(sum(solved)),
+            "median_python_plan_ms": py_time * 1e3,
+            "chunk_size": result.chunk_size,
+        }
+        if serial_t is not None and backend != "serial":
+            extra["speedup_over_serial"] = serial_t / t
+            same = [a["compiled"][0] == b["compiled"][0] for a, b in zip(values, reference or [])]
+            extra["same_success_as_serial"] = float(np.mean(same))
+        rows.append(
+            Row(
+                SUITE,
+                "mbm_campaign",
+                f"taskspace {backend}",
+                Timing.from_samples([t]),
+                extra,
+                ratio_to="taskspace serial",
+            )
+        )
+    return rows
+
+
+def _ik_dataset(quick: bool) -> list[Row]:
+    from taskspace.learning.ik_dataset import ik_dataset, sample_reachable_poses
+    from taskspace.model import Robot
+
+    n = int(os.environ.get("TASKSPACE_IK_DATASET_POSES", "400" if quick else "100000"))
+    poses = sample_reachable_poses(Robot.load("panda"), n, np.random.default_rng(0))
+    rows = []
+    for backend, workers in (("serial", 1), ("processes", WORKERS)):
+        t, data = _wall(
+            lambda b=backend: ik_dataset(
+                "panda", poses, batch=BatchOptions(backend=b, workers=WORKERS, progress=False)
+            )
+        )  # type: ignore[arg-type]
+        rows.append(
+            Row(
+                SUITE,
+                f"ik_dataset panda {n} poses",
+                f"taskspace {backend}",
+                Timing.from_samples([t / n]),
+                {
+                    "poses_per_s": n / t,
+                    "poses_per_s_per_core": n / t / workers,
+                    "success_rate": data.success_rate,
+                },
+                ratio_to="taskspace serial",
+            )
+        )
+    return rows
+
+
+def run(quick: bool) -> list[Row]:
+    ray_start = _ray_ready()
+    ray_ok = ray_start is not None
+    rows = (
+        [
+            Row(
+                SUITE,
+                "ray runtime",
+                "ray.init(num_cpus=2)",
+                Timing.from_samples([ray_start or 0.0]),
+                note="start-up of the local runtime, excluded from the per-task rows",
+            )
+        ]
+        if ray_ok
+        else []
+    )
+    rows += _overhead(quick, ray_ok)
+    rows += _per_task(quick, ray_ok)
+    rows += _campaign(quick, ray_ok)
+    rows += _ik_dataset(quick)
+    return rows

@@ -1,0 +1,46 @@
+"""A chunk: the tasks sent to a worker at once, and how often it was started."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import Any
+
+from taskspace.batch.records import TaskRecord
+
+
+@dataclass
+class Chunk:
+    """Tasks ``(index, item)`` run together by one worker.
+
+    Attributes:
+        tasks: the ``(index, item)`` pairs.
+        attempts: how many times the chunk was started.
+        crashes: how many times its worker died while it ran alone (attributable crashes).
+    """
+
+    tasks: list[tuple[int, Any]]
+    attempts: int = 0
+    crashes: int = 0
+
+    def split(self) -> list[Chunk]:
+        """One chunk per task, each remembering the attempts made so far."""
+        return [Chunk([t], attempts=self.attempts) for t in self.tasks]
+
+    def stamp(self, records: list[TaskRecord]) -> list[TaskRecord]:
+        """``records`` with this chunk's attempt count."""
+        return [
+            r if r.attempts == self.attempts else replace(r, attempts=self.attempts)
+            for r in records
+        ]
+
+    def died(self, reason: str) -> list[TaskRecord]:
+        """Failure records for every task of a chunk whose worker kept dying."""
+        return [
+            TaskRecord(i, False, error=f"worker died: {reason}", attempts=self.attempts, item=x)
+            for i, x in self.tasks
+        ]
+
+
+def make_chunks(tasks: list[tuple[int, Any]], size: int) -> list[Chunk]:
+    """Consecutive chunks of ``size`` tasks."""
+    return [Chunk(tasks[i : i + size]) for i in range(0, len(tasks), size)]

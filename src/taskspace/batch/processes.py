@@ -1,0 +1,132 @@
+"""The local-processes backend: a ``ProcessPoolExecutor`` that survives dying workers.
+
+A worker that dies (killed, or a crash inside a compiled kernel) breaks the whole pool and
+every chunk in flight with it, and the pool cannot tell which chunk was at fault. The chunks
+in flight are then run again one at a time in a new pool, where a death is attributable: a
+chunk whose worker dies ``retries + 1`` times alone is split into single tasks, and a single
+task that does so is reported as failed with its input. Every other task completes.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+from collections import deque
+from collections.abc import Callable, Iterator
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
+from typing import Any
+
+from taskspace.batch.chunk import Chunk
+from taskspace.batch.records import TaskRecord
+from taskspace.batch.worker import TaskFunction, ignore_sigint, run_chunk
+
+
+def _new_pool(workers: int, start_method: str) -> ProcessPoolExecutor:
+    return ProcessPoolExecutor(
+        max_workers=workers,
+        mp_context=multiprocessing.get_context(start_method),
+        initializer=ignore_sigint,
+    )
+
+
+def _stop(pool: ProcessPoolExecutor | None) -> None:
+    """Stop a pool now: cancel what is queued and end the workers (no waiting on them)."""
+    if pool is None:
+        return
+    processes = list(getattr(pool, "_processes", {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for p in processes:
+        if p.is_alive():
+            p.terminate()
+    for p in processes:
+        p.join(timeout=5)
+
+
+class ProcessPool:
+    """A pool kept between runs, replaced when a worker death breaks it.
+
+    Worker start-up and imports are thus paid once per executor, not once per run.
+    """
+
+    def __init__(self, workers: int, start_method: str) -> None:
+        self.workers = workers
+        self.start_method = start_method
+        self._pool: ProcessPoolExecutor | None = None
+
+    def get(self) -> ProcessPoolExecutor:
+        """The live pool (started on first use)."""
+        if self._pool is None:
+            self._pool = _new_pool(self.workers, self.start_method)
+        return self._pool
+
+    def discard(self) -> None:
+        """Stop the pool and its workers; the next :meth:`get` starts a new one."""
+        _stop(self._pool)
+        self._pool = None
+
+
+def run_processes(
+    fn: TaskFunction,
+    key: str,
+    factory: Callable[[], Any] | None,
+    chunks: list[Chunk],
+    seed: int,
+    workers: int,
+    retries: int,
+    pools: ProcessPool,
+) -> Iterator[list[TaskRecord]]:
+    """Yield each chunk's records as it finishes, in completion order.
+
+    An interruption (Ctrl-C, or the caller closing the generator) stops the pool's workers.
+    """
+    queue: deque[Chunk] = deque(chunks)
+    suspects: deque[Chunk] = deque()
+    finished = False
+    try:
+        while queue or suspects:
+            pool = pools.get()
+            if suspects:  # alone in the pool: a death is this chunk's
+                chunk = suspects.popleft()
+                chunk.attempts += 1
+                try:
+                    records = pool.submit(run_chunk, fn, key, factory, chunk.tasks, seed).result()
+                except BrokenProcessPool as exc:
+                    pools.discard()
+                    chunk.crashes += 1
+                    if chunk.crashes <= retries:
+                        suspects.appendleft(chunk)
+                    elif len(chunk.tasks) > 1:
+                        suspects.extendleft(reversed(chunk.split()))
+                    else:
+                        yield chunk.died(f"{exc} (alone, {chunk.crashes} times)")
+                    continue
+                yield chunk.stamp(records)
+                continue
+            in_flight: dict[Future[list[TaskRecord]], Chunk] = {}
+            broken = False
+            while (queue or in_flight) and not broken:
+                while queue and len(in_flight) < 2 * workers:
+                    chunk = queue.popleft()
+                    chunk.attempts += 1
+                    in_flight[pool.submit(run_chunk, fn, key, factory, chunk.tasks, seed)] = chunk
+                done, _ = wait(in_flight, return_when=FIRST_COMPLETED)
+                for future in done:
+                    chunk = in_flight.pop(future)
+                    try:
+                        records = future.result()
+                    except BrokenProcessPool:
+                        suspects.append(chunk)
+                        broken = True
+                    else:
+                        yield chunk.stamp(records)
+            if broken:
+                for future, chunk in in_flight.items():
+                    if future.done() and not future.cancelled() and future.exception() is None:
+                        yield chunk.stamp(future.result())
+                    else:
+                        suspects.append(chunk)
+                pools.discard()
+        finished = True
+    finally:
+        if not finished:
+            pools.discard()

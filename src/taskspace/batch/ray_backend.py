@@ -1,0 +1,102 @@
+"""The Ray backend: the same chunks as Ray tasks, on a local Ray runtime or a cluster.
+
+``address=None`` starts a local runtime with ``workers`` CPUs (``ray.init(num_cpus=...)``);
+``"auto"`` joins the cluster that ``ray start --head`` started on this machine, and
+``"ray://host:10001"`` a remote one. Ray re-runs a task whose worker died (``max_retries``);
+a chunk that still fails is split into single tasks, and a single task that keeps killing its
+worker is reported as failed with its input.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from collections import deque
+from collections.abc import Callable, Iterator
+from typing import Any
+
+from taskspace.batch.chunk import Chunk
+from taskspace.batch.records import BatchError, TaskRecord
+from taskspace.batch.worker import TaskFunction, run_chunk
+
+
+def _ray() -> Any:
+    os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
+    try:
+        import ray
+    except ImportError as exc:  # pragma: no cover - ray is a dependency
+        raise BatchError("the 'ray' backend needs Ray: pip install 'ray>=2.9'") from exc
+    return ray
+
+
+def _driver_path() -> str:
+    """The driver's import path outside the interpreter's own folders, as a PYTHONPATH."""
+    prefixes = {os.path.realpath(p) for p in (sys.prefix, sys.base_prefix, sys.exec_prefix)}
+    keep = []
+    for entry in sys.path:
+        path = os.path.realpath(entry or os.getcwd())
+        if os.path.isdir(path) and not any(path.startswith(p) for p in prefixes):
+            keep.append(path)
+    return os.pathsep.join(dict.fromkeys(keep))
+
+
+def connect(address: str | None, workers: int) -> Any:
+    """The ``ray`` module, connected (a local runtime when ``address`` is None)."""
+    ray = _ray()
+    if not ray.is_initialized():
+        kwargs: dict[str, Any] = {"log_to_driver": False, "include_dashboard": False}
+        if address is None:
+            # As a forked worker would: what the driver can import, the workers can.
+            kwargs["num_cpus"] = workers
+            kwargs["runtime_env"] = {"env_vars": {"PYTHONPATH": _driver_path()}}
+        else:
+            kwargs = {"address": address, "log_to_driver": False}
+        try:
+            ray.init(**kwargs)
+        except Exception as exc:
+            raise BatchError(
+                f"could not start or reach Ray (address={address!r}): {exc}; for a cluster, "
+                "run `ray start --head` first and pass address='auto' or 'ray://HOST:10001'"
+            ) from exc
+    return ray
+
+
+def run_ray(
+    fn: TaskFunction,
+    key: str,
+    factory: Callable[[], Any] | None,
+    chunks: list[Chunk],
+    seed: int,
+    workers: int,
+    retries: int,
+    address: str | None = None,
+) -> Iterator[list[TaskRecord]]:
+    """Yield each chunk's records as it finishes, in completion order."""
+    ray = connect(address, workers)
+    remote = ray.remote(max_retries=retries, retry_exceptions=False)(run_chunk)
+    fn_ref, factory_ref = ray.put(fn), ray.put(factory)
+    queue: deque[Chunk] = deque(chunks)
+    in_flight: dict[Any, Chunk] = {}
+    limit = 2 * max(1, int(ray.available_resources().get("CPU", workers)))
+    try:
+        while queue or in_flight:
+            while queue and len(in_flight) < limit:
+                chunk = queue.popleft()
+                chunk.attempts += 1
+                in_flight[remote.remote(fn_ref, key, factory_ref, chunk.tasks, seed)] = chunk
+            done, _ = ray.wait(list(in_flight), num_returns=1)
+            for ref in done:
+                chunk = in_flight.pop(ref)
+                try:
+                    records = ray.get(ref)
+                except ray.exceptions.RayError as exc:
+                    chunk.crashes += 1
+                    if len(chunk.tasks) > 1:
+                        queue.extendleft(reversed(chunk.split()))
+                    else:
+                        yield chunk.died(f"{type(exc).__name__}: {exc}".splitlines()[0])
+                    continue
+                yield chunk.stamp(records)
+    finally:
+        for ref in in_flight:
+            ray.cancel(ref, force=True)

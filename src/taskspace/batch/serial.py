@@ -1,0 +1,26 @@
+"""The serial backend: every chunk in this process, in order (the reference for the others)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator
+from typing import Any
+
+from taskspace.batch.chunk import Chunk
+from taskspace.batch.records import TaskRecord
+from taskspace.batch.worker import TaskFunction, run_chunk
+
+
+def run_serial(
+    fn: TaskFunction,
+    key: str,
+    factory: Callable[[], Any] | None,
+    chunks: list[Chunk],
+    seed: int,
+    workers: int,
+    retries: int,
+) -> Iterator[list[TaskRecord]]:
+    """Yield each chunk's records as it finishes (``workers`` and ``retries`` are unused)."""
+    del workers, retries
+    for chunk in chunks:
+        chunk.attempts += 1
+        yield chunk.stamp(run_chunk(fn, key, factory, chunk.tasks, seed))

@@ -1,0 +1,201 @@
+"""Observability of ``x' = A x + B u, y = C x`` and the Kalman decomposition.
+
+Kalman's test: ``(A, C)`` is observable iff the observability matrix
+``O = [C; C A; C A^2; ...; C A^{n-1}]`` has rank ``n``. By duality, ``(A, C)`` is observable
+iff ``(A^T, C^T)`` is controllable, so the unobservable modes are the PBH-uncontrollable modes
+of ``(A^T, C^T)``; the pair is detectable iff every unobservable mode is stable.
+
+The Kalman decomposition splits the state space into four parts: controllable and observable
+(``co``), controllable and unobservable (``cu``), uncontrollable and observable (``uo``),
+uncontrollable and unobservable (``uu``). In the coordinates ``x = T z`` with
+``T = [T_co, T_cu, T_uo, T_uu]``
+
+``T^-1 A T = [[A11, 0, A13, 0], [A21, A22, A23, A24], [0, 0, A33, 0], [0, 0, A43, A44]]``,
+``T^-1 B = [B1; B2; 0; 0]``, ``C T = [C1, 0, C3, 0]``,
+
+and the transfer function ``C (sI - A)^-1 B = C1 (sI - A11)^-1 B1`` only sees the ``co`` part.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import scipy.linalg as sla
+
+from taskspace._validation import FloatArray, as_matrix
+from taskspace.control._linear import square, system
+from taskspace.control.controllability import controllability, controllability_matrix
+
+
+def _output(A: Any, C: Any) -> tuple[FloatArray, FloatArray]:
+    A = square(A, "A")
+    n = A.shape[0]
+    C_arr = np.asarray(C, dtype=float)
+    if C_arr.ndim == 1:
+        C_arr = C_arr[None, :]
+    return A, as_matrix(C_arr, (None, n), "C")
+
+
+def observability_matrix(A: Any, C: Any) -> FloatArray:
+    """``[C; C A; ...; C A^{n-1}]`` (n p x n); a vector ``C`` is one output row."""
+    A, C = _output(A, C)
+    n = A.shape[0]
+    blocks = [C]
+    for _ in range(n - 1):
+        blocks.append(blocks[-1] @ A)
+    return np.vstack(blocks)
+
+
+@dataclass
+class ObservabilityResult:
+    """Result of :func:`observability`.
+
+    Attributes:
+        observable: ``rank O == n``.
+        rank: numerical rank of the observability matrix.
+        n: state dimension.
+        singular_values: of the row-normalized observability matrix.
+        unobservable_modes: eigenvalues of ``A`` failing the PBH test
+            ``rank [A - lambda I; C] < n`` (complex).
+        tolerance: relative singular-value threshold used for the ranks.
+    """
+
+    observable: bool
+    rank: int
+    n: int
+    singular_values: FloatArray
+    unobservable_modes: np.ndarray
+    tolerance: float
+
+    def detectable(self, *, discrete: bool = False) -> bool:
+        """Every unobservable mode is stable (continuous or discrete time)."""
+        modes = self.unobservable_modes
+        if discrete:
+            return bool(np.all(np.abs(modes) < 1.0))
+        return bool(np.all(modes.real < 0.0))
+
+
+def observability(A: Any, C: Any, tolerance: float | None = None) -> ObservabilityResult:
+    """Kalman rank test and PBH unobservable modes of ``(A, C)`` (dual of controllability).
+
+    Args:
+        A: system matrix (n x n).
+        C: output matrix (p x n) (a vector is one output).
+        tolerance: relative rank threshold (see :func:`controllability`).
+    """
+    A, C = _output(A, C)
+    dual = controllability(A.T, C.T, tolerance)
+    return ObservabilityResult(
+        observable=dual.controllable,
+        rank=dual.rank,
+        n=dual.n,
+        singular_values=dual.singular_values,
+        unobservable_modes=dual.uncontrollable_modes,
+        tolerance=dual.tolerance,
+    )
+
+
+def is_observable(A: Any, C: Any, tolerance: float | None = None) -> bool:
+    """``rank [C; C A; ...; C A^{n-1}] == n`` (see :func:`observability`)."""
+    return observability(A, C, tolerance).observable
+
+
+@dataclass
+class KalmanDecomposition:
+    """Result of :func:`kalman_decomposition`: ``x = T z``, ``z = [z_co, z_cu, z_uo, z_uu]``.
+
+    Attributes:
+        T: change of basis (n x n), columns ``[T_co, T_cu, T_uo, T_uu]``.
+        A: ``T^-1 A T`` (n x n), with the zero blocks of the module docstring.
+        B: ``T^-1 B`` (n x m).
+        C: ``C T`` (p x n).
+        sizes: dimensions ``(n_co, n_cu, n_uo, n_uu)``.
+    """
+
+    T: FloatArray
+    A: FloatArray
+    B: FloatArray
+    C: FloatArray
+    sizes: tuple[int, int, int, int]
+
+    def part(self, name: str) -> slice:
+        """Slice of the part ``"co"``, ``"cu"``, ``"uo"`` or ``"uu"`` in ``z``."""
+        names = ("co", "cu", "uo", "uu")
+        if name not in names:
+            from taskspace.errors import UnknownNameError
+
+            raise UnknownNameError("Kalman decomposition part", name, names)
+        i = names.index(name)
+        start = sum(self.sizes[:i])
+        return slice(start, start + self.sizes[i])
+
+    def minimal(self) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """The controllable and observable realization ``(A11, B1, C1)``."""
+        s = self.part("co")
+        return self.A[s, s], self.B[s], self.C[:, s]
+
+
+def _range(M: FloatArray, tol: float) -> FloatArray:
+    if M.size == 0:
+        return np.zeros((M.shape[0], 0))
+    return np.asarray(sla.orth(M, rcond=tol), dtype=float)
+
+
+def _null(M: FloatArray, n: int, tol: float) -> FloatArray:
+    if M.size == 0:
+        return np.eye(n)
+    return np.asarray(sla.null_space(M, rcond=tol), dtype=float)
+
+
+def kalman_decomposition(
+    A: Any, B: Any, C: Any, tolerance: float | None = None
+) -> KalmanDecomposition:
+    """Kalman's canonical decomposition of ``(A, B, C)`` into the four parts co, cu, uo, uu.
+
+    Subspaces (orthonormal bases from SVDs): ``R`` = range of the controllability matrix,
+    ``N`` = null space of the observability matrix; ``T_cu`` spans ``R ∩ N``, ``T_co`` its
+    orthogonal complement within ``R``, ``T_uu`` the complement of ``R ∩ N`` within ``N``, and
+    ``T_uo`` the orthogonal complement of all three.
+
+    Args:
+        A: (n x n); B: (n x m); C: (p x n).
+        tolerance: relative rank threshold of the SVDs; default ``n max(m, p) eps 1e3``.
+    """
+    A, B = system(A, B)
+    A, C = _output(A, C)
+    n, m = B.shape
+    p = C.shape[0]
+    tol = (
+        float(tolerance) if tolerance is not None else max(n, m, p) * n * np.finfo(float).eps * 1e3
+    )
+    Ctrb = controllability_matrix(A, B)
+    Obsv = observability_matrix(A, C)
+    scale_c = max(1.0, float(np.max(np.abs(Ctrb))))
+    scale_o = max(1.0, float(np.max(np.abs(Obsv))))
+    R = _range(Ctrb / scale_c, tol)
+    N = _null(Obsv / scale_o, n, tol)
+    eye = np.eye(n)
+    # R ∩ N = null([I - R R^T; I - N N^T]).
+    cu = _null(np.vstack([eye - R @ R.T, eye - N @ N.T]), n, 1e3 * n * np.finfo(float).eps)
+    co = _null(np.vstack([eye - R @ R.T, cu.T]), n, 1e3 * n * np.finfo(float).eps)
+    uu = _null(np.vstack([eye - N @ N.T, cu.T]), n, 1e3 * n * np.finfo(float).eps)
+    spanned = np.hstack([co, cu, uu])
+    uo = _null(spanned.T, n, 1e3 * n * np.finfo(float).eps) if spanned.shape[1] else np.eye(n)
+    T = np.hstack([co, cu, uo, uu])
+    if T.shape[1] != n:
+        from taskspace.errors import SolverError
+
+        raise SolverError(
+            f"Kalman decomposition: the subspaces span {T.shape[1]} dimensions instead of n = {n} "
+            "(ill-conditioned controllability/observability matrices); pass a larger tolerance"
+        )
+    Tinv = np.linalg.inv(T)
+    return KalmanDecomposition(
+        T=T,
+        A=Tinv @ A @ T,
+        B=Tinv @ B,
+        C=C @ T,
+        sizes=(co.shape[1], cu.shape[1], uo.shape[1], uu.shape[1]),
+    )

@@ -1,0 +1,71 @@
+"""Lenient but exact input conversion for the filters (the shapes filterpy users pass)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from taskspace._validation import FloatArray, as_float_array, check_finite
+from taskspace.errors import InvalidInputError, ShapeError
+from taskspace.estimation.covariance import as_covariance
+
+
+def as_measurement(z: Any, m: int, name: str) -> FloatArray:
+    """A vector of length ``m`` from ``(m,)``, a column ``(m, 1)`` or, when ``m == 1``, a scalar.
+
+    Raises:
+        ShapeError: any other shape (a row ``(1, m)`` is refused: it is ambiguous).
+        NotFiniteError: NaN or inf entries.
+        InvalidInputError: not real numbers (``None``, complex, text...).
+    """
+    arr = as_float_array(z, name)
+    if arr.shape == (m,):
+        pass
+    elif arr.shape == (m, 1) or (m == 1 and arr.size == 1):
+        arr = arr.reshape(m)
+    else:
+        raise ShapeError(name, (m,), tuple(arr.shape))
+    check_finite(arr, name)
+    return arr if arr.flags.c_contiguous else np.ascontiguousarray(arr)
+
+
+def as_state(x: Any, n: int | None, name: str) -> FloatArray:
+    """A state vector from ``(n,)`` or a column ``(n, 1)`` (a copy the filter may own)."""
+    arr = as_float_array(x, name)
+    if arr.ndim == 2 and arr.shape[1] == 1:
+        arr = arr[:, 0]
+    if arr.ndim != 1 or (n is not None and arr.shape[0] != n):
+        raise ShapeError(name, (n if n is not None else -1,), tuple(arr.shape))
+    check_finite(arr, name)
+    return np.array(arr, dtype=np.float64)
+
+
+def as_noise_covariance(R: Any, m: int | None, name: str) -> FloatArray:
+    """A positive-definite ``(m, m)`` noise covariance; a scalar ``r > 0`` means ``r I``."""
+    arr = as_float_array(R, name)
+    if arr.ndim == 0 and m is not None and m > 1:
+        r = float(arr)
+        if not (np.isfinite(r) and r > 0.0):
+            raise InvalidInputError(f"{name} as a scalar must be finite and > 0, got {R!r}")
+        return r * np.eye(m)
+    return as_covariance(arr, m, name, positive_definite=True)
+
+
+def model_output(value: Any, shape: tuple[int, ...], name: str) -> FloatArray:
+    """Validate what a user model (``f``, ``h``, a Jacobian) returned: shape and finiteness.
+
+    A column ``(k, 1)`` is accepted for a vector of length ``k``.
+    """
+    arr = as_float_array(value, f"{name} output")
+    if arr.shape != shape and len(shape) == 1 and arr.size == shape[0]:
+        if arr.shape == (shape[0], 1) or arr.ndim == 0:  # a column, or a scalar for m = 1
+            arr = arr.reshape(shape)
+    if arr.shape != shape:
+        raise ShapeError(f"{name} output", shape, tuple(arr.shape))
+    if not np.isfinite(arr).all():
+        raise InvalidInputError(
+            f"{name} returned non-finite values (NaN or inf) {arr.tolist()}: the filter cannot "
+            "continue; check the model at the current estimate"
+        )
+    return arr

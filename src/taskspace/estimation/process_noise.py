@@ -1,0 +1,117 @@
+"""Process noise of kinematic (constant velocity, acceleration, jerk) models.
+
+A chain of ``dim`` integrators (position, velocity, acceleration...) driven by noise on its
+highest derivative, sampled with period ``dt``, has one of two standard process noise
+covariances:
+
+* **discrete white noise** (the highest derivative is a random constant over each period,
+  variance ``var``): ``Q = var G G^T`` with ``G_i = dt^(dim-1-i) / (dim-1-i)!``
+  (e.g. ``G = (dt^2/2, dt, 1)`` for position, velocity, acceleration);
+* **continuous white noise** (power spectral density ``q``):
+  ``Q_ij = q dt^(2 dim - 1 - i - j) / ((dim-1-i)! (dim-1-j)! (2 dim - 1 - i - j))``.
+
+With ``block_size > 1`` the same model applies to each of ``block_size`` independent axes:
+ordered by dimension (``x, x', x'', y, y', y''``: ``Q = I_b (x) Q_1``) or by derivative
+(``x, y, x', y', ...``: ``Q = Q_1 (x) I_b``). The values equal filterpy's
+``Q_discrete_white_noise`` and ``Q_continuous_white_noise``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from taskspace._validation import FloatArray, check_int, check_positive
+from taskspace.errors import InvalidInputError
+
+
+def _arrange(Q1: FloatArray, block_size: int, order_by_dim: bool) -> FloatArray:
+    eye = np.eye(block_size)
+    return np.asarray(np.kron(eye, Q1) if order_by_dim else np.kron(Q1, eye), dtype=np.float64)
+
+
+def _finite(Q1: FloatArray, dt: float) -> FloatArray:
+    if not np.isfinite(Q1).all():
+        raise InvalidInputError(
+            f"the process noise overflows for dt = {dt!r} and this variance: use a smaller dt "
+            "(or other time units)"
+        )
+    return Q1
+
+
+def _check(dim: int, dt: float, block_size: int, order_by_dim: bool) -> tuple[int, float, int]:
+    d = check_int(dim, "dim (number of derivatives: 2 = position and velocity)", minimum=1)
+    b = check_int(block_size, "block_size (number of independent axes)", minimum=1)
+    if d * b > 10_000:
+        raise InvalidInputError(f"dim * block_size = {d * b} is too large (at most 10000)")
+    if not isinstance(order_by_dim, (bool, np.bool_)):
+        raise InvalidInputError(f"order_by_dim must be True or False, got {order_by_dim!r}")
+    return d, check_positive(dt, "dt [s]"), b
+
+
+def discrete_white_noise(
+    dim: int, dt: float = 1.0, var: float = 1.0, block_size: int = 1, order_by_dim: bool = True
+) -> FloatArray:
+    """Process noise of a piecewise-constant white noise on the highest derivative.
+
+    ``Q = var G G^T`` with ``G_i = dt^(dim-1-i) / (dim-1-i)!`` (module docstring).
+
+    Args:
+        dim: number of states per axis (2: position and velocity; 3: with acceleration...).
+        dt: sampling period [s].
+        var: variance of the highest derivative over one period [units^2/s^(2 (dim-1))].
+        block_size: number of independent axes.
+        order_by_dim: states ordered per axis (``x, x', y, y'``) rather than per derivative
+            (``x, y, x', y'``).
+
+    Returns:
+        The ``(dim * block_size)`` square covariance.
+
+    Raises:
+        InvalidInputError: ``dim`` or ``block_size`` not a positive integer, ``dt`` not
+            ``> 0``, ``var`` negative or not finite.
+    """
+    d, h, b = _check(dim, dt, block_size, order_by_dim)
+    v = check_positive(var, "var", strict=False)
+    with np.errstate(over="ignore", invalid="ignore"):
+        G = np.array([np.power(h, d - 1 - i) / math.factorial(d - 1 - i) for i in range(d)])
+        Q1 = v * np.outer(G, G)
+    return _arrange(_finite(Q1, dt), b, bool(order_by_dim))
+
+
+def continuous_white_noise(
+    dim: int,
+    dt: float = 1.0,
+    spectral_density: float = 1.0,
+    block_size: int = 1,
+    order_by_dim: bool = True,
+) -> FloatArray:
+    """Process noise of a continuous white noise on the highest derivative.
+
+    ``Q_ij = q dt^(2 dim - 1 - i - j) / ((dim-1-i)! (dim-1-j)! (2 dim - 1 - i - j))``.
+
+    Args:
+        dim: number of states per axis.
+        dt: sampling period [s].
+        spectral_density: power spectral density ``q`` of the noise.
+        block_size: number of independent axes.
+        order_by_dim: as :func:`discrete_white_noise`.
+
+    Returns:
+        The ``(dim * block_size)`` square covariance.
+    """
+    d, h, b = _check(dim, dt, block_size, order_by_dim)
+    q = check_positive(spectral_density, "spectral_density", strict=False)
+    Q1 = np.empty((d, d))
+    with np.errstate(over="ignore", invalid="ignore"):
+        for i in range(d):
+            for j in range(d):
+                p = 2 * d - 1 - i - j
+                Q1[i, j] = (
+                    q * np.power(h, p) / (math.factorial(d - 1 - i) * math.factorial(d - 1 - j) * p)
+                )
+    return _arrange(_finite(Q1, dt), b, bool(order_by_dim))
+
+
+__all__ = ["continuous_white_noise", "discrete_white_noise"]

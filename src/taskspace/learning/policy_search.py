@@ -1,0 +1,360 @@
+"""Policy search: policy gradients (REINFORCE, eNAC), PoWER, PI^2, (mu, lambda)-ES, CMA-ES.
+
+All methods maximize the expected return ``J(theta) = E[R]`` of a :data:`Rollout` (a pure
+function of the parameters and a seed), evaluating each population with
+:func:`taskspace.learning.rollout.evaluate_population`.
+
+Action exploration (likelihood ratio), from episodes with ``g_i = sum_t grad log pi``:
+
+* REINFORCE with the optimal baseline: ``grad J ~ <g_i (R_i - b)>``,
+  ``b_h = <g_ih^2 R_i> / <g_ih^2>`` per component (Peters and Schaal 2008).
+* Episodic natural actor-critic (eNAC): regress ``R_i ~ g_i^T w + J`` by least squares; ``w``
+  is the natural gradient ``F^-1 grad J`` (``F`` the Fisher information of the trajectory
+  distribution); update ``theta += alpha w``.
+
+Parameter exploration, ``theta_i = theta + eps_i``, ``eps_i ~ N(0, sigma^2 I)``:
+
+* PoWER (Kober and Peters): reward-weighted averaging of the best rollouts,
+  ``theta += sum_i q_i eps_i / sum_i q_i`` with ``q_i = R_i - min R`` over the elite.
+* PI^2 (episodic, Theodorou et al.): ``theta += sum_i P_i eps_i``,
+  ``P_i ∝ exp(-h (S_i - min S) / (max S - min S))`` with the cost ``S = -R``.
+* (mu, lambda)-ES: keep the ``mu`` best of ``lambda`` offspring, new mean = their average.
+* CMA-ES: ``cma.CMAEvolutionStrategy`` (pycma, Hansen's reference implementation).
+"""
+
+from __future__ import annotations
+
+import enum
+import time
+from collections.abc import Sequence
+from concurrent.futures import Executor
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from taskspace._validation import FloatArray
+from taskspace.errors import InvalidInputError
+from taskspace.learning.rollout import Episode, Rollout, evaluate_population
+
+
+class PolicySearchStatus(enum.Enum):
+    """Outcome of a policy search."""
+
+    TARGET_REACHED = "target_reached"
+    MAX_ITERATIONS = "max_iterations"
+    MAX_ROLLOUTS = "max_rollouts"
+
+
+@dataclass(frozen=True, kw_only=True)
+class PolicySearchOptions:
+    """Settings shared by the policy-search methods.
+
+    Attributes:
+        iterations: maximum number of updates.
+        population: rollouts per update (``lambda`` of the evolution strategies).
+        elite: rollouts kept by PoWER and the (mu, lambda)-ES (``mu``).
+        learning_rate: step size of REINFORCE and eNAC.
+        exploration: initial parameter noise std ``sigma`` (PoWER, PI^2, ES, CMA-ES).
+        exploration_decay: ``sigma`` is multiplied by this after each update (PoWER, PI^2, ES).
+        temperature: ``h`` of PI^2.
+        target_return: stop when the mean return of the current parameters reaches it.
+        max_rollouts: stop after this many rollouts (``None``: no limit).
+        seed: base seed; rollout seeds are drawn from it.
+    """
+
+    iterations: int = 100
+    population: int = 20
+    elite: int = 5
+    learning_rate: float = 0.1
+    exploration: float = 0.5
+    exploration_decay: float = 0.98
+    temperature: float = 10.0
+    target_return: float | None = None
+    max_rollouts: int | None = None
+    seed: int = 0
+
+
+@dataclass
+class PolicySearchResult:
+    """Result of a policy search.
+
+    Attributes:
+        success: the target return was reached (or no target was set and the search ended).
+        status: see :class:`PolicySearchStatus`.
+        parameters: final parameters (mean of the search distribution).
+        best_parameters: parameters of the best rollout seen.
+        best_return: its return.
+        mean_returns: mean return of each population (one per iteration).
+        rollouts: total number of rollouts.
+        environment_steps: total number of environment steps.
+        solve_time: wall time [s].
+    """
+
+    success: bool
+    status: PolicySearchStatus
+    parameters: FloatArray
+    best_parameters: FloatArray
+    best_return: float
+    mean_returns: list[float] = field(default_factory=list)
+    rollouts: int = 0
+    environment_steps: int = 0
+    solve_time: float = 0.0
+
+
+def _arrays(episodes: Sequence[Episode]) -> tuple[FloatArray, FloatArray]:
+    if not episodes:
+        raise InvalidInputError("need at least one episode")
+    G = np.stack([e.log_likelihood_gradient for e in episodes])
+    R = np.array([e.total_return for e in episodes], dtype=float)
+    return G, R
+
+
+def reinforce_terms(G: FloatArray, R: FloatArray) -> FloatArray:
+    """Per-episode REINFORCE terms ``g_i (R_i - b)`` (N x p); their mean estimates the gradient.
+
+    The baseline is the per-component optimum ``b_h = <g_ih^2 R_i> / <g_ih^2>``.
+    """
+    g2 = G**2
+    denom = g2.mean(axis=0)
+    safe = np.where(denom > 0, denom, 1.0)
+    b = np.where(denom > 0, (g2 * R[:, None]).mean(axis=0) / safe, 0.0)
+    return np.asarray(G * (R[:, None] - b[None, :]), dtype=float)
+
+
+def reinforce_gradient(episodes: Sequence[Episode]) -> FloatArray:
+    """REINFORCE estimate ``<g_i (R_i - b)>`` with the per-component optimal baseline."""
+    G, R = _arrays(episodes)
+    return np.asarray(reinforce_terms(G, R).mean(axis=0), dtype=float)
+
+
+def enac_regression(G: FloatArray, R: FloatArray) -> tuple[FloatArray, float, FloatArray]:
+    """Least squares ``R_i ~ g_i^T w + J``: ``(w, J, covariance of w)``.
+
+    Raises:
+        InvalidInputError: fewer episodes than parameters + 2.
+    """
+    N, p = G.shape
+    if N < p + 2:
+        raise InvalidInputError(f"eNAC needs at least p + 2 = {p + 2} episodes, got {N}")
+    Phi = np.hstack([G, np.ones((N, 1))])
+    sol, *_ = np.linalg.lstsq(Phi, R, rcond=None)
+    res = R - Phi @ sol
+    cov = float(res @ res) / (N - p - 1) * np.linalg.pinv(Phi.T @ Phi)
+    return np.asarray(sol[:-1], dtype=float), float(sol[-1]), np.asarray(cov[:-1, :-1])
+
+
+def enac_gradient(episodes: Sequence[Episode]) -> tuple[FloatArray, float]:
+    """eNAC: least squares ``R_i ~ g_i^T w + J``; returns the natural gradient ``w`` and ``J``.
+
+    Raises:
+        InvalidInputError: fewer episodes than parameters + 2.
+    """
+    G, R = _arrays(episodes)
+    w, J, _ = enac_regression(G, R)
+    return w, J
+
+
+class _Search:
+    """Book-keeping shared by the methods (seeds, counters, stopping)."""
+
+    def __init__(
+        self,
+        rollout: Rollout,
+        theta0: FloatArray,
+        options: PolicySearchOptions,
+        executor: Executor | None,
+    ) -> None:
+        if options.iterations < 1 or options.population < 1:
+            raise InvalidInputError("iterations and population must be >= 1")
+        if not 1 <= options.elite <= options.population:
+            raise InvalidInputError(
+                f"elite must be in [1, population = {options.population}], got {options.elite}"
+            )
+        self.rollout = rollout
+        self.theta = np.asarray(theta0, dtype=float).ravel().copy()
+        if not np.all(np.isfinite(self.theta)):
+            raise InvalidInputError("initial parameters must be finite")
+        self.options = options
+        self.executor = executor
+        self.seeds = np.random.SeedSequence(options.seed)
+        self.rng = np.random.default_rng(self.seeds.spawn(1)[0])
+        self.result = PolicySearchResult(
+            success=False,
+            status=PolicySearchStatus.MAX_ITERATIONS,
+            parameters=self.theta,
+            best_parameters=self.theta.copy(),
+            best_return=-np.inf,
+        )
+        self.t0 = time.perf_counter()
+
+    def evaluate(self, params: Sequence[FloatArray]) -> list[Episode]:
+        seeds = self.rng.integers(0, 2**31 - 1, size=len(params))
+        eps = evaluate_population(self.rollout, params, list(seeds), executor=self.executor)
+        res = self.result
+        for p, e in zip(params, eps):
+            res.rollouts += 1
+            res.environment_steps += e.steps
+            if e.total_return > res.best_return:
+                res.best_return = e.total_return
+                res.best_parameters = np.asarray(p, dtype=float).copy()
+        res.mean_returns.append(float(np.mean([e.total_return for e in eps])))
+        return eps
+
+    def done(self) -> bool:
+        o, res = self.options, self.result
+        if (
+            o.target_return is not None
+            and res.mean_returns
+            and res.mean_returns[-1] >= o.target_return
+        ):
+            res.status = PolicySearchStatus.TARGET_REACHED
+            return True
+        if o.max_rollouts is not None and res.rollouts >= o.max_rollouts:
+            res.status = PolicySearchStatus.MAX_ROLLOUTS
+            return True
+        return False
+
+    def finish(self) -> PolicySearchResult:
+        res = self.result
+        res.parameters = self.theta
+        res.success = (
+            res.status is PolicySearchStatus.TARGET_REACHED or self.options.target_return is None
+        )
+        res.solve_time = time.perf_counter() - self.t0
+        return res
+
+
+def _gradient_method(
+    rollout: Rollout,
+    theta0: FloatArray,
+    options: PolicySearchOptions | None,
+    executor: Executor | None,
+    natural: bool,
+) -> PolicySearchResult:
+    s = _Search(rollout, theta0, options or PolicySearchOptions(), executor)
+    for _ in range(s.options.iterations):
+        eps = s.evaluate([s.theta] * s.options.population)
+        if s.done():
+            break
+        step = enac_gradient(eps)[0] if natural else reinforce_gradient(eps)
+        s.theta = s.theta + s.options.learning_rate * step
+    return s.finish()
+
+
+def reinforce(
+    rollout: Rollout,
+    theta0: FloatArray,
+    options: PolicySearchOptions | None = None,
+    *,
+    executor: Executor | None = None,
+) -> PolicySearchResult:
+    """Gradient ascent with the REINFORCE estimate (the rollout must explore in its actions)."""
+    return _gradient_method(rollout, theta0, options, executor, natural=False)
+
+
+def enac(
+    rollout: Rollout,
+    theta0: FloatArray,
+    options: PolicySearchOptions | None = None,
+    *,
+    executor: Executor | None = None,
+) -> PolicySearchResult:
+    """Natural gradient ascent with the eNAC estimate (needs ``population >= p + 1``)."""
+    return _gradient_method(rollout, theta0, options, executor, natural=True)
+
+
+def _parameter_exploration(
+    rollout: Rollout,
+    theta0: FloatArray,
+    options: PolicySearchOptions | None,
+    executor: Executor | None,
+    method: str,
+) -> PolicySearchResult:
+    s = _Search(rollout, theta0, options or PolicySearchOptions(), executor)
+    o = s.options
+    sigma = o.exploration
+    for _ in range(o.iterations):
+        noise = sigma * s.rng.standard_normal((o.population, s.theta.size))
+        eps = s.evaluate(list(s.theta + noise))
+        R = np.array([e.total_return for e in eps])
+        if method == "power":
+            idx = np.argsort(R)[::-1][: o.elite]
+            q = R[idx] - R.min()
+            if q.sum() > 0:
+                s.theta = s.theta + (q[:, None] * noise[idx]).sum(axis=0) / q.sum()
+        elif method == "pi2":
+            S = -R
+            span = S.max() - S.min()
+            P = np.exp(-o.temperature * (S - S.min()) / span) if span > 0 else np.ones_like(S)
+            s.theta = s.theta + (P[:, None] * noise).sum(axis=0) / P.sum()
+        else:  # (mu, lambda)-ES
+            idx = np.argsort(R)[::-1][: o.elite]
+            s.theta = s.theta + noise[idx].mean(axis=0)
+        sigma *= o.exploration_decay
+        if s.done():
+            break
+    return s.finish()
+
+
+def power(
+    rollout: Rollout,
+    theta0: FloatArray,
+    options: PolicySearchOptions | None = None,
+    *,
+    executor: Executor | None = None,
+) -> PolicySearchResult:
+    """PoWER: reward-weighted average of the elite parameter perturbations."""
+    return _parameter_exploration(rollout, theta0, options, executor, "power")
+
+
+def pi2(
+    rollout: Rollout,
+    theta0: FloatArray,
+    options: PolicySearchOptions | None = None,
+    *,
+    executor: Executor | None = None,
+) -> PolicySearchResult:
+    """Episodic PI^2: softmax-of-cost weighted average of the perturbations."""
+    return _parameter_exploration(rollout, theta0, options, executor, "pi2")
+
+
+def mu_lambda_es(
+    rollout: Rollout,
+    theta0: FloatArray,
+    options: PolicySearchOptions | None = None,
+    *,
+    executor: Executor | None = None,
+) -> PolicySearchResult:
+    """(mu, lambda)-evolution strategy: mean of the ``elite`` best of ``population`` offspring."""
+    return _parameter_exploration(rollout, theta0, options, executor, "es")
+
+
+def cma_es(
+    rollout: Rollout,
+    theta0: FloatArray,
+    options: PolicySearchOptions | None = None,
+    *,
+    executor: Executor | None = None,
+) -> PolicySearchResult:
+    """CMA-ES through pycma's ask-and-tell interface (population = ``options.population``).
+
+    Each candidate is evaluated by one rollout (use a deterministic rollout, or average
+    several inside it, for noisy returns).
+    """
+    import cma
+
+    s = _Search(rollout, theta0, options or PolicySearchOptions(), executor)
+    o = s.options
+    es = cma.CMAEvolutionStrategy(
+        s.theta,
+        o.exploration,
+        {"popsize": o.population, "seed": int(o.seed) + 1, "verbose": -9},
+    )
+    for _ in range(o.iterations):
+        candidates = [np.asarray(c, dtype=float) for c in es.ask()]
+        eps = s.evaluate(candidates)
+        es.tell(candidates, [-e.total_return for e in eps])
+        s.theta = np.asarray(es.mean, dtype=float).copy()
+        if s.done() or es.stop():
+            break
+    return s.finish()

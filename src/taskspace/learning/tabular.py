@@ -1,0 +1,259 @@
+"""Tabular reinforcement learning on finite MDPs: Q-learning, SARSA and TD(lambda).
+
+The agent only samples transitions ``s' ~ P(. | s, a)`` and rewards; the MDP's matrices are
+used by the simulator, never by the learner.
+
+* Q-learning (off-policy): ``Q(s, a) += alpha [r + gamma max_a' Q(s', a') - Q(s, a)]``.
+* SARSA (on-policy): ``Q(s, a) += alpha [r + gamma Q(s', a') - Q(s, a)]`` with ``a'`` the
+  action actually taken next (epsilon-greedy).
+* TD(lambda) policy evaluation with accumulating eligibility traces:
+  ``delta = r + gamma V(s') - V(s)``, ``e(s) += 1``, ``V += alpha delta e``, ``e *= gamma lambda``.
+
+With every state-action pair visited infinitely often and step sizes with
+``sum alpha = inf``, ``sum alpha^2 < inf`` (``alpha = 1 / n(s, a)^omega``, ``1/2 < omega <= 1``)
+Q-learning converges to ``Q*`` and TD(lambda) to ``V^pi``; SARSA converges to ``Q*`` when the
+exploration decays (GLIE).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from taskspace._validation import FloatArray
+from taskspace.errors import InvalidInputError
+from taskspace.optimal_control.mdp import MDP
+
+
+@dataclass(frozen=True, kw_only=True)
+class TabularOptions:
+    """Settings of :func:`q_learning`, :func:`sarsa` and :func:`td_lambda`.
+
+    Attributes:
+        episodes: number of episodes.
+        max_steps: steps per episode (an episode also ends in an absorbing state).
+        learning_rate: ``alpha_0``; the step size of the n-th update of a pair is
+            ``alpha_0 / n^decay``.
+        learning_rate_decay: ``omega`` in ``[0, 1]`` (0: constant step size).
+        epsilon: exploration probability of the epsilon-greedy behaviour.
+        epsilon_decay: ``epsilon_k = epsilon / (1 + epsilon_decay k)`` in episode ``k``.
+        trace_decay: ``lambda`` of TD(lambda) in ``[0, 1]``.
+        start_states: states an episode may start from (uniformly); ``None``: every
+            non-absorbing state (exploring starts).
+    """
+
+    episodes: int = 2000
+    max_steps: int = 100
+    learning_rate: float = 1.0
+    learning_rate_decay: float = 0.8
+    epsilon: float = 0.3
+    epsilon_decay: float = 0.0
+    trace_decay: float = 0.0
+    start_states: tuple[int, ...] | None = None
+
+
+@dataclass
+class TabularResult:
+    """A learned value table.
+
+    Attributes:
+        Q: action values (S x A) (zeros for TD(lambda)).
+        V: state values (S,) (``max_a Q`` for the control methods).
+        policy: greedy policy (S,).
+        episode_returns: undiscounted return of each episode.
+        visits: number of updates of each pair (S x A) (for TD(lambda): of each state, column 0).
+    """
+
+    Q: FloatArray
+    V: FloatArray
+    policy: np.ndarray
+    episode_returns: FloatArray
+    visits: np.ndarray = field(repr=False)
+
+
+class MDPSimulator:
+    """Samples transitions of an MDP: ``s' ~ P_a[s, .]``, reward ``R[s, a]``.
+
+    Args:
+        mdp: the MDP.
+        rng: random generator.
+    """
+
+    def __init__(self, mdp: MDP, rng: np.random.Generator) -> None:
+        self.mdp = mdp
+        self.rng = rng
+        self._rows = [(P.indptr, P.indices, P.data) for P in mdp.transitions]
+        self.absorbing = self._absorbing()
+
+    def _absorbing(self) -> np.ndarray:
+        out = np.ones(self.mdp.num_states, dtype=bool)
+        for a, P in enumerate(self.mdp.transitions):
+            diag = P.diagonal()
+            out &= (diag >= 1.0 - 1e-12) & (self.mdp.rewards[:, a] == 0.0)
+        return out
+
+    def step(self, s: int, a: int) -> tuple[int, float]:
+        """Sample ``(s', r)``."""
+        indptr, indices, data = self._rows[a]
+        lo, hi = indptr[s], indptr[s + 1]
+        if hi - lo == 1:
+            nxt = int(indices[lo])
+        else:
+            nxt = int(indices[lo + np.searchsorted(np.cumsum(data[lo:hi]), self.rng.random())])
+        return nxt, float(self.mdp.rewards[s, a])
+
+
+def _starts(sim: MDPSimulator, options: TabularOptions) -> np.ndarray:
+    if options.start_states is not None:
+        starts = np.asarray(options.start_states, dtype=int)
+        if starts.size == 0 or starts.min() < 0 or starts.max() >= sim.mdp.num_states:
+            raise InvalidInputError(f"start_states must be indices in [0, {sim.mdp.num_states})")
+        return starts
+    starts = np.flatnonzero(~sim.absorbing)
+    if starts.size == 0:
+        raise InvalidInputError("every state is absorbing: nothing to learn")
+    return starts
+
+
+def _check(options: TabularOptions) -> None:
+    if options.episodes < 1 or options.max_steps < 1:
+        raise InvalidInputError("episodes and max_steps must be >= 1")
+    if not 0.0 < options.learning_rate <= 1.0:
+        raise InvalidInputError(f"learning_rate must be in (0, 1], got {options.learning_rate}")
+    if not 0.0 <= options.learning_rate_decay <= 1.0:
+        raise InvalidInputError("learning_rate_decay must be in [0, 1]")
+    if not 0.0 <= options.epsilon <= 1.0:
+        raise InvalidInputError(f"epsilon must be in [0, 1], got {options.epsilon}")
+    if not 0.0 <= options.trace_decay <= 1.0:
+        raise InvalidInputError(
+            f"trace_decay (lambda) must be in [0, 1], got {options.trace_decay}"
+        )
+
+
+def _epsilon_greedy(Q: FloatArray, s: int, eps: float, rng: np.random.Generator) -> int:
+    if rng.random() < eps:
+        return int(rng.integers(Q.shape[1]))
+    row = Q[s]
+    best = np.flatnonzero(row == row.max())
+    return int(best[rng.integers(best.size)])
+
+
+def _control(
+    mdp: MDP, options: TabularOptions, rng: np.random.Generator, on_policy: bool
+) -> TabularResult:
+    _check(options)
+    sim = MDPSimulator(mdp, rng)
+    starts = _starts(sim, options)
+    S, A = mdp.num_states, mdp.num_actions
+    Q = np.zeros((S, A))
+    n = np.zeros((S, A), dtype=np.int64)
+    returns = np.zeros(options.episodes)
+    for k in range(options.episodes):
+        eps = options.epsilon / (1.0 + options.epsilon_decay * k)
+        s = int(starts[rng.integers(starts.size)])
+        a = _epsilon_greedy(Q, s, eps, rng)
+        total = 0.0
+        for _ in range(options.max_steps):
+            s2, r = sim.step(s, a)
+            total += r
+            a2 = _epsilon_greedy(Q, s2, eps, rng)
+            n[s, a] += 1
+            alpha = options.learning_rate / n[s, a] ** options.learning_rate_decay
+            target = Q[s2, a2] if on_policy else Q[s2].max()
+            if sim.absorbing[s2]:
+                target = 0.0
+            Q[s, a] += alpha * (r + mdp.gamma * target - Q[s, a])
+            s, a = s2, a2
+            if sim.absorbing[s]:
+                break
+        returns[k] = total
+    return TabularResult(
+        Q=Q, V=Q.max(axis=1), policy=np.argmax(Q, axis=1), episode_returns=returns, visits=n
+    )
+
+
+def q_learning(
+    mdp: MDP, options: TabularOptions | None = None, *, rng: np.random.Generator
+) -> TabularResult:
+    """Watkins' Q-learning with an epsilon-greedy behaviour policy (off-policy).
+
+    Args:
+        mdp: the MDP, only sampled.
+        options: see :class:`TabularOptions`.
+        rng: random generator.
+    """
+    return _control(mdp, options or TabularOptions(), rng, on_policy=False)
+
+
+def sarsa(
+    mdp: MDP, options: TabularOptions | None = None, *, rng: np.random.Generator
+) -> TabularResult:
+    """SARSA with an epsilon-greedy policy (on-policy); decay ``epsilon`` for the optimum."""
+    return _control(mdp, options or TabularOptions(), rng, on_policy=True)
+
+
+def td_lambda(
+    mdp: MDP,
+    policy: Any,
+    options: TabularOptions | None = None,
+    *,
+    rng: np.random.Generator,
+) -> TabularResult:
+    """TD(lambda) evaluation of a policy with accumulating eligibility traces.
+
+    Args:
+        mdp: the MDP, only sampled.
+        policy: deterministic policy (S,) of action indices, or a stochastic one (S x A) of
+            action probabilities.
+        options: see :class:`TabularOptions` (``trace_decay`` is lambda; ``epsilon`` unused).
+        rng: random generator.
+    """
+    options = options or TabularOptions()
+    _check(options)
+    S, A = mdp.num_states, mdp.num_actions
+    pi = np.asarray(policy)
+    if pi.shape == (S,):
+        if pi.min() < 0 or pi.max() >= A:
+            raise InvalidInputError(f"policy actions must be in [0, {A})")
+        probs = np.eye(A)[pi.astype(int)]
+    elif pi.shape == (S, A):
+        probs = np.asarray(pi, dtype=float)
+        if np.any(probs < 0) or not np.allclose(probs.sum(axis=1), 1.0):
+            raise InvalidInputError("a stochastic policy's rows must be probabilities summing to 1")
+    else:
+        raise InvalidInputError(f"policy must have shape ({S},) or ({S}, {A}), got {pi.shape}")
+    sim = MDPSimulator(mdp, rng)
+    starts = _starts(sim, options)
+    V = np.zeros(S)
+    n = np.zeros(S, dtype=np.int64)
+    cum = np.cumsum(probs, axis=1)
+    returns = np.zeros(options.episodes)
+    lam_gamma = mdp.gamma * options.trace_decay
+    for k in range(options.episodes):
+        e = np.zeros(S)
+        s = int(starts[rng.integers(starts.size)])
+        total = 0.0
+        for _ in range(options.max_steps):
+            a = min(int(np.searchsorted(cum[s], rng.random(), side="right")), A - 1)
+            s2, r = sim.step(s, a)
+            total += r
+            v2 = 0.0 if sim.absorbing[s2] else V[s2]
+            delta = r + mdp.gamma * v2 - V[s]
+            n[s] += 1
+            e[s] += 1.0
+            alpha = options.learning_rate / n[s] ** options.learning_rate_decay
+            V += alpha * delta * e
+            e *= lam_gamma
+            s = s2
+            if sim.absorbing[s]:
+                break
+        returns[k] = total
+    return TabularResult(
+        Q=np.zeros((S, A)),
+        V=V,
+        policy=np.argmax(probs, axis=1),
+        episode_returns=returns,
+        visits=n[:, None],
+    )

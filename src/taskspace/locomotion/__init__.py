@@ -1,0 +1,85 @@
+"""Legged locomotion: support polygons, ZMP, LIPM preview control, footsteps, gaits, hopper."""
+
+from taskspace.locomotion.foot import FOOT_ROBOTS, ContactKind, FootGeometry, robot_feet
+from taskspace.locomotion.footsteps import (
+    Footstep,
+    FootstepPlan,
+    Phase,
+    PhaseKind,
+    StepTiming,
+    arc_walk,
+    footsteps_along_poses,
+    straight_walk,
+    turn_in_place,
+)
+from taskspace.locomotion.lipm import CartTable, LipmTrajectory
+from taskspace.locomotion.preview_control import (
+    PreviewController,
+    PreviewOptions,
+    WalkingPattern,
+    preview_walking_pattern,
+)
+from taskspace.locomotion.support_polygon import (
+    StaticStability,
+    SupportPolygon,
+    static_stability,
+    support_polygon,
+)
+from taskspace.locomotion.swing_trajectory import SwingSample, SwingTrajectory
+from taskspace.locomotion.zmp import (
+    ContactWrench,
+    center_of_pressure,
+    contact_wrench_from_dynamics,
+    total_wrench,
+    zmp_from_dynamics,
+    zmp_from_wrenches,
+)
+from taskspace.locomotion.zmp_mpc import ZmpMpc, ZmpMpcOptions, ZmpMpcResult, mpc_walking_pattern
+from taskspace.locomotion.zmp_reference import (
+    SoleSize,
+    support_polygon_at,
+    support_polygons,
+    zmp_reference,
+)
+
+__all__ = [
+    "FOOT_ROBOTS",
+    "CartTable",
+    "ContactKind",
+    "ContactWrench",
+    "FootGeometry",
+    "Footstep",
+    "FootstepPlan",
+    "LipmTrajectory",
+    "Phase",
+    "PhaseKind",
+    "PreviewController",
+    "PreviewOptions",
+    "SoleSize",
+    "StaticStability",
+    "StepTiming",
+    "SupportPolygon",
+    "SwingSample",
+    "SwingTrajectory",
+    "WalkingPattern",
+    "ZmpMpc",
+    "ZmpMpcOptions",
+    "ZmpMpcResult",
+    "arc_walk",
+    "center_of_pressure",
+    "contact_wrench_from_dynamics",
+    "footsteps_along_poses",
+    "mpc_walking_pattern",
+    "preview_walking_pattern",
+    "robot_feet",
+    "static_stability",
+    "straight_walk",
+    "support_polygon",
+    "support_polygon_at",
+    "support_polygons",
+    "total_wrench",
+    "turn_in_place",
+    "zmp_from_dynamics",
+    "zmp_from_wrenches",
+    "zmp_reference",
+]

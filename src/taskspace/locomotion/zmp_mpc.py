@@ -1,0 +1,244 @@
+"""Model predictive control of the cart-table model with the ZMP kept in the support polygon.
+
+Same incremental error system and cost as :mod:`~taskspace.locomotion.preview_control`
+(``xt = (e, dx)``, input ``du``), but over a finite horizon ``N`` with the Riccati cost-to-go
+as terminal cost and the ZMP constrained at every predicted sample (Wieber 2006):
+
+    min_{du_0..du_{N-1}}  sum_{k=1}^{N-1} xt_k^T Q xt_k + xt_N^T P xt_N + R sum_k du_k^2
+    s.t.  xt_{k+1} = At xt_k + Bt du_k + E dr_{k+1},
+          A_k p_k <= b_k   (p_k = e_k + r_k, the support polygon at ``t_k``, both axes).
+
+Without active constraints the minimizer is exactly the preview law (the terminal cost is the
+infinite-horizon cost-to-go once the previewed reference increments are over), so the two
+controllers agree; with active constraints the ZMP stays in the polygon where the preview
+controller would leave it. Both axes are solved together because the polygon couples them;
+the QP goes through :class:`~taskspace.qp.QPSolver` (its workspace is kept between steps:
+every polygon is padded to the same number of rows).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from taskspace._validation import FloatArray, as_float_array
+from taskspace.errors import InvalidInputError, SolverError
+from taskspace.locomotion.footsteps import FootstepPlan
+from taskspace.locomotion.lipm import CartTable, LipmTrajectory
+from taskspace.locomotion.preview_control import (
+    PreviewController,
+    PreviewOptions,
+    WalkingPattern,
+    _trajectory,
+    augmented_system,
+)
+from taskspace.locomotion.support_polygon import SupportPolygon
+from taskspace.locomotion.zmp_reference import SoleSize, support_polygons, zmp_reference
+from taskspace.qp import INF, QPProblem, QPSolver, QPSolverOptions, QPStatus
+
+MAX_EDGES = 8
+"""Rows reserved per predicted sample for the support polygon (a hull of two soles)."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class ZmpMpcOptions:
+    """Settings of :class:`ZmpMpc`.
+
+    Attributes:
+        preview: horizon and weights (the same meaning as for the preview controller).
+        constrain_zmp: add the support-polygon constraints.
+        zmp_margin: distance kept from the polygon edges [m].
+        qp: settings of the QP solver.
+    """
+
+    preview: PreviewOptions = field(default_factory=PreviewOptions)
+    constrain_zmp: bool = True
+    zmp_margin: float = 0.0
+    qp: QPSolverOptions = field(default_factory=QPSolverOptions)
+
+
+@dataclass(frozen=True)
+class ZmpMpcResult:
+    """Result of :meth:`ZmpMpc.simulate`.
+
+    Attributes:
+        trajectory: the CoM / ZMP trajectory.
+        statuses: QP status of every step.
+        active_steps: number of steps where a ZMP constraint was active.
+        solve_times: (T,) QP time per step [s].
+    """
+
+    trajectory: LipmTrajectory
+    statuses: list[QPStatus]
+    active_steps: int
+    solve_times: FloatArray
+
+    @property
+    def success(self) -> bool:
+        """Every QP was solved."""
+        return all(s in (QPStatus.SOLVED, QPStatus.UNCONSTRAINED) for s in self.statuses)
+
+
+class ZmpMpc:
+    """ZMP MPC of the cart-table model (see the module docstring).
+
+    Args:
+        model: cart-table model (its ``dt`` is the MPC sampling period).
+        options: settings.
+    """
+
+    def __init__(self, model: CartTable, options: ZmpMpcOptions | None = None) -> None:
+        self.model = model
+        self.options = options or ZmpMpcOptions()
+        self.preview = PreviewController(model, self.options.preview)
+        N = self.horizon = self.preview.horizon
+        At, Bt, E = augmented_system(model)
+        powers = [np.eye(4)]
+        for _ in range(N):
+            powers.append(At @ powers[-1])
+        # xt_k = Phi_k xt_0 + sum_{i<k} Gam_{k,i} du_i + Psi_{k,i} dr_{i+1}, k = 1..N
+        self._Phi = np.stack([powers[k] for k in range(1, N + 1)])  # (N, 4, 4)
+        Gam = np.zeros((N, 4, N))
+        Psi = np.zeros((N, 4, N))
+        for k in range(1, N + 1):
+            for i in range(k):
+                Gam[k - 1, :, i] = (powers[k - 1 - i] @ Bt)[:, 0]
+                Psi[k - 1, :, i] = (powers[k - 1 - i] @ E)[:, 0]
+        self._Gam, self._Psi = Gam, Psi
+        opts = self.options.preview
+        W = np.zeros((N, 4, 4))
+        W[:, 0, 0] = opts.error_weight
+        W[-1] = self.preview.P
+        self._W = W
+        Gf = Gam.reshape(N * 4, N)
+        Wb = np.zeros((N * 4, N * 4))
+        for k in range(N):
+            Wb[4 * k : 4 * k + 4, 4 * k : 4 * k + 4] = W[k]
+        self._Wb = Wb
+        H1 = Gf.T @ Wb @ Gf + opts.input_weight * np.eye(N)
+        self._H = np.kron(np.eye(2), 0.5 * (H1 + H1.T))
+        self._Gf = Gf
+        self._Esel = Gam[:, 0, :]  # e_k rows: (N, N)
+        self._solver = QPSolver(self.options.qp)
+
+    def build(
+        self,
+        augmented_state: FloatArray,
+        reference: FloatArray,
+        polygons: list[SupportPolygon] | None,
+    ) -> QPProblem:
+        """The QP of one step.
+
+        Args:
+            augmented_state: (4, 2) ``(e_0, dx_0)`` per axis.
+            reference: (N + 1, 2) ``r_0 .. r_N``.
+            polygons: N support polygons at ``t_1 .. t_N`` (``None``: unconstrained).
+        """
+        N = self.horizon
+        dr = np.diff(reference, axis=0)  # (N, 2): dr_{1..N}
+        g = np.empty(2 * N)
+        free = np.empty((N, 2))  # e_k without inputs
+        for a in range(2):
+            x_free = self._Phi @ augmented_state[:, a] + self._Psi @ dr[:, a]  # (N, 4)
+            g[a * N : (a + 1) * N] = self._Gf.T @ (self._Wb @ x_free.ravel())
+            free[:, a] = x_free[:, 0]
+        n = 2 * N
+        if polygons is None:
+            return QPProblem.unconstrained(self._H, g)
+        rows = N * MAX_EDGES
+        C = np.zeros((rows, n))
+        u = np.full(rows, INF)
+        margin = self.options.zmp_margin
+        for k, poly in enumerate(polygons):
+            if poly.is_degenerate:
+                raise InvalidInputError(
+                    f"the support polygon at predicted step {k + 1} has no interior"
+                )
+            Ah, bh = poly.halfspaces()
+            if Ah.shape[0] > MAX_EDGES:
+                raise InvalidInputError(
+                    f"support polygon with {Ah.shape[0]} edges; at most {MAX_EDGES} supported"
+                )
+            p_free = free[k] + reference[k + 1]
+            r0 = k * MAX_EDGES
+            for j in range(Ah.shape[0]):
+                C[r0 + j, :N] = Ah[j, 0] * self._Esel[k]
+                C[r0 + j, N:] = Ah[j, 1] * self._Esel[k]
+                u[r0 + j] = bh[j] - margin - Ah[j] @ p_free
+        problem = QPProblem.unconstrained(self._H, g)
+        problem.C, problem.l, problem.u = C, np.full(rows, -INF), u
+        return problem
+
+    def simulate(
+        self,
+        reference: Any,
+        polygons: list[SupportPolygon] | None = None,
+        initial_state: Any = None,
+    ) -> ZmpMpcResult:
+        """Closed-loop run along a sampled reference.
+
+        Args:
+            reference: (T, 2) ZMP reference at ``k dt`` [m] (held after the end).
+            polygons: T support polygons (held after the end); required when
+                ``constrain_zmp``.
+            initial_state: (3, 2) ``(c, cdot, cddot)`` per axis (default: at rest above
+                ``reference[0]``).
+        """
+        r = as_float_array(reference, "reference")
+        if r.ndim != 2 or r.shape[1] != 2 or not np.isfinite(r).all():
+            raise InvalidInputError(f"reference must be a finite (T, 2) array, got {r.shape}")
+        constrain = self.options.constrain_zmp
+        if constrain and (polygons is None or len(polygons) != r.shape[0]):
+            raise InvalidInputError(
+                "constrain_zmp needs one support polygon per reference sample "
+                "(or ZmpMpcOptions(constrain_zmp=False))"
+            )
+        T, N = r.shape[0], self.horizon
+        padded = np.vstack([r, np.repeat(r[-1:], N + 1, axis=0)])
+        polys = list(polygons) + [polygons[-1]] * (N + 1) if polygons else None
+        x = np.zeros((3, 2))
+        x[0] = r[0]
+        if initial_state is not None:
+            x = as_float_array(initial_state, "initial_state").reshape(3, 2).copy()
+        A, B, c = self.model.A, self.model.B[:, 0], self.model.C[0]
+        x_prev, u = x.copy(), np.zeros(2)
+        states, jerk = np.empty((T, 3, 2)), np.empty((T, 2))
+        statuses, times, active = [], np.empty(T), 0
+        for k in range(T):
+            states[k] = x
+            xt = np.vstack([c @ x - r[k], x - x_prev])
+            problem = self.build(
+                xt, padded[k : k + N + 1], polys[k + 1 : k + N + 1] if polys and constrain else None
+            )
+            t0 = time.perf_counter()
+            res = self._solver.solve(problem)
+            times[k] = time.perf_counter() - t0
+            if not res.success:
+                raise SolverError(f"ZMP MPC QP failed at step {k} ({res.status.value})")
+            statuses.append(res.status)
+            if problem.C.shape[0] and np.any(problem.C @ res.x >= problem.u - 1e-7):
+                active += 1
+            u = u + np.array([res.x[0], res.x[N]])
+            jerk[k] = u
+            x_prev = x
+            x = A @ x + np.outer(B, u)
+        return ZmpMpcResult(_trajectory(self.model, states, r, jerk), statuses, active, times)
+
+
+def mpc_walking_pattern(
+    plan: FootstepPlan,
+    model: CartTable | None = None,
+    options: ZmpMpcOptions | None = None,
+    sole: SoleSize | None = None,
+) -> tuple[WalkingPattern, ZmpMpcResult]:
+    """CoM trajectory of a footstep plan by ZMP MPC (reference and polygons from the plan)."""
+    t0 = time.perf_counter()
+    model = model or CartTable(dt=0.05)
+    times = model.dt * np.arange(int(np.ceil(plan.duration / model.dt)) + 1)
+    ref = zmp_reference(plan, times)
+    polys = support_polygons(plan, times, sole)
+    res = ZmpMpc(model, options).simulate(ref, polys)
+    return WalkingPattern(plan, res.trajectory, time.perf_counter() - t0), res

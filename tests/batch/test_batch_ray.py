@@ -1,0 +1,109 @@
+"""The Ray backend on a real local Ray runtime and on a `ray start --head` cluster."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+from collections.abc import Iterator
+from pathlib import Path
+
+import _batch_tasks as T
+import pytest
+
+from taskspace.batch import BatchOptions, run_batch
+
+ray = pytest.importorskip("ray")
+pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("ray")]
+os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
+HERE = Path(__file__).resolve().parent
+
+
+def _pythonpath() -> str:
+    return f"{HERE}{os.pathsep}{os.environ.get('PYTHONPATH', '')}"
+
+
+@pytest.fixture(scope="module")
+def local_ray() -> Iterator[None]:
+    # Workers import the task module by name: give them this folder on their path.
+    ray.init(
+        num_cpus=2,
+        include_dashboard=False,
+        log_to_driver=False,
+        runtime_env={
+            "env_vars": {"PYTHONPATH": f"{HERE}{os.pathsep}{os.environ.get('PYTHONPATH', '')}"}
+        },
+    )
+    yield
+    ray.shutdown()
+
+
+def _ray(**kw: object) -> BatchOptions:
+    return BatchOptions(backend="ray", progress=False, workers=2, **kw)  # type: ignore[arg-type]
+
+
+def test_ray_gives_the_serial_values(local_ray: None) -> None:
+    items = list(range(25))
+    serial = run_batch(T.noisy, items, options=BatchOptions(backend="serial", progress=False))
+    for chunk_size in (None, 1, 4):
+        result = run_batch(T.noisy, items, options=_ray(chunk_size=chunk_size))
+        assert result.success and result.backend == "ray"
+        assert result.values == serial.values
+
+
+def test_ray_context_once_per_worker(local_ray: None) -> None:
+    rows = run_batch(T.context_pid, range(30), context=T.make_context, options=_ray(chunk_size=2))
+    for pid, context_pid, serial in rows.values:
+        assert pid == context_pid and serial == 1
+
+
+def test_ray_reports_failures_and_survives_killed_workers(local_ray: None, tmp_path: Path) -> None:
+    failed = run_batch(T.fails_on_three, range(6), options=_ray())
+    assert [r.index for r in failed.failures] == [3]
+    assert "item 3 is bad" in failed.failures[0].error
+    items = [(i, str(tmp_path)) for i in range(10)]
+    survived = run_batch(T.dies_once, items, options=_ray(chunk_size=2))
+    assert (tmp_path / "died-5").exists()
+    assert survived.values == [i + 100 for i in range(10)]
+    poisoned = run_batch(T.always_dies, range(9), options=_ray(chunk_size=3, retries=1))
+    assert [r.index for r in poisoned.failures] == [7]
+    assert "worker died" in poisoned.failures[0].error
+
+
+def test_ray_cluster_by_address() -> None:
+    """`ray start --head` in a subprocess, then a run connected with address='auto'."""
+    ray_cli = shutil.which("ray", path=str(Path(sys.executable).parent))
+    if ray_cli is None:
+        pytest.skip("the ray command is not installed next to this Python")
+    if ray.is_initialized():
+        ray.shutdown()
+    env = {**os.environ, "RAY_USAGE_STATS_ENABLED": "0", "PYTHONPATH": _pythonpath()}
+    temp_dir = tempfile.mkdtemp(prefix="ray", dir="/tmp")  # Ray's socket paths must be short
+    start = subprocess.run(
+        [
+            ray_cli,
+            "start",
+            "--head",
+            "--num-cpus=2",
+            "--include-dashboard=false",
+            f"--temp-dir={temp_dir}",
+        ],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=180,
+    )
+    assert start.returncode == 0, start.stdout + start.stderr
+    try:
+        result = run_batch(T.noisy, range(12), options=_ray(ray_address="auto"))
+        serial = run_batch(
+            T.noisy, range(12), options=BatchOptions(backend="serial", progress=False)
+        )
+        assert result.values == serial.values
+        assert ray.get_runtime_context().gcs_address  # really connected to that cluster
+    finally:
+        ray.shutdown()
+        subprocess.run([ray_cli, "stop", "--force"], env=env, capture_output=True, timeout=120)
+        shutil.rmtree(temp_dir, ignore_errors=True)

@@ -1,0 +1,106 @@
+from __future__ import annotations
+
+import control as ct
+import numpy as np
+import pytest
+
+from taskspace.control import (
+    is_observable,
+    kalman_decomposition,
+    observability,
+    observability_matrix,
+)
+from taskspace.errors import UnknownNameError
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_observability_matrix_matches_python_control(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    A = rng.normal(size=(5, 5))
+    C = rng.normal(size=(2, 5))
+    assert np.allclose(observability_matrix(A, C), ct.obsv(A, C))
+    assert is_observable(A, C)
+
+
+def test_unobservable_modes_and_detectability() -> None:
+    A = np.diag([-1.0, 2.0, -3.0])
+    C = np.array([[0.0, 1.0, 0.0]])
+    rep = observability(A, C)
+    assert rep.rank == np.linalg.matrix_rank(ct.obsv(A, C)) == 1
+    assert not rep.observable
+    assert np.allclose(np.sort(rep.unobservable_modes.real), [-3.0, -1.0])
+    assert rep.detectable()
+    rep2 = observability(A, [[1.0, 0.0, 0.0]])
+    assert not rep2.detectable()  # the unstable mode 2 is unobservable
+
+
+def _transfer(A, B, C, s):  # type: ignore[no-untyped-def]
+    return C @ np.linalg.solve(s * np.eye(A.shape[0]) - A, B)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_kalman_decomposition_structure(seed: int) -> None:
+    rng = np.random.default_rng(100 + seed)
+    # Build a system with known parts (1 or 2 states each) and hide it by a random basis.
+    sizes = [2, 1, 1, 2] if seed % 2 else [1, 2, 2, 1]
+    n = sum(sizes)
+    s = np.cumsum([0, *sizes])
+    co, cu, uo, uu = (slice(s[i], s[i + 1]) for i in range(4))
+    Az = np.zeros((n, n))
+    for blk_r, blk_c in [
+        (co, co),
+        (co, uo),
+        (cu, co),
+        (cu, cu),
+        (cu, uo),
+        (cu, uu),
+        (uo, uo),
+        (uu, uo),
+        (uu, uu),
+    ]:
+        Az[blk_r, blk_c] = rng.normal(size=(blk_r.stop - blk_r.start, blk_c.stop - blk_c.start))
+    Bz = np.zeros((n, 2))
+    Bz[co] = rng.normal(size=(sizes[0], 2))
+    Bz[cu] = rng.normal(size=(sizes[1], 2))
+    Cz = np.zeros((2, n))
+    Cz[:, co] = rng.normal(size=(2, sizes[0]))
+    Cz[:, uo] = rng.normal(size=(2, sizes[2]))
+    T = rng.normal(size=(n, n))
+    A = T @ Az @ np.linalg.inv(T)
+    B = T @ Bz
+    C = Cz @ np.linalg.inv(T)
+    dec = kalman_decomposition(A, B, C)
+    assert dec.sizes == tuple(sizes)
+    # Ranks against python-control's controllability / observability matrices.
+    n_c = np.linalg.matrix_rank(ct.ctrb(A, B), tol=1e-8)
+    n_o = np.linalg.matrix_rank(ct.obsv(A, C), tol=1e-8)
+    assert n_c == sizes[0] + sizes[1]
+    assert n_o == sizes[0] + sizes[2]
+    a, b, c = dec.A, dec.B, dec.C
+    p = {k: dec.part(k) for k in ("co", "cu", "uo", "uu")}
+    tol = 1e-8 * max(1.0, np.abs(a).max())
+    for r, col in [
+        ("co", "cu"),
+        ("co", "uu"),
+        ("uo", "co"),
+        ("uo", "cu"),
+        ("uo", "uu"),
+        ("uu", "co"),
+        ("uu", "cu"),
+    ]:
+        assert np.abs(a[p[r], p[col]]).max(initial=0.0) < tol, (r, col)
+    assert np.abs(b[p["uo"]]).max(initial=0.0) < 1e-8
+    assert np.abs(b[p["uu"]]).max(initial=0.0) < 1e-8
+    assert np.abs(c[:, p["cu"]]).max(initial=0.0) < 1e-8
+    assert np.abs(c[:, p["uu"]]).max(initial=0.0) < 1e-8
+    # The minimal realization has the same transfer function as the full system.
+    Am, Bm, Cm = dec.minimal()
+    for s_ in (0.3 + 1.0j, 2.0, -0.7 + 0.1j):
+        assert np.allclose(_transfer(Am, Bm, Cm, s_), _transfer(A, B, C, s_), atol=1e-8)
+    assert np.allclose(np.linalg.inv(dec.T) @ A @ dec.T, a)
+
+
+def test_part_names() -> None:
+    dec = kalman_decomposition(np.eye(2), [[1.0], [0.0]], [[1.0, 0.0]])
+    with pytest.raises(UnknownNameError, match="co, cu, uo, uu"):
+        dec.part("xx")
