@@ -18,7 +18,9 @@ trap 'rm -rf "$work"' EXIT
 t0=$(date +%s)
 
 echo "wheel-smoke: building the wheel"
-"$build_py" -m pip wheel --quiet --no-build-isolation --no-deps --wheel-dir "$work/dist" "$checkout"
+# Portable code whatever NATIVE_ARCH says; build/wheel-<tag> keeps the objects for the next run.
+"$build_py" -m pip wheel --quiet --no-build-isolation --no-deps --wheel-dir "$work/dist" \
+    -Ccmake.define.TASKSPACE_NATIVE_ARCH=OFF -Cbuild-dir="build/wheel-{wheel_tag}" "$checkout"
 wheel=$(ls "$work"/dist/taskspace-*.whl)
 "$build_py" - "$wheel" <<'EOF'
 import sys, zipfile
