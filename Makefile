@@ -14,7 +14,7 @@ ifneq ($(wildcard $(MOTIONBENCHMAKER_BESIDE)),)
 export TASKSPACE_MOTIONBENCHMAKER_DIR ?= $(MOTIONBENCHMAKER_BESIDE)
 endif
 
-.PHONY: native demo test lint typecheck pytest chromium bench bench-quick bench-peers clean apt-tools wheel-smoke
+.PHONY: native demo test lint typecheck pytest docs chromium bench bench-quick bench-peers clean apt-tools wheel-smoke
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -83,6 +83,10 @@ SMOKE_TESTS ?= tests/test_native_build_info.py tests/test_readme.py tests/ik/tes
 wheel-smoke: $(STAMP)
 	PYTHON=$(PYTHON) bash .ci/wheel_smoke.sh $(VENV) $(SMOKE_TESTS)
 
+# The documentation site (Sphinx + sphinx-gallery; the gallery runs every example).
+docs: $(STAMP) native chromium
+	TASKSPACE_FAST=1 MPLBACKEND=Agg $(PY) -m sphinx -W --keep-going -b html docs docs/_build/html
+
 bench: $(STAMP) native
 	$(PY) -m benchmarks.run --save benchmarks/results/latest.json
 
@@ -94,4 +98,5 @@ bench-peers:
 	bash benchmarks/peers/install.sh
 
 clean:
-	rm -rf $(VENV) .venv-peers out build .mypy_cache .ruff_cache .pytest_cache src/taskspace/_native/*.so src/taskspace/_native/.built
+	rm -rf $(VENV) .venv-peers out build .mypy_cache .ruff_cache .pytest_cache src/taskspace/_native/*.so src/taskspace/_native/.built \
+		docs/_build docs/_generated

@@ -130,4 +130,5 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    if (code := main()) != 0:  # no SystemExit on success: the docs gallery runs it in-process
+        raise SystemExit(code)

@@ -1,6 +1,7 @@
 """Sampling-based planning (slides 3:28-3:43): RRT growth, goal bias, PRM, and a Panda in a shelf.
 
 Figures:
+
 1. RRT growth of a point robot in a 2-D world at n = 1, 100, 300, 600, 1000, 2000 (slide 3:38);
 2. goal-biased RRT growth (beta = 0.1) until the goal is reached (slide 3:41);
 3. a PRM graph with its shortest path (slides 3:29-3:30);

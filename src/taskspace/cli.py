@@ -99,7 +99,9 @@ def cmd_robots(args: argparse.Namespace) -> int:
             for n, s in specs.items()
         }
     else:
-        summaries = robot_summaries()
+        summaries = robot_summaries(
+            progress=lambda names: _progress(names, "reading robot descriptions (once)")
+        )
     header = ("name", "nq", "nv", "floating", "source", "end-effectors", "description")
     table = []
     for name, info in summaries.items():

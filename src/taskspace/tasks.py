@@ -34,7 +34,9 @@ class Task:
         target: desired value (see the feature's ``check_target``); may be set later with
             :meth:`set_target`.
         weight: precision ``rho`` (scalar, or one value per feature dimension) in a weighted
-            stack; the relative weight inside a priority level in a hierarchy.
+            stack; the relative weight inside a priority level in a hierarchy. Finite, in
+            ``[0, 1e100]`` (larger weights overflow the QP's Hessian; for strict precedence
+            use priority levels).
         gain: fraction of the error corrected per step, in (0, 1].
         priority: level in a strict hierarchy (0 = highest). Ignored by weighted solvers.
         kp: stiffness of the acceleration-level reference (inverse dynamics, operational
@@ -180,35 +182,58 @@ class Task:
 
 
 def _label(task: Task) -> str:
-    return task.__dict__.get("name", "?")
+    return getattr(task, "name", "?")
+
+
+MAX_WEIGHT = 1e100
+"""Largest accepted task weight (``rho^2 |J|^2`` must stay far from float overflow)."""
+_MAX_SQRT_WEIGHT = 1e50
+
+
+def _bounded(task: Task, w: Any, name: str, limit: float) -> None:
+    if np.any(np.asarray(w) > limit):
+        raise InvalidInputError(
+            f"{name} must be <= {limit:g}, got {w}: larger values overflow the QP; use priority "
+            "levels (HierarchicalIK) for strict precedence"
+        )
 
 
 def _sqrt_of_weight(task: Task, value: Any) -> float | FloatArray:
     """``sqrt(weight)`` of a validated weight (finite, >= 0, scalar or of size dim)."""
     name = f"weight of task '{_label(task)}'"
     if isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool):
-        return math.sqrt(check_positive(value, name, strict=False))
+        v = check_positive(value, name, strict=False)
+        _bounded(task, v, name, MAX_WEIGHT)
+        return math.sqrt(v)
     w = as_float_array(value, name)
     if w.ndim == 0:
-        return math.sqrt(check_positive(float(w), name, strict=False))
+        v = check_positive(float(w), name, strict=False)
+        _bounded(task, v, name, MAX_WEIGHT)
+        return math.sqrt(v)
     w = as_vector(w, task.feature.dim, name)
     if np.any(w < 0):
         raise InvalidInputError(f"{name} must be >= 0")
+    _bounded(task, w, name, MAX_WEIGHT)
     return np.sqrt(w)
 
 
 def _check_sqrt_weight(task: Task, value: Any) -> float | FloatArray:
     name = f"sqrt_weight of task '{_label(task)}'"
-    if isinstance(value, float) and math.isfinite(value) and value >= 0.0:
+    if value.__class__ is float and 0.0 <= value <= _MAX_SQRT_WEIGHT:
         return value  # fast path; keeps the identity of the object (stacks compare it)
     if isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool):
-        return check_positive(value, name, strict=False)
+        v = check_positive(value, name, strict=False)
+        _bounded(task, v, name, _MAX_SQRT_WEIGHT)
+        return v
     w = as_float_array(value, name)
     if w.ndim == 0:
-        return check_positive(float(w), name, strict=False)
+        v = check_positive(float(w), name, strict=False)
+        _bounded(task, v, name, _MAX_SQRT_WEIGHT)
+        return v
     w = as_vector(w, task.feature.dim, name)
     if np.any(w < 0):
         raise InvalidInputError(f"{name} must be >= 0")
+    _bounded(task, w, name, _MAX_SQRT_WEIGHT)
     w = w.copy() if w is value else w
     w.setflags(write=False)  # an in-place change would bypass this check and the stacks
     return w

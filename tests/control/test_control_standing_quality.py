@@ -57,7 +57,7 @@ def test_standing_g1_holds_its_com_within_a_millimetre() -> None:
 
 
 def test_a_heavy_force_regularization_would_drift() -> None:
-    """The check can fail: the old absolute weight (1e-5 / N^2, ~1.07 relative on G1)."""
+    """The check can fail: the former absolute default 1e-5 / N^2 (about 1.07 relative on G1)."""
     robot = load_robot("g1")
     weight = pin.computeTotalMass(robot.model) * 9.81
     heavy = InverseDynamicsOptions(force_regularization=1e-5 * weight**2)

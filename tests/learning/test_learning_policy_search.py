@@ -189,3 +189,17 @@ def test_errors() -> None:
         enac(task.rollout, np.zeros(2), PolicySearchOptions(population=3, elite=1))
     with pytest.raises(InvalidInputError, match="seeds"):
         evaluate_population(task.rollout, [np.zeros(2)], [1, 2])
+
+
+def test_cma_es_population_on_the_batch_executor_matches_serial() -> None:
+    """The same search through taskspace.batch (local processes) and serially."""
+    from taskspace.batch import BatchOptions, Executor
+    from taskspace.learning.policy_search import cma_es
+
+    task = _task()
+    options = PolicySearchOptions(iterations=4, population=6, seed=3)
+    serial = cma_es(task.rollout, np.zeros(2), options)
+    with Executor(BatchOptions(backend="processes", workers=2, progress=False)) as ex:
+        parallel = cma_es(task.rollout, np.zeros(2), options, executor=ex)
+    assert parallel.mean_returns == serial.mean_returns
+    assert np.array_equal(parallel.parameters, serial.parameters)

@@ -14,6 +14,8 @@ import warnings
 import numpy as np
 import pinocchio as pin
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from taskspace import InvalidInputError, LimitError, ModelLoadError
 from taskspace.model import Robot
@@ -281,3 +283,23 @@ def test_erd_continuous_joints(which: str, request: pytest.FixtureRequest) -> No
         np.testing.assert_allclose(
             robot.interpolate(a, b, 0.4), pin.interpolate(robot.model, a, b, 0.4), atol=1e-12
         )
+
+
+@settings(max_examples=60)
+@given(
+    name=st.sampled_from([j[0] for j in JOINTS]),
+    seed=st.integers(0, 2**32 - 1),
+    t=st.floats(0.0, 1.0),
+)
+def test_interpolation_is_a_constant_speed_geodesic(name: str, seed: int, t: float) -> None:
+    """``difference(q0, interpolate(q0, q1, t)) = t difference(q0, q1)``; distance symmetric."""
+    robot = _robot(name)
+    rng = np.random.default_rng(seed)
+    q0, q1 = robot.random_configuration(rng), robot.random_configuration(rng)
+    qt = robot.interpolate(q0, q1, t)
+    robot.check_configuration(qt)
+    np.testing.assert_allclose(
+        robot.difference(q0, qt), t * robot.difference(q0, q1), atol=1e-9, rtol=1e-9
+    )
+    assert robot.distance(q0, q1) == pytest.approx(robot.distance(q1, q0), abs=1e-9)
+    assert robot.distance(q0, qt) == pytest.approx(t * robot.distance(q0, q1), abs=1e-9)

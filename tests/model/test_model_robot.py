@@ -242,10 +242,15 @@ def test_robot_listing_is_cached(tmp_path, monkeypatch) -> None:  # type: ignore
 
     reg = importlib.import_module("taskspace.model.registry")  # the module, not the function
     monkeypatch.setenv(reg.CACHE_ENVIRONMENT_VARIABLE, str(tmp_path))
+    everything = reg.available_robots()
+    some = {n: everything[n] for n in ("panda", "go2", "kinova", "cassie", "planar_2link")}
+    monkeypatch.setattr(reg, "available_robots", lambda: some)  # a fast cold listing
     first = reg.robot_summaries()
+    assert set(first) == set(some)
     files = list(tmp_path.glob("robots-*.json"))
     assert len(files) == 1
     assert first["panda"]["nq"] == 7 and first["go2"]["nq"] == 19 and first["kinova"]["nv"] == 6
+    assert first["planar_2link"]["source"] == "registry" and first["go2"]["floating"]
     assert first["cassie"]["nq"] is None and "SDF" in first["cassie"]["error"]
 
     def fail(spec):  # type: ignore[no-untyped-def]
@@ -423,3 +428,48 @@ def test_velocity_limits_of_a_floating_base_are_accepted() -> None:
     ]:
         with pytest.raises(InvalidInputError, match=message):
             JointVelocityLimits(solo, limits=bad)
+
+
+def test_default_posture_is_moved_into_the_limits(tiny_urdf) -> None:  # type: ignore[no-untyped-def]
+    from taskspace.errors import ModelWarning
+
+    q = [0.0, 2 * np.pi + 0.05, 0.5, 0.0]  # j2: same pose as 0.05; j3: beyond its 0.1 limit
+    with pytest.warns(ModelWarning, match=r"outside the joint limits; clipped: j3=0\.5 -> 0\.1"):
+        robot = Robot.from_urdf(tiny_urdf, default_configuration=q, passive_joints=["j2"])
+    np.testing.assert_allclose(robot.q_default, [0.0, 0.05, 0.1, 0.0], atol=1e-12)
+    robot.check_limits(robot.q_default)
+
+
+def test_kinova_reference_posture_is_wrapped_not_clipped() -> None:
+    """kinova.srdf's arm_up has joint 3 at -pi/2, outside [0.33, 5.95]: the same pose + 2 pi."""
+    import example_robot_data
+
+    kinova = load_robot("kinova")
+    reference = example_robot_data.load("kinova")
+    kinova.check_limits(kinova.q_default)
+    for frame in ("j2s6s200_end_effector", "j2s6s200_link_6"):
+        fid = reference.model.getFrameId(frame)
+        pin.framesForwardKinematics(reference.model, reference.data, reference.q0)
+        expected = reference.data.oMf[fid]
+        actual = kinova.frame_placement(kinova.q_default, frame)
+        np.testing.assert_allclose(actual.homogeneous, expected.homogeneous, atol=1e-12)
+
+
+def test_geometries_of_missing_joints_are_dropped() -> None:
+    """example-robot-data's talos_legs keeps the whole robot's collision geometry on a legs-only
+    model; Pinocchio would read past the end of Data for those geometries."""
+    import coal
+
+    from taskspace.errors import ModelWarning
+    from taskspace.model.robot import _drop_orphan_geometries
+
+    model = pin.Model()
+    model.addJoint(0, pin.JointModelRZ(), pin.SE3.Identity(), "j")
+    geometry = pin.GeometryModel()
+    for name, joint in (("ok", 1), ("orphan", 7)):
+        geometry.addGeometryObject(
+            pin.GeometryObject(name, joint, 0, pin.SE3.Identity(), coal.Sphere(0.1))
+        )
+    with pytest.warns(ModelWarning, match=r"1 collision geometries .* removed: \['orphan'\]"):
+        _drop_orphan_geometries(model, geometry, "test", "collision")
+    assert [g.name for g in geometry.geometryObjects] == ["ok"]

@@ -54,9 +54,18 @@ def test_kinematics_follow_q_not_the_callers_array(panda: Robot) -> None:
 def test_data_model_and_robot_cannot_be_replaced(panda: Robot, planar: Robot, name: str) -> None:
     state = panda.state()
     other = planar.state()
-    with pytest.raises(InvalidInputError, match="read-only"):
+    with pytest.raises(InvalidInputError, match=r"read-only|collision model"):
         setattr(state, name, getattr(other, name))
     assert getattr(state, name) is not getattr(other, name)
+
+
+def test_collision_data_of_the_same_model_is_accepted(panda: Robot) -> None:
+    state = panda.state()
+    fresh = panda.collision_model.createData()
+    state.collision_data = fresh
+    assert state.collision_data is fresh
+    with pytest.raises(InvalidInputError, match="createData"):
+        state.collision_data = panda.model.createData()  # a pin.Data, not a GeometryData
 
 
 def test_state_of_another_robot_is_refused_by_the_solvers(panda: Robot, planar: Robot) -> None:
@@ -81,7 +90,7 @@ def test_state_of_another_robot_is_refused_by_the_solvers(panda: Robot, planar: 
         ("frame_jacobian_local", "nframes"),
     ],
 )
-@pytest.mark.parametrize("index", [10**6, -1, 2.5, True, "3"])
+@pytest.mark.parametrize("index", [10**6, -1, 2.5, True, "3", [1], None])
 def test_bad_frame_index_lists_the_valid_range(
     panda: Robot, method: str, count: str, index: object
 ) -> None:

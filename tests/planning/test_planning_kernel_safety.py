@@ -101,7 +101,8 @@ CHILD = SCENE + textwrap.dedent(
             out.append({"limit": str(limit), "error": "returned"})
         except KeyboardInterrupt:
             delay = time.perf_counter() - sent[0]
-            out.append({"limit": str(limit), "delay": delay, "checks": space.checker.checks})
+            checks = space.checker.native_kernel().checks  # counted inside the kernel
+            out.append({"limit": str(limit), "delay": delay, "checks": checks})
     print(json.dumps(out))
     """
 )
@@ -122,7 +123,7 @@ def test_sigint_stops_a_compiled_plan_within_a_tenth_of_a_second() -> None:
         assert "delay" in run, run
         # delay measured in the child between os.kill and the KeyboardInterrupt
         assert 0.0 <= run["delay"] < 0.1, run
-        assert run["checks"] > 0  # the kernel had been planning (its checks were counted)
+        assert run["checks"] > 100  # the kernel had been planning for 0.3 s
 
 
 @pytest.mark.parametrize("limit", [math.inf, 1e10, 1e300, None])

@@ -251,3 +251,21 @@ def test_hierarchy_levels_are_exact() -> None:
             at = held @ x
         assert x is not None
         np.testing.assert_allclose(result.x, x, atol=1e-6)
+
+
+def test_inverse_dynamics_cascade_levels_are_exact() -> None:
+    """G1 hierarchical inverse dynamics with the hands out of reach: inequalities active."""
+    import pinocchio as pin
+
+    from tests.control.test_control_inverse_dynamics_qp import g1_controller
+
+    robot = load_robot("g1")
+    ctrl, _, hands, s = g1_controller(robot, hierarchical=True)
+    for h in hands:
+        h.set_target(h.target * pin.SE3(np.eye(3), np.array([0.6, 0.0, 0.5])))
+    res = ctrl.solve(s)
+    assert res.success
+    solved = [r for r in res.level_results if r.status is QPStatus.SOLVED]
+    assert solved  # the cascade needed QPs here
+    for r in solved:
+        assert r.kkt.within(1e-9, 1e-6), r.kkt

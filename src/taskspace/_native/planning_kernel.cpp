@@ -51,6 +51,17 @@
 // lower but box's in one set (+5 %); all solved. Probability 0.5: smaller gains; 1.0 (the big
 // tree waits for the trapped one): heavy tails, mean time x1.5 over all scenarios.
 
+//
+// Interrupts, limits and threads. rrt_connect checks every argument (InvalidInputError, a
+// TaskspaceError, raised from here: NaN, non-finite bounds, negative counts, steps too small
+// for the bounds) and plans with the GIL released; every kPollInterval (2 ms) it takes the GIL
+// back for a moment and runs Python's signal handlers (PyErr_CheckSignals), so Ctrl-C stops it
+// and raises KeyboardInterrupt; the time limit is a saturating deadline (a limit beyond the
+// clock's range is none, never an overflowed deadline in the past). A CollisionKernel holds
+// Pinocchio and coal data that its queries overwrite: a mutex serializes the plans and queries
+// on one kernel (a thread that finds it busy waits with the GIL released), so two threads may
+// share a kernel (one after the other) or plan at the same time on two kernels.
+
 #include <boost/python.hpp>
 #include <eigenpy/eigenpy.hpp>
 

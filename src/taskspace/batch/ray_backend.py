@@ -2,7 +2,8 @@
 
 ``address=None`` starts a local runtime with ``workers`` CPUs (``ray.init(num_cpus=...)``);
 ``"auto"`` joins the cluster that ``ray start --head`` started on this machine, and
-``"ray://host:10001"`` a remote one. Ray re-runs a task whose worker died (``max_retries``);
+``"ray://host:10001"`` a remote one; with no address, Ray's own ``RAY_ADDRESS`` environment
+variable is honoured. Ray re-runs a task whose worker died (``max_retries``);
 a chunk that still fails is split into single tasks, and a single task that keeps killing its
 worker is reported as failed with its input.
 """
@@ -43,6 +44,7 @@ def _driver_path() -> str:
 def connect(address: str | None, workers: int) -> Any:
     """The ``ray`` module, connected (a local runtime when ``address`` is None)."""
     ray = _ray()
+    address = address or os.environ.get("RAY_ADDRESS") or None
     if not ray.is_initialized():
         kwargs: dict[str, Any] = {"log_to_driver": False, "include_dashboard": False}
         if address is None:

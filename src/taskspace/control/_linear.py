@@ -6,7 +6,7 @@ from typing import Any
 
 import numpy as np
 
-from taskspace._validation import FloatArray, as_matrix
+from taskspace._validation import FloatArray, as_float_array, as_matrix
 from taskspace.errors import InvalidInputError
 
 
@@ -24,7 +24,7 @@ def system(A: Any, B: Any) -> tuple[FloatArray, FloatArray]:
     """``A`` (n x n) and ``B`` (n x m) with matching rows; a vector ``B`` is one column."""
     A = square(A, "A")
     n = A.shape[0]
-    B_arr = np.asarray(B, dtype=float)
+    B_arr = as_float_array(B, "B")
     if B_arr.ndim == 1:
         B_arr = B_arr[:, None]
     B = as_matrix(B_arr, (n, None), "B")
@@ -33,7 +33,7 @@ def system(A: Any, B: Any) -> tuple[FloatArray, FloatArray]:
 
 def symmetric_psd(x: Any, name: str, n: int, *, definite: bool) -> FloatArray:
     """A symmetric positive (semi-)definite n x n matrix (scalars are ``x I``)."""
-    arr = np.asarray(x, dtype=float)
+    arr = as_float_array(x, name)
     if arr.ndim == 0:
         arr = float(arr) * np.eye(n)
     arr = square(arr, name, n)

@@ -61,6 +61,8 @@ class InverseDynamicsResult:
             world force) [N, N m].
         qp: QP result of the weighted problem (``None`` in hierarchical mode).
         residuals: per priority level, the task residual norm (hierarchical mode).
+        level_results: per level of the cascade, its QP result with KKT residuals
+            (hierarchical mode; empty levels solved without a QP are ``UNCONSTRAINED``).
         culprits: constraint blocks at fault when the problem was relaxed.
         build_time, solve_time: wall times [s].
     """
@@ -72,6 +74,7 @@ class InverseDynamicsResult:
     forces: dict[str, FloatArray]
     qp: QPResult | None = None
     residuals: list[float] = field(default_factory=list)
+    level_results: list[QPResult] = field(default_factory=list)
     culprits: list[str] = field(default_factory=list)
     build_time: float = 0.0
     solve_time: float = 0.0
@@ -86,12 +89,15 @@ class InverseDynamicsOptions:
         force_regularization: ``lambda_f``, relative to the robot's weight: the cost is
             ``lambda_f |W f|^2 / (m g)^2`` with ``m g`` the robot's weight [N] and ``W`` the
             contacts' relative weights (torques of 6-D contacts weighted by the inverse
-            squared sole half-sizes, see ``Contact6D.regularization_weights``). The term only
-            makes the split of forces between redundant contacts unique; it pulls the forces
-            toward zero, against gravity, so it must stay small next to the task costs: a
-            standing robot carries its weight at a cost ``lambda_f``, and the QP gives up a
-            task acceleration error (a CoM offset of that error over ``kp``) to save it. The
-            relative weight keeps that trade negligible on every robot, light or heavy.
+            squared sole half-sizes, see ``Contact6D.regularization_weights``). The term
+            makes the split of forces between redundant contacts unique, but it also pulls
+            the forces toward zero and the centers of pressure toward the sole centers, while
+            balance needs them under the CoM: the QP then gives up a task acceleration error
+            (for a CoM task, an offset of that error over ``kp``) that grows with
+            ``lambda_f``. The default ``1e-2`` keeps that offset below a millimetre on a
+            standing humanoid with ``kp = 10``; much smaller values make the force block of
+            the Hessian ill-conditioned (on G1, ``1e-2`` is ``9.3e-8 W`` [1/N^2]), which
+            first-order backends (proxsuite) need many more iterations for.
         torque_limits: enforce ``|tau| <= effort limits``.
         joint_limits: bound accelerations so joints stop within their position and
             velocity limits over ``limits_horizon``.
@@ -105,7 +111,7 @@ class InverseDynamicsOptions:
     """
 
     acceleration_regularization: float = 1e-6
-    force_regularization: float = 1e-5
+    force_regularization: float = 1e-2
     torque_limits: bool = True
     joint_limits: bool = True
     limits_horizon: float = 0.05
@@ -421,6 +427,7 @@ class InverseDynamicsQP:
         status = InverseDynamicsStatus.SOLVED if result.success else InverseDynamicsStatus.RELAXED
         out = self._result(state, result.x, result.success, status, t1 - t0, t2 - t1, None)
         out.residuals = result.residuals
+        out.level_results = result.level_results
         return out
 
     def _hierarchy_levels(self) -> list[HierarchyLevel]:

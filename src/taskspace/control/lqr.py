@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from taskspace._validation import FloatArray, as_matrix
+from taskspace._validation import FloatArray, as_float_array, as_matrix
 from taskspace.control._linear import symmetric_psd, system
 from taskspace.control.controllability import controllability
 from taskspace.control.riccati import (
@@ -177,7 +177,7 @@ def dlqr(
         P = ric.P
         K = np.linalg.solve(R + B.T @ P @ B, B.T @ P @ A)
         return _result(A, B, K, ric, True, t0)
-    N_arr = np.asarray(N, dtype=float)
+    N_arr = as_float_array(N, "N")
     N = as_matrix(N_arr[:, None] if N_arr.ndim == 1 else N_arr, (n, m), "N")
     RinvNt = np.linalg.solve(R, N.T)
     Qbar = Q - N @ RinvNt

@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from taskspace._validation import FloatArray, as_vector, check_positive
+from taskspace._validation import FloatArray, as_float_array, as_scalar, as_vector, check_positive
 from taskspace.errors import InvalidInputError
 
 
@@ -108,18 +108,22 @@ class PIDController:
         if not isinstance(gains, PIDGains):
             raise InvalidInputError(f"gains must be a PIDGains, got {type(gains).__name__}")
         self.gains = gains
+        if options is not None and not isinstance(options, PIDOptions):
+            raise InvalidInputError(f"options must be a PIDOptions, got {type(options).__name__}")
         self.options = options or PIDOptions()
         if self.options.output_limit is not None:
             check_positive(self.options.output_limit, "output_limit")
         if self.options.integral_limit is not None:
             check_positive(self.options.integral_limit, "integral_limit")
-        self.target = as_vector(np.atleast_1d(np.asarray(target, dtype=float)), None, "target")
+        self.target = as_vector(np.atleast_1d(as_float_array(target, "target")), None, "target")
         n = self.target.size
         self.target_velocity = (
             np.zeros(n)
             if target_velocity is None
             else as_vector(
-                np.atleast_1d(np.asarray(target_velocity, dtype=float)), n, "target_velocity"
+                np.atleast_1d(as_float_array(target_velocity, "target_velocity")),
+                n,
+                "target_velocity",
             )
         )
         self.integral = np.zeros(n)
@@ -150,9 +154,9 @@ class PIDController:
             ShapeError, NotFiniteError: bad ``q``/``v``.
         """
         n = self.target.size
-        qa = as_vector(np.atleast_1d(np.asarray(q, dtype=float)), n, "q")
-        va = as_vector(np.atleast_1d(np.asarray(v, dtype=float)), n, "v")
-        t = float(t)
+        qa = as_vector(np.atleast_1d(as_float_array(q, "q")), n, "q")
+        va = as_vector(np.atleast_1d(as_float_array(v, "v")), n, "v")
+        t = as_scalar(t, "t [s]")
         dt = 0.0 if self._t_prev is None else t - self._t_prev
         if dt < -1e-9 * max(1.0, abs(t)):
             raise InvalidInputError(

@@ -96,7 +96,12 @@ def _problem(
 def care_residual(A: Any, B: Any, Q: Any, R: Any, P: Any) -> float:
     """``|A^T P + P A - P B R^-1 B^T P + Q|_F / max(1, |P|_F)``."""
     A, B, Q, R = _problem(A, B, Q, R)
-    P = np.asarray(P, dtype=float)
+    return _care_residual(A, B, Q, R, as_matrix(P, A.shape, "P"))
+
+
+def _care_residual(
+    A: FloatArray, B: FloatArray, Q: FloatArray, R: FloatArray, P: FloatArray
+) -> float:
     res = A.T @ P + P @ A - P @ B @ np.linalg.solve(R, B.T @ P) + Q
     return float(np.linalg.norm(res) / max(1.0, np.linalg.norm(P)))
 
@@ -104,7 +109,12 @@ def care_residual(A: Any, B: Any, Q: Any, R: Any, P: Any) -> float:
 def dare_residual(A: Any, B: Any, Q: Any, R: Any, P: Any) -> float:
     """``|Q + A^T P A - A^T P B (R + B^T P B)^-1 B^T P A - P|_F / max(1, |P|_F)``."""
     A, B, Q, R = _problem(A, B, Q, R)
-    P = np.asarray(P, dtype=float)
+    return _dare_residual(A, B, Q, R, as_matrix(P, A.shape, "P"))
+
+
+def _dare_residual(
+    A: FloatArray, B: FloatArray, Q: FloatArray, R: FloatArray, P: FloatArray
+) -> float:
     BtPA = B.T @ P @ A
     res = Q + A.T @ P @ A - BtPA.T @ np.linalg.solve(R + B.T @ P @ B, BtPA) - P
     return float(np.linalg.norm(res) / max(1.0, np.linalg.norm(P)))
@@ -196,7 +206,7 @@ def solve_continuous_riccati(
             if change <= options.tolerance * max(1.0, float(np.linalg.norm(P))):
                 status = RiccatiStatus.SOLVED
                 break
-    residual = care_residual(A, B, Q, R, P)
+    residual = _care_residual(A, B, Q, R, P)
     return RiccatiResult(
         success=status is RiccatiStatus.SOLVED,
         status=status,
@@ -251,7 +261,7 @@ def solve_discrete_riccati(
         success=True,
         status=RiccatiStatus.SOLVED,
         P=P,
-        residual=dare_residual(A, B, Q, R, P),
+        residual=_dare_residual(A, B, Q, R, P),
         iterations=0,
         solve_time=time.perf_counter() - t0,
         method="schur",

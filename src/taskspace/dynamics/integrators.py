@@ -41,10 +41,8 @@ class Integrator(enum.Enum):
 class IntegratorStep(NamedTuple):
     """State after one step and the acceleration at the start of the step.
 
-    Attributes:
-        q: configuration at ``t + dt``.
-        v: velocity at ``t + dt`` [rad/s, m/s].
-        a: acceleration at ``(t, q, v)`` [rad/s^2, m/s^2].
+    Fields: ``q``, the configuration at ``t + dt``; ``v``, the velocity at ``t + dt``
+    [rad/s, m/s]; ``a``, the acceleration at ``(t, q, v)`` [rad/s^2, m/s^2].
     """
 
     q: FloatArray

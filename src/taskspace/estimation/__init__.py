@@ -1,4 +1,11 @@
-"""State estimation and SLAM (lecture sections 6-7): Bayes, particle and Kalman filters, SLAM."""
+"""State estimation and SLAM (lecture sections 6-7): Bayes, particle and Kalman filters, SLAM.
+
+The Kalman-family filters take what filterpy users pass: scalar or column measurements,
+``update(None)`` (no measurement), a per-call ``R`` (and ``H``, or ``h`` / ``H_jacobian``),
+process noise from :func:`discrete_white_noise` / :func:`continuous_white_noise` (filterpy's
+``Q_discrete_white_noise`` / ``Q_continuous_white_noise``), and residual and mean functions
+for angles (:func:`angle_residual`, :func:`angle_mean`).
+"""
 
 from __future__ import annotations
 

@@ -7,7 +7,7 @@ from typing import Any
 import numpy as np
 
 from taskspace._validation import FloatArray, as_float_array, check_finite
-from taskspace.errors import InvalidInputError, ShapeError
+from taskspace.errors import InvalidInputError, ShapeError, SolverError
 from taskspace.estimation.covariance import as_covariance
 
 
@@ -44,10 +44,14 @@ def as_state(x: Any, n: int | None, name: str) -> FloatArray:
 def as_noise_covariance(R: Any, m: int | None, name: str) -> FloatArray:
     """A positive-definite ``(m, m)`` noise covariance; a scalar ``r > 0`` means ``r I``."""
     arr = as_float_array(R, name)
-    if arr.ndim == 0 and m is not None and m > 1:
+    if arr.ndim == 0:
         r = float(arr)
+        m = 1 if m is None else m
         if not (np.isfinite(r) and r > 0.0):
-            raise InvalidInputError(f"{name} as a scalar must be finite and > 0, got {R!r}")
+            raise InvalidInputError(
+                f"{name} as a scalar r (for r I) must be finite and > 0 (positive definite), "
+                f"got {R!r}"
+            )
         return r * np.eye(m)
     return as_covariance(arr, m, name, positive_definite=True)
 
@@ -69,3 +73,18 @@ def model_output(value: Any, shape: tuple[int, ...], name: str) -> FloatArray:
             "continue; check the model at the current estimate"
         )
     return arr
+
+
+def checked_belief(x: FloatArray, P: FloatArray, step: str) -> tuple[FloatArray, FloatArray]:
+    """Return ``(x, P)`` if both are finite, else raise (the caller keeps its old belief).
+
+    Raises:
+        SolverError: a non-finite mean or covariance (overflow of values far outside the
+            scale of the filter, e.g. a measurement of 1e200 with unit noise).
+    """
+    if not (np.isfinite(x).all() and np.isfinite(P).all()):
+        raise SolverError(
+            f"the {step} gave a non-finite mean or covariance (overflow): the belief is left "
+            "unchanged; rescale the states and measurements (units) or check the inputs"
+        )
+    return x, P

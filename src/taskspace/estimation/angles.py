@@ -16,7 +16,7 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
-from taskspace._validation import FloatArray, check_int
+from taskspace._validation import FloatArray, as_float_array, check_int
 from taskspace.errors import InvalidInputError
 from taskspace.estimation.motion_models import wrap_angle
 
@@ -78,8 +78,8 @@ def angle_mean(angular: int | Sequence[int]) -> MeanFn:
     idx = _indices(angular, "angular")
 
     def mean(points: FloatArray, weights: FloatArray) -> FloatArray:
-        X = np.asarray(points, dtype=np.float64)
-        w = np.asarray(weights, dtype=np.float64)
+        X = as_float_array(points, "points")
+        w = as_float_array(weights, "weights")
         if X.ndim != 2 or w.shape != (X.shape[0],):
             raise InvalidInputError(
                 f"angle_mean needs points (N, n) and weights (N,), got {X.shape} and {w.shape}"

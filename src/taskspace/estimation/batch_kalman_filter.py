@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 import scipy.sparse as sp
 
-from taskspace._validation import FloatArray, as_matrix
+from taskspace._validation import FloatArray, as_float_array, as_matrix
 from taskspace.errors import InvalidInputError, NotFiniteError, ShapeError, SolverError
 from taskspace.estimation.covariance import as_covariance
 
@@ -90,14 +90,14 @@ class BatchKalmanFilter:
     def set_belief(self, x: Any, P: Any) -> None:
         """Replace the beliefs by ``N(x_i, P_i)``: ``x (N, n)``, ``P (n, n)`` or ``(N, n, n)``."""
         n = self.dim_x
-        xa = np.array(x, dtype=np.float64)
+        xa = np.array(as_float_array(x, "x"))
         if xa.ndim != 2 or xa.shape[1] != n:
             raise ShapeError("x0", (-1, n), tuple(xa.shape))
         if not np.all(np.isfinite(xa)):
             bad = np.flatnonzero(~np.all(np.isfinite(xa), axis=1))
             raise NotFiniteError("x0", [int(i) for i in bad[:20]])
         N = xa.shape[0]
-        Pa = np.asarray(P, dtype=np.float64)
+        Pa = as_float_array(P, "P")
         if Pa.ndim == 2:
             Pa = np.broadcast_to(as_covariance(Pa, n, "P0"), (N, n, n))
         elif Pa.shape != (N, n, n):
@@ -136,7 +136,7 @@ class BatchKalmanFilter:
         n = self.dim_x
         N = self._x.shape[1]
         m = self.dim_z
-        za = np.asarray(z, dtype=np.float64)
+        za = as_float_array(z, "z")
         if za.shape != (N, m):
             raise ShapeError("z", (N, m), tuple(za.shape))
         if not np.isfinite(za).all():

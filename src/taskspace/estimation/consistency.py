@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 import scipy.stats
 
-from taskspace._validation import FloatArray
+from taskspace._validation import FloatArray, as_float_array
 from taskspace.errors import InvalidInputError, NotFiniteError, ShapeError, SolverError
 
 
@@ -30,9 +30,9 @@ def nees(truth: Any, means: Any, covs: Any) -> FloatArray:
     Returns:
         ``(T,)`` NEES values.
     """
-    x = np.asarray(truth, dtype=np.float64)
-    m = np.asarray(means, dtype=np.float64)
-    P = np.asarray(covs, dtype=np.float64)
+    x = as_float_array(truth, "truth")
+    m = as_float_array(means, "means")
+    P = as_float_array(covs, "covs")
     if x.ndim != 2 or m.shape != x.shape:
         raise ShapeError("means", tuple(x.shape), tuple(m.shape))
     if P.shape != (*x.shape, x.shape[1]):

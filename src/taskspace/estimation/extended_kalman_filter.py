@@ -26,6 +26,7 @@ from taskspace.estimation._inputs import (
     as_measurement,
     as_noise_covariance,
     as_state,
+    checked_belief,
     model_output,
 )
 from taskspace.estimation.angles import subtract
@@ -121,7 +122,8 @@ class ExtendedKalmanFilter:
         if self.state_normalize is not None:
             x = model_output(self.state_normalize(x), (n,), "state_normalize")
         P = F @ self.P @ F.T + self.Q
-        self.x, self.P, self._last_F = x, 0.5 * (P + P.T), F
+        self.x, self.P = checked_belief(x, 0.5 * (P + P.T), "prediction")
+        self._last_F = F
 
     def update(
         self,
@@ -175,7 +177,8 @@ class ExtendedKalmanFilter:
         )
         if self.state_normalize is not None:
             x = model_output(self.state_normalize(x), (self.dim_x,), "state_normalize")
-        self.x, self.P, self._last_ll = x, P, ll
+        self.x, self.P = checked_belief(x, P, "update")
+        self._last_ll = ll
         return nis
 
     def run(

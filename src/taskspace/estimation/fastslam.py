@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from taskspace._validation import FloatArray, as_vector
+from taskspace._validation import FloatArray, as_float_array, as_vector
 from taskspace.errors import InvalidInputError
 from taskspace.estimation.motion_models import wrap_angle
 from taskspace.estimation.observation_models import LandmarkObservation, RangeBearingModel
@@ -178,6 +178,6 @@ class FastSLAM:
 
 def wrap_heading(poses: FloatArray) -> FloatArray:
     """Return poses with headings wrapped to ``[-pi, pi)``."""
-    out = np.array(poses, dtype=np.float64)
+    out = np.array(as_float_array(poses, "poses"))
     out[..., 2] = wrap_angle(out[..., 2])
     return out

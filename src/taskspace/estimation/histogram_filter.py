@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from taskspace._validation import FloatArray, as_matrix, as_vector
+from taskspace._validation import FloatArray, as_float_array, as_matrix, as_vector
 from taskspace.errors import InvalidInputError, ShapeError
 
 
@@ -43,7 +43,7 @@ def shift_transition_matrix(
     Returns:
         ``(K, K)`` column-stochastic matrix.
     """
-    k = np.asarray(kernel, dtype=np.float64)
+    k = as_float_array(kernel, "kernel")
     if k.ndim != 1 or k.size % 2 == 0 or (k < 0).any() or k.sum() <= 0:
         raise InvalidInputError("kernel must be a 1-D non-negative array of odd length")
     k = k / k.sum()

@@ -22,7 +22,12 @@ import numpy as np
 
 from taskspace._validation import FloatArray, as_float_array, as_matrix
 from taskspace.errors import InvalidInputError, NotFiniteError, ShapeError, SolverError
-from taskspace.estimation._inputs import as_measurement, as_noise_covariance, as_state
+from taskspace.estimation._inputs import (
+    as_measurement,
+    as_noise_covariance,
+    as_state,
+    checked_belief,
+)
 from taskspace.estimation.covariance import as_covariance
 from taskspace.estimation.filter_result import FilterResult, FilterStatus
 
@@ -168,7 +173,9 @@ class KalmanFilter:
             if self.B is None:
                 raise InvalidInputError("a control u was given but the filter has no B matrix")
             Bu = self.B @ as_measurement(u, self.B.shape[1], "u")
-        self.x, self.P = kalman_predict(self.x, self.P, self.F, self.Q, Bu)
+        self.x, self.P = checked_belief(
+            *kalman_predict(self.x, self.P, self.F, self.Q, Bu), "prediction"
+        )
 
     def update(self, z: Any, R: Any | None = None, H: Any | None = None) -> float:
         """Condition the belief on a measurement ``z`` (product identity, slide 6:10).
@@ -199,7 +206,7 @@ class KalmanFilter:
         else:
             Rm = as_noise_covariance(R, m, "R")
         zv = as_measurement(z, m, "z")
-        self.x, self.P, nis, _ = kalman_update(
+        x, P, nis, _ = kalman_update(
             self.x,
             self.P,
             zv - Hm @ self.x,
@@ -207,6 +214,7 @@ class KalmanFilter:
             Rm,
             joseph_form=self.options.joseph_form,
         )
+        self.x, self.P = checked_belief(x, P, "update")
         return nis
 
     def run(

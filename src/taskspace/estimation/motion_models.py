@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from taskspace._validation import FloatArray, as_vector
+from taskspace._validation import FloatArray, as_float_array, as_vector
 from taskspace.errors import InvalidInputError, ShapeError
 
 
@@ -24,7 +24,7 @@ def wrap_angle(a: Any) -> Any:
 
 
 def _poses(x: Any) -> FloatArray:
-    arr = np.asarray(x, dtype=np.float64)
+    arr = as_float_array(x, "x")
     if arr.shape[-1:] != (3,) or arr.ndim > 2:
         raise ShapeError("x", (-1, 3), tuple(arr.shape))
     return arr
@@ -62,7 +62,7 @@ class VelocityMotionModel:
     def mean(self, x: Any, u: Any) -> FloatArray:
         """Noise-free successor pose(s) ``f(x, u)``; ``u`` is ``(2,)`` or ``(N, 2)``."""
         X = _poses(x)
-        U = np.asarray(u, dtype=np.float64)
+        U = as_float_array(u, "u")
         v, w = U[..., 0], U[..., 1]
         th = X[..., 2]
         dt = self.dt
@@ -159,7 +159,7 @@ class OdometryMotionModel:
     def mean(self, x: Any, u: Any) -> FloatArray:
         """Noise-free successor pose(s); ``u`` is ``(3,)`` or ``(N, 3)``."""
         X = _poses(x)
-        U = np.asarray(u, dtype=np.float64)
+        U = as_float_array(u, "u")
         r1, t, r2 = U[..., 0], U[..., 1], U[..., 2]
         h = X[..., 2] + r1
         return np.stack(
@@ -223,7 +223,7 @@ class KinematicCarModel:
     def mean(self, x: Any, u: Any) -> FloatArray:
         """Noise-free successor pose(s)."""
         X = _poses(x)
-        U = np.asarray(u, dtype=np.float64)
+        U = as_float_array(u, "u")
         v = U[..., 0]
         d = np.clip(U[..., 1], -self.max_steering, self.max_steering)
         th = X[..., 2]

@@ -12,9 +12,18 @@ from typing import Any
 
 import numpy as np
 
-from taskspace._validation import FloatArray, as_matrix, as_vector
-from taskspace.errors import InvalidInputError
+from taskspace._validation import FloatArray, as_float_array, as_matrix, as_vector, check_finite
+from taskspace.errors import InvalidInputError, ShapeError
 from taskspace.estimation.motion_models import wrap_angle
+
+
+def _batch(x: Any, last: int, name: str) -> FloatArray:
+    """A finite float array of shape ``(..., last)`` (one item or a batch)."""
+    arr = as_float_array(x, name)
+    if arr.ndim == 0 or arr.shape[-1] != last:
+        raise ShapeError(name, (-1, last), tuple(arr.shape))
+    check_finite(arr, name)
+    return arr
 
 
 @dataclass(frozen=True)
@@ -54,8 +63,8 @@ class RangeBearingModel:
     @staticmethod
     def predict(x: Any, landmarks: Any) -> FloatArray:
         """``h(x, l)`` for poses ``(..., 3)`` and landmarks ``(..., 2)`` (broadcast)."""
-        X = np.asarray(x, dtype=np.float64)
-        L = np.asarray(landmarks, dtype=np.float64)
+        X = _batch(x, 3, "x (poses)")
+        L = _batch(landmarks, 2, "landmarks")
         dx = L[..., 0] - X[..., 0]
         dy = L[..., 1] - X[..., 1]
         return np.stack([np.hypot(dx, dy), wrap_angle(np.arctan2(dy, dx) - X[..., 2])], axis=-1)
@@ -75,8 +84,8 @@ class RangeBearingModel:
     @staticmethod
     def inverse(x: Any, z: Any) -> FloatArray:
         """Landmark position(s) from pose and measurement: ``p + r (cos(th + b), sin(th + b))``."""
-        X = np.asarray(x, dtype=np.float64)
-        Z = np.asarray(z, dtype=np.float64)
+        X = _batch(x, 3, "x (poses)")
+        Z = _batch(z, 2, "z (range, bearing)")
         a = X[..., 2] + Z[..., 1]
         return np.stack(
             [X[..., 0] + Z[..., 0] * np.cos(a), X[..., 1] + Z[..., 0] * np.sin(a)], axis=-1
@@ -84,7 +93,7 @@ class RangeBearingModel:
 
     def residual(self, z: Any, z_hat: Any) -> FloatArray:
         """``z - z_hat`` with the bearing wrapped to ``[-pi, pi)``."""
-        d = np.asarray(z, dtype=np.float64) - np.asarray(z_hat, dtype=np.float64)
+        d = _batch(z, 2, "z") - _batch(z_hat, 2, "z_hat")
         d[..., 1] = wrap_angle(d[..., 1])
         return d
 
@@ -101,8 +110,8 @@ class RangeBearingModel:
         Returns:
             ``(N,)`` log-likelihoods (up to a constant).
         """
-        P = np.asarray(particles, dtype=np.float64)
-        L = np.asarray(landmarks, dtype=np.float64)[obs.ids]  # (k, 2)
+        P = _batch(particles, 3, "particles")
+        L = _batch(landmarks, 2, "landmarks")[obs.ids]  # (k, 2)
         zhat = self.predict(P[:, None, :], L[None, :, :])  # (N, k, 2)
         d = self.residual(obs.z[None, :, :], zhat)
         return -0.5 * np.sum(
@@ -132,7 +141,7 @@ class PositionModel:
     R: FloatArray = field(default_factory=lambda: 0.25 * np.eye(2))
 
     def __post_init__(self) -> None:
-        R = np.asarray(self.R, dtype=np.float64)
+        R = as_float_array(self.R, "PositionModel.R")
         if R.shape != (2, 2) or not np.all(np.linalg.eigvalsh(0.5 * (R + R.T)) > 0):
             raise InvalidInputError("PositionModel.R must be a (2, 2) positive-definite matrix")
 
@@ -140,15 +149,15 @@ class PositionModel:
 
     def predict(self, x: Any) -> FloatArray:
         """``h(x) = (p_x, p_y)``."""
-        return np.asarray(x, dtype=np.float64)[..., :2]
+        return _batch(x, 3, "x (poses)")[..., :2]
 
     def log_likelihood(self, particles: Any, z: Any) -> FloatArray:
         """``log N(z | p_i, R)`` up to a constant, for each particle."""
-        d = np.asarray(z, dtype=np.float64) - np.asarray(particles, dtype=np.float64)[..., :2]
+        d = _batch(z, 2, "z") - _batch(particles, 3, "particles")[..., :2]
         Ri = np.linalg.inv(self.R)
         return -0.5 * np.einsum("ni,ij,nj->n", d, Ri, d)
 
     def sample(self, x: Any, rng: np.random.Generator) -> FloatArray:
         """Noisy position of the true pose ``x``."""
-        xv = np.asarray(x, dtype=np.float64)
+        xv = as_vector(x, 3, "x")
         return xv[:2] + np.linalg.cholesky(self.R) @ rng.standard_normal(2)

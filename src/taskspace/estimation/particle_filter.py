@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from taskspace._validation import FloatArray, check_finite
+from taskspace._validation import FloatArray, as_float_array, check_finite
 from taskspace.errors import InvalidInputError, ShapeError
 from taskspace.estimation.resampling import get_resampler
 
@@ -127,7 +127,19 @@ class ParticleFilter:
             raise InvalidInputError(f"mixture_fraction must be in [0, 1), got {o.mixture_fraction}")
         if o.mixture_fraction > 0.0 and observation_sampler is None:
             raise InvalidInputError("mixture_fraction > 0 needs an observation_sampler")
-        p = np.array(particles, dtype=np.float64)
+        for label, fn in (
+            ("motion_sampler", motion_sampler),
+            ("log_likelihood", log_likelihood),
+            ("observation_sampler", observation_sampler),
+        ):
+            if fn is not None and not callable(fn):
+                raise InvalidInputError(f"{label} must be a function, got {type(fn).__name__}")
+        if not isinstance(rng, np.random.Generator):
+            raise InvalidInputError(
+                f"rng must be a numpy Generator (np.random.default_rng(seed)), got "
+                f"{type(rng).__name__}"
+            )
+        p = np.array(as_float_array(particles, "particles"), dtype=np.float64)
         if p.ndim == 1:
             p = p[:, None]
         if p.ndim != 2 or p.shape[0] < 1:
@@ -162,9 +174,12 @@ class ParticleFilter:
 
     def predict(self, u: Any) -> None:
         """Move every particle with a sample of the motion model ``P(x_t | u, x_{t-1})``."""
-        new = np.asarray(self.motion_sampler(self.particles, u, self.rng), dtype=np.float64)
+        new = as_float_array(
+            self.motion_sampler(self.particles, u, self.rng), "motion_sampler output"
+        )
         if new.shape != self.particles.shape:
             raise ShapeError("motion_sampler output", self.particles.shape, tuple(new.shape))
+        check_finite(new, "motion_sampler output")
         self.particles = new
 
     def update(self, z: Any) -> float:
@@ -179,7 +194,7 @@ class ParticleFilter:
         Raises:
             InvalidInputError: if the likelihood has the wrong shape or is NaN / +inf.
         """
-        ll = np.asarray(self.log_likelihood(self.particles, z), dtype=np.float64)
+        ll = as_float_array(self.log_likelihood(self.particles, z), "log_likelihood output")
         N = self.num_particles
         if ll.shape != (N,):
             raise ShapeError("log_likelihood output", (N,), tuple(ll.shape))
@@ -226,11 +241,14 @@ class ParticleFilter:
                 frac = min(frac, max(0.0, 1.0 - self._w_fast / self._w_slow))
             k = int(self.rng.binomial(N, frac)) if frac > 0.0 else 0
             if k > 0:
-                new = np.asarray(self.observation_sampler(z, k, self.rng), dtype=np.float64)
+                new = as_float_array(
+                    self.observation_sampler(z, k, self.rng), "observation_sampler output"
+                )
                 if new.shape != (k, self.particles.shape[1]):
                     raise ShapeError(
                         "observation_sampler output", (k, self.particles.shape[1]), new.shape
                     )
+                check_finite(new, "observation_sampler output")
                 slots = self.rng.choice(N, size=k, replace=False)
                 self.particles[slots] = new
                 self.num_injected += k

@@ -4,9 +4,11 @@ A chain of ``dim`` integrators (position, velocity, acceleration...) driven by n
 highest derivative, sampled with period ``dt``, has one of two standard process noise
 covariances:
 
-* **discrete white noise** (the highest derivative is a random constant over each period,
-  variance ``var``): ``Q = var G G^T`` with ``G_i = dt^(dim-1-i) / (dim-1-i)!``
-  (e.g. ``G = (dt^2/2, dt, 1)`` for position, velocity, acceleration);
+* **discrete white noise** (a random constant of variance ``var`` over each period):
+  ``Q = var G G^T``. With ``dim >= 3`` the constant is the increment of the highest
+  derivative, ``G_i = dt^(dim-1-i) / (dim-1-i)!`` (``G = (dt^2/2, dt, 1)`` for position,
+  velocity, acceleration); with ``dim == 2`` (constant velocity) it is the acceleration,
+  ``G = (dt^2/2, dt)`` (Bar-Shalom's discrete white noise acceleration model);
 * **continuous white noise** (power spectral density ``q``):
   ``Q_ij = q dt^(2 dim - 1 - i - j) / ((dim-1-i)! (dim-1-j)! (2 dim - 1 - i - j))``.
 
@@ -53,14 +55,15 @@ def _check(dim: int, dt: float, block_size: int, order_by_dim: bool) -> tuple[in
 def discrete_white_noise(
     dim: int, dt: float = 1.0, var: float = 1.0, block_size: int = 1, order_by_dim: bool = True
 ) -> FloatArray:
-    """Process noise of a piecewise-constant white noise on the highest derivative.
+    """Process noise of a piecewise-constant white noise (filterpy's ``Q_discrete_white_noise``).
 
-    ``Q = var G G^T`` with ``G_i = dt^(dim-1-i) / (dim-1-i)!`` (module docstring).
+    ``Q = var G G^T`` with ``G = (dt^2/2, dt)`` for ``dim == 2`` and
+    ``G_i = dt^(dim-1-i) / (dim-1-i)!`` for ``dim >= 3`` (module docstring).
 
     Args:
         dim: number of states per axis (2: position and velocity; 3: with acceleration...).
         dt: sampling period [s].
-        var: variance of the highest derivative over one period [units^2/s^(2 (dim-1))].
+        var: variance of the driving noise (acceleration for ``dim`` 2 and 3, jerk for 4...).
         block_size: number of independent axes.
         order_by_dim: states ordered per axis (``x, x', y, y'``) rather than per derivative
             (``x, y, x', y'``).
@@ -73,9 +76,15 @@ def discrete_white_noise(
             ``> 0``, ``var`` negative or not finite.
     """
     d, h, b = _check(dim, dt, block_size, order_by_dim)
+    if d < 2:
+        raise InvalidInputError(
+            f"dim must be >= 2 (position and velocity at least), got {dim!r}; for a random walk "
+            "use Q = var * dt * I"
+        )
     v = check_positive(var, "var", strict=False)
+    top = max(d - 1, 2)  # dim 2: the acceleration drives (position, velocity)
     with np.errstate(over="ignore", invalid="ignore"):
-        G = np.array([np.power(h, d - 1 - i) / math.factorial(d - 1 - i) for i in range(d)])
+        G = np.array([np.power(h, top - i) / math.factorial(top - i) for i in range(d)])
         Q1 = v * np.outer(G, G)
     return _arrange(_finite(Q1, dt), b, bool(order_by_dim))
 

@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from taskspace._validation import FloatArray
+from taskspace._validation import FloatArray, as_float_array
 from taskspace.errors import InvalidInputError, NotFiniteError, ShapeError, UnknownNameError
 
 IndexArray = npt.NDArray[np.intp]
@@ -26,7 +26,7 @@ IndexArray = npt.NDArray[np.intp]
 
 def normalize_weights(weights: Any, name: str = "weights") -> FloatArray:
     """Validate non-negative finite weights with a positive sum and return ``w / sum(w)``."""
-    w = np.asarray(weights, dtype=np.float64)
+    w = as_float_array(weights, "weights")
     if w.ndim != 1 or w.shape[0] == 0:
         raise ShapeError(name, (-1,), tuple(w.shape))
     if not np.isfinite(w).all():

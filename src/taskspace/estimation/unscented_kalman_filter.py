@@ -29,6 +29,7 @@ from taskspace.estimation._inputs import (
     as_measurement,
     as_noise_covariance,
     as_state,
+    checked_belief,
     model_output,
 )
 from taskspace.estimation.angles import MeanFn, subtract, weighted_mean
@@ -182,7 +183,7 @@ class UnscentedKalmanFilter:
             Y.shape
         )
         P = (D * wc[:, None]).T @ D + self.Q
-        self.x, self.P = x, 0.5 * (P + P.T)
+        self.x, self.P = checked_belief(x, 0.5 * (P + P.T), "prediction")
 
     def update(
         self,
@@ -246,12 +247,10 @@ class UnscentedKalmanFilter:
         Kt = np.linalg.solve(L.T, np.linalg.solve(L, C.T))
         w = np.linalg.solve(L, r)
         nis = float(w @ w)
-        self._last_ll = (
-            -0.5 * nis - float(np.sum(np.log(np.diag(L)))) - 0.5 * m * math.log(2 * math.pi)
-        )
-        self.x = self.x + Kt.T @ r
+        last_ll = -0.5 * nis - float(np.sum(np.log(np.diag(L)))) - 0.5 * m * math.log(2 * math.pi)
         P = self.P - Kt.T @ S @ Kt
-        self.P = 0.5 * (P + P.T)
+        self.x, self.P = checked_belief(self.x + Kt.T @ r, 0.5 * (P + P.T), "update")
+        self._last_ll = last_ll
         return nis
 
     def run(

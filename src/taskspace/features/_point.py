@@ -8,10 +8,24 @@ Drift at zero joint acceleration: ``a_p = a_o + alpha x r + omega x (omega x r)`
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
-from taskspace._validation import FloatArray
+from taskspace._validation import FloatArray, as_vector
+from taskspace.errors import InvalidInputError
 from taskspace.model.state import State
+
+
+def nonzero_vector(x: Any, name: str) -> FloatArray:
+    """A finite 3-vector of norm > 1e-12 (a zero direction makes the feature constant)."""
+    v = as_vector(x, 3, name)
+    if not float(v @ v) > 1e-24:
+        raise InvalidInputError(
+            f"{name} must be a non-zero direction, got {v.tolist()} (a zero vector makes the "
+            "feature identically zero)"
+        )
+    return v
 
 
 def cross_columns(J_ang: FloatArray, r: FloatArray) -> FloatArray:

@@ -6,7 +6,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from taskspace._validation import FloatArray, as_vector
+from taskspace._validation import FloatArray
 from taskspace.features import _point
 from taskspace.features.feature import Feature
 
@@ -32,8 +32,8 @@ class Alignment(Feature):
     def __init__(self, robot: Robot, frame: str, vector: Any, reference: Any) -> None:
         super().__init__(robot, f"alignment({frame})")
         self.frame_id = robot.frame_id(frame)
-        self.vector = as_vector(vector, 3, "vector")
-        self.reference = as_vector(reference, 3, "reference")
+        self.vector = _point.nonzero_vector(vector, "vector")
+        self.reference = _point.nonzero_vector(reference, "reference")
 
     def value(self, state: State) -> FloatArray:
         """Scalar product, shape (1,)."""

@@ -9,7 +9,7 @@ import numpy as np
 import numpy.typing as npt
 
 from taskspace._validation import FloatArray, check_positive
-from taskspace.errors import UnknownNameError
+from taskspace.errors import InvalidInputError, UnknownNameError
 from taskspace.features.feature import Feature
 
 if TYPE_CHECKING:
@@ -42,6 +42,21 @@ class CollisionDistance(Feature):
         if pairs is None:
             self.pair_indices = np.arange(len(all_pairs))
         else:
+            if isinstance(pairs, (str, bytes)) or not isinstance(pairs, Sequence) or not pairs:
+                raise InvalidInputError(
+                    "pairs must be a non-empty list of (geometry name, geometry name) pairs "
+                    f"(robot.collision_pairs lists them), got {pairs!r}"
+                )
+            for pair in pairs:
+                if (
+                    isinstance(pair, (str, bytes))
+                    or not isinstance(pair, Sequence)
+                    or len(pair) != 2
+                    or not all(isinstance(g, str) for g in pair)
+                ):
+                    raise InvalidInputError(
+                        f"each collision pair must be two geometry names, got {pair!r}"
+                    )
             lookup = {p: k for k, p in enumerate(all_pairs)}
             lookup.update({(b, a): k for (a, b), k in list(lookup.items())})
             idx = []
@@ -61,6 +76,8 @@ class CollisionDistance(Feature):
         ]
         self.pair_names = [all_pairs[k] for k in self.pair_indices]
         self._pairs = [int(k) for k in self.pair_indices]
+        self._every_pair = pairs is None
+        self._world_version = robot.world.version
         # joint Jacobian of joint j in WORLD coordinates = data.J with the columns outside
         # the support of j zeroed: one mask row per pair and side (universe: all zero)
         model = robot.model
@@ -76,7 +93,35 @@ class CollisionDistance(Feature):
         self._moving_b_list = [jb != 0 for _, jb in self._joints]
         self._any_moving_a = any(self._moving_a_list)
 
+    def _follow_world(self) -> None:
+        """Re-index the pairs after the obstacle world changed (pair indices shift).
+
+        Raises:
+            InvalidInputError: a pair of this feature no longer exists, or (for a feature of
+                every pair) the set of pairs changed: build the feature again.
+        """
+        robot = self.robot
+        names = robot.collision_pairs
+        if self._every_pair and names != self.pair_names:
+            raise InvalidInputError(
+                "the obstacle world changed since this CollisionDistance (every pair) was "
+                f"built: it had {len(self.pair_names)} pairs, the robot now checks "
+                f"{len(names)}; build the feature (and its task or constraint) again"
+            )
+        lookup = {p: k for k, p in enumerate(names)}
+        missing = [p for p in self.pair_names if p not in lookup]
+        if missing:
+            raise InvalidInputError(
+                f"collision pairs {missing} of this feature no longer exist after the obstacle "
+                "world changed; build the feature again with pairs from robot.collision_pairs"
+            )
+        self._pairs = [lookup[p] for p in self.pair_names]
+        self.pair_indices = np.asarray(self._pairs, dtype=int)
+        self._world_version = robot.world.version
+
     def _results(self, state: State) -> list[Any]:
+        if self.robot.world.version != self._world_version:
+            self._follow_world()
         results = state.distance_results()
         return [results[k] for k in self._pairs]
 

@@ -7,7 +7,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pinocchio as pin
 
-from taskspace._validation import FloatArray
+from taskspace._validation import FloatArray, as_float_array
 from taskspace.features.feature import Feature
 from taskspace.model.world import as_se3
 
@@ -37,7 +37,8 @@ class FramePose(Feature):
 
     def check_target(self, target: Any) -> pin.SE3:
         """Accepts ``pin.SE3``, a 4x4 matrix, ``[x, y, z]`` or ``[x, y, z, qx, qy, qz, qw]``."""
-        return as_se3(target, f"target of feature '{self.name}'")
+        name = f"target of feature '{self.name}'"
+        return as_se3(target if isinstance(target, pin.SE3) else as_float_array(target, name), name)
 
     def value(self, state: State) -> pin.SE3:
         """The frame pose (a copy)."""

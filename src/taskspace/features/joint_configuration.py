@@ -9,6 +9,7 @@ import numpy as np
 import pinocchio as pin
 
 from taskspace._validation import FloatArray
+from taskspace.errors import InvalidInputError
 from taskspace.features.feature import Feature
 
 if TYPE_CHECKING:
@@ -35,6 +36,14 @@ class JointConfiguration(Feature):
             self.rows: np.ndarray | None = None
             self.dim = robot.nv
         else:
+            if isinstance(joints, (str, bytes)) or not isinstance(joints, Sequence) or not joints:
+                raise InvalidInputError(
+                    f"joints must be a non-empty list of joint names, got {joints!r} (None: all)"
+                )
+            if not all(isinstance(name, str) for name in joints):
+                raise InvalidInputError(f"joints must be joint names (strings), got {joints!r}")
+            if len(set(joints)) != len(joints):
+                raise InvalidInputError(f"joints has repeated names: {list(joints)}")
             rows: list[int] = []
             for name in joints:
                 joint = robot.model.joints[robot.joint_id(name)]

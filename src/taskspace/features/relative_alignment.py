@@ -6,7 +6,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from taskspace._validation import FloatArray, as_vector
+from taskspace._validation import FloatArray
 from taskspace.features import _point
 from taskspace.features.feature import Feature
 
@@ -36,8 +36,8 @@ class RelativeAlignment(Feature):
         super().__init__(robot, f"relative_alignment({frame}|{reference_frame})")
         self.frame_id = robot.frame_id(frame)
         self.reference_id = robot.frame_id(reference_frame)
-        self.vector = as_vector(vector, 3, "vector")
-        self.reference_vector = as_vector(reference_vector, 3, "reference_vector")
+        self.vector = _point.nonzero_vector(vector, "vector")
+        self.reference_vector = _point.nonzero_vector(reference_vector, "reference_vector")
 
     def value(self, state: State) -> FloatArray:
         """Scalar product, shape (1,)."""

@@ -6,7 +6,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from taskspace._validation import FloatArray, as_vector
+from taskspace._validation import FloatArray
 from taskspace.features import _point
 from taskspace.features.feature import Feature
 from taskspace.features.relative_position import relative_drift, relative_jacobian
@@ -32,7 +32,7 @@ class RelativeVector(Feature):
         super().__init__(robot, f"relative_vector({frame}|{reference_frame})")
         self.frame_id = robot.frame_id(frame)
         self.reference_id = robot.frame_id(reference_frame)
-        self.vector = as_vector(vector, 3, "vector")
+        self.vector = _point.nonzero_vector(vector, "vector")
 
     def value(self, state: State) -> FloatArray:
         """The vector in frame j coordinates."""

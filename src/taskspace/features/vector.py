@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
-from taskspace._validation import FloatArray, as_vector
+from taskspace._validation import FloatArray
 from taskspace.features import _point
 from taskspace.features.feature import Feature
 
@@ -30,7 +30,7 @@ class Vector(Feature):
         super().__init__(robot, f"vector({frame})")
         self.frame = frame
         self.frame_id = robot.frame_id(frame)
-        self.vector = as_vector(vector, 3, "vector")
+        self.vector = _point.nonzero_vector(vector, "vector")
 
     def value(self, state: State) -> FloatArray:
         """The vector in world coordinates."""

@@ -16,7 +16,7 @@ from __future__ import annotations
 import enum
 import threading
 import time
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -159,6 +159,35 @@ def stack_inequalities(
     return np.vstack(rows_C), np.concatenate(rows_l), np.concatenate(rows_u), blocks
 
 
+def _require_state(state: object) -> None:
+    raise InvalidInputError(
+        f"state must be a taskspace State (robot.state(q) or robot.state(q, v)), got "
+        f"{type(state).__name__}"
+    )
+
+
+def _flat_list(items: object, kind: type, name: str) -> list:  # type: ignore[type-arg]
+    """``items`` as a list whose elements are all ``kind``; else a clear error."""
+    what = kind.__name__
+    if isinstance(items, (kind, str, bytes)) or not isinstance(items, Iterable):
+        hint = f": write [{name[:-1]}]" if isinstance(items, kind) else ""
+        raise InvalidInputError(
+            f"{name} must be a list of {what} objects, got {type(items).__name__}{hint}"
+        )
+    items = list(items)
+    for i, item in enumerate(items):
+        if not isinstance(item, kind):
+            hint = (
+                "; DifferentialIK takes one flat list (HierarchicalIK takes levels)"
+                if isinstance(item, (list, tuple))
+                else ""
+            )
+            raise InvalidInputError(
+                f"{name}[{i}] must be a {what}, got {type(item).__name__}{hint}"
+            )
+    return items
+
+
 def _intersect(
     boxes: list[tuple[FloatArray, FloatArray]], nv: int
 ) -> tuple[FloatArray, FloatArray]:
@@ -201,10 +230,18 @@ class DifferentialIK:
         equality_tasks: Sequence[Task] = (),
         options: DifferentialIKOptions | None = None,
     ) -> None:
+        if not isinstance(robot, Robot):
+            raise InvalidInputError(
+                f"robot must be a taskspace Robot (Robot.load(name)), got {type(robot).__name__}"
+            )
         self.robot = robot
-        self.tasks = list(tasks)
-        self.constraints = list(constraints)
-        self.equality_tasks = list(equality_tasks)
+        self.tasks = _flat_list(tasks, Task, "tasks")
+        self.constraints = _flat_list(constraints, Constraint, "constraints")
+        self.equality_tasks = _flat_list(equality_tasks, Task, "equality_tasks")
+        if options is not None and not isinstance(options, DifferentialIKOptions):
+            raise InvalidInputError(
+                f"options must be a DifferentialIKOptions, got {type(options).__name__}"
+            )
         self.options = options or DifferentialIKOptions()
         check_positive(self.options.damping, "damping", strict=False)
         for item in [*self.tasks, *self.equality_tasks]:
@@ -228,6 +265,8 @@ class DifferentialIK:
         self._native: NativeWeightedStack | None = None
         self._native_checked = False
         self._lock = threading.Lock()
+        self._acquire = self._lock.acquire
+        self._release = self._lock.release
 
     @property
     def native(self) -> bool:
@@ -245,6 +284,8 @@ class DifferentialIK:
 
     def build(self, state: State, dt: float) -> QPProblem:
         """Assemble the QP of one step from ``state`` during ``dt`` [s] (inspectable)."""
+        if not isinstance(state, State):
+            _require_state(state)
         with self._lock:
             return self._build(state, dt)
 
@@ -288,16 +329,21 @@ class DifferentialIK:
             state: current state (its velocity is used by acceleration limits).
             dt: time step [s].
         """
+        if type(state) is not State and not isinstance(state, State):
+            _require_state(state)
         dt = check_positive(dt, "dt")
-        with self._lock:
-            return self._solve(state, dt)
+        self._acquire()  # bound methods: about half the cost of ``with self._lock``
+        try:
+            if self._native is not None or (not self._native_checked and self.native):
+                native = self._solve_native(state, dt)
+                if native is not None:
+                    return native
+            return self._solve_python(state, dt)
+        finally:
+            self._release()
 
-    def _solve(self, state: State, dt: float) -> IKStepResult:
-        """:meth:`solve` without the lock (the caller holds it)."""
-        if self._native is not None or (not self._native_checked and self.native):
-            native = self._solve_native(state, dt)
-            if native is not None:
-                return native
+    def _solve_python(self, state: State, dt: float) -> IKStepResult:
+        """:meth:`solve` by the Python path (the caller holds the lock)."""
         t0 = time.perf_counter()
         problem = self._build(state, dt)
         t1 = time.perf_counter()
@@ -314,7 +360,7 @@ class DifferentialIK:
         return IKStepResult(result.success, status, dq, dq / dt, result, culprits, t1 - t0, t2 - t1)
 
     def _solve_native(self, state: State, dt: float) -> IKStepResult | None:
-        if state.robot is not self.robot:
+        if state._robot is not self.robot:  # the slot: cheaper than the read-only property
             self.tasks[0].feature._check_state(state)
         native = self._native
         assert native is not None

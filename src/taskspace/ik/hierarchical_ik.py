@@ -11,7 +11,7 @@ import pinocchio as pin
 
 from taskspace._validation import FloatArray, check_positive
 from taskspace.constraints.constraint import Constraint
-from taskspace.errors import InvalidInputError
+from taskspace.errors import InvalidInputError, SolverError
 from taskspace.ik.differential_ik import combine_bounds, stack_inequalities
 from taskspace.model.robot import Robot
 from taskspace.model.state import State
@@ -47,6 +47,12 @@ class HierarchicalIKResult:
     hierarchy: HierarchyResult
     build_time: float = 0.0
     solve_time: float = 0.0
+
+
+MAX_WEIGHTED_RESIDUAL = 1e30
+"""Largest norm of a level's weighted task residual that a step accepts (beyond it the QP
+cascade loses accuracy and can take minutes)."""
+_MAX_SQUARED_RESIDUAL = MAX_WEIGHTED_RESIDUAL**2
 
 
 def _check_levels(levels: object) -> list[list[Task | Constraint]]:
@@ -150,6 +156,11 @@ class HierarchicalIK:
         self._inequality_items: list[list[Constraint]] = []
         self._J: list[FloatArray] = []
         self._r: list[FloatArray] = []
+        # every level's r is a view of one buffer: one dot product checks them all
+        self._r_all = np.zeros(
+            sum(item.dim for level in self.levels for item in level if isinstance(item, Task))
+        )
+        start = 0
         for level in self.levels:
             rows, row = [], 0
             for item in level:
@@ -159,7 +170,8 @@ class HierarchicalIK:
             self._task_rows.append(rows)
             self._inequality_items.append([c for c in level if isinstance(c, Constraint)])
             self._J.append(np.zeros((row, nv)))
-            self._r.append(np.zeros(row))
+            self._r.append(self._r_all[start : start + row])
+            start += row
 
     @classmethod
     def from_priorities(
@@ -219,6 +231,9 @@ class HierarchicalIK:
         dt = check_positive(dt, "dt")
         t0 = time.perf_counter()
         levels = self.build(state, dt)
+        r_all = self._r_all
+        if not float(r_all.dot(r_all)) <= _MAX_SQUARED_RESIDUAL:  # also NaN and overflow
+            self._residual_error(levels)
         nv = self.robot.nv
         lb, ub, _ = combine_bounds(self.constraints, state, dt, nv)
         stacked = stack_inequalities(self.constraints, state, dt)
@@ -235,6 +250,12 @@ class HierarchicalIK:
             hard_names=blocks,
         )
         t2 = time.perf_counter()
+        if not np.isfinite(result.x).all():
+            raise SolverError(
+                "the hierarchical step is not finite (overflow): the weighted task residuals "
+                "are too large; check the targets and weights (|weight * error| must stay far "
+                "below 1e150)"
+            )
         return HierarchicalIKResult(
             result.success,
             result.x,
@@ -244,6 +265,22 @@ class HierarchicalIK:
             result,
             t1 - t0,
             t2 - t1,
+        )
+
+    def _residual_error(self, levels: list[HierarchyLevel]) -> None:
+        """Raise the error naming the level whose weighted residual is too large."""
+        for level in levels:
+            with np.errstate(over="ignore", invalid="ignore"):
+                norm = float(np.linalg.norm(level.r))
+            if not norm <= MAX_WEIGHTED_RESIDUAL:
+                raise SolverError(
+                    f"{level.name}: the weighted task residual |sqrt(weight) * gain * error| = "
+                    f"{norm:.3g} is not finite or above {MAX_WEIGHTED_RESIDUAL:g}; check the "
+                    "targets and weights"
+                )
+        raise SolverError(
+            f"the weighted task residuals of the levels together exceed {MAX_WEIGHTED_RESIDUAL:g}"
+            "; check the targets and weights"
         )
 
     def step(self, state: State, dt: float) -> tuple[FloatArray, HierarchicalIKResult]:

@@ -131,6 +131,13 @@ def solve_ik(
     Returns:
         The result; ``success`` tells whether the tolerances were reached.
     """
+    if isinstance(tasks, Task) or not isinstance(tasks, Sequence) or not tasks:
+        raise InvalidInputError(
+            f"solve_ik needs a non-empty list of tasks, e.g. [task], got {type(tasks).__name__}"
+        )
+    for j, t in enumerate(tasks):
+        if not isinstance(t, Task):
+            raise InvalidInputError(f"tasks[{j}] must be a Task, got {type(t).__name__}")
     opts = options or SolveIKOptions()
     check_count(opts.max_iterations, "max_iterations", minimum=1)
     check_count(opts.restarts, "restarts")

@@ -1,10 +1,23 @@
 """Learning in robotics: datasets, MDPs, policy search, movement primitives.
 
-Chapter 10 of the lecture notes (tabular RL, policy search, movement primitives); IK datasets
-in :mod:`taskspace.learning.ik_dataset`. Dynamic programming and the HJB equation (the
-model-based side) live in :mod:`taskspace.optimal_control`.
+Chapter 10 of the lecture notes: tabular RL, policy search, movement primitives, behaviour
+cloning, apprenticeship learning; Gymnasium environments in :mod:`taskspace.learning.envs`;
+IK datasets in :mod:`taskspace.learning.ik_dataset`. Dynamic programming and the HJB
+equation (the model-based side) live in :mod:`taskspace.optimal_control`.
 """
 
+from taskspace.learning.dmp import DiscreteDMP, DMPOptions, DMPTrajectory, RhythmicDMP
+from taskspace.learning.imitation import BehaviourCloningResult, behaviour_cloning
+from taskspace.learning.inverse_rl import (
+    ApprenticeshipResult,
+    apprenticeship_learning,
+    feature_expectations,
+)
+from taskspace.learning.orientation_dmp import (
+    OrientationDMP,
+    OrientationTrajectory,
+    quaternion,
+)
 from taskspace.learning.policies import LinearPolicy, Policy, RBFPolicy
 from taskspace.learning.policy_search import (
     PolicySearchOptions,
@@ -36,30 +49,44 @@ from taskspace.learning.tabular import (
     sarsa,
     td_lambda,
 )
+from taskspace.learning.via_point import ViaPointTask
 
 __all__ = [
+    "ApprenticeshipResult",
+    "BehaviourCloningResult",
+    "DMPOptions",
+    "DMPTrajectory",
+    "DiscreteDMP",
     "Episode",
     "LinearPolicy",
     "LinearQuadraticTask",
     "MDPSimulator",
+    "OrientationDMP",
+    "OrientationTrajectory",
     "Policy",
     "PolicySearchOptions",
     "PolicySearchResult",
     "PolicySearchStatus",
     "RBFPolicy",
+    "RhythmicDMP",
     "Rollout",
     "TabularOptions",
     "TabularResult",
+    "ViaPointTask",
+    "apprenticeship_learning",
+    "behaviour_cloning",
     "cma_es",
     "enac",
     "enac_gradient",
     "enac_regression",
     "evaluate_population",
+    "feature_expectations",
     "mu_lambda_es",
     "pi2",
     "policy_rollout",
     "power",
     "q_learning",
+    "quaternion",
     "reinforce",
     "reinforce_gradient",
     "reinforce_terms",

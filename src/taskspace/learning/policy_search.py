@@ -33,6 +33,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from taskspace._validation import FloatArray
+from taskspace.batch import Executor as BatchExecutor
 from taskspace.errors import InvalidInputError
 from taskspace.learning.rollout import Episode, Rollout, evaluate_population
 
@@ -162,7 +163,7 @@ class _Search:
         rollout: Rollout,
         theta0: FloatArray,
         options: PolicySearchOptions,
-        executor: Executor | None,
+        executor: Executor | BatchExecutor | None,
     ) -> None:
         if options.iterations < 1 or options.population < 1:
             raise InvalidInputError("iterations and population must be >= 1")
@@ -228,7 +229,7 @@ def _gradient_method(
     rollout: Rollout,
     theta0: FloatArray,
     options: PolicySearchOptions | None,
-    executor: Executor | None,
+    executor: Executor | BatchExecutor | None,
     natural: bool,
 ) -> PolicySearchResult:
     s = _Search(rollout, theta0, options or PolicySearchOptions(), executor)
@@ -246,7 +247,7 @@ def reinforce(
     theta0: FloatArray,
     options: PolicySearchOptions | None = None,
     *,
-    executor: Executor | None = None,
+    executor: Executor | BatchExecutor | None = None,
 ) -> PolicySearchResult:
     """Gradient ascent with the REINFORCE estimate (the rollout must explore in its actions)."""
     return _gradient_method(rollout, theta0, options, executor, natural=False)
@@ -257,7 +258,7 @@ def enac(
     theta0: FloatArray,
     options: PolicySearchOptions | None = None,
     *,
-    executor: Executor | None = None,
+    executor: Executor | BatchExecutor | None = None,
 ) -> PolicySearchResult:
     """Natural gradient ascent with the eNAC estimate (needs ``population >= p + 1``)."""
     return _gradient_method(rollout, theta0, options, executor, natural=True)
@@ -267,7 +268,7 @@ def _parameter_exploration(
     rollout: Rollout,
     theta0: FloatArray,
     options: PolicySearchOptions | None,
-    executor: Executor | None,
+    executor: Executor | BatchExecutor | None,
     method: str,
 ) -> PolicySearchResult:
     s = _Search(rollout, theta0, options or PolicySearchOptions(), executor)
@@ -301,7 +302,7 @@ def power(
     theta0: FloatArray,
     options: PolicySearchOptions | None = None,
     *,
-    executor: Executor | None = None,
+    executor: Executor | BatchExecutor | None = None,
 ) -> PolicySearchResult:
     """PoWER: reward-weighted average of the elite parameter perturbations."""
     return _parameter_exploration(rollout, theta0, options, executor, "power")
@@ -312,7 +313,7 @@ def pi2(
     theta0: FloatArray,
     options: PolicySearchOptions | None = None,
     *,
-    executor: Executor | None = None,
+    executor: Executor | BatchExecutor | None = None,
 ) -> PolicySearchResult:
     """Episodic PI^2: softmax-of-cost weighted average of the perturbations."""
     return _parameter_exploration(rollout, theta0, options, executor, "pi2")
@@ -323,7 +324,7 @@ def mu_lambda_es(
     theta0: FloatArray,
     options: PolicySearchOptions | None = None,
     *,
-    executor: Executor | None = None,
+    executor: Executor | BatchExecutor | None = None,
 ) -> PolicySearchResult:
     """(mu, lambda)-evolution strategy: mean of the ``elite`` best of ``population`` offspring."""
     return _parameter_exploration(rollout, theta0, options, executor, "es")
@@ -334,7 +335,7 @@ def cma_es(
     theta0: FloatArray,
     options: PolicySearchOptions | None = None,
     *,
-    executor: Executor | None = None,
+    executor: Executor | BatchExecutor | None = None,
 ) -> PolicySearchResult:
     """CMA-ES through pycma's ask-and-tell interface (population = ``options.population``).
 

@@ -1,19 +1,22 @@
 """Rollouts as pure functions of the policy parameters and a seed.
 
 ``rollout(theta, seed) -> Episode``: the same ``(theta, seed)`` always gives the same
-episode, so a population can be evaluated in any order, on threads or processes (or, later,
-on a cluster) with :func:`evaluate_population`.
+episode, so a population can be evaluated in any order, on threads or processes, or on a Ray
+cluster through :class:`taskspace.batch.Executor`, with :func:`evaluate_population`.
 """
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable, Sequence
 from concurrent.futures import Executor
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
 from taskspace._validation import FloatArray
+from taskspace.batch import Executor as BatchExecutor
 from taskspace.errors import InvalidInputError
 from taskspace.learning.policies import LinearPolicy, Policy
 
@@ -47,9 +50,13 @@ def evaluate_population(
     parameters: Sequence[FloatArray] | FloatArray,
     seeds: Sequence[int],
     *,
-    executor: Executor | None = None,
+    executor: Executor | BatchExecutor | None = None,
 ) -> list[Episode]:
     """Run ``rollout(parameters[i], seeds[i])`` for every i, serially or on an executor.
+
+    ``executor`` is a ``concurrent.futures`` executor or a :class:`taskspace.batch.Executor`
+    (local processes or Ray; the rollout is shipped once per worker as its context, and a
+    failing rollout raises :class:`taskspace.batch.BatchError` naming its parameters).
 
     Raises:
         InvalidInputError: different numbers of parameter vectors and seeds.
@@ -59,7 +66,23 @@ def evaluate_population(
         raise InvalidInputError(f"{len(params)} parameter vectors but {len(seeds)} seeds")
     if executor is None:
         return [rollout(p, int(s)) for p, s in zip(params, seeds)]
+    if isinstance(executor, BatchExecutor):
+        items = [(p, int(s)) for p, s in zip(params, seeds)]
+        result = executor.map(
+            _rollout_task, items, context=functools.partial(_same, rollout), description="rollouts"
+        )
+        return list(result.values)
     return list(executor.map(rollout, params, [int(s) for s in seeds]))
+
+
+def _same(value: Any) -> Any:
+    return value
+
+
+def _rollout_task(item: Any, rng: np.random.Generator, rollout: Rollout) -> Episode:
+    """A batch task: the rollout's own seed decides its noise (``rng`` is unused)."""
+    parameters, seed = item
+    return rollout(parameters, seed)
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -1,5 +1,14 @@
 """Legged locomotion: support polygons, ZMP, LIPM preview control, footsteps, gaits, hopper."""
 
+from taskspace.locomotion.compass_gait import (
+    CompassGait,
+    LimitCycle,
+    LimitCycleOptions,
+    StepResult,
+    find_limit_cycle,
+    return_map,
+    simulate_step,
+)
 from taskspace.locomotion.foot import FOOT_ROBOTS, ContactKind, FootGeometry, robot_feet
 from taskspace.locomotion.footsteps import (
     Footstep,
@@ -19,6 +28,12 @@ from taskspace.locomotion.preview_control import (
     WalkingPattern,
     preview_walking_pattern,
 )
+from taskspace.locomotion.raibert_hopper import (
+    HopperParameters,
+    HopperResult,
+    RaibertOptions,
+    simulate_hopper,
+)
 from taskspace.locomotion.support_polygon import (
     StaticStability,
     SupportPolygon,
@@ -26,6 +41,12 @@ from taskspace.locomotion.support_polygon import (
     support_polygon,
 )
 from taskspace.locomotion.swing_trajectory import SwingSample, SwingTrajectory
+from taskspace.locomotion.whole_body_walking import (
+    WalkingOptions,
+    WalkingResult,
+    plan_from_robot,
+    walk,
+)
 from taskspace.locomotion.zmp import (
     ContactWrench,
     center_of_pressure,
@@ -45,33 +66,47 @@ from taskspace.locomotion.zmp_reference import (
 __all__ = [
     "FOOT_ROBOTS",
     "CartTable",
+    "CompassGait",
     "ContactKind",
     "ContactWrench",
     "FootGeometry",
     "Footstep",
     "FootstepPlan",
+    "HopperParameters",
+    "HopperResult",
+    "LimitCycle",
+    "LimitCycleOptions",
     "LipmTrajectory",
     "Phase",
     "PhaseKind",
     "PreviewController",
     "PreviewOptions",
+    "RaibertOptions",
     "SoleSize",
     "StaticStability",
+    "StepResult",
     "StepTiming",
     "SupportPolygon",
     "SwingSample",
     "SwingTrajectory",
+    "WalkingOptions",
     "WalkingPattern",
+    "WalkingResult",
     "ZmpMpc",
     "ZmpMpcOptions",
     "ZmpMpcResult",
     "arc_walk",
     "center_of_pressure",
     "contact_wrench_from_dynamics",
+    "find_limit_cycle",
     "footsteps_along_poses",
     "mpc_walking_pattern",
+    "plan_from_robot",
     "preview_walking_pattern",
+    "return_map",
     "robot_feet",
+    "simulate_hopper",
+    "simulate_step",
     "static_stability",
     "straight_walk",
     "support_polygon",
@@ -79,6 +114,7 @@ __all__ = [
     "support_polygons",
     "total_wrench",
     "turn_in_place",
+    "walk",
     "zmp_from_dynamics",
     "zmp_from_wrenches",
     "zmp_reference",

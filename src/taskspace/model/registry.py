@@ -14,6 +14,7 @@ import hashlib
 import json
 import logging
 import os
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from functools import lru_cache
 from importlib import resources
@@ -219,6 +220,8 @@ def _kinematic_size(spec: RobotSpec) -> tuple[int, int]:
         from example_robot_data.utils import RobotLoader
 
         loader = example_robot_data_loaders()[str(spec.erd_name)]
+        if getattr(loader, "sdf_filename", "") and not hasattr(pin, "buildModelFromSdf"):
+            raise ModelLoadError("SDF description; this Pinocchio is built without SDF support")
         if loader.__init__ is not RobotLoader.__init__ or not loader.urdf_filename:
             inst = loader()  # custom loaders (SDF, reduced models): the loader's own model
             model = inst.robot.model
@@ -247,7 +250,9 @@ def _reduced_size(model: Any, spec: RobotSpec) -> tuple[int, int]:
     return nq, nv
 
 
-def robot_summaries() -> dict[str, dict[str, Any]]:
+def robot_summaries(
+    progress: Callable[[list[str]], Iterable[str]] | None = None,
+) -> dict[str, dict[str, Any]]:
     """``{name: {"nq", "nv", "floating", "source", "end_effectors", "description"}}``.
 
     Covers every name of :func:`available_robots`. Sizes come from the kinematic trees only
@@ -255,6 +260,9 @@ def robot_summaries() -> dict[str, dict[str, Any]]:
     (or the user cache directory), keyed by the versions of example-robot-data and
     Pinocchio and the registry's content, so a warm listing imports neither. ``nq``/``nv``
     are ``None`` for a robot whose description cannot be read (its ``error`` says why).
+
+    Args:
+        progress: wraps the list of names read when the cache is cold (e.g. a progress bar).
     """
     key = _cache_key()
     cache_file = _cache_directory() / f"robots-{key}.json"
@@ -265,7 +273,10 @@ def robot_summaries() -> dict[str, dict[str, Any]]:
     except (OSError, ValueError, KeyError):
         pass
     out: dict[str, dict[str, Any]] = {}
-    for name, spec in available_robots().items():
+    specs = available_robots()
+    names = list(specs)
+    for name in progress(names) if progress is not None else names:
+        spec = specs[name]
         entry: dict[str, Any]
         try:
             nq, nv = _kinematic_size(spec)

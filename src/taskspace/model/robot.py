@@ -29,6 +29,7 @@ and treated as unlimited (``inf``), with a warning. The floating base is never a
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import math
 import os
@@ -347,13 +348,21 @@ class Robot:
         _posture: RobotSpec | None,
     ) -> Robot:
         """A robot built by an example-robot-data loader of its own (SDF, reduced models...)."""
+        if getattr(loader, "sdf_filename", "") and not hasattr(pin, "buildModelFromSdf"):
+            raise ModelLoadError(
+                f"example-robot-data describes '{name}' with an SDF file "
+                f"({loader.sdf_filename}), and this Pinocchio {pin.__version__} is built without "
+                "SDF support (pin.buildModelFromSdf is missing); install a Pinocchio built with "
+                "SDFormat or load another robot"
+            )
         try:
-            with warnings.catch_warnings(), open(os.devnull, "w") as devnull:
+            with (
+                warnings.catch_warnings(),
+                open(os.devnull, "w") as devnull,
+                contextlib.redirect_stdout(devnull),
+            ):
                 warnings.simplefilter("ignore")
-                import contextlib
-
-                with contextlib.redirect_stdout(devnull):
-                    inst = loader()
+                inst = loader()
         except Exception as exc:  # any failure of the third-party loader
             raise ModelLoadError(
                 f"example-robot-data cannot load '{name}': {type(exc).__name__}: {exc}"
@@ -512,7 +521,7 @@ class Robot:
         linear = np.isin(unbounded, np.asarray(linear_q, dtype=int))
         self._unbounded_angles = unbounded[~linear]
         self._unbounded_lengths = np.concatenate(
-            [unbounded[linear], np.asarray(self._free_translations, dtype=int)]
+            [np.asarray(self._free_translations, dtype=int), unbounded[linear]]
         ).astype(int)
 
     def _posture_into_limits(self, q: FloatArray) -> FloatArray:
@@ -795,12 +804,6 @@ class Robot:
         hi = self.model.upperPositionLimit
         idx = self._limited_q
         q[idx] = rng.uniform(lo[idx], hi[idx])
-        if self._unbounded_angles.size:
-            q[self._unbounded_angles] = rng.uniform(-np.pi, np.pi, self._unbounded_angles.size)
-        if self._unbounded_lengths.size:
-            q[self._unbounded_lengths] = rng.uniform(
-                -base_box, base_box, self._unbounded_lengths.size
-            )
         for start, size, _ in self._normalized_blocks:
             if size == 2:
                 angle = rng.uniform(-np.pi, np.pi)
@@ -808,6 +811,13 @@ class Robot:
             else:
                 x = rng.normal(size=4)
                 q[start : start + 4] = x / np.linalg.norm(x)
+        # (this order keeps the random stream of earlier versions on fixed and floating bases)
+        if self._unbounded_lengths.size:
+            q[self._unbounded_lengths] = rng.uniform(
+                -base_box, base_box, self._unbounded_lengths.size
+            )
+        if self._unbounded_angles.size:
+            q[self._unbounded_angles] = rng.uniform(-np.pi, np.pi, self._unbounded_angles.size)
         return q
 
     def interpolate(self, q0: Any, q1: Any, t: float) -> FloatArray:
@@ -882,6 +892,13 @@ class Robot:
         """Add several obstacles."""
         for obstacle in obstacles:
             self.add_obstacle(obstacle)
+
+    def remove_obstacle(self, name: str) -> Obstacle:
+        """Remove the obstacle ``name`` (raises UnknownNameError listing the obstacles)."""
+        obstacle = self.world.remove(name)
+        self.collision_model.removeGeometryObject(name)
+        self.collision_data = self.collision_model.createData()
+        return obstacle
 
     def clear_obstacles(self) -> None:
         """Remove every obstacle."""

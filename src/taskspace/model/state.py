@@ -32,14 +32,14 @@ class State:
     ``Jdot v``). Every feature then reads from it; per-frame Jacobians are cached until the
     next update.
 
-    Invariants (by construction): ``q``, ``v``, ``robot``, ``data`` and ``collision_data``
-    are read-only. ``q`` and ``v`` are private copies whose buffers cannot be made writable
-    again, so the kinematics always belong to the ``q`` and ``v`` the state reports: the
-    only way to change them is :meth:`update`, which recomputes everything. ``data`` is the
-    ``pin.Data`` of ``robot.model`` made by this state; it cannot be replaced (a ``Data`` of
-    another model would make Pinocchio and the compiled kernels write out of bounds). The
-    collision data follow the robot's obstacle world by its
-    :attr:`~taskspace.model.World.version`.
+    Invariants (by construction): ``q``, ``v``, ``robot`` and ``data`` are read-only;
+    ``collision_data`` accepts only a data of the robot's collision model. ``q`` and ``v``
+    are private copies whose buffers cannot be made writable again, so the kinematics always
+    belong to the ``q`` and ``v`` the state reports: the only way to change them is
+    :meth:`update`, which recomputes everything. ``data`` is the ``pin.Data`` of
+    ``robot.model`` made by this state; it cannot be replaced (a ``Data`` of another model
+    would make Pinocchio and the compiled kernels write out of bounds). The collision data
+    follow the robot's obstacle world by its :attr:`~taskspace.model.World.version`.
 
     Thread safety: a state is a workspace and is not thread-safe; use one state per thread
     (reading the same state from several threads without updating it is safe).
@@ -106,10 +106,28 @@ class State:
         doc="The ``pin.Data`` of ``robot.model`` holding the kinematics (read-only; do not "
         "pass it to Pinocchio functions that modify it).",
     )
+
+    def _set_collision_data(self, value: Any) -> None:
+        geom = self._robot.collision_model
+        if (
+            not isinstance(value, pin.GeometryData)
+            or len(value.oMg) != geom.ngeoms
+            or len(value.distanceResults) != len(geom.collisionPairs)
+        ):
+            raise InvalidInputError(
+                "State.collision_data must be a pin.GeometryData of this robot's collision "
+                f"model ({geom.ngeoms} geometries, {len(geom.collisionPairs)} pairs): use "
+                "robot.collision_model.createData()"
+            )
+        self._collision_data = value
+        self._collision_version = self._robot.world.version
+        self._distances_done = False
+
     collision_data = property(
         operator.attrgetter("_collision_data"),
-        lambda self, value: _read_only("collision_data"),
-        doc="The ``pin.GeometryData`` of ``robot.collision_model`` (read-only).",
+        _set_collision_data,
+        doc="The ``pin.GeometryData`` of ``robot.collision_model`` used by the distance "
+        "queries; it may be replaced only by another data of the same collision model.",
     )
 
     # ------------------------------------------------------------------ update
@@ -131,24 +149,21 @@ class State:
             q = np.array(q, dtype=float)
             if v is not None:
                 v = np.array(v, dtype=float)
-        if q.base is not None:  # a view of the caller's array: take a copy of our own
-            q = q.copy()
-        if v is not None and v.base is not None:
-            v = v.copy()
         data = self._data
         model = self._model
-        # Private copies made read-only for good: the buffer is locked and only a view is
-        # kept, and numpy refuses to make a view of a locked buffer writable again.
-        q.flags.writeable = False
-        q = q[:]
+        # ``q`` and ``v`` are private copies (check_configuration/check_velocity and
+        # np.array copy). They are made read-only for good: the buffer is locked and only a
+        # view of it is kept; numpy refuses to make a view of a locked buffer writable.
+        q.setflags(write=False)
+        q = q.view()
         if v is None:
             self._has_velocity = False
             v = self._a0
             _compute_joint_jacobians(model, data, q)
         else:
             self._has_velocity = True
-            v.flags.writeable = False
-            v = v[:]
+            v.setflags(write=False)
+            v = v.view()
             _forward_kinematics(model, data, q, v, self._a0)
             _compute_joint_jacobians(model, data)
         _update_frame_placements(model, data)
@@ -182,7 +197,10 @@ class State:
 
         The object follows the state: after :meth:`update` it holds the new pose.
         """
-        M = self._placements.get(frame_id)
+        try:
+            M = self._placements.get(frame_id)
+        except TypeError:  # unhashable: not an index (the check below says so)
+            M = None
         if M is None:
             frame_id = self._frame_index(frame_id)
             M = self._placements[frame_id] = self._data.oMf[frame_id]
@@ -193,7 +211,10 @@ class State:
 
         The linear rows give the velocity of the frame origin in world coordinates.
         """
-        J = self._cache_lwa.get(frame_id)
+        try:
+            J = self._cache_lwa.get(frame_id)
+        except TypeError:  # unhashable: not an index (the check below says so)
+            J = None
         if J is None:
             frame_id = self._frame_index(frame_id)
             J = _get_frame_jacobian(self._model, self._data, frame_id, LWA)
@@ -202,7 +223,10 @@ class State:
 
     def frame_jacobian_local(self, frame_id: int) -> FloatArray:
         """6 x nv Jacobian of a frame in its LOCAL coordinates (body twist)."""
-        J = self._cache_local.get(frame_id)
+        try:
+            J = self._cache_local.get(frame_id)
+        except TypeError:  # unhashable: not an index (the check below says so)
+            J = None
         if J is None:
             frame_id = self._frame_index(frame_id)
             J = _get_frame_jacobian(self._model, self._data, frame_id, LOCAL)
@@ -338,8 +362,8 @@ class State:
 
 def _frozen(array: FloatArray) -> FloatArray:
     """A read-only view of ``array`` whose buffer is locked (cannot be made writable)."""
-    array.flags.writeable = False
-    return array[:]
+    array.setflags(write=False)
+    return array.view()
 
 
 def _read_only(name: str) -> NoReturn:

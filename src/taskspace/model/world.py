@@ -20,7 +20,7 @@ import coal
 import numpy as np
 import pinocchio as pin
 
-from taskspace._validation import as_vector, check_positive
+from taskspace._validation import as_float_array, as_vector, check_positive
 from taskspace.errors import InvalidInputError, ModelLoadError, UnknownNameError
 
 
@@ -34,7 +34,7 @@ def as_se3(pose: Any, name: str = "pose") -> pin.SE3:
     """
     if isinstance(pose, pin.SE3):
         return pose.copy()
-    arr = np.asarray(pose, dtype=float)
+    arr = as_float_array(pose, name)  # refuses None, text, complex values, ragged nesting
     if arr.shape == (4, 4):
         if not np.all(np.isfinite(arr)):
             raise InvalidInputError(f"{name} has non-finite entries")

@@ -25,8 +25,10 @@ from taskspace.optimal_control.fitted_value_iteration import (
 from taskspace.optimal_control.grid import StateGrid, geometric_axis, make_grid
 from taskspace.optimal_control.mdp import MDP, deterministic_mdp, grid_world, make_mdp, t_maze
 from taskspace.optimal_control.problems import (
+    CartPoleBalance,
     DoubleIntegrator,
     PendulumSwingUp,
+    cartpole_acceleration,
     min_time,
     min_time_switching_curve,
     wrap_angle,
@@ -34,6 +36,7 @@ from taskspace.optimal_control.problems import (
 
 __all__ = [
     "MDP",
+    "CartPoleBalance",
     "DPResult",
     "DPStatus",
     "DoubleIntegrator",
@@ -43,6 +46,7 @@ __all__ = [
     "PendulumSwingUp",
     "StateGrid",
     "ValueIterationOptions",
+    "cartpole_acceleration",
     "deterministic_mdp",
     "evaluate_policy",
     "finite_horizon_value_iteration",

@@ -124,3 +124,54 @@ class PendulumSwingUp:
         A = np.array([[0.0, 1.0], [self.gravity / self.length, 0.0]])
         B = np.array([[0.0], [1.0 / inertia]])
         return A, B
+
+
+def cartpole_acceleration(
+    q: FloatArray,
+    v: FloatArray,
+    force: FloatArray,
+    *,
+    cart_mass: float = 1.0,
+    pole_mass: float = 0.1,
+    length: float = 0.5,
+    gravity: float = STANDARD_GRAVITY,
+) -> FloatArray:
+    """Closed-form accelerations (N x 2) of the registry's cart-pole for batches of q, v (N x 2).
+
+    ``q = (x, theta)``, ``theta`` about +y with 0 upright, a point-mass pole:
+    ``M(q) a = [F, 0] - h`` with ``M = [[M + m, m l cos th], [m l cos th, m l^2]]`` and
+    ``h = [-m l sin(th) th'^2, -m g l sin th]`` (the URDF's ABA gives the same, see the tests).
+    """
+    th, w = q[:, 1], v[:, 1]
+    c, s = np.cos(th), np.sin(th)
+    m, M, l = pole_mass, cart_mass, length
+    m11 = (M + m) * np.ones_like(th)
+    m12 = m * l * c
+    m22 = m * l * l * np.ones_like(th)
+    b1 = force + m * l * s * w * w
+    b2 = m * gravity * l * s
+    det = m11 * m22 - m12 * m12
+    return np.stack([(m22 * b1 - m12 * b2) / det, (m11 * b2 - m12 * b1) / det], axis=1)
+
+
+@dataclass(frozen=True, kw_only=True)
+class CartPoleBalance:
+    """Cart-pole balancing: state ``(x, theta, x', theta')`` (0 upright), input the force [N].
+
+    Cost ``x^T diag(q) x + r F^2``.
+
+    Attributes:
+        q: state weights (4,); r: input weight.
+    """
+
+    q: tuple[float, float, float, float] = (1.0, 10.0, 0.1, 0.1)
+    r: float = 0.01
+
+    def dynamics(self, X: FloatArray, U: FloatArray) -> FloatArray:
+        """``[x', theta', x'', theta'']`` (K x 4)."""
+        acc = cartpole_acceleration(X[:, :2], X[:, 2:], U[:, 0])
+        return np.concatenate([X[:, 2:], acc], axis=1)
+
+    def cost(self, X: FloatArray, U: FloatArray) -> FloatArray:
+        """Quadratic cost [1/s] (K,)."""
+        return np.asarray(X**2 @ np.asarray(self.q) + self.r * U[:, 0] ** 2, dtype=float)

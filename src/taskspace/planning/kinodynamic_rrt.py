@@ -170,6 +170,10 @@ def kinodynamic_rrt(
 ) -> KinodynamicRRTResult:
     """Plan a collision-free car path from ``start`` to ``goal`` (slide 3:57).
 
+    Threads: Python code (the GIL runs one thread at a time; Ctrl-C interrupts it). Plans in
+    several threads give the results of sequential runs when each thread has its own ``rng``
+    (the car model and the world are only read).
+
     Args:
         model: the car (wheelbase, steering limit, footprint).
         world: obstacles; must have ``bounds`` (the sampling region).

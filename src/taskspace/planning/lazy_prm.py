@@ -297,6 +297,11 @@ def lazy_prm(
     roadmap (edge states carried over). Stops when a path is found, after ``max_rounds``
     rounds or when the time runs out.
 
+    Threads: Python code (the GIL runs one thread at a time; Ctrl-C interrupts it). Plans in
+    several threads give the results of sequential runs when each thread has its own space
+    (checker) and ``rng``; a compiled checker shared by threads is locked, a space's counters
+    and a Python checker are not.
+
     Args:
         space: the configuration space.
         start: ``q_start``.

@@ -290,6 +290,11 @@ def prm(
 ) -> tuple[PlannerResult, Roadmap]:
     """Build a roadmap and answer one query; ``time_s`` includes the construction.
 
+    Threads: Python code (the GIL runs one thread at a time; Ctrl-C interrupts it). Plans in
+    several threads give the results of sequential runs when each thread has its own space
+    (checker) and ``rng``; a compiled checker shared by threads is locked, a space's counters
+    and a Python checker are not.
+
     Returns:
         ``(result, roadmap)``; reuse the roadmap with :func:`prm_query`.
     """

@@ -64,6 +64,11 @@ def rrt(
 ) -> PlannerResult:
     """Grow an RRT from ``start``, towards ``goal`` if given (slides 3:39-3:40).
 
+    Threads: Python code (the GIL runs one thread at a time; Ctrl-C interrupts it). Plans in
+    several threads give the results of sequential runs when each thread has its own space
+    (checker) and ``rng``; a compiled checker shared by threads is locked, a space's counters
+    and a Python checker are not.
+
     Args:
         space: configuration space with validity checker and local planner.
         start: ``q_start`` (size d).

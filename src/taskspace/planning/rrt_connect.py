@@ -452,25 +452,26 @@ def _rrt_connect_native(
     if limits[1] != math.inf:
         remaining = max(0.0, limits[1] - (time.perf_counter() - t0))
     kernel_checks0 = kernel.checks
-    out = module.rrt_connect(
-        kernel,
-        q_start,
-        q_goal,
-        space.lower,
-        space.upper,
-        alpha,
-        delta,
-        delta_c,
-        opts.local_sampling,
-        opts.local_sigma,
-        opts.trapped_priority,
-        limits[0],
-        remaining,
-        seed & _SEED_MASK,
-    )
+    try:
+        out = module.rrt_connect(
+            kernel,
+            q_start,
+            q_goal,
+            space.lower,
+            space.upper,
+            alpha,
+            delta,
+            delta_c,
+            opts.local_sampling,
+            opts.local_sigma,
+            opts.trapped_priority,
+            limits[0],
+            remaining,
+            seed & _SEED_MASK,
+        )
+    finally:  # also after Ctrl-C: the checks the kernel made are counted
+        space.checker.checks += int(kernel.checks - kernel_checks0)
     status_code, path, iterations, edges, rejections, removed, turns, start_tree, goal_tree = out
-    checks = int(kernel.checks - kernel_checks0)
-    space.checker.checks += checks
     space.edge_checks += int(edges)
     status = _NATIVE_STATUS[int(status_code)]
     success = status is PlannerStatus.SOLVED

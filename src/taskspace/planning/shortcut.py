@@ -108,6 +108,11 @@ def shortcut_path(
     result is free at that resolution too, so a free path stays free and a colliding one is
     refused instead of being returned shortened.
 
+    Threads: Python code (the GIL runs one thread at a time; Ctrl-C interrupts it). Plans in
+    several threads give the results of sequential runs when each thread has its own space
+    (checker) and ``rng``; a compiled checker shared by threads is locked, a space's counters
+    and a Python checker are not.
+
     Args:
         space: configuration space (its local planner checks the segments).
         path: waypoints from start to goal, shape (m, d), collision-free.

@@ -17,6 +17,7 @@ from taskspace.qp.hierarchy import (
     HierarchyResult,
     HierarchySolver,
 )
+from taskspace.qp.kkt import KKTResiduals, kkt_residuals
 from taskspace.qp.problem import INF, QPProblem, RowBlock
 from taskspace.qp.result import QPResult, QPStatus
 from taskspace.qp.solver import (
@@ -34,6 +35,7 @@ __all__ = [
     "HierarchyOptions",
     "HierarchyResult",
     "HierarchySolver",
+    "KKTResiduals",
     "QPProblem",
     "QPResult",
     "QPSolver",
@@ -45,6 +47,7 @@ __all__ = [
     "hierarchical_step_exact",
     "hierarchical_step_regularized",
     "ik_step",
+    "kkt_residuals",
     "nullspace_projector",
     "pseudo_inverse",
     "stacked_step",

@@ -86,21 +86,20 @@ class HierarchyOptions:
             least-norm solution among a level's minimizers; bounds steps near singularities).
         rank_tolerance: singular values below ``rank_tolerance * max(1, s_max)`` count as zero
             when computing nullspaces.
-        solver: options of the per-level QP solvers. The default is daqp's active-set method
-            with proxsuite as fallback: the levels after the first hold earlier inequalities
-            (degenerate, many active), where proxsuite stalled at its iteration limit
-            (75-470 ms) and daqp solved in 0.2 ms (G1 inverse dynamics, measured). The
-            KKT tolerance is relative ``1e-6``: a level's Hessian is ``JZ^T JZ + damping``,
-            conditioned like ``|J|^2 / damping`` (1e10 with the default damping), and its
-            degenerate held inequalities leave complementarity residuals near ``1e-6``
-            relative where no backend reaches ``1e-9``.
+        solver: options of the per-level QP solvers. The default is daqp's active-set method,
+            then quadprog's dual active-set method, then proxsuite: the levels after the first
+            hold earlier inequalities (degenerate, many active), where proxsuite stalls at its
+            iteration limit and daqp sometimes stops at an inexact point or fails; quadprog
+            solves most of those. The KKT tolerance is relative ``1e-6``: a level's Hessian is
+            ``JZ^T JZ + damping``, conditioned like ``|J|^2 / damping`` (1e10 with the
+            default damping), where no backend reliably reaches ``1e-9``.
     """
 
     damping: float = 1e-9
     rank_tolerance: float = 1e-8
     solver: QPSolverOptions = field(
         default_factory=lambda: QPSolverOptions(
-            backend="daqp", fallbacks=("proxsuite",), eps_rel=1e-6
+            backend="daqp", fallbacks=("quadprog", "proxsuite"), eps_rel=1e-6
         )
     )
 
@@ -299,6 +298,7 @@ class HierarchySolver:
         order = [
             QPStatus.UNCONSTRAINED,
             QPStatus.SOLVED,
+            QPStatus.INACCURATE,
             QPStatus.MAX_ITERATIONS,
             QPStatus.RELAXED,
             QPStatus.FAILED,

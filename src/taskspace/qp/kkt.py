@@ -6,16 +6,20 @@ sign them (positive on an active upper bound, negative on an active lower bound)
 
 * primal residual ``r_p = max(|A x - b|, [l - C x]^+, [C x - u]^+, [lb - x]^+, [x - ub]^+)``;
 * dual residual ``r_d = |H x + g + A'y + C'z + z_box|`` (stationarity);
-* complementarity ``r_c = max_i(z_i^+ |u_i - (Cx)_i|, z_i^- |(Cx)_i - l_i|)``, box rows
-  included;
+* complementarity ``r_c = max_i min(|z_i|, s_i)`` with ``s_i`` the slack of the bound ``z_i``
+  pushes against (``u_i - (Cx)_i`` for ``z_i > 0``, ``(Cx)_i - l_i`` for ``z_i < 0``), box
+  rows included: a multiplier on a row that is not at its bound (the min-map residual of
+  nonlinear complementarity problems, which stays meaningful when degenerate active sets
+  make multipliers huge);
 * duality gap ``|x'Hx + g'x + b'y + u'z^+ - l'z^- + ub'z_box^+ - lb'z_box^-|``.
 
 A solution is accepted when ``r_p <= eps_abs + eps_rel s_p``, ``r_d <= eps_abs + eps_rel s_d``
-and ``r_c <= eps_abs + eps_rel s_c`` with the scales ``s_p = max(|x|, |b|, |Cx| on finite
-bounds)``, ``s_d = max(|Hx|, |g|, |A'y + C'z + z_box|)`` and ``s_c = max(1, |x'Hx|,
-|g'x|)`` (the scales of proxsuite's and OSQP's own stopping tests, with complementarity
-added: proxsuite's default test omits it and then stops at points whose multipliers belong to
-another active set).
+and ``r_c <= eps_abs + eps_rel max(s_p, s_d)`` with the scales ``s_p = max(|x|, |b|, |Cx|)``
+and ``s_d = max(|Hx|, |g|, |A'y + C'z + z_box|)`` (the scales of proxsuite's own primal and
+dual tests). Complementarity is what proxsuite's default test omits: it then stops at points
+whose multipliers belong to another active set. The duality gap is reported with its scale
+``max(1, |x'Hx|, |g'x|, |b'y|)``, not tested (huge multipliers of degenerate active sets
+make it large at exact solutions).
 """
 
 from __future__ import annotations
@@ -37,9 +41,9 @@ class KKTResiduals:
     Attributes:
         primal: largest constraint violation.
         dual: largest stationarity error (and multiplier sign error).
-        complementarity: largest product of a multiplier and its constraint's slack.
+        complementarity: largest ``min(|z_i|, slack_i)``.
         duality_gap: primal minus dual objective.
-        primal_scale, dual_scale, gap_scale: magnitudes the relative tolerance multiplies.
+        primal_scale, dual_scale, gap_scale: magnitudes the relative tolerances multiply.
     """
 
     primal: float
@@ -55,7 +59,7 @@ class KKTResiduals:
         return (
             self.primal <= eps_abs + eps_rel * self.primal_scale
             and self.dual <= eps_abs + eps_rel * self.dual_scale
-            and self.complementarity <= eps_abs + eps_rel * self.gap_scale
+            and self.complementarity <= eps_abs + eps_rel * max(self.primal_scale, self.dual_scale)
         )
 
     @staticmethod
@@ -75,7 +79,7 @@ def kkt_residuals(
     """KKT residuals of ``(x, y, z, z_box)`` for ``p`` (see the module docstring).
 
     A nonzero multiplier on an infinite bound (``+-INF``) is a sign error: it shows as a
-    complementarity residual of order ``|z| INF``.
+    complementarity residual ``|z|``.
 
     Args:
         p: the problem.
@@ -91,11 +95,13 @@ def kkt_residuals(
     primal = 0.0
     primal_scale = float(np.abs(x).max(initial=0.0))
     gap = xHx + gx
+    by = 0.0
     if p.n_eq:
         force += p.A.T.dot(y)
         primal = float(np.abs(p.A.dot(x) - p.b).max(initial=0.0))
         primal_scale = max(primal_scale, float(np.abs(p.b).max(initial=0.0)))
-        gap += float(p.b.dot(y))
+        by = float(p.b.dot(y))
+        gap += by
     if p.n_in:
         force += p.C.T.dot(z)
         values = np.concatenate((p.C.dot(x), x))
@@ -111,7 +117,7 @@ def kkt_residuals(
         primal_scale = max(primal_scale, float(np.abs(values[: p.n_in]).max(initial=0.0)))
     pushes_up = w > 0.0
     # slack of the bound each multiplier pushes against, times the multiplier
-    comp = float(np.abs(w * np.where(pushes_up, above, below)).max(initial=0.0))
+    comp = float(np.minimum(np.abs(w), np.abs(np.where(pushes_up, above, below))).max(initial=0.0))
     gap += float(np.where(pushes_up, hi, lo).dot(w))
     stationarity = Hx + p.g
     stationarity += force
@@ -126,7 +132,7 @@ def kkt_residuals(
             float(np.abs(p.g).max(initial=0.0)),
             float(np.abs(force).max(initial=0.0)),
         ),
-        gap_scale=max(1.0, abs(xHx), abs(gx)),
+        gap_scale=max(1.0, abs(xHx), abs(gx), abs(by)),
     )
 
 
@@ -144,9 +150,11 @@ def equality_kkt_residuals(
     gx = float(p.g.dot(x))
     stationarity = Hx + p.g
     gap = xHx + gx
+    by = 0.0
     if p.n_eq:
         stationarity += p.A.T.dot(y)
-        gap += float(p.b.dot(y))
+        by = float(p.b.dot(y))
+        gap += by
     return KKTResiduals(
         primal=primal,
         dual=float(_max(np.abs(stationarity))),
@@ -154,7 +162,7 @@ def equality_kkt_residuals(
         duality_gap=abs(gap),
         primal_scale=float(_max(np.abs(x))),
         dual_scale=max(float(_max(np.abs(Hx))), float(_max(np.abs(p.g)))),
-        gap_scale=max(1.0, abs(xHx), abs(gx)),
+        gap_scale=max(1.0, abs(xHx), abs(gx), abs(by)),
     )
 
 
@@ -185,13 +193,12 @@ def stacked_kkt_residuals(
     above = values - hi
     below = lo - values
     pushes_up = w > 0.0
-    comp = np.where(pushes_up, above, below)
-    comp *= w
+    comp = np.minimum(np.abs(w), np.abs(np.where(pushes_up, above, below)))
     gap = xHx + gx + float(np.where(pushes_up, hi, lo).dot(w))
     return KKTResiduals(
         primal=max(0.0, float(_max(above)), float(_max(below))),
         dual=float(_max(np.abs(stationarity))),
-        complementarity=float(_max(np.abs(comp))),
+        complementarity=float(_max(comp)),
         duality_gap=abs(gap),
         primal_scale=float(_max(np.abs(values))),
         dual_scale=max(float(_max(np.abs(Hx))), float(_max(np.abs(g)))),

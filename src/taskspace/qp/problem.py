@@ -30,7 +30,7 @@ class RowBlock:
 
 @dataclass
 class QPProblem:
-    """A QP ``min 1/2 x'Hx + g'x s.t. Ax = b, l <= Cx <= u, lb <= x <= ub``.
+    """A QP: ``min 1/2 xᵀHx + gᵀx`` subject to ``Ax = b``, ``l <= Cx <= u``, ``lb <= x <= ub``.
 
     Attributes:
         H: (n, n) symmetric positive semi-definite Hessian.

@@ -5,9 +5,14 @@ The proxsuite workspace is created once per problem structure ``(n, n_eq, n_in)`
 calling any backend the solver tries the unconstrained minimizer (one Cholesky
 factorization): when it already satisfies every constraint it is the optimum.
 
-When a backend cannot solve a problem, the next backend in ``fallbacks`` is tried; when the
-constraints truly conflict, the least-violating solution is computed (slack variables with a
-large penalty) and the result names the constraint blocks at fault.
+Every result is checked: a result is ``SOLVED`` only when its KKT residuals (primal, dual,
+complementarity, see :mod:`taskspace.qp.kkt`) at the returned point and multipliers meet
+``eps_abs + eps_rel * scale``. A backend that stops above them (``INACCURATE``) or at its
+iteration limit gets one refinement: the KKT system of the active set its point suggests,
+with primal-dual active-set corrections. When a backend still cannot solve a problem, the next
+backend in ``fallbacks`` is tried; when the constraints truly conflict, the least-violating
+solution is computed (slack variables with a large penalty) and the result names the
+constraint blocks at fault.
 """
 
 from __future__ import annotations

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from taskspace._validation import FloatArray
+from taskspace._validation import FloatArray, as_float_array
 from taskspace.errors import InvalidInputError
 
 logger = logging.getLogger(__name__)
@@ -24,7 +24,7 @@ logger = logging.getLogger(__name__)
 
 def rgb_int(color: Any) -> int:
     """An RGB(A) color in [0, 1] as the integer ``0xRRGGBB`` used by three.js."""
-    c = np.clip(np.asarray(color, dtype=float)[:3], 0.0, 1.0)
+    c = np.clip(parse_color(color)[:3], 0.0, 1.0)
     r, g, b = (round(255 * x) for x in c)
     return (r << 16) + (g << 8) + b
 
@@ -41,10 +41,7 @@ def parse_color(color: Any, name: str = "color") -> FloatArray:
         return np.array(
             [((value >> 16) & 255) / 255, ((value >> 8) & 255) / 255, (value & 255) / 255, 1.0]
         )
-    try:
-        arr = np.asarray(color, dtype=float).ravel()
-    except (TypeError, ValueError) as exc:
-        raise InvalidInputError(f"{name} must be RGB(A) numbers in [0, 1]: {exc}") from exc
+    arr = as_float_array(color, name).ravel()
     if arr.shape not in ((3,), (4,)) or not np.all(np.isfinite(arr)):
         raise InvalidInputError(f"{name} must be RGB or RGBA in [0, 1], got {color!r}")
     if arr.shape == (3,):

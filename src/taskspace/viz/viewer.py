@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pinocchio as pin
 
-from taskspace._validation import FloatArray, as_matrix, as_vector, check_positive
+from taskspace._validation import FloatArray, as_float_array, as_matrix, as_vector, check_positive
 from taskspace.errors import InvalidInputError, UnknownNameError
 from taskspace.model.world import World, as_se3
 from taskspace.viz.meshcat_geometry import (
@@ -206,7 +206,7 @@ class Viewer:
 
     # ------------------------------------------------------------------ markers
     def _marker(self, name: str) -> str:
-        if not name or not isinstance(name, str):
+        if not isinstance(name, str) or not name:
             raise InvalidInputError(f"marker name must be a non-empty string, got {name!r}")
         return f"markers/{_safe(name)}"
 
@@ -223,7 +223,7 @@ class Viewer:
         """
         import meshcat.geometry as mg
 
-        placement = as_se3(pose, "pose")
+        placement = as_se3(pose if isinstance(pose, pin.SE3) else as_float_array(pose, "pose"))
         length = check_positive(scale, "scale")
         r = length / 25.0 if radius is None else check_positive(radius, "radius")
         node = self._marker(name)

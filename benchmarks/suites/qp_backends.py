@@ -1,0 +1,193 @@
+"""QP backends on the project's own QPs, qpbenchmark style: success, time, KKT residuals.
+
+Problem sets (each a sequence of QPs copied from a real run):
+
+* ``ik panda`` / ``ik g1``: ``DifferentialIK`` steps (position task to random far targets,
+  posture, joint position and velocity limits: boxes active), random configurations;
+* ``id g1``: the inverse-dynamics QP of the G1 standing benchmark scene (CoM sway, hands,
+  posture, two 6-D contacts with cones, torque and joint limits) along its own rollout;
+* ``hierarchy g1``: every level QP of the 4-level cascade of the same scene with the hands
+  sent 0.78 m away (out of reach: the cascade's levels hold active inequalities; in the
+  benchmark scene itself the equality cascade already satisfies them and no QP is solved).
+
+Each backend solves each set in sequence with one persistent :class:`QPSolver` (the way the
+library uses it: proxsuite warm-started, preconditioner kept), without the unconstrained
+shortcut, fallbacks or relaxation, at the default tolerances (``eps_abs = eps_rel = 1e-9``;
+cascade levels ``eps_rel = 1e-6``). ``success`` counts results whose KKT residuals meet the
+tolerances (``SOLVED``); the residual columns are the largest over all results of the backend
+(solved or not), as qpbenchmark reports them.
+"""
+
+from __future__ import annotations
+
+import copy
+import time
+from typing import Any
+
+import numpy as np
+import pinocchio as pin
+
+from benchmarks.common import Row, Timing
+from benchmarks.suites import inverse_dynamics
+from taskspace import features as F
+from taskspace.constraints import JointPositionLimits, JointVelocityLimits
+from taskspace.ik import DifferentialIK, DifferentialIKOptions
+from taskspace.model import Robot
+from taskspace.qp import QPProblem, QPSolver, QPSolverOptions, QPStatus, available_backends
+from taskspace.qp.hierarchy import HierarchySolver
+from taskspace.tasks import Task
+
+SUITE = "qp_backends"
+IK_FRAMES = {"panda": "panda_hand_tcp", "g1": "left_rubber_hand"}
+
+
+def _snapshot(p: QPProblem) -> QPProblem:
+    """A copy that later in-place builds do not change."""
+    return QPProblem(
+        p.H.copy(),
+        p.g.copy(),
+        p.A.copy(),
+        p.b.copy(),
+        p.C.copy(),
+        p.l.copy(),
+        p.u.copy(),
+        p.lb.copy(),
+        p.ub.copy(),
+    )
+
+
+def ik_problems(name: str, count: int) -> list[QPProblem]:
+    """DifferentialIK QPs at random configurations toward random far targets."""
+    robot = Robot.load(name)
+    frame = IK_FRAMES[name]
+    rng = np.random.default_rng(0)
+    task = Task(F.Position(robot, frame), np.zeros(3), gain=1.0)
+    posture = Task(F.JointConfiguration(robot), robot.q_default, weight=1e-3)
+    ik = DifferentialIK(
+        robot,
+        [task, posture],
+        [JointPositionLimits(robot), JointVelocityLimits(robot)],
+        options=DifferentialIKOptions(native=False),
+    )
+    out = []
+    for _ in range(count):
+        state = robot.state(robot.random_configuration(rng))
+        task.set_target(robot.frame_placement(robot.random_configuration(rng), frame).translation)
+        out.append(_snapshot(ik.build(state, 0.01)))
+    return out
+
+
+class _RecordingSolver(QPSolver):
+    """A QP solver that keeps a copy of every problem it is given."""
+
+    def __init__(self, options: QPSolverOptions, store: list[QPProblem]) -> None:
+        super().__init__(options)
+        self.store = store
+
+    def solve(self, problem: QPProblem) -> Any:
+        self.store.append(_snapshot(problem))
+        return super().solve(problem)
+
+
+class _RecordingHierarchy(HierarchySolver):
+    def __init__(self, store: list[QPProblem]) -> None:
+        super().__init__()
+        self.store = store
+
+    def _solver(self, k: int) -> QPSolver:
+        while len(self._solvers) <= k:
+            self._solvers.append(_RecordingSolver(self.options.solver, self.store))
+        return self._solvers[k]
+
+
+def id_problems(steps: int, hierarchical: bool) -> list[QPProblem]:
+    """The inverse-dynamics QPs (or cascade level QPs) along the benchmark scene's run."""
+    robot, ctrl, com = inverse_dynamics.scene(hierarchical)
+    store: list[QPProblem] = []
+    if hierarchical:
+        ctrl._hierarchy = _RecordingHierarchy(store)
+        for hand in ctrl.tasks[1:3]:
+            hand.set_target(hand.target * pin.SE3(np.eye(3), np.array([0.6, 0.0, 0.5])))
+    c0 = com.target.copy()
+    q, v = robot.q_default.copy(), np.zeros(robot.nv)
+    state = robot.state(q, v)
+    dt = inverse_dynamics.DT
+    for k in range(steps):
+        com.set_target(c0 + np.array([0.0, 0.04 * np.sin(np.pi * k * dt), 0.0]))
+        state.update(q, v)
+        if not hierarchical:
+            store.append(_snapshot(ctrl.build(state)))
+        res = ctrl.solve(state)
+        v = v + dt * res.a
+        q = pin.integrate(robot.model, q, dt * v)
+    return store
+
+
+def run_backend(backend: str, problems: list[QPProblem], eps_rel: float) -> dict[str, Any]:
+    """Solve the set in sequence with one persistent bare solver."""
+    solver = QPSolver(
+        QPSolverOptions(
+            backend=backend,
+            fallbacks=(),
+            relax_on_failure=False,
+            try_unconstrained=False,
+            eps_rel=eps_rel,
+        )
+    )
+    times = np.empty(len(problems))
+    solved = 0
+    primal = dual = gap = 0.0
+    statuses: dict[str, int] = {}
+    for i, p in enumerate(problems):
+        t0 = time.perf_counter()
+        r = solver.solve(p)
+        times[i] = time.perf_counter() - t0
+        solved += r.status is QPStatus.SOLVED
+        statuses[r.status.value] = statuses.get(r.status.value, 0) + 1
+        if np.isfinite(r.kkt.primal):
+            primal = max(primal, r.kkt.primal)
+            dual = max(dual, r.kkt.dual)
+            gap = max(gap, r.kkt.duality_gap)
+    return {
+        "times": times,
+        "success": f"{solved}/{len(problems)}",
+        "primal": primal,
+        "dual": dual,
+        "gap": gap,
+        "statuses": statuses,
+    }
+
+
+def run(quick: bool) -> list[Row]:
+    """Every available backend on every problem set."""
+    n = 20 if quick else 200
+    sets = {
+        "ik panda": (ik_problems("panda", n), 1e-9),
+        "ik g1": (ik_problems("g1", n), 1e-9),
+        "id g1": (id_problems(n, hierarchical=False), 1e-9),
+        "hierarchy g1": (id_problems(max(n // 4, 5), hierarchical=True), 1e-6),
+    }
+    rows = []
+    for scene, (problems, eps_rel) in sets.items():
+        if not problems:
+            rows.append(Row(SUITE, scene, "-", None, note="no QP reached the backends"))
+            continue
+        for backend in available_backends():
+            out = run_backend(backend, copy.copy(problems), eps_rel)
+            rows.append(
+                Row(
+                    SUITE,
+                    scene,
+                    backend,
+                    Timing.from_samples(out["times"]),
+                    {
+                        "success": out["success"],
+                        "max_primal_residual": f"{out['primal']:.1e}",
+                        "max_dual_residual": f"{out['dual']:.1e}",
+                        "max_duality_gap": f"{out['gap']:.1e}",
+                    },
+                    ratio_to="daqp",
+                    note=f"{len(problems)} QPs; statuses {out['statuses']}",
+                )
+            )
+    return rows

@@ -1,0 +1,74 @@
+"""Grasping: contact models, grasp matrix, force and form closure, quality, contact forces."""
+
+from taskspace.grasping.closure import (
+    ClosureResult,
+    closure_hull,
+    closure_lp,
+    force_closure,
+    form_closure,
+)
+from taskspace.grasping.contact import (
+    ContactType,
+    GraspContact,
+    contact_edges,
+    contact_frame,
+    grasp_radius,
+    primitive_wrenches,
+)
+from taskspace.grasping.contact_forces import ContactForces, balance_forces
+from taskspace.grasping.grasp_matrix import grasp_matrix, hand_jacobian
+from taskspace.grasping.object_mesh import TriangleMesh, box_mesh, cylinder_mesh, sphere_mesh
+from taskspace.grasping.quality import (
+    GraspQuality,
+    epsilon_l1,
+    epsilon_linf,
+    grasp_quality,
+    minimal_closure_subset,
+    task_wrench_scale,
+    wrench_space_l1,
+    wrench_space_linf,
+)
+from taskspace.grasping.synthesis import (
+    AntipodalOptions,
+    GraspCandidates,
+    PlacedGrasp,
+    grasp_tool_pose,
+    place_grasps,
+    sample_antipodal_grasps,
+)
+
+__all__ = [
+    "AntipodalOptions",
+    "ClosureResult",
+    "ContactForces",
+    "ContactType",
+    "GraspCandidates",
+    "GraspContact",
+    "GraspQuality",
+    "PlacedGrasp",
+    "TriangleMesh",
+    "balance_forces",
+    "box_mesh",
+    "closure_hull",
+    "closure_lp",
+    "contact_edges",
+    "contact_frame",
+    "cylinder_mesh",
+    "epsilon_l1",
+    "epsilon_linf",
+    "force_closure",
+    "form_closure",
+    "grasp_matrix",
+    "grasp_quality",
+    "grasp_radius",
+    "grasp_tool_pose",
+    "hand_jacobian",
+    "minimal_closure_subset",
+    "place_grasps",
+    "primitive_wrenches",
+    "sample_antipodal_grasps",
+    "sphere_mesh",
+    "task_wrench_scale",
+    "wrench_space_l1",
+    "wrench_space_linf",
+]

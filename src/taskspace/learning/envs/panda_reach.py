@@ -1,0 +1,99 @@
+"""Gymnasium reaching task on the Panda: joint-velocity actions, collision-aware termination.
+
+Each step applies joint velocities ``v = a * v_max`` (``a`` in ``[-1, 1]^7``) for ``dt``, with
+``q`` kept inside the joint limits. Observation ``[q (7), p_tcp (3), p_target (3)]`` [rad, m];
+reward ``-|p_tcp - p_target| - 0.01 |a|^2``; the episode terminates with ``+10`` when the tool
+centre point is within ``tolerance`` of the target, and with ``-10`` when the configuration is
+in collision (self-collision or obstacles of ``robot.world``, exact mesh checks of
+:class:`taskspace.planning.collision_checker.CollisionChecker`).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from taskspace.errors import InvalidInputError
+from taskspace.model.robot import Robot
+from taskspace.planning.collision_checker import CollisionChecker
+
+TARGET_LOW = np.array([0.3, -0.4, 0.2])
+TARGET_HIGH = np.array([0.7, 0.4, 0.7])
+
+
+class PandaReachEnv(gym.Env[np.ndarray, np.ndarray]):
+    """Panda reaching; registered as ``taskspace/PandaReach-v0`` (100 steps).
+
+    Args:
+        robot: a loaded ``panda`` (``None``: load it; loading takes seconds, so pass one robot
+            to many environments).
+        dt: control period [s]; tolerance: success distance [m].
+        render_mode: only ``None`` (no rendering yet).
+    """
+
+    metadata = {"render_modes": [], "render_fps": 10}  # noqa: RUF012
+
+    def __init__(
+        self,
+        robot: Robot | None = None,
+        dt: float = 0.1,
+        tolerance: float = 0.02,
+        render_mode: str | None = None,
+    ) -> None:
+        if render_mode is not None:
+            raise InvalidInputError(f"render_mode {render_mode!r} is not supported; use None")
+        self.robot = robot if robot is not None else Robot.load("panda")
+        if self.robot.nq != 7 or "panda_hand_tcp" not in self.robot.frame_names:
+            raise InvalidInputError("PandaReachEnv needs the registry's 'panda' robot (7 joints)")
+        self.checker = CollisionChecker(self.robot)
+        self.dt = float(dt)
+        self.tolerance = float(tolerance)
+        self.render_mode = render_mode
+        self.lower = self.robot.lower_limits
+        self.upper = self.robot.upper_limits
+        self.v_max = self.robot.velocity_limits
+        self.action_space = spaces.Box(-1.0, 1.0, (7,), np.float32)
+        low = np.concatenate([self.lower, [-2.0] * 3, TARGET_LOW]).astype(np.float32)
+        high = np.concatenate([self.upper, [2.0] * 3, TARGET_HIGH]).astype(np.float32)
+        self.observation_space = spaces.Box(low, high, dtype=np.float32)
+        self.q = self.robot.q_default.copy()
+        self.target = 0.5 * (TARGET_LOW + TARGET_HIGH)
+
+    def tcp(self) -> np.ndarray:
+        """Tool centre point position [m]."""
+        return np.asarray(self.robot.frame_placement(self.q, "panda_hand_tcp").translation)
+
+    def _obs(self) -> np.ndarray:
+        return np.concatenate([self.q, self.tcp(), self.target]).astype(np.float32)
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[np.ndarray, dict[str, Any]]:
+        """Default posture perturbed by up to 0.1 rad per joint; target uniform in a box."""
+        super().reset(seed=seed)
+        for _ in range(100):
+            q = self.robot.q_default + self.np_random.uniform(-0.1, 0.1, 7)
+            q = np.clip(q, self.lower, self.upper)
+            if self.checker.is_valid(q):
+                break
+        self.q = q
+        self.target = self.np_random.uniform(TARGET_LOW, TARGET_HIGH)
+        return self._obs(), {"distance": float(np.linalg.norm(self.tcp() - self.target))}
+
+    def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        """Move with the commanded joint velocities for ``dt``."""
+        a = np.clip(np.asarray(action, dtype=float).reshape(7), -1.0, 1.0)
+        self.q = np.clip(self.q + self.dt * a * self.v_max, self.lower, self.upper)
+        distance = float(np.linalg.norm(self.tcp() - self.target))
+        reward = -distance - 0.01 * float(a @ a)
+        collision = not self.checker.is_valid(self.q)
+        reached = distance < self.tolerance
+        if collision:
+            reward -= 10.0
+        elif reached:
+            reward += 10.0
+        info = {"distance": distance, "collision": collision, "success": reached and not collision}
+        return self._obs(), reward, bool(collision or reached), False, info

@@ -1,0 +1,75 @@
+"""A via-point task on DMP parameters: the policy-search benchmark of PoWER and PI^2.
+
+The policy parameters are the forcing-term weights of a :class:`DiscreteDMP` (d x num_basis,
+flattened); a rollout integrates the DMP and returns
+``-(w_via |y(t_via) - p_via|^2 + w_acc sum_k |y''_k|^2 dt)``. The rollout is deterministic
+(the seed is unused): exploration comes from the parameter perturbations of the method.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from taskspace._validation import FloatArray
+from taskspace.errors import InvalidInputError
+from taskspace.learning.dmp import DiscreteDMP
+from taskspace.learning.rollout import Episode
+
+
+@dataclass
+class ViaPointTask:
+    """Pass through ``via_point`` at ``via_time`` with a DMP.
+
+    Attributes:
+        dmp: the primitive whose weights are the parameters (its start, goal, tau are kept).
+        via_time: [s]; via_point: (d,); dt: integration step [s].
+        via_weight: weight of the squared via-point error [1/m^2].
+        acceleration_weight: weight of the integrated squared acceleration [s^3/m^2].
+    """
+
+    dmp: DiscreteDMP
+    via_time: float
+    via_point: FloatArray
+    dt: float = 0.01
+    via_weight: float = 1e3
+    acceleration_weight: float = 1e-4
+
+    @property
+    def num_parameters(self) -> int:
+        """``d num_basis``."""
+        return int(self.dmp.weights.size)
+
+    def _dmp(self, theta: FloatArray) -> DiscreteDMP:
+        th = np.asarray(theta, dtype=float).ravel()
+        if th.size != self.num_parameters or not np.all(np.isfinite(th)):
+            raise InvalidInputError(f"need {self.num_parameters} finite DMP weights, got {th.size}")
+        base = self.dmp
+        dmp = DiscreteDMP(
+            th.reshape(base.weights.shape), base.y0, base.goal, base.tau, base.options
+        )
+        dmp.initial_velocity = base.initial_velocity
+        return dmp
+
+    def trajectory(self, theta: FloatArray) -> FloatArray:
+        """Positions (K x d) of the DMP with weights ``theta``."""
+        return self._dmp(theta).rollout(self.dt, duration=self.dmp.tau).y
+
+    def via_error(self, theta: FloatArray) -> float:
+        """``|y(t_via) - p_via|`` [m]."""
+        y = self.trajectory(theta)
+        return float(np.linalg.norm(y[round(self.via_time / self.dt)] - self.via_point))
+
+    def rollout(self, theta: FloatArray, seed: int) -> Episode:
+        """Deterministic rollout (``seed`` unused)."""
+        traj = self._dmp(theta).rollout(self.dt, duration=self.dmp.tau)
+        err = traj.y[round(self.via_time / self.dt)] - np.asarray(self.via_point, dtype=float)
+        acc = float(np.sum(traj.ydd**2) * self.dt)
+        ret = -(self.via_weight * float(err @ err) + self.acceleration_weight * acc)
+        return Episode(
+            total_return=ret,
+            log_likelihood_gradient=np.zeros(self.num_parameters),
+            rewards=np.array([ret]),
+            steps=traj.time.size,
+        )

@@ -1,0 +1,374 @@
+"""Whole-body walking: LIPM CoM and swing-foot references tracked by the inverse-dynamics QP.
+
+The walk is a :class:`~taskspace.locomotion.footsteps.FootstepPlan` whose footsteps are the
+positions of the foot frames on the ground. Per contact phase:
+
+* the CoM reference (position, velocity, acceleration) comes from the preview controller on
+  the cart-table model at the robot's initial CoM height;
+* in single support the swing foot follows a :class:`SwingTrajectory` (position task with
+  feed-forward velocity and acceleration) and keeps its initial orientation turned by the
+  footstep yaw; the stance foot is a rigid 6-D contact (friction cone, CoP in the sole);
+* in double support both feet are contacts;
+* a pelvis orientation task (turning with the feet) and a posture task take the remaining
+  freedom.
+
+One :class:`~taskspace.control.InverseDynamicsQP` per contact set (both feet, left, right)
+computes the torques; the robot is simulated phase by phase with rigid contacts
+(:func:`~taskspace.control.simulate_with_contacts`), the contact set switched at lift-off and
+touchdown, a landing foot anchored where it touches down. The contacts, their CoP rectangles
+and the measured ZMP live in the plane of the foot frames at the start (for G1 the ankle-roll
+frames, 35 mm above the soles; for Talos the sole frames).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import pinocchio as pin
+
+from taskspace import features as F
+from taskspace._validation import FloatArray
+from taskspace.constraints import Contact6D
+from taskspace.control import InverseDynamicsOptions, InverseDynamicsQP, simulate_with_contacts
+from taskspace.errors import InvalidInputError
+from taskspace.locomotion.footsteps import (
+    Footstep,
+    FootstepPlan,
+    PhaseKind,
+    StepTiming,
+    footsteps_along_poses,
+)
+from taskspace.locomotion.lipm import CartTable
+from taskspace.locomotion.preview_control import PreviewController
+from taskspace.locomotion.support_polygon import SupportPolygon
+from taskspace.locomotion.swing_trajectory import SwingTrajectory
+from taskspace.locomotion.zmp import ContactWrench, zmp_from_wrenches
+from taskspace.locomotion.zmp_reference import zmp_reference
+from taskspace.tasks import Task
+
+
+@dataclass(frozen=True, kw_only=True)
+class WalkingOptions:
+    """Settings of :func:`walk`.
+
+    Attributes:
+        feet: ``(left, right)`` foot frames (z axis normal to the sole).
+        pelvis: frame whose orientation is held.
+        sole_half_length, sole_half_width: CoP rectangle of the contacts around the foot
+            frame origin [m].
+        friction: Coulomb coefficient of the contacts.
+        clearance: swing-foot apex height [m].
+        dt: simulation and control period [s].
+        com_kp, foot_kp, pelvis_kp, posture_kp: task stiffnesses [1/s^2].
+        foot_weight, pelvis_weight, posture_weight: task weights (the CoM task has 1).
+    """
+
+    feet: tuple[str, str] = ("left_ankle_roll_link", "right_ankle_roll_link")
+    pelvis: str = "pelvis"
+    sole_half_length: float = 0.05
+    sole_half_width: float = 0.025
+    friction: float = 0.8
+    clearance: float = 0.04
+    dt: float = 0.004
+    com_kp: float = 100.0
+    foot_kp: float = 400.0
+    pelvis_kp: float = 100.0
+    posture_kp: float = 30.0
+    foot_weight: float = 1.0
+    pelvis_weight: float = 0.1
+    posture_weight: float = 1e-3
+    qp: InverseDynamicsOptions = field(default_factory=InverseDynamicsOptions)
+
+
+@dataclass(frozen=True)
+class WalkingResult:
+    """A simulated walk.
+
+    Attributes:
+        success: the walk finished with every contact force inside its cone and the
+            measured ZMP inside the support polygon.
+        times: (T,) [s]; q: (T, nq); v: (T, nv); tau: (T, nv).
+        com: (T, 3) simulated CoM [m]; com_reference: (T, 3).
+        zmp: (T, 2) ZMP of the simulated contact forces [m].
+        zmp_margin: (T,) distance of the ZMP to the edge of the CoP rectangles' hull [m].
+        cone_violation: largest violation of a friction cone over the walk [N].
+        phases: (kind, start, end) of each simulated phase.
+        wrenches: per side (``"left"``, ``"right"``), (T, 6) simulated contact wrench in the
+            foot frame [N, N m]; zero while the foot swings.
+        control_times: (T,) wall time of each QP solve [s].
+        message: why the walk stopped early, if it did.
+    """
+
+    success: bool
+    times: FloatArray
+    q: FloatArray
+    v: FloatArray
+    tau: FloatArray
+    com: FloatArray
+    com_reference: FloatArray
+    zmp: FloatArray
+    zmp_margin: FloatArray
+    cone_violation: float
+    phases: list[tuple[str, float, float]]
+    wrenches: dict[str, FloatArray]
+    control_times: FloatArray
+    message: str = ""
+
+
+def plan_from_robot(
+    robot: Any,
+    q: Any,
+    n_steps: int,
+    *,
+    step_length: float = 0.1,
+    yaw_per_step: float = 0.0,
+    feet: tuple[str, str] = ("left_ankle_roll_link", "right_ankle_roll_link"),
+    timing: StepTiming | None = None,
+) -> FootstepPlan:
+    """A walk from the robot's current feet: ``n_steps`` steps (the last closes the feet).
+
+    The body advances ``step_length`` [m] and turns ``yaw_per_step`` [rad] per step; the
+    feet keep their current lateral distance.
+    """
+    if n_steps < 2:
+        raise InvalidInputError(f"a walk needs n_steps >= 2, got {n_steps}")
+    pl = robot.frame_placement(q, feet[0]).translation
+    pr = robot.frame_placement(q, feet[1]).translation
+    width = float(np.linalg.norm(pl[:2] - pr[:2]))
+    mid = 0.5 * (pl[:2] + pr[:2])
+    poses = [(mid[0], mid[1], 0.0)]
+    for _ in range(n_steps - 1):
+        x, y, yaw = poses[-1]
+        yaw_next = yaw + yaw_per_step
+        heading = 0.5 * (yaw + yaw_next)
+        poses.append(
+            (x + step_length * math.cos(heading), y + step_length * math.sin(heading), yaw_next)
+        )
+    first = "left" if yaw_per_step > 0 else "right"
+    return footsteps_along_poses(
+        np.array(poses), step_width=width, first_swing=first, timing=timing
+    )
+
+
+class _PhaseControl:
+    """``tau = control(t, q, v)`` of one contact phase (``t`` from the phase start)."""
+
+    def __init__(
+        self,
+        qp: InverseDynamicsQP,
+        state: Any,
+        com_task: Task,
+        com_reference: Callable[[float], tuple[FloatArray, FloatArray, FloatArray]],
+        start: float,
+        swing: SwingTrajectory | None,
+        swing_tasks: dict[str, Task],
+        log: list[float],
+    ) -> None:
+        self.qp, self.state, self.com_task = qp, state, com_task
+        self.com_reference, self.start = com_reference, start
+        self.swing, self.swing_tasks, self.log = swing, swing_tasks, log
+
+    def __call__(self, t: float, q: FloatArray, v: FloatArray) -> FloatArray:
+        c, cd, cdd = self.com_reference(self.start + t)
+        self.com_task.set_target(c)
+        self.com_task.set_reference(cd, cdd)
+        if self.swing is not None:
+            s = self.swing.sample([t])
+            task = self.swing_tasks[self.swing.land.side]
+            task.set_target(s.position[0])
+            task.set_reference(s.velocity[0], s.acceleration[0])
+        self.state.update(q, v)
+        t0 = time.perf_counter()
+        res = self.qp.solve(self.state)
+        self.log.append(time.perf_counter() - t0)
+        return np.asarray(res.tau)
+
+
+def _yaw_rotation(yaw: float) -> FloatArray:
+    return np.asarray(pin.rpy.rpyToMatrix(0.0, 0.0, yaw))
+
+
+def walk(robot: Any, plan: FootstepPlan, options: WalkingOptions | None = None) -> WalkingResult:
+    """Simulate ``robot`` walking ``plan`` from its default posture (see the module docstring)."""
+    opts = options or WalkingOptions()
+    q0 = robot.q_default.copy()
+    v0 = np.zeros(robot.nv)
+    state = robot.state(q0, v0)
+    c0 = np.asarray(state.com()).copy()
+    foot_frames = {"left": opts.feet[0], "right": opts.feet[1]}
+    foot0 = {s: robot.frame_placement(q0, f) for s, f in foot_frames.items()}
+    ground = {s: float(foot0[s].translation[2]) for s in foot0}
+    # CoM reference from preview control of the ZMP reference
+    model = CartTable(com_height=float(c0[2] - np.mean(list(ground.values()))), dt=opts.dt)
+    n = math.ceil(plan.duration / opts.dt) + 1
+    sample_t = opts.dt * np.arange(n)
+    ref = zmp_reference(plan, sample_t)
+    init = np.zeros((3, 2))
+    init[0] = c0[:2]
+    lipm = PreviewController(model).simulate(ref, init)
+
+    def com_reference(t: float) -> tuple[FloatArray, FloatArray, FloatArray]:
+        k = min(round(t / opts.dt), n - 1)
+        return (
+            np.array([*lipm.com[k], c0[2]]),
+            np.array([*lipm.com_velocity[k], 0.0]),
+            np.array([*lipm.com_acceleration[k], 0.0]),
+        )
+
+    com_task = Task(F.CenterOfMass(robot), c0, kp=opts.com_kp, name="com")
+    pelvis_task = Task(
+        F.Orientation(robot, opts.pelvis),
+        weight=opts.pelvis_weight,
+        kp=opts.pelvis_kp,
+        name="pelvis",
+    )
+    pelvis0 = robot.frame_placement(q0, opts.pelvis).rotation.copy()
+    posture = Task(F.JointConfiguration(robot), q0, weight=opts.posture_weight, kp=opts.posture_kp)
+    swing_pos = {
+        s: Task(F.Position(robot, f), weight=opts.foot_weight, kp=opts.foot_kp, name=f"{s}_pos")
+        for s, f in foot_frames.items()
+    }
+    swing_rot = {
+        s: Task(F.Orientation(robot, f), weight=opts.foot_weight, kp=opts.foot_kp, name=f"{s}_rot")
+        for s, f in foot_frames.items()
+    }
+    contacts = {
+        s: Contact6D(
+            robot,
+            f,
+            half_length=opts.sole_half_length,
+            half_width=opts.sole_half_width,
+            friction=opts.friction,
+        )
+        for s, f in foot_frames.items()
+    }
+    controllers: dict[tuple[str, ...], InverseDynamicsQP] = {}
+
+    def controller_for(stance: tuple[str, ...]) -> InverseDynamicsQP:
+        if stance not in controllers:
+            swing = [s for s in ("left", "right") if s not in stance]
+            tasks = [com_task, pelvis_task, posture]
+            for s in swing:
+                tasks += [swing_pos[s], swing_rot[s]]
+            controllers[stance] = InverseDynamicsQP(
+                robot, tasks, [contacts[s] for s in stance], opts.qp
+            )
+        return controllers[stance]
+
+    t_all, q_all, v_all, tau_all, com_all, cref_all, zmp_all, margin_all = ([] for _ in range(8))
+    control_times: list[float] = []
+    wrench_log: dict[str, list[FloatArray]] = {"left": [], "right": []}
+    phases_done: list[tuple[str, float, float]] = []
+    worst_cone = -np.inf
+    q, v = q0, v0
+    message = ""
+    for phase in plan.phases():
+        stance_sides = tuple(f.side for f in phase.stance)
+        qp = controller_for(stance_sides)
+        swing_traj = None
+        if phase.kind is PhaseKind.SINGLE_SUPPORT and phase.swing is not None:
+            lift, land = phase.swing
+            side = land.side
+            swing_traj = SwingTrajectory(
+                Footstep(side, lift.x, lift.y, lift.yaw),
+                land,
+                phase.end - phase.start,
+                clearance=opts.clearance,
+                lift_height=ground[side],
+                land_height=ground[side],
+            )
+            swing_rot[side].set_target(_yaw_rotation(land.yaw) @ foot0[side].rotation)
+            swing_rot[side].set_reference(np.zeros(3), np.zeros(3))
+        # the pelvis turns with the feet (mean heading of the feet at the end of the phase)
+        feet_end = {f.side: f for f in phase.stance}
+        if phase.swing is not None:
+            feet_end[phase.swing[1].side] = phase.swing[1]
+        heading = math.atan2(
+            sum(math.sin(f.yaw) for f in feet_end.values()),
+            sum(math.cos(f.yaw) for f in feet_end.values()),
+        )
+        pelvis_task.set_target(_yaw_rotation(heading) @ pelvis0)
+        t_phase0 = phase.start
+
+        control = _PhaseControl(
+            qp, state, com_task, com_reference, t_phase0, swing_traj, swing_pos, control_times
+        )
+
+        duration = phase.end - phase.start
+        roll = simulate_with_contacts(
+            robot,
+            control,
+            q,
+            v,
+            duration,
+            opts.dt,
+            [contacts[s] for s in stance_sides],
+        )
+        phases_done.append((phase.kind.value, phase.start, phase.end))
+        worst_cone = max(worst_cone, *roll.cone_violations.values())
+        for side in ("left", "right"):
+            frame = foot_frames[side]
+            wrench_log[side].append(
+                roll.forces[frame] if side in stance_sides else np.zeros((len(roll.t), 6))
+            )
+        for k in range(len(roll.t)):
+            wrenches = []
+            pts = []
+            for s in stance_sides:
+                frame = foot_frames[s]
+                M = robot.frame_placement(roll.q[k], frame)
+                wrenches.append(ContactWrench.from_local(M, roll.forces[frame][k]))
+                corners = np.array(
+                    [
+                        [sx * opts.sole_half_length, sy * opts.sole_half_width, 0.0]
+                        for sx in (-1, 1)
+                        for sy in (-1, 1)
+                    ]
+                )
+                pts.append(corners @ M.rotation.T + M.translation)
+            try:
+                z = zmp_from_wrenches(wrenches, height=float(np.mean(list(ground.values()))))[:2]
+            except InvalidInputError:
+                z = np.full(2, np.nan)
+            zmp_all.append(z)
+            margin_all.append(SupportPolygon.from_points(np.vstack(pts)).margin(z))
+            cref_all.append(com_reference(t_phase0 + roll.t[k])[0])
+        t_all.append(t_phase0 + roll.t)
+        q_all.append(roll.q)
+        v_all.append(roll.v)
+        tau_all.append(roll.tau)
+        com_all.append(roll.com)
+        q, v = roll.q[-1], roll.v[-1]
+        if not np.isfinite(q).all() or roll.com[-1, 2] < 0.5 * c0[2]:
+            message = (
+                f"the robot fell during the {phase.kind.value} phase at t = {phase.start:.2f} s"
+            )
+            break
+    margins = np.array(margin_all)
+    ok = (
+        not message
+        and worst_cone <= 1e-6
+        and bool(np.all(np.isfinite(margins)))
+        and float(margins.min()) >= -1e-6
+    )
+    return WalkingResult(
+        success=ok,
+        times=np.concatenate(t_all),
+        q=np.vstack(q_all),
+        v=np.vstack(v_all),
+        tau=np.vstack(tau_all),
+        com=np.vstack(com_all),
+        com_reference=np.array(cref_all),
+        zmp=np.array(zmp_all),
+        zmp_margin=margins,
+        cone_violation=float(worst_cone),
+        phases=phases_done,
+        wrenches={side: np.vstack(w) for side, w in wrench_log.items()},
+        control_times=np.array(control_times),
+        message=message,
+    )

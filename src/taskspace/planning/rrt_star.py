@@ -1,0 +1,357 @@
+"""RRT* and informed RRT*: asymptotically optimal, anytime sampling-based planning.
+
+RRT* (Karaman and Frazzoli 2011) grows an RRT but connects each new node ``x_new`` to the
+neighbour that gives it the least cost-to-come, then rewires every neighbour whose cost drops
+when reached through ``x_new``. The neighbours are the ``k_n = k (log n)`` nearest nodes with
+``k > e (1 + 1/d)``, or those within ``r_n = min(gamma (log n / n)^(1/d), eta)`` with
+``gamma > gamma* = 2 (1 + 1/d)^(1/d) (mu(X_free) / zeta_d)^(1/d)``; either way the best path
+converges to the optimum almost surely. Informed RRT* (Gammell, Srinivasa and Barfoot 2014), once a
+path of cost ``c_best`` exists, samples only the prolate hyperspheroid with foci ``start``
+and ``goal`` and transverse diameter ``c_best``: the only states that can improve the path.
+
+Both are anytime: they run to the time or iteration limit and return the best path found,
+with its cost over time in ``log``. The cost is the path length in the space's Euclidean
+metric.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import time
+from dataclasses import dataclass
+from typing import Any, Protocol, runtime_checkable
+
+import numpy as np
+
+from taskspace._validation import check_count, check_positive, check_seed, check_time_limit
+from taskspace.errors import InvalidInputError
+from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray, path_length
+from taskspace.planning.planner_result import PlannerResult, PlannerStatus, Tree
+
+
+@dataclass(frozen=True, kw_only=True)
+class RRTStarOptions:
+    """Settings of :func:`rrt_star`.
+
+    Attributes:
+        step_size: largest extension ``eta`` [rad or m].
+        goal_bias: probability of sampling the goal (before a solution exists).
+        gamma_factor: ``gamma = gamma_factor * gamma*`` (must exceed 1 for the guarantee).
+        informed: sample the informed set once a solution exists (informed RRT*).
+        max_iterations: iterations (an integer >= 0); with no time limit it must be finite.
+        time_limit_s: wall-clock budget [s] (``None`` or ``math.inf`` = none; NaN refused).
+        seed: random seed (an integer >= 0) used when no ``rng`` is passed.
+        stop_at_first: return as soon as a first solution exists (not anytime).
+        k_nearest: rewire the ``k_n = gamma_factor e (1 + 1/d) log n`` nearest nodes (the
+            k-nearest RRT*, as OMPL does by default) instead of those within ``r_n``; in high
+            dimensions the ball of radius ``r_n <= eta`` is almost always empty.
+    """
+
+    step_size: float = 0.5
+    goal_bias: float = 0.05
+    gamma_factor: float = 1.1
+    informed: bool = True
+    max_iterations: int = 5_000
+    time_limit_s: float | None = 1.0
+    seed: int = 0
+    stop_at_first: bool = False
+    k_nearest: bool = True
+
+
+def unit_ball_volume(d: int) -> float:
+    """``zeta_d``, the volume of the unit ball in ``d`` dimensions."""
+    return math.pi ** (d / 2) / math.gamma(d / 2 + 1)
+
+
+def informed_sample(
+    rng: np.random.Generator,
+    start: FloatArray,
+    goal: FloatArray,
+    c_best: float,
+    rotation: FloatArray,
+) -> FloatArray:
+    """A uniform sample of the prolate hyperspheroid ``|x - start| + |x - goal| <= c_best``."""
+    d = start.size
+    c_min = float(np.linalg.norm(goal - start))
+    radii = np.full(d, math.sqrt(max(c_best**2 - c_min**2, 0.0)) / 2)
+    radii[0] = c_best / 2
+    x = rng.standard_normal(d)
+    x *= rng.random() ** (1.0 / d) / np.linalg.norm(x)  # uniform in the unit ball
+    return rotation @ (radii * x) + (start + goal) / 2
+
+
+def _rotation_to_world(start: FloatArray, goal: FloatArray) -> FloatArray:
+    """``C`` with ``C e_1 = (goal - start) / |goal - start|`` (SVD construction of Gammell)."""
+    d = start.size
+    a1 = (goal - start) / np.linalg.norm(goal - start)
+    u, _, vt = np.linalg.svd(np.outer(a1, np.eye(d)[0]))
+    diag = np.ones(d)
+    diag[-1] = np.linalg.det(u) * np.linalg.det(vt.T)
+    return u @ np.diag(diag) @ vt
+
+
+@runtime_checkable
+class GoalRegion(Protocol):
+    """A set of goal configurations (OMPL's ``GoalSampleableRegion``).
+
+    ``contains(q)`` says whether ``q`` reaches the goal; ``sample(rng)`` returns a goal
+    configuration or ``None`` (a region that cannot be sampled is only recognised when the
+    tree reaches it). A pose within tolerances sampled by IK
+    (:class:`taskspace.ik.PoseGoalRegion`) or any feature within bounds fit this protocol.
+    """
+
+    def contains(self, q: FloatArray) -> bool:
+        """Whether ``q`` is a goal configuration."""
+
+    def sample(self, rng: np.random.Generator) -> FloatArray | None:
+        """A goal configuration, or ``None`` when none was found."""
+
+
+class _RRTStarTree:
+    """Nodes, parents, costs-to-come and children of the tree (grown by doubling)."""
+
+    def __init__(self, root: FloatArray) -> None:
+        d = root.size
+        self.nodes = np.empty((1024, d))
+        self.parents = np.full(1024, -1, dtype=np.int64)
+        self.cost = np.zeros(1024)
+        self.children: list[list[int]] = [[]]
+        self.nodes[0] = root
+        self.n = 1
+
+    def add(self, q: FloatArray, parent: int, cost: float) -> int:
+        if self.n == len(self.cost):
+            size = 2 * self.n
+            self.nodes = np.resize(self.nodes, (size, self.nodes.shape[1]))
+            self.parents = np.resize(self.parents, size)
+            self.cost = np.resize(self.cost, size)
+        i = self.n
+        self.nodes[i], self.parents[i], self.cost[i] = q, parent, cost
+        self.children.append([])
+        if parent >= 0:
+            self.children[parent].append(i)
+        self.n += 1
+        return i
+
+    def reparent(self, i: int, parent: int, cost: float) -> None:
+        self.children[int(self.parents[i])].remove(i)
+        self.parents[i] = parent
+        self.children[parent].append(i)
+        _propagate(i, cost - self.cost[i], self.cost, self.children)
+
+
+def _goal_states(space: ConfigurationSpace, goal: Any) -> tuple[list[FloatArray], Any]:
+    """Goal configurations (validated) and the goal region (or None)."""
+    if isinstance(goal, GoalRegion):
+        return [], goal
+    arr = np.asarray(goal, dtype=np.float64) if not isinstance(goal, np.ndarray) else goal
+    if arr.ndim == 2:
+        if arr.shape[0] == 0:
+            raise InvalidInputError("goal: an empty list of goal configurations")
+        return [space.check_endpoint(g, f"goal[{i}]") for i, g in enumerate(arr)], None
+    return [space.check_endpoint(goal, "goal")], None
+
+
+def rrt_star(
+    space: ConfigurationSpace,
+    start: Any,
+    goal: Any,
+    options: RRTStarOptions | None = None,
+    *,
+    rng: np.random.Generator | None = None,
+) -> PlannerResult:
+    """Plan a short collision-free path from ``start`` to a goal with (informed) RRT*.
+
+    Args:
+        space: configuration space with validity checker and local planner.
+        start: ``q_start`` (size d).
+        goal: one goal configuration (d,), several (k, d) (the path ends at whichever is
+            cheaper to reach), or a :class:`GoalRegion` (sampled for the goal bias; every
+            tree node inside it ends a candidate path).
+        options: planner settings.
+        rng: random generator (default: ``np.random.default_rng(options.seed)``).
+
+    Returns:
+        The best path found within the limits; ``log`` holds ``cost_times`` and ``costs``
+        (the best cost each time it improved), ``first_solution_s`` and the tree size.
+        Informed sampling is used with a single goal configuration only.
+
+    Raises:
+        PlanningError: start or goal outside the bounds or in collision.
+        InvalidInputError: invalid options.
+    """
+    opts = options or RRTStarOptions()
+    eta = check_positive(opts.step_size, "step_size")
+    limit = check_time_limit(opts.time_limit_s)
+    iterations = check_count(opts.max_iterations, "max_iterations")
+    if not 0.0 <= opts.goal_bias <= 1.0:
+        raise InvalidInputError(f"goal_bias must be in [0, 1], got {opts.goal_bias}")
+    check_positive(opts.gamma_factor, "gamma_factor")
+    rng = rng or np.random.default_rng(check_seed(opts.seed))
+    q_start = space.check_endpoint(start, "start")
+    goals, region = _goal_states(space, goal)
+    d = space.dim
+    volume = float(np.prod(space.upper - space.lower))
+    k_rrg = opts.gamma_factor * math.e * (1 + 1 / d)
+    gamma = (
+        opts.gamma_factor * 2 * (1 + 1 / d) ** (1 / d) * (volume / unit_ball_volume(d)) ** (1 / d)
+    )
+    checks0, edges0 = space.checks, space.edge_checks
+    t0 = time.perf_counter()
+
+    tree = _RRTStarTree(q_start)
+    goal_nodes: dict[int, int] = {}  # goal state index -> its tree node
+    region_nodes: list[int] = []
+    rotation = None
+    if opts.informed and region is None and len(goals) == 1:
+        if np.linalg.norm(goals[0] - q_start) > 0:
+            rotation = _rotation_to_world(q_start, goals[0])
+    if region is not None and region.contains(q_start):
+        region_nodes.append(0)
+
+    def best_goal() -> tuple[int, float]:
+        candidates = list(goal_nodes.values()) + region_nodes
+        if not candidates:
+            return -1, math.inf
+        i = min(candidates, key=lambda j: tree.cost[j])
+        return i, float(tree.cost[i])
+
+    cost_times: list[float] = []
+    costs: list[float] = []
+    status = PlannerStatus.ITERATION_LIMIT
+    it = 0
+    while it < iterations:
+        it += 1
+        if time.perf_counter() - t0 > limit:
+            status = PlannerStatus.TIME_LIMIT
+            break
+        _, c_best = best_goal()
+        target = None
+        if not math.isfinite(c_best) and rng.random() < opts.goal_bias:
+            if region is not None:
+                sampled = region.sample(rng)
+                if sampled is not None and space.within_bounds(sampled) and space.is_valid(sampled):
+                    goals.append(np.asarray(sampled, dtype=np.float64))
+                    target = goals[-1]
+            elif goals:
+                target = goals[int(rng.integers(len(goals)))]
+        if target is None and rotation is not None and math.isfinite(c_best):
+            for _ in range(100):  # rejection against the bounds
+                candidate = informed_sample(rng, q_start, goals[0], c_best, rotation)
+                if space.within_bounds(candidate):
+                    target = candidate
+                    break
+        if target is None:
+            target = space.sample_uniform(rng)
+        nodes = tree.nodes[: tree.n]
+        diff = nodes - target
+        near_i = int(np.einsum("ij,ij->i", diff, diff).argmin())
+        step = target - nodes[near_i]
+        length = math.sqrt(float(step @ step))
+        if length < 1e-12:
+            continue
+        x_new = nodes[near_i] + step * min(1.0, eta / length)
+        if not space.is_valid(x_new) or not space.motion_valid(nodes[near_i], x_new):
+            continue
+        n = tree.n
+        delta = nodes - x_new
+        dist = np.sqrt(np.einsum("ij,ij->i", delta, delta))
+        if opts.k_nearest:
+            k = min(n, math.ceil(k_rrg * math.log(n + 1)))
+            near = np.argpartition(dist, k - 1)[:k] if k < n else np.arange(n)
+        else:
+            radius = min(gamma * (math.log(n + 1) / (n + 1)) ** (1 / d), eta)
+            near = np.flatnonzero(dist <= radius)
+        # Choose the parent of least cost-to-come among the neighbours.
+        cost = tree.cost
+        best_parent = near_i
+        best_cost = cost[near_i] + dist[near_i]
+        for j in near[np.argsort(cost[near] + dist[near])]:
+            c = cost[j] + dist[j]
+            if c >= best_cost:
+                break
+            if j != near_i and space.motion_valid(nodes[j], x_new):
+                best_parent, best_cost = int(j), c
+                break
+        new = tree.add(x_new, best_parent, float(best_cost))
+        # Rewire the neighbours through x_new.
+        for j in near:
+            j = int(j)
+            c = best_cost + dist[j]
+            if j == best_parent or c >= tree.cost[j] - 1e-12:
+                continue
+            if space.motion_valid(x_new, tree.nodes[j]):
+                tree.reparent(j, new, float(c))
+        # Connect to the goals.
+        if region is not None and region.contains(x_new):
+            region_nodes.append(new)
+        for g, q_goal in enumerate(goals):
+            to_goal = float(np.linalg.norm(q_goal - x_new))
+            node = goal_nodes.get(g, -1)
+            if to_goal > eta or best_cost + to_goal >= (tree.cost[node] if node >= 0 else math.inf):
+                continue
+            if space.motion_valid(x_new, q_goal):
+                if node < 0:
+                    goal_nodes[g] = tree.add(q_goal, new, best_cost + to_goal)
+                else:
+                    tree.reparent(node, new, best_cost + to_goal)
+        _, c_now = best_goal()
+        if math.isfinite(c_now) and (not costs or c_now < costs[-1] - 1e-12):
+            cost_times.append(time.perf_counter() - t0)
+            costs.append(c_now)
+            if opts.stop_at_first:
+                status = PlannerStatus.SOLVED
+                break
+    elapsed = time.perf_counter() - t0
+    result_tree = Tree(tree.nodes[: tree.n].copy(), tree.parents[: tree.n].copy())
+    goal_node, _ = best_goal()
+    success = goal_node >= 0
+    path = result_tree.path_to(goal_node) if success else np.zeros((0, d))
+    log: dict[str, Any] = {
+        "tree_size": float(tree.n),
+        "first_solution_s": cost_times[0] if cost_times else math.inf,
+        "cost_times": cost_times,
+        "costs": costs,
+        "gamma": gamma,
+        "goal_states": float(len(goals)),
+    }
+    return PlannerResult(
+        success=success,
+        status=PlannerStatus.SOLVED if success else status,
+        path=path,
+        path_length=path_length(path) if success else math.inf,
+        iterations=it,
+        collision_checks=space.checks - checks0,
+        edge_checks=space.edge_checks - edges0,
+        time_s=elapsed,
+        trees=[result_tree],
+        log=log,
+    )
+
+
+def _propagate(root: int, delta: float, cost: FloatArray, children: list[list[int]]) -> None:
+    """Add ``delta`` to the cost-to-come of ``root`` and of its whole subtree."""
+    stack = [root]
+    while stack:
+        i = stack.pop()
+        cost[i] += delta
+        stack.extend(children[i])
+
+
+def interpolate(path: Any, resolution: float) -> FloatArray:
+    """The path with waypoints inserted every ``resolution`` [rad or m] at most.
+
+    Consecutive waypoints of the result are at most ``resolution`` apart (Euclidean); the
+    original waypoints are kept.
+    """
+    arr = np.atleast_2d(np.asarray(path, dtype=np.float64))
+    if arr.ndim != 2 or arr.shape[0] == 0 or not np.all(np.isfinite(arr)):
+        raise InvalidInputError(f"path must be a finite (m, d) array, got shape {arr.shape}")
+    step = check_positive(resolution, "resolution")
+    out = [arr[:1]]
+    for a, b in itertools.pairwise(arr):
+        k = max(1, math.ceil(float(np.linalg.norm(b - a)) / step - 1e-12))
+        t = np.arange(1, k + 1)[:, None] / k
+        out.append(a + t * (b - a))
+    return np.vstack(out)

@@ -1,0 +1,93 @@
+"""Whole-body walking of G1: LIPM CoM + swing feet through the inverse-dynamics QP, simulated
+with rigid contacts switched at lift-off and touchdown (references: the contact forces of
+the simulator, their friction cones, and the support polygon of the simulated feet)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from taskspace.locomotion.footsteps import StepTiming
+from taskspace.locomotion.whole_body_walking import plan_from_robot, walk
+from taskspace.locomotion.zmp import zmp_from_dynamics
+
+TIMING = StepTiming(
+    single_support=0.5,
+    double_support=0.15,
+    initial_double_support=0.7,
+    final_double_support=1.2,
+    weight_shift=0.35,
+)
+
+
+@pytest.fixture(scope="module")
+def short_walk(robot_loader):
+    robot = robot_loader("g1")
+    plan = plan_from_robot(robot, robot.q_default, 2, step_length=0.08, timing=TIMING)
+    return robot, plan, walk(robot, plan)
+
+
+@pytest.mark.slow
+def test_short_walk_keeps_zmp_in_polygon_and_forces_in_cones(short_walk):
+    _robot, plan, res = short_walk
+    assert res.success, res.message
+    assert res.cone_violation <= 1e-6
+    assert np.all(np.isfinite(res.zmp))
+    assert res.zmp_margin.min() >= -1e-6
+    assert [p[0] for p in res.phases].count("single_support") == 2
+    # the CoM follows the LIPM reference and the robot moved forward by the step
+    assert np.abs(res.com - res.com_reference).max() < 0.01
+    left, right = plan.final_feet()
+    middle = 0.5 * (left.position + right.position)
+    assert res.com[-1, :2] == pytest.approx(middle, abs=0.01)
+    assert middle[0] - 0.5 * (plan.initial[0].x + plan.initial[1].x) == pytest.approx(0.08)
+    assert np.abs(res.v[-1]).max() < 0.05  # at rest again
+
+
+@pytest.mark.slow
+def test_feet_land_on_their_footsteps(short_walk):
+    robot, plan, res = short_walk
+    left, right = plan.final_feet()
+    for foot, frame in ((left, "left_ankle_roll_link"), (right, "right_ankle_roll_link")):
+        p = robot.frame_placement(res.q[-1], frame).translation
+        assert p[:2] == pytest.approx(foot.position, abs=0.01)
+    # the swing foot lifted by about the clearance
+    z = np.array(
+        [robot.frame_placement(q, "right_ankle_roll_link").translation[2] for q in res.q[::5]]
+    )
+    assert np.ptp(z) == pytest.approx(0.04, abs=0.01)
+
+
+@pytest.mark.slow
+def test_measured_zmp_equals_zmp_of_simulated_motion(short_walk):
+    """The ZMP of the simulator's contact wrenches equals the one of the centroidal momentum
+    rate of the simulated motion (semi-implicit Euler: ``a_k = (v_{k+1} - v_k) / dt``)."""
+    robot, _plan, res = short_walk
+    height = robot.frame_placement(robot.q_default, "left_ankle_roll_link").translation[2]
+    checked = 0
+    for k in range(0, len(res.times) - 1, 23):
+        dt = res.times[k + 1] - res.times[k]
+        if dt < 1e-9:  # phase boundary: the same instant twice
+            continue
+        a = (res.v[k + 1] - res.v[k]) / dt
+        zmp = zmp_from_dynamics(robot, res.q[k], res.v[k], a, height=height)
+        assert zmp[:2] == pytest.approx(res.zmp[k], abs=1e-9)
+        checked += 1
+    assert checked > 20
+
+
+@pytest.mark.slow
+def test_force_transitions_at_lift_off_and_touchdown(short_walk):
+    """The load moves between the feet during double support: a foot is unloaded (down to
+    the contacts' minimum force) before it lifts, and loaded from it after touchdown."""
+    robot, _plan, res = short_walk
+    weight = robot.mass * 9.81
+    for kind, start, end in res.phases:
+        if kind != "single_support":
+            continue
+        before = np.searchsorted(res.times, start, side="left") - 1  # end of the double support
+        after = np.searchsorted(res.times, end, side="right")  # start of the next one
+        swing = "left" if res.wrenches["left"][before + 2, 2] == 0.0 else "right"
+        assert res.wrenches[swing][before, 2] < 0.02 * weight  # unloaded at lift-off
+        assert res.wrenches[swing][after, 2] < 0.02 * weight  # light at touchdown
+        assert res.wrenches[swing][after + 20, 2] > 0.05 * weight  # then takes load
