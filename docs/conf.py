@@ -108,3 +108,22 @@ import taskspace_api  # noqa: E402
 
 taskspace_api.write_pages()
 taskspace_api.write_slide_tables()
+
+
+def _stubs_off_the_toctree(app: object, doctree: object) -> None:
+    """Drop the hidden toctrees that ``autosummary :toctree:`` adds to the API pages.
+
+    The ~500 stub pages (one per exported object, ``:orphan:`` in
+    ``_templates/autosummary``) are reached through the autosummary tables' links. Kept in the
+    toctree, they would make furo render a navigation tree of every stub on every page: the
+    HTML writing grows quadratically with the number of pages.
+    """
+    from sphinx.ext.autosummary import autosummary_toc
+
+    for node in list(doctree.findall(autosummary_toc)):  # type: ignore[attr-defined]
+        node.parent.remove(node)
+
+
+def setup(app: object) -> None:
+    """Register :func:`_stubs_off_the_toctree` before the toctree collector reads the pages."""
+    app.connect("doctree-read", _stubs_off_the_toctree, priority=400)  # type: ignore[attr-defined]

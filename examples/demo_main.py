@@ -102,14 +102,10 @@ def main(argv: list[str] | None = None) -> int:
     )
     robot.check_limits(q)  # raises if a joint left its limits
 
-    html = Path(args.html) if args.html else None
-    png = Path(args.png) if args.png else None
-    if args.save:
-        out = Path(args.save)
-        out.mkdir(parents=True, exist_ok=True)
-        html = html or out / "demo_main.html"
-        png = png or out / "demo_main.png"
-    live = html is None and png is None and not args.no_viewer and not fast()
+    # --save DIR gets both files; --html/--png write (also) where they say
+    htmls = [Path(p) for p in (args.html, args.save and Path(args.save) / "demo_main.html") if p]
+    pngs = [Path(p) for p in (args.png, args.save and Path(args.save) / "demo_main.png") if p]
+    live = not htmls and not pngs and not args.no_viewer and not fast()
 
     viewer = Viewer(robot, qs[-1], live=live)
     viewer.add_obstacles()
@@ -117,15 +113,23 @@ def main(argv: list[str] | None = None) -> int:
     viewer.add_frame("goal", goal, scale=0.12)
     viewer.add_frame_trace("tcp_trace", np.array(qs[::2]), frame=tcp)
     viewer.play(np.array(qs[::2]), dt=2 * dt, autoplay=False)
-    if html is not None:
-        viewer.save_html(html, title="taskspace demo: Panda IK around an obstacle")
-        print(f"wrote {html}")
-    if png is not None:
-        viewer.snapshot(png)
-        print(f"wrote {png}")
+    page = viewer.static_html(title="taskspace demo: Panda IK around an obstacle") if htmls else ""
+    for html in htmls:
+        html.parent.mkdir(parents=True, exist_ok=True)
+        html.write_text(page, encoding="utf-8")
+        print(f"wrote {html.resolve()} ({len(page) / 1e6:.1f} MB)")
+    if pngs:
+        image = viewer.snapshot(pngs[0])
+        for png in pngs[1:]:
+            png.parent.mkdir(parents=True, exist_ok=True)
+            png.write_bytes(image)
+        for png in pngs:
+            print(f"wrote {png.resolve()}")
     if live:
         viewer.open()
-        print(f"meshcat viewer: {viewer.url}")
+        print(f"meshcat viewer: {viewer.url} (press Ctrl-C to stop)", flush=True)
+        viewer.wait_until_interrupted()
+        print("viewer stopped")
     return 0
 
 

@@ -18,6 +18,8 @@ peer() {  # peer NAME PACKAGES...
 peer pink pin-pink daqp proxsuite qpsolvers example-robot-data example-robot-data-loaders numpy
 peer placo placo example-robot-data numpy
 peer filterpy filterpy numpy
+peer dask distributed numpy
+peer drake drake numpy scipy
 peer toppra toppra numpy
 command -v apt-get >/dev/null && { dpkg -s liblapack3 >/dev/null 2>&1 || apt-get install -y -qq liblapack3 >/dev/null; } || true
 peer robotic robotic numpy

@@ -47,8 +47,8 @@ def mbm_plan(item: Any, rng: np.random.Generator, robot: Any) -> dict[str, Any]:
         space.check_endpoint(request.start, "start")
         space.check_endpoint(request.goal, "goal")
     except PlanningError:
-        return {"valid": False}
-    row: dict[str, Any] = {"valid": True}
+        return {"scenario": scenario, "problem": index, "seed": seed, "valid": False}
+    row: dict[str, Any] = {"scenario": scenario, "problem": index, "seed": seed, "valid": True}
     for name, native in (("compiled", True), ("python", False)):
         result = rrt_connect(
             space,
@@ -56,5 +56,9 @@ def mbm_plan(item: Any, rng: np.random.Generator, robot: Any) -> dict[str, Any]:
             request.goal,
             RRTConnectOptions(time_limit_s=1.0, seed=seed, native=native),
         )
-        row[name] = [bool(result.success), result.time_s, result.path_length]
+        row[name] = {
+            "solved": bool(result.success),
+            "time_s": result.time_s,
+            "path_length": result.path_length,
+        }
     return row

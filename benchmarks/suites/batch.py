@@ -16,13 +16,14 @@ from __future__ import annotations
 import multiprocessing
 import os
 import time
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from benchmarks.common import Row, Timing
+from benchmarks.common import Row, Timing, run_peer
 from benchmarks.suites import _batch_tasks as T
-from taskspace.batch import BatchOptions, Executor
+from taskspace.batch import BatchOptions, Executor, write_sqlite
 
 SUITE = "batch"
 WORKERS = 2
@@ -74,6 +75,20 @@ def _overhead(quick: bool, ray_ok: bool) -> list[Row]:
             {"tasks": n, "overhead": t_plain / ideal - 1},
         )
     )
+    dask = run_peer("dask", "dask_batch.py", [str(n), str(seconds), "20"])
+    rows.append(
+        Row(
+            SUITE,
+            "overhead 10 ms tasks",
+            "dask.distributed (LocalCluster)",
+            Timing.from_samples([dask["overhead"] / n]) if dask else None,
+            {"tasks": n, "overhead": dask["overhead"] / ideal - 1, "startup_s": dask["startup"]}
+            if dask
+            else {},
+            ratio_to="multiprocessing.Pool",
+            note="" if dask else "peer not installed (make bench-peers)",
+        )
+    )
     backends = [("processes", "taskspace processes")]
     if ray_ok:
         backends.append(("ray", "taskspace ray"))
@@ -114,19 +129,27 @@ def _per_task(quick: bool, ray_ok: bool) -> list[Row]:
                 ratio_to="taskspace serial",
             )
         )
-    try:
-        import distributed  # noqa: F401
-    except ImportError:
-        rows.append(
-            Row(
-                SUITE,
-                "per task (no-op)",
-                "dask.distributed",
-                None,
-                note="dask distributed not installed in this environment",
-            )
+    dask = run_peer("dask", "dask_batch.py", ["4", "0.01", str(n)])
+    rows.append(
+        Row(
+            SUITE,
+            "per task (no-op)",
+            "dask.distributed",
+            Timing.from_samples([dask["per_task"] / n]) if dask else None,
+            {"tasks": n},
+            ratio_to="taskspace serial",
+            note="" if dask else "peer not installed (make bench-peers)",
         )
+    )
     return rows
+
+
+def _campaign_db() -> Path:
+    """A fresh database for the campaign's runs (``out/`` beside the benchmarks)."""
+    path = Path(__file__).resolve().parents[2] / "out" / "mbm_campaign.sqlite"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.unlink(missing_ok=True)
+    return path
 
 
 def _campaign(quick: bool, ray_ok: bool) -> list[Row]:
@@ -143,26 +166,33 @@ def _campaign(quick: bool, ray_ok: bool) -> list[Row]:
     rows = []
     serial_t = None
     reference = None
+    db: Path | None = None
     for backend in ("serial", "processes", "ray"):
         if backend == "ray" and not ray_ok:
             continue
         ex = Executor(BatchOptions(backend=backend, workers=WORKERS, progress=False))  # type: ignore[arg-type]
         t, result = _wall(lambda ex=ex: ex.map(T.mbm_plan, items, context=T.mbm_context))
         values = result.values
-        solved = [v["compiled"][0] for v in values if v["valid"]]
-        py_time = float(np.median([v["python"][1] for v in values if v["valid"]]))
+        solved = [v["compiled"]["solved"] for v in values if v["valid"]]
+        py_time = float(np.median([v["python"]["time_s"] for v in values if v["valid"]]))
         if backend == "serial":
             serial_t, reference = t, values
+            # One row per run, OMPL-style (planner columns compiled.* and python.*).
+            db = write_sqlite(result, _campaign_db(), experiment="mbm_campaign")
         extra: dict[str, Any] = {
             "runs": len(items),
             "valid": len(solved),
             "solved": int(sum(solved)),
             "median_python_plan_ms": py_time * 1e3,
             "chunk_size": result.chunk_size,
+            "database": str(db),
         }
         if serial_t is not None and backend != "serial":
             extra["speedup_over_serial"] = serial_t / t
-            same = [a["compiled"][0] == b["compiled"][0] for a, b in zip(values, reference or [])]
+            same = [
+                a["compiled"]["solved"] == b["compiled"]["solved"]
+                for a, b in zip(values, reference or [])
+            ]
             extra["same_success_as_serial"] = float(np.mean(same))
         rows.append(
             Row(

@@ -14,9 +14,9 @@ Scenes:
   one inverse-dynamics QP control step (switching contact sets), and the real-time factor of
   the whole simulated walk (control + rigid-contact simulation + logging).
 
-No peer runs here yet: ``qpmpc`` (LIPM MPC) and ``drake`` (compass gait) are on PyPI but have
-no peer environment in ``benchmarks/peers/install.sh``; the TSID peer of the walking loop
-is not wired either.
+Peers: ``drake`` (``.venv-peers/drake``): Drake's own compass gait finds its fixed point by
+Newton on its return map from the same start, and maps ours one step (the same fixed point
+to 1e-6 is the target). ``qpmpc`` and the TSID walking loop are not wired.
 """
 
 from __future__ import annotations
@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from benchmarks.common import Row, Timing, measure
+from benchmarks.common import Row, Timing, measure, run_peer
 from taskspace.locomotion import (
     CartTable,
     CompassGait,
@@ -161,6 +161,47 @@ def run(quick: bool) -> list[Row]:
             },
         )
     )
+    # Drake's compass gait (its own witness functions and impact map) in the same run: our
+    # fixed point pushed through Drake's return map, and Drake's own Newton search.
+    x_ours = np.asarray(cycle.post_impact, dtype=float)
+    drake = run_peer("drake", "drake_compass_gait.py", [repr(float(v)) for v in x_ours])
+    if drake is None:
+        rows.append(
+            Row(
+                SUITE,
+                "compass_gait_limit_cycle",
+                "drake (Newton on its return map)",
+                None,
+                note="peer not installed (make bench-peers)",
+            )
+        )
+    else:
+        ours_d = np.array(drake["ours_in_drake_coordinates"])
+        rows.append(
+            Row(
+                SUITE,
+                "compass_gait_limit_cycle",
+                "drake (Newton on its return map)",
+                Timing.from_samples([drake["seconds"]]),
+                extra={
+                    "fixed_point_drake_coordinates": drake["fixed_point"],
+                    "max_abs_diff_to_ours": float(
+                        np.max(np.abs(np.array(drake["fixed_point"]) - ours_d))
+                    ),
+                    "drake_return_map_residual_of_ours": float(
+                        np.max(np.abs(np.array(drake["return_map_of_ours"]) - ours_d))
+                    ),
+                    "drake_simulator_only_residual_of_ours": float(
+                        np.max(
+                            np.abs(np.array(drake["simulator_only_return_map_of_ours"]) - ours_d)
+                        )
+                    ),
+                    "residual": drake["residual"],
+                    "iterations": drake["iterations"],
+                },
+                ratio_to="taskspace (Newton on the return map)",
+            )
+        )
     # ------------------------------------------------------------ hopper
     timing, hop = _wall(
         lambda: simulate_hopper(

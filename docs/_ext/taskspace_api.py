@@ -174,4 +174,14 @@ def write_pages(api: Path = API) -> list[str]:
     for stale in api.glob("*.rst"):
         if stale.stem not in pages:
             stale.unlink()
+    # stub pages of objects no longer exported (autosummary only writes the current ones)
+    wanted = {
+        f"{page}.{name}"
+        for page in pages
+        for name in _exported(importlib.import_module(page))
+        if not name.startswith("__")
+    }
+    for stub in (api / "stubs").glob("*.rst"):
+        if stub.stem not in wanted:
+            stub.unlink()
     return pages

@@ -4,23 +4,30 @@ Usage::
 
     taskspace info
     taskspace robots
-    taskspace demo NAME [--html out.html] [--png out.png] [--no-viewer] [example args...]
-    taskspace bench [SUITE ...] [--quick] [--save FILE]
+    taskspace demo list
+    taskspace demo NAME [--html FILE] [--png FILE] [--save DIR] [--no-viewer] [example args...]
+    taskspace bench [SUITE ...] [--quick] [--save FILE] | bench --compare A.json B.json
     taskspace snapshot ROBOT [--q "0,0.1,..."] --png out.png [--html out.html] [--geometry G]
 
 ``demo NAME`` runs an example script of ``examples/`` found by its file stem (``bug_paths``)
-or by ``topic/stem`` (``planning/bug_paths``); ``main`` is ``examples/demo_main.py``. Examples
-accept ``--save DIR`` (figures); those using meshcat also accept ``--html FILE`` and
-``--png FILE``. Bad arguments exit with status 2 and a message naming the valid choices.
+or by ``topic/stem`` (``planning/bug_paths``); ``main`` is ``examples/demo_main.py``. Every
+demo accepts the same output flags, paths relative to the caller's directory: ``--save DIR``
+(everything the example writes), ``--png FILE`` (its picture: the meshcat snapshot, else its
+first figure), ``--html FILE`` (its meshcat animation, else a page of its figures) and
+``--no-viewer`` (no live viewer, no figure window). Bad arguments exit with status 2 and a
+message naming the valid choices.
 """
 
 from __future__ import annotations
 
 import argparse
+import ast
 import logging
 import os
+import shutil
 import subprocess
 import sys
+import tempfile
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -65,6 +72,33 @@ def discover_examples(root: Path = EXAMPLES_DIR) -> dict[str, Path]:
         if target in found:
             found[alias] = found[target]
     return found
+
+
+def example_description(path: Path) -> str:
+    """First paragraph of an example's module docstring, on one line (the script is not run)."""
+    try:
+        doc = ast.get_docstring(ast.parse(path.read_text(encoding="utf-8"))) or ""
+    except (OSError, SyntaxError, ValueError):
+        return ""
+    return " ".join(doc.strip().split("\n\n")[0].split())
+
+
+def demo_listing(root: Path = EXAMPLES_DIR) -> list[tuple[str, str]]:
+    """Each demo once: ``(shortest name, one-line description)``, in folder order.
+
+    The shortest name is the alias (``main``), else the file stem when unique, else
+    ``topic/stem``.
+    """
+    names: dict[Path, list[str]] = {}
+    for name, path in discover_examples(root).items():
+        names.setdefault(path, []).append(name)
+    rows = []
+    for path, aliases in names.items():
+        short = min(aliases, key=lambda n: (n not in DEMO_ALIASES, n.count("/"), len(n)))
+        rows.append((short, example_description(path)))
+    rank = {p: i for i, p in enumerate(sorted(names, key=lambda p: (p.parent != root, p)))}
+    order = {short: rank[path] for (short, _), path in zip(rows, names)}
+    return sorted(rows, key=lambda row: order[row[0]])
 
 
 def _example_path(name: str) -> Path:
@@ -133,32 +167,153 @@ def cmd_robots(args: argparse.Namespace) -> int:
     return 0
 
 
+DEMO_FLAGS = ("--html", "--png", "--save", "--no-viewer")
+"""Output flags every demo accepts through ``taskspace demo``."""
+
+
+def native_flags(path: Path) -> set[str]:
+    """The flags of :data:`DEMO_FLAGS` that an example's own argparse defines.
+
+    Read from the script's source (an ``add_argument("--html", ...)`` call); ``--save`` is
+    always there (every example writes its figures with ``--save DIR``).
+    """
+    text = path.read_text(encoding="utf-8")
+    found = {flag for flag in DEMO_FLAGS if f'"{flag}"' in text or f"'{flag}'" in text}
+    return found | {"--save"}
+
+
+def _caller_path(text: str | None) -> Path | None:
+    """A path argument made absolute against the caller's working directory."""
+    return None if not text else Path(os.path.abspath(Path(text).expanduser()))
+
+
+def _picture(folder: Path, stem: str) -> Path | None:
+    """The demo's picture among its PNGs: a snapshot, else ``<stem>.png``, else the first."""
+    pngs = sorted(folder.rglob("*.png"))
+    for rank in (lambda p: "snapshot" in p.stem, lambda p: p.stem == stem, lambda p: True):
+        chosen = [p for p in pngs if rank(p)]
+        if chosen:
+            return chosen[0]
+    return None
+
+
 def cmd_demo(args: argparse.Namespace, extra: list[str]) -> int:
-    """Run an example script in a subprocess (so its own imports and argparse apply)."""
+    """Run an example script in a subprocess (its own imports and argparse apply).
+
+    The subprocess runs in the caller's directory with absolute output paths. Flags the
+    script does not define itself are provided here: the script writes into ``--save`` (a
+    temporary directory when only ``--png``/``--html`` were asked), then its picture is copied
+    to ``--png`` and its HTML (or a page of its figures) to ``--html``. ``--no-viewer`` also
+    sets ``MPLBACKEND=Agg`` (no figure window).
+    """
+    from taskspace.viz.figure_page import save_figure_page
+
     path = _example_path(args.name)
+    html, png, save = (_caller_path(x) for x in (args.html, args.png, args.save))
+    native = native_flags(path)
     forwarded = list(extra)
-    if args.html:
-        forwarded += ["--html", args.html]
-    if args.png:
-        forwarded += ["--png", args.png]
+    env = dict(os.environ)
+    asked = (("--html", html), ("--png", png))
+    missing = [flag for flag, value in asked if value is not None and flag not in native]
+    temporary = None
+    out_dir = save
+    if out_dir is None and missing:
+        temporary = tempfile.TemporaryDirectory(prefix="taskspace-demo-")
+        out_dir = Path(temporary.name)
+    if out_dir is not None:
+        forwarded += ["--save", str(out_dir)]
+    if html is not None and "--html" in native:
+        forwarded += ["--html", str(html)]
+    if png is not None and "--png" in native:
+        forwarded += ["--png", str(png)]
     if args.no_viewer:
-        forwarded += ["--no-viewer"]
+        env["MPLBACKEND"] = "Agg"
+        if "--no-viewer" in native:
+            forwarded.append("--no-viewer")
     command = [sys.executable, str(path), *forwarded]
     logger.info("running %s", " ".join(command))
-    print(f"# running {path.relative_to(REPO_ROOT)} {' '.join(forwarded)}".rstrip(), flush=True)
-    return subprocess.call(command, cwd=str(REPO_ROOT))
+    shown = path.relative_to(REPO_ROOT) if path.is_relative_to(REPO_ROOT) else path
+    print(f"# running {shown} {' '.join(forwarded)}".rstrip(), flush=True)
+    try:
+        code = _run_until_done(command, env)
+        if code != 0 or out_dir is None:
+            return code
+        if png is not None and "--png" not in native:
+            picture = _picture(out_dir, path.stem)
+            if picture is None:
+                raise CliError(f"demo '{args.name}' wrote no picture for --png")
+            if picture.resolve() != png:
+                png.parent.mkdir(parents=True, exist_ok=True)
+                shutil.copyfile(picture, png)
+            print(f"wrote {png}")
+        if html is not None and "--html" not in native:
+            pages = sorted(out_dir.rglob("*.html"))
+            if pages:
+                html.parent.mkdir(parents=True, exist_ok=True)
+                if pages[0].resolve() != html:
+                    shutil.copyfile(pages[0], html)
+            else:
+                figures = sorted(out_dir.rglob("*.png"))
+                if not figures:
+                    raise CliError(f"demo '{args.name}' wrote no figure or scene for --html")
+                save_figure_page(html, figures, title=f"taskspace demo {args.name}")
+            print(f"wrote {html}")
+        return 0
+    finally:
+        if temporary is not None:
+            temporary.cleanup()
+
+
+def _run_until_done(command: list[str], env: dict[str, str]) -> int:
+    """Run ``command``; on Ctrl-C let it stop by itself (it got the same SIGINT), exit 130."""
+    proc = subprocess.Popen(command, env=env)
+    try:
+        return proc.wait()
+    except KeyboardInterrupt:
+        try:
+            proc.wait(timeout=15)
+        except subprocess.TimeoutExpired:
+            proc.terminate()
+            proc.wait()
+        return 130
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
     """Delegate to ``python -m benchmarks.run`` (the benchmark runner of the source tree)."""
+    if not (REPO_ROOT / "benchmarks" / "run.py").is_file():
+        raise CliError(f"benchmarks/run.py not found under {REPO_ROOT} (needs the source tree)")
     argv = list(args.suites)
     if args.quick:
         argv.append("--quick")
     if args.save:
-        argv += ["--save", args.save]
-    if not (REPO_ROOT / "benchmarks" / "run.py").is_file():
-        raise CliError(f"benchmarks/run.py not found under {REPO_ROOT} (needs the source tree)")
-    return subprocess.call([sys.executable, "-m", "benchmarks.run", *argv], cwd=str(REPO_ROOT))
+        argv += ["--save", str(_caller_path(args.save))]
+    if args.executor:
+        argv += ["--executor", args.executor]
+    if args.compare:
+        files = [_caller_path(f) for f in args.compare]
+        for f in files:
+            if f is None or not f.is_file():
+                raise CliError(f"--compare: no such results file {f}")
+        argv = ["--compare", *(str(f) for f in files)]
+    else:
+        unknown = [s for s in args.suites if s not in benchmark_suites()]
+        if unknown:
+            valid = ", ".join(benchmark_suites())
+            raise CliError(f"unknown suite(s) {', '.join(unknown)}; valid suites are: {valid}")
+    return _run_until_done([sys.executable, "-m", "benchmarks.run", *argv], _bench_env())
+
+
+def _bench_env() -> dict[str, str]:
+    """Environment of the benchmark runner: the source tree importable from any directory."""
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join(p for p in (str(REPO_ROOT), env.get("PYTHONPATH")) if p)
+    return env
+
+
+def benchmark_suites() -> list[str]:
+    """Names of the benchmark suites (``benchmarks/suites/<name>.py``), without importing them."""
+    folder = REPO_ROOT / "benchmarks" / "suites"
+    return sorted(p.stem for p in folder.glob("[!_]*.py")) if folder.is_dir() else []
 
 
 def parse_configuration(text: str, nq: int) -> list[float]:
@@ -276,16 +431,47 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--no-load", action="store_true", help="do not read the models (no nq/nv)")
 
-    p = sub.add_parser("demo", help="run an example by name ('main' is examples/demo_main.py)")
-    p.add_argument("name", nargs="?", default="main", help="example name ('list' lists them)")
-    p.add_argument("--html", help="write the meshcat scene as static HTML")
-    p.add_argument("--png", help="write a PNG snapshot of the scene")
-    p.add_argument("--no-viewer", action="store_true", help="do not open a live viewer")
+    p = sub.add_parser(
+        "demo",
+        help="run an example by name ('main' is examples/demo_main.py; 'list' lists them)",
+        description="Run an example of examples/ by name. Output paths are relative to the "
+        "current directory. Other arguments go to the example itself.",
+    )
+    p.add_argument("name", nargs="?", default="main", help="demo name, or 'list' to list them")
+    p.add_argument(
+        "--html", help="write the meshcat animation (else a page of the figures) to FILE"
+    )
+    p.add_argument(
+        "--png", help="write the demo's picture (meshcat snapshot, else first figure) to FILE"
+    )
+    p.add_argument("--save", help="write every figure, scene and snapshot into DIR")
+    p.add_argument(
+        "--no-viewer", action="store_true", help="no live meshcat viewer, no figure window"
+    )
 
-    p = sub.add_parser("bench", help="run benchmarks (python -m benchmarks.run)")
-    p.add_argument("suites", nargs="*", help="suite names (default: all)")
+    suites = benchmark_suites()
+    p = sub.add_parser(
+        "bench",
+        help="run benchmarks (python -m benchmarks.run)",
+        description="Run benchmark suites and print median/p95 per scene, or compare two "
+        "saved runs. Suites: " + (", ".join(suites) or "(benchmarks/ not found)") + ".",
+    )
+    p.add_argument(
+        "suites", nargs="*", metavar="SUITE", help=f"suites to run (default: all): {suites}"
+    )
     p.add_argument("--quick", action="store_true", help="small scenes, few repetitions")
-    p.add_argument("--save", help="write results as JSON to FILE")
+    p.add_argument("--save", metavar="FILE", help="write results as JSON to FILE")
+    p.add_argument(
+        "--compare",
+        nargs=2,
+        metavar=("A", "B"),
+        help="compare two saved runs (JSON of --save): times of B relative to A",
+    )
+    p.add_argument(
+        "--executor",
+        choices=("serial", "processes", "ray"),
+        help="run independent problems through taskspace.batch (planning and batch suites)",
+    )
 
     p = sub.add_parser("snapshot", help="render a robot at a configuration to PNG/HTML")
     p.add_argument("robot", help="registry name (see `taskspace robots`)")
@@ -315,7 +501,9 @@ def main(argv: list[str] | None = None) -> int:
             return cmd_robots(args)
         if args.command == "demo":
             if args.name == "list":
-                print("\n".join(sorted(discover_examples())))
+                rows = demo_listing()
+                width = max((len(name) for name, _ in rows), default=0)
+                print("\n".join(f"{name:<{width}}  {text}".rstrip() for name, text in rows))
                 return 0
             return cmd_demo(args, extra)
         if args.command == "bench":

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -18,6 +18,7 @@ from taskspace._validation import (
 )
 from taskspace.errors import InvalidInputError
 from taskspace.features.feature import Feature
+from taskspace.features.rows import FeatureRows, TaskRows
 
 if TYPE_CHECKING:
     from taskspace.model.state import State
@@ -138,13 +139,22 @@ class Task:
             )
         return self._target
 
-    def rows(self, state: State) -> tuple[FloatArray, FloatArray]:
+    def rows(self, state: State) -> TaskRows:
         """Weighted rows ``(sqrt(rho) J, -sqrt(rho) gain e)`` of ``J dq ~ -gain e``."""
         e, J = self.feature.residual_and_jacobian(state, self._require_target())
         w = self.sqrt_weight
         if isinstance(w, float):
-            return (J if w == 1.0 else w * J), (-self.gain * w) * e
-        return w[:, None] * J, (-self.gain * w) * e
+            return TaskRows((J if w == 1.0 else w * J), (-self.gain * w) * e)
+        return TaskRows(w[:, None] * J, (-self.gain * w) * e)
+
+    def feature_rows(self, state: State, drift: bool = False) -> FeatureRows:
+        """The feature's residual, its Jacobian, (``drift``) ``Jdot v`` and ``sqrt(rho)``.
+
+        The raw values from which the stacking layer (:mod:`taskspace.qp.rows`) forms the
+        rows of many tasks at once; ``drift`` needs a state made with the velocity.
+        """
+        e, J = self.feature.residual_and_jacobian(state, self._require_target())
+        return FeatureRows(J, e, self.feature.drift(state) if drift else None, self.sqrt_weight)
 
     def set_reference(self, velocity: Any = None, acceleration: Any = None) -> None:
         """Feed-forward velocity and acceleration of the target (tangent, size dim)."""
@@ -156,12 +166,12 @@ class Task:
             None if acceleration is None else as_vector(acceleration, d, "reference acceleration")
         )
 
-    def acceleration_rows(self, state: State) -> tuple[FloatArray, FloatArray]:
+    def acceleration_rows(self, state: State) -> TaskRows:
         """Weighted rows ``(sqrt(rho) J, sqrt(rho)(y''* - Jdot v))`` of ``J a ~ y''* - Jdot v``.
 
         ``y''* = y''_ref - kp e - kd (J v - y'_ref)`` (slide 5:28 in task space; slide 5:34).
         The state must carry the velocity (drift terms). Controllers stack many tasks with
-        :class:`AccelerationStack`, which computes the same rows in place.
+        :class:`taskspace.qp.rows.TaskRowStack`, which computes the same rows in place.
         """
         e, J = self.feature.residual_and_jacobian(state, self._require_target())
         # rhs = -(kp e + kd (J v - y'_ref) + Jdot v - y''_ref)
@@ -174,8 +184,8 @@ class Task:
             rhs -= self.reference_acceleration
         w = self.sqrt_weight
         if isinstance(w, float):
-            return w * J, -w * rhs
-        return w[:, None] * J, -w * rhs
+            return TaskRows(w * J, -w * rhs)
+        return TaskRows(w[:, None] * J, -w * rhs)
 
     def __repr__(self) -> str:
         return f"Task('{self.name}', priority={self.priority}, gain={self.gain})"
@@ -270,108 +280,3 @@ _SETTERS: dict[str, Callable[[Task, Any], Any]] = {
     "kp": _check_kp,
     "kd": _check_kd,
 }
-
-
-class _RowStack:
-    """Rows of several tasks stacked in preallocated buffers, refilled in place.
-
-    The per-task work is reduced to copying each feature's residual and Jacobian into the
-    stack; gains and weights apply once to the whole stack (per-row vectors, re-read from
-    the tasks when one of them changed).
-    """
-
-    def __init__(self, tasks: Sequence[Task], nv: int) -> None:
-        self.tasks = list(tasks)
-        m = sum(t.dim for t in self.tasks)
-        self.J = np.zeros((m, nv))
-        self.rhs = np.zeros(m)
-        self._J_raw = np.zeros((m, nv))
-        self._e = np.zeros(m)
-        self._w = np.ones(m)
-        self._w_column = self._w[:, None]  # a view: follows _w
-        self._slices: list[slice] = []
-        row = 0
-        for t in self.tasks:
-            self._slices.append(slice(row, row + t.dim))
-            row += t.dim
-        self._keys: list[tuple[Any, ...]] = [()] * len(self.tasks)
-
-    def _refresh(self) -> None:
-        """Re-read the weights and gains of the tasks whose values were reassigned."""
-        keys = self._keys
-        for i, task in enumerate(self.tasks):
-            k = keys[i]
-            if (
-                k
-                and task.sqrt_weight is k[0]
-                and task.gain is k[1]
-                and task.kp is k[2]
-                and task.kd is k[3]
-            ):
-                continue
-            rows = self._slices[i]
-            self._w[rows] = task.sqrt_weight
-            self._set_gains(task, rows)
-            keys[i] = (task.sqrt_weight, task.gain, task.kp, task.kd)
-
-    def _set_gains(self, task: Task, rows: slice) -> None:
-        raise NotImplementedError
-
-    def _gather(self, state: State) -> None:
-        J_raw, e_all = self._J_raw, self._e
-        for task, rows in zip(self.tasks, self._slices):
-            e, J = task.feature.residual_and_jacobian(state, task._require_target())
-            J_raw[rows] = J
-            e_all[rows] = e
-
-
-class AccelerationStack(_RowStack):
-    """The :meth:`Task.acceleration_rows` of several tasks, stacked and refilled in place.
-
-    ``J`` (m, nv) and ``rhs`` (m,) hold the weighted rows of every task, in order; the PD
-    law and the weighting run once on the whole stack (on the G1 inverse-dynamics benchmark
-    this halves the cost of the task rows).
-
-    Args:
-        tasks: the tasks (each with a target when :meth:`fill` is called).
-        nv: tangent dimension of the robot.
-    """
-
-    def __init__(self, tasks: Sequence[Task], nv: int) -> None:
-        super().__init__(tasks, nv)
-        m = self.rhs.shape[0]
-        self._drift = np.zeros(m)
-        self._kp = np.zeros(m)
-        self._kd = np.zeros(m)
-        self._neg_w = -self._w
-
-    def _set_gains(self, task: Task, rows: slice) -> None:
-        self._kp[rows] = task.kp
-        self._kd[rows] = task.kd
-        np.negative(self._w, out=self._neg_w)
-
-    def fill(self, state: State) -> tuple[FloatArray, FloatArray]:
-        """Recompute ``(J, rhs)`` at ``state`` (which must carry the velocity)."""
-        self._refresh()
-        self._gather(state)
-        drift = self._drift
-        offset: FloatArray | None = None
-        for task, rows in zip(self.tasks, self._slices):
-            drift[rows] = task.feature.drift(state)
-            if task.reference_velocity is not None or task.reference_acceleration is not None:
-                if offset is None:
-                    offset = np.zeros_like(drift)
-                if task.reference_velocity is not None:
-                    offset[rows] += task.kd * task.reference_velocity
-                if task.reference_acceleration is not None:
-                    offset[rows] += task.reference_acceleration
-        # rhs = -w (kd J v + kp e + Jdot v - kd y'_ref - y''_ref)
-        rhs = self.rhs
-        np.multiply(self._J_raw.dot(state.v), self._kd, out=rhs)
-        rhs += self._kp * self._e
-        rhs += drift
-        if offset is not None:
-            rhs -= offset
-        rhs *= self._neg_w
-        np.multiply(self._J_raw, self._w_column, out=self.J)
-        return self.J, rhs

@@ -7,7 +7,8 @@ import numpy as np
 from taskspace import features as F
 from taskspace.constraints import Contact6D
 from taskspace.control.inverse_dynamics_qp import InverseDynamicsQP
-from taskspace.tasks import AccelerationStack, Task
+from taskspace.qp.rows import TaskRowStack
+from taskspace.tasks import Task
 from tests.conftest import load_robot
 
 
@@ -28,13 +29,13 @@ def test_stack_equals_the_rows_of_each_task() -> None:
     hand.set_target_from_state(s0)
     posture = Task(F.JointConfiguration(robot), robot.q_default, weight=1e-2, kp=30.0)
     tasks = [com, hand, posture]
-    stack = AccelerationStack(tasks, robot.nv)
+    stack = TaskRowStack(tasks, robot.nv)
     for step in range(4):
         state = _random_state(robot, rng)
         if step == 2:  # gains and references changed between calls are picked up
             hand.kp, hand.kd = 80.0, 1.0
             com.set_reference(velocity=rng.normal(size=3), acceleration=rng.normal(size=3))
-        J, rhs = stack.fill(state)
+        J, rhs = stack.acceleration(state)
         rows = [t.acceleration_rows(state) for t in tasks]
         np.testing.assert_allclose(J, np.vstack([r[0] for r in rows]), rtol=0, atol=1e-12)
         np.testing.assert_allclose(rhs, np.concatenate([r[1] for r in rows]), rtol=1e-12, atol=1e-9)

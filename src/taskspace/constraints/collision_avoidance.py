@@ -7,11 +7,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from taskspace._validation import FloatArray, check_positive
+from taskspace._validation import check_positive
 from taskspace.constraints.constraint import Constraint
 from taskspace.errors import InvalidInputError
 from taskspace.features.collision import CollisionDistance
-from taskspace.qp.problem import INF
+from taskspace.features.rows import INF, InequalityRows
 
 if TYPE_CHECKING:
     from taskspace.model.robot import Robot
@@ -53,16 +53,16 @@ class CollisionAvoidance(Constraint):
         self.gain = float(gain)
         self.distances = CollisionDistance(robot, pairs)
 
-    def inequalities(self, state: State, dt: float) -> tuple[FloatArray, FloatArray, FloatArray]:
+    def inequalities(self, state: State, dt: float) -> InequalityRows:
         """Rows for the pairs within the influence distance (possibly zero rows)."""
         d = self.distances.value(state)
         near = d < self.influence_distance
         nv = self.robot.nv
         if not near.any():
-            return np.zeros((0, nv)), np.zeros(0), np.zeros(0)
+            return InequalityRows(np.zeros((0, nv)), np.zeros(0), np.zeros(0))
         J = self.distances.jacobian(state, rows=near)
         lower = -self.gain * (d[near] - self.safety_distance)
-        return J, lower, np.full(J.shape[0], INF)
+        return InequalityRows(J, lower, np.full(J.shape[0], INF))
 
     def active_pairs(self, state: State) -> list[tuple[str, str, float]]:
         """Pairs within the influence distance with their distances [m]."""

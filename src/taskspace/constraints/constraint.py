@@ -5,9 +5,8 @@ from __future__ import annotations
 import abc
 from typing import TYPE_CHECKING
 
-from taskspace._validation import FloatArray
-
 if TYPE_CHECKING:
+    from taskspace.features.rows import Box, InequalityRows
     from taskspace.model.robot import Robot
     from taskspace.model.state import State
 
@@ -30,14 +29,12 @@ class Constraint(abc.ABC):
         self.robot = robot
         self.name = name
 
-    def bounds(self, state: State, dt: float) -> tuple[FloatArray, FloatArray] | None:
-        """Box ``(lb, ub)`` on ``dq`` or ``None``."""
+    def bounds(self, state: State, dt: float) -> Box | None:
+        """Box ``(lb, ub)`` on ``dq`` or ``None`` (a plain ``(lb, ub)`` tuple is accepted)."""
         return None
 
-    def inequalities(
-        self, state: State, dt: float
-    ) -> tuple[FloatArray, FloatArray, FloatArray] | None:
-        """Rows ``(C, l, u)`` with ``l <= C dq <= u`` or ``None``."""
+    def inequalities(self, state: State, dt: float) -> InequalityRows | None:
+        """Rows ``(C, l, u)`` with ``l <= C dq <= u`` or ``None`` (a plain tuple is accepted)."""
         return None
 
     def __repr__(self) -> str:

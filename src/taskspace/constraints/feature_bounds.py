@@ -6,10 +6,10 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from taskspace._validation import FloatArray, as_vector
+from taskspace._validation import as_vector
 from taskspace.constraints.constraint import Constraint
 from taskspace.errors import InvalidInputError
-from taskspace.qp.problem import INF
+from taskspace.features.rows import INF, InequalityRows
 
 if TYPE_CHECKING:
     from taskspace.features.feature import Feature
@@ -48,7 +48,7 @@ class FeatureBounds(Constraint):
             raise InvalidInputError(f"gain must be in (0, 1], got {gain}")
         self.gain = float(gain)
 
-    def inequalities(self, state: State, dt: float) -> tuple[FloatArray, FloatArray, FloatArray]:
+    def inequalities(self, state: State, dt: float) -> InequalityRows:
         """``lower - phi <= J dq <= upper - phi`` (violations corrected with ``gain``)."""
         y = np.asarray(self.feature.value(state), dtype=float)
         J = self.feature.jacobian(state)
@@ -57,4 +57,4 @@ class FeatureBounds(Constraint):
         # when already outside, only require the fraction `gain` of the way back
         lo = np.where(lo > 0, self.gain * lo, lo)
         hi = np.where(hi < 0, self.gain * hi, hi)
-        return J, np.maximum(lo, -INF), np.minimum(hi, INF)
+        return InequalityRows(J, np.maximum(lo, -INF), np.minimum(hi, INF))

@@ -9,7 +9,7 @@ import numpy as np
 from taskspace._validation import FloatArray, as_vector, check_positive
 from taskspace.constraints.constraint import Constraint
 from taskspace.errors import InvalidInputError, ShapeError
-from taskspace.qp.problem import INF
+from taskspace.features.rows import INF, Box
 
 if TYPE_CHECKING:
     from taskspace.model.robot import Robot
@@ -74,11 +74,11 @@ class JointPositionLimits(Constraint):
             and bool(np.all(self._iq == np.arange(robot.nv)))
         )
 
-    def bounds(self, state: State, dt: float) -> tuple[FloatArray, FloatArray]:
+    def bounds(self, state: State, dt: float) -> Box:
         """Box on ``dq``."""
         if self._all:
             q = state.q
-            return self._low - q, self._high - q
+            return Box(self._low - q, self._high - q)
         lb = self._lb_template.copy()
         ub = self._ub_template.copy()
         q = state.q[self._q_slice] if self._q_slice is not None else state.q[self._iq]
@@ -88,7 +88,7 @@ class JointPositionLimits(Constraint):
         else:
             lb[self._iv] = self._low - q
             ub[self._iv] = self._high - q
-        return lb, ub
+        return Box(lb, ub)
 
     def kernel_arguments(self) -> tuple[list[int], list[int], FloatArray, FloatArray, bool]:
         """``(iq, iv, low, high, hard)``: what a compiled kernel needs to evaluate :meth:`bounds`.
@@ -121,13 +121,13 @@ class JointVelocityLimits(Constraint):
         lim = robot.velocity_limits if limits is None else _positive_limits(limits, robot.nv)
         self.limits = lim * check_positive(scale, "scale")
         self._dt = -1.0
-        self._box: tuple[FloatArray, FloatArray] = (self.limits, self.limits)
+        self._box = Box(self.limits, self.limits)
 
-    def bounds(self, state: State, dt: float) -> tuple[FloatArray, FloatArray]:
+    def bounds(self, state: State, dt: float) -> Box:
         """Box on ``dq`` (cached per ``dt``; do not modify the returned arrays)."""
         if dt != self._dt:
             step = np.minimum(self.limits * dt, INF)
-            self._box = (-step, step)
+            self._box = Box(-step, step)
             self._dt = dt
         return self._box
 
@@ -148,8 +148,8 @@ class JointAccelerationLimits(Constraint):
         if np.any(self.limits <= 0):
             raise InvalidInputError("acceleration limits must be > 0")
 
-    def bounds(self, state: State, dt: float) -> tuple[FloatArray, FloatArray]:
+    def bounds(self, state: State, dt: float) -> Box:
         """Box on ``dq`` around ``v dt``."""
         center = state.v * dt
         half = self.limits * dt * dt
-        return center - half, center + half
+        return Box(center - half, center + half)

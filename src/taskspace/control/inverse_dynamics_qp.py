@@ -21,6 +21,7 @@ the task priorities, as a cascade of QPs of any depth).
 from __future__ import annotations
 
 import enum
+import threading
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -31,13 +32,15 @@ import pinocchio as pin
 from taskspace._validation import FloatArray, check_positive
 from taskspace.constraints.contact import Contact
 from taskspace.errors import InvalidInputError
+from taskspace.features.rows import Box
 from taskspace.model.robot import Robot
 from taskspace.model.state import State
 from taskspace.qp.hierarchy import HierarchyLevel, HierarchyOptions, HierarchySolver
 from taskspace.qp.problem import INF, QPProblem, RowBlock
 from taskspace.qp.result import QPResult, QPStatus
+from taskspace.qp.rows import TaskRowStack, combine_boxes
 from taskspace.qp.solver import QPSolver, QPSolverOptions
-from taskspace.tasks import AccelerationStack, Task
+from taskspace.tasks import Task
 
 
 class InverseDynamicsStatus(enum.Enum):
@@ -132,6 +135,10 @@ def _as_index(indices: np.ndarray) -> slice | np.ndarray:
 class InverseDynamicsQP:
     """Acceleration-level task-space control with contacts and limits (see module docstring).
 
+    Thread safety: the controller keeps its QP buffers and solver workspaces, so the calls
+    of several threads run one at a time (a lock); each thread needs its own
+    :class:`~taskspace.model.State`.
+
     Args:
         robot: the robot.
         tasks: tasks with targets and PD gains (``Task.kp``, ``Task.kd``).
@@ -204,7 +211,7 @@ class InverseDynamicsQP:
                 ]
             )
         )
-        self._task_rows = AccelerationStack(self.tasks, nv)
+        self._task_rows = TaskRowStack(self.tasks, nv)
         self._level_key: tuple[int, ...] | None = None
         self._levels: list[HierarchyLevel] = []
         self._level_slices: list[slice] = []
@@ -277,6 +284,7 @@ class InverseDynamicsQP:
         self._limit_c_hi = self._limit_c * robot.upper_limits[iq]
         self._limit_vmax_T = robot.velocity_limits[iv] / horizon
         self._limit_neg_vmax_T = -self._limit_vmax_T
+        self._lock = threading.Lock()
 
     # ------------------------------------------------------------------ assembly
     def _refresh_contact_gains(self) -> None:
@@ -311,13 +319,10 @@ class InverseDynamicsQP:
         shift = self._limit_c * q
         shift += (2.0 / T) * v
         v_T = v / T
-        lo = np.maximum(self._limit_c_lo - shift, self._limit_neg_vmax_T - v_T)
-        hi = np.minimum(self._limit_c_hi - shift, self._limit_vmax_T - v_T)
-        if (hi - lo).min(initial=0.0) < 0.0:  # already violating: brake as hard as allowed
-            bad = lo > hi
-            mid = 0.5 * (lo + hi)
-            lo = np.where(bad, mid, lo)
-            hi = np.where(bad, mid, hi)
+        # both boxes are physical: where they conflict (already violating), the midpoint
+        position = Box(self._limit_c_lo - shift, self._limit_c_hi - shift)
+        velocity = Box(self._limit_neg_vmax_T - v_T, self._limit_vmax_T - v_T)
+        lo, hi = combine_boxes((position, velocity), (), v.shape[0])
         lb[iv] = lo
         ub[iv] = hi
         self._box_lo[:] = lo
@@ -330,13 +335,18 @@ class InverseDynamicsQP:
         The same :class:`QPProblem` object is returned at every call: its arrays are buffers
         refilled in place by the next ``build`` (copy them to keep a snapshot).
         """
+        with self._lock:
+            return self._build(state)
+
+    def _build(self, state: State) -> QPProblem:
+        """:meth:`build` without the lock (the caller holds it)."""
         if not state.has_velocity:
             raise InvalidInputError(
                 "inverse dynamics needs the velocity: use robot.state(q, v) / state.update(q, v)"
             )
         nv = self.robot.nv
         M, h, Jc = self._dynamics(state)
-        Jt, rt = self._task_rows.fill(state)
+        Jt, rt = self._task_rows.acceleration(state)
         # H = reg + [Jt^T Jt, 0; 0, 0] (the force block is the constant regularization)
         HJ = self._HJ
         np.dot(Jt.T, Jt, out=HJ)
@@ -392,10 +402,14 @@ class InverseDynamicsQP:
     # ------------------------------------------------------------------ solve
     def solve(self, state: State) -> InverseDynamicsResult:
         """One control step: accelerations, contact forces and torques at ``state``."""
+        with self._lock:
+            return self._solve(state)
+
+    def _solve(self, state: State) -> InverseDynamicsResult:
         t0 = time.perf_counter()
         if self.options.hierarchical:
             return self._solve_hierarchical(state, t0)
-        problem = self.build(state)
+        problem = self._build(state)
         t1 = time.perf_counter()
         result = self._solver.solve(problem)
         t2 = time.perf_counter()
@@ -417,7 +431,7 @@ class InverseDynamicsQP:
         A, b, _ = self._equalities(state, M, h, Jc)
         C, l, u, _ = self._inequalities(M, h, Jc)
         levels = self._hierarchy_levels()
-        Jt, _ = self._level_rows.fill(state)
+        Jt, _ = self._level_rows.acceleration(state)
         for level, rows in zip(levels, self._level_slices):
             level.J[:, :nv] = Jt[rows]  # level.r is a view into the stack's rhs
         lb, ub = self._acceleration_bounds(state)
@@ -434,14 +448,15 @@ class InverseDynamicsQP:
         """Levels of the cascade (one per task priority, then the force regularization).
 
         Built once (again if a task's priority changed): their arrays are buffers refilled at
-        every step, the task rows by one :class:`AccelerationStack` ordered by priority.
+        every step, the task rows by one :class:`~taskspace.qp.rows.TaskRowStack` ordered by
+        priority.
         """
         key = tuple(t.priority for t in self.tasks)
         if key == self._level_key:
             return self._levels
         nv, n = self.robot.nv, self.n
         ordered = sorted(self.tasks, key=lambda t: t.priority)
-        self._level_rows = AccelerationStack(ordered, nv)
+        self._level_rows = TaskRowStack(ordered, nv)
         levels, slices, row = [], [], 0
         for p in sorted(set(key)):
             d = sum(t.dim for t in ordered if t.priority == p)

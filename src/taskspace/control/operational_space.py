@@ -20,6 +20,7 @@ and contacts is :mod:`taskspace.control.inverse_dynamics_qp`.
 from __future__ import annotations
 
 import enum
+import threading
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -31,6 +32,7 @@ import scipy.linalg as sla
 
 from taskspace._validation import FloatArray, as_vector, check_positive
 from taskspace.errors import InvalidInputError, SolverError
+from taskspace.qp.rows import TaskRowStack
 
 if TYPE_CHECKING:
     from taskspace.model.robot import Robot
@@ -96,16 +98,6 @@ def _torque_weight(options: OperationalSpaceOptions, nv: int) -> FloatArray:
     return h
 
 
-def _task_rows(tasks: Sequence[Task], state: State) -> tuple[FloatArray, FloatArray, list[int]]:
-    rows_A, rows_b, sizes = [], [], []
-    for task in tasks:
-        A, b = task.acceleration_rows(state)
-        rows_A.append(A)
-        rows_b.append(b)
-        sizes.append(A.shape[0])
-    return np.vstack(rows_A), np.concatenate(rows_b), sizes
-
-
 def operational_space_control(
     state: State, tasks: Sequence[Task], options: OperationalSpaceOptions | None = None
 ) -> OperationalSpaceResult:
@@ -157,7 +149,9 @@ def operational_space_control(
     M = np.triu(M) + np.triu(M, 1).T
     F = np.asarray(pin.nonLinearEffects(robot.model, data, q, v))
     # rows sqrt(C) J and sqrt(C) (y''* - Jdot v), stacked over tasks (slide 5:35)
-    A, b, sizes = _task_rows(tasks, state)
+    stack = TaskRowStack(tasks, nv)
+    A, b = stack.acceleration(state)
+    sizes = [rows.stop - rows.start for rows in stack.slices]
     chol = sla.cho_factor(M)
     T = sla.cho_solve(chol, A.T).T  # sqrt(C) J M^-1
     rhs = b + T @ F
@@ -200,7 +194,8 @@ def operational_space_control(
 class OperationalSpaceController:
     """``controller(t, q, v)`` wrapper of :func:`operational_space_control` for simulation.
 
-    Keeps one :class:`~taskspace.model.state.State`, updated at every call.
+    Keeps one :class:`~taskspace.model.state.State`, updated at every call; calls from
+    several threads run one at a time (a lock), each with the result it would get alone.
 
     Args:
         robot: a fixed-base robot.
@@ -219,10 +214,12 @@ class OperationalSpaceController:
         self.options = options or OperationalSpaceOptions()
         self.state = robot.state(robot.q_default, np.zeros(robot.nv))
         self.last_result: OperationalSpaceResult | None = None
+        self._lock = threading.Lock()
 
     def __call__(self, t: float, q: Any, v: Any) -> FloatArray:
         """Torques [N m] at time ``t`` [s]."""
-        self.state.update(q, v)
-        result = operational_space_control(self.state, self.tasks, self.options)
-        self.last_result = result
-        return result.tau
+        with self._lock:
+            self.state.update(q, v)
+            result = operational_space_control(self.state, self.tasks, self.options)
+            self.last_result = result
+            return result.tau

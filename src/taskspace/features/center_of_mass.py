@@ -5,6 +5,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 from taskspace._validation import FloatArray
+from taskspace.features.compiled import CompiledTerm
 from taskspace.features.feature import Feature
 
 if TYPE_CHECKING:
@@ -40,6 +41,10 @@ class CenterOfMass(Feature):
             self._check_state(state)
         J = state.com_jacobian()  # also computes the CoM
         return state.com() - target, J
+
+    def compiled_term(self) -> CompiledTerm:
+        """The kernel evaluates the center of mass."""
+        return CompiledTerm("com")
 
     def drift(self, state: State) -> FloatArray:
         """CoM acceleration at zero joint acceleration [m/s^2]."""

@@ -17,6 +17,7 @@ from taskspace._validation import FloatArray, as_vector
 from taskspace.errors import InvalidInputError
 
 if TYPE_CHECKING:
+    from taskspace.features.compiled import CompiledTerm
     from taskspace.model.robot import Robot
     from taskspace.model.state import State
 
@@ -74,6 +75,15 @@ class Feature(abc.ABC):
     def residual_and_jacobian(self, state: State, target: Any) -> tuple[FloatArray, FloatArray]:
         """Both :meth:`residual` and :meth:`residual_jacobian` (shares their common work)."""
         return self.residual(state, target), self.residual_jacobian(state, target)
+
+    def compiled_term(self) -> CompiledTerm | None:
+        """How the compiled IK kernel evaluates this feature, or ``None`` (Python path).
+
+        A feature class the kernel serves overrides this method (see
+        :mod:`taskspace.features.compiled`); only a class's own override counts, so a
+        subclass that changes the map is not served by the kernel unless it declares a term.
+        """
+        return None
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}('{self.name}', dim={self.dim})"

@@ -8,6 +8,7 @@ import numpy as np
 import pinocchio as pin
 
 from taskspace._validation import FloatArray, as_float_array
+from taskspace.features.compiled import CompiledTerm
 from taskspace.features.feature import Feature
 from taskspace.model.world import as_se3
 
@@ -49,6 +50,10 @@ class FramePose(Feature):
         """6 x nv LOCAL Jacobian."""
         self._check_state(state)
         return state.frame_jacobian_local(self.frame_id)
+
+    def compiled_term(self) -> CompiledTerm:
+        """The kernel evaluates the frame pose error and its LOCAL Jacobian."""
+        return CompiledTerm("pose", self.frame_id)
 
     def drift(self, state: State) -> FloatArray:
         """Body spatial acceleration at zero joint acceleration (LOCAL)."""

@@ -10,6 +10,7 @@ import pinocchio as pin
 
 from taskspace._validation import FloatArray
 from taskspace.errors import InvalidInputError
+from taskspace.features.compiled import CompiledTerm
 from taskspace.features.feature import Feature
 
 if TYPE_CHECKING:
@@ -53,6 +54,11 @@ class JointConfiguration(Feature):
         self._identity = np.eye(robot.nv) if self.rows is None else np.eye(robot.nv)[self.rows]
         # On vector-space configurations (no quaternions, no unit complexes) q (-) q* = q - q*.
         self._vector_space = robot.nq == robot.nv
+
+    def compiled_term(self) -> CompiledTerm:
+        """The kernel evaluates ``difference(q*, q)`` on all or the selected rows."""
+        rows = None if self.rows is None else tuple(int(i) for i in self.rows)
+        return CompiledTerm("posture", rows=rows)
 
     def check_target(self, target: Any) -> FloatArray:
         """Validate a target configuration (size nq)."""

@@ -6,6 +6,7 @@ from typing import TYPE_CHECKING, Any
 
 from taskspace._validation import FloatArray, as_vector
 from taskspace.features import _point
+from taskspace.features.compiled import CompiledTerm
 from taskspace.features.feature import Feature
 
 if TYPE_CHECKING:
@@ -54,6 +55,10 @@ class Position(Feature):
             _point.point_position(state, fid, offset) - target,
             _point.point_jacobian(state, fid, offset),
         )
+
+    def compiled_term(self) -> CompiledTerm | None:
+        """The kernel evaluates frame origins (no offset)."""
+        return CompiledTerm("position", self.frame_id) if self.offset is None else None
 
     def drift(self, state: State) -> FloatArray:
         """Point acceleration at zero joint acceleration [m/s^2]."""

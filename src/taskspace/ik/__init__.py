@@ -5,7 +5,6 @@ from taskspace.ik.differential_ik import (
     DifferentialIKOptions,
     IKStatus,
     IKStepResult,
-    combine_bounds,
 )
 from taskspace.ik.hierarchical_ik import HierarchicalIK, HierarchicalIKResult
 from taskspace.ik.interpolation import (
@@ -14,6 +13,7 @@ from taskspace.ik.interpolation import (
     task_space_interpolation,
 )
 from taskspace.ik.solve_ik import SolveIKOptions, SolveIKResult, SolveIKStatus, solve_ik
+from taskspace.qp.rows import combine_bounds
 
 __all__ = [
     "DifferentialIK",

@@ -1,27 +1,25 @@
 """The compiled path of :class:`~taskspace.ik.DifferentialIK` (``taskspace/_native/ik_kernel.cpp``).
 
 It evaluates the same QP as :meth:`DifferentialIK.build` (task rows from the state's
-Pinocchio data, ``H = M^T M + mu I``, boxes combined by the rules of ``combine_bounds``) and
-solves it exactly with a primal active-set method on the box. It serves stacks made of frame
-poses, frame positions, the center of mass and posture tasks, with box constraints only
-(joint position, velocity and acceleration limits); anything else takes the Python path.
+Pinocchio data, ``H = M^T M + mu I``, boxes combined by the rules of
+:func:`taskspace.qp.rows.combine_boxes`) and solves it exactly with a primal active-set
+method on the box. It serves stacks whose every feature declares a
+:class:`~taskspace.features.compiled.CompiledTerm` (frame poses, frame origins, the center of
+mass, postures), with box constraints only (joint position, velocity and acceleration
+limits); anything else takes the Python path.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
 
 from taskspace._native import ik_kernel
 from taskspace.constraints.constraint import Constraint
-from taskspace.constraints.joint_limits import JointPositionLimits
 from taskspace.errors import InvalidInputError
-from taskspace.features.center_of_mass import CenterOfMass
-from taskspace.features.frame_pose import FramePose
-from taskspace.features.joint_configuration import JointConfiguration
-from taskspace.features.position import Position
+from taskspace.features.compiled import CompiledTerm, compiled_term
 from taskspace.model.robot import Robot
 from taskspace.model.state import State
 from taskspace.tasks import Task
@@ -29,19 +27,25 @@ from taskspace.tasks import Task
 MAX_ACTIVE_SET_ITERATIONS = 200
 
 
+# How each kind of term is registered with the kernel (the kernel's own API).
+_REGISTER: dict[str, Callable[[Any, Any, CompiledTerm], Any]] = {
+    "pose": lambda kernel, model, term: kernel.add_pose(model, term.frame_id),
+    "position": lambda kernel, model, term: kernel.add_position(model, term.frame_id),
+    "com": lambda kernel, model, term: kernel.add_com(),
+    "posture": lambda kernel, model, term: kernel.add_posture(
+        None if term.rows is None else list(term.rows)
+    ),
+}
+_FULL_TANGENT = frozenset({"posture"})
+"""Kinds whose kernel rows span the whole tangent space (their scaling has nv entries, the
+selected rows set); the kernel keeps them after the other terms."""
+
+
 def supported(tasks: Sequence[Task]) -> bool:
     """Whether the compiled kernel can run these tasks (with box constraints only)."""
     if ik_kernel() is None or not tasks:
         return False
-    for t in tasks:
-        f: Any = t.feature
-        kind = type(f)
-        if kind is Position:
-            if f.offset is not None:
-                return False
-        elif kind not in (FramePose, CenterOfMass, JointConfiguration):
-            return False
-    return True
+    return all(compiled_term(t.feature) is not None for t in tasks)
 
 
 class NativeWeightedStack:
@@ -63,29 +67,33 @@ class NativeWeightedStack:
         self.robot = robot
         self.model = model
         kernel = module.WeightedIKKernel(robot.nv, robot.nq)
-        rows = [t for t in tasks if type(t.feature) is not JointConfiguration]
-        posture = [t for t in tasks if type(t.feature) is JointConfiguration]
-        for t in rows:
-            f: Any = t.feature
-            if type(f) is FramePose:
-                kernel.add_pose(model, f.frame_id)
-            elif type(f) is Position:
-                kernel.add_position(model, f.frame_id)
-            else:
-                kernel.add_com()
-        for t in posture:
-            sel = t.feature.rows  # type: ignore[attr-defined]
-            kernel.add_posture(None if sel is None else [int(i) for i in sel])
+        terms: list[tuple[Task, CompiledTerm]] = []
+        for t in tasks:
+            term = compiled_term(t.feature)
+            if term is None:
+                raise InvalidInputError(
+                    f"task '{t.name}': its feature declares no compiled term (use the Python "
+                    "path: DifferentialIKOptions(native=False))"
+                )
+            terms.append((t, term))
+        # the kernel keeps the full-tangent terms after the others (its row layout)
+        terms = [p for p in terms if p[1].kind not in _FULL_TANGENT] + [
+            p for p in terms if p[1].kind in _FULL_TANGENT
+        ]
+        for _, term in terms:
+            _REGISTER[term.kind](kernel, model, term)
         self.kernel = kernel
-        self.tasks = rows + posture
-        self._n_rows = sum(t.dim for t in rows)
-        self._posture = posture
+        self.tasks = [t for t, _ in terms]
+        self._terms = [term for _, term in terms]
+        self._n_rows = sum(t.dim for t, term in terms if term.kind not in _FULL_TANGENT)
+        self._n_full = sum(1 for term in self._terms if term.kind in _FULL_TANGENT)
         self._keys: list[tuple[Any, float]] = []
         boxes = [c for c in constraints if _has_bounds(c)]
         # the first joint-position box is evaluated by the kernel from q (the others here)
-        position = next((c for c in boxes if type(c) is JointPositionLimits), None)
+        # (a class that declares ``kernel_arguments`` itself: a subclass may change the box)
+        position = next((c for c in boxes if "kernel_arguments" in type(c).__dict__), None)
         if position is not None:
-            kernel.set_position_limits(*position.kernel_arguments())
+            kernel.set_position_limits(*position.kernel_arguments())  # type: ignore[attr-defined]
             boxes.remove(position)
         self._hard = [c for c in boxes if c.hard_bounds]
         self._soft = [c for c in boxes if not c.hard_bounds]
@@ -100,18 +108,17 @@ class NativeWeightedStack:
                 return
         keys = [(t.sqrt_weight, t.gain) for t in self.tasks]
         nv = self.nv
-        w = np.zeros(self._n_rows + nv * len(self._posture))
+        w = np.zeros(self._n_rows + nv * self._n_full)
         c = np.zeros_like(w)
         k = 0
-        for t in self.tasks:
-            f: Any = t.feature
-            if type(f) is JointConfiguration and f.rows is not None:
-                sel = k + f.rows
+        for t, term in zip(self.tasks, self._terms):
+            if term.kind in _FULL_TANGENT and term.rows is not None:
+                sel = k + np.asarray(term.rows, dtype=int)
                 w[sel] = t.sqrt_weight
                 c[sel] = -t.gain * np.asarray(t.sqrt_weight)
                 k += nv
                 continue
-            d = nv if type(t.feature) is JointConfiguration else t.dim
+            d = nv if term.kind in _FULL_TANGENT else t.dim
             w[k : k + d] = t.sqrt_weight
             c[k : k + d] = -t.gain * np.asarray(t.sqrt_weight)
             k += d

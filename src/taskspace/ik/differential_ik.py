@@ -29,8 +29,9 @@ from taskspace.ik._native_stack import NativeWeightedStack
 from taskspace.ik._native_stack import supported as native_supported
 from taskspace.model.robot import Robot
 from taskspace.model.state import State
-from taskspace.qp.problem import INF, QPProblem, RowBlock
+from taskspace.qp.problem import QPProblem
 from taskspace.qp.result import QPResult, QPStatus
+from taskspace.qp.rows import WeightedQPBuilder
 from taskspace.qp.solver import QPSolver, QPSolverOptions
 from taskspace.tasks import Task
 
@@ -88,77 +89,6 @@ class DifferentialIKOptions:
     native: bool = True
 
 
-def combine_bounds(
-    constraints: Sequence[Constraint], state: State, dt: float, nv: int
-) -> tuple[FloatArray, FloatArray, list[RowBlock]]:
-    """Intersect the boxes of ``constraints``; physical boxes win where the boxes conflict.
-
-    Where a position box cannot be met within the velocity box (a configuration outside its
-    limits), the step is the velocity-box value nearest to the position box: the joint moves
-    back as fast as allowed.
-    """
-    hard: list[tuple[FloatArray, FloatArray]] = []
-    soft: list[tuple[FloatArray, FloatArray]] = []
-    names: list[RowBlock] = []
-    for c in constraints:
-        box = c.bounds(state, dt)
-        if box is not None:
-            names.append(RowBlock(c.name, 0, nv))
-            (hard if c.hard_bounds else soft).append(box)
-    hard_lb, hard_ub = _intersect(hard, nv)
-    soft_lb, soft_ub = _intersect(soft, nv)
-    bad = hard_lb > hard_ub
-    if bad.any():  # conflicting hard boxes (acceleration vs velocity): midpoint of the gap
-        hard_lb = hard_lb.copy()
-        hard_ub = hard_ub.copy()
-        hard_lb[bad] = hard_ub[bad] = 0.5 * (hard_lb[bad] + hard_ub[bad])
-    if not soft:
-        return hard_lb, hard_ub, names
-    if not hard:
-        bad = soft_lb > soft_ub
-        if bad.any():  # empty soft box (margins): center it
-            soft_lb = soft_lb.copy()
-            soft_ub = soft_ub.copy()
-            soft_lb[bad] = soft_ub[bad] = 0.5 * (soft_lb[bad] + soft_ub[bad])
-        return soft_lb, soft_ub, names
-    lb = np.maximum(hard_lb, soft_lb)
-    ub = np.minimum(hard_ub, soft_ub)
-    bad = lb > ub
-    if bad.any():
-        # soft box entirely above (or below) the hard one: go to the nearest hard bound
-        above = soft_lb > hard_ub
-        below = soft_ub < hard_lb
-        lb = np.where(bad & above, hard_ub, lb)
-        ub = np.where(bad & above, hard_ub, ub)
-        lb = np.where(bad & below, hard_lb, lb)
-        ub = np.where(bad & below, hard_lb, ub)
-        soft_conflict = bad & ~above & ~below  # soft box itself empty (margins): center it
-        if soft_conflict.any():
-            mid = 0.5 * (soft_lb + soft_ub)
-            lb = np.where(soft_conflict, np.clip(mid, hard_lb, hard_ub), lb)
-            ub = np.where(soft_conflict, lb, ub)
-    return lb, ub, names
-
-
-def stack_inequalities(
-    constraints: Sequence[Constraint], state: State, dt: float
-) -> tuple[FloatArray, FloatArray, FloatArray, list[RowBlock]] | None:
-    """Stack the rows ``l <= C dq <= u`` of ``constraints`` (``None`` when there are none)."""
-    rows_C, rows_l, rows_u, blocks, k = [], [], [], [], 0
-    for c in constraints:
-        ineq = c.inequalities(state, dt)
-        if ineq is None or ineq[0].shape[0] == 0:
-            continue
-        rows_C.append(ineq[0])
-        rows_l.append(ineq[1])
-        rows_u.append(ineq[2])
-        blocks.append(RowBlock(c.name, k, k + ineq[0].shape[0]))
-        k += ineq[0].shape[0]
-    if not rows_C:
-        return None
-    return np.vstack(rows_C), np.concatenate(rows_l), np.concatenate(rows_u), blocks
-
-
 def _require_state(state: object) -> None:
     raise InvalidInputError(
         f"state must be a taskspace State (robot.state(q) or robot.state(q, v)), got "
@@ -186,18 +116,6 @@ def _flat_list(items: object, kind: type, name: str) -> list:  # type: ignore[ty
                 f"{name}[{i}] must be a {what}, got {type(item).__name__}{hint}"
             )
     return items
-
-
-def _intersect(
-    boxes: list[tuple[FloatArray, FloatArray]], nv: int
-) -> tuple[FloatArray, FloatArray]:
-    if not boxes:
-        return np.full(nv, -INF), np.full(nv, INF)
-    lb, ub = boxes[0]
-    for blb, bub in boxes[1:]:
-        lb = np.maximum(lb, blb)
-        ub = np.minimum(ub, bub)
-    return lb, ub
 
 
 class DifferentialIK:
@@ -253,15 +171,10 @@ class DifferentialIK:
         if not self.tasks and not self.equality_tasks:
             raise InvalidInputError("DifferentialIK needs at least one task")
         self.solver = QPSolver(self.options.solver)
-        self._inequality_constraints = [
-            c for c in self.constraints if type(c).inequalities is not Constraint.inequalities
-        ]
-        n_rows = sum(t.dim for t in self.tasks)
-        self._M = np.zeros((n_rows, robot.nv))
-        self._r = np.zeros(n_rows)
-        self._reg = self.options.damping * np.eye(robot.nv)
-        self._empty_rows = np.zeros((0, robot.nv))
-        self._empty = np.zeros(0)
+        self._builder = WeightedQPBuilder(
+            self.tasks, self.constraints, self.equality_tasks, robot.nv, self.options.damping
+        )
+        self._inequality_constraints = self._builder.inequalities.constraints
         self._native: NativeWeightedStack | None = None
         self._native_checked = False
         self._lock = threading.Lock()
@@ -283,7 +196,11 @@ class DifferentialIK:
         return self._native is not None
 
     def build(self, state: State, dt: float) -> QPProblem:
-        """Assemble the QP of one step from ``state`` during ``dt`` [s] (inspectable)."""
+        """Assemble the QP of one step from ``state`` during ``dt`` [s] (inspectable).
+
+        The arrays of the returned problem are buffers of the solver, refilled by the next
+        ``build`` or ``solve`` (copy them to keep a snapshot).
+        """
         if not isinstance(state, State):
             _require_state(state)
         with self._lock:
@@ -291,36 +208,7 @@ class DifferentialIK:
 
     def _build(self, state: State, dt: float) -> QPProblem:
         """:meth:`build` without the lock (the caller holds it)."""
-        nv = self.robot.nv
-        M, r = self._M, self._r
-        row = 0
-        for task in self.tasks:
-            J, target = task.rows(state)
-            d = task.dim
-            M[row : row + d] = J
-            r[row : row + d] = target
-            row += d
-        H = M.T @ M
-        H += self._reg
-        g = -(M.T @ r)
-        if self.equality_tasks:
-            eq = [t.rows(state) for t in self.equality_tasks]
-            A = np.vstack([e[0] for e in eq])
-            b = np.concatenate([e[1] for e in eq])
-            eq_blocks, k = [], 0
-            for t in self.equality_tasks:
-                eq_blocks.append(RowBlock(f"task '{t.name}'", k, k + t.dim))
-                k += t.dim
-        else:
-            A, b, eq_blocks = self._empty_rows, self._empty, []
-        lb, ub, box_blocks = combine_bounds(self.constraints, state, dt, nv)
-        stacked = stack_inequalities(self._inequality_constraints, state, dt)
-        in_blocks: list[RowBlock] = []
-        if stacked is None:
-            C, l, u = self._empty_rows, self._empty, self._empty
-        else:
-            C, l, u, in_blocks = stacked
-        return QPProblem(H, g, A, b, C, l, u, lb, ub, eq_blocks, in_blocks, box_blocks)
+        return self._builder.build(state, dt)
 
     def solve(self, state: State, dt: float) -> IKStepResult:
         """One step: build and solve the QP.

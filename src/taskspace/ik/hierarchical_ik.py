@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import threading
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -12,7 +13,6 @@ import pinocchio as pin
 from taskspace._validation import FloatArray, check_positive
 from taskspace.constraints.constraint import Constraint
 from taskspace.errors import InvalidInputError, SolverError
-from taskspace.ik.differential_ik import combine_bounds, stack_inequalities
 from taskspace.model.robot import Robot
 from taskspace.model.state import State
 from taskspace.qp.hierarchy import (
@@ -21,6 +21,8 @@ from taskspace.qp.hierarchy import (
     HierarchyResult,
     HierarchySolver,
 )
+from taskspace.qp.problem import RowBlock
+from taskspace.qp.rows import InequalityStack, TaskRowStack, combine_bounds
 from taskspace.tasks import Task
 
 
@@ -111,6 +113,11 @@ class HierarchicalIK:
     constraints placed in a level are minimized in violation at that level and then held.
     ``constraints`` (joint limits...) bind every level.
 
+    Thread safety: the solver keeps its buffers and the cascade's QP workspaces, so the
+    calls of several threads run one at a time (a lock); each thread needs its own
+    :class:`~taskspace.model.State`, and the tasks must not be changed while another thread
+    steps.
+
     Args:
         robot: the robot.
         levels: highest priority first; each level a list of tasks and constraints.
@@ -146,32 +153,30 @@ class HierarchicalIK:
                 f"options must be a HierarchyOptions, got {type(options).__name__}"
             )
         self.solver = HierarchySolver(options)
-        # per level: its label, the row slice of each task and buffers refilled at each build
+        # every level's rows are views of one task-row stack (one dot product checks the
+        # residuals of all levels); each level's inequality rows have their own stack
         nv = robot.nv
         self._names = [
             f"level {k} ({', '.join(item.name for item in level)})"
             for k, level in enumerate(self.levels)
         ]
-        self._task_rows: list[list[tuple[Task, slice]]] = []
-        self._inequality_items: list[list[Constraint]] = []
+        level_tasks = [[t for t in level if isinstance(t, Task)] for level in self.levels]
+        self._rows = TaskRowStack([t for tasks in level_tasks for t in tasks], nv)
+        self._r_all = self._rows.rhs
         self._J: list[FloatArray] = []
         self._r: list[FloatArray] = []
-        # every level's r is a view of one buffer: one dot product checks them all
-        self._r_all = np.zeros(
-            sum(item.dim for level in self.levels for item in level if isinstance(item, Task))
-        )
         start = 0
-        for level in self.levels:
-            rows, row = [], 0
-            for item in level:
-                if isinstance(item, Task):
-                    rows.append((item, slice(row, row + item.dim)))
-                    row += item.dim
-            self._task_rows.append(rows)
-            self._inequality_items.append([c for c in level if isinstance(c, Constraint)])
-            self._J.append(np.zeros((row, nv)))
-            self._r.append(self._r_all[start : start + row])
-            start += row
+        for tasks in level_tasks:
+            stop = start + sum(t.dim for t in tasks)
+            self._J.append(self._rows.J[start:stop])
+            self._r.append(self._rows.rhs[start:stop])
+            start = stop
+        self._level_inequalities = [
+            InequalityStack([c for c in level if isinstance(c, Constraint)], nv)
+            for level in self.levels
+        ]
+        self._hard_inequalities = InequalityStack(self.constraints, nv)
+        self._lock = threading.Lock()
 
     @classmethod
     def from_priorities(
@@ -198,28 +203,24 @@ class HierarchicalIK:
     def build(self, state: State, dt: float) -> list[HierarchyLevel]:
         """The levels' least-squares rows and inequalities at ``state``.
 
-        The rows ``J`` and ``r`` of each level are buffers refilled by the next call (copy
-        them to keep them).
+        The rows ``J`` and ``r`` (and ``C``, ``l``, ``u``) of each level are buffers refilled
+        by the next call (copy them to keep them).
         """
+        with self._lock:
+            return self._build(state, dt)
+
+    def _build(self, state: State, dt: float) -> list[HierarchyLevel]:
+        """:meth:`build` without the lock (the caller holds it)."""
+        self._rows.velocity(state)
         out = []
-        for k in range(len(self.levels)):
+        for k, stack in enumerate(self._level_inequalities):
             J, r = self._J[k], self._r[k]
-            for task, rows in self._task_rows[k]:
-                J[rows], r[rows] = task.rows(state)
-            Cs, ls, us = [], [], []
-            for item in self._inequality_items[k]:
-                ineq = item.inequalities(state, dt)
-                if ineq is not None and ineq[0].shape[0]:
-                    Cs.append(ineq[0])
-                    ls.append(ineq[1])
-                    us.append(ineq[2])
-            if not Cs:
-                out.append(HierarchyLevel(self._names[k], J, r))
-            elif len(Cs) == 1:
-                out.append(HierarchyLevel(self._names[k], J, r, Cs[0], ls[0], us[0]))
-            else:
-                C, l, u = np.vstack(Cs), np.concatenate(ls), np.concatenate(us)
-                out.append(HierarchyLevel(self._names[k], J, r, C, l, u))
+            if stack:
+                (C, l, u), blocks = stack.fill(state, dt)
+                if blocks:
+                    out.append(HierarchyLevel(self._names[k], J, r, C, l, u))
+                    continue
+            out.append(HierarchyLevel(self._names[k], J, r))
         return out
 
     def solve(self, state: State, dt: float) -> HierarchicalIKResult:
@@ -229,15 +230,23 @@ class HierarchicalIK:
                 f"state must be a taskspace State (robot.state(q)), got {type(state).__name__}"
             )
         dt = check_positive(dt, "dt")
+        with self._lock:
+            return self._solve(state, dt)
+
+    def _solve(self, state: State, dt: float) -> HierarchicalIKResult:
         t0 = time.perf_counter()
-        levels = self.build(state, dt)
+        levels = self._build(state, dt)
         r_all = self._r_all
         if not float(r_all.dot(r_all)) <= _MAX_SQUARED_RESIDUAL:  # also NaN and overflow
             self._residual_error(levels)
         nv = self.robot.nv
         lb, ub, _ = combine_bounds(self.constraints, state, dt, nv)
-        stacked = stack_inequalities(self.constraints, state, dt)
-        C, l, u, blocks = stacked if stacked is not None else (None, None, None, [])
+        C = l = u = None
+        blocks: list[RowBlock] = []
+        if self._hard_inequalities:
+            (C, l, u), blocks = self._hard_inequalities.fill(state, dt)
+            if not blocks:
+                C = l = u = None
         t1 = time.perf_counter()
         result = self.solver.solve(
             levels,

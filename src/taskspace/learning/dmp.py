@@ -246,7 +246,7 @@ class RhythmicDMP:
 
     @classmethod
     def fit(cls, times: Any, Y: Any, options: DMPOptions | None = None) -> RhythmicDMP:
-        """Learn from exactly one period ``times[0] .. times[-1]`` of a periodic motion.
+        """Learn from exactly one period (``times[0]`` to ``times[-1]``) of a periodic motion.
 
         Derivatives are periodic central differences; the anchor is the mean position.
         """

@@ -121,8 +121,11 @@ class ZmpMpc:
         H1 = Gf.T @ Wb @ Gf + opts.input_weight * np.eye(N)
         self._H = np.kron(np.eye(2), 0.5 * (H1 + H1.T))
         self._Gf = Gf
+        self._GfW = Gf.T @ Wb
         self._Esel = Gam[:, 0, :]  # e_k rows: (N, N)
         self._solver = QPSolver(self.options.qp)
+        # id(polygon) -> (polygon, A, b); the polygon is kept so that its id stays its own.
+        self._halfspace_cache: dict[int, tuple[SupportPolygon, FloatArray, FloatArray]] = {}
 
     def build(
         self,
@@ -143,7 +146,7 @@ class ZmpMpc:
         free = np.empty((N, 2))  # e_k without inputs
         for a in range(2):
             x_free = self._Phi @ augmented_state[:, a] + self._Psi @ dr[:, a]  # (N, 4)
-            g[a * N : (a + 1) * N] = self._Gf.T @ (self._Wb @ x_free.ravel())
+            g[a * N : (a + 1) * N] = self._GfW @ x_free.ravel()
             free[:, a] = x_free[:, 0]
         n = 2 * N
         if polygons is None:
@@ -153,24 +156,34 @@ class ZmpMpc:
         u = np.full(rows, INF)
         margin = self.options.zmp_margin
         for k, poly in enumerate(polygons):
-            if poly.is_degenerate:
-                raise InvalidInputError(
-                    f"the support polygon at predicted step {k + 1} has no interior"
-                )
-            Ah, bh = poly.halfspaces()
-            if Ah.shape[0] > MAX_EDGES:
-                raise InvalidInputError(
-                    f"support polygon with {Ah.shape[0]} edges; at most {MAX_EDGES} supported"
-                )
-            p_free = free[k] + reference[k + 1]
+            Ah, bh = self._halfspaces(poly, k)
+            m = Ah.shape[0]
             r0 = k * MAX_EDGES
-            for j in range(Ah.shape[0]):
-                C[r0 + j, :N] = Ah[j, 0] * self._Esel[k]
-                C[r0 + j, N:] = Ah[j, 1] * self._Esel[k]
-                u[r0 + j] = bh[j] - margin - Ah[j] @ p_free
+            C[r0 : r0 + m, :N] = np.outer(Ah[:, 0], self._Esel[k])
+            C[r0 : r0 + m, N:] = np.outer(Ah[:, 1], self._Esel[k])
+            u[r0 : r0 + m] = bh - margin - Ah @ (free[k] + reference[k + 1])
         problem = QPProblem.unconstrained(self._H, g)
         problem.C, problem.l, problem.u = C, np.full(rows, -INF), u
         return problem
+
+    def _halfspaces(self, poly: SupportPolygon, k: int) -> tuple[FloatArray, FloatArray]:
+        """``poly.halfspaces()``, computed once per polygon object (a walk repeats them)."""
+        hit = self._halfspace_cache.get(id(poly))
+        if hit is not None and hit[0] is poly:
+            return hit[1], hit[2]
+        if poly.is_degenerate:
+            raise InvalidInputError(
+                f"the support polygon at predicted step {k + 1} has no interior"
+            )
+        Ah, bh = poly.halfspaces()
+        if Ah.shape[0] > MAX_EDGES:
+            raise InvalidInputError(
+                f"support polygon with {Ah.shape[0]} edges; at most {MAX_EDGES} supported"
+            )
+        if len(self._halfspace_cache) > 4096:
+            self._halfspace_cache.clear()
+        self._halfspace_cache[id(poly)] = (poly, Ah, bh)
+        return Ah, bh
 
     def simulate(
         self,

@@ -20,7 +20,10 @@ tolerance), never "free".
 from __future__ import annotations
 
 import math
+import time
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -155,3 +158,70 @@ def certify_path(
             step = min(d_obs / rate, d_self / (2.0 * rate))
             t = min(1.0, t + step)
     return PathCertificate(True, least, -1, 1.0, queries)
+
+
+def certify_planned(
+    space: Any,
+    plan: Callable[[int, float], Any],
+    *,
+    time_limit_s: float,
+    retries: int,
+    tolerance: float = 1e-4,
+) -> Any:
+    """Plan, certify the path (:func:`certify_path`) and re-plan while it is not certified.
+
+    Args:
+        space: the planner's :class:`~taskspace.planning.ConfigurationSpace`; its checker
+            must be a :class:`~taskspace.planning.CollisionChecker` (a robot).
+        plan: ``plan(attempt, time_left_s) -> PlannerResult`` (attempt 0, 1, ...: the
+            planner with a different seed for each attempt).
+        time_limit_s: the whole budget [s] (``math.inf``: none).
+        retries: re-plans after an uncertified path (an integer >= 0).
+        tolerance: the least distance [m] still counted as free.
+
+    Returns:
+        The first certified result (``log["certified"] = 1.0``, ``log["min_distance"]``,
+        ``log["certify_attempts"]``); when none could be certified, the last path with
+        ``success=False``, status ``UNCERTIFIED`` and ``log["uncertified_segment"]`` /
+        ``log["uncertified_t"]`` (where along it the proof stopped).
+
+    Raises:
+        InvalidInputError: the space has no robot to certify against.
+    """
+    from taskspace.planning.collision_checker import CollisionChecker
+    from taskspace.planning.planner_result import PlannerStatus
+
+    checker = getattr(space, "checker", None)
+    if not isinstance(checker, CollisionChecker):
+        raise InvalidInputError(
+            "certify=True needs a space built on a robot (ConfigurationSpace.from_robot): "
+            f"the space's checker is a {type(checker).__name__}, which has no geometry to "
+            "measure distances on; use certify=False"
+        )
+    retries = check_count(retries, "certify_retries")
+    if isinstance(tolerance, (bool, np.bool_)):
+        raise InvalidInputError(f"certify_tolerance must be a distance > 0 [m], got {tolerance!r}")
+    check_positive(tolerance, "certify_tolerance")
+    t0 = time.perf_counter()
+    result: Any = None
+    for attempt in range(retries + 1):
+        left = max(0.0, time_limit_s - (time.perf_counter() - t0))
+        result = plan(attempt, left)
+        result.log["certify_attempts"] = float(attempt + 1)
+        if not result.success:
+            return result
+        cert = certify_path(checker.robot, result.path, tolerance=tolerance)
+        result.log["min_distance"] = cert.min_distance
+        if cert.certified:
+            result.log["certified"] = 1.0
+            result.time_s = time.perf_counter() - t0
+            return result
+        result.log["certified"] = 0.0
+        result.log["uncertified_segment"] = float(cert.failed_segment)
+        result.log["uncertified_t"] = cert.failed_t
+        if time.perf_counter() - t0 >= time_limit_s:
+            break
+    result.success = False
+    result.status = PlannerStatus.UNCERTIFIED
+    result.time_s = time.perf_counter() - t0
+    return result

@@ -43,7 +43,7 @@ from taskspace.planning.configuration_space import (
     path_length,
 )
 from taskspace.planning.planner_result import PlannerResult, PlannerStatus
-from taskspace.planning.prm import PRMOptions, Roadmap, _candidate_pairs
+from taskspace.planning.prm import PRMOptions, Roadmap, _candidate_pairs, check_roadmap_world
 from taskspace.planning.sampling import sample_free
 
 logger = logging.getLogger(__name__)
@@ -100,6 +100,7 @@ def build_lazy_prm(
         build_time_s=time.perf_counter() - t0,
         collision_checks=space.checks - checks0,
         edges_tried=0,
+        world_version=space.world_version,
     )
     return LazyRoadmap(
         roadmap=roadmap, pairs=pairs, costs=costs, status=np.zeros(len(costs), dtype=np.int8)
@@ -117,12 +118,17 @@ def _edge_points(
 
 
 def _check_edges(
-    space: ConfigurationSpace, ends: list[tuple[FloatArray, FloatArray]], stride: int
+    space: ConfigurationSpace,
+    ends: list[tuple[FloatArray, FloatArray]],
+    stride: int,
+    *,
+    complete: bool = False,
 ) -> npt.NDArray[np.bool_]:
     """Which segments are free at the full resolution: coarse pass on all, then fine pass.
 
     A segment with a colliding coarse point is not fine-checked; every point is checked at
-    most once. Segment end points are assumed free.
+    most once. Segment end points are assumed free. Unless ``complete``, the fine pass is
+    skipped when a coarse point collided (the returned True then only means "coarse free").
     """
     free = np.ones(len(ends), dtype=bool)
     for coarse in (True, False):
@@ -134,7 +140,7 @@ def _check_edges(
         ok = space.checker.are_valid(np.vstack(chunks))
         owner = np.repeat(todo, sizes)
         free[np.unique(owner[~ok])] = False
-        if coarse and not free.all():
+        if coarse and not complete and not free.all():
             break  # some edges failed: the caller searches again before fine checks
     return free
 
@@ -170,7 +176,8 @@ def lazy_prm_query(
         coarse_resolution: first-pass resolution [rad or m].
 
     Raises:
-        PlanningError: start or goal outside the bounds or in collision.
+        PlanningError: start or goal outside the bounds or in collision; the roadmap was
+            built for another version of the obstacle world (its edge states are stale).
         InvalidInputError: a NaN or negative time limit, a bad resolution.
     """
     opts = options or PRMOptions()
@@ -178,6 +185,7 @@ def lazy_prm_query(
     deadline = t0 + check_time_limit(time_limit_s)
     check_positive(coarse_resolution, "coarse_resolution")
     checks0, edges0 = space.checks, space.edge_checks
+    check_roadmap_world(space, lazy.roadmap)
     q_start = space.check_endpoint(start, "start")
     q_goal = space.check_endpoint(goal, "goal")
     roadmap = lazy.roadmap
@@ -257,6 +265,8 @@ def grow_lazy_prm(
     unchanged, new nodes are appended).
     """
     old = lazy.roadmap
+    if old.size:
+        check_roadmap_world(space, old)
     nodes = np.vstack([old.nodes, new_nodes]) if new_nodes.shape[0] else old.nodes
     pairs = _candidate_pairs(nodes, k)
     costs = np.linalg.norm(nodes[pairs[:, 1]] - nodes[pairs[:, 0]], axis=1)
@@ -274,6 +284,7 @@ def grow_lazy_prm(
         build_time_s=old.build_time_s,
         collision_checks=old.collision_checks,
         edges_tried=old.edges_tried,
+        world_version=space.world_version if old.size == 0 else old.world_version,
     )
     return LazyRoadmap(roadmap=roadmap, pairs=pairs, costs=costs, status=status)
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import enum
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -22,6 +23,9 @@ class PlannerStatus(enum.Enum):
     """The iteration (sample) budget ran out before a path was found."""
     NO_PATH = "no_path"
     """The roadmap does not connect start and goal (PRM, Lazy PRM)."""
+    UNCERTIFIED = "uncertified"
+    """Paths were found but none could be certified free between its checked points
+    (``certify=True``); ``path`` holds the last one and ``log`` the failing segment."""
 
 
 @dataclass
@@ -69,6 +73,8 @@ class PlannerResult:
         time_s: wall-clock planning time [s].
         trees: search trees (RRT: one, RRT-Connect: start and goal trees; PRM: none).
         log: extra diagnostics (roadmap sizes, shortcut statistics, ...).
+        cost: the optimal planners' objective cost of ``path`` (``inf`` on failure; ``None``
+            for planners without an objective).
     """
 
     success: bool
@@ -80,4 +86,5 @@ class PlannerResult:
     edge_checks: int
     time_s: float
     trees: list[Tree] = field(default_factory=list, repr=False)
-    log: dict[str, float] = field(default_factory=dict)
+    log: dict[str, Any] = field(default_factory=dict)
+    cost: float | None = None

@@ -26,7 +26,8 @@ import numpy as np
 import numpy.typing as npt
 from scipy.spatial import cKDTree
 
-from taskspace._validation import check_count, check_seed
+from taskspace._validation import check_count, check_seed, check_time_limit
+from taskspace.errors import PlanningError
 from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray, path_length
 from taskspace.planning.graph_search import astar, dijkstra
 from taskspace.planning.planner_result import PlannerResult, PlannerStatus
@@ -46,6 +47,10 @@ class PRMOptions:
         sigma: standard deviation of Gaussian/bridge offsets [rad or m].
         search: ``"dijkstra"`` or ``"astar"`` for queries.
         seed: random seed used when no ``rng`` is passed.
+        time_limit_s: wall-clock budget [s] of :func:`build_prm` (``None`` or ``math.inf``:
+            none; NaN refused); ``n_samples`` is the iteration cap (see
+            :mod:`taskspace.planning.limits`). Edges not tried in time are left out, and
+            :func:`prm` then reports ``TIME_LIMIT`` when no path is found.
     """
 
     n_samples: int = 500
@@ -54,6 +59,7 @@ class PRMOptions:
     sigma: float = 0.3
     search: Literal["dijkstra", "astar"] = "dijkstra"
     seed: int = 0
+    time_limit_s: float | None = None
 
 
 @dataclass
@@ -66,6 +72,9 @@ class Roadmap:
         build_time_s: construction time [s].
         collision_checks: configurations evaluated while building.
         edges_tried: local-planner queries while building.
+        world_version: :attr:`ConfigurationSpace.world_version` of the world the edges were
+            checked in (``None`` without a world); queries refuse a roadmap whose version
+            differs from the space's.
     """
 
     nodes: FloatArray
@@ -73,6 +82,7 @@ class Roadmap:
     build_time_s: float = 0.0
     collision_checks: int = 0
     edges_tried: int = 0
+    world_version: int | None = None
     _tree: Any = field(default=None, repr=False)
 
     @property
@@ -104,6 +114,24 @@ class Roadmap:
         return np.asarray(connected_components(mat, directed=False)[1], dtype=np.int64)
 
 
+def check_roadmap_world(space: ConfigurationSpace, roadmap: Roadmap) -> None:
+    """Refuse a roadmap whose edges were checked in another version of the obstacle world.
+
+    Raises:
+        PlanningError: ``roadmap.world_version`` differs from ``space.world_version`` (an
+            obstacle was added, removed or moved, or the collision pairs changed since the
+            roadmap was built): its edges may now collide; build a new roadmap.
+    """
+    now = space.world_version
+    if roadmap.world_version != now:
+        raise PlanningError(
+            f"the roadmap was built for world version {roadmap.world_version} but the space's "
+            f"world is now at version {now} (obstacles or collision pairs changed): its edges "
+            "may collide; build a new roadmap (build_prm / build_lazy_prm / prm_star) for the "
+            "current world"
+        )
+
+
 def _candidate_pairs(nodes: FloatArray, k: int) -> npt.NDArray[np.int64]:
     """Unique undirected pairs (i, j), i < j, from the k nearest neighbours of every node."""
     n = nodes.shape[0]
@@ -119,9 +147,16 @@ def _candidate_pairs(nodes: FloatArray, k: int) -> npt.NDArray[np.int64]:
 
 
 def connect_roadmap(
-    space: ConfigurationSpace, nodes: FloatArray, k: int, *, check_edges: bool = True
+    space: ConfigurationSpace,
+    nodes: FloatArray,
+    k: int,
+    *,
+    check_edges: bool = True,
+    deadline: float = math.inf,
 ) -> tuple[list[list[tuple[int, float]]], int]:
     """Adjacency lists of the k-nearest-neighbour graph (edges checked if ``check_edges``).
+
+    Edges are not tried after ``deadline`` (a ``time.perf_counter()`` value [s]).
 
     Returns:
         ``(adjacency, edges_tried)``.
@@ -130,12 +165,17 @@ def connect_roadmap(
     adjacency: list[list[tuple[int, float]]] = [[] for _ in range(n)]
     pairs = _candidate_pairs(nodes, k)
     costs = np.linalg.norm(nodes[pairs[:, 1]] - nodes[pairs[:, 0]], axis=1)
+    tried = 0
     for (i, j), c in zip(pairs.tolist(), costs.tolist()):
+        if check_edges and time.perf_counter() > deadline:
+            logger.debug("PRM: time limit after %d of %d edges", tried, pairs.shape[0])
+            break
+        tried += 1
         if check_edges and not space.motion_valid(nodes[i], nodes[j]):
             continue
         adjacency[i].append((j, c))
         adjacency[j].append((i, c))
-    return adjacency, int(pairs.shape[0])
+    return adjacency, tried
 
 
 def build_prm(
@@ -156,15 +196,18 @@ def build_prm(
     check_count(opts.k_neighbors, "k_neighbors", minimum=1)
     rng = rng if rng is not None else np.random.default_rng(check_seed(opts.seed))
     t0 = time.perf_counter()
+    deadline = t0 + check_time_limit(opts.time_limit_s)
     checks0 = space.checks
+    version = space.world_version
     nodes = sample_free(space, opts.n_samples, rng, strategy=opts.sampler, sigma=opts.sigma)
-    adjacency, tried = connect_roadmap(space, nodes, opts.k_neighbors)
+    adjacency, tried = connect_roadmap(space, nodes, opts.k_neighbors, deadline=deadline)
     roadmap = Roadmap(
         nodes=nodes,
         adjacency=adjacency,
         build_time_s=time.perf_counter() - t0,
         collision_checks=space.checks - checks0,
         edges_tried=tried,
+        world_version=version,
     )
     logger.debug("PRM: %d nodes, %d edges", roadmap.size, roadmap.edges.shape[0])
     return roadmap
@@ -253,11 +296,13 @@ def prm_query(
         A :class:`PlannerResult` (``NO_PATH`` when start and goal are not connected).
 
     Raises:
-        PlanningError: start or goal outside the bounds or in collision.
+        PlanningError: start or goal outside the bounds or in collision; the roadmap was
+            built for another version of the obstacle world.
     """
     opts = options or PRMOptions()
     t0 = time.perf_counter()
     checks0, edges0 = space.checks, space.edge_checks
+    check_roadmap_world(space, roadmap)
     q_start = space.check_endpoint(start, "start")
     q_goal = space.check_endpoint(goal, "goal")
     start_edges = _attach(space, roadmap, q_start, opts.k_neighbors, True)
@@ -304,6 +349,11 @@ def prm(
     checks0, edges0 = space.checks, space.edge_checks
     roadmap = build_prm(space, opts, rng=rng)
     result = prm_query(space, roadmap, start, goal, opts)
+    if (
+        not result.success
+        and roadmap.edges_tried < _candidate_pairs(roadmap.nodes, opts.k_neighbors).shape[0]
+    ):
+        result.status = PlannerStatus.TIME_LIMIT
     result.time_s += roadmap.build_time_s
     result.collision_checks = space.checks - checks0
     result.edge_checks = space.edge_checks - edges0

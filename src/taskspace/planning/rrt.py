@@ -25,9 +25,10 @@ from typing import Any
 
 import numpy as np
 
-from taskspace._validation import check_count, check_positive, check_seed, check_time_limit
+from taskspace._validation import check_positive, check_seed
 from taskspace.errors import InvalidInputError
 from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray, path_length
+from taskspace.planning.limits import planner_limits
 from taskspace.planning.planner_result import PlannerResult, PlannerStatus
 from taskspace.planning.rrt_connect import _GrowingTree, _steer
 
@@ -41,7 +42,8 @@ class RRTOptions:
     Attributes:
         step_size: extension step ``alpha`` [rad or m] (slide 3:39).
         goal_bias: probability ``beta`` of taking ``q_goal`` as target (slide 3:40).
-        max_iterations: number of iterations ``n`` (an integer >= 0).
+        max_iterations: number of iterations ``n`` (an integer >= 0, or ``None`` with a
+            finite time limit: :mod:`taskspace.planning.limits`).
         time_limit_s: wall-clock budget [s] (``None`` or ``math.inf`` = no limit; NaN is
             refused).
         seed: random seed (an integer >= 0) used when no ``rng`` is passed.
@@ -49,7 +51,7 @@ class RRTOptions:
 
     step_size: float = 0.5
     goal_bias: float = 0.05
-    max_iterations: int = 10_000
+    max_iterations: int | None = 10_000
     time_limit_s: float | None = 5.0
     seed: int = 0
 
@@ -88,8 +90,7 @@ def rrt(
     alpha = check_positive(opts.step_size, "step_size")
     if not 0.0 <= opts.goal_bias <= 1.0:
         raise InvalidInputError(f"goal_bias must be in [0, 1], got {opts.goal_bias}")
-    max_iterations = check_count(opts.max_iterations, "max_iterations")
-    time_limit = check_time_limit(opts.time_limit_s)
+    max_iterations, time_limit = planner_limits(opts.max_iterations, opts.time_limit_s)
     rng = rng if rng is not None else np.random.default_rng(check_seed(opts.seed))
     checks0, edges0 = space.checks, space.edge_checks
     t0 = time.perf_counter()

@@ -73,6 +73,7 @@ one by one.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 import time
@@ -81,8 +82,9 @@ from typing import Any
 
 import numpy as np
 
-from taskspace._validation import check_count, check_positive, check_seed, check_time_limit
+from taskspace._validation import check_positive, check_seed
 from taskspace.errors import InvalidInputError
+from taskspace.planning.certify import certify_planned
 from taskspace.planning.collision_checker import CollisionChecker
 from taskspace.planning.configuration_space import (
     ConfigurationSpace,
@@ -91,6 +93,7 @@ from taskspace.planning.configuration_space import (
     nested_orders,
     path_length,
 )
+from taskspace.planning.limits import planner_limits
 from taskspace.planning.nearest import GrowingNearest
 from taskspace.planning.planner_result import PlannerResult, PlannerStatus, Tree
 
@@ -118,7 +121,7 @@ class RRTConnectOptions:
             turn: it EXTENDs and the other tree CONNECTs towards its new node; 0 alternates
             the trees as the classic algorithm.
         max_iterations: number of samples ``n`` (an integer >= 0; values beyond ``2**63 - 1``
-            are that).
+            are that; ``None`` with a finite time limit: :mod:`taskspace.planning.limits`).
         time_limit_s: wall-clock budget [s] (``None`` or ``math.inf`` = no limit; NaN is
             refused).
         seed: random seed (an integer >= 0) used when no ``rng`` is passed; the compiled
@@ -127,6 +130,11 @@ class RRTConnectOptions:
             algorithm, with its own random stream) when it is built and the space's checker
             is a :class:`~taskspace.planning.CollisionChecker`; otherwise, or with
             ``partial_extend``, this module's Python implementation runs.
+        certify: prove the returned path free between its checked points (see
+            :func:`rrt_connect`); needs a space built on a robot.
+        certify_retries: re-plans (next seeds) after an uncertified path.
+        certify_tolerance: the least robot-obstacle (and self) distance [m] along the path
+            counted as free by the certification.
     """
 
     step_size: float = 0.5
@@ -135,10 +143,13 @@ class RRTConnectOptions:
     local_sampling: float = 0.5
     local_sigma: float = 0.5
     trapped_priority: float = 0.75
-    max_iterations: int = 100_000
+    max_iterations: int | None = 100_000
     time_limit_s: float | None = 1.0
     seed: int = 0
     native: bool = True
+    certify: bool = False
+    certify_retries: int = 2
+    certify_tolerance: float = 1e-4
 
 
 class _GrowingTree:
@@ -536,7 +547,8 @@ def rrt_connect(
     Returns:
         A :class:`PlannerResult`; ``trees`` holds the start and goal trees; ``log`` has the
         node counts, the candidate paths rejected by the fine check (``lazy_rejections``),
-        the nodes removed with them and the turns taken by a trapped tree (``trapped_turns``).
+        the nodes removed with them and the turns taken by a trapped tree (``trapped_turns``);
+        with ``certify``, ``certified``, ``min_distance`` [m] and ``certify_attempts``.
 
     Interrupts and threads: the compiled planner runs with the GIL released and polls
     Python's signal handlers every 2 ms, so Ctrl-C stops it (``KeyboardInterrupt``) as it
@@ -553,11 +565,44 @@ def rrt_connect(
             ``seed``, a NaN or negative ``time_limit_s``, a step or resolution too small for
             the bounds).
         KeyboardInterrupt: Ctrl-C (SIGINT) during the plan.
+
+    Certified paths: with ``options.certify`` the returned path is proven free between its
+    checked points by :func:`~taskspace.planning.certify_path` (conservative advancement on
+    the robot's geometry); an uncertified path is re-planned with the next seeds
+    (``certify_retries`` times, within the time limit) and, if none can be certified, the
+    result has ``success=False``, status ``UNCERTIFIED`` and the failing segment in ``log``.
     """
     opts = options or RRTConnectOptions()
+    if not opts.certify:
+        return _plan(space, start, goal, opts, rng)
+    _, limit = planner_limits(opts.max_iterations, opts.time_limit_s)
+    seed = check_seed(opts.seed)
+
+    def plan(attempt: int, left: float) -> PlannerResult:
+        again = dataclasses.replace(
+            opts, seed=seed + attempt, time_limit_s=left if math.isfinite(left) else None
+        )
+        return _plan(space, start, goal, again, rng)
+
+    return certify_planned(
+        space,
+        plan,
+        time_limit_s=limit,
+        retries=opts.certify_retries,
+        tolerance=opts.certify_tolerance,
+    )
+
+
+def _plan(
+    space: ConfigurationSpace,
+    start: Any,
+    goal: Any,
+    opts: RRTConnectOptions,
+    rng: np.random.Generator | None,
+) -> PlannerResult:
+    """:func:`rrt_connect` without certification."""
     alpha = check_positive(opts.step_size, "step_size")
-    max_iterations = check_count(opts.max_iterations, "max_iterations")
-    time_limit = check_time_limit(opts.time_limit_s)
+    max_iterations, time_limit = planner_limits(opts.max_iterations, opts.time_limit_s)
     seed = check_seed(opts.seed)
     if not 0.0 <= opts.local_sampling <= 1.0:
         raise InvalidInputError(f"local_sampling must be in [0, 1], got {opts.local_sampling}")

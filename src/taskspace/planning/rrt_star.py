@@ -16,6 +16,7 @@ metric.
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 import time
@@ -24,9 +25,12 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
-from taskspace._validation import check_count, check_positive, check_seed, check_time_limit
+from taskspace._validation import check_positive, check_seed
 from taskspace.errors import InvalidInputError
+from taskspace.planning.certify import certify_planned
 from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray, path_length
+from taskspace.planning.limits import planner_limits
+from taskspace.planning.objectives import OptimizationObjective, check_objective
 from taskspace.planning.planner_result import PlannerResult, PlannerStatus, Tree
 
 
@@ -39,24 +43,33 @@ class RRTStarOptions:
         goal_bias: probability of sampling the goal (before a solution exists).
         gamma_factor: ``gamma = gamma_factor * gamma*`` (must exceed 1 for the guarantee).
         informed: sample the informed set once a solution exists (informed RRT*).
-        max_iterations: iterations (an integer >= 0); with no time limit it must be finite.
+        max_iterations: iterations (an integer >= 0, or ``None`` with a finite time limit:
+            :mod:`taskspace.planning.limits`).
         time_limit_s: wall-clock budget [s] (``None`` or ``math.inf`` = none; NaN refused).
         seed: random seed (an integer >= 0) used when no ``rng`` is passed.
         stop_at_first: return as soon as a first solution exists (not anytime).
         k_nearest: rewire the ``k_n = gamma_factor e (1 + 1/d) log n`` nearest nodes (the
             k-nearest RRT*, as OMPL does by default) instead of those within ``r_n``; in high
             dimensions the ball of radius ``r_n <= eta`` is almost always empty.
+        certify: prove the returned path free between its checked points (see
+            :func:`rrt_star`); needs a space built on a robot.
+        certify_retries: re-plans (next seeds) after an uncertified path.
+        certify_tolerance: the least robot-obstacle (and self) distance [m] along the path
+            counted as free by the certification.
     """
 
     step_size: float = 0.5
     goal_bias: float = 0.05
     gamma_factor: float = 1.1
     informed: bool = True
-    max_iterations: int = 5_000
+    max_iterations: int | None = 5_000
     time_limit_s: float | None = 1.0
     seed: int = 0
     stop_at_first: bool = False
     k_nearest: bool = True
+    certify: bool = False
+    certify_retries: int = 2
+    certify_tolerance: float = 1e-4
 
 
 def unit_ball_volume(d: int) -> float:
@@ -141,7 +154,7 @@ class _RRTStarTree:
         _propagate(i, cost - self.cost[i], self.cost, self.children)
 
 
-def _goal_states(space: ConfigurationSpace, goal: Any) -> tuple[list[FloatArray], Any]:
+def goal_states(space: ConfigurationSpace, goal: Any) -> tuple[list[FloatArray], Any]:
     """Goal configurations (validated) and the goal region (or None)."""
     if isinstance(goal, GoalRegion):
         return [], goal
@@ -159,6 +172,7 @@ def rrt_star(
     goal: Any,
     options: RRTStarOptions | None = None,
     *,
+    objective: OptimizationObjective | None = None,
     rng: np.random.Generator | None = None,
 ) -> PlannerResult:
     """Plan a short collision-free path from ``start`` to a goal with (informed) RRT*.
@@ -170,27 +184,65 @@ def rrt_star(
             cheaper to reach), or a :class:`GoalRegion` (sampled for the goal bias; every
             tree node inside it ends a candidate path).
         options: planner settings.
+        objective: path cost (default: Euclidean :class:`~taskspace.planning.PathLength`);
+            nearest neighbours stay Euclidean, parents and rewiring use its motion costs.
         rng: random generator (default: ``np.random.default_rng(options.seed)``).
 
     Returns:
-        The best path found within the limits; ``log`` holds ``cost_times`` and ``costs``
-        (the best cost each time it improved), ``first_solution_s`` and the tree size.
-        Informed sampling is used with a single goal configuration only.
+        The best path found within the limits; ``cost`` is its objective cost; ``log``
+        holds ``cost_times`` and ``costs`` (the best cost each time it improved),
+        ``first_solution_s``, the tree size and ``stopped_by``. Informed sampling is used
+        with a single goal configuration and the Euclidean length only.
 
     Raises:
         PlanningError: start or goal outside the bounds or in collision.
-        InvalidInputError: invalid options.
+        InvalidInputError: invalid options; ``certify`` on a space without a robot.
+
+    Certified paths: with ``options.certify`` the best path is proven free between its
+    checked points by :func:`~taskspace.planning.certify_path`; an uncertified path is
+    re-planned with the next seeds (``certify_retries`` times, within the time limit), and
+    if none can be certified the result has ``success=False``, status ``UNCERTIFIED`` and
+    the failing segment in ``log``.
     """
     opts = options or RRTStarOptions()
+    if not opts.certify:
+        return _plan(space, start, goal, opts, objective, rng)
+    _, limit = planner_limits(opts.max_iterations, opts.time_limit_s)
+    seed = check_seed(opts.seed)
+
+    def plan(attempt: int, left: float) -> PlannerResult:
+        again = dataclasses.replace(
+            opts, seed=seed + attempt, time_limit_s=left if math.isfinite(left) else None
+        )
+        return _plan(space, start, goal, again, objective, rng)
+
+    return certify_planned(
+        space,
+        plan,
+        time_limit_s=limit,
+        retries=opts.certify_retries,
+        tolerance=opts.certify_tolerance,
+    )
+
+
+def _plan(
+    space: ConfigurationSpace,
+    start: Any,
+    goal: Any,
+    opts: RRTStarOptions,
+    objective: OptimizationObjective | None,
+    rng: np.random.Generator | None,
+) -> PlannerResult:
+    """:func:`rrt_star` without certification."""
     eta = check_positive(opts.step_size, "step_size")
-    limit = check_time_limit(opts.time_limit_s)
-    iterations = check_count(opts.max_iterations, "max_iterations")
+    iterations, limit = planner_limits(opts.max_iterations, opts.time_limit_s)
     if not 0.0 <= opts.goal_bias <= 1.0:
         raise InvalidInputError(f"goal_bias must be in [0, 1], got {opts.goal_bias}")
     check_positive(opts.gamma_factor, "gamma_factor")
+    cost_of = check_objective(objective)
     rng = rng or np.random.default_rng(check_seed(opts.seed))
     q_start = space.check_endpoint(start, "start")
-    goals, region = _goal_states(space, goal)
+    goals, region = goal_states(space, goal)
     d = space.dim
     volume = float(np.prod(space.upper - space.lower))
     k_rrg = opts.gamma_factor * math.e * (1 + 1 / d)
@@ -204,7 +256,7 @@ def rrt_star(
     goal_nodes: dict[int, int] = {}  # goal state index -> its tree node
     region_nodes: list[int] = []
     rotation = None
-    if opts.informed and region is None and len(goals) == 1:
+    if opts.informed and region is None and len(goals) == 1 and cost_of.is_euclidean_length:
         if np.linalg.norm(goals[0] - q_start) > 0:
             rotation = _rotation_to_world(q_start, goals[0])
     if region is not None and region.contains(q_start):
@@ -265,10 +317,13 @@ def rrt_star(
             near = np.flatnonzero(dist <= radius)
         # Choose the parent of least cost-to-come among the neighbours.
         cost = tree.cost
+        edge = np.zeros(n)
+        candidates = np.union1d(near, [near_i])
+        edge[candidates] = cost_of.motion_costs(nodes[candidates], x_new)
         best_parent = near_i
-        best_cost = cost[near_i] + dist[near_i]
-        for j in near[np.argsort(cost[near] + dist[near])]:
-            c = cost[j] + dist[j]
+        best_cost = cost[near_i] + edge[near_i]
+        for j in near[np.argsort(cost[near] + edge[near])]:
+            c = cost[j] + edge[j]
             if c >= best_cost:
                 break
             if j != near_i and space.motion_valid(nodes[j], x_new):
@@ -278,7 +333,7 @@ def rrt_star(
         # Rewire the neighbours through x_new.
         for j in near:
             j = int(j)
-            c = best_cost + dist[j]
+            c = best_cost + edge[j]
             if j == best_parent or c >= tree.cost[j] - 1e-12:
                 continue
             if space.motion_valid(x_new, tree.nodes[j]):
@@ -287,9 +342,11 @@ def rrt_star(
         if region is not None and region.contains(x_new):
             region_nodes.append(new)
         for g, q_goal in enumerate(goals):
-            to_goal = float(np.linalg.norm(q_goal - x_new))
+            if float(np.linalg.norm(q_goal - x_new)) > eta:
+                continue
+            to_goal = cost_of.motion_cost(x_new, q_goal)
             node = goal_nodes.get(g, -1)
-            if to_goal > eta or best_cost + to_goal >= (tree.cost[node] if node >= 0 else math.inf):
+            if best_cost + to_goal >= (tree.cost[node] if node >= 0 else math.inf):
                 continue
             if space.motion_valid(x_new, q_goal):
                 if node < 0:
@@ -315,12 +372,18 @@ def rrt_star(
         "costs": costs,
         "gamma": gamma,
         "goal_states": float(len(goals)),
+        "stopped_by": {
+            PlannerStatus.TIME_LIMIT: "time",
+            PlannerStatus.ITERATION_LIMIT: "iterations",
+            PlannerStatus.SOLVED: "first solution",
+        }[status],
     }
     return PlannerResult(
         success=success,
         status=PlannerStatus.SOLVED if success else status,
         path=path,
         path_length=path_length(path) if success else math.inf,
+        cost=float(tree.cost[goal_node]) if success else math.inf,
         iterations=it,
         collision_checks=space.checks - checks0,
         edge_checks=space.edge_checks - edges0,

@@ -12,11 +12,11 @@ import numpy as np
 
 from taskspace._validation import FloatArray
 from taskspace.errors import ShapeError
+from taskspace.features.rows import INF
 
 _max = np.maximum.reduce  # twice as fast as ndarray.max on small vectors
 
-INF = 1e20
-"""Stand-in for an infinite bound (what the QP backends accept)."""
+__all__ = ["INF", "QPProblem", "RowBlock"]
 
 
 @dataclass

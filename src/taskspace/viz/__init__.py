@@ -10,6 +10,7 @@ from importlib import import_module
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
+    from taskspace.viz.figure_page import figure_page_html, save_figure_page
     from taskspace.viz.image_comparison import ImageComparison, compare_images
     from taskspace.viz.plots import save_or_show, style_figure
     from taskspace.viz.scene_recorder import SceneRecorder
@@ -33,7 +34,9 @@ _EXPORTS = {
     "Viewer": "taskspace.viz.viewer",
     "close_browser": "taskspace.viz.snapshots",
     "compare_images": "taskspace.viz.image_comparison",
+    "figure_page_html": "taskspace.viz.figure_page",
     "render_html": "taskspace.viz.snapshots",
+    "save_figure_page": "taskspace.viz.figure_page",
     "save_or_show": "taskspace.viz.plots",
     "snapshot": "taskspace.viz.snapshots",
     "style_figure": "taskspace.viz.plots",
@@ -49,7 +52,9 @@ __all__ = [
     "Viewer",
     "close_browser",
     "compare_images",
+    "figure_page_html",
     "render_html",
+    "save_figure_page",
     "save_or_show",
     "snapshot",
     "style_figure",

@@ -9,7 +9,10 @@ onto the wanted direction.
 
 from __future__ import annotations
 
+import functools
 import logging
+import math
+import re
 from pathlib import Path
 from typing import Any
 
@@ -139,7 +142,7 @@ class DaeObjectCommand:
 
         self.path = path
         self.uuid = mg.Geometry().uuid
-        self.data = Path(dae_file).read_text(encoding="utf-8", errors="replace")
+        self.data = compact_collada_file(str(Path(dae_file).resolve()))
         self.material = material
 
     def lower(self) -> dict[str, Any]:
@@ -160,6 +163,47 @@ class DaeObjectCommand:
         if self.material is not None:
             self.material.lower_in_object(obj)
         return {"type": "set_object", "path": self.path, "object": obj}
+
+
+COLLADA_DIGITS = 5
+"""Significant digits kept in Collada float arrays, relative to each array's largest value."""
+
+_FLOAT_ARRAY = re.compile(r"(<float_array[^>]*>)([^<]*)(</float_array>)")
+
+
+def compact_collada(text: str, digits: int = COLLADA_DIGITS) -> str:
+    """Collada text with every ``<float_array>`` cut to ``digits`` significant digits.
+
+    The decimals of each array ``v`` beyond ``d = digits - 1 - floor(log10(max|v|))`` are
+    dropped from the text: a vertex moves by less than one unit of the last kept digit
+    (10 um for coordinates below 1 m with 5 digits), far below a pixel, and the text
+    compresses much better. Numbers in exponent form are kept as written.
+    """
+    if digits < 1:
+        raise InvalidInputError(f"digits must be >= 1, got {digits}")
+
+    def shortened(match: re.Match[str]) -> str:
+        numbers = match.group(2)
+        try:
+            values = np.array(numbers.split(), dtype=float)
+        except ValueError:
+            return match.group(0)
+        biggest = float(np.max(np.abs(values))) if values.size else 0.0
+        if not np.isfinite(biggest) or biggest == 0.0:
+            return match.group(0)
+        decimals = digits - 1 - math.floor(math.log10(biggest))
+        if decimals < 1:
+            return match.group(0)
+        cut = re.sub(rf"(?<=\.\d{{{decimals}}})\d+(?=\s|$)", "", numbers)
+        return match.group(1) + cut + match.group(3)
+
+    return _FLOAT_ARRAY.sub(shortened, text)
+
+
+@functools.lru_cache(maxsize=64)
+def compact_collada_file(path: str) -> str:
+    """:func:`compact_collada` of a ``.dae`` file (cached: robots share and reload meshes)."""
+    return compact_collada(Path(path).read_text(encoding="utf-8", errors="replace"))
 
 
 def _mesh_file_geometry(mesh_path: str) -> Any:

@@ -4,9 +4,15 @@ meshcat's ``Visualizer`` talks to a window object through ``window.send(command)
 recorder implements that interface and keeps the scene as a tree, exactly like meshcat's zmq
 server does (``set_object`` replaces a node's object and clears its properties, ``delete``
 removes a subtree, the animation is stored once). :meth:`SceneRecorder.static_html` then writes
-a self-contained HTML page: meshcat's ``main.min.js`` inlined and every command embedded as
-base64 msgpack, decoded and applied *synchronously and in order* (meshcat's own static HTML
-uses asynchronous ``fetch`` of ``data:`` URLs). No zmq server, no network access.
+a self-contained HTML page: meshcat's ``main.min.js`` and every command (msgpack) embedded,
+applied *in order* (meshcat's own static HTML uses one asynchronous ``fetch`` of a ``data:``
+URL per command). No zmq server, no network access.
+
+The page is compact: every byte string (command parts, and each large string such as a mesh
+file, cut out of its command) is stored once, however many commands use it (a mesh shown by
+several nodes, a scene re-sent); the distinct parts and the viewer's JavaScript are
+zlib-compressed and base64-encoded, and inflated in the browser by ``DecompressionStream``
+(Chrome 80+, Firefox 113+, Safari 16.4+). ``compress=False`` writes the plain page.
 
 The last scene command is always a readiness token: a property ``taskspace_ready_token`` set on
 the node ``/taskspace_ready``. The snapshot renderer polls it to know that every command was
@@ -19,10 +25,12 @@ recorded and forwarded, so the static HTML always matches what the live viewer s
 from __future__ import annotations
 
 import base64
+import functools
 import html
 import json
 import logging
 import uuid
+import zlib
 from pathlib import Path
 from typing import Any, Protocol
 
@@ -33,6 +41,10 @@ READY_NODE = "taskspace_ready"
 
 READY_PROPERTY = "taskspace_ready_token"
 """Property of :data:`READY_NODE` holding the token once every command was applied."""
+
+
+LARGE_STRING = 4096
+"""Strings of at least this many characters (mesh files) are stored once per HTML page."""
 
 
 class _Command(Protocol):
@@ -49,7 +61,7 @@ class _Node:
     __slots__ = ("animation", "children", "object", "properties", "transform")
 
     def __init__(self) -> None:
-        self.object: bytes | None = None
+        self.object: tuple[bytes, ...] | None = None
         self.properties: list[bytes] = []
         self.transform: bytes | None = None
         self.animation: bytes | None = None
@@ -117,6 +129,70 @@ window.__taskspace_errors = [];
 """
 
 
+_COMPRESSED_TEMPLATE = """<!DOCTYPE html>
+<html>
+<head>
+<meta charset="utf-8">
+<title>{title}</title>
+<style>
+body {{ margin: 0; }}
+#meshcat-pane {{ width: 100vw; height: 100vh; overflow: hidden; }}
+</style>
+</head>
+<body>
+<div id="meshcat-pane"></div>
+<script>
+var TASKSPACE_SCENE = {scene};
+</script>
+<script>
+window.__taskspace_errors = [];
+(async function () {{
+  function inflate(text) {{
+    var raw = atob(text);
+    var bytes = new Uint8Array(raw.length);
+    for (var i = 0; i < raw.length; i++) {{ bytes[i] = raw.charCodeAt(i); }}
+    var stream = new Blob([bytes]).stream().pipeThrough(new DecompressionStream("deflate"));
+    return new Response(stream).arrayBuffer().then(function (b) {{ return new Uint8Array(b); }});
+  }}
+  var scene = TASKSPACE_SCENE;
+  (0, eval)(new TextDecoder().decode(await inflate(scene.js)));
+  window.viewer = new MeshCat.Viewer(document.getElementById("meshcat-pane"));
+  var data = await inflate(scene.data);
+  var offsets = [0];
+  for (var c = 0; c < scene.sizes.length; c++) {{ offsets.push(offsets[c] + scene.sizes[c]); }}
+  for (var k = 0; k < scene.commands.length; k++) {{
+    try {{
+      var ids = scene.commands[k], length = 0, at = 0;
+      for (var j = 0; j < ids.length; j++) {{ length += scene.sizes[ids[j]]; }}
+      var command = new Uint8Array(length);
+      for (var j = 0; j < ids.length; j++) {{
+        command.set(data.subarray(offsets[ids[j]], offsets[ids[j] + 1]), at);
+        at += scene.sizes[ids[j]];
+      }}
+      viewer.handle_command_bytearray(command);
+    }} catch (err) {{
+      window.__taskspace_errors.push("command " + k + ": " + err);
+    }}
+  }}
+}})().catch(function (err) {{
+  window.__taskspace_errors.push("loading the scene: " + err);
+  var hint = typeof DecompressionStream === "undefined" ? " (this page needs a browser with "
+    + "DecompressionStream: Chrome 80+, Firefox 113+, Safari 16.4+)" : "";
+  document.body.insertAdjacentText("afterbegin", "could not load the scene: " + err + hint);
+}});
+</script>
+</body>
+</html>
+"""
+
+
+@functools.lru_cache(maxsize=1)
+def _compressed_javascript() -> str:
+    """The viewer's JavaScript (``main.min.js``), zlib-compressed and base64-encoded, once."""
+    packed = zlib.compress(meshcat_javascript().encode("utf-8"), 9)
+    return base64.b64encode(packed).decode("ascii")
+
+
 class SceneRecorder:
     """Records meshcat commands into a scene tree and writes them as static HTML.
 
@@ -133,6 +209,7 @@ class SceneRecorder:
         self.forward = forward
         self.token = uuid.uuid4().hex
         self._root = _Node()
+        self._shared: dict[bytes, bytes] = {}
         self.command_count = 0
 
     # ------------------------------------------------------------------ window interface
@@ -142,19 +219,18 @@ class SceneRecorder:
 
         data = command.lower()
         kind = data["type"]
-        packed = umsgpack.packb(data)
         path = _split(str(data.get("path", "")))
         self.command_count += 1
         if kind == "set_object":
             node = self._root.find(path)
-            node.object = packed
+            node.object = self._pack_parts(data)
             node.properties = []
         elif kind == "set_transform":
-            self._root.find(path).transform = packed
+            self._root.find(path).transform = umsgpack.packb(data)
         elif kind == "set_property":
-            self._root.find(path).properties.append(packed)
+            self._root.find(path).properties.append(umsgpack.packb(data))
         elif kind == "set_animation":
-            self._root.find(path).animation = packed
+            self._root.find(path).animation = umsgpack.packb(data)
         elif kind == "delete":
             if path:
                 parent = self._root.find(path[:-1])
@@ -166,45 +242,94 @@ class SceneRecorder:
         if self.forward is not None:
             self.forward.send(command)
 
-    # ------------------------------------------------------------------ export
-    def packed_commands(self) -> list[bytes]:
-        """All recorded commands (msgpack bytes) in replay order, readiness token last."""
+    def _pack_parts(self, data: dict[str, Any]) -> tuple[bytes, ...]:
+        """The msgpack of ``data`` cut around its large strings (each kept once, by content).
+
+        msgpack encodes a string as a self-delimiting header plus its bytes, so the command is
+        the concatenation of the parts; a large string (a mesh file) becomes a part of its own,
+        shared by every command that carries the same text.
+        """
         import umsgpack
 
-        out: list[bytes] = []
-        animations: list[bytes] = []
+        large: dict[str, str] = {}
+
+        def cut(value: Any) -> Any:
+            if isinstance(value, str) and len(value) >= LARGE_STRING:
+                marker = f"\x00taskspace-part-{len(large)}\x00"
+                large[marker] = value
+                return marker
+            if isinstance(value, dict):
+                return {k: cut(v) for k, v in value.items()}
+            if isinstance(value, list):
+                return [cut(v) for v in value]
+            return value
+
+        packed = umsgpack.packb(cut(data))
+        parts: list[bytes] = []
+        for marker, text in large.items():
+            head, _, packed = packed.partition(umsgpack.packb(marker))
+            whole = umsgpack.packb(text)
+            parts += [head, self._shared.setdefault(whole, whole)]
+        parts.append(packed)
+        return tuple(p for p in parts if p)
+
+    # ------------------------------------------------------------------ export
+    def _ordered_parts(self) -> list[tuple[bytes, ...]]:
+        """Every recorded command as its parts, in replay order, readiness token last."""
+        import umsgpack
+
+        out: list[tuple[bytes, ...]] = []
+        animations: list[tuple[bytes, ...]] = []
         for node in self._root.walk():
             if node.object is not None:
                 out.append(node.object)
-            out.extend(node.properties)
+            out.extend((p,) for p in node.properties)
             if node.transform is not None:
-                out.append(node.transform)
+                out.append((node.transform,))
             if node.animation is not None:
-                animations.append(node.animation)
+                animations.append((node.animation,))
         out.extend(animations)
-        out.append(
-            umsgpack.packb(
-                {
-                    "type": "set_property",
-                    "path": f"/{READY_NODE}",
-                    "property": READY_PROPERTY,
-                    "value": self.token,
-                }
-            )
-        )
+        token = {
+            "type": "set_property",
+            "path": f"/{READY_NODE}",
+            "property": READY_PROPERTY,
+            "value": self.token,
+        }
+        out.append((umsgpack.packb(token),))
         return out
 
-    def static_html(self, title: str = "taskspace scene") -> str:
+    def packed_commands(self) -> list[bytes]:
+        """All recorded commands (msgpack bytes) in replay order, readiness token last."""
+        return [b"".join(parts) for parts in self._ordered_parts()]
+
+    def static_html(self, title: str = "taskspace scene", *, compress: bool = True) -> str:
         """A self-contained HTML page of the scene (meshcat's JS inlined, no network access).
 
         Args:
             title: the page title.
+            compress: store each distinct part once, zlib-compressed, inflated by the browser
+                (``DecompressionStream``); ``False`` writes every command in plain base64.
         """
-        encoded = [base64.b64encode(c).decode("ascii") for c in self.packed_commands()]
-        return _HTML_TEMPLATE.format(
-            title=html.escape(title),
-            javascript=meshcat_javascript(),
-            commands=json.dumps(encoded, separators=(",", ":")),
+        if not compress:
+            encoded = [base64.b64encode(c).decode("ascii") for c in self.packed_commands()]
+            return _HTML_TEMPLATE.format(
+                title=html.escape(title),
+                javascript=meshcat_javascript(),
+                commands=json.dumps(encoded, separators=(",", ":")),
+            )
+        chunks: dict[bytes, int] = {}
+        commands = [
+            [chunks.setdefault(part, len(chunks)) for part in parts]
+            for parts in self._ordered_parts()
+        ]
+        scene = {
+            "js": _compressed_javascript(),
+            "data": base64.b64encode(zlib.compress(b"".join(chunks), 6)).decode("ascii"),
+            "sizes": [len(chunk) for chunk in chunks],
+            "commands": commands,
+        }
+        return _COMPRESSED_TEMPLATE.format(
+            title=html.escape(title), scene=json.dumps(scene, separators=(",", ":"))
         )
 
     def close(self) -> None:

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import logging
 import math
+import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -659,14 +660,15 @@ class Viewer:
         self._floor_drawn = True
 
     # ------------------------------------------------------------------ export
-    def static_html(self, title: str = "taskspace scene") -> str:
+    def static_html(self, title: str = "taskspace scene", *, compress: bool = True) -> str:
         """Self-contained HTML of the scene (no network access needed to view it).
 
         If no camera was set, the scene is framed automatically first; the floor grid is
-        drawn if enabled and not drawn yet.
+        drawn if enabled and not drawn yet. ``compress`` stores each mesh once, compressed
+        (see :meth:`SceneRecorder.static_html`).
         """
         self._prepare_export()
-        return self.recorder.static_html(title=title)
+        return self.recorder.static_html(title=title, compress=compress)
 
     def _prepare_export(self, aspect: float = 4 / 3) -> None:
         if self.floor and not self._floor_drawn:
@@ -674,11 +676,13 @@ class Viewer:
         if self._camera is None:
             self.frame_scene(aspect=aspect)
 
-    def save_html(self, path: str | Path, title: str = "taskspace scene") -> Path:
+    def save_html(
+        self, path: str | Path, title: str = "taskspace scene", *, compress: bool = True
+    ) -> Path:
         """Write :meth:`static_html` to ``path`` (parent directories are created)."""
         out = Path(path)
         out.parent.mkdir(parents=True, exist_ok=True)
-        out.write_text(self.static_html(title), encoding="utf-8")
+        out.write_text(self.static_html(title, compress=compress), encoding="utf-8")
         return out
 
     def snapshot(self, path: str | Path | None = None, size: tuple[int, int] = (640, 480)) -> bytes:
@@ -695,8 +699,9 @@ class Viewer:
         """Whether a live meshcat server receives the commands."""
         return self.recorder.forward is not None
 
+    @property
     def url(self) -> str:
-        """URL of the live meshcat server."""
+        """URL of the live meshcat server (open it in a browser)."""
         if self.recorder.forward is None:
             raise InvalidInputError(
                 "this viewer is not live: create it with Viewer(..., live=True)"
@@ -710,3 +715,37 @@ class Viewer:
                 "this viewer is not live: create it with Viewer(..., live=True)"
             )
         self.recorder.forward.open()  # type: ignore[attr-defined]
+
+    def wait_until_interrupted(self, timeout: float | None = None) -> bool:
+        """Keep the live meshcat server up until Ctrl-C (or ``timeout`` [s]), then stop it.
+
+        Returns:
+            ``True`` when Ctrl-C ended the wait, ``False`` when the timeout did.
+        """
+        if self.recorder.forward is None:
+            raise InvalidInputError(
+                "this viewer is not live: create it with Viewer(..., live=True)"
+            )
+        end = None if timeout is None else time.monotonic() + check_positive(timeout, "timeout")
+        interrupted = False
+        try:
+            while end is None or time.monotonic() < end:
+                left = 0.25 if end is None else min(0.25, max(end - time.monotonic(), 0.0))
+                time.sleep(left)
+        except KeyboardInterrupt:
+            interrupted = True
+        finally:
+            self.close()
+        return interrupted
+
+    def close(self) -> None:
+        """Stop the live meshcat server this viewer started (the recorded scene stays)."""
+        forward, self.recorder.forward = self.recorder.forward, None
+        process = getattr(forward, "server_proc", None)
+        if process is not None and process.poll() is None:
+            process.terminate()
+            try:
+                process.wait(timeout=5)
+            except Exception:  # pragma: no cover (a server that ignores SIGTERM)
+                process.kill()
+                process.wait()

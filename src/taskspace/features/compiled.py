@@ -1,0 +1,49 @@
+"""How a feature declares that the compiled IK kernel (``taskspace/_native``) can evaluate it.
+
+A feature class the kernel serves overrides :meth:`Feature.compiled_term
+<taskspace.features.feature.Feature.compiled_term>` and returns a :class:`CompiledTerm`
+naming the kernel's evaluation of that feature; the IK solver then runs the stack on the
+kernel when every task's feature has one. Adding a feature the kernel serves is code in the
+feature's class only. Only the class's own declaration counts (:func:`compiled_term`): a
+subclass may change the map, so it is served only if it declares a term itself.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, NamedTuple
+
+if TYPE_CHECKING:
+    from taskspace.features.feature import Feature
+
+KINDS = ("pose", "position", "com", "posture")
+"""The feature evaluations the compiled kernel implements."""
+
+
+class CompiledTerm(NamedTuple):
+    """A feature as the compiled kernel evaluates it.
+
+    Attributes:
+        kind: one of :data:`KINDS`: ``pose`` (``log6`` frame error, LOCAL Jacobian),
+            ``position`` (frame origin, LOCAL_WORLD_ALIGNED Jacobian), ``com`` (center of
+            mass), ``posture`` (``difference(q*, q)`` over all or ``rows`` of the joints).
+        frame_id: Pinocchio frame index (``pose``, ``position``).
+        rows: selected tangent rows (``posture``; ``None`` for all).
+    """
+
+    kind: str
+    frame_id: int = -1
+    rows: tuple[int, ...] | None = None
+
+
+def compiled_term(feature: Feature) -> CompiledTerm | None:
+    """The term ``type(feature)`` itself declares, or ``None`` (the Python path serves it)."""
+    method = type(feature).__dict__.get("compiled_term")
+    if method is None:
+        return None
+    term = method(feature)
+    if term is not None and term.kind not in KINDS:
+        return None
+    return term  # type: ignore[no-any-return]
+
+
+__all__ = ["KINDS", "CompiledTerm", "compiled_term"]

@@ -1,0 +1,216 @@
+"""Optimization objectives of the optimal planners (OMPL's ``OptimizationObjective``).
+
+An objective is an additive path cost ``J(path) = sum_i c(q_i, q_{i+1})`` with a motion
+cost ``c >= 0`` that is symmetric (``c(a, b) = c(b, a)``, so roadmaps are undirected) and an
+admissible lower bound ``c_hat(a, b) <= c(a, b)`` of the cost of *any* path from ``a`` to
+``b`` (the heuristic of BIT* and of informed pruning):
+
+* :class:`PathLength`: ``c(a, b) = |W (b - a)|`` with ``W = diag(w)``, ``w > 0`` (the
+  Euclidean length for ``w = 1``); ``c_hat = c`` (a straight line is the shortest path in a
+  norm);
+* :class:`Clearance`: ``c(a, b) = integral_0^L 1 / (epsilon + d(q(s))) ds`` along the straight
+  segment (``d``: distance to the nearest obstacle [m], ``L = |b - a|``), by the trapezoidal
+  rule on points at most ``resolution`` apart (OMPL's ``StateCostIntegralObjective``); paths
+  that keep away from obstacles cost less per unit length; ``c_hat = L / (epsilon + d_max)``;
+* :class:`WeightedSum`: ``c = sum_k lambda_k c_k`` (``lambda_k > 0``), ``c_hat = sum_k lambda_k
+  c_hat_k`` (OMPL's ``MultiOptimizationObjective``).
+"""
+
+from __future__ import annotations
+
+import abc
+import math
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import numpy as np
+
+from taskspace._validation import as_vector, check_positive
+from taskspace.errors import InvalidInputError
+from taskspace.planning.configuration_space import FloatArray
+
+
+class OptimizationObjective(abc.ABC):
+    """An additive, symmetric path cost with an admissible lower bound (see the module)."""
+
+    @abc.abstractmethod
+    def motion_costs(self, q0: FloatArray, q1: FloatArray) -> FloatArray:
+        """Costs ``c(q0_i, q1_i)`` of the straight motions between rows, shape (n,).
+
+        Args:
+            q0: start configurations, shape (n, d) (or (d,), broadcast against ``q1``).
+            q1: end configurations, shape (n, d) (or (d,)).
+        """
+
+    def cost_lower_bounds(self, q0: FloatArray, q1: FloatArray) -> FloatArray:
+        """Admissible bounds ``c_hat(q0_i, q1_i)`` on the cost of any path, shape (n,).
+
+        The default is 0 (always admissible, no guidance).
+        """
+        a, _ = np.broadcast_arrays(np.atleast_2d(q0), np.atleast_2d(q1))
+        return np.zeros(a.shape[0])
+
+    @property
+    def is_euclidean_length(self) -> bool:
+        """True when the cost is the plain Euclidean path length (informed ellipsoid sampling)."""
+        return False
+
+    def motion_cost(self, q0: FloatArray, q1: FloatArray) -> float:
+        """Cost of one straight motion ``q0 -> q1``."""
+        return float(self.motion_costs(q0[None, :], q1[None, :])[0])
+
+    def path_cost(self, path: Any) -> float:
+        """``J(path) = sum_i c(q_i, q_{i+1})`` of a waypoint path, shape (m, d)."""
+        arr = np.atleast_2d(np.asarray(path, dtype=np.float64))
+        if arr.shape[0] < 2:
+            return 0.0
+        return float(self.motion_costs(arr[:-1], arr[1:]).sum())
+
+
+def _pairs(q0: FloatArray, q1: FloatArray) -> tuple[FloatArray, FloatArray]:
+    a, b = np.broadcast_arrays(np.atleast_2d(q0), np.atleast_2d(q1))
+    return a, b
+
+
+class PathLength(OptimizationObjective):
+    """Path length ``sum_i |W (q_{i+1} - q_i)|`` in the weighted metric ``W = diag(w)``.
+
+    Args:
+        weights: per-coordinate weights ``w_j > 0`` (size d; ``None``: all 1, the Euclidean
+            length) [1 per rad or per m].
+    """
+
+    def __init__(self, weights: Any = None) -> None:
+        self.weights: FloatArray | None = None
+        if weights is not None:
+            w = as_vector(weights, None, "weights")
+            if np.any(w <= 0):
+                raise InvalidInputError(f"weights must all be > 0, got {w.tolist()}")
+            self.weights = w
+
+    @property
+    def is_euclidean_length(self) -> bool:
+        """True for unit weights."""
+        return self.weights is None or bool(np.all(self.weights == 1.0))
+
+    def motion_costs(self, q0: FloatArray, q1: FloatArray) -> FloatArray:
+        """``|W (q1 - q0)|`` per row."""
+        a, b = _pairs(q0, q1)
+        diff = b - a
+        if self.weights is not None:
+            if self.weights.size != diff.shape[1]:
+                raise InvalidInputError(
+                    f"PathLength has {self.weights.size} weights for configurations of size "
+                    f"{diff.shape[1]}"
+                )
+            diff = diff * self.weights
+        return np.sqrt(np.einsum("ij,ij->i", diff, diff))
+
+    def cost_lower_bounds(self, q0: FloatArray, q1: FloatArray) -> FloatArray:
+        """The motion cost itself (a straight line is shortest in any norm)."""
+        return self.motion_costs(q0, q1)
+
+
+class Clearance(OptimizationObjective):
+    """Cost integral of ``1 / (epsilon + d(q))`` along the path: keep away from obstacles.
+
+    Args:
+        clearance: ``clearance(Q) -> d``, the distance [m] of each row of ``Q`` (shape
+            (n, d)) to the nearest obstacle (negative inside). For a robot, e.g.
+            ``lambda Q: np.array([checker.distance(q)[0] for q in Q])`` on convex hulls.
+        epsilon: ``epsilon > 0`` [m]; distances are clipped at 0 first, so the integrand is
+            at most ``1 / epsilon``.
+        resolution: largest spacing of the points of the trapezoidal rule along a segment
+            [rad or m].
+        max_clearance: an upper bound ``d_max`` of ``d`` over the space [m], for the lower
+            bound ``c_hat = L / (epsilon + d_max)`` (``inf``: ``c_hat = 0``).
+    """
+
+    def __init__(
+        self,
+        clearance: Callable[[FloatArray], Any],
+        *,
+        epsilon: float = 0.01,
+        resolution: float = 0.05,
+        max_clearance: float = math.inf,
+    ) -> None:
+        if not callable(clearance):
+            raise InvalidInputError("clearance must be a function Q (n, d) -> distances (n,)")
+        self.clearance = clearance
+        self.epsilon = check_positive(epsilon, "epsilon")
+        self.resolution = check_positive(resolution, "resolution")
+        if not (isinstance(max_clearance, (int, float)) and max_clearance > 0):
+            raise InvalidInputError(f"max_clearance must be > 0 [m], got {max_clearance!r}")
+        self.max_clearance = float(max_clearance)
+
+    def _integrand(self, points: FloatArray) -> FloatArray:
+        d = np.asarray(self.clearance(points), dtype=np.float64).reshape(points.shape[0])
+        if not np.all(np.isfinite(d)):
+            raise InvalidInputError("clearance returned a value that is not finite")
+        return 1.0 / (self.epsilon + np.maximum(d, 0.0))
+
+    def motion_costs(self, q0: FloatArray, q1: FloatArray) -> FloatArray:
+        """Trapezoidal ``sum_k (L / n) (f(p_k) + f(p_{k+1})) / 2`` on each segment."""
+        a, b = _pairs(q0, q1)
+        lengths = np.linalg.norm(b - a, axis=1)
+        counts = np.maximum(1, np.ceil(lengths / self.resolution - 1e-12).astype(np.int64))
+        # All points of all segments in one clearance call.
+        owner = np.repeat(np.arange(a.shape[0]), counts + 1)
+        starts = np.concatenate([[0], np.cumsum(counts + 1)[:-1]])
+        k = np.arange(owner.size) - starts[owner]
+        t = (k / counts[owner])[:, None]
+        f = self._integrand(a[owner] + t * (b[owner] - a[owner]))
+        weight = np.where((k == 0) | (k == counts[owner]), 0.5, 1.0)
+        sums = np.bincount(owner, weights=weight * f, minlength=a.shape[0])
+        return np.asarray(sums * lengths / counts, dtype=np.float64)
+
+    def cost_lower_bounds(self, q0: FloatArray, q1: FloatArray) -> FloatArray:
+        """``|q1 - q0| / (epsilon + d_max)``."""
+        a, b = _pairs(q0, q1)
+        return np.asarray(
+            np.linalg.norm(b - a, axis=1) / (self.epsilon + self.max_clearance), dtype=np.float64
+        )
+
+
+class WeightedSum(OptimizationObjective):
+    """``c = sum_k lambda_k c_k`` of several objectives (OMPL's ``MultiOptimizationObjective``).
+
+    Args:
+        terms: ``[(lambda_k, objective_k), ...]`` with ``lambda_k > 0``.
+    """
+
+    def __init__(self, terms: Sequence[tuple[float, OptimizationObjective]]) -> None:
+        if not terms:
+            raise InvalidInputError("WeightedSum needs at least one (weight, objective) term")
+        checked = []
+        for i, term in enumerate(terms):
+            if not (isinstance(term, tuple) and len(term) == 2):
+                raise InvalidInputError(f"terms[{i}] must be a (weight, objective) tuple")
+            weight, objective = term
+            if not isinstance(objective, OptimizationObjective):
+                raise InvalidInputError(
+                    f"terms[{i}]: {type(objective).__name__} is not an OptimizationObjective "
+                    "(PathLength, Clearance, WeightedSum)"
+                )
+            checked.append((check_positive(weight, f"terms[{i}] weight"), objective))
+        self.terms = checked
+
+    def motion_costs(self, q0: FloatArray, q1: FloatArray) -> FloatArray:
+        """Weighted sum of the terms' costs."""
+        return np.asarray(sum(w * obj.motion_costs(q0, q1) for w, obj in self.terms))
+
+    def cost_lower_bounds(self, q0: FloatArray, q1: FloatArray) -> FloatArray:
+        """Weighted sum of the terms' bounds."""
+        return np.asarray(sum(w * obj.cost_lower_bounds(q0, q1) for w, obj in self.terms))
+
+
+def check_objective(objective: Any) -> OptimizationObjective:
+    """``objective``, or the Euclidean :class:`PathLength` for ``None``; refuses other types."""
+    if objective is None:
+        return PathLength()
+    if not isinstance(objective, OptimizationObjective):
+        raise InvalidInputError(
+            f"objective must be an OptimizationObjective (PathLength, Clearance, WeightedSum), "
+            f"got {type(objective).__name__}"
+        )
+    return objective

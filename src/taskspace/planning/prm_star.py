@@ -1,0 +1,358 @@
+"""PRM* and Lazy PRM*: asymptotically optimal, anytime roadmaps.
+
+PRM* (Karaman and Frazzoli 2011) is the PRM of :mod:`taskspace.planning.prm` with a number of
+neighbours that grows with the roadmap: each new node is joined to its
+
+    k_n = ceil(gamma_factor e (1 + 1/d) log n)
+
+nearest nodes (``n`` nodes, dimension ``d``; ``gamma_factor >= 1`` gives the guarantee), and
+the shortest roadmap path converges to the optimum almost surely. Here the roadmap grows in
+batches of ``batch_size`` free samples, start and goal being roadmap nodes from the start (as
+OMPL's ``PRMstar`` adds them as milestones); after each batch the shortest path from start to
+a goal (scipy's Dijkstra, edge weights = the objective's motion costs) gives the best cost so
+far, recorded over time. The planners are anytime: they grow the roadmap until the time or
+iteration limit and return the best path.
+
+Lazy PRM* (OMPL's ``LazyPRMstar``; Bohlin and Kavraki 2000) adds the edges unchecked; after a
+batch it repeats "shortest path, check its unchecked edges (coarse to fine, one checker call
+per pass, see :func:`~taskspace.planning.lazy_prm.lazy_prm_query`), remove the colliding ones"
+until the shortest path is free or none is left. Only edges on candidate shortest paths are
+ever checked; every edge of a returned path is free at the space's resolution.
+
+Roadmaps record the obstacle world's version (:attr:`ConfigurationSpace.world_version`); a
+query on a roadmap built for another version is refused (see :mod:`~taskspace.planning.prm`).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import dijkstra
+
+from taskspace._validation import check_count, check_positive, check_seed
+from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray, path_length
+from taskspace.planning.lazy_prm import LazyRoadmap, _check_edges
+from taskspace.planning.limits import Budget, planner_limits
+from taskspace.planning.objectives import OptimizationObjective, check_objective
+from taskspace.planning.planner_result import PlannerResult, PlannerStatus
+from taskspace.planning.prm import Roadmap
+from taskspace.planning.rrt_star import goal_states
+from taskspace.planning.sampling import sample_free
+
+
+@dataclass(frozen=True, kw_only=True)
+class PRMStarOptions:
+    """Settings of :func:`prm_star` and :func:`lazy_prm_star`.
+
+    Attributes:
+        batch_size: free samples added to the roadmap per growth step.
+        gamma_factor: ``k_n = ceil(gamma_factor e (1 + 1/d) log n)`` (>= 1 for the guarantee).
+        max_iterations: roadmap samples (an integer >= 0, or ``None`` with a finite time
+            limit; see :mod:`taskspace.planning.limits`).
+        time_limit_s: wall-clock budget [s] (``None`` or ``math.inf`` = none; NaN refused).
+        seed: random seed (an integer >= 0) used when no ``rng`` is passed.
+        stop_at_first: return after the first batch that connects start and goal.
+        coarse_resolution: first-pass resolution of Lazy PRM*'s edge checks [rad or m].
+    """
+
+    batch_size: int = 64
+    gamma_factor: float = 1.0
+    max_iterations: int | None = 2_000
+    time_limit_s: float | None = 1.0
+    seed: int = 0
+    stop_at_first: bool = False
+    coarse_resolution: float = 0.15
+
+
+class _Graph:
+    """Nodes (grown by doubling) and the undirected edges ``(i, j, cost, status)``."""
+
+    def __init__(self, dim: int) -> None:
+        self.nodes = np.empty((256, dim))
+        self.n = 0
+        self.i: list[npt.NDArray[np.int64]] = []
+        self.j: list[npt.NDArray[np.int64]] = []
+        self.cost: list[FloatArray] = []
+        self.status: list[npt.NDArray[np.int8]] = []
+
+    def add_nodes(self, q: FloatArray) -> npt.NDArray[np.int64]:
+        m = q.shape[0]
+        if self.n + m > self.nodes.shape[0]:
+            grown = np.empty((max(2 * self.nodes.shape[0], self.n + m), self.nodes.shape[1]))
+            grown[: self.n] = self.nodes[: self.n]
+            self.nodes = grown
+        self.nodes[self.n : self.n + m] = q
+        ids = np.arange(self.n, self.n + m, dtype=np.int64)
+        self.n += m
+        return ids
+
+    def add_edges(
+        self, pairs: npt.NDArray[np.int64], cost: FloatArray, status: npt.NDArray[np.int8]
+    ) -> None:
+        self.i.append(pairs[:, 0])
+        self.j.append(pairs[:, 1])
+        self.cost.append(cost)
+        self.status.append(status)
+
+    def edges(self) -> tuple[npt.NDArray[np.int64], FloatArray, npt.NDArray[np.int8]]:
+        """All edges: pairs (m, 2), costs (m,), status (m,); concatenated once per call."""
+        if not self.i:
+            return np.empty((0, 2), np.int64), np.empty(0), np.empty(0, np.int8)
+        if len(self.i) > 1:
+            self.i = [np.concatenate(self.i)]
+            self.j = [np.concatenate(self.j)]
+            self.cost = [np.concatenate(self.cost)]
+            self.status = [np.concatenate(self.status)]
+        return np.stack([self.i[0], self.j[0]], axis=1), self.cost[0], self.status[0]
+
+
+def _shortest(
+    n: int, pairs: npt.NDArray[np.int64], cost: FloatArray, goals: list[int]
+) -> tuple[list[int], float]:
+    """Shortest path from node 0 to the cheapest goal over ``pairs``: node ids and cost."""
+    if pairs.shape[0] == 0 or not goals:
+        return [], math.inf
+    weights = np.maximum(cost, 1e-12)  # zero weights would vanish from the sparse matrix
+    graph = csr_matrix((weights, (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+    dist, pred = dijkstra(graph, directed=False, indices=0, return_predecessors=True)
+    goal_arr = np.asarray(goals)
+    best = int(goal_arr[np.argmin(dist[goal_arr])])
+    if not np.isfinite(dist[best]):
+        return [], math.inf
+    ids = [best]
+    while ids[-1] != 0:
+        ids.append(int(pred[ids[-1]]))
+    ids.reverse()
+    return ids, float(dist[best])
+
+
+class _EdgeIndex:
+    """Index in ``pairs`` (rows ``i < j``) of node pairs, by binary search on sorted keys."""
+
+    def __init__(self, pairs: npt.NDArray[np.int64], n: int) -> None:
+        self.n = n
+        keys = pairs[:, 0] * n + pairs[:, 1]
+        self.order = np.argsort(keys)
+        self.sorted = keys[self.order]
+
+    def __call__(self, ids: list[int]) -> npt.NDArray[np.int64]:
+        a = np.minimum(ids[:-1], ids[1:]).astype(np.int64)
+        b = np.maximum(ids[:-1], ids[1:]).astype(np.int64)
+        pos = np.searchsorted(self.sorted, a * self.n + b)
+        return np.asarray(self.order[pos], dtype=np.int64)
+
+
+def _plan(
+    space: ConfigurationSpace,
+    start: Any,
+    goal: Any,
+    options: PRMStarOptions | None,
+    objective: OptimizationObjective | None,
+    rng: np.random.Generator | None,
+    lazy: bool,
+) -> tuple[PlannerResult, _Graph, int | None]:
+    opts = options or PRMStarOptions()
+    cap, limit = planner_limits(opts.max_iterations, opts.time_limit_s)
+    batch = check_count(opts.batch_size, "batch_size", minimum=1)
+    check_positive(opts.gamma_factor, "gamma_factor")
+    coarse = check_positive(opts.coarse_resolution, "coarse_resolution")
+    cost_of = check_objective(objective)
+    rng = rng if rng is not None else np.random.default_rng(check_seed(opts.seed))
+    t0 = time.perf_counter()
+    budget = Budget(cap, limit, t0)
+    checks0, edges0 = space.checks, space.edge_checks
+    version = space.world_version
+    q_start = space.check_endpoint(start, "start")
+    goals, region = goal_states(space, goal)
+    d = space.dim
+    k_prm = opts.gamma_factor * math.e * (1 + 1 / d)
+    stride = max(1, math.floor(coarse / space.edge.resolution + 1e-9))
+
+    graph = _Graph(d)
+    graph.add_nodes(q_start[None, :])
+    goal_ids = graph.add_nodes(np.asarray(goals).reshape(-1, d)).tolist() if goals else []
+    if region is not None and region.contains(q_start):
+        goal_ids.append(0)
+    new = np.arange(graph.n, dtype=np.int64)
+    samples = rounds = 0
+    best_ids: list[int] = []
+    best_cost = math.inf
+    cost_times: list[float] = []
+    costs: list[float] = []
+    while True:
+        # Connect the new nodes to their k_n nearest nodes.
+        n = graph.n
+        nodes = graph.nodes[:n]
+        k = min(n - 1, math.ceil(k_prm * math.log(n))) if n > 1 else 0
+        if k > 0 and new.size:
+            from scipy.spatial import cKDTree
+
+            _, idx = cKDTree(nodes).query(nodes[new], k=k + 1)
+            idx = np.asarray(idx).reshape(new.size, k + 1)
+            pairs = np.stack([np.repeat(new, k + 1), idx.ravel()], axis=1)
+            pairs = pairs[pairs[:, 0] != pairs[:, 1]]
+            pairs = np.unique(np.sort(pairs, axis=1), axis=0)
+            cost = cost_of.motion_costs(nodes[pairs[:, 0]], nodes[pairs[:, 1]])
+            if lazy:
+                graph.add_edges(pairs, cost, np.zeros(len(cost), np.int8))
+            else:
+                # Coarse then fine passes over chunks of edges, one checker call per pass.
+                free = np.zeros(len(cost), dtype=bool)
+                for lo in range(0, len(cost), 256):
+                    if budget.out_of_time():
+                        break
+                    chunk = pairs[lo : lo + 256]
+                    space.edge_checks += chunk.shape[0]
+                    ends = [(nodes[a], nodes[b]) for a, b in chunk.tolist()]
+                    free[lo : lo + chunk.shape[0]] = _check_edges(
+                        space, ends, stride, complete=True
+                    )
+                graph.add_edges(pairs[free], cost[free], np.ones(int(free.sum()), np.int8))
+        # Search (and, lazily, validate) the shortest path.
+        pairs_all, cost_all, status = graph.edges()
+        edge_index: _EdgeIndex | None = None
+        while True:
+            rounds += 1
+            keep = status >= 0
+            ids, total = _shortest(n, pairs_all[keep], cost_all[keep], goal_ids)
+            if not ids or not lazy:
+                break
+            if edge_index is None:
+                edge_index = _EdgeIndex(pairs_all, n)
+            path_edges = edge_index(ids)
+            unknown = path_edges[status[path_edges] == 0]
+            if unknown.size == 0:
+                break
+            if budget.out_of_time():
+                ids = []
+                break
+            space.edge_checks += int(unknown.size)
+            ends = [(nodes[pairs_all[e, 0]], nodes[pairs_all[e, 1]]) for e in unknown.tolist()]
+            ok = _check_edges(space, ends, stride)
+            if ok.all():
+                status[unknown] = 1
+            else:
+                status[unknown[~ok]] = -1  # the others are re-checked (cheaply) if needed
+        if ids and total < best_cost - 1e-12:
+            best_ids, best_cost = ids, total
+            cost_times.append(budget.elapsed())
+            costs.append(total)
+        if (opts.stop_at_first and best_ids) or budget.exhausted(samples):
+            if opts.stop_at_first and best_ids:
+                budget.stopped_by = "first solution"
+            break
+        # Grow: a batch of free samples (and a goal sample from a region).
+        m = min(batch, cap - samples)
+        fresh = sample_free(space, m, rng, max_draws=1000 * m)
+        samples += m
+        new = graph.add_nodes(fresh)
+        if region is not None:
+            sampled = region.sample(rng)
+            if sampled is not None:
+                q = np.asarray(sampled, dtype=np.float64)
+                if q.shape == (d,) and space.within_bounds(q) and space.is_valid(q):
+                    new = np.append(new, graph.add_nodes(q[None, :]))
+                    goal_ids.append(int(new[-1]))
+            goal_ids += [int(i) for i in new if region.contains(graph.nodes[i])]
+            goal_ids = sorted(set(goal_ids))
+    success = bool(best_ids)
+    path = graph.nodes[best_ids].copy() if success else np.empty((0, d))
+    limit_status = (
+        PlannerStatus.TIME_LIMIT if budget.stopped_by == "time" else (PlannerStatus.ITERATION_LIMIT)
+    )
+    result = PlannerResult(
+        success=success,
+        status=PlannerStatus.SOLVED if success else limit_status,
+        path=path,
+        path_length=path_length(path) if success else math.inf,
+        iterations=samples,
+        collision_checks=space.checks - checks0,
+        edge_checks=space.edge_checks - edges0,
+        time_s=budget.elapsed(),
+        cost=best_cost,
+        log={
+            "first_solution_s": cost_times[0] if cost_times else math.inf,
+            "cost_times": cost_times,
+            "costs": costs,
+            "roadmap_nodes": float(graph.n),
+            "roadmap_edges": float(graph.edges()[0].shape[0]),
+            "search_rounds": float(rounds),
+            "stopped_by": budget.stopped_by,
+        },
+    )
+    return result, graph, version
+
+
+def _roadmap(graph: _Graph, version: int | None, lazy: bool) -> Roadmap:
+    pairs, cost, status = graph.edges()
+    n = graph.n
+    adjacency: list[list[tuple[int, float]]] = [[] for _ in range(n)]
+    for (a, b), c, s in zip(pairs.tolist(), cost.tolist(), status.tolist()):
+        if s > 0 or (lazy and s == 0):
+            adjacency[a].append((b, c))
+            adjacency[b].append((a, c))
+    return Roadmap(nodes=graph.nodes[:n].copy(), adjacency=adjacency, world_version=version)
+
+
+def prm_star(
+    space: ConfigurationSpace,
+    start: Any,
+    goal: Any,
+    options: PRMStarOptions | None = None,
+    *,
+    objective: OptimizationObjective | None = None,
+    rng: np.random.Generator | None = None,
+) -> tuple[PlannerResult, Roadmap]:
+    """Plan with PRM*: grow a roadmap with ``k_n`` nearest neighbours until the limits.
+
+    Args:
+        space: configuration space with validity checker and local planner.
+        start: ``q_start`` (size d); roadmap node 0.
+        goal: one goal configuration (d,), several (k, d), or a
+            :class:`~taskspace.planning.GoalRegion` (one goal sample per batch; every node
+            inside it is a goal).
+        options: settings (batch size, ``gamma_factor``, limits).
+        objective: path cost (default: Euclidean :class:`~taskspace.planning.PathLength`);
+            its motion costs are the edge weights.
+        rng: random generator (default: ``np.random.default_rng(options.seed)``).
+
+    Returns:
+        ``(result, roadmap)``: ``result.cost`` is the objective's cost of the path, ``log``
+        holds ``costs`` and ``cost_times`` (the best cost each time it improved [s]),
+        ``first_solution_s``, the roadmap size and ``stopped_by``. The roadmap holds the
+        collision-free edges (edge costs from the objective) and the world version.
+
+    Raises:
+        PlanningError: start or goal outside the bounds or in collision.
+        InvalidInputError: bad options (see :mod:`taskspace.planning.limits`).
+    """
+    result, graph, version = _plan(space, start, goal, options, objective, rng, lazy=False)
+    return result, _roadmap(graph, version, lazy=False)
+
+
+def lazy_prm_star(
+    space: ConfigurationSpace,
+    start: Any,
+    goal: Any,
+    options: PRMStarOptions | None = None,
+    *,
+    objective: OptimizationObjective | None = None,
+    rng: np.random.Generator | None = None,
+) -> tuple[PlannerResult, LazyRoadmap]:
+    """Plan with Lazy PRM*: edges are checked only when they lie on a shortest path.
+
+    Same arguments and results as :func:`prm_star`; the second value is a
+    :class:`~taskspace.planning.LazyRoadmap` whose ``status`` says which edges were found free
+    (1), colliding (-1) or never checked (0).
+    """
+    result, graph, version = _plan(space, start, goal, options, objective, rng, lazy=True)
+    pairs, cost, status = graph.edges()
+    roadmap = _roadmap(graph, version, lazy=True)
+    lazy = LazyRoadmap(roadmap=roadmap, pairs=pairs.copy(), costs=cost.copy(), status=status.copy())
+    return result, lazy

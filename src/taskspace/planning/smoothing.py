@@ -1,0 +1,150 @@
+"""B-spline smoothing of a collision-free waypoint path (OMPL's ``smoothBSpline``).
+
+Each pass first subdivides the path so that consecutive waypoints are at most ``max_step``
+apart (:func:`~taskspace.planning.interpolate`), then moves every other interior waypoint
+``q_i`` to the average of the midpoints of its two edges,
+
+    q_i' = (q_{i-1} + 2 q_i + q_{i+1}) / 4,
+
+the corner-cutting step of subdivision schemes whose limit is a quadratic B-spline (Chaikin
+1974); the next pass moves the other half. A move is kept only if ``q_i'`` is free and both
+new segments ``q_{i-1} -> q_i'`` and ``q_i' -> q_{i+1}`` are free at the space's resolution
+(the straight-line local planner), so every segment of the result is checked as the planner
+checks its edges; ``q_i'`` lies in the triangle ``q_{i-1} q_i q_{i+1}``, so the path never
+gets longer. The input is checked first and a colliding input is refused, and the whole result
+is checked again before it is returned.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from taskspace._validation import as_matrix, check_positive
+from taskspace.errors import InvalidInputError, PlanningError
+from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray, path_length
+from taskspace.planning.limits import planner_limits
+from taskspace.planning.rrt_star import interpolate
+from taskspace.planning.shortcut import _check_input
+
+
+@dataclass(frozen=True, kw_only=True)
+class SmoothingOptions:
+    """Settings of :func:`smooth_bspline`.
+
+    Attributes:
+        max_step: largest distance between waypoints after the subdivision of each pass
+            [rad or m] (the scale of the smoothing: corners are rounded over about this
+            length).
+        max_iterations: smoothing passes (an integer >= 0, or ``None`` with a finite time
+            limit; see :mod:`taskspace.planning.limits`).
+        time_limit_s: wall-clock budget [s] (``None`` or ``math.inf`` = none; NaN refused).
+        min_change: stop when a pass shortens the path by less than this fraction.
+    """
+
+    max_step: float = 0.2
+    max_iterations: int | None = 5
+    time_limit_s: float | None = 1.0
+    min_change: float = 1e-4
+
+
+@dataclass
+class SmoothingResult:
+    """Smoothed path.
+
+    Attributes:
+        path: waypoints, shape (m, d); every waypoint and segment free at the space's
+            resolution.
+        length_before: input length [rad or m].
+        length_after: output length [rad or m] (never more than the input's).
+        passes: smoothing passes run.
+        moved: waypoint moves accepted.
+        rejected: moves refused because a new segment or point collided.
+        collision_checks: configurations evaluated (including the input and output checks).
+        time_s: wall-clock time [s].
+    """
+
+    path: FloatArray
+    length_before: float
+    length_after: float
+    passes: int
+    moved: int
+    rejected: int
+    collision_checks: int
+    time_s: float
+
+
+def smooth_bspline(
+    space: ConfigurationSpace, path: object, options: SmoothingOptions | None = None
+) -> SmoothingResult:
+    """Round the corners of a collision-free path, keeping it free (see the module docstring).
+
+    Args:
+        space: configuration space (its local planner checks every new segment).
+        path: waypoints from start to goal, shape (m, d), collision-free.
+        options: settings.
+
+    Returns:
+        A :class:`SmoothingResult` with the same end points, no longer than the input.
+
+    Raises:
+        InvalidInputError: ``path`` is not a finite (m, d) array, bad options.
+        PlanningError: ``path`` leaves the bounds or collides (the message names the first
+            offending waypoint or edge).
+    """
+    opts = options or SmoothingOptions()
+    arr = as_matrix(np.atleast_2d(np.asarray(path, dtype=float)), (None, space.dim), "path")
+    if arr.shape[0] < 1:
+        raise InvalidInputError(f"path must have shape (m, {space.dim}) with m >= 1")
+    step = check_positive(opts.max_step, "max_step")
+    passes_cap, limit = planner_limits(opts.max_iterations, opts.time_limit_s)
+    if not 0.0 <= opts.min_change < 1.0:
+        raise InvalidInputError(f"min_change must be in [0, 1), got {opts.min_change}")
+    t0 = time.perf_counter()
+    deadline = t0 + limit
+    checks0 = space.checks
+    _check_input(space, arr)
+    before = path_length(arr)
+    current = arr.copy()
+    moved = rejected = passes = 0
+    while passes < passes_cap and current.shape[0] > 2 and time.perf_counter() <= deadline:
+        passes += 1
+        length0 = path_length(current)
+        current = interpolate(current, step)
+        for parity in (1, 2):
+            for i in range(parity, current.shape[0] - 1, 2):
+                if time.perf_counter() > deadline:
+                    break
+                a, b, c = current[i - 1], current[i], current[i + 1]
+                q = 0.25 * a + 0.5 * b + 0.25 * c
+                if np.allclose(q, b, rtol=0.0, atol=1e-12):
+                    continue
+                if (
+                    space.within_bounds(q)
+                    and space.is_valid(q)
+                    and space.motion_valid(a, q)
+                    and space.motion_valid(q, c)
+                ):
+                    current[i] = q
+                    moved += 1
+                else:
+                    rejected += 1
+        if length0 - path_length(current) <= opts.min_change * length0:
+            break
+    if not space.path_valid(current):  # every move was checked; this is the final guard
+        raise PlanningError(
+            "smooth_bspline produced a path that is not free at the space's resolution; this "
+            "is a bug, please report it (the input path was free)"
+        )
+    return SmoothingResult(
+        path=current,
+        length_before=before,
+        length_after=path_length(current),
+        passes=passes,
+        moved=moved,
+        rejected=rejected,
+        collision_checks=space.checks - checks0,
+        time_s=time.perf_counter() - t0,
+    )

@@ -1,0 +1,364 @@
+"""The stacking layer: task rows, boxes and constraint rows written into a QP's arrays.
+
+Tasks, constraints and contacts return typed rows (:mod:`taskspace.features.rows`); this
+module holds the one set of rules that stacks them, used by every consumer:
+
+* :class:`TaskRowStack`: the weighted least-squares rows of several tasks in preallocated
+  buffers, at velocity level (``sqrt(rho) J dq ~ -sqrt(rho) gain e``, each task's
+  :meth:`~taskspace.tasks.Task.rows`) or acceleration level (``sqrt(rho) J a ~ sqrt(rho)
+  (y''* - Jdot v)`` with ``y''* = y''_ref - kp e - kd (J v - y'_ref)``, the PD law applied
+  once to the whole stack). Used by :class:`~taskspace.ik.DifferentialIK`,
+  :class:`~taskspace.ik.HierarchicalIK`, the inverse-dynamics QP and operational-space
+  control.
+* :func:`combine_boxes`: the intersection of boxes with the rule for conflicts (physical
+  boxes win over position boxes); :func:`combine_bounds` applies it to constraints.
+* :class:`InequalityStack`: the inequality rows of constraints in preallocated buffers.
+* :class:`WeightedQPBuilder`: the weighted velocity-level QP of the IK step,
+  ``min |M x - r|^2 + mu |x|^2`` with equality task rows, inequality rows and a box, written
+  into preallocated arrays.
+
+The compiled IK kernel (``taskspace/_native``) evaluates the same rules for the stacks it
+serves (see :mod:`taskspace.ik._native_stack`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from taskspace._validation import FloatArray
+from taskspace.constraints.constraint import Constraint
+from taskspace.features.rows import INF, Box, InequalityRows, TaskRows
+from taskspace.qp.problem import QPProblem, RowBlock
+
+if TYPE_CHECKING:
+    from taskspace.model.state import State
+    from taskspace.tasks import Task
+
+
+# ---------------------------------------------------------------------- task rows
+class TaskRowStack:
+    """The rows of several tasks stacked in preallocated buffers, refilled in place.
+
+    ``J`` (m, nv) and ``rhs`` (m,) hold the weighted rows of every task, in order; each
+    task's rows are the slice :attr:`slices` ``[i]``. The buffers may be given (views into a
+    larger array, e.g. every level of a hierarchy in one vector).
+
+    Args:
+        tasks: the tasks (each with a target when the stack is filled).
+        nv: tangent dimension of the robot.
+        J, rhs: optional output buffers of shapes (m, nv) and (m,).
+    """
+
+    def __init__(
+        self,
+        tasks: Sequence[Task],
+        nv: int,
+        J: FloatArray | None = None,
+        rhs: FloatArray | None = None,
+    ) -> None:
+        self.tasks = list(tasks)
+        m = sum(t.dim for t in self.tasks)
+        self.J = np.zeros((m, nv)) if J is None else J
+        self.rhs = np.zeros(m) if rhs is None else rhs
+        if self.J.shape != (m, nv) or self.rhs.shape != (m,):
+            raise ValueError(f"row buffers of shapes {(m, nv)} and {(m,)} expected")
+        self.slices: list[slice] = []
+        row = 0
+        for t in self.tasks:
+            self.slices.append(slice(row, row + t.dim))
+            row += t.dim
+        self._pairs = list(zip(self.tasks, self.slices))
+        # acceleration level: raw rows and per-row gains and weights
+        self._J_raw: FloatArray | None = None
+        self._e = np.zeros(m)
+        self._drift = np.zeros(m)
+        self._w = np.ones(m)
+        self._neg_w = -self._w
+        self._w_column = self._w[:, None]  # a view: follows _w
+        self._kp = np.zeros(m)
+        self._kd = np.zeros(m)
+        self._keys: list[tuple[Any, ...]] = [()] * len(self.tasks)
+
+    @property
+    def size(self) -> int:
+        """Number of rows."""
+        return int(self.rhs.shape[0])
+
+    def velocity(self, state: State) -> TaskRows:
+        """Rows ``sqrt(rho) J dq ~ -sqrt(rho) gain e`` (each task's :meth:`Task.rows`)."""
+        J, rhs = self.J, self.rhs
+        for task, rows in self._pairs:
+            Ji, ri = task.rows(state)
+            J[rows] = Ji
+            rhs[rows] = ri
+        return TaskRows(J, rhs)
+
+    def _refresh(self) -> None:
+        """Re-read the weights and gains of the tasks whose values were reassigned."""
+        keys = self._keys
+        for i, task in enumerate(self.tasks):
+            k = keys[i]
+            if (
+                k
+                and task.sqrt_weight is k[0]
+                and task.gain is k[1]
+                and task.kp is k[2]
+                and task.kd is k[3]
+            ):
+                continue
+            rows = self.slices[i]
+            self._w[rows] = task.sqrt_weight
+            self._kp[rows] = task.kp
+            self._kd[rows] = task.kd
+            np.negative(self._w, out=self._neg_w)
+            keys[i] = (task.sqrt_weight, task.gain, task.kp, task.kd)
+
+    def acceleration(self, state: State) -> TaskRows:
+        """Rows ``sqrt(rho) J a ~ sqrt(rho) (y''* - Jdot v)`` at ``state`` (with velocity).
+
+        ``y''* = y''_ref - kp e - kd (J v - y'_ref)`` (slides 5:28, 5:34), applied once to
+        the whole stack; equal to each task's :meth:`Task.acceleration_rows`.
+        """
+        self._refresh()
+        if self._J_raw is None:
+            self._J_raw = np.zeros_like(self.J)
+        J_raw, e_all, drift = self._J_raw, self._e, self._drift
+        offset: FloatArray | None = None
+        for task, rows in self._pairs:
+            f = task.feature_rows(state, drift=True)
+            J_raw[rows] = f.jacobian
+            e_all[rows] = f.residual
+            drift[rows] = f.drift
+            if task.reference_velocity is not None or task.reference_acceleration is not None:
+                if offset is None:
+                    offset = np.zeros_like(drift)
+                if task.reference_velocity is not None:
+                    offset[rows] += task.kd * task.reference_velocity
+                if task.reference_acceleration is not None:
+                    offset[rows] += task.reference_acceleration
+        # rhs = -w (kd J v + kp e + Jdot v - kd y'_ref - y''_ref)
+        rhs = self.rhs
+        np.multiply(J_raw.dot(state.v), self._kd, out=rhs)
+        rhs += self._kp * e_all
+        rhs += drift
+        if offset is not None:
+            rhs -= offset
+        rhs *= self._neg_w
+        np.multiply(J_raw, self._w_column, out=self.J)
+        return TaskRows(self.J, rhs)
+
+
+# ---------------------------------------------------------------------- boxes
+def _intersect(boxes: Sequence[Box], nv: int) -> tuple[FloatArray, FloatArray]:
+    if not boxes:
+        return np.full(nv, -INF), np.full(nv, INF)
+    lb, ub = boxes[0]
+    for blb, bub in boxes[1:]:
+        lb = np.maximum(lb, blb)
+        ub = np.minimum(ub, bub)
+    return lb, ub
+
+
+def combine_boxes(hard: Sequence[Box], soft: Sequence[Box], nv: int) -> Box:
+    """Intersect boxes; physical (``hard``) boxes win where the boxes conflict.
+
+    Hard boxes (velocity, acceleration limits) intersect; where they conflict the bound is
+    the midpoint of the gap. Soft boxes (position limits) intersect likewise (an empty soft
+    box alone: its midpoint). Where both exist, the soft box is cut by the hard one; a soft
+    box entirely above (below) the hard one gives the hard upper (lower) bound (a
+    configuration outside its limits moves back as fast as allowed), an empty soft box its
+    midpoint clipped to the hard box. The returned arrays may be those of a single input
+    box: do not modify them.
+    """
+    hard_lb, hard_ub = _intersect(hard, nv)
+    bad = hard_lb > hard_ub
+    if bad.any():  # conflicting hard boxes (acceleration vs velocity): midpoint of the gap
+        hard_lb = hard_lb.copy()
+        hard_ub = hard_ub.copy()
+        hard_lb[bad] = hard_ub[bad] = 0.5 * (hard_lb[bad] + hard_ub[bad])
+    if not soft:
+        return Box(hard_lb, hard_ub)
+    soft_lb, soft_ub = _intersect(soft, nv)
+    if not hard:
+        bad = soft_lb > soft_ub
+        if bad.any():  # empty soft box (margins): center it
+            soft_lb = soft_lb.copy()
+            soft_ub = soft_ub.copy()
+            soft_lb[bad] = soft_ub[bad] = 0.5 * (soft_lb[bad] + soft_ub[bad])
+        return Box(soft_lb, soft_ub)
+    lb = np.maximum(hard_lb, soft_lb)
+    ub = np.minimum(hard_ub, soft_ub)
+    bad = lb > ub
+    if bad.any():
+        # soft box entirely above (or below) the hard one: go to the nearest hard bound
+        above = soft_lb > hard_ub
+        below = soft_ub < hard_lb
+        lb = np.where(bad & above, hard_ub, lb)
+        ub = np.where(bad & above, hard_ub, ub)
+        lb = np.where(bad & below, hard_lb, lb)
+        ub = np.where(bad & below, hard_lb, ub)
+        soft_conflict = bad & ~above & ~below  # soft box itself empty (margins): center it
+        if soft_conflict.any():
+            mid = 0.5 * (soft_lb + soft_ub)
+            lb = np.where(soft_conflict, np.clip(mid, hard_lb, hard_ub), lb)
+            ub = np.where(soft_conflict, lb, ub)
+    return Box(lb, ub)
+
+
+def combine_bounds(
+    constraints: Sequence[Constraint], state: State, dt: float, nv: int
+) -> tuple[FloatArray, FloatArray, list[RowBlock]]:
+    """The box of ``constraints`` on the step (:func:`combine_boxes`) and its block names."""
+    hard: list[Box] = []
+    soft: list[Box] = []
+    names: list[RowBlock] = []
+    for c in constraints:
+        box = c.bounds(state, dt)
+        if box is not None:
+            names.append(RowBlock(c.name, 0, nv))
+            (hard if c.hard_bounds else soft).append(box)
+    lb, ub = combine_boxes(hard, soft, nv)
+    return lb, ub, names
+
+
+# ---------------------------------------------------------------------- inequality rows
+class InequalityStack:
+    """The rows ``l <= C x <= u`` of several constraints in preallocated buffers.
+
+    The number of rows may change between calls (collision dampers add a row per pair
+    within their influence distance); the buffers grow when needed and the returned arrays
+    are views of their first rows, refilled by the next call.
+
+    Args:
+        constraints: the constraints (those without inequality rows are skipped).
+        n: number of variables (columns of ``C``).
+    """
+
+    def __init__(self, constraints: Sequence[Constraint], n: int) -> None:
+        self.constraints = [
+            c for c in constraints if type(c).inequalities is not Constraint.inequalities
+        ]
+        self.n = n
+        self._C = np.zeros((0, n))
+        self._l = np.zeros(0)
+        self._u = np.zeros(0)
+
+    def __bool__(self) -> bool:
+        return bool(self.constraints)
+
+    def _reserve(self, m: int) -> None:
+        if m > self._C.shape[0]:
+            m = max(m, 2 * self._C.shape[0])
+            self._C = np.zeros((m, self.n))
+            self._l = np.zeros(m)
+            self._u = np.zeros(m)
+
+    def fill(self, state: State, dt: float) -> tuple[InequalityRows, list[RowBlock]]:
+        """Stacked rows at ``state`` for a step of ``dt`` [s] and the block of each constraint."""
+        parts: list[tuple[str, Any]] = []
+        m = 0
+        for c in self.constraints:
+            rows = c.inequalities(state, dt)
+            if rows is None or rows[0].shape[0] == 0:
+                continue
+            parts.append((c.name, rows))
+            m += rows[0].shape[0]
+        self._reserve(m)
+        C, l, u = self._C[:m], self._l[:m], self._u[:m]
+        blocks: list[RowBlock] = []
+        k = 0
+        for name, (Ci, li, ui) in parts:
+            d = Ci.shape[0]
+            C[k : k + d] = Ci
+            l[k : k + d] = li
+            u[k : k + d] = ui
+            blocks.append(RowBlock(name, k, k + d))
+            k += d
+        return InequalityRows(C, l, u), blocks
+
+
+def stack_inequalities(
+    constraints: Sequence[Constraint], state: State, dt: float
+) -> tuple[FloatArray, FloatArray, FloatArray, list[RowBlock]] | None:
+    """Stack the rows ``l <= C dq <= u`` of ``constraints`` (``None`` when there are none)."""
+    if not constraints:
+        return None
+    stack = InequalityStack(constraints, state.robot.nv)
+    (C, l, u), blocks = stack.fill(state, dt)
+    return (C, l, u, blocks) if blocks else None
+
+
+# ---------------------------------------------------------------------- the weighted QP
+class WeightedQPBuilder:
+    """The QP of one weighted velocity-level step, written into preallocated arrays.
+
+    ``min_x |M x - r|^2 + mu |x|^2``, as ``1/2 x^T H x + g^T x`` with ``H = M^T M + mu I``
+    and ``g = -M^T r`` (half the objective: the same minimizer), subject to ``A x = b``
+    (equality tasks),
+    ``l <= C x <= u`` (constraint rows) and ``lb <= x <= ub`` (the constraints' boxes
+    combined by :func:`combine_boxes`).
+
+    Args:
+        tasks: weighted tasks (rows ``M``, ``r``).
+        constraints: boxes and inequality rows.
+        equality_tasks: tasks imposed exactly (rows ``A``, ``b``).
+        nv: number of variables.
+        damping: ``mu`` [1/rad^2].
+    """
+
+    def __init__(
+        self,
+        tasks: Sequence[Task],
+        constraints: Sequence[Constraint],
+        equality_tasks: Sequence[Task],
+        nv: int,
+        damping: float,
+    ) -> None:
+        self.nv = nv
+        self.damping = float(damping)
+        self.constraints = list(constraints)
+        self.objective = TaskRowStack(tasks, nv)
+        self.equalities = TaskRowStack(equality_tasks, nv)
+        self._eq_blocks: list[RowBlock] = []
+        k = 0
+        for t in self.equalities.tasks:
+            self._eq_blocks.append(RowBlock(f"task '{t.name}'", k, k + t.dim))
+            k += t.dim
+        self.inequalities = InequalityStack(constraints, nv)
+        self._H = np.zeros((nv, nv))
+        self._g = np.zeros(nv)
+        self._diagonal = self._H.reshape(-1)[:: nv + 1]  # a view: the diagonal of H
+        self._empty_rows = np.zeros((0, nv))
+        self._empty = np.zeros(0)
+
+    def build(self, state: State, dt: float) -> QPProblem:
+        """The QP at ``state`` for a step of ``dt`` [s] (arrays refilled by the next call)."""
+        M, r = self.objective.velocity(state)
+        H, g = self._H, self._g
+        np.dot(M.T, M, out=H)
+        self._diagonal += self.damping
+        np.dot(M.T, r, out=g)
+        np.negative(g, out=g)
+        if self.equalities.tasks:
+            A, b = self.equalities.velocity(state)
+        else:
+            A, b = self._empty_rows, self._empty
+        lb, ub, box_blocks = combine_bounds(self.constraints, state, dt, self.nv)
+        if self.inequalities:
+            (C, l, u), in_blocks = self.inequalities.fill(state, dt)
+        else:
+            C, l, u, in_blocks = self._empty_rows, self._empty, self._empty, []
+        return QPProblem(H, g, A, b, C, l, u, lb, ub, self._eq_blocks, in_blocks, box_blocks)
+
+
+__all__ = [
+    "InequalityStack",
+    "TaskRowStack",
+    "WeightedQPBuilder",
+    "combine_bounds",
+    "combine_boxes",
+    "stack_inequalities",
+]
