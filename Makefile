@@ -7,29 +7,51 @@ SUDO := $(shell [ "$$(id -u)" -eq 0 ] || echo sudo)
 PYTEST_WORKERS ?= 2
 OUT ?= out
 
-.PHONY: native demo test lint typecheck pytest docs chromium bench bench-quick bench-peers clean
+# The MotionBenchMaker problems are not shipped with taskspace: the project keeps them in
+# shared/ beside the checkout (tests, benchmarks and examples read the variable).
+MOTIONBENCHMAKER_BESIDE := $(abspath $(CURDIR)/../shared/benchmarks/motionbenchmaker_panda)
+ifneq ($(wildcard $(MOTIONBENCHMAKER_BESIDE)),)
+export TASKSPACE_MOTIONBENCHMAKER_DIR ?= $(MOTIONBENCHMAKER_BESIDE)
+endif
+
+.PHONY: native demo test lint typecheck pytest docs chromium bench bench-quick bench-peers clean apt-tools wheel-smoke
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
 
-$(STAMP): pyproject.toml | $(PY)
-	$(PY) -m pip install --quiet -e ".[test,native]"
+# Debian packages that the build needs, installed with apt when missing.
+APT_TOOLS := g++:g++ cmake:cmake
+apt-tools:
+	@missing=""; for pair in $(APT_TOOLS); do \
+		command -v $${pair%%:*} >/dev/null 2>&1 || missing="$$missing $${pair#*:}"; done; \
+	if [ -n "$$missing" ]; then \
+		echo "installing$$missing (apt)"; \
+		$(SUDO) apt-get update -qq && \
+		DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq $$missing >/dev/null; fi
+
+# taskspace and its compiled kernels (CMakeLists.txt, scikit-build-core): the build
+# requirements first (the pin/coal/eigenpy wheels whose CMake configs the kernels use), then
+# an editable install built against exactly those (--no-build-isolation: an isolated build
+# could pick other wheel versions than the ones the kernels then run with). The build
+# directory build/<tag> persists: a kernel whose source changed is recompiled alone when it
+# is next imported (editable.rebuild), `make native` shows the result.
+# NATIVE_ARCH=1 compiles for this processor (-march=native; never for a wheel).
+NATIVE_ARCH ?= 0
+SKBUILD_ARGS := $(if $(filter 1 ON on yes,$(NATIVE_ARCH)),-Ccmake.define.TASKSPACE_NATIVE_ARCH=ON,-Ccmake.define.TASKSPACE_NATIVE_ARCH=OFF)
+BUILD_REQUIRES = $(shell $(PY) -c "exec('try: import tomllib\\nexcept ImportError: from pip._vendor import tomli as tomllib'); \
+	print(' '.join(repr(r) for r in tomllib.load(open('pyproject.toml', 'rb'))['build-system']['requires']))")
+
+$(STAMP): pyproject.toml CMakeLists.txt cmake/build_info.json.in | $(PY)
+	@$(MAKE) --no-print-directory apt-tools
+	rm -f src/taskspace/_native/*.so src/taskspace/_native/.built  # modules of the old build.py
+	$(PY) -m pip install --quiet $(BUILD_REQUIRES)
+	$(PY) -m pip install --quiet --no-build-isolation $(SKBUILD_ARGS) -e ".[test,native]"
 	touch $(STAMP)
 
-# The compiled kernels (C++ on the installed Pinocchio; about a minute). Without them
-# taskspace runs its Python path; `make demo` and `make test` build them.
-NATIVE := src/taskspace/_native/.built
-$(NATIVE): $(STAMP) src/taskspace/_native/ik_kernel.cpp src/taskspace/_native/planning_kernel.cpp \
-		src/taskspace/_native/build.py
-	@command -v g++ >/dev/null 2>&1 || { \
-		echo "installing g++ (apt)"; \
-		$(SUDO) apt-get update -qq && \
-		DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq g++ >/dev/null; }
-	$(PY) -m taskspace._native.build
-	touch $(NATIVE)
-
-native: $(NATIVE)
+# Rebuilds the kernels whose sources changed and shows whether they load.
+native: $(STAMP)
+	$(VENV)/bin/taskspace info
 
 # Debian's Chromium renders the meshcat snapshots (never a downloaded browser).
 chromium:
@@ -38,7 +60,7 @@ chromium:
 		$(SUDO) apt-get update -qq && \
 		DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq chromium >/dev/null; }
 
-demo: $(STAMP) $(NATIVE) chromium
+demo: $(STAMP) native chromium
 	$(VENV)/bin/taskspace demo main --html $(OUT)/demo.html --png $(OUT)/demo.png
 
 lint: $(STAMP)
@@ -48,20 +70,27 @@ lint: $(STAMP)
 typecheck: $(STAMP)
 	$(VENV)/bin/mypy
 
-pytest: $(STAMP) $(NATIVE) chromium
+pytest: $(STAMP) native chromium
 	TASKSPACE_REQUIRE_NATIVE=1 OPENBLAS_NUM_THREADS=1 $(PY) -m pytest -n $(PYTEST_WORKERS) --dist loadgroup -q
 
-test: lint typecheck pytest
+test: lint typecheck pytest wheel-smoke
 
-# The documentation site (Sphinx + sphinx-gallery; the gallery runs every example). The
-# whole-suite `make test` builds it too (tests/test_docs.py).
-docs: $(STAMP) $(NATIVE) chromium
+# The installed package, not the checkout: a wheel (pip wheel, kernels compiled by CMake)
+# installed into a fresh virtual environment, then from a directory outside the checkout
+# `taskspace info` (the kernels must load), the README's quick example and a smoke subset of
+# the tests. The wheel gets the same pin/coal/eigenpy/boost versions as .venv (constraints).
+SMOKE_TESTS ?= tests/test_native_build_info.py tests/test_readme.py tests/ik/test_ik_native.py
+wheel-smoke: $(STAMP)
+	PYTHON=$(PYTHON) bash .ci/wheel_smoke.sh $(VENV) $(SMOKE_TESTS)
+
+# The documentation site (Sphinx + sphinx-gallery; the gallery runs every example).
+docs: $(STAMP) native chromium
 	TASKSPACE_FAST=1 MPLBACKEND=Agg $(PY) -m sphinx -W --keep-going -b html docs docs/_build/html
 
-bench: $(STAMP) $(NATIVE)
+bench: $(STAMP) native
 	$(PY) -m benchmarks.run --save benchmarks/results/latest.json
 
-bench-quick: $(STAMP) $(NATIVE)
+bench-quick: $(STAMP) native
 	$(PY) -m benchmarks.run --quick
 
 # Peer libraries, each in its own environment (they pin other Pinocchio versions).
@@ -69,5 +98,5 @@ bench-peers:
 	bash benchmarks/peers/install.sh
 
 clean:
-	rm -rf $(VENV) .venv-peers out .mypy_cache .ruff_cache .pytest_cache src/taskspace/_native/*.so src/taskspace/_native/.built \
+	rm -rf $(VENV) .venv-peers out build .mypy_cache .ruff_cache .pytest_cache src/taskspace/_native/*.so src/taskspace/_native/.built \
 		docs/_build docs/_generated

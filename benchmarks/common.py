@@ -21,6 +21,12 @@ from typing import Any
 import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
+
+# The MotionBenchMaker problems are not shipped with taskspace: the project keeps them in
+# shared/ beside the checkout, unless TASKSPACE_MOTIONBENCHMAKER_DIR says otherwise.
+_MOTIONBENCHMAKER = ROOT.parent / "shared" / "benchmarks" / "motionbenchmaker_panda"
+if _MOTIONBENCHMAKER.is_dir():
+    os.environ.setdefault("TASKSPACE_MOTIONBENCHMAKER_DIR", str(_MOTIONBENCHMAKER))
 PEERS_DIR = ROOT / ".venv-peers"
 
 

@@ -153,9 +153,12 @@ def _campaign_db() -> Path:
 
 
 def _campaign(quick: bool, ray_ok: bool) -> list[Row]:
+    from taskspace.errors import ModelLoadError
     from taskspace.planning.scene_loader import MOTIONBENCHMAKER_SCENARIOS, motionbenchmaker_dir
 
-    if not motionbenchmaker_dir().is_dir():
+    try:
+        motionbenchmaker_dir()
+    except ModelLoadError:
         return [Row(SUITE, "mbm_campaign", "taskspace", None, note="MotionBenchMaker data missing")]
     scenarios = list(MOTIONBENCHMAKER_SCENARIOS)[:2] if quick else list(MOTIONBENCHMAKER_SCENARIOS)
     problems = range(1, 6 if quick else 51)

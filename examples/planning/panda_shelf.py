@@ -8,7 +8,8 @@ Figures:
 4. a Panda planning through a MotionBenchMaker bookshelf with RRT-Connect + shortcutting,
    shown in meshcat when ``taskspace.viz.Viewer`` is available (else its joint trajectories).
 
-Usage: python examples/planning/panda_shelf.py [--save DIR]; TASKSPACE_FAST=1 for a quick run.
+Usage: python examples/planning/panda_shelf.py [--save DIR] [--data MOTIONBENCHMAKER_DIR];
+TASKSPACE_FAST=1 for a quick run.
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ import os
 
 import numpy as np
 
+from taskspace.errors import ModelLoadError
 from taskspace.planning.collision_checker import FunctionChecker
 from taskspace.planning.configuration_space import ConfigurationSpace, EdgeCheckOptions
 from taskspace.planning.prm import PRMOptions, prm
@@ -32,7 +34,6 @@ from taskspace.planning.shortcut import shortcut_path
 from taskspace.viz.plots import save_or_show, style_figure, use_agg_if_headless
 
 FAST = os.environ.get("TASKSPACE_FAST") == "1"
-DATA = motionbenchmaker_dir()
 BOXES = np.array([[3.0, 0.0, 4.0, 6.5], [6.0, 3.5, 7.0, 10.0], [1.0, 7.5, 4.5, 8.5]])
 
 
@@ -122,12 +123,14 @@ def rrt_figures(save: str | None) -> None:
     save_or_show(style_figure(fig, grid=False), save, "prm_graph")
 
 
-def panda_shelf(save: str | None) -> None:
-    if not DATA.is_dir():
-        print(f"{DATA} not found: skipping the Panda part")
+def panda_shelf(save: str | None, data: str | None) -> None:
+    try:
+        root = motionbenchmaker_dir(data)
+    except ModelLoadError as exc:
+        print(f"{exc}: skipping the Panda part")
         return
     robot = motionbenchmaker_panda()
-    problem = motionbenchmaker_problems(DATA, "bookshelf_small", [2])[0]
+    problem = motionbenchmaker_problems(root, "bookshelf_small", [2])[0]
     req = problem.apply(robot)
     space = ConfigurationSpace.from_robot(robot)
     res = rrt_connect(space, req.start, req.goal, RRTConnectOptions(time_limit_s=5.0, seed=0))
@@ -173,10 +176,15 @@ def panda_shelf(save: str | None) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--save", default=None, help="directory (or .png file) for the figures")
+    parser.add_argument(
+        "--data",
+        default=None,
+        help="MotionBenchMaker Panda directory (default: $TASKSPACE_MOTIONBENCHMAKER_DIR)",
+    )
     args = parser.parse_args()
     use_agg_if_headless(args.save)
     rrt_figures(args.save)
-    panda_shelf(args.save)
+    panda_shelf(args.save, args.data)
 
 
 if __name__ == "__main__":

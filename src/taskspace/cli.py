@@ -375,9 +375,12 @@ def cmd_info(args: argparse.Namespace) -> int:
     """Versions of taskspace and of the libraries it runs on, and whether the kernels are used."""
     from importlib import metadata
 
+    import taskspace
     from taskspace import _native
 
     def version(dist: str) -> str:
+        if dist == "taskspace":
+            return taskspace.__version__
         try:
             return metadata.version(dist)
         except metadata.PackageNotFoundError:
@@ -393,6 +396,10 @@ def cmd_info(args: argparse.Namespace) -> int:
         print(f"{name:<{width}}  {value}")
     for name, module in kernels:
         print(f"{name:<{width}}  {'compiled, in use' if module is not None else 'not in use'}")
+    built = _native.build_info()
+    if built:
+        against = ", ".join(f"{k} {built.get(k, '?')}" for k in _native.CHECKED)
+        print(f"\nkernels built against {against}; {built.get('arch', '?')} code")
     reason = _native.status()
     if reason:
         print(f"\nPython paths are used where a kernel is missing: {reason}")

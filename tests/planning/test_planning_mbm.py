@@ -10,14 +10,13 @@ from taskspace.errors import PlanningError
 from taskspace.planning.configuration_space import ConfigurationSpace, EdgeCheckOptions
 from taskspace.planning.rrt_connect import RRTConnectOptions, rrt_connect
 from taskspace.planning.scene_loader import (
-    motionbenchmaker_dir,
     motionbenchmaker_panda,
     motionbenchmaker_problems,
 )
 from taskspace.planning.shortcut import shortcut_path
+from tests.planning._mbm import ROOT, SKIP_REASON
 
-ROOT = motionbenchmaker_dir()
-pytestmark = pytest.mark.skipif(not ROOT.is_dir(), reason="MotionBenchMaker files not present")
+pytestmark = pytest.mark.skipif(ROOT is None, reason=SKIP_REASON)
 
 
 def _reference_free(robot, path: np.ndarray, resolution: float) -> np.ndarray:  # type: ignore[no-untyped-def]

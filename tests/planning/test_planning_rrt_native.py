@@ -16,13 +16,12 @@ from taskspace.planning.configuration_space import ConfigurationSpace, EdgeCheck
 from taskspace.planning.planner_result import PlannerStatus
 from taskspace.planning.rrt_connect import RRTConnectOptions, rrt_connect
 from taskspace.planning.scene_loader import (
-    motionbenchmaker_dir,
     motionbenchmaker_panda,
     motionbenchmaker_problems,
 )
+from tests.planning._mbm import ROOT, SKIP_REASON
 from tests.planning._planning_worlds import wall_space
 
-ROOT = motionbenchmaker_dir()
 DELTA = 0.03  # planner resolution [rad]
 POOL = CollisionCheckerOptions(native=False)  # Pinocchio's broad-phase pool, no kernel
 
@@ -34,7 +33,7 @@ if os.environ.get("TASKSPACE_REQUIRE_NATIVE"):
 
 pytestmark = [
     pytest.mark.skipif(planning_kernel() is None, reason=f"native kernel: {status()}"),
-    pytest.mark.skipif(not ROOT.is_dir(), reason="MotionBenchMaker files not present"),
+    pytest.mark.skipif(ROOT is None, reason=SKIP_REASON),
 ]
 
 

@@ -18,9 +18,9 @@ from taskspace.planning.scene_loader import (
     motionbenchmaker_panda,
     motionbenchmaker_problems,
 )
+from tests.planning._mbm import ROOT, SKIP_REASON
 
-ROOT = motionbenchmaker_dir()
-pytestmark = pytest.mark.skipif(not ROOT.is_dir(), reason="MotionBenchMaker files not present")
+pytestmark = pytest.mark.skipif(ROOT is None, reason=SKIP_REASON)
 
 
 def test_reads_every_scene_file() -> None:
@@ -83,13 +83,19 @@ def test_bad_files_raise(tmp_path: Path) -> None:
         motionbenchmaker_problems(ROOT, "nope")
 
 
-def test_motionbenchmaker_dir_is_found_and_can_be_overridden(
+def test_motionbenchmaker_dir_is_the_argument_or_the_environment_only(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     assert (ROOT / "cage_panda").is_dir()
     monkeypatch.setenv(MOTIONBENCHMAKER_ENV, str(tmp_path))
     assert motionbenchmaker_dir() == tmp_path
+    assert motionbenchmaker_dir(ROOT) == ROOT  # the argument first
     monkeypatch.setenv(MOTIONBENCHMAKER_ENV, str(tmp_path / "missing"))
-    monkeypatch.chdir(tmp_path)
-    found = motionbenchmaker_dir()  # the env path is missing: the checkout's neighbour
-    assert found.resolve() == ROOT.resolve()
+    with pytest.raises(ModelLoadError, match=f"{tmp_path / 'missing'} does not exist"):
+        motionbenchmaker_dir()
+    monkeypatch.delenv(MOTIONBENCHMAKER_ENV)
+    monkeypatch.chdir(ROOT.parent)  # no search beside the working directory or elsewhere
+    with pytest.raises(ModelLoadError, match=f"pass their directory or set {MOTIONBENCHMAKER_ENV}"):
+        motionbenchmaker_dir()
+    with pytest.raises(ModelLoadError, match="does not exist"):
+        motionbenchmaker_dir(tmp_path / "nope")

@@ -48,7 +48,7 @@ per scenario 2-15 % lower (cage 11-13 %) but box's in one set (+2 %), mean time 
 but box's in one set (+5 %), all solved; for this module (3 seeds) 0.81x the total time.
 
 Compiled planner: ``RRTConnectOptions.native`` (default) runs this algorithm in C++
-(``taskspace/_native/planning_kernel.cpp``, built by ``python -m taskspace._native.build``)
+(``taskspace/_native/planning_kernel.cpp``, compiled when taskspace is pip-installed)
 when the space's checker is a :class:`~taskspace.planning.CollisionChecker`; the collision
 checks call Pinocchio and coal directly (about 1.35 us per configuration inside the planner on
 the MotionBenchMaker Panda scenes, against 10-13 us through Python). Its random stream is its

@@ -294,29 +294,34 @@ MOTIONBENCHMAKER_ENV = "TASKSPACE_MOTIONBENCHMAKER_DIR"
 """Environment variable naming the MotionBenchMaker Panda directory."""
 
 
-def motionbenchmaker_dir() -> Path:
+def motionbenchmaker_dir(root: str | Path | None = None) -> Path:
     """Directory of the MotionBenchMaker Panda problems (``<scenario>_panda/*.yaml``).
 
-    Searched in order: ``$TASKSPACE_MOTIONBENCHMAKER_DIR``; ``shared/benchmarks/
-    motionbenchmaker_panda`` beside the working directory or beside the taskspace checkout
-    (the project's layout: the repository and ``shared/`` side by side); ``/work/shared/...``.
+    taskspace does not ship these files: the directory is ``root`` when given, else the
+    environment variable ``TASKSPACE_MOTIONBENCHMAKER_DIR``; no other place is searched.
+
+    Args:
+        root: the directory (``None``: the environment variable).
 
     Raises:
-        ModelLoadError: none of these exists (the message lists the places searched).
+        ModelLoadError: neither is given, or the directory does not exist.
     """
-    rel = Path("shared") / "benchmarks" / "motionbenchmaker_panda"
-    env = os.environ.get(MOTIONBENCHMAKER_ENV)
-    candidates = [Path(env)] if env else []
-    checkout = Path(__file__).resolve().parents[3]  # src/taskspace/planning/ -> checkout
-    candidates += [Path.cwd().parent / rel, checkout.parent / rel, Path("/work") / rel]
-    for c in candidates:
-        if c.is_dir():
-            return c
-    raise ModelLoadError(
-        "MotionBenchMaker Panda problems not found; searched: "
-        + ", ".join(str(c) for c in candidates)
-        + f" (set {MOTIONBENCHMAKER_ENV})"
-    )
+    if root is None:
+        env = os.environ.get(MOTIONBENCHMAKER_ENV, "")
+        if not env:
+            raise ModelLoadError(
+                "MotionBenchMaker Panda problems: pass their directory or set "
+                f"{MOTIONBENCHMAKER_ENV} (the directory holding bookshelf_small_panda/, "
+                "cage_panda/, ...)"
+            )
+        root = env
+    path = Path(root)
+    if not path.is_dir():
+        raise ModelLoadError(
+            f"MotionBenchMaker Panda directory {path} does not exist (pass their directory "
+            f"or set {MOTIONBENCHMAKER_ENV})"
+        )
+    return path
 
 
 def motionbenchmaker_problems(

@@ -1,0 +1,57 @@
+#!/usr/bin/env bash
+# The installed package, not the checkout (make wheel-smoke, part of make test):
+#   1. `pip wheel` builds taskspace (kernels compiled by CMakeLists.txt) with the build venv;
+#   2. a fresh virtual environment installs the wheel, constrained to the pin, coal, eigenpy,
+#      Boost and NumPy versions of the build venv (the kernels refuse other versions);
+#   3. from a temporary directory outside the checkout: `taskspace info` must report both
+#      kernels in use, then the README's quick example and a smoke subset of the tests run
+#      against the installed copy (a copy of tests/ and README.md; no source tree on the path).
+# Usage: .ci/wheel_smoke.sh BUILD_VENV TEST_FILE...
+set -euo pipefail
+cd "$(dirname "$0")/.."
+checkout=$(pwd)
+build_py="$1/bin/python"
+shift
+python=${PYTHON:-python3}
+work=$(mktemp -d "${TMPDIR:-/tmp}/taskspace-wheel-smoke.XXXXXX")
+trap 'rm -rf "$work"' EXIT
+t0=$(date +%s)
+
+echo "wheel-smoke: building the wheel"
+# Portable code whatever NATIVE_ARCH says; build/wheel-<tag> keeps the objects for the next run.
+"$build_py" -m pip wheel --quiet --no-build-isolation --no-deps --wheel-dir "$work/dist" \
+    -Ccmake.define.TASKSPACE_NATIVE_ARCH=OFF -Cbuild-dir="build/wheel-{wheel_tag}" "$checkout"
+wheel=$(ls "$work"/dist/taskspace-*.whl)
+"$build_py" - "$wheel" <<'EOF'
+import sys, zipfile
+names = zipfile.ZipFile(sys.argv[1]).namelist()
+kernels = [n for n in names if n.startswith("taskspace/_native/_") and n.endswith(".so")]
+assert len(kernels) == 2 and "taskspace/_native/_build_info.json" in names, names
+assert not [n for n in names if n.endswith((".cpp", "build.py"))], "C++ sources in the wheel"
+EOF
+"$build_py" -m pip freeze --all \
+    | grep -iE '^(pin|libpinocchio|coal|libcoal|eigenpy|cmeel-boost|numpy)==' >"$work/constraints.txt"
+
+echo "wheel-smoke: installing $(basename "$wheel") into a fresh virtual environment"
+"$python" -m venv "$work/venv"
+"$work/venv/bin/python" -m pip install --quiet --upgrade pip
+"$work/venv/bin/python" -m pip install --quiet -c "$work/constraints.txt" "$wheel[test]"
+
+mkdir "$work/run"
+cp -r tests README.md "$work/run/"
+cp pyproject.toml "$work/run/"  # pytest's settings (markers, warning filters) only
+cd "$work/run"
+"$work/venv/bin/python" - <<'EOF'
+import taskspace, pathlib, sys
+where = pathlib.Path(taskspace.__file__).resolve()
+assert pathlib.Path(sys.prefix).resolve() in where.parents, f"taskspace imported from {where}"
+print(f"wheel-smoke: taskspace {taskspace.__version__} from {where.parent}")
+EOF
+"$work/venv/bin/taskspace" info | tee "$work/info.txt"
+if grep -q "not in use" "$work/info.txt"; then
+    echo "wheel-smoke: a compiled kernel does not load from the wheel" >&2
+    exit 1
+fi
+TASKSPACE_REQUIRE_NATIVE=1 OPENBLAS_NUM_THREADS=1 "$work/venv/bin/python" -m pytest -q \
+    -p no:cacheprovider "$@"
+echo "wheel-smoke: passed in $(($(date +%s) - t0)) s"
