@@ -20,6 +20,13 @@ from taskspace.qp.hierarchy import (
 from taskspace.qp.kkt import KKTResiduals, kkt_residuals
 from taskspace.qp.problem import INF, QPProblem, RowBlock
 from taskspace.qp.result import QPResult, QPStatus
+from taskspace.qp.rows import (
+    InequalityStack,
+    TaskRowStack,
+    WeightedQPBuilder,
+    combine_bounds,
+    combine_boxes,
+)
 from taskspace.qp.solver import (
     BACKENDS,
     QPSolver,
@@ -35,6 +42,7 @@ __all__ = [
     "HierarchyOptions",
     "HierarchyResult",
     "HierarchySolver",
+    "InequalityStack",
     "KKTResiduals",
     "QPProblem",
     "QPResult",
@@ -42,7 +50,11 @@ __all__ = [
     "QPSolverOptions",
     "QPStatus",
     "RowBlock",
+    "TaskRowStack",
+    "WeightedQPBuilder",
     "available_backends",
+    "combine_bounds",
+    "combine_boxes",
     "damped_pseudo_inverse",
     "hierarchical_step_exact",
     "hierarchical_step_regularized",

@@ -31,6 +31,7 @@ import numpy as np
 
 from taskspace._validation import FloatArray
 from taskspace.constraints.constraint import Constraint
+from taskspace.errors import ShapeError
 from taskspace.features.rows import INF, Box, InequalityRows, TaskRows
 from taskspace.qp.problem import QPProblem, RowBlock
 
@@ -64,8 +65,10 @@ class TaskRowStack:
         m = sum(t.dim for t in self.tasks)
         self.J = np.zeros((m, nv)) if J is None else J
         self.rhs = np.zeros(m) if rhs is None else rhs
-        if self.J.shape != (m, nv) or self.rhs.shape != (m,):
-            raise ValueError(f"row buffers of shapes {(m, nv)} and {(m,)} expected")
+        if self.J.shape != (m, nv):
+            raise ShapeError("task row buffer J", (m, nv), self.J.shape)
+        if self.rhs.shape != (m,):
+            raise ShapeError("task row buffer rhs", (m,), self.rhs.shape)
         self.slices: list[slice] = []
         row = 0
         for t in self.tasks:
