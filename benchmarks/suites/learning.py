@@ -1,0 +1,310 @@
+"""Learning suite: Gymnasium env throughput, fitted value iteration, CMA-ES on the cart-pole.
+
+Scenes (built separately from timing):
+* ``pendulum_step`` / ``cartpole_step``: one ``step`` of ``taskspace/Pendulum-v0`` and
+  ``taskspace/CartPole-v0`` (Pinocchio ABA) against Gymnasium's ``Pendulum-v1`` and
+  ``CartPole-v1`` (closed forms in Python), unwrapped, interleaved in the same process.
+* ``cartpole_batched_1024``: one step of 1,024 cart-poles, our ``CartPoleVectorEnv`` against
+  Gymnasium's own ``CartPoleVectorEnv`` (``make_vec(..., vectorization_mode=
+  "vector_entry_point")``); steps/s per core in ``extra``.
+* ``pendulum_fvi_101``: fitted value iteration of the pendulum swing-up on a 101 x 101 grid
+  (quick: 41 x 41), 9 torques in [-4, 4] N m, dt 0.05 s, gamma = exp(-0.2 dt), stopped when
+  ``max |J_{k+1} - J_k| <= 1e-4``; Drake's ``FittedValueIteration`` on the same grid, torques,
+  time step, discount, tolerance and pendulum (1 kg at 1 m, no damping) when the ``drake`` peer
+  environment is installed (its grid includes the end point 2 pi of the periodic angle; it
+  integrates with its simulator's default integrator, ours with RK4).
+* ``cartpole_cma_es``: CMA-ES (pycma) on the 4-parameter linear policy ``push right iff
+  theta^T obs > 0``, population 10, sigma 0.5, over 10 seeds (quick: 3): environment steps
+  until a candidate first balances a whole 500-step episode, at most 100 rollouts (<= 50,000
+  steps), on our cart-pole and on ``CartPole-v1``; median and success count in ``extra``.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+import taskspace.learning.envs  # noqa: F401  (registers the taskspace/* ids)
+from benchmarks.common import Row, Timing, measure_interleaved, peer_python
+from taskspace.learning import Episode, PolicySearchOptions, cma_es
+from taskspace.optimal_control import (
+    FittedValueIterationOptions,
+    PendulumSwingUp,
+    ValueIterationOptions,
+    fitted_value_iteration,
+    make_grid,
+)
+
+SUITE = "learning"
+
+FVI_DT = 0.05
+FVI_RHO = 0.2
+FVI_TOL = 1e-4
+FVI_ACTIONS = 9
+
+DRAKE_FVI = """
+import json, sys, time
+import numpy as np
+from pydrake.examples import PendulumPlant
+from pydrake.systems.analysis import Simulator
+from pydrake.systems.controllers import DynamicProgrammingOptions, FittedValueIteration
+
+n, actions, dt, rho, tol = int(sys.argv[1]), int(sys.argv[2]), *map(float, sys.argv[3:6])
+plant = PendulumPlant()
+simulator = Simulator(plant)
+params = plant.get_mutable_parameters(simulator.get_mutable_context())
+params.set_mass(1.0)
+params.set_length(1.0)
+params.set_damping(0.0)
+params.set_gravity(9.80665)
+options = DynamicProgrammingOptions()
+options.periodic_boundary_conditions = [
+    DynamicProgrammingOptions.PeriodicBoundaryCondition(0, 0.0, 2 * np.pi)
+]
+options.discount_factor = float(np.exp(-rho * dt))
+options.convergence_tol = tol
+options.input_port_index = plant.get_input_port(0).get_index()
+state_grid = [set(np.linspace(0.0, 2 * np.pi, n)), set(np.linspace(-8.0, 8.0, n))]
+input_grid = [set(np.linspace(-4.0, 4.0, actions))]
+
+
+def cost(context):
+    x = context.get_continuous_state_vector().CopyToVector()
+    d = (x[0] - np.pi + np.pi) % (2 * np.pi) - np.pi
+    u = plant.EvalVectorInput(context, 0)[0]
+    return d * d + 0.1 * x[1] ** 2 + 0.01 * u * u
+
+
+samples = []
+for _ in range(int(sys.argv[6])):
+    t0 = time.perf_counter()
+    FittedValueIteration(simulator, cost, state_grid, input_grid, dt, options)
+    samples.append(time.perf_counter() - t0)
+print(json.dumps({"samples_s": samples}))
+"""
+
+
+def scene_single(env_id: str) -> tuple[Any, Any]:
+    """The unwrapped env (reset, seeded) and a fixed action stream."""
+    env = gym.make(env_id).unwrapped
+    env.reset(seed=0)
+    env.action_space.seed(0)
+    actions = [env.action_space.sample() for _ in range(256)]
+    return env, actions
+
+
+def _stepper(env: Any, actions: list[Any]) -> Any:
+    counter = iter(range(10**12))
+
+    def step() -> None:
+        _, _, term, trunc, _ = env.step(actions[next(counter) & 255])
+        if term or trunc:
+            env.reset()
+
+    return step
+
+
+def scene_batched(num_envs: int) -> tuple[Any, Any, np.ndarray]:
+    """Ours and Gymnasium's vector cart-poles (reset) and a fixed action batch."""
+    ours = gym.make_vec(
+        "taskspace/CartPole-v0", num_envs=num_envs, vectorization_mode="vector_entry_point"
+    )
+    theirs = gym.make_vec("CartPole-v1", num_envs=num_envs, vectorization_mode="vector_entry_point")
+    ours.reset(seed=0)
+    theirs.reset(seed=0)
+    acts = np.random.default_rng(0).integers(0, 2, (64, num_envs))
+    return ours, theirs, acts
+
+
+def _env_rows(quick: bool) -> list[Row]:
+    rows: list[Row] = []
+    rounds = 30 if quick else 200
+    for scene, ours_id, peer_id in (
+        ("pendulum_step", "taskspace/Pendulum-v0", "Pendulum-v1"),
+        ("cartpole_step", "taskspace/CartPole-v0", "CartPole-v1"),
+    ):
+        fns = [_stepper(*scene_single(ours_id)), _stepper(*scene_single(peer_id))]
+        t_ours, t_peer = measure_interleaved(fns, warmup=200, rounds=rounds, block=50)
+        rows.append(
+            Row(
+                SUITE,
+                scene,
+                "taskspace",
+                t_ours,
+                {"steps_per_s": 1e6 / t_ours.median_us},
+                ratio_to=f"gymnasium {peer_id}",
+            )
+        )
+        rows.append(
+            Row(
+                SUITE,
+                scene,
+                f"gymnasium {peer_id}",
+                t_peer,
+                {"steps_per_s": 1e6 / t_peer.median_us},
+            )
+        )
+    n = 1024
+    ours, theirs, acts = scene_batched(n)
+    c1, c2 = iter(range(10**12)), iter(range(10**12))
+    t_ours, t_peer = measure_interleaved(
+        [lambda: ours.step(acts[next(c1) & 63]), lambda: theirs.step(acts[next(c2) & 63])],
+        warmup=20,
+        rounds=20 if quick else 100,
+        block=10,
+    )
+    for method, t in (("taskspace", t_ours), ("gymnasium CartPoleVectorEnv", t_peer)):
+        rows.append(
+            Row(
+                SUITE,
+                f"cartpole_batched_{n}",
+                method,
+                t,
+                {"copies": n, "steps_per_s": n * 1e6 / t.median_us, "target_steps_per_s": 20000},
+                ratio_to="gymnasium CartPoleVectorEnv" if method == "taskspace" else None,
+            )
+        )
+    return rows
+
+
+def scene_fvi(n: int) -> tuple[Any, ...]:
+    """Grid, torques, dynamics, cost and options of the pendulum swing-up."""
+    prob = PendulumSwingUp()
+    grid = make_grid(
+        [np.linspace(0, 2 * np.pi, n + 1)[:-1], np.linspace(-8, 8, n)], periods=[2 * np.pi, 0.0]
+    )
+    options = FittedValueIterationOptions(
+        dt=FVI_DT,
+        substeps=1,
+        discount_rate=FVI_RHO,
+        value_iteration=ValueIterationOptions(tolerance=FVI_TOL, max_iterations=20_000),
+    )
+    return grid, np.linspace(-4, 4, FVI_ACTIONS), prob.dynamics, prob.cost, options
+
+
+def _drake_fvi(n: int, repeat: int) -> tuple[Timing | None, str]:
+    exe = peer_python("drake")
+    if exe is None:
+        return None, "drake peer environment missing (make bench-peers)"
+    with tempfile.TemporaryDirectory() as tmp:
+        script = Path(tmp) / "drake_fvi.py"
+        script.write_text(DRAKE_FVI)
+        args = [str(n), str(FVI_ACTIONS), str(FVI_DT), str(FVI_RHO), str(FVI_TOL), str(repeat)]
+        proc = subprocess.run(
+            [str(exe), str(script), *args], capture_output=True, text=True, timeout=1800
+        )
+    if proc.returncode != 0:
+        return None, f"drake failed: {proc.stderr[-300:]}"
+    out = json.loads(proc.stdout.strip().splitlines()[-1])
+    return Timing.from_samples(out["samples_s"]), ""
+
+
+def _fvi_rows(quick: bool) -> list[Row]:
+    n = 41 if quick else 101
+    repeat = 1 if quick else 3
+    scene = scene_fvi(n)
+    samples, res = [], None
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        res = fitted_value_iteration(*scene[:4], scene[4])
+        samples.append(time.perf_counter() - t0)
+    assert res is not None
+    t_drake, note = _drake_fvi(n, repeat)
+    extra = {
+        "grid": [n, n],
+        "actions": FVI_ACTIONS,
+        "iterations": res.iterations,
+        "converged": res.success,
+        "median_abs_hjb_residual": float(np.median(np.abs(res.hjb_residual))),
+    }
+    name = f"pendulum_fvi_{n}"
+    return [
+        Row(SUITE, name, "taskspace", Timing.from_samples(samples), extra, ratio_to="drake"),
+        Row(SUITE, name, "drake", t_drake, {"grid": [n, n], "actions": FVI_ACTIONS}, note=note),
+    ]
+
+
+def _cma_es_steps(env_id: str, seed: int, max_rollouts: int) -> tuple[int | None, int]:
+    """Environment steps until a rollout first returns 500 (``None``: never) and in total."""
+    env = gym.make(env_id)
+    counter = {"steps": 0, "first": None}
+
+    def rollout(theta: np.ndarray, rollout_seed: int) -> Episode:
+        obs, _ = env.reset(seed=int(rollout_seed))
+        total, steps = 0.0, 0
+        while True:
+            obs, r, term, trunc, _ = env.step(int(np.dot(theta, obs) > 0))
+            total += float(r)
+            steps += 1
+            if term or trunc:
+                break
+        counter["steps"] += steps
+        if total >= 500 and counter["first"] is None:
+            counter["first"] = counter["steps"]
+        return Episode(
+            total_return=total,
+            log_likelihood_gradient=np.zeros(4),
+            rewards=np.zeros(0),
+            steps=steps,
+        )
+
+    cma_es(
+        rollout,
+        np.zeros(4),
+        PolicySearchOptions(
+            iterations=max_rollouts // 10,
+            population=10,
+            exploration=0.5,
+            seed=seed,
+            target_return=500.0,
+            max_rollouts=max_rollouts,
+        ),
+    )
+    return counter["first"], counter["steps"]
+
+
+def _cma_rows(quick: bool) -> list[Row]:
+    seeds = range(3 if quick else 10)
+    rows = []
+    for env_id in ("taskspace/CartPole-v0", "CartPole-v1"):
+        firsts, totals, wall = [], [], []
+        for seed in seeds:
+            t0 = time.perf_counter()
+            first, total = _cma_es_steps(env_id, seed, 100)
+            wall.append(time.perf_counter() - t0)
+            firsts.append(first)
+            totals.append(total)
+        reached = [f for f in firsts if f is not None]
+        # Median over seeds, a seed that never reached 500 counting as infinitely many steps.
+        ranked = sorted(f if f is not None else np.inf for f in firsts)
+        median = float(np.median(ranked))
+        rows.append(
+            Row(
+                SUITE,
+                "cartpole_cma_es",
+                "taskspace" if env_id.startswith("taskspace") else "gymnasium CartPole-v1",
+                Timing.from_samples(wall),
+                {
+                    "seeds": len(firsts),
+                    "reached_500": len(reached),
+                    "median_steps_to_500": median if np.isfinite(median) else None,
+                    "steps_to_500": firsts,
+                    "target_steps": 50000,
+                    "within_target": bool(np.isfinite(median) and median <= 50000),
+                },
+                note="timing: wall time of one CMA-ES run (<= 100 rollouts)",
+            )
+        )
+    return rows
+
+
+def run(quick: bool) -> list[Row]:
+    """Run the suite; ``quick`` keeps it short (about a minute on a loaded machine)."""
+    return _env_rows(quick) + _fvi_rows(quick) + _cma_rows(quick)
