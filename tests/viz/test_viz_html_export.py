@@ -117,3 +117,27 @@ def test_compact_collada_edge_cases():
     assert compact_collada(zeros) == zeros
     with pytest.raises(InvalidInputError, match="digits must be >= 1"):
         compact_collada(text, digits=0)
+
+
+def test_a_binary_mesh_shown_twice_is_stored_once(robot_loader):
+    import meshcat.commands as mc
+    import meshcat.geometry as mg
+    import meshcat.path as mp
+
+    talos = robot_loader("talos")
+    stl = next(g.meshPath for g in talos.visual_model.geometryObjects if g.meshPath[-4:] == ".stl")
+
+    def command(name: str):
+        shape = mg.StlMeshGeometry.from_file(stl)
+        return mc.SetObject(shape, mg.MeshPhongMaterial(), mp.Path(("meshcat", name)))
+
+    assert isinstance(command("a").lower()["object"]["geometries"][0]["data"], umsgpack.Ext)
+    one, two = SceneRecorder(), SceneRecorder()
+    one.send(command("a"))
+    two.send(command("a"))
+    two.send(command("b"))
+    assert len(_scene(two.static_html())["data"]) < len(_scene(one.static_html())["data"]) + 2000
+    original = command("a").lower()["object"]["geometries"][0]["data"]
+    decoded = [umsgpack.unpackb(c) for c in _commands(two.static_html())]
+    meshes = [c["object"]["geometries"][0]["data"] for c in decoded if c["type"] == "set_object"]
+    assert meshes == [original, original]

@@ -44,7 +44,7 @@ READY_PROPERTY = "taskspace_ready_token"
 
 
 LARGE_STRING = 4096
-"""Strings of at least this many characters (mesh files) are stored once per HTML page."""
+"""Strings, bytes and msgpack extensions at least this long (meshes) are stored once per page."""
 
 
 class _Command(Protocol):
@@ -251,17 +251,21 @@ class SceneRecorder:
         """
         import umsgpack
 
-        large: dict[str, str] = {}
+        large: dict[str, Any] = {}
 
         def cut(value: Any) -> Any:
-            if isinstance(value, str) and len(value) >= LARGE_STRING:
-                marker = f"\x00taskspace-part-{len(large)}\x00"
-                large[marker] = value
-                return marker
             if isinstance(value, dict):
                 return {k: cut(v) for k, v in value.items()}
             if isinstance(value, list):
                 return [cut(v) for v in value]
+            if isinstance(value, umsgpack.Ext):
+                size = len(value.data)
+            else:
+                size = len(value) if isinstance(value, str | bytes) else 0
+            if size >= LARGE_STRING:
+                marker = f"\x00taskspace-part-{len(large)}\x00"
+                large[marker] = value
+                return marker
             return value
 
         packed = umsgpack.packb(cut(data))
