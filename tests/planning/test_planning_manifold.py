@@ -17,10 +17,13 @@ import pytest
 
 from taskspace.errors import InvalidInputError, PlanningError
 from taskspace.model import Obstacle, Robot
+from taskspace.planning.bit_star import BITStarOptions, bit_star
 from taskspace.planning.collision_checker import CollisionCheckerOptions, FunctionChecker
 from taskspace.planning.configuration_space import ConfigurationSpace
 from taskspace.planning.joint_manifold import JointManifold
-from taskspace.planning.prm_star import prm_star
+from taskspace.planning.objectives import PathLength
+from taskspace.planning.prm import build_prm
+from taskspace.planning.prm_star import PRMStarOptions, lazy_prm_star, prm_star
 from taskspace.planning.rrt_connect import RRTConnectOptions, rrt_connect
 from taskspace.planning.rrt_star import RRTStarOptions, rrt_star
 
@@ -89,7 +92,9 @@ def _angles(path: np.ndarray) -> np.ndarray:
     return np.unwrap(np.arctan2(path[:, 1], path[:, 0]))
 
 
-@pytest.mark.parametrize("planner", ["rrt_connect", "rrt_star"])
+@pytest.mark.parametrize(
+    "planner", ["rrt_connect", "rrt_star", "prm_star", "lazy_prm_star", "bit_star"]
+)
 def test_continuous_joint_turns_the_short_way_unless_blocked(planner: str) -> None:
     a, b = 2.8, -2.8  # 0.683 rad apart through pi, 5.6 rad through 0
     start, goal = np.array([math.cos(a), math.sin(a)]), np.array([math.cos(b), math.sin(b)])
@@ -97,10 +102,16 @@ def test_continuous_joint_turns_the_short_way_unless_blocked(planner: str) -> No
     def plan(space: ConfigurationSpace) -> np.ndarray:
         if planner == "rrt_connect":
             res = rrt_connect(space, start, goal, RRTConnectOptions(step_size=0.5, seed=0))
-        else:
-            res = rrt_star(
-                space, start, goal, RRTStarOptions(max_iterations=300, time_limit_s=None)
+        elif planner == "rrt_star":
+            opts = RRTStarOptions(max_iterations=300, time_limit_s=None)
+            res = rrt_star(space, start, goal, opts)
+        elif planner == "bit_star":
+            res = bit_star(
+                space, start, goal, BITStarOptions(max_iterations=200, time_limit_s=None)
             )
+        else:
+            fn = prm_star if planner == "prm_star" else lazy_prm_star
+            res = fn(space, start, goal, PRMStarOptions(max_iterations=200, time_limit_s=None))[0]
         assert res.success and space.path_valid(res.path)
         return space.interpolate_path(res.path, 0.01)
 
@@ -221,7 +232,9 @@ def test_what_the_manifold_space_refuses(tiago_mobile: Robot) -> None:
     space = ConfigurationSpace.from_robot(tiago_mobile, base_lower=[-3, -3], base_upper=[3, 3])
     q = tiago_mobile.q_default.copy()
     with pytest.raises(InvalidInputError, match="joint manifold"):
-        prm_star(space, q, q)
+        build_prm(space)
+    with pytest.raises(InvalidInputError, match="joint-manifold space"):
+        bit_star(space, q, q, objective=PathLength())
     bad = q.copy()
     bad[2:4] = [0.5, 0.5]  # cos, sin of the base angle not of unit norm
     with pytest.raises(PlanningError, match="unit norm"):

@@ -254,3 +254,18 @@ def test_prm_time_limit_cuts_the_roadmap_and_says_so() -> None:
         square_world(), START_2D, GOAL_2D, PRMOptions(n_samples=200, time_limit_s=None)
     )
     assert res.success and roadmap.edges_tried > 0
+
+
+def test_bit_star_keeps_its_solution_when_pruning() -> None:
+    """1-D: every sample between start and goal lies on the optimal path (f_hat = c_best up to
+    rounding); pruning after the first solution must keep the best path.
+
+    (The rounding case that once dropped such vertices is caught on the circle by
+    tests/planning/test_planning_manifold.py, continuous joint with bit_star.)
+    """
+    space = ConfigurationSpace([0.0], [1.0], FunctionChecker(lambda Q: np.ones(len(Q), bool)))
+    for seed in range(5):
+        opts = BITStarOptions(max_iterations=300, batch_size=50, time_limit_s=None, seed=seed)
+        res = bit_star(space, [0.1], [0.9], opts)
+        assert res.success and res.cost == pytest.approx(0.8)
+        assert res.log["batches"] > 1  # pruning ran after the first solution

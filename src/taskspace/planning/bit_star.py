@@ -41,7 +41,7 @@ import numpy.typing as npt
 from taskspace._validation import check_count, check_positive, check_seed
 from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray, path_length
 from taskspace.planning.limits import Budget, planner_limits
-from taskspace.planning.objectives import OptimizationObjective, check_objective
+from taskspace.planning.objectives import OptimizationObjective, space_objective
 from taskspace.planning.planner_result import PlannerResult, PlannerStatus, Tree
 from taskspace.planning.rrt_star import _rotation_to_world, goal_states, informed_sample
 
@@ -154,11 +154,10 @@ def bit_star(
         InvalidInputError: bad options (see :mod:`taskspace.planning.limits`).
     """
     opts = options or BITStarOptions()
-    space.require_euclidean("bit_star")
     cap, limit = planner_limits(opts.max_iterations, opts.time_limit_s)
     batch = check_count(opts.batch_size, "batch_size", minimum=1)
     check_positive(opts.gamma_factor, "gamma_factor")
-    cost_of = check_objective(objective)
+    cost_of = space_objective(space, objective)
     rng = rng if rng is not None else np.random.default_rng(check_seed(opts.seed))
     t0 = time.perf_counter()
     budget = Budget(cap, limit, t0)
@@ -166,7 +165,7 @@ def bit_star(
     q_start = space.check_endpoint(start, "start")
     goals, region = goal_states(space, goal)
     d = space.dim
-    k_factor = opts.gamma_factor * math.e * (1 + 1 / d)
+    k_factor = opts.gamma_factor * math.e * (1 + 1 / space.tangent_dim)
     goal_q = list(goals)
 
     def heuristics(q: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -212,9 +211,15 @@ def bit_star(
         n = S.n
         f_hat = S.g_hat[:n] + S.h_hat[:n]
         S.is_sample[:n] &= f_hat < c
-        drop = S.in_tree[:n] & (f_hat > c)
+        # Strictly worse than c (with a rounding margin: vertices on the best path have
+        # f_hat = c up to rounding), and never a vertex of the best path itself.
+        drop = S.in_tree[:n] & (f_hat > c * (1 + 1e-9) + 1e-12)
         drop[root] = False
         drop[goal_ids] = False
+        best, _ = best_goal()
+        while best >= 0:
+            drop[best] = False
+            best = int(S.parent[best])
         if not drop.any():
             return
         # Cut the dropped vertices; their descendants that could still help become samples.
@@ -270,8 +275,7 @@ def bit_star(
         ids = ids[ids != v]
         if ids.size <= k:
             return ids
-        diff = S.q[ids] - S.q[v]
-        return ids[np.argpartition(np.einsum("ij,ij->i", diff, diff), k - 1)[:k]]
+        return ids[np.argpartition(space.distances(S.q[ids], S.q[v]), k - 1)[:k]]
 
     def expand(v: int) -> None:
         """Queue the edges from ``v`` to its k nearest samples (and vertices, if new)."""

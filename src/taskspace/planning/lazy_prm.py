@@ -115,7 +115,7 @@ def _edge_points(
     n = space.segments(q0, q1)
     first, second = nested_orders(n, stride)
     idx = first if coarse else second
-    return q0 + (idx / n)[:, None] * (q1 - q0)
+    return space.interpolate(q0, q1, idx / n)
 
 
 def _check_edges(

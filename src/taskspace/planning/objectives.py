@@ -241,6 +241,27 @@ class WeightedSum(OptimizationObjective):
         return np.asarray(sum(w * obj.cost_lower_bounds(q0, q1) for w, obj in self.terms))
 
 
+def space_objective(space: Any, objective: Any) -> OptimizationObjective:
+    """The objective of a planner on ``space`` (a metric length on a joint manifold).
+
+    :func:`check_objective` for a Euclidean space; on a joint manifold, the path length in
+    the space's metric (:class:`MetricLength`).
+
+    Raises:
+        InvalidInputError: an objective on a joint-manifold space (its costs would be taken
+            in coordinates, not on the manifold), or not an objective.
+    """
+    manifold = getattr(space, "manifold", None)
+    if manifold is None:
+        return check_objective(objective)
+    if objective is not None:
+        raise InvalidInputError(
+            "on a joint-manifold space the optimal planners minimize the path length in the "
+            "space's metric (its weights); pass objective=None (or plan in a Euclidean space)"
+        )
+    return MetricLength(manifold.distances)
+
+
 def check_objective(objective: Any) -> OptimizationObjective:
     """``objective``, or the Euclidean :class:`PathLength` for ``None``; refuses other types."""
     if objective is None:

@@ -34,12 +34,13 @@ import numpy as np
 import numpy.typing as npt
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
+from scipy.spatial import cKDTree
 
 from taskspace._validation import check_count, check_positive, check_seed
 from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray, path_length
 from taskspace.planning.lazy_prm import LazyRoadmap, _check_edges
 from taskspace.planning.limits import Budget, planner_limits
-from taskspace.planning.objectives import OptimizationObjective, check_objective
+from taskspace.planning.objectives import OptimizationObjective, space_objective
 from taskspace.planning.planner_result import PlannerResult, PlannerStatus
 from taskspace.planning.prm import Roadmap
 from taskspace.planning.rrt_star import goal_states
@@ -158,12 +159,11 @@ def _plan(
     lazy: bool,
 ) -> tuple[PlannerResult, _Graph, int | None]:
     opts = options or PRMStarOptions()
-    space.require_euclidean("prm_star" if not lazy else "lazy_prm_star")
     cap, limit = planner_limits(opts.max_iterations, opts.time_limit_s)
     batch = check_count(opts.batch_size, "batch_size", minimum=1)
     check_positive(opts.gamma_factor, "gamma_factor")
     coarse = check_positive(opts.coarse_resolution, "coarse_resolution")
-    cost_of = check_objective(objective)
+    cost_of = space_objective(space, objective)
     rng = rng if rng is not None else np.random.default_rng(check_seed(opts.seed))
     t0 = time.perf_counter()
     budget = Budget(cap, limit, t0)
@@ -172,7 +172,7 @@ def _plan(
     q_start = space.check_endpoint(start, "start")
     goals, region = goal_states(space, goal)
     d = space.dim
-    k_prm = opts.gamma_factor * math.e * (1 + 1 / d)
+    k_prm = opts.gamma_factor * math.e * (1 + 1 / space.tangent_dim)
     stride = max(1, math.floor(coarse / space.edge.resolution + 1e-9))
 
     graph = _Graph(d)
@@ -192,10 +192,13 @@ def _plan(
         nodes = graph.nodes[:n]
         k = min(n - 1, math.ceil(k_prm * math.log(n))) if n > 1 else 0
         if k > 0 and new.size:
-            from scipy.spatial import cKDTree
-
-            _, idx = cKDTree(nodes).query(nodes[new], k=k + 1)
-            idx = np.asarray(idx).reshape(new.size, k + 1)
+            if space.is_euclidean:
+                _, idx = cKDTree(nodes).query(nodes[new], k=k + 1)
+                idx = np.asarray(idx).reshape(new.size, k + 1)
+            else:  # the manifold's metric, node by node
+                idx = np.stack(
+                    [np.argpartition(space.distances(nodes, nodes[i]), k)[: k + 1] for i in new]
+                )
             pairs = np.stack([np.repeat(new, k + 1), idx.ravel()], axis=1)
             pairs = pairs[pairs[:, 0] != pairs[:, 1]]
             pairs = np.unique(np.sort(pairs, axis=1), axis=0)

@@ -30,7 +30,7 @@ from taskspace.errors import InvalidInputError
 from taskspace.planning.certify import certify_planned
 from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray, path_length
 from taskspace.planning.limits import planner_limits
-from taskspace.planning.objectives import MetricLength, OptimizationObjective, check_objective
+from taskspace.planning.objectives import OptimizationObjective, space_objective
 from taskspace.planning.planner_result import PlannerResult, PlannerStatus, Tree
 
 
@@ -239,15 +239,7 @@ def _plan(
     if not 0.0 <= opts.goal_bias <= 1.0:
         raise InvalidInputError(f"goal_bias must be in [0, 1], got {opts.goal_bias}")
     check_positive(opts.gamma_factor, "gamma_factor")
-    if space.manifold is not None:
-        if objective is not None:
-            raise InvalidInputError(
-                "on a joint-manifold space rrt_star minimizes the path length in the space's "
-                "metric; pass objective=None (or plan in a Euclidean space)"
-            )
-        cost_of: OptimizationObjective = MetricLength(space.manifold.distances)
-    else:
-        cost_of = check_objective(objective)
+    cost_of = space_objective(space, objective)
     rng = rng or np.random.default_rng(check_seed(opts.seed))
     q_start = space.check_endpoint(start, "start")
     goals, region = goal_states(space, goal)
