@@ -4,6 +4,8 @@
   batched :class:`PendulumVectorEnv` as its vector entry point.
 * ``taskspace/CartPole-v0``: cart-pole balancing (:class:`CartPoleEnv`, 500 steps), with the
   batched :class:`CartPoleVectorEnv` as its vector entry point.
+* ``taskspace/G1Balance-v0``: G1 balancing after a push, the agent shifting the CoM
+  reference of the inverse-dynamics QP (:class:`G1BalanceEnv`, 100 steps).
 * ``taskspace/PandaReach-v0``: Panda reaching with joint velocities, terminated on collision
   (:class:`PandaReachEnv`, 100 steps).
 """
@@ -11,6 +13,7 @@
 import gymnasium as gym
 
 from taskspace.learning.envs.cartpole import CartPoleEnv, CartPoleVectorEnv
+from taskspace.learning.envs.g1_balance import G1BalanceEnv
 from taskspace.learning.envs.panda_reach import PandaReachEnv
 from taskspace.learning.envs.pendulum import PendulumEnv, PendulumVectorEnv
 
@@ -37,4 +40,18 @@ if "taskspace/PandaReach-v0" not in gym.registry:
         max_episode_steps=100,
     )
 
-__all__ = ["CartPoleEnv", "CartPoleVectorEnv", "PandaReachEnv", "PendulumEnv", "PendulumVectorEnv"]
+if "taskspace/G1Balance-v0" not in gym.registry:
+    gym.register(
+        id="taskspace/G1Balance-v0",
+        entry_point="taskspace.learning.envs.g1_balance:G1BalanceEnv",
+        max_episode_steps=100,
+    )
+
+__all__ = [
+    "CartPoleEnv",
+    "CartPoleVectorEnv",
+    "G1BalanceEnv",
+    "PandaReachEnv",
+    "PendulumEnv",
+    "PendulumVectorEnv",
+]

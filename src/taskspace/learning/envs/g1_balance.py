@@ -1,0 +1,135 @@
+"""Gymnasium balance task on the G1 humanoid, the inverse-dynamics QP as the low level.
+
+The G1 stands on both feet (two 6-D contacts with friction cones and centre-of-pressure
+limits). At reset its base receives a random horizontal push (a base velocity). The agent
+acts every ``dt`` by shifting the centre-of-mass reference, ``c* = c_0 + 0.05 a`` [m] with
+``a`` in ``[-1, 1]^3``; between actions the inverse-dynamics QP
+(:class:`taskspace.control.InverseDynamicsQP`: CoM task, posture, contacts, torque limits)
+computes the torques every ``sim_dt`` and the rigid-contact dynamics
+(:func:`taskspace.control.simulate_with_contacts`) advance the robot.
+
+Observation ``[c - c_0, c']`` (6) [m, m/s]; reward ``1 - 100 |c_xy - c_0,xy|^2 -
+0.01 |a|^2`` per step (alive bonus minus the horizontal CoM error); the episode terminates
+when a foot would lift (normal force below 1 N, the rigid contact pulling), when the CoM
+leaves a 10 cm disc around ``c_0`` or when the QP fails.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import pinocchio as pin
+from gymnasium import spaces
+
+from taskspace.constraints import Contact6D
+from taskspace.control import InverseDynamicsQP, simulate_with_contacts
+from taskspace.errors import InvalidInputError
+from taskspace.features import CenterOfMass, JointConfiguration
+from taskspace.learning.envs.robot_env import check_render_mode
+from taskspace.model.robot import Robot
+from taskspace.tasks import Task
+
+FEET = ("left_ankle_roll_link", "right_ankle_roll_link")
+COM_RANGE = 0.05  # [m] CoM reference offset of a unit action
+MIN_NORMAL_FORCE = 1.0  # [N]
+MAX_COM_ERROR = 0.1  # [m]
+
+
+class G1BalanceEnv(gym.Env[np.ndarray, np.ndarray]):
+    """G1 balancing after a push; registered as ``taskspace/G1Balance-v0`` (100 steps).
+
+    Args:
+        robot: a loaded ``g1`` (``None``: load it; pass one robot to many environments).
+        dt: period of the agent's actions [s]; sim_dt: control and simulation step [s].
+        push: the base's initial horizontal velocity is uniform in ``[-push, push]^2`` [m/s].
+        render_mode: only ``None``.
+    """
+
+    metadata = {"render_modes": [], "render_fps": 50}  # noqa: RUF012
+
+    def __init__(
+        self,
+        robot: Robot | None = None,
+        dt: float = 0.02,
+        sim_dt: float = 0.004,
+        push: float = 0.3,
+        render_mode: str | None = None,
+    ) -> None:
+        self.render_mode = check_render_mode(render_mode, ())
+        self.robot = robot if robot is not None else Robot.load("g1")
+        missing = [f for f in FEET if f not in self.robot.frame_names]
+        if missing or self.robot.nq == self.robot.nv:
+            raise InvalidInputError(
+                f"G1BalanceEnv needs the registry's floating-base 'g1' robot with frames {FEET}"
+            )
+        if not (0 < sim_dt <= dt) or abs(dt / sim_dt - round(dt / sim_dt)) > 1e-9:
+            raise InvalidInputError(
+                f"need 0 < sim_dt <= dt with dt a multiple of sim_dt, got dt={dt}, sim_dt={sim_dt}"
+            )
+        self.dt, self.sim_dt, self.push = float(dt), float(sim_dt), float(push)
+        robot = self.robot
+        self._state = robot.state(robot.q_default, np.zeros(robot.nv))
+        contacts = [Contact6D(robot, f, half_length=0.1, half_width=0.03) for f in FEET]
+        self.com_task = Task(CenterOfMass(robot), kp=50.0, priority=0, name="com")
+        self.com_task.set_target_from_state(self._state)
+        self.c0 = np.array(self.com_task.target, dtype=float)
+        posture = Task(JointConfiguration(robot), robot.q_default, weight=1e-2, kp=30.0)
+        self.controller = InverseDynamicsQP(robot, [self.com_task, posture], contacts)
+        self.action_space = spaces.Box(-1.0, 1.0, (3,), np.float32)
+        self.observation_space = spaces.Box(-np.inf, np.inf, (6,), np.float32)
+        self._data = robot.model.createData()
+        self.q = robot.q_default.copy()
+        self.v = np.zeros(robot.nv)
+
+    def _com(self) -> tuple[np.ndarray, np.ndarray]:
+        c = pin.centerOfMass(self.robot.model, self._data, self.q, self.v)
+        return np.array(c), np.array(self._data.vcom[0])
+
+    def _obs(self) -> np.ndarray:
+        c, vc = self._com()
+        return np.concatenate([c - self.c0, vc]).astype(np.float32)
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[np.ndarray, dict[str, Any]]:
+        """Default posture; base velocity ``[vx, vy, 0]`` uniform in ``[-push, push]``."""
+        super().reset(seed=seed)
+        self.q = self.robot.q_default.copy()
+        self.v = np.zeros(self.robot.nv)
+        # The free-flyer velocity is in the base frame (upright at the default posture).
+        self.v[:2] = self.np_random.uniform(-self.push, self.push, 2)
+        return self._obs(), {}
+
+    def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        """Set the CoM reference and simulate ``dt`` under the inverse-dynamics QP."""
+        a = np.clip(np.asarray(action, dtype=float).reshape(3), -1.0, 1.0)
+        self.com_task.set_target(self.c0 + COM_RANGE * a)
+        failed: list[str] = []
+
+        def control(t: float, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+            self._state.update(q, v)
+            result = self.controller.solve(self._state)
+            if not result.success:
+                failed.append(result.status.value)
+            return result.tau
+
+        rollout = simulate_with_contacts(
+            self.robot, control, self.q, self.v, self.dt, self.sim_dt, FEET
+        )
+        self.q, self.v = rollout.q[-1].copy(), rollout.v[-1].copy()
+        normal = min(float(f[:, 2].min()) for f in rollout.forces.values())
+        total = sum(float(f[-1, 2]) for f in rollout.forces.values())
+        c, _ = self._com()
+        error = float(np.linalg.norm(c[:2] - self.c0[:2]))
+        reward = 1.0 - 100.0 * error**2 - 0.01 * float(a @ a)
+        lifted = normal < MIN_NORMAL_FORCE
+        terminated = bool(lifted or error > MAX_COM_ERROR or failed)
+        info = {
+            "min_normal_force": normal,
+            "total_normal_force": total,
+            "com_error": error,
+            "qp_failures": failed,
+        }
+        return self._obs(), reward, terminated, False, info
