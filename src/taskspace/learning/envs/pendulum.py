@@ -64,11 +64,8 @@ class PendulumEnv(RobotEnv):
 
     def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         """Apply the clipped torque for ``dt`` (ABA, semi-implicit Euler substeps)."""
-        u = float(
-            np.clip(
-                np.asarray(action, dtype=float).reshape(-1)[0], -self.max_torque, self.max_torque
-            )
-        )
+        u = float(np.asarray(action, dtype=float).reshape(-1)[0])
+        u = min(max(u, -self.max_torque), self.max_torque)
         th, w = self.state
         reward = -(_wrap(th - np.pi) ** 2 + 0.1 * w**2 + 0.001 * u**2)
         q, v = self._integrate(np.array([th]), np.array([w]), np.array([u]), self.max_speed)

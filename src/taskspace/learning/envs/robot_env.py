@@ -69,7 +69,7 @@ class RobotEnv(gym.Env[np.ndarray, Any]):
             a = pin.aba(self.model, self.data, q, v, tau)
             v = v + h * a
             if max_speed < np.inf:
-                v = np.clip(v, -max_speed, max_speed)
+                v = np.minimum(np.maximum(v, -max_speed), max_speed)  # np.clip: 10x slower
             q = q + h * v
         return q, v
 
