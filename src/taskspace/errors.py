@@ -123,3 +123,17 @@ class InfeasibleError(SolverError):
 
 class PlanningError(TaskspaceError):
     """A planning query is ill-posed (start or goal in collision, outside bounds...)."""
+
+
+class StaleModelError(TaskspaceError):
+    """An object built from a robot model is used after the model changed.
+
+    Attributes:
+        built_version: the :attr:`~taskspace.model.Robot.version` the object was built for.
+        current_version: the robot's version now.
+    """
+
+    def __init__(self, message: str, built_version: int, current_version: int) -> None:
+        self.built_version = built_version
+        self.current_version = current_version
+        super().__init__(message)

@@ -31,11 +31,20 @@ default posture (every body it carries is massless, e.g. romeo's fingers) makes 
 matrix singular and forward dynamics undefined (NaN accelerations). Such joints get a rotor
 inertia (``model.armature``) of 1 % of the smallest nonzero diagonal entry of the mass matrix,
 listed in :attr:`Robot.massless_joints`, with a :class:`ModelWarning`.
+
+Model version: the limits a robot exposes (:attr:`Robot.lower_limits`, :attr:`Robot.upper_limits`,
+:attr:`Robot.velocity_limits`, :attr:`Robot.effort_limits`, the limited-joint indices) are
+read-only arrays, changed only by :meth:`Robot.set_limits`, which gives the robot a new
+:attr:`Robot.version` (drawn from one process-wide counter: a version is never reused). Objects
+built from the robot that keep limits (constraints, features, solvers, planning spaces) record
+the version and rebuild or raise :class:`StaleModelError` (:meth:`Robot.check_version`) when it
+differs. Do not edit ``robot.model``'s arrays in place: no derived object can see such edits.
 """
 
 from __future__ import annotations
 
 import contextlib
+import itertools
 import logging
 import math
 import os
@@ -48,13 +57,14 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pinocchio as pin
 
-from taskspace._validation import FloatArray, as_vector, check_finite
+from taskspace._validation import FloatArray, as_float_array, as_vector, check_finite
 from taskspace.errors import (
     InvalidInputError,
     LimitError,
     ModelLoadError,
     ModelWarning,
     ShapeError,
+    StaleModelError,
     UnknownNameError,
 )
 from taskspace.model.registry import RobotSpec, example_robot_data_loaders, robot_spec
@@ -69,6 +79,9 @@ _F64 = np.dtype(np.float64)
 
 QUATERNION_TOLERANCE = 1e-6
 """Largest accepted deviation of a quaternion's (or unit complex's) norm from 1."""
+
+_ROBOT_VERSIONS = itertools.count(1)
+"""Source of robot model versions, shared by every robot (a version is never reused)."""
 
 _UNIT_COMPLEX_JOINTS = ("JointModelRUBX", "JointModelRUBY", "JointModelRUBZ")
 _LINEAR_JOINTS = (
@@ -147,6 +160,7 @@ class Robot:
         pruned_collision_pairs: collision pairs disabled on load and why.
         massless_joints: joints that move no mass and were given an armature (see the
             module docstring).
+        version: model version, changed by :meth:`set_limits` (see the module docstring).
     """
 
     def __init__(
@@ -182,6 +196,7 @@ class Robot:
         self._v_shape = (self._nv,)
         self.data = model.createData()
         self.collision_data = collision_model.createData()
+        self._version = next(_ROBOT_VERSIONS)
         self._setup_joint_structure()
         self._setup_actuation_limits(passive_joints)
         if default_configuration is None:
@@ -543,6 +558,12 @@ class Robot:
         finite = np.isfinite(lower) & np.isfinite(upper) & (upper > lower) & (upper - lower < 1e10)
         self._limited_q = sq[finite]
         self._limited_v = np.asarray(scalar_v, dtype=int)[finite]
+        self._limited_q.flags.writeable = False
+        self._limited_v.flags.writeable = False
+        self._lower = np.array(model.lowerPositionLimit, dtype=np.float64)
+        self._upper = np.array(model.upperPositionLimit, dtype=np.float64)
+        self._lower.flags.writeable = False
+        self._upper.flags.writeable = False
         unbounded = sq[~finite]
         linear = np.isin(unbounded, np.asarray(linear_q, dtype=int))
         self._unbounded_angles = unbounded[~linear]
@@ -711,13 +732,147 @@ class Robot:
 
     @property
     def lower_limits(self) -> FloatArray:
-        """Lower position limits (size nq) [rad or m]; -inf where unlimited."""
-        return np.asarray(self.model.lowerPositionLimit)
+        """Lower position limits (size nq, read-only) [rad or m]; -inf where unlimited."""
+        return self._lower
 
     @property
     def upper_limits(self) -> FloatArray:
-        """Upper position limits (size nq) [rad or m]; +inf where unlimited."""
-        return np.asarray(self.model.upperPositionLimit)
+        """Upper position limits (size nq, read-only) [rad or m]; +inf where unlimited."""
+        return self._upper
+
+    @property
+    def version(self) -> int:
+        """Model version: changes at every :meth:`set_limits` and is never reused."""
+        return self._version
+
+    def check_version(self, built_version: int, owner: str) -> None:
+        """Raise :class:`StaleModelError` unless ``built_version`` is the current version.
+
+        Also raises when ``robot.model``'s limit arrays were edited in place (they no longer
+        equal the robot's): a change that no version records.
+
+        Args:
+            built_version: the :attr:`version` an object recorded when it was built.
+            owner: what the object is, for the message (``"JointPositionLimits"``...).
+        """
+        model = self.model
+        edited = [
+            name
+            for name, ours, theirs in (
+                ("lowerPositionLimit", self._lower, model.lowerPositionLimit),
+                ("upperPositionLimit", self._upper, model.upperPositionLimit),
+            )
+            if not np.array_equal(ours, theirs)
+        ]
+        if edited:
+            raise StaleModelError(
+                f"robot '{self.name}': robot.model.{edited[0]} was edited in place, which no "
+                "object built from the robot can see; change limits with Robot.set_limits",
+                built_version,
+                self._version,
+            )
+        if built_version != self._version:
+            raise StaleModelError(
+                f"{owner} was built for version {built_version} of robot '{self.name}', whose "
+                f"limits have changed since (Robot.set_limits, now version {self._version}); "
+                f"build a new {owner}",
+                built_version,
+                self._version,
+            )
+
+    def set_limits(
+        self,
+        *,
+        lower: Any = None,
+        upper: Any = None,
+        velocity: Any = None,
+        effort: Any = None,
+    ) -> int:
+        """Change joint limits (the only way to change them); the robot gets a new version.
+
+        Objects built before (constraints, features, solvers, planning spaces) see the new
+        :attr:`version` and rebuild or raise :class:`StaleModelError`.
+
+        Args:
+            lower: lower position limits (size nq) [rad or m], ``-inf`` where unlimited.
+            upper: upper position limits (size nq) [rad or m], ``+inf`` where unlimited;
+                ``lower <= upper``. A floating base's seven entries stay ``-inf``/``+inf``.
+            velocity: velocity limits (size nv, ``>= 0``) [rad/s or m/s], ``inf`` where
+                unlimited.
+            effort: effort limits (size nv, ``>= 0``) [N m or N]; 0 makes a coordinate
+                unactuated. A floating base's six entries stay 0.
+
+        Returns:
+            The new :attr:`version`.
+
+        Raises:
+            ShapeError: wrong sizes.
+            InvalidInputError: NaN, ``lower > upper``, negative velocity or effort limits, a
+                limited floating base or an actuated one.
+        """
+        model = self.model
+        new_lower = self._lower if lower is None else self._limit_array(lower, self.nq, "lower")
+        new_upper = self._upper if upper is None else self._limit_array(upper, self.nq, "upper")
+        bad = np.flatnonzero(new_lower > new_upper)
+        if bad.size:
+            raise InvalidInputError(
+                f"lower limits above upper limits at configuration indices {bad[:10].tolist()}"
+            )
+        new_velocity = (
+            self._velocity_limits
+            if velocity is None
+            else self._limit_array(velocity, self.nv, "velocity", nonnegative=True)
+        )
+        new_effort = (
+            self._effort_limits
+            if effort is None
+            else self._limit_array(effort, self.nv, "effort", nonnegative=True)
+        )
+        if self.is_floating:
+            if np.any(np.isfinite(new_lower[:7])) or np.any(np.isfinite(new_upper[:7])):
+                raise InvalidInputError(
+                    "the floating base (q[0:7]) is unlimited: keep -inf/inf there (bound the "
+                    "base of a planner with its own options)"
+                )
+            if np.any(new_effort[:6] != 0.0):
+                raise InvalidInputError("the floating base is not actuated: keep effort[0:6] = 0")
+        model.lowerPositionLimit = new_lower.copy()
+        model.upperPositionLimit = new_upper.copy()
+        model.velocityLimit = new_velocity.copy()
+        model.effortLimit = new_effort.copy()
+        self._setup_joint_structure()
+        self._velocity_limits = new_velocity.copy()
+        self._effort_limits = new_effort.copy()
+        self._velocity_limits.flags.writeable = False
+        self._effort_limits.flags.writeable = False
+        self.passive_joints = tuple(
+            jname
+            for jname, jid in self._joint_ids.items()
+            if model.joints[jid].nv
+            and model.joints[jid].shortname() != "JointModelFreeFlyer"
+            and not np.any(
+                new_effort[model.joints[jid].idx_v : model.joints[jid].idx_v + model.joints[jid].nv]
+            )
+        )
+        q_default = self._posture_into_limits(self._q_default)
+        q_default.flags.writeable = False
+        self._q_default = q_default
+        self._version = next(_ROBOT_VERSIONS)
+        return self._version
+
+    @staticmethod
+    def _limit_array(value: Any, size: int, name: str, *, nonnegative: bool = False) -> FloatArray:
+        arr = as_float_array(value, f"{name} limits")
+        if arr.shape != (size,):
+            raise ShapeError(f"{name} limits", (size,), tuple(arr.shape))
+        if np.any(np.isnan(arr)):
+            raise InvalidInputError(f"{name} limits have NaN entries")
+        if nonnegative and np.any(arr < 0.0):
+            bad = np.flatnonzero(arr < 0.0)[:10].tolist()
+            raise InvalidInputError(
+                f"{name} limits must be >= 0 (inf: unlimited); negative at {bad}"
+            )
+        return np.array(arr, dtype=np.float64)
 
     @property
     def velocity_limits(self) -> FloatArray:
