@@ -88,13 +88,22 @@ def test_lazy_prm_star_returns_the_eager_roadmap_path() -> None:
 
 
 def test_prm_star_uses_k_log_n_neighbours() -> None:
-    """In a free box every sample is joined to its k_n = ceil(e (1 + 1/d) log n) nearest."""
-    space = ConfigurationSpace([0, 0], [1, 1], FunctionChecker(lambda Q: np.ones(len(Q), bool)))
+    """Every sample is joined to its k_n = ceil(e (1 + 1/d) log n) nearest nodes.
+
+    A small box blocks the straight line (which would be optimal at once and end the plan);
+    Lazy PRM* keeps every candidate edge in ``pairs``, checked or not.
+    """
+
+    def free(Q: np.ndarray) -> np.ndarray:
+        return ~((np.abs(Q[:, 0] - 0.5) < 0.02) & (np.abs(Q[:, 1] - 0.5) < 0.02))
+
+    space = ConfigurationSpace([0, 0], [1, 1], FunctionChecker(free))
     opts = PRMStarOptions(max_iterations=64, batch_size=64, time_limit_s=None)
-    _, roadmap = prm_star(space, [0.1, 0.1], [0.9, 0.9], opts)
-    n = roadmap.size
+    _, lazy = lazy_prm_star(space, [0.1, 0.1], [0.9, 0.9], opts)
+    n = lazy.roadmap.size
+    assert n == 66
     k = math.ceil(math.e * 1.5 * math.log(n))
-    degrees = np.array([len(a) for a in roadmap.adjacency])[2:]  # the 64 samples of one batch
+    degrees = np.bincount(lazy.pairs.ravel(), minlength=n)[2:]  # the 64 samples of one batch
     assert degrees.min() >= k  # each joined its k nearest (plus the nodes that chose it)
     assert (degrees == k).any()  # and not more of its own
 
@@ -257,15 +266,19 @@ def test_prm_time_limit_cuts_the_roadmap_and_says_so() -> None:
 
 
 def test_bit_star_keeps_its_solution_when_pruning() -> None:
-    """1-D: every sample between start and goal lies on the optimal path (f_hat = c_best up to
-    rounding); pruning after the first solution must keep the best path.
-
-    (The rounding case that once dropped such vertices is caught on the circle by
-    tests/planning/test_planning_manifold.py, continuous joint with bit_star.)
-    """
-    space = ConfigurationSpace([0.0], [1.0], FunctionChecker(lambda Q: np.ones(len(Q), bool)))
-    for seed in range(5):
+    """After pruning (every batch after the first solution) the best path is still there."""
+    for seed in range(4):
         opts = BITStarOptions(max_iterations=300, batch_size=50, time_limit_s=None, seed=seed)
-        res = bit_star(space, [0.1], [0.9], opts)
-        assert res.success and res.cost == pytest.approx(0.8)
-        assert res.log["batches"] > 1  # pruning ran after the first solution
+        res = bit_star(square_world(), START_2D, GOAL_2D, opts)
+        assert res.success and res.log["batches"] > 1
+        assert res.cost == pytest.approx(res.log["costs"][-1])
+        assert res.path_length == pytest.approx(res.cost)
+
+
+@pytest.mark.parametrize("name", ["prm_star", "lazy_prm_star", "bit_star"])
+def test_planners_stop_once_the_cost_reaches_its_lower_bound(panda_free, name: str) -> None:  # type: ignore[no-untyped-def]
+    """The straight line's length bounds every path's: reaching it proves optimality."""
+    space, start, goal = panda_free
+    result = _plan(name, space, start, goal, 5000)
+    assert result.log["stopped_by"] == "optimal" and result.iterations < 5000
+    assert result.cost == pytest.approx(float(np.linalg.norm(goal - start)), rel=1e-9)

@@ -41,7 +41,12 @@ import numpy.typing as npt
 from taskspace._validation import check_count, check_positive, check_seed
 from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray, path_length
 from taskspace.planning.limits import Budget, planner_limits
-from taskspace.planning.objectives import OptimizationObjective, space_objective
+from taskspace.planning.objectives import (
+    OptimizationObjective,
+    optimum_lower_bound,
+    reached_optimum,
+    space_objective,
+)
 from taskspace.planning.planner_result import PlannerResult, PlannerStatus, Tree
 from taskspace.planning.rrt_star import _rotation_to_world, goal_states, informed_sample
 
@@ -167,6 +172,7 @@ def bit_star(
     d = space.dim
     k_factor = opts.gamma_factor * math.e * (1 + 1 / space.tangent_dim)
     goal_q = list(goals)
+    optimum_bound = optimum_lower_bound(cost_of, q_start, goals, region)
 
     def heuristics(q: FloatArray) -> tuple[FloatArray, FloatArray]:
         g_hat = cost_of.cost_lower_bounds(q_start, q)
@@ -386,6 +392,9 @@ def bit_star(
             costs.append(c_best)
             if opts.stop_at_first:
                 budget.stopped_by = "first solution"
+                break
+            if reached_optimum(c_best, optimum_bound):
+                budget.stopped_by = "optimal"  # the cost equals a lower bound of the optimum
                 break
     goal_node, c_final = best_goal()
     success = goal_node >= 0 and math.isfinite(c_final)

@@ -262,6 +262,24 @@ def space_objective(space: Any, objective: Any) -> OptimizationObjective:
     return MetricLength(manifold.distances)
 
 
+def optimum_lower_bound(
+    objective: OptimizationObjective, start: FloatArray, goals: Sequence[FloatArray], region: Any
+) -> float:
+    """An admissible bound on the optimal cost: ``min_g c_hat(start, g)`` (``-inf`` for a region).
+
+    A planner whose best cost reaches it (up to rounding) holds an optimal path and may stop.
+    """
+    if region is not None or not goals:
+        return -math.inf
+    arr = np.asarray(goals, dtype=np.float64).reshape(len(goals), -1)
+    return float(np.min(objective.cost_lower_bounds(start, arr)))
+
+
+def reached_optimum(cost: float, bound: float) -> bool:
+    """``cost <= bound`` up to rounding (relative 1e-9)."""
+    return bool(math.isfinite(cost) and cost <= bound * (1 + 1e-9) + 1e-12)
+
+
 def check_objective(objective: Any) -> OptimizationObjective:
     """``objective``, or the Euclidean :class:`PathLength` for ``None``; refuses other types."""
     if objective is None:

@@ -40,7 +40,12 @@ from taskspace._validation import check_count, check_positive, check_seed
 from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray, path_length
 from taskspace.planning.lazy_prm import LazyRoadmap, _check_edges
 from taskspace.planning.limits import Budget, planner_limits
-from taskspace.planning.objectives import OptimizationObjective, space_objective
+from taskspace.planning.objectives import (
+    OptimizationObjective,
+    optimum_lower_bound,
+    reached_optimum,
+    space_objective,
+)
 from taskspace.planning.planner_result import PlannerResult, PlannerStatus
 from taskspace.planning.prm import Roadmap
 from taskspace.planning.rrt_star import goal_states
@@ -171,6 +176,7 @@ def _plan(
     version = space.world_version
     q_start = space.check_endpoint(start, "start")
     goals, region = goal_states(space, goal)
+    optimum_bound = optimum_lower_bound(cost_of, q_start, goals, region)
     d = space.dim
     k_prm = opts.gamma_factor * math.e * (1 + 1 / space.tangent_dim)
     stride = max(1, math.floor(coarse / space.edge.resolution + 1e-9))
@@ -247,6 +253,9 @@ def _plan(
             best_ids, best_cost = ids, total
             cost_times.append(budget.elapsed())
             costs.append(total)
+        if best_ids and reached_optimum(best_cost, optimum_bound):
+            budget.stopped_by = "optimal"  # the cost equals a lower bound of the optimum
+            break
         if (opts.stop_at_first and best_ids) or budget.exhausted(samples):
             if opts.stop_at_first and best_ids:
                 budget.stopped_by = "first solution"

@@ -30,7 +30,12 @@ from taskspace.errors import InvalidInputError
 from taskspace.planning.certify import certify_planned
 from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray, path_length
 from taskspace.planning.limits import planner_limits
-from taskspace.planning.objectives import OptimizationObjective, space_objective
+from taskspace.planning.objectives import (
+    OptimizationObjective,
+    optimum_lower_bound,
+    reached_optimum,
+    space_objective,
+)
 from taskspace.planning.planner_result import PlannerResult, PlannerStatus, Tree
 
 
@@ -243,6 +248,8 @@ def _plan(
     rng = rng or np.random.default_rng(check_seed(opts.seed))
     q_start = space.check_endpoint(start, "start")
     goals, region = goal_states(space, goal)
+    optimum_bound = optimum_lower_bound(cost_of, q_start, goals, region)
+    stopped_by = ""
     d = space.tangent_dim
     bounded = np.ones(space.dim, bool) if space.manifold is None else space.manifold.bounded_mask()
     volume = float(np.prod((space.upper - space.lower)[bounded]))
@@ -360,6 +367,10 @@ def _plan(
             if opts.stop_at_first:
                 status = PlannerStatus.SOLVED
                 break
+            if reached_optimum(c_now, optimum_bound):
+                status = PlannerStatus.SOLVED
+                stopped_by = "optimal"  # the cost equals a lower bound of the optimum
+                break
     elapsed = time.perf_counter() - t0
     result_tree = Tree(tree.nodes[: tree.n].copy(), tree.parents[: tree.n].copy())
     goal_node, _ = best_goal()
@@ -372,7 +383,8 @@ def _plan(
         "costs": costs,
         "gamma": gamma,
         "goal_states": float(len(goals)),
-        "stopped_by": {
+        "stopped_by": stopped_by
+        or {
             PlannerStatus.TIME_LIMIT: "time",
             PlannerStatus.ITERATION_LIMIT: "iterations",
             PlannerStatus.SOLVED: "first solution",
