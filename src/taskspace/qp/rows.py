@@ -180,6 +180,9 @@ def _intersect(
     if not boxes:
         return np.full(nv, -INF), np.full(nv, INF)
     lb, ub = boxes[0]
+    if len(boxes) == 2:  # the common case (position and velocity limits): no loop
+        blb, bub = boxes[1]
+        return np.maximum(lb, blb), np.minimum(ub, bub)
     for k in range(1, len(boxes)):
         blb, bub = boxes[k]
         lb = np.maximum(lb, blb)
