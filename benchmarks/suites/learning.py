@@ -17,6 +17,10 @@ Scenes (built separately from timing):
   theta^T obs > 0``, population 10, sigma 0.5, over 10 seeds (quick: 3): environment steps
   until a candidate first balances a whole 500-step episode, at most 100 rollouts (<= 50,000
   steps), on our cart-pole and on ``CartPole-v1``; median and success count in ``extra``.
+* ``dmp_step`` / ``dmp_rollout_1000``: a 3-D discrete DMP (30 basis functions) learned from
+  the same demonstration; one online step (ours: ``DMPTaskTarget.step``, which also writes the
+  target of a 3-D task; theirs: ``DMP.step``) and a 1,001-step open-loop rollout at dt 1 ms,
+  against the ``movement-primitives`` package (peer environment ``movement_primitives``).
 """
 
 from __future__ import annotations
@@ -33,7 +37,16 @@ import numpy as np
 
 import taskspace.learning.envs  # noqa: F401  (registers the taskspace/* ids)
 from benchmarks.common import Row, Timing, measure_interleaved, peer_python
-from taskspace.learning import Episode, PolicySearchOptions, cma_es
+from taskspace.features import JointConfiguration
+from taskspace.learning import (
+    DiscreteDMP,
+    DMPOptions,
+    DMPTaskTarget,
+    Episode,
+    PolicySearchOptions,
+    cma_es,
+)
+from taskspace.model import Robot
 from taskspace.optimal_control import (
     FittedValueIterationOptions,
     PendulumSwingUp,
@@ -41,6 +54,7 @@ from taskspace.optimal_control import (
     fitted_value_iteration,
     make_grid,
 )
+from taskspace.tasks import Task
 
 SUITE = "learning"
 
@@ -89,6 +103,50 @@ for _ in range(int(sys.argv[6])):
     samples.append(time.perf_counter() - t0)
 print(json.dumps({"samples_s": samples}))
 """
+
+
+DMP_PEER = """
+import json, sys, time
+import numpy as np
+from movement_primitives.dmp import DMP
+
+T = np.linspace(0, 1, 201)
+s = T / T[-1]
+mj = 10 * s**3 - 15 * s**4 + 6 * s**5
+Y = np.stack([0.3 * mj, 0.5 * np.sin(np.pi * T), -0.2 * mj], axis=1)
+dmp = DMP(n_dims=3, execution_time=1.0, dt=0.001, n_weights_per_dim=30)
+dmp.imitate(T, Y)
+dmp.configure(start_y=Y[0], goal_y=Y[-1])
+rollouts = []
+for _ in range(int(sys.argv[1])):
+    t0 = time.perf_counter()
+    dmp.open_loop()
+    rollouts.append(time.perf_counter() - t0)
+dmp.reset()
+y, yd = Y[0].copy(), np.zeros(3)
+steps = []
+for _ in range(900):
+    t0 = time.perf_counter()
+    y, yd = dmp.step(y, yd)
+    steps.append(time.perf_counter() - t0)
+print(json.dumps({"rollout_s": rollouts, "step_s": steps}))
+"""
+
+
+def _run_inline_peer(peer: str, source: str, args: list[str]) -> tuple[Any, str]:
+    """Run ``source`` in the peer's environment; its last stdout line is JSON."""
+    exe = peer_python(peer)
+    if exe is None:
+        return None, f"{peer} peer environment missing (make bench-peers)"
+    with tempfile.TemporaryDirectory() as tmp:
+        script = Path(tmp) / f"{peer}_peer.py"
+        script.write_text(source)
+        proc = subprocess.run(
+            [str(exe), str(script), *args], capture_output=True, text=True, timeout=1800
+        )
+    if proc.returncode != 0:
+        return None, f"{peer} failed: {proc.stderr[-300:]}"
+    return json.loads(proc.stdout.strip().splitlines()[-1]), ""
 
 
 def scene_single(env_id: str) -> tuple[Any, Any]:
@@ -190,20 +248,9 @@ def scene_fvi(n: int) -> tuple[Any, ...]:
 
 
 def _drake_fvi(n: int, repeat: int) -> tuple[Timing | None, str]:
-    exe = peer_python("drake")
-    if exe is None:
-        return None, "drake peer environment missing (make bench-peers)"
-    with tempfile.TemporaryDirectory() as tmp:
-        script = Path(tmp) / "drake_fvi.py"
-        script.write_text(DRAKE_FVI)
-        args = [str(n), str(FVI_ACTIONS), str(FVI_DT), str(FVI_RHO), str(FVI_TOL), str(repeat)]
-        proc = subprocess.run(
-            [str(exe), str(script), *args], capture_output=True, text=True, timeout=1800
-        )
-    if proc.returncode != 0:
-        return None, f"drake failed: {proc.stderr[-300:]}"
-    out = json.loads(proc.stdout.strip().splitlines()[-1])
-    return Timing.from_samples(out["samples_s"]), ""
+    args = [str(n), str(FVI_ACTIONS), str(FVI_DT), str(FVI_RHO), str(FVI_TOL), str(repeat)]
+    out, note = _run_inline_peer("drake", DRAKE_FVI, args)
+    return (Timing.from_samples(out["samples_s"]) if out else None), note
 
 
 def _fvi_rows(quick: bool) -> list[Row]:
@@ -305,6 +352,43 @@ def _cma_rows(quick: bool) -> list[Row]:
     return rows
 
 
+def scene_dmp() -> tuple[DiscreteDMP, DMPTaskTarget]:
+    """The learned DMP and an online driver of a 3-D task (the planar arm's joints)."""
+    t = np.linspace(0, 1, 201)
+    s = t / t[-1]
+    mj = 10 * s**3 - 15 * s**4 + 6 * s**5
+    Y = np.stack([0.3 * mj, 0.5 * np.sin(np.pi * t), -0.2 * mj], axis=1)
+    dmp = DiscreteDMP.fit(t, Y, DMPOptions(num_basis=30))
+    task = Task(JointConfiguration(Robot.load("planar_3link")), np.zeros(3))
+    return dmp, DMPTaskTarget(dmp, task)
+
+
+def _dmp_rows(quick: bool) -> list[Row]:
+    dmp, driver = scene_dmp()
+    repeat = 5 if quick else 30
+    rollouts = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        dmp.rollout(0.001, duration=1.0, yd0=np.zeros(3))
+        rollouts.append(time.perf_counter() - t0)
+    steps = []
+    for _ in range(900):
+        t0 = time.perf_counter()
+        driver.step(0.001)
+        steps.append(time.perf_counter() - t0)
+    out, note = _run_inline_peer("movement_primitives", DMP_PEER, [str(repeat)])
+    peer = "movement-primitives"
+    rows = []
+    for scene, ours, key in (
+        ("dmp_step", steps, "step_s"),
+        ("dmp_rollout_1000", rollouts, "rollout_s"),
+    ):
+        rows.append(Row(SUITE, scene, "taskspace", Timing.from_samples(ours), ratio_to=peer))
+        theirs = Timing.from_samples(out[key]) if out else None
+        rows.append(Row(SUITE, scene, peer, theirs, note=note))
+    return rows
+
+
 def run(quick: bool) -> list[Row]:
     """Run the suite; ``quick`` keeps it short (about a minute on a loaded machine)."""
-    return _env_rows(quick) + _fvi_rows(quick) + _cma_rows(quick)
+    return _env_rows(quick) + _fvi_rows(quick) + _cma_rows(quick) + _dmp_rows(quick)
