@@ -10,7 +10,9 @@ Scenes (issue 3):
 * ``panda global``: ``solve_ik`` on random reachable tcp poses.
 
 A step is timed from the state update to the integrated configuration (build + solve +
-integrate); the target update of the scene is not timed, for every library alike.
+integrate); the target update of the scene is not timed, for every library alike. Each
+taskspace row reports the largest KKT residuals of its QP solves (``max_kkt_*``, outside the
+timed part) and how many solves carry none (``solves_without_kkt``: the compiled kernel's).
 """
 
 from __future__ import annotations
@@ -64,6 +66,13 @@ def g1_tasks(robot: Robot) -> tuple[dict[str, list[Task]], list[tuple[Task, pin.
     return {"feet": feet, "com": com, "hands": hands, "posture": posture}, moving
 
 
+def _qp_results(result: Any) -> list[Any]:
+    """The QP results behind one IK step (one, or one per level of a hierarchy)."""
+    if hasattr(result, "hierarchy"):
+        return list(result.hierarchy.level_results)
+    return [result.qp] if getattr(result, "qp", None) is not None else []
+
+
 def _loop(robot: Robot, solve: Any, moving: list, steps: int) -> dict[str, Any]:  # type: ignore[type-arg]
     state = robot.state(robot.q_default)
     q = robot.q_default.copy()
@@ -71,6 +80,7 @@ def _loop(robot: Robot, solve: Any, moving: list, steps: int) -> dict[str, Any]:
     failed = 0
     lo, hi = robot.lower_limits, robot.upper_limits
     worst_violation = 0.0
+    kkt = {"primal": 0.0, "dual": 0.0, "complementarity": 0.0, "not_computed": 0}
     for k in range(steps):
         off = hand_offset(k)
         for task, T0 in moving:
@@ -83,6 +93,12 @@ def _loop(robot: Robot, solve: Any, moving: list, steps: int) -> dict[str, Any]:
         q = pin.integrate(robot.model, q, result.dq)
         times[k] = time.perf_counter() - t0
         failed += not result.success
+        for qp in _qp_results(result):  # outside the timed part
+            if not np.isfinite(qp.kkt.primal):
+                kkt["not_computed"] += 1
+                continue
+            for key in ("primal", "dual", "complementarity"):
+                kkt[key] = max(kkt[key], float(getattr(qp.kkt, key)))
         idx = robot.limited_joints_q
         worst_violation = max(
             worst_violation, float(np.maximum(lo[idx] - q[idx], q[idx] - hi[idx]).max())
@@ -93,6 +109,7 @@ def _loop(robot: Robot, solve: Any, moving: list, steps: int) -> dict[str, Any]:
         "failed": failed,
         "limit_violation": worst_violation,
         "final_hand_error_m": tracking,
+        "kkt": kkt,
     }
 
 
@@ -196,6 +213,16 @@ def _peer_rows(scene: str, steps: int, q0: np.ndarray) -> list[Row]:
     return rows
 
 
+def _kkt_extra(kkt: dict[str, float]) -> dict[str, Any]:
+    """The largest KKT residuals over a run's QP solves (``qp.kkt``), as row columns."""
+    return {
+        "max_kkt_primal": f"{kkt['primal']:.1e}",
+        "max_kkt_dual": f"{kkt['dual']:.1e}",
+        "max_kkt_complementarity": f"{kkt['complementarity']:.1e}",
+        "solves_without_kkt": int(kkt["not_computed"]),
+    }
+
+
 def run(quick: bool) -> list[Row]:
     """All scenes; peers measured in the same run."""
     steps = 300 if quick else 1500
@@ -210,6 +237,7 @@ def run(quick: bool) -> list[Row]:
             "failed_steps": out["failed"],
             "limit_violation": out["limit_violation"],
             "hand_error_m": out["final_hand_error_m"],
+            **_kkt_extra(out["kkt"]),
         }
         method = "taskspace" if scene == "g1 hierarchy" or ik_kernel() else "taskspace (no kernel)"
         rows.append(Row(SUITE, scene, method, Timing.from_samples(out["times"]), extra))
@@ -223,7 +251,7 @@ def run(quick: bool) -> list[Row]:
                         scene,
                         "taskspace, Python path",
                         Timing.from_samples(py["times"]),
-                        {"failed_steps": py["failed"]},
+                        {"failed_steps": py["failed"], **_kkt_extra(py["kkt"])},
                         ratio_to="placo",
                     )
                 )

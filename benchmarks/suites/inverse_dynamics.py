@@ -52,6 +52,7 @@ def run_taskspace(steps: int, hierarchical: bool = False) -> dict[str, object]:
     times = np.empty(steps)
     failed = 0
     statuses: dict[str, int] = {}
+    kkt = {"primal": 0.0, "dual": 0.0, "complementarity": 0.0, "not_computed": 0}
     for k in range(steps):
         com.set_target(c0 + np.array([0.0, 0.04 * np.sin(np.pi * k * DT), 0.0]))
         t0 = time.perf_counter()
@@ -61,9 +62,26 @@ def run_taskspace(steps: int, hierarchical: bool = False) -> dict[str, object]:
         failed += not res.success
         key = res.qp.status.value if res.qp is not None else "cascade"
         statuses[key] = statuses.get(key, 0) + 1
+        for qp in [res.qp] if res.qp is not None else res.level_results:
+            if not np.isfinite(qp.kkt.primal):
+                kkt["not_computed"] += 1
+                continue
+            for name in ("primal", "dual", "complementarity"):
+                kkt[name] = max(kkt[name], float(getattr(qp.kkt, name)))
         v = v + DT * res.a
         q = pin.integrate(robot.model, q, DT * v)
-    return {"times": times, "failed": failed, "statuses": statuses, "variables": ctrl.n}
+    return {
+        "times": times,
+        "failed": failed,
+        "statuses": statuses,
+        "variables": ctrl.n,
+        "kkt": {
+            "max_kkt_primal": f"{kkt['primal']:.1e}",
+            "max_kkt_dual": f"{kkt['dual']:.1e}",
+            "max_kkt_complementarity": f"{kkt['complementarity']:.1e}",
+            "solves_without_kkt": int(kkt["not_computed"]),
+        },
+    }
 
 
 def run(quick: bool) -> list[Row]:
@@ -77,7 +95,7 @@ def run(quick: bool) -> list[Row]:
             "g1 standing",
             "taskspace",
             Timing.from_samples(out["times"]),
-            {"failed_steps": out["failed"], "variables": out["variables"]},
+            {"failed_steps": out["failed"], "variables": out["variables"], **out["kkt"]},
             ratio_to="tsid",
             note=f"QP statuses {out['statuses']}",
         )
@@ -89,7 +107,7 @@ def run(quick: bool) -> list[Row]:
             "g1 standing",
             "taskspace hierarchy",
             Timing.from_samples(out["times"]),
-            {"failed_steps": out["failed"]},
+            {"failed_steps": out["failed"], **out["kkt"]},
             ratio_to="tsid",
             note="4 strict levels (dynamics+contacts, CoM, hands, posture)",
         )
