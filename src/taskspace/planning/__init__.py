@@ -38,6 +38,7 @@ from taskspace.planning.grid import (
     wavefront,
     wavefront_path,
 )
+from taskspace.planning.joint_manifold import JointManifold
 from taskspace.planning.kinodynamic_rrt import (
     KinodynamicRRTOptions,
     KinodynamicRRTResult,
@@ -50,6 +51,7 @@ from taskspace.planning.limits import planner_limits
 from taskspace.planning.nearest import GrowingNearest
 from taskspace.planning.objectives import (
     Clearance,
+    MetricLength,
     OptimizationObjective,
     PathLength,
     WeightedSum,
@@ -116,9 +118,11 @@ __all__ = [
     "GridSearchOptions",
     "GridStatus",
     "GrowingNearest",
+    "JointManifold",
     "KinodynamicRRTOptions",
     "KinodynamicRRTResult",
     "LazyRoadmap",
+    "MetricLength",
     "OccupancyGrid",
     "OptimizationObjective",
     "PRMOptions",

@@ -64,7 +64,9 @@ class PRMStarOptions:
         time_limit_s: wall-clock budget [s] (``None`` or ``math.inf`` = none; NaN refused).
         seed: random seed (an integer >= 0) used when no ``rng`` is passed.
         stop_at_first: return after the first batch that connects start and goal.
-        coarse_resolution: first-pass resolution of Lazy PRM*'s edge checks [rad or m].
+        coarse_resolution: first-pass resolution of the edge checks [rad or m] (PRM*
+            checks a batch's edges coarse then fine, Lazy PRM* a candidate path's; every
+            point of the space's resolution is checked before an edge is called free).
     """
 
     batch_size: int = 64
