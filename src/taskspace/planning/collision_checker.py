@@ -63,6 +63,10 @@ BoolArray = npt.NDArray[np.bool_]
 NATIVE_PAIR_CACHE = 1
 """Colliding pairs remembered by the compiled checker and tested first (0 disables it)."""
 
+KERNEL_CHUNK = 4096
+"""Rows per call of the compiled checker in a batch: it holds the GIL during a call, so a
+large batch is split to let other threads run and Ctrl-C interrupt it between calls."""
+
 
 class ValidityChecker(Protocol):
     """What planners need to decide ``q in Q_free`` (implemented by :class:`CollisionChecker`).
@@ -259,13 +263,24 @@ class CollisionChecker:
         kernel = self._query_kernel()
         if kernel is not None:
             rows = np.ascontiguousarray(configurations)
+            # The kernel holds the GIL: calls of at most KERNEL_CHUNK rows let other threads
+            # run and Ctrl-C interrupt a large batch between two calls.
             if stop_in_batch:
                 hits = np.zeros(rows.shape[0], dtype=bool)
-                bad = kernel.first_invalid(rows)
-                if bad >= 0:
-                    hits[bad:] = True  # rows after the first collision are not evaluated
+                for start in range(0, rows.shape[0], KERNEL_CHUNK):
+                    bad = kernel.first_invalid(rows[start : start + KERNEL_CHUNK])
+                    if bad >= 0:
+                        hits[start + bad :] = True  # rows after the first collision: not evaluated
+                        break
                 return hits
-            return np.asarray(kernel.collisions(rows), dtype=bool)
+            if rows.shape[0] <= KERNEL_CHUNK:
+                return np.asarray(kernel.collisions(rows), dtype=bool)
+            out = np.empty(rows.shape[0], dtype=bool)
+            for start in range(0, rows.shape[0], KERNEL_CHUNK):
+                out[start : start + KERNEL_CHUNK] = kernel.collisions(
+                    rows[start : start + KERNEL_CHUNK]
+                )
+            return out
         qs = configurations.T  # column-major (nq, n) view: what Eigen expects, no copy
         if not qs.flags.f_contiguous:
             qs = np.asfortranarray(qs)
