@@ -195,6 +195,7 @@ class DMPTaskTarget:
         self.phase = 1.0
         self.time = 0.0
         self._unscaled = np.abs(dmp.goal - dmp.y0) < 1e-10
+        self._any_unscaled = bool(np.any(self._unscaled))
         if self._pose:
             target = task.target if task.target is not None else pin.SE3.Identity()
             self._rotation = np.array(target.rotation, copy=True)
@@ -206,33 +207,41 @@ class DMPTaskTarget:
 
     def acceleration(self) -> tuple[FloatArray, FloatArray]:
         """``(tau z', sum C)`` at the current state."""
-        o = self.dmp.options
-        f = (self.dmp.weights @ self.dmp.basis(self.phase)[0]) * np.where(
-            self._unscaled, 1.0, self.goal - self.start
-        )
-        yd = self.z / self.tau
+        o, dmp, x = self.dmp.options, self.dmp, self.phase
+        psi = np.exp(-dmp.widths * (x - dmp.centers) ** 2)
+        scale = self.goal - self.start
+        if self._any_unscaled:
+            scale = np.where(self._unscaled, 1.0, scale)
+        f = (dmp.weights @ psi) * (x / (psi.sum() + 1e-300)) * scale
+        zd = o.alpha_z * (dmp.beta_z * (self.goal - self.y) - self.z) + f
         C = np.zeros_like(self.y)
-        for c in self.couplings:
-            C = C + np.asarray(c.term(self.y, yd), dtype=float)
-        return o.alpha_z * (self.dmp.beta_z * (self.goal - self.y) - self.z) + f + C, C
+        if self.couplings:
+            yd = self.z / self.tau
+            for c in self.couplings:
+                C = C + np.asarray(c.term(self.y, yd), dtype=float)
+            zd = zd + C
+        return zd, C
 
     def step(self, dt: float) -> DMPStep:
-        """Advance the DMP by ``dt`` [s] and set the task's target (and reference) to it."""
+        """Advance the DMP by ``dt`` [s] and set the task's target (and reference) to it.
+
+        The reported (and feed-forward) acceleration is the one integrated over the step.
+        """
         check_positive(dt, "dt [s]")
         o = self.dmp.options
         zd, C = self.acceleration()
-        zd = zd / self.tau
-        self.z = self.z + dt * zd
+        ydd = zd / self.tau**2
+        self.z = self.z + dt * zd / self.tau
         self.y = self.y + dt * self.z / self.tau
         self.goal = self.goal + dt * o.alpha_g * (self.goal_target - self.goal) / self.tau
         self.phase *= 1.0 - dt * o.alpha_x / self.tau
         self.time += dt
-        ydd = self.acceleration()[0] / self.tau**2
-        self._write(self.z / self.tau, ydd)
+        yd = self.z / self.tau
+        self._write(yd, ydd)
         return DMPStep(
             time=self.time,
             y=self.y.copy(),
-            yd=self.z / self.tau,
+            yd=yd,
             ydd=ydd,
             phase=self.phase,
             goal=self.goal.copy(),
