@@ -160,7 +160,6 @@ class Robot:
         pruned_collision_pairs: collision pairs disabled on load and why.
         massless_joints: joints that move no mass and were given an armature (see the
             module docstring).
-        version: model version, changed by :meth:`set_limits` (see the module docstring).
     """
 
     def __init__(
