@@ -212,3 +212,49 @@ def test_api_summaries_are_valid_rest() -> None:
                 if doc and (found := summary_problems(doc)):
                     problems[f"{page}.{qualified}"] = found
     assert not problems, problems
+
+
+def _attributes_section(doc: str) -> list[str]:
+    """Names listed in the Google-style ``Attributes:`` section of a class docstring."""
+    match = re.search(r"^Attributes:\n((?:[ \t]+.*\n?|\n)*)", doc, re.M)
+    if not match:
+        return []
+    return re.findall(r"^    (\w+)\s*(?:\([^)]*\))?:", match.group(1), re.M)
+
+
+def test_attributes_sections_do_not_repeat_documented_members() -> None:
+    """A property (or NamedTuple field) listed under ``Attributes:`` is documented twice.
+
+    napoleon turns the section into attribute directives and autodoc documents the member
+    itself: Sphinx then warns "duplicate object description" and the -W build fails.
+    """
+    import importlib
+    import inspect
+
+    sys.path.insert(0, str(DOCS / "_ext"))
+    try:
+        import taskspace_api
+    finally:
+        sys.path.remove(str(DOCS / "_ext"))
+    repeated = {}
+    for page in [f"taskspace.{name}" for name in taskspace_api.public_packages()]:
+        module = importlib.import_module(page)
+        for name in taskspace_api._exported(module):
+            cls = getattr(module, name, None)
+            if not inspect.isclass(cls):
+                continue
+            members = vars(cls)
+            twice = [
+                a
+                for a in _attributes_section(inspect.getdoc(cls) or "")
+                if isinstance(members.get(a), property)
+                or type(members.get(a)).__name__ == "_tuplegetter"
+            ]
+            if twice:
+                repeated[f"{page}.{name}"] = twice
+    assert not repeated, repeated
+
+
+def test_attribute_check_sees_a_property() -> None:
+    doc = "A thing.\n\nAttributes:\n    name: its name.\n    size (int): its size [m].\n"
+    assert _attributes_section(doc) == ["name", "size"]
