@@ -17,6 +17,10 @@ Scenes (built separately from timing):
   theta^T obs > 0``, population 10, sigma 0.5, over 10 seeds (quick: 3): environment steps
   until a candidate first balances a whole 500-step episode, at most 100 rollouts (<= 50,000
   steps), on our cart-pole and on ``CartPole-v1``; median and success count in ``extra``.
+* ``via_point_power`` / ``via_point_pi2``: PoWER and PI^2 on the 2-D DMP via-point task
+  (8 basis functions per dimension, population 10, 4 elites, sigma 20 decaying by 0.93),
+  over 5 seeds (quick: 2): rollouts until a rollout first passes within 2 cm of the via point,
+  and the via-point error of the final mean parameters after 40 updates.
 * ``dmp_step`` / ``dmp_rollout_1000``: a 3-D discrete DMP (30 basis functions) learned from
   the same demonstration; one online step (ours: ``DMPTaskTarget.step``, which also writes the
   target of a 3-D task; theirs: ``DMP.step``) and a 1,001-step open-loop rollout at dt 1 ms,
@@ -44,7 +48,10 @@ from taskspace.learning import (
     DMPTaskTarget,
     Episode,
     PolicySearchOptions,
+    ViaPointTask,
     cma_es,
+    pi2,
+    power,
 )
 from taskspace.model import Robot
 from taskspace.optimal_control import (
@@ -352,6 +359,65 @@ def _cma_rows(quick: bool) -> list[Row]:
     return rows
 
 
+def scene_via_point() -> ViaPointTask:
+    """The via-point task of the tests: pass (0.5, 0.8) at 0.5 s (demonstrated: (0.5, 0.5))."""
+    t = np.linspace(0, 1, 101)
+    mj = 10 * t**3 - 15 * t**4 + 6 * t**5
+    dmp = DiscreteDMP.fit(t, np.stack([mj, mj], axis=1), DMPOptions(num_basis=8))
+    return ViaPointTask(dmp=dmp, via_time=0.5, via_point=np.array([0.5, 0.8]))
+
+
+def _via_point_rows(quick: bool) -> list[Row]:
+    rows = []
+    for name, method in (("power", power), ("pi2", pi2)):
+        firsts: list[int | None] = []
+        finals, wall = [], []
+        for seed in range(2 if quick else 5):
+            task = scene_via_point()
+            state = {"rollouts": 0, "first": None}
+
+            def rollout(theta: np.ndarray, s: int, task: ViaPointTask = task, state: Any = state):
+                state["rollouts"] += 1
+                if state["first"] is None and task.via_error(theta) <= 0.02:
+                    state["first"] = state["rollouts"]
+                return task.rollout(theta, s)
+
+            t0 = time.perf_counter()
+            res = method(
+                rollout,
+                task.dmp.weights.ravel(),
+                PolicySearchOptions(
+                    iterations=40,
+                    population=10,
+                    elite=4,
+                    exploration=20.0,
+                    exploration_decay=0.93,
+                    seed=seed,
+                ),
+            )
+            wall.append(time.perf_counter() - t0)
+            firsts.append(state["first"])
+            finals.append(task.via_error(res.parameters))
+        ranked = sorted(f if f is not None else np.inf for f in firsts)
+        median = float(np.median(ranked))
+        rows.append(
+            Row(
+                SUITE,
+                f"via_point_{name}",
+                "taskspace",
+                Timing.from_samples(wall),
+                {
+                    "seeds": len(firsts),
+                    "rollouts_to_2cm": firsts,
+                    "median_rollouts_to_2cm": median if np.isfinite(median) else None,
+                    "final_via_error_m": [round(e, 4) for e in finals],
+                },
+                note="timing: wall time of one run (400 rollouts)",
+            )
+        )
+    return rows
+
+
 def scene_dmp() -> tuple[DiscreteDMP, DMPTaskTarget]:
     """The learned DMP and an online driver of a 3-D task (the planar arm's joints)."""
     t = np.linspace(0, 1, 201)
@@ -391,4 +457,10 @@ def _dmp_rows(quick: bool) -> list[Row]:
 
 def run(quick: bool) -> list[Row]:
     """Run the suite; ``quick`` keeps it short (about a minute on a loaded machine)."""
-    return _env_rows(quick) + _fvi_rows(quick) + _cma_rows(quick) + _dmp_rows(quick)
+    return (
+        _env_rows(quick)
+        + _fvi_rows(quick)
+        + _cma_rows(quick)
+        + _via_point_rows(quick)
+        + _dmp_rows(quick)
+    )
