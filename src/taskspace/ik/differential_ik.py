@@ -77,11 +77,12 @@ class DifferentialIKOptions:
             keeps steps bounded near singularities) [1/rad^2].
         solver: QP solver settings (backend, fallbacks, tolerances).
         native: run the compiled kernel (``taskspace/_native``) when it is built and the
-            stack is one it serves: frame pose / frame position / center-of-mass / posture
-            tasks with box constraints only (joint position, velocity, acceleration
-            limits). It solves the same QP exactly (a primal active-set method on the box);
-            every other stack, and any step whose active set does not settle, takes the
-            Python path with ``solver``.
+            stack is one it serves: every task's feature declares a compiled term
+            (:meth:`~taskspace.features.feature.Feature.compiled_term`: frame pose, frame
+            origin, center of mass, posture) and the constraints are boxes only (joint
+            position, velocity, acceleration limits). It solves the same QP exactly (a
+            primal active-set method on the box); every other stack, and any step whose
+            active set does not settle, takes the Python path with ``solver``.
     """
 
     damping: float = 1e-6
