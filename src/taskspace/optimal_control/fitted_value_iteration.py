@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 import scipy.sparse as sp
 
-from taskspace._validation import FloatArray, check_positive
+from taskspace._validation import FloatArray, check_count, check_positive
 from taskspace.errors import InvalidInputError
 from taskspace.optimal_control.dynamic_programming import (
     DPResult,
@@ -163,16 +163,14 @@ def fitted_value_iteration(
     options = options or FittedValueIterationOptions()
     check_positive(options.dt, "dt [s]")
     check_positive(options.discount_rate, "discount_rate [1/s]", strict=False)
-    if options.substeps < 1:
-        raise InvalidInputError(f"substeps must be >= 1, got {options.substeps}")
+    check_count(options.substeps, "substeps", minimum=1)
     t0 = time.perf_counter()
     U = np.asarray(actions, dtype=float)
     if U.ndim == 1:
         U = U[:, None]
     if U.ndim != 2 or U.shape[0] == 0 or not np.all(np.isfinite(U)):
         raise InvalidInputError("actions must be a non-empty finite (A x m) array")
-    if options.refinements < 0:
-        raise InvalidInputError(f"refinements must be >= 0, got {options.refinements}")
+    refinements = check_count(options.refinements, "refinements")
     X = grid.points()
     N, m = X.shape[0], U.shape[1]
     goal = np.zeros(N, dtype=bool) if target is None else np.asarray(target(X), dtype=bool)
@@ -184,7 +182,7 @@ def fitted_value_iteration(
     gaps = [np.diff(np.unique(U[:, j])) for j in range(m)]
     delta = np.array([g.max() if g.size else 0.0 for g in gaps])
     offsets = np.stack(np.meshgrid(*[np.arange(-2, 3)] * m, indexing="ij"), -1).reshape(-1, m)
-    for _ in range(options.refinements):
+    for _ in range(refinements):
         best = UU.reshape(N, -1, m)[np.arange(N), dp.policy]
         local = np.clip(best[:, None, :] + 0.25 * offsets[None, :, :] * delta, lo, hi)
         UU = local.reshape(-1, m)
