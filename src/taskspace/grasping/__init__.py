@@ -17,6 +17,11 @@ from taskspace.grasping.contact import (
 )
 from taskspace.grasping.contact_forces import ContactForces, balance_forces
 from taskspace.grasping.grasp_matrix import grasp_matrix, hand_jacobian
+from taskspace.grasping.multifinger import (
+    MultiFingerCandidates,
+    MultiFingerOptions,
+    sample_multifinger_grasps,
+)
 from taskspace.grasping.object_mesh import TriangleMesh, box_mesh, cylinder_mesh, sphere_mesh
 from taskspace.grasping.quality import (
     GraspQuality,
@@ -45,6 +50,8 @@ __all__ = [
     "GraspCandidates",
     "GraspContact",
     "GraspQuality",
+    "MultiFingerCandidates",
+    "MultiFingerOptions",
     "PlacedGrasp",
     "TriangleMesh",
     "balance_forces",
@@ -67,6 +74,7 @@ __all__ = [
     "place_grasps",
     "primitive_wrenches",
     "sample_antipodal_grasps",
+    "sample_multifinger_grasps",
     "sphere_mesh",
     "task_wrench_scale",
     "wrench_space_l1",

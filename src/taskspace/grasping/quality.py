@@ -60,10 +60,21 @@ def _hull(points: FloatArray) -> ConvexHull | None:
         return None
 
 
+MARGIN_TOLERANCE = 1e-9
+"""Epsilon values at or below this times the largest ``|w|`` entry are 0 (not in closure).
+
+The origin on the hull's boundary (a grasp exactly at the limit of closure, e.g. three
+contacts whose wrenches span a face through the origin) gives offsets of roundoff size
+(1e-17-1e-15) of either sign; :func:`~taskspace.grasping.closure_hull` uses the same tolerance.
+"""
+
+
 def _margin(hull: ConvexHull | None) -> float:
     if hull is None:
         return 0.0
-    return max(0.0, float(-hull.equations[:, -1].max()))
+    margin = float(-hull.equations[:, -1].max())
+    scale = float(np.abs(hull.points).max())
+    return margin if margin > MARGIN_TOLERANCE * scale else 0.0
 
 
 def wrench_space_l1(W: FloatArray) -> ConvexHull | None:
@@ -111,7 +122,11 @@ def wrench_space_linf(W: FloatArray, owner: list[int]) -> ConvexHull | None:
 
 
 def epsilon_l1(W: FloatArray) -> float:
-    """Ferrari-Canny epsilon of the L1 wrench space of primitive wrenches ``W`` (rows)."""
+    """Ferrari-Canny epsilon of the L1 wrench space of primitive wrenches ``W`` (rows).
+
+    0 when the origin is not strictly inside (margins within :data:`MARGIN_TOLERANCE` of the
+    largest wrench entry count as 0).
+    """
     return _margin(wrench_space_l1(W))
 
 

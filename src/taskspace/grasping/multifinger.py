@@ -1,0 +1,116 @@
+"""Grasp synthesis for multi-finger hands: contact sets sampled on the surface, scored.
+
+1. Sample sets of ``k`` points uniformly over the object's surface (one per finger), at least
+   ``min_spacing`` apart, with point contacts with Coulomb friction along the inward normals.
+2. Keep the sets in force closure and score them by the Ferrari-Canny epsilon (L1) of their
+   linearized friction cones (one convex hull each), best first.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from taskspace._validation import check_count
+from taskspace.grasping.contact import (
+    ContactType,
+    GraspContact,
+    check_edges,
+    nonnegative,
+    primitive_wrenches,
+)
+from taskspace.grasping.object_mesh import TriangleMesh
+from taskspace.grasping.quality import epsilon_l1
+
+FloatArray = npt.NDArray[np.float64]
+
+
+@dataclass(frozen=True, kw_only=True)
+class MultiFingerOptions:
+    """Settings of :func:`sample_multifinger_grasps`.
+
+    Attributes:
+        fingers: contacts per grasp (>= 2; 3 or 4 for a hand).
+        samples: contact sets sampled (each gives at most one candidate).
+        mu: friction coefficient of the fingertips.
+        edges: edges of each linearized friction cone.
+        min_spacing: smallest distance between two contacts of a set [m].
+    """
+
+    fingers: int = 3
+    samples: int = 200
+    mu: float = 0.5
+    edges: int = 8
+    min_spacing: float = 0.02
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "fingers", check_count(self.fingers, "fingers", minimum=2))
+        object.__setattr__(self, "samples", check_count(self.samples, "samples", minimum=1))
+        object.__setattr__(self, "mu", nonnegative(self.mu, "mu"))
+        object.__setattr__(self, "edges", check_edges(self.edges))
+        object.__setattr__(self, "min_spacing", nonnegative(self.min_spacing, "min_spacing"))
+
+
+@dataclass(frozen=True)
+class MultiFingerCandidates:
+    """Contact sets in force closure in the object's frame, best first.
+
+    Attributes:
+        points: ``(N, k, 3)`` contact points [m].
+        normals: ``(N, k, 3)`` inward unit normals.
+        epsilon: Ferrari-Canny epsilon (L1) of each set (``> 0``) ``(N,)``.
+        center: the point torques are taken about (the mesh's vertex centroid) [m].
+        options: the sampling settings.
+        sampled: how many sets were drawn (the rest were too close or not in closure).
+    """
+
+    points: FloatArray
+    normals: FloatArray
+    epsilon: FloatArray
+    center: FloatArray
+    options: MultiFingerOptions
+    sampled: int
+
+    def __len__(self) -> int:
+        return len(self.epsilon)
+
+    def contacts(self, i: int) -> list[GraspContact]:
+        """The point contacts (with friction) of candidate ``i``."""
+        return [
+            GraspContact(p, n, type=ContactType.POINT_FRICTION, mu=self.options.mu)
+            for p, n in zip(self.points[i], self.normals[i])
+        ]
+
+
+def sample_multifinger_grasps(
+    mesh: TriangleMesh, rng: np.random.Generator, options: MultiFingerOptions | None = None
+) -> MultiFingerCandidates:
+    """Contact sets for a ``k``-finger hand on ``mesh``, in force closure, best epsilon first."""
+    o = options or MultiFingerOptions()
+    k = o.fingers
+    points, outward, _ = mesh.sample_surface(o.samples * k, rng)
+    points = points.reshape(o.samples, k, 3)
+    normals = -outward.reshape(o.samples, k, 3)
+    gaps = np.linalg.norm(points[:, :, None, :] - points[:, None, :, :], axis=-1)
+    gaps[:, np.arange(k), np.arange(k)] = np.inf
+    spaced = gaps.min(axis=(1, 2)) >= o.min_spacing
+    center = mesh.vertices.mean(axis=0)
+    keep, eps = [], []
+    for i in np.flatnonzero(spaced):
+        contacts = [
+            GraspContact(p, n, type=ContactType.POINT_FRICTION, mu=o.mu)
+            for p, n in zip(points[i], normals[i])
+        ]
+        W, _ = primitive_wrenches(contacts, edges=o.edges, center=center)
+        e = epsilon_l1(W)
+        if e > 0.0:
+            keep.append(i)
+            eps.append(e)
+    idx = np.asarray(keep, dtype=int)
+    epsilon = np.asarray(eps, dtype=float)
+    order = np.argsort(-epsilon, kind="stable")
+    return MultiFingerCandidates(
+        points[idx][order], normals[idx][order], epsilon[order], center, o, o.samples
+    )
