@@ -78,6 +78,7 @@ def test_value_near_origin_matches_lqr_riccati() -> None:
     assert not np.allclose(P / dt, Pc, rtol=0.01)
 
 
+@pytest.mark.slow
 def test_pendulum_value_near_the_upright_matches_the_discrete_lqr() -> None:
     # The swing-up (periodic angle, |u| <= 4 N m < m g l) near the upright. The reference is
     # the LQR of the discrete problem that fitted value iteration solves: the RK4 map
