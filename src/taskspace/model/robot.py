@@ -578,8 +578,8 @@ class Robot:
         outside (and prismatic coordinates) is clipped, with a :class:`ModelWarning`.
         """
         idx = self._limited_q
-        lo = np.asarray(self.model.lowerPositionLimit)[idx]
-        hi = np.asarray(self.model.upperPositionLimit)[idx]
+        lo = self._lower[idx]
+        hi = self._upper[idx]
         outside = np.flatnonzero((q[idx] < lo) | (q[idx] > hi))
         if outside.size == 0:
             return q
@@ -946,23 +946,22 @@ class Robot:
         """Validate ``q`` and raise :class:`LimitError` if a joint is outside its limits."""
         arr = self.check_configuration(q, name)
         idx = self._limited_q
-        lo = self.model.lowerPositionLimit[idx] - tolerance
-        hi = self.model.upperPositionLimit[idx] + tolerance
+        lo = self._lower[idx] - tolerance
+        hi = self._upper[idx] + tolerance
         bad = np.flatnonzero((arr[idx] < lo) | (arr[idx] > hi))
         if bad.size:
             qi = idx[bad]
             names = [self._joint_name_at_q(int(i)) for i in qi]
             details = ", ".join(
-                f"{n}={arr[i]:.4g} not in [{self.model.lowerPositionLimit[i]:.4g}, "
-                f"{self.model.upperPositionLimit[i]:.4g}]"
+                f"{n}={arr[i]:.4g} not in [{self._lower[i]:.4g}, {self._upper[i]:.4g}]"
                 for n, i in zip(names, qi)
             )
             raise LimitError(
                 f"{name} is outside the joint limits: {details}",
                 [int(i) for i in qi],
                 arr[qi],
-                self.model.lowerPositionLimit[qi],
-                self.model.upperPositionLimit[qi],
+                self._lower[qi],
+                self._upper[qi],
             )
         return arr
 
@@ -1007,8 +1006,8 @@ class Robot:
             base_box: half side of the box of unbounded translations [m].
         """
         q = np.asarray(pin.neutral(self.model)).copy()
-        lo = self.model.lowerPositionLimit
-        hi = self.model.upperPositionLimit
+        lo = self._lower
+        hi = self._upper
         idx = self._limited_q
         q[idx] = rng.uniform(lo[idx], hi[idx])
         for start, size, _ in self._normalized_blocks:
