@@ -117,6 +117,11 @@ def test_errors() -> None:
         max_entropy_irl(mdp, Phi, np.zeros(2), d0, HORIZON)
     with pytest.raises(InvalidInputError, match="features"):
         max_entropy_irl(mdp, Phi[:3], np.zeros(3), d0, HORIZON)
+    for bad in (0, 2.5, None):
+        with pytest.raises(InvalidInputError, match="max_iterations"):
+            max_entropy_irl(
+                mdp, Phi, np.zeros(3), d0, HORIZON, MaxEntIRLOptions(max_iterations=bad)
+            )
     with pytest.raises(InvalidInputError, match="integer state"):
         demonstration_feature_counts([[0.5, 1.0]], Phi)
     with pytest.raises(InvalidInputError, match="outside"):

@@ -32,7 +32,7 @@ import numpy as np
 import scipy.optimize
 import scipy.special
 
-from taskspace._validation import FloatArray, check_positive
+from taskspace._validation import FloatArray, check_count, check_positive
 from taskspace.errors import InvalidInputError
 from taskspace.optimal_control.mdp import MDP
 
@@ -227,8 +227,7 @@ def max_entropy_irl(
         raise InvalidInputError(f"expert feature counts must be a finite vector of {k} entries")
     check_positive(options.tolerance, "tolerance")
     check_positive(options.l2, "l2", strict=False)
-    if options.max_iterations < 1:
-        raise InvalidInputError(f"max_iterations must be >= 1, got {options.max_iterations}")
+    max_iterations = check_count(options.max_iterations, "max_iterations", minimum=1)
     w0 = np.zeros(k) if options.initial_weights is None else options.initial_weights
     w0 = np.asarray(w0, dtype=float)
     if w0.shape != (k,) or not np.all(np.isfinite(w0)):
@@ -247,7 +246,7 @@ def max_entropy_irl(
         w0,
         jac=True,
         method="L-BFGS-B",
-        options={"maxiter": options.max_iterations, "gtol": options.tolerance, "ftol": 0.0},
+        options={"maxiter": max_iterations, "gtol": options.tolerance, "ftol": 0.0},
     )
     w = np.asarray(opt.x, dtype=float)
     soft = soft_value_iteration(mdp, Phi @ w, horizon)
@@ -255,7 +254,7 @@ def max_entropy_irl(
     mismatch = float(np.max(np.abs(mu - muE + options.l2 * w)))
     if mismatch <= options.tolerance:
         status = MaxEntIRLStatus.CONVERGED
-    elif opt.nit >= options.max_iterations:
+    elif opt.nit >= max_iterations:
         status = MaxEntIRLStatus.MAX_ITERATIONS
     else:
         status = MaxEntIRLStatus.FAILED
