@@ -141,3 +141,33 @@ def test_a_binary_mesh_shown_twice_is_stored_once(robot_loader):
     decoded = [umsgpack.unpackb(c) for c in _commands(two.static_html())]
     meshes = [c["object"]["geometries"][0]["data"] for c in decoded if c["type"] == "set_object"]
     assert meshes == [original, original]
+
+
+def test_compact_stl_keeps_relative_precision(robot_loader):
+    from taskspace.viz.meshcat_geometry import compact_stl
+
+    talos = robot_loader("talos")
+    stl = next(g.meshPath for g in talos.visual_model.geometryObjects if g.meshPath[-4:] == ".stl")
+    data = open(stl, "rb").read()
+    short = compact_stl(data, mantissa_bits=13)
+    assert len(short) == len(data) and short[:84] == data[:84]
+    record = np.dtype([("n", "<f4", 3), ("v", "<f4", 9), ("a", "<u2")])
+    before = np.frombuffer(data, record, offset=84)
+    after = np.frombuffer(short, record, offset=84)
+    assert np.array_equal(before["a"], after["a"])
+    for field in ("n", "v"):
+        a, b = before[field].astype(float), after[field].astype(float)
+        assert np.all(np.abs(a - b) <= np.abs(a) * 2.0**-13)
+        assert np.all(np.abs(b) <= np.abs(a))  # truncation towards zero
+        assert not np.array_equal(a, b)
+    assert len(zlib.compress(short)) < 0.9 * len(zlib.compress(data))
+
+
+def test_compact_stl_leaves_other_files_alone():
+    from taskspace.viz.meshcat_geometry import compact_stl
+
+    ascii_stl = b"solid x\nfacet normal 0 0 1\nendsolid x\n" * 3
+    assert compact_stl(ascii_stl) == ascii_stl
+    assert compact_stl(b"short") == b"short"
+    with pytest.raises(InvalidInputError, match=r"mantissa_bits must be within 1..23"):
+        compact_stl(ascii_stl, mantissa_bits=0)

@@ -206,12 +206,50 @@ def compact_collada_file(path: str) -> str:
     return compact_collada(Path(path).read_text(encoding="utf-8", errors="replace"))
 
 
+STL_MANTISSA_BITS = 13
+"""Mantissa bits kept in the float32 numbers of binary STL files (of 23)."""
+
+_STL_TRIANGLE = np.dtype([("normal", "<f4", 3), ("vertices", "<f4", 9), ("attribute", "<u2")])
+
+
+def compact_stl(data: bytes, mantissa_bits: int = STL_MANTISSA_BITS) -> bytes:
+    """Binary STL with the low mantissa bits of its normals and vertices set to zero.
+
+    A number keeps its relative precision ``2**-mantissa_bits`` (1.2e-4 for 13 bits: 60 um
+    at 0.5 m), far below a pixel, and the file compresses much better. ASCII STL files and
+    files whose size does not match their triangle count are returned unchanged.
+    """
+    if not 1 <= mantissa_bits <= 23:
+        raise InvalidInputError(f"mantissa_bits must be within 1..23, got {mantissa_bits}")
+    if len(data) < 84:
+        return data
+    count = int(np.frombuffer(data, "<u4", count=1, offset=80)[0])
+    if len(data) != 84 + _STL_TRIANGLE.itemsize * count:
+        return data
+    triangles = np.frombuffer(data, _STL_TRIANGLE, offset=84).copy()
+    mask = np.uint32((0xFFFFFFFF << (23 - mantissa_bits)) & 0xFFFFFFFF)
+    for field in ("normal", "vertices"):
+        bits = triangles[field].view("<u4")
+        bits &= mask
+    return data[:84] + triangles.tobytes()
+
+
+@functools.lru_cache(maxsize=128)
+def compact_stl_file(path: str) -> bytes:
+    """:func:`compact_stl` of a file (cached: robots share and reload meshes)."""
+    return compact_stl(Path(path).read_bytes())
+
+
 def _mesh_file_geometry(mesh_path: str) -> Any:
     import meshcat.geometry as mg
 
     suffix = Path(mesh_path).suffix.lower()
     if suffix == ".stl":
-        return mg.StlMeshGeometry.from_file(mesh_path)
+        import umsgpack
+
+        contents = compact_stl_file(str(Path(mesh_path).resolve()))
+        _, code = mg.threejs_type(np.uint8)
+        return mg.MeshGeometry(umsgpack.Ext(code, contents), "stl")
     if suffix == ".obj":
         return mg.ObjMeshGeometry.from_file(mesh_path)
     if suffix == ".dae":
