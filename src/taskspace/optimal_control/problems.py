@@ -145,13 +145,12 @@ def cartpole_acceleration(
     th, w = q[:, 1], v[:, 1]
     c, s = np.cos(th), np.sin(th)
     m, M, l = pole_mass, cart_mass, length
-    m11 = (M + m) * np.ones_like(th)
-    m12 = m * l * c
-    m22 = m * l * l * np.ones_like(th)
-    b1 = force + m * l * s * w * w
-    b2 = m * gravity * l * s
-    det = m11 * m22 - m12 * m12
-    return np.stack([(m22 * b1 - m12 * b2) / det, (m11 * b2 - m12 * b1) / det], axis=1)
+    m11, m22 = M + m, m * l * l  # constant entries of the mass matrix
+    m12 = (m * l) * c
+    b1 = force + (m * l) * s * w * w
+    b2 = (m * gravity * l) * s
+    inv_det = 1.0 / (m11 * m22 - m12 * m12)
+    return np.stack([(m22 * b1 - m12 * b2) * inv_det, (m11 * b2 - m12 * b1) * inv_det], axis=1)
 
 
 @dataclass(frozen=True, kw_only=True)
