@@ -105,6 +105,7 @@ def test_native_flags_read_from_the_scripts():
 
 
 # ----------------------------------------------------------------------------- each flag
+@pytest.mark.slow  # runs a demo in a subprocess (a few seconds)
 def test_save_is_relative_to_the_caller(tmp_path):
     before = repo_outputs()
     proc = run_demo(tmp_path, "bug_paths", "--save", "figs")
@@ -113,6 +114,7 @@ def test_save_is_relative_to_the_caller(tmp_path):
     assert repo_outputs() == before
 
 
+@pytest.mark.slow  # runs a demo in a subprocess (a few seconds)
 def test_png_alone_copies_the_picture(tmp_path):
     proc = run_demo(tmp_path, "wavefront_numbers", "--png", "pic/w.png")
     assert is_png(tmp_path / "pic" / "w.png")
@@ -120,6 +122,7 @@ def test_png_alone_copies_the_picture(tmp_path):
     assert sorted(p.name for p in tmp_path.rglob("*") if p.is_file()) == ["w.png"]
 
 
+@pytest.mark.slow  # runs a demo in a subprocess (a few seconds)
 def test_html_of_a_plot_demo_is_a_page_of_its_figures(tmp_path):
     proc = run_demo(tmp_path, "profile_comparison", "--html", "p.html")
     text = (tmp_path / "p.html").read_text(encoding="utf-8")
@@ -128,6 +131,7 @@ def test_html_of_a_plot_demo_is_a_page_of_its_figures(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["p.html"]
 
 
+@pytest.mark.slow  # runs a demo in a subprocess (a few seconds)
 def test_no_viewer_keeps_the_main_demo_from_serving(tmp_path):
     # the full-length run (no TASKSPACE_FAST) would open the live viewer and wait for Ctrl-C
     proc = run_demo(tmp_path, "main", "--no-viewer", fast=False)
