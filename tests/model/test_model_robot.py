@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pinocchio as pin
 import pytest
@@ -473,3 +475,19 @@ def test_geometries_of_missing_joints_are_dropped() -> None:
     with pytest.warns(ModelWarning, match=r"1 collision geometries .* removed: \['orphan'\]"):
         _drop_orphan_geometries(model, geometry, "test", "collision")
     assert [g.name for g in geometry.geometryObjects] == ["ok"]
+
+
+def test_from_urdf_missing_mesh_names_the_search_directories(tmp_path: Path) -> None:
+    urdf = tmp_path / "arm.urdf"
+    urdf.write_text(
+        """<robot name="arm">
+  <link name="base"><collision><geometry>
+    <mesh filename="package://nowhere/meshes/base.stl"/></geometry></collision></link>
+  <link name="l1"/>
+  <joint name="j1" type="revolute"><parent link="base"/><child link="l1"/>
+    <axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+</robot>"""
+    )
+    with pytest.raises(ModelLoadError, match=r"mesh file could not be found.*package_dirs"):
+        Robot.from_urdf(urdf, package_dirs=[str(tmp_path)])
+    assert Robot.from_urdf(urdf, geometry=False).nq == 1  # the kinematics alone load

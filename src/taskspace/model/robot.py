@@ -345,6 +345,12 @@ class Robot:
                 else:
                     collision, visual = pin.GeometryModel(), pin.GeometryModel()
         except Exception as exc:  # pinocchio raises ValueError/RuntimeError with C++ text
+            if "geometry_model" in str(exc):  # what pin says when a mesh file is not found
+                raise ModelLoadError(
+                    f"cannot load the geometry of URDF {path}: a mesh file could not be found "
+                    f"(package:// paths are searched in {dirs}; pass package_dirs=[the "
+                    "directory that contains the package folder], or geometry=False)"
+                ) from exc
             raise ModelLoadError(f"cannot load URDF {path}: {exc}") from exc
         if srdf is not None:
             if not Path(srdf).is_file():
