@@ -20,6 +20,7 @@ peer placo placo example-robot-data numpy
 peer filterpy filterpy numpy
 peer dask distributed numpy
 peer drake drake numpy scipy
+peer movement_primitives movement-primitives pytransform3d scipy numpy
 peer toppra toppra numpy
 command -v apt-get >/dev/null && { dpkg -s liblapack3 >/dev/null 2>&1 || apt-get install -y -qq liblapack3 >/dev/null; } || true
 peer robotic robotic numpy
