@@ -29,6 +29,7 @@ from taskspace.ik._native_stack import NativeWeightedStack
 from taskspace.ik._native_stack import supported as native_supported
 from taskspace.model.robot import Robot
 from taskspace.model.state import State
+from taskspace.qp.kkt import box_kkt_residuals
 from taskspace.qp.problem import QPProblem
 from taskspace.qp.result import QPResult, QPStatus
 from taskspace.qp.rows import WeightedQPBuilder
@@ -83,11 +84,18 @@ class DifferentialIKOptions:
             position, velocity, acceleration limits). It solves the same QP exactly (a
             primal active-set method on the box); every other stack, and any step whose
             active set does not settle, takes the Python path with ``solver``.
+        native_residuals: give the compiled kernel's steps their KKT residuals
+            (``IKStepResult.qp.kkt``): the QP of the Python path (:meth:`DifferentialIK.build`)
+            is built for the same state and checked at the kernel's step, with the bound
+            multipliers recovered from stationarity (:func:`~taskspace.qp.kkt.box_kkt_residuals`).
+            Off by default: building that QP costs more than the kernel's whole step; when off,
+            a kernel step's ``qp.kkt`` is NaN (not computed).
     """
 
     damping: float = 1e-6
     solver: QPSolverOptions = field(default_factory=QPSolverOptions)
     native: bool = True
+    native_residuals: bool = False
 
 
 def _require_state(state: object) -> None:
@@ -268,6 +276,8 @@ class DifferentialIK:
             time.perf_counter() - t0,
             "native",
         )
+        if self.options.native_residuals:
+            qp.kkt = box_kkt_residuals(self._build(state, dt), dq)
         return IKStepResult(True, IKStatus.SOLVED, dq, dq / dt, qp, [], build_time, qp_time)
 
     def _culprits(self, problem: QPProblem, result: QPResult, state: State, dt: float) -> list[str]:

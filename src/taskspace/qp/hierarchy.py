@@ -21,6 +21,7 @@ import numpy as np
 from scipy.linalg.lapack import dgeqp3, dgeqrf, dorgqr, dposv, dtrtrs
 
 from taskspace._validation import FloatArray
+from taskspace.qp.kkt import KKTResiduals, least_squares_kkt_residuals
 from taskspace.qp.problem import INF, QPProblem, RowBlock
 from taskspace.qp.result import QPResult, QPStatus
 from taskspace.qp.solver import QPSolver, QPSolverOptions
@@ -280,12 +281,12 @@ class HierarchySolver:
         x0, Z0 = _affine_start(A, b, n, opts.rank_tolerance)
         shortcut = self._equality_cascade(levels, n, x0, Z0)
         if shortcut is not None and self._feasible(shortcut[0], levels, lb, ub, C, l, u):
-            x, dims = shortcut
+            x, dims, steps = shortcut
             return self._finish(
                 HierarchyResult(True, QPStatus.UNCONSTRAINED, x, nullspace_dims=dims),
                 levels,
                 t0,
-                [QPResult(True, QPStatus.UNCONSTRAINED, x, 0.0) for _ in levels],
+                self._shortcut_results(x, levels, steps, lb, ub, C, l, u),
             )
         held_C: list[FloatArray] = [] if C is None else [C]
         held_l: list[FloatArray] = [] if l is None else [l]
@@ -308,7 +309,16 @@ class HierarchySolver:
             p = level.n_in
             if r_dim == 0:
                 # no freedom left: the level is only evaluated
-                out.level_results.append(QPResult(True, QPStatus.UNCONSTRAINED, np.zeros(0), 0.0))
+                # (its inequalities' slacks take any violation: the empty QP is feasible)
+                out.level_results.append(
+                    QPResult(
+                        True,
+                        QPStatus.UNCONSTRAINED,
+                        np.zeros(0),
+                        0.0,
+                        kkt=KKTResiduals(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0),
+                    )
+                )
             else:
                 JZ = level.J if Z is None else level.J @ Z
                 res0 = level.J @ x - level.r
@@ -414,19 +424,25 @@ class HierarchySolver:
         n: int,
         x0: FloatArray,
         Z0: FloatArray | None,
-    ) -> tuple[FloatArray, list[int]] | None:
+    ) -> (
+        tuple[FloatArray, list[int], list[tuple[FloatArray, FloatArray, FloatArray, float]]] | None
+    ):
         """Lexicographic damped least squares of the equality rows.
 
         Level k: ``z = argmin |J_k Z z - (r_k - J_k x)|^2 + mu |z|^2`` by an SVD of ``J_k Z``,
         which also gives the next nullspace basis ``Z <- Z V_null``; the last level needs no
-        basis and is solved by one Cholesky factorization of the normal equations.
+        basis and is solved by one Cholesky factorization of the normal equations. Also
+        returns, per level, ``(JZ, res, z, mu)`` (the level's least-squares problem and step,
+        for its KKT residuals).
         """
         mu = self.options.damping
         tol = self.options.rank_tolerance
         x = x0
         Z: FloatArray | None = Z0
         dims = []
+        steps: list[tuple[FloatArray, FloatArray, FloatArray, float]] = []
         last = len(levels) - 1
+        empty = np.zeros(0)
         for k, level in enumerate(levels):
             J = level.J
             if J.shape[0] and (Z is None or Z.shape[1]):
@@ -434,8 +450,9 @@ class HierarchySolver:
                 JZ = J if Z is None else J @ Z
                 res = level.r - J @ x
                 if k == last:
+                    mu = max(mu, 1e-12)
                     G = JZ.T @ JZ
-                    G.flat[:: G.shape[0] + 1] += max(mu, 1e-12)
+                    G.flat[:: G.shape[0] + 1] += mu
                     _, z, info = dposv(G, JZ.T @ res)
                     if info != 0:
                         return None
@@ -444,10 +461,55 @@ class HierarchySolver:
                 x = x + (z if Z is None else Z @ z)
                 if k < last:
                     Z = basis if Z is None else Z @ basis
+                steps.append((JZ, res, z, mu))
+            else:  # no rows (or no freedom): the level's step is zero
+                steps.append((np.zeros((0, 0)), empty, empty, 0.0))
             dims.append(n if Z is None else Z.shape[1])
         if not np.all(np.isfinite(x)):
             return None
-        return x, dims
+        return x, dims, steps
+
+    @staticmethod
+    def _shortcut_results(
+        x: FloatArray,
+        levels: Sequence[HierarchyLevel],
+        steps: Sequence[tuple[FloatArray, FloatArray, FloatArray, float]],
+        lb: FloatArray,
+        ub: FloatArray,
+        C: FloatArray | None,
+        l: FloatArray | None,
+        u: FloatArray | None,
+    ) -> list[QPResult]:
+        """The QP result of each level solved by the equality cascade, with KKT residuals.
+
+        The level's QP is its damped least-squares problem (every inequality inactive at the
+        cascade's point, so all multipliers are zero); its primal residual is the largest
+        violation at ``x`` of the bounds, the hard inequalities and the level's own
+        inequalities.
+        """
+        hard = max(0.0, float(np.maximum(lb - x, x - ub).max(initial=0.0)))
+        if C is not None and l is not None and u is not None and C.shape[0]:
+            Cx = C @ x
+            hard = max(hard, float(np.maximum(l - Cx, Cx - u).max(initial=0.0)))
+        out = []
+        for level, (JZ, res, z, mu) in zip(levels, steps):
+            primal = hard
+            if level.n_in:
+                assert level.C is not None and level.l is not None and level.u is not None
+                Cx = level.C @ x
+                primal = max(primal, float(np.maximum(level.l - Cx, Cx - level.u).max()))
+            objective = 0.5 * float(np.sum((JZ @ z - res) ** 2) + mu * z.dot(z)) if z.size else 0.0
+            out.append(
+                QPResult(
+                    True,
+                    QPStatus.UNCONSTRAINED,
+                    z,
+                    objective,
+                    backend="closed form",
+                    kkt=least_squares_kkt_residuals(JZ, res, z, mu, primal),
+                )
+            )
+        return out
 
     @staticmethod
     def _feasible(

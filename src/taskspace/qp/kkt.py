@@ -206,4 +206,73 @@ def stacked_kkt_residuals(
     )
 
 
-__all__ = ["KKTResiduals", "equality_kkt_residuals", "kkt_residuals", "stacked_kkt_residuals"]
+def least_squares_kkt_residuals(
+    JZ: FloatArray, res: FloatArray, z: FloatArray, mu: float, primal: float
+) -> KKTResiduals:
+    """KKT residuals of ``z`` for the unconstrained level ``min 1/2 |JZ z - res|^2 + mu/2 |z|^2``.
+
+    The QP of a hierarchy level solved in closed form (``H = JZ^T JZ + mu I``, ``g = -JZ^T
+    res``, no multipliers): the dual residual is the stationarity error ``|JZ^T (JZ z - res) +
+    mu z|``, complementarity is zero, the duality gap is ``|z'Hz + g'z|``. ``primal`` is the
+    largest violation, at the cascade's point, of the rows the level must respect (computed by
+    the caller).
+
+    Args:
+        JZ: (m, r) the level's Jacobian in the remaining freedom.
+        res: (m,) the level's residual to reduce, ``r - J x`` at the level's start.
+        z: (r,) the step.
+        mu: the level's damping.
+        primal: largest constraint violation [same units as the rows].
+    """
+    if z.shape[0] == 0:
+        return KKTResiduals(primal, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0)
+    Hz = JZ.T.dot(JZ.dot(z))
+    Hz += mu * z
+    g = -JZ.T.dot(res)
+    stationarity = Hz + g
+    zHz = float(z.dot(Hz))
+    gz = float(g.dot(z))
+    return KKTResiduals(
+        primal=primal,
+        dual=float(_max(np.abs(stationarity))),
+        complementarity=0.0,
+        duality_gap=abs(zHz + gz),
+        primal_scale=float(_max(np.abs(z))),
+        dual_scale=max(float(_max(np.abs(Hz))), float(_max(np.abs(g)))),
+        gap_scale=max(1.0, abs(zHz), abs(gz)),
+    )
+
+
+def box_kkt_residuals(p: QPProblem, x: FloatArray, tol: float = 1e-9) -> KKTResiduals:
+    """KKT residuals of ``x`` for a QP with bounds only, multipliers recovered from ``x``.
+
+    For a solver that returns no multipliers (the compiled box kernel): ``z_box = -(Hx + g)``
+    on the components at a bound (within ``tol`` times ``max(1, |x_i|)``), zero elsewhere, so
+    the dual residual is the stationarity error of the free components and a multiplier of the
+    wrong sign shows in the complementarity residual (see :func:`kkt_residuals`).
+
+    Args:
+        p: the problem (its ``A`` and ``C`` must have no rows).
+        x: primal solution (n).
+        tol: relative distance to a bound under which a component counts as at the bound.
+
+    Raises:
+        ValueError: ``p`` has equality or inequality rows.
+    """
+    if p.n_eq or p.n_in:
+        raise ValueError("box_kkt_residuals takes a problem with bounds only")
+    at_bound = (np.abs(x - p.lb) <= tol * np.maximum(1.0, np.abs(x))) | (
+        np.abs(x - p.ub) <= tol * np.maximum(1.0, np.abs(x))
+    )
+    z_box = np.where(at_bound, -(p.H.dot(x) + p.g), 0.0)
+    return kkt_residuals(p, x, np.zeros(0), np.zeros(0), z_box)
+
+
+__all__ = [
+    "KKTResiduals",
+    "box_kkt_residuals",
+    "equality_kkt_residuals",
+    "kkt_residuals",
+    "least_squares_kkt_residuals",
+    "stacked_kkt_residuals",
+]
