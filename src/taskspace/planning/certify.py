@@ -7,11 +7,17 @@ least distance ``d`` between
 the robot and the obstacles (and ``d_s`` between checked robot links) is computed with coal;
 no point of any link moves farther than ``B |dt|`` while ``t`` changes by ``dt``, where
 
-    B = sum_j R_j |(q1 (-) q0)_j|,
+    B = sum_j (|v_j| + R_j |omega_j|),
 
-``R_j`` bounding the distance from joint ``j``'s axis to any point of a link moved by it (the
-joint offsets along the chain plus the farthest corner of the geometry's bounding box; 1 for a
-prismatic joint). So ``t`` may advance by ``min(d / B, d_s / (2 B))`` with no contact
+``(v_j, omega_j)`` the linear and angular parts of joint ``j``'s share of
+``q1 (-) q0`` (a free-flyer, planar, spherical, revolute, continuous or prismatic joint moves
+with a constant body velocity along the segment) and ``R_j`` bounding the distance from joint
+``j``'s origin to any point of a link moved by it (the joint offsets along the chain, the
+reach of the prismatic joints crossed, plus the farthest corner of the geometry's bounding
+box); see :class:`MotionBound`. Each pair is advanced on its own rate: an obstacle pair's
+``B`` sums the joints above its robot body, a self pair's only the joints between its two
+bodies (a common ancestor, e.g. the floating base, moves both rigidly). So ``t`` may advance
+by ``min_p d_p / B_p`` over the pairs with no contact
 possible, and the segment is free when ``t`` reaches 1. A distance below ``tolerance`` stops
 the advancement: the segment is then reported uncertified (touching, or closer than the
 tolerance), never "free".
@@ -55,16 +61,108 @@ class PathCertificate:
     distance_queries: int
 
 
-def motion_bounds(robot: Robot) -> FloatArray:
-    """``R_j`` per velocity coordinate [m per rad, or 1 for prismatic joints].
+_REVOLUTE = ("JointModelRX", "JointModelRY", "JointModelRZ", "JointModelRevoluteUnaligned",
+             "JointModelRUBX", "JointModelRUBY", "JointModelRUBZ",
+             "JointModelRevoluteUnboundedUnaligned", "JointModelSphericalZYX")  # fmt: skip
+_PRISMATIC = ("JointModelPX", "JointModelPY", "JointModelPZ", "JointModelPrismaticUnaligned",
+              "JointModelTranslation")  # fmt: skip
+_HELICAL = ("JointModelHX", "JointModelHY", "JointModelHZ", "JointModelHelicalUnaligned")
+_CERTIFIABLE = (*_REVOLUTE, *_PRISMATIC, *_HELICAL, "JointModelPlanar", "JointModelSpherical",
+                "JointModelFreeFlyer")  # fmt: skip
+
+
+@dataclass(frozen=True)
+class MotionBound:
+    """A bound on how far any point of any link moves along a segment of joint motion.
+
+    For the segment ``q(t) = q0 (+) t delta``, ``t in [0, 1]`` (``delta = q1 (-) q0``, size
+    ``nv``), every joint ``j`` moves with a constant body velocity ``delta_j`` (the exponential
+    of its Lie group), so a point ``p`` of a link below it moves, because of ``j``, at most at
+    ``|v_j| + |omega_j| |p - o_j|`` (``v_j``, ``omega_j``: the linear and angular parts of
+    ``delta_j``, ``o_j`` the joint's origin). Summed down the tree,
+
+        B(delta) = sum_g w_g |delta[g]|,
+
+    over groups ``g`` of velocity coordinates: the translation of a free-flyer, planar or
+    translation joint and a prismatic coordinate with ``w = 1``; the rotation vector of a
+    free-flyer or spherical joint, the angle of a planar, revolute or continuous joint with
+    ``w = R_j``, the farthest any collision geometry below ``j`` can be from ``o_j`` (joint
+    offsets along the chain, plus the reach of every prismatic joint crossed, plus the
+    farthest corner of the geometry's bounding box); a helical joint ``R_j + |pitch|``; each
+    Euler rate of a ``SphericalZYX`` joint ``R_j`` (``|omega| <= sum |rates|``).
+
+    Attributes:
+        groups: per group, the indices of its velocity coordinates.
+        weights: ``w_g`` [m per rad, or 1 for translations].
+        joints: the Pinocchio joint index of each group.
+    """
+
+    groups: tuple[tuple[int, ...], ...]
+    weights: tuple[float, ...]
+    joints: tuple[int, ...] = ()
+
+    def group_rates(self, delta: FloatArray) -> FloatArray:
+        """``w_g |delta[g]|`` per group [m]: the share of ``B(delta)`` of each group."""
+        return np.array(
+            [w * float(np.linalg.norm(delta[list(g)])) for g, w in zip(self.groups, self.weights)]
+        )
+
+    def __call__(self, delta: FloatArray) -> float:
+        """``B(delta)`` [m]: no link point moves farther along the segment."""
+        return float(
+            sum(
+                w * float(np.linalg.norm(delta[list(g)])) for g, w in zip(self.groups, self.weights)
+            )
+        )
+
+    def per_coordinate(self, nv: int) -> FloatArray:
+        """``w`` of each velocity coordinate's group (``B <= sum_i w_i |delta_i|``), (nv,)."""
+        out = np.zeros(nv)
+        for g, w in zip(self.groups, self.weights):
+            out[list(g)] = w
+        return out
+
+
+def motion_bound(robot: Robot, path: Any = None) -> MotionBound:
+    """The :class:`MotionBound` of ``robot``.
+
+    Args:
+        robot: the robot and its collision geometries.
+        path: waypoints ``(m, nq)`` the bound will be used on: the reach of each prismatic
+            joint is the largest ``|q|`` along it (the segments move prismatic coordinates
+            linearly). Without it, the largest ``|limit|``.
 
     Raises:
-        InvalidInputError: the robot has joints of more than one degree of freedom (floating
-            base, spherical, planar): certify the arm with the base fixed instead.
+        InvalidInputError: a joint type whose motion cannot be bounded (composite, mimic),
+            or a prismatic joint without finite limits and no ``path``.
     """
     model = robot.model
     gm = robot.collision_model
-    bounds = np.zeros(model.nv)
+    extent = np.zeros(model.njoints)  # how far a prismatic joint can displace its child
+    for j in range(1, model.njoints):
+        joint = model.joints[j]
+        short = joint.shortname()
+        if short not in _CERTIFIABLE:
+            raise InvalidInputError(
+                f"certify_path cannot bound the motion of joint '{model.names[j]}' of type "
+                f"{short}; supported: {', '.join(_CERTIFIABLE)} (lock it, e.g. "
+                "pinocchio.buildReducedModel)"
+            )
+        if short in _PRISMATIC:
+            sl = slice(joint.idx_q, joint.idx_q + joint.nq)
+            if path is not None:
+                values = np.abs(np.asarray(path, dtype=np.float64)[:, sl])
+                extent[j] = float(np.max(np.linalg.norm(values, axis=1)))
+            else:
+                lim = np.maximum(
+                    np.abs(model.lowerPositionLimit[sl]), np.abs(model.upperPositionLimit[sl])
+                )
+                if not np.all(np.isfinite(lim)):
+                    raise InvalidInputError(
+                        f"prismatic joint '{model.names[j]}' has no finite limits: give the "
+                        "path to motion_bound so its reach can be taken from it"
+                    )
+                extent[j] = float(np.linalg.norm(lim))
     reach = np.zeros(model.njoints)  # farthest geometry point from each joint's origin
     for k in range(robot.robot_geometry_count):
         obj = gm.geometryObjects[k]
@@ -81,22 +179,58 @@ def motion_bounds(robot: Robot) -> FloatArray:
             )
         )
         joint = obj.parentJoint
-        offset = 0.0
+        offset = far
         while joint > 0:
-            reach[joint] = max(reach[joint], far + offset)
+            reach[joint] = max(reach[joint], offset)
+            # From the parent's origin to this joint's moving frame: the fixed placement
+            # plus the prismatic displacement.
             offset += float(np.linalg.norm(model.jointPlacements[joint].translation))
+            offset += extent[joint]
             joint = model.parents[joint]
+    groups: list[tuple[int, ...]] = []
+    weights: list[float] = []
+    owners: list[int] = []
     for j in range(1, model.njoints):
         joint = model.joints[j]
-        if joint.nv != 1:
-            raise InvalidInputError(
-                f"certify_path handles joints of one degree of freedom; joint "
-                f"'{model.names[j]}' has {joint.nv}; certify the arm with the base fixed "
-                f"(a fixed-base model, e.g. pinocchio.buildReducedModel) instead"
-            )
-        prismatic = "Prismatic" in joint.shortname()
-        bounds[joint.idx_v] = 1.0 if prismatic else reach[j]
-    return bounds
+        short, i = joint.shortname(), joint.idx_v
+        before = len(groups)
+        if short == "JointModelFreeFlyer":
+            groups += [(i, i + 1, i + 2), (i + 3, i + 4, i + 5)]
+            weights += [1.0, reach[j]]
+        elif short == "JointModelPlanar":
+            groups += [(i, i + 1), (i + 2,)]
+            weights += [1.0, reach[j]]
+        elif short == "JointModelSpherical":
+            groups.append((i, i + 1, i + 2))
+            weights.append(reach[j])
+        elif short == "JointModelTranslation":
+            groups.append((i, i + 1, i + 2))
+            weights.append(1.0)
+        elif short in _PRISMATIC:
+            groups.append((i,))
+            weights.append(1.0)
+        elif short in _HELICAL:
+            groups.append((i,))
+            weights.append(reach[j] + abs(float(joint.pitch)))
+        else:  # revolute, continuous, the three Euler rates of SphericalZYX
+            for k in range(joint.nv):
+                groups.append((i + k,))
+                weights.append(reach[j])
+        owners += [j] * (len(groups) - before)
+    return MotionBound(tuple(groups), tuple(float(w) for w in weights), tuple(owners))
+
+
+def motion_bounds(robot: Robot) -> FloatArray:
+    """``R_j`` per velocity coordinate [m per rad, or 1 for translations].
+
+    ``sum_i R_i |delta_i|`` bounds how far any link point moves along a segment of joint
+    motion ``delta`` (it is never below :class:`MotionBound`'s ``B(delta)``, which takes
+    norms of the translation and rotation vectors of multi-DoF joints instead).
+
+    Raises:
+        InvalidInputError: see :func:`motion_bound`.
+    """
+    return motion_bound(robot).per_coordinate(robot.model.nv)
 
 
 def certify_path(
@@ -107,6 +241,11 @@ def certify_path(
     max_queries: int = 100_000,
 ) -> PathCertificate:
     """Prove each segment of ``path`` collision-free by conservative advancement.
+
+    Robot pairs of two geometries on the same body (one parent joint) keep their distance
+    along any motion: they are checked once, at the first waypoint (distance > 0), and take
+    no part in the advancement. Any joint :func:`motion_bound` accepts may move, floating and
+    planar bases included.
 
     Args:
         robot: the robot with its collision pairs and obstacles (convex hulls make the
@@ -124,38 +263,66 @@ def certify_path(
         raise InvalidInputError(f"tolerance must be a distance > 0 [m], got {tolerance!r}")
     check_positive(tolerance, "tolerance")
     max_queries = check_count(max_queries, "max_queries", minimum=1)
-    R = motion_bounds(robot)
     model, gm = robot.model, robot.collision_model
+    normalized = np.array([pin.normalize(model, q) for q in arr])
+    if np.max(np.abs(normalized - arr)) > 1e-6:
+        raise InvalidInputError(
+            "path has configurations whose quaternions or (cos, sin) pairs are not of unit "
+            "norm; normalize them (pinocchio.normalize) before certifying"
+        )
+    bound = motion_bound(robot, arr)
     data, gd = model.createData(), gm.createData()
     n_robot = robot.robot_geometry_count
     pairs = gm.collisionPairs
     self_pair = np.array([p.first < n_robot and p.second < n_robot for p in pairs])
+    parent = [obj.parentJoint for obj in gm.geometryObjects]
+    # Two geometries on one joint's body never move relative to each other: their distance
+    # is checked once (> 0), not advanced on (tiago's finger links sit 2e-5 m apart).
+    rigid = self_pair & np.array([parent[p.first] == parent[p.second] for p in pairs])
 
-    def distances(q: FloatArray) -> tuple[float, float]:
-        pin.computeDistances(model, data, gm, gd, q)
-        d = np.array([r.min_distance for r in gd.distanceResults])
-        d_obstacle = float(d[~self_pair].min()) if (~self_pair).any() else math.inf
-        d_self = float(d[self_pair].min()) if self_pair.any() else math.inf
-        return d_obstacle, d_self
+    def ancestors(joint: int) -> set[int]:
+        out = set()
+        while joint > 0:
+            out.add(joint)
+            joint = model.parents[joint]
+        return out
+
+    # Which groups of joint motion can change each pair's distance: the joints above the
+    # robot geometry for an obstacle pair; for a self pair only the joints between the two
+    # bodies (a common ancestor moves both rigidly, which keeps their distance).
+    owners = np.array(bound.joints)
+    pair_groups = np.zeros((len(pairs), len(owners)))
+    for k, p in enumerate(pairs):
+        a = ancestors(parent[p.first]) if p.first < n_robot else set()
+        b = ancestors(parent[p.second]) if p.second < n_robot else set()
+        pair_groups[k] = np.isin(owners, sorted(a ^ b))
+    active = ~rigid
 
     queries = 0
     least = math.inf
+    if rigid.any():
+        pin.computeDistances(model, data, gm, gd, arr[0])
+        queries += 1
+        least = float(np.array([r.min_distance for r in gd.distanceResults])[rigid].min())
+        if least <= 0.0:
+            return PathCertificate(False, least, 0, 0.0, queries)
     for s in range(arr.shape[0] - 1 if arr.shape[0] > 1 else 1):
         q0 = arr[s]
         q1 = arr[s + 1] if arr.shape[0] > 1 else arr[s]
         delta = pin.difference(model, q0, q1)  # (nv,): joint motions, continuous joints too
-        rate = float(R @ np.abs(delta))
+        rates = pair_groups @ bound.group_rates(delta)  # [m] per unit t, per pair
+        moving = active & (rates > 0.0)
         t = 0.0
         while True:
-            d_obs, d_self = distances(pin.integrate(model, q0, t * delta))
+            pin.computeDistances(model, data, gm, gd, pin.integrate(model, q0, t * delta))
             queries += 1
-            d = min(d_obs, d_self)
-            least = min(least, d)
-            if d < tolerance or queries >= max_queries:
+            d = np.array([r.min_distance for r in gd.distanceResults])
+            least = min(least, float(d[active].min()) if active.any() else math.inf)
+            if (active.any() and d[active].min() < tolerance) or queries >= max_queries:
                 return PathCertificate(False, least, s, t, queries)
-            if rate == 0.0 or t >= 1.0:
+            if not moving.any() or t >= 1.0:
                 break
-            step = min(d_obs / rate, d_self / (2.0 * rate))
+            step = float(np.min(d[moving] / rates[moving]))
             t = min(1.0, t + step)
     return PathCertificate(True, least, -1, 1.0, queries)
 
