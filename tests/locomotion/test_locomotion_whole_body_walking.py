@@ -4,12 +4,16 @@ the simulator, their friction cones, and the support polygon of the simulated fe
 
 from __future__ import annotations
 
+import os
+from pathlib import Path
+
 import numpy as np
 import pytest
 
 from taskspace.locomotion.footsteps import StepTiming
 from taskspace.locomotion.whole_body_walking import plan_from_robot, walk
 from taskspace.locomotion.zmp import zmp_from_dynamics
+from taskspace.viz import Viewer, compare_images
 
 TIMING = StepTiming(
     single_support=0.5,
@@ -91,3 +95,40 @@ def test_force_transitions_at_lift_off_and_touchdown(short_walk):
         assert res.wrenches[swing][before, 2] < 0.02 * weight  # unloaded at lift-off
         assert res.wrenches[swing][after, 2] < 0.02 * weight  # light at touchdown
         assert res.wrenches[swing][after + 20, 2] > 0.05 * weight  # then takes load
+
+
+SNAPSHOTS = Path(__file__).resolve().parents[1] / "snapshots"
+UPDATE = os.environ.get("UPDATE_SNAPSHOTS", "") not in ("", "0")
+
+
+@pytest.mark.slow
+@pytest.mark.snapshot
+def test_walk_snapshot_mid_single_support(short_walk):
+    """Headless Chromium renders G1 half-way through its first single support (the right foot
+    lifted, by the simulated walk) and the picture matches the reference PNG."""
+    if os.environ.get("OPENBLAS_NUM_THREADS") != "1":
+        pytest.skip(
+            "the reference was rendered with OPENBLAS_NUM_THREADS=1 (as make test runs): "
+            "threaded BLAS sums change the 2 s simulated walk in the last bits, and the pose"
+        )
+    robot, _plan, res = short_walk
+    _kind, start, end = next(p for p in res.phases if p[0] == "single_support")
+    k = int(np.searchsorted(res.times, 0.5 * (start + end)))
+    q = res.q[k]
+    lifted = robot.frame_placement(q, "right_ankle_roll_link").translation[2]
+    standing = robot.frame_placement(q, "left_ankle_roll_link").translation[2]
+    assert lifted - standing > 0.02  # the picture shows a step, not a stance
+    viewer = Viewer(robot, q)
+    viewer.add_com("com", radius=0.03)
+    png = viewer.snapshot(size=(640, 480))
+    reference = SNAPSHOTS / "g1_walking_single_support.png"
+    if UPDATE:
+        reference.write_bytes(png)
+        return
+    assert reference.is_file(), f"missing {reference}; run with UPDATE_SNAPSHOTS=1"
+    result = compare_images(png, reference.read_bytes())
+    if not result.success:
+        failures = SNAPSHOTS / "failures"
+        failures.mkdir(parents=True, exist_ok=True)
+        (failures / "g1_walking_single_support_actual.png").write_bytes(png)
+    assert result.success, result.summary()
