@@ -43,6 +43,11 @@ class Task:
         kp: stiffness of the acceleration-level reference (inverse dynamics, operational
             space control): ``y''* = y''_ref - kp e - kd (e' - y'_ref)`` [1/s^2].
         kd: damping [1/s]; default ``2 sqrt(kp)`` (critical damping).
+        lm_damping: Levenberg-Marquardt damping ``lambda`` of this task in a weighted
+            velocity-level stack (:class:`~taskspace.ik.DifferentialIK`): the step's
+            regularization grows with the task's weighted error, ``H += lambda |sqrt(rho)
+            e|^2 I`` (pink's ``lm_damping``), so steps shrink far from the target and the
+            solution stays exact at it. Finite, ``>= 0`` (default 0: off).
         name: label (default: the feature's name).
     """
 
@@ -53,6 +58,7 @@ class Task:
     priority: int
     kp: float
     kd: float
+    lm_damping: float
 
     def __init__(
         self,
@@ -64,6 +70,7 @@ class Task:
         priority: int = 0,
         kp: float = 100.0,
         kd: float | None = None,
+        lm_damping: float = 0.0,
         name: str | None = None,
     ) -> None:
         if not isinstance(feature, Feature):
@@ -78,11 +85,14 @@ class Task:
         self._target: Any = None
         if target is not None:
             self.set_target(target)
+        elif (default := getattr(feature, "default_target", None)) is not None:
+            self.set_target(default())  # a feature with one possible target (Damping)
         self.weight = weight
         self.gain = gain
         self.priority = priority
         self.kp = kp
         self.kd = 2.0 * math.sqrt(self.kp) if kd is None else kd
+        self.lm_damping = lm_damping
         self.reference_velocity: FloatArray | None = None
         self.reference_acceleration: FloatArray | None = None
 
@@ -273,7 +283,12 @@ def _check_kd(task: Task, value: Any) -> float:
     return check_positive(value, f"kd of task '{_label(task)}'", strict=False)
 
 
+def _check_lm_damping(task: Task, value: Any) -> float:
+    return check_positive(value, f"lm_damping of task '{_label(task)}'", strict=False)
+
+
 _SETTERS: dict[str, Callable[[Task, Any], Any]] = {
+    "lm_damping": _check_lm_damping,
     "sqrt_weight": _check_sqrt_weight,
     "gain": _check_gain,
     "priority": _check_priority,

@@ -99,7 +99,8 @@ def _tangent_of_value(feature: F.Feature, ref_state: State) -> Callable[[State],
         return lambda s: np.asarray(pin.log3(R0.T @ feature.value(s)))
     if isinstance(feature, F.JointConfiguration):
         q0 = ref_state.q.copy()
-        return lambda s: np.asarray(pin.difference(feature.robot.model, q0, s.q))
+        rows = slice(None) if feature.rows is None else feature.rows  # the selected rows
+        return lambda s: np.asarray(pin.difference(feature.robot.model, q0, s.q))[rows]
     return lambda s: _as_array(feature.value(s))
 
 

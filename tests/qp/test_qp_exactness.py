@@ -161,7 +161,7 @@ def test_ik_qps_of_real_robots(name: str) -> None:
     frame = IK_ROBOTS[name]
     rng = np.random.default_rng(0)
     task = Task(F.Position(robot, frame), np.zeros(3), gain=1.0)
-    posture = Task(F.JointConfiguration(robot), robot.q_default, weight=1e-3)
+    posture = Task(F.JointConfiguration(robot, floating_base=True), robot.q_default, weight=1e-3)
     ik = DifferentialIK(
         robot,
         [task, posture],

@@ -21,6 +21,7 @@ import numpy as np
 import pinocchio as pin
 
 from taskspace._validation import FloatArray, check_positive
+from taskspace.errors import InvalidInputError
 
 if TYPE_CHECKING:
     from taskspace.model.robot import Robot
@@ -35,6 +36,7 @@ class Contact:
         frame: contact frame name.
         friction: Coulomb coefficient ``mu``.
         min_force: smallest normal force [N] (unilaterality with a margin).
+        max_force: largest normal force [N] (``None``: unbounded), one more row of the cone.
         kp, kd: Baumgarte gains on the contact's position and velocity error [1/s^2, 1/s].
         force_dim: number of force variables (6 or 3).
     """
@@ -51,6 +53,7 @@ class Contact:
         min_force: float = 1.0,
         kp: float = 0.0,
         kd: float = 20.0,
+        max_force: float | None = None,
     ) -> None:
         self.robot = robot
         self.frame = frame
@@ -60,6 +63,14 @@ class Contact:
         self.kp = check_positive(kp, "kp", strict=False)
         self.kd = check_positive(kd, "kd", strict=False)
         self.name = f"contact({frame})"
+        self.max_force: float | None = None
+        if max_force is not None:
+            self.max_force = check_positive(max_force, "max_force")
+            if self.max_force < self.min_force:
+                raise InvalidInputError(
+                    f"contact '{frame}': max_force ({self.max_force:g} N) must be >= min_force "
+                    f"({self.min_force:g} N)"
+                )
         self.reference: pin.SE3 | None = None
 
     def set_reference(self, state: State) -> None:
@@ -88,8 +99,20 @@ class Contact:
         return np.asarray(rhs)
 
     def cone(self) -> tuple[FloatArray, FloatArray]:
-        """``(K, k)`` with the linearized friction cone ``K f >= k``."""
+        """``(K, k)`` with the linearized friction cone ``K f >= k``.
+
+        With ``max_force`` the last row is ``-f_n >= -max_force`` (``f_n``: the normal force).
+        """
         return self._K, self._k
+
+    def _with_max_force(self, normal: int) -> None:
+        """Append ``-f[normal] >= -max_force`` to the cone when ``max_force`` is set."""
+        if self.max_force is None:
+            return
+        row = np.zeros((1, self.force_dim))
+        row[0, normal] = -1.0
+        self._K = np.vstack([self._K, row])
+        self._k = np.append(self._k, -self.max_force)
 
     def wrench_in_world(self, state: State, f: FloatArray) -> FloatArray:
         """Contact force (and torque) in world coordinates, for display."""
@@ -111,6 +134,7 @@ class Contact6D(Contact):
         friction: Coulomb coefficient.
         min_force: smallest normal force [N].
         kp, kd: Baumgarte gains.
+        max_force: largest normal force ``f_z`` [N] (``None``: unbounded).
     """
 
     force_dim = 6
@@ -125,8 +149,9 @@ class Contact6D(Contact):
         min_force: float = 1.0,
         kp: float = 0.0,
         kd: float = 20.0,
+        max_force: float | None = None,
     ) -> None:
-        super().__init__(robot, frame, friction, min_force, kp, kd)
+        super().__init__(robot, frame, friction, min_force, kp, kd, max_force)
         self.half_length = check_positive(half_length, "half_length")
         self.half_width = check_positive(half_width, "half_width")
         mu = self.friction / np.sqrt(2.0)
@@ -148,6 +173,7 @@ class Contact6D(Contact):
         self._K = np.array(K, dtype=float)
         self._k = np.zeros(len(K))
         self._k[4] = self.min_force
+        self._with_max_force(2)
 
     def jacobian(self, state: State) -> FloatArray:
         """LOCAL frame Jacobian (6 x nv)."""
@@ -190,6 +216,7 @@ class PointContact(Contact):
         friction: Coulomb coefficient.
         min_force: smallest normal force [N].
         kp, kd: Baumgarte gains.
+        max_force: largest normal force ``f_z`` (world vertical) [N] (``None``: unbounded).
     """
 
     force_dim = 3
@@ -202,13 +229,15 @@ class PointContact(Contact):
         min_force: float = 1.0,
         kp: float = 0.0,
         kd: float = 20.0,
+        max_force: float | None = None,
     ) -> None:
-        super().__init__(robot, frame, friction, min_force, kp, kd)
+        super().__init__(robot, frame, friction, min_force, kp, kd, max_force)
         mu = self.friction / np.sqrt(2.0)
         self._K = np.array(
             [[-1, 0, mu], [1, 0, mu], [0, -1, mu], [0, 1, mu], [0, 0, 1]], dtype=float
         )
         self._k = np.array([0, 0, 0, 0, self.min_force], dtype=float)
+        self._with_max_force(2)
 
     def jacobian(self, state: State) -> FloatArray:
         """Linear rows of the LOCAL_WORLD_ALIGNED Jacobian (3 x nv)."""

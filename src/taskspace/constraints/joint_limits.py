@@ -107,18 +107,40 @@ class JointPositionLimits(Constraint):
 class JointVelocityLimits(Constraint):
     """``|dq| <= v_max dt``.
 
+    On a floating-base robot the first six entries of ``dq`` are the base's twist in its own
+    frame (linear [m], then angular [rad], Pinocchio's free-flyer tangent), unlimited by
+    default; ``base_limits`` bounds them.
+
     Args:
         robot: the robot.
         limits: per-joint velocity limits (size nv) [rad/s or m/s], ``inf`` where
             unlimited; default ``robot.velocity_limits`` (the floating base is unlimited).
         scale: factor applied to the limits.
+        base_limits: bound on the floating base's twist (size 6: linear [m/s] then angular
+            [rad/s], in the base frame; ``inf`` where unlimited); replaces the first six
+            entries of ``limits`` (a floating-base robot only).
     """
 
     hard_bounds = True
 
-    def __init__(self, robot: Robot, limits: Any = None, scale: float = 1.0) -> None:
+    def __init__(
+        self,
+        robot: Robot,
+        limits: Any = None,
+        scale: float = 1.0,
+        *,
+        base_limits: Any = None,
+    ) -> None:
         super().__init__(robot, "joint velocity limits")
         lim = robot.velocity_limits if limits is None else _positive_limits(limits, robot.nv)
+        if base_limits is not None:
+            if not robot.is_floating:
+                raise InvalidInputError(
+                    f"base_limits: robot '{robot.name}' has no floating base; bound its joints "
+                    "with limits"
+                )
+            lim = lim.copy()
+            lim[:6] = _positive_limits(base_limits, 6)
         self.limits = lim * check_positive(scale, "scale")
         self._dt = -1.0
         self._box = Box(self.limits, self.limits)

@@ -23,18 +23,32 @@ class JointConfiguration(Feature):
 
     The target is a full configuration ``q*`` (size nq). The residual is Pinocchio's
     ``difference(q*, q)`` (size nv), exactly ``q - q*`` for revolute and prismatic joints;
-    its Jacobian is ``dDifference``. With ``joints`` only those joints' rows are kept (e.g.
-    a posture task on the actuated joints of a floating-base robot).
+    its Jacobian is ``dDifference``. With ``joints`` only those joints' rows are kept. On a
+    floating-base robot the base's six rows are left out by default (a posture task then
+    regulates the joints, not where the robot stands: what pink, mink and placo users expect);
+    ``floating_base=True`` keeps them.
 
     Args:
         robot: the robot.
-        joints: names of the joints to include (default: all, including a floating base).
+        joints: names of the joints to include (default: all, but the floating base unless
+            ``floating_base``).
+        floating_base: with ``joints=None`` on a floating-base robot, also regulate the base
+            (its position and orientation rows).
     """
 
-    def __init__(self, robot: Robot, joints: Sequence[str] | None = None) -> None:
+    def __init__(
+        self, robot: Robot, joints: Sequence[str] | None = None, *, floating_base: bool = False
+    ) -> None:
         super().__init__(robot, "joint_configuration")
-        if joints is None:
-            self.rows: np.ndarray | None = None
+        if not isinstance(floating_base, (bool, np.bool_)):
+            raise InvalidInputError(
+                f"floating_base must be True or False, got {type(floating_base).__name__}"
+            )
+        if joints is None and robot.is_floating and not floating_base:
+            self.rows: np.ndarray | None = np.arange(6, robot.nv)
+            self.dim = robot.nv - 6
+        elif joints is None:
+            self.rows = None
             self.dim = robot.nv
         else:
             if isinstance(joints, (str, bytes)) or not isinstance(joints, Sequence) or not joints:

@@ -130,7 +130,8 @@ class NativeWeightedStack:
     ) -> tuple[int, int, float, float, float] | None:
         """``(status, iterations, objective, build_time, qp_time)``; the step is written to ``out``.
 
-        ``None`` when the active set did not settle (the caller takes the Python path).
+        ``None`` when the active set did not settle, or a task has Levenberg-Marquardt damping
+        (the kernel's damping is fixed): the caller takes the Python path.
         """
         model = self.model
         if state._model is not model:  # the kernel must never see a Data of another model
@@ -138,6 +139,9 @@ class NativeWeightedStack:
                 f"this IK solver is built for robot '{self.robot.name}'; the state belongs to "
                 f"robot '{state.robot.name}': make the state with this robot's state(q)"
             )
+        for t in self.tasks:
+            if t.lm_damping:  # Levenberg-Marquardt damping: the Python path
+                return None
         self._scale()
         targets = [t._target for t in self.tasks]
         try:

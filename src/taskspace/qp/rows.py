@@ -336,7 +336,9 @@ class WeightedQPBuilder:
     """The QP of one weighted velocity-level step, written into preallocated arrays.
 
     ``min_x |M x - r|^2 + mu |x|^2``, as ``1/2 x^T H x + g^T x`` with ``H = M^T M + mu I``
-    and ``g = -M^T r`` (half the objective: the same minimizer), subject to ``A x = b``
+    and ``g = -M^T r`` (half the objective: the same minimizer), where ``mu`` is the damping
+    plus, per task with Levenberg-Marquardt damping, ``lm_damping |sqrt(rho) e|^2`` (its rows
+    of ``r`` divided by its gain), subject to ``A x = b``
     (equality tasks),
     ``l <= C x <= u`` (constraint rows) and ``lb <= x <= ub`` (the constraints' boxes
     combined by :func:`combine_boxes`).
@@ -379,7 +381,12 @@ class WeightedQPBuilder:
         M, r = self.objective.velocity(state)
         H, g = self._H, self._g
         np.dot(M.T, M, out=H)
-        self._diagonal += self.damping
+        mu = self.damping
+        for task, rows in self.objective._pairs:
+            if task.lm_damping:
+                ri = r[rows]
+                mu += task.lm_damping * float(ri.dot(ri)) / (task.gain * task.gain)
+        self._diagonal += mu
         np.dot(M.T, r, out=g)
         np.negative(g, out=g)
         if self.equalities.tasks:
