@@ -26,6 +26,7 @@ from typing import Any
 
 import numpy as np
 import numpy.typing as npt
+import pinocchio as pin
 
 from taskspace._validation import as_vector, check_positive
 from taskspace.errors import InvalidInputError, PlanningError
@@ -119,8 +120,9 @@ class ConfigurationSpace:
     distance is the manifold's weighted metric ``|W (q1 (-) q0)|``, the "straight line" is
     Pinocchio's interpolation ``q0 (+) t (q1 (-) q0)`` and samples are uniform on the
     manifold; :attr:`is_euclidean` is then False. RRT-Connect (its Python implementation),
-    RRT*, PRM*, Lazy PRM* and BIT* plan on such spaces; the others (RRT, PRM, Lazy PRM,
-    shortcutting, smoothing, Gaussian and bridge sampling) refuse them.
+    RRT*, PRM*, Lazy PRM* and BIT* plan on such spaces, and shortcutting and B-spline
+    smoothing work on them; the others (RRT, PRM, Lazy PRM, Gaussian and bridge sampling)
+    refuse them.
 
     Args:
         lower: lower bounds (size d) [rad or m].
@@ -255,7 +257,7 @@ class ConfigurationSpace:
                 f"{who} plans in a Euclidean box and this space is a joint manifold "
                 "(continuous, planar, spherical or floating joints, or a weighted metric); "
                 "use rrt_connect, rrt_star, prm_star, lazy_prm_star or bit_star, which plan "
-                "on the manifold"
+                "on the manifold (shortcut_path and smooth_bspline work on it too)"
             )
 
     def distance(self, q0: FloatArray, q1: FloatArray) -> float:
@@ -271,6 +273,30 @@ class ConfigurationSpace:
             diff = points - q
             return np.sqrt(np.einsum("ij,ij->i", diff, diff))
         return self.manifold.distances(points, q)
+
+    def path_length(self, path: FloatArray) -> float:
+        """Length ``sum_i d(q_i, q_{i+1})`` of a waypoint path in the space's metric [rad or m]."""
+        arr = np.atleast_2d(np.asarray(path, dtype=np.float64))
+        if arr.shape[0] < 2:
+            return 0.0
+        if self.manifold is None:
+            return path_length(arr)
+        return float(self.manifold.distances(arr[:-1], arr[1:]).sum())
+
+    def tangent_step(self, q: FloatArray, toward: FloatArray) -> FloatArray:
+        """``toward (-) q``: the motion from ``q`` to ``toward`` in the tangent space at ``q``.
+
+        ``toward - q`` in the box; Pinocchio's ``difference`` on a manifold (size ``nv``).
+        """
+        if self.manifold is None:
+            return np.asarray(toward - q, dtype=np.float64)
+        return self.manifold.difference(q, toward)[0]
+
+    def retract(self, q: FloatArray, step: FloatArray) -> FloatArray:
+        """``q (+) step`` (``q + step`` in the box, Pinocchio's ``integrate`` on a manifold)."""
+        if self.manifold is None:
+            return np.asarray(q + step, dtype=np.float64)
+        return np.asarray(pin.integrate(self.manifold.model, q, step), dtype=np.float64)
 
     def interpolate(self, q0: FloatArray, q1: FloatArray, t: Any) -> FloatArray:
         """Points of the local path ``q0 -> q1`` at fractions ``t`` (shape (len(t), d)).
@@ -320,7 +346,9 @@ class ConfigurationSpace:
         out = [arr[:1]]
         for a, b in itertools.pairwise(arr):
             k = max(1, math.ceil(self.distance(a, b) / step - 1e-12))
-            out.append(self.interpolate(a, b, np.arange(1, k + 1) / k))
+            piece = self.interpolate(a, b, np.arange(1, k + 1) / k)
+            piece[-1] = b  # exactly (pinocchio.interpolate may return -quaternion at t = 1)
+            out.append(piece)
         return np.vstack(out)
 
     def sample_uniform(self, rng: np.random.Generator, n: int | None = None) -> FloatArray:

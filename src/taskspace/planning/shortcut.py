@@ -6,10 +6,15 @@ Two passes, both using the straight-line local planner (slide 3:32):
    the segment ``q_i -> q_j`` is in Q_free;
 2. random shortcuts: pick two points ``q(s_1), q(s_2)`` at random arc lengths
    ``s_1 < s_2`` of the path; if the segment between them is in Q_free, it replaces the
-   part of the path between them (the path never gets longer, by the triangle inequality).
+   part of the path between them when it is shorter than the part it replaces (the path
+   never gets longer).
    The two cut pieces of the old edges are checked as well: a piece of an edge checked at
    the points ``k / n`` is a new segment whose own points ``k / n'`` were not checked, and
    the result must be free at the resolution ``delta`` segment by segment.
+
+On a joint-manifold space (continuous joints, planar or floating bases) the segments are the
+space's geodesics (``pinocchio.interpolate``), arc lengths are measured in its metric
+``|W (q1 (-) q0)|`` and the cut points lie on the geodesics.
 """
 
 from __future__ import annotations
@@ -21,7 +26,7 @@ import numpy as np
 
 from taskspace._validation import as_matrix, check_count, check_seed, check_time_limit
 from taskspace.errors import InvalidInputError, PlanningError
-from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray, path_length
+from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -63,17 +68,30 @@ class ShortcutResult:
     time_s: float
 
 
-def _point_at(path: FloatArray, cumulative: FloatArray, s: float) -> tuple[int, FloatArray]:
-    """Segment index ``i`` and the point at arc length ``s`` on segment ``i -> i + 1``."""
+def _point_at(
+    space: ConfigurationSpace, path: FloatArray, cumulative: FloatArray, s: float
+) -> tuple[int, FloatArray]:
+    """Segment index ``i`` and the point at arc length ``s`` on segment ``i -> i + 1``.
+
+    The point is on the local path (the geodesic on a joint manifold, at ``t d`` from
+    ``q_i``).
+    """
     i = int(np.searchsorted(cumulative, s, side="right") - 1)
     i = min(max(i, 0), path.shape[0] - 2)
     seg = cumulative[i + 1] - cumulative[i]
     t = 0.0 if seg <= 0 else (s - cumulative[i]) / seg
-    return i, path[i] + t * (path[i + 1] - path[i])
+    return i, space.interpolate(path[i], path[i + 1], [t])[0]
 
 
 def _check_input(space: ConfigurationSpace, path: FloatArray) -> None:
     """Raise :class:`PlanningError` unless every waypoint and edge of ``path`` is free."""
+    if space.manifold is not None:
+        for i, q in enumerate(path):
+            if space.manifold.unit_error(q) > 1e-6:
+                raise PlanningError(
+                    f"path waypoint {i} is not a valid configuration: a quaternion or "
+                    "(cos, sin) pair is not of unit norm; normalize it (pinocchio.normalize)"
+                )
     outside = np.flatnonzero(((path < space.lower) | (path > space.upper)).any(axis=1))
     if outside.size:
         i = int(outside[0])
@@ -129,7 +147,6 @@ def shortcut_path(
             offending waypoint or edge).
     """
     opts = options or ShortcutOptions()
-    space.require_euclidean("shortcut_path")
     arr = as_matrix(np.atleast_2d(np.asarray(path, dtype=float)), (None, space.dim), "path")
     arr = arr.copy()
     if arr.shape[0] < 1:
@@ -143,7 +160,7 @@ def shortcut_path(
     checks0 = space.checks
     _check_input(space, arr)
     deadline = time.perf_counter() + time_limit
-    before = path_length(arr)
+    before = space.path_length(arr)
     accepted = 0
     if opts.greedy and arr.shape[0] > 2:
         keep = [0]
@@ -159,18 +176,16 @@ def shortcut_path(
     for _ in range(max_iterations):
         if arr.shape[0] < 2 or time.perf_counter() > deadline:
             break
-        cumulative = np.concatenate(
-            [[0.0], np.cumsum(np.linalg.norm(np.diff(arr, axis=0), axis=1))]
-        )
+        cumulative = np.concatenate([[0.0], np.cumsum(space.distances(arr[:-1], arr[1:]))])
         total = float(cumulative[-1])
         if total <= 0:
             break
         s1, s2 = np.sort(rng.uniform(0.0, total, 2))
-        i1, p1 = _point_at(arr, cumulative, float(s1))
-        i2, p2 = _point_at(arr, cumulative, float(s2))
+        i1, p1 = _point_at(space, arr, cumulative, float(s1))
+        i2, p2 = _point_at(space, arr, cumulative, float(s2))
         if i1 == i2:
             continue  # same segment: already straight
-        new_length = float(np.linalg.norm(p2 - p1))
+        new_length = space.distance(p1, p2)
         if new_length >= s2 - s1 - 1e-12:
             continue
         # The pieces q_i1 -> p1 and p2 -> q_(i2+1) lie on free edges but are new segments whose
@@ -184,7 +199,7 @@ def shortcut_path(
             continue
         arr = np.vstack([arr[: i1 + 1], p1, p2, arr[i2 + 1 :]])
         accepted += 1
-    after = path_length(arr)
+    after = space.path_length(arr)
     return ShortcutResult(
         path=arr,
         length_before=before,

@@ -13,6 +13,13 @@ new segments ``q_{i-1} -> q_i'`` and ``q_i' -> q_{i+1}`` are free at the space's
 checks its edges; ``q_i'`` lies in the triangle ``q_{i-1} q_i q_{i+1}``, so the path never
 gets longer. The input is checked first and a colliding input is refused, and the whole result
 is checked again before it is returned.
+
+On a joint-manifold space (continuous joints, planar or floating bases) the same corner cut
+is taken in the tangent space at ``q_i``:
+``q_i' = q_i (+) ((q_{i-1} (-) q_i) + (q_{i+1} (-) q_i)) / 4`` (Pinocchio's ``difference`` and
+``integrate``), segments are the space's geodesics, lengths are in its metric, and a move is
+kept only if it does not lengthen the two segments (the weighted metric of SE(3) need not obey
+the triangle inequality along such a cut).
 """
 
 from __future__ import annotations
@@ -24,7 +31,7 @@ import numpy as np
 
 from taskspace._validation import as_matrix, check_positive
 from taskspace.errors import InvalidInputError, PlanningError
-from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray, path_length
+from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray
 from taskspace.planning.limits import planner_limits
 from taskspace.planning.rrt_star import interpolate
 from taskspace.planning.shortcut import _check_input
@@ -95,7 +102,6 @@ def smooth_bspline(
             offending waypoint or edge).
     """
     opts = options or SmoothingOptions()
-    space.require_euclidean("smooth_bspline")
     arr = as_matrix(np.atleast_2d(np.asarray(path, dtype=float)), (None, space.dim), "path")
     if arr.shape[0] < 1:
         raise InvalidInputError(f"path must have shape (m, {space.dim}) with m >= 1")
@@ -107,20 +113,33 @@ def smooth_bspline(
     deadline = t0 + limit
     checks0 = space.checks
     _check_input(space, arr)
-    before = path_length(arr)
+    before = space.path_length(arr)
     current = arr.copy()
     moved = rejected = passes = 0
     while passes < passes_cap and current.shape[0] > 2 and time.perf_counter() <= deadline:
         passes += 1
-        length0 = path_length(current)
-        current = interpolate(current, step)
+        length0 = space.path_length(current)
+        current = (
+            interpolate(current, step)
+            if space.manifold is None
+            else space.interpolate_path(current, step)
+        )
         for parity in (1, 2):
             for i in range(parity, current.shape[0] - 1, 2):
                 if time.perf_counter() > deadline:
                     break
                 a, b, c = current[i - 1], current[i], current[i + 1]
-                q = 0.25 * a + 0.5 * b + 0.25 * c
+                if space.manifold is None:
+                    q = 0.25 * a + 0.5 * b + 0.25 * c
+                else:  # the same step in the tangent space at b
+                    step_b = 0.25 * (space.tangent_step(b, a) + space.tangent_step(b, c))
+                    q = space.retract(b, step_b)
                 if np.allclose(q, b, rtol=0.0, atol=1e-12):
+                    continue
+                if space.manifold is not None and space.distance(a, q) + space.distance(
+                    q, c
+                ) > space.distance(a, b) + space.distance(b, c):
+                    rejected += 1  # the manifold's metric need not shrink the corner
                     continue
                 if (
                     space.within_bounds(q)
@@ -132,7 +151,7 @@ def smooth_bspline(
                     moved += 1
                 else:
                     rejected += 1
-        if length0 - path_length(current) <= opts.min_change * length0:
+        if length0 - space.path_length(current) <= opts.min_change * length0:
             break
     if not space.path_valid(current):  # every move was checked; this is the final guard
         raise PlanningError(
@@ -142,7 +161,7 @@ def smooth_bspline(
     return SmoothingResult(
         path=current,
         length_before=before,
-        length_after=path_length(current),
+        length_after=space.path_length(current),
         passes=passes,
         moved=moved,
         rejected=rejected,
