@@ -1,6 +1,7 @@
 """Task variables (features) of the lecture notes: value, Jacobian and drift."""
 
 from taskspace.features.alignment import Alignment
+from taskspace.features.angular_momentum import AngularMomentum
 from taskspace.features.center_of_mass import CenterOfMass
 from taskspace.features.collision import CollisionDistance, CollisionPenetration
 from taskspace.features.damping import Damping
@@ -18,6 +19,7 @@ from taskspace.features.vector import Vector
 
 __all__ = [
     "Alignment",
+    "AngularMomentum",
     "CenterOfMass",
     "CollisionDistance",
     "CollisionPenetration",
