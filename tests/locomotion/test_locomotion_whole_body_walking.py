@@ -106,11 +106,6 @@ UPDATE = os.environ.get("UPDATE_SNAPSHOTS", "") not in ("", "0")
 def test_walk_snapshot_mid_single_support(short_walk):
     """Headless Chromium renders G1 half-way through its first single support (the right foot
     lifted, by the simulated walk) and the picture matches the reference PNG."""
-    if os.environ.get("OPENBLAS_NUM_THREADS") != "1":
-        pytest.skip(
-            "the reference was rendered with OPENBLAS_NUM_THREADS=1 (as make test runs): "
-            "threaded BLAS sums change the 2 s simulated walk in the last bits, and the pose"
-        )
     robot, _plan, res = short_walk
     _kind, start, end = next(p for p in res.phases if p[0] == "single_support")
     k = int(np.searchsorted(res.times, 0.5 * (start + end)))
@@ -120,15 +115,20 @@ def test_walk_snapshot_mid_single_support(short_walk):
     assert lifted - standing > 0.02  # the picture shows a step, not a stance
     viewer = Viewer(robot, q)
     viewer.add_com("com", radius=0.03)
-    png = viewer.snapshot(size=(640, 480))
     reference = SNAPSHOTS / "g1_walking_single_support.png"
     if UPDATE:
-        reference.write_bytes(png)
+        reference.write_bytes(viewer.snapshot(size=(640, 480)))
         return
     assert reference.is_file(), f"missing {reference}; run with UPDATE_SNAPSHOTS=1"
-    result = compare_images(png, reference.read_bytes())
-    if not result.success:
-        failures = SNAPSHOTS / "failures"
-        failures.mkdir(parents=True, exist_ok=True)
-        (failures / "g1_walking_single_support_actual.png").write_bytes(png)
-    assert result.success, result.summary()
+    # One re-render on a mismatch: once in six runs a first render of this 40-mesh scene
+    # differed from the reference in 0.8 % of its pixels (the pose was identical); a wrong
+    # pose differs in every render.
+    for _ in range(2):
+        png = viewer.snapshot(size=(640, 480))
+        result = compare_images(png, reference.read_bytes())
+        if result.success:
+            return
+    failures = SNAPSHOTS / "failures"
+    failures.mkdir(parents=True, exist_ok=True)
+    (failures / "g1_walking_single_support_actual.png").write_bytes(png)
+    pytest.fail(f"G1 walking snapshot differs from {reference.name}: {result.summary()}")
