@@ -29,8 +29,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import pinocchio as pin
 
-from taskspace._validation import FloatArray, check_positive
-from taskspace.constraints.contact import Contact
+from taskspace._validation import FloatArray, as_vector, check_positive
+from taskspace.constraints.contact import Contact, Contact6D
 from taskspace.errors import InvalidInputError
 from taskspace.model.robot import Robot
 from taskspace.model.state import State
@@ -124,6 +124,66 @@ class InverseDynamicsOptions:
     solver_for_hierarchy: bool = False
 
 
+class CenterOfPressureTask:
+    """Drive the center of pressure of a 6-D contact to a point ``p*`` of its sole.
+
+    With the contact wrench ``(f, tau)`` in the contact frame, the center of pressure is
+    ``p = (-tau_y / f_z, tau_x / f_z)``; the task is the linear least-squares term
+    ``weight (|tau_x - p*_y f_z|^2 + |tau_y + p*_x f_z|^2) / (m g)^2`` on the force
+    variables (``m g``: the robot's weight [N], as in the force regularization), which is zero
+    exactly when ``p = p*`` (TSID's ``TaskCopEquality``). Weighted mode of
+    :class:`InverseDynamicsQP` only.
+
+    Attributes:
+        contact: the :class:`~taskspace.constraints.Contact6D` whose center of pressure is
+            driven.
+        target: ``p*`` in the contact frame (x, y) [m]; assigning it validates it.
+        weight: precision (finite, ``>= 0``); assigning it validates it.
+        name: label.
+    """
+
+    def __init__(
+        self,
+        contact: Contact6D,
+        target: object = (0.0, 0.0),
+        *,
+        weight: float = 1.0,
+        name: str | None = None,
+    ) -> None:
+        if not isinstance(contact, Contact6D):
+            raise InvalidInputError(
+                "CenterOfPressureTask needs a Contact6D (a sole with a 6-D wrench), got "
+                f"{type(contact).__name__}"
+            )
+        self.contact = contact
+        self.name = name or f"center of pressure({contact.frame})"
+        self.target = target  # type: ignore[assignment]
+        self.weight = weight
+
+    @property
+    def target(self) -> FloatArray:
+        """``p*`` (x, y) in the contact frame [m]."""
+        return self._target
+
+    @target.setter
+    def target(self, value: object) -> None:
+        self._target = as_vector(value, 2, f"target of '{self.name}'")
+
+    @property
+    def weight(self) -> float:
+        """Precision of the task."""
+        return self._weight
+
+    @weight.setter
+    def weight(self, value: float) -> None:
+        self._weight = check_positive(value, f"weight of '{self.name}'", strict=False)
+
+    def rows(self) -> FloatArray:
+        """``R`` (2 x 6) with ``R (f, tau) = (tau_x - p*_y f_z, tau_y + p*_x f_z)``."""
+        px, py = self._target
+        return np.array([[0.0, 0.0, -py, 1.0, 0.0, 0.0], [0.0, 0.0, px, 0.0, 1.0, 0.0]])
+
+
 def _as_index(indices: np.ndarray) -> slice | np.ndarray:
     """A slice when ``indices`` are consecutive (faster indexing), else the array."""
     if indices.size and np.all(np.diff(indices) == 1):
@@ -143,6 +203,7 @@ class InverseDynamicsQP:
         tasks: tasks with targets and PD gains (``Task.kp``, ``Task.kd``).
         contacts: active contacts.
         options: settings.
+        pressure_tasks: center-of-pressure tasks on some of ``contacts`` (weighted mode).
     """
 
     def __init__(
@@ -151,11 +212,28 @@ class InverseDynamicsQP:
         tasks: Sequence[Task],
         contacts: Sequence[Contact] = (),
         options: InverseDynamicsOptions | None = None,
+        pressure_tasks: Sequence[CenterOfPressureTask] = (),
     ) -> None:
         self.robot = robot
         self.tasks = list(tasks)
         self.contacts = list(contacts)
         self.options = options or InverseDynamicsOptions()
+        self.pressure_tasks = list(pressure_tasks)
+        for pt in self.pressure_tasks:
+            if not isinstance(pt, CenterOfPressureTask):
+                raise InvalidInputError(
+                    f"pressure_tasks must be CenterOfPressureTask objects, got {type(pt).__name__}"
+                )
+            if not any(pt.contact is c for c in self.contacts):
+                raise InvalidInputError(
+                    f"'{pt.name}': its contact is not one of this controller's contacts "
+                    f"({[c.name for c in self.contacts]})"
+                )
+        if self.pressure_tasks and self.options.hierarchical:
+            raise InvalidInputError(
+                "center-of-pressure tasks are served in weighted mode only: use "
+                "InverseDynamicsOptions(hierarchical=False)"
+            )
         check_positive(self.options.limits_horizon, "limits_horizon")
         if not self.tasks:
             raise InvalidInputError("InverseDynamicsQP needs at least one task")
@@ -217,6 +295,13 @@ class InverseDynamicsQP:
         self._level_rows = self._task_rows
         # per-step buffers, refilled in place (the force block of H is constant)
         self._H = self._reg.copy()
+        self._weight = weight
+        self._force_cols = {
+            id(c): slice(nv + start, nv + start + c.force_dim)
+            for c, start in zip(
+                self.contacts, np.cumsum([0] + [c.force_dim for c in self.contacts])
+            )
+        }
         self._HJ = np.zeros((nv, nv))
         self._g = np.zeros(self.n)
         self._lb = np.full(self.n, -INF)
@@ -357,6 +442,13 @@ class InverseDynamicsQP:
         HJ.flat[:: nv + 1] += self.options.acceleration_regularization
         H = self._H
         H[:nv, :nv] = HJ
+        if self.pressure_tasks:
+            H[nv:, nv:] = self._reg[nv:, nv:]
+            scale = 1.0 / max(self._weight, 1e-9) ** 2
+            for pt in self.pressure_tasks:
+                R = pt.rows()
+                cols = self._force_cols[id(pt.contact)]
+                H[cols, cols] += (pt.weight * scale) * R.T.dot(R)
         g = self._g
         np.negative(Jt.T.dot(rt), out=g[:nv])
         self._equalities(state, M, h, Jc)
