@@ -12,6 +12,11 @@ admissible lower bound ``c_hat(a, b) <= c(a, b)`` of the cost of *any* path from
   segment (``d``: distance to the nearest obstacle [m], ``L = |b - a|``), by the trapezoidal
   rule on points at most ``resolution`` apart (OMPL's ``StateCostIntegralObjective``); paths
   that keep away from obstacles cost less per unit length; ``c_hat = L / (epsilon + d_max)``;
+* :class:`MechanicalWork`: ``c(a, b) = sum_k |tau_g(m_k) . (p_{k+1} - p_k)|`` over pieces
+  ``p_k -> p_{k+1}`` at most ``resolution`` long of the straight segment, ``tau_g`` the
+  gravity torque (``pinocchio.computeGeneralizedGravity``) at each piece's midpoint ``m_k``:
+  the midpoint-rule approximation of the absolute work against gravity
+  ``integral |tau_g(q) . dq|`` (work done and work recovered both count); ``c_hat = 0``;
 * :class:`WeightedSum`: ``c = sum_k lambda_k c_k`` (``lambda_k > 0``), ``c_hat = sum_k lambda_k
   c_hat_k`` (OMPL's ``MultiOptimizationObjective``).
 """
@@ -24,6 +29,7 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
+import pinocchio as pin
 
 from taskspace._validation import as_vector, check_positive
 from taskspace.errors import InvalidInputError
@@ -209,6 +215,77 @@ class Clearance(OptimizationObjective):
         )
 
 
+class MechanicalWork(OptimizationObjective):
+    """Absolute mechanical work against gravity along the path (see the module docstring).
+
+    ``c(a, b) = sum_k |tau_g(m_k) . (p_{k+1} - p_k)|`` on the straight segment ``a -> b`` cut
+    into ``n = max(1, ceil(|b - a| / resolution))`` equal pieces with midpoints ``m_k``. This
+    is the midpoint rule for ``integral_0^1 |tau_g(a + t (b - a)) . (b - a)| dt`` [J], exact
+    when ``tau_g`` is constant and of error ``O(resolution^2)`` per unit length where the
+    integrand keeps its sign; it ignores velocities (quasi-static motion: the inertial and
+    Coriolis torques of a timed trajectory are not counted). ``resolution = inf`` gives one
+    piece per segment, ``|tau_g((a + b) / 2) . (b - a)|``. The cost is symmetric and ``>= 0``;
+    its lower bound is 0 (moving where gravity does no work is free).
+
+    Args:
+        robot: the robot (a Euclidean configuration space: ``nq == nv``, revolute and
+            prismatic joints), or its ``pinocchio.Model``.
+        resolution: largest length of the pieces of a segment [rad or m] (``inf``: one
+            piece).
+
+    Raises:
+        InvalidInputError: a robot whose configurations are not Euclidean (floating base,
+            continuous joints), or a bad resolution.
+    """
+
+    def __init__(self, robot: Any, *, resolution: float = 0.05) -> None:
+        model = getattr(robot, "model", robot)
+        if not isinstance(model, pin.Model):
+            raise InvalidInputError(
+                f"MechanicalWork needs a Robot or a pinocchio.Model, got {type(robot).__name__}"
+            )
+        if model.nq != model.nv:
+            raise InvalidInputError(
+                f"MechanicalWork needs a Euclidean configuration space (nq == nv); this model "
+                f"has nq {model.nq}, nv {model.nv} (floating base or continuous joints): lock "
+                "those joints (pinocchio.buildReducedModel)"
+            )
+        if isinstance(resolution, (bool, np.bool_)):
+            raise InvalidInputError(f"resolution must be > 0 [rad or m], got {resolution!r}")
+        self.resolution = (
+            math.inf if resolution == math.inf else check_positive(resolution, "resolution")
+        )
+        self.model = model
+        self._data = model.createData()
+        self._gravity = pin.computeGeneralizedGravity
+
+    def torques(self, q: FloatArray) -> FloatArray:
+        """Gravity torques ``tau_g(q_i)`` of each row [N m or N], shape (n, nv)."""
+        rows = np.atleast_2d(np.asarray(q, dtype=np.float64))
+        return np.array([self._gravity(self.model, self._data, r) for r in rows])
+
+    def motion_costs(self, q0: FloatArray, q1: FloatArray) -> FloatArray:
+        """Midpoint-rule absolute work on each straight segment [J]."""
+        a, b = _pairs(q0, q1)
+        if a.shape[1] != self.model.nq:
+            raise InvalidInputError(
+                f"MechanicalWork: configurations must have size {self.model.nq}, got {a.shape[1]}"
+            )
+        lengths = np.linalg.norm(b - a, axis=1)
+        if self.resolution == math.inf:
+            counts = np.ones(a.shape[0], dtype=np.int64)
+        else:
+            counts = np.maximum(1, np.ceil(lengths / self.resolution - 1e-12).astype(np.int64))
+        owner = np.repeat(np.arange(a.shape[0]), counts)
+        starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+        k = np.arange(owner.size) - starts[owner]
+        t = ((k + 0.5) / counts[owner])[:, None]
+        step = (b - a)[owner] / counts[owner][:, None]
+        tau = self.torques(a[owner] + t * (b - a)[owner])
+        work = np.abs(np.einsum("ij,ij->i", tau, step))
+        return np.asarray(np.bincount(owner, weights=work, minlength=a.shape[0]), dtype=np.float64)
+
+
 class WeightedSum(OptimizationObjective):
     """``c = sum_k lambda_k c_k`` of several objectives (OMPL's ``MultiOptimizationObjective``).
 
@@ -227,7 +304,7 @@ class WeightedSum(OptimizationObjective):
             if not isinstance(objective, OptimizationObjective):
                 raise InvalidInputError(
                     f"terms[{i}]: {type(objective).__name__} is not an OptimizationObjective "
-                    "(PathLength, Clearance, WeightedSum)"
+                    "(PathLength, Clearance, MechanicalWork, WeightedSum)"
                 )
             checked.append((check_positive(weight, f"terms[{i}] weight"), objective))
         self.terms = checked
@@ -286,7 +363,8 @@ def check_objective(objective: Any) -> OptimizationObjective:
         return PathLength()
     if not isinstance(objective, OptimizationObjective):
         raise InvalidInputError(
-            f"objective must be an OptimizationObjective (PathLength, Clearance, WeightedSum), "
+            "objective must be an OptimizationObjective (PathLength, Clearance, MechanicalWork, "
+            f"WeightedSum), "
             f"got {type(objective).__name__}"
         )
     return objective
