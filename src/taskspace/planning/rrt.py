@@ -13,6 +13,10 @@ Here ``q_new`` is accepted when the whole segment ``q_near -> q_new`` is free (s
 local planner, slide 3:32), and the search succeeds when a new node lies within ``alpha`` of
 ``q_goal`` and the segment to it is free. Without a goal the tree just grows for ``n``
 iterations (the figures of slide 3:38).
+
+On a joint-manifold space (continuous joints, planar or floating bases) distances are the
+space's metric, nearest neighbours are taken in it, and ``q_new`` is the point at ``alpha``
+along the geodesic ``q_near (+) t (q_target (-) q_near)`` (Pinocchio's ``interpolate``).
 """
 
 from __future__ import annotations
@@ -27,7 +31,7 @@ import numpy as np
 
 from taskspace._validation import check_positive, check_seed
 from taskspace.errors import InvalidInputError
-from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray, path_length
+from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray
 from taskspace.planning.limits import planner_limits
 from taskspace.planning.planner_result import PlannerResult, PlannerStatus
 from taskspace.planning.rrt_connect import _GrowingTree, _steer
@@ -87,7 +91,6 @@ def rrt(
         InvalidInputError: invalid options.
     """
     opts = options or RRTOptions()
-    space.require_euclidean("rrt")
     alpha = check_positive(opts.step_size, "step_size")
     if not 0.0 <= opts.goal_bias <= 1.0:
         raise InvalidInputError(f"goal_bias must be in [0, 1], got {opts.goal_bias}")
@@ -98,7 +101,8 @@ def rrt(
     q_start = space.check_endpoint(start, "start")
     q_goal = None if goal is None else space.check_endpoint(goal, "goal")
     deadline = t0 + time_limit
-    tree = _GrowingTree(q_start)
+    euclidean = space.is_euclidean
+    tree = _GrowingTree(q_start, None if euclidean else space.distances)
     status = PlannerStatus.ITERATION_LIMIT
     path: FloatArray = np.empty((0, space.dim))
     iterations = 0
@@ -114,12 +118,19 @@ def rrt(
         if dist == 0.0:
             continue
         q_near = tree.nn.points[i_near]
-        q_new = _steer(q_near, q_target, dist, alpha)
+        if euclidean:
+            q_new = _steer(q_near, q_target, dist, alpha)
+        else:  # along the geodesic, at most alpha in the space's metric
+            q_new = (
+                q_target.copy()
+                if dist <= alpha
+                else space.interpolate(q_near, q_target, alpha / dist)[0]
+            )
         if not space.motion_valid(q_near, q_new, check_end=True):
             continue
         i_new = tree.add(q_new, i_near)
         if q_goal is not None:
-            gap = float(np.linalg.norm(q_goal - q_new))
+            gap = space.distance(q_new, q_goal)
             if gap <= alpha and space.motion_valid(q_new, q_goal):
                 i_goal = i_new if gap == 0.0 else tree.add(q_goal, i_new)
                 path = tree.freeze().path_to(i_goal)
@@ -132,7 +143,7 @@ def rrt(
         success=success,
         status=status,
         path=path,
-        path_length=path_length(path) if success else math.inf,
+        path_length=space.path_length(path) if success else math.inf,
         iterations=iterations,
         collision_checks=space.checks - checks0,
         edge_checks=space.edge_checks - edges0,
