@@ -68,3 +68,28 @@ def test_cone_row_and_errors() -> None:
         Contact6D(robot, FEET[0], max_force=float("nan"))
     with pytest.raises(TaskspaceError, match="max_force"):
         PointContact(solo, "FL_FOOT", max_force=-1.0)
+
+
+def test_contact_gains_are_validated_and_cone_parameters_fixed() -> None:
+    robot = load_robot("g1")
+    c = Contact6D(robot, FEET[0], max_force=300.0)
+    c.kd = 5.0
+    c.kp = 1.0
+    for bad in (float("nan"), -1.0, np.inf, "x"):
+        with pytest.raises(TaskspaceError, match="kd of contact"):
+            c.kd = bad  # type: ignore[assignment]
+    assert c.kd == 5.0
+    for name in ("friction", "min_force", "max_force", "half_width"):
+        with pytest.raises(TaskspaceError, match="fixed at construction"):
+            setattr(c, name, 1.0)
+    with pytest.raises(TaskspaceError, match="kp"):
+        Contact6D(robot, FEET[0], kp=-1.0)
+
+
+@pytest.mark.parametrize(
+    "field", ["acceleration_regularization", "force_regularization", "limits_horizon"]
+)
+def test_inverse_dynamics_options_are_validated(field: str) -> None:
+    for bad in (float("nan"), -1.0):
+        with pytest.raises(TaskspaceError, match=field):
+            InverseDynamicsOptions(**{field: bad})

@@ -28,6 +28,21 @@ if TYPE_CHECKING:
     from taskspace.model.state import State
 
 
+_FIXED = frozenset(
+    {
+        "robot",
+        "frame",
+        "frame_id",
+        "friction",
+        "min_force",
+        "max_force",
+        "half_length",
+        "half_width",
+    }
+)
+"""Contact attributes that cannot change after construction (see ``Contact.__setattr__``)."""
+
+
 class Contact:
     """Base class of rigid contacts (see the module docstring).
 
@@ -63,15 +78,26 @@ class Contact:
         self.kp = check_positive(kp, "kp", strict=False)
         self.kd = check_positive(kd, "kd", strict=False)
         self.name = f"contact({frame})"
-        self.max_force: float | None = None
-        if max_force is not None:
-            self.max_force = check_positive(max_force, "max_force")
-            if self.max_force < self.min_force:
-                raise InvalidInputError(
-                    f"contact '{frame}': max_force ({self.max_force:g} N) must be >= min_force "
-                    f"({self.min_force:g} N)"
-                )
+        limit = None if max_force is None else check_positive(max_force, "max_force")
+        if limit is not None and limit < self.min_force:
+            raise InvalidInputError(
+                f"contact '{frame}': max_force ({limit:g} N) must be >= min_force "
+                f"({self.min_force:g} N)"
+            )
+        self.max_force: float | None = limit
         self.reference: pin.SE3 | None = None
+
+    def __setattr__(self, name: str, value: object) -> None:
+        """Validate the gains (finite, ``>= 0``); the cone's parameters are fixed once set."""
+        if name in ("kp", "kd"):
+            value = check_positive(value, f"{name} of contact '{self.frame}'", strict=False)
+        elif name in _FIXED and name in self.__dict__:
+            raise InvalidInputError(
+                f"contact '{self.frame}': {name} is fixed at construction (the friction cone "
+                f"and the controllers' constraint rows are built from it); create a new "
+                f"{type(self).__name__}"
+            )
+        object.__setattr__(self, name, value)
 
     def set_reference(self, state: State) -> None:
         """Anchor the contact where the frame is now (the Baumgarte position reference)."""

@@ -123,6 +123,14 @@ class InverseDynamicsOptions:
     )
     solver_for_hierarchy: bool = False
 
+    def __post_init__(self) -> None:
+        """Refuse regularizations that are negative or not finite (a clear error, not a NaN QP)."""
+        check_positive(
+            self.acceleration_regularization, "acceleration_regularization", strict=False
+        )
+        check_positive(self.force_regularization, "force_regularization", strict=False)
+        check_positive(self.limits_horizon, "limits_horizon")
+
 
 class CenterOfPressureTask:
     """Drive the center of pressure of a 6-D contact to a point ``p*`` of its sole.
