@@ -17,6 +17,7 @@ from taskspace.model import Obstacle, Robot
 from taskspace.planning.collision_checker import FunctionChecker
 from taskspace.planning.configuration_space import ConfigurationSpace
 from taskspace.planning.joint_manifold import JointManifold
+from taskspace.planning.prm import PRMOptions, build_prm, prm, prm_query
 from taskspace.planning.rrt import RRTOptions, rrt
 
 
@@ -79,3 +80,26 @@ def test_rrt_moves_a_mobile_base_around_a_wall() -> None:
         for t in np.arange(n + 1) / n:
             q = pin.interpolate(full, a, b, t)
             assert not pin.computeCollisions(full, data, fgeom, gdata, q, True)
+
+
+def test_prm_turns_a_blocked_wheel_through_pi_and_answers_queries() -> None:
+    space = _wheel_space()
+    start = np.array([math.cos(1.0), math.sin(1.0)])
+    goal = np.array([math.cos(-1.0), math.sin(-1.0)])
+    roadmap = build_prm(space, PRMOptions(n_samples=60, k_neighbors=4, seed=0))
+    assert all(space.is_valid(q) for q in roadmap.nodes)
+    for i, neighbours in enumerate(roadmap.adjacency):
+        for j, cost in neighbours:  # edge costs are the circle's metric
+            assert cost == pytest.approx(space.distance(roadmap.nodes[i], roadmap.nodes[j]))
+    for search in ("dijkstra", "astar"):
+        res = prm_query(space, roadmap, start, goal, PRMOptions(k_neighbors=4, search=search))
+        assert res.success
+        dense = space.interpolate_path(res.path, 0.01)
+        assert np.all(np.abs(np.arctan2(dense[:, 1], dense[:, 0])) > 0.5)
+        assert res.path_length == pytest.approx(space.path_length(res.path))
+        # Dense roadmap on the circle: nearly the long way's exact length 2 pi - 2.
+        assert 2 * math.pi - 2.0 - 1e-9 <= res.path_length < 2 * math.pi - 2.0 + 0.05
+    free = np.array([math.cos(2.0), math.sin(2.0)])
+    short = prm(space, free, -free * np.array([1.0, -1.0]), PRMOptions(n_samples=40, seed=1))[0]
+    # From 2 rad to pi - 2 rad: a free arc, joined directly the short way (4 - pi rad).
+    assert short.path_length == pytest.approx(4.0 - math.pi, abs=1e-9)

@@ -11,6 +11,11 @@ A query (slide 3:30) connects ``q_start`` and ``q_goal`` to their k nearest road
 the same local planner and runs Dijkstra (or A* with the Euclidean distance to the goal as
 admissible heuristic) on the graph with edge cost ``|q - q'|``. The roadmap is not modified
 by queries, so one roadmap answers many queries (slide 3:36).
+
+On a joint-manifold space (continuous joints, planar or floating bases) the neighbours, edge
+costs and the A* heuristic are in the space's metric (nearest neighbours by a scan instead of
+the KD-tree, ``O(n^2)`` distance evaluations for ``n`` nodes), edges are the space's
+geodesics, and only uniform sampling is available.
 """
 
 from __future__ import annotations
@@ -28,7 +33,7 @@ from scipy.spatial import cKDTree
 
 from taskspace._validation import check_count, check_seed, check_time_limit
 from taskspace.errors import PlanningError
-from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray, path_length
+from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray
 from taskspace.planning.graph_search import astar, dijkstra
 from taskspace.planning.planner_result import PlannerResult, PlannerStatus
 from taskspace.planning.sampling import Sampler, sample_free
@@ -132,13 +137,36 @@ def check_roadmap_world(space: ConfigurationSpace, roadmap: Roadmap) -> None:
         )
 
 
-def _candidate_pairs(nodes: FloatArray, k: int) -> npt.NDArray[np.int64]:
-    """Unique undirected pairs (i, j), i < j, from the k nearest neighbours of every node."""
+def _nearest(
+    space: ConfigurationSpace | None, nodes: FloatArray, q: FloatArray, k: int
+) -> tuple[FloatArray, npt.NDArray[np.int64]]:
+    """Distances and indices of the ``k`` nodes nearest to ``q`` in the space's metric.
+
+    A KD-tree in a Euclidean space; a scan of ``space.distances`` on a joint manifold.
+    """
+    if space is None or space.is_euclidean:
+        dist, idx = cKDTree(nodes).query(q, k=k)
+        return np.atleast_1d(dist), np.atleast_1d(idx).astype(np.int64)
+    d = space.distances(nodes, q)
+    idx = np.argsort(d, kind="stable")[:k]
+    return d[idx], idx.astype(np.int64)
+
+
+def _candidate_pairs(
+    nodes: FloatArray, k: int, space: ConfigurationSpace | None = None
+) -> npt.NDArray[np.int64]:
+    """Unique undirected pairs (i, j), i < j, from the k nearest neighbours of every node.
+
+    Neighbours in the space's metric when ``space`` is a joint-manifold space.
+    """
     n = nodes.shape[0]
     if n < 2 or k < 1:
         return np.empty((0, 2), dtype=np.int64)
     kk = min(k + 1, n)
-    _, idx = cKDTree(nodes).query(nodes, k=kk)
+    if space is None or space.is_euclidean:
+        _, idx = cKDTree(nodes).query(nodes, k=kk)
+    else:
+        idx = np.array([_nearest(space, nodes, q, kk)[1] for q in nodes])
     idx = np.asarray(idx).reshape(n, kk)[:, 1:]
     rows = np.repeat(np.arange(n), idx.shape[1])
     pairs = np.stack([rows, idx.ravel()], axis=1)
@@ -163,8 +191,8 @@ def connect_roadmap(
     """
     n = nodes.shape[0]
     adjacency: list[list[tuple[int, float]]] = [[] for _ in range(n)]
-    pairs = _candidate_pairs(nodes, k)
-    costs = np.linalg.norm(nodes[pairs[:, 1]] - nodes[pairs[:, 0]], axis=1)
+    pairs = _candidate_pairs(nodes, k, space)
+    costs = space.distances(nodes[pairs[:, 1]], nodes[pairs[:, 0]])
     tried = 0
     for (i, j), c in zip(pairs.tolist(), costs.tolist()):
         if check_edges and time.perf_counter() > deadline:
@@ -192,7 +220,6 @@ def build_prm(
         rng: random generator (default: ``np.random.default_rng(options.seed)``).
     """
     opts = options or PRMOptions()
-    space.require_euclidean("build_prm")
     check_count(opts.n_samples, "n_samples", minimum=1)
     check_count(opts.k_neighbors, "k_neighbors", minimum=1)
     rng = rng if rng is not None else np.random.default_rng(check_seed(opts.seed))
@@ -219,7 +246,10 @@ def _attach(
 ) -> list[tuple[int, float]]:
     """Edges (node, cost) from ``q`` to its k nearest roadmap nodes that pass the local planner."""
     kk = min(k, roadmap.size)
-    dist, idx = roadmap.kdtree.query(q, k=kk)
+    if space.is_euclidean:
+        dist, idx = roadmap.kdtree.query(q, k=kk)
+    else:
+        dist, idx = _nearest(space, roadmap.nodes, q, kk)
     out = []
     for d, j in zip(np.atleast_1d(dist).tolist(), np.atleast_1d(idx).tolist()):
         if not check_edges or space.motion_valid(q, roadmap.nodes[j]):
@@ -235,8 +265,12 @@ def query_graph(
     q_goal: FloatArray,
     search: str,
     blocked: set[tuple[int, int]] | None = None,
+    space: ConfigurationSpace | None = None,
 ) -> tuple[list[int], float]:
-    """Shortest path over roadmap + start node ``-1`` + goal node ``-2``; ``([], inf)`` if none."""
+    """Shortest path over roadmap + start node ``-1`` + goal node ``-2``; ``([], inf)`` if none.
+
+    A* takes the distance to the goal in ``space``'s metric (Euclidean without one).
+    """
     s, g = -1, -2
     goal_in = {j: c for j, c in goal_edges}
     blocked = blocked or set()
@@ -259,8 +293,12 @@ def query_graph(
         nodes = roadmap.nodes
 
         def heuristic(node: int) -> float:
-            # Euclidean distance to the goal: admissible for edge costs |q - q'|.
-            return float(np.linalg.norm(nodes[node] - q_goal)) if node >= 0 else 0.0
+            # Distance to the goal: admissible for edge costs d(q, q') of a metric.
+            if node < 0:
+                return 0.0
+            if space is None or space.is_euclidean:
+                return float(np.linalg.norm(nodes[node] - q_goal))
+            return space.distance(nodes[node], q_goal)
 
         res = astar(neighbors, s, g, heuristic)
     else:
@@ -308,16 +346,18 @@ def prm_query(
     q_goal = space.check_endpoint(goal, "goal")
     start_edges = _attach(space, roadmap, q_start, opts.k_neighbors, True)
     goal_edges = _attach(space, roadmap, q_goal, opts.k_neighbors, True)
-    direct = float(np.linalg.norm(q_goal - q_start))
+    direct = space.distance(q_start, q_goal)
     goal_cost = direct if space.motion_valid(q_start, q_goal) else None
-    ids, cost = query_graph(roadmap, start_edges, goal_edges, goal_cost, q_goal, opts.search)
+    ids, cost = query_graph(
+        roadmap, start_edges, goal_edges, goal_cost, q_goal, opts.search, space=space
+    )
     success = bool(ids)
     path = _assemble(roadmap, ids, q_start, q_goal) if success else np.empty((0, space.dim))
     return PlannerResult(
         success=success,
         status=PlannerStatus.SOLVED if success else PlannerStatus.NO_PATH,
         path=path,
-        path_length=path_length(path) if success else math.inf,
+        path_length=space.path_length(path) if success else math.inf,
         iterations=roadmap.size,
         collision_checks=space.checks - checks0,
         edge_checks=space.edge_checks - edges0,
@@ -352,7 +392,7 @@ def prm(
     result = prm_query(space, roadmap, start, goal, opts)
     if (
         not result.success
-        and roadmap.edges_tried < _candidate_pairs(roadmap.nodes, opts.k_neighbors).shape[0]
+        and roadmap.edges_tried < _candidate_pairs(roadmap.nodes, opts.k_neighbors, space).shape[0]
     ):
         result.status = PlannerStatus.TIME_LIMIT
     result.time_s += roadmap.build_time_s
