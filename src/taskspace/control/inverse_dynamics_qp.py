@@ -145,9 +145,10 @@ class CenterOfPressureTask:
     Attributes:
         contact: the :class:`~taskspace.constraints.Contact6D` whose center of pressure is
             driven.
-        target: ``p*`` in the contact frame (x, y) [m]; assigning it validates it.
-        weight: precision (finite, ``>= 0``); assigning it validates it.
         name: label.
+
+    ``target`` (``p*`` in the contact frame, x and y [m]) and ``weight`` (precision, finite
+    and ``>= 0``) are properties validated on assignment.
     """
 
     def __init__(
