@@ -17,6 +17,7 @@ from taskspace.model import Obstacle, Robot
 from taskspace.planning.collision_checker import FunctionChecker
 from taskspace.planning.configuration_space import ConfigurationSpace
 from taskspace.planning.joint_manifold import JointManifold
+from taskspace.planning.lazy_prm import build_lazy_prm, lazy_prm, lazy_prm_query
 from taskspace.planning.prm import PRMOptions, build_prm, prm, prm_query
 from taskspace.planning.rrt import RRTOptions, rrt
 
@@ -103,3 +104,25 @@ def test_prm_turns_a_blocked_wheel_through_pi_and_answers_queries() -> None:
     short = prm(space, free, -free * np.array([1.0, -1.0]), PRMOptions(n_samples=40, seed=1))[0]
     # From 2 rad to pi - 2 rad: a free arc, joined directly the short way (4 - pi rad).
     assert short.path_length == pytest.approx(4.0 - math.pi, abs=1e-9)
+
+
+def test_lazy_prm_turns_a_blocked_wheel_through_pi() -> None:
+    space = _wheel_space()
+    start = np.array([math.cos(1.0), math.sin(1.0)])
+    goal = np.array([math.cos(-1.0), math.sin(-1.0)])
+    res, lazy = lazy_prm(
+        space, start, goal, PRMOptions(n_samples=40, k_neighbors=4, sigma=0.3, seed=0),
+        max_rounds=20, time_limit_s=None,
+    )  # fmt: skip
+    assert res.success
+    np.testing.assert_allclose(
+        lazy.costs, space.distances(lazy.roadmap.nodes[lazy.pairs[:, 0]],
+                                    lazy.roadmap.nodes[lazy.pairs[:, 1]])
+    )  # fmt: skip
+    dense = space.interpolate_path(res.path, 0.01)
+    assert np.all(np.abs(np.arctan2(dense[:, 1], dense[:, 0])) > 0.5)
+    np.testing.assert_allclose(np.linalg.norm(lazy.roadmap.nodes, axis=1), 1.0, atol=1e-12)
+    assert 2 * math.pi - 2.0 - 1e-9 <= res.path_length < 2 * math.pi - 2.0 + 0.1
+    again = lazy_prm_query(space, lazy, start, goal, PRMOptions(k_neighbors=4))
+    assert again.success and again.path_length == pytest.approx(res.path_length)
+    assert build_lazy_prm(space, PRMOptions(n_samples=10, seed=0)).roadmap.size == 10

@@ -120,9 +120,9 @@ class ConfigurationSpace:
     distance is the manifold's weighted metric ``|W (q1 (-) q0)|``, the "straight line" is
     Pinocchio's interpolation ``q0 (+) t (q1 (-) q0)`` and samples are uniform on the
     manifold; :attr:`is_euclidean` is then False. RRT, RRT-Connect (its Python
-    implementation), RRT*, PRM (uniform sampling), PRM*, Lazy PRM* and BIT* plan on such
-    spaces, and shortcutting and B-spline smoothing work on them; Lazy PRM and Gaussian and
-    bridge sampling refuse them.
+    implementation), RRT*, PRM and Lazy PRM (uniform sampling), PRM*, Lazy PRM* and BIT* plan
+    on such spaces, and shortcutting and B-spline smoothing work on them; Gaussian and bridge
+    sampling refuse them.
 
     Args:
         lower: lower bounds (size d) [rad or m].
@@ -256,7 +256,7 @@ class ConfigurationSpace:
             raise InvalidInputError(
                 f"{who} plans in a Euclidean box and this space is a joint manifold "
                 "(continuous, planar, spherical or floating joints, or a weighted metric); "
-                "use rrt, rrt_connect, rrt_star, prm (uniform sampling), prm_star, "
+                "use rrt, rrt_connect, rrt_star, prm or lazy_prm (uniform sampling), prm_star, "
                 "lazy_prm_star or bit_star, which plan on the manifold (shortcut_path and "
                 "smooth_bspline work on it too)"
             )

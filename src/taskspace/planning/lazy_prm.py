@@ -13,6 +13,10 @@ shortest paths are ever checked, which saves most of the edge checks of a PRM. T
 candidate path are checked together, coarse to fine: one checker call for the coarse points
 of all of them (every colliding edge found is removed at once), then one for the remaining
 full-resolution points, so a round costs one graph search (scipy) and two checker calls.
+
+On a joint-manifold space (continuous joints, planar or floating bases) neighbours and edge
+costs are in the space's metric (see :mod:`taskspace.planning.prm`), edges are its
+geodesics, and :func:`lazy_prm`'s samples near the start and goal are ``q (+) sigma N(0, I)``.
 """
 
 from __future__ import annotations
@@ -40,10 +44,15 @@ from taskspace.planning.configuration_space import (
     ConfigurationSpace,
     FloatArray,
     nested_orders,
-    path_length,
 )
 from taskspace.planning.planner_result import PlannerResult, PlannerStatus
-from taskspace.planning.prm import PRMOptions, Roadmap, _candidate_pairs, check_roadmap_world
+from taskspace.planning.prm import (
+    PRMOptions,
+    Roadmap,
+    _candidate_pairs,
+    _nearest,
+    check_roadmap_world,
+)
 from taskspace.planning.sampling import sample_free
 
 logger = logging.getLogger(__name__)
@@ -82,15 +91,14 @@ def build_lazy_prm(
 ) -> LazyRoadmap:
     """Sample free nodes and connect k nearest neighbours without checking the edges."""
     opts = options or PRMOptions()
-    space.require_euclidean("build_lazy_prm")
     check_count(opts.n_samples, "n_samples", minimum=1)
     check_count(opts.k_neighbors, "k_neighbors", minimum=1)
     rng = rng if rng is not None else np.random.default_rng(check_seed(opts.seed))
     t0 = time.perf_counter()
     checks0 = space.checks
     nodes = sample_free(space, opts.n_samples, rng, strategy=opts.sampler, sigma=opts.sigma)
-    pairs = _candidate_pairs(nodes, opts.k_neighbors)
-    costs = np.linalg.norm(nodes[pairs[:, 1]] - nodes[pairs[:, 0]], axis=1)
+    pairs = _candidate_pairs(nodes, opts.k_neighbors, space)
+    costs = space.distances(nodes[pairs[:, 1]], nodes[pairs[:, 0]])
     adjacency: list[list[tuple[int, float]]] = [[] for _ in range(nodes.shape[0])]
     for (i, j), c in zip(pairs.tolist(), costs.tolist()):
         adjacency[i].append((j, c))
@@ -197,13 +205,14 @@ def lazy_prm_query(
     points = np.vstack([roadmap.nodes, q_start, q_goal])
     extra_pairs = [[s, g]]
     for v in (s, g):
-        _, idx = roadmap.kdtree.query(points[v], k=kk)
+        if space.is_euclidean:
+            _, idx = roadmap.kdtree.query(points[v], k=kk)
+        else:
+            _, idx = _nearest(space, roadmap.nodes, points[v], kk)
         extra_pairs += [[min(v, j), max(v, j)] for j in np.atleast_1d(idx).tolist()]
     extra = np.asarray(extra_pairs, dtype=np.int64)
     pairs = np.vstack([lazy.pairs, extra])
-    costs = np.concatenate(
-        [lazy.costs, np.linalg.norm(points[extra[:, 1]] - points[extra[:, 0]], axis=1)]
-    )
+    costs = np.concatenate([lazy.costs, space.distances(points[extra[:, 1]], points[extra[:, 0]])])
     status = np.concatenate([lazy.status, np.zeros(len(extra), dtype=np.int8)])
     index = {(int(a), int(b)): e for e, (a, b) in enumerate(pairs.tolist())}
     m = len(lazy.costs)
@@ -248,7 +257,7 @@ def lazy_prm_query(
         success=success,
         status=status_out,
         path=path,
-        path_length=path_length(path) if success else math.inf,
+        path_length=space.path_length(path) if success else math.inf,
         iterations=rounds,
         collision_checks=space.checks - checks0,
         edge_checks=space.edge_checks - edges0,
@@ -269,8 +278,8 @@ def grow_lazy_prm(
     if old.size:
         check_roadmap_world(space, old)
     nodes = np.vstack([old.nodes, new_nodes]) if new_nodes.shape[0] else old.nodes
-    pairs = _candidate_pairs(nodes, k)
-    costs = np.linalg.norm(nodes[pairs[:, 1]] - nodes[pairs[:, 0]], axis=1)
+    pairs = _candidate_pairs(nodes, k, space)
+    costs = space.distances(nodes[pairs[:, 1]], nodes[pairs[:, 0]])
     status = np.zeros(len(costs), dtype=np.int8)
     known = {(int(a), int(b)): int(st) for (a, b), st in zip(lazy.pairs.tolist(), lazy.status)}
     for e, (a, b) in enumerate(pairs.tolist()):
@@ -336,7 +345,6 @@ def lazy_prm(
             and ``max_rounds`` both ``None``), bad options.
     """
     opts = options or PRMOptions()
-    space.require_euclidean("lazy_prm")
     cap, limit = check_limits(
         max_rounds, time_limit_s, names=("max_rounds", "time_limit_s"), minimum=1
     )
@@ -357,11 +365,16 @@ def lazy_prm(
         n_end = int(endpoint_fraction * opts.n_samples) // 2
         near = []
         for q in (q_start, q_goal):
-            cand = np.clip(
-                q + opts.sigma * rng.standard_normal((4 * n_end, space.dim)),
-                space.lower,
-                space.upper,
-            )
+            if space.is_euclidean:
+                cand = np.clip(
+                    q + opts.sigma * rng.standard_normal((4 * n_end, space.dim)),
+                    space.lower,
+                    space.upper,
+                )
+            else:  # q (+) sigma N(0, I) on the manifold, inside the bounds
+                steps = opts.sigma * rng.standard_normal((4 * n_end, space.tangent_dim))
+                moved = [space.retract(q, v) for v in steps]
+                cand = np.array([c for c in moved if space.within_bounds(c)]).reshape(-1, space.dim)
             near.append(cand[space.checker.are_valid(cand)][:n_end])
         uniform = sample_free(space, opts.n_samples - 2 * n_end, rng)
         fresh = np.vstack([*near, uniform])
