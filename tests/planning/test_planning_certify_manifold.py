@@ -195,3 +195,27 @@ def test_unnormalized_quaternion_is_refused(talos_floating: Robot) -> None:
     q[3:7] = [0.5, 0.5, 0.5, 0.6]
     with pytest.raises(InvalidInputError, match="unit norm"):
         certify_path(talos_floating, np.array([q, talos_floating.q_default]))
+
+
+@pytest.mark.slow  # a dense check of a planned path: 5-12 s
+def test_rrt_connect_certifies_a_floating_humanoid_path(talos_floating: Robot) -> None:
+    from taskspace.planning.configuration_space import ConfigurationSpace
+    from taskspace.planning.rrt_connect import RRTConnectOptions, rrt_connect
+
+    robot = talos_floating
+    robot.add_obstacle(Obstacle.box("wall", [0.2, 1.0, 3.0], [0.0, 0.0, 1.5]))
+    try:
+        space = ConfigurationSpace.from_robot(
+            robot,
+            base_lower=[-1.5, -1.5, 0.9],
+            base_upper=[1.5, 1.5, 1.2],
+            weights=[1, 1, 1, 0.3, 0.3, 0.3, 1, 1],
+        )
+        start, goal = robot.q_default.copy(), robot.q_default.copy()
+        start[:3], goal[:3] = [-0.8, 0.0, 1.0], [0.8, 0.0, 1.0]
+        options = RRTConnectOptions(time_limit_s=20.0, seed=0, certify=True)
+        res = rrt_connect(space, start, goal, options)
+        assert res.success and res.log["certified"] == 1.0
+        assert _dense_min_distance(robot, res.path) > 0.0
+    finally:
+        robot.remove_obstacle("wall")
