@@ -43,11 +43,13 @@ class Task:
         kp: stiffness of the acceleration-level reference (inverse dynamics, operational
             space control): ``y''* = y''_ref - kp e - kd (e' - y'_ref)`` [1/s^2].
         kd: damping [1/s]; default ``2 sqrt(kp)`` (critical damping).
-        lm_damping: Levenberg-Marquardt damping ``lambda`` of this task in a weighted
-            velocity-level stack (:class:`~taskspace.ik.DifferentialIK`): the step's
-            regularization grows with the task's weighted error, ``H += lambda |sqrt(rho)
-            e|^2 I`` (pink's ``lm_damping``), so steps shrink far from the target and the
-            solution stays exact at it. Finite, ``>= 0`` (default 0: off).
+        lm_damping: Levenberg-Marquardt damping ``lambda`` of this task at the velocity
+            level: the step's regularization grows with the task's weighted error, ``H +=
+            lambda |sqrt(rho) e|^2 I`` (pink's ``lm_damping``), so steps shrink far from the
+            target and the solution stays exact at it; in :class:`~taskspace.ik.DifferentialIK`
+            it adds to the whole step's damping, in :class:`~taskspace.ik.HierarchicalIK` to
+            the damping of the task's level. Not used at the acceleration level. Finite,
+            ``>= 0`` (default 0: off).
         name: label (default: the feature's name).
     """
 

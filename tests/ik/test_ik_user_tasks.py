@@ -191,3 +191,42 @@ def test_setters_refuse_bad_values_and_keep_the_old_one(
     assert "tcp" in str(info.value)  # names the task
     after = getattr(task, attribute)
     assert np.array_equal(np.asarray(after), np.asarray(before))
+
+
+@pytest.mark.parametrize("level", [0, 1])
+def test_levenberg_marquardt_damping_in_a_hierarchy(level: int) -> None:
+    """The LM term damps the task's level: closed-form damped least squares per level."""
+    from taskspace.ik import HierarchicalIK
+
+    robot = load_robot("panda")
+    q = robot.q_default + 0.05
+    state = robot.state(q)
+    tcp = Task(F.Position(robot, "panda_hand_tcp"))
+    offset = np.array([0.1, -0.05, 0.08])
+    tcp.set_target(robot.frame_placement(q, "panda_hand_tcp").translation + offset)
+    posture = Task(F.JointConfiguration(robot), robot.q_default + 0.2, weight=0.5)
+    task = tcp if level == 0 else posture
+    task.lm_damping = 0.7
+    ik = HierarchicalIK(robot, [[tcp], [posture]])
+    mu = ik.solver.options.damping
+    result = ik.solve(state, DT)
+    e1, J1 = tcp.feature.residual_and_jacobian(state, tcp.target)
+    e2, J2 = posture.feature.residual_and_jacobian(state, posture.target)
+    w2 = np.sqrt(0.5)
+    lm = 0.7 * float(e1 @ e1) if level == 0 else 0.7 * float((w2 * e2) @ (w2 * e2))
+    mu1 = mu + lm if level == 0 else 0.0  # level 0: damped, or the exact least squares
+    mu2 = mu + lm if level == 1 else mu
+    z1 = (
+        np.linalg.solve(J1.T @ J1 + mu1 * np.eye(7), -J1.T @ e1)
+        if mu1
+        else np.linalg.lstsq(J1, -e1, rcond=None)[0]
+    )
+    # level 1 in the nullspace of J1 (an orthonormal basis from the exact projector)
+    U, s, _ = np.linalg.svd(np.eye(7) - np.linalg.pinv(J1) @ J1)
+    Z = U[:, s > 0.5]
+    M = w2 * J2 @ Z
+    y = np.linalg.solve(M.T @ M + mu2 * np.eye(Z.shape[1]), M.T @ (-w2 * e2 - w2 * J2 @ z1))
+    expected = z1 + Z @ y
+    np.testing.assert_allclose(result.dq, expected, atol=1e-8)
+    task.lm_damping = 0.0
+    assert np.abs(ik.solve(state, DT).dq - expected).max() > 1e-4  # the term matters

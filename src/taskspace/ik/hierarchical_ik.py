@@ -171,6 +171,11 @@ class HierarchicalIK:
             self._J.append(self._rows.J[start:stop])
             self._r.append(self._rows.rhs[start:stop])
             start = stop
+        pairs = list(zip(self._rows.tasks, self._rows.slices))
+        self._level_pairs: list[list[tuple[Task, slice]]] = []
+        for tasks in level_tasks:
+            self._level_pairs.append(pairs[: len(tasks)])
+            pairs = pairs[len(tasks) :]
         self._level_inequalities = [
             InequalityStack([c for c in level if isinstance(c, Constraint)], nv)
             for level in self.levels
@@ -215,13 +220,28 @@ class HierarchicalIK:
         out = []
         for k, stack in enumerate(self._level_inequalities):
             J, r = self._J[k], self._r[k]
+            damping = self._level_damping(k)
             if stack:
                 (C, l, u), blocks = stack.fill(state, dt)
                 if blocks:
-                    out.append(HierarchyLevel(self._names[k], J, r, C, l, u))
+                    out.append(HierarchyLevel(self._names[k], J, r, C, l, u, damping))
                     continue
-            out.append(HierarchyLevel(self._names[k], J, r))
+            out.append(HierarchyLevel(self._names[k], J, r, damping=damping))
         return out
+
+    def _level_damping(self, k: int) -> float | None:
+        """Level ``k``'s damping with its tasks' Levenberg-Marquardt terms (``None``: none).
+
+        ``mu + sum_i lm_damping_i |sqrt(rho_i) e_i|^2`` over the level's tasks, ``e_i`` read
+        from the stacked rows ``-gain_i sqrt(rho_i) e_i``.
+        """
+        extra = 0.0
+        r_all = self._r_all
+        for task, rows in self._level_pairs[k]:
+            if task.lm_damping:
+                ri = r_all[rows]
+                extra += task.lm_damping * float(ri.dot(ri)) / (task.gain * task.gain)
+        return None if extra == 0.0 else self.solver.options.damping + extra
 
     def solve(self, state: State, dt: float) -> HierarchicalIKResult:
         """One hierarchical step from ``state`` during ``dt`` [s]."""

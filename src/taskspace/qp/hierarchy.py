@@ -213,6 +213,13 @@ def _level_step(
         step = _pivoted_qr_level(JZ, res, tol)
     if step is not None:
         return step
+    return _svd_level(JZ, res, mu, tol)
+
+
+def _svd_level(
+    JZ: FloatArray, res: FloatArray, mu: float, tol: float
+) -> tuple[FloatArray, FloatArray]:
+    """Damped step ``z = V diag(s / (s^2 + mu)) U^T res`` and ``null(JZ)`` (rank cut at ``tol``)."""
     U, s, Vt = np.linalg.svd(JZ, full_matrices=True)
     smax = max(1.0, float(s[0]) if s.size else 0.0)
     rank = int(np.count_nonzero(s > tol * smax))
@@ -456,6 +463,10 @@ class HierarchySolver:
                     _, z, info = dposv(G, JZ.T @ res)
                     if info != 0:
                         return None
+                elif level.damping is not None and level.damping > self.options.damping:
+                    # a level's own, larger damping (Levenberg-Marquardt) shapes its step:
+                    # the undamped QR step would ignore it
+                    z, basis = _svd_level(JZ, res, mu, tol)
                 else:
                     z, basis = _level_step(JZ, res, mu, tol)
                 x = x + (z if Z is None else Z @ z)
