@@ -219,3 +219,54 @@ def test_rrt_connect_certifies_a_floating_humanoid_path(talos_floating: Robot) -
         assert _dense_min_distance(robot, res.path) > 0.0
     finally:
         robot.remove_obstacle("wall")
+
+
+def _chain_robot() -> Robot:
+    """Free flyer, spherical, revolute, prismatic and continuous joints, a box on each body."""
+    import coal
+
+    model, geom = pin.Model(), pin.GeometryModel()
+    rng = np.random.default_rng(7)
+    joint = 0
+    for k, jm in enumerate(
+        [pin.JointModelFreeFlyer(), pin.JointModelSpherical(), pin.JointModelRX(),
+         pin.JointModelPY(), pin.JointModelRUBZ()]
+    ):  # fmt: skip
+        placement = pin.SE3(pin.rpy.rpyToMatrix(*rng.uniform(-1, 1, 3)), rng.uniform(-0.3, 0.3, 3))
+        joint = model.addJoint(joint, jm, placement if k else pin.SE3.Identity(), f"j{k}")
+        model.appendBodyToJoint(joint, pin.Inertia.Random(), pin.SE3.Identity())
+        box = pin.GeometryObject(
+            f"box{k}", joint, pin.SE3(np.eye(3), rng.uniform(-0.2, 0.2, 3)),
+            coal.Box(*rng.uniform(0.05, 0.3, 3)),
+        )  # fmt: skip
+        geom.addGeometryObject(box)
+    model.lowerPositionLimit[:] = -1.0
+    model.upperPositionLimit[:] = 1.0
+    return Robot(model, geom, pin.GeometryModel(), name="chain",
+                 default_configuration=pin.neutral(model))  # fmt: skip
+
+
+def test_bound_holds_on_spherical_and_prismatic_chains() -> None:
+    robot = _chain_robot()
+    model, gm = robot.model, robot.collision_model
+    manifold = JointManifold(model, base_lower=-np.ones(3), base_upper=np.ones(3))
+    rng = np.random.default_rng(0)
+    corners = []
+    for k in range(robot.robot_geometry_count):
+        g = gm.geometryObjects[k].geometry
+        g.computeLocalAABB()
+        lo, hi = g.aabb_local.min_, g.aabb_local.max_
+        corners.append(np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
+                                 for z in (lo[2], hi[2])]))  # fmt: skip
+    q0, q1 = manifold.sample(rng, 20), manifold.sample(rng, 20)
+    q1[10:] = [pin.interpolate(model, a, b, 0.02) for a, b in zip(q0[10:], q1[10:])]
+    pairs = list(zip(q0, q1))
+    for blk in manifold.blocks:  # one joint at a time too: the others' terms cannot hide it
+        for a, b in zip(q0[:4], q1[:4]):
+            c = a.copy()
+            c[blk.idx_q : blk.idx_q + blk.nq] = b[blk.idx_q : blk.idx_q + blk.nq]
+            pairs.append((a, c))
+    for a, b in pairs:
+        bound = motion_bound(robot, np.array([a, b]))
+        moved = _true_motion(robot, a, b, corners)
+        assert moved <= bound(pin.difference(model, a, b)) + 1e-9
