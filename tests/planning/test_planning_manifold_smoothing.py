@@ -202,3 +202,34 @@ def test_unnormalized_waypoint_is_refused() -> None:
     path[1, 2:4] = [0.5, 0.5]
     with pytest.raises(PlanningError, match="unit norm"):
         shortcut_path(space, path)
+
+
+def test_planned_floating_path_leaving_the_sampling_box_is_shortened(
+    talos_floating: Robot,
+) -> None:
+    robot = talos_floating
+    robot.add_obstacle(Obstacle.box("wall", [0.2, 1.0, 3.0], [0.0, 0.0, 1.5]))
+    try:
+        space = ConfigurationSpace.from_robot(
+            robot,
+            base_lower=[-1.5, -1.5, 0.9],
+            base_upper=[1.5, 1.5, 1.2],
+            weights=[1, 1, 1, 0.3, 0.3, 0.3, 1, 1],
+            edge=EdgeCheckOptions(resolution=0.01),
+        )
+        start, goal = robot.q_default.copy(), robot.q_default.copy()
+        start[:3], goal[:3] = [-0.8, 0.0, 1.0], [0.8, 0.0, 1.0]
+        res = rrt_connect(space, start, goal, RRTConnectOptions(time_limit_s=20.0, seed=0))
+        assert res.success
+        # The screw motions of the tree leave the translation box the samples came from.
+        assert np.any(res.path[:, 2] > 1.2 + 1e-6) or np.any(res.path[:, 2] < 0.9 - 1e-6)
+        short = shortcut_path(space, res.path)
+        smooth = smooth_bspline(space, short.path, SmoothingOptions(max_step=0.3))
+        assert smooth.length_after <= short.length_after <= short.length_before + 1e-12
+        assert space.path_valid(smooth.path) and _dense_free(robot, space, smooth.path)
+        bad = res.path.copy()
+        bad[1, 7] = robot.model.upperPositionLimit[7] + 0.1  # a torso joint past its limit
+        with pytest.raises(PlanningError, match="waypoint 1 is outside the bounds"):
+            shortcut_path(space, bad)
+    finally:
+        robot.remove_obstacle("wall")

@@ -360,6 +360,25 @@ class ConfigurationSpace:
             return rng.uniform(self.lower, self.upper)
         return rng.uniform(self.lower, self.upper, size=(n, self.dim))
 
+    def outside_limits(self, path: FloatArray) -> npt.NDArray[np.int64]:
+        """Rows of ``path`` (shape (m, d)) outside the joint limits, ascending.
+
+        In the box, every coordinate outside ``[lower, upper]``. On a joint manifold the
+        translation box of a planar or floating base is only where samples are drawn: the
+        geodesics between samples (screw motions) leave it, and the planners' nodes on them
+        with it, so only the other bounded coordinates (the joints' limits) count.
+        """
+        arr = np.atleast_2d(np.asarray(path, dtype=np.float64))
+        mask = np.ones(self.dim, dtype=bool)
+        if self.manifold is not None:
+            mask = self.manifold.bounded_mask()
+            for blk in self.manifold.blocks:
+                if blk.kind in ("planar", "free_flyer"):
+                    n_t = 2 if blk.kind == "planar" else 3
+                    mask[blk.idx_q : blk.idx_q + n_t] = False
+        bad = ((arr < self.lower) | (arr > self.upper))[:, mask].any(axis=1)
+        return np.flatnonzero(bad).astype(np.int64)
+
     def within_bounds(self, q: FloatArray) -> bool:
         """True if ``lower <= q <= upper``."""
         return bool(np.all(q >= self.lower) and np.all(q <= self.upper))

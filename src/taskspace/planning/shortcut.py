@@ -92,7 +92,7 @@ def _check_input(space: ConfigurationSpace, path: FloatArray) -> None:
                     f"path waypoint {i} is not a valid configuration: a quaternion or "
                     "(cos, sin) pair is not of unit norm; normalize it (pinocchio.normalize)"
                 )
-    outside = np.flatnonzero(((path < space.lower) | (path > space.upper)).any(axis=1))
+    outside = space.outside_limits(path)
     if outside.size:
         i = int(outside[0])
         raise PlanningError(

@@ -142,7 +142,7 @@ def smooth_bspline(
                     rejected += 1  # the manifold's metric need not shrink the corner
                     continue
                 if (
-                    space.within_bounds(q)
+                    space.outside_limits(q).size == 0
                     and space.is_valid(q)
                     and space.motion_valid(a, q)
                     and space.motion_valid(q, c)
