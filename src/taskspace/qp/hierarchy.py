@@ -242,6 +242,56 @@ def _affine_start(
     return x0, Vt[rank:].T
 
 
+class _ClosedFormLevelResult(QPResult):
+    """The result of a level solved by the equality cascade (no QP).
+
+    The level's QP is its damped least-squares problem ``min 1/2 |JZ z - res|^2 + mu/2
+    |z|^2`` with every inequality inactive (all multipliers zero); ``x`` is the level's step
+    ``z``. ``objective`` and ``kkt`` (:func:`~taskspace.qp.kkt.least_squares_kkt_residuals`,
+    the primal residual being the largest violation of the bounds, hard rows and the level's
+    inequalities at the cascade's point) are computed on first access: most steps never read
+    them.
+    """
+
+    def __init__(
+        self, step: tuple[FloatArray, FloatArray, FloatArray, float], primal: float
+    ) -> None:
+        self._pending: tuple[FloatArray, FloatArray, FloatArray, float, float] | None = None
+        super().__init__(True, QPStatus.UNCONSTRAINED, step[2], float("nan"), backend="closed form")
+        self._pending = (*step, primal)
+
+    def _evaluate(self) -> None:
+        pending = self._pending
+        if pending is None:
+            return
+        self._pending = None
+        JZ, res, z, mu, primal = pending
+        self._kkt = least_squares_kkt_residuals(JZ, res, z, mu, primal)
+        self._objective = (
+            0.5 * float(np.sum((JZ.dot(z) - res) ** 2) + mu * z.dot(z)) if z.size else 0.0
+        )
+
+    @property  # type: ignore[override]
+    def kkt(self) -> KKTResiduals:
+        """KKT residuals of the level's least-squares QP (computed on first access)."""
+        self._evaluate()
+        return self._kkt
+
+    @kkt.setter
+    def kkt(self, value: KKTResiduals) -> None:
+        self._kkt = value
+
+    @property  # type: ignore[override]
+    def objective(self) -> float:
+        """``1/2 |JZ z - res|^2 + mu/2 |z|^2`` (computed on first access)."""
+        self._evaluate()
+        return self._objective
+
+    @objective.setter
+    def objective(self, value: float) -> None:
+        self._objective = value
+
+
 class HierarchySolver:
     """Lexicographic cascade over any number of levels (one persistent QP solver per level)."""
 
@@ -287,13 +337,16 @@ class HierarchySolver:
         # solution satisfies every inequality and bound, it is the constrained optimum too.
         x0, Z0 = _affine_start(A, b, n, opts.rank_tolerance)
         shortcut = self._equality_cascade(levels, n, x0, Z0)
-        if shortcut is not None and self._feasible(shortcut[0], levels, lb, ub, C, l, u):
+        violations = (
+            None if shortcut is None else self._violations(shortcut[0], levels, lb, ub, C, l, u)
+        )
+        if shortcut is not None and violations is not None:
             x, dims, steps = shortcut
             return self._finish(
                 HierarchyResult(True, QPStatus.UNCONSTRAINED, x, nullspace_dims=dims),
                 levels,
                 t0,
-                self._shortcut_results(x, levels, steps, lb, ub, C, l, u),
+                [_ClosedFormLevelResult(step, primal) for step, primal in zip(steps, violations)],
             )
         held_C: list[FloatArray] = [] if C is None else [C]
         held_l: list[FloatArray] = [] if l is None else [l]
@@ -472,7 +525,7 @@ class HierarchySolver:
                 x = x + (z if Z is None else Z @ z)
                 if k < last:
                     Z = basis if Z is None else Z @ basis
-                steps.append((JZ, res, z, mu))
+                steps.append((JZ.copy() if JZ is J else JZ, res, z, mu))  # J: a buffer
             else:  # no rows (or no freedom): the level's step is zero
                 steps.append((np.zeros((0, 0)), empty, empty, 0.0))
             dims.append(n if Z is None else Z.shape[1])
@@ -481,49 +534,7 @@ class HierarchySolver:
         return x, dims, steps
 
     @staticmethod
-    def _shortcut_results(
-        x: FloatArray,
-        levels: Sequence[HierarchyLevel],
-        steps: Sequence[tuple[FloatArray, FloatArray, FloatArray, float]],
-        lb: FloatArray,
-        ub: FloatArray,
-        C: FloatArray | None,
-        l: FloatArray | None,
-        u: FloatArray | None,
-    ) -> list[QPResult]:
-        """The QP result of each level solved by the equality cascade, with KKT residuals.
-
-        The level's QP is its damped least-squares problem (every inequality inactive at the
-        cascade's point, so all multipliers are zero); its primal residual is the largest
-        violation at ``x`` of the bounds, the hard inequalities and the level's own
-        inequalities.
-        """
-        hard = max(0.0, float(np.maximum(lb - x, x - ub).max(initial=0.0)))
-        if C is not None and l is not None and u is not None and C.shape[0]:
-            Cx = C @ x
-            hard = max(hard, float(np.maximum(l - Cx, Cx - u).max(initial=0.0)))
-        out = []
-        for level, (JZ, res, z, mu) in zip(levels, steps):
-            primal = hard
-            if level.n_in:
-                assert level.C is not None and level.l is not None and level.u is not None
-                Cx = level.C @ x
-                primal = max(primal, float(np.maximum(level.l - Cx, Cx - level.u).max()))
-            objective = 0.5 * float(np.sum((JZ @ z - res) ** 2) + mu * z.dot(z)) if z.size else 0.0
-            out.append(
-                QPResult(
-                    True,
-                    QPStatus.UNCONSTRAINED,
-                    z,
-                    objective,
-                    backend="closed form",
-                    kkt=least_squares_kkt_residuals(JZ, res, z, mu, primal),
-                )
-            )
-        return out
-
-    @staticmethod
-    def _feasible(
+    def _violations(
         x: FloatArray,
         levels: Sequence[HierarchyLevel],
         lb: FloatArray,
@@ -532,20 +543,31 @@ class HierarchySolver:
         l: FloatArray | None,
         u: FloatArray | None,
         tol: float = 1e-10,
-    ) -> bool:
-        if np.minimum(x - lb, ub - x).min() < -tol:
-            return False
+    ) -> list[float] | None:
+        """Per level, the largest violation at ``x`` of the rows the level must respect.
+
+        Those are the bounds, the hard inequalities and the level's own inequalities; ``None``
+        as soon as one violation exceeds ``tol`` (the cascade's point is infeasible).
+        """
+        hard = max(0.0, -float(np.minimum(x - lb, ub - x).min(initial=INF)))
+        if hard > tol:
+            return None
         if C is not None and l is not None and u is not None and C.shape[0]:
             Cx = C @ x
-            if np.minimum(Cx - l, u - Cx).min() < -tol:
-                return False
+            hard = max(hard, -float(np.minimum(Cx - l, u - Cx).min()))
+            if hard > tol:
+                return None
+        out = []
         for level in levels:
+            v = hard
             if level.n_in:
                 assert level.C is not None and level.l is not None and level.u is not None
                 Cx = level.C @ x
-                if np.minimum(Cx - level.l, level.u - Cx).min() < -tol:
-                    return False
-        return True
+                v = max(v, -float(np.minimum(Cx - level.l, level.u - Cx).min()))
+                if v > tol:
+                    return None
+            out.append(v)
+        return out
 
     @staticmethod
     def _finish(
