@@ -29,6 +29,7 @@ from taskspace.control.finite_horizon import (
     solve_riccati_recursion,
 )
 from taskspace.control.inverse_dynamics_qp import (
+    CenterOfPressureTask,
     InverseDynamicsOptions,
     InverseDynamicsQP,
     InverseDynamicsResult,
@@ -104,6 +105,7 @@ __all__ = [
     "AdaptiveOptions",
     "AdaptivePendulumController",
     "AdaptiveSimulation",
+    "CenterOfPressureTask",
     "ComputedTorqueController",
     "ConstantReference",
     "ContactRollout",

@@ -8,7 +8,13 @@ Optimal planners (RRT*, informed RRT*, PRM*, Lazy PRM*, BIT*) take an
 from taskspace.planning.bit_star import BITStarOptions, bit_star
 from taskspace.planning.bug import BugOptions, BugResult, BugStatus, bug1, bug2
 from taskspace.planning.car import CarModel, ControlSamplingOptions, ControlTree, grow_control_tree
-from taskspace.planning.certify import PathCertificate, certify_path, motion_bounds
+from taskspace.planning.certify import (
+    MotionBound,
+    PathCertificate,
+    certify_path,
+    motion_bound,
+    motion_bounds,
+)
 from taskspace.planning.collision_checker import (
     CollisionChecker,
     CollisionCheckerOptions,
@@ -51,6 +57,7 @@ from taskspace.planning.limits import planner_limits
 from taskspace.planning.nearest import GrowingNearest
 from taskspace.planning.objectives import (
     Clearance,
+    MechanicalWork,
     MetricLength,
     OptimizationObjective,
     PathLength,
@@ -122,7 +129,9 @@ __all__ = [
     "KinodynamicRRTOptions",
     "KinodynamicRRTResult",
     "LazyRoadmap",
+    "MechanicalWork",
     "MetricLength",
+    "MotionBound",
     "OccupancyGrid",
     "OptimizationObjective",
     "PRMOptions",
@@ -174,6 +183,7 @@ __all__ = [
     "lazy_prm_star",
     "load_moveit_request",
     "load_moveit_scene",
+    "motion_bound",
     "motion_bounds",
     "motionbenchmaker_dir",
     "motionbenchmaker_panda",
