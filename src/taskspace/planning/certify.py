@@ -5,7 +5,7 @@ Pinocchio's ``integrate`` and ``difference``, so a continuous joint turns the sh
 certified by conservative advancement (Schwarzer, Saha and Latombe 2005): at ``q(t)`` the
 least distance ``d`` between
 the robot and the obstacles (and ``d_s`` between checked robot links) is computed with coal;
-no point of any link moves farther than ``B |dt|`` while ``t`` changes by ``dt``, where
+no point of any link moves farther than ``B |dt|`` while ``t`` changes by ``dt``, where::
 
     B = sum_j (|v_j| + R_j |omega_j|),
 
@@ -79,7 +79,7 @@ class MotionBound:
     ``nv``), every joint ``j`` moves with a constant body velocity ``delta_j`` (the exponential
     of its Lie group), so a point ``p`` of a link below it moves, because of ``j``, at most at
     ``|v_j| + |omega_j| |p - o_j|`` (``v_j``, ``omega_j``: the linear and angular parts of
-    ``delta_j``, ``o_j`` the joint's origin). Summed down the tree,
+    ``delta_j``, ``o_j`` the joint's origin). Summed down the tree::
 
         B(delta) = sum_g w_g |delta[g]|,
 
