@@ -64,9 +64,11 @@ class KKTResiduals:
 
     @staticmethod
     def unknown() -> KKTResiduals:
-        """Residuals not computed (NaN)."""
-        nan = float("nan")
-        return KKTResiduals(nan, nan, nan, nan, nan, nan, nan)
+        """Residuals not computed (NaN); one shared value (the class is frozen)."""
+        return _UNKNOWN
+
+
+_UNKNOWN = KKTResiduals(*([float("nan")] * 7))
 
 
 def kkt_residuals(
