@@ -192,6 +192,7 @@ def _campaign(quick: bool, ray_ok: bool) -> list[Row]:
             same = [
                 a["compiled"]["solved"] == b["compiled"]["solved"]
                 for a, b in zip(values, reference or [])
+                if a["valid"] and b["valid"]  # invalid problems (start or goal in collision)
             ]
             extra["same_success_as_serial"] = float(np.mean(same))
         rows.append(
