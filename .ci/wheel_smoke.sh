@@ -28,6 +28,8 @@ names = zipfile.ZipFile(sys.argv[1]).namelist()
 kernels = [n for n in names if n.startswith("taskspace/_native/_") and n.endswith(".so")]
 assert len(kernels) == 2 and "taskspace/_native/_build_info.json" in names, names
 assert not [n for n in names if n.endswith((".cpp", "build.py"))], "C++ sources in the wheel"
+assert "taskspace/examples/demo_main.py" in names, "examples/ missing from the wheel"
+assert not [n for n in names if "__pycache__" in n], "bytecode caches in the wheel"
 EOF
 "$build_py" -m pip freeze --all \
     | grep -iE '^(pin|libpinocchio|coal|libcoal|eigenpy|cmeel-boost|numpy)==' >"$work/constraints.txt"
@@ -52,6 +54,10 @@ if grep -q "not in use" "$work/info.txt"; then
     echo "wheel-smoke: a compiled kernel does not load from the wheel" >&2
     exit 1
 fi
+# The examples come with the wheel: `taskspace demo` runs them from the installed copy.
+"$work/venv/bin/taskspace" demo list | grep -q "^ *main" || { echo "wheel-smoke: no demos" >&2; exit 1; }
+MPLBACKEND=Agg "$work/venv/bin/taskspace" demo bug_paths --no-viewer --png bug_paths.png
+test -s bug_paths.png || { echo "wheel-smoke: demo wrote no picture" >&2; exit 1; }
 TASKSPACE_REQUIRE_NATIVE=1 OPENBLAS_NUM_THREADS=1 "$work/venv/bin/python" -m pytest -q \
     -p no:cacheprovider "$@"
 echo "wheel-smoke: passed in $(($(date +%s) - t0)) s"

@@ -38,9 +38,23 @@ from taskspace.errors import TaskspaceError
 logger = logging.getLogger(__name__)
 
 REPO_ROOT = Path(__file__).resolve().parents[2]
-"""Source tree root (examples and benchmarks live there; taskspace is installed editable)."""
+"""Source tree root when taskspace is installed editable (benchmarks live there)."""
 
-EXAMPLES_DIR = REPO_ROOT / "examples"
+
+def _examples_dir() -> Path:
+    """The examples: the checkout's ``examples/`` (editable install), else the copy in the wheel.
+
+    A wheel ships ``examples/`` as ``taskspace/examples`` (pyproject.toml ``wheel.packages``),
+    so ``taskspace demo`` works from an installed copy too.
+    """
+    checkout = REPO_ROOT / "examples"
+    if (checkout / "demo_main.py").is_file():
+        return checkout
+    return Path(__file__).resolve().parent / "examples"
+
+
+EXAMPLES_DIR = _examples_dir()
+"""Where ``taskspace demo`` finds its scripts (see :func:`_examples_dir`)."""
 
 DEMO_ALIASES = {"main": "demo_main"}
 """Short demo names mapped to example stems."""

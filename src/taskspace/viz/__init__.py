@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING, Any
 if TYPE_CHECKING:
     from taskspace.viz.figure_page import figure_page_html, save_figure_page
     from taskspace.viz.image_comparison import ImageComparison, compare_images
+    from taskspace.viz.motion import save_robot_motion
     from taskspace.viz.plots import save_or_show, style_figure
     from taskspace.viz.scene_recorder import SceneRecorder
     from taskspace.viz.snapshots import (
@@ -38,6 +39,7 @@ _EXPORTS = {
     "render_html": "taskspace.viz.snapshots",
     "save_figure_page": "taskspace.viz.figure_page",
     "save_or_show": "taskspace.viz.plots",
+    "save_robot_motion": "taskspace.viz.motion",
     "snapshot": "taskspace.viz.snapshots",
     "style_figure": "taskspace.viz.plots",
 }
@@ -56,6 +58,7 @@ __all__ = [
     "render_html",
     "save_figure_page",
     "save_or_show",
+    "save_robot_motion",
     "snapshot",
     "style_figure",
 ]
