@@ -37,6 +37,34 @@ EOF
 echo "wheel-smoke: installing $(basename "$wheel") into a fresh virtual environment"
 "$python" -m venv "$work/venv"
 "$work/venv/bin/python" -m pip install --quiet --upgrade pip
+# First the core dependencies only (no extras): every module but the viewer stack imports,
+# the algorithms run, and taskspace.viz says which extra to install.
+"$work/venv/bin/python" -m pip install --quiet -c "$work/constraints.txt" "$wheel"
+(cd "$work" && "$work/venv/bin/python" - <<'EOF'
+import importlib, pkgutil
+import taskspace
+from taskspace import MissingDependencyError
+skipped = ("taskspace.viz", "taskspace.cli", "taskspace.__main__", "taskspace.examples")
+names = [m.name for m in pkgutil.walk_packages(taskspace.__path__, "taskspace.")
+         if not m.name.startswith(skipped)]
+for name in names:
+    importlib.import_module(name)
+from taskspace.features import Position
+from taskspace.ik import solve_ik
+from taskspace.model import Robot
+from taskspace.tasks import Task
+robot = Robot.load("panda")
+goal = robot.frame_placement(robot.q_default, "panda_hand_tcp").translation + [0.0, 0.1, 0.0]
+assert solve_ik(robot, [Task(Position(robot, "panda_hand_tcp"), goal)]).success
+try:
+    import taskspace.viz  # noqa: F401
+except MissingDependencyError as error:
+    assert "taskspace[viz]" in str(error), error
+else:
+    raise AssertionError("taskspace.viz imported without the viz extra")
+print(f"wheel-smoke: core install: {len(names)} modules import, IK solves, viz asks for its extra")
+EOF
+)
 "$work/venv/bin/python" -m pip install --quiet -c "$work/constraints.txt" "$wheel[test]"
 
 mkdir "$work/run"

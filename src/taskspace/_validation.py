@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import functools
+import importlib.util
 import math
 from pathlib import Path
 from typing import Any
@@ -10,7 +12,13 @@ import numpy as np
 import numpy.typing as npt
 import yaml
 
-from taskspace.errors import InvalidInputError, ModelLoadError, NotFiniteError, ShapeError
+from taskspace.errors import (
+    InvalidInputError,
+    MissingDependencyError,
+    ModelLoadError,
+    NotFiniteError,
+    ShapeError,
+)
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -334,3 +342,38 @@ def read_yaml(path: str | Path, what: str = "YAML file") -> tuple[Any, YamlLines
     except yaml.YAMLError as exc:
         raise ModelLoadError(f"{p}: malformed YAML in {what}: {exc}") from exc
     return data, YamlLines(p, root)
+
+
+# ---------------------------------------------------------------------- optional dependencies
+# The algorithms need only the core dependencies. The viewer and plotting stack (meshcat,
+# matplotlib, Pillow, playwright) is the ``viz`` extra and Ray the ``ray`` extra; ``all`` has
+# both (what ``make`` installs and the README's quick start asks for). Code that needs an extra
+# calls :func:`require_extra` first, so a missing package gives one clear error naming the
+# install command instead of a bare ``ModuleNotFoundError`` deep inside.
+
+EXTRAS: dict[str, tuple[str, ...]] = {
+    "viz": ("meshcat", "matplotlib", "PIL", "umsgpack"),
+    "ray": ("ray",),
+}
+"""Import names of the packages of each extra (``PIL`` is Pillow, ``umsgpack`` is
+u-msgpack-python; playwright, also in ``viz``, is checked by the snapshots themselves)."""
+
+
+@functools.cache
+def missing_modules(extra: str) -> tuple[str, ...]:
+    """The import names of ``extra``'s packages that are not installed."""
+    if extra not in EXTRAS:
+        raise KeyError(f"unknown extra {extra!r}; extras are {sorted(EXTRAS)}")
+    return tuple(m for m in EXTRAS[extra] if importlib.util.find_spec(m) is None)
+
+
+def require_extra(extra: str, purpose: str) -> None:
+    """Raise :class:`MissingDependencyError` unless every package of ``extra`` is installed.
+
+    Args:
+        extra: name of the extra (``"viz"``, ``"ray"``).
+        purpose: what needs it, for the message (``"taskspace.viz"``).
+    """
+    missing = missing_modules(extra)
+    if missing:
+        raise MissingDependencyError(purpose, extra, missing)

@@ -23,6 +23,25 @@ class ModelWarning(TaskspaceWarning):
     """A robot description was corrected on load (collision pairs pruned, limits missing)."""
 
 
+class MissingDependencyError(TaskspaceError, ImportError):
+    """An optional dependency (an extra of ``pip install "taskspace[...]"``) is not installed.
+
+    Attributes:
+        purpose: what needs it.
+        extra: the extra that provides it.
+        modules: the import names that are missing.
+    """
+
+    def __init__(self, purpose: str, extra: str, modules: Sequence[str]) -> None:
+        self.purpose = purpose
+        self.extra = extra
+        self.modules = tuple(modules)
+        super().__init__(
+            f"{purpose} needs {', '.join(self.modules)} (not installed): "
+            f'pip install "taskspace[{extra}]" (or "taskspace[all]")'
+        )
+
+
 class InvalidInputError(TaskspaceError, ValueError):
     """An argument has the wrong shape, is not finite, or is out of its domain."""
 

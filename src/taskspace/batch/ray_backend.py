@@ -26,7 +26,7 @@ def _ray() -> Any:
     try:
         import ray
     except ImportError as exc:  # pragma: no cover - ray is a dependency
-        raise BatchError("the 'ray' backend needs Ray: pip install 'ray>=2.9'") from exc
+        raise BatchError("the 'ray' backend needs Ray: pip install 'taskspace[ray]'") from exc
     return ray
 
 

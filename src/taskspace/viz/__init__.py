@@ -9,6 +9,11 @@ from __future__ import annotations
 from importlib import import_module
 from typing import TYPE_CHECKING, Any
 
+from taskspace._validation import require_extra
+
+# meshcat, matplotlib and Pillow are the `viz` extra: one clear error when they are missing.
+require_extra("viz", "taskspace.viz")
+
 if TYPE_CHECKING:
     from taskspace.viz.figure_page import figure_page_html, save_figure_page
     from taskspace.viz.image_comparison import ImageComparison, compare_images

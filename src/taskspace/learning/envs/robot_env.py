@@ -23,6 +23,7 @@ from gymnasium import spaces
 from gymnasium.vector import VectorEnv
 from gymnasium.vector.utils import batch_space
 
+from taskspace._validation import require_extra
 from taskspace.errors import InvalidInputError
 from taskspace.model.robot import Robot
 
@@ -36,6 +37,8 @@ def check_render_mode(render_mode: str | None, modes: tuple[str, ...]) -> str | 
     if render_mode is not None and render_mode not in modes:
         valid = ", ".join(repr(m) for m in (None, *modes))
         raise InvalidInputError(f"render_mode {render_mode!r} is not supported; use {valid}")
+    if render_mode is not None:
+        require_extra("viz", f"render_mode={render_mode!r} (drawn with matplotlib)")
     return render_mode
 
 
