@@ -6,6 +6,11 @@ reward ``-|p_tcp - p_target| - 0.01 |a|^2``; the episode terminates with ``+10``
 centre point is within ``tolerance`` of the target, and with ``-10`` when the configuration is
 in collision (self-collision or obstacles of ``robot.world``, exact mesh checks of
 :class:`taskspace.planning.collision_checker.CollisionChecker`).
+
+Model version: the joint limits (position and velocity) and the observation space follow
+``robot.version``. :meth:`PandaReachEnv.reset` re-derives them when :meth:`Robot.set_limits`
+gave the robot a new version; a :meth:`PandaReachEnv.step` after such a change, before a
+reset, raises :class:`~taskspace.errors.StaleModelError` (the episode ran under other limits).
 """
 
 from __future__ import annotations
@@ -16,7 +21,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from taskspace.errors import InvalidInputError
+from taskspace.errors import InvalidInputError, StaleModelError
 from taskspace.model.robot import Robot
 from taskspace.planning.collision_checker import CollisionChecker
 
@@ -52,15 +57,32 @@ class PandaReachEnv(gym.Env[np.ndarray, np.ndarray]):
         self.dt = float(dt)
         self.tolerance = float(tolerance)
         self.render_mode = render_mode
-        self.lower = self.robot.lower_limits
-        self.upper = self.robot.upper_limits
-        self.v_max = self.robot.velocity_limits
         self.action_space = spaces.Box(-1.0, 1.0, (7,), np.float32)
+        self._read_limits()
+        self.q = self.robot.q_default.copy()
+        self.target = 0.5 * (TARGET_LOW + TARGET_HIGH)
+
+    def _read_limits(self) -> None:
+        """Copy the robot's limits and build the observation space; record the version."""
+        robot = self.robot
+        self.model_version = robot.version
+        self.lower = robot.lower_limits.copy()
+        self.upper = robot.upper_limits.copy()
+        self.v_max = robot.velocity_limits.copy()
         low = np.concatenate([self.lower, [-2.0] * 3, TARGET_LOW]).astype(np.float32)
         high = np.concatenate([self.upper, [2.0] * 3, TARGET_HIGH]).astype(np.float32)
         self.observation_space = spaces.Box(low, high, dtype=np.float32)
-        self.q = self.robot.q_default.copy()
-        self.target = 0.5 * (TARGET_LOW + TARGET_HIGH)
+
+    def _check_version(self) -> None:
+        """Raise :class:`StaleModelError` if the robot's limits changed since the reset."""
+        if self.robot.version != self.model_version:
+            raise StaleModelError(
+                f"PandaReachEnv: the limits of robot '{self.robot.name}' changed during the "
+                f"episode (Robot.set_limits: version {self.model_version} -> "
+                f"{self.robot.version}); call reset() to start an episode under the new limits",
+                self.model_version,
+                self.robot.version,
+            )
 
     def tcp(self) -> np.ndarray:
         """Tool centre point position [m]."""
@@ -72,8 +94,13 @@ class PandaReachEnv(gym.Env[np.ndarray, np.ndarray]):
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[np.ndarray, dict[str, Any]]:
-        """Default posture perturbed by up to 0.1 rad per joint; target uniform in a box."""
+        """Default posture perturbed by up to 0.1 rad per joint; target uniform in a box.
+
+        Re-derives the joint limits and the observation space if the robot's version changed.
+        """
         super().reset(seed=seed)
+        if self.robot.version != self.model_version:
+            self._read_limits()
         for _ in range(100):
             q = self.robot.q_default + self.np_random.uniform(-0.1, 0.1, 7)
             q = np.clip(q, self.lower, self.upper)
@@ -84,7 +111,12 @@ class PandaReachEnv(gym.Env[np.ndarray, np.ndarray]):
         return self._obs(), {"distance": float(np.linalg.norm(self.tcp() - self.target))}
 
     def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
-        """Move with the commanded joint velocities for ``dt``."""
+        """Move with the commanded joint velocities for ``dt``.
+
+        Raises:
+            StaleModelError: the robot's limits changed since the last reset.
+        """
+        self._check_version()
         a = np.clip(np.asarray(action, dtype=float).reshape(7), -1.0, 1.0)
         self.q = np.clip(self.q + self.dt * a * self.v_max, self.lower, self.upper)
         distance = float(np.linalg.norm(self.tcp() - self.target))
