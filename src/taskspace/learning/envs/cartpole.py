@@ -9,21 +9,116 @@ step, termination when ``|theta| > 12 deg`` or ``|x| > 2.4 m``. Observation
 :class:`CartPoleVectorEnv` steps N copies at once with the closed-form equations of motion
 of the same point-mass cart-pole (:func:`taskspace.optimal_control.cartpole_acceleration`,
 checked against ABA in the tests), without a Python loop over the copies.
+
+:class:`CartPoleEnv` steps Pinocchio's ABA in closed form (:class:`CartPoleDynamics`: the
+Lagrangian of a cart on a prismatic joint carrying a pole on a revolute joint, with the
+coefficients read from the model by CRBA and generalized gravity and checked against
+``pin.aba`` at random states when the environment is built); the substeps run on Python
+floats. A model that fails the check is stepped with ``pin.aba``.
 """
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
+import pinocchio as pin
 from gymnasium import spaces
 
 from taskspace.errors import InvalidInputError
-from taskspace.learning.envs.robot_env import RobotEnv, RobotVectorEnv
+from taskspace.learning.envs.robot_env import RobotEnv, RobotVectorEnv, snap_roundoff
 from taskspace.optimal_control.problems import cartpole_acceleration
 
 THETA_LIMIT = 12 * 2 * np.pi / 360
 X_LIMIT = 2.4
+
+
+class CartPoleDynamics:
+    """Pinocchio's ABA of a cart-pole (prismatic cart ``x``, revolute pole ``theta``), closed form.
+
+    Kinetic energy ``T = 1/2 m_x x'^2 + m_xt(theta) x' theta' + 1/2 m_t theta'^2`` with
+    ``m_xt = b_c cos(theta) + b_s sin(theta)``; Lagrange's equations give
+    ``M(theta) [x'', theta''] = tau - [m_xt'(theta) theta'^2 + g_x, g(theta)]`` with
+    ``m_xt' = -b_c sin + b_s cos`` and ``g(theta) = g_s sin + g_c cos + g_0``.
+    :meth:`from_model` reads the coefficients from the model and returns ``None`` unless
+    ``pin.aba`` agrees.
+
+    Attributes:
+        mass: ``(m_x, m_t)``; coupling: ``(b_c, b_s)``; gravity: ``(g_x, g_s, g_c, g_0)``.
+    """
+
+    def __init__(
+        self,
+        mass: tuple[float, float],
+        coupling: tuple[float, float],
+        gravity: tuple[float, ...],
+    ) -> None:
+        self.mass = (float(mass[0]), float(mass[1]))
+        self.coupling = (float(coupling[0]), float(coupling[1]))
+        g = [float(x) for x in gravity]
+        self.gravity = (g[0], g[1], g[2], g[3])
+
+    @classmethod
+    def from_model(cls, model: Any, data: Any, rtol: float = 1e-10) -> CartPoleDynamics | None:
+        """Read the coefficients from the model; ``None`` unless ABA agrees to ``rtol``."""
+        if model.nq != 2 or model.nv != 2:
+            return None
+        m0 = pin.crba(model, data, np.zeros(2))
+        m90 = pin.crba(model, data, np.array([0.0, 0.5 * math.pi]))
+        g0, g90, g180 = (
+            pin.computeGeneralizedGravity(model, data, np.array([0.0, th])).copy()
+            for th in (0.0, 0.5 * math.pi, math.pi)
+        )
+        offset = 0.5 * (g0[1] + g180[1])
+        coupling = snap_roundoff((m0[0, 1], m90[0, 1]))
+        gravity = snap_roundoff((g0[0], g90[1] - offset, 0.5 * (g0[1] - g180[1]), offset))
+        dyn = cls((m0[0, 0], m0[1, 1]), (coupling[0], coupling[1]), gravity)
+        rng = np.random.default_rng(0)
+        for _ in range(8):
+            q, v, tau = rng.uniform(-3.0, 3.0, (3, 2))
+            ref = pin.aba(model, data, q, v, tau)
+            ours = np.array(dyn.acceleration(*q, *v, *tau))
+            if not np.all(np.abs(ours - ref) <= rtol * (1.0 + np.abs(ref))):
+                return None
+        return dyn
+
+    def acceleration(
+        self, x: float, theta: float, xd: float, thetad: float, f_x: float, f_theta: float
+    ) -> tuple[float, float]:
+        """``(x'', theta'')`` under the generalized forces ``(f_x, f_theta)``."""
+        del x  # the dynamics do not depend on the cart position
+        mx, mt = self.mass
+        bc, bs = self.coupling
+        gx, gs, gc, g0 = self.gravity
+        s, c = math.sin(theta), math.cos(theta)
+        mxt = bc * c + bs * s
+        r1 = f_x - (bs * c - bc * s) * thetad * thetad - gx
+        r2 = f_theta - gs * s - gc * c - g0
+        inv_det = 1.0 / (mx * mt - mxt * mxt)
+        return (mt * r1 - mxt * r2) * inv_det, (mx * r2 - mxt * r1) * inv_det
+
+    def integrate(
+        self, q: list[float], v: list[float], force: float, h: float, substeps: int
+    ) -> tuple[list[float], list[float]]:
+        """``substeps`` semi-implicit Euler steps of ``h`` [s] pushing the cart with ``force``."""
+        mx, mt = self.mass
+        bc, bs = self.coupling
+        gx, gs, gc, g0 = self.gravity
+        sin, cos = math.sin, math.cos
+        x, th = q
+        xd, thd = v
+        for _ in range(substeps):
+            s, c = sin(th), cos(th)
+            mxt = bc * c + bs * s
+            r1 = force - (bs * c - bc * s) * thd * thd - gx
+            r2 = -gs * s - gc * c - g0
+            inv_det = 1.0 / (mx * mt - mxt * mxt)
+            xd = xd + h * ((mt * r1 - mxt * r2) * inv_det)
+            thd = thd + h * ((mx * r2 - mxt * r1) * inv_det)
+            x = x + h * xd
+            th = th + h * thd
+        return [x, th], [xd, thd]
 
 
 def _spaces() -> tuple[spaces.Discrete, spaces.Box]:
@@ -53,6 +148,8 @@ class CartPoleEnv(RobotEnv):
         self.action_space, self.observation_space = _spaces()
         self.q = np.zeros(2)
         self.v = np.zeros(2)
+        self.dynamics = CartPoleDynamics.from_model(self.model, self.data)
+        """Closed-form ABA of the model (``None``: stepped with ``pin.aba``)."""
 
     def _obs(self) -> np.ndarray:
         return np.array([self.q[0], self.v[0], self.q[1], self.v[1]], dtype=np.float32)
@@ -70,13 +167,27 @@ class CartPoleEnv(RobotEnv):
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         """Push for ``dt`` (ABA + semi-implicit Euler substeps)."""
-        if not self.action_space.contains(action):
+        kind = type(action)
+        if kind is int or kind is np.int64:
+            valid = action == 0 or action == 1
+        else:
+            valid = self.action_space.contains(action)
+        if not valid:
             raise InvalidInputError(f"action must be 0 or 1, got {action!r}")
-        tau = np.array([self.force if int(action) == 1 else -self.force, 0.0])
-        self.q, self.v = self._integrate(self.q, self.v, tau)
-        terminated = bool(abs(self.q[0]) > X_LIMIT or abs(self.q[1]) > THETA_LIMIT)
-        self._after_step()
-        return self._obs(), 1.0, terminated, False, {}
+        force = self.force if int(action) == 1 else -self.force
+        if self.dynamics is not None:
+            q, v = self.dynamics.integrate(
+                self.q.tolist(), self.v.tolist(), force, self.dt / self.substeps, self.substeps
+            )
+        else:
+            qa, va = self._integrate(self.q, self.v, np.array([force, 0.0]))
+            q, v = qa.tolist(), va.tolist()
+        self.q = np.array(q)
+        self.v = np.array(v)
+        terminated = abs(q[0]) > X_LIMIT or abs(q[1]) > THETA_LIMIT
+        if self.render_mode == "human":
+            self.render()
+        return np.array([q[0], v[0], q[1], v[1]], dtype=np.float32), 1.0, terminated, False, {}
 
     def _draw(self, ax: Any) -> None:
         """Track, cart and pole (0.5 m drawn as 1 m, as Gymnasium's picture)."""

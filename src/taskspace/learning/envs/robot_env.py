@@ -42,6 +42,13 @@ def check_render_mode(render_mode: str | None, modes: tuple[str, ...]) -> str | 
     return render_mode
 
 
+def snap_roundoff(values: Any) -> tuple[float, ...]:
+    """Entries below ``1e-12`` times the largest (round-off of ``cos(pi/2)``...) set to 0."""
+    vals = tuple(float(x) for x in values)
+    scale = max(abs(x) for x in vals)
+    return tuple(0.0 if abs(x) <= 1e-12 * scale else x for x in vals)
+
+
 class RobotEnv(gym.Env[np.ndarray, Any]):
     """A single environment on a registry robot, stepped with Pinocchio's ABA.
 
