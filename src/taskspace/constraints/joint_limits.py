@@ -10,6 +10,7 @@ from taskspace._validation import FloatArray, as_vector, check_positive
 from taskspace.constraints.constraint import Constraint
 from taskspace.errors import InvalidInputError, ShapeError
 from taskspace.features.rows import INF, Box
+from taskspace.model.versioning import ModelFollower
 
 if TYPE_CHECKING:
     from taskspace.model.robot import Robot
@@ -51,31 +52,41 @@ class JointPositionLimits(Constraint):
     Args:
         robot: the robot.
         margin: distance ``m`` kept from the limits [rad or m].
+
+    The limits follow the robot: after :meth:`Robot.set_limits` the next :meth:`bounds` uses
+    the new ones (:class:`~taskspace.model.versioning.ModelFollower`).
     """
 
     def __init__(self, robot: Robot, margin: float = 0.0) -> None:
         super().__init__(robot, "joint position limits")
         self.margin = check_positive(margin, "margin", strict=False)
-        self._iq = robot.limited_joints_q
-        self._iv = robot.limited_joints_v
-        self._low = robot.lower_limits[self._iq] + self.margin
-        self._high = robot.upper_limits[self._iq] - self.margin
-        if np.any(self._low > self._high):
-            raise InvalidInputError(f"margin {margin} is larger than half a joint range")
+        self._model = ModelFollower(robot, "JointPositionLimits", self._derive)
+
+    def _derive(self) -> None:
+        """Copy the robot's limits (again after :meth:`Robot.set_limits`)."""
+        robot = self.robot
+        iq = robot.limited_joints_q
+        iv = robot.limited_joints_v
+        low = robot.lower_limits[iq] + self.margin
+        high = robot.upper_limits[iq] - self.margin
+        if np.any(low > high):
+            raise InvalidInputError(
+                f"margin {self.margin} is larger than half a joint range of robot '{robot.name}'"
+            )
         nv = robot.nv
+        self._iq, self._iv, self._low, self._high = iq, iv, low, high
         self._lb_template = np.full(nv, -INF)
         self._ub_template = np.full(nv, INF)
-        self._q_slice = _as_slice(self._iq)
-        self._v_slice = _as_slice(self._iv)
+        self._q_slice = _as_slice(iq)
+        self._v_slice = _as_slice(iv)
         # every joint 1-DoF and limited (fixed-base arms): plain vector operations
         self._all = (
-            robot.nq == robot.nv
-            and len(self._iq) == robot.nv
-            and bool(np.all(self._iq == np.arange(robot.nv)))
+            robot.nq == robot.nv and len(iq) == robot.nv and bool(np.all(iq == np.arange(nv)))
         )
 
     def bounds(self, state: State, dt: float) -> Box:
-        """Box on ``dq``."""
+        """Box on ``dq`` (for the robot's current limits)."""
+        self._model.sync()
         if self._all:
             q = state.q
             return Box(self._low - q, self._high - q)
@@ -94,7 +105,9 @@ class JointPositionLimits(Constraint):
         """``(iq, iv, low, high, hard)``: what a compiled kernel needs to evaluate :meth:`bounds`.
 
         ``lb[iv] = low - q[iq]``, ``ub[iv] = high - q[iq]``, unbounded elsewhere [rad or m].
+        A kernel that keeps them must call this again when :attr:`model_version` changes.
         """
+        self._model.sync()
         return (
             [int(i) for i in self._iq],
             [int(i) for i in self._iv],
@@ -102,6 +115,12 @@ class JointPositionLimits(Constraint):
             self._high,
             bool(self.hard_bounds),
         )
+
+    @property
+    def model_version(self) -> int:
+        """The robot version the limits are copied from (current after :meth:`bounds`)."""
+        self._model.sync()
+        return self._model.version
 
 
 class JointVelocityLimits(Constraint):
@@ -119,6 +138,9 @@ class JointVelocityLimits(Constraint):
         base_limits: bound on the floating base's twist (size 6: linear [m/s] then angular
             [rad/s], in the base frame; ``inf`` where unlimited); replaces the first six
             entries of ``limits`` (a floating-base robot only).
+
+    Without ``limits`` the robot's velocity limits are followed: after
+    :meth:`Robot.set_limits` the next :meth:`bounds` uses the new ones.
     """
 
     hard_bounds = True
@@ -132,23 +154,41 @@ class JointVelocityLimits(Constraint):
         base_limits: Any = None,
     ) -> None:
         super().__init__(robot, "joint velocity limits")
-        lim = robot.velocity_limits if limits is None else _positive_limits(limits, robot.nv)
+        self._given = None if limits is None else _positive_limits(limits, robot.nv)
+        self._base = None
         if base_limits is not None:
             if not robot.is_floating:
                 raise InvalidInputError(
                     f"base_limits: robot '{robot.name}' has no floating base; bound its joints "
                     "with limits"
                 )
+            self._base = _positive_limits(base_limits, 6)
+        self._scale = check_positive(scale, "scale")
+        self._model = ModelFollower(robot, "JointVelocityLimits", self._derive)
+
+    def _derive(self) -> None:
+        """The limits: the given ones, or the robot's current ones (again after set_limits)."""
+        lim = self.robot.velocity_limits if self._given is None else self._given
+        if self._base is not None:
             lim = lim.copy()
-            lim[:6] = _positive_limits(base_limits, 6)
-        self.limits = lim * check_positive(scale, "scale")
+            lim[:6] = self._base
+        self._limits = lim * self._scale
         self._dt = -1.0
-        self._box = Box(self.limits, self.limits)
+        self._box = Box(self._limits, self._limits)
+
+    @property
+    def limits(self) -> FloatArray:
+        """Velocity limits applied (size nv, scaled) [rad/s or m/s].
+
+        The robot's current ones unless ``limits`` were given.
+        """
+        self._model.sync()
+        return self._limits
 
     def bounds(self, state: State, dt: float) -> Box:
         """Box on ``dq`` (cached per ``dt``; do not modify the returned arrays)."""
-        if dt != self._dt:
-            step = np.minimum(self.limits * dt, INF)
+        if self._model.sync() or dt != self._dt:
+            step = np.minimum(self._limits * dt, INF)
             self._box = Box(-step, step)
             self._dt = dt
         return self._box

@@ -22,6 +22,7 @@ from taskspace.errors import InvalidInputError
 from taskspace.features.compiled import CompiledTerm, compiled_term
 from taskspace.model.robot import Robot
 from taskspace.model.state import State
+from taskspace.model.versioning import ModelFollower
 from taskspace.tasks import Task
 
 MAX_ACTIVE_SET_ITERATIONS = 200
@@ -92,8 +93,14 @@ class NativeWeightedStack:
         # the first joint-position box is evaluated by the kernel from q (the others here)
         # (a class that declares ``kernel_arguments`` itself: a subclass may change the box)
         position = next((c for c in boxes if "kernel_arguments" in type(c).__dict__), None)
+        self._position_limits: ModelFollower | None = None
         if position is not None:
-            kernel.set_position_limits(*position.kernel_arguments())  # type: ignore[attr-defined]
+            # the kernel keeps a copy of the limits: sent again after Robot.set_limits
+            self._position_limits = ModelFollower(
+                robot,
+                "compiled IK position limits",
+                lambda: kernel.set_position_limits(*position.kernel_arguments()),  # type: ignore[attr-defined]
+            )
             boxes.remove(position)
         self._hard = [c for c in boxes if c.hard_bounds]
         self._soft = [c for c in boxes if not c.hard_bounds]
@@ -142,6 +149,8 @@ class NativeWeightedStack:
         for t in self.tasks:
             if t.lm_damping:  # Levenberg-Marquardt damping: the Python path
                 return None
+        if self._position_limits is not None:
+            self._position_limits.sync()
         self._scale()
         targets = [t._target for t in self.tasks]
         try:

@@ -31,6 +31,7 @@ import pinocchio as pin
 from taskspace._validation import as_vector, check_positive
 from taskspace.errors import InvalidInputError, PlanningError
 from taskspace.model.robot import Robot
+from taskspace.model.versioning import ModelFollower
 from taskspace.planning.collision_checker import (
     CollisionChecker,
     CollisionCheckerOptions,
@@ -157,21 +158,67 @@ class ConfigurationSpace:
         names: list[str] | None = None,
         manifold: JointManifold | None = None,
     ) -> None:
-        self.manifold = manifold
-        lo = as_vector(lower, None, "lower")
-        hi = as_vector(upper, lo.size, "upper")
-        if np.any(hi <= lo):
-            bad = np.flatnonzero(hi <= lo).tolist()
-            raise InvalidInputError(f"upper must be > lower in every coordinate; not at {bad}")
-        self.lower = lo
-        self.upper = hi
+        self._follower: ModelFollower | None = None
+        self._set_bounds(lower, upper, manifold)
         self.checker = checker
         self.edge = edge or EdgeCheckOptions()
         check_positive(self.edge.resolution, "resolution")
         if self.edge.max_batch < 1:
             raise InvalidInputError(f"max_batch must be >= 1, got {self.edge.max_batch}")
-        self.names = names or [f"q[{i}]" for i in range(lo.size)]
+        self.names = names or [f"q[{i}]" for i in range(self._lower.size)]
         self.edge_checks = 0
+
+    def _set_bounds(self, lower: Any, upper: Any, manifold: JointManifold | None) -> None:
+        lo = as_vector(lower, None, "lower")
+        hi = as_vector(upper, lo.size, "upper")
+        if np.any(hi <= lo):
+            bad = np.flatnonzero(hi <= lo).tolist()
+            raise InvalidInputError(f"upper must be > lower in every coordinate; not at {bad}")
+        self._manifold = manifold
+        self._lower = lo
+        self._upper = hi
+        # a manifold that follows a robot: the space's bounds follow it
+        self._manifold_version = None if manifold is None else manifold.model_version
+
+    def _sync(self) -> None:
+        """Follow the robot's model version (one integer comparison when current)."""
+        follower = self._follower
+        if follower is not None:
+            follower.sync()
+        elif self._manifold is not None and self._manifold_version is not None:
+            version = self._manifold.model_version  # re-derives the manifold if stale
+            if version != self._manifold_version:
+                self._lower, self._upper = self._manifold.lower, self._manifold.upper
+                self._manifold_version = version
+
+    @property
+    def lower(self) -> FloatArray:
+        """Lower bounds (size d) [rad or m]; a space built on a robot follows its limits."""
+        self._sync()
+        return self._lower
+
+    @property
+    def upper(self) -> FloatArray:
+        """Upper bounds (size d) [rad or m]; a space built on a robot follows its limits."""
+        self._sync()
+        return self._upper
+
+    @property
+    def manifold(self) -> JointManifold | None:
+        """The joint manifold, ``None`` for the Euclidean box."""
+        self._sync()
+        return self._manifold
+
+    @property
+    def model_version(self) -> int | None:
+        """The robot version the bounds are for (``None``: not built on a robot).
+
+        Results kept outside the space (roadmaps) record it and are refused once it differs.
+        """
+        self._sync()
+        if self._follower is not None:
+            return self._follower.version
+        return self._manifold_version
 
     @classmethod
     def from_robot(
@@ -200,35 +247,45 @@ class ConfigurationSpace:
             base_upper: upper corner of that box [m].
             weights: metric weights per velocity coordinate (size nv; default 1).
 
+        The space follows the robot's limits: after :meth:`Robot.set_limits` its bounds,
+        samples and metric are those of the new limits (results kept outside the space,
+        such as roadmaps, record :attr:`model_version` and are refused once it changes).
+
         Raises:
             InvalidInputError: a joint without finite limits that is not continuous, a
                 moving base without its translation box, a joint type that cannot be
                 planned on.
         """
-        manifold = None
-        simple = robot.limited_joints_q.size == robot.nq and robot.nq == robot.nv
-        simple = simple and not robot.is_floating
-        if not simple or weights is not None or base_lower is not None:
-            manifold = JointManifold(
-                robot.model, weights=weights, base_lower=base_lower, base_upper=base_upper
-            )
-            if manifold.is_euclidean and weights is None:
-                manifold = None
         checker = CollisionChecker(robot, checker_options)
-        lo, hi = robot.lower_limits, robot.upper_limits
-        if manifold is not None:
-            lo, hi = manifold.lower, manifold.upper
-        names = []
-        for jid in range(1, robot.model.njoints):
-            names.append(str(robot.model.names[jid]))
-        return cls(
-            lo,
-            hi,
-            checker,
-            edge=edge,
-            names=names if len(names) == lo.size else None,
-            manifold=manifold,
-        )
+        space = cls.__new__(cls)
+        space.checker = checker
+        space.edge = edge or EdgeCheckOptions()
+        check_positive(space.edge.resolution, "resolution")
+        if space.edge.max_batch < 1:
+            raise InvalidInputError(f"max_batch must be >= 1, got {space.edge.max_batch}")
+        space.edge_checks = 0
+
+        def derive() -> None:
+            manifold = None
+            simple = robot.limited_joints_q.size == robot.nq and robot.nq == robot.nv
+            simple = simple and not robot.is_floating
+            if not simple or weights is not None or base_lower is not None:
+                manifold = JointManifold(
+                    robot, weights=weights, base_lower=base_lower, base_upper=base_upper
+                )
+                if manifold.is_euclidean and weights is None:
+                    manifold = None
+            lo, hi = robot.lower_limits, robot.upper_limits
+            if manifold is not None:
+                lo, hi = manifold.lower, manifold.upper
+            names = [str(robot.model.names[jid]) for jid in range(1, robot.model.njoints)]
+            space._set_bounds(lo, hi, manifold)
+            space.names = names if len(names) == lo.size else [f"q[{i}]" for i in range(lo.size)]
+
+        # rebuilt after Robot.set_limits (the metric may change: a joint made unbounded
+        # needs the manifold)
+        space._follower = ModelFollower(robot, "ConfigurationSpace", derive)
+        return space
 
     # ------------------------------------------------------------------ basics
     @property

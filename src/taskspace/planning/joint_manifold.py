@@ -35,7 +35,9 @@ import numpy.typing as npt
 import pinocchio as pin
 
 from taskspace._validation import as_vector
-from taskspace.errors import InvalidInputError
+from taskspace.errors import InvalidInputError, StaleModelError
+from taskspace.model.robot import Robot
+from taskspace.model.versioning import ModelFollower
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -113,7 +115,11 @@ class JointManifold:
     """Vectorized Lie-group operations on a Pinocchio model's configurations.
 
     Args:
-        model: the Pinocchio model.
+        model: the robot (its limits are followed: after :meth:`Robot.set_limits` the bounds
+            and samples use the new ones), or a bare Pinocchio model (its limits are copied
+            now; a Pinocchio model has no version, so a later change of its limits makes
+            :meth:`sample`, :attr:`lower` and :attr:`upper` raise
+            :class:`~taskspace.errors.StaleModelError`).
         weights: per-velocity-coordinate metric weights ``w > 0`` (size ``nv``; default 1).
         base_lower: lower corner of the translation box of a planar (x, y) or floating
             (x, y, z) root joint [m]; required when the model has one.
@@ -126,12 +132,14 @@ class JointManifold:
 
     def __init__(
         self,
-        model: pin.Model,
+        model: pin.Model | Robot,
         *,
         weights: Any = None,
         base_lower: Any = None,
         base_upper: Any = None,
     ) -> None:
+        robot = model if isinstance(model, Robot) else None
+        model = model.model if isinstance(model, Robot) else model
         self.model = model
         self.nq, self.nv = int(model.nq), int(model.nv)
         blocks = []
@@ -161,9 +169,8 @@ class JointManifold:
         if np.any(w <= 0):
             raise InvalidInputError(f"weights must all be > 0, got {w.tolist()}")
         self.weights = w
-        lower = np.array(model.lowerPositionLimit, dtype=np.float64)
-        upper = np.array(model.upperPositionLimit, dtype=np.float64)
         based = [b for b in self.blocks if b.kind in ("planar", "free_flyer")]
+        self._base: tuple[FloatArray, FloatArray] | None = None
         if based:
             if base_lower is None or base_upper is None:
                 names = ", ".join(f"'{b.name}'" for b in based)
@@ -172,17 +179,35 @@ class JointManifold:
                     "base_lower/base_upper [m] (x, y for a planar joint, x, y, z for a "
                     "floating base) so that it can be sampled"
                 )
+            n_t = 2 if based[0].kind == "planar" else 3
+            lo = as_vector(base_lower, n_t, "base_lower")
+            hi = as_vector(base_upper, n_t, "base_upper")
+            if np.any(hi <= lo):
+                raise InvalidInputError("base_upper must be > base_lower in every coordinate")
+            self._base = (lo, hi)
+        self.is_euclidean = all(b.kind == "vector" for b in self.blocks)
+        self._unit = [b for b in self.blocks if b.kind != "vector"]
+        self._snapshot: tuple[FloatArray, FloatArray] | None = None
+        self._follower = (
+            None if robot is None else ModelFollower(robot, "JointManifold", self._derive)
+        )
+        if robot is None:
+            self._derive()
+
+    def _derive(self) -> None:
+        """The sampling box from the model's current limits (again after set_limits)."""
+        model = self.model
+        model_lower = np.array(model.lowerPositionLimit, dtype=np.float64)
+        model_upper = np.array(model.upperPositionLimit, dtype=np.float64)
+        lower, upper = model_lower.copy(), model_upper.copy()
         for b in self.blocks:
             if b.kind in ("circle", "spherical"):
                 lower[b.idx_q : b.idx_q + b.nq] = -1.0
                 upper[b.idx_q : b.idx_q + b.nq] = 1.0
             elif b.kind in ("planar", "free_flyer"):
+                assert self._base is not None
                 n_t = 2 if b.kind == "planar" else 3
-                lo = as_vector(base_lower, n_t, "base_lower")
-                hi = as_vector(base_upper, n_t, "base_upper")
-                if np.any(hi <= lo):
-                    raise InvalidInputError("base_upper must be > base_lower in every coordinate")
-                lower[b.idx_q : b.idx_q + n_t], upper[b.idx_q : b.idx_q + n_t] = lo, hi
+                lower[b.idx_q : b.idx_q + n_t], upper[b.idx_q : b.idx_q + n_t] = self._base
                 lower[b.idx_q + n_t : b.idx_q + b.nq] = -1.0
                 upper[b.idx_q + n_t : b.idx_q + b.nq] = 1.0
             else:
@@ -190,11 +215,56 @@ class JointManifold:
                 if not (np.all(np.isfinite(lower[sl])) and np.all(np.isfinite(upper[sl]))):
                     raise InvalidInputError(
                         f"joint '{b.name}' has no finite position limits; give the model "
-                        "limits (model.lowerPositionLimit / upperPositionLimit) to plan with it"
+                        "limits (Robot.set_limits, or model.lowerPositionLimit / "
+                        "upperPositionLimit of a bare model) to plan with it"
                     )
-        self.lower, self.upper = lower, upper
-        self.is_euclidean = all(b.kind == "vector" for b in self.blocks)
-        self._unit = [b for b in self.blocks if b.kind != "vector"]
+        lower.flags.writeable = False
+        upper.flags.writeable = False
+        self._lower, self._upper = lower, upper
+        self._snapshot = (model_lower, model_upper)
+
+    def _sync(self) -> None:
+        """Follow the robot's version, or refuse a bare model whose limits changed."""
+        if self._follower is not None:
+            self._follower.sync()
+            return
+        assert self._snapshot is not None
+        lo, hi = self._snapshot
+        model = self.model
+        if not (
+            np.array_equal(lo, model.lowerPositionLimit)
+            and np.array_equal(hi, model.upperPositionLimit)
+        ):
+            raise StaleModelError(
+                "JointManifold was built from a bare Pinocchio model whose position limits "
+                "have changed since; build JointManifold(robot) to follow Robot.set_limits, "
+                "or a new JointManifold(model)",
+                0,
+                0,
+            )
+
+    @property
+    def lower(self) -> FloatArray:
+        """Lower corner of the sampling box (size nq, read-only) [rad or m].
+
+        The joints' limits, -1 for unit-norm parts, ``base_lower`` for a base's translation.
+        """
+        self._sync()
+        return self._lower
+
+    @property
+    def upper(self) -> FloatArray:
+        """Upper corner of the sampling box (size nq, read-only) [rad or m]."""
+        self._sync()
+        return self._upper
+
+    @property
+    def model_version(self) -> int | None:
+        """The robot version the bounds are for (``None`` for a bare Pinocchio model)."""
+        if self._follower is None:
+            return None
+        self._follower.sync()
+        return self._follower.version
 
     # ------------------------------------------------------------------ operations
     def difference(self, q0: Any, q1: Any) -> FloatArray:
@@ -247,7 +317,8 @@ class JointManifold:
 
     def sample(self, rng: np.random.Generator, n: int) -> FloatArray:
         """``n`` uniform samples (see the module docstring), shape (n, nq)."""
-        q = rng.uniform(self.lower, self.upper, size=(n, self.nq))
+        self._sync()
+        q = rng.uniform(self._lower, self._upper, size=(n, self.nq))
         for blk in self._unit:
             i = blk.idx_q
             if blk.kind in ("circle", "planar"):

@@ -110,6 +110,7 @@ def build_lazy_prm(
         collision_checks=space.checks - checks0,
         edges_tried=0,
         world_version=space.world_version,
+        model_version=space.model_version,
     )
     return LazyRoadmap(
         roadmap=roadmap, pairs=pairs, costs=costs, status=np.zeros(len(costs), dtype=np.int8)
@@ -295,6 +296,7 @@ def grow_lazy_prm(
         collision_checks=old.collision_checks,
         edges_tried=old.edges_tried,
         world_version=space.world_version if old.size == 0 else old.world_version,
+        model_version=space.model_version if old.size == 0 else old.model_version,
     )
     return LazyRoadmap(roadmap=roadmap, pairs=pairs, costs=costs, status=status)
 

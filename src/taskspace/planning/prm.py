@@ -32,7 +32,7 @@ import numpy.typing as npt
 from scipy.spatial import cKDTree
 
 from taskspace._validation import check_count, check_seed, check_time_limit
-from taskspace.errors import PlanningError
+from taskspace.errors import PlanningError, StaleModelError
 from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray
 from taskspace.planning.graph_search import astar, dijkstra
 from taskspace.planning.planner_result import PlannerResult, PlannerStatus
@@ -80,6 +80,10 @@ class Roadmap:
         world_version: :attr:`ConfigurationSpace.world_version` of the world the edges were
             checked in (``None`` without a world); queries refuse a roadmap whose version
             differs from the space's.
+        model_version: :attr:`ConfigurationSpace.model_version` of the robot limits the
+            nodes were sampled in (``None``: a space not built on a robot); queries refuse a
+            roadmap whose version differs (after :meth:`Robot.set_limits` its nodes may be
+            outside the new limits).
     """
 
     nodes: FloatArray
@@ -88,6 +92,7 @@ class Roadmap:
     collision_checks: int = 0
     edges_tried: int = 0
     world_version: int | None = None
+    model_version: int | None = None
     _tree: Any = field(default=None, repr=False)
 
     @property
@@ -122,11 +127,26 @@ class Roadmap:
 def check_roadmap_world(space: ConfigurationSpace, roadmap: Roadmap) -> None:
     """Refuse a roadmap whose edges were checked in another version of the obstacle world.
 
+    Also refuses a roadmap sampled in other robot limits (:attr:`Roadmap.model_version`).
+
     Raises:
+        StaleModelError: ``roadmap.model_version`` differs from ``space.model_version``
+            (:meth:`Robot.set_limits` was called since the roadmap was built): its nodes and
+            edges may be outside the new limits; build a new roadmap.
         PlanningError: ``roadmap.world_version`` differs from ``space.world_version`` (an
             obstacle was added, removed or moved, or the collision pairs changed since the
             roadmap was built): its edges may now collide; build a new roadmap.
     """
+    model_now = space.model_version
+    if roadmap.model_version != model_now:
+        raise StaleModelError(
+            f"the roadmap was built for version {roadmap.model_version} of the robot's limits "
+            f"but the space is now at version {model_now} (Robot.set_limits): its nodes may "
+            "be outside the new limits; build a new roadmap (build_prm / build_lazy_prm / "
+            "prm_star) for the current limits",
+            -1 if roadmap.model_version is None else roadmap.model_version,
+            -1 if model_now is None else model_now,
+        )
     now = space.world_version
     if roadmap.world_version != now:
         raise PlanningError(
@@ -227,6 +247,7 @@ def build_prm(
     deadline = t0 + check_time_limit(opts.time_limit_s)
     checks0 = space.checks
     version = space.world_version
+    model_version = space.model_version
     nodes = sample_free(space, opts.n_samples, rng, strategy=opts.sampler, sigma=opts.sigma)
     adjacency, tried = connect_roadmap(space, nodes, opts.k_neighbors, deadline=deadline)
     roadmap = Roadmap(
@@ -236,6 +257,7 @@ def build_prm(
         collision_checks=space.checks - checks0,
         edges_tried=tried,
         world_version=version,
+        model_version=model_version,
     )
     logger.debug("PRM: %d nodes, %d edges", roadmap.size, roadmap.edges.shape[0])
     return roadmap

@@ -19,8 +19,9 @@ per pass, see :func:`~taskspace.planning.lazy_prm.lazy_prm_query`), remove the c
 until the shortest path is free or none is left. Only edges on candidate shortest paths are
 ever checked; every edge of a returned path is free at the space's resolution.
 
-Roadmaps record the obstacle world's version (:attr:`ConfigurationSpace.world_version`); a
-query on a roadmap built for another version is refused (see :mod:`~taskspace.planning.prm`).
+Roadmaps record the obstacle world's version (:attr:`ConfigurationSpace.world_version`) and
+the robot limits' version (:attr:`ConfigurationSpace.model_version`); a query on a roadmap
+built for another version is refused (see :mod:`~taskspace.planning.prm`).
 """
 
 from __future__ import annotations
@@ -164,7 +165,7 @@ def _plan(
     objective: OptimizationObjective | None,
     rng: np.random.Generator | None,
     lazy: bool,
-) -> tuple[PlannerResult, _Graph, int | None]:
+) -> tuple[PlannerResult, _Graph, tuple[int | None, int | None]]:
     opts = options or PRMStarOptions()
     cap, limit = planner_limits(opts.max_iterations, opts.time_limit_s)
     batch = check_count(opts.batch_size, "batch_size", minimum=1)
@@ -176,6 +177,7 @@ def _plan(
     budget = Budget(cap, limit, t0)
     checks0, edges0 = space.checks, space.edge_checks
     version = space.world_version
+    model_version = space.model_version
     q_start = space.check_endpoint(start, "start")
     goals, region = goal_states(space, goal)
     optimum_bound = optimum_lower_bound(cost_of, q_start, goals, region)
@@ -301,10 +303,10 @@ def _plan(
             "stopped_by": budget.stopped_by,
         },
     )
-    return result, graph, version
+    return result, graph, (version, model_version)
 
 
-def _roadmap(graph: _Graph, version: int | None, lazy: bool) -> Roadmap:
+def _roadmap(graph: _Graph, versions: tuple[int | None, int | None], lazy: bool) -> Roadmap:
     pairs, cost, status = graph.edges()
     n = graph.n
     adjacency: list[list[tuple[int, float]]] = [[] for _ in range(n)]
@@ -312,7 +314,12 @@ def _roadmap(graph: _Graph, version: int | None, lazy: bool) -> Roadmap:
         if s > 0 or (lazy and s == 0):
             adjacency[a].append((b, c))
             adjacency[b].append((a, c))
-    return Roadmap(nodes=graph.nodes[:n].copy(), adjacency=adjacency, world_version=version)
+    return Roadmap(
+        nodes=graph.nodes[:n].copy(),
+        adjacency=adjacency,
+        world_version=versions[0],
+        model_version=versions[1],
+    )
 
 
 def prm_star(

@@ -43,6 +43,7 @@ import numpy.typing as npt
 
 from taskspace._validation import FloatArray, as_matrix, check_count, check_positive
 from taskspace.errors import InvalidInputError, ShapeError
+from taskspace.model.versioning import ModelFollower
 from taskspace.qp.rows import TaskRowStack
 from taskspace.trajopt.banded import SymmetricBlockBanded
 
@@ -360,7 +361,9 @@ class PathProblem:
         prefix: configurations ``q_-k..q_-1`` before the start, shape (m, nq) with
             ``m >= k`` (the last ``k`` rows are used); default: ``q_0`` repeated (start at
             rest).
-        joint_limits: add the joint position limits as hard inequalities.
+        joint_limits: add the joint position limits as hard inequalities (the robot's
+            current ones: after :meth:`Robot.set_limits` the next evaluation uses the new
+            limits).
 
     The control term of order ``k`` is ``Psi_t = sqrt(w_k dt) / dt^k sum_j c_j q_t-j``
     (slide 4:3 scaled so that ``sum_t |Psi_t|^2 ~ w_k int |q^(k)(t)|^2 dt``: the weight means
@@ -467,15 +470,8 @@ class PathProblem:
                 s.inequalities.append(ineq.bounds)
                 s.n_in += 2 * feature.dim
             self._ineq_terms.append(term)
-        self._limit_v = robot.limited_joints_v if self.joint_limits else np.zeros(0, dtype=int)
-        self._limit_q = robot.limited_joints_q if self.joint_limits else np.zeros(0, dtype=int)
-        self._limit_low = robot.lower_limits[self._limit_q]
-        self._limit_high = robot.upper_limits[self._limit_q]
-        n_lim = self._limit_q.size
-        self._n_limit_rows = 2 * n_lim
-        self._limit_jacobian = np.zeros((2 * n_lim, nv))
-        self._limit_jacobian[np.arange(n_lim), self._limit_v] = -1.0
-        self._limit_jacobian[n_lim + np.arange(n_lim), self._limit_v] = 1.0
+        # the joint-limit rows follow the robot (rebuilt after Robot.set_limits)
+        self._model = ModelFollower(robot, "PathProblem", self._derive_limits)
         self._control_band = self._build_control_band()
         # the Gauss-Newton rows of each slice's task costs and equalities, stacked by the
         # stacking layer in the slice's row layout (term offsets)
@@ -486,6 +482,19 @@ class PathProblem:
         self._trial_states: list[State] = [robot.state(self.q_start) for _ in range(T)]
 
     # ------------------------------------------------------------------ construction helpers
+    def _derive_limits(self) -> None:
+        """The joint-limit rows from the robot's current limits."""
+        robot, nv = self.robot, self.robot.nv
+        self._limit_v = robot.limited_joints_v if self.joint_limits else np.zeros(0, dtype=int)
+        self._limit_q = robot.limited_joints_q if self.joint_limits else np.zeros(0, dtype=int)
+        self._limit_low = robot.lower_limits[self._limit_q]
+        self._limit_high = robot.upper_limits[self._limit_q]
+        n_lim = self._limit_q.size
+        self._n_limit_rows = 2 * n_lim
+        self._limit_jacobian = np.zeros((2 * n_lim, nv))
+        self._limit_jacobian[np.arange(n_lim), self._limit_v] = -1.0
+        self._limit_jacobian[n_lim + np.arange(n_lim), self._limit_v] = 1.0
+
     def _check_robot(self, robot: Robot, name: str) -> None:
         if robot is not self.robot:
             raise InvalidInputError(
@@ -533,6 +542,7 @@ class PathProblem:
 
     def zero_multipliers(self) -> PathMultipliers:
         """Multipliers all zero (the start of the augmented Lagrangian)."""
+        self._model.sync()
         return PathMultipliers(
             [np.zeros(s.n_eq) for s in self._slices],
             [np.zeros(s.n_in + self._n_limit_rows) for s in self._slices],
@@ -540,6 +550,7 @@ class PathProblem:
 
     def check_path(self, path: Any, name: str = "path") -> FloatArray:
         """Validate a full path ``q_0..q_T``: shape (T + 1, nq), finite."""
+        self._model.sync()
         arr = as_matrix(path, (self.horizon + 1, self.robot.nq), name)
         return arr.copy()
 
@@ -561,6 +572,7 @@ class PathProblem:
 
         One feature call per term and slice; everything else is vectorized over the slices.
         """
+        self._model.sync()
         if update:
             self._update_states(path, states)
         costs = [_weighted_residuals(term, states) for term in self._cost_terms]
@@ -589,6 +601,7 @@ class PathProblem:
         Raises:
             ShapeError: a slice's multiplier vector has the wrong size.
         """
+        self._model.sync()
         T, n_lim = self.horizon, self._n_limit_rows
         if multipliers is None:
             return _TermMultipliers(
