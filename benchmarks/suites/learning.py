@@ -7,6 +7,15 @@ Scenes (built separately from timing):
 * ``cartpole_batched_1024``: one step of 1,024 cart-poles, our ``CartPoleVectorEnv`` against
   Gymnasium's own ``CartPoleVectorEnv`` (``make_vec(..., vectorization_mode=
   "vector_entry_point")``); steps/s per core in ``extra``.
+* ``panda_reach_step``: one ``step`` of ``PandaReachEnv`` (unwrapped; TCP forward kinematics
+  and an exact mesh collision check per step) beside one step of Gymnasium's MuJoCo
+  ``Reacher-v5`` (a 2-link planar arm, frame skip 2) run by ``benchmarks/peers/
+  mujoco_reacher.py`` in the ``sb3`` peer environment (same run, another process; a different,
+  smaller task: the row says what a MuJoCo reaching step costs, not a like-for-like ratio).
+* ``panda_reach_batched_256`` (quick: 64): one step of 256 Panda reach copies, our
+  ``PandaReachVectorEnv`` (batched forward kinematics, one collision-kernel call) against
+  gymnasium's ``SyncVectorEnv`` over 256 ``PandaReachEnv`` (interleaved in this process), and
+  the peer's ``SyncVectorEnv`` of 256 MuJoCo reachers; steps/s per core in ``extra``.
 * ``pendulum_fvi_101``: fitted value iteration of the pendulum swing-up on a 101 x 101 grid
   (quick: 41 x 41), 9 torques in [-4, 4] N m, dt 0.05 s, gamma = exp(-0.2 dt), stopped when
   ``max |J_{k+1} - J_k| <= 1e-4``; Drake's ``FittedValueIteration`` on the same grid, torques,
@@ -40,7 +49,7 @@ import gymnasium as gym
 import numpy as np
 
 import taskspace.learning.envs  # noqa: F401  (registers the taskspace/* ids)
-from benchmarks.common import Row, Timing, measure_interleaved, peer_python
+from benchmarks.common import Row, Timing, measure_interleaved, peer_python, run_peer
 from taskspace.features import JointConfiguration
 from taskspace.learning import (
     DiscreteDMP,
@@ -53,6 +62,7 @@ from taskspace.learning import (
     pi2,
     power,
 )
+from taskspace.learning.envs import PandaReachEnv, PandaReachVectorEnv
 from taskspace.model import Robot
 from taskspace.optimal_control import (
     FittedValueIterationOptions,
@@ -234,6 +244,87 @@ def _env_rows(quick: bool) -> list[Row]:
                 t,
                 {"copies": n, "steps_per_s": n * 1e6 / t.median_us, "target_steps_per_s": 20000},
                 ratio_to="gymnasium CartPoleVectorEnv" if method == "taskspace" else None,
+            )
+        )
+    return rows
+
+
+REACHER = "gymnasium Reacher-v5 (mujoco)"
+
+
+def scene_panda_batched(num_envs: int, robot: Robot) -> tuple[PandaReachVectorEnv, Any, np.ndarray]:
+    """Our batched Panda reach, gymnasium's SyncVectorEnv of the single env, an action stream."""
+    ours = PandaReachVectorEnv(num_envs, robot=robot)
+    sync = gym.vector.SyncVectorEnv([lambda: PandaReachEnv(robot=robot)] * num_envs)
+    ours.reset(seed=0)
+    sync.reset(seed=0)
+    acts = np.random.default_rng(0).uniform(-0.3, 0.3, (16, num_envs, 7)).astype(np.float32)
+    return ours, sync, acts
+
+
+def _panda_rows(quick: bool) -> list[Row]:
+    n = 64 if quick else 256
+    rounds = 30 if quick else 200
+    robot = Robot.load("panda")
+    single = PandaReachEnv(robot=robot)
+    single.reset(seed=0)
+    single.action_space.seed(0)
+    t_single = measure_interleaved(
+        [_stepper(single, [single.action_space.sample() for _ in range(256)])],
+        warmup=200,
+        rounds=rounds,
+        block=50,
+    )[0]
+    try:
+        peer = run_peer("sb3", "mujoco_reacher.py", [str(rounds), str(n)])
+        note = "" if peer else "sb3 peer environment missing (see benchmarks/peers/sb3_ppo.py)"
+    except RuntimeError as err:
+        peer, note = None, str(err)[-300:]
+    t_reacher = Timing.from_samples(peer["single"]) if peer else None
+    t_reacher_vec = Timing.from_samples(peer[f"sync_{n}"]) if peer else None
+    mj = {"mujoco": peer["mujoco"]} if peer else {}
+    rows = [
+        Row(
+            SUITE,
+            "panda_reach_step",
+            "taskspace",
+            t_single,
+            {"steps_per_s": 1e6 / t_single.median_us},
+            ratio_to=REACHER,
+        ),
+        Row(
+            SUITE,
+            "panda_reach_step",
+            REACHER,
+            t_reacher,
+            {"steps_per_s": 1e6 / t_reacher.median_us, **mj} if t_reacher else {},
+            note=note or "another process, same run; 2-link planar arm",
+        ),
+    ]
+    ours, sync, acts = scene_panda_batched(n, robot)
+    c1, c2 = iter(range(10**12)), iter(range(10**12))
+    t_ours, t_sync = measure_interleaved(
+        [lambda: ours.step(acts[next(c1) & 15]), lambda: sync.step(acts[next(c2) & 15])],
+        warmup=5,
+        rounds=10 if quick else 40,
+        block=3,
+    )
+    scene = f"panda_reach_batched_{n}"
+    sync_name = "gymnasium SyncVectorEnv (PandaReachEnv)"
+    for method, t in (
+        ("taskspace", t_ours),
+        (sync_name, t_sync),
+        (f"{REACHER} SyncVectorEnv", t_reacher_vec),
+    ):
+        rows.append(
+            Row(
+                SUITE,
+                scene,
+                method,
+                t,
+                {"copies": n, "steps_per_s": n * 1e6 / t.median_us} if t else {},
+                ratio_to=sync_name if method == "taskspace" else None,
+                note=note if t is None else "",
             )
         )
     return rows
@@ -459,6 +550,7 @@ def run(quick: bool) -> list[Row]:
     """Run the suite; ``quick`` keeps it short (about a minute on a loaded machine)."""
     return (
         _env_rows(quick)
+        + _panda_rows(quick)
         + _fvi_rows(quick)
         + _cma_rows(quick)
         + _via_point_rows(quick)

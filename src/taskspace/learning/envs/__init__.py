@@ -7,14 +7,15 @@
 * ``taskspace/G1Balance-v0``: G1 balancing after a push, the agent shifting the CoM
   reference of the inverse-dynamics QP (:class:`G1BalanceEnv`, 100 steps).
 * ``taskspace/PandaReach-v0``: Panda reaching with joint velocities, terminated on collision
-  (:class:`PandaReachEnv`, 100 steps).
+  (:class:`PandaReachEnv`, 100 steps), with the batched :class:`PandaReachVectorEnv` as its
+  vector entry point.
 """
 
 import gymnasium as gym
 
 from taskspace.learning.envs.cartpole import CartPoleEnv, CartPoleVectorEnv
 from taskspace.learning.envs.g1_balance import G1BalanceEnv
-from taskspace.learning.envs.panda_reach import PandaReachEnv
+from taskspace.learning.envs.panda_reach import PandaReachEnv, PandaReachVectorEnv
 from taskspace.learning.envs.pendulum import PendulumEnv, PendulumVectorEnv
 
 if "taskspace/Pendulum-v0" not in gym.registry:
@@ -37,6 +38,7 @@ if "taskspace/PandaReach-v0" not in gym.registry:
     gym.register(
         id="taskspace/PandaReach-v0",
         entry_point="taskspace.learning.envs.panda_reach:PandaReachEnv",
+        vector_entry_point="taskspace.learning.envs.panda_reach:PandaReachVectorEnv",
         max_episode_steps=100,
     )
 
@@ -52,6 +54,7 @@ __all__ = [
     "CartPoleVectorEnv",
     "G1BalanceEnv",
     "PandaReachEnv",
+    "PandaReachVectorEnv",
     "PendulumEnv",
     "PendulumVectorEnv",
 ]

@@ -22,6 +22,8 @@ import numpy as np
 from gymnasium import spaces
 
 from taskspace.errors import InvalidInputError, StaleModelError
+from taskspace.learning.envs.batched_kinematics import BatchedFramePosition
+from taskspace.learning.envs.robot_env import RobotVectorEnv
 from taskspace.model.robot import Robot
 from taskspace.planning.collision_checker import CollisionChecker
 
@@ -88,8 +90,9 @@ class PandaReachEnv(gym.Env[np.ndarray, np.ndarray]):
         """Tool centre point position [m]."""
         return np.asarray(self.robot.frame_placement(self.q, "panda_hand_tcp").translation)
 
-    def _obs(self) -> np.ndarray:
-        return np.concatenate([self.q, self.tcp(), self.target]).astype(np.float32)
+    def _obs(self, tcp: np.ndarray | None = None) -> np.ndarray:
+        tcp = self.tcp() if tcp is None else tcp
+        return np.concatenate([self.q, tcp, self.target]).astype(np.float32)
 
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
@@ -119,7 +122,8 @@ class PandaReachEnv(gym.Env[np.ndarray, np.ndarray]):
         self._check_version()
         a = np.clip(np.asarray(action, dtype=float).reshape(7), -1.0, 1.0)
         self.q = np.clip(self.q + self.dt * a * self.v_max, self.lower, self.upper)
-        distance = float(np.linalg.norm(self.tcp() - self.target))
+        tcp = self.tcp()
+        distance = float(np.linalg.norm(tcp - self.target))
         reward = -distance - 0.01 * float(a @ a)
         collision = not self.checker.is_valid(self.q)
         reached = distance < self.tolerance
@@ -128,4 +132,135 @@ class PandaReachEnv(gym.Env[np.ndarray, np.ndarray]):
         elif reached:
             reward += 10.0
         info = {"distance": distance, "collision": collision, "success": reached and not collision}
-        return self._obs(), reward, bool(collision or reached), False, info
+        return self._obs(tcp), reward, bool(collision or reached), False, info
+
+
+class PandaReachVectorEnv(RobotVectorEnv):
+    """N Panda reaching tasks stepped together, auto-reset on the next step.
+
+    Same actions, observations, rewards and termination as :class:`PandaReachEnv`, without a
+    Python loop over the copies: the joint update is one array operation, the tool positions
+    come from :class:`~taskspace.learning.envs.batched_kinematics.BatchedFramePosition` (the
+    chain's forward kinematics on N configurations at once) and the collision flags from one
+    :meth:`CollisionChecker.are_valid` call (the compiled collision kernel when built).
+    Truncation after ``max_episode_steps``. The vector entry point of
+    ``taskspace/PandaReach-v0``. Info: ``distance``, ``collision`` and ``success`` arrays
+    (with their ``_distance``... masks, as ``gymnasium.vector`` merges infos).
+
+    Model version: as :class:`PandaReachEnv`; :meth:`reset` re-derives the limits and the
+    spaces after :meth:`Robot.set_limits`, a step before that raises
+    :class:`~taskspace.errors.StaleModelError`.
+
+    Args:
+        num_envs: number of copies N.
+        robot: a loaded ``panda`` (``None``: load it).
+        dt: control period [s]; tolerance: success distance [m].
+        max_episode_steps: truncation length.
+        render_mode: only ``None``.
+    """
+
+    def __init__(
+        self,
+        num_envs: int = 1,
+        *,
+        robot: Robot | None = None,
+        dt: float = 0.1,
+        tolerance: float = 0.02,
+        max_episode_steps: int = 100,
+        render_mode: str | None = None,
+    ) -> None:
+        super().__init__(num_envs, dt, 1, max_episode_steps, render_mode)
+        self.robot = robot if robot is not None else Robot.load("panda")
+        if self.robot.nq != 7 or "panda_hand_tcp" not in self.robot.frame_names:
+            raise InvalidInputError(
+                "PandaReachVectorEnv needs the registry's 'panda' robot (7 joints)"
+            )
+        self.checker = CollisionChecker(self.robot)
+        self.tcp_position = BatchedFramePosition(self.robot.model, "panda_hand_tcp")
+        self.tolerance = float(tolerance)
+        self._read_limits()
+        self.q = np.tile(self.robot.q_default, (self.num_envs, 1))
+        self.target = np.tile(0.5 * (TARGET_LOW + TARGET_HIGH), (self.num_envs, 1))
+        self._tcp = self.tcp_position(self.q)
+
+    def _read_limits(self) -> None:
+        robot = self.robot
+        self.model_version = robot.version
+        self.lower = robot.lower_limits.copy()
+        self.upper = robot.upper_limits.copy()
+        self.v_max = robot.velocity_limits.copy()
+        low = np.concatenate([self.lower, [-2.0] * 3, TARGET_LOW]).astype(np.float32)
+        high = np.concatenate([self.upper, [2.0] * 3, TARGET_HIGH]).astype(np.float32)
+        self._set_spaces(
+            spaces.Box(-1.0, 1.0, (7,), np.float32), spaces.Box(low, high, dtype=np.float32)
+        )
+
+    def _obs(self) -> np.ndarray:
+        return np.concatenate([self.q, self._tcp, self.target], axis=1).astype(np.float32)
+
+    def _reset_copies(self, mask: np.ndarray) -> None:
+        """As :meth:`PandaReachEnv.reset`: a collision-free perturbed default posture, a target."""
+        idx = np.flatnonzero(mask)
+        q = np.empty((idx.size, 7))
+        todo = np.arange(idx.size)
+        for _ in range(100):
+            draw = self.robot.q_default + self.np_random.uniform(-0.1, 0.1, (todo.size, 7))
+            q[todo] = np.clip(draw, self.lower, self.upper)
+            todo = todo[~self.checker.are_valid(q[todo])]
+            if todo.size == 0:
+                break
+        self.q[idx] = q
+        self.target[idx] = self.np_random.uniform(TARGET_LOW, TARGET_HIGH, (idx.size, 3))
+        self._tcp[idx] = self.tcp_position(q)
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[np.ndarray, dict[str, Any]]:
+        """Reset every copy; re-derive the limits if the robot's version changed."""
+        if self.robot.version != self.model_version:
+            self._read_limits()
+        obs, _ = super().reset(seed=seed, options=options)
+        distance = np.linalg.norm(self._tcp - self.target, axis=1)
+        return obs, {"distance": distance, "_distance": np.ones(self.num_envs, dtype=bool)}
+
+    def step(
+        self, actions: Any
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        """Step every copy; copies that ended on the previous step are reset instead.
+
+        Raises:
+            StaleModelError: the robot's limits changed since the last reset.
+        """
+        if self.robot.version != self.model_version:
+            raise StaleModelError(
+                f"PandaReachVectorEnv: the limits of robot '{self.robot.name}' changed "
+                f"(Robot.set_limits: version {self.model_version} -> {self.robot.version}); "
+                "call reset() to run under the new limits",
+                self.model_version,
+                self.robot.version,
+            )
+        a = np.clip(np.asarray(actions, dtype=float).reshape(self.num_envs, 7), -1.0, 1.0)
+        self.q = np.clip(self.q + self.dt * a * self.v_max, self.lower, self.upper)
+        self._tcp = self.tcp_position(self.q)
+        distance = np.linalg.norm(self._tcp - self.target, axis=1)
+        reward = -distance - 0.01 * np.einsum("ij,ij->i", a, a)
+        collision = ~self.checker.are_valid(self.q)
+        reached = distance < self.tolerance
+        reward = reward - 10.0 * collision + 10.0 * (reached & ~collision)
+        info = {
+            "distance": distance,
+            "collision": collision,
+            "success": reached & ~collision,
+        }
+        self.steps += 1
+        terminated = collision | reached
+        truncated = self.steps >= self.max_episode_steps
+        ended = self.prev_done.copy()
+        self._autoreset(reward, terminated, truncated)
+        if np.any(ended):  # reset copies: their info describes the new initial state
+            info["distance"][ended] = np.linalg.norm(self._tcp[ended] - self.target[ended], axis=1)
+            info["collision"][ended] = False
+            info["success"][ended] = False
+        mask = np.ones(self.num_envs, dtype=bool)
+        info.update({"_distance": mask, "_collision": mask, "_success": mask})
+        return self._obs(), reward, terminated, truncated, info
