@@ -60,7 +60,7 @@ class JointPositionLimits(Constraint):
     def __init__(self, robot: Robot, margin: float = 0.0) -> None:
         super().__init__(robot, "joint position limits")
         self.margin = check_positive(margin, "margin", strict=False)
-        self._model = ModelFollower(robot, "JointPositionLimits", self._derive)
+        self._follower = ModelFollower(robot, "JointPositionLimits", self._derive)
 
     def _derive(self) -> None:
         """Copy the robot's limits (again after :meth:`Robot.set_limits`)."""
@@ -86,7 +86,7 @@ class JointPositionLimits(Constraint):
 
     def bounds(self, state: State, dt: float) -> Box:
         """Box on ``dq`` (for the robot's current limits)."""
-        self._model.sync()
+        self._follower.sync()
         if self._all:
             q = state.q
             return Box(self._low - q, self._high - q)
@@ -107,7 +107,7 @@ class JointPositionLimits(Constraint):
         ``lb[iv] = low - q[iq]``, ``ub[iv] = high - q[iq]``, unbounded elsewhere [rad or m].
         A kernel that keeps them must call this again when :attr:`model_version` changes.
         """
-        self._model.sync()
+        self._follower.sync()
         return (
             [int(i) for i in self._iq],
             [int(i) for i in self._iv],
@@ -119,8 +119,8 @@ class JointPositionLimits(Constraint):
     @property
     def model_version(self) -> int:
         """The robot version the limits are copied from (current after :meth:`bounds`)."""
-        self._model.sync()
-        return self._model.version
+        self._follower.sync()
+        return self._follower.version
 
 
 class JointVelocityLimits(Constraint):
@@ -164,7 +164,7 @@ class JointVelocityLimits(Constraint):
                 )
             self._base = _positive_limits(base_limits, 6)
         self._scale = check_positive(scale, "scale")
-        self._model = ModelFollower(robot, "JointVelocityLimits", self._derive)
+        self._follower = ModelFollower(robot, "JointVelocityLimits", self._derive)
 
     def _derive(self) -> None:
         """The limits: the given ones, or the robot's current ones (again after set_limits)."""
@@ -182,12 +182,12 @@ class JointVelocityLimits(Constraint):
 
         The robot's current ones unless ``limits`` were given.
         """
-        self._model.sync()
+        self._follower.sync()
         return self._limits
 
     def bounds(self, state: State, dt: float) -> Box:
         """Box on ``dq`` (cached per ``dt``; do not modify the returned arrays)."""
-        if self._model.sync() or dt != self._dt:
+        if self._follower.sync() or dt != self._dt:
             step = np.minimum(self._limits * dt, INF)
             self._box = Box(-step, step)
             self._dt = dt

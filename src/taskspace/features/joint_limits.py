@@ -8,6 +8,7 @@ import numpy as np
 
 from taskspace._validation import FloatArray, check_positive
 from taskspace.features.feature import Feature
+from taskspace.model.versioning import ModelFollower
 
 if TYPE_CHECKING:
     from taskspace.model.robot import Robot
@@ -31,20 +32,18 @@ class JointLimitPenetration(Feature):
     def __init__(self, robot: Robot, margin: float = 0.1) -> None:
         super().__init__(robot, "joint_limit_penetration")
         self.margin = check_positive(margin, "margin")
-        self._read_limits()
+        self._follower = ModelFollower(robot, "JointLimitPenetration", self._read_limits)
 
     def _read_limits(self) -> None:
         """Copy the robot's limits; re-read when ``Robot.set_limits`` changes its version."""
         robot = self.robot
-        self._version = robot.version
         self._iq = robot.limited_joints_q
         self._iv = robot.limited_joints_v
         self._low = robot.lower_limits[self._iq]
         self._high = robot.upper_limits[self._iq]
 
     def _terms(self, state: State) -> tuple[FloatArray, FloatArray]:
-        if self.robot.version != self._version:
-            self._read_limits()
+        self._follower.sync()
         qi = state.q[self._iq]
         return self.margin - qi + self._low, self.margin + qi - self._high
 

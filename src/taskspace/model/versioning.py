@@ -96,7 +96,7 @@ class ModelFollower:
             TaskspaceError: ``derive`` refused the new limits (e.g. a margin larger than a
                 new joint range); the owner stays stale and the next call tries again.
         """
-        if self.robot.version == self.version:
+        if self.robot._version == self.version:  # the hot path: one comparison
             return False
         return self._renew()
 

@@ -177,37 +177,41 @@ class ConfigurationSpace:
         self._manifold = manifold
         self._lower = lo
         self._upper = hi
-        # a manifold that follows a robot: the space's bounds follow it
-        self._manifold_version = None if manifold is None else manifold.model_version
+        if self._follower is None and manifold is not None and manifold._follower is not None:
+            # a manifold that follows a robot: the space's bounds are re-read from it
+            self._follower = ModelFollower(
+                manifold._follower.robot, "ConfigurationSpace", self._reread_manifold
+            )
 
-    def _sync(self) -> None:
-        """Follow the robot's model version (one integer comparison when current)."""
-        follower = self._follower
-        if follower is not None:
-            follower.sync()
-        elif self._manifold is not None and self._manifold_version is not None:
-            version = self._manifold.model_version  # re-derives the manifold if stale
-            if version != self._manifold_version:
-                self._lower, self._upper = self._manifold.lower, self._manifold.upper
-                self._manifold_version = version
+    def _reread_manifold(self) -> None:
+        assert self._manifold is not None
+        self._lower, self._upper = self._manifold.lower, self._manifold.upper
 
     @property
     def lower(self) -> FloatArray:
         """Lower bounds (size d) [rad or m]; a space built on a robot follows its limits."""
-        self._sync()
+        if (f := self._follower) is not None and f.version != f.robot._version:
+            f.sync()
         return self._lower
 
     @property
     def upper(self) -> FloatArray:
         """Upper bounds (size d) [rad or m]; a space built on a robot follows its limits."""
-        self._sync()
+        if (f := self._follower) is not None and f.version != f.robot._version:
+            f.sync()
         return self._upper
 
     @property
     def manifold(self) -> JointManifold | None:
         """The joint manifold, ``None`` for the Euclidean box."""
-        self._sync()
+        if (f := self._follower) is not None and f.version != f.robot._version:
+            f.sync()
         return self._manifold
+
+    # The metric and the local paths (distance, interpolate, tangent_step, retract) use
+    # ``_manifold`` without the version check: they do not depend on the limits, and a
+    # re-derived space keeps the kind of metric (a box stays a box, a manifold keeps its
+    # joints and weights; limits that no longer fit the kind are refused by the bounds).
 
     @property
     def model_version(self) -> int | None:
@@ -215,10 +219,10 @@ class ConfigurationSpace:
 
         Results kept outside the space (roadmaps) record it and are refused once it differs.
         """
-        self._sync()
-        if self._follower is not None:
-            return self._follower.version
-        return self._manifold_version
+        if self._follower is None:
+            return None
+        self._follower.sync()
+        return self._follower.version
 
     @classmethod
     def from_robot(
@@ -258,6 +262,7 @@ class ConfigurationSpace:
         """
         checker = CollisionChecker(robot, checker_options)
         space = cls.__new__(cls)
+        space._follower = None
         space.checker = checker
         space.edge = edge or EdgeCheckOptions()
         check_positive(space.edge.resolution, "resolution")
@@ -291,17 +296,17 @@ class ConfigurationSpace:
     @property
     def dim(self) -> int:
         """Size ``d`` of a configuration vector (``nq`` of a robot)."""
-        return int(self.lower.size)
+        return int(self._lower.size)  # nq: set_limits never changes it
 
     @property
     def is_euclidean(self) -> bool:
         """True for the Euclidean box (no manifold or a Euclidean one with unit weights)."""
-        return self.manifold is None
+        return self._manifold is None
 
     @property
     def tangent_dim(self) -> int:
         """Dimension of the space as a manifold (``nv`` of a robot; ``d`` for a box)."""
-        return self.dim if self.manifold is None else self.manifold.nv
+        return self.dim if self._manifold is None else self._manifold.nv
 
     def require_euclidean(self, who: str) -> None:
         """Raise unless the space is the Euclidean box (for algorithms that need one).
@@ -309,7 +314,7 @@ class ConfigurationSpace:
         Raises:
             InvalidInputError: the space is on a joint manifold.
         """
-        if self.manifold is not None:
+        if self._manifold is not None:
             raise InvalidInputError(
                 f"{who} plans in a Euclidean box and this space is a joint manifold "
                 "(continuous, planar, spherical or floating joints, or a weighted metric); "
@@ -320,51 +325,51 @@ class ConfigurationSpace:
 
     def distance(self, q0: FloatArray, q1: FloatArray) -> float:
         """Metric distance ``d(q0, q1)`` [rad or m] (Euclidean, or the manifold's)."""
-        if self.manifold is None:
+        if self._manifold is None:
             diff = q1 - q0
             return math.sqrt(float(diff @ diff))
-        return float(self.manifold.distances(q0, q1)[0])
+        return float(self._manifold.distances(q0, q1)[0])
 
     def distances(self, points: FloatArray, q: FloatArray) -> FloatArray:
         """``d(points_i, q)`` for the rows of ``points``, shape (n,)."""
-        if self.manifold is None:
+        if self._manifold is None:
             diff = points - q
             return np.sqrt(np.einsum("ij,ij->i", diff, diff))
-        return self.manifold.distances(points, q)
+        return self._manifold.distances(points, q)
 
     def path_length(self, path: FloatArray) -> float:
         """Length ``sum_i d(q_i, q_{i+1})`` of a waypoint path in the space's metric [rad or m]."""
         arr = np.atleast_2d(np.asarray(path, dtype=np.float64))
         if arr.shape[0] < 2:
             return 0.0
-        if self.manifold is None:
+        if self._manifold is None:
             return path_length(arr)
-        return float(self.manifold.distances(arr[:-1], arr[1:]).sum())
+        return float(self._manifold.distances(arr[:-1], arr[1:]).sum())
 
     def tangent_step(self, q: FloatArray, toward: FloatArray) -> FloatArray:
         """``toward (-) q``: the motion from ``q`` to ``toward`` in the tangent space at ``q``.
 
         ``toward - q`` in the box; Pinocchio's ``difference`` on a manifold (size ``nv``).
         """
-        if self.manifold is None:
+        if self._manifold is None:
             return np.asarray(toward - q, dtype=np.float64)
-        return self.manifold.difference(q, toward)[0]
+        return self._manifold.difference(q, toward)[0]
 
     def retract(self, q: FloatArray, step: FloatArray) -> FloatArray:
         """``q (+) step`` (``q + step`` in the box, Pinocchio's ``integrate`` on a manifold)."""
-        if self.manifold is None:
+        if self._manifold is None:
             return np.asarray(q + step, dtype=np.float64)
-        return np.asarray(pin.integrate(self.manifold.model, q, step), dtype=np.float64)
+        return np.asarray(pin.integrate(self._manifold.model, q, step), dtype=np.float64)
 
     def interpolate(self, q0: FloatArray, q1: FloatArray, t: Any) -> FloatArray:
         """Points of the local path ``q0 -> q1`` at fractions ``t`` (shape (len(t), d)).
 
         ``(1 - t) q0 + t q1`` in the box, Pinocchio's ``interpolate`` on a manifold.
         """
-        if self.manifold is None:
+        if self._manifold is None:
             ts = np.atleast_1d(np.asarray(t, dtype=np.float64))
             return np.asarray(q0 + ts[:, None] * (q1 - q0), dtype=np.float64)
-        return self.manifold.interpolate(q0, q1, t)
+        return self._manifold.interpolate(q0, q1, t)
 
     @property
     def extent(self) -> float:

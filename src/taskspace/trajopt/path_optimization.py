@@ -471,7 +471,7 @@ class PathProblem:
                 s.n_in += 2 * feature.dim
             self._ineq_terms.append(term)
         # the joint-limit rows follow the robot (rebuilt after Robot.set_limits)
-        self._model = ModelFollower(robot, "PathProblem", self._derive_limits)
+        self._follower = ModelFollower(robot, "PathProblem", self._derive_limits)
         self._control_band = self._build_control_band()
         # the Gauss-Newton rows of each slice's task costs and equalities, stacked by the
         # stacking layer in the slice's row layout (term offsets)
@@ -542,7 +542,7 @@ class PathProblem:
 
     def zero_multipliers(self) -> PathMultipliers:
         """Multipliers all zero (the start of the augmented Lagrangian)."""
-        self._model.sync()
+        self._follower.sync()
         return PathMultipliers(
             [np.zeros(s.n_eq) for s in self._slices],
             [np.zeros(s.n_in + self._n_limit_rows) for s in self._slices],
@@ -550,7 +550,7 @@ class PathProblem:
 
     def check_path(self, path: Any, name: str = "path") -> FloatArray:
         """Validate a full path ``q_0..q_T``: shape (T + 1, nq), finite."""
-        self._model.sync()
+        self._follower.sync()
         arr = as_matrix(path, (self.horizon + 1, self.robot.nq), name)
         return arr.copy()
 
@@ -572,7 +572,7 @@ class PathProblem:
 
         One feature call per term and slice; everything else is vectorized over the slices.
         """
-        self._model.sync()
+        self._follower.sync()
         if update:
             self._update_states(path, states)
         costs = [_weighted_residuals(term, states) for term in self._cost_terms]
@@ -601,7 +601,7 @@ class PathProblem:
         Raises:
             ShapeError: a slice's multiplier vector has the wrong size.
         """
-        self._model.sync()
+        self._follower.sync()
         T, n_lim = self.horizon, self._n_limit_rows
         if multipliers is None:
             return _TermMultipliers(
