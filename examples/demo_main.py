@@ -12,7 +12,7 @@ The headline of taskspace in one script:
    written as self-contained HTML and as a PNG rendered in headless Chromium.
 
     python examples/demo_main.py --html out/demo.html --png out/demo.png
-    python examples/demo_main.py --save out/          # writes out/demo_main.{html,png}
+    python examples/demo_main.py --save out/          # out/demo_main.html, demo_main_robot.png
     python examples/demo_main.py                      # live meshcat viewer (browser)
 """
 
@@ -35,7 +35,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--html", help="write the scene as self-contained HTML")
     parser.add_argument("--png", help="write a PNG snapshot (headless Chromium)")
-    parser.add_argument("--save", help="directory for demo_main.html and demo_main.png")
+    parser.add_argument("--save", help="directory for demo_main.html and demo_main_robot.png")
     parser.add_argument("--no-viewer", action="store_true", help="never open a live viewer")
     args = parser.parse_args(argv)
 
@@ -104,7 +104,8 @@ def main(argv: list[str] | None = None) -> int:
 
     # --save DIR gets both files; --html/--png write (also) where they say
     htmls = [Path(p) for p in (args.html, args.save and Path(args.save) / "demo_main.html") if p]
-    pngs = [Path(p) for p in (args.png, args.save and Path(args.save) / "demo_main.png") if p]
+    saved_png = args.save and Path(args.save) / "demo_main_robot.png"  # as every robot example
+    pngs = [Path(p) for p in (args.png, saved_png) if p]
     live = not htmls and not pngs and not args.no_viewer and not fast()
 
     viewer = Viewer(robot, qs[-1], live=live)

@@ -1,7 +1,9 @@
 """Operational-space control of the Panda end-effector, closed form (slides 5:31-5:35).
 
 The end-effector follows ``y''* = Kp (y* - y) - Kd y'`` like a point mass (slide 5:34); a
-low-weight posture task (slide 5:35) keeps the null space from drifting.
+low-weight posture task (slide 5:35) keeps the null space from drifting. ``--save DIR`` also
+writes the motion as ``panda_operational_space.html`` (meshcat animation with the target and
+the tcp's path) and ``panda_operational_space_robot.png`` (its last pose).
 """
 
 from __future__ import annotations
@@ -47,6 +49,21 @@ def main() -> None:
         "Panda OSC (closed form); plateau: trade-off with the posture task", fontsize=10
     )
     finish({"panda_operational_space": fig}, args.save)
+    if args.save is not None:
+        from taskspace.viz import Viewer, save_robot_motion
+
+        qs = traj.q[::10]  # every 20 ms
+        viewer = Viewer(robot, qs[0])
+        viewer.add_target("target", target)
+        viewer.add_frame_trace("tcp_path", qs, "panda_hand_tcp")
+        save_robot_motion(
+            viewer,
+            qs,
+            args.save,
+            "panda_operational_space",
+            dt=0.02,
+            title="Panda operational-space control to a target 27 cm away",
+        )
 
 
 if __name__ == "__main__":

@@ -7,7 +7,9 @@ nullspace of the ones above. Both with joint position and velocity limits. The f
 the per-level task errors over time for both.
 
 Run: ``python examples/ik/g1_hands_hierarchy.py [--save DIR]`` (``TASKSPACE_FAST=1`` for a
-short run).
+short run); ``--save`` also writes the hierarchy's motion as ``g1_hands_hierarchy.html``
+(meshcat animation, with the hands' paths) and ``g1_hands_hierarchy_robot.png`` (the robot
+with its hands farthest from their start).
 """
 
 from __future__ import annotations
@@ -39,8 +41,9 @@ def hand_offset(k: int) -> np.ndarray:
     )
 
 
-def run(robot: Robot, steps: int, hierarchical: bool) -> np.ndarray:
-    """Per-level task error norms after each step, shape (steps, 4)."""
+def run(robot: Robot, steps: int, hierarchical: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Per-level task error norms after each step, shape (steps, 4), and the (steps + 1, nq)
+    configurations."""
     state = robot.state()
     weights = (100.0, 10.0, 1.0, 1e-3)
     feet = [Task(FramePose(robot, f), weight=weights[0]) for f in FEET]
@@ -60,27 +63,29 @@ def run(robot: Robot, steps: int, hierarchical: bool) -> np.ndarray:
     start = [h.target.copy() for h in hands]
     mirror = np.array([1.0, -1.0, 1.0])
     out = np.zeros((steps, 4))
+    qs = [state.q.copy()]
     for k in range(steps):
         hands[0].set_target(start[0] + hand_offset(k))
         hands[1].set_target(start[1] + mirror * hand_offset(k))
         q, _ = solver.step(state, DT)
         state.update(q)
+        qs.append(q.copy())
         for i, level in enumerate(levels):
             out[k, i] = float(np.sqrt(sum(np.sum(t.error(state) ** 2) for t in level)))
-    return out
+    return out, np.array(qs)
 
 
 def main(argv: Sequence[str] | None = None) -> None:
     """Run the example (see the module docstring)."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--save", default=None, help="directory for the PNG figure")
+    parser.add_argument("--save", default=None, help="directory for the figure and animation")
     args = parser.parse_args(argv)
     fast = os.environ.get("TASKSPACE_FAST", "") not in ("", "0")
     steps = 60 if fast else 600
 
     robot = Robot.load("g1")
-    weighted = run(robot, steps, hierarchical=False)
-    hierarchy = run(robot, steps, hierarchical=True)
+    weighted, _ = run(robot, steps, hierarchical=False)
+    hierarchy, qs = run(robot, steps, hierarchical=True)
     for name, errors in (("weighted", weighted), ("hierarchy", hierarchy)):
         worst = ", ".join(f"{lv} {errors[:, i].max():.2e}" for i, lv in enumerate(LEVELS))
         print(f"{name:9s} worst errors: {worst}")
@@ -110,9 +115,27 @@ def main(argv: Sequence[str] | None = None) -> None:
         out = Path(args.save)
         out.mkdir(parents=True, exist_ok=True)
         fig.savefig(out / "g1_hands_hierarchy.png", dpi=110)
-        print(f"saved {out / 'g1_hands_hierarchy.png'}")
+        print(f"wrote {out / 'g1_hands_hierarchy.png'}")
     elif plt.get_backend().lower() != "agg":
         plt.show()
+
+    if args.save is not None:
+        from taskspace.viz import Viewer, save_robot_motion
+
+        viewer = Viewer(robot, qs[0])
+        for hand in HANDS:
+            viewer.add_frame_trace(f"{hand}_path", qs, hand)
+        offsets = [np.linalg.norm(hand_offset(k)) for k in range(steps)]
+        viewer.frame_scene(direction=(1.0, -0.35, 0.3))  # from the front, a little to the right
+        save_robot_motion(
+            viewer,
+            qs,
+            args.save,
+            "g1_hands_hierarchy",
+            dt=DT,
+            title="G1: hands move, feet and CoM held (strict hierarchy)",
+            picture=int(np.argmax(offsets)) + 1,
+        )
 
 
 if __name__ == "__main__":

@@ -7,7 +7,9 @@ The closed-form step with the undamped pseudo-inverse is printed as a check. The
 draws the arm configurations along the motion and the end-effector drift.
 
 Run: ``python examples/ik/planar_3link_nullspace.py [--save DIR]`` (``TASKSPACE_FAST=1`` for
-a short run).
+a short run); ``--save`` also writes the motion as ``planar_3link_nullspace.html`` (meshcat
+animation) and ``planar_3link_nullspace_robot.png`` (the arm seen from above at its second
+posture target, the end-effector target marked).
 """
 
 from __future__ import annotations
@@ -42,7 +44,7 @@ def joint_points(robot: Robot, q: np.ndarray) -> np.ndarray:
 def main(argv: Sequence[str] | None = None) -> None:
     """Run the example (see the module docstring)."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--save", default=None, help="directory for the PNG figure")
+    parser.add_argument("--save", default=None, help="directory for the figure and animation")
     args = parser.parse_args(argv)
     fast = os.environ.get("TASKSPACE_FAST", "") not in ("", "0")
     steps_per_target = 40 if fast else 150
@@ -109,9 +111,26 @@ def main(argv: Sequence[str] | None = None) -> None:
         out = Path(args.save)
         out.mkdir(parents=True, exist_ok=True)
         fig.savefig(out / "planar_3link_nullspace.png", dpi=110)
-        print(f"saved {out / 'planar_3link_nullspace.png'}")
+        print(f"wrote {out / 'planar_3link_nullspace.png'}")
     elif plt.get_backend().lower() != "agg":
         plt.show()
+
+    if args.save is not None:
+        from taskspace.viz import Viewer, save_robot_motion
+
+        viewer = Viewer(robot, qs[0], floor=False)
+        viewer.add_target("ee_target", y_start, scale=0.4)
+        viewer.add_frame_trace("ee_path", qs, "ee")
+        viewer.frame_scene(direction=(0.0, -0.4, 1.0), margin=1.1)  # from above: a planar arm
+        save_robot_motion(
+            viewer,
+            qs,
+            args.save,
+            "planar_3link_nullspace",
+            dt=DT,
+            title="Planar 3-link arm: nullspace motion, end-effector held",
+            picture=2 * steps_per_target,  # at the second posture target
+        )
 
 
 if __name__ == "__main__":

@@ -7,16 +7,15 @@ joint limits, and velocity dampers between the robot's links and the sphere). Wi
 coupling the DMP runs along the demonstrated line through the sphere and only the velocity
 dampers keep the links 1 cm off it (the tcp then lags the target); with the repulsive
 coupling term (``SphereRepulsion``) the DMP's path bends around the sphere and still ends at
-the goal. The figure shows both paths from the side and
-the tcp-sphere distances over time.
+the goal. The figure shows both paths from the side and the tcp-sphere distances over time.
 
 Run: ``python examples/learning/panda_dmp_obstacle.py [--save DIR]`` (``TASKSPACE_FAST=1``
-for a short run).
+for a short run); ``--save`` also writes the coupled run as ``panda_dmp_obstacle.html``
+(meshcat animation with both DMP paths) and ``panda_dmp_obstacle_robot.png`` (the robot
+closest to the sphere).
 """
 
 from __future__ import annotations
-
-from pathlib import Path
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -38,7 +37,7 @@ TCP_MARGIN = 0.04  # the hand around the tcp point: the DMP keeps this much extr
 def run(
     robot: Robot, dmp: DiscreteDMP, coupling: SphereRepulsion | None, steps: int
 ) -> dict[str, np.ndarray]:
-    """DMP -> Position task -> differential IK; returns the DMP path, tcp path, distances."""
+    """DMP -> Position task -> differential IK: DMP path, tcp path, distances, configurations."""
     state = robot.state()
     tcp = Task(Position(robot, "panda_hand_tcp"), dmp.y0)
     posture = Task(JointConfiguration(robot), robot.q_default, weight=1e-3)
@@ -48,18 +47,20 @@ def run(
         robot, [tcp, posture], [JointPositionLimits(robot), JointVelocityLimits(robot), damper]
     )
     driver = DMPTaskTarget(dmp, tcp, couplings=[coupling] if coupling else [])
-    path, tcp_path, link_dist = [], [], []
+    path, tcp_path, link_dist, qs = [], [], [], [state.q.copy()]
     for _ in range(steps):
         path.append(driver.step(DT).y)
         q, _ = ik.step(state, DT)
         state.update(q)
         tcp_path.append(robot.frame_placement(q, "panda_hand_tcp").translation.copy())
         link_dist.append(float(damper.distances.value(state).min()))
+        qs.append(q.copy())
     return {
         "t": DT * np.arange(1, steps + 1),
         "dmp": np.array(path),
         "tcp": np.array(tcp_path),
         "links": np.array(link_dist),
+        "q": np.array(qs),
     }
 
 
@@ -114,9 +115,24 @@ def main() -> None:
     fig.tight_layout()
     finish({"panda_dmp_obstacle": fig}, args.save)
     if args.save is not None:
-        out = Path(args.save)
-        path = out if out.suffix == ".png" else out / "panda_dmp_obstacle.png"
-        print(f"wrote {path}")
+        from taskspace.viz import Viewer, save_robot_motion
+
+        r = runs["sphere coupling"]
+        viewer = Viewer(robot, r["q"][0])
+        viewer.add_path("dmp_path", r["dmp"], color=(0.1, 0.5, 0.9))
+        viewer.add_path("dmp_path_uncoupled", runs["no coupling"]["dmp"], color=(0.6, 0.6, 0.6))
+        viewer.add_target("goal", goal)
+        closest = int(np.argmin(np.linalg.norm(r["tcp"] - center, axis=1))) + 1
+        viewer.frame_scene(direction=(1.0, 0.1, 0.35))  # from the front: the bend is in y-z
+        save_robot_motion(
+            viewer,
+            r["q"],
+            args.save,
+            "panda_dmp_obstacle",
+            dt=DT,
+            title="Panda DMP reach bent around a sphere (coupled DMP in blue, demonstration gray)",
+            picture=closest,
+        )
 
 
 if __name__ == "__main__":

@@ -5,8 +5,12 @@ Figures:
 1. RRT growth of a point robot in a 2-D world at n = 1, 100, 300, 600, 1000, 2000 (slide 3:38);
 2. goal-biased RRT growth (beta = 0.1) until the goal is reached (slide 3:41);
 3. a PRM graph with its shortest path (slides 3:29-3:30);
-4. a Panda planning through a MotionBenchMaker bookshelf with RRT-Connect + shortcutting,
-   shown in meshcat when ``taskspace.viz.Viewer`` is available (else its joint trajectories).
+4. a Panda planning through a MotionBenchMaker bookshelf with RRT-Connect + shortcutting:
+   its joint trajectories; with ``--save DIR`` also ``panda_shelf.html`` (meshcat animation
+   of the motion in the shelf) and ``panda_shelf_robot.png`` (the robot at its goal in the
+   shelf); without ``--save`` (and with a display) the motion plays in a live meshcat viewer.
+   The Panda part needs the MotionBenchMaker problems (``--data`` or
+   ``TASKSPACE_MOTIONBENCHMAKER_DIR``); without them it is skipped, with a message.
 
 Usage: python examples/planning/panda_shelf.py [--save DIR] [--data MOTIONBENCHMAKER_DIR];
 TASKSPACE_FAST=1 for a quick run.
@@ -32,6 +36,14 @@ from taskspace.planning.scene_loader import (
 )
 from taskspace.planning.shortcut import shortcut_path
 from taskspace.viz.plots import save_or_show, style_figure, use_agg_if_headless
+
+
+def _save(fig, save: str | None, name: str) -> None:  # type: ignore[no-untyped-def]
+    """Save (or show) a figure and say where it went."""
+    out = save_or_show(fig, save, name)
+    if out is not None:
+        print(f"wrote {out}")
+
 
 FAST = os.environ.get("TASKSPACE_FAST") == "1"
 BOXES = np.array([[3.0, 0.0, 4.0, 6.5], [6.0, 3.5, 7.0, 10.0], [1.0, 7.5, 4.5, 8.5]])
@@ -84,7 +96,7 @@ def rrt_figures(save: str | None) -> None:
         draw_world(ax)
         draw_tree(ax, res.trees[0])
         ax.set_title(f"n = {n}")
-    save_or_show(style_figure(fig, "RRT growth (slide 3:38)", grid=False), save, "rrt_growth")
+    _save(style_figure(fig, "RRT growth (slide 3:38)", grid=False), save, "rrt_growth")
 
     res = rrt(space, start, goal, RRTOptions(step_size=0.3, goal_bias=0.1, seed=1))
     sizes = [1, 100, 200, 300, 400, 500]
@@ -100,7 +112,7 @@ def rrt_figures(save: str | None) -> None:
         if m == tree.size and res.success:
             ax.plot(res.path[:, 0], res.path[:, 1], "r-", lw=2)
         ax.set_title(f"n = {m}")
-    save_or_show(
+    _save(
         style_figure(fig, "goal-biased RRT, beta = 0.1 (slide 3:41)", grid=False),
         save,
         "rrt_goal_bias",
@@ -120,7 +132,7 @@ def rrt_figures(save: str | None) -> None:
         ax.plot(result.path[:, 0], result.path[:, 1], "r-", lw=2, label="Dijkstra path")
         ax.legend(loc="lower right")
     ax.set_title(f"PRM, n = {roadmap.size}, k = 8")
-    save_or_show(style_figure(fig, grid=False), save, "prm_graph")
+    _save(style_figure(fig, grid=False), save, "prm_graph")
 
 
 def panda_shelf(save: str | None, data: str | None) -> None:
@@ -150,15 +162,27 @@ def panda_shelf(save: str | None, data: str | None) -> None:
         n = max(1, int(np.ceil(np.linalg.norm(b - a) / 0.02)))
         dense.extend(a + (b - a) * t for t in np.linspace(0, 1, n + 1)[1:])
     trajectory = np.asarray(dense)
-    try:
-        from taskspace.viz import Viewer  # written by another engineer; optional
+    from taskspace.viz import Viewer, save_robot_motion
 
-        if save is None and os.environ.get("MPLBACKEND", "").lower() != "agg" and not FAST:
-            viewer = Viewer(robot)
-            viewer.play(trajectory, dt=0.02)  # type: ignore[attr-defined]
-            return
-    except Exception as exc:  # viewer missing or failing: fall back to matplotlib
-        print(f"meshcat viewer not used ({type(exc).__name__}); plotting joint trajectories")
+    if save is not None:
+        viewer = Viewer(robot, trajectory[0])
+        viewer.add_frame_trace("tcp_path", trajectory, robot.end_effectors[0])
+        viewer.frame_scene(direction=(-0.8, -0.9, 0.9))  # over the robot's shoulder, into the shelf
+        save_robot_motion(
+            viewer,
+            trajectory,
+            save,
+            "panda_shelf",
+            dt=0.02,
+            title="Panda in a bookshelf: RRT-Connect + shortcut",
+        )
+    elif os.environ.get("MPLBACKEND", "").lower() != "agg" and not FAST:
+        viewer = Viewer(robot, trajectory[0], live=True)
+        viewer.play(trajectory, dt=0.02)
+        viewer.open()
+        print(f"meshcat viewer: {viewer.url} (press Ctrl-C to stop)", flush=True)
+        viewer.wait_until_interrupted()
+        return
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(7, 4))
@@ -168,9 +192,7 @@ def panda_shelf(save: str | None, data: str | None) -> None:
     ax.set_xlabel("path length [rad]")
     ax.set_ylabel("q [rad]")
     ax.legend(ncol=4, fontsize=8)
-    save_or_show(
-        style_figure(fig, "Panda in a bookshelf: RRT-Connect + shortcut"), save, "panda_shelf"
-    )
+    _save(style_figure(fig, "Panda in a bookshelf: RRT-Connect + shortcut"), save, "panda_shelf")
 
 
 def main() -> None:

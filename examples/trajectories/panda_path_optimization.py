@@ -6,7 +6,9 @@ equality, every link at least 2 cm from the sphere and the joint limits as hard 
 line, which runs through the sphere: the repair step pushes those slices out first.
 
 Figures: cost and constraint violation per iteration; distance to the sphere along the path.
-``--html FILE`` also writes an animated meshcat scene (when taskspace.viz.Viewer exists).
+``--save DIR`` also writes the optimized motion as ``panda_path_optimization.html`` (meshcat
+animation with the sphere and the tcp's path) and ``panda_path_optimization_robot.png`` (the
+robot closest to the sphere); ``--html FILE`` writes the same animation to ``FILE``.
 
 Run: python examples/trajectories/panda_path_optimization.py [--save DIR] [--html FILE]
 (``TASKSPACE_FAST=1``: shorter horizon).
@@ -103,19 +105,28 @@ def main() -> None:
     fig.tight_layout()
     out = save_or_show(fig, args.save, "panda_path_optimization")
     if out is not None:
-        print(f"saved {out}")
+        print(f"wrote {out}")
 
-    if args.html is not None:
-        try:
-            from taskspace.viz.viewer import Viewer
-        except ImportError as exc:  # meshcat missing
-            print(f"no HTML: {exc}")
-            return
+    if args.html is not None or args.save is not None:
+        from taskspace.viz import Viewer, save_robot_motion
+
+        title = "Panda around a sphere: path optimization"
         viewer = Viewer(robot, q_start)
         viewer.add_frame_trace("tcp_path", result.path, TCP)
-        viewer.play(result.path, duration / T)
-        out = viewer.save_html(args.html, title="Panda path optimization")
-        print(f"saved {out}")
+        viewer.frame_scene(direction=(1.0, 0.1, 0.9))  # from above the sphere: the detour
+        save_robot_motion(
+            viewer,
+            result.path,
+            args.save,
+            "panda_path_optimization",
+            dt=duration / T,
+            title=title,
+            picture=int(np.argmin(d_final)),
+        )
+        if args.html is not None:
+            viewer.play(result.path, duration / T, autoplay=False)
+            out = viewer.save_html(args.html, title=title)
+            print(f"wrote {out}")
 
 
 if __name__ == "__main__":

@@ -7,6 +7,8 @@
 4. time-optimal time parametrization under the Panda's joint velocity and acceleration limits.
 
 Figures: joint paths of the three stages and the timed joint velocities against their limits.
+``--save DIR`` also writes the timed motion as ``panda_pipeline.html`` (meshcat animation with
+the wall and the tcp's path) and ``panda_pipeline_robot.png`` (the robot closest to the wall).
 
     python examples/trajectories/panda_pipeline.py --save out/
 """
@@ -24,7 +26,7 @@ MARGIN = 0.02  # [m]
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--save", help="directory for the figure")
+    parser.add_argument("--save", help="directory for the figure, animation and robot picture")
     args = parser.parse_args(argv)
     if args.save or os.environ.get("MPLBACKEND", "").lower() == "agg":
         import matplotlib
@@ -124,6 +126,23 @@ def main(argv: list[str] | None = None) -> int:
         print(f"wrote {out / 'panda_pipeline.png'}")
     elif plt.get_backend().lower() != "agg":
         plt.show()
+    if args.save:
+        from taskspace.viz import Viewer, save_robot_motion
+
+        qs = timed.sample(0.02).q
+        closest = int(np.argmin([distance.value(robot.state(q)).min() for q in qs]))
+        viewer = Viewer(robot, qs[0])
+        viewer.add_frame_trace("tcp_path", qs, "panda_hand_tcp")
+        viewer.frame_scene(direction=(1.0, 0.2, 0.6))  # the tcp swings over the wall
+        save_robot_motion(
+            viewer,
+            qs,
+            args.save,
+            "panda_pipeline",
+            dt=0.02,
+            title="Panda around a wall: RRT-Connect, shortcut, path optimization, timing",
+            picture=closest,
+        )
     return 0
 
 

@@ -104,7 +104,10 @@ def fast_mode() -> bool:
 
 
 def save_figures(figures: dict[str, Any], save: str | Path | None) -> None:
-    """Save each named figure (into ``save``, a directory or a single ``.png``) or show them."""
+    """Save each named figure (into ``save``, a directory or a single ``.png``) or show them.
+
+    Each file written is printed (``wrote PATH``): an example says where its figures went.
+    """
     import matplotlib.pyplot as plt
 
     if save is None:
@@ -115,9 +118,11 @@ def save_figures(figures: dict[str, Any], save: str | Path | None) -> None:
     if out.suffix == ".png" and len(figures) == 1:
         out.parent.mkdir(parents=True, exist_ok=True)
         next(iter(figures.values())).savefig(out, dpi=DEFAULT_DPI)
+        print(f"wrote {out}", flush=True)
     else:
         base = out.with_suffix("") if out.suffix == ".png" else out
         base.mkdir(parents=True, exist_ok=True)
         for name, fig in figures.items():
             fig.savefig(base / f"{name}.png", dpi=DEFAULT_DPI)
+            print(f"wrote {base / f'{name}.png'}", flush=True)
     plt.close("all")
