@@ -68,6 +68,24 @@ class JointConfiguration(Feature):
         self._identity = np.eye(robot.nv) if self.rows is None else np.eye(robot.nv)[self.rows]
         # On vector-space configurations (no quaternions, no unit complexes) q (-) q* = q - q*.
         self._vector_space = robot.nq == robot.nv
+        # The same holds row by row: Pinocchio's difference and dDifference are block-diagonal
+        # by joint, and a joint with nq == nv (revolute, prismatic, translation...) is a vector
+        # space, where they are q - q* and the identity. When every selected row belongs to
+        # such a joint (a posture of a floating-base robot without its base rows), the
+        # residual is q[iq] - q*[iq] (the same subtractions as Pinocchio's, bit-identical)
+        # and the Jacobian the constant identity rows.
+        self._q_rows: np.ndarray | slice | None = None
+        if not self._vector_space and self.rows is not None:
+            iq: list[int] = []
+            for v_row in self.rows:
+                joint = robot.model.joints[_joint_of_v_row(robot, int(v_row))]
+                if joint.nq != joint.nv:
+                    break
+                iq.append(joint.idx_q + int(v_row) - joint.idx_v)
+            else:
+                q_rows = np.asarray(iq, dtype=int)
+                contiguous = q_rows.size and np.all(np.diff(q_rows) == 1)
+                self._q_rows = slice(int(q_rows[0]), int(q_rows[-1]) + 1) if contiguous else q_rows
 
     def compiled_term(self) -> CompiledTerm:
         """The kernel evaluates ``difference(q*, q)`` on all or the selected rows."""
@@ -96,20 +114,36 @@ class JointConfiguration(Feature):
     def residual(self, state: State, target: Any) -> FloatArray:
         """``difference(q*, q)`` restricted to the selected rows."""
         self._check_state(state)
+        if self._q_rows is not None:
+            return state.q[self._q_rows] - target[self._q_rows]
         diff = np.asarray(pin.difference(self.robot.model, target, state.q))
         return diff if self.rows is None else diff[self.rows]
 
     def residual_and_jacobian(self, state: State, target: Any) -> tuple[FloatArray, FloatArray]:
         """Both the residual and its Jacobian."""
-        if self._vector_space and state.robot is self.robot:
-            diff = state.q - target
-            return (diff if self.rows is None else diff[self.rows]), self._identity
+        if state.robot is self.robot:
+            if self._vector_space:
+                diff = state.q - target
+                return (diff if self.rows is None else diff[self.rows]), self._identity
+            q_rows = self._q_rows
+            if q_rows is not None:  # every selected row on a vector-space joint
+                return state.q[q_rows] - target[q_rows], self._identity
         return self.residual(state, target), self.residual_jacobian(state, target)
 
     def residual_jacobian(self, state: State, target: Any) -> FloatArray:
         """``dDifference(q*, q) / dq`` restricted to the selected rows."""
         self._check_state(state)
-        if self._vector_space:
+        if self._vector_space or self._q_rows is not None:
             return self._identity
         J = np.asarray(pin.dDifference(self.robot.model, target, state.q, pin.ARG1))
         return J if self.rows is None else J[self.rows]
+
+
+def _joint_of_v_row(robot: Robot, v_row: int) -> int:
+    """Index of the joint whose velocity block holds tangent row ``v_row``."""
+    model = robot.model
+    for j in range(1, model.njoints):
+        joint = model.joints[j]
+        if joint.idx_v <= v_row < joint.idx_v + joint.nv:
+            return j
+    raise InvalidInputError(f"tangent row {v_row} belongs to no joint")  # pragma: no cover

@@ -45,7 +45,6 @@ class IKStatus(enum.Enum):
     FAILED = "failed"
 
 
-@dataclass
 class IKStepResult:
     """Result of one differential IK step.
 
@@ -53,20 +52,72 @@ class IKStepResult:
         success: the QP was solved with every hard constraint satisfied.
         status: see :class:`IKStatus`.
         dq: the step (tangent vector, size nv) [rad, m].
-        velocity: ``dq / dt`` [rad/s, m/s].
         qp: the QP result (status, backend, iterations, culprits when relaxed).
         culprits: constraints at fault when the hard constraints conflict.
         build_time, solve_time: wall times [s].
+
+    ``velocity`` is ``dq / dt`` (a property: computed on first access when the solver gave
+    ``dt``). One result is made at every step: the class has ``__slots__`` and does no work
+    beyond storing its fields.
     """
 
-    success: bool
-    status: IKStatus
-    dq: FloatArray
-    velocity: FloatArray
-    qp: QPResult
-    culprits: list[str] = field(default_factory=list)
-    build_time: float = 0.0
-    solve_time: float = 0.0
+    __slots__ = (
+        "_dt",
+        "_velocity",
+        "build_time",
+        "culprits",
+        "dq",
+        "qp",
+        "solve_time",
+        "status",
+        "success",
+    )
+
+    def __init__(
+        self,
+        success: bool,
+        status: IKStatus,
+        dq: FloatArray,
+        velocity: FloatArray | None,
+        qp: QPResult,
+        culprits: list[str] | None = None,
+        build_time: float = 0.0,
+        solve_time: float = 0.0,
+        *,
+        dt: float | None = None,
+    ) -> None:
+        if velocity is None and dt is None:
+            raise InvalidInputError("IKStepResult needs the velocity or the time step dt")
+        self.success = success
+        self.status = status
+        self.dq = dq
+        self._velocity = velocity
+        self._dt = dt
+        self.qp = qp
+        self.culprits = [] if culprits is None else culprits
+        self.build_time = build_time
+        self.solve_time = solve_time
+
+    @property
+    def velocity(self) -> FloatArray:
+        """The step's velocity ``dq / dt`` [rad/s, m/s]."""
+        v = self._velocity
+        if v is None:
+            dt = self._dt
+            assert dt is not None  # __init__ refuses neither velocity nor dt
+            v = self._velocity = self.dq / dt
+        return v
+
+    @velocity.setter
+    def velocity(self, value: FloatArray) -> None:
+        self._velocity = value
+
+    def __repr__(self) -> str:
+        return (
+            f"IKStepResult(success={self.success}, status={self.status}, dq={self.dq!r}, "
+            f"qp={self.qp!r}, culprits={self.culprits!r}, build_time={self.build_time!r}, "
+            f"solve_time={self.solve_time!r})"
+        )
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -254,7 +305,9 @@ class DifferentialIK:
             status = IKStatus.FAILED
         dq = result.x
         culprits = self._culprits(problem, result, state, dt) if not result.success else []
-        return IKStepResult(result.success, status, dq, dq / dt, result, culprits, t1 - t0, t2 - t1)
+        return IKStepResult(
+            result.success, status, dq, None, result, culprits, t1 - t0, t2 - t1, dt=dt
+        )
 
     def _solve_native(self, state: State, dt: float) -> IKStepResult | None:
         if state._robot is not self.robot:  # the slot: cheaper than the read-only property
@@ -278,7 +331,7 @@ class DifferentialIK:
         )
         if self.options.native_residuals:
             qp.kkt = box_kkt_residuals(self._build(state, dt), dq)
-        return IKStepResult(True, IKStatus.SOLVED, dq, dq / dt, qp, [], build_time, qp_time)
+        return IKStepResult(True, IKStatus.SOLVED, dq, None, qp, None, build_time, qp_time, dt=dt)
 
     def _culprits(self, problem: QPProblem, result: QPResult, state: State, dt: float) -> list[str]:
         """Constraints violated by the least-violating step, each box against its own bounds."""

@@ -28,7 +28,16 @@ class QPStatus(enum.Enum):
     """The backend failed."""
 
 
-@dataclass
+_EMPTY = np.zeros(0)
+_EMPTY.setflags(write=False)
+
+
+def _no_multipliers() -> FloatArray:
+    """The default multipliers: one shared, read-only empty array (no allocation per result)."""
+    return _EMPTY
+
+
+@dataclass(slots=True)
 class QPResult:
     """Result of a QP solve.
 
@@ -47,6 +56,9 @@ class QPResult:
         y: equality multipliers (n_eq; empty when not computed).
         z: inequality multipliers (n_in).
         z_box: bound multipliers (n).
+
+    Results are made at every control step: the class has ``__slots__`` and multipliers that
+    were not computed are one shared read-only empty array.
     """
 
     success: bool
@@ -59,9 +71,9 @@ class QPResult:
     culprits: list[str] = field(default_factory=list)
     violations: dict[str, float] = field(default_factory=dict)
     kkt: KKTResiduals = field(default_factory=KKTResiduals.unknown)
-    y: FloatArray = field(default_factory=lambda: np.zeros(0))
-    z: FloatArray = field(default_factory=lambda: np.zeros(0))
-    z_box: FloatArray = field(default_factory=lambda: np.zeros(0))
+    y: FloatArray = field(default_factory=_no_multipliers)
+    z: FloatArray = field(default_factory=_no_multipliers)
+    z_box: FloatArray = field(default_factory=_no_multipliers)
 
     @property
     def primal_residual(self) -> float:

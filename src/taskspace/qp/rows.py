@@ -34,10 +34,10 @@ from taskspace.constraints.constraint import Constraint
 from taskspace.errors import ShapeError
 from taskspace.features.rows import INF, Box, InequalityRows, TaskRows
 from taskspace.qp.problem import QPProblem, RowBlock
+from taskspace.tasks import Task
 
 if TYPE_CHECKING:
     from taskspace.model.state import State
-    from taskspace.tasks import Task
 
 
 # ---------------------------------------------------------------------- task rows
@@ -75,6 +75,12 @@ class TaskRowStack:
             self.slices.append(slice(row, row + t.dim))
             row += t.dim
         self._pairs = list(zip(self.tasks, self.slices))
+        # velocity level: each task's rows written straight into views of the buffers (no
+        # per-task temporaries); a Task subclass that overrides ``rows`` is asked for them
+        self._velocity_views = [
+            (task, self.J[rows], self.rhs[rows], type(task).rows is Task.rows)
+            for task, rows in self._pairs
+        ]
         # acceleration level: raw rows and per-row gains and weights
         self._J_raw: FloatArray | None = None
         self._e = np.zeros(m)
@@ -93,12 +99,22 @@ class TaskRowStack:
 
     def velocity(self, state: State) -> TaskRows:
         """Rows ``sqrt(rho) J dq ~ -sqrt(rho) gain e`` (each task's :meth:`Task.rows`)."""
-        J, rhs = self.J, self.rhs
-        for task, rows in self._pairs:
-            Ji, ri = task.rows(state)
-            J[rows] = Ji
-            rhs[rows] = ri
-        return TaskRows(J, rhs)
+        for task, J_rows, rhs_rows, plain in self._velocity_views:
+            if not plain:
+                J_rows[...], rhs_rows[...] = task.rows(state)
+                continue
+            # Task.rows, written in place: the same products, bit for bit
+            e, Ji = task.feature.residual_and_jacobian(state, task._require_target())
+            w = task.sqrt_weight
+            if isinstance(w, float):
+                if w == 1.0:
+                    J_rows[...] = Ji
+                else:
+                    np.multiply(w, Ji, out=J_rows)
+            else:
+                np.multiply(w[:, None], Ji, out=J_rows)
+            np.multiply(-task.gain * w, e, out=rhs_rows)
+        return TaskRows(self.J, self.rhs)
 
     def residual(self, state: State) -> TaskRows:
         """Gauss-Newton rows ``(sqrt(rho) J, sqrt(rho) e)`` of ``sum_i rho_i |phi_i (-) y_i*|^2``.
@@ -264,6 +280,53 @@ def combine_bounds(
     return lb, ub, names
 
 
+class BoxStack:
+    """The box of several constraints (:func:`combine_bounds`) in preallocated buffers.
+
+    The constraints that declare no box (those not overriding ``bounds``) are left out once;
+    the common case of one physical and one position box (velocity and position limits) is
+    intersected into the buffers, and any conflict, NaN or other mix takes
+    :func:`combine_boxes` (same values as :func:`combine_bounds`, bit for bit). The returned
+    arrays may be the buffers, refilled by the next call, or a single input box: do not
+    modify them.
+
+    Args:
+        constraints: the constraints.
+        nv: number of variables.
+    """
+
+    def __init__(self, constraints: Sequence[Constraint], nv: int) -> None:
+        self.constraints = [c for c in constraints if type(c).bounds is not Constraint.bounds]
+        self.nv = nv
+        self._lb = np.zeros(nv)
+        self._ub = np.zeros(nv)
+        self._blocks = [RowBlock(c.name, 0, nv) for c in self.constraints]
+
+    def fill(self, state: State, dt: float) -> tuple[FloatArray, FloatArray, list[RowBlock]]:
+        """``(lower, upper, blocks)`` at ``state`` for a step of ``dt`` [s]."""
+        nv = self.nv
+        hard: list[Box] = []
+        soft: list[Box] = []
+        blocks = self._blocks
+        for i, c in enumerate(self.constraints):
+            box = c.bounds(state, dt)
+            if box is None:  # this step without a box: name only those with one
+                if blocks is self._blocks:
+                    blocks = blocks[:i]
+                continue
+            (hard if c.hard_bounds else soft).append(box)
+            if blocks is not self._blocks:
+                blocks.append(self._blocks[i])
+        if len(hard) == 1 and len(soft) == 1:
+            lb = np.maximum(hard[0][0], soft[0][0], out=self._lb)
+            ub = np.minimum(hard[0][1], soft[0][1], out=self._ub)
+            # no conflict anywhere (a conflict of the hard box alone is one here too)
+            if np.less_equal(lb, ub).all():
+                return lb, ub, blocks
+        lb, ub = combine_boxes(hard, soft, nv)
+        return lb, ub, blocks
+
+
 # ---------------------------------------------------------------------- inequality rows
 class InequalityStack:
     """The rows ``l <= C x <= u`` of several constraints in preallocated buffers.
@@ -370,6 +433,7 @@ class WeightedQPBuilder:
             self._eq_blocks.append(RowBlock(f"task '{t.name}'", k, k + t.dim))
             k += t.dim
         self.inequalities = InequalityStack(constraints, nv)
+        self.boxes = BoxStack(constraints, nv)
         self._H = np.zeros((nv, nv))
         self._g = np.zeros(nv)
         self._diagonal = self._H.reshape(-1)[:: nv + 1]  # a view: the diagonal of H
@@ -393,7 +457,7 @@ class WeightedQPBuilder:
             A, b = self.equalities.velocity(state)
         else:
             A, b = self._empty_rows, self._empty
-        lb, ub, box_blocks = combine_bounds(self.constraints, state, dt, self.nv)
+        lb, ub, box_blocks = self.boxes.fill(state, dt)
         if self.inequalities:
             (C, l, u), in_blocks = self.inequalities.fill(state, dt)
         else:
@@ -402,6 +466,7 @@ class WeightedQPBuilder:
 
 
 __all__ = [
+    "BoxStack",
     "InequalityStack",
     "TaskRowStack",
     "WeightedQPBuilder",
