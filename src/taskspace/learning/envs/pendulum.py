@@ -129,6 +129,11 @@ class PendulumEnv(RobotEnv):
         self.dynamics = RevoluteJointDynamics.from_model(self.model, self.data)
         """Closed-form ABA of the model (``None``: stepped with ``pin.aba``)."""
 
+    @property
+    def q(self) -> np.ndarray:
+        """The robot's configuration (size 1): the angle [rad] (for viewers)."""
+        return self.state[:1].copy()
+
     def _obs(self) -> np.ndarray:
         th, w = self.state.tolist()
         return np.array([math.cos(th - _PI), math.sin(th - _PI), w], dtype=np.float32)
