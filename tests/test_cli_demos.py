@@ -3,18 +3,25 @@
 Every demo accepts ``--html``, ``--png``, ``--save`` and ``--no-viewer``; output paths are
 relative to the caller's directory (the commands run here from a temporary directory with
 relative paths, and nothing may land in the repository). Demos run with ``TASKSPACE_FAST=1``.
+Every demo prints the path of each file it writes; every demo that moves a robot writes its
+motion into ``--save`` as ``<stem>.html`` (a meshcat animation) and ``<stem>_robot.png``.
 """
 
 from __future__ import annotations
 
 import ast
+import base64
+import itertools
 import json
 import os
+import re
 import subprocess
 import sys
+import zlib
 from pathlib import Path
 
 import pytest
+import umsgpack
 from PIL import Image
 
 from taskspace.cli import (
@@ -33,6 +40,27 @@ EXAMPLES = sorted(
     if not p.name.startswith("_") and "__pycache__" not in p.parts
 )
 TIMEOUT = 300  # seconds per demo run
+ROBOT_EXAMPLES = {
+    "demo_main",
+    "cartpole_lqr",
+    "g1_inverse_dynamics",
+    "panda_computed_torque",
+    "panda_operational_space",
+    "panda_box_grasps",
+    "g1_hands_hierarchy",
+    "panda_reach_obstacle",
+    "planar_3link_nullspace",
+    "panda_dmp_obstacle",
+    "g1_walking",
+    "panda_shelf",
+    "panda_path_optimization",
+    "panda_pipeline",
+}
+"""Stems of the examples that move a robot model (their ``--save`` holds the motion)."""
+OTHER_PICTURE_NAMES = {"g1_walking": "g1_walking_snapshot.png"}
+"""Robot pictures not yet named ``<stem>_robot.png``."""
+MOTIONBENCHMAKER = ROOT.parent / "shared" / "benchmarks" / "motionbenchmaker_panda"
+"""The project's copy of the MotionBenchMaker problems (panda_shelf's Panda part needs it)."""
 
 
 def _names() -> dict[Path, str]:
@@ -42,6 +70,8 @@ def _names() -> dict[Path, str]:
 
 def run_demo(cwd: Path, *args: str, fast: bool = True) -> subprocess.CompletedProcess[str]:
     env = dict(os.environ, OPENBLAS_NUM_THREADS="1")
+    if MOTIONBENCHMAKER.is_dir():
+        env.setdefault("TASKSPACE_MOTIONBENCHMAKER_DIR", str(MOTIONBENCHMAKER))
     env.pop("DISPLAY", None)
     env.pop("MPLBACKEND", None)  # --no-viewer must select Agg itself
     if fast:
@@ -66,6 +96,20 @@ def run_demo(cwd: Path, *args: str, fast: bool = True) -> subprocess.CompletedPr
 
 def is_png(path: Path) -> bool:
     return path.is_file() and Image.open(path).format == "PNG"
+
+
+def animation_commands(html: str) -> int:
+    """How many ``set_animation`` commands a page of :meth:`Viewer.save_html` holds."""
+    match = re.search(r"var TASKSPACE_SCENE = (\{.*?\});\n</script>", html, re.S)
+    assert match is not None, "not a compressed meshcat page"
+    scene = json.loads(match.group(1))
+    data = zlib.decompress(base64.b64decode(scene["data"]))
+    starts = [0]
+    for size in scene["sizes"]:
+        starts.append(starts[-1] + size)
+    chunks = [data[a:b] for a, b in itertools.pairwise(starts)]
+    commands = [umsgpack.unpackb(b"".join(chunks[i] for i in ids)) for ids in scene["commands"]]
+    return sum(c["type"] == "set_animation" for c in commands)
 
 
 def repo_outputs() -> set[Path]:
@@ -102,6 +146,15 @@ def test_native_flags_read_from_the_scripts():
     assert native_flags(examples["main"]) == set(DEMO_FLAGS)
     assert native_flags(examples["bug_paths"]) == {"--save"}
     assert native_flags(examples["g1_inverse_dynamics"]) == {"--save", "--html"}
+
+
+def test_robot_examples_are_the_scripts_that_load_a_robot():
+    loads = {
+        p.stem
+        for p in EXAMPLES
+        if re.search(r"Robot\.load\(|motionbenchmaker_panda\(", p.read_text(encoding="utf-8"))
+    }
+    assert loads == ROBOT_EXAMPLES
 
 
 # ----------------------------------------------------------------------------- each flag
@@ -160,7 +213,19 @@ def test_every_demo_accepts_every_flag(script, tmp_path):
     assert "MeshCat.Viewer" in html or "data:image/png;base64," in html
     saved = [p for p in (tmp_path / "all").rglob("*") if p.is_file()]
     assert saved, "nothing written into --save"
+    unannounced = [p.name for p in saved if str(p) not in proc.stdout]
+    assert not unannounced, f"written but not printed: {unannounced}"  # says what went where
     assert repo_outputs() == before
+    stem = script.stem
+    if stem not in ROBOT_EXAMPLES:
+        return
+    has_problems = MOTIONBENCHMAKER.is_dir() or "TASKSPACE_MOTIONBENCHMAKER_DIR" in os.environ
+    if stem == "panda_shelf" and not has_problems:
+        return  # its Panda part is skipped without the MotionBenchMaker problems
+    page = (tmp_path / "all" / f"{stem}.html").read_text(encoding="utf-8")
+    assert "MeshCat.Viewer" in page and animation_commands(page) == 1
+    picture = tmp_path / "all" / OTHER_PICTURE_NAMES.get(stem, f"{stem}_robot.png")
+    assert is_png(picture), f"no robot picture {picture.name}"
 
 
 # ----------------------------------------------------------------------------- bench
