@@ -80,21 +80,7 @@ def test_measured_zmp_equals_zmp_of_simulated_motion(short_walk):
     assert checked > 20
 
 
-@pytest.mark.slow
-def test_force_transitions_at_lift_off_and_touchdown(short_walk):
-    """The load moves between the feet during double support: a foot is unloaded (down to
-    the contacts' minimum force) before it lifts, and loaded from it after touchdown."""
-    robot, _plan, res = short_walk
-    weight = robot.mass * 9.81
-    for kind, start, end in res.phases:
-        if kind != "single_support":
-            continue
-        before = np.searchsorted(res.times, start, side="left") - 1  # end of the double support
-        after = np.searchsorted(res.times, end, side="right")  # start of the next one
-        swing = "left" if res.wrenches["left"][before + 2, 2] == 0.0 else "right"
-        assert res.wrenches[swing][before, 2] < 0.02 * weight  # unloaded at lift-off
-        assert res.wrenches[swing][after, 2] < 0.02 * weight  # light at touchdown
-        assert res.wrenches[swing][after + 20, 2] > 0.05 * weight  # then takes load
+# The force transitions at lift-off and touchdown: test_locomotion_force_transitions.py
 
 
 SNAPSHOTS = Path(__file__).resolve().parents[1] / "snapshots"

@@ -144,6 +144,50 @@ class Contact:
         """Contact force (and torque) in world coordinates, for display."""
         raise NotImplementedError
 
+    def normal_force(self, f: FloatArray) -> float:
+        """The normal force ``f_n`` [N] of this contact's force variables ``f``."""
+        return float(f[2])
+
+    @property
+    def max_force_row(self) -> int | None:
+        """Index of the row ``-f_n >= -max_force`` in :meth:`cone` (``None`` without it)."""
+        return None if self.max_force is None else len(self._k) - 1
+
+    @property
+    def normal_force_limit(self) -> float | None:
+        """The current upper bound of the normal force [N] (``max_force`` unless lowered).
+
+        A contact transition (lift-off, touchdown) lowers it for a while with
+        :meth:`set_normal_force_limit`, as TSID's contact transitions lower the contact's
+        maximum normal force: the controller that reads it each step (the locomotion
+        package's walking controller) then ramps the force, while :meth:`cone` keeps
+        ``max_force``.
+        """
+        limit = self.__dict__.get("_limit")
+        return self.max_force if limit is None else float(limit)
+
+    def set_normal_force_limit(self, value: float | None) -> None:
+        """Bound the normal force by ``value`` [N] in ``[min_force, max_force]``.
+
+        ``None`` restores ``max_force``. Needs a contact built with ``max_force`` (its cone
+        has the bound's row).
+        """
+        if value is None:
+            object.__setattr__(self, "_limit", None)
+            return
+        if self.max_force is None:
+            raise InvalidInputError(
+                f"contact '{self.frame}': a normal-force limit needs a contact built with "
+                "max_force (its cone then has the bound's row)"
+            )
+        limit = float(value)
+        if not (self.min_force <= limit <= self.max_force):
+            raise InvalidInputError(
+                f"contact '{self.frame}': normal-force limit {limit:g} N outside "
+                f"[min_force, max_force] = [{self.min_force:g}, {self.max_force:g}] N"
+            )
+        object.__setattr__(self, "_limit", limit)
+
     def regularization_weights(self) -> FloatArray:
         """Relative weights of the force variables in the force regularization."""
         return np.ones(self.force_dim)

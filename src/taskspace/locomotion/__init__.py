@@ -43,9 +43,11 @@ from taskspace.locomotion.support_polygon import (
 from taskspace.locomotion.swing_trajectory import SwingSample, SwingTrajectory
 from taskspace.locomotion.whole_body_walking import (
     WalkingOptions,
+    WalkingReference,
     WalkingResult,
     plan_from_robot,
     walk,
+    walking_reference,
 )
 from taskspace.locomotion.zmp import (
     ContactWrench,
@@ -91,6 +93,7 @@ __all__ = [
     "SwingTrajectory",
     "WalkingOptions",
     "WalkingPattern",
+    "WalkingReference",
     "WalkingResult",
     "ZmpMpc",
     "ZmpMpcOptions",
@@ -115,6 +118,7 @@ __all__ = [
     "total_wrench",
     "turn_in_place",
     "walk",
+    "walking_reference",
     "zmp_from_dynamics",
     "zmp_from_wrenches",
     "zmp_reference",

@@ -15,16 +15,24 @@ positions of the foot frames on the ground. Per contact phase:
 One :class:`~taskspace.control.InverseDynamicsQP` per contact set (both feet, left, right)
 computes the torques; the robot is simulated phase by phase with rigid contacts
 (:func:`~taskspace.control.simulate_with_contacts`), the contact set switched at lift-off and
-touchdown, a landing foot anchored where it touches down. The contacts, their CoP rectangles
-and the measured ZMP live in the plane of the foot frames at the start (for G1 the ankle-roll
-frames, 35 mm above the soles; for Talos the sole frames).
+touchdown, a landing foot anchored where it touches down. The switches carry force
+transitions, as TSID's contact transitions do: the upper bound of a foot's normal force
+(:meth:`~taskspace.constraints.contact.Contact.set_normal_force_limit`, a row of the QP's
+friction cone) ramps linearly from the foot's current force down to the contacts' minimum
+force over the last ``transition_time`` of the double support before it lifts (the foot leaves
+the ground unloaded), and from the minimum force up to the robot's weight over the first
+``transition_time`` after it touches down (the load builds up at a bounded rate).
+
+The contacts, their CoP rectangles and the measured ZMP live in the plane of the foot frames
+at the start (for G1 the ankle-roll frames, 35 mm above the soles; for Talos the sole
+frames).
 """
 
 from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -34,6 +42,7 @@ import pinocchio as pin
 from taskspace import features as F
 from taskspace._validation import FloatArray
 from taskspace.constraints import Contact6D
+from taskspace.constraints.contact import Contact
 from taskspace.control import InverseDynamicsOptions, InverseDynamicsQP, simulate_with_contacts
 from taskspace.errors import InvalidInputError
 from taskspace.locomotion.footsteps import (
@@ -49,6 +58,7 @@ from taskspace.locomotion.support_polygon import SupportPolygon
 from taskspace.locomotion.swing_trajectory import SwingTrajectory
 from taskspace.locomotion.zmp import ContactWrench, zmp_from_wrenches
 from taskspace.locomotion.zmp_reference import zmp_reference
+from taskspace.qp.problem import INF
 from taskspace.tasks import Task
 
 
@@ -66,6 +76,10 @@ class WalkingOptions:
         dt: simulation and control period [s].
         com_kp, foot_kp, pelvis_kp, posture_kp: task stiffnesses [1/s^2].
         foot_weight, pelvis_weight, posture_weight: task weights (the CoM task has 1).
+        transition_time: duration of the force ramps at lift-off and touchdown [s] (clipped
+            to the double support; 0: no ramps, the contacts switch with whatever force the
+            ZMP reference leaves on them).
+        min_force: the contacts' minimum normal force [N] (the lift-off ramp ends there).
     """
 
     feet: tuple[str, str] = ("left_ankle_roll_link", "right_ankle_roll_link")
@@ -82,6 +96,8 @@ class WalkingOptions:
     foot_weight: float = 1.0
     pelvis_weight: float = 0.1
     posture_weight: float = 1e-3
+    transition_time: float = 0.15
+    min_force: float = 1.0
     qp: InverseDynamicsOptions = field(default_factory=InverseDynamicsOptions)
 
 
@@ -155,6 +171,170 @@ def plan_from_robot(
     )
 
 
+@dataclass(frozen=True)
+class WalkingReference:
+    """The references :func:`walk` tracks, sampled every ``dt`` over the plan (for peers).
+
+    Attributes:
+        times: (N,) [s].
+        com, com_velocity, com_acceleration: (N, 3) CoM reference [m, m/s, m/s^2].
+        foot_position, foot_velocity, foot_acceleration: per side, (N, 3) foot-frame
+            reference (the swing trajectory while the foot swings, its footstep otherwise).
+        foot_rotation: per side, (N, 3, 3) orientation target of the foot frame.
+        swinging: per side, (N,) the foot swings (no contact).
+        pelvis_rotation: (N, 3, 3) orientation target of the pelvis frame.
+        phases: (kind, start, end, swing side or ``""``) of each phase.
+        q0: the initial configuration.
+    """
+
+    times: FloatArray
+    com: FloatArray
+    com_velocity: FloatArray
+    com_acceleration: FloatArray
+    foot_position: dict[str, FloatArray]
+    foot_velocity: dict[str, FloatArray]
+    foot_acceleration: dict[str, FloatArray]
+    foot_rotation: dict[str, FloatArray]
+    swinging: dict[str, Any]
+    pelvis_rotation: FloatArray
+    phases: list[tuple[str, float, float, str]]
+    q0: FloatArray
+
+
+def walking_reference(
+    robot: Any, plan: FootstepPlan, options: WalkingOptions | None = None
+) -> WalkingReference:
+    """The CoM, feet and pelvis references of :func:`walk` on a uniform grid.
+
+    The same preview-control CoM, swing trajectories, foot and pelvis orientation targets as
+    :func:`walk`, sampled at ``k dt`` (a sample at a phase switch belongs to the next phase):
+    what a peer controller needs to track the same walk.
+    """
+    opts = options or WalkingOptions()
+    q0 = robot.q_default.copy()
+    state = robot.state(q0, np.zeros(robot.nv))
+    c0 = np.asarray(state.com()).copy()
+    foot_frames = {"left": opts.feet[0], "right": opts.feet[1]}
+    foot0 = {s: robot.frame_placement(q0, f) for s, f in foot_frames.items()}
+    ground = {s: float(foot0[s].translation[2]) for s in foot0}
+    pelvis0 = robot.frame_placement(q0, opts.pelvis).rotation.copy()
+    model = CartTable(com_height=float(c0[2] - np.mean(list(ground.values()))), dt=opts.dt)
+    n = math.ceil(plan.duration / opts.dt) + 1
+    times: FloatArray = opts.dt * np.arange(n, dtype=np.float64)
+    init = np.zeros((3, 2))
+    init[0] = c0[:2]
+    lipm = PreviewController(model).simulate(zmp_reference(plan, times), init)
+    com = np.column_stack([lipm.com[:n], np.full(n, c0[2])])
+    com_v = np.column_stack([lipm.com_velocity[:n], np.zeros(n)])
+    com_a = np.column_stack([lipm.com_acceleration[:n], np.zeros(n)])
+    pos = {s: np.zeros((n, 3)) for s in foot_frames}
+    vel = {s: np.zeros((n, 3)) for s in foot_frames}
+    acc = {s: np.zeros((n, 3)) for s in foot_frames}
+    rot = {s: np.zeros((n, 3, 3)) for s in foot_frames}
+    swinging = {s: np.zeros(n, dtype=bool) for s in foot_frames}
+    pelvis = np.zeros((n, 3, 3))
+    phases = []
+    all_phases = plan.phases()
+    for index, phase in enumerate(all_phases):
+        last = index == len(all_phases) - 1
+        ks = np.flatnonzero((times >= phase.start - 1e-9) & ((times < phase.end - 1e-9) | last))
+        feet_end = {f.side: f for f in phase.stance}
+        if phase.swing is not None:
+            feet_end[phase.swing[1].side] = phase.swing[1]
+        heading = math.atan2(
+            sum(math.sin(f.yaw) for f in feet_end.values()),
+            sum(math.cos(f.yaw) for f in feet_end.values()),
+        )
+        pelvis[ks] = _yaw_rotation(heading) @ pelvis0
+        for foot in phase.stance:
+            pos[foot.side][ks] = [foot.x, foot.y, ground[foot.side]]
+            rot[foot.side][ks] = _yaw_rotation(foot.yaw) @ foot0[foot.side].rotation
+        side = ""
+        if phase.kind is PhaseKind.SINGLE_SUPPORT and phase.swing is not None:
+            lift, land = phase.swing
+            side = land.side
+            swing = SwingTrajectory(
+                Footstep(side, lift.x, lift.y, lift.yaw),
+                land,
+                phase.end - phase.start,
+                clearance=opts.clearance,
+                lift_height=ground[side],
+                land_height=ground[side],
+            ).sample(times[ks] - phase.start)
+            pos[side][ks] = swing.position
+            vel[side][ks] = swing.velocity
+            acc[side][ks] = swing.acceleration
+            rot[side][ks] = _yaw_rotation(land.yaw) @ foot0[side].rotation
+            swinging[side][ks] = True
+        phases.append((phase.kind.value, phase.start, phase.end, side))
+    return WalkingReference(
+        times, com, com_v, com_a, pos, vel, acc, rot, swinging, pelvis, phases, q0
+    )
+
+
+class _TransitionQP(InverseDynamicsQP):
+    """An :class:`InverseDynamicsQP` with contact transitions.
+
+    The max-force rows of its contacts follow their current
+    :attr:`~taskspace.constraints.contact.Contact.normal_force_limit` at every step.
+    """
+
+    def __init__(
+        self,
+        robot: Any,
+        tasks: list[Task],
+        contacts: list[Contact],
+        options: InverseDynamicsOptions,
+    ) -> None:
+        super().__init__(robot, tasks, contacts, options)
+        self._limit_rows: list[tuple[int, Contact]] = []
+        row = 0
+        for c in self.contacts:
+            if c.max_force_row is not None:
+                self._limit_rows.append((row + c.max_force_row, c))
+            row += c.cone()[0].shape[0]
+
+    def _inequalities(
+        self, M: FloatArray, h: FloatArray, Jc: FloatArray
+    ) -> tuple[FloatArray, FloatArray, FloatArray, Any]:
+        C, l, u, blocks = super()._inequalities(M, h, Jc)
+        for row, c in self._limit_rows:
+            limit = c.normal_force_limit
+            l[row] = -INF if limit is None else -limit
+        return C, l, u, blocks
+
+
+@dataclass
+class _ForceRamp:
+    """A linear ramp of a contact's normal-force limit.
+
+    Over ``[start, start + duration]`` (phase time); ``f_start`` ``None``: the controller's
+    force when the ramp starts (TSID's lift-off transition). After the ramp the limit stays at
+    ``f_end`` or, with ``release``, returns to the contact's ``max_force``.
+    """
+
+    contact: Contact
+    start: float
+    duration: float
+    f_end: float
+    f_start: float | None = None
+    release: bool = False
+
+    def apply(self, t: float, last_force: float | None) -> None:
+        c = self.contact
+        if t < self.start - 1e-12:
+            c.set_normal_force_limit(None)
+            return
+        if self.f_start is None:
+            top = c.max_force if c.max_force is not None else self.f_end
+            self.f_start = min(max(last_force or top, c.min_force), top)
+        alpha = min(1.0, (t - self.start) / self.duration) if self.duration > 0 else 1.0
+        if alpha >= 1.0 and self.release:
+            c.set_normal_force_limit(None)
+            return
+        c.set_normal_force_limit(self.f_start + alpha * (self.f_end - self.f_start))
+
+
 class _PhaseControl:
     """``tau = control(t, q, v)`` of one contact phase (``t`` from the phase start)."""
 
@@ -168,10 +348,13 @@ class _PhaseControl:
         swing: SwingTrajectory | None,
         swing_tasks: dict[str, Task],
         log: list[float],
+        ramps: list[_ForceRamp],
+        last_forces: dict[str, float],
     ) -> None:
         self.qp, self.state, self.com_task = qp, state, com_task
         self.com_reference, self.start = com_reference, start
         self.swing, self.swing_tasks, self.log = swing, swing_tasks, log
+        self.ramps, self.last_forces = ramps, last_forces
 
     def __call__(self, t: float, q: FloatArray, v: FloatArray) -> FloatArray:
         c, cd, cdd = self.com_reference(self.start + t)
@@ -182,10 +365,14 @@ class _PhaseControl:
             task = self.swing_tasks[self.swing.land.side]
             task.set_target(s.position[0])
             task.set_reference(s.velocity[0], s.acceleration[0])
+        for ramp in self.ramps:
+            ramp.apply(t, self.last_forces.get(ramp.contact.frame))
         self.state.update(q, v)
         t0 = time.perf_counter()
         res = self.qp.solve(self.state)
         self.log.append(time.perf_counter() - t0)
+        for frame, f in res.forces.items():
+            self.last_forces[frame] = float(f[2])
         return np.asarray(res.tau)
 
 
@@ -229,6 +416,7 @@ def walk(robot: Any, plan: FootstepPlan, options: WalkingOptions | None = None) 
     )
     pelvis0 = robot.frame_placement(q0, opts.pelvis).rotation.copy()
     posture = Task(F.JointConfiguration(robot), q0, weight=opts.posture_weight, kp=opts.posture_kp)
+    weight = robot.mass * float(np.linalg.norm(robot.model.gravity.linear))
     swing_pos = {
         s: Task(F.Position(robot, f), weight=opts.foot_weight, kp=opts.foot_kp, name=f"{s}_pos")
         for s, f in foot_frames.items()
@@ -244,6 +432,8 @@ def walk(robot: Any, plan: FootstepPlan, options: WalkingOptions | None = None) 
             half_length=opts.sole_half_length,
             half_width=opts.sole_half_width,
             friction=opts.friction,
+            min_force=opts.min_force,
+            max_force=10.0 * weight,
         )
         for s, f in foot_frames.items()
     }
@@ -255,7 +445,7 @@ def walk(robot: Any, plan: FootstepPlan, options: WalkingOptions | None = None) 
             tasks = [com_task, pelvis_task, posture]
             for s in swing:
                 tasks += [swing_pos[s], swing_rot[s]]
-            controllers[stance] = InverseDynamicsQP(
+            controllers[stance] = _TransitionQP(
                 robot, tasks, [contacts[s] for s in stance], opts.qp
             )
         return controllers[stance]
@@ -267,7 +457,9 @@ def walk(robot: Any, plan: FootstepPlan, options: WalkingOptions | None = None) 
     worst_cone = -np.inf
     q, v = q0, v0
     message = ""
-    for phase in plan.phases():
+    last_forces: dict[str, float] = {}
+    all_phases = plan.phases()
+    for index, phase in enumerate(all_phases):
         stance_sides = tuple(f.side for f in phase.stance)
         qp = controller_for(stance_sides)
         swing_traj = None
@@ -295,11 +487,25 @@ def walk(robot: Any, plan: FootstepPlan, options: WalkingOptions | None = None) 
         pelvis_task.set_target(_yaw_rotation(heading) @ pelvis0)
         t_phase0 = phase.start
 
+        duration = phase.end - phase.start
+        ramps = _transition_ramps(
+            all_phases, index, contacts, opts.transition_time, weight, opts.dt
+        )
+        for c in contacts.values():
+            c.set_normal_force_limit(None)
         control = _PhaseControl(
-            qp, state, com_task, com_reference, t_phase0, swing_traj, swing_pos, control_times
+            qp,
+            state,
+            com_task,
+            com_reference,
+            t_phase0,
+            swing_traj,
+            swing_pos,
+            control_times,
+            ramps,
+            last_forces,
         )
 
-        duration = phase.end - phase.start
         roll = simulate_with_contacts(
             robot,
             control,
@@ -349,6 +555,8 @@ def walk(robot: Any, plan: FootstepPlan, options: WalkingOptions | None = None) 
                 f"the robot fell during the {phase.kind.value} phase at t = {phase.start:.2f} s"
             )
             break
+    for c in contacts.values():
+        c.set_normal_force_limit(None)
     margins = np.array(margin_all)
     ok = (
         not message
@@ -372,3 +580,33 @@ def walk(robot: Any, plan: FootstepPlan, options: WalkingOptions | None = None) 
         control_times=np.array(control_times),
         message=message,
     )
+
+
+def _transition_ramps(
+    phases: list[Any],
+    index: int,
+    contacts: Mapping[str, Contact],
+    transition_time: float,
+    weight: float,
+    dt: float,
+) -> list[_ForceRamp]:
+    """The force ramps of double-support phase ``index``.
+
+    Down for a foot that lifts at its end, up for a foot that landed at its start.
+    """
+    phase = phases[index]
+    if transition_time <= 0 or phase.kind is not PhaseKind.DOUBLE_SUPPORT:
+        return []
+    # the simulated phase: a whole number of control steps (simulate_with_contacts)
+    duration = round((phase.end - phase.start) / dt) * dt
+    ramp = min(transition_time, duration)
+    ramps = []
+    before = phases[index - 1] if index > 0 else None
+    after = phases[index + 1] if index + 1 < len(phases) else None
+    if before is not None and before.swing is not None:
+        c = contacts[before.swing[1].side]
+        ramps.append(_ForceRamp(c, 0.0, ramp, weight, f_start=c.min_force, release=True))
+    if after is not None and after.swing is not None:
+        c = contacts[after.swing[1].side]
+        ramps.append(_ForceRamp(c, duration - ramp, ramp, c.min_force))
+    return ramps
