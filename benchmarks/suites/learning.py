@@ -16,6 +16,11 @@ Scenes (built separately from timing):
   ``PandaReachVectorEnv`` (batched forward kinematics, one collision-kernel call) against
   gymnasium's ``SyncVectorEnv`` over 256 ``PandaReachEnv`` (interleaved in this process), and
   the peer's ``SyncVectorEnv`` of 256 MuJoCo reachers; steps/s per core in ``extra``.
+* ``pendulum_ppo`` (only with ``TASKSPACE_BENCH_PPO=1``: about 10 minutes): Stable-Baselines3
+  PPO with the RL Zoo's ``Pendulum-v1`` hyperparameters for 100,000 steps (quick: 20,000) on
+  ``taskspace/Pendulum-v0`` and on ``Pendulum-v1`` (``benchmarks/peers/sb3_ppo.py`` in the
+  ``sb3`` peer environment): wall time of a training run, the deterministic evaluation return
+  (10 episodes), the time spent in the environments' ``step``.
 * ``pendulum_fvi_101``: fitted value iteration of the pendulum swing-up on a 101 x 101 grid
   (quick: 41 x 41), 9 torques in [-4, 4] N m, dt 0.05 s, gamma = exp(-0.2 dt), stopped when
   ``max |J_{k+1} - J_k| <= 1e-4``; Drake's ``FittedValueIteration`` on the same grid, torques,
@@ -39,6 +44,7 @@ Scenes (built separately from timing):
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import tempfile
 import time
@@ -330,6 +336,43 @@ def _panda_rows(quick: bool) -> list[Row]:
     return rows
 
 
+def _ppo_rows(quick: bool) -> list[Row]:
+    ids = ("taskspace/Pendulum-v0", "Pendulum-v1")
+    names = {"taskspace/Pendulum-v0": "taskspace + sb3 PPO", "Pendulum-v1": "gymnasium + sb3 PPO"}
+    if os.environ.get("TASKSPACE_BENCH_PPO", "") in ("", "0"):
+        note = "set TASKSPACE_BENCH_PPO=1 to run (about 10 min; sb3 peer environment)"
+        return [Row(SUITE, "pendulum_ppo", names[i], None, note=note) for i in ids]
+    timesteps = 20_000 if quick else 100_000
+    try:
+        out = run_peer("sb3", "sb3_ppo.py", [str(timesteps), "1", *ids], timeout=3600)
+        note = "" if out else "sb3 peer environment missing (see benchmarks/peers/sb3_ppo.py)"
+    except RuntimeError as err:
+        out, note = None, str(err)[-300:]
+    rows = []
+    for env_id in ids:
+        res = out[env_id] if out else None
+        rows.append(
+            Row(
+                SUITE,
+                "pendulum_ppo",
+                names[env_id],
+                Timing.from_samples(res["wall_s"]) if res else None,
+                {
+                    "timesteps": timesteps,
+                    "eval_return": [round(r, 1) for r in res["eval_return"]],
+                    "last_training_return": [round(c[-1], 1) if c else None for c in res["curve"]],
+                    "env_step_s": [round(t, 2) for t in res["env_step_s"]],
+                    **out["versions"],
+                }
+                if res and out
+                else {},
+                ratio_to=names["Pendulum-v1"] if env_id.startswith("taskspace") else None,
+                note=note or "timing: one training run; torque bound 5 N m (ours) vs 2 N m",
+            )
+        )
+    return rows
+
+
 def scene_fvi(n: int) -> tuple[Any, ...]:
     """Grid, torques, dynamics, cost and options of the pendulum swing-up."""
     prob = PendulumSwingUp()
@@ -551,6 +594,7 @@ def run(quick: bool) -> list[Row]:
     return (
         _env_rows(quick)
         + _panda_rows(quick)
+        + _ppo_rows(quick)
         + _fvi_rows(quick)
         + _cma_rows(quick)
         + _via_point_rows(quick)

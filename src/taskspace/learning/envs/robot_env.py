@@ -5,7 +5,8 @@ the ABA + semi-implicit Euler substeps, the render mode and the rendering. Rende
 state with matplotlib: ``"rgb_array"`` returns an ``H x W x 3`` ``uint8`` image (an off-screen
 Agg canvas, no display needed); ``"human"`` draws into a pyplot window after every step and
 reset (with a non-interactive backend such as Agg nothing is shown). Subclasses implement
-``_draw(ax)``.
+``_draw(ax)``. For the robot in 3-D, wrap any environment of this package in
+:class:`taskspace.viz.env_viewer.MeshcatRender` (meshcat: a live viewer or snapshots).
 
 :class:`RobotVectorEnv` holds what the batched environments share: the batched spaces, the
 step counters and the next-step auto-reset of ``gymnasium.vector`` (a copy that ended on the
