@@ -11,7 +11,8 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import replace
+from dataclasses import dataclass, replace
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
@@ -19,6 +20,22 @@ import pytest
 
 from taskspace.control.riccati import RiccatiOptions, solve_continuous_riccati
 from taskspace.errors import InvalidInputError
+from taskspace.learning import (
+    LinearQuadraticTask,
+    PolicySearchOptions,
+    TabularOptions,
+    apprenticeship_learning,
+    cma_es,
+    enac,
+    feature_expectations,
+    mu_lambda_es,
+    pi2,
+    power,
+    q_learning,
+    reinforce,
+    sarsa,
+    td_lambda,
+)
 from taskspace.locomotion.compass_gait import CompassGait, LimitCycleOptions, find_limit_cycle
 from taskspace.optimal_control import (
     DoubleIntegrator,
@@ -26,7 +43,9 @@ from taskspace.optimal_control import (
     ValueIterationOptions,
     fitted_value_iteration,
     geometric_axis,
+    grid_world,
     make_grid,
+    make_mdp,
     policy_iteration,
     t_maze,
     value_iteration,
@@ -77,6 +96,54 @@ def _car(options: ControlSamplingOptions) -> Any:
     return grow_control_tree(CarModel(), world, start, options=options)
 
 
+def _tabular(method: Callable[..., Any]) -> Callable[[TabularOptions], Any]:
+    def run(options: TabularOptions) -> Any:
+        mdp = t_maze(gamma=0.5)
+        rng = np.random.default_rng(0)
+        if method is td_lambda:
+            res = td_lambda(mdp, value_iteration(mdp).policy, options, rng=rng)
+        else:
+            res = method(mdp, options, rng=rng)
+        # ran every episode (a cap ends the loop, never an allocation error)
+        return SimpleNamespace(success=res.episode_returns.size == options.episodes)
+
+    return run
+
+
+_LQ = LinearQuadraticTask(
+    A=np.array([[1.0, 0.2], [0.0, 1.0]]),
+    B=np.array([[0.0], [0.5]]),
+    Q=np.eye(2),
+    R=0.1 * np.eye(1),
+    x0=np.array([1.0, 0.0]),
+    horizon=5,
+    sigma=0.5,
+    initial_std=0.2,
+)
+_SEARCH = PolicySearchOptions(iterations=3, population=4, elite=2)
+
+
+def _search(method: Callable[..., Any]) -> Callable[[PolicySearchOptions], Any]:
+    return lambda options: method(_LQ.rollout, np.zeros(2), options)
+
+
+@dataclass(frozen=True)
+class _IRLOptions:
+    max_iterations: int = 50
+
+
+def _irl(options: _IRLOptions) -> Any:
+    mdp, _ = grid_world(["....", "..#.", "...."], gamma=0.9, slip=0.1)
+    rng = np.random.default_rng(0)
+    S = mdp.num_states
+    Phi = rng.uniform(size=(S, 4))
+    w = rng.normal(size=4)
+    d0 = np.full(S, 1.0 / S)
+    expert = value_iteration(make_mdp(mdp.transitions, Phi @ (w / np.linalg.norm(w)), 0.9)).policy
+    mu_e = feature_expectations(mdp, expert, Phi, d0)
+    return apprenticeship_learning(mdp, Phi, mu_e, d0, max_iterations=options.max_iterations)
+
+
 # (algorithm, options class, cap field, valid options)
 CASES: dict[str, tuple[Callable[[Any], Any], Any, str]] = {
     "potential_field.max_iterations": (
@@ -115,13 +182,41 @@ CASES: dict[str, tuple[Callable[[Any], Any], Any, str]] = {
     "fitted_value_iteration.substeps": (_fitted, FittedValueIterationOptions(dt=1.0), "substeps"),
     "car.max_attempts": (_car, ControlSamplingOptions(n_nodes=5), "max_attempts"),
     "car.n_nodes": (_car, ControlSamplingOptions(n_nodes=5), "n_nodes"),
+    "q_learning.episodes": (_tabular(q_learning), TabularOptions(episodes=50), "episodes"),
+    "q_learning.max_steps": (_tabular(q_learning), TabularOptions(episodes=50), "max_steps"),
+    "sarsa.episodes": (_tabular(sarsa), TabularOptions(episodes=50), "episodes"),
+    "sarsa.max_steps": (_tabular(sarsa), TabularOptions(episodes=50), "max_steps"),
+    "td_lambda.episodes": (_tabular(td_lambda), TabularOptions(episodes=50), "episodes"),
+    "td_lambda.max_steps": (_tabular(td_lambda), TabularOptions(episodes=50), "max_steps"),
+    "reinforce.iterations": (_search(reinforce), _SEARCH, "iterations"),
+    "reinforce.population": (_search(reinforce), _SEARCH, "population"),
+    "enac.iterations": (_search(enac), _SEARCH, "iterations"),
+    "power.iterations": (_search(power), _SEARCH, "iterations"),
+    "power.elite": (_search(power), _SEARCH, "elite"),
+    "pi2.iterations": (_search(pi2), _SEARCH, "iterations"),
+    "mu_lambda_es.iterations": (_search(mu_lambda_es), _SEARCH, "iterations"),
+    "mu_lambda_es.max_rollouts": (
+        _search(mu_lambda_es),
+        replace(_SEARCH, max_rollouts=8),
+        "max_rollouts",
+    ),
+    "cma_es.iterations": (_search(cma_es), _SEARCH, "iterations"),
+    "apprenticeship_learning": (_irl, _IRLOptions(), "max_iterations"),
 }
+
+# caps of fixed work, or of loops that end on a criterion only with luck: no huge-cap run
+FIXED_WORK = ("n_nodes", "stall_window", "refinements", "substeps", "episodes", "population")
+FIXED_WORK += ("elite", "max_rollouts")
+ENDS_ON_SUCCESS_ONLY = ("compass_gait", "reinforce", "enac", "power", "pi2", "mu_lambda_es")
+ENDS_ON_SUCCESS_ONLY += ("cma_es",)
 
 
 @pytest.mark.parametrize("cap", BAD_CAPS, ids=repr)
 @pytest.mark.parametrize("case", sorted(CASES))
 def test_a_cap_that_is_not_an_integer_is_refused(case: str, cap: Any) -> None:
     algorithm, options, field = CASES[case]
+    if cap is None and field == "max_rollouts":
+        pytest.skip("max_rollouts=None means no rollout limit (iterations still caps)")
     with pytest.raises(InvalidInputError, match=field):
         algorithm(replace(options, **{field: cap}))
 
@@ -132,8 +227,7 @@ def test_integral_caps_still_work(case: str) -> None:
     algorithm, options, field = CASES[case]
     value = getattr(options, field)
     assert algorithm(replace(options, **{field: np.int64(value)})).success
-    fixed_work = ("n_nodes", "stall_window", "refinements", "substeps")
-    if field not in fixed_work and case != "compass_gait":  # loops that end on success
+    if field not in FIXED_WORK and case.split(".")[0] not in ENDS_ON_SUCCESS_ONLY:
         assert algorithm(replace(options, **{field: 10**30})).success
 
 
@@ -151,3 +245,67 @@ def test_a_huge_cap_ends_on_the_algorithms_own_criterion() -> None:
         PotentialFieldOptions(zeta=1.0, d_star=2.0, eta=0.5, q_star=1.0, max_iterations=10**30),
     )
     assert gradient_descent(field, (0, 0)).status is PotentialStatus.LOCAL_MINIMUM
+
+
+def _interrupt_after(seconds: float) -> Any:
+    """Ctrl-C (``signal.default_int_handler``) delivered by SIGALRM after ``seconds``."""
+    import signal
+
+    previous = signal.signal(signal.SIGALRM, signal.default_int_handler)
+    signal.setitimer(signal.ITIMER_REAL, seconds)
+    return previous
+
+
+def _restore(previous: Any) -> None:
+    import signal
+
+    signal.setitimer(signal.ITIMER_REAL, 0.0)
+    signal.signal(signal.SIGALRM, previous)
+
+
+@pytest.mark.parametrize("method", [q_learning, sarsa, td_lambda], ids=lambda m: m.__name__)
+def test_a_huge_episode_cap_runs_and_ctrl_c_stops_it_cleanly(method: Callable[..., Any]) -> None:
+    """10**18 episodes is a valid cap (no preallocation of 10**18 returns); Ctrl-C stops it,
+    leaves the MDP as it was, and the next run gives the uninterrupted result."""
+    run = _tabular(method)
+    options = TabularOptions(episodes=40, max_steps=20)
+    mdp = t_maze(gamma=0.5)
+    reference = method(
+        mdp,
+        *([value_iteration(mdp).policy] if method is td_lambda else []),
+        options,
+        rng=np.random.default_rng(0),
+    )
+    previous = _interrupt_after(0.3)
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            run(replace(options, episodes=10**18))
+    finally:
+        _restore(previous)
+    again = method(
+        mdp,
+        *([value_iteration(mdp).policy] if method is td_lambda else []),
+        options,
+        rng=np.random.default_rng(0),
+    )
+    np.testing.assert_array_equal(again.V, reference.V)
+    np.testing.assert_array_equal(again.episode_returns, reference.episode_returns)
+
+
+def test_ctrl_c_during_a_policy_search_leaves_the_initial_parameters() -> None:
+    theta0 = np.array([-1.0, -1.5])
+    calls = 0
+
+    def rollout(theta: Any, seed: int) -> Any:
+        nonlocal calls
+        calls += 1
+        if calls == 7:
+            raise KeyboardInterrupt
+        return _LQ.rollout(theta, seed)
+
+    with pytest.raises(KeyboardInterrupt):
+        power(rollout, theta0, _SEARCH)
+    np.testing.assert_array_equal(theta0, [-1.0, -1.5])
+    first = power(_LQ.rollout, theta0, _SEARCH)
+    second = power(_LQ.rollout, theta0, _SEARCH)
+    np.testing.assert_array_equal(first.parameters, second.parameters)

@@ -19,7 +19,13 @@ from typing import Any
 
 import numpy as np
 
-from taskspace._validation import FloatArray
+from taskspace._validation import (
+    FloatArray,
+    as_float_array,
+    check_count,
+    check_finite,
+    check_positive,
+)
 from taskspace.errors import InvalidInputError
 from taskspace.optimal_control.dynamic_programming import evaluate_policy, value_iteration
 from taskspace.optimal_control.mdp import MDP, make_mdp
@@ -34,8 +40,8 @@ def feature_expectations(mdp: MDP, policy: Any, features: Any, start: Any) -> Fl
         features: ``Phi`` (S x k).
         start: initial state distribution ``d0`` (S,).
     """
-    Phi = np.asarray(features, dtype=float)
-    d0 = np.asarray(start, dtype=float)
+    Phi = as_float_array(features, "features")
+    d0 = as_float_array(start, "start")
     if Phi.ndim != 2 or Phi.shape[0] != mdp.num_states or d0.shape != (mdp.num_states,):
         raise InvalidInputError(
             f"features must be ({mdp.num_states} x k) and start ({mdp.num_states},)"
@@ -87,33 +93,41 @@ def apprenticeship_learning(
         features: ``Phi`` (S x k).
         expert_feature_expectations: ``mu_E`` (k,), e.g. from demonstrations.
         start: initial state distribution (S,).
-        tolerance: stop when ``|mu_E - mu_bar| <= tolerance``.
-        max_iterations: iteration limit.
+        tolerance: stop when ``|mu_E - mu_bar| <= tolerance`` (finite, >= 0).
+        max_iterations: iteration limit (an integer >= 1: ``inf``, NaN, floats, booleans,
+            text and values below 1 are refused). Each iteration runs value iteration with
+            its own cap; Ctrl-C stops the run and leaves nothing behind.
     """
-    Phi = np.asarray(features, dtype=float)
-    muE = np.asarray(expert_feature_expectations, dtype=float)
+    cap = check_count(max_iterations, "max_iterations", minimum=1)
+    tol = check_positive(tolerance, "tolerance", strict=False)
+    Phi = as_float_array(features, "features")
+    muE = as_float_array(expert_feature_expectations, "expert_feature_expectations")
+    if Phi.ndim != 2:
+        raise InvalidInputError(f"features must be ({mdp.num_states} x k), got {Phi.shape}")
     if muE.shape != (Phi.shape[1],):
         raise InvalidInputError(f"expert feature expectations must have {Phi.shape[1]} entries")
+    check_finite(Phi, "features")
+    check_finite(muE, "expert_feature_expectations")
     policy = np.zeros(mdp.num_states, dtype=int)
     mu = feature_expectations(mdp, policy, Phi, start)
     res = ApprenticeshipResult(success=False, weights=np.zeros_like(muE), margin=np.inf)
     res.policies.append(policy)
     res.feature_expectations.append(mu)
     mu_bar = mu.copy()
-    for _ in range(max_iterations):
+    for _ in range(cap):
         w = muE - mu_bar
         t = float(np.linalg.norm(w))
         res.margins.append(t)
         res.margin = t
         res.weights = w / t if t > 0 else w
-        if t <= tolerance:
+        if t <= tol:
             res.success = True
             break
         policy = value_iteration(_with_rewards(mdp, Phi @ res.weights)).policy
         mu = feature_expectations(mdp, policy, Phi, start)
         res.policies.append(policy)
         res.feature_expectations.append(mu)
-        if np.linalg.norm(muE - mu) <= tolerance:
+        if np.linalg.norm(muE - mu) <= tol:
             # A single policy matches the expert: the mixture is that policy alone.
             mu_bar = mu
             res.margin = float(np.linalg.norm(muE - mu))

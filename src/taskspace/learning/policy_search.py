@@ -32,7 +32,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from taskspace._validation import FloatArray
+from taskspace._validation import (
+    FloatArray,
+    as_float_array,
+    check_count,
+    check_positive,
+    check_seed,
+)
 from taskspace.batch import Executor as BatchExecutor
 from taskspace.errors import InvalidInputError
 from taskspace.learning.rollout import Episode, Rollout, evaluate_population
@@ -51,15 +57,17 @@ class PolicySearchOptions:
     """Settings shared by the policy-search methods.
 
     Attributes:
-        iterations: maximum number of updates.
-        population: rollouts per update (``lambda`` of the evolution strategies).
-        elite: rollouts kept by PoWER and the (mu, lambda)-ES (``mu``).
+        iterations: maximum number of updates (an integer >= 1).
+        population: rollouts per update (``lambda`` of the evolution strategies; >= 1).
+        elite: rollouts kept by PoWER and the (mu, lambda)-ES (``mu``; 1 to population).
         learning_rate: step size of REINFORCE and eNAC.
         exploration: initial parameter noise std ``sigma`` (PoWER, PI^2, ES, CMA-ES).
         exploration_decay: ``sigma`` is multiplied by this after each update (PoWER, PI^2, ES).
         temperature: ``h`` of PI^2.
-        target_return: stop when the mean return of the current parameters reaches it.
-        max_rollouts: stop after this many rollouts (``None``: no limit).
+        target_return: stop when the mean return of the current parameters reaches it
+            (a finite number or ``None``).
+        max_rollouts: stop after this many rollouts (an integer >= 1, ``None``: no limit
+            besides ``iterations``).
         seed: base seed; rollout seeds are drawn from it.
     """
 
@@ -155,6 +163,40 @@ def enac_gradient(episodes: Sequence[Episode]) -> tuple[FloatArray, float]:
     return w, J
 
 
+def _check_options(options: PolicySearchOptions) -> int:
+    """Validate the options; return the iteration cap.
+
+    Caps (``iterations``, ``population``, ``elite``, ``max_rollouts``) are integers:
+    ``inf``, NaN, floats, booleans, text and values below 1 are refused, so every search ends
+    after at most ``iterations`` updates. Ctrl-C stops it between two rollouts and leaves
+    nothing behind (``theta0`` is copied; the result is built locally).
+    """
+    if not isinstance(options, PolicySearchOptions):
+        raise InvalidInputError(
+            f"options must be a PolicySearchOptions, got {type(options).__name__}"
+        )
+    iterations = check_count(options.iterations, "iterations", minimum=1)
+    population = check_count(options.population, "population", minimum=1)
+    elite = check_count(options.elite, "elite", minimum=1)
+    if elite > population:
+        raise InvalidInputError(f"elite must be in [1, population = {population}], got {elite}")
+    if options.max_rollouts is not None:
+        check_count(options.max_rollouts, "max_rollouts", minimum=1)
+    check_seed(options.seed)
+    check_positive(options.learning_rate, "learning_rate")
+    check_positive(options.exploration, "exploration")
+    check_positive(options.exploration_decay, "exploration_decay")
+    check_positive(options.temperature, "temperature")
+    target = options.target_return
+    if target is not None and not (
+        isinstance(target, (int, float, np.integer, np.floating))
+        and not isinstance(target, (bool, np.bool_))
+        and np.isfinite(target)
+    ):
+        raise InvalidInputError(f"target_return must be a finite number or None, got {target!r}")
+    return iterations
+
+
 class _Search:
     """Book-keeping shared by the methods (seeds, counters, stopping)."""
 
@@ -165,16 +207,11 @@ class _Search:
         options: PolicySearchOptions,
         executor: Executor | BatchExecutor | None,
     ) -> None:
-        if options.iterations < 1 or options.population < 1:
-            raise InvalidInputError("iterations and population must be >= 1")
-        if not 1 <= options.elite <= options.population:
-            raise InvalidInputError(
-                f"elite must be in [1, population = {options.population}], got {options.elite}"
-            )
+        self.iterations = _check_options(options)
         self.rollout = rollout
-        self.theta = np.asarray(theta0, dtype=float).ravel().copy()
-        if not np.all(np.isfinite(self.theta)):
-            raise InvalidInputError("initial parameters must be finite")
+        self.theta = as_float_array(theta0, "initial parameters").ravel().copy()
+        if self.theta.size == 0 or not np.all(np.isfinite(self.theta)):
+            raise InvalidInputError("initial parameters must be finite and not empty")
         self.options = options
         self.executor = executor
         self.seeds = np.random.SeedSequence(options.seed)
@@ -233,7 +270,7 @@ def _gradient_method(
     natural: bool,
 ) -> PolicySearchResult:
     s = _Search(rollout, theta0, options or PolicySearchOptions(), executor)
-    for _ in range(s.options.iterations):
+    for _ in range(s.iterations):
         eps = s.evaluate([s.theta] * s.options.population)
         if s.done():
             break
@@ -274,7 +311,7 @@ def _parameter_exploration(
     s = _Search(rollout, theta0, options or PolicySearchOptions(), executor)
     o = s.options
     sigma = o.exploration
-    for _ in range(o.iterations):
+    for _ in range(s.iterations):
         noise = sigma * s.rng.standard_normal((o.population, s.theta.size))
         eps = s.evaluate(list(s.theta + noise))
         R = np.array([e.total_return for e in eps])
@@ -351,7 +388,7 @@ def cma_es(
         o.exploration,
         {"popsize": o.population, "seed": int(o.seed) + 1, "verbose": -9},
     )
-    for _ in range(o.iterations):
+    for _ in range(s.iterations):
         candidates = [np.asarray(c, dtype=float) for c in es.ask()]
         eps = s.evaluate(candidates)
         es.tell(candidates, [-e.total_return for e in eps])

@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from taskspace._validation import FloatArray
+from taskspace._validation import FloatArray, check_count, check_positive
 from taskspace.errors import InvalidInputError
 from taskspace.optimal_control.mdp import MDP
 
@@ -32,8 +32,9 @@ class TabularOptions:
     """Settings of :func:`q_learning`, :func:`sarsa` and :func:`td_lambda`.
 
     Attributes:
-        episodes: number of episodes.
-        max_steps: steps per episode (an episode also ends in an absorbing state).
+        episodes: number of episodes (an integer >= 1).
+        max_steps: steps per episode (an integer >= 1; an episode also ends in an absorbing
+            state).
         learning_rate: ``alpha_0``; the step size of the n-th update of a pair is
             ``alpha_0 / n^decay``.
         learning_rate_decay: ``omega`` in ``[0, 1]`` (0: constant step size).
@@ -107,7 +108,13 @@ class MDPSimulator:
 
 def _starts(sim: MDPSimulator, options: TabularOptions) -> np.ndarray:
     if options.start_states is not None:
-        starts = np.asarray(options.start_states, dtype=int)
+        raw = np.asarray(options.start_states)
+        if raw.dtype.kind not in "iu" or raw.ndim != 1:
+            raise InvalidInputError(
+                f"start_states must be a sequence of integer state indices, got "
+                f"{options.start_states!r}"
+            )
+        starts = raw.astype(int)
         if starts.size == 0 or starts.min() < 0 or starts.max() >= sim.mdp.num_states:
             raise InvalidInputError(f"start_states must be indices in [0, {sim.mdp.num_states})")
         return starts
@@ -117,18 +124,38 @@ def _starts(sim: MDPSimulator, options: TabularOptions) -> np.ndarray:
     return starts
 
 
-def _check(options: TabularOptions) -> None:
-    if options.episodes < 1 or options.max_steps < 1:
-        raise InvalidInputError("episodes and max_steps must be >= 1")
-    if not 0.0 < options.learning_rate <= 1.0:
-        raise InvalidInputError(f"learning_rate must be in (0, 1], got {options.learning_rate}")
-    if not 0.0 <= options.learning_rate_decay <= 1.0:
-        raise InvalidInputError("learning_rate_decay must be in [0, 1]")
-    if not 0.0 <= options.epsilon <= 1.0:
-        raise InvalidInputError(f"epsilon must be in [0, 1], got {options.epsilon}")
-    if not 0.0 <= options.trace_decay <= 1.0:
+def _fraction(value: object, name: str, *, open_low: bool = False) -> float:
+    """A number in ``[0, 1]`` (``(0, 1]`` with ``open_low``), else InvalidInputError."""
+    v = check_positive(value, name, strict=open_low)
+    if v > 1.0:
+        interval = "(0, 1]" if open_low else "[0, 1]"
+        raise InvalidInputError(f"{name} must be in {interval}, got {value!r}")
+    return v
+
+
+def _check(options: TabularOptions) -> tuple[int, int]:
+    """Validate the options; return the caps ``(episodes, max_steps)``.
+
+    Every loop is bounded by these integer caps (``inf``, NaN, floats, booleans, text and
+    values below 1 are refused), so a run always ends; Ctrl-C stops it between two steps and
+    leaves nothing behind (the tables are local until returned).
+    """
+    if not isinstance(options, TabularOptions):
+        raise InvalidInputError(f"options must be a TabularOptions, got {type(options).__name__}")
+    episodes = check_count(options.episodes, "episodes", minimum=1)
+    max_steps = check_count(options.max_steps, "max_steps", minimum=1)
+    _fraction(options.learning_rate, "learning_rate", open_low=True)
+    _fraction(options.learning_rate_decay, "learning_rate_decay")
+    _fraction(options.epsilon, "epsilon")
+    check_positive(options.epsilon_decay, "epsilon_decay", strict=False)
+    _fraction(options.trace_decay, "trace_decay (lambda)")
+    return episodes, max_steps
+
+
+def _check_rng(rng: object) -> None:
+    if not isinstance(rng, np.random.Generator):
         raise InvalidInputError(
-            f"trace_decay (lambda) must be in [0, 1], got {options.trace_decay}"
+            f"rng must be a numpy Generator (np.random.default_rng(seed)), got {type(rng).__name__}"
         )
 
 
@@ -143,19 +170,20 @@ def _epsilon_greedy(Q: FloatArray, s: int, eps: float, rng: np.random.Generator)
 def _control(
     mdp: MDP, options: TabularOptions, rng: np.random.Generator, on_policy: bool
 ) -> TabularResult:
-    _check(options)
+    episodes, max_steps = _check(options)
+    _check_rng(rng)
     sim = MDPSimulator(mdp, rng)
     starts = _starts(sim, options)
     S, A = mdp.num_states, mdp.num_actions
     Q = np.zeros((S, A))
     n = np.zeros((S, A), dtype=np.int64)
-    returns = np.zeros(options.episodes)
-    for k in range(options.episodes):
+    returns: list[float] = []  # not preallocated: a cap of 10**18 episodes is a valid cap
+    for k in range(episodes):
         eps = options.epsilon / (1.0 + options.epsilon_decay * k)
         s = int(starts[rng.integers(starts.size)])
         a = _epsilon_greedy(Q, s, eps, rng)
         total = 0.0
-        for _ in range(options.max_steps):
+        for _ in range(max_steps):
             s2, r = sim.step(s, a)
             total += r
             a2 = _epsilon_greedy(Q, s2, eps, rng)
@@ -168,9 +196,13 @@ def _control(
             s, a = s2, a2
             if sim.absorbing[s]:
                 break
-        returns[k] = total
+        returns.append(total)
     return TabularResult(
-        Q=Q, V=Q.max(axis=1), policy=np.argmax(Q, axis=1), episode_returns=returns, visits=n
+        Q=Q,
+        V=Q.max(axis=1),
+        policy=np.argmax(Q, axis=1),
+        episode_returns=np.asarray(returns, dtype=float),
+        visits=n,
     )
 
 
@@ -184,14 +216,14 @@ def q_learning(
         options: see :class:`TabularOptions`.
         rng: random generator.
     """
-    return _control(mdp, options or TabularOptions(), rng, on_policy=False)
+    return _control(mdp, TabularOptions() if options is None else options, rng, on_policy=False)
 
 
 def sarsa(
     mdp: MDP, options: TabularOptions | None = None, *, rng: np.random.Generator
 ) -> TabularResult:
     """SARSA with an epsilon-greedy policy (on-policy); decay ``epsilon`` for the optimum."""
-    return _control(mdp, options or TabularOptions(), rng, on_policy=True)
+    return _control(mdp, TabularOptions() if options is None else options, rng, on_policy=True)
 
 
 def td_lambda(
@@ -210,8 +242,9 @@ def td_lambda(
         options: see :class:`TabularOptions` (``trace_decay`` is lambda; ``epsilon`` unused).
         rng: random generator.
     """
-    options = options or TabularOptions()
-    _check(options)
+    options = TabularOptions() if options is None else options
+    episodes, max_steps = _check(options)
+    _check_rng(rng)
     S, A = mdp.num_states, mdp.num_actions
     pi = np.asarray(policy)
     if pi.shape == (S,):
@@ -229,13 +262,13 @@ def td_lambda(
     V = np.zeros(S)
     n = np.zeros(S, dtype=np.int64)
     cum = np.cumsum(probs, axis=1)
-    returns = np.zeros(options.episodes)
+    returns: list[float] = []
     lam_gamma = mdp.gamma * options.trace_decay
-    for k in range(options.episodes):
+    for _ in range(episodes):
         e = np.zeros(S)
         s = int(starts[rng.integers(starts.size)])
         total = 0.0
-        for _ in range(options.max_steps):
+        for _ in range(max_steps):
             a = min(int(np.searchsorted(cum[s], rng.random(), side="right")), A - 1)
             s2, r = sim.step(s, a)
             total += r
@@ -249,11 +282,11 @@ def td_lambda(
             s = s2
             if sim.absorbing[s]:
                 break
-        returns[k] = total
+        returns.append(total)
     return TabularResult(
         Q=np.zeros((S, A)),
         V=V,
         policy=np.argmax(probs, axis=1),
-        episode_returns=returns,
+        episode_returns=np.asarray(returns, dtype=float),
         visits=n[:, None],
     )
