@@ -46,7 +46,17 @@ def _recorded_transform(recorder, node: str) -> np.ndarray:  # type: ignore[no-u
     return np.asarray(umsgpack.unpackb(packed)["matrix"], dtype=float).reshape(4, 4).T
 
 
-def test_panda_target_and_errors() -> None:
+def test_errors() -> None:
+    env = PendulumEnv()
+    viewer = Viewer(env.robot)
+    with pytest.raises(InvalidInputError, match="render_mode 'ansi'"):
+        MeshcatRender(env, "ansi", viewer=viewer)
+    with pytest.raises(InvalidInputError, match="no 'robot' and 'q'"):
+        MeshcatRender(gym.make("CartPole-v1"), "human", viewer=viewer)
+
+
+@pytest.mark.slow
+def test_panda_target_marker() -> None:
     panda = Robot.load("panda")
     env = PandaReachEnv(robot=panda)
     viewer = Viewer(panda)
@@ -56,10 +66,6 @@ def test_panda_target_and_errors() -> None:
     assert target[:3, 3] == pytest.approx(env.target, abs=1e-6)
     wrapped.step(np.zeros(7, dtype=np.float32))
     assert viewer.q == pytest.approx(env.q)
-    with pytest.raises(InvalidInputError, match="render_mode 'ansi'"):
-        MeshcatRender(env, "ansi", viewer=viewer)
-    with pytest.raises(InvalidInputError, match="no 'robot' and 'q'"):
-        MeshcatRender(gym.make("CartPole-v1"), "human", viewer=viewer)
 
 
 @pytest.mark.slow
