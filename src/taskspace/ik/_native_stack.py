@@ -105,14 +105,11 @@ class NativeWeightedStack:
         self._hard = [c for c in boxes if c.hard_bounds]
         self._soft = [c for c in boxes if not c.hard_bounds]
         self.nv = robot.nv
+        self._kernel_solve = kernel.solve
+        self._max_iterations = module.MAX_ITERATIONS
 
     def _scale(self) -> None:
-        if self._keys:
-            for t, (w, g) in zip(self.tasks, self._keys):
-                if t.sqrt_weight is not w or t.gain is not g:
-                    break
-            else:
-                return
+        """Send the rows' weights and gains to the kernel (when a task's were reassigned)."""
         keys = [(t.sqrt_weight, t.gain) for t in self.tasks]
         nv = self.nv
         w = np.zeros(self._n_rows + nv * self._n_full)
@@ -146,21 +143,30 @@ class NativeWeightedStack:
                 f"this IK solver is built for robot '{self.robot.name}'; the state belongs to "
                 f"robot '{state.robot.name}': make the state with this robot's state(q)"
             )
-        for t in self.tasks:
-            if t.lm_damping:  # Levenberg-Marquardt damping: the Python path
+        # one pass over the tasks: Levenberg-Marquardt damping (the kernel's damping is fixed:
+        # the Python path), reassigned weights or gains (sent again), the targets
+        keys = self._keys
+        rescale = not keys
+        targets = []
+        for i, t in enumerate(self.tasks):
+            if t.lm_damping:
                 return None
+            if not rescale and (t.sqrt_weight is not keys[i][0] or t.gain is not keys[i][1]):
+                rescale = True
+            targets.append(t._target)
+        if rescale:
+            self._scale()
         if self._position_limits is not None:
             self._position_limits.sync()
-        self._scale()
-        targets = [t._target for t in self.tasks]
+        hard, soft = self._hard, self._soft
         try:
-            status, iterations, objective, t_build, t_qp, _ = self.kernel.solve(
+            status, iterations, objective, t_build, t_qp, _ = self._kernel_solve(
                 model,
                 state._data,  # made by the state for ``state._model``, cannot be replaced
                 state.q,
                 targets,
-                [b for c in self._hard if (b := c.bounds(state, dt)) is not None],
-                [b for c in self._soft if (b := c.bounds(state, dt)) is not None],
+                [b for c in hard if (b := c.bounds(state, dt)) is not None] if hard else [],
+                [b for c in soft if (b := c.bounds(state, dt)) is not None] if soft else [],
                 damping,
                 out,
                 MAX_ACTIVE_SET_ITERATIONS,
@@ -169,7 +175,7 @@ class NativeWeightedStack:
             for t in self.tasks:
                 t._require_target()  # a task without a target: raises, naming it
             raise
-        if status == self.module.MAX_ITERATIONS:
+        if status == self._max_iterations:
             return None
         return status, iterations, objective, t_build, t_qp
 

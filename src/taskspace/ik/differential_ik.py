@@ -36,6 +36,9 @@ from taskspace.qp.rows import WeightedQPBuilder
 from taskspace.qp.solver import QPSolver, QPSolverOptions
 from taskspace.tasks import Task
 
+_perf_counter = time.perf_counter
+_empty = np.empty
+
 
 class IKStatus(enum.Enum):
     """Outcome of a differential IK step."""
@@ -237,6 +240,7 @@ class DifferentialIK:
         self._inequality_constraints = self._builder.inequalities.constraints
         self._native: NativeWeightedStack | None = None
         self._native_checked = False
+        self._nv = robot.nv
         self._lock = threading.Lock()
         self._acquire = self._lock.acquire
         self._release = self._lock.release
@@ -314,8 +318,8 @@ class DifferentialIK:
             self.tasks[0].feature._check_state(state)
         native = self._native
         assert native is not None
-        t0 = time.perf_counter()
-        dq = np.empty(self.robot.nv)
+        t0 = _perf_counter()
+        dq = _empty(self._nv)
         out = native.solve(state, dt, self.options.damping, dq)
         if out is None:
             return None
@@ -326,7 +330,7 @@ class DifferentialIK:
             dq,
             objective,
             iterations,
-            time.perf_counter() - t0,
+            _perf_counter() - t0,
             "native",
         )
         if self.options.native_residuals:
