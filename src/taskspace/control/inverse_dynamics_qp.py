@@ -34,6 +34,7 @@ from taskspace.constraints.contact import Contact, Contact6D
 from taskspace.errors import InvalidInputError
 from taskspace.model.robot import Robot
 from taskspace.model.state import State
+from taskspace.model.versioning import ModelFollower
 from taskspace.qp.hierarchy import HierarchyLevel, HierarchyOptions, HierarchySolver
 from taskspace.qp.problem import INF, QPProblem, RowBlock
 from taskspace.qp.result import QPResult, QPStatus
@@ -207,6 +208,10 @@ class InverseDynamicsQP:
     of several threads run one at a time (a lock); each thread needs its own
     :class:`~taskspace.model.State`.
 
+    Model version: the controller follows :meth:`Robot.set_limits
+    <taskspace.model.Robot.set_limits>`; the next step after a change rebuilds the torque-limit
+    rows, the actuated/unactuated split and the joint-limit bounds from the new limits.
+
     Args:
         robot: the robot.
         tasks: tasks with targets and PD gains (``Task.kp``, ``Task.kd``).
@@ -252,6 +257,23 @@ class InverseDynamicsQP:
         for c in self.contacts:
             if c.robot is not robot:
                 raise InvalidInputError(f"contact '{c.name}' is defined on another robot")
+        # everything derived from the robot's limits (effort: which rows are actuated;
+        # position/velocity limits: the acceleration box), again after robot.set_limits
+        self._follower = ModelFollower(robot, "InverseDynamicsQP", self._setup)
+        self._lock = threading.Lock()
+        self._acquire = self._lock.acquire
+        self._release = self._lock.release
+
+    def _setup(self) -> None:
+        """Build the QP's buffers and constant blocks from the robot's current model.
+
+        Called at construction and again, by the :class:`~taskspace.model.versioning.
+        ModelFollower`, at the first step after :meth:`Robot.set_limits
+        <taskspace.model.Robot.set_limits>`: the effort limits decide which rows are actuated
+        (dynamics equalities, torque-limit rows) and the position and velocity limits the
+        acceleration box, so the whole problem is rebuilt (the solver workspaces too).
+        """
+        robot = self.robot
         nv = robot.nv
         effort = robot.effort_limits
         self.actuated = np.flatnonzero(effort > 0)
@@ -377,9 +399,6 @@ class InverseDynamicsQP:
         self._limit_c_hi = self._limit_c * robot.upper_limits[iq]
         self._limit_vmax_T = robot.velocity_limits[iv] / horizon
         self._limit_neg_vmax_T = -self._limit_vmax_T
-        self._lock = threading.Lock()
-        self._acquire = self._lock.acquire
-        self._release = self._lock.release
 
     # ------------------------------------------------------------------ assembly
     def _refresh_contact_gains(self) -> None:
@@ -438,6 +457,7 @@ class InverseDynamicsQP:
 
     def _build(self, state: State) -> QPProblem:
         """:meth:`build` without the lock (the caller holds it)."""
+        self._follower.sync()  # one integer comparison; rebuilds after robot.set_limits
         if not state.has_velocity:
             raise InvalidInputError(
                 "inverse dynamics needs the velocity: use robot.state(q, v) / state.update(q, v)"
@@ -530,6 +550,7 @@ class InverseDynamicsQP:
         return self._result(state, result.x, result.success, status, t1 - t0, t2 - t1, result)
 
     def _solve_hierarchical(self, state: State, t0: float) -> InverseDynamicsResult:
+        self._follower.sync()  # one integer comparison; rebuilds after robot.set_limits
         if not state.has_velocity:
             raise InvalidInputError(
                 "inverse dynamics needs the velocity: use robot.state(q, v) / state.update(q, v)"

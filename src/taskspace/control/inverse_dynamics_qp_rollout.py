@@ -13,6 +13,7 @@ violation in ``ContactRollout.cone_violations``, or as a :class:`ContactViolatio
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -22,8 +23,21 @@ import pinocchio as pin
 
 from taskspace._validation import FloatArray, check_positive
 from taskspace.constraints.contact import Contact, PointContact
+from taskspace.dynamics.simulation import SimulationDivergedError, check_record_size
 from taskspace.errors import InvalidInputError, TaskspaceError
 from taskspace.model.robot import Robot
+
+__all__ = [
+    "ContactRollout",
+    "ContactViolationError",
+    "Controller",
+    "SimulationDivergedError",
+    "simulate_with_contacts",
+]
+
+MAX_VELOCITY = 1e3
+"""Default bound of :func:`simulate_with_contacts` on ``|v|_inf`` [rad/s, m/s]: beyond it the
+state is declared diverged (no joint of a robot held by contacts moves at 1000 rad/s)."""
 
 
 class ContactViolationError(TaskspaceError):
@@ -51,6 +65,8 @@ class ContactViolationError(TaskspaceError):
 
 Controller = Callable[[float, FloatArray, FloatArray], FloatArray]
 """``tau = controller(t, q, v)`` (size nv)."""
+
+_max = np.maximum.reduce
 
 
 @dataclass
@@ -94,6 +110,7 @@ def simulate_with_contacts(
     *,
     baumgarte: tuple[float, float] = (0.0, 20.0),
     raise_on_violation: bool = False,
+    max_velocity: float = MAX_VELOCITY,
 ) -> ContactRollout:
     """Simulate ``duration`` [s] with rigid contacts at ``contact_frames``.
 
@@ -111,9 +128,21 @@ def simulate_with_contacts(
         raise_on_violation: raise :class:`ContactViolationError` as soon as a checked contact
             force leaves its cone by more than 1e-6 N (default: record it in
             ``ContactRollout.cone_violations``).
+        max_velocity: divergence bound on ``|v|_inf`` [rad/s, m/s] (default
+            :data:`MAX_VELOCITY`; ``inf`` checks finiteness only).
+
+    Raises:
+        SimulationDivergedError: the state diverged: ``q``, ``v``, the acceleration or a
+            contact force is not finite, or ``|v|_inf > max_velocity``; it carries the time,
+            the step index, what diverged and the rollout up to the last sound sample (the
+            integration stops there: no NaN trajectory is returned).
+        InvalidInputError: bad arguments; a controller torque of the wrong shape or not
+            finite; a record that would not fit in half the available memory.
     """
     check_positive(duration, "duration")
     check_positive(dt, "dt")
+    if not (isinstance(max_velocity, int | float) and max_velocity > 0):  # inf: no bound
+        raise InvalidInputError(f"max_velocity must be > 0 (inf: no bound), got {max_velocity!r}")
     model = robot.model
     data = model.createData()
     q = robot.check_configuration(q0, "q0")
@@ -165,6 +194,9 @@ def simulate_with_contacts(
     pin.initConstraintDynamics(model, data, cmodels, cdatas)
     settings = pin.ProximalSettings(1e-12, 1e-12, 10)
     steps = round(duration / dt)
+    check_record_size(
+        steps, model.nq, model.nv, duration, dt, name="simulate_with_contacts", extra=sum(dims)
+    )
     ts = np.arange(steps + 1, dtype=np.float64) * float(dt)
     Q = np.zeros((steps + 1, model.nq))
     V = np.zeros((steps + 1, model.nv))
@@ -174,15 +206,52 @@ def simulate_with_contacts(
     offsets = np.concatenate([[0], np.cumsum(dims)]).astype(int)
     cones = {name: c.cone() for name, c in contacts if c is not None}
     worst = {name: -np.inf for name in cones}
+
+    def partial(k: int) -> ContactRollout:
+        """The rollout of samples ``0..k-1``."""
+        return ContactRollout(
+            ts[:k],
+            Q[:k],
+            V[:k],
+            TAU[:k],
+            {n: f[:k] for n, f in F.items()},
+            COM[:k],
+            dict(worst),
+        )
+
+    def diverged(k: int, quantity: str, value: float, bound: float = math.inf) -> None:
+        raise SimulationDivergedError(
+            quantity,
+            float(ts[k]),
+            k,
+            value,
+            bound,
+            partial(k),
+            "the controller or the contacts drive the robot unstable (lower the gains or dt, "
+            "check the contacts can hold the robot)",
+        )
+
     for k in range(steps + 1):
+        # guard rails, once per step: q and v finite, |v| bounded (a diverging state is
+        # stopped here, before the controller builds a QP from it)
+        vmax = float(_max(np.abs(v))) if model.nv else 0.0
+        if not vmax <= max_velocity:
+            diverged(k, "v", vmax, max_velocity)
+        if not math.isfinite(float(q.dot(q))):
+            diverged(k, "q", math.nan)
         tau = np.asarray(controller(float(ts[k]), q, v), dtype=float)
         if tau.shape != (model.nv,) or not np.all(np.isfinite(tau)):
             raise InvalidInputError(
                 f"controller returned torques of shape {tau.shape} or non-finite at t={ts[k]:.3f}"
             )
         a = pin.constraintDynamics(model, data, q, v, tau, cmodels, cdatas, settings)
-        Q[k], V[k], TAU[k] = q, v, tau
         lam = np.asarray(data.lambda_c)
+        amax = float(_max(np.abs(a))) if model.nv else 0.0
+        if not math.isfinite(amax):
+            diverged(k, "a", amax)
+        if lam.size and not math.isfinite(float(_max(np.abs(lam)))):
+            diverged(k, "contact forces", math.nan)
+        Q[k], V[k], TAU[k] = q, v, tau
         for i, name in enumerate(names):
             F[name][k] = lam[offsets[i] : offsets[i + 1]]
         COM[k] = pin.centerOfMass(model, data, q, False)
@@ -190,16 +259,7 @@ def simulate_with_contacts(
             violation = float((kk - K.dot(F[name][k])).max())
             worst[name] = max(worst[name], violation)
             if raise_on_violation and violation > 1e-6:
-                partial = ContactRollout(
-                    ts[: k + 1],
-                    Q[: k + 1],
-                    V[: k + 1],
-                    TAU[: k + 1],
-                    {n: f[: k + 1] for n, f in F.items()},
-                    COM[: k + 1],
-                    dict(worst),
-                )
-                raise ContactViolationError(partial, name, float(ts[k]), violation)
+                raise ContactViolationError(partial(k + 1), name, float(ts[k]), violation)
         if k < steps:
             v = v + dt * np.asarray(a)
             q = pin.integrate(model, q, v * dt)

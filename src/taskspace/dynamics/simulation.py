@@ -27,7 +27,7 @@ import pinocchio as pin
 from taskspace._validation import FloatArray, as_vector, check_finite, check_positive
 from taskspace.dynamics.forward_dynamics import ForwardDynamics, JointFriction
 from taskspace.dynamics.integrators import STEPPERS, Integrator
-from taskspace.errors import InvalidInputError, ShapeError
+from taskspace.errors import InvalidInputError, ShapeError, TaskspaceError
 
 if TYPE_CHECKING:
     from taskspace.model.robot import Robot
@@ -39,6 +39,49 @@ MAX_RECORD_BYTES = 1 << 36
 
 Controller = Callable[[float, FloatArray, FloatArray], Any]
 """Controller protocol: ``tau = controller(t, q, v)``, torques of size nv [N m, N]."""
+
+
+class SimulationDivergedError(TaskspaceError):
+    """A simulated state blew up: not finite, or a velocity beyond the stated bound.
+
+    Raised by simulations that return a full record only (e.g.
+    :func:`~taskspace.control.inverse_dynamics_qp_rollout.simulate_with_contacts`); the
+    record up to the last finite sample is attached, never a NaN trajectory.
+
+    Attributes:
+        time: simulated time of the first diverged sample [s].
+        step: its step index.
+        quantity: what diverged (``"q"``, ``"v"``, ``"a"``, a contact force...).
+        value: the offending magnitude (``|.|_inf``; NaN or inf when not finite).
+        bound: the bound it exceeded (inf for a finiteness test).
+        record: the partial record (samples ``0..step-1``), or ``None``.
+    """
+
+    def __init__(
+        self,
+        quantity: str,
+        time: float,
+        step: int,
+        value: float,
+        bound: float,
+        record: Any = None,
+        hint: str = "",
+    ) -> None:
+        what = (
+            f"{quantity} is not finite"
+            if not math.isfinite(value)
+            else f"|{quantity}|_inf = {value:.3g} exceeds {bound:.3g}"
+        )
+        super().__init__(
+            f"the simulation diverged at t = {time:.6g} s (step {step}): {what}"
+            + (f"; {hint}" if hint else "")
+        )
+        self.time = time
+        self.step = step
+        self.quantity = quantity
+        self.value = value
+        self.bound = bound
+        self.record = record
 
 
 class SimulationStatus(enum.Enum):
@@ -191,15 +234,25 @@ def available_memory_bytes() -> int | None:
     return available
 
 
-def _check_record_size(n_steps: int, nq: int, nv: int, T: float, dt: float) -> None:
-    """Raise before allocating a record that would not fit in half the available memory."""
-    row = 8 * (nq + 3 * nv + 3)  # t, q, v, a, tau, kinetic and potential energy
+def check_record_size(
+    n_steps: int, nq: int, nv: int, T: float, dt: float, *, name: str = "simulate", extra: int = 0
+) -> None:
+    """Raise before allocating a record that would not fit in half the available memory.
+
+    Args:
+        n_steps: steps of the run (``n_steps + 1`` samples).
+        nq, nv: sizes of the configuration and the velocity.
+        T, dt: duration and time step [s] (for the message).
+        name: the simulating function (for the message).
+        extra: further floats per sample (contact forces...).
+    """
+    row = 8 * (nq + 3 * nv + 3 + extra)  # t, q, v, a, tau, kinetic and potential energy
     needed = (n_steps + 1) * row
     available = available_memory_bytes()
     budget = MAX_RECORD_BYTES if available is None else min(MAX_RECORD_BYTES, available // 2)
     if needed > budget:
         raise InvalidInputError(
-            f"simulate(T={T:g}, dt={dt:g}) would record {n_steps + 1:,} samples "
+            f"{name}(T={T:g}, dt={dt:g}) would record {n_steps + 1:,} samples "
             f"({needed / 1e9:.3g} GB) but the budget is {budget / 1e9:.3g} GB (half the "
             "available memory, at most "
             f"{MAX_RECORD_BYTES / 2**30:g} GiB); shorten T, increase dt, or run several shorter "
@@ -257,7 +310,7 @@ def simulate(
     q, v = _initial_state(robot, x0)
     n_steps = max(1, round(T / dt))
     nq, nv = robot.nq, robot.nv
-    _check_record_size(n_steps, nq, nv, T, dt)
+    check_record_size(n_steps, nq, nv, T, dt)
     model = robot.model
     dynamics = ForwardDynamics(robot, options.friction)
     energy_data = model.createData()
