@@ -5,16 +5,10 @@ preallocated buffers (task rows, the QP's arrays, the controller's state). The r
 the same sequence of states solved one after the other; a feature whose evaluation takes a
 moment (a Python feature) makes the threads interleave inside the assembly of a step.
 Without the controller's lock a thread then solves rows that belong to another thread's
-state.
+state (tests/_threads.py).
 """
 
 from __future__ import annotations
-
-import sys
-import threading
-import time
-from collections.abc import Callable, Iterator
-from typing import Any
 
 import numpy as np
 import pytest
@@ -22,42 +16,21 @@ import pytest
 from taskspace.constraints import Contact6D
 from taskspace.control.inverse_dynamics_qp import InverseDynamicsOptions, InverseDynamicsQP
 from taskspace.control.operational_space import OperationalSpaceController
-from taskspace.features import CenterOfMass, FramePose, JointConfiguration, Position
-from taskspace.model import Robot, State
+from taskspace.features import FramePose, JointConfiguration
+from taskspace.model import Robot
 from taskspace.tasks import Task
+from tests._threads import (
+    THREADS,
+    SlowCenterOfMass,
+    SlowPosition,
+    assert_threads_match_sequential,
+)
 from tests.conftest import load_robot
 
-THREADS = 4
 STATES = 6
 # Differences left by the QP warm start (another order of the same solves) are far below
 # this; rows mixed between threads give errors of the order of the accelerations.
 TOLERANCE = 1e-5
-
-
-class SlowPosition(Position):
-    """A position feature that takes a moment (as a Python feature would)."""
-
-    def residual_and_jacobian(self, state: State, target: Any) -> tuple[np.ndarray, np.ndarray]:
-        out = super().residual_and_jacobian(state, target)
-        time.sleep(2e-4)
-        return out
-
-
-class SlowCenterOfMass(CenterOfMass):
-    """A CoM feature that takes a moment."""
-
-    def residual_and_jacobian(self, state: State, target: Any) -> tuple[np.ndarray, np.ndarray]:
-        out = super().residual_and_jacobian(state, target)
-        time.sleep(2e-4)
-        return out
-
-
-@pytest.fixture
-def fast_switching() -> Iterator[None]:
-    saved = sys.getswitchinterval()
-    sys.setswitchinterval(1e-5)
-    yield
-    sys.setswitchinterval(saved)
 
 
 def _states(robot: Robot, seed: int) -> list[tuple[np.ndarray, np.ndarray]]:
@@ -69,26 +42,6 @@ def _states(robot: Robot, seed: int) -> list[tuple[np.ndarray, np.ndarray]]:
         q[start:] += rng.normal(scale=0.1, size=robot.nq - start)
         out.append((q, rng.normal(scale=0.3, size=robot.nv)))
     return out
-
-
-def _run_threads(work: Callable[[int], np.ndarray]) -> list[np.ndarray]:
-    results: list[np.ndarray | None] = [None] * THREADS
-    errors: list[BaseException] = []
-
-    def run(i: int) -> None:
-        try:
-            results[i] = work(i)
-        except BaseException as exc:  # reported below
-            errors.append(exc)
-
-    threads = [threading.Thread(target=run, args=(i,)) for i in range(THREADS)]
-    for t in threads:
-        t.start()
-    for t in threads:
-        t.join(timeout=60)
-    assert not errors, errors
-    assert all(r is not None for r in results)
-    return [r for r in results if r is not None]
 
 
 def _g1_controller(hierarchical: bool) -> InverseDynamicsQP:
@@ -106,7 +59,7 @@ def _g1_controller(hierarchical: bool) -> InverseDynamicsQP:
 
 
 @pytest.mark.parametrize("hierarchical", [False, True])
-def test_shared_inverse_dynamics_qp_matches_sequential(hierarchical: bool, fast_switching) -> None:  # type: ignore[no-untyped-def]
+def test_shared_inverse_dynamics_qp_matches_sequential(hierarchical: bool) -> None:
     ctrl = _g1_controller(hierarchical)
     robot = ctrl.robot
     inputs = [_states(robot, seed) for seed in range(THREADS)]
@@ -120,15 +73,10 @@ def test_shared_inverse_dynamics_qp_matches_sequential(hierarchical: bool, fast_
             out.append(np.concatenate([result.a, result.tau]))
         return np.array(out)
 
-    sequential = [solve_all(i) for i in range(THREADS)]
-    threaded = _run_threads(solve_all)
-    for i in range(THREADS):
-        scale = max(1.0, float(np.abs(sequential[i]).max()))
-        err = np.abs(threaded[i] - sequential[i]).max()
-        assert err < TOLERANCE * scale, f"thread {i} differs by {err:.3g}"
+    assert_threads_match_sequential(solve_all, TOLERANCE, relative=True)
 
 
-def test_shared_operational_space_controller_matches_sequential(fast_switching) -> None:  # type: ignore[no-untyped-def]
+def test_shared_operational_space_controller_matches_sequential() -> None:
     robot = load_robot("panda")
     s = robot.state(robot.q_default, np.zeros(robot.nv))
     tcp = Task(SlowPosition(robot, "panda_hand_tcp"), kp=100.0)
@@ -141,12 +89,7 @@ def test_shared_operational_space_controller_matches_sequential(fast_switching) 
     def run(i: int) -> np.ndarray:
         return np.array([ctrl(0.0, q, v) for q, v in inputs[i]])
 
-    sequential = [run(i) for i in range(THREADS)]
-    threaded = _run_threads(run)
-    for i in range(THREADS):
-        scale = max(1.0, float(np.abs(sequential[i]).max()))
-        err = np.abs(threaded[i] - sequential[i]).max()
-        assert err < TOLERANCE * scale, f"thread {i} differs by {err:.3g}"
+    assert_threads_match_sequential(run, TOLERANCE, relative=True)
 
 
 def test_controller_docstrings_state_thread_safety() -> None:
