@@ -15,7 +15,9 @@ Two modes:
   ``benchmarks/suites/ik.py`` (same tasks, limits, moving targets, dt; per step from the state
   update to the integrated configuration),
   (b) the compiled RRT-Connect (the planning suite's default options, fixed seeds) on a few
-  MotionBenchMaker Panda problems, each repeated, and the compiled batch collision check.
+  MotionBenchMaker Panda problems, each repeated, and the compiled batch collision check;
+  both as wall-clock time and as this thread's CPU time (``... cpu`` rows: on a loaded
+  machine the wall-clock time of a plan also holds the time the process waited for a core).
   Prints one JSON object (min and median per item, plus checks and native-path flags).
 * driver (default): runs ``measure`` for every ``--variant LABEL=TREE`` in separate
   subprocesses, ``--rounds`` times, rotating the order every round so that every build sees the
@@ -226,32 +228,32 @@ def measure_planning(reps: int) -> dict[str, Any]:
             native=True,
         )
         rrt_connect(space, req.start, req.goal, opts)  # warm-up: the kernel's world is built
-        times, checks, ok, native = [], set(), True, True
+        times, cpu, checks, ok, native = [], [], set(), True, True
         for _ in range(reps):
+            c0 = time.thread_time()  # the kernel plans in this thread (GIL released)
             res = rrt_connect(space, req.start, req.goal, opts)
+            cpu.append(time.thread_time() - c0)
             times.append(res.time_s)
             checks.add(int(res.collision_checks))
             ok &= bool(res.success)
             native &= res.log.get("native", 0.0) == 1.0
-        out[f"rrt {scenario} #{index} s{seed}"] = {
-            **_stats(times),
-            "unit": "ms",
-            "collision_checks": sorted(checks),
-            "solved": ok,
-            "native": native,
-        }
+        facts = {"collision_checks": sorted(checks), "solved": ok, "native": native}
+        out[f"rrt {scenario} #{index} s{seed}"] = {**_stats(times), "unit": "ms", **facts}
+        out[f"rrt {scenario} #{index} s{seed} cpu"] = {**_stats(cpu), "unit": "ms", **facts}
     # the compiled batch collision check (scene of the last problem), per configuration
     checker: Any = space.checker
     kernel = checker.native_kernel()
     rng = np.random.default_rng(7)
     qs = np.array([robot.random_configuration(rng) for _ in range(2000)])
     kernel.collisions(qs[:100])
-    per = []
+    per, per_cpu = [], []
     for _ in range(reps):
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.thread_time()
         kernel.collisions(qs)
+        per_cpu.append((time.thread_time() - c0) / len(qs))
         per.append((time.perf_counter() - t0) / len(qs))
     out["collision check (batch, per q)"] = {**_stats(per), "unit": "us", "native": True}
+    out["collision check (batch, per q) cpu"] = {**_stats(per_cpu), "unit": "us", "native": True}
     return out
 
 
@@ -326,6 +328,8 @@ def summarize(runs: dict[str, list[dict[str, Any]]], base: str) -> dict[str, Any
                 row[label]["ratio_median"] = float(np.median(meds) / np.median(base_meds))
                 row[label]["ratio_min"] = float(mins.min() / row[base]["min"])
                 row[label]["ratio_per_round"] = paired.tolist()
+                row[label]["ratio_geomean_rounds"] = float(np.exp(np.log(paired).mean()))
+                row[label]["rounds_slower"] = int((paired > 1.0).sum())
         table[item] = row
     return table
 
@@ -337,7 +341,9 @@ def print_table(table: dict[str, Any], labels: list[str], base: str) -> str:
     for label in labels:
         head += f" | {label + ' min':>14s} {label + ' med':>14s} {'spread':>7s}"
         if label != base:
-            head += f" {'ratio med':>9s} {'ratio min':>9s} {'per-round ratio range':>22s}"
+            head += (
+                f" {'ratio med':>9s} {'ratio min':>9s} {'per-round ratio range':>22s} {'>1':>5s}"
+            )
     lines.append(head)
     lines.append("-" * len(head))
     for item, row in table.items():
@@ -349,13 +355,18 @@ def print_table(table: dict[str, Any], labels: list[str], base: str) -> str:
                 pr = c["ratio_per_round"]
                 line += (
                     f" {c['ratio_median']:9.3f} {c['ratio_min']:9.3f}"
-                    f" {min(pr):10.3f}..{max(pr):<10.3f}"
+                    f" {min(pr):10.3f}..{max(pr):<10.3f} {c['rounds_slower']:>2d}/{len(pr):<2d}"
                 )
         lines.append(line)
+    lines.append(
+        "min: least sample over all rounds; med: median of the round medians; spread: range of "
+        "the round medians / med; ratio: variant / baseline; per-round ratio: of the medians of "
+        "the same round; >1: rounds in which the variant was slower"
+    )
     checks = [
         f"  {item}: " + ", ".join(f"{lb} {row[lb].get('collision_checks')}" for lb in labels)
         for item, row in table.items()
-        if "collision_checks" in row[base]
+        if "collision_checks" in row[base] and not item.endswith(" cpu")
     ]
     if checks:
         lines.append("collision checks per plan (same seed; differ if floating point differs):")
@@ -425,7 +436,7 @@ def main(argv: list[str] | None = None) -> None:
     common = argparse.ArgumentParser(add_help=False)
     common.add_argument("--steps", type=int, default=1500, help="IK steps per run")
     common.add_argument("--ik-reps", type=int, default=3, help="IK runs per scene")
-    common.add_argument("--plan-reps", type=int, default=15, help="plans per problem")
+    common.add_argument("--plan-reps", type=int, default=20, help="plans per problem")
     if argv[:1] == ["measure"]:
         p = argparse.ArgumentParser(parents=[common], description="time one source tree")
         p.add_argument("tree", type=Path)
