@@ -212,3 +212,20 @@ def test_path_problem_limit_rows_follow_set_limits() -> None:
     # one violated row per slice: lower[3] - q[3] (penalty 1, zero multipliers)
     np.testing.assert_allclose(np.sort(r[r != 0.0]), np.full(3, lo[3] - q[3]))
     assert len(problem.zero_multipliers().inequality[0]) == 2 * robot.limited_joints_q.size
+
+
+def test_space_on_a_bare_model_manifold_refuses_plans_after_a_change() -> None:
+    """A space made by hand on JointManifold(robot.model) cannot follow a version: it refuses."""
+    from taskspace.planning.collision_checker import FunctionChecker
+
+    robot = _fresh("ur5")
+    manifold = JointManifold(robot.model)
+    free = FunctionChecker(lambda Q: np.ones(len(Q), dtype=bool))
+    space = ConfigurationSpace(manifold.lower, manifold.upper, free, manifold=manifold)
+    q = robot.q_default.copy()
+    space.check_endpoint(q, "start")
+    _narrow_joint(robot, 2, 0.1, 0.3)
+    with pytest.raises(StaleModelError, match="bare Pinocchio model"):
+        space.check_endpoint(q, "start")
+    with pytest.raises(StaleModelError):
+        space.sample_uniform(np.random.default_rng(0), 2)

@@ -466,7 +466,11 @@ class ConfigurationSpace:
             PlanningError: ``q`` has the wrong size, is not finite, is outside the bounds
                 (the message names the coordinates) or is in collision (the message lists the
                 colliding pairs).
+            StaleModelError: the space's manifold was built from a bare Pinocchio model
+                whose limits have changed since (every plan starts with this check).
         """
+        if self._manifold is not None and self._manifold._follower is None:
+            self._manifold._sync()  # a bare model: its limits are compared, once per plan
         try:
             qa = as_vector(q, self.dim, name)
         except InvalidInputError as exc:
