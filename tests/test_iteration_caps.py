@@ -21,6 +21,7 @@ import pytest
 from taskspace.control.riccati import RiccatiOptions, solve_continuous_riccati
 from taskspace.errors import InvalidInputError
 from taskspace.learning import (
+    LinearPolicy,
     LinearQuadraticTask,
     PolicySearchOptions,
     TabularOptions,
@@ -30,6 +31,7 @@ from taskspace.learning import (
     feature_expectations,
     mu_lambda_es,
     pi2,
+    policy_rollout,
     power,
     q_learning,
     reinforce,
@@ -123,8 +125,27 @@ _LQ = LinearQuadraticTask(
 _SEARCH = PolicySearchOptions(iterations=3, population=4, elite=2)
 
 
+def _lq_search(task: LinearQuadraticTask) -> Any:
+    return reinforce(task.rollout, np.zeros(2), _SEARCH)
+
+
 def _search(method: Callable[..., Any]) -> Callable[[PolicySearchOptions], Any]:
     return lambda options: method(_LQ.rollout, np.zeros(2), options)
+
+
+@dataclass(frozen=True)
+class _RolloutOptions:
+    horizon: int = 5
+
+
+def _policy_rollout(options: _RolloutOptions) -> Any:
+    policy = LinearPolicy(state_dim=1, action_dim=1)
+
+    def step(s: np.ndarray, a: np.ndarray) -> tuple[np.ndarray, float, bool]:
+        return s + a, -float(s @ s), False
+
+    rollout = policy_rollout(policy, step, lambda rng: np.ones(1), horizon=options.horizon)
+    return mu_lambda_es(rollout, np.zeros(policy.num_parameters), _SEARCH)
 
 
 @dataclass(frozen=True)
@@ -202,11 +223,13 @@ CASES: dict[str, tuple[Callable[[Any], Any], Any, str]] = {
     ),
     "cma_es.iterations": (_search(cma_es), _SEARCH, "iterations"),
     "apprenticeship_learning": (_irl, _IRLOptions(), "max_iterations"),
+    "linear_quadratic_task.horizon": (_lq_search, _LQ, "horizon"),
+    "policy_rollout.horizon": (_policy_rollout, _RolloutOptions(), "horizon"),
 }
 
 # caps of fixed work, or of loops that end on a criterion only with luck: no huge-cap run
 FIXED_WORK = ("n_nodes", "stall_window", "refinements", "substeps", "episodes", "population")
-FIXED_WORK += ("elite", "max_rollouts")
+FIXED_WORK += ("elite", "max_rollouts", "horizon")
 ENDS_ON_SUCCESS_ONLY = ("compass_gait", "reinforce", "enac", "power", "pi2", "mu_lambda_es")
 ENDS_ON_SUCCESS_ONLY += ("cma_es",)
 

@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from taskspace._validation import FloatArray
+from taskspace._validation import FloatArray, check_count, check_positive
 from taskspace.batch import Executor as BatchExecutor
 from taskspace.errors import InvalidInputError
 from taskspace.learning.policies import LinearPolicy, Policy
@@ -107,6 +107,11 @@ class LinearQuadraticTask:
     horizon: int = 10
     sigma: float = 0.1
     initial_std: float = 0.0
+
+    def __post_init__(self) -> None:
+        check_count(self.horizon, "horizon", minimum=1)  # an integer: inf, 2.5, True refused
+        check_positive(self.sigma, "sigma", strict=False)
+        check_positive(self.initial_std, "initial_std", strict=False)
 
     @property
     def policy(self) -> LinearPolicy:
@@ -208,9 +213,12 @@ def policy_rollout(
         policy: the policy.
         step: deterministic environment step.
         initial_state: draws the initial state from the episode's generator.
-        horizon: step limit.
+        horizon: step limit (an integer >= 1: ``inf``, NaN, floats, booleans and text are
+            refused).
         sigma: action noise std (0: deterministic policy, for parameter-exploring methods).
     """
+    horizon = check_count(horizon, "horizon", minimum=1)
+    sigma = check_positive(sigma, "sigma", strict=False)
 
     def rollout(theta: FloatArray, seed: int) -> Episode:
         th = policy.check(theta)
