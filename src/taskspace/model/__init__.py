@@ -22,10 +22,12 @@ if TYPE_CHECKING:
         prune_collision_pairs,
     )
     from taskspace.model.state import State
+    from taskspace.model.versioning import ModelFollower
     from taskspace.model.world import Obstacle, World, as_se3
 
 _SOURCES = {
     "CollisionPruningOptions": "robot",
+    "ModelFollower": "versioning",
     "PrunedCollisionPairs": "robot",
     "Robot": "robot",
     "configuration_from_joint_values": "robot",
@@ -38,6 +40,7 @@ _SOURCES = {
 
 __all__ = [
     "CollisionPruningOptions",
+    "ModelFollower",
     "Obstacle",
     "PrunedCollisionPairs",
     "Robot",
