@@ -17,6 +17,14 @@ from taskspace.grasping.contact import (
 )
 from taskspace.grasping.contact_forces import ContactForces, balance_forces
 from taskspace.grasping.grasp_matrix import grasp_matrix, hand_jacobian
+from taskspace.grasping.hand_grasp import (
+    Finger,
+    Hand,
+    HandGrasp,
+    StartsInCollisionError,
+    close_hand,
+    sample_hand_grasps,
+)
 from taskspace.grasping.multifinger import (
     MultiFingerCandidates,
     MultiFingerOptions,
@@ -47,15 +55,20 @@ __all__ = [
     "ClosureResult",
     "ContactForces",
     "ContactType",
+    "Finger",
     "GraspCandidates",
     "GraspContact",
     "GraspQuality",
+    "Hand",
+    "HandGrasp",
     "MultiFingerCandidates",
     "MultiFingerOptions",
     "PlacedGrasp",
+    "StartsInCollisionError",
     "TriangleMesh",
     "balance_forces",
     "box_mesh",
+    "close_hand",
     "closure_hull",
     "closure_lp",
     "contact_edges",
@@ -74,6 +87,7 @@ __all__ = [
     "place_grasps",
     "primitive_wrenches",
     "sample_antipodal_grasps",
+    "sample_hand_grasps",
     "sample_multifinger_grasps",
     "sphere_mesh",
     "task_wrench_scale",

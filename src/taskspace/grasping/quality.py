@@ -20,7 +20,7 @@ import numpy.typing as npt
 from scipy.spatial import ConvexHull, QhullError
 
 from taskspace._validation import as_float_array
-from taskspace.errors import InvalidInputError
+from taskspace.errors import InvalidInputError, SolverError
 from taskspace.grasping.closure import check_wrenches, closure_lp
 from taskspace.grasping.contact import (
     GraspContact,
@@ -32,6 +32,10 @@ from taskspace.grasping.contact import (
 from taskspace.grasping.grasp_matrix import grasp_matrix
 
 FloatArray = npt.NDArray[np.float64]
+
+MAX_LINF_POINTS = 5_000
+"""Largest point set of the L-infinity Minkowski sum handed to qhull (6-D hulls of more points
+take minutes: the sum's vertices grow quickly with the number of contacts)."""
 
 
 @dataclass(frozen=True)
@@ -111,8 +115,17 @@ def wrench_space_linf(W: FloatArray, owner: list[int]) -> ConvexHull | None:
         )
     owner = owners.tolist()
     points = np.zeros((1, d))
-    for i in sorted(set(owner)):
+    contacts = sorted(set(owner))
+    for k, i in enumerate(contacts):
         generators = np.vstack([np.zeros((1, d)), W[owners == i]])
+        if len(points) * len(generators) > MAX_LINF_POINTS:
+            raise SolverError(
+                f"the L-infinity wrench space of {len(contacts)} contacts is too large to build "
+                f"exactly: {len(points) * len(generators)} candidate vertices after "
+                f"{k + 1} contacts (limit MAX_LINF_POINTS = {MAX_LINF_POINTS}); use the L1 "
+                "epsilon (epsilon_l1, grasp_quality(..., linf=False)), fewer contacts or "
+                "fewer cone edges"
+            )
         points = (points[:, None, :] + generators[None, :, :]).reshape(-1, d)
         if len(points) > d + 1:
             hull = _hull(points)
@@ -141,6 +154,7 @@ def grasp_quality(
     edges: int = 8,
     center: FloatArray | None = None,
     torque_scale: float | None = None,
+    linf: bool = True,
 ) -> GraspQuality:
     """Every quality measure of a grasp.
 
@@ -149,6 +163,9 @@ def grasp_quality(
         edges: edges of each linearized friction cone.
         center: moment reference point [m] (default: origin of the object frame).
         torque_scale: moment scale ``rho`` [m] (default: the grasp radius).
+        linf: compute the L-infinity epsilon (a Minkowski sum whose size grows quickly with
+            the number of contacts; :class:`SolverError` past :data:`MAX_LINF_POINTS`);
+            ``False`` reports it as NaN.
     """
     contacts = check_contacts(contacts)
     c = check_center(center)
@@ -160,7 +177,7 @@ def grasp_quality(
     sigma = np.linalg.svd(G, compute_uv=False)
     return GraspQuality(
         epsilon_l1=_margin(l1),
-        epsilon_linf=epsilon_linf(W, owner),
+        epsilon_linf=epsilon_linf(W, owner) if linf else float("nan"),
         volume=float(l1.volume) if l1 is not None else 0.0,
         sigma_min=float(sigma[-1]) if len(sigma) == 6 else 0.0,
         torque_scale=float(rho),
