@@ -34,3 +34,10 @@ peer pyroboplan pyroboplan numpy pyyaml example-robot-data==5.0.0 example-robot-
 # taskspace's .venv (installed without dependencies: it would pull a newer pin).
 peer tsid "tsid==1.7.1" "pin==3.4.0" "cmeel-urdfdom<5" "cmeel-tinyxml2<11" numpy
 ".venv-peers/tsid/bin/pip" install --quiet --no-deps "example-robot-data==5.0.0" || echo "!! tsid robot data"
+# Stable-Baselines3 PPO and MuJoCo's Reacher (benchmarks/peers/sb3_ppo.py, mujoco_reacher.py):
+# CPU torch from a local wheel when the machine has one (the PyTorch index may be unreachable);
+# the peer scripts import taskspace from the checkout's src/, so its run-time dependencies too.
+torch_wheel=$(ls /opt/wheels/torch-*+cpu-cp3*-manylinux*_x86_64.whl 2>/dev/null | head -1 || true)
+peer sb3 ${torch_wheel:-torch} stable-baselines3 "gymnasium==1.4.0" mujoco imageio packaging \
+    "pin==4.1.0" "coal==3.0.3" proxsuite qpsolvers osqp daqp quadprog scipy \
+    "example-robot-data==5.0.0" "example-robot-data-loaders==5.0.0" pyyaml tqdm cma

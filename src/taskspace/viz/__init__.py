@@ -15,6 +15,7 @@ from taskspace._validation import require_extra
 require_extra("viz", "taskspace.viz")
 
 if TYPE_CHECKING:
+    from taskspace.viz.env_viewer import MeshcatRender
     from taskspace.viz.figure_page import figure_page_html, save_figure_page
     from taskspace.viz.image_comparison import ImageComparison, compare_images
     from taskspace.viz.motion import save_robot_motion
@@ -33,6 +34,7 @@ if TYPE_CHECKING:
 _EXPORTS = {
     "CameraPose": "taskspace.viz.viewer",
     "ImageComparison": "taskspace.viz.image_comparison",
+    "MeshcatRender": "taskspace.viz.env_viewer",
     "SceneRecorder": "taskspace.viz.scene_recorder",
     "SnapshotError": "taskspace.viz.snapshots",
     "SnapshotOptions": "taskspace.viz.snapshots",
@@ -52,6 +54,7 @@ _EXPORTS = {
 __all__ = [
     "CameraPose",
     "ImageComparison",
+    "MeshcatRender",
     "SceneRecorder",
     "SnapshotError",
     "SnapshotOptions",
