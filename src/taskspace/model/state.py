@@ -18,6 +18,8 @@ _compute_joint_jacobians = pin.computeJointJacobians
 _forward_kinematics = pin.forwardKinematics
 _update_frame_placements = pin.updateFramePlacements
 _get_frame_jacobian = pin.getFrameJacobian
+_get_frame_acceleration = pin.getFrameAcceleration
+_get_frame_classical_acceleration = pin.getFrameClassicalAcceleration
 
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 LOCAL = pin.ReferenceFrame.LOCAL
@@ -275,9 +277,11 @@ class State:
         Returns the 6-vector (linear [m/s^2], angular [rad/s^2]) in LOCAL_WORLD_ALIGNED
         coordinates, the drift of :meth:`frame_jacobian`.
         """
-        self._require_velocity("the drift Jdot v")
-        frame_id = self._frame_index(frame_id)
-        acc = pin.getFrameClassicalAcceleration(self._model, self._data, frame_id, LWA)
+        if not self._has_velocity:
+            self._require_velocity("the drift Jdot v")
+        if type(frame_id) is not int or not 0 <= frame_id < self._nframes:
+            frame_id = self._frame_index(frame_id)
+        acc = _get_frame_classical_acceleration(self._model, self._data, frame_id, LWA)
         return np.asarray(acc.vector)
 
     def frame_drift_local(self, frame_id: int) -> FloatArray:
@@ -285,9 +289,11 @@ class State:
 
         The drift of :meth:`frame_jacobian_local` (the body twist ``J_local v``).
         """
-        self._require_velocity("the drift Jdot v")
-        frame_id = self._frame_index(frame_id)
-        acc = pin.getFrameAcceleration(self._model, self._data, frame_id, LOCAL)
+        if not self._has_velocity:
+            self._require_velocity("the drift Jdot v")
+        if type(frame_id) is not int or not 0 <= frame_id < self._nframes:
+            frame_id = self._frame_index(frame_id)
+        acc = _get_frame_acceleration(self._model, self._data, frame_id, LOCAL)
         return np.asarray(acc.vector)
 
     def frame_velocity(self, frame_id: int) -> FloatArray:

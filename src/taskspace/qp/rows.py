@@ -84,6 +84,7 @@ class TaskRowStack:
         # acceleration level: raw rows and per-row gains and weights
         self._J_raw: FloatArray | None = None
         self._e = np.zeros(m)
+        self._tmp = np.zeros(m)
         self._drift = np.zeros(m)
         self._w = np.ones(m)
         self._neg_w = -self._w
@@ -104,7 +105,10 @@ class TaskRowStack:
                 J_rows[...], rhs_rows[...] = task.rows(state)
                 continue
             # Task.rows, written in place: the same products, bit for bit
-            e, Ji = task.feature.residual_and_jacobian(state, task._require_target())
+            target = task._target
+            if target is None:
+                task._require_target()  # raises, naming the task
+            e, Ji = task.feature.residual_and_jacobian(state, target)
             w = task.sqrt_weight
             if isinstance(w, float):
                 if w == 1.0:
@@ -168,7 +172,10 @@ class TaskRowStack:
         for task, rows in self._pairs:
             # the feature's values directly (Task.feature_rows without the tuple: hot loop)
             feature = task.feature
-            e_all[rows], J_raw[rows] = feature.residual_and_jacobian(state, task._require_target())
+            target = task._target
+            if target is None:
+                task._require_target()  # raises, naming the task
+            e_all[rows], J_raw[rows] = feature.residual_and_jacobian(state, target)
             drift[rows] = feature.drift(state)
             if task.reference_velocity is not None or task.reference_acceleration is not None:
                 if offset is None:
@@ -180,7 +187,7 @@ class TaskRowStack:
         # rhs = -w (kd J v + kp e + Jdot v - kd y'_ref - y''_ref)
         rhs = self.rhs
         np.multiply(J_raw.dot(state.v), self._kd, out=rhs)
-        rhs += self._kp * e_all
+        rhs += np.multiply(self._kp, e_all, out=self._tmp)
         rhs += drift
         if offset is not None:
             rhs -= offset
