@@ -22,7 +22,7 @@ from taskspace.qp.hierarchy import (
     HierarchySolver,
 )
 from taskspace.qp.problem import RowBlock
-from taskspace.qp.rows import InequalityStack, TaskRowStack, combine_bounds
+from taskspace.qp.rows import BoxStack, InequalityStack, TaskRowStack
 from taskspace.tasks import Task
 
 
@@ -181,6 +181,7 @@ class HierarchicalIK:
             for level in self.levels
         ]
         self._hard_inequalities = InequalityStack(self.constraints, nv)
+        self._boxes = BoxStack(self.constraints, nv)
         self._lock = threading.Lock()
 
     @classmethod
@@ -260,7 +261,7 @@ class HierarchicalIK:
         if not float(r_all.dot(r_all)) <= _MAX_SQUARED_RESIDUAL:  # also NaN and overflow
             self._residual_error(levels)
         nv = self.robot.nv
-        lb, ub, _ = combine_bounds(self.constraints, state, dt, nv)
+        lb, ub, _ = self._boxes.fill(state, dt)
         C = l = u = None
         blocks: list[RowBlock] = []
         if self._hard_inequalities:
