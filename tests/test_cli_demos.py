@@ -47,6 +47,7 @@ ROBOT_EXAMPLES = {
     "panda_computed_torque",
     "panda_operational_space",
     "panda_box_grasps",
+    "allegro_hand_grasps",
     "g1_hands_hierarchy",
     "panda_reach_obstacle",
     "planar_3link_nullspace",
@@ -152,7 +153,7 @@ def test_robot_examples_are_the_scripts_that_load_a_robot():
     loads = {
         p.stem
         for p in EXAMPLES
-        if re.search(r"Robot\.load\(|motionbenchmaker_panda\(", p.read_text(encoding="utf-8"))
+        if re.search(r"Robot\.load\(|motionbenchmaker_panda\(|Hand\.\w+\(", p.read_text("utf-8"))
     }
     assert loads == ROBOT_EXAMPLES
 
