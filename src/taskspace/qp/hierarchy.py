@@ -13,6 +13,7 @@ persistent :class:`~taskspace.qp.solver.QPSolver` (unconstrained shortcut first)
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -580,7 +581,9 @@ class HierarchySolver:
         if level_results is not None:
             out.level_results = level_results
         for level in levels:
-            out.residuals.append(float(np.linalg.norm(level.J @ x - level.r)))
+            d = level.J @ x
+            d -= level.r
+            out.residuals.append(math.sqrt(float(d.dot(d))))  # np.linalg.norm's own formula
             if level.n_in:
                 assert level.C is not None and level.l is not None and level.u is not None
                 Cx = level.C @ x
