@@ -133,7 +133,7 @@ def test_joint_position_limits_margin(panda: Robot) -> None:
     assert str(info.value) == "margin must be finite and >= 0, got -0.1"
     with pytest.raises(InvalidInputError) as info:
         JointPositionLimits(panda, margin=3.0)
-    assert str(info.value) == "margin 3.0 is larger than half a joint range"
+    assert str(info.value) == "margin 3.0 is larger than half a joint range of robot 'panda'"
 
 
 def test_joint_velocity_limits_errors(panda: Robot) -> None:
