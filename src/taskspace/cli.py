@@ -203,9 +203,15 @@ def _caller_path(text: str | None) -> Path | None:
 
 
 def _picture(folder: Path, stem: str) -> Path | None:
-    """The demo's picture among its PNGs: a snapshot, else ``<stem>.png``, else the first."""
+    """The demo's picture: the robot (``<stem>_robot.png``, a snapshot), else ``<stem>.png``."""
     pngs = sorted(folder.rglob("*.png"))
-    for rank in (lambda p: "snapshot" in p.stem, lambda p: p.stem == stem, lambda p: True):
+    ranks = (
+        lambda p: p.stem == f"{stem}_robot",
+        lambda p: "snapshot" in p.stem,
+        lambda p: p.stem == stem,
+        lambda p: True,
+    )
+    for rank in ranks:
         chosen = [p for p in pngs if rank(p)]
         if chosen:
             return chosen[0]
