@@ -229,3 +229,17 @@ def test_space_on_a_bare_model_manifold_refuses_plans_after_a_change() -> None:
         space.check_endpoint(q, "start")
     with pytest.raises(StaleModelError):
         space.sample_uniform(np.random.default_rng(0), 2)
+
+
+def test_a_deep_copy_of_a_space_follows_its_own_robot() -> None:
+    """copy.deepcopy copies the robot: the copy re-derives itself, the original is untouched."""
+    import copy
+
+    robot = _fresh("ur5", geometry=True)
+    space = ConfigurationSpace.from_robot(robot)
+    twin = copy.deepcopy(space)
+    twin_robot = twin._follower.robot  # type: ignore[union-attr]
+    assert twin_robot is not robot
+    _narrow_joint(twin_robot, 2, 0.1, 0.3)
+    assert twin.lower[2] == 0.1 and twin.upper[2] == 0.3
+    np.testing.assert_array_equal(space.lower, robot.lower_limits)  # the original is unchanged

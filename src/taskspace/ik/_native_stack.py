@@ -93,13 +93,12 @@ class NativeWeightedStack:
         # the first joint-position box is evaluated by the kernel from q (the others here)
         # (a class that declares ``kernel_arguments`` itself: a subclass may change the box)
         position = next((c for c in boxes if "kernel_arguments" in type(c).__dict__), None)
+        self._position = position
         self._position_limits: ModelFollower | None = None
         if position is not None:
             # the kernel keeps a copy of the limits: sent again after Robot.set_limits
             self._position_limits = ModelFollower(
-                robot,
-                "compiled IK position limits",
-                lambda: kernel.set_position_limits(*position.kernel_arguments()),  # type: ignore[attr-defined]
+                robot, "compiled IK position limits", self._send_position_limits
             )
             boxes.remove(position)
         self._hard = [c for c in boxes if c.hard_bounds]
@@ -107,6 +106,9 @@ class NativeWeightedStack:
         self.nv = robot.nv
         self._kernel_solve = kernel.solve
         self._max_iterations = module.MAX_ITERATIONS
+
+    def _send_position_limits(self) -> None:
+        self.kernel.set_position_limits(*self._position.kernel_arguments())  # type: ignore[union-attr]
 
     def _scale(self) -> None:
         """Send the rows' weights and gains to the kernel (when a task's were reassigned)."""

@@ -148,6 +148,9 @@ class ConfigurationSpace:
     thread.
     """
 
+    _robot_metric: tuple[Robot, Any, Any, Any]
+    """What :meth:`from_robot` was given: robot, weights, base box (spaces built on a robot)."""
+
     def __init__(
         self,
         lower: Any,
@@ -270,27 +273,30 @@ class ConfigurationSpace:
             raise InvalidInputError(f"max_batch must be >= 1, got {space.edge.max_batch}")
         space.edge_checks = 0
 
-        def derive() -> None:
-            manifold = None
-            simple = robot.limited_joints_q.size == robot.nq and robot.nq == robot.nv
-            simple = simple and not robot.is_floating
-            if not simple or weights is not None or base_lower is not None:
-                manifold = JointManifold(
-                    robot, weights=weights, base_lower=base_lower, base_upper=base_upper
-                )
-                if manifold.is_euclidean and weights is None:
-                    manifold = None
-            lo, hi = robot.lower_limits, robot.upper_limits
-            if manifold is not None:
-                lo, hi = manifold.lower, manifold.upper
-            names = [str(robot.model.names[jid]) for jid in range(1, robot.model.njoints)]
-            space._set_bounds(lo, hi, manifold)
-            space.names = names if len(names) == lo.size else [f"q[{i}]" for i in range(lo.size)]
-
-        # rebuilt after Robot.set_limits (the metric may change: a joint made unbounded
-        # needs the manifold)
-        space._follower = ModelFollower(robot, "ConfigurationSpace", derive)
+        space._robot_metric = (robot, weights, base_lower, base_upper)
+        # rebuilt after Robot.set_limits (a bound method, not a closure: a deep copy of the
+        # space re-derives itself, not the original)
+        space._follower = ModelFollower(robot, "ConfigurationSpace", space._derive_from_robot)
         return space
+
+    def _derive_from_robot(self) -> None:
+        """Bounds, names and metric of :meth:`from_robot` from the robot's current limits."""
+        robot, weights, base_lower, base_upper = self._robot_metric
+        manifold = None
+        simple = robot.limited_joints_q.size == robot.nq and robot.nq == robot.nv
+        simple = simple and not robot.is_floating
+        if not simple or weights is not None or base_lower is not None:
+            manifold = JointManifold(
+                robot, weights=weights, base_lower=base_lower, base_upper=base_upper
+            )
+            if manifold.is_euclidean and weights is None:
+                manifold = None
+        lo, hi = robot.lower_limits, robot.upper_limits
+        if manifold is not None:
+            lo, hi = manifold.lower, manifold.upper
+        names = [str(robot.model.names[jid]) for jid in range(1, robot.model.njoints)]
+        self._set_bounds(lo, hi, manifold)
+        self.names = names if len(names) == lo.size else [f"q[{i}]" for i in range(lo.size)]
 
     # ------------------------------------------------------------------ basics
     @property
