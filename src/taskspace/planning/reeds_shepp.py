@@ -19,6 +19,14 @@ formulas:
 Eight base formulas under these maps give 44 evaluations that cover all 48 words (the ``C|C|C``
 formula also yields ``C|CC``, its backward version ``CC|C``). Lengths are signed: negative is
 driving backwards. Every evaluation is vectorised over many queries (:func:`reeds_shepp_distance`).
+
+:func:`reeds_shepp_shortest` and :func:`reeds_shepp_distance` run in the compiled planning
+kernel (``taskspace/_native/curves.cpp``) when it is built, and in NumPy otherwise (same
+results to rounding; the NumPy versions are :func:`reeds_shepp_shortest_numpy` and
+:func:`reeds_shepp_distance_numpy`). The kernel evaluates the same 44 formulas one query at a
+time and skips a formula, before its arc tangents, once a lower bound of its length (its
+straight segment and fixed arcs, plus the least turn its two free arcs need to reach the goal
+heading) exceeds the best word found so far by 1e-9 (a skipped word cannot be the answer).
 """
 
 from __future__ import annotations
@@ -31,6 +39,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from taskspace._native import planning_kernel
 from taskspace._validation import check_positive
 from taskspace.errors import ShapeError, SolverError
 from taskspace.planning.se2 import CurvePath, check_pose, to_local
@@ -38,6 +47,19 @@ from taskspace.planning.se2 import CurvePath, check_pose, to_local
 logger = logging.getLogger(__name__)
 
 FloatArray = npt.NDArray[np.float64]
+
+
+# The compiled planning kernel, looked up at the first query (None: the NumPy path). A module
+# global rather than a call of planning_kernel() per query: single queries take about 1 us.
+_kernel: Any = False
+
+
+def _load_kernel() -> Any:
+    global _kernel
+    _kernel = planning_kernel()
+    return _kernel
+
+
 BoolArray = npt.NDArray[np.bool_]
 _Triple = tuple[FloatArray, FloatArray, FloatArray, BoolArray]
 
@@ -237,6 +259,8 @@ _GROUPS: tuple[tuple[_Base, tuple[RSFormula, ...]], ...] = tuple(
 #: All 44 formula evaluations, in enumeration order.
 RS_FORMULAS: tuple[RSFormula, ...] = tuple(f for f, _ in _TABLE)
 
+_LETTERS: tuple[tuple[str, ...], ...] = tuple(tuple(f.word) for f in RS_FORMULAS)
+
 
 def signed_word(word: str, lengths: Any) -> str:
     """Reeds-Shepp word with directions, e.g. ``"L+R-L-"`` (``+`` forward, ``-`` backward)."""
@@ -328,6 +352,21 @@ def reeds_shepp_shortest(start: Any, goal: Any, radius: float) -> CurvePath:
     Raises:
         SolverError: if no formula is valid (never happens for finite input).
     """
+    kernel = _kernel if _kernel is not False else _load_kernel()
+    if kernel is not None:
+        out = kernel.reeds_shepp_shortest(start, goal, radius)
+        if out is None:  # not plain floats: validate (taskspace's errors), then convert
+            s = check_pose(start, "start")
+            g = check_pose(goal, "goal")
+            out = kernel.reeds_shepp_shortest(s, g, check_positive(radius, "radius"))
+        if out is not None:
+            st, i, lengths, r, family = out
+            return CurvePath(st, _LETTERS[i], lengths, r, family)
+    return reeds_shepp_shortest_numpy(start, goal, radius)
+
+
+def reeds_shepp_shortest_numpy(start: Any, goal: Any, radius: float) -> CurvePath:
+    """:func:`reeds_shepp_shortest` in NumPy (the reference of the compiled kernel)."""
     s = check_pose(start, "start")
     g = check_pose(goal, "goal")
     r = check_positive(radius, "radius")
@@ -357,6 +396,25 @@ def reeds_shepp_distance(start: Any, goal: Any, radius: float) -> FloatArray:
     Returns:
         Distances ``(N,)`` [m].
     """
+    kernel = _kernel if _kernel is not False else _load_kernel()
+    if kernel is not None:
+        out = kernel.reeds_shepp_distance(start, goal, radius)
+        if out is not None:
+            return out  # type: ignore[no-any-return]
+        r = check_positive(radius, "radius")
+        s = np.atleast_2d(np.asarray(start, dtype=float))
+        g = np.atleast_2d(np.asarray(goal, dtype=float))
+        if s.shape[-1] != 3 or g.shape[-1] != 3:
+            bad = s.shape if s.shape[-1] != 3 else g.shape
+            raise ShapeError("start/goal", (-1, 3), tuple(bad))
+        out = kernel.reeds_shepp_distance(*np.broadcast_arrays(s, g), r)
+        if out is not None:
+            return out  # type: ignore[no-any-return]
+    return reeds_shepp_distance_numpy(start, goal, radius)
+
+
+def reeds_shepp_distance_numpy(start: Any, goal: Any, radius: float) -> FloatArray:
+    """:func:`reeds_shepp_distance` in NumPy (the reference of the compiled kernel)."""
     r = check_positive(radius, "radius")
     s = np.atleast_2d(np.asarray(start, dtype=float))
     g = np.atleast_2d(np.asarray(goal, dtype=float))

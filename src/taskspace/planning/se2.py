@@ -23,10 +23,23 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from taskspace._native import planning_kernel
 from taskspace._validation import as_vector, check_positive
 from taskspace.errors import InvalidInputError, ShapeError
 
 FloatArray = npt.NDArray[np.float64]
+
+
+# The compiled planning kernel, looked up at the first query (None: the NumPy path). A module
+# global rather than a call of planning_kernel() per query: single queries take about 1 us.
+_kernel: Any = False
+
+
+def _load_kernel() -> Any:
+    global _kernel
+    _kernel = planning_kernel()
+    return _kernel
+
 
 #: Curvature sign of each segment letter: left turns have curvature +1/r, right turns -1/r.
 STEER_SIGN: dict[str, int] = {"L": 1, "S": 0, "R": -1}
@@ -231,12 +244,25 @@ class CurvePath:
     def pose_at(self, s: Any) -> FloatArray:
         """Exact pose(s) at travelled distance(s) ``s`` in ``[0, length]`` [m].
 
+        Computed by the compiled planning kernel when it is built and ``s`` is a number or a
+        1-D float array (same results to rounding). A heading already in ``[-pi, pi)`` is not
+        re-wrapped, so that ``pose_at(0)`` is the start pose exactly.
+
         Args:
             s: distance(s) along the path [m] (absolute arc length, always increasing).
 
         Returns:
             Pose(s) ``(..., 3)`` with wrapped headings.
         """
+        kernel = _kernel if _kernel is not False else _load_kernel()
+        if kernel is not None:
+            out = kernel.curve_poses(self.start, self.word, self.lengths, self.radius, s)
+            if out is not None:
+                return out  # type: ignore[no-any-return]
+        return self.pose_at_numpy(s)
+
+    def pose_at_numpy(self, s: Any) -> FloatArray:
+        """:meth:`pose_at` in NumPy (the reference of the compiled kernel)."""
         s_arr = np.clip(np.asarray(s, dtype=float), 0.0, self.length)
         starts = self.segment_starts()
         abs_len = np.abs(np.asarray(self.lengths, dtype=float))
@@ -246,7 +272,8 @@ class CurvePath:
         sign = np.sign(np.asarray(self.lengths, dtype=float))[idx]
         k = np.asarray(self.curvatures)[idx]
         out = arc_pose(starts[idx], k, sign * local)
-        out[..., 2] = wrap_angle(out[..., 2])
+        th = out[..., 2]
+        out[..., 2] = np.where((th >= -np.pi) & (th < np.pi), th, wrap_angle(th))
         return out
 
     def sample(self, step: float) -> FloatArray:
