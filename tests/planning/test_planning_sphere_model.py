@@ -11,13 +11,17 @@ import coal
 import numpy as np
 import pinocchio as pin
 import pytest
+from _mbm import ROOT, SKIP_REASON
 
 from taskspace.errors import InvalidInputError, UnknownNameError
 from taskspace.model.robot import Robot
+from taskspace.planning.scene_loader import motionbenchmaker_panda, motionbenchmaker_problems
 from taskspace.planning.sphere_model import (
     SphereModel,
     SphereModelOptions,
+    obstacle_signed_distances,
     sphere_model,
+    spheres_hit_obstacles,
 )
 
 FAST = SphereModelOptions(spheres_per_geometry=10, surface_spacing=0.006, interior_spacing=0.015)
@@ -185,3 +189,71 @@ def test_bad_inputs_raise_taskspace_errors() -> None:
     assert empty.count == 0
     with pytest.raises(UnknownNameError, match="valid geometrys are"):
         empty.of_geometry("link")
+
+
+# ------------------------------------------------------------- spheres against the obstacles
+def _mesh_hits(robot: Robot, gdata: pin.GeometryData) -> bool:
+    """Exact robot-obstacle collision with coal (robot geometries against obstacles)."""
+    objs = robot.collision_model.geometryObjects
+    req, res = coal.CollisionRequest(), coal.CollisionResult()
+    n = robot.robot_geometry_count
+    for gi in range(n):
+        for oi in range(n, len(objs)):
+            res.clear()
+            if coal.collide(
+                objs[gi].geometry, gdata.oMg[gi], objs[oi].geometry, gdata.oMg[oi], req, res
+            ):
+                return True
+    return False
+
+
+@pytest.mark.skipif(ROOT is None, reason=SKIP_REASON)
+@pytest.mark.parametrize("scenario", ["bookshelf_small", "table_pick"])
+def test_sphere_check_never_frees_a_colliding_configuration(scenario: str) -> None:
+    robot = motionbenchmaker_panda()
+    motionbenchmaker_problems(ROOT, scenario, [1])[0].apply(robot)
+    spheres = sphere_model(robot.collision_model, range(robot.robot_geometry_count), options=FAST)
+    obstacles = list(robot.world)
+    rng = np.random.default_rng(4)
+    lo, hi = robot.model.lowerPositionLimit, robot.model.upperPositionLimit
+    qs = rng.uniform(lo, hi, (80, robot.model.nq))
+    sd = obstacle_signed_distances(spheres, robot.model, obstacles, qs)
+    hits = spheres_hit_obstacles(spheres, robot.model, obstacles, qs)
+    np.testing.assert_array_equal(hits, sd <= 0.0)
+    data, gdata = robot.model.createData(), robot.collision_model.createData()
+    mesh = np.zeros(len(qs), bool)
+    for b, q in enumerate(qs):
+        pin.updateGeometryPlacements(robot.model, data, robot.collision_model, gdata, q)
+        mesh[b] = _mesh_hits(robot, gdata)
+        if b < 10:  # the least distance against coal's, sphere by sphere
+            world = spheres.world_centers(data)
+            best = np.inf
+            for k in range(spheres.count):
+                ball = coal.Sphere(float(spheres.radii[k]))
+                for obs in obstacles:
+                    r = coal.DistanceResult()
+                    place = pin.SE3(np.eye(3), world[k])
+                    coal.distance(
+                        ball, place, obs.geometry, obs.placement, coal.DistanceRequest(), r
+                    )
+                    best = min(best, r.min_distance)
+            if best > 1e-6:
+                assert sd[b] == pytest.approx(best, abs=1e-6)
+            else:
+                assert sd[b] <= 1e-6
+    assert mesh.any() and (~mesh).any()  # both cases occur
+    assert np.all(hits[mesh])  # never "free" where the meshes collide
+    # Configurations that just touch: bisect segments from a free to a colliding
+    # configuration (mesh check) down to 1e-6 rad; the colliding end must hit the spheres.
+    free, hit = qs[~mesh][:8], qs[mesh][:8]
+    touching = []
+    for a, b in zip(free, hit):
+        lo_t, hi_t = 0.0, 1.0
+        while hi_t - lo_t > 1e-6 / max(1.0, float(np.abs(b - a).max())):
+            mid = 0.5 * (lo_t + hi_t)
+            pin.updateGeometryPlacements(
+                robot.model, data, robot.collision_model, gdata, a + mid * (b - a)
+            )
+            lo_t, hi_t = (lo_t, mid) if _mesh_hits(robot, gdata) else (mid, hi_t)
+        touching.append(a + hi_t * (b - a))
+    assert np.all(spheres_hit_obstacles(spheres, robot.model, obstacles, touching))

@@ -44,26 +44,33 @@ cylinder or capsule is replaced by the circumscribed 32-gon prism (and the end s
 capsule), a box by its 12 triangles; other coal shapes (cones, ellipsoids, planes, height
 fields, octrees) are refused.
 
-Next step (not done here): forward kinematics of the sphere centres and sphere-vs-environment
-tests for a batch of configurations in the compiled kernel.
+:func:`obstacle_signed_distances` and :func:`spheres_hit_obstacles` test the spheres against
+the world's boxes, spheres, cylinders and capsules for a batch of configurations, in NumPy
+(forward kinematics one configuration at a time through Pinocchio): the reference for a
+compiled batched checker (next step, not done here), tested to never call "free" a
+configuration whose meshes touch an obstacle. Robot self-collision is not checked here.
 """
 
 from __future__ import annotations
 
 import heapq
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import coal
 import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
-from taskspace._validation import check_positive
+from taskspace._validation import as_matrix, check_positive
 from taskspace.errors import InvalidInputError, UnknownNameError
+from taskspace.model.world import Obstacle
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
+BoolArray = npt.NDArray[np.bool_]
 
 SUPPORTED_SHAPES = ("mesh (BVHModel)", "Convex", "Box", "Cylinder", "Capsule", "Sphere")
 """Geometry types :func:`sphere_model` approximates."""
@@ -371,3 +378,78 @@ def sphere_model(
         names=tuple(names),
         covering_radius=rho,
     )
+
+
+OBSTACLE_SHAPES = ("Box", "Sphere", "Cylinder", "Capsule")
+"""Obstacle geometry types :func:`obstacle_signed_distances` handles."""
+
+
+def _point_shape_distance(points: FloatArray, geometry: coal.CollisionGeometry, name: str) -> Any:
+    """Signed distance [m] from points ``(n, 3)`` (shape frame) to a primitive (< 0 inside)."""
+    if isinstance(geometry, coal.Sphere):
+        return np.linalg.norm(points, axis=1) - float(geometry.radius)
+    if isinstance(geometry, coal.Box):
+        q = np.abs(points) - np.asarray(geometry.halfSide, dtype=float)
+        outside = np.linalg.norm(np.maximum(q, 0.0), axis=1)
+        return outside + np.minimum(q.max(axis=1), 0.0)
+    if isinstance(geometry, coal.Cylinder):
+        d_rad = np.hypot(points[:, 0], points[:, 1]) - float(geometry.radius)
+        d_ax = np.abs(points[:, 2]) - float(geometry.halfLength)
+        outside = np.hypot(np.maximum(d_rad, 0.0), np.maximum(d_ax, 0.0))
+        return outside + np.minimum(np.maximum(d_rad, d_ax), 0.0)
+    if isinstance(geometry, coal.Capsule):
+        hl = float(geometry.halfLength)
+        z = np.clip(points[:, 2], -hl, hl)
+        seg = np.stack([np.zeros_like(z), np.zeros_like(z), z], axis=1)
+        return np.linalg.norm(points - seg, axis=1) - float(geometry.radius)
+    raise InvalidInputError(
+        f"obstacle '{name}' is a {type(geometry).__name__}; the sphere check handles: "
+        f"{', '.join(OBSTACLE_SHAPES)}"
+    )
+
+
+def obstacle_signed_distances(
+    spheres: SphereModel, model: pin.Model, obstacles: Sequence[Obstacle], qs: Any
+) -> FloatArray:
+    """Least signed distance between the spheres and the obstacles, per configuration.
+
+    ``min over spheres k and obstacles o of sd_o(oMi[joint_k] * c_k) - r_k`` with ``sd_o``
+    the exact signed distance from a point to obstacle ``o`` (box, sphere, cylinder,
+    capsule): negative when some sphere penetrates some obstacle.
+
+    Args:
+        spheres: the robot's :class:`SphereModel`.
+        model: the Pinocchio model the spheres' joint indices refer to.
+        obstacles: the obstacles (e.g. ``robot.world.obstacles``).
+        qs: configurations ``(B, nq)``.
+
+    Returns:
+        Distances ``(B,)`` [m] (``inf`` without obstacles or spheres).
+
+    Raises:
+        InvalidInputError: an obstacle of another shape (the message lists the handled ones).
+    """
+    q_all = as_matrix(qs, (None, model.nq), "qs")
+    data = model.createData()
+    out = np.full(q_all.shape[0], np.inf)
+    for b, q in enumerate(q_all):
+        pin.forwardKinematics(model, data, q)
+        centers = spheres.world_centers(data)
+        for obs in obstacles:
+            m = obs.placement
+            local = (centers - m.translation) @ m.rotation  # R^T (c - t), row-wise
+            d = _point_shape_distance(local, obs.geometry, obs.name) - spheres.radii
+            if d.size:
+                out[b] = min(out[b], float(d.min()))
+    return out
+
+
+def spheres_hit_obstacles(
+    spheres: SphereModel, model: pin.Model, obstacles: Sequence[Obstacle], qs: Any
+) -> BoolArray:
+    """Whether some sphere touches some obstacle, per configuration ``(B,)``.
+
+    Conservative: ``False`` implies that the geometry the spheres cover is free of the
+    obstacles (:func:`obstacle_signed_distances` > 0).
+    """
+    return np.asarray(obstacle_signed_distances(spheres, model, obstacles, qs) <= 0.0)
