@@ -115,9 +115,12 @@ def test_distances_equal_numpy(half_width: float, radius: float) -> None:
         want = ref(S, G, radius)
         assert got.shape == want.shape == (len(S),)
         np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-12)
-        # single queries, broadcasting, and lists
+        # single queries, broadcasting (a (3,) pose or a (1, 3) array on either side), lists
         assert fast(S[7], G[7], radius).shape == (1,)
-        np.testing.assert_allclose(fast(S[7], G, radius), ref(S[7], G, radius), atol=1e-12)
+        for one, many in ((S[7], G), (S[7:8], G), (G[3:4], S)):
+            np.testing.assert_allclose(fast(one, many, radius), ref(one, many, radius), atol=1e-12)
+            np.testing.assert_allclose(fast(many, one, radius), ref(many, one, radius), atol=1e-12)
+        assert fast(S[:0], G[:0], radius).shape == (0,)
         np.testing.assert_allclose(fast(list(S[5]), tuple(G[5]), radius), want[5:6], atol=1e-12)
 
 

@@ -110,7 +110,7 @@ bool read_poses(PyObject* o, Poses* p, bool allow_rows) {
   if (allow_rows && nd == 2 && dims[1] == 3) {
     p->single = false;
     p->n = dims[0];
-    p->row = strides[0];
+    p->row = dims[0] == 1 ? 0 : strides[0];  // one row: broadcast against the other side
     p->col = strides[1];
     return true;
   }
