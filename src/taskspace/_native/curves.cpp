@@ -754,7 +754,7 @@ PyObject* py_curve_poses(PyObject*, PyObject* const* args, Py_ssize_t nargs) {
   if (nargs != 5) Py_RETURN_NONE;
   Poses st;
   double r;
-  if (!read_poses(args[0], &st, false) || !read_number(args[3], &r)) Py_RETURN_NONE;
+  if (!read_poses(args[0], &st, false) || !read_radius(args[3], &r)) Py_RETURN_NONE;
   PyObject* word = args[1];
   PyObject* lengths = args[2];
   if (!PyTuple_Check(word) || !PyTuple_Check(lengths)) Py_RETURN_NONE;
