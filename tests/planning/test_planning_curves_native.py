@@ -242,8 +242,10 @@ def test_without_the_kernel_the_numpy_path_answers(monkeypatch: pytest.MonkeyPat
     p = rs.reeds_shepp_shortest(S[0], G[0], 1.0)
     import taskspace.planning.se2 as se2
 
-    for module in (rs, db, se2):
-        monkeypatch.setattr(module, "_kernel", None)  # as when the kernel is not built
+    for module, names in ((rs, ("shortest", "distance")), (db, ("shortest", "distance"))):
+        for name in names:  # as when the kernel is not built
+            monkeypatch.setattr(module, f"_native_{name}", module._no_kernel)
+    monkeypatch.setattr(se2, "_native_poses", se2._no_kernel)
     np.testing.assert_allclose(rs.reeds_shepp_distance(S, G, 1.0), fast[0], atol=1e-12)
     np.testing.assert_allclose(db.dubins_distance(S, G, 1.0), fast[1], atol=1e-12)
     q = rs.reeds_shepp_shortest(S[0], G[0], 1.0)

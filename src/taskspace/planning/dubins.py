@@ -29,6 +29,7 @@ NumPy versions are :func:`dubins_shortest_numpy` and :func:`dubins_distance_nump
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -44,15 +45,34 @@ logger = logging.getLogger(__name__)
 FloatArray = npt.NDArray[np.float64]
 
 
-# The compiled planning kernel, looked up at the first query (None: the NumPy path). A module
-# global rather than a call of planning_kernel() per query: single queries take about 1 us.
-_kernel: Any = False
+# The compiled planning kernel's functions, bound at the first query (or stand-ins returning
+# None, the NumPy path, when the kernel is not built): module globals called directly, not a
+# planning_kernel() call and an attribute lookup per query (a single query takes 0.4-1 us).
+def _no_kernel(*args: Any) -> None:
+    return None
 
 
-def _load_kernel() -> Any:
-    global _kernel
-    _kernel = planning_kernel()
-    return _kernel
+def _bind_kernel() -> None:
+    global _native_shortest, _native_distance
+    kernel = planning_kernel()
+    _native_shortest = kernel.dubins_shortest if kernel is not None else _no_kernel
+    _native_distance = kernel.dubins_distance if kernel is not None else _no_kernel
+
+
+def _first_shortest(*args: Any) -> Any:
+    _bind_kernel()
+    return _native_shortest(*args)
+
+
+_native_shortest: Callable[..., Any] = _first_shortest
+
+
+def _first_distance(*args: Any) -> Any:
+    _bind_kernel()
+    return _native_distance(*args)
+
+
+_native_distance: Callable[..., Any] = _first_distance
 
 
 BoolArray = npt.NDArray[np.bool_]
@@ -188,16 +208,14 @@ def dubins_shortest(start: Any, goal: Any, radius: float) -> CurvePath:
     Raises:
         SolverError: if no word exists (never happens for finite input).
     """
-    kernel = _kernel if _kernel is not False else _load_kernel()
-    if kernel is not None:
-        out = kernel.dubins_shortest(start, goal, radius)
-        if out is None:  # not plain floats: validate (taskspace's errors), then convert
-            s = check_pose(start, "start")
-            g = check_pose(goal, "goal")
-            out = kernel.dubins_shortest(s, g, _check_radius(radius))
-        if out is not None:
-            st, i, lengths, r = out
-            return CurvePath(st, _LETTERS[i], lengths, r, DUBINS_WORDS[i])
+    out = _native_shortest(start, goal, radius)
+    if out is None:  # not plain floats, or no kernel: validate (taskspace's errors), convert
+        s = check_pose(start, "start")
+        g = check_pose(goal, "goal")
+        out = _native_shortest(s, g, _check_radius(radius))
+    if out is not None:
+        st, i, lengths, r = out
+        return CurvePath(st, _LETTERS[i], lengths, r, DUBINS_WORDS[i])
     return dubins_shortest_numpy(start, goal, radius)
 
 
@@ -220,17 +238,15 @@ def dubins_distance(start: Any, goal: Any, radius: float) -> FloatArray:
     Returns:
         Distances ``(N,)`` [m] (shape ``(1,)`` for single poses).
     """
-    kernel = _kernel if _kernel is not False else _load_kernel()
-    if kernel is not None:
-        out = kernel.dubins_distance(start, goal, radius)
-        if out is not None:
-            return out  # type: ignore[no-any-return]
-        r = _check_radius(radius)
-        s, g = _pose_arrays(start, goal)
-        out = kernel.dubins_distance(s, g, r)
-        if out is not None:
-            return out  # type: ignore[no-any-return]
-    return dubins_distance_numpy(start, goal, radius)
+    out = _native_distance(start, goal, radius)
+    if out is not None:
+        return out  # type: ignore[no-any-return]
+    r = _check_radius(radius)
+    s, g = _pose_arrays(start, goal)
+    out = _native_distance(s, g, r)
+    if out is not None:
+        return out  # type: ignore[no-any-return]
+    return dubins_distance_numpy(s, g, r)
 
 
 def _pose_arrays(start: Any, goal: Any) -> tuple[FloatArray, FloatArray]:

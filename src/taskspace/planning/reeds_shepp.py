@@ -49,15 +49,34 @@ logger = logging.getLogger(__name__)
 FloatArray = npt.NDArray[np.float64]
 
 
-# The compiled planning kernel, looked up at the first query (None: the NumPy path). A module
-# global rather than a call of planning_kernel() per query: single queries take about 1 us.
-_kernel: Any = False
+# The compiled planning kernel's functions, bound at the first query (or stand-ins returning
+# None, the NumPy path, when the kernel is not built): module globals called directly, not a
+# planning_kernel() call and an attribute lookup per query (a single query takes 0.4-1 us).
+def _no_kernel(*args: Any) -> None:
+    return None
 
 
-def _load_kernel() -> Any:
-    global _kernel
-    _kernel = planning_kernel()
-    return _kernel
+def _bind_kernel() -> None:
+    global _native_shortest, _native_distance
+    kernel = planning_kernel()
+    _native_shortest = kernel.reeds_shepp_shortest if kernel is not None else _no_kernel
+    _native_distance = kernel.reeds_shepp_distance if kernel is not None else _no_kernel
+
+
+def _first_shortest(*args: Any) -> Any:
+    _bind_kernel()
+    return _native_shortest(*args)
+
+
+_native_shortest: Callable[..., Any] = _first_shortest
+
+
+def _first_distance(*args: Any) -> Any:
+    _bind_kernel()
+    return _native_distance(*args)
+
+
+_native_distance: Callable[..., Any] = _first_distance
 
 
 BoolArray = npt.NDArray[np.bool_]
@@ -352,16 +371,14 @@ def reeds_shepp_shortest(start: Any, goal: Any, radius: float) -> CurvePath:
     Raises:
         SolverError: if no formula is valid (never happens for finite input).
     """
-    kernel = _kernel if _kernel is not False else _load_kernel()
-    if kernel is not None:
-        out = kernel.reeds_shepp_shortest(start, goal, radius)
-        if out is None:  # not plain floats: validate (taskspace's errors), then convert
-            s = check_pose(start, "start")
-            g = check_pose(goal, "goal")
-            out = kernel.reeds_shepp_shortest(s, g, check_positive(radius, "radius"))
-        if out is not None:
-            st, i, lengths, r, family = out
-            return CurvePath(st, _LETTERS[i], lengths, r, family)
+    out = _native_shortest(start, goal, radius)
+    if out is None:  # not plain floats, or no kernel: validate (taskspace's errors), convert
+        s = check_pose(start, "start")
+        g = check_pose(goal, "goal")
+        out = _native_shortest(s, g, check_positive(radius, "radius"))
+    if out is not None:
+        st, i, lengths, r, family = out
+        return CurvePath(st, _LETTERS[i], lengths, r, family)
     return reeds_shepp_shortest_numpy(start, goal, radius)
 
 
@@ -396,21 +413,20 @@ def reeds_shepp_distance(start: Any, goal: Any, radius: float) -> FloatArray:
     Returns:
         Distances ``(N,)`` [m].
     """
-    kernel = _kernel if _kernel is not False else _load_kernel()
-    if kernel is not None:
-        out = kernel.reeds_shepp_distance(start, goal, radius)
-        if out is not None:
-            return out  # type: ignore[no-any-return]
-        r = check_positive(radius, "radius")
-        s = np.atleast_2d(np.asarray(start, dtype=float))
-        g = np.atleast_2d(np.asarray(goal, dtype=float))
-        if s.shape[-1] != 3 or g.shape[-1] != 3:
-            bad = s.shape if s.shape[-1] != 3 else g.shape
-            raise ShapeError("start/goal", (-1, 3), tuple(bad))
-        out = kernel.reeds_shepp_distance(*np.broadcast_arrays(s, g), r)
-        if out is not None:
-            return out  # type: ignore[no-any-return]
-    return reeds_shepp_distance_numpy(start, goal, radius)
+    out = _native_distance(start, goal, radius)
+    if out is not None:
+        return out  # type: ignore[no-any-return]
+    r = check_positive(radius, "radius")
+    s = np.atleast_2d(np.asarray(start, dtype=float))
+    g = np.atleast_2d(np.asarray(goal, dtype=float))
+    if s.shape[-1] != 3 or g.shape[-1] != 3:
+        bad = s.shape if s.shape[-1] != 3 else g.shape
+        raise ShapeError("start/goal", (-1, 3), tuple(bad))
+    s, g = np.broadcast_arrays(s, g)
+    out = _native_distance(s, g, r)
+    if out is not None:
+        return out  # type: ignore[no-any-return]
+    return reeds_shepp_distance_numpy(s, g, r)
 
 
 def reeds_shepp_distance_numpy(start: Any, goal: Any, radius: float) -> FloatArray:
