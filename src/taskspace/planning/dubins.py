@@ -43,6 +43,16 @@ from taskspace.planning.se2 import CurvePath, check_pose, to_local
 logger = logging.getLogger(__name__)
 
 FloatArray = npt.NDArray[np.float64]
+BoolArray = npt.NDArray[np.bool_]
+
+#: The six Dubins words, in the order of the rows returned by :func:`dubins_word_lengths`.
+DUBINS_WORDS: tuple[str, ...] = ("LSL", "RSR", "LSR", "RSL", "RLR", "LRL")
+
+#: Segment letters of every word (the ``word`` of its :class:`CurvePath`).
+_LETTERS: tuple[tuple[str, ...], ...] = tuple(tuple(w) for w in DUBINS_WORDS)
+
+_TWO_PI = 2.0 * np.pi
+_SNAP = 1e-10
 
 
 # The compiled planning kernel's functions, bound at the first query (or stand-ins returning
@@ -73,18 +83,6 @@ def _first_distance(*args: Any) -> Any:
 
 
 _native_distance: Callable[..., Any] = _first_distance
-
-
-BoolArray = npt.NDArray[np.bool_]
-
-#: The six Dubins words, in the order of the rows returned by :func:`dubins_word_lengths`.
-DUBINS_WORDS: tuple[str, ...] = ("LSL", "RSR", "LSR", "RSL", "RLR", "LRL")
-
-#: Segment letters of every word (the ``word`` of its :class:`CurvePath`).
-_LETTERS: tuple[tuple[str, ...], ...] = tuple(tuple(w) for w in DUBINS_WORDS)
-
-_TWO_PI = 2.0 * np.pi
-_SNAP = 1e-10
 
 
 def _mod2pi(a: FloatArray) -> FloatArray:

@@ -47,6 +47,11 @@ from taskspace.planning.se2 import CurvePath, check_pose, to_local
 logger = logging.getLogger(__name__)
 
 FloatArray = npt.NDArray[np.float64]
+BoolArray = npt.NDArray[np.bool_]
+_Triple = tuple[FloatArray, FloatArray, FloatArray, BoolArray]
+
+_ZERO = 1e-10
+_HALF_PI = 0.5 * np.pi
 
 
 # The compiled planning kernel's functions, bound at the first query (or stand-ins returning
@@ -77,13 +82,6 @@ def _first_distance(*args: Any) -> Any:
 
 
 _native_distance: Callable[..., Any] = _first_distance
-
-
-BoolArray = npt.NDArray[np.bool_]
-_Triple = tuple[FloatArray, FloatArray, FloatArray, BoolArray]
-
-_ZERO = 1e-10
-_HALF_PI = 0.5 * np.pi
 
 
 def _mod2pi(a: FloatArray) -> FloatArray:
