@@ -1,4 +1,12 @@
-"""2-D planning suite: Dubins / Reeds-Shepp queries, grid search, kinodynamic RRT parking."""
+"""2-D planning suite: Dubins / Reeds-Shepp queries, grid search, kinodynamic RRT parking.
+
+The Dubins and Reeds-Shepp distance rows compare with OMPL's ``DubinsStateSpace`` and
+``ReedsSheppStateSpace`` in the same run (benchmarks/peers/ompl_curves.py in .venv-peers/ompl):
+rounds alternate our loops over 2,000 queries (three passes) with the peer's loops over the
+same queries (three passes, in its environment), one ``distance`` call per query from Python
+on both sides; a sample is the mean time per query of a block of 200 consecutive queries
+(short enough to run between two preemptions of this loaded 2-core machine).
+"""
 
 from __future__ import annotations
 
@@ -6,7 +14,7 @@ import time
 
 import numpy as np
 
-from benchmarks.common import Row, Timing, measure
+from benchmarks.common import Row, Timing, measure, run_peer
 from taskspace.planning.car import CarModel
 from taskspace.planning.dubins import dubins_distance, dubins_shortest
 from taskspace.planning.grid import OccupancyGrid, grid_search, wavefront
@@ -45,8 +53,102 @@ def _per_call(fn, n: int, repeat: int) -> Timing:
     return Timing.from_samples(samples)
 
 
-def run(quick: bool) -> list[Row]:
+OMPL_SPACE = {"dubins": "DubinsStateSpace", "reeds_shepp": "ReedsSheppStateSpace"}
+
+
+BLOCK = 200  # queries per timing sample: short enough to run between two preemptions
+
+
+def _block_times(fn, sl: list, gl: list) -> list[float]:  # type: ignore[no-untyped-def, type-arg]
+    """Mean time per query of each block of BLOCK consecutive queries [s]."""
+    clock = time.perf_counter
+    out = []
+    for lo in range(0, len(sl), BLOCK):
+        hi = min(lo + BLOCK, len(sl))
+        t0 = clock()
+        for i in range(lo, hi):
+            fn(sl[i], gl[i], 1.0)
+        out.append((clock() - t0) / (hi - lo))
+    return out
+
+
+def curves_against_ompl(quick: bool) -> list[Row]:
+    """Single-query Dubins / Reeds-Shepp distance (and shortest path) against OMPL, same run."""
+    n = 2000
+    rounds = 2 if quick else 5
+    S, G = curve_queries(n)  # the queries of ompl_curves.queries(n)
+    sl = [tuple(q) for q in S.tolist()]
+    gl = [tuple(q) for q in G.tolist()]
+    funcs = {
+        "dubins": (dubins_distance, dubins_shortest),
+        "reeds_shepp": (reeds_shepp_distance, reeds_shepp_shortest),
+    }
+    ours: dict[tuple[str, str], list[float]] = {}
+    peer: dict[tuple[str, str], list[float]] = {}
+    sums: dict[str, float] = {}
+    note = ""
+    for _ in range(rounds):
+        for kind, (dist, shortest) in funcs.items():
+            for _ in range(3):
+                ours.setdefault((kind, "distance"), []).extend(_block_times(dist, sl, gl))
+                ours.setdefault((kind, "shortest"), []).extend(_block_times(shortest, sl, gl))
+        try:
+            args = ["--n", str(n), "--repeat", "3", "--block", str(BLOCK)]
+            out = run_peer("ompl", "ompl_curves.py", args)
+        except Exception as exc:  # a failing peer must not kill the suite
+            out, note = None, f"ompl failed: {str(exc)[-300:]}"
+        if out is None:
+            note = note or "peer venv .venv-peers/ompl missing"
+            break
+        for kind in funcs:
+            for variant in ("distance", "set_and_distance"):
+                peer.setdefault((kind, variant), []).extend(out[kind][variant])
+            sums[kind] = float(out[kind]["sum"])
     rows: list[Row] = []
+    for kind, (dist, _) in funcs.items():
+        scene = f"{kind.replace('_', '-')} distance, {n} random queries"
+        ompl = f"ompl {OMPL_SPACE[kind]}.distance (states filled beforehand)"
+        extra: dict[str, float] = {}
+        if kind in sums:
+            mine = float(dist(S, G, 1.0).sum())
+            extra["sum_rel_diff_to_ompl"] = abs(mine - sums[kind]) / sums[kind]
+        ratio_to = ompl if (kind, "distance") in peer else None
+        rows.append(
+            Row(
+                SUITE,
+                scene,
+                f"taskspace {kind}_distance (single query)",
+                Timing.from_samples(ours[(kind, "distance")]),
+                extra,
+                ratio_to=ratio_to,
+                note=note,
+            )
+        )
+        rows.append(
+            Row(
+                SUITE,
+                scene,
+                f"taskspace {kind}_shortest (single query, CurvePath)",
+                Timing.from_samples(ours[(kind, "shortest")]),
+                ratio_to=ratio_to,
+            )
+        )
+        if ratio_to is not None:
+            rows.append(Row(SUITE, scene, ompl, Timing.from_samples(peer[(kind, "distance")])))
+            rows.append(
+                Row(
+                    SUITE,
+                    scene,
+                    f"ompl {OMPL_SPACE[kind]}.distance (filling the states + distance)",
+                    Timing.from_samples(peer[(kind, "set_and_distance")]),
+                    ratio_to=ompl,
+                )
+            )
+    return rows
+
+
+def run(quick: bool) -> list[Row]:
+    rows: list[Row] = curves_against_ompl(quick)
     n_single = 100 if quick else 1000
     S, G = curve_queries(max(n_single, 10000))
     it = iter(range(10**9))

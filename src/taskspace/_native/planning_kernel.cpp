@@ -933,8 +933,12 @@ Eigen::VectorXi tree_nearest(const Eigen::Ref<const RowMatrixXd>& nodes,
 
 }  // namespace
 
+// Dubins and Reeds-Shepp curves (curves.cpp): plain CPython functions added to this module.
+int taskspace_register_curves(PyObject* module);
+
 BOOST_PYTHON_MODULE(_planning_kernel) {
   eigenpy::enableEigenPy();
+  if (taskspace_register_curves(bp::scope().ptr()) < 0) bp::throw_error_already_set();
   bp::scope().attr("PINOCCHIO_VERSION") = std::string(PINOCCHIO_VERSION);
   bp::scope().attr("SOLVED") = kSolved;
   bp::scope().attr("TIME_LIMIT") = kTimeLimit;

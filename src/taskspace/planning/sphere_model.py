@@ -1,0 +1,455 @@
+"""Conservative sphere approximation of a robot's collision geometry (VAMP-style checking).
+
+Vectorized planners (VAMP, Thomason, Kingston and Kavraki, ICRA 2024) check a batch of
+configurations at once against spheres attached to the links instead of the link meshes.
+The approximation must be *conservative*: wherever the robot's geometry is, a sphere must be,
+so that "free" for the spheres implies "free" for the meshes. This module builds such spheres
+from the collision geometry of a ``pin.GeometryModel``, one set per geometry object, expressed
+in the frame of the geometry's parent joint (where forward kinematics puts them).
+
+Method, for one geometry object (a mesh, a convex hull, or a box / cylinder / capsule /
+sphere primitive):
+
+1. **Surface samples.** Every triangle ``(a, b, c)`` of the surface (meshes and convex hulls
+   as coal stores them, primitives triangulated around the shape) is cut into ``m^2`` equal
+   sub-triangles, ``m = ceil(longest edge / h)``, and its grid points
+   ``a + (i (b - a) + j (c - a)) / m`` (``i + j <= m``) are kept: the mesh vertices and
+   points at most ``h`` apart along every sub-triangle edge. Any point of a triangle whose
+   longest edge is ``l`` lies within ``l / sqrt(3)`` of one of its corners (the farthest point
+   from the corners is the circumcentre of an acute triangle, radius ``l / (2 sin C)`` with
+   ``C >= 60 deg`` the largest angle, or the middle of the longest edge), so every surface
+   point lies within ``rho = h / sqrt(3)`` of a sample.
+2. **Interior samples.** The points of a cubic grid of spacing ``g`` (default 1 cm) inside
+   the convex hull of the surface samples are added, so that a tube gets spheres through its
+   middle rather than a ring of spheres around a hollow core. The hull contains the
+   geometry's volume (for a non-convex mesh, more than it).
+3. **Spheres.** The samples are split recursively: starting from one cluster, the cluster
+   whose sphere is the largest is cut in two at the median of its longest bounding-box axis,
+   until there are ``spheres_per_geometry`` clusters (or the clusters are single points).
+   Each cluster's sphere has its bounding-box centre ``c`` and radius
+   ``max_i |p_i - c| + rho`` over its samples ``p_i``.
+4. **Guarantee.** Every sample is inside its cluster's sphere with a margin ``rho``, so every
+   surface point ``x`` (within ``rho`` of some sample ``p``) satisfies
+   ``|x - c| <= |p - c| + rho <= r``: the union of the spheres contains the whole surface, in
+   particular every mesh vertex (proved). Swept-sphere radii of coal shapes are added to the
+   radii. The interior is covered at the grid points with the same margin; between them it
+   is tested, not proved (random points of the convex hulls, Panda and UR5). The tests check
+   the vertices and dense random surface points, in the joint frames and at random
+   configurations through Pinocchio's placements.
+
+The spheres are larger than the geometry by ``rho`` plus the spherical bulge of each
+cluster: :attr:`SphereModel.radii` minus the farthest sample is exactly ``rho``
+(``h = 4 mm``: 2.3 mm). More spheres fit tighter. Primitives: a sphere is kept exactly; a
+cylinder or capsule is replaced by the circumscribed 32-gon prism (and the end spheres of a
+capsule), a box by its 12 triangles; other coal shapes (cones, ellipsoids, planes, height
+fields, octrees) are refused.
+
+:func:`obstacle_signed_distances` and :func:`spheres_hit_obstacles` test the spheres against
+the world's boxes, spheres, cylinders and capsules for a batch of configurations, in NumPy
+(forward kinematics one configuration at a time through Pinocchio): the reference for a
+compiled batched checker (next step, not done here), tested to never call "free" a
+configuration whose meshes touch an obstacle. Robot self-collision is not checked here.
+"""
+
+from __future__ import annotations
+
+import heapq
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import coal
+import numpy as np
+import numpy.typing as npt
+import pinocchio as pin
+
+from taskspace._validation import as_matrix, check_positive
+from taskspace.errors import InvalidInputError, UnknownNameError
+from taskspace.model.world import Obstacle
+
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.int64]
+BoolArray = npt.NDArray[np.bool_]
+
+SUPPORTED_SHAPES = ("mesh (BVHModel)", "Convex", "Box", "Cylinder", "Capsule", "Sphere")
+"""Geometry types :func:`sphere_model` approximates."""
+
+_PRISM_SIDES = 32
+
+
+@dataclass(frozen=True, kw_only=True)
+class SphereModelOptions:
+    """Settings of :func:`sphere_model`.
+
+    Attributes:
+        spheres_per_geometry: number of spheres per geometry object (at most; fewer when a
+            geometry has fewer surface samples), >= 1.
+        surface_spacing: ``h`` [m], the largest sub-triangle edge of the surface samples; the
+            spheres are inflated by ``h / sqrt(3)``.
+        interior_spacing: ``g`` [m], spacing of the interior grid samples.
+    """
+
+    spheres_per_geometry: int = 12
+    surface_spacing: float = 0.004
+    interior_spacing: float = 0.01
+
+
+@dataclass(frozen=True)
+class SphereModel:
+    """Spheres covering the collision geometry, attached to the joints.
+
+    Sphere ``k`` has centre ``centers[k]`` in the frame of joint ``joints[k]`` and radius
+    ``radii[k]``; it belongs to geometry object ``geometries[k]`` of the geometry model (name
+    ``names[k]``). In the world: ``oMi[joints[k]] * centers[k]``.
+
+    Attributes:
+        centers: sphere centres in their joint frames [m], shape ``(M, 3)``.
+        radii: sphere radii [m], shape ``(M,)``.
+        joints: parent joint index of every sphere, shape ``(M,)``.
+        geometries: geometry object index of every sphere, shape ``(M,)``.
+        names: geometry object name of every sphere.
+        covering_radius: ``rho = h / sqrt(3)`` [m], the inflation of every radius.
+    """
+
+    centers: FloatArray
+    radii: FloatArray
+    joints: IntArray
+    geometries: IntArray
+    names: tuple[str, ...]
+    covering_radius: float
+
+    @property
+    def count(self) -> int:
+        """Number of spheres ``M``."""
+        return int(self.radii.shape[0])
+
+    def world_centers(self, data: pin.Data) -> FloatArray:
+        """Sphere centres in the world frame [m], ``(M, 3)``, from ``data.oMi``.
+
+        Args:
+            data: Pinocchio data after ``pin.forwardKinematics`` at the configuration.
+        """
+        out = np.empty_like(self.centers)
+        for j in np.unique(self.joints):
+            sel = self.joints == j
+            m = data.oMi[int(j)]
+            out[sel] = self.centers[sel] @ m.rotation.T + m.translation
+        return out
+
+    def of_geometry(self, name: str) -> tuple[FloatArray, FloatArray]:
+        """Centres (joint frame) and radii of the spheres of geometry object ``name``.
+
+        Raises:
+            UnknownNameError: no sphere covers a geometry of that name.
+        """
+        sel = np.array([n == name for n in self.names], dtype=bool)
+        if not sel.any():
+            raise UnknownNameError("geometry", name, set(self.names))
+        return self.centers[sel], self.radii[sel]
+
+
+def _triangle_samples(tris: FloatArray, spacing: float) -> FloatArray:
+    """Grid points of every triangle ``tris (T, 3, 3)``, sub-triangle edges <= ``spacing``."""
+    edges = np.stack(
+        [
+            np.linalg.norm(tris[:, 1] - tris[:, 0], axis=1),
+            np.linalg.norm(tris[:, 2] - tris[:, 1], axis=1),
+            np.linalg.norm(tris[:, 0] - tris[:, 2], axis=1),
+        ],
+        axis=1,
+    )
+    m_all = np.maximum(np.ceil(edges.max(axis=1) / spacing - 1e-12), 1).astype(int)
+    out = [tris.reshape(-1, 3)]
+    for m in np.unique(m_all):
+        if m == 1:
+            continue
+        sel = tris[m_all == m]
+        i, j = np.meshgrid(np.arange(m + 1), np.arange(m + 1), indexing="ij")
+        keep = (i + j) <= m
+        wi, wj = i[keep] / m, j[keep] / m
+        a, b, c = sel[:, 0], sel[:, 1], sel[:, 2]
+        pts = (
+            a[:, None, :]
+            + wi[None, :, None] * (b - a)[:, None, :]
+            + wj[None, :, None] * (c - a)[:, None, :]
+        )
+        out.append(pts.reshape(-1, 3))
+    return np.concatenate(out)
+
+
+def _prism(radius: float, half_length: float) -> FloatArray:
+    """Triangles of the prism circumscribed about a z-axis cylinder (contains it)."""
+    rc = radius / math.cos(math.pi / _PRISM_SIDES)
+    ang = 2 * math.pi * np.arange(_PRISM_SIDES) / _PRISM_SIDES
+    ring = np.stack([rc * np.cos(ang), rc * np.sin(ang), np.zeros_like(ang)], axis=1)
+    ct, cb = np.array([0.0, 0.0, half_length]), np.array([0.0, 0.0, -half_length])
+    top, bot = ring + ct, ring + cb
+    tris = []
+    for k in range(_PRISM_SIDES):
+        n = (k + 1) % _PRISM_SIDES
+        tris += [(bot[k], bot[n], top[n]), (bot[k], top[n], top[k]), (ct, top[k], top[n])]
+        tris += [(cb, bot[n], bot[k])]
+    return np.asarray(tris, dtype=float)
+
+
+def _box(half: FloatArray) -> FloatArray:
+    corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
+    v = corners * half
+    faces = [
+        (0, 1, 3, 2),
+        (4, 6, 7, 5),
+        (0, 4, 5, 1),
+        (2, 3, 7, 6),
+        (0, 2, 6, 4),
+        (1, 5, 7, 3),
+    ]
+    return np.asarray(
+        [tri for a, b, c, d in faces for tri in ((v[a], v[b], v[c]), (v[a], v[c], v[d]))]
+    )
+
+
+def surface_triangles(geometry: coal.CollisionGeometry, name: str = "geometry") -> FloatArray:
+    """Triangles ``(T, 3, 3)`` covering the surface of a coal geometry, in its own frame [m].
+
+    Meshes and convex hulls: their triangles. Box: its 12 triangles. Cylinder and capsule:
+    the circumscribed 32-gon prism (it contains the cylinder; a capsule's end spheres are
+    added separately by :func:`sphere_model`). Sphere: none (kept as a sphere).
+
+    Raises:
+        InvalidInputError: another shape type (the message lists the supported ones).
+    """
+    if isinstance(geometry, coal.BVHModelBase):
+        v = np.asarray(geometry.vertices(), dtype=float)
+        idx = [geometry.tri_indices(i) for i in range(geometry.num_tris)]
+        return v[np.array([[t[0], t[1], t[2]] for t in idx], dtype=int)].reshape(-1, 3, 3)
+    if isinstance(geometry, coal.ConvexBase):
+        v = np.asarray(geometry.points(), dtype=float)
+        idx = [geometry.polygons(i) for i in range(geometry.num_polygons)]
+        tris = []
+        for p in idx:  # fan triangulation of each polygon
+            k = [p[i] for i in range(p.size())]
+            tris += [(k[0], k[i], k[i + 1]) for i in range(1, len(k) - 1)]
+        return v[np.array(tris, dtype=int)].reshape(-1, 3, 3)
+    if isinstance(geometry, coal.Box):
+        return _box(np.asarray(geometry.halfSide, dtype=float))
+    if isinstance(geometry, (coal.Cylinder, coal.Capsule)):
+        return _prism(float(geometry.radius), float(geometry.halfLength))
+    if isinstance(geometry, coal.Sphere):
+        return np.zeros((0, 3, 3))
+    raise InvalidInputError(
+        f"geometry '{name}' is a {type(geometry).__name__}; sphere models support: "
+        f"{', '.join(SUPPORTED_SHAPES)}"
+    )
+
+
+def interior_samples(points: FloatArray, spacing: float) -> FloatArray:
+    """Points of a cubic grid of ``spacing`` [m] inside the convex hull of ``points (n, 3)``.
+
+    Empty when the points span no volume (a flat or degenerate geometry).
+    """
+    from scipy.spatial import ConvexHull, QhullError
+
+    try:
+        hull = ConvexHull(points)
+    except (QhullError, ValueError):
+        return np.zeros((0, 3))
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    axes = [np.arange(lo[k] + 0.5 * spacing, hi[k], spacing) for k in range(3)]
+    if any(a.size == 0 for a in axes):
+        return np.zeros((0, 3))
+    grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+    eq = hull.equations  # n . x + d <= 0 inside
+    inside = np.all(grid @ eq[:, :3].T + eq[:, 3] <= 0.0, axis=1)
+    return np.asarray(grid[inside], dtype=float)
+
+
+def fit_spheres(points: FloatArray, count: int, margin: float) -> tuple[FloatArray, FloatArray]:
+    """Spheres containing every point with a margin, by recursive median splits.
+
+    The cluster with the largest sphere is cut at the median of its longest bounding-box axis
+    until there are ``count`` clusters; each sphere is centred on its cluster's bounding box
+    with radius ``max |p - c| + margin``.
+
+    Args:
+        points: ``(n, 3)`` points [m], n >= 1.
+        count: number of spheres (at most ``n``), >= 1.
+        margin: added to every radius [m], >= 0.
+
+    Returns:
+        ``(centers (k, 3), radii (k,))`` with ``k = min(count, n)``.
+    """
+
+    def sphere(p: FloatArray) -> tuple[FloatArray, float]:
+        c = 0.5 * (p.min(axis=0) + p.max(axis=0))
+        e = p - c
+        return c, float(np.sqrt(np.einsum("ij,ij->i", e, e).max()))
+
+    heap: list[tuple[float, int, FloatArray, FloatArray]] = []
+    c0, r0 = sphere(points)
+    heap.append((-r0, 0, c0, points))
+    serial = 1
+    while len(heap) < count:
+        neg_r, _, _, p = heap[0]
+        if p.shape[0] < 2 or neg_r == 0.0:
+            break
+        heapq.heappop(heap)
+        axis = int(np.argmax(p.max(axis=0) - p.min(axis=0)))
+        half = p.shape[0] // 2
+        order = np.argpartition(p[:, axis], half)
+        for part in (p[order[:half]], p[order[half:]]):
+            cp, rp = sphere(part)
+            heapq.heappush(heap, (-rp, serial, cp, part))
+            serial += 1
+    centers = np.array([h[2] for h in heap])
+    radii = np.array([-h[0] + margin for h in heap])
+    return centers, radii
+
+
+def sphere_model(
+    collision_model: pin.GeometryModel,
+    geometries: list[int] | None = None,
+    *,
+    options: SphereModelOptions | None = None,
+) -> SphereModel:
+    """Conservative spheres for geometry objects of ``collision_model`` (module docstring).
+
+    Args:
+        collision_model: the geometry model (e.g. ``robot.collision_model``).
+        geometries: indices of the geometry objects to approximate; default all of them (for
+            a :class:`~taskspace.model.robot.Robot`, pass
+            ``range(robot.robot_geometry_count)`` to leave the obstacles out).
+        options: :class:`SphereModelOptions`.
+
+    Returns:
+        The :class:`SphereModel`, spheres in the parent joint frames.
+
+    Raises:
+        InvalidInputError: an unsupported shape, an index out of range, or bad options.
+    """
+    opts = options or SphereModelOptions()
+    if opts.spheres_per_geometry < 1 or isinstance(opts.spheres_per_geometry, bool):
+        raise InvalidInputError(
+            f"spheres_per_geometry must be an integer >= 1, got {opts.spheres_per_geometry!r}"
+        )
+    h = check_positive(opts.surface_spacing, "surface_spacing")
+    g = check_positive(opts.interior_spacing, "interior_spacing")
+    rho = h / math.sqrt(3.0)
+    objs = collision_model.geometryObjects
+    indices = list(range(len(objs))) if geometries is None else [int(i) for i in geometries]
+    centers, radii, joints, geoms, names = [], [], [], [], []
+    for gi in indices:
+        if not 0 <= gi < len(objs):
+            raise InvalidInputError(
+                f"geometry index {gi} out of range: the model has {len(objs)} objects"
+            )
+        obj = objs[gi]
+        geom = obj.geometry
+        placement = obj.placement  # geometry frame in the parent joint frame
+        swept = float(geom.getSweptSphereRadius()) if hasattr(geom, "getSweptSphereRadius") else 0.0
+        local_c: list[FloatArray] = []
+        local_r: list[float] = []
+        if isinstance(geom, coal.Sphere):
+            local_c.append(np.zeros(3))
+            local_r.append(float(geom.radius))
+        else:
+            tris = surface_triangles(geom, obj.name)
+            pts = _triangle_samples(tris, h)
+            # the hull of the triangle corners is the hull of all the surface samples
+            pts = np.concatenate([pts, interior_samples(tris.reshape(-1, 3), g)])
+            c, r = fit_spheres(pts, opts.spheres_per_geometry, rho)
+            local_c += list(c)
+            local_r += list(r)
+            if isinstance(geom, coal.Capsule):  # the end caps
+                for z in (-geom.halfLength, geom.halfLength):
+                    local_c.append(np.array([0.0, 0.0, float(z)]))
+                    local_r.append(float(geom.radius))
+        for c_loc, r_loc in zip(local_c, local_r):
+            centers.append(placement.rotation @ c_loc + placement.translation)
+            radii.append(r_loc + swept)
+            joints.append(obj.parentJoint)
+            geoms.append(gi)
+            names.append(obj.name)
+    return SphereModel(
+        centers=np.asarray(centers, dtype=float).reshape(-1, 3),
+        radii=np.asarray(radii, dtype=float),
+        joints=np.asarray(joints, dtype=np.int64),
+        geometries=np.asarray(geoms, dtype=np.int64),
+        names=tuple(names),
+        covering_radius=rho,
+    )
+
+
+OBSTACLE_SHAPES = ("Box", "Sphere", "Cylinder", "Capsule")
+"""Obstacle geometry types :func:`obstacle_signed_distances` handles."""
+
+
+def _point_shape_distance(points: FloatArray, geometry: coal.CollisionGeometry, name: str) -> Any:
+    """Signed distance [m] from points ``(n, 3)`` (shape frame) to a primitive (< 0 inside)."""
+    if isinstance(geometry, coal.Sphere):
+        return np.linalg.norm(points, axis=1) - float(geometry.radius)
+    if isinstance(geometry, coal.Box):
+        q = np.abs(points) - np.asarray(geometry.halfSide, dtype=float)
+        outside = np.linalg.norm(np.maximum(q, 0.0), axis=1)
+        return outside + np.minimum(q.max(axis=1), 0.0)
+    if isinstance(geometry, coal.Cylinder):
+        d_rad = np.hypot(points[:, 0], points[:, 1]) - float(geometry.radius)
+        d_ax = np.abs(points[:, 2]) - float(geometry.halfLength)
+        outside = np.hypot(np.maximum(d_rad, 0.0), np.maximum(d_ax, 0.0))
+        return outside + np.minimum(np.maximum(d_rad, d_ax), 0.0)
+    if isinstance(geometry, coal.Capsule):
+        hl = float(geometry.halfLength)
+        z = np.clip(points[:, 2], -hl, hl)
+        seg = np.stack([np.zeros_like(z), np.zeros_like(z), z], axis=1)
+        return np.linalg.norm(points - seg, axis=1) - float(geometry.radius)
+    raise InvalidInputError(
+        f"obstacle '{name}' is a {type(geometry).__name__}; the sphere check handles: "
+        f"{', '.join(OBSTACLE_SHAPES)}"
+    )
+
+
+def obstacle_signed_distances(
+    spheres: SphereModel, model: pin.Model, obstacles: Sequence[Obstacle], qs: Any
+) -> FloatArray:
+    """Least signed distance between the spheres and the obstacles, per configuration.
+
+    ``min over spheres k and obstacles o of sd_o(oMi[joint_k] * c_k) - r_k`` with ``sd_o``
+    the exact signed distance from a point to obstacle ``o`` (box, sphere, cylinder,
+    capsule): negative when some sphere penetrates some obstacle.
+
+    Args:
+        spheres: the robot's :class:`SphereModel`.
+        model: the Pinocchio model the spheres' joint indices refer to.
+        obstacles: the obstacles (e.g. ``robot.world.obstacles``).
+        qs: configurations ``(B, nq)``.
+
+    Returns:
+        Distances ``(B,)`` [m] (``inf`` without obstacles or spheres).
+
+    Raises:
+        InvalidInputError: an obstacle of another shape (the message lists the handled ones).
+    """
+    q_all = as_matrix(qs, (None, model.nq), "qs")
+    data = model.createData()
+    out = np.full(q_all.shape[0], np.inf)
+    for b, q in enumerate(q_all):
+        pin.forwardKinematics(model, data, q)
+        centers = spheres.world_centers(data)
+        for obs in obstacles:
+            m = obs.placement
+            local = (centers - m.translation) @ m.rotation  # R^T (c - t), row-wise
+            d = _point_shape_distance(local, obs.geometry, obs.name) - spheres.radii
+            if d.size:
+                out[b] = min(out[b], float(d.min()))
+    return out
+
+
+def spheres_hit_obstacles(
+    spheres: SphereModel, model: pin.Model, obstacles: Sequence[Obstacle], qs: Any
+) -> BoolArray:
+    """Whether some sphere touches some obstacle, per configuration ``(B,)``.
+
+    Conservative: ``False`` implies that the geometry the spheres cover is free of the
+    obstacles (:func:`obstacle_signed_distances` > 0).
+    """
+    return np.asarray(obstacle_signed_distances(spheres, model, obstacles, qs) <= 0.0)
