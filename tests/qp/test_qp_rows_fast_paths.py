@@ -198,3 +198,30 @@ def test_posture_with_a_continuous_joint_keeps_the_lie_group_difference() -> Non
     angle = math.atan2(q[wheel + 1], q[wheel]) - math.atan2(target[wheel + 1], target[wheel])
     assert e[1] == pytest.approx(math.remainder(angle, 2 * math.pi), abs=1e-12)
     assert e[0] == q[robot.model.joints[robot.joint_id("arm_1_joint")].idx_q] - target[1]
+
+
+def test_compiled_step_result_fields_and_residuals() -> None:
+    from taskspace._native import ik_kernel
+    from taskspace.ik import DifferentialIK, DifferentialIKOptions
+    from taskspace.qp.result import QPStatus
+
+    if ik_kernel() is None:
+        pytest.skip("compiled kernel not built")
+    robot = load_robot("panda")
+    state = robot.state(robot.q_default)
+    tcp = Task(F.FramePose(robot, "panda_hand_tcp"), gain=0.5)
+    tcp.set_target_from_state(state)
+    tcp.set_target(pin.SE3(tcp.target.rotation, tcp.target.translation + np.array([0.05, 0, 0])))
+    limits = [JointPositionLimits(robot), JointVelocityLimits(robot)]
+    for residuals in (False, True):
+        options = DifferentialIKOptions(native_residuals=residuals)
+        result = DifferentialIK(robot, [tcp], limits, options=options).solve(state, 0.01)
+        qp = result.qp
+        assert qp is result.qp  # made once, then kept (a later qp.kkt = ... sticks)
+        assert qp.backend == "native" and qp.success and qp.x is result.dq
+        assert qp.status in (QPStatus.UNCONSTRAINED, QPStatus.SOLVED)
+        np.testing.assert_array_equal(result.velocity, result.dq / 0.01)
+        assert math.isfinite(qp.objective)
+        assert math.isfinite(qp.kkt.dual) is residuals
+        if residuals:
+            assert qp.kkt.dual < 1e-9 and qp.kkt.primal < 1e-12

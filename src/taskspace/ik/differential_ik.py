@@ -18,6 +18,7 @@ import threading
 import time
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
@@ -38,6 +39,8 @@ from taskspace.tasks import Task
 
 _perf_counter = time.perf_counter
 _empty = np.empty
+_SOLVED = QPStatus.SOLVED
+_UNCONSTRAINED = QPStatus.UNCONSTRAINED
 
 
 class IKStatus(enum.Enum):
@@ -55,22 +58,22 @@ class IKStepResult:
         success: the QP was solved with every hard constraint satisfied.
         status: see :class:`IKStatus`.
         dq: the step (tangent vector, size nv) [rad, m].
-        qp: the QP result (status, backend, iterations, culprits when relaxed).
         culprits: constraints at fault when the hard constraints conflict.
         build_time, solve_time: wall times [s].
 
-    ``velocity`` is ``dq / dt`` (a property: computed on first access when the solver gave
-    ``dt``). One result is made at every step: the class has ``__slots__`` and does no work
-    beyond storing its fields.
+    ``velocity`` (``dq / dt``) and ``qp`` (the QP result) are properties: a solver may give
+    ``dt`` and the QP result's fields instead, and they are then made on first access. One
+    result is made at every step: the class has ``__slots__`` and does no work beyond
+    storing its fields.
     """
 
     __slots__ = (
         "_dt",
+        "_qp",
         "_velocity",
         "build_time",
         "culprits",
         "dq",
-        "qp",
         "solve_time",
         "status",
         "success",
@@ -82,7 +85,7 @@ class IKStepResult:
         status: IKStatus,
         dq: FloatArray,
         velocity: FloatArray | None,
-        qp: QPResult,
+        qp: QPResult | tuple[Any, ...],
         culprits: list[str] | None = None,
         build_time: float = 0.0,
         solve_time: float = 0.0,
@@ -96,7 +99,7 @@ class IKStepResult:
         self.dq = dq
         self._velocity = velocity
         self._dt = dt
-        self.qp = qp
+        self._qp = qp
         self.culprits = [] if culprits is None else culprits
         self.build_time = build_time
         self.solve_time = solve_time
@@ -114,6 +117,18 @@ class IKStepResult:
     @velocity.setter
     def velocity(self, value: FloatArray) -> None:
         self._velocity = value
+
+    @property
+    def qp(self) -> QPResult:
+        """The QP result (status, backend, iterations, KKT residuals, culprits when relaxed)."""
+        qp = self._qp
+        if type(qp) is tuple:  # the fields of a QPResult, given by the compiled path
+            qp = self._qp = QPResult(*qp)
+        return qp  # type: ignore[return-value]
+
+    @qp.setter
+    def qp(self, value: QPResult) -> None:
+        self._qp = value
 
     def __repr__(self) -> str:
         return (
@@ -324,16 +339,18 @@ class DifferentialIK:
         if out is None:
             return None
         status, iterations, objective, build_time, qp_time = out
-        qp = QPResult(
+        fields = (
             True,
-            QPStatus.UNCONSTRAINED if status == 0 else QPStatus.SOLVED,
+            _UNCONSTRAINED if status == 0 else _SOLVED,
             dq,
             objective,
             iterations,
             _perf_counter() - t0,
             "native",
         )
+        qp: QPResult | tuple[Any, ...] = fields  # made on first access of result.qp
         if self.options.native_residuals:
+            qp = QPResult(*fields)
             qp.kkt = box_kkt_residuals(self._build(state, dt), dq)
         return IKStepResult(True, IKStatus.SOLVED, dq, None, qp, None, build_time, qp_time, dt=dt)
 
