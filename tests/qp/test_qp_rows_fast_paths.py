@@ -225,3 +225,15 @@ def test_compiled_step_result_fields_and_residuals() -> None:
         assert math.isfinite(qp.kkt.dual) is residuals
         if residuals:
             assert qp.kkt.dual < 1e-9 and qp.kkt.primal < 1e-12
+
+
+def test_box_stack_passes_boxes_of_another_size_on_as_before() -> None:
+    robot = load_robot("panda")
+    state = robot.state(robot.q_default)
+    hard, soft = _Box(robot, "hard", hard=True), _Box(robot, "soft", hard=False)
+    hard.box = Box(-np.ones(3), np.ones(3))  # a user box of the wrong size
+    soft.box = Box(np.array([-2.0, 0.5, -0.5]), np.array([0.5, 3.0, 0.5]))
+    lb, ub, _ = BoxStack([hard, soft], robot.nv).fill(state, 0.01)
+    ref_lb, ref_ub = _reference_box([hard.box], [soft.box], 3)
+    np.testing.assert_array_equal(lb, ref_lb)  # what the QP then refuses by its shapes
+    np.testing.assert_array_equal(ub, ref_ub)

@@ -325,8 +325,11 @@ class BoxStack:
             if blocks is not self._blocks:
                 blocks.append(self._blocks[i])
         if len(hard) == 1 and len(soft) == 1:
-            lb = np.maximum(hard[0][0], soft[0][0], out=self._lb)
-            ub = np.minimum(hard[0][1], soft[0][1], out=self._ub)
+            try:
+                lb = np.maximum(hard[0][0], soft[0][0], out=self._lb)
+                ub = np.minimum(hard[0][1], soft[0][1], out=self._ub)
+            except ValueError:  # boxes not of size nv: as combine_boxes treats them
+                return (*combine_boxes(hard, soft, nv), blocks)
             # no conflict anywhere (a conflict of the hard box alone is one here too)
             if np.less_equal(lb, ub).all():
                 return lb, ub, blocks
