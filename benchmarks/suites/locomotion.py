@@ -16,12 +16,20 @@ Scenes:
 
 Peers: ``drake`` (``.venv-peers/drake``): Drake's own compass gait finds its fixed point by
 Newton on its return map from the same start, and maps ours one step (the same fixed point
-to 1e-6 is the target). ``qpmpc`` and the TSID walking loop are not wired.
+to 1e-6 is the target). ``tsid`` (``.venv-peers/tsid``): benchmarks/peers/tsid_walking.py
+tracks the same CoM, swing-foot and pelvis references of the G1 walk
+(:func:`~taskspace.locomotion.walking_reference`) with TSID's formulation and its contact
+transitions; its time per control step beside ours (target: ours <= 0.5x TSID) and the
+tracking errors of both (TSID integrates its own accelerations, as its demos do; ours is the
+rigid-contact simulation). ``qpmpc`` is not wired.
 """
 
 from __future__ import annotations
 
+import json
+import tempfile
 import time
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -34,6 +42,7 @@ from taskspace.locomotion import (
     PreviewController,
     RaibertOptions,
     StepTiming,
+    WalkingOptions,
     ZmpMpc,
     find_limit_cycle,
     plan_from_robot,
@@ -41,6 +50,7 @@ from taskspace.locomotion import (
     straight_walk,
     support_polygons,
     walk,
+    walking_reference,
     zmp_reference,
 )
 from taskspace.model import Robot
@@ -256,7 +266,98 @@ def run(quick: bool) -> list[Row]:
                 "real_time_factor": float(walked.times[-1]) / wall,
                 "min_zmp_margin_mm": 1000 * float(walked.zmp_margin.min()),
                 "cone_violation_N": walked.cone_violation,
+                **_tracking_errors(robot, plan_g1, walked),
             },
+            ratio_to="tsid (same references)",
+            note="QP includes joint-limit rows (TSID's loop has none); rigid-contact simulation",
         )
     )
+    rows.append(_tsid_walking_row(robot, plan_g1, n_steps, ct))
     return rows
+
+
+def _tracking_errors(robot: Robot, plan: Any, walked: Any) -> dict[str, float]:
+    """CoM and swing-foot tracking errors of our simulated walk against its references."""
+    opts = WalkingOptions()
+    ref = walking_reference(robot, plan, opts)
+    com_err = np.linalg.norm(walked.com - walked.com_reference, axis=1)
+    foot_err = []
+    for side, frame in zip(("left", "right"), opts.feet):
+        swinging = walked.wrenches[side][:, 2] == 0.0
+        for k in np.flatnonzero(swinging):
+            g = min(round(walked.times[k] / opts.dt), len(ref.times) - 1)
+            if not ref.swinging[side][g]:
+                continue  # the one-sample phase-boundary offset of the simulated phases
+            p = robot.frame_placement(walked.q[k], frame).translation
+            foot_err.append(float(np.linalg.norm(p - ref.foot_position[side][g])))
+    return {
+        "com_error_max_mm": 1000 * float(com_err.max()),
+        "com_error_rms_mm": 1000 * float(np.sqrt(np.mean(com_err**2))),
+        "swing_foot_error_max_mm": 1000 * max(foot_err, default=0.0),
+    }
+
+
+def _tsid_walking_row(robot: Robot, plan: Any, n_steps: int, ours_us: Any) -> Row:
+    """TSID's formulation tracking the same references (benchmarks/peers/tsid_walking.py)."""
+    opts = WalkingOptions()
+    ref = walking_reference(robot, plan, opts)
+    weight = robot.mass * float(np.linalg.norm(robot.model.gravity.linear))
+    spec = {
+        "dt": opts.dt,
+        "feet": list(opts.feet),
+        "pelvis": opts.pelvis,
+        "sole_half_length": opts.sole_half_length,
+        "sole_half_width": opts.sole_half_width,
+        "friction": opts.friction,
+        "min_force": opts.min_force,
+        "max_force": 10.0 * weight,
+        "com_kp": opts.com_kp,
+        "foot_kp": opts.foot_kp,
+        "pelvis_kp": opts.pelvis_kp,
+        "posture_kp": opts.posture_kp,
+        "foot_weight": opts.foot_weight,
+        "pelvis_weight": opts.pelvis_weight,
+        "posture_weight": opts.posture_weight,
+        "transition_time": opts.transition_time,
+        "phases": ref.phases,
+    }
+    arrays = {
+        "times": ref.times,
+        "com": ref.com,
+        "com_velocity": ref.com_velocity,
+        "com_acceleration": ref.com_acceleration,
+        "pelvis_rotation": ref.pelvis_rotation,
+        "q0": ref.q0,
+    }
+    for side in ("left", "right"):
+        arrays[f"{side}_position"] = ref.foot_position[side]
+        arrays[f"{side}_velocity"] = ref.foot_velocity[side]
+        arrays[f"{side}_acceleration"] = ref.foot_acceleration[side]
+        arrays[f"{side}_rotation"] = ref.foot_rotation[side]
+    method = "tsid (same references)"
+    scene = f"g1_walk_{n_steps}steps"
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "walk.npz"
+        np.savez(path, spec=json.dumps(spec), **arrays)
+        try:
+            peer = run_peer("tsid", "tsid_walking.py", [str(path)])
+        except RuntimeError as exc:
+            return Row(SUITE, scene, method, None, note=f"peer failed: {exc!s:.300}")
+    if peer is None:
+        return Row(SUITE, scene, method, None, note="peer not installed (make bench-peers)")
+    tsid_us = np.asarray(peer["times"]) * 1e6
+    return Row(
+        SUITE,
+        scene,
+        method,
+        Timing.from_samples(np.asarray(peer["times"])),
+        extra={
+            "failed_steps": peer["failed_steps"],
+            "com_error_max_mm": 1000 * peer["com_error_max_m"],
+            "com_error_rms_mm": 1000 * peer["com_error_rms_m"],
+            "swing_foot_error_max_mm": 1000 * peer["swing_foot_error_max_m"],
+            "ours_over_tsid_median": float(np.median(ours_us) / np.median(tsid_us)),
+            "target_ratio": 0.5,
+        },
+        note=peer["note"],
+    )
