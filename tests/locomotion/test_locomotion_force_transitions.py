@@ -12,12 +12,11 @@ import pytest
 
 from taskspace import features as F
 from taskspace.constraints import Contact6D
-from taskspace.control import InverseDynamicsOptions, simulate_with_contacts
+from taskspace.control import InverseDynamicsOptions, InverseDynamicsQP, simulate_with_contacts
 from taskspace.errors import InvalidInputError
 from taskspace.locomotion.footsteps import StepTiming
 from taskspace.locomotion.whole_body_walking import (
     WalkingOptions,
-    _TransitionQP,
     plan_from_robot,
     walk,
     walking_reference,
@@ -55,9 +54,11 @@ def test_normal_force_limit_is_validated(robot_loader):
     assert k[-1] == -500.0 and K[-1, 2] == -1.0
 
 
-def test_limit_binds_the_simulated_force_of_a_standing_robot(robot_loader):
+@pytest.mark.parametrize("hierarchical", [False, True], ids=["weighted", "hierarchical"])
+def test_limit_binds_the_simulated_force_of_a_standing_robot(robot_loader, hierarchical):
     """Standing G1: the left foot's limit set below its natural share (about half the weight)
-    caps the simulator's force at the limit; without it the share comes back."""
+    caps the simulator's force at the limit; without it the share comes back. The plain
+    InverseDynamicsQP reads the limit at every step, weighted and hierarchical."""
     robot = robot_loader("g1")
     q0 = robot.q_default
     weight = robot.mass * 9.81
@@ -66,7 +67,8 @@ def test_limit_binds_the_simulated_force_of_a_standing_robot(robot_loader):
     state = robot.state(q0, np.zeros(robot.nv))
     com = Task(F.CenterOfMass(robot), np.asarray(state.com()).copy(), kp=100.0)
     posture = Task(F.JointConfiguration(robot), q0, weight=1e-3, kp=30.0)
-    qp = _TransitionQP(robot, [com, posture], contacts, InverseDynamicsOptions())
+    options = InverseDynamicsOptions(hierarchical=hierarchical)
+    qp = InverseDynamicsQP(robot, [com, posture], contacts, options)
     limit = 0.3 * weight
 
     def control(t, q, v):

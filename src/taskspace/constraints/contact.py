@@ -159,8 +159,8 @@ class Contact:
 
         A contact transition (lift-off, touchdown) lowers it for a while with
         :meth:`set_normal_force_limit`, as TSID's contact transitions lower the contact's
-        maximum normal force: the controller that reads it each step (the locomotion
-        package's walking controller) then ramps the force, while :meth:`cone` keeps
+        maximum normal force: :class:`~taskspace.control.InverseDynamicsQP` reads it at every
+        step (weighted and hierarchical), so the force ramps, while :meth:`cone` keeps
         ``max_force``.
         """
         limit = self.__dict__.get("_limit")

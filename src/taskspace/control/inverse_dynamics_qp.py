@@ -25,6 +25,7 @@ import threading
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import cast
 
 import numpy as np
 import pinocchio as pin
@@ -297,9 +298,14 @@ class InverseDynamicsQP:
         self._cone_C = np.zeros((n_cone, self.n))
         self._cone_l = np.zeros(n_cone)
         r, col = 0, nv
+        # rows -f_n >= -limit that follow Contact.normal_force_limit at every step (contact
+        # transitions: set_normal_force_limit ramps a foot's force down before lift-off)
+        self._limit_rows: list[tuple[int, Contact]] = []
         for (K, k), c in zip(cones, self.contacts):
             self._cone_C[r : r + K.shape[0], col : col + c.force_dim] = K
             self._cone_l[r : r + K.shape[0]] = k
+            if c.max_force_row is not None:
+                self._limit_rows.append((r + c.max_force_row, c))
             r += K.shape[0]
             col += c.force_dim
         weight = pin.computeTotalMass(robot.model) * float(
@@ -515,6 +521,8 @@ class InverseDynamicsQP:
         nv = self.robot.nv
         C, l, u = self._C, self._l, self._u_bound
         n_cone = self._cone_C.shape[0]
+        for row, contact in self._limit_rows:
+            l[row] = -cast(float, contact.normal_force_limit)  # max_force unless lowered
         if self.options.torque_limits and len(self.actuated):
             act = self._act
             C[n_cone:, :nv] = M[act]

@@ -58,7 +58,6 @@ from taskspace.locomotion.support_polygon import SupportPolygon
 from taskspace.locomotion.swing_trajectory import SwingTrajectory
 from taskspace.locomotion.zmp import ContactWrench, zmp_from_wrenches
 from taskspace.locomotion.zmp_reference import zmp_reference
-from taskspace.qp.problem import INF
 from taskspace.tasks import Task
 
 
@@ -272,38 +271,6 @@ def walking_reference(
     )
 
 
-class _TransitionQP(InverseDynamicsQP):
-    """An :class:`InverseDynamicsQP` with contact transitions.
-
-    The max-force rows of its contacts follow their current
-    :attr:`~taskspace.constraints.contact.Contact.normal_force_limit` at every step.
-    """
-
-    def __init__(
-        self,
-        robot: Any,
-        tasks: list[Task],
-        contacts: list[Contact],
-        options: InverseDynamicsOptions,
-    ) -> None:
-        super().__init__(robot, tasks, contacts, options)
-        self._limit_rows: list[tuple[int, Contact]] = []
-        row = 0
-        for c in self.contacts:
-            if c.max_force_row is not None:
-                self._limit_rows.append((row + c.max_force_row, c))
-            row += c.cone()[0].shape[0]
-
-    def _inequalities(
-        self, M: FloatArray, h: FloatArray, Jc: FloatArray
-    ) -> tuple[FloatArray, FloatArray, FloatArray, Any]:
-        C, l, u, blocks = super()._inequalities(M, h, Jc)
-        for row, c in self._limit_rows:
-            limit = c.normal_force_limit
-            l[row] = -INF if limit is None else -limit
-        return C, l, u, blocks
-
-
 @dataclass
 class _ForceRamp:
     """A linear ramp of a contact's normal-force limit.
@@ -445,7 +412,7 @@ def walk(robot: Any, plan: FootstepPlan, options: WalkingOptions | None = None) 
             tasks = [com_task, pelvis_task, posture]
             for s in swing:
                 tasks += [swing_pos[s], swing_rot[s]]
-            controllers[stance] = _TransitionQP(
+            controllers[stance] = InverseDynamicsQP(
                 robot, tasks, [contacts[s] for s in stance], opts.qp
             )
         return controllers[stance]
