@@ -203,3 +203,15 @@ def test_cma_es_population_on_the_batch_executor_matches_serial() -> None:
         parallel = cma_es(task.rollout, np.zeros(2), options, executor=ex)
     assert parallel.mean_returns == serial.mean_returns
     assert np.array_equal(parallel.parameters, serial.parameters)
+
+
+def test_power_update_against_a_hand_computation() -> None:
+    from taskspace.learning.policy_search import power_update
+
+    # Costs S = (1, 2, 3), h = 2: w = exp(-2 (S - 1) / 2) = (1, e^-1, e^-2).
+    eps = np.array([[1.0, 0.0], [0.0, 1.0], [1.0, 1.0]])
+    w = np.array([1.0, np.exp(-1.0), np.exp(-2.0)])
+    expected = (w @ eps) / w.sum()
+    np.testing.assert_allclose(power_update(np.array([-1.0, -2.0, -3.0]), eps, 2.0), expected)
+    # Equal returns: plain average.
+    np.testing.assert_allclose(power_update(np.zeros(3), eps, 2.0), eps.mean(axis=0))
