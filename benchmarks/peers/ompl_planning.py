@@ -14,13 +14,12 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 import time
-from pathlib import Path
 from typing import Any
 
-ROOT = Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(ROOT / "src"))
+from _checkout import use_checkout
+
+ROOT = use_checkout()  # src/ and the built kernels (a fair checker for the peer)
 
 import numpy as np  # noqa: E402
 from ompl import base as ob  # noqa: E402

@@ -30,18 +30,17 @@ from __future__ import annotations
 import json
 import sys
 import time
-from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 import torch
+from _checkout import use_checkout
 from stable_baselines3 import PPO
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.env_util import make_vec_env
 
-ROOT = Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(ROOT / "src"))
+ROOT = use_checkout()  # src/ and the built kernels (a fair checker for the peer)
 
 import taskspace.learning.envs  # noqa: E402, F401  (registers taskspace/Pendulum-v0)
 
