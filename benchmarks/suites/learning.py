@@ -31,8 +31,10 @@ Scenes (built separately from timing):
   theta^T obs > 0``, population 10, sigma 0.5, over 10 seeds (quick: 3): environment steps
   until a candidate first balances a whole 500-step episode, at most 100 rollouts (<= 50,000
   steps), on our cart-pole and on ``CartPole-v1``; median and success count in ``extra``.
-* ``via_point_power`` / ``via_point_pi2``: PoWER and PI^2 on the 2-D DMP via-point task
-  (8 basis functions per dimension, population 10, 4 elites, sigma 20 decaying by 0.93),
+* ``via_point_power`` / ``via_point_pi2`` / ``via_point_cma_es`` / ``via_point_mu_lambda_es``:
+  PoWER, PI^2, CMA-ES (pycma) and the (mu, lambda)-ES on the 2-D DMP via-point task
+  (8 basis functions per dimension, population 10, 4 elites, sigma 20 decaying by 0.93;
+  CMA-ES adapts its own sigma),
   over 5 seeds (quick: 2): rollouts until a rollout first passes within 2 cm of the via point,
   and the via-point error of the final mean parameters after 40 updates.
 * ``dmp_step`` / ``dmp_rollout_1000``: a 3-D discrete DMP (30 basis functions) learned from
@@ -65,6 +67,7 @@ from taskspace.learning import (
     PolicySearchOptions,
     ViaPointTask,
     cma_es,
+    mu_lambda_es,
     pi2,
     power,
 )
@@ -503,12 +506,13 @@ def scene_via_point() -> ViaPointTask:
 
 def _via_point_rows(quick: bool) -> list[Row]:
     rows = []
-    for name, method in (("power", power), ("pi2", pi2)):
+    methods = (("power", power), ("pi2", pi2), ("cma_es", cma_es), ("mu_lambda_es", mu_lambda_es))
+    for name, method in methods:
         firsts: list[int | None] = []
         finals, wall = [], []
         for seed in range(2 if quick else 5):
             task = scene_via_point()
-            state = {"rollouts": 0, "first": None}
+            state: dict[str, Any] = {"rollouts": 0, "first": None}
 
             def rollout(theta: np.ndarray, s: int, task: ViaPointTask = task, state: Any = state):
                 state["rollouts"] += 1
