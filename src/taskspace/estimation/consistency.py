@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 import scipy.stats
 
-from taskspace._validation import FloatArray, as_float_array
+from taskspace._validation import FloatArray, as_float_array, as_scalar, check_int
 from taskspace.errors import InvalidInputError, NotFiniteError, ShapeError, SolverError
 
 
@@ -53,6 +53,9 @@ def chi2_bounds(dof: int, num_runs: int = 1, confidence: float = 0.95) -> tuple[
 
     ``[chi2.ppf((1-c)/2, M dof) / M, chi2.ppf((1+c)/2, M dof) / M]``.
     """
+    dof = check_int(dof, "dof")
+    num_runs = check_int(num_runs, "num_runs")
+    confidence = as_scalar(confidence, "confidence")
     if dof < 1 or num_runs < 1 or not 0.0 < confidence < 1.0:
         raise InvalidInputError(
             f"need dof >= 1, num_runs >= 1, 0 < confidence < 1; got {dof}, {num_runs}, {confidence}"

@@ -30,6 +30,13 @@ def _poses(x: Any) -> FloatArray:
     return arr
 
 
+def _controls(u: Any, k: int) -> FloatArray:
+    arr = as_float_array(u, "u")
+    if arr.shape[-1:] != (k,) or arr.ndim > 2:
+        raise ShapeError("u", (-1, k), tuple(arr.shape))
+    return arr
+
+
 @dataclass(frozen=True, kw_only=True)
 class VelocityMotionModel:
     """Velocity motion model: the robot follows an arc with speed ``v`` and turn rate ``w``.
@@ -62,7 +69,7 @@ class VelocityMotionModel:
     def mean(self, x: Any, u: Any) -> FloatArray:
         """Noise-free successor pose(s) ``f(x, u)``; ``u`` is ``(2,)`` or ``(N, 2)``."""
         X = _poses(x)
-        U = as_float_array(u, "u")
+        U = _controls(u, 2)
         v, w = U[..., 0], U[..., 1]
         th = X[..., 2]
         dt = self.dt
@@ -159,7 +166,7 @@ class OdometryMotionModel:
     def mean(self, x: Any, u: Any) -> FloatArray:
         """Noise-free successor pose(s); ``u`` is ``(3,)`` or ``(N, 3)``."""
         X = _poses(x)
-        U = as_float_array(u, "u")
+        U = _controls(u, 3)
         r1, t, r2 = U[..., 0], U[..., 1], U[..., 2]
         h = X[..., 2] + r1
         return np.stack(

@@ -117,9 +117,9 @@ def continuous_white_noise(
         for i in range(d):
             for j in range(d):
                 p = 2 * d - 1 - i - j
-                Q1[i, j] = (
-                    q * np.power(h, p) / (math.factorial(d - 1 - i) * math.factorial(d - 1 - j) * p)
-                )
+                # 1 / (a! b!) as exp(-lgamma): exact factorials overflow a float for dim > 85.
+                inv_fact = math.exp(-math.lgamma(d - i) - math.lgamma(d - j))
+                Q1[i, j] = q * np.power(h, p) * inv_fact / p
     return _arrange(_finite(Q1, dt), b, bool(order_by_dim))
 
 

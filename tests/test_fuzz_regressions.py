@@ -1,0 +1,42 @@
+"""Defects found by running tests/test_fuzz_api.py with thousands of examples, as explicit cases."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from taskspace.errors import TaskspaceError
+from taskspace.estimation.consistency import chi2_bounds
+from taskspace.estimation.motion_models import VelocityMotionModel
+from taskspace.estimation.process_noise import continuous_white_noise
+
+
+def test_velocity_motion_model_scalar_control_is_refused() -> None:
+    # before: bare IndexError (0-d array indexed)
+    model = VelocityMotionModel(dt=0.1)
+    with pytest.raises(TaskspaceError, match="u"):
+        model.mean(np.array([0.0, 0.0, 0.0]), math.nan)
+
+
+def test_chi2_bounds_bad_arguments() -> None:
+    # before: bare ValueError (truth value of an empty array)
+    with pytest.raises(TaskspaceError, match="dof"):
+        chi2_bounds(np.array([]), None, None)  # type: ignore[arg-type]
+    with pytest.raises(TaskspaceError, match="confidence"):
+        chi2_bounds(2, 1, None)  # type: ignore[arg-type]
+    lo, hi = chi2_bounds(2, 1, 0.95)
+    # reference: chi2(2) is exponential with mean 2, ppf(p) = -2 ln(1 - p)
+    assert lo == pytest.approx(-2 * math.log(1 - 0.025))
+    assert hi == pytest.approx(-2 * math.log(1 - 0.975))
+
+
+def test_continuous_white_noise_large_dim() -> None:
+    # before: bare OverflowError (factorial too large for a float)
+    Q = continuous_white_noise(99, 1.0, 0)
+    assert Q.shape == (99, 99)
+    assert np.all(Q == 0.0)
+    # small dim still matches the closed form [[dt^3/3, dt^2/2], [dt^2/2, dt]] q
+    Q2 = continuous_white_noise(2, 0.5, 2.0)
+    np.testing.assert_allclose(Q2, 2.0 * np.array([[0.5**3 / 3, 0.5**2 / 2], [0.5**2 / 2, 0.5]]))
