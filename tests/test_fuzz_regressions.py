@@ -40,3 +40,13 @@ def test_continuous_white_noise_large_dim() -> None:
     # small dim still matches the closed form [[dt^3/3, dt^2/2], [dt^2/2, dt]] q
     Q2 = continuous_white_noise(2, 0.5, 2.0)
     np.testing.assert_allclose(Q2, 2.0 * np.array([[0.5**3 / 3, 0.5**2 / 2], [0.5**2 / 2, 0.5]]))
+
+
+def test_angle_residual_refuses_none() -> None:
+    # before: bare UFuncTypeError (np.subtract on None with dtype=float64)
+    from taskspace.estimation.angles import angle_residual
+
+    with pytest.raises(TaskspaceError, match="a"):
+        angle_residual(0)(None, None)  # type: ignore[arg-type]
+    d = angle_residual(0)(np.array([3.0, 1.0]), np.array([-3.0, 0.5]))
+    np.testing.assert_allclose(d, [6.0 - 2 * math.pi, 0.5])

@@ -49,7 +49,7 @@ def angle_residual(angular: int | Sequence[int]) -> ResidualFn:
     idx = _indices(angular, "angular")
 
     def residual(a: FloatArray, b: FloatArray) -> FloatArray:
-        d = np.subtract(a, b, dtype=np.float64)
+        d = np.subtract(as_float_array(a, "a"), as_float_array(b, "b"))
         if d.ndim != 1 or any(not -d.shape[0] <= i < d.shape[0] for i in idx):
             raise InvalidInputError(
                 f"angle_residual({idx}) got vectors of shape {d.shape}: the angle indices must "
