@@ -50,3 +50,13 @@ def test_angle_residual_refuses_none() -> None:
         angle_residual(0)(None, None)  # type: ignore[arg-type]
     d = angle_residual(0)(np.array([3.0, 1.0]), np.array([-3.0, 0.5]))
     np.testing.assert_allclose(d, [6.0 - 2 * math.pi, 0.5])
+
+
+def test_angle_mean_zero_d_index() -> None:
+    # before: bare TypeError (iteration over a 0-d array)
+    from taskspace.estimation.angles import angle_mean
+
+    with pytest.raises(TaskspaceError, match="angular"):
+        angle_mean(np.array(0.5))  # type: ignore[arg-type]
+    with pytest.raises(TaskspaceError):
+        angle_mean(np.array(0))(None, None)  # type: ignore[arg-type]

@@ -25,7 +25,10 @@ MeanFn = Callable[[FloatArray, FloatArray], FloatArray]
 
 
 def _indices(angular: int | Sequence[int], name: str) -> list[int]:
-    items = [angular] if isinstance(angular, (int, np.integer)) else angular
+    scalar = isinstance(angular, (int, np.integer)) or (
+        isinstance(angular, np.ndarray) and angular.ndim == 0
+    )
+    items = [angular] if scalar else angular
     if isinstance(items, (str, bytes)) or not isinstance(items, Sequence | np.ndarray):
         raise InvalidInputError(
             f"{name} must be an index or a list of indices of the angles, got {angular!r}"
