@@ -60,3 +60,11 @@ def test_angle_mean_zero_d_index() -> None:
         angle_mean(np.array(0.5))  # type: ignore[arg-type]
     with pytest.raises(TaskspaceError):
         angle_mean(np.array(0))(None, None)  # type: ignore[arg-type]
+
+
+def test_kinematic_car_scalar_control_is_refused() -> None:
+    # before: bare IndexError (0-d array indexed)
+    from taskspace.estimation.motion_models import KinematicCarModel
+
+    with pytest.raises(TaskspaceError, match="u"):
+        KinematicCarModel().mean(np.array([0.0, 0.0, 0.0]), math.nan)

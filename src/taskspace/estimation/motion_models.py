@@ -230,7 +230,7 @@ class KinematicCarModel:
     def mean(self, x: Any, u: Any) -> FloatArray:
         """Noise-free successor pose(s)."""
         X = _poses(x)
-        U = as_float_array(u, "u")
+        U = _controls(u, 2)
         v = U[..., 0]
         d = np.clip(U[..., 1], -self.max_steering, self.max_steering)
         th = X[..., 2]
