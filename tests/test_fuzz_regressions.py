@@ -68,3 +68,14 @@ def test_kinematic_car_scalar_control_is_refused() -> None:
 
     with pytest.raises(TaskspaceError, match="u"):
         KinematicCarModel().mean(np.array([0.0, 0.0, 0.0]), math.nan)
+
+
+def test_discrete_white_noise_large_dim() -> None:
+    # before: bare OverflowError (171! does not fit a float)
+    from taskspace.estimation.process_noise import discrete_white_noise
+
+    Q = discrete_white_noise(172, 1.0, 0)
+    assert Q.shape == (172, 172) and np.all(Q == 0.0)
+    # closed form for dim 2: G = (dt^2/2, dt), Q = var G G^T
+    G = np.array([0.5**2 / 2, 0.5])
+    np.testing.assert_allclose(discrete_white_noise(2, 0.5, 3.0), 3.0 * np.outer(G, G))

@@ -84,7 +84,7 @@ def discrete_white_noise(
     v = check_positive(var, "var", strict=False)
     top = max(d - 1, 2)  # dim 2: the acceleration drives (position, velocity)
     with np.errstate(over="ignore", invalid="ignore"):
-        G = np.array([np.power(h, top - i) / math.factorial(top - i) for i in range(d)])
+        G = np.array([np.power(h, top - i) * math.exp(-math.lgamma(top - i + 1)) for i in range(d)])
         Q1 = v * np.outer(G, G)
     return _arrange(_finite(Q1, dt), b, bool(order_by_dim))
 
