@@ -79,3 +79,27 @@ def test_discrete_white_noise_large_dim() -> None:
     # closed form for dim 2: G = (dt^2/2, dt), Q = var G G^T
     G = np.array([0.5**2 / 2, 0.5])
     np.testing.assert_allclose(discrete_white_noise(2, 0.5, 3.0), 3.0 * np.outer(G, G))
+
+
+# ---- found by the fuzz tests at 800 examples (lead, stop 16) ----------------------------
+
+
+def test_spline_refuses_two_dimensional_times():
+    from taskspace.errors import InvalidInputError
+    from taskspace.trajopt.spline import cubic_spline
+
+    spline = cubic_spline([[0.0, 1.0], [1.0, 0.5], [0.5, 0.0]])
+    for t in (np.empty((0, 1)), np.array([[0.1], [0.2]])):
+        with pytest.raises(InvalidInputError, match="1-D array of times"):
+            spline.evaluate(t)
+    assert spline.evaluate(np.array([0.1, 0.2])).shape == (2, 2)
+    assert spline.evaluate(np.empty(0)).shape == (0, 2)
+
+
+def test_snapshot_size_refuses_a_zero_dimensional_array():
+    from taskspace.errors import InvalidInputError
+    from taskspace.viz.snapshots import check_size
+
+    with pytest.raises(InvalidInputError, match="width, height"):
+        check_size(np.array(0.0))
+    assert check_size(np.array([640, 480])) == (640, 480)

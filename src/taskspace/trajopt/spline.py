@@ -114,6 +114,8 @@ class Spline:
                 ``"left"`` the segment ending there (left limit).
         """
         t = np.atleast_1d(as_float_array(t, "t"))
+        if t.ndim != 1:
+            raise InvalidInputError(f"t must be a time or a 1-D array of times, not {t.shape}")
         check_finite(t, "t")
         max_order = check_count(max_order, "max_order")
         u, idx = self._locate(t, side)

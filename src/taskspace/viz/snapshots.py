@@ -303,7 +303,7 @@ def check_size(size: Any) -> tuple[int, int]:
     """
     if isinstance(size, (str, bytes)) or not isinstance(size, Sequence | np.ndarray):
         raise InvalidInputError(f"size must be (width, height) in pixels, got {size!r}")
-    if len(size) != 2:
+    if (isinstance(size, np.ndarray) and size.ndim != 1) or len(size) != 2:
         raise InvalidInputError(f"size must be (width, height) in pixels, got {size!r}")
     width, height = (check_int(s, "size (width, height) [px]") for s in size)
     if not (16 <= width <= 4096 and 16 <= height <= 4096):
