@@ -250,16 +250,11 @@ def walking_reference(
             rot[foot.side][ks] = _yaw_rotation(foot.yaw) @ foot0[foot.side].rotation
         side = ""
         if phase.kind is PhaseKind.SINGLE_SUPPORT and phase.swing is not None:
-            lift, land = phase.swing
+            land = phase.swing[1]
             side = land.side
-            swing = SwingTrajectory(
-                Footstep(side, lift.x, lift.y, lift.yaw),
-                land,
-                phase.end - phase.start,
-                clearance=opts.clearance,
-                lift_height=ground[side],
-                land_height=ground[side],
-            ).sample(times[ks] - phase.start)
+            swing = _swing_trajectory(phase, opts.clearance, ground[side]).sample(
+                times[ks] - phase.start
+            )
             pos[side][ks] = swing.position
             vel[side][ks] = swing.velocity
             acc[side][ks] = swing.acceleration
@@ -341,6 +336,19 @@ class _PhaseControl:
         for frame, f in res.forces.items():
             self.last_forces[frame] = float(f[2])
         return np.asarray(res.tau)
+
+
+def _swing_trajectory(phase: Any, clearance: float, height: float) -> SwingTrajectory:
+    """The swing foot's trajectory over a single-support ``phase`` (ground at ``height``)."""
+    lift, land = phase.swing
+    return SwingTrajectory(
+        Footstep(land.side, lift.x, lift.y, lift.yaw),
+        land,
+        phase.end - phase.start,
+        clearance=clearance,
+        lift_height=height,
+        land_height=height,
+    )
 
 
 def _yaw_rotation(yaw: float) -> FloatArray:
@@ -431,16 +439,9 @@ def walk(robot: Any, plan: FootstepPlan, options: WalkingOptions | None = None) 
         qp = controller_for(stance_sides)
         swing_traj = None
         if phase.kind is PhaseKind.SINGLE_SUPPORT and phase.swing is not None:
-            lift, land = phase.swing
+            land = phase.swing[1]
             side = land.side
-            swing_traj = SwingTrajectory(
-                Footstep(side, lift.x, lift.y, lift.yaw),
-                land,
-                phase.end - phase.start,
-                clearance=opts.clearance,
-                lift_height=ground[side],
-                land_height=ground[side],
-            )
+            swing_traj = _swing_trajectory(phase, opts.clearance, ground[side])
             swing_rot[side].set_target(_yaw_rotation(land.yaw) @ foot0[side].rotation)
             swing_rot[side].set_reference(np.zeros(3), np.zeros(3))
         # the pelvis turns with the feet (mean heading of the feet at the end of the phase)

@@ -31,6 +31,19 @@ TARGET_LOW = np.array([0.3, -0.4, 0.2])
 TARGET_HIGH = np.array([0.7, 0.4, 0.7])
 
 
+def _limits(robot: Any) -> tuple[int, np.ndarray, np.ndarray, np.ndarray, spaces.Box]:
+    """Robot version, copied position and velocity limits, and the observation space.
+
+    The space bounds (q, tcp, target).
+    """
+    lower = robot.lower_limits.copy()
+    upper = robot.upper_limits.copy()
+    low = np.concatenate([lower, [-2.0] * 3, TARGET_LOW]).astype(np.float32)
+    high = np.concatenate([upper, [2.0] * 3, TARGET_HIGH]).astype(np.float32)
+    box = spaces.Box(low, high, dtype=np.float32)
+    return robot.version, lower, upper, robot.velocity_limits.copy(), box
+
+
 class PandaReachEnv(gym.Env[np.ndarray, np.ndarray]):
     """Panda reaching; registered as ``taskspace/PandaReach-v0`` (100 steps).
 
@@ -66,14 +79,8 @@ class PandaReachEnv(gym.Env[np.ndarray, np.ndarray]):
 
     def _read_limits(self) -> None:
         """Copy the robot's limits and build the observation space; record the version."""
-        robot = self.robot
-        self.model_version = robot.version
-        self.lower = robot.lower_limits.copy()
-        self.upper = robot.upper_limits.copy()
-        self.v_max = robot.velocity_limits.copy()
-        low = np.concatenate([self.lower, [-2.0] * 3, TARGET_LOW]).astype(np.float32)
-        high = np.concatenate([self.upper, [2.0] * 3, TARGET_HIGH]).astype(np.float32)
-        self.observation_space = spaces.Box(low, high, dtype=np.float32)
+        self.model_version, self.lower, self.upper, self.v_max, box = _limits(self.robot)
+        self.observation_space = box
 
     def _check_version(self) -> None:
         """Raise :class:`StaleModelError` if the robot's limits changed since the reset."""
@@ -184,16 +191,8 @@ class PandaReachVectorEnv(RobotVectorEnv):
         self._tcp = self.tcp_position(self.q)
 
     def _read_limits(self) -> None:
-        robot = self.robot
-        self.model_version = robot.version
-        self.lower = robot.lower_limits.copy()
-        self.upper = robot.upper_limits.copy()
-        self.v_max = robot.velocity_limits.copy()
-        low = np.concatenate([self.lower, [-2.0] * 3, TARGET_LOW]).astype(np.float32)
-        high = np.concatenate([self.upper, [2.0] * 3, TARGET_HIGH]).astype(np.float32)
-        self._set_spaces(
-            spaces.Box(-1.0, 1.0, (7,), np.float32), spaces.Box(low, high, dtype=np.float32)
-        )
+        self.model_version, self.lower, self.upper, self.v_max, box = _limits(self.robot)
+        self._set_spaces(spaces.Box(-1.0, 1.0, (7,), np.float32), box)
 
     def _obs(self) -> np.ndarray:
         return np.concatenate([self.q, self._tcp, self.target], axis=1).astype(np.float32)
