@@ -154,6 +154,9 @@ def test_bad_hands_and_placements_are_refused(hand):
         Hand(hand.robot, "palm_link", np.zeros(3), hand.preshape, hand.fingers)
     with pytest.raises(StartsInCollisionError):
         close_hand(hand, sphere_mesh(0.04), pin.SE3(np.eye(3), np.array([0.0, 0.0, 0.05])))
+    for bad in ([np.nan, 0.0, 0.03], [np.inf, 0.0, 0.03], [1e300, 0.0, 0.03]):
+        with pytest.raises(InvalidInputError, match="finite and within"):
+            close_hand(hand, sphere_mesh(0.04), pin.SE3(np.eye(3), np.array(bad)))
     with pytest.raises(InvalidInputError, match="tolerance"):
         close_hand(hand, sphere_mesh(0.04), pin.SE3.Identity(), tolerance=-1.0)
 

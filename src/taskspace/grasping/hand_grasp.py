@@ -42,6 +42,9 @@ class StartsInCollisionError(InvalidInputError):
     """The object's initial placement intersects the open hand."""
 
 
+MAX_REACH = 100.0
+"""Largest distance [m] of an object from the palm that :func:`close_hand` accepts."""
+
 MAX_STEPS = 400
 """Advancement steps per phase (approach, closing of one finger) before giving up."""
 
@@ -393,6 +396,12 @@ def close_hand(
         raise InvalidInputError(f"tolerance must be in (0, 0.05) m, got {tolerance!r}")
     if not isinstance(object_pose, pin.SE3):
         raise InvalidInputError("object_pose must be a pinocchio.SE3 (palm frame)")
+    pose_matrix = np.asarray(object_pose.homogeneous)
+    if not np.all(np.isfinite(pose_matrix)) or np.linalg.norm(pose_matrix[:3, 3]) > MAX_REACH:
+        raise InvalidInputError(
+            f"object_pose must be finite and within {MAX_REACH} m of the palm, got translation "
+            f"{pose_matrix[:3, 3]}"
+        )
     scene = _Scene(hand, mesh)
     scene.update(hand.preshape.copy())
     pin.forwardKinematics(hand.robot.model, scene.data, scene.q)
