@@ -28,6 +28,12 @@ def test_combine_boxes_rules_by_hand() -> None:
     np.testing.assert_allclose(ub, [0.5, 1.0, -1.0, 0.3, -0.5], rtol=0, atol=1e-15)
     lb, ub = combine_boxes([], soft, 5)  # an empty soft box alone: its midpoint
     assert lb[3] == ub[3] == pytest.approx(0.3)
+    # an empty soft box reaching past both sides of the hard box: its midpoint, clipped
+    # (not the hard lower bound, which an early version returned)
+    wide = [Box(np.array([5.0, 9.0]), np.array([-5.0, 2.0]))]
+    lb, ub = combine_boxes([Box(np.array([-1.0, -1.0]), np.array([1.0, 1.0]))], wide, 2)
+    np.testing.assert_array_equal(lb, [0.0, 1.0])
+    np.testing.assert_array_equal(ub, [0.0, 1.0])
     lb, ub = combine_boxes([], [], 2)
     np.testing.assert_array_equal(lb, [-INF, -INF])
     np.testing.assert_array_equal(ub, [INF, INF])

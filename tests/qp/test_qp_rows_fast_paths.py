@@ -47,12 +47,12 @@ def _reference_box(hard: list[Any], soft: list[Any], n: int) -> tuple[np.ndarray
             continue
         lo, hi = np.maximum(hl, sl), np.minimum(hu, su)  # NaN propagates as in numpy
         if lo > hi:
-            if su < hl:  # soft box below the hard one: the hard lower bound (this rule
-                lo = hi = hl  # first: an empty soft box reaching past both sides)
-            elif sl > hu:  # above: the hard upper bound
+            if sl > su:  # empty soft box (even one reaching past both sides of the hard
+                lo = hi = min(max(0.5 * (sl + su), hl), hu)  # box): its midpoint, clipped
+            elif su < hl:  # soft box below the hard one: the hard lower bound
+                lo = hi = hl
+            else:  # above: the hard upper bound
                 lo = hi = hu
-            else:  # empty soft box: its midpoint clipped to the hard box
-                lo = hi = min(max(0.5 * (sl + su), hl), hu)
         lb[i], ub[i] = lo, hi
     return lb, ub
 

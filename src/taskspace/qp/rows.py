@@ -256,9 +256,11 @@ def combine_boxes(
     ub = np.minimum(hard_ub, soft_ub)
     bad = lb > ub
     if bad.any():
-        # soft box entirely above (or below) the hard one: go to the nearest hard bound
-        above = soft_lb > hard_ub
-        below = soft_ub < hard_lb
+        # soft box entirely above (or below) the hard one: go to the nearest hard bound; an
+        # empty soft box (which may reach past both sides of the hard box) is centred below
+        soft_empty = soft_lb > soft_ub
+        above = (soft_lb > hard_ub) & ~soft_empty
+        below = (soft_ub < hard_lb) & ~soft_empty
         lb = np.where(bad & above, hard_ub, lb)
         ub = np.where(bad & above, hard_ub, ub)
         lb = np.where(bad & below, hard_lb, lb)
