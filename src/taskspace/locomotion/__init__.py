@@ -21,6 +21,13 @@ from taskspace.locomotion.footsteps import (
     straight_walk,
     turn_in_place,
 )
+from taskspace.locomotion.kneed_walker import (
+    KneedStepResult,
+    KneedWalker,
+    find_kneed_limit_cycle,
+    kneed_return_map,
+    simulate_kneed_step,
+)
 from taskspace.locomotion.lipm import CartTable, LipmTrajectory
 from taskspace.locomotion.preview_control import (
     PreviewController,
@@ -76,6 +83,8 @@ __all__ = [
     "FootstepPlan",
     "HopperParameters",
     "HopperResult",
+    "KneedStepResult",
+    "KneedWalker",
     "LimitCycle",
     "LimitCycleOptions",
     "LipmTrajectory",
@@ -101,14 +110,17 @@ __all__ = [
     "arc_walk",
     "center_of_pressure",
     "contact_wrench_from_dynamics",
+    "find_kneed_limit_cycle",
     "find_limit_cycle",
     "footsteps_along_poses",
+    "kneed_return_map",
     "mpc_walking_pattern",
     "plan_from_robot",
     "preview_walking_pattern",
     "return_map",
     "robot_feet",
     "simulate_hopper",
+    "simulate_kneed_step",
     "simulate_step",
     "static_stability",
     "straight_walk",
