@@ -388,6 +388,7 @@ def simulate_kneed_step(
     """
     x0 = as_vector(x0, 6, "x0")
     samples = check_count(samples, "samples")
+    max_time = check_positive(max_time, "max_time")
     if abs(walker.knee_flexion(x0)) > 1e-9 or abs(x0[4] - x0[5]) > 1e-9:
         raise InvalidInputError(
             "a step starts just after heel strike with the swing knee straight and locked: "
