@@ -22,6 +22,8 @@ peer dask distributed numpy
 peer drake drake numpy scipy
 peer movement_primitives movement-primitives pytransform3d scipy numpy
 peer toppra toppra numpy
+# qpmpc: the ZMP MPC of the locomotion suite posed as a qpmpc MPCProblem, solved by ProxQP
+peer qpmpc "qpmpc==3.3.0" qpsolvers proxsuite numpy
 command -v apt-get >/dev/null && { dpkg -s liblapack3 >/dev/null 2>&1 || apt-get install -y -qq liblapack3 >/dev/null; } || true
 peer robotic robotic numpy
 # OMPL drives taskspace's own collision checker (same Pinocchio/coal as taskspace's .venv)

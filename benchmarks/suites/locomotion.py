@@ -7,8 +7,11 @@ Scenes:
   time per control step (the whole closed-loop run divided by its samples), gain design time.
 * ``mpc_step``: one step of the ZMP MPC QP (dt = 50 ms, 32-sample horizon, both axes, support
   polygon constraints) on a 4-step walk.
+  Also the whole closed-loop step (QP build + solve) beside qpmpc's.
 * ``compass_gait_limit_cycle``: Newton on the Poincare map from ``(-0.2, 1.0, -0.4)``
   (Tedrake's parameters); the fixed point and its residual.
+* ``kneed_walker_limit_cycle``: the passive walker with knees (Hsu Chen's parameters), Newton
+  on its Poincare map from her published gait; the fixed point, residual and multipliers.
 * ``hopper_2ms``: 20 s of the Raibert hopper ramped to 2 m/s; steady-state speed error.
 * ``g1_walk``: whole-body walking of G1 (0.1 m steps; 3 steps quick, 10 otherwise): time of
   one inverse-dynamics QP control step (switching contact sets), and the real-time factor of
@@ -21,7 +24,10 @@ tracks the same CoM, swing-foot and pelvis references of the G1 walk
 (:func:`~taskspace.locomotion.walking_reference`) with TSID's formulation and its contact
 transitions; its time per control step beside ours (target: ours <= 0.5x TSID) and the
 tracking errors of both (TSID integrates its own accelerations, as its demos do; ours is the
-rigid-contact simulation). ``qpmpc`` is not wired.
+rigid-contact simulation). ``qpmpc`` (``.venv-peers/qpmpc``): benchmarks/peers/qpmpc_zmp.py
+poses the ``mpc_step`` walk (same plan, model, horizon, weights, support polygons) as a qpmpc
+``MPCProblem`` (ZMP error and jerk costs, Wieber 2006) solved by ProxQP in closed loop; its
+step and QP times beside ours and the ZMP tracking errors of both.
 """
 
 from __future__ import annotations
@@ -39,11 +45,13 @@ from taskspace.locomotion import (
     CartTable,
     CompassGait,
     HopperParameters,
+    KneedWalker,
     PreviewController,
     RaibertOptions,
     StepTiming,
     WalkingOptions,
     ZmpMpc,
+    find_kneed_limit_cycle,
     find_limit_cycle,
     plan_from_robot,
     simulate_hopper,
@@ -150,6 +158,41 @@ def run(quick: bool) -> list[Row]:
                 "horizon": ZmpMpc(mpc_model).horizon,
                 "success": res.success,
                 "rms_zmp_error_mm": 1000 * res.trajectory.rms_zmp_error,
+            },
+        )
+    )
+    mpc = ZmpMpc(mpc_model)
+    polys4 = support_polygons(plan4, t4)
+    ref4 = zmp_reference(plan4, t4)
+    whole = measure(lambda: mpc.simulate(ref4, polys4), warmup=1, repeat=3 if quick else 10)
+    rows.append(
+        Row(
+            SUITE,
+            "mpc_step",
+            "taskspace (whole step: build + QP)",
+            _scale(whole, 1.0 / len(t4)),
+            extra={"samples": len(t4), "rms_zmp_error_mm": 1000 * res.trajectory.rms_zmp_error},
+        )
+    )
+    rows.extend(_qpmpc_rows(mpc_model, mpc, ref4, polys4, res))
+    # ------------------------------------------------------------ kneed walker
+    kneed = KneedWalker()
+    timing, kcycle = _wall(
+        lambda: find_kneed_limit_cycle(kneed, [-0.1877, 1.1014, -0.0399]), 2 if quick else 5
+    )
+    rows.append(
+        Row(
+            SUITE,
+            "kneed_walker_limit_cycle",
+            "taskspace (Newton on the return map)",
+            timing,
+            extra={
+                "fixed_point": kcycle.fixed_point.tolist(),
+                "published_hsu_chen_2007": [-0.1877, 1.1014, -0.0399],
+                "residual": kcycle.residual,
+                "iterations": kcycle.iterations,
+                "floquet_abs": np.abs(kcycle.floquet_multipliers).tolist(),
+                "period_s": kcycle.period,
             },
         )
     )
@@ -274,6 +317,65 @@ def run(quick: bool) -> list[Row]:
     )
     rows.append(_tsid_walking_row(robot, plan_g1, n_steps, ct))
     return rows
+
+
+def _qpmpc_rows(model: CartTable, mpc: ZmpMpc, ref: Any, polys: Any, ours: Any) -> list[Row]:
+    """qpmpc on the ``mpc_step`` walk (benchmarks/peers/qpmpc_zmp.py), beside our two rows."""
+    N = mpc.horizon
+    held = list(polys) + [polys[-1]] * (N + 2)
+    halfspaces = [[a.tolist(), b.tolist()] for a, b in (p.halfspaces() for p in held)]
+    opts = mpc.options.preview
+    data = {
+        "dt": model.dt,
+        "com_height": model.com_height,
+        "gravity": model.gravity,
+        "horizon": N,
+        "error_weight": opts.error_weight,
+        "input_weight": opts.input_weight,
+        "A": model.A.tolist(),
+        "B": model.B[:, 0].tolist(),
+        "reference": np.asarray(ref).tolist(),
+        "halfspaces": halfspaces,
+    }
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "zmp_mpc.json"
+        path.write_text(json.dumps(data), encoding="utf-8")
+        out = run_peer("qpmpc", "qpmpc_zmp.py", [str(path)])
+    names = ("qpmpc (whole step: MPCQP + ProxQP)", "qpmpc (QP solve per step)")
+    if out is None:
+        return [
+            Row(SUITE, "mpc_step", n, None, note="peer not installed (make bench-peers)")
+            for n in names
+        ]
+    extra = {
+        "rms_zmp_error_mm": out["rms_zmp_error_mm"],
+        "max_zmp_error_mm": out["max_zmp_error_mm"],
+        "max_polygon_violation_mm": out["max_polygon_violation_mm"],
+        "success": out["success"],
+        "samples": out["samples"],
+        "ours_rms_zmp_error_mm": 1000 * ours.trajectory.rms_zmp_error,
+        "ours_max_zmp_error_mm": 1000 * float(ours.trajectory.zmp_error.max()),
+    }
+    note = "same plan, model, horizon, weights, polygons; qpmpc penalizes jerk, ours its increments"
+    return [
+        Row(
+            SUITE,
+            "mpc_step",
+            names[0],
+            Timing.from_samples(np.asarray(out["step_us"]) * 1e-6),
+            extra=extra,
+            ratio_to="taskspace (whole step: build + QP)",
+            note=note,
+        ),
+        Row(
+            SUITE,
+            "mpc_step",
+            names[1],
+            Timing.from_samples(np.asarray(out["qp_us"]) * 1e-6),
+            extra={"solver": "proxqp (qpsolvers), eps_abs 1e-9"},
+            ratio_to="taskspace (QP solve per step)",
+        ),
+    ]
 
 
 def _tracking_errors(robot: Robot, plan: Any, walked: Any) -> dict[str, float]:
