@@ -1,6 +1,7 @@
 """Passive walker with knees down a 0.0504 rad slope (Hsu Chen's parameters): the limit cycle
 found by Newton on the Poincare map, a perturbed gait converging to it in the phase plane of
-the leg angles, and the walker's posture through one step (knee strike, then heel strike)."""
+the leg angles, the walker's posture through one step (knee strike, then heel strike), and the
+torques its knee locks must supply."""
 
 from __future__ import annotations
 
@@ -17,7 +18,7 @@ def main() -> None:
     cycle = find_kneed_limit_cycle(walker, [-0.1877, 1.1014, -0.0399])
     steps = 6 if fast() else 15
 
-    fig, (ax, bx) = plt.subplots(1, 2, figsize=(13, 5.5))
+    fig, (ax, bx, cx) = plt.subplots(1, 3, figsize=(18, 5.5))
     # a perturbed gait (faster stance leg) converging to the cycle
     z = cycle.fixed_point + np.array([0.004, -0.03, 0.02])
     x = np.array([z[0], z[0] - 2 * walker.slope, z[0] - 2 * walker.slope, z[1], z[2], z[2]])
@@ -79,6 +80,22 @@ def main() -> None:
     bx.set_xlabel("x (downhill) [m]")
     bx.set_ylabel("y [m]")
     bx.legend(fontsize=8)
+    # the torques the knee locks must supply (RNEA): > 0 a stop holds, < 0 a latch must
+    locked = limit.times > limit.knee_strike_time
+    torques = np.array(
+        [
+            walker.knee_lock_torques(x, swing_knee_locked=bool(k))
+            for x, k in zip(limit.states, locked, strict=True)
+        ]
+    )
+    cx.plot(limit.times, torques[:, 0], label="stance knee")
+    cx.plot(limit.times[locked], torques[locked, 1], label="swing knee (locked)")
+    cx.axhline(0.0, color="k", lw=0.8)
+    cx.axvline(limit.knee_strike_time, color="0.5", ls=":", label="knee strike")
+    cx.set_title("lock torques: > 0 a stop holds the knee, < 0 it needs a latch", fontsize=10)
+    cx.set_xlabel("time in the step [s]")
+    cx.set_ylabel("torque [N m]")
+    cx.legend(fontsize=8)
     fig.tight_layout()
     finish({"kneed_walker_limit_cycle": fig}, args.save)
 

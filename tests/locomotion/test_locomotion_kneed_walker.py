@@ -279,6 +279,63 @@ def test_heel_strike_conserves_angular_momenta_and_loses_carnot_energy(walker, s
     assert loss + knee_loss == pytest.approx(total * walker.gravity * -shift[1], rel=1e-8)
 
 
+def _accelerations(w, x, qdd):
+    """Point accelerations, by hand: sum_j l_j (qdd_j u'(theta_j) - qd_j^2 u(theta_j))."""
+    st, th, sh, dst, dth, dsh = x
+
+    def up(d):  # d (sin, cos)(theta_st), differentiated twice in time
+        s, c = np.sin(st), np.cos(st)
+        return d * (qdd[0] * np.array([c, -s]) - dst**2 * np.array([s, c]))
+
+    def down(d, a, da, dda):
+        s, c = np.sin(a), np.cos(a)
+        return d * (dda * np.array([c, s]) - da**2 * np.array([s, -c]))
+
+    ls, lt, L = w.shank_length, w.thigh_length, w.leg_length
+    return {
+        "stance_thigh_mass": up(ls + w.a2),
+        "hip": up(L),
+        "swing_thigh_mass": up(L) + down(w.b2, th, dth, qdd[1]),
+        "swing_shank_mass": up(L) + down(lt, th, dth, qdd[1]) + down(w.b1, sh, dsh, qdd[2]),
+    }
+
+
+def test_knee_lock_torques_from_moment_balance(walker, step):
+    # the torque on the body above a joint = sum m (r - r_joint) x (a + g e_y) over that body
+    ls = walker.shank_length
+    stance_knee = ls * np.array([np.sin(step.states[:, 0]), np.cos(step.states[:, 0])]).T
+    stance_torques, swing_torques = [], []
+    for t, x, knee in zip(step.times, step.states, stance_knee, strict=True):
+        locked = t > step.knee_strike_time
+        tau = walker.knee_lock_torques(x, swing_knee_locked=locked)
+        if locked:
+            xdot = walker.locked_dynamics(x[[0, 1, 3, 4]])
+            qdd = np.array([xdot[2], xdot[3], xdot[3]])
+        else:
+            qdd = walker.unlocked_dynamics(x)[3:]
+        p, _ = _kinematics(walker, x)
+        a = _accelerations(walker, x, qdd)
+        g = np.array([0.0, walker.gravity])
+        upper = ("stance_thigh_mass", "hip", "swing_thigh_mass", "swing_shank_mass")
+        # positive stance-knee torque pushes the thigh back (counterclockwise): into flexion
+        ref = sum(_mass(walker, n) * _cross(p[n] - knee, a[n] + g) for n in upper)
+        assert tau[0] == pytest.approx(ref, abs=1e-10)
+        shank = _mass(walker, "swing_shank_mass") * _cross(
+            p["swing_shank_mass"] - p["knee"], a["swing_shank_mass"] + g
+        )
+        assert tau[1] == pytest.approx(-shank if locked else 0.0, abs=1e-10)
+        assert np.abs(tau[2:]).max() < 1e-10  # the passive stance foot and hip
+        stance_torques.append(tau[0])
+        if locked:
+            swing_torques.append(tau[1])
+    # the swing knee presses into its stop after the knee strike (no latch needed); the
+    # stance knee needs a latch early in the step (it would buckle), a stop later
+    assert min(swing_torques) > 0.0
+    stance_torques = np.array(stance_torques)
+    assert stance_torques.min() < 0.0 < stance_torques.max()
+    assert (stance_torques[step.times > 0.4 * step.duration] > 0.0).all()
+
+
 def test_falls_and_errors(walker, cycle):
     with pytest.raises(SolverError, match="return map undefined"):
         kneed_return_map(walker, [-0.2, 0.2, -1.0])

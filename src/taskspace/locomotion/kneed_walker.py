@@ -13,7 +13,8 @@ Coordinates as in :mod:`~taskspace.locomotion.compass_gait`: ``x`` forward and d
 thigh (knee at ``hip + l_t (sin, -cos)(theta_th)``), ``theta_sh`` of the swing shank (foot at
 ``knee + l_s (sin, -cos)(theta_sh)``). The state is always the 6-vector
 ``x = (theta_st, theta_th, theta_sh, dtheta_st, dtheta_th, dtheta_sh)``; Hsu Chen's angles
-are ``(q1, q2, q3) = (-theta_st, theta_th, theta_sh)``. The stance knee is locked.
+are ``(q1, q2, q3) = (-theta_st, theta_th, theta_sh)``. The stance knee is locked throughout;
+:meth:`KneedWalker.knee_lock_torques` tells whether a stop suffices or a latch is needed.
 
 The equations of motion come from Pinocchio models of the walker (revolute joints about ``z``,
 point-mass bodies): the 3-DOF chain stance leg - hip - swing thigh - knee - swing shank for the
@@ -103,6 +104,8 @@ class _Models:
     floating_data: pin.Data
     frames: dict[str, int]
     floating_foot: int
+    jointed: pin.Model
+    jointed_data: pin.Data
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -201,6 +204,18 @@ class KneedWalker:
                 model.addFrame(pin.Frame(name, joint, _at(y), pin.FrameType.OP_FRAME))
             return model
 
+        # the unlocked chain with a stance knee joint too, for the locks' torques (RNEA)
+        jointed = pin.Model()
+        jointed.gravity = gravity
+        foot = jointed.addJoint(0, pin.JointModelRZ(), pin.SE3.Identity(), "stance_foot")
+        jointed.appendBodyToJoint(foot, _point_masses((ms, self.a1)), pin.SE3.Identity())
+        knee = jointed.addJoint(foot, pin.JointModelRZ(), _at(ls), "stance_knee")
+        stance_thigh = _point_masses((mt, self.a2), (mh, lt))
+        jointed.appendBodyToJoint(knee, stance_thigh, pin.SE3.Identity())
+        hip = jointed.addJoint(knee, pin.JointModelRZ(), _at(lt), "hip")
+        jointed.appendBodyToJoint(hip, _point_masses((mt, -self.b2)), pin.SE3.Identity())
+        knee = jointed.addJoint(hip, pin.JointModelRZ(), _at(-lt), "swing_knee")
+        jointed.appendBodyToJoint(knee, _point_masses((ms, -self.b1)), pin.SE3.Identity())
         unlocked = chain(locked=False, floating=False)
         locked = chain(locked=True, floating=False)
         floating = chain(locked=True, floating=True)
@@ -213,6 +228,8 @@ class KneedWalker:
             floating_data=floating.createData(),
             frames={n: unlocked.getFrameId(n) for n in POINTS},
             floating_foot=floating.getFrameId("swing_foot"),
+            jointed=jointed,
+            jointed_data=jointed.createData(),
         )
 
     # ----------------------------------------------------------------- kinematics
@@ -316,6 +333,40 @@ class KneedWalker:
         d_st, d_sw = -omega_old_swing, omega_old_stance
         post = np.array([st, sw, sw, d_st, d_sw, d_sw])
         return post, np.asarray(m.floating_data.impulse_c[:2]).copy()
+
+    def knee_lock_torques(self, x: Any, *, swing_knee_locked: bool) -> FloatArray:
+        """Torques the knee locks must supply, by RNEA on a model with a stance knee joint.
+
+        The accelerations are those of the phase (the stance knee, and in the locked phase the
+        swing knee, do not move); ``tau = RNEA(q, qd, qdd)`` then holds the locks' torques at
+        the knee joints and zero at the passive foot and hip. Signs: positive when the lock
+        pushes against hyperextension (a stop holds it), negative when it must pull against
+        flexion (only a latch holds it; without one the knee would buckle).
+
+        Args:
+            x: the 6-state.
+            swing_knee_locked: the locked phase (else the unlocked phase: the swing knee is
+                free and its torque is zero).
+
+        Returns:
+            ``(stance knee, swing knee, stance foot, hip)`` torques [N m]; the last two are
+            zero up to rounding (a consistency check).
+        """
+        x = as_vector(x, 6, "x")
+        if swing_knee_locked:
+            xdot = self.locked_dynamics(x[[0, 1, 3, 4]])
+            qdd = np.array([xdot[2], xdot[3], xdot[3]])
+        else:
+            qdd = self.unlocked_dynamics(x)[3:]
+
+        def jointed(theta: FloatArray) -> FloatArray:
+            phi = _T3_INV @ theta  # (stance leg, hip, swing knee) -> add a straight stance knee
+            return np.array([phi[0], 0.0, phi[1], phi[2]])
+
+        m = self.models
+        tau = pin.rnea(m.jointed, m.jointed_data, jointed(x[:3]), jointed(x[3:]), jointed(qdd))
+        # stance knee: its relative angle grows with flexion; swing knee: it shrinks
+        return np.array([tau[1], -tau[3], tau[0], tau[2]])
 
     def impact(self, x: Any) -> FloatArray:
         """Post-heel-strike state (see :meth:`heel_strike_impact`)."""
