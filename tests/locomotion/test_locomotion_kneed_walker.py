@@ -227,6 +227,16 @@ def test_energy_conserved_in_each_phase(walker, step):
     assert np.all(step.states[locked, 1] == step.states[locked, 2])
 
 
+def test_swing_foot_clears_the_slope(walker, step):
+    # the model ignores the swing foot's contact before heel strike: on this gait it never
+    # touches the slope in between (it lifts off at once and passes mid-stance ~19 mm above)
+    feet = np.array([_kinematics(walker, x)[0]["swing_foot"] for x in step.states])
+    height = feet[:, 1] + feet[:, 0] * np.tan(walker.slope)
+    assert (height[1:-1] > 0.0).all()
+    i = int(np.argmax(feet[:, 0] > 0.0))
+    assert np.interp(0.0, feet[i - 1 : i + 1, 0], height[i - 1 : i + 1]) > 0.015
+
+
 def test_knee_strike_conserves_angular_momenta_and_loses_carnot_energy(walker, step):
     pre, post = step.pre_knee_strike, step.post_knee_strike
     assert post[:3] == pytest.approx(pre[:3], abs=0)
