@@ -228,8 +228,8 @@ def test_energy_conserved_in_each_phase(walker, step):
 
 
 def test_swing_foot_clears_the_slope(walker, step):
-    # the model ignores the swing foot's contact before heel strike: on this gait it never
-    # touches the slope in between (it lifts off at once and passes mid-stance ~19 mm above)
+    # on this gait the swing foot never touches the slope between heel strikes (it lifts off
+    # at once and passes mid-stance ~19 mm above)
     feet = np.array([_kinematics(walker, x)[0]["swing_foot"] for x in step.states])
     height = feet[:, 1] + feet[:, 0] * np.tan(walker.slope)
     assert (height[1:-1] > 0.0).all()
@@ -357,5 +357,12 @@ def test_falls_and_errors(walker, cycle):
     bent[2] -= 0.1
     with pytest.raises(InvalidInputError, match="swing knee straight"):
         simulate_kneed_step(walker, bent)
+    # a fast stance leg: the bent swing leg's foot hits the slope mid-swing (located there)
+    sw = -0.19 - 2 * walker.slope
+    scuff = simulate_kneed_step(walker, [-0.19, sw, sw, 1.6, 0.5, 0.5])
+    assert not scuff.success and "hit the slope before its knee locked" in scuff.message
+    foot = _kinematics(walker, scuff.pre_impact)[0]["swing_foot"]
+    assert foot[1] + foot[0] * np.tan(walker.slope) == pytest.approx(0.0, abs=1e-9)
+    assert walker.knee_flexion(scuff.pre_impact) > 0.1 and 0.1 < scuff.duration < 0.4
     bad = find_kneed_limit_cycle(walker, PUBLISHED, LimitCycleOptions(max_iterations=1))
     assert not bad.success and bad.residual > 1e-6

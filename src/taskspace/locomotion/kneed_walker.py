@@ -43,7 +43,8 @@ One step, starting just after heel strike with both knees straight:
 
 Both impacts are solved by :func:`pinocchio.impulseDynamics`. Energy is conserved in each
 continuous phase; each impact loses ``1/2 (qd+ - qd-)^T M (qd+ - qd-)`` (Carnot).
-The model ignores the swing foot's contact with the ground before the knee locks.
+The swing foot touching the slope before the knee locks ends the step as a failure (the model
+has no contact there); with the knee locked, only heel strike ahead of the stance foot counts.
 """
 
 from __future__ import annotations
@@ -261,6 +262,14 @@ class KneedWalker:
         potential = pin.computePotentialEnergy(m.unlocked, m.unlocked_data, phi)
         return float(kinetic + potential)
 
+    def swing_foot_height(self, x: Any) -> float:
+        """Distance of the swing foot above the slope [m] (normal to it; negative below)."""
+        st, th, sh = x[0], x[1], x[2]
+        lt, ls, L = self.thigh_length, self.shank_length, self.leg_length
+        fx = L * np.sin(st) + lt * np.sin(th) + ls * np.sin(sh)
+        fy = L * np.cos(st) - lt * np.cos(th) - ls * np.cos(sh)
+        return float(fy * np.cos(self.slope) + fx * np.sin(self.slope))
+
     def knee_flexion(self, x: Any) -> float:
         """``theta_th - theta_sh`` [rad]: positive while the swing knee is bent."""
         return float(x[1] - x[2])
@@ -448,6 +457,7 @@ def simulate_kneed_step(
 
     fall3 = _event(lambda _t, x: float(np.cos(x[0])))  # hip at the stance foot's height
     knee = _event(lambda _t, x: float(x[2] - x[1]), direction=1.0)
+    scuff = _event(lambda _t, x: walker.swing_foot_height(x), direction=-1.0)
 
     def solve(fun: Any, t0: float, x_start: FloatArray, events: tuple[Any, ...]) -> Any:
         return solve_ivp(
@@ -466,14 +476,14 @@ def simulate_kneed_step(
     # the knee bends only if the free shank falls behind the thigh (else it stays locked)
     xdot0 = walker.unlocked_dynamics(x0)
     if xdot0[5] - xdot0[4] < 0.0:
-        sol = solve(walker.unlocked_dynamics, 0.0, x0, (knee, fall3))
+        sol = solve(walker.unlocked_dynamics, 0.0, x0, (knee, fall3, scuff))
         pieces.append((sol, False))
         if sol.status != 1 or not len(sol.t_events[0]):
-            msg = (
-                "the walker fell before its knee locked"
-                if sol.status == 1
-                else ("no knee strike before max_time")
-            )
+            msg = "no knee strike before max_time"
+            if sol.status == 1:
+                msg = "the walker fell before its knee locked"
+                if len(sol.t_events[2]):
+                    msg = "the swing foot hit the slope before its knee locked"
             return _failed(pieces, samples, msg)
         t_knee, pre_knee = float(sol.t_events[0][0]), sol.y_events[0][0]
         post_knee, knee_impulse = walker.knee_strike_impact(pre_knee)
