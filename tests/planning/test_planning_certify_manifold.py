@@ -15,7 +15,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from taskspace.errors import InvalidInputError
+from taskspace.errors import InvalidInputError, StaleModelError
 from taskspace.model import Obstacle, Robot
 from taskspace.planning.certify import certify_path, motion_bound, motion_bounds
 from taskspace.planning.joint_manifold import JointManifold
@@ -270,3 +270,26 @@ def test_bound_holds_on_spherical_and_prismatic_chains() -> None:
         bound = motion_bound(robot, np.array([a, b]))
         moved = _true_motion(robot, a, b, corners)
         assert moved <= bound(pin.difference(model, a, b)) + 1e-9
+
+
+def test_bound_kept_across_set_limits_is_refused(tiago_mobile: Robot) -> None:
+    # The torso's reach comes from its limits: widening them makes an old bound too small.
+    robot = tiago_mobile
+    i = robot.model.joints[robot.model.getJointId("torso_lift_joint")].idx_q
+    old_upper = robot.upper_limits.copy()
+    kept = motion_bound(robot)
+    for_path = motion_bound(robot, np.zeros((1, robot.nq)))
+    turn = np.zeros(robot.nv)
+    turn[2] = 1.0
+    wider = old_upper.copy()
+    wider[i] = old_upper[i] + 0.25
+    robot.set_limits(upper=wider)
+    try:
+        with pytest.raises(StaleModelError, match="MotionBound"):
+            kept.check(robot)
+        for_path.check(robot)  # made for a path: independent of the limits
+        fresh = motion_bound(robot)
+        fresh.check(robot)
+        assert fresh(turn) == pytest.approx(kept(turn) + 0.25)
+    finally:
+        robot.set_limits(upper=old_upper)

@@ -91,15 +91,31 @@ class MotionBound:
     farthest corner of the geometry's bounding box); a helical joint ``R_j + |pitch|``; each
     Euler rate of a ``SphericalZYX`` joint ``R_j`` (``|omega| <= sum |rates|``).
 
+    The reach of a prismatic joint comes from its position limits (unless the bound was made
+    for a given path), so a bound kept across :meth:`~taskspace.model.Robot.set_limits` may
+    under-estimate the motion: :meth:`check` raises once the robot's limits changed.
+
     Attributes:
         groups: per group, the indices of its velocity coordinates.
         weights: ``w_g`` [m per rad, or 1 for translations].
         joints: the Pinocchio joint index of each group.
+        model_version: the :attr:`~taskspace.model.Robot.version` whose limits the bound
+            was made from (``None``: made for a path, independent of the limits).
     """
 
     groups: tuple[tuple[int, ...], ...]
     weights: tuple[float, ...]
     joints: tuple[int, ...] = ()
+    model_version: int | None = None
+
+    def check(self, robot: Robot) -> None:
+        """Raise :class:`~taskspace.errors.StaleModelError` if the limits changed.
+
+        The bound was made from ``robot``'s limits of another version: make a new one with
+        :func:`motion_bound`.
+        """
+        if self.model_version is not None:
+            robot.check_version(self.model_version, "MotionBound")
 
     def group_rates(self, delta: FloatArray) -> FloatArray:
         """``w_g |delta[g]|`` per group [m]: the share of ``B(delta)`` of each group."""
@@ -217,7 +233,12 @@ def motion_bound(robot: Robot, path: Any = None) -> MotionBound:
                 groups.append((i + k,))
                 weights.append(reach[j])
         owners += [j] * (len(groups) - before)
-    return MotionBound(tuple(groups), tuple(float(w) for w in weights), tuple(owners))
+    return MotionBound(
+        tuple(groups),
+        tuple(float(w) for w in weights),
+        tuple(owners),
+        None if path is not None else robot.version,
+    )
 
 
 def motion_bounds(robot: Robot) -> FloatArray:
