@@ -16,6 +16,12 @@ from taskspace.grasping.contact import (
     primitive_wrenches,
 )
 from taskspace.grasping.contact_forces import ContactForces, balance_forces
+from taskspace.grasping.epsilon import (
+    epsilon_l1_batch,
+    epsilon_l1_fast,
+    grasp_epsilon_batch,
+    primitive_wrenches_batch,
+)
 from taskspace.grasping.grasp_matrix import grasp_matrix, hand_jacobian
 from taskspace.grasping.hand_grasp import (
     Finger,
@@ -75,9 +81,12 @@ __all__ = [
     "contact_frame",
     "cylinder_mesh",
     "epsilon_l1",
+    "epsilon_l1_batch",
+    "epsilon_l1_fast",
     "epsilon_linf",
     "force_closure",
     "form_closure",
+    "grasp_epsilon_batch",
     "grasp_matrix",
     "grasp_quality",
     "grasp_radius",
@@ -86,6 +95,7 @@ __all__ = [
     "minimal_closure_subset",
     "place_grasps",
     "primitive_wrenches",
+    "primitive_wrenches_batch",
     "sample_antipodal_grasps",
     "sample_hand_grasps",
     "sample_multifinger_grasps",

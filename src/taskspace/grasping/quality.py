@@ -29,6 +29,7 @@ from taskspace.grasping.contact import (
     grasp_radius,
     primitive_wrenches,
 )
+from taskspace.grasping.epsilon import MARGIN_TOLERANCE, epsilon_l1_fast
 from taskspace.grasping.grasp_matrix import grasp_matrix
 
 FloatArray = npt.NDArray[np.float64]
@@ -62,15 +63,6 @@ def _hull(points: FloatArray) -> ConvexHull | None:
         return ConvexHull(points)
     except (QhullError, ValueError):
         return None
-
-
-MARGIN_TOLERANCE = 1e-9
-"""Epsilon values at or below this times the largest ``|w|`` entry are 0 (not in closure).
-
-The origin on the hull's boundary (a grasp exactly at the limit of closure, e.g. three
-contacts whose wrenches span a face through the origin) gives offsets of roundoff size
-(1e-17-1e-15) of either sign; :func:`~taskspace.grasping.closure_hull` uses the same tolerance.
-"""
 
 
 def _margin(hull: ConvexHull | None) -> float:
@@ -138,9 +130,10 @@ def epsilon_l1(W: FloatArray) -> float:
     """Ferrari-Canny epsilon of the L1 wrench space of primitive wrenches ``W`` (rows).
 
     0 when the origin is not strictly inside (margins within :data:`MARGIN_TOLERANCE` of the
-    largest wrench entry count as 0).
+    largest wrench entry count as 0). Computed by :func:`epsilon_l1_fast` (one certified
+    unmerged hull); :func:`wrench_space_l1` gives the hull itself.
     """
-    return _margin(wrench_space_l1(W))
+    return epsilon_l1_fast(_wrenches(W))
 
 
 def epsilon_linf(W: FloatArray, owner: list[int]) -> float:
