@@ -19,6 +19,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
+import numpy.typing as npt
 from scipy.linalg.lapack import dgeqp3, dgeqrf, dorgqr, dposv, dtrtrs
 
 from taskspace._validation import FloatArray
@@ -67,6 +68,11 @@ class HierarchyResult:
         nullspace_dims: dimension of the remaining freedom after each level.
         level_results: the QP result of each level.
         solve_time: total wall time [s].
+        culprits: hard or held inequality rows that no level could satisfy: projected onto a
+            level's freedom they vanish (they lie in the row space of the hard equalities or of
+            higher levels' equalities) while their bounds exclude the cascade's point, so they
+            stay violated (``success`` is then ``False``, ``status`` ``RELAXED``). Each entry
+            names the level, the row block, the rows and the violation.
     """
 
     success: bool
@@ -77,6 +83,21 @@ class HierarchyResult:
     nullspace_dims: list[int] = field(default_factory=list)
     level_results: list[QPResult] = field(default_factory=list)
     solve_time: float = 0.0
+    culprits: list[str] = field(default_factory=list)
+
+
+CASCADE_SOLVER_OPTIONS = QPSolverOptions(
+    backend="proxsuite",
+    fallbacks=("daqp", "quadprog"),
+    eps_rel=1e-6,
+    proxsuite_rho=1e-11,
+    proxsuite_eps_rel=1e-8,
+    proxsuite_duality_gap=False,
+    proxsuite_eps_primal_inf=1e-12,
+    proxsuite_warm_start=False,
+)
+"""QP solver settings of cascade levels (see :class:`HierarchyOptions` and the
+``qp_backends`` benchmark, which measures them on the G1 cascade's level QPs)."""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -88,22 +109,36 @@ class HierarchyOptions:
             least-norm solution among a level's minimizers; bounds steps near singularities).
         rank_tolerance: singular values below ``rank_tolerance * max(1, s_max)`` count as zero
             when computing nullspaces.
-        solver: options of the per-level QP solvers. The default is daqp's active-set method,
-            then quadprog's dual active-set method, then proxsuite: the levels after the first
-            hold earlier inequalities (degenerate, many active), where proxsuite stalls at its
-            iteration limit and daqp sometimes stops at an inexact point or fails; quadprog
-            solves most of those. The KKT tolerance is relative ``1e-6``: a level's Hessian is
-            ``JZ^T JZ + damping``, conditioned like ``|J|^2 / damping`` (1e10 with the
-            default damping), where no backend reliably reaches ``1e-9``.
+        row_tolerance: a bound or held inequality row ``c`` whose projection ``c Z`` onto a
+            level's freedom has norm at most ``row_tolerance * |c|`` is taken as zero (the row
+            lies in the row space of the hard equalities and higher levels' equalities, and
+            its projection is rounding noise, ``1e-20..1e-15`` on the G1 cascade, against
+            ``>= 1e-8`` for the rows that keep a component): it is left out of the level's QP
+            (zero row, infinite bounds; the QP keeps its size). Such a row's value cannot
+            change in that level; its bounds contain the current point (after the first QP
+            level they always do), else it is reported in :attr:`HierarchyResult.culprits`.
+            Kept, the noise rows get multipliers ``~1e12`` (solvers report failure or stall).
+        solver: options of the per-level QP solvers (:data:`CASCADE_SOLVER_OPTIONS`):
+            proxsuite, then daqp and quadprog. A level's Hessian is ``JZ^T JZ + damping``:
+            the freedom its rows leave to lower levels has curvature ``damping`` only (1e-9
+            against ``|JZ|^2 ~ 1``), and the levels after the first hold earlier inequalities
+            (degenerate: many active, nearly dependent rows). proxsuite's defaults stall there
+            (G1 cascade, 200 level QPs: 164 solved); the settings that make it reliable, each
+            needed (measured by leaving it out, ``qp_backends`` benchmark set): ``rho = 1e-12``
+            (the proximal term must not dominate the flat directions), its own stopping
+            tolerance ``1e-8`` below the certificate's ``1e-6`` (its test omits
+            complementarity), no duality-gap test (never met with the huge multipliers of
+            dependent active rows), infeasibility tolerance ``1e-12`` (false certificates on
+            feasible levels) and a fresh workspace per solve (the nullspace basis, so the
+            level's coordinates, rotates between steps: a kept preconditioner and warm start
+            made it fail). The KKT tolerance is relative ``1e-6``: the Hessian is conditioned
+            like ``|J|^2 / damping``, where no backend reliably reaches ``1e-9``.
     """
 
     damping: float = 1e-9
     rank_tolerance: float = 1e-8
-    solver: QPSolverOptions = field(
-        default_factory=lambda: QPSolverOptions(
-            backend="daqp", fallbacks=("quadprog", "proxsuite"), eps_rel=1e-6
-        )
-    )
+    row_tolerance: float = 1e-10
+    solver: QPSolverOptions = field(default_factory=lambda: CASCADE_SOLVER_OPTIONS)
 
 
 def _qr_level(JZ: FloatArray, res: FloatArray) -> tuple[FloatArray, FloatArray] | None:
@@ -226,6 +261,34 @@ def _svd_level(
     rank = int(np.count_nonzero(s > tol * smax))
     z = Vt[:rank].T @ ((s[:rank] / (s[:rank] ** 2 + mu)) * (U[:, :rank].T @ res))
     return z, Vt[rank:].T
+
+
+def _drop_vanished_rows(
+    P: FloatArray,
+    norms: FloatArray,
+    lo: FloatArray,
+    hi: FloatArray,
+    tol: float,
+) -> tuple[npt.NDArray[np.intp], float] | None:
+    """Neutralise the rows of ``P`` (projected rows) that vanish against their own scale.
+
+    Rows with ``|P_i| <= tol * norms_i`` (``norms``: the rows' norms before projection) are
+    zeroed in place and their bounds ``lo``, ``hi`` (also changed in place) set to ``-+INF``.
+    Returns ``None`` when no row vanished, else the indices of the vanished rows whose bounds
+    exclude 0 by more than ``1e-9 * (1 + |bound|)`` and the largest such exclusion.
+    """
+    size = np.sqrt(np.einsum("ij,ij->i", P, P))
+    small = size <= tol * norms
+    if not small.any():
+        return None
+    idx = np.flatnonzero(small)
+    lo_s, hi_s = lo[idx], hi[idx]
+    excess = np.maximum(lo_s - 1e-9 * (1.0 + np.abs(lo_s)), -hi_s - 1e-9 * (1.0 + np.abs(hi_s)))
+    P[idx] = 0.0
+    lo[idx] = -INF
+    hi[idx] = INF
+    bad = excess > 0.0
+    return idx[bad], float(np.maximum(lo_s, -hi_s)[bad].max(initial=0.0))
 
 
 def _affine_start(
@@ -352,6 +415,7 @@ class HierarchySolver:
         held_C: list[FloatArray] = [] if C is None else [C]
         held_l: list[FloatArray] = [] if l is None else [l]
         held_u: list[FloatArray] = [] if u is None else [u]
+        held_names: list[str] = [] if C is None else ["hard inequalities"]
         x = x0
         held_once = False  # a QP level has been solved: x meets the hard rows
         Z: FloatArray | None = Z0  # None = identity (no reduction yet)
@@ -412,18 +476,37 @@ class HierarchySolver:
                     if finite.size:
                         block = np.zeros((finite.size, N))
                         block[:, :r_dim] = Z[finite]
+                        lo_b = np.minimum(lb[finite] - x[finite], slack)
+                        hi_b = np.maximum(ub[finite] - x[finite], -slack)
+                        self._drop_rows(
+                            out, level.name, "bounds", block[:, :r_dim], 1.0, lo_b, hi_b, finite
+                        )
                         rows_C.append(block)
-                        rows_l.append(np.minimum(lb[finite] - x[finite], slack))
-                        rows_u.append(np.maximum(ub[finite] - x[finite], -slack))
+                        rows_l.append(lo_b)
+                        rows_u.append(hi_b)
                         blocks.append(RowBlock("bounds", row, row + finite.size))
                         row += finite.size
-                for Ch, lh, uh in zip(held_C, held_l, held_u):
+                for j, (Ch, lh, uh) in enumerate(zip(held_C, held_l, held_u)):
                     block = np.zeros((Ch.shape[0], N))
-                    block[:, :r_dim] = Ch if Z is None else Ch @ Z
                     Cx = Ch @ x
+                    lo_h = np.minimum(lh - Cx, slack)
+                    hi_h = np.maximum(uh - Cx, -slack)
+                    if Z is None:
+                        block[:, :r_dim] = Ch
+                    else:
+                        block[:, :r_dim] = Ch @ Z
+                        self._drop_rows(
+                            out,
+                            level.name,
+                            held_names[j],
+                            block[:, :r_dim],
+                            np.sqrt(np.einsum("ij,ij->i", Ch, Ch)),
+                            lo_h,
+                            hi_h,
+                        )
                     rows_C.append(block)
-                    rows_l.append(np.minimum(lh - Cx, slack))
-                    rows_u.append(np.maximum(uh - Cx, -slack))
+                    rows_l.append(lo_h)
+                    rows_u.append(hi_h)
                     blocks.append(RowBlock("held inequalities", row, row + Ch.shape[0]))
                     row += Ch.shape[0]
                 if p:
@@ -469,6 +552,7 @@ class HierarchySolver:
                 held_C.append(level.C)
                 held_l.append(np.minimum(level.l, Cx))
                 held_u.append(np.maximum(level.u, Cx))
+                held_names.append(f"held inequalities of {level.name}")
             # remaining freedom: nullspace of this level's equality rows
             if level.J.shape[0] and k < len(levels) - 1 and r_dim > 0:
                 JZ = level.J if Z is None else level.J @ Z
@@ -477,7 +561,38 @@ class HierarchySolver:
             out.nullspace_dims.append(n if Z is None else Z.shape[1])
         out.x = x
         out.status = order[worst]
+        if out.culprits:
+            out.success = False
+            out.status = order[max(worst, order.index(QPStatus.RELAXED))]
         return self._finish(out, levels, t0, None)
+
+    def _drop_rows(
+        self,
+        out: HierarchyResult,
+        level: str,
+        block: str,
+        P: FloatArray,
+        norms: FloatArray | float,
+        lo: FloatArray,
+        hi: FloatArray,
+        rows: npt.NDArray[np.intp] | None = None,
+    ) -> None:
+        """Leave projected rows that vanish out of a level's QP (see ``row_tolerance``).
+
+        ``P`` (a view of the level's constraint block), ``lo`` and ``hi`` are changed in place;
+        rows whose bounds exclude the current point are named in ``out.culprits``.
+        """
+        dropped = _drop_vanished_rows(
+            P, np.broadcast_to(norms, P.shape[:1]), lo, hi, self.options.row_tolerance
+        )
+        if dropped is None or not dropped[0].size:
+            return
+        idx = dropped[0] if rows is None else rows[dropped[0]]
+        out.culprits.append(
+            f"level {level!r}: {block} rows {idx.tolist()} vanish in the level's freedom "
+            f"(they lie in the span of the hard equalities and higher levels' equalities) "
+            f"but are violated by up to {dropped[1]:.3g}"
+        )
 
     def _equality_cascade(
         self,

@@ -26,7 +26,9 @@ proxsuite runs at most ``max_iter`` outer times ``max_iter_in`` inner iterations
 active-set refinement at most ``max_polish_iter`` corrections, the relaxation is one
 well-conditioned QP, and ``time_limit`` stops the pipeline between its stages. A result
 is ``SOLVED`` (or ``UNCONSTRAINED``) only with its KKT residuals within the tolerances; an
-iteration limit, an infeasible problem or a failed relaxation never is.
+iteration limit, an infeasible problem or a failed relaxation never is (except a proxsuite
+run stopped at its limit while asked for more than the certificate, ``proxsuite_eps_rel``
+below ``eps_rel``, whose point meets the certificate).
 """
 
 from __future__ import annotations
@@ -123,6 +125,27 @@ class QPSolverOptions:
         relax_on_failure: compute the least-violating solution when no backend succeeds.
         relaxation_weight: penalty on squared constraint violations in the relaxed problem.
         feasibility_tolerance: tolerance of the unconstrained-shortcut feasibility test.
+        proxsuite_rho: proxsuite's proximal parameter ``rho`` (its ``default_rho``, 1e-6).
+            A direction of ``H`` with curvature ``mu`` far below ``rho`` moves by a factor
+            ``~mu / rho`` per proximal iteration: cascade levels (curvature ``1e-9`` on the
+            freedom their rows leave to lower levels) need ``rho <= ~1e-9``.
+        proxsuite_eps_rel: proxsuite's own relative stopping tolerance (default ``eps_rel``).
+            Its test omits complementarity: stopping it below ``eps_rel`` lets the active-set
+            refinement find the right active set on degenerate problems.
+        proxsuite_duality_gap: proxsuite also stops on its duality gap (closes the hole of
+            its primal/dual-only test on IK problems). On degenerate problems the multipliers
+            of nearly dependent active rows are huge (``1e5``) and the gap test never passes
+            at the exact solution; complementarity is then certified by the KKT residuals.
+        proxsuite_eps_primal_inf: proxsuite's tolerance of its primal infeasibility
+            certificate (its default ``1e-4``). Rows of norm ``1e-8..1e-5`` with multipliers
+            ``1e5`` pass that test on feasible problems; ``1e-12`` leaves true certificates
+            (``A dy = 0`` to rounding) and drops those.
+        proxsuite_warm_start: keep proxsuite's workspace between solves of the same
+            structure (its preconditioner is not recomputed; the previous result is the
+            initial guess). ``False``: every solve starts afresh (new preconditioner, no
+            initial guess), for sequences whose coordinates change between solves: a cascade
+            level's QP lives in a nullspace basis that rotates from one step to the next,
+            where the stale preconditioner and warm start made proxsuite fail.
     """
 
     backend: str = "proxsuite"
@@ -138,6 +161,11 @@ class QPSolverOptions:
     relax_on_failure: bool = True
     relaxation_weight: float = 1e6
     feasibility_tolerance: float = 1e-10
+    proxsuite_rho: float = 1e-6
+    proxsuite_eps_rel: float | None = None
+    proxsuite_duality_gap: bool = True
+    proxsuite_eps_primal_inf: float = 1e-4
+    proxsuite_warm_start: bool = True
 
     def __post_init__(self) -> None:
         """Refuse iteration limits and budgets a solve could not honour (a hang or nothing)."""
@@ -147,6 +175,18 @@ class QPSolverOptions:
                 raise InvalidInputError(f"{name} must be an integer, got {value!r}")
             if not 1 <= value <= 10**6:
                 raise InvalidInputError(f"{name} must be in [1, 1e6], got {value}")
+        if self.proxsuite_eps_rel is not None and not (
+            isinstance(self.proxsuite_eps_rel, int | float)
+            and np.isfinite(self.proxsuite_eps_rel)
+            and self.proxsuite_eps_rel >= 0
+        ):
+            raise InvalidInputError(
+                f"proxsuite_eps_rel must be finite and >= 0 or None, got {self.proxsuite_eps_rel!r}"
+            )
+        for name in ("proxsuite_rho", "proxsuite_eps_primal_inf"):
+            value = getattr(self, name)
+            if not (isinstance(value, int | float) and np.isfinite(value) and value > 0):
+                raise InvalidInputError(f"{name} must be finite and > 0, got {value!r}")
         for name in ("eps_abs", "eps_rel", "relaxation_weight", "feasibility_tolerance"):
             value = getattr(self, name)
             if not (isinstance(value, int | float) and np.isfinite(value) and value >= 0):
@@ -435,14 +475,17 @@ class QPSolver:
 
         opts = self.options
         settings = qp.settings
+        eps_rel = opts.eps_rel if opts.proxsuite_eps_rel is None else opts.proxsuite_eps_rel
         settings.eps_abs = opts.eps_abs
-        settings.eps_rel = opts.eps_rel
+        settings.eps_rel = eps_rel
         # proxsuite's default test checks primal and dual residuals only: it then stops at
         # points whose multipliers belong to another active set (steps 1e-5..5e-2 from the
         # optimum on IK problems). The duality-gap test closes that hole.
-        settings.check_duality_gap = True
+        settings.check_duality_gap = opts.proxsuite_duality_gap
         settings.eps_duality_gap_abs = opts.eps_abs
-        settings.eps_duality_gap_rel = opts.eps_rel
+        settings.eps_duality_gap_rel = eps_rel
+        settings.default_rho = opts.proxsuite_rho
+        settings.eps_primal_inf = opts.proxsuite_eps_primal_inf
         settings.max_iter = opts.max_iter
         settings.max_iter_in = opts.max_iter_in
         settings.verbose = False
@@ -458,7 +501,11 @@ class QPSolver:
         C = p.C if p.n_in else None
         l = p.l if p.n_in else None
         u = p.u if p.n_in else None
-        if self._proxsuite is None or self._proxsuite_structure != structure:
+        if (
+            self._proxsuite is None
+            or self._proxsuite_structure != structure
+            or not self.options.proxsuite_warm_start
+        ):
             qp = proxqp.dense.QP(p.n, p.n_eq, p.n_in, True)
             self._proxsuite_settings(qp)
             qp.init(p.H, p.g, A, b, C, l, u, p.lb, p.ub)
@@ -479,6 +526,16 @@ class QPSolver:
         x = np.array(results.x)
         z_all = np.array(results.z)
         converged = status == proxqp.PROXQP_SOLVED
+        eps_inner = self.options.proxsuite_eps_rel
+        if (
+            status == proxqp.PROXQP_MAX_ITER_REACHED
+            and eps_inner is not None
+            and eps_inner < self.options.eps_rel
+        ):
+            # proxsuite was asked for more than the certificate (to help the refinement): a
+            # point it stops at by its iteration limit may still meet the certificate; it is
+            # SOLVED only if its (refined) KKT residuals are within the tolerances
+            converged = True
         if converged and self.options.refine:
             # proxsuite stops at KKT residuals ~eps; on an ill-conditioned H (a G1 IK step
             # whose floating base only the 1e-6 damping holds) that is a step 1e-3 from the
@@ -491,6 +548,21 @@ class QPSolver:
                 )
                 if out.success:
                     return out
+        if converged and status == proxqp.PROXQP_MAX_ITER_REACHED:
+            out = self._finish(
+                "proxsuite",
+                p,
+                True,
+                x,
+                np.array(results.y),
+                z_all[: p.n_in],
+                z_all[p.n_in :],
+                int(info.iter),
+                time.perf_counter() - t0,
+            )
+            if out.success:
+                return out
+            converged = False
         out = self._finish(
             "proxsuite",
             p,
