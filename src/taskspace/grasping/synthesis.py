@@ -29,10 +29,9 @@ from taskspace.grasping.contact import (
     GraspContact,
     check_edges,
     nonnegative,
-    primitive_wrenches,
 )
+from taskspace.grasping.epsilon import grasp_epsilon_batch
 from taskspace.grasping.object_mesh import TriangleMesh
-from taskspace.grasping.quality import epsilon_l1
 from taskspace.ik import SolveIKOptions, solve_ik
 from taskspace.model import Obstacle, Robot
 from taskspace.planning.collision_checker import CollisionChecker
@@ -141,14 +140,18 @@ def sample_antipodal_grasps(
         & (t <= o.max_width)
     )
     p1, p2, n1, n2, width = p1[keep], p2[keep], n1[keep], n2[keep], t[keep]
-    epsilon = np.empty(len(width))
-    for i in range(len(width)):
-        contacts = [
-            GraspContact(p1[i], n1[i], type=ContactType.SOFT_FINGER, mu=o.mu, torsion=o.torsion),
-            GraspContact(p2[i], n2[i], type=ContactType.SOFT_FINGER, mu=o.mu, torsion=o.torsion),
-        ]
-        W, _ = primitive_wrenches(contacts, edges=o.edges, center=mesh.vertices.mean(axis=0))
-        epsilon[i] = epsilon_l1(W)
+    epsilon = (
+        grasp_epsilon_batch(
+            np.stack([p1, p2], axis=1),
+            np.stack([n1, n2], axis=1),
+            mu=o.mu,
+            edges=o.edges,
+            torsion=o.torsion,
+            center=mesh.vertices.mean(axis=0),
+        )
+        if len(width)
+        else np.zeros(0)
+    )
     order = np.argsort(-epsilon, kind="stable")
     return GraspCandidates(
         p1[order], p2[order], n1[order], n2[order], width[order], epsilon[order], o
