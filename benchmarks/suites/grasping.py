@@ -1,16 +1,25 @@
 """Grasp analysis and synthesis.
 
 * ``epsilon``: the Ferrari-Canny epsilon (L1) of random 3- and 5-contact grasps with 8-edge
-  friction cones, per grasp: taskspace (one convex hull, facet offsets) against the textbook
-  reference written for this suite (one QP per hull facet, as Dex-Net computes it), same
-  grasps, same values checked.
+  friction cones, per grasp: taskspace (one unmerged hull, certified; ``epsilon_l1``), the
+  previous path (qhull's merged hull, "Qx", the scipy default) alternated with it round by
+  round on the same grasps, and the textbook reference written for this suite (one QP per hull
+  facet, as Dex-Net computes it) in the same run; the values are checked against each other.
+* ``epsilon batch``: ``grasp_epsilon_batch`` (vectorized primitive wrenches, cheap separating
+  directions, one hull per remaining grasp): grasps per second, all grasps and in-closure only.
 * ``closure``: the LP closure test per grasp.
-* ``synthesis``: antipodal candidates sampled and scored per second on a box and a cylinder.
+* ``synthesis``: antipodal candidates sampled and scored per second on a box and a cylinder;
+  scoring alone against the previous one-grasp-at-a-time loop on the same candidates.
+
+The machine is shared: each timed comparison alternates the methods over rounds and reports
+the minimum and the median of the round means beside the per-call distribution.
 """
 
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -18,30 +27,43 @@ from benchmarks.common import Row, Timing
 from benchmarks.ferrari_canny_reference import epsilon_reference
 from taskspace.grasping import (
     AntipodalOptions,
+    ContactType,
     GraspContact,
     box_mesh,
     closure_lp,
     cylinder_mesh,
     epsilon_l1,
+    grasp_epsilon_batch,
     primitive_wrenches,
     sample_antipodal_grasps,
 )
+from taskspace.grasping.quality import _margin, wrench_space_l1
 
 SUITE = "grasping"
 
 
+def _contacts(k: int, n: int, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """``n`` grasps of ``k`` contacts on a 5 cm sphere, inward normals (the scene)."""
+    normals = rng.standard_normal((n, k, 3))
+    normals /= np.linalg.norm(normals, axis=2, keepdims=True)
+    return -0.05 * normals, normals
+
+
 def _grasps(k: int, n: int, rng: np.random.Generator) -> list[np.ndarray]:
+    positions, normals = _contacts(k, n, rng)
     out = []
-    while len(out) < n:
-        normals = rng.standard_normal((k, 3))
-        positions = -normals / np.linalg.norm(normals, axis=1, keepdims=True) * 0.05
-        grasp = [GraspContact(p, m, mu=0.6) for p, m in zip(positions, normals)]
-        W, _ = primitive_wrenches(grasp, edges=8)
+    for p, m in zip(positions, normals):
+        W, _ = primitive_wrenches([GraspContact(a, b, mu=0.6) for a, b in zip(p, m)], edges=8)
         out.append(W)
     return out
 
 
-def _per_call(fn, items) -> tuple[list[float], list[float]]:
+def _epsilon_merged(W: np.ndarray) -> float:
+    """The previous epsilon_l1: qhull's merged hull (scipy default options), facet offsets."""
+    return _margin(wrench_space_l1(W))
+
+
+def _per_call(fn: Callable[[Any], Any], items: list[Any]) -> tuple[list[float], list[Any]]:
     times, values = [], []
     for x in items:
         t0 = time.perf_counter()
@@ -50,29 +72,70 @@ def _per_call(fn, items) -> tuple[list[float], list[float]]:
     return times, values
 
 
-def run(quick: bool) -> list[Row]:
-    rng = np.random.default_rng(0)
+def _alternate(
+    fns: list[Callable[[Any], Any]], items: list[Any], rounds: int
+) -> tuple[list[list[float]], list[list[float]], list[list[Any]]]:
+    """Per-call times of each function over ``rounds`` alternating passes, round means."""
+    samples: list[list[float]] = [[] for _ in fns]
+    means: list[list[float]] = [[] for _ in fns]
+    values: list[list[Any]] = [[] for _ in fns]
+    for r in range(rounds):
+        order = range(len(fns)) if r % 2 == 0 else reversed(range(len(fns)))
+        for i in order:
+            t, v = _per_call(fns[i], items)
+            samples[i] += t
+            means[i].append(float(np.mean(t)))
+            values[i] = v
+    return samples, means, values
+
+
+def _round_stats(means: list[float]) -> dict[str, float]:
+    return {
+        "round_mean_min_us": 1e6 * min(means),
+        "round_mean_median_us": 1e6 * float(np.median(means)),
+        "rounds": len(means),
+    }
+
+
+def _epsilon_rows(quick: bool, rng: np.random.Generator) -> list[Row]:
     rows: list[Row] = []
     n = 30 if quick else 200
+    rounds = 3 if quick else 5
     for k in (3, 5):
         grasps = _grasps(k, n, rng)
-        t_ours, v_ours = _per_call(epsilon_l1, grasps)
+        (t_new, t_old), (m_new, m_old), (v_new, v_old) = _alternate(
+            [epsilon_l1, _epsilon_merged], grasps, rounds
+        )
         ref_items = grasps[: max(5, n // 10)]  # the reference is slow
         t_ref, v_ref = _per_call(epsilon_reference, ref_items)
-        err = max(abs(a - b) for a, b in zip(v_ours, v_ref))
+        scale = max(1e-300, max(v_ref))
+        err_ref = max(abs(a - b) / max(b, 1e-12 * scale) for a, b in zip(v_new, v_ref))
+        err_old = max(abs(a - b) / max(b, 1e-12) for a, b in zip(v_new, v_old))
         scene = f"epsilon L1, {k} contacts, 8-edge cones"
-        closed = float(np.mean([v > 0 for v in v_ours]))
+        closed = float(np.mean([v > 0 for v in v_new]))
         rows.append(
             Row(
                 SUITE,
                 scene,
                 "taskspace",
-                Timing.from_samples(t_ours),
+                Timing.from_samples(t_new),
                 {
-                    "grasps_per_s": 1 / np.median(t_ours),
+                    "grasps_per_s": 1 / np.median(t_new),
                     "in_closure": closed,
-                    "max_abs_diff_to_reference": err,
+                    "max_rel_diff_to_reference": err_ref,
+                    "max_rel_diff_to_merged_hull": err_old,
+                    **_round_stats(m_new),
                 },
+            )
+        )
+        rows.append(
+            Row(
+                SUITE,
+                scene,
+                "taskspace before: merged qhull (Qx)",
+                Timing.from_samples(t_old),
+                _round_stats(m_old),
+                ratio_to="taskspace",
             )
         )
         rows.append(
@@ -87,25 +150,130 @@ def run(quick: bool) -> list[Row]:
         )
         t_lp, _ = _per_call(closure_lp, grasps)
         rows.append(Row(SUITE, f"closure LP, {k} contacts", "taskspace", Timing.from_samples(t_lp)))
+    return rows
+
+
+def _batch_rows(quick: bool, rng: np.random.Generator) -> list[Row]:
+    rows: list[Row] = []
+    n = 200 if quick else 2000
+    rounds = 3 if quick else 5
+    for k in (3, 5):
+        positions, normals = _contacts(k, n, rng)
+        per_grasp = []
+        for _ in range(rounds):
+            t0 = time.perf_counter()
+            eps = grasp_epsilon_batch(positions, normals, mu=0.6, edges=8)
+            per_grasp.append((time.perf_counter() - t0) / n)
+        inside = eps > 0
+        closed = grasp_epsilon_batch(positions[inside], normals[inside], mu=0.6, edges=8)
+        per_closed = []
+        for _ in range(rounds):
+            t0 = time.perf_counter()
+            grasp_epsilon_batch(positions[inside], normals[inside], mu=0.6, edges=8)
+            per_closed.append((time.perf_counter() - t0) / max(1, int(inside.sum())))
+        np.testing.assert_array_equal(closed, eps[inside])
+        rows.append(
+            Row(
+                SUITE,
+                f"epsilon L1 batch, {k} contacts, 8-edge cones",
+                "taskspace",
+                Timing.from_samples(per_grasp),
+                {
+                    "batch": n,
+                    "grasps_per_s": 1 / min(per_grasp),
+                    "grasps_per_s_median": 1 / float(np.median(per_grasp)),
+                    "in_closure": float(inside.mean()),
+                    "in_closure_only_grasps_per_s": 1 / min(per_closed),
+                },
+            )
+        )
+    return rows
+
+
+def _score_one_by_one(cands: Any, center: np.ndarray) -> np.ndarray:
+    """The previous scoring loop of sample_antipodal_grasps (one grasp at a time, merged)."""
+    o = cands.options
+    out = np.empty(len(cands))
+    for i in range(len(cands)):
+        contacts = [
+            GraspContact(p, m, type=ContactType.SOFT_FINGER, mu=o.mu, torsion=o.torsion)
+            for p, m in ((cands.p1[i], cands.n1[i]), (cands.p2[i], cands.n2[i]))
+        ]
+        W, _ = primitive_wrenches(contacts, edges=o.edges, center=center)
+        out[i] = _epsilon_merged(W)
+    return out
+
+
+def _synthesis_rows(quick: bool, rng: np.random.Generator) -> list[Row]:
+    rows: list[Row] = []
+    rounds = 3
     for name, mesh in (
         ("box 5x6x12 cm", box_mesh([0.05, 0.06, 0.12])),
         ("cylinder r3 h12 cm", cylinder_mesh(0.03, 0.12)),
     ):
         samples = 300 if quick else 2000
-        t0 = time.perf_counter()
-        cands = sample_antipodal_grasps(mesh, rng, AntipodalOptions(samples=samples))
-        t = time.perf_counter() - t0
+        totals = []
+        for _ in range(rounds):
+            t0 = time.perf_counter()
+            cands = sample_antipodal_grasps(mesh, rng, AntipodalOptions(samples=samples))
+            totals.append((time.perf_counter() - t0) / max(1, len(cands)))
+        center = mesh.vertices.mean(axis=0)
+
+        def batch(c: Any, m: np.ndarray = center) -> np.ndarray:
+            o = c.options
+            return grasp_epsilon_batch(
+                np.stack([c.p1, c.p2], axis=1),
+                np.stack([c.n1, c.n2], axis=1),
+                mu=o.mu,
+                edges=o.edges,
+                torsion=o.torsion,
+                center=m,
+            )
+
+        def loop(c: Any, m: np.ndarray = center) -> np.ndarray:
+            return _score_one_by_one(c, m)
+
+        (t_b, t_l), (m_b, m_l), (v_b, v_l) = _alternate([batch, loop], [cands], rounds)
+        per = max(1, len(cands))
+        np.testing.assert_allclose(v_b[0], v_l[0], rtol=1e-9, atol=1e-15)
+        np.testing.assert_allclose(v_b[0], cands.epsilon, rtol=0, atol=0)
         rows.append(
             Row(
                 SUITE,
                 f"antipodal synthesis, {name}",
                 "taskspace",
-                Timing.from_samples([t / max(1, len(cands))]),
+                Timing.from_samples(totals),
                 {
                     "samples": samples,
                     "candidates": len(cands),
-                    "candidates_scored_per_s": len(cands) / t,
+                    "candidates_scored_per_s": 1 / min(totals),
+                    "candidates_scored_per_s_median": 1 / float(np.median(totals)),
                 },
             )
         )
+        scene = f"antipodal scoring only, {name}"
+        rows.append(
+            Row(
+                SUITE,
+                scene,
+                "taskspace",
+                Timing.from_samples(np.array(t_b) / per),
+                {"candidates_per_s": per / min(t_b), **_round_stats(np.array(m_b) / per)},
+            )
+        )
+        rows.append(
+            Row(
+                SUITE,
+                scene,
+                "taskspace before: one by one, merged qhull",
+                Timing.from_samples(np.array(t_l) / per),
+                {"candidates_per_s": per / min(t_l), **_round_stats(np.array(m_l) / per)},
+                ratio_to="taskspace",
+            )
+        )
     return rows
+
+
+def run(quick: bool) -> list[Row]:
+    rng = np.random.default_rng(0)
+    return _epsilon_rows(quick, rng) + _batch_rows(quick, rng) + _synthesis_rows(quick, rng)
