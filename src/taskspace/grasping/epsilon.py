@@ -189,6 +189,22 @@ def primitive_wrenches_batch(
     Returns:
         ``(B, k * (edges + 2 [soft]), 6)`` wrenches ``(f, ((p - c) x f + tau_n n) / rho)``.
     """
+    n, r, rho, mu, edges, torsion = _contact_inputs(
+        positions, normals, mu, edges, torsion, center, torque_scale
+    )
+    return _wrenches_of(n, r, rho, mu, edges, torsion)
+
+
+def _contact_inputs(
+    positions: object,
+    normals: object,
+    mu: object,
+    edges: object,
+    torsion: object,
+    center: object,
+    torque_scale: object,
+) -> tuple[FloatArray, FloatArray, FloatArray, float, int, float]:
+    """Validated unit normals, lever arms ``p - c``, torque scales ``(B,)`` and settings."""
     p = as_float_array(positions, "positions")
     n = as_float_array(normals, "normals")
     if p.ndim != 3 or p.shape[2] != 3 or 0 in p.shape:
@@ -219,6 +235,13 @@ def primitive_wrenches_batch(
         raise InvalidInputError(f"torque_scale must be a length [m] > 0, got {torque_scale!r}")
     else:
         rho = np.full(len(p), check_positive(torque_scale, "torque_scale [m]"))
+    return n, r, rho, mu, edges, torsion
+
+
+def _wrenches_of(
+    n: FloatArray, r: FloatArray, rho: FloatArray, mu: float, edges: int, torsion: float
+) -> FloatArray:
+    """Primitive wrenches ``(B, k * rows, 6)`` of validated contact data."""
     t1, t2 = _contact_frames(n)
     theta = 2.0 * np.pi * np.arange(edges) / edges
     # forces (B, k, m, 3): n + mu (cos t1 + sin t2)
@@ -233,7 +256,7 @@ def primitive_wrenches_batch(
         forces = np.concatenate([forces, both], axis=2)
         moments = np.concatenate([moments, np.cross(r[:, :, None, :], both) + twist], axis=2)
     W = np.concatenate([forces, moments / rho[:, None, None, None]], axis=3)
-    return W.reshape(len(p), -1, 6)
+    return W.reshape(len(n), -1, 6)
 
 
 def grasp_epsilon_batch(
@@ -248,16 +271,180 @@ def grasp_epsilon_batch(
 ) -> FloatArray:
     """Epsilon (L1) of ``B`` grasps of ``k`` friction contacts, ``(B,)`` (0 out of closure).
 
-    The arguments are those of :func:`primitive_wrenches_batch`.
+    The arguments are those of :func:`primitive_wrenches_batch`. Two soft fingers (``k = 2``,
+    ``torsion > 0``, ``mu > 0``: parallel-jaw grasps) are scored without a hull, all at once,
+    by enumerating their facets in closed form; other grasps build one certified hull each.
     """
-    return epsilon_l1_batch(
-        primitive_wrenches_batch(
-            positions,
-            normals,
-            mu=mu,
-            edges=edges,
-            torsion=torsion,
-            center=center,
-            torque_scale=torque_scale,
-        )
+    n, r, rho, mu, edges, torsion = _contact_inputs(
+        positions, normals, mu, edges, torsion, center, torque_scale
     )
+    W = _wrenches_of(n, r, rho, mu, edges, torsion)
+    if n.shape[1] != 2 or torsion <= 0 or mu <= 0:
+        return epsilon_l1_batch(W)
+    out = np.empty(len(W))
+    for start in range(0, len(W), _CHUNK):
+        part = slice(start, start + _CHUNK)
+        out[part] = _two_soft_fingers(W[part], n[part], r[part], rho[part], mu, torsion, edges)
+    rest = np.flatnonzero(np.isnan(out))
+    if len(rest):
+        out[rest] = epsilon_l1_batch(W[rest])
+    return out
+
+
+_CHUNK = 128
+"""Grasps per vectorized block of :func:`_two_soft_fingers` (about 0.3 MB per grasp)."""
+
+
+def _bipyramid_faces(
+    mu: float, torsion: float, edges: int
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Faces of one soft-finger contact's wrench polytope, in its local coordinates.
+
+    A contact's primitive wrenches are ``L z`` with ``z = (x, y, 1, tau)``: the cone edges at
+    ``(mu cos, mu sin, 1, 0)`` and the torsion edges at ``(0, 0, 1, +-torsion)``, a bipyramid
+    over an ``edges``-gon. Returns the triangles as affine functions ``c . z`` vanishing on
+    them and negative inside, ``(2 m, 4)``, and for each of its ``3 m`` edges a basis of the
+    ``psi`` with ``psi . z = 0`` at both ends, ``(3 m, 2, 4)``, and its vertices ``z``,
+    ``(m + 2, 4)``.
+    """
+    theta = 2.0 * np.pi * np.arange(edges) / edges
+    ring = np.column_stack([mu * np.cos(theta), mu * np.sin(theta), np.zeros(edges)])
+    apexes = np.array([[0.0, 0.0, torsion], [0.0, 0.0, -torsion]])
+    nxt = np.roll(np.arange(edges), -1)
+    triangles = []
+    ends = []
+    for apex in apexes:
+        c = np.cross(ring - apex, ring[nxt] - apex)
+        d = c @ apex
+        flip = np.where(d < 0, -1.0, 1.0)  # outward: c . u <= d on the bipyramid (0 inside)
+        c, d = c * flip[:, None], d * flip
+        triangles.append(np.column_stack([c[:, 0], c[:, 1], -d, c[:, 2]]))
+        ends.append(np.stack([ring, np.repeat(apex[None], edges, axis=0)], axis=1))
+    ends.append(np.stack([ring, ring[nxt]], axis=1))
+    pairs = np.concatenate(ends)  # (3 m, 2, 3) local (x, y, tau)
+    z = np.stack([pairs[..., 0], pairs[..., 1], np.ones(pairs.shape[:2]), pairs[..., 2]], -1)
+    psi = np.linalg.svd(z)[2][:, 2:, :]  # null space of the two end points, (3 m, 2, 4)
+    vertices = np.vstack([ring, apexes])
+    local = np.column_stack([vertices[:, :2], np.ones(len(vertices)), vertices[:, 2]])
+    return np.concatenate(triangles), psi, local
+
+
+def _cross_rows(M: FloatArray) -> FloatArray:
+    """Unit null vector of each ``(..., 2, 3)`` matrix (zero when its rank is below 2)."""
+    (x0, y0, z0), (x1, y1, z1) = np.moveaxis(M[..., 0, :], -1, 0), np.moveaxis(M[..., 1, :], -1, 0)
+    x = np.stack([y0 * z1 - z0 * y1, z0 * x1 - x0 * z1, x0 * y1 - y0 * x1], axis=-1)
+    norm = np.sqrt(x[..., 0] ** 2 + x[..., 1] ** 2 + x[..., 2] ** 2)[..., None]
+    scale = np.sqrt((x0**2 + y0**2 + z0**2) * (x1**2 + y1**2 + z1**2))[..., None]
+    return np.where(norm > 1e-12 * scale, x / np.where(norm > 0, norm, 1.0), 0.0)
+
+
+def _two_soft_fingers(
+    W: FloatArray,
+    normals: FloatArray,
+    r: FloatArray,
+    rho: FloatArray,
+    mu: float,
+    torsion: float,
+    edges: int,
+) -> FloatArray:
+    """Epsilon of two soft-finger grasps from their facets, enumerated in closed form.
+
+    With ``A``, ``B`` the two contacts' bipyramids (each in a 3-flat), every facet of
+    ``conv(A u B)`` is ``conv(F_A u F_B)`` with faces whose affine hulls add up to 5
+    dimensions: two triangles, or a whole bipyramid and an edge of the other. For each such
+    pair the plane ``a^T w = b`` is the 1-D solution of a 2 x 3 system: writing
+    ``alpha = L_A^T a``, ``beta = L_B^T a``, the pair fixes ``(alpha, beta)`` up to 3
+    parameters and ``(alpha, beta)`` must lie in the range of ``[L_A L_B]^T`` (2 equations).
+    The candidates whose plane has every wrench on one side are the facets; epsilon is their
+    least offset. NaN for a grasp whose ``[L_A L_B]`` has rank below 6 (the caller then
+    builds the hull).
+    """
+    B = len(W)
+    t1, t2 = _contact_frames(normals)
+    n = normals
+    cols = [
+        np.concatenate([t1, np.cross(r, t1) / rho[:, None, None]], axis=-1),
+        np.concatenate([t2, np.cross(r, t2) / rho[:, None, None]], axis=-1),
+        np.concatenate([n, np.cross(r, n) / rho[:, None, None]], axis=-1),
+        np.concatenate([np.zeros_like(n), n / rho[:, None, None]], axis=-1),
+    ]
+    L_local = np.stack(cols, axis=-1)  # (B, 2, 6, 4)
+    L = np.concatenate([L_local[:, 0], L_local[:, 1]], axis=-1)  # (B, 6, 8)
+    U, S, Vt = np.linalg.svd(L)
+    good = S[:, -1] > 1e-9 * S[:, 0]
+    N = np.swapaxes(Vt[:, 6:, :], 1, 2)  # (B, 8, 2): (alpha; beta) must be orthogonal to it
+    Q = U @ (Vt[:, :6, :] / np.where(S > 0, S, 1.0)[:, :, None])  # a = Q (alpha; beta)
+    NA, NB = N[:, :4, :], N[:, 4:, :]
+    g = NA[:, 2, :] + NB[:, 2, :]  # (B, 2): coefficient of b
+    tri, psi, local = _bipyramid_faces(mu, torsion, edges)
+    scale = np.abs(W).max(axis=(1, 2))
+    tol = 1e-10 * scale
+    e3 = np.array([0.0, 0.0, 1.0, 0.0])
+    QA, QB = Q[:, :, :4], Q[:, :, 4:]
+    h = QA[:, :, 2] + QB[:, :, 2]  # (B, 6): a's part from b
+    # Two triangles T (of A), T' (of B): alpha = s c_T + b e3, beta = s' c_T' + b e3 and
+    # N^T (alpha; beta) = s p_T + s' q_T' + b g = 0, so (s, s', b) = (p_T, q_T', g) rows
+    # crossed: s depends on T' only, s' on T only.
+    p = tri @ NA  # (B, T, 2)
+    q = tri @ NB
+    g0, g1 = g[:, None, None, 0], g[:, None, None, 1]
+    s_ = q[:, None, :, 0] * g1 - g0 * q[:, None, :, 1]  # (B, 1, T')
+    s2 = g0 * p[:, :, None, 1] - p[:, :, None, 0] * g1  # (B, T, 1)
+    bb = p[:, :, None, 0] * q[:, None, :, 1] - q[:, None, :, 0] * p[:, :, None, 1]  # (B, T, T')
+    rows = np.sqrt(
+        (p[:, :, None, 0] ** 2 + q[:, None, :, 0] ** 2 + g0**2)
+        * (p[:, :, None, 1] ** 2 + q[:, None, :, 1] ** 2 + g1**2)
+    )
+    u = np.swapaxes(QA @ tri.T, 1, 2)  # (B, T, 6): Q_A c_T
+    v = np.swapaxes(QB @ tri.T, 1, 2)  # (B, T', 6)
+    # a = s u_T + s' v_T' + b h. On A's wrenches a . w - b = s c_T . z <= 0 exactly when
+    # s >= 0 (c_T is negative inside A), on B's when s' >= 0: the plane supports every
+    # wrench when s and s' have the same sign, with offset b / |a| (or -b / |a| when both
+    # are negative). No wrench needs to be tested.
+    uu = np.einsum("btd,btd->bt", u, u)
+    vv = np.einsum("btd,btd->bt", v, v)
+    hh = np.einsum("bd,bd->b", h, h)[:, None, None]
+    uv = u @ np.swapaxes(v, 1, 2)  # (B, T, T')
+    uh = u @ h[:, :, None]  # (B, T, 1)
+    vh = v @ h[:, :, None]  # (B, T', 1)
+    norm2 = (
+        s_**2 * uu[:, :, None]
+        + s2**2 * vv[:, None, :]
+        + bb**2 * hh
+        + 2 * s_ * s2 * uv
+        + 2 * s_ * bb * uh
+        + 2 * s2 * bb * np.swapaxes(vh, 1, 2)
+    )
+    norm = np.sqrt(np.maximum(norm2, 0.0))
+    ok = (np.sqrt(s_**2 + s2**2 + bb**2) > 1e-12 * rows) & (norm > 0)
+    norm = np.where(ok, norm, 1.0)
+    upper = np.where(ok & (s_ >= 0) & (s2 >= 0), bb / norm, np.inf)
+    lower = np.where(ok & (s_ <= 0) & (s2 <= 0), -bb / norm, np.inf)
+    best = [np.minimum(upper, lower).reshape(B, -1).min(axis=1)]
+    # A whole bipyramid and an edge of the other: alpha = b e3, beta = b e3 + psi sigma
+    # (psi . z = 0 at the edge's ends). On the whole one a . w - b = 0; on the other it is
+    # (psi sigma) . z, tested at its 2 m + 2 vertices (local coordinates, no wrench needed).
+    psi_z = psi @ local.T  # (E, 2, V)
+    for whole, other in ((0, 1), (1, 0)):
+        No = (NA, NB)[other]
+        cols_psi = np.tensordot(No, psi, axes=([1], [2])).transpose(0, 2, 1, 3)  # (B, E, 2, 2)
+        E = psi.shape[0]
+        M2 = np.concatenate([np.broadcast_to(g[:, None, :, None], (B, E, 2, 1)), cols_psi], -1)
+        sol2 = _cross_rows(M2)  # (b, sigma1, sigma2)
+        b2 = sol2[..., 0]
+        sig1, sig2 = sol2[..., 1:2], sol2[..., 2:3]  # (B, E, 1)
+        full = b2[..., None] * e3
+        part = full + sig1 * psi[:, 0] + sig2 * psi[:, 1]
+        pair = (full, part) if whole == 0 else (part, full)
+        a2 = np.concatenate(pair, axis=-1) @ np.swapaxes(Q, 1, 2)  # (B, E, 6)
+        n2 = np.linalg.norm(a2, axis=-1)
+        ok2 = n2 > 1e-9
+        n2 = np.where(ok2, n2, 1.0)
+        side2 = sig1 * psi_z[:, 0] + sig2 * psi_z[:, 1]  # (B, E, V)
+        lim2 = tol[:, None] * n2
+        up2 = np.where(ok2 & (side2.max(axis=-1) <= lim2), b2 / n2, np.inf)
+        lo2 = np.where(ok2 & (side2.min(axis=-1) >= -lim2), -b2 / n2, np.inf)
+        best.append(np.minimum(up2, lo2).min(axis=1))
+    eps = np.min(best, axis=0)
+    out = np.where(eps > MARGIN_TOLERANCE * scale, eps, 0.0)
+    return np.where(good & np.isfinite(eps), out, np.nan)
