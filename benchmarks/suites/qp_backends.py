@@ -10,18 +10,26 @@ Problem sets (each a sequence of QPs copied from a real run):
   sent 0.78 m away (out of reach: the cascade's levels hold active inequalities; in the
   benchmark scene itself the equality cascade already satisfies them and no QP is solved).
 
-Each backend solves each set in sequence with one persistent :class:`QPSolver` (the way the
-library uses it: proxsuite warm-started, preconditioner kept), without the unconstrained
+Each backend solves each set in sequence with one persistent :class:`QPSolver` per QP size (the
+way the library uses it, one per cascade level: proxsuite warm-started, preconditioner kept,
+unless the settings say otherwise), without the unconstrained
 shortcut, fallbacks or relaxation, at the default tolerances (``eps_abs = eps_rel = 1e-9``;
 cascade levels ``eps_rel = 1e-6``). ``success`` counts results whose KKT residuals meet the
 tolerances (``SOLVED``); the residual columns are the largest over all results of the backend
 (solved or not), as qpbenchmark reports them.
+
+On the cascade set, proxsuite also runs with the settings the cascade uses
+(:data:`~taskspace.qp.hierarchy.CASCADE_SOLVER_OPTIONS`: ``rho = 1e-11``, its own stopping
+tolerance ``1e-8``, no duality-gap test, infeasibility tolerance ``1e-12``, a fresh workspace
+per solve) and with each of those settings set back to proxsuite's default (``cascade - x``
+rows): what each one is worth.
 """
 
 from __future__ import annotations
 
 import copy
 import time
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -34,7 +42,7 @@ from taskspace.constraints import JointPositionLimits, JointVelocityLimits
 from taskspace.ik import DifferentialIK, DifferentialIKOptions
 from taskspace.model import Robot
 from taskspace.qp import QPProblem, QPSolver, QPSolverOptions, QPStatus, available_backends
-from taskspace.qp.hierarchy import HierarchySolver
+from taskspace.qp.hierarchy import CASCADE_SOLVER_OPTIONS, HierarchySolver
 from taskspace.tasks import Task
 
 SUITE = "qp_backends"
@@ -123,22 +131,43 @@ def id_problems(steps: int, hierarchical: bool) -> list[QPProblem]:
     return store
 
 
-def run_backend(backend: str, problems: list[QPProblem], eps_rel: float) -> dict[str, Any]:
-    """Solve the set in sequence with one persistent bare solver."""
-    solver = QPSolver(
-        QPSolverOptions(
-            backend=backend,
-            fallbacks=(),
-            relax_on_failure=False,
-            try_unconstrained=False,
-            eps_rel=eps_rel,
-        )
+CASCADE_ABLATIONS: dict[str, dict[str, Any]] = {
+    "proxsuite cascade": {},
+    "proxsuite cascade - rho": {"proxsuite_rho": 1e-6},
+    "proxsuite cascade - eps_rel 1e-8": {"proxsuite_eps_rel": None},
+    "proxsuite cascade - no gap test": {"proxsuite_duality_gap": True},
+    "proxsuite cascade - eps_primal_inf": {"proxsuite_eps_primal_inf": 1e-4},
+    "proxsuite cascade - fresh workspace": {"proxsuite_warm_start": True},
+}
+"""Rows of the cascade set: the cascade's proxsuite settings, then each set back."""
+
+
+def run_backend(
+    backend: str,
+    problems: list[QPProblem],
+    eps_rel: float,
+    options: QPSolverOptions | None = None,
+) -> dict[str, Any]:
+    """Solve the set in sequence with one persistent bare solver.
+
+    ``options``: settings to start from (default: the defaults with ``eps_rel``); the
+    backend, no fallbacks, no relaxation and no unconstrained shortcut are imposed.
+    """
+    base = options if options is not None else QPSolverOptions(eps_rel=eps_rel)
+    bare = replace(
+        base, backend=backend, fallbacks=(), relax_on_failure=False, try_unconstrained=False
     )
+    # one solver per QP structure: the cascade keeps one per level, and its levels differ in
+    # size (with one solver for all, every level would rebuild the workspace of the last)
+    solvers: dict[tuple[int, int, int], QPSolver] = {}
     times = np.empty(len(problems))
     solved = 0
     primal = dual = gap = 0.0
     statuses: dict[str, int] = {}
     for i, p in enumerate(problems):
+        solver = solvers.get(p.structure())
+        if solver is None:
+            solver = solvers[p.structure()] = QPSolver(bare)
         t0 = time.perf_counter()
         r = solver.solve(p)
         times[i] = time.perf_counter() - t0
@@ -172,13 +201,21 @@ def run(quick: bool) -> list[Row]:
         if not problems:
             rows.append(Row(SUITE, scene, "-", None, note="no QP reached the backends"))
             continue
-        for backend in available_backends():
-            out = run_backend(backend, copy.copy(problems), eps_rel)
+        methods: list[tuple[str, str, QPSolverOptions | None]] = [
+            (b, b, None) for b in available_backends()
+        ]
+        if scene == "hierarchy g1" and "proxsuite" in available_backends():
+            methods += [
+                (name, "proxsuite", replace(CASCADE_SOLVER_OPTIONS, **change))
+                for name, change in CASCADE_ABLATIONS.items()
+            ]
+        for method, backend, options in methods:
+            out = run_backend(backend, copy.copy(problems), eps_rel, options)
             rows.append(
                 Row(
                     SUITE,
                     scene,
-                    backend,
+                    method,
                     Timing.from_samples(out["times"]),
                     {
                         "success": out["success"],
