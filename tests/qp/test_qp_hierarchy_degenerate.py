@@ -230,7 +230,9 @@ def test_g1_inverse_dynamics_cascade_levels_solved_by_proxsuite() -> None:
     state = robot.state(q, v)
     dt = 0.002
     qp_levels = 0
-    for k in range(6):
+    # 30 steps (about 3 s): at steps 22 and 25 proxsuite stops at a certified point whose
+    # active set does not refine; without the polish it ends at its iteration limit
+    for k in range(30):
         com.set_target(c0 + np.array([0.0, 0.04 * np.sin(np.pi * k * dt), 0.0]))
         state.update(q, v)
         res = ctrl.solve(state)
@@ -243,4 +245,4 @@ def test_g1_inverse_dynamics_cascade_levels_solved_by_proxsuite() -> None:
             qp_levels += lr.backend.startswith("proxsuite")
         v = v + dt * res.a
         q = pin.integrate(robot.model, q, dt * v)
-    assert qp_levels >= 15  # the cascade's levels were constrained QPs
+    assert qp_levels >= 80  # the cascade's levels were constrained QPs

@@ -122,17 +122,20 @@ class HierarchyOptions:
             proxsuite, then daqp and quadprog. A level's Hessian is ``JZ^T JZ + damping``:
             the freedom its rows leave to lower levels has curvature ``damping`` only (1e-9
             against ``|JZ|^2 ~ 1``), and the levels after the first hold earlier inequalities
-            (degenerate: many active, nearly dependent rows). proxsuite's defaults stall there
-            (G1 cascade, 200 level QPs: 164 solved); the settings that make it reliable, each
-            needed (measured by leaving it out, ``qp_backends`` benchmark set): ``rho = 1e-12``
-            (the proximal term must not dominate the flat directions), its own stopping
+            (degenerate: many active, nearly dependent rows). proxsuite's defaults stall there.
+            Measured on the G1 cascade's 200 level QPs (``qp_backends`` benchmark: proxsuite
+            defaults 172 solved, daqp 182, quadprog 153, osqp 69; these settings 200), each
+            setting set back to proxsuite's default: ``rho = 1e-11`` (the proximal term must
+            not dominate the flat directions; 1e-6: 197 and 3x the time; 1e-12 made proxsuite
+            0.8 return NaN iterates on one QP, nondeterministically), its own stopping
             tolerance ``1e-8`` below the certificate's ``1e-6`` (its test omits
-            complementarity), no duality-gap test (never met with the huge multipliers of
-            dependent active rows), infeasibility tolerance ``1e-12`` (false certificates on
-            feasible levels) and a fresh workspace per solve (the nullspace basis, so the
+            complementarity; 193), infeasibility tolerance ``1e-12`` (false certificates on
+            feasible levels; 188), a fresh workspace per solve (the nullspace basis, so the
             level's coordinates, rotates between steps: a kept preconditioner and warm start
-            made it fail). The KKT tolerance is relative ``1e-6``: the Hessian is conditioned
-            like ``|J|^2 / damping``, where no backend reliably reaches ``1e-9``.
+            fail; 189), no duality-gap test (never met with the huge multipliers of dependent
+            active rows: no effect on that set, 189 against 198 on an earlier one). The KKT
+            tolerance is relative ``1e-6``: the Hessian is conditioned like
+            ``|J|^2 / damping``, where no backend reliably reaches ``1e-9``.
     """
 
     damping: float = 1e-9
