@@ -9,7 +9,8 @@
   directions, one hull per remaining grasp): grasps per second, all grasps and in-closure only.
 * ``closure``: the LP closure test per grasp.
 * ``synthesis``: antipodal candidates sampled and scored per second on a box and a cylinder;
-  scoring alone against the previous one-grasp-at-a-time loop on the same candidates.
+  scoring alone (two soft fingers: facets in closed form, all candidates at once) against the
+  previous one-grasp-at-a-time loop (merged hull) on the same candidates.
 
 The machine is shared: each timed comparison alternates the methods over rounds and reports
 the minimum and the median of the round means beside the per-call distribution.
