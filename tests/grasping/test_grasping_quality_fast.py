@@ -298,3 +298,32 @@ def test_two_soft_fingers_closed_form_equals_the_hull(
     if edges == 3:
         for b in range(0, 60, 6):
             assert fast[b] == pytest.approx(enumerated_epsilon(W[b]), rel=1e-9, abs=1e-14)
+
+
+@pytest.mark.parametrize(("mu", "edges"), [(0.6, 8), (1.0, 4), (0.4, 5)])
+def test_three_point_contacts_closed_form_equals_the_hull(mu: float, edges: int) -> None:
+    """Three point contacts are scored by enumerating their facets in closed form: same
+    values as the hull of their wrenches, and (4 edges) as facet enumeration without qhull;
+    a symmetric grasp whose enumeration is degenerate falls back to the hull."""
+    rng = np.random.default_rng(edges)
+    normals = rng.standard_normal((80, 3, 3))
+    normals /= np.linalg.norm(normals, axis=2, keepdims=True)
+    positions = -0.05 * normals + 0.01 * rng.standard_normal((80, 3, 3))
+    # Three fingers at 120 deg on a disk: every contact in one plane.
+    angles = 2 * np.pi * np.arange(3) / 3
+    ring = np.column_stack([np.cos(angles), np.sin(angles), np.zeros(3)])
+    positions[0], normals[0] = 0.04 * ring, -ring
+    # Two fingers on one spot: [L_1 L_2 L_3] has rank < 6, the hull decides (0: flat).
+    positions[1, 1], normals[1, 1] = positions[1, 0], normals[1, 0]
+    fast = grasp_epsilon_batch(positions, normals, mu=mu, edges=edges)
+    n, r, rho, *_ = eps_module._contact_inputs(positions, normals, mu, edges, 0.0, None, None)
+    W = primitive_wrenches_batch(positions, normals, mu=mu, edges=edges)
+    closed = eps_module._three_point_contacts(W[:2], n[:2], r[:2], rho[:2], mu, edges)
+    assert np.isnan(closed[1]) and np.isfinite(closed[0]) and fast[1] == 0.0
+    hull = epsilon_l1_batch(W)
+    assert 10 <= np.count_nonzero(hull) <= 75
+    np.testing.assert_array_equal(fast > 0, hull > 0)
+    np.testing.assert_allclose(fast, hull, rtol=1e-9, atol=0)
+    if edges == 4:
+        for b in range(0, 80, 8):
+            assert fast[b] == pytest.approx(enumerated_epsilon(W[b]), rel=1e-9, abs=1e-14)

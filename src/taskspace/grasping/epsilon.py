@@ -21,6 +21,8 @@ mean wrench, the coordinate axes) proves it (Gordan's alternative).
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 import numpy.typing as npt
 from scipy.spatial import ConvexHull, QhullError
@@ -272,19 +274,29 @@ def grasp_epsilon_batch(
     """Epsilon (L1) of ``B`` grasps of ``k`` friction contacts, ``(B,)`` (0 out of closure).
 
     The arguments are those of :func:`primitive_wrenches_batch`. Two soft fingers (``k = 2``,
-    ``torsion > 0``, ``mu > 0``: parallel-jaw grasps) are scored without a hull, all at once,
-    by enumerating their facets in closed form; other grasps build one certified hull each.
+    ``torsion > 0``: parallel-jaw grasps) and three point contacts (``k = 3``, no torsion, at
+    most 16 edges) are scored without a hull, all at once, by enumerating their facets in
+    closed form (a grasp where that is degenerate falls back to its hull); other grasps build
+    one certified hull each.
     """
     n, r, rho, mu, edges, torsion = _contact_inputs(
         positions, normals, mu, edges, torsion, center, torque_scale
     )
     W = _wrenches_of(n, r, rho, mu, edges, torsion)
-    if n.shape[1] != 2 or torsion <= 0 or mu <= 0:
+    k = n.shape[1]
+    if k == 2 and torsion > 0 and mu > 0:
+        chunk = _CHUNK
+    elif k == 3 and torsion == 0 and mu > 0 and edges <= 16:
+        chunk = max(1, _CHUNK * 512 // edges**3)
+    else:
         return epsilon_l1_batch(W)
     out = np.empty(len(W))
-    for start in range(0, len(W), _CHUNK):
-        part = slice(start, start + _CHUNK)
-        out[part] = _two_soft_fingers(W[part], n[part], r[part], rho[part], mu, torsion, edges)
+    for start in range(0, len(W), chunk):
+        part = slice(start, start + chunk)
+        if k == 2:
+            out[part] = _two_soft_fingers(W[part], n[part], r[part], rho[part], mu, torsion, edges)
+        else:
+            out[part] = _three_point_contacts(W[part], n[part], r[part], rho[part], mu, edges)
     rest = np.flatnonzero(np.isnan(out))
     if len(rest):
         out[rest] = epsilon_l1_batch(W[rest])
@@ -448,3 +460,175 @@ def _two_soft_fingers(
     eps = np.min(best, axis=0)
     out = np.where(eps > MARGIN_TOLERANCE * scale, eps, 0.0)
     return np.where(good & np.isfinite(eps), out, np.nan)
+
+
+def _det3(a: FloatArray, b: FloatArray, c: FloatArray) -> FloatArray:
+    """``det [a b c]`` of 3-vectors along the last axis (broadcast)."""
+    return (
+        a[..., 0] * (b[..., 1] * c[..., 2] - b[..., 2] * c[..., 1])
+        - a[..., 1] * (b[..., 0] * c[..., 2] - b[..., 2] * c[..., 0])
+        + a[..., 2] * (b[..., 0] * c[..., 1] - b[..., 1] * c[..., 0])
+    )
+
+
+def _null4(c1: FloatArray, c2: FloatArray, c3: FloatArray, c4: FloatArray) -> FloatArray:
+    """Null vector of the 3 x 4 matrices ``[c1 c2 c3 c4]`` (columns, broadcast), by minors."""
+    c1, c2, c3, c4 = np.broadcast_arrays(c1, c2, c3, c4)
+    return np.stack(
+        [_det3(c2, c3, c4), -_det3(c1, c3, c4), _det3(c1, c2, c4), -_det3(c1, c2, c3)], axis=-1
+    )
+
+
+def _fold(
+    best: FloatArray,
+    x0: FloatArray,
+    x1: FloatArray,
+    x2: FloatArray,
+    x3: FloatArray,
+    norm2: FloatArray,
+    col_scale: FloatArray,
+) -> npt.NDArray[np.bool_]:
+    """Fold candidate planes into ``best`` (per grasp, in place); the grasps with a degenerate one.
+
+    A candidate is ``x = (b, s1, s2, s3)`` (null vector of its 3 x 4 system) with
+    ``|a|^2 = norm2``; it supports every wrench with offset ``b / |a|`` when the ``s`` are all
+    >= 0, ``-b / |a|`` when all <= 0 (to ``1e-12 |x|``).
+    """
+    B = len(best)
+    xnorm = np.sqrt(x0**2 + x1**2 + x2**2 + x3**2)
+    shape = (B,) + (1,) * (xnorm.ndim - 1)
+    degenerate = (xnorm <= 1e-9 * col_scale.reshape(shape) ** 3).reshape(B, -1).any(axis=1)
+    anorm = np.sqrt(np.maximum(norm2, 0.0))
+    anorm = np.where(anorm > 0, anorm, 1.0)
+    tol = 1e-12 * xnorm
+    up = (x1 >= -tol) & (x2 >= -tol) & (x3 >= -tol)
+    lo = (x1 <= tol) & (x2 <= tol) & (x3 <= tol)
+    cand = np.where(up, x0 / anorm, np.where(lo, -x0 / anorm, np.inf))
+    np.minimum(best, cand.reshape(B, -1).min(axis=1), out=best)
+    return np.asarray(degenerate, dtype=bool)
+
+
+def _three_point_contacts(
+    W: FloatArray, normals: FloatArray, r: FloatArray, rho: FloatArray, mu: float, edges: int
+) -> FloatArray:
+    """Epsilon of three point contacts with friction from their facets, in closed form.
+
+    Each contact's wrenches are ``L_i z`` with ``z = (x, y, 1)`` on an ``m``-gon (a 2-flat).
+    A facet meets each polygon in a face (vertex, edge, whole polygon: 1, 2, 3 points); its
+    plane is fixed by a choice of faces whose point counts are (3, 3, 0), (3, 2, 1) or
+    (2, 2, 2). With ``alpha_i = L_i^T a = b e3 + sum sigma psi`` (``psi`` the outward lines of
+    the polygon's edges through the chosen face) and ``sum_i N_i^T alpha_i = 0`` (``N`` the
+    kernel of ``[L_1 L_2 L_3]``), each choice is a 3 x 4 system whose null vector gives
+    ``(b, sigma)``; the plane supports every wrench exactly when the sigmas share one sign
+    (the free polygon of (3, 3, 0) is tested at its vertices). Every such choice made of
+    affinely independent points, the enumeration meets every facet; a grasp with a degenerate
+    choice (or rank ``[L_1 L_2 L_3]`` below 6) gives NaN and the caller builds its hull.
+    """
+    B, m = len(W), edges
+    t1, t2 = _contact_frames(normals)
+    cols = [
+        np.concatenate([t, np.cross(r, t) / rho[:, None, None]], axis=-1) for t in (t1, t2, normals)
+    ]
+    L_local = np.stack(cols, axis=-1)  # (B, 3, 6, 3)
+    L = np.concatenate([L_local[:, 0], L_local[:, 1], L_local[:, 2]], axis=-1)  # (B, 6, 9)
+    U, S, Vt = np.linalg.svd(L)
+    good = S[:, -1] > 1e-9 * S[:, 0]
+    N = np.swapaxes(Vt[:, 6:, :], 1, 2)  # (B, 9, 3)
+    Q = U @ (Vt[:, :6, :] / np.where(S > 0, S, 1.0)[:, :, None])  # (B, 6, 9)
+    theta = 2.0 * np.pi * np.arange(m) / m
+    V = np.column_stack([mu * np.cos(theta), mu * np.sin(theta), np.ones(m)])  # (m, 3)
+    lines = np.cross(V, np.roll(V, -1, axis=0))  # edge j: V_j -> V_j+1, psi . z = 0 on it
+    lines *= np.where(lines[:, 2] > 0, -1.0, 1.0)[:, None]  # negative at the centre: outward
+    Ni = [N[:, 3 * i : 3 * i + 3, :] for i in range(3)]  # (B, 3, 3): alpha_i -> constraint
+    Qi = [Q[:, :, 3 * i : 3 * i + 3] for i in range(3)]  # (B, 6, 3): alpha_i -> a
+    g = Ni[0][:, 2, :] + Ni[1][:, 2, :] + Ni[2][:, 2, :]  # (B, 3): coefficient of b
+    h = Qi[0][:, :, 2] + Qi[1][:, :, 2] + Qi[2][:, :, 2]  # (B, 6)
+    P = [lines @ n_ for n_ in Ni]  # (B, m, 3): N_i^T psi_e
+    Ua = [np.swapaxes(q_ @ lines.T, 1, 2) for q_ in Qi]  # (B, m, 6): Q_i psi_e
+    scale = np.abs(W).max(axis=(1, 2))
+    best = np.full(B, np.inf)
+    degenerate = ~good
+    col_scale = np.sqrt(
+        np.max([np.sum(x**2, axis=-1).max(axis=-1) for x in P] + [np.sum(g**2, axis=-1)], axis=0)
+    )  # (B,)
+
+    def offsets(x: FloatArray, a: FloatArray, signs: FloatArray, c: FloatArray) -> None:
+        """Fold the candidates ``x = (b, sigmas)`` with normals ``a`` into ``best``."""
+        nonlocal degenerate
+        flat = x.reshape(B, -1, x.shape[-1])
+        small = np.linalg.norm(flat, axis=-1) <= 1e-9 * c[:, None] ** 3
+        degenerate = degenerate | small.any(axis=1)
+        norm = np.linalg.norm(a.reshape(B, -1, 6), axis=-1)
+        norm = np.where(norm > 0, norm, 1.0)
+        b = flat[..., 0] / norm
+        s = signs.reshape(B, flat.shape[1], -1)
+        tol = 1e-12 * np.linalg.norm(flat, axis=-1)
+        upper = np.where(np.all(s >= -tol[..., None], axis=-1), b, np.inf)
+        lower = np.where(np.all(s <= tol[..., None], axis=-1), -b, np.inf)
+        np.minimum(best, np.minimum(upper, lower).min(axis=1), out=best)
+
+    gb = g[:, None, :]
+    # (2, 2, 2): an edge of every polygon; x = (b, sigma_1, sigma_2, sigma_3) by minors of
+    # [g, P_1[e1], P_2[e2], P_3[e3]] (only b depends on all three edges), |a| by Gram terms.
+    c12 = np.cross(P[1][:, :, None, :], P[2][:, None, :, :])  # (B, e2, e3, 3)
+    c02 = np.cross(P[0][:, :, None, :], P[2][:, None, :, :])  # (B, e1, e3, 3)
+    c01 = np.cross(P[0][:, :, None, :], P[1][:, None, :, :])  # (B, e1, e2, 3)
+    x0 = np.einsum("bid,bjkd->bijk", P[0], c12)
+    x1 = -np.einsum("bd,bjkd->bjk", g, c12)[:, None, :, :]
+    x2 = np.einsum("bd,bikd->bik", g, c02)[:, :, None, :]
+    x3 = -np.einsum("bd,bijd->bij", g, c01)[:, :, :, None]
+    gram = [[np.einsum("bid,bjd->bij", Ua[i], Ua[j]) for j in range(3)] for i in range(3)]
+    hU = [Ua[i] @ h[:, :, None] for i in range(3)]  # (B, m, 1)
+    norm2 = (
+        x0**2 * np.einsum("bd,bd->b", h, h)[:, None, None, None]
+        + x1**2 * np.einsum("bid,bid->bi", Ua[0], Ua[0])[:, :, None, None]
+        + x2**2 * np.einsum("bid,bid->bi", Ua[1], Ua[1])[:, None, :, None]
+        + x3**2 * np.einsum("bid,bid->bi", Ua[2], Ua[2])[:, None, None, :]
+        + 2 * x0 * x1 * hU[0][:, :, :, None]
+        + 2 * x0 * x2 * hU[1][:, None, :, :]
+        + 2 * x0 * x3 * np.swapaxes(hU[2], 1, 2)[:, :, None, :]
+        + 2 * x1 * x2 * gram[0][1][:, :, :, None]
+        + 2 * x1 * x3 * gram[0][2][:, :, None, :]
+        + 2 * x2 * x3 * gram[1][2][:, None, :, :]
+    )
+    degenerate |= _fold(best, x0, x1, x2, x3, norm2, col_scale)
+
+    # (3, 2, 1): polygon i whole, edge e of j, vertex v of k (between edges v-1 and v):
+    # columns [g, P_j[e], P_k[v-1], P_k[v]], a = b h + s_e U_j[e] + s' U_k[v-1] + s'' U_k[v].
+    def dot(u: FloatArray, v: FloatArray) -> FloatArray:
+        return np.einsum("bid,bid->bi", u, v)
+
+    for _whole, j, k in itertools.permutations(range(3)):
+        Pj, Pk, Pkp = P[j], P[k], np.roll(P[k], 1, axis=1)
+        Uj, Uk, Ukp = Ua[j], Ua[k], np.roll(Ua[k], 1, axis=1)
+        x0 = np.einsum("bed,bvd->bev", Pj, np.cross(Pkp, Pk))
+        x1 = -np.einsum("bd,bvd->bv", g, np.cross(Pkp, Pk))[:, None, :]
+        x2 = np.einsum("bed,bvd->bev", Pj, np.cross(Pk, gb))
+        x3 = -np.einsum("bed,bvd->bev", Pj, np.cross(Pkp, gb))
+        hUj, hUkp, hUk = (u @ h[:, :, None] for u in (Uj, Ukp, Uk))  # (B, m, 1)
+        norm2 = (
+            x0**2 * np.einsum("bd,bd->b", h, h)[:, None, None]
+            + x1**2 * dot(Uj, Uj)[:, :, None]
+            + x2**2 * dot(Ukp, Ukp)[:, None, :]
+            + x3**2 * dot(Uk, Uk)[:, None, :]
+            + 2 * x0 * x1 * hUj
+            + 2 * x0 * x2 * np.swapaxes(hUkp, 1, 2)
+            + 2 * x0 * x3 * np.swapaxes(hUk, 1, 2)
+            + 2 * x1 * x2 * (Uj @ np.swapaxes(Ukp, 1, 2))
+            + 2 * x1 * x3 * (Uj @ np.swapaxes(Uk, 1, 2))
+            + 2 * x2 * x3 * dot(Ukp, Uk)[:, None, :]
+        )
+        degenerate |= _fold(best, x0, x1, x2, x3, norm2, col_scale)
+    # (3, 3, 0): polygons i and j whole, alpha_k free (tested at k's vertices).
+    for k in range(3):
+        gij = g - Ni[k][:, 2, :]  # (B, 3)
+        x = _null4(gij, Ni[k][:, 0, :], Ni[k][:, 1, :], Ni[k][:, 2, :])  # (B, 4)
+        alpha_k = x[:, 1:]
+        a = (
+            x[:, 0:1] * sum(Qi[i][:, :, 2] for i in range(3) if i != k)
+            + (Qi[k] @ alpha_k[:, :, None])[:, :, 0]
+        )
+        side = alpha_k @ V.T - x[:, 0:1]  # (B, m): alpha_k . z - b at k's vertices
+        offsets(x[:, None], a[:, None], -side[:, None], col_scale)
+    out = np.where(best > MARGIN_TOLERANCE * scale, best, 0.0)
+    return np.where(degenerate | ~np.isfinite(best), np.nan, out)
