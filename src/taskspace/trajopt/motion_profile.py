@@ -140,12 +140,14 @@ class MotionProfile(ABC):
         a = _check_limit(max_acceleration, "max_acceleration", False, self.name)
         j = _check_limit(max_jerk, "max_jerk", False, self.name)
         pv, pa, pj = self.peaks
-        candidates = [d * pv / v]
+        # ratios and roots taken separately so that no intermediate product over- or
+        # underflows when the result is representable (d = 1e308, v = 1e308 gives T = 1.875)
+        candidates = [(d / v) * pv]
         if a is not None and math.isfinite(pa):
-            candidates.append(math.sqrt(d * pa / a))
+            candidates.append(math.sqrt(d) * (math.sqrt(pa) / math.sqrt(a)))
         if j is not None and math.isfinite(pj):
-            candidates.append((d * pj / j) ** (1.0 / 3.0))
-        return max(candidates)
+            candidates.append(np.cbrt(d) * float(np.cbrt(pj) / np.cbrt(j)))
+        return float(max(candidates))
 
 
 class RampProfile(MotionProfile):
@@ -316,11 +318,17 @@ class TrapezoidalProfile(_PiecewiseProfile):
         a = check_positive(max_acceleration, "max_acceleration")
         if d == 0.0:
             return TrapezoidalProfile(0.5), 0.0
-        if d >= v * v / a:
+        if d / v >= v / a:  # d >= v^2 / a, as times so that nothing overflows
             ta, total = v / a, d / v + v / a
         else:
-            ta = math.sqrt(d / a)
+            ta = math.sqrt(d) / math.sqrt(a)
             total = 2.0 * ta
+        if not (math.isfinite(total) and total > 0.0 and ta > 0.0):
+            raise InvalidInputError(
+                f"a trapezoid over the distance {d!r} with max_velocity={v!r}, "
+                f"max_acceleration={a!r} has a duration ({total!r} s) that is not "
+                "representable in float64; rescale the units of the motion"
+            )
         return TrapezoidalProfile(min(ta / total, 0.5)), total
 
 
@@ -387,24 +395,33 @@ class SCurveProfile(_PiecewiseProfile):
         j = check_positive(max_jerk, "max_jerk")
         if d == 0.0:
             return SCurveProfile(0.125, 0.25), 0.0
-        if v * j >= a * a:
-            tj, ta = a / j, a / j + v / a
+        # Written with the times a/j, v/a, d/v, d/a (not the products v j, a^2, a^3/j^2, d a)
+        # so that no intermediate over- or underflows when the durations are representable.
+        t_aj, t_va = a / j, v / a
+        if t_va >= t_aj:  # v j >= a^2
+            tj, ta = t_aj, t_aj + t_va
         else:
-            tj = math.sqrt(v / j)
+            tj = math.sqrt(v) / math.sqrt(j)
             ta = 2.0 * tj
-        if d >= v * ta:
+        if d / v >= ta:
             tv = d / v - ta
         else:
             tv = 0.0
-            if d >= 2.0 * a**3 / (j * j):
-                tj = a / j
-                r = a * a / j
-                vp = 0.5 * (-r + math.sqrt(r * r + 4.0 * d * a))
-                ta = tj + vp / a
+            t_da = d / a
+            if t_da >= 2.0 * t_aj * t_aj:  # d >= 2 a^3 / j^2
+                # v_p / a = (-t_aj + sqrt(t_aj^2 + 4 d/a)) / 2, in the cancellation-free form
+                tj = t_aj
+                ta = tj + 2.0 * t_da / (t_aj + math.sqrt(t_aj * t_aj + 4.0 * t_da))
             else:
-                tj = (d / (2.0 * j)) ** (1.0 / 3.0)
+                tj = float(np.cbrt(0.5 * d) / np.cbrt(j))
                 ta = 2.0 * tj
         total = 2.0 * ta + tv
+        if not (math.isfinite(total) and total > 0.0 and tj > 0.0):
+            raise InvalidInputError(
+                f"an S-curve over the distance {d!r} with max_velocity={v!r}, "
+                f"max_acceleration={a!r}, max_jerk={j!r} has a duration ({total!r} s) that is "
+                "not representable in float64; rescale the units of the motion"
+            )
         return SCurveProfile(tj / total, ta / total), total
 
 
@@ -454,12 +471,52 @@ def profile_for_limits(
     needs_a = profile in ("trapezoidal", "scurve")
     a = _check_limit(max_acceleration, "max_acceleration", needs_a, profile)
     j = _check_limit(max_jerk, "max_jerk", profile == "scurve", profile)
+    shape: MotionProfile
     if profile == "trapezoidal" and a is not None:
-        return TrapezoidalProfile.for_limits(d, v, a)
-    if profile == "scurve" and a is not None and j is not None:
-        return SCurveProfile.for_limits(d, v, a, j)
-    shape = _FIXED[profile]()
-    return shape, shape.min_duration(d, v, a, j)
+        shape, duration = TrapezoidalProfile.for_limits(d, v, a)
+    elif profile == "scurve" and a is not None and j is not None:
+        shape, duration = SCurveProfile.for_limits(d, v, a, j)
+    else:
+        shape = _FIXED[profile]()
+        duration = shape.min_duration(d, v, a, j)
+    _check_representable(shape, d, duration, (v, a, j))
+    return shape, duration
+
+
+def _check_representable(
+    shape: MotionProfile, distance: float, duration: float, limits: tuple[float | None, ...]
+) -> None:
+    """Refuse a motion whose duration or peak rates are not float64 numbers.
+
+    The documented range of :func:`profile_for_limits`: the duration is finite and positive
+    for a nonzero distance, and the peak velocity, acceleration and jerk of the shape (those
+    that are not impulsive) are finite and within their limits up to rounding. Outside it (for
+    example ``distance=1e300`` with ``max_velocity=1e308``: a peak acceleration of ~1e315) an
+    :class:`InvalidInputError` is raised instead of an ``inf`` or a wrong value.
+    """
+    d = abs(distance)
+    if d == 0.0:
+        return
+    names = ("velocity", "acceleration", "jerk")
+    if not (math.isfinite(duration) and duration > 0.0):
+        raise InvalidInputError(
+            f"a '{shape.name}' motion over the distance {d!r} with max_velocity, "
+            f"max_acceleration, max_jerk = {limits!r} lasts {duration!r} s, which is not "
+            "representable in float64; rescale the units of the motion"
+        )
+    rate = d
+    for k, (peak, limit) in enumerate(zip(shape.peaks, limits, strict=True)):
+        rate = rate / duration  # |d| / T^(k+1), divided step by step: no T^k overflow
+        if not math.isfinite(peak):
+            continue  # impulsive derivative: this shape cannot honor that limit
+        value = rate * peak
+        if not math.isfinite(value) or (limit is not None and value > limit * (1.0 + 1e-9)):
+            raise InvalidInputError(
+                f"a '{shape.name}' motion over the distance {d!r} with max_velocity, "
+                f"max_acceleration, max_jerk = {limits!r} has a peak {names[k]} of {value!r}, "
+                "which is not representable in float64 (or rounds past its limit); rescale "
+                "the units of the motion"
+            )
 
 
 @dataclass(frozen=True)
@@ -481,15 +538,37 @@ class MotionSample:
     jerk: FloatArray
 
 
-def _scaled(profile: MotionProfile, t: FloatArray, duration: float) -> list[FloatArray]:
-    """``MP^(k)(t/T) / T^k`` for k = 0..3, constant outside ``[0, T]``."""
+def _scaled(
+    profile: MotionProfile,
+    t: FloatArray,
+    duration: float,
+    start: FloatArray | float,
+    goal: FloatArray | float,
+) -> list[FloatArray]:
+    """``x0 + MP(t/T) d`` and ``d MP^(k)(t/T) / T^k`` for k = 1..3, at rest outside ``[0, T]``.
+
+    ``start``/``goal`` are scalars or ``(n,)`` arrays (then the outputs are ``(m, n)``). The
+    position is ``x0 + MP d`` on the first half of the profile and ``xT - (1 - MP) d`` on the
+    second, so both ends are exact even when ``|x0| >> |d|``; the rates are ``MP^(k) ((d/T)/T)..``
+    divided step by step so that ``T^k`` never overflows.
+    """
+    x0 = np.asarray(start, dtype=float)
+    x1 = np.asarray(goal, dtype=float)
+    d = x1 - x0
+    col = (slice(None),) + (None,) * d.ndim  # profile values as a column against d
     if duration <= 0.0:
-        return [np.ones_like(t)] + [np.zeros_like(t) for _ in range(3)]
+        zero = np.zeros(t.shape + d.shape)
+        return [zero + x1, zero, zero.copy(), zero.copy()]
     s = t / duration
-    inside = (s >= 0.0) & (s <= 1.0)
-    out = [profile.derivative(s, 0)]
-    for k in range(1, 4):
-        out.append(np.where(inside, profile.derivative(s, k) / duration**k, 0.0))
+    inside = ((s >= 0.0) & (s <= 1.0))[col]
+    # MP(0) = 0 and MP(1) = 1 exactly (a piecewise profile may sum to 1 - 2e-16 at s = 1)
+    p = np.where(s >= 1.0, 1.0, np.where(s <= 0.0, 0.0, profile.derivative(s, 0)))[col]
+    out = [np.where(p <= 0.5, x0 + d * p, x1 - d * (1.0 - p))]
+    rate = d
+    with np.errstate(over="ignore", under="ignore"):
+        for k in range(1, 4):
+            rate = rate / duration
+            out.append(np.where(inside, profile.derivative(s, k)[col] * rate, 0.0))
     return out
 
 
@@ -516,9 +595,10 @@ class PointToPointMotion:
         """
         t = np.atleast_1d(as_float_array(t, "t"))
         check_finite(t, "t")
-        d = self.goal - self.start
-        p, v, a, j = _scaled(self.profile, t, self.duration)
-        return MotionSample(t, self.start + d * p, d * v, d * a, d * j)
+        if t.ndim != 1:
+            raise ShapeError("t", (-1,), t.shape)
+        p, v, a, j = _scaled(self.profile, t, self.duration, self.start, self.goal)
+        return MotionSample(t, p, v, a, j)
 
 
 def plan_motion(
@@ -534,8 +614,23 @@ def plan_motion(
     See :func:`profile_for_limits` for the arguments and errors.
     """
     x0, x1 = as_vector([start, goal], 2, "start/goal")
-    shape, duration = profile_for_limits(profile, x1 - x0, max_velocity, max_acceleration, max_jerk)
+    distance = _distance(x1 - x0, "goal - start")
+    shape, duration = profile_for_limits(
+        profile, distance, max_velocity, max_acceleration, max_jerk
+    )
     return PointToPointMotion(float(x0), float(x1), duration, shape)
+
+
+def _distance(d: Any, name: str) -> Any:
+    """``d`` (a goal minus a start) if finite; else the subtraction overflowed."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        finite_d = np.isfinite(d)
+    if not np.all(finite_d):
+        raise InvalidInputError(
+            f"{name} overflows float64 ({d!r}); the distance to travel must be below "
+            "1.8e308: rescale the units of the motion"
+        )
+    return d
 
 
 class SyncMode(str, Enum):
@@ -581,18 +676,19 @@ class SynchronizedMotion:
         """Sample the joint motion at times ``t`` [s]; arrays have shape ``(m, n)``."""
         t = np.atleast_1d(as_float_array(t, "t"))
         check_finite(t, "t")
-        d = self.goal - self.start
-        out = np.empty((4, t.shape[0], d.shape[0]))
+        if t.ndim != 1:
+            raise ShapeError("t", (-1,), t.shape)
+        n = self.start.shape[0]
+        out = np.empty((4, t.shape[0], n))
         if self.mode is SyncMode.STRAIGHT_LINE:
-            vals = _scaled(self.profiles[0], t, self.duration)
+            vals = _scaled(self.profiles[0], t, self.duration, self.start, self.goal)
             for k in range(4):
-                out[k] = vals[k][:, None] * d
+                out[k] = vals[k]
         else:
             for i, prof in enumerate(self.profiles):
-                vals = _scaled(prof, t, self.duration)
+                vals = _scaled(prof, t, self.duration, self.start[i], self.goal[i])
                 for k in range(4):
-                    out[k, :, i] = vals[k] * d[i]
-        out[0] += self.start
+                    out[k, :, i] = vals[k]
         return MotionSample(t, out[0], out[1], out[2], out[3])
 
 
@@ -655,7 +751,7 @@ def synchronize(
         raise InvalidInputError("max_velocity is required")
     a = _limit_vector(max_acceleration, n, "max_acceleration")
     j = _limit_vector(max_jerk, n, "max_jerk")
-    d = q1 - q0
+    d = _distance(q1 - q0, "goal - start")
     dist = np.abs(d)
     moving = dist > 0.0
 
