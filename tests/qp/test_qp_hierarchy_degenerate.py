@@ -124,9 +124,9 @@ def _lexicographic_by_enumeration(
 
 
 def _bare_cascade_options(**kwargs: object) -> HierarchyOptions:
-    """The cascade's proxsuite settings without fallbacks or relaxation."""
+    """The cascade's proxsuite settings alone: no daqp first pass, fallbacks or relaxation."""
     solver = replace(CASCADE_SOLVER_OPTIONS, fallbacks=(), relax_on_failure=False)
-    return HierarchyOptions(solver=solver, **kwargs)  # type: ignore[arg-type]
+    return HierarchyOptions(solver=solver, exact_first=None, **kwargs)  # type: ignore[arg-type]
 
 
 @pytest.mark.parametrize("seed", range(4))
