@@ -144,6 +144,28 @@ class PlanningError(TaskspaceError):
     """A planning query is ill-posed (start or goal in collision, outside bounds...)."""
 
 
+class CallbackError(TaskspaceError):
+    """A user-supplied function (a filter's model, sampler or residual) raised an exception.
+
+    The filters call user functions with arguments they have validated where they can (states,
+    covariances) and pass the rest (a measurement ``z``, a control ``u``) through unchanged;
+    whatever a user function raises, other than a :class:`TaskspaceError`, is re-raised as
+    this error naming the function, with the original exception as ``__cause__``. The
+    filter's belief is left unchanged.
+
+    Attributes:
+        callback: the name of the user function (e.g. ``"log_likelihood"``).
+    """
+
+    def __init__(self, callback: str, exc: BaseException) -> None:
+        self.callback = callback
+        super().__init__(
+            f"the user function {callback} raised {type(exc).__name__}: {exc} (the belief is "
+            f"left unchanged; check {callback} and the arguments it was given, e.g. a "
+            "measurement or control of another type or shape)"
+        )
+
+
 class StaleModelError(TaskspaceError):
     """An object built from a robot model is used after the model changed.
 

@@ -2,12 +2,19 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 
 from taskspace._validation import FloatArray, as_float_array, check_finite
-from taskspace.errors import InvalidInputError, ShapeError, SolverError
+from taskspace.errors import (
+    CallbackError,
+    InvalidInputError,
+    ShapeError,
+    SolverError,
+    TaskspaceError,
+)
 from taskspace.estimation.covariance import as_covariance
 
 
@@ -54,6 +61,19 @@ def as_noise_covariance(R: Any, m: int | None, name: str) -> FloatArray:
             )
         return r * np.eye(m)
     return as_covariance(arr, m, name, positive_definite=True)
+
+
+def call_model(fn: Callable[..., Any], name: str, *args: Any) -> Any:
+    """``fn(*args)``; an exception other than a TaskspaceError becomes a CallbackError.
+
+    The rule of every filter that calls user functions (see :class:`CallbackError`).
+    """
+    try:
+        return fn(*args)
+    except TaskspaceError:
+        raise
+    except Exception as exc:
+        raise CallbackError(name, exc) from exc
 
 
 def model_output(value: Any, shape: tuple[int, ...], name: str) -> FloatArray:

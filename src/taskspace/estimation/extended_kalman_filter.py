@@ -20,12 +20,13 @@ from typing import Any
 
 import numpy as np
 
-from taskspace._validation import FloatArray
+from taskspace._validation import FloatArray, as_float_array
 from taskspace.errors import InvalidInputError
 from taskspace.estimation._inputs import (
     as_measurement,
     as_noise_covariance,
     as_state,
+    call_model,
     checked_belief,
     model_output,
 )
@@ -117,10 +118,12 @@ class ExtendedKalmanFilter:
                 non-finite values (the belief is left unchanged).
         """
         n = self.dim_x
-        F = model_output(self.F_jacobian(self.x, u), (n, n), "F_jacobian")
-        x = model_output(self.f(self.x, u), (n,), "f")
+        F = model_output(call_model(self.F_jacobian, "F_jacobian", self.x, u), (n, n), "F_jacobian")
+        x = model_output(call_model(self.f, "f", self.x, u), (n,), "f")
         if self.state_normalize is not None:
-            x = model_output(self.state_normalize(x), (n,), "state_normalize")
+            x = model_output(
+                call_model(self.state_normalize, "state_normalize", x), (n,), "state_normalize"
+            )
         P = F @ self.P @ F.T + self.Q
         self.x, self.P = checked_belief(x, 0.5 * (P + P.T), "prediction")
         self._last_F = F
@@ -157,7 +160,7 @@ class ExtendedKalmanFilter:
         h_fn = self.h if h is None else h
         H_fn = self.H_jacobian if H_jacobian is None else H_jacobian
         res_fn = self.residual if residual is None else residual
-        raw = h_fn(self.x)
+        raw = as_float_array(call_model(h_fn, "h", self.x), "h output")
         zhat = model_output(raw, (_length(raw),), "h")
         m = zhat.shape[0]
         if R is None:
@@ -170,13 +173,17 @@ class ExtendedKalmanFilter:
         else:
             Rm = as_noise_covariance(R, m, "R")
         zv = as_measurement(z, m, "z")
-        H = model_output(H_fn(self.x), (m, self.dim_x), "H_jacobian")
-        r = model_output(res_fn(zv, zhat), (m,), "residual")
+        H = model_output(call_model(H_fn, "H_jacobian", self.x), (m, self.dim_x), "H_jacobian")
+        r = model_output(call_model(res_fn, "residual", zv, zhat), (m,), "residual")
         x, P, nis, ll = kalman_update(
             self.x, self.P, r, H, Rm, joseph_form=self.options.joseph_form
         )
         if self.state_normalize is not None:
-            x = model_output(self.state_normalize(x), (self.dim_x,), "state_normalize")
+            x = model_output(
+                call_model(self.state_normalize, "state_normalize", x),
+                (self.dim_x,),
+                "state_normalize",
+            )
         self.x, self.P = checked_belief(x, P, "update")
         self._last_ll = ll
         return nis

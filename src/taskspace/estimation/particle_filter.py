@@ -27,6 +27,7 @@ import numpy as np
 
 from taskspace._validation import FloatArray, as_float_array, check_finite
 from taskspace.errors import InvalidInputError, ShapeError
+from taskspace.estimation._inputs import call_model
 from taskspace.estimation.resampling import get_resampler
 
 logger = logging.getLogger(__name__)
@@ -175,7 +176,8 @@ class ParticleFilter:
     def predict(self, u: Any) -> None:
         """Move every particle with a sample of the motion model ``P(x_t | u, x_{t-1})``."""
         new = as_float_array(
-            self.motion_sampler(self.particles, u, self.rng), "motion_sampler output"
+            call_model(self.motion_sampler, "motion_sampler", self.particles, u, self.rng),
+            "motion_sampler output",
         )
         if new.shape != self.particles.shape:
             raise ShapeError("motion_sampler output", self.particles.shape, tuple(new.shape))
@@ -194,7 +196,10 @@ class ParticleFilter:
         Raises:
             InvalidInputError: if the likelihood has the wrong shape or is NaN / +inf.
         """
-        ll = as_float_array(self.log_likelihood(self.particles, z), "log_likelihood output")
+        ll = as_float_array(
+            call_model(self.log_likelihood, "log_likelihood", self.particles, z),
+            "log_likelihood output",
+        )
         N = self.num_particles
         if ll.shape != (N,):
             raise ShapeError("log_likelihood output", (N,), tuple(ll.shape))
@@ -242,7 +247,8 @@ class ParticleFilter:
             k = int(self.rng.binomial(N, frac)) if frac > 0.0 else 0
             if k > 0:
                 new = as_float_array(
-                    self.observation_sampler(z, k, self.rng), "observation_sampler output"
+                    call_model(self.observation_sampler, "observation_sampler", z, k, self.rng),
+                    "observation_sampler output",
                 )
                 if new.shape != (k, self.particles.shape[1]):
                     raise ShapeError(

@@ -23,12 +23,13 @@ from typing import Any
 
 import numpy as np
 
-from taskspace._validation import FloatArray, as_scalar
+from taskspace._validation import FloatArray, as_float_array, as_scalar
 from taskspace.errors import InvalidInputError, SolverError
 from taskspace.estimation._inputs import (
     as_measurement,
     as_noise_covariance,
     as_state,
+    call_model,
     checked_belief,
     model_output,
 )
@@ -165,7 +166,10 @@ class UnscentedKalmanFilter:
         """``f`` at every sigma point, checked (shape, finiteness)."""
         n = self.dim_x
         return np.array(
-            [model_output(self.f(p, u), (n,), f"f (sigma point {i})") for i, p in enumerate(pts)]
+            [
+                model_output(call_model(self.f, "f", p, u), (n,), f"f (sigma point {i})")
+                for i, p in enumerate(pts)
+            ]
         ).reshape(pts.shape[0], n)
 
     def predict(self, u: Any = None) -> None:
@@ -178,10 +182,13 @@ class UnscentedKalmanFilter:
         n = self.dim_x
         pts, wm, wc = sigma_points(self.x, self.P, self.options)
         Y = self._propagate(pts, u)
-        x = model_output(self.mean_x(Y, wm), (n,), "mean_x")
-        D = np.array([model_output(self.residual_x(y, x), (n,), "residual_x") for y in Y]).reshape(
-            Y.shape
-        )
+        x = model_output(call_model(self.mean_x, "mean_x", Y, wm), (n,), "mean_x")
+        D = np.array(
+            [
+                model_output(call_model(self.residual_x, "residual_x", y, x), (n,), "residual_x")
+                for y in Y
+            ]
+        ).reshape(Y.shape)
         P = (D * wc[:, None]).T @ D + self.Q
         self.x, self.P = checked_belief(x, 0.5 * (P + P.T), "prediction")
 
@@ -213,7 +220,7 @@ class UnscentedKalmanFilter:
         h_fn = self.h if h is None else h
         res_fn = self.residual if residual is None else residual
         pts, wm, wc = sigma_points(self.x, self.P, self.options)
-        first = h_fn(pts[0])
+        first = as_float_array(call_model(h_fn, "h", pts[0]), "h output")
         m = 1 if not np.shape(first) else int(np.shape(first)[0])
         if R is None:
             if m != self.dim_z:
@@ -227,15 +234,24 @@ class UnscentedKalmanFilter:
         zv = as_measurement(z, m, "z")
         rows = [model_output(first, (m,), "h (sigma point 0)")]
         rows += [
-            model_output(h_fn(p), (m,), f"h (sigma point {i})") for i, p in enumerate(pts) if i
+            model_output(call_model(h_fn, "h", p), (m,), f"h (sigma point {i})")
+            for i, p in enumerate(pts)
+            if i
         ]
         Z = np.array(rows).reshape(pts.shape[0], m)
-        zhat = model_output(self.mean_z(Z, wm), (m,), "mean_z")
-        E = np.array([model_output(res_fn(zi, zhat), (m,), "residual") for zi in Z]).reshape(
-            Z.shape
-        )
+        zhat = model_output(call_model(self.mean_z, "mean_z", Z, wm), (m,), "mean_z")
+        E = np.array(
+            [model_output(call_model(res_fn, "residual", zi, zhat), (m,), "residual") for zi in Z]
+        ).reshape(Z.shape)
         D = np.array(
-            [model_output(self.residual_x(p, self.x), (self.dim_x,), "residual_x") for p in pts]
+            [
+                model_output(
+                    call_model(self.residual_x, "residual_x", p, self.x),
+                    (self.dim_x,),
+                    "residual_x",
+                )
+                for p in pts
+            ]
         ).reshape(pts.shape)
         S = (E * wc[:, None]).T @ E + Rm
         C = (D * wc[:, None]).T @ E
@@ -243,7 +259,7 @@ class UnscentedKalmanFilter:
             L = np.linalg.cholesky(0.5 * (S + S.T))
         except np.linalg.LinAlgError as exc:
             raise SolverError(f"innovation covariance S is not positive definite: {exc}") from exc
-        r = model_output(res_fn(zv, zhat), (m,), "residual")
+        r = model_output(call_model(res_fn, "residual", zv, zhat), (m,), "residual")
         Kt = np.linalg.solve(L.T, np.linalg.solve(L, C.T))
         w = np.linalg.solve(L, r)
         nis = float(w @ w)
