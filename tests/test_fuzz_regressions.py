@@ -103,3 +103,168 @@ def test_snapshot_size_refuses_a_zero_dimensional_array():
     with pytest.raises(InvalidInputError, match="width, height"):
         check_size(np.array(0.0))
     assert check_size(np.array([640, 480])) == (640, 480)
+
+
+# ---- plan_motion at extreme scales (D-fuzz) ----------------------------------------------
+
+
+def test_plan_motion_huge_distance_is_exact() -> None:
+    # before: T^3 overflowed (bare OverflowError in evaluate) for d = 3e102, vmax = 1
+    from fractions import Fraction
+
+    from taskspace.trajopt import plan_motion
+
+    m = plan_motion(0.0, 3.0e102, 1.0, profile="minimum_jerk")
+    # reference: MP = 10 s^3 - 15 s^4 + 6 s^5 peaks at MP'(1/2) = 15/8, so T = 15/8 d / v
+    assert m.duration == pytest.approx(15 / 8 * 3.0e102, rel=1e-15)
+    s = m.evaluate([0.0, 0.5 * m.duration, m.duration])
+    assert s.position.tolist() == [0.0, pytest.approx(1.5e102, rel=1e-15), 3.0e102]
+    assert s.velocity[1] == pytest.approx(1.0, rel=1e-12)
+    # MP'''(0) = 60: jerk d 60 / T^3, in exact rational arithmetic
+    T = Fraction(m.duration)
+    assert s.jerk[0] == pytest.approx(float(Fraction(3.0e102) * 60 / T**3), rel=1e-12)
+
+
+def test_plan_motion_far_from_origin_ends_exactly() -> None:
+    # before: the end position was start + 1 * (goal - start) = 0.0 instead of -1
+    from taskspace.trajopt import plan_motion
+
+    m = plan_motion(1e30, -1.0, 1.0, profile="minimum_jerk")
+    s = m.evaluate([0.0, m.duration])
+    assert s.position.tolist() == [1e30, -1.0]
+
+
+def test_plan_motion_trapezoid_keeps_vmax_when_v_squared_overflows() -> None:
+    # before: v^2/a overflowed to inf, the triangular branch was taken and the peak velocity
+    # was 1.41e300 > vmax = 1e300 (silently wrong). Reference: scale invariance, the same
+    # motion in units 1e300 times larger (d = v = 1, a = 2) has d/v >= v/a, T = d/v + v/a = 1.5
+    from taskspace.trajopt import plan_motion
+
+    m = plan_motion(0.0, 1e300, 1e300, 2e300, None, "trapezoidal")
+    assert m.duration == pytest.approx(1.5, rel=1e-15)
+    s = m.evaluate(np.linspace(0.0, m.duration, 301))
+    assert np.abs(s.velocity).max() <= 1e300 * (1 + 1e-12)
+    assert np.abs(s.velocity).max() == pytest.approx(1e300, rel=1e-12)
+
+
+def test_plan_motion_scurve_scale_invariant() -> None:
+    # before: bare OverflowError (a**3); the duration does not depend on the length unit
+    from taskspace.trajopt import plan_motion
+
+    big = plan_motion(0.0, 1e300, 1e300, 2e300, 1e300, "scurve")
+    unit = plan_motion(0.0, 1.0, 1.0, 2.0, 1.0, "scurve")
+    # by hand for d = v = j = 1, a = 2: sqrt(v/j) = 1 < a/j, no cruise (d/v < 2), d/a < 2 (a/j)^2
+    # so T_j = (d / 2j)^(1/3), T = 4 T_j
+    assert unit.duration == pytest.approx(4 * 0.5 ** (1 / 3), rel=1e-14)
+    assert big.duration == pytest.approx(unit.duration, rel=1e-14)
+
+
+@pytest.mark.parametrize(
+    ("start", "goal", "vmax", "match"),
+    [
+        (0.0, 1e308, 1e308, "jerk"),  # peak jerk 60 d / T^3 = 9e308 is not a float64
+        (-1e308, 1e308, 1.0, "overflows"),  # goal - start is not a float64
+        (0.0, 1e10, 1e-300, "not representable"),  # T = 1.9e310 s
+    ],
+)
+def test_plan_motion_refuses_unrepresentable_motions(
+    start: float, goal: float, vmax: float, match: str
+) -> None:
+    # before: a motion with an inf duration or inf peak rates (evaluate then raised or gave inf)
+    from taskspace.errors import InvalidInputError
+    from taskspace.trajopt import plan_motion
+
+    with pytest.raises(InvalidInputError, match=match):
+        plan_motion(start, goal, vmax, profile="minimum_jerk")
+
+
+def test_synchronize_far_from_origin_ends_exactly() -> None:
+    from taskspace.trajopt import synchronize
+
+    for mode in ("straight_line", "time_scaled"):
+        m = synchronize([1e30, 0.0], [-1.0, 2.0], 1.0, 1.0, 1.0, mode=mode)
+        s = m.evaluate([0.0, m.duration])
+        assert s.position.tolist() == [[1e30, 0.0], [-1.0, 2.0]]
+
+
+# ---- filters: user callbacks and model outputs (D-fuzz) ----------------------------------
+
+
+def test_particle_filter_wraps_a_failing_log_likelihood() -> None:
+    # before: ParticleFilter.update(None) gave the bare TypeError of the user's function
+    from taskspace.errors import CallbackError
+    from taskspace.estimation import ParticleFilter
+
+    def loglik(p: np.ndarray, z: float) -> np.ndarray:
+        return -0.5 * np.sum((p[:, :1] - z) ** 2, axis=1)
+
+    pf = ParticleFilter(np.zeros((5, 2)), lambda p, u, g: p, loglik, np.random.default_rng(0))
+    weights = pf.log_weights.copy()
+    with pytest.raises(CallbackError, match="log_likelihood") as info:
+        pf.update(None)
+    assert isinstance(info.value.__cause__, TypeError)
+    assert info.value.callback == "log_likelihood"
+    assert np.array_equal(pf.log_weights, weights)  # belief unchanged
+
+    pf2 = ParticleFilter(
+        np.zeros((5, 2)), lambda p, u, g: p + float(u), loglik, np.random.default_rng(0)
+    )
+    with pytest.raises(CallbackError, match="motion_sampler"):
+        pf2.predict("u")
+
+
+@pytest.mark.parametrize("filt", ["ekf", "ukf"])
+def test_nonlinear_filter_ragged_model_output(filt: str) -> None:
+    # before (EKF): a ragged list returned by h gave a bare ValueError (inhomogeneous array)
+    from taskspace.errors import CallbackError, InvalidInputError
+    from taskspace.estimation import ExtendedKalmanFilter, UnscentedKalmanFilter
+
+    def h(x: np.ndarray) -> list[list[float]]:
+        return [[1.0], [2.0, 3.0]]
+
+    if filt == "ekf":
+        kf = ExtendedKalmanFilter(
+            lambda x, u=None: x,
+            lambda x, u: np.eye(2),
+            h,
+            lambda x: np.array([[1.0, 0.0]]),
+            0.1 * np.eye(2),
+            0.2,
+            [0.0, 1.0],
+            np.eye(2),
+        )
+    else:
+        kf = UnscentedKalmanFilter(
+            lambda x, u=None: x, h, 0.1 * np.eye(2), 0.2, [0.0, 1.0], np.eye(2)
+        )
+    with pytest.raises(InvalidInputError, match="h output"):
+        kf.update(math.nan)
+
+    def failing_h(x: np.ndarray) -> np.ndarray:
+        raise ZeroDivisionError("boom")
+
+    with pytest.raises(CallbackError, match="h raised ZeroDivisionError: boom"):
+        kf.update(
+            0.5, h=failing_h, **({"H_jacobian": lambda x: np.eye(1, 2)} if filt == "ekf" else {})
+        )
+    assert kf.x.tolist() == [0.0, 1.0]
+
+
+# ---- PID (D-fuzz) --------------------------------------------------------------------------
+
+
+def test_pid_output_overflow_is_refused_and_state_kept() -> None:
+    # before: u = -kd v = -inf returned as a control (silently wrong)
+    from taskspace.control import PIDController, PIDGains, PIDOptions
+    from taskspace.errors import InvalidInputError
+
+    pid = PIDController(PIDGains(kp=0.0, kd=1e308, ki=1.0), 0.0)
+    pid(0.0, 0.0, 0.0)
+    with pytest.raises(InvalidInputError, match="overflows"):
+        pid(1.0, 1.0, 1e308)
+    assert pid.integral.tolist() == [0.0]  # the failed call did not integrate
+    # by hand: e = -1 over dt = 1 s, u = kp e + kd (0 - v) + ki e dt = -1e308 * 0.5 - 1
+    assert pid(1.0, 1.0, 0.5).tolist() == [-0.5e308 - 1.0]
+    # a saturated output is finite: accepted
+    sat = PIDController(PIDGains(kp=0.0, kd=1e308), 0.0, options=PIDOptions(output_limit=2.0))
+    assert sat(0.0, 0.0, 1e308).tolist() == [-2.0]

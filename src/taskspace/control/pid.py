@@ -150,7 +150,8 @@ class PIDController:
         """Control ``u`` at time ``t`` [s] for position ``q`` and velocity ``v``.
 
         Raises:
-            InvalidInputError: time went backwards (the controller is stateful).
+            InvalidInputError: time went backwards (the controller is stateful), or the
+                output overflows float64 (the controller's state is then left unchanged).
             ShapeError, NotFiniteError: bad ``q``/``v``.
         """
         n = self.target.size
@@ -164,6 +165,7 @@ class PIDController:
                 "before restarting"
             )
         dt = max(dt, 0.0)
+        t_prev, saturated = self._t_prev, self.saturated
         self._t_prev = t if self._t_prev is None else max(t, self._t_prev)
         g, opts = self.gains, self.options
         e = self.target - qa
@@ -183,4 +185,15 @@ class PIDController:
                 self.integral[winding] = previous[winding]
                 u = g.kp * e + g.kd * (self.target_velocity - va) + g.ki * self.integral
             u = np.clip(u, -limit, limit)
+        if not np.all(np.isfinite(u)):
+            # gains times errors beyond float64 (e.g. kd = 1e308, v = 1e308): refuse instead
+            # of returning inf or NaN, and leave the controller's state as it was
+            self.integral[:] = previous
+            self._t_prev, self.saturated = t_prev, saturated
+            bad = np.flatnonzero(~np.isfinite(u)).tolist()
+            raise InvalidInputError(
+                f"the PID output overflows float64 at joints {bad} (kp={g.kp!r}, kd={g.kd!r}, "
+                f"ki={g.ki!r}, error {e.tolist()!r}): rescale the gains or the units, or set "
+                "options.output_limit (a saturated output stays finite)"
+            )
         return u
