@@ -111,8 +111,8 @@ class InverseDynamicsOptions:
             fallback: on the G1 benchmark, with cones or limits active in half the steps,
             daqp took 446 us per step and proxsuite 518 us).
         solver_for_hierarchy: use ``solver`` for the cascade's levels too (default: the
-            cascade's own settings, :data:`~taskspace.qp.hierarchy.CASCADE_SOLVER_OPTIONS`,
-            proxsuite first).
+            cascade's own: daqp kept when exact to 1e-9, else proxsuite with
+            :data:`~taskspace.qp.hierarchy.CASCADE_SOLVER_OPTIONS`).
     """
 
     acceleration_regularization: float = 1e-6
