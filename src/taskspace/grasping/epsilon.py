@@ -567,7 +567,6 @@ def _three_point_contacts(
         lower = np.where(np.all(s <= tol[..., None], axis=-1), -b, np.inf)
         np.minimum(best, np.minimum(upper, lower).min(axis=1), out=best)
 
-    gb = g[:, None, :]
     # (2, 2, 2): an edge of every polygon; x = (b, sigma_1, sigma_2, sigma_3) by minors of
     # [g, P_1[e1], P_2[e2], P_3[e3]] (only b depends on all three edges), |a| by Gram terms.
     c12 = np.cross(P[1][:, :, None, :], P[2][:, None, :, :])  # (B, e2, e3, 3)
@@ -593,32 +592,43 @@ def _three_point_contacts(
     )
     degenerate |= _fold(best, x0, x1, x2, x3, norm2, col_scale)
 
-    # (3, 2, 1): polygon i whole, edge e of j, vertex v of k (between edges v-1 and v):
-    # columns [g, P_j[e], P_k[v-1], P_k[v]], a = b h + s_e U_j[e] + s' U_k[v-1] + s'' U_k[v].
-    def dot(u: FloatArray, v: FloatArray) -> FloatArray:
-        return np.einsum("bid,bid->bi", u, v)
+    # (3, 2, 1): polygon i whole, edge e of j, vertex v of k (between edges v-1 and v), the
+    # six orders stacked on axis 1: columns [g, P_j[e], P_k[v-1], P_k[v]] and
+    # a = b h + s_e U_j[e] + s' U_k[v-1] + s'' U_k[v].
+    order = list(itertools.permutations(range(3)))
+    J = [o[1] for o in order]
+    K = [o[2] for o in order]
+    Ps, Us = np.stack(P, axis=1), np.stack(Ua, axis=1)  # (B, 3, m, 3), (B, 3, m, 6)
+    PJ, PK, UJ, UK = Ps[:, J], Ps[:, K], Us[:, J], Us[:, K]
+    PKp, UKp = np.roll(PK, 1, axis=2), np.roll(UK, 1, axis=2)
+    gv = g[:, None, None, :]
 
-    for _whole, j, k in itertools.permutations(range(3)):
-        Pj, Pk, Pkp = P[j], P[k], np.roll(P[k], 1, axis=1)
-        Uj, Uk, Ukp = Ua[j], Ua[k], np.roll(Ua[k], 1, axis=1)
-        x0 = np.einsum("bed,bvd->bev", Pj, np.cross(Pkp, Pk))
-        x1 = -np.einsum("bd,bvd->bv", g, np.cross(Pkp, Pk))[:, None, :]
-        x2 = np.einsum("bed,bvd->bev", Pj, np.cross(Pk, gb))
-        x3 = -np.einsum("bed,bvd->bev", Pj, np.cross(Pkp, gb))
-        hUj, hUkp, hUk = (u @ h[:, :, None] for u in (Uj, Ukp, Uk))  # (B, m, 1)
-        norm2 = (
-            x0**2 * np.einsum("bd,bd->b", h, h)[:, None, None]
-            + x1**2 * dot(Uj, Uj)[:, :, None]
-            + x2**2 * dot(Ukp, Ukp)[:, None, :]
-            + x3**2 * dot(Uk, Uk)[:, None, :]
-            + 2 * x0 * x1 * hUj
-            + 2 * x0 * x2 * np.swapaxes(hUkp, 1, 2)
-            + 2 * x0 * x3 * np.swapaxes(hUk, 1, 2)
-            + 2 * x1 * x2 * (Uj @ np.swapaxes(Ukp, 1, 2))
-            + 2 * x1 * x3 * (Uj @ np.swapaxes(Uk, 1, 2))
-            + 2 * x2 * x3 * dot(Ukp, Uk)[:, None, :]
-        )
-        degenerate |= _fold(best, x0, x1, x2, x3, norm2, col_scale)
+    def dot(u: FloatArray, v: FloatArray) -> FloatArray:
+        return np.einsum("bpid,bpid->bpi", u, v)
+
+    def outer(u: FloatArray, v: FloatArray) -> FloatArray:
+        return u @ np.swapaxes(v, -1, -2)
+
+    ck = np.cross(PKp, PK)  # (B, 6, m, 3)
+    x0 = outer(PJ, ck)  # (B, 6, e, v)
+    x1 = -np.einsum("bd,bpvd->bpv", g, ck)[:, :, None, :]
+    x2 = outer(PJ, np.cross(PK, gv))
+    x3 = -outer(PJ, np.cross(PKp, gv))
+    hh = np.einsum("bd,bd->b", h, h)[:, None, None, None]
+    hUJ, hUKp, hUK = (np.einsum("bpid,bd->bpi", u, h) for u in (UJ, UKp, UK))
+    norm2 = (
+        x0**2 * hh
+        + x1**2 * dot(UJ, UJ)[..., None]
+        + x2**2 * dot(UKp, UKp)[:, :, None, :]
+        + x3**2 * dot(UK, UK)[:, :, None, :]
+        + 2 * x0 * x1 * hUJ[..., None]
+        + 2 * x0 * x2 * hUKp[:, :, None, :]
+        + 2 * x0 * x3 * hUK[:, :, None, :]
+        + 2 * x1 * x2 * outer(UJ, UKp)
+        + 2 * x1 * x3 * outer(UJ, UK)
+        + 2 * x2 * x3 * dot(UKp, UK)[:, :, None, :]
+    )
+    degenerate |= _fold(best, x0, x1, x2, x3, norm2, col_scale)
     # (3, 3, 0): polygons i and j whole, alpha_k free (tested at k's vertices).
     for k in range(3):
         gij = g - Ni[k][:, 2, :]  # (B, 3)
