@@ -19,10 +19,9 @@ from taskspace.grasping.contact import (
     GraspContact,
     check_edges,
     nonnegative,
-    primitive_wrenches,
 )
+from taskspace.grasping.epsilon import grasp_epsilon_batch
 from taskspace.grasping.object_mesh import TriangleMesh
-from taskspace.grasping.quality import epsilon_l1
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -97,19 +96,16 @@ def sample_multifinger_grasps(
     gaps[:, np.arange(k), np.arange(k)] = np.inf
     spaced = gaps.min(axis=(1, 2)) >= o.min_spacing
     center = mesh.vertices.mean(axis=0)
-    keep, eps = [], []
-    for i in np.flatnonzero(spaced):
-        contacts = [
-            GraspContact(p, n, type=ContactType.POINT_FRICTION, mu=o.mu)
-            for p, n in zip(points[i], normals[i])
-        ]
-        W, _ = primitive_wrenches(contacts, edges=o.edges, center=center)
-        e = epsilon_l1(W)
-        if e > 0.0:
-            keep.append(i)
-            eps.append(e)
-    idx = np.asarray(keep, dtype=int)
-    epsilon = np.asarray(eps, dtype=float)
+    candidates = np.flatnonzero(spaced)
+    scores = (
+        grasp_epsilon_batch(
+            points[candidates], normals[candidates], mu=o.mu, edges=o.edges, center=center
+        )
+        if len(candidates)
+        else np.zeros(0)
+    )
+    idx = candidates[scores > 0.0]
+    epsilon = scores[scores > 0.0]
     order = np.argsort(-epsilon, kind="stable")
     return MultiFingerCandidates(
         points[idx][order], normals[idx][order], epsilon[order], center, o, o.samples
