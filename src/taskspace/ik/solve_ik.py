@@ -123,7 +123,8 @@ def solve_ik(
     Args:
         robot: the robot.
         tasks: tasks with targets (gains are ignored: full Gauss-Newton steps).
-        q0: initial configuration (default: the robot's default posture).
+        q0: initial configuration (default: the robot's default posture); with the default
+            constraints, joints outside their position limits are first clipped into them.
         constraints: constraints (default: joint position limits).
         options: settings.
         rng: random generator for restarts (required when ``options.restarts > 0``).
@@ -148,6 +149,13 @@ def solve_ik(
         raise InvalidInputError("solve_ik with restarts needs rng=np.random.default_rng(seed)")
     t0 = time.perf_counter()
     q_start = robot.check_configuration(robot.q_default if q0 is None else q0, "q0")
+    if constraints is None:
+        # The default constraint keeps q + dq inside the limits; from a start outside them it
+        # cannot, and the result was 'converged' outside the limits (q0 wrist_3 = 10 on ur5
+        # ended at 7 > 2 pi). An initial guess outside the limits is projected into them.
+        idx = robot.limited_joints_q
+        q_start = q_start.copy()
+        q_start[idx] = np.clip(q_start[idx], robot.lower_limits[idx], robot.upper_limits[idx])
     cons: list[Constraint] = (
         [JointPositionLimits(robot)] if constraints is None else list(constraints)
     )
