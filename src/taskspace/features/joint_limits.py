@@ -51,7 +51,10 @@ class JointLimitPenetration(Feature):
         """Penetration (dimensionless), shape (1,)."""
         self._check_state(state)
         below, above = self._terms(state)
-        return np.array([(np.maximum(below, 0).sum() + np.maximum(above, 0).sum()) / self.margin])
+        # each term divided by the margin before summing: with margin = 1e308 the sum of the
+        # raw terms overflowed to inf although every ratio is about 1
+        m = self.margin
+        return np.array([(np.maximum(below, 0) / m).sum() + (np.maximum(above, 0) / m).sum()])
 
     def jacobian(self, state: State) -> FloatArray:
         """1 x nv Jacobian."""
