@@ -711,15 +711,17 @@ class Robot:
         """Index of the frame called ``name``; the error lists the valid frames."""
         try:
             return self._frame_ids[name]
-        except KeyError:
-            raise UnknownNameError("frame", name, self._frame_ids) from None
+        except (KeyError, TypeError):  # TypeError: an unhashable name such as ['tool0']
+            shown = name if isinstance(name, str) else repr(name)
+            raise UnknownNameError("frame", shown, self._frame_ids) from None
 
     def joint_id(self, name: str) -> int:
         """Index of the joint called ``name``; the error lists the valid joints."""
         try:
             return self._joint_ids[name]
-        except KeyError:
-            raise UnknownNameError("joint", name, self._joint_ids) from None
+        except (KeyError, TypeError):  # TypeError: an unhashable name such as ['joint1']
+            shown = name if isinstance(name, str) else repr(name)
+            raise UnknownNameError("joint", shown, self._joint_ids) from None
 
     def joint_v_index(self, name: str) -> int:
         """First index of joint ``name`` in the velocity vector."""
