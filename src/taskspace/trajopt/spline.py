@@ -128,8 +128,19 @@ class Spline:
                 out.append(np.zeros((t.shape[0], self.dim)))
                 continue
             acc = c[:, p, :] * (math.factorial(p) / math.factorial(p - order))
-            for r in range(p - 1, order - 1, -1):
-                acc = acc * u + c[:, r, :] * (math.factorial(r) / math.factorial(r - order))
+            with np.errstate(over="ignore", invalid="ignore"):
+                for r in range(p - 1, order - 1, -1):
+                    acc = acc * u + c[:, r, :] * (math.factorial(r) / math.factorial(r - order))
+            if not np.isfinite(acc).all():
+                # far extrapolation (a cubic at t = 4e102 is ~1e308 or more) or waypoints and
+                # knot spacings whose derivatives exceed float64: refuse instead of inf/NaN
+                bad = np.flatnonzero(~np.isfinite(acc).all(axis=1))
+                raise InvalidInputError(
+                    f"the spline's derivative of order {order} overflows float64 at "
+                    f"t = {t[bad[:5]].tolist()} (knots [{self.knots[0]:g}, {self.knots[-1]:g}]; "
+                    "outside them the end polynomials are extrapolated): evaluate within or "
+                    "nearer the knot range, or rescale the waypoints"
+                )
             out.append(acc)
         return out
 
