@@ -339,10 +339,7 @@ class Viewer:
         """
         import meshcat.geometry as mg
 
-        try:
-            s = np.asarray(segments, dtype=float)
-        except (TypeError, ValueError) as exc:
-            raise InvalidInputError(f"segments must be numbers: {exc}") from exc
+        s = as_float_array(segments, "segments")  # refuses complex (no silent truncation)
         if s.ndim != 3 or s.shape[1:] != (2, 3) or s.shape[0] == 0:
             raise InvalidInputError(
                 f"segments must have shape (E, 2, 3) with E >= 1, got {s.shape}"
