@@ -268,3 +268,77 @@ def test_pid_output_overflow_is_refused_and_state_kept() -> None:
     # a saturated output is finite: accepted
     sat = PIDController(PIDGains(kp=0.0, kd=1e308), 0.0, options=PIDOptions(output_limit=2.0))
     assert sat(0.0, 0.0, 1e308).tolist() == [-2.0]
+
+
+# ---- features, IK, splines, viewer (D-fuzz, test_fuzz_api at 800 examples) ----------------
+
+
+def test_joint_limit_penetration_huge_margin_is_finite() -> None:
+    # before: value [inf] (the raw terms ~1e308 were summed before dividing by the margin)
+    from taskspace.features import JointLimitPenetration
+    from tests.conftest import load_robot
+
+    ur5 = load_robot("ur5")
+    feature = JointLimitPenetration(ur5, 1e308)
+    value = feature.value(ur5.state(ur5.q_default))
+    # by hand: every limited joint is within 1e308 of both limits, each side counts
+    # (1e308 - |q - limit|) / 1e308 = 1 (to rounding)
+    assert value.tolist() == [pytest.approx(2.0 * len(ur5.limited_joints_q), rel=1e-12)]
+
+
+def test_frame_and_joint_lookup_with_an_unhashable_name() -> None:
+    # before: bare TypeError (unhashable type: 'list') from Robot.frame_id
+    from taskspace.errors import UnknownNameError
+    from taskspace.features import Alignment
+    from tests.conftest import load_robot
+
+    ur5 = load_robot("ur5")
+    with pytest.raises(UnknownNameError, match=r"unknown frame '\['tool0'\]'"):
+        Alignment(ur5, ["tool0"], None, None)  # type: ignore[arg-type]
+    with pytest.raises(UnknownNameError, match="unknown joint"):
+        ur5.joint_id({"a": 1})  # type: ignore[arg-type]
+
+
+def test_solve_ik_from_outside_the_limits_ends_inside() -> None:
+    # before: q0 with wrist_3 = 10 (limit 2 pi) converged to wrist_3 = 7, outside the limits,
+    # reported as success
+    from taskspace.features import Position
+    from taskspace.ik import solve_ik
+    from taskspace.tasks import Task
+    from tests.conftest import load_robot
+
+    ur5 = load_robot("ur5")
+    target = ur5.state(ur5.q_default).frame_placement(ur5.frame_id("tool0")).translation + 0.05
+    task = Task(Position(ur5, "tool0"), target=target)
+    result = solve_ik(ur5, [task], np.array([0.0, 0.0, 0.0, 0.0, 0.0, 10.0]))
+    assert result.success
+    ur5.check_limits(result.q, tolerance=1e-9)
+    # independent check of the answer: forward kinematics of the returned q
+    reached = ur5.state(result.q).frame_placement(ur5.frame_id("tool0")).translation
+    assert np.linalg.norm(reached - target) < 1e-5
+
+
+def test_spline_far_extrapolation_overflow_is_refused() -> None:
+    # before: evaluate(3.9e102) returned [inf, -3.9e102] (silently wrong)
+    from taskspace.errors import InvalidInputError
+    from taskspace.trajopt import cubic_spline
+
+    spline = cubic_spline([[0.0, 1.0], [1.0, 0.5], [0.5, 0.0]])
+    with pytest.raises(InvalidInputError, match="overflows"):
+        spline.evaluate(3.913194505524736e102)
+    # nearby extrapolation is still given (end polynomial continued): at the knot it is exact
+    assert spline.evaluate(1.0).tolist() == pytest.approx([0.5, 0.0], abs=1e-12)
+
+
+def test_viewer_add_segments_refuses_complex() -> None:
+    # before: ComplexWarning (imaginary part silently dropped) or a bare error
+    pytest.importorskip("meshcat")
+    from taskspace.errors import InvalidInputError
+    from taskspace.viz import Viewer
+    from tests.conftest import load_robot
+
+    viewer = Viewer(load_robot("ur5"))
+    with pytest.raises(InvalidInputError, match="complex"):
+        viewer.add_segments("m", np.complex128(1 + 0j))
+    with pytest.raises(InvalidInputError, match="complex"):
+        viewer.add_segments("m", np.zeros((1, 2, 3)) + 0j)
