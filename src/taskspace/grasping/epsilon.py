@@ -1,11 +1,11 @@
-"""Ferrari-Canny epsilon (L1): one certified unmerged convex hull per grasp, and batches.
+"""Ferrari-Canny epsilon (L1): a certified unmerged convex hull, or facets in closed form.
 
 The L1 grasp wrench space is ``P = conv{w_k}`` and its epsilon is the distance from the origin
 to the nearest facet plane: ``eps = min_j b_j`` over the facets ``a_j^T w <= b_j``
 (``|a_j| = 1``), 0 when the origin is not strictly inside. Primitive wrenches are degenerate
 by construction (the ``m`` edges of one friction cone are coplanar), and qhull's default
-handling of that, merging facets ("Qx"), costs three times the hull itself. Here the hull is
-built without merging (qhull "Q0") and its output is certified instead:
+handling of that, merging facets ("Qx"), is most of its work. Here the hull is built without
+merging (qhull "Q0") and its output is certified instead:
 
 1. every facet plane has every input point on its inner side (to ``1e-12`` of the largest
    entry): then each ``b_j >= eps``, because the ball of radius ``eps`` lies inside ``P``;
@@ -17,6 +17,11 @@ So ``min_j b_j = eps``. When either check fails, or qhull reports a precision er
 is rebuilt with qhull's merging options (the exact default). A grasp out of closure is often
 recognized before any hull: a direction ``c`` with ``c^T w_k >= 0`` for every ``k`` (the
 mean wrench, the coordinate axes) proves it (Gordan's alternative).
+
+For two soft fingers and for three point contacts, :func:`grasp_epsilon_batch` needs no hull:
+each contact's wrenches span a small polytope in a low-dimensional flat (a bipyramid, a
+polygon), every facet of ``P`` is spanned by faces of these, and the few candidate planes of
+each grasp are solved in closed form for many grasps at once.
 """
 
 from __future__ import annotations
