@@ -12,6 +12,13 @@ Observation ``[c - c_0, c']`` (6) [m, m/s]; reward ``1 - 100 |c_xy - c_0,xy|^2 -
 0.01 |a|^2`` per step (alive bonus minus the horizontal CoM error); the episode terminates
 when a foot would lift (normal force below 1 N, the rigid contact pulling), when the CoM
 leaves a 10 cm disc around ``c_0`` or when the QP fails.
+
+Model version: the env follows ``robot.version`` as :class:`PandaReachEnv` does (through a
+:class:`taskspace.model.ModelFollower`). :meth:`G1BalanceEnv.reset` re-derives the torque
+limits (:attr:`G1BalanceEnv.tau_max`; the inverse-dynamics QP re-reads them too) when
+:meth:`Robot.set_limits` gave the robot a new version; a :meth:`G1BalanceEnv.step` after such a
+change, before a reset, raises :class:`~taskspace.errors.StaleModelError` (an episode runs
+under one set of limits).
 """
 
 from __future__ import annotations
@@ -25,10 +32,11 @@ from gymnasium import spaces
 
 from taskspace.constraints import Contact6D
 from taskspace.control import InverseDynamicsQP, simulate_with_contacts
-from taskspace.errors import InvalidInputError
+from taskspace.errors import InvalidInputError, StaleModelError
 from taskspace.features import CenterOfMass, JointConfiguration
 from taskspace.learning.envs.robot_env import check_render_mode
 from taskspace.model.robot import Robot
+from taskspace.model.versioning import ModelFollower
 from taskspace.tasks import Task
 
 FEET = ("left_ankle_roll_link", "right_ankle_roll_link")
@@ -82,6 +90,27 @@ class G1BalanceEnv(gym.Env[np.ndarray, np.ndarray]):
         self._data = robot.model.createData()
         self.q = robot.q_default.copy()
         self.v = np.zeros(robot.nv)
+        self._follower = ModelFollower(robot, "G1BalanceEnv", self._read_limits)
+
+    def _read_limits(self) -> None:
+        """Copy the robot's torque limits (called again at a reset after a new version)."""
+        self.tau_max = self.robot.effort_limits.copy()
+
+    @property
+    def model_version(self) -> int:
+        """The robot version the current episode runs under."""
+        return self._follower.version
+
+    def _check_version(self) -> None:
+        """Raise :class:`StaleModelError` if the robot's limits changed since the reset."""
+        if self._follower.stale:
+            raise StaleModelError(
+                f"G1BalanceEnv: the limits of robot '{self.robot.name}' changed during the "
+                f"episode (Robot.set_limits: version {self._follower.version} -> "
+                f"{self.robot.version}); call reset() to start an episode under the new limits",
+                self._follower.version,
+                self.robot.version,
+            )
 
     def _com(self) -> tuple[np.ndarray, np.ndarray]:
         c = pin.centerOfMass(self.robot.model, self._data, self.q, self.v)
@@ -94,8 +123,12 @@ class G1BalanceEnv(gym.Env[np.ndarray, np.ndarray]):
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[np.ndarray, dict[str, Any]]:
-        """Default posture; base velocity ``[vx, vy, 0]`` uniform in ``[-push, push]``."""
+        """Default posture; base velocity ``[vx, vy, 0]`` uniform in ``[-push, push]``.
+
+        Re-derives the torque limits if the robot's version changed.
+        """
         super().reset(seed=seed)
+        self._follower.sync()
         self.q = self.robot.q_default.copy()
         self.v = np.zeros(self.robot.nv)
         # The free-flyer velocity is in the base frame (upright at the default posture).
@@ -103,17 +136,28 @@ class G1BalanceEnv(gym.Env[np.ndarray, np.ndarray]):
         return self._obs(), {}
 
     def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
-        """Set the CoM reference and simulate ``dt`` under the inverse-dynamics QP."""
+        """Set the CoM reference and simulate ``dt`` under the inverse-dynamics QP.
+
+        ``info["max_torque_ratio"]`` is ``max |tau_i| / tau_max_i`` over the step (<= 1).
+
+        Raises:
+            StaleModelError: the robot's limits changed since the last reset.
+        """
+        self._check_version()
         a = np.clip(np.asarray(action, dtype=float).reshape(3), -1.0, 1.0)
         self.com_task.set_target(self.c0 + COM_RANGE * a)
         failed: list[str] = []
+        ratio = [0.0]
+        actuated = self.tau_max > 0.0
 
         def control(t: float, q: np.ndarray, v: np.ndarray) -> np.ndarray:
             self._state.update(q, v)
             result = self.controller.solve(self._state)
             if not result.success:
                 failed.append(result.status.value)
-            return result.tau
+            tau = result.tau
+            ratio[0] = max(ratio[0], float(np.max(np.abs(tau[actuated]) / self.tau_max[actuated])))
+            return tau
 
         rollout = simulate_with_contacts(
             self.robot, control, self.q, self.v, self.dt, self.sim_dt, FEET
@@ -131,5 +175,6 @@ class G1BalanceEnv(gym.Env[np.ndarray, np.ndarray]):
             "total_normal_force": total,
             "com_error": error,
             "qp_failures": failed,
+            "max_torque_ratio": ratio[0],
         }
         return self._obs(), reward, terminated, False, info
