@@ -467,6 +467,13 @@ def _two_soft_fingers(
     return np.where(good & np.isfinite(eps), out, np.nan)
 
 
+def _cross3(u: FloatArray, v: FloatArray) -> FloatArray:
+    """``u x v`` along the last axis (broadcast), without ``np.cross``'s axis shuffling."""
+    u0, u1, u2 = u[..., 0], u[..., 1], u[..., 2]
+    v0, v1, v2 = v[..., 0], v[..., 1], v[..., 2]
+    return np.stack([u1 * v2 - u2 * v1, u2 * v0 - u0 * v2, u0 * v1 - u1 * v0], axis=-1)
+
+
 def _det3(a: FloatArray, b: FloatArray, c: FloatArray) -> FloatArray:
     """``det [a b c]`` of 3-vectors along the last axis (broadcast)."""
     return (
@@ -574,26 +581,31 @@ def _three_point_contacts(
 
     # (2, 2, 2): an edge of every polygon; x = (b, sigma_1, sigma_2, sigma_3) by minors of
     # [g, P_1[e1], P_2[e2], P_3[e3]] (only b depends on all three edges), |a| by Gram terms.
-    c12 = np.cross(P[1][:, :, None, :], P[2][:, None, :, :])  # (B, e2, e3, 3)
-    c02 = np.cross(P[0][:, :, None, :], P[2][:, None, :, :])  # (B, e1, e3, 3)
-    c01 = np.cross(P[0][:, :, None, :], P[1][:, None, :, :])  # (B, e1, e2, 3)
-    x0 = np.einsum("bid,bjkd->bijk", P[0], c12)
-    x1 = -np.einsum("bd,bjkd->bjk", g, c12)[:, None, :, :]
-    x2 = np.einsum("bd,bikd->bik", g, c02)[:, :, None, :]
-    x3 = -np.einsum("bd,bijd->bij", g, c01)[:, :, :, None]
-    gram = [[np.einsum("bid,bjd->bij", Ua[i], Ua[j]) for j in range(3)] for i in range(3)]
-    hU = [Ua[i] @ h[:, :, None] for i in range(3)]  # (B, m, 1)
+    c12 = _cross3(P[1][:, :, None, :], P[2][:, None, :, :]).reshape(B, m * m, 3)  # e2, e3
+    c02 = _cross3(P[0][:, :, None, :], P[2][:, None, :, :]).reshape(B, m * m, 3)  # e1, e3
+    c01 = _cross3(P[0][:, :, None, :], P[1][:, None, :, :]).reshape(B, m * m, 3)  # e1, e2
+    gc = g[:, :, None]
+    x0 = (P[0] @ np.swapaxes(c12, 1, 2)).reshape(B, m, m, m)
+    x1 = -(c12 @ gc).reshape(B, 1, m, m)
+    x2 = (c02 @ gc).reshape(B, m, 1, m)
+    x3 = -(c01 @ gc).reshape(B, m, m, 1)
+    hU = [(u @ h[:, :, None])[:, :, 0] for u in Ua]  # (B, m)
+    UU = [np.einsum("bid,bid->bi", u, u) for u in Ua]
     norm2 = (
         x0**2 * np.einsum("bd,bd->b", h, h)[:, None, None, None]
-        + x1**2 * np.einsum("bid,bid->bi", Ua[0], Ua[0])[:, :, None, None]
-        + x2**2 * np.einsum("bid,bid->bi", Ua[1], Ua[1])[:, None, :, None]
-        + x3**2 * np.einsum("bid,bid->bi", Ua[2], Ua[2])[:, None, None, :]
-        + 2 * x0 * x1 * hU[0][:, :, :, None]
-        + 2 * x0 * x2 * hU[1][:, None, :, :]
-        + 2 * x0 * x3 * np.swapaxes(hU[2], 1, 2)[:, :, None, :]
-        + 2 * x1 * x2 * gram[0][1][:, :, :, None]
-        + 2 * x1 * x3 * gram[0][2][:, :, None, :]
-        + 2 * x2 * x3 * gram[1][2][:, None, :, :]
+        + x1**2 * UU[0][:, :, None, None]
+        + x2**2 * UU[1][:, None, :, None]
+        + x3**2 * UU[2][:, None, None, :]
+        + 2
+        * x0
+        * (
+            x1 * hU[0][:, :, None, None]
+            + x2 * hU[1][:, None, :, None]
+            + x3 * hU[2][:, None, None, :]
+        )
+        + 2 * x1 * x2 * (Ua[0] @ np.swapaxes(Ua[1], 1, 2))[:, :, :, None]
+        + 2 * x1 * x3 * (Ua[0] @ np.swapaxes(Ua[2], 1, 2))[:, :, None, :]
+        + 2 * x2 * x3 * (Ua[1] @ np.swapaxes(Ua[2], 1, 2))[:, None, :, :]
     )
     degenerate |= _fold(best, x0, x1, x2, x3, norm2, col_scale)
 
@@ -614,13 +626,15 @@ def _three_point_contacts(
     def outer(u: FloatArray, v: FloatArray) -> FloatArray:
         return u @ np.swapaxes(v, -1, -2)
 
-    ck = np.cross(PKp, PK)  # (B, 6, m, 3)
+    ck = _cross3(PKp, PK)  # (B, 6, m, 3)
     x0 = outer(PJ, ck)  # (B, 6, e, v)
-    x1 = -np.einsum("bd,bpvd->bpv", g, ck)[:, :, None, :]
-    x2 = outer(PJ, np.cross(PK, gv))
-    x3 = -outer(PJ, np.cross(PKp, gv))
+    x1 = -(ck.reshape(B, 6 * m, 3) @ g[:, :, None]).reshape(B, 6, 1, m)
+    x2 = outer(PJ, _cross3(PK, gv))
+    x3 = -outer(PJ, _cross3(PKp, gv))
     hh = np.einsum("bd,bd->b", h, h)[:, None, None, None]
-    hUJ, hUKp, hUK = (np.einsum("bpid,bd->bpi", u, h) for u in (UJ, UKp, UK))
+    hUJ, hUKp, hUK = (
+        (u.reshape(B, 6 * m, 6) @ h[:, :, None]).reshape(B, 6, m) for u in (UJ, UKp, UK)
+    )
     norm2 = (
         x0**2 * hh
         + x1**2 * dot(UJ, UJ)[..., None]
