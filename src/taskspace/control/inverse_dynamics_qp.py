@@ -32,6 +32,7 @@ import pinocchio as pin
 
 from taskspace._validation import FloatArray, as_vector, check_positive
 from taskspace.constraints.contact import Contact, Contact6D
+from taskspace.control._native_idqp import NativeInverseDynamics, unsupported
 from taskspace.errors import InvalidInputError
 from taskspace.model.robot import Robot
 from taskspace.model.state import State
@@ -69,6 +70,8 @@ class InverseDynamicsResult:
             (hierarchical mode; empty levels solved without a QP are ``UNCONSTRAINED``).
         culprits: constraint blocks at fault when the problem was relaxed.
         build_time, solve_time: wall times [s].
+        compiled: the step was computed by the compiled kernel (``InverseDynamicsOptions.
+            native``); ``qp.backend`` then says which of its solves answered.
     """
 
     success: bool
@@ -82,6 +85,7 @@ class InverseDynamicsResult:
     culprits: list[str] = field(default_factory=list)
     build_time: float = 0.0
     solve_time: float = 0.0
+    compiled: bool = False
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -112,6 +116,14 @@ class InverseDynamicsOptions:
             daqp took 446 us per step and proxsuite 518 us).
         solver_for_hierarchy: use ``solver`` for the cascade's levels too (default: the
             cascade's own default, daqp first).
+        native: run the weighted step on the compiled kernel (``taskspace/_native``) when it
+            is built and serves the controller: every task's feature declares a compiled term
+            (frame pose, orientation, frame origin, center of mass, posture), every contact a
+            compiled kind (:class:`~taskspace.constraints.Contact6D`,
+            :class:`~taskspace.constraints.PointContact`), no center-of-pressure task, positive
+            regularizations (``InverseDynamicsQP.native_reason`` says why not). The kernel
+            builds the same QP and reports a step only with KKT residuals within ``solver``'s
+            tolerances (``eps_abs``, ``eps_rel``); any other step runs the Python path.
     """
 
     acceleration_regularization: float = 1e-6
@@ -124,6 +136,7 @@ class InverseDynamicsOptions:
         default_factory=lambda: QPSolverOptions(backend="daqp", fallbacks=("proxsuite",))
     )
     solver_for_hierarchy: bool = False
+    native: bool = True
 
     def __post_init__(self) -> None:
         """Refuse regularizations that are negative or not finite (a clear error, not a NaN QP)."""
@@ -398,6 +411,9 @@ class InverseDynamicsQP:
         )
         iq, iv = robot.limited_joints_q, robot.limited_joints_v
         self._limit_iq, self._limit_iv = _as_index(iq), _as_index(iv)
+        # the compiled step, when the controller's objects declare that the kernel serves them
+        self.native_reason = unsupported(self)
+        self._native = None if self.native_reason else NativeInverseDynamics(self)
         # joint-limit acceleration bounds (see _acceleration_bounds), constant parts
         horizon = self.options.limits_horizon
         self._limit_c = 2.0 / (horizon * horizon)
@@ -545,6 +561,38 @@ class InverseDynamicsQP:
         t0 = time.perf_counter()
         if self.options.hierarchical:
             return self._solve_hierarchical(state, t0)
+        self._follower.sync()  # one integer comparison; rebuilds after robot.set_limits
+        native = self._native
+        if native is not None:
+            if state._model is not native.model:  # the kernel must never see another Data
+                raise InvalidInputError(
+                    f"this controller is built for robot '{self.robot.name}'; the state belongs "
+                    f"to robot '{state.robot.name}': make the state with this robot's state(q, v)"
+                )
+            if not state.has_velocity:
+                raise InvalidInputError(
+                    "inverse dynamics needs the velocity: use robot.state(q, v) / "
+                    "state.update(q, v)"
+                )
+            out = native.solve(state)
+            if out is not None:
+                qp, tau, t_build, t_solve = out
+                x = qp.x
+                nv = self.robot.nv
+                return InverseDynamicsResult(
+                    True,
+                    InverseDynamicsStatus.SOLVED,
+                    x[:nv].copy(),
+                    tau,
+                    {
+                        c.frame: x[nv + rows.start : nv + rows.stop].copy()
+                        for c, rows in self._contact_rows
+                    },
+                    qp,
+                    build_time=t_build,
+                    solve_time=t_solve,
+                    compiled=True,
+                )
         problem = self._build(state)
         t1 = time.perf_counter()
         result = self._solver.solve(problem)
