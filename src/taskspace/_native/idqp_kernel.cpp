@@ -278,20 +278,18 @@ class InverseDynamicsKernel {
   // One control step. targets: per task (SE3, 3-vector, 3x3 rotation or configuration);
   // offsets: per task None or kd y'_ref + y''_ref; references: per contact None or its SE3
   // (only when its kp > 0); limits: the current normal-force limits (one per limit row).
-  // Writes x = (a, f), tau, and the multipliers (y, z, z_box); returns (status, primal, dual,
+  // Writes (x, tau, y, z, z_box) into ``out`` (x = (a, f), tau, the multipliers of the
+  // equalities, inequalities and bounds; n + nv + n_eq + n_in + n entries); returns (status, primal, dual,
   // complementarity, duality gap, primal scale, dual scale, gap scale, iterations, objective,
   // build time, solve time).
   bp::tuple solve(const Model& model, Data& sdata, const Eigen::Ref<const VectorXd>& q,
                   const Eigen::Ref<const VectorXd>& v, bp::list targets, bp::object offsets,
                   bp::object references, const Eigen::Ref<const VectorXd>& limits,
-                  Eigen::Ref<VectorXd> x_out, Eigen::Ref<VectorXd> tau_out, Eigen::Ref<VectorXd> y_out,
-                  Eigen::Ref<VectorXd> z_out, Eigen::Ref<VectorXd> zbox_out) {
+                  Eigen::Ref<VectorXd> out) {
     if (!finalized_) raise_invalid("finalize was not called");
     check_model(model);
     if (q.size() != nq_ || v.size() != nv_) raise_invalid("q or v size mismatch");
-    if (x_out.size() != n_ || tau_out.size() != nv_ || y_out.size() != n_eq_ ||
-        z_out.size() != n_in_ || zbox_out.size() != n_)
-      raise_invalid("output size mismatch");
+    if (out.size() != 2 * n_ + nv_ + n_eq_ + n_in_) raise_invalid("output size mismatch");
     if (bp::len(targets) != static_cast<long>(tasks_.size())) raise_invalid("one target per task");
     if (limits.size() != static_cast<long>(limit_rows_.size()))
       raise_invalid("one normal-force limit per limit row");
@@ -302,10 +300,11 @@ class InverseDynamicsKernel {
     Residuals res;
     int status = solve_qp(iterations, res);
     if (!x_.allFinite()) status = kNotSolved;
-    x_out = x_;
-    y_out = y_;
-    z_out = z_;
-    zbox_out = zbox_;
+    out.head(n_) = x_;
+    auto tau_out = out.segment(n_, nv_);
+    out.segment(n_ + nv_, n_eq_) = y_;
+    out.segment(n_ + nv_ + n_eq_, n_in_) = z_;
+    out.tail(n_) = zbox_;
     // tau = S (M a + h - J_c^T f)
     tmp_nv_.noalias() = M_ * x_.head(nv_);
     tmp_nv_ += h_;
@@ -346,7 +345,7 @@ class InverseDynamicsKernel {
              bp::object& references, const Eigen::Ref<const VectorXd>& limits) {
     const auto t_start = std::chrono::steady_clock::now();
     // dynamics on the kernel's own Data (the state's kinematics stay untouched)
-    pinocchio::crba(model, data_, q, pinocchio::Convention::WORLD);
+    pinocchio::crba(model, data_, q, pinocchio::Convention::LOCAL);
     M_ = data_.M;
     M_.triangularView<Eigen::StrictlyLower>() = M_.transpose();
     h_ = pinocchio::nonLinearEffects(model, data_, q, v);

@@ -36,6 +36,8 @@ if TYPE_CHECKING:
 _TASK_KINDS = {"pose": "POSE", "position": "POSITION", "com": "COM", "posture": "POSTURE"}
 _TASK_KINDS["orientation"] = "ORIENTATION"
 _CONTACT_KINDS = {"contact6d": "CONTACT6D", "point": "POINT_CONTACT"}
+_NO_LIMITS = np.zeros(0)
+_NO_LIMITS.setflags(write=False)
 
 
 def unsupported(controller: InverseDynamicsQP) -> str:
@@ -128,7 +130,7 @@ class NativeInverseDynamics:
         self._contact_keys: list[tuple[Any, Any]] = []
         self._solve = kernel.solve
         self._none_offsets: list[None] = [None] * len(self.tasks)
-        self._tau = np.zeros(robot.nv)
+        self._out_size = 2 * self.n + self.nv + self.n_eq + self.n_in
         self._UNCONSTRAINED = module.UNCONSTRAINED
         self._SOLVED = module.SOLVED
 
@@ -182,25 +184,26 @@ class NativeInverseDynamics:
                 offsets[i] = off
         if resend:
             self._send_task_gains()
+        # contacts: reassigned gains (sent again), Baumgarte references
         ckeys = self._contact_keys
+        resend = not ckeys
         references: list[Any] | None = None
-        if not ckeys or any(
-            c.kd is not k[0] or c.kp is not k[1] for c, k in zip(self.contacts, ckeys)
-        ):
-            self._send_contact_gains()
         for i, c in enumerate(self.contacts):
-            if c.kp and c.reference is not None:
+            kp = c.kp
+            if not resend and (c.kd is not ckeys[i][0] or kp is not ckeys[i][1]):
+                resend = True
+            if kp and c.reference is not None:
                 if references is None:
                     references = [None] * len(self.contacts)
                 references[i] = c.reference
-        limits = np.array(
-            [float(c.normal_force_limit) for c in self._limit_contacts]  # type: ignore[arg-type]
+        if resend:
+            self._send_contact_gains()
+        limits = (
+            np.array([c.normal_force_limit for c in self._limit_contacts], dtype=float)
+            if self._limit_contacts
+            else _NO_LIMITS
         )
-        x = np.empty(self.n)
-        y = np.empty(self.n_eq)
-        z = np.empty(self.n_in)
-        z_box = np.empty(self.n)
-        tau = self._tau
+        out = np.empty(self._out_size)  # (x, tau, y, z, z_box), fresh: the result keeps views
         (status, primal, dual, comp, gap, sp, sd, sg, iterations, objective, t_build, t_solve) = (
             self._solve(
                 self.model,
@@ -211,11 +214,7 @@ class NativeInverseDynamics:
                 offsets,
                 references,
                 limits,
-                x,
-                tau,
-                y,
-                z,
-                z_box,
+                out,
             )
         )
         if status == self._UNCONSTRAINED:
@@ -224,6 +223,12 @@ class NativeInverseDynamics:
             qp_status, backend = QPStatus.SOLVED, "compiled proxsuite"
         else:
             return None
+        n, nv, n_eq, n_in = self.n, self.nv, self.n_eq, self.n_in
+        x = out[:n]
+        tau = out[n : n + nv]
+        y = out[n + nv : n + nv + n_eq]
+        z = out[n + nv + n_eq : n + nv + n_eq + n_in]
+        z_box = out[n + nv + n_eq + n_in :]
         result = QPResult(
             True,
             qp_status,
@@ -237,7 +242,7 @@ class NativeInverseDynamics:
             z=z,
             z_box=z_box,
         )
-        return result, tau.copy(), t_build, t_solve
+        return result, tau, t_build, t_solve
 
     def problem(self) -> tuple[np.ndarray, ...]:
         """The QP of the last step: ``(H, g, A, b, C, l, u, lb, ub)`` (copies)."""
