@@ -222,6 +222,15 @@ class InverseDynamicsQP:
     of several threads run one at a time (a lock); each thread needs its own
     :class:`~taskspace.model.State`.
 
+    Compiled step: in weighted mode the step runs on the compiled kernel
+    (``taskspace/_native/idqp_kernel.cpp``) when every task's feature and every contact declare
+    that the kernel serves them (``native_reason`` is then empty; see
+    ``InverseDynamicsOptions.native``). It builds the same QP as :meth:`build` and answers with
+    the equality-constrained minimizer when that violates nothing, else with proxsuite's dense
+    solver refined on its active set; a step is reported only with KKT residuals within the
+    solver options' tolerances (``result.qp.kkt``), any other runs the Python path
+    (``result.compiled`` says which path answered).
+
     Model version: the controller follows :meth:`Robot.set_limits
     <taskspace.model.Robot.set_limits>`; the next step after a change rebuilds the torque-limit
     rows, the actuated/unactuated split and the joint-limit bounds from the new limits.
