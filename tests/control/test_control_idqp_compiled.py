@@ -42,6 +42,7 @@ G1_HANDS = ("left_rubber_hand", "right_rubber_hand")
 TALOS_FEET = ("left_sole_link", "right_sole_link")
 SOLO_FEET = ("FL_FOOT", "FR_FOOT", "HL_FOOT", "HR_FOOT")
 BIG = 1e19  # bounds beyond this are infinite (taskspace.qp.problem.INF = 1e20)
+BINDING = ("compiled active set", "compiled proxsuite")  # backends of steps with active rows
 
 
 def _pair(
@@ -86,9 +87,9 @@ def _check_kkt(p: QPProblem, x: np.ndarray, y: np.ndarray, z: np.ndarray, zb: np
     dual_scale = max(np.abs(Hx).max(), np.abs(p.g).max(), np.abs(force).max(), 1.0)
     assert np.abs(Hx + p.g + force).max() <= 1e-9 * dual_scale
     Cx = p.C @ x
-    primal_scale = max(np.abs(x).max(), np.abs(p.b).max(), np.abs(Cx).max(), 1.0)
+    primal_scale = max(np.abs(x).max(), np.abs(p.b).max(initial=0.0), np.abs(Cx).max(), 1.0)
     tol = 1e-9 * primal_scale
-    assert np.abs(p.A @ x - p.b).max() <= tol
+    assert np.abs(p.A @ x - p.b).max(initial=0.0) <= tol
     assert np.all(Cx >= p.l - tol) and np.all(Cx <= p.u + tol)
     assert np.all(x >= p.lb - tol) and np.all(x <= p.ub + tol)
     # a multiplier pushes only against a bound the point is at (its sign says which)
@@ -126,7 +127,7 @@ def _check_step(compiled: InverseDynamicsQP, python: InverseDynamicsQP, state: S
     scale = max(1.0, np.abs(rhs).max())
     act = compiled.actuated
     np.testing.assert_allclose(rhs[act], res.tau[act], atol=1e-8 * scale)
-    assert np.abs(rhs[compiled.unactuated]).max() <= 1e-8 * scale
+    assert np.abs(rhs[compiled.unactuated]).max(initial=0.0) <= 1e-8 * scale
     assert np.all(res.tau[compiled.unactuated] == 0.0)
     return qp.backend
 
@@ -177,10 +178,10 @@ def test_g1_one_foot_walking_tasks_and_force_limit() -> None:
     rng = np.random.default_rng(2)
     for _ in range(3):
         _check_step(compiled, python, _random_state(robot, rng, 0.05))
-    # lower the normal-force limit well below the weight: the row binds, proxsuite answers
+    # lower the normal-force limit well below the weight: the row binds
     stance.set_normal_force_limit(0.5 * weight)
     state = robot.state(robot.q_default, np.zeros(robot.nv))
-    assert _check_step(compiled, python, state) == "compiled proxsuite"
+    assert _check_step(compiled, python, state) in BINDING
     res = compiled.solve(state)
     assert res.forces[G1_FEET[0]][2] == pytest.approx(0.5 * weight, rel=1e-9)
     stance.set_normal_force_limit(None)
@@ -188,8 +189,12 @@ def test_g1_one_foot_walking_tasks_and_force_limit() -> None:
     assert res.forces[G1_FEET[0]][2] > 0.9 * weight
 
 
-def test_g1_force_limit_on_two_feet() -> None:
-    """``set_normal_force_limit`` is read at every compiled step (the walking force ramps)."""
+@pytest.mark.parametrize("active_set", [True, False])
+def test_g1_force_limit_on_two_feet(active_set: bool) -> None:
+    """``set_normal_force_limit`` is read at every compiled step (the walking force ramps).
+
+    With the kernel's active-set method, and without it (proxsuite alone).
+    """
     robot = load_robot("g1")
     tasks, _ = _g1_standing(robot)
     weight = robot.mass * 9.81
@@ -198,12 +203,15 @@ def test_g1_force_limit_on_two_feet() -> None:
         for f in G1_FEET
     ]
     compiled, python = _pair(robot, tasks, contacts)
+    assert compiled._native is not None
+    compiled._native.kernel.set_active_set(active_set)
+    expected = "compiled active set" if active_set else "compiled proxsuite"
     state = robot.state(robot.q_default, np.zeros(robot.nv))
     free = compiled.solve(state)
     left = free.forces[G1_FEET[0]][2]
     for limit in (0.5 * left, 0.1 * left, contacts[0].min_force):
         contacts[0].set_normal_force_limit(limit)
-        assert _check_step(compiled, python, state) == "compiled proxsuite"
+        assert _check_step(compiled, python, state) == expected
         res = compiled.solve(state)
         assert res.forces[G1_FEET[0]][2] == pytest.approx(limit, rel=1e-9, abs=1e-9)
         # the other foot carries the rest of the weight's share
@@ -243,7 +251,7 @@ def test_solo12_point_feet_with_contact_kp() -> None:
     backends = {_check_step(compiled, python, _random_state(robot, rng, 0.2)) for _ in range(4)}
     contacts[0].set_normal_force_limit(2.0)
     backends.add(_check_step(compiled, python, _random_state(robot, rng, 0.05)))
-    assert "compiled proxsuite" in backends
+    assert backends & set(BINDING)
 
 
 def test_what_the_kernel_serves_is_declared() -> None:
@@ -284,3 +292,25 @@ def test_gains_reassigned_between_steps_are_sent() -> None:
     tasks[-1].weight = 0.5
     contacts[1].kd = 5.0
     _check_step(compiled, python, state)
+
+
+def test_panda_without_contacts_torque_limits_bind() -> None:
+    """A fixed base and no contacts (no equality rows): torque-limit rows in the working set."""
+    robot = load_robot("panda")
+    s = robot.state(robot.q_default, np.zeros(robot.nv))
+    tcp = Task(F.Position(robot, "panda_hand_tcp"), kp=1e5, kd=600.0)
+    tcp.set_target(s.frame_placement(robot.frame_id("panda_hand_tcp")).translation + 0.3)
+    posture = Task(F.JointConfiguration(robot), robot.q_default, weight=1e-3, kp=10.0)
+    compiled, python = _pair(robot, [tcp, posture], [])
+    rng = np.random.default_rng(6)
+    backends = {_check_step(compiled, python, s)}
+    for _ in range(3):
+        q = np.clip(
+            robot.q_default + 0.3 * rng.standard_normal(robot.nq),
+            robot.lower_limits,
+            robot.upper_limits,
+        )
+        backends.add(_check_step(compiled, python, robot.state(q, rng.standard_normal(robot.nv))))
+    assert backends & set(BINDING)
+    res = compiled.solve(s)
+    assert np.any(np.isclose(np.abs(res.tau), robot.effort_limits, rtol=1e-9))

@@ -9,7 +9,9 @@
 //     x = (a, f): unactuated dynamics and rigid contacts (A), friction cones, normal-force
 //     limits and torque limits (C), joint-limit acceleration bounds (lb, ub),
 // and solves it exactly: first the equality-constrained KKT system (Cholesky of H, Schur
-// complement of A); when that point violates an inequality or a bound, proxsuite's dense
+// complement of A); when that point violates an inequality or a bound, a primal-dual
+// active-set method on the same factorization (the Schur complement extended by the working
+// rows), warm-started with the previous step's active set; when that fails, proxsuite's dense
 // solver (workspace kept and warm-started between steps), whose active set is then solved
 // directly (as taskspace.qp.solver's refinement does). Every returned point comes with its
 // KKT residuals (taskspace.qp.kkt); the caller reports SOLVED only when they meet the
@@ -64,6 +66,7 @@ enum ContactKind { kContact6D = 0, kPointContact = 1 };
 constexpr int kUnconstrained = 0;  // the equality-constrained minimizer is feasible
 constexpr int kSolved = 1;         // proxsuite + active-set solve, KKT residuals within tolerance
 constexpr int kNotSolved = 2;      // the caller takes the Python path
+constexpr int kActiveSet = 3;      // active-set solve, KKT residuals within tolerance
 
 [[noreturn]] void raise_invalid(const std::string& message) {
   bp::object cls = bp::import("taskspace.errors").attr("InvalidInputError");
@@ -329,6 +332,10 @@ class InverseDynamicsKernel {
   bp::tuple stage_times() const {
     return bp::make_tuple(stage_[0], stage_[1], stage_[2], stage_[3], stage_[4], stage_[5]);
   }
+
+  // Whether the active-set method runs before proxsuite (tests switch it off to exercise
+  // proxsuite alone).
+  void set_active_set(bool on) { use_active_set_ = on; }
 
   int rows() const { return m_; }
   int n() const { return n_; }
@@ -671,12 +678,171 @@ class InverseDynamicsKernel {
       }
     }
     const auto t1 = std::chrono::steady_clock::now();
+    if (ok && use_active_set_ && active_set(iterations)) {
+      res = kkt(x_, y_, z_, zbox_);
+      if (res.within(eps_abs_, eps_rel_)) {
+        stage_[5] = sec(t1, std::chrono::steady_clock::now());
+        return kActiveSet;
+      }
+    }
+    working_.clear();
     const int status = solve_proxsuite(iterations, res);
     stage_[5] = sec(t1, std::chrono::steady_clock::now());
     return status;
   }
 
+  // Rows of the working set: index k < n_in is inequality row k of C, k >= n_in the bound of
+  // variable k - n_in; side +1 at the upper bound, -1 at the lower one.
+  struct Working {
+    int index;
+    int side;
+  };
+
+  double row_value(int k, const VectorXd& x) const {
+    return k < n_in_ ? C_.row(k).dot(x) : x[k - n_in_];
+  }
+  double row_bound(const Working& w) const {
+    const int k = w.index;
+    if (k < n_in_) return w.side > 0 ? u_[k] : l_[k];
+    return w.side > 0 ? ub_[k - n_in_] : lb_[k - n_in_];
+  }
+  bool row_is_equality(int k) const {
+    return k < n_in_ ? l_[k] == u_[k] : lb_[k - n_in_] == ub_[k - n_in_];
+  }
+
+  // Minimizer with the equalities and the working rows at their bounds (the Schur complement
+  // of equality_solve, extended by the working rows): writes x_ and wy_ (the n_eq + |W|
+  // multipliers). Needs equality_solve's factor La_, Y_ and t_ = L^-1 g.
+  bool solve_working() {
+    const int nw = static_cast<int>(working_.size()), m = n_eq_ + nw;
+    const auto L = La_.triangularView<Eigen::Lower>();
+    Yw_.resize(n_, m);
+    Yw_.leftCols(n_eq_) = Y_;
+    for (int j = 0; j < nw; ++j) {
+      auto col = Yw_.col(n_eq_ + j);
+      const int k = working_[j].index;
+      if (k < n_in_) {
+        col.head(nv_) = C_.row(k).head(nv_).transpose();
+        col.tail(nf_) = inv_sqrt_f_.cwiseProduct(C_.row(k).tail(nf_).transpose());
+      } else {
+        col.setZero();
+        const int i = k - n_in_;
+        if (i < nv_) col[i] = 1.0; else col[i] = inv_sqrt_f_[i - nv_];
+      }
+    }
+    if (nw) L.solveInPlace(Yw_.block(0, n_eq_, nv_, nw));
+    Sw_.setZero(m, m);
+    Sw_.selfadjointView<Eigen::Lower>().rankUpdate(Yw_.transpose());
+    if (Eigen::internal::llt_inplace<double, Eigen::Lower>::unblocked(Sw_) != -1) return false;
+    wy_.resize(m);
+    wy_.head(n_eq_) = -b_;
+    for (int j = 0; j < nw; ++j) wy_[n_eq_ + j] = -row_bound(working_[j]);
+    wy_.noalias() -= Yw_.transpose() * t_;
+    Sw_.triangularView<Eigen::Lower>().solveInPlace(wy_);
+    Sw_.triangularView<Eigen::Lower>().transpose().solveInPlace(wy_);
+    wt_ = t_;
+    wt_.noalias() += Yw_ * wy_;
+    x_.head(nv_) = -wt_.head(nv_);
+    La_.transpose().triangularView<Eigen::Upper>().solveInPlace(x_.head(nv_));
+    x_.tail(nf_) = -inv_sqrt_f_.cwiseProduct(wt_.tail(nf_));
+    return x_.allFinite() && wy_.allFinite();
+  }
+
+  // A primal-dual active-set method on the Schur complement, warm-started with the working
+  // set of the previous step: drop the working row whose multiplier has the wrong sign, else
+  // add the most violated row, until neither exists. Not guaranteed to terminate on
+  // degenerate problems (bounded iterations; proxsuite takes over); the point it returns is
+  // certified by the caller's KKT residuals.
+  bool active_set(int& iterations) {
+    const int max_it = 2 * (n_in_ + n_) + 10;
+    t_.resize(n_);  // t = L^-1 g (equality_solve overwrote it)
+    t_.head(nv_) = g_.head(nv_);
+    La_.triangularView<Eigen::Lower>().solveInPlace(t_.head(nv_));
+    t_.tail(nf_) = inv_sqrt_f_.cwiseProduct(g_.tail(nf_));
+    // the warm start keeps the rows still valid (equal sides of l == u rows are kept too)
+    std::vector<Working> start;
+    for (const auto& w : working_) {
+      if (w.index >= n_in_ + n_) continue;
+      const double bound = row_bound(w);
+      if (std::abs(bound) < kInf) start.push_back(w);
+    }
+    working_ = start;
+    in_working_.assign(n_in_ + n_, 0);
+    for (const auto& w : working_) in_working_[w.index] = w.side;
+    for (int it = 0; it < max_it; ++it) {
+      iterations = it + 1;
+      if (!solve_working()) {
+        if (working_.empty()) return false;
+        working_.clear();  // a dependent warm start: start again from the equalities
+        in_working_.assign(n_in_ + n_, 0);
+        continue;
+      }
+      // a working row whose multiplier pushes the wrong way: drop the worst
+      int drop = -1;
+      double worst = 0.0;
+      const double mult_tol = 1e-12 * std::max(1.0, max_abs(wy_));
+      for (std::size_t j = 0; j < working_.size(); ++j) {
+        if (row_is_equality(working_[j].index)) continue;
+        const double val = working_[j].side * wy_[n_eq_ + j];  // must be >= 0
+        if (val < -mult_tol && val < worst) {
+          worst = val;
+          drop = static_cast<int>(j);
+        }
+      }
+      if (drop >= 0) {
+        in_working_[working_[drop].index] = 0;
+        working_.erase(working_.begin() + drop);
+        continue;
+      }
+      // the most violated row outside the working set
+      int add = -1, side = 0;
+      double most = feas_tol_;
+      if (n_in_) tmp_in_.noalias() = C_ * x_;
+      for (int k = 0; k < n_in_ + n_; ++k) {
+        if (in_working_[k]) continue;
+        const double value = k < n_in_ ? tmp_in_[k] : x_[k - n_in_];
+        const double lo = k < n_in_ ? l_[k] : lb_[k - n_in_];
+        const double hi = k < n_in_ ? u_[k] : ub_[k - n_in_];
+        if (lo - value > most) {
+          most = lo - value;
+          add = k;
+          side = -1;
+        } else if (value - hi > most) {
+          most = value - hi;
+          add = k;
+          side = 1;
+        }
+      }
+      if (!(most == most)) return false;  // NaN
+      if (add < 0) {  // optimal: multipliers out of the working set's
+        y_ = wy_.head(n_eq_);
+        z_.setZero();
+        zbox_.setZero();
+        for (std::size_t j = 0; j < working_.size(); ++j) {
+          const int k = working_[j].index;
+          if (k < n_in_) z_[k] = wy_[n_eq_ + j]; else zbox_[k - n_in_] = wy_[n_eq_ + j];
+        }
+        return true;
+      }
+      working_.push_back({add, side});
+      in_working_[add] = side;
+    }
+    return false;
+  }
+
+  // proxsuite, warm-started; when that run is not certified, once more from a fresh
+  // workspace (a stale preconditioner or warm start: the Python path rebuilds it likewise).
   int solve_proxsuite(int& iterations, Residuals& res) {
+    const bool warm = static_cast<bool>(qp_);
+    const int status = proxsuite_once(iterations, res);
+    if (status == kSolved || !warm) return status;
+    int more = 0;
+    const int again = proxsuite_once(more, res);
+    iterations += more;
+    return again;
+  }
+
+  int proxsuite_once(int& iterations, Residuals& res) {
     namespace pq = proxsuite::proxqp;
     bool fresh = false;
     if (!qp_) {
@@ -817,6 +983,11 @@ class InverseDynamicsKernel {
   double horizon_ = 0.05, c_ = 0.0, eps_abs_ = 1e-9, eps_rel_ = 1e-9, feas_tol_ = 1e-10;
   int max_iter_ = 200, max_iter_in_ = 30;
   std::vector<int> dense_rows_;
+  std::vector<Working> working_;
+  bool use_active_set_ = true;
+  std::vector<int> in_working_;
+  MatrixXd Yw_, Sw_;
+  VectorXd wy_, wt_;
   double stage_[6] = {0, 0, 0, 0, 0, 0};
   VectorXd rd_;
   MatrixXd M_, Jraw_, Jd_, Jc_, Jdiff_, H_, A_, C_, La_, Y_, S_;
@@ -840,6 +1011,7 @@ BOOST_PYTHON_MODULE(_idqp_kernel) {
   bp::scope().attr("UNCONSTRAINED") = kUnconstrained;
   bp::scope().attr("SOLVED") = kSolved;
   bp::scope().attr("NOT_SOLVED") = kNotSolved;
+  bp::scope().attr("ACTIVE_SET") = kActiveSet;
   bp::scope().attr("POSE") = static_cast<int>(kPose);
   bp::scope().attr("POSITION") = static_cast<int>(kPosition);
   bp::scope().attr("COM") = static_cast<int>(kCom);
@@ -857,6 +1029,7 @@ BOOST_PYTHON_MODULE(_idqp_kernel) {
       .def("solve", &InverseDynamicsKernel::solve)
       .def("problem", &InverseDynamicsKernel::problem)
       .def("stage_times", &InverseDynamicsKernel::stage_times)
+      .def("set_active_set", &InverseDynamicsKernel::set_active_set)
       .add_property("rows", &InverseDynamicsKernel::rows)
       .add_property("n", &InverseDynamicsKernel::n)
       .add_property("n_eq", &InverseDynamicsKernel::n_eq)

@@ -4,9 +4,10 @@ The kernel evaluates the same weighted QP as :meth:`InverseDynamicsQP.build
 <taskspace.control.InverseDynamicsQP.build>` (dynamics by Pinocchio's CRBA and nonlinear
 effects, contact Jacobians and drifts from the state's data, task rows, cones, normal-force
 limits, torque limits, joint-limit bounds) and solves it: the equality-constrained minimizer
-when it violates nothing, else proxsuite's dense solver (kept and warm-started) refined on its
-active set. A step is ``SOLVED`` only with KKT residuals within the solver options'
-tolerances; otherwise the caller runs the Python path on the same state.
+when it violates nothing, else a primal-dual active-set method on the same factorization
+(warm-started with the previous step's active set), else proxsuite's dense solver (kept and
+warm-started) refined on its active set. A step is ``SOLVED`` only with KKT residuals within
+the solver options' tolerances; otherwise the caller runs the Python path on the same state.
 
 What it serves is declared by the objects themselves, checked in one place
 (:func:`unsupported`): every task's feature declares a
@@ -133,6 +134,7 @@ class NativeInverseDynamics:
         self._out_size = 2 * self.n + self.nv + self.n_eq + self.n_in
         self._UNCONSTRAINED = module.UNCONSTRAINED
         self._SOLVED = module.SOLVED
+        self._ACTIVE_SET = module.ACTIVE_SET
 
     def _send_task_gains(self) -> None:
         m = int(self.kernel.rows)
@@ -155,8 +157,10 @@ class NativeInverseDynamics:
         """``(qp result, tau, build time, solve time)``, or ``None``: take the Python path.
 
         The result's ``x``, multipliers and KKT residuals are the kernel's; its status is
-        ``UNCONSTRAINED`` (the equality-constrained minimizer) or ``SOLVED`` (proxsuite refined
-        on its active set), both certified by the residuals.
+        ``UNCONSTRAINED`` (the equality-constrained minimizer, backend ``compiled cholesky``) or
+        ``SOLVED`` (the kernel's active-set method warm-started with the previous step's active
+        set, ``compiled active set``; when that fails, proxsuite refined on its active set,
+        ``compiled proxsuite``), all certified by the residuals.
         """
         # one pass over the tasks: reassigned weights or gains (sent again), targets, offsets
         keys = self._task_keys
@@ -219,6 +223,8 @@ class NativeInverseDynamics:
         )
         if status == self._UNCONSTRAINED:
             qp_status, backend = QPStatus.UNCONSTRAINED, "compiled cholesky"
+        elif status == self._ACTIVE_SET:
+            qp_status, backend = QPStatus.SOLVED, "compiled active set"
         elif status == self._SOLVED:
             qp_status, backend = QPStatus.SOLVED, "compiled proxsuite"
         else:
