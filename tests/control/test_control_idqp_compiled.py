@@ -32,6 +32,7 @@ from taskspace.control.inverse_dynamics_qp import (
 from taskspace.model import Robot, State
 from taskspace.qp.problem import QPProblem
 from taskspace.qp.result import QPStatus
+from taskspace.qp.solver import QPSolverOptions
 from taskspace.tasks import Task
 from tests.conftest import load_robot
 
@@ -314,3 +315,24 @@ def test_panda_without_contacts_torque_limits_bind() -> None:
     assert backends & set(BINDING)
     res = compiled.solve(s)
     assert np.any(np.isclose(np.abs(res.tau), robot.effort_limits, rtol=1e-9))
+
+
+def test_uncertified_steps_take_the_python_path() -> None:
+    """With zero tolerances no kernel answer is certified: every step runs the Python path."""
+    robot = load_robot("g1")
+    tasks, contacts = _g1_standing(robot)
+    strict = QPSolverOptions(
+        backend="daqp",
+        fallbacks=(),
+        eps_abs=0.0,
+        eps_rel=0.0,
+        max_iter=1,
+        max_iter_in=1,
+        max_polish_iter=1,
+        relax_on_failure=False,
+    )
+    ctrl = InverseDynamicsQP(robot, tasks, contacts, InverseDynamicsOptions(solver=strict))
+    assert ctrl._native is not None
+    res = ctrl.solve(_random_state(robot, np.random.default_rng(7)))
+    assert not res.compiled
+    assert res.qp is not None and not res.qp.backend.startswith("compiled")
