@@ -52,6 +52,7 @@ def run_taskspace(steps: int, hierarchical: bool = False) -> dict[str, object]:
     times = np.empty(steps)
     failed = 0
     statuses: dict[str, int] = {}
+    paths = {"compiled": 0, "python": 0}
     kkt = {"primal": 0.0, "dual": 0.0, "complementarity": 0.0, "not_computed": 0}
     for k in range(steps):
         com.set_target(c0 + np.array([0.0, 0.04 * np.sin(np.pi * k * DT), 0.0]))
@@ -60,8 +61,9 @@ def run_taskspace(steps: int, hierarchical: bool = False) -> dict[str, object]:
         res = ctrl.solve(state)
         times[k] = time.perf_counter() - t0
         failed += not res.success
-        key = res.qp.status.value if res.qp is not None else "cascade"
+        key = f"{res.qp.status.value} ({res.qp.backend})" if res.qp is not None else "cascade"
         statuses[key] = statuses.get(key, 0) + 1
+        paths["compiled" if res.compiled else "python"] += 1
         for qp in [res.qp] if res.qp is not None else res.level_results:
             if not np.isfinite(qp.kkt.primal):
                 kkt["not_computed"] += 1
@@ -74,6 +76,7 @@ def run_taskspace(steps: int, hierarchical: bool = False) -> dict[str, object]:
         "times": times,
         "failed": failed,
         "statuses": statuses,
+        "paths": paths,
         "variables": ctrl.n,
         "kkt": {
             "max_kkt_primal": f"{kkt['primal']:.1e}",
@@ -95,9 +98,15 @@ def run(quick: bool) -> list[Row]:
             "g1 standing",
             "taskspace",
             Timing.from_samples(out["times"]),
-            {"failed_steps": out["failed"], "variables": out["variables"], **out["kkt"]},
+            {
+                "failed_steps": out["failed"],
+                "variables": out["variables"],
+                "compiled_steps": out["paths"]["compiled"],
+                "python_steps": out["paths"]["python"],
+                **out["kkt"],
+            },
             ratio_to="tsid",
-            note=f"QP statuses {out['statuses']}",
+            note=f"QP statuses (backend) {out['statuses']}",
         )
     )
     out = run_taskspace(steps, hierarchical=True)
@@ -107,7 +116,12 @@ def run(quick: bool) -> list[Row]:
             "g1 standing",
             "taskspace hierarchy",
             Timing.from_samples(out["times"]),
-            {"failed_steps": out["failed"], **out["kkt"]},
+            {
+                "failed_steps": out["failed"],
+                "compiled_steps": out["paths"]["compiled"],
+                "python_steps": out["paths"]["python"],
+                **out["kkt"],
+            },
             ratio_to="tsid",
             note="4 strict levels (dynamics+contacts, CoM, hands, posture)",
         )

@@ -310,9 +310,11 @@ def run(quick: bool) -> list[Row]:
                 "min_zmp_margin_mm": 1000 * float(walked.zmp_margin.min()),
                 "cone_violation_N": walked.cone_violation,
                 **_tracking_errors(robot, plan_g1, walked),
+                **{k: v for k, v in walked.solves.items() if k != "paths"},
             },
             ratio_to="tsid (same references)",
-            note="QP includes joint-limit rows (TSID's loop has none); rigid-contact simulation",
+            note="QP includes joint-limit rows (TSID's loop has none); rigid-contact simulation; "
+            f"steps per path {walked.solves.get('paths', {})}",
         )
     )
     rows.append(_tsid_walking_row(robot, plan_g1, n_steps, ct))

@@ -23,7 +23,7 @@ from taskspace.features import (
     Orientation,
     Position,
 )
-from taskspace.features.compiled import CompiledTerm, compiled_term
+from taskspace.features.compiled import IK_KINDS, CompiledTerm, compiled_term
 from taskspace.ik import DifferentialIK, DifferentialIKOptions
 from taskspace.ik._native_stack import supported
 from taskspace.model import Robot, State
@@ -55,7 +55,10 @@ def test_declared_terms(panda: Robot) -> None:
     assert compiled_term(CenterOfMass(panda)) == CompiledTerm("com")
     assert compiled_term(JointConfiguration(panda)) == CompiledTerm("posture")
     assert compiled_term(Position(panda, "panda_hand_tcp", offset=[0, 0, 0.1])) is None
-    assert compiled_term(Orientation(panda, "panda_hand_tcp")) is None
+    # served by the inverse-dynamics kernel only: the IK kernel refuses the kind
+    assert compiled_term(Orientation(panda, "panda_hand_tcp")) == CompiledTerm("orientation", fid)
+    assert "orientation" not in IK_KINDS
+    assert not supported([Task(Orientation(panda, "panda_hand_tcp"), np.eye(3))])
     assert compiled_term(ShiftedPosition(panda, "panda_hand_tcp")) is None  # not inherited
     assert compiled_term(Origin(panda, "panda_hand_tcp")) == CompiledTerm("position", fid)
 

@@ -7,7 +7,8 @@ imported only when the libraries imported at run time are those it was built aga
 (:func:`mismatches`): a kernel compiled for another Pinocchio or coal would read their
 objects with another layout. Otherwise, or when the kernels are not built, taskspace runs its
 Python implementations (same results; see :func:`ik_kernel`,
-``taskspace.ik.DifferentialIKOptions.native``, :func:`planning_kernel` and
+``taskspace.ik.DifferentialIKOptions.native``, :func:`idqp_kernel`,
+``taskspace.control.InverseDynamicsOptions.native``, :func:`planning_kernel` and
 ``taskspace.planning.RRTConnectOptions.native``), logs a warning, and ``taskspace info``
 shows the reason.
 """
@@ -32,7 +33,7 @@ logger = logging.getLogger(__name__)
 BUILD_INFO = "_build_info.json"
 """File written by CMake next to the kernels: the library versions they were built against."""
 
-KERNELS = ("_ik_kernel", "_planning_kernel")
+KERNELS = ("_ik_kernel", "_idqp_kernel", "_planning_kernel")
 """Module names of the kernels."""
 
 CHECKED = ("pinocchio", "coal", "eigenpy", "boost", "numpy", "python")
@@ -182,6 +183,11 @@ def _refuse(name: str, reason: str) -> tuple[None, str]:
 def ik_kernel() -> ModuleType | None:
     """The compiled weighted-IK kernel module, or ``None`` when it cannot be used."""
     return _load_module("_ik_kernel")[0]
+
+
+def idqp_kernel() -> ModuleType | None:
+    """The compiled inverse-dynamics QP kernel module, or ``None`` when it cannot be used."""
+    return _load_module("_idqp_kernel")[0]
 
 
 def planning_kernel() -> ModuleType | None:

@@ -192,6 +192,16 @@ class Contact:
         """Relative weights of the force variables in the force regularization."""
         return np.ones(self.force_dim)
 
+    def compiled_kind(self) -> str | None:
+        """How the compiled inverse-dynamics kernel evaluates this contact (``None``: it does not).
+
+        A contact class the kernel serves declares it itself (``"contact6d"``: LOCAL Jacobian
+        and spatial drift, ``log6`` position error; ``"point"``: linear LOCAL_WORLD_ALIGNED
+        rows and classical drift, ``p - p_ref``); a subclass that declares nothing (it may
+        change the Jacobian or the drift) takes the Python path (see :func:`compiled_kind`).
+        """
+        return None
+
 
 class Contact6D(Contact):
     """A flat rectangular contact (foot sole) with a 6-D wrench in the contact frame.
@@ -271,6 +281,10 @@ class Contact6D(Contact):
         lx, ly = self.half_length, self.half_width
         return np.array([1.0, 1.0, 1.0, 1.0 / ly**2, 1.0 / lx**2, 1.0 / (lx**2 + ly**2)])
 
+    def compiled_kind(self) -> str | None:
+        """The kernel evaluates the LOCAL Jacobian, the spatial drift and ``log6``."""
+        return "contact6d"
+
     def wrench_in_world(self, state: State, f: FloatArray) -> FloatArray:
         """Force and torque at the contact frame origin, world coordinates."""
         R = state.frame_placement(self.frame_id).rotation
@@ -325,6 +339,16 @@ class PointContact(Contact):
             state.frame_placement(self.frame_id).translation - self.reference.translation
         )
 
+    def compiled_kind(self) -> str | None:
+        """The kernel evaluates the linear world-aligned rows and the classical drift."""
+        return "point"
+
     def wrench_in_world(self, state: State, f: FloatArray) -> FloatArray:
         """The force (already in world coordinates) and a zero torque."""
         return np.concatenate([f, np.zeros(3)])
+
+
+def compiled_kind(contact: Contact) -> str | None:
+    """The kind ``type(contact)`` itself declares (``None``: the Python path serves it)."""
+    method = type(contact).__dict__.get("compiled_kind")
+    return None if method is None else method(contact)  # type: ignore[no-any-return]

@@ -32,6 +32,7 @@ import pinocchio as pin
 
 from taskspace._validation import FloatArray, as_vector, check_positive
 from taskspace.constraints.contact import Contact, Contact6D
+from taskspace.control._native_idqp import NativeInverseDynamics, unsupported
 from taskspace.errors import InvalidInputError
 from taskspace.model.robot import Robot
 from taskspace.model.state import State
@@ -69,6 +70,8 @@ class InverseDynamicsResult:
             (hierarchical mode; empty levels solved without a QP are ``UNCONSTRAINED``).
         culprits: constraint blocks at fault when the problem was relaxed.
         build_time, solve_time: wall times [s].
+        compiled: the step was computed by the compiled kernel (``InverseDynamicsOptions.
+            native``); ``qp.backend`` then says which of its solves answered.
     """
 
     success: bool
@@ -82,6 +85,7 @@ class InverseDynamicsResult:
     culprits: list[str] = field(default_factory=list)
     build_time: float = 0.0
     solve_time: float = 0.0
+    compiled: bool = False
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -113,6 +117,14 @@ class InverseDynamicsOptions:
         solver_for_hierarchy: use ``solver`` for the cascade's levels too (default: the
             cascade's own: daqp kept when exact to 1e-9, else proxsuite with
             :data:`~taskspace.qp.hierarchy.CASCADE_SOLVER_OPTIONS`).
+        native: run the weighted step on the compiled kernel (``taskspace/_native``) when it
+            is built and serves the controller: every task's feature declares a compiled term
+            (frame pose, orientation, frame origin, center of mass, posture), every contact a
+            compiled kind (:class:`~taskspace.constraints.Contact6D`,
+            :class:`~taskspace.constraints.PointContact`), no center-of-pressure task, positive
+            regularizations (``InverseDynamicsQP.native_reason`` says why not). The kernel
+            builds the same QP and reports a step only with KKT residuals within ``solver``'s
+            tolerances (``eps_abs``, ``eps_rel``); any other step runs the Python path.
     """
 
     acceleration_regularization: float = 1e-6
@@ -125,6 +137,7 @@ class InverseDynamicsOptions:
         default_factory=lambda: QPSolverOptions(backend="daqp", fallbacks=("proxsuite",))
     )
     solver_for_hierarchy: bool = False
+    native: bool = True
 
     def __post_init__(self) -> None:
         """Refuse regularizations that are negative or not finite (a clear error, not a NaN QP)."""
@@ -209,6 +222,15 @@ class InverseDynamicsQP:
     Thread safety: the controller keeps its QP buffers and solver workspaces, so the calls
     of several threads run one at a time (a lock); each thread needs its own
     :class:`~taskspace.model.State`.
+
+    Compiled step: in weighted mode the step runs on the compiled kernel
+    (``taskspace/_native/idqp_kernel.cpp``) when every task's feature and every contact declare
+    that the kernel serves them (``native_reason`` is then empty; see
+    ``InverseDynamicsOptions.native``). It builds the same QP as :meth:`build` and answers with
+    the equality-constrained minimizer when that violates nothing, else with proxsuite's dense
+    solver refined on its active set; a step is reported only with KKT residuals within the
+    solver options' tolerances (``result.qp.kkt``), any other runs the Python path
+    (``result.compiled`` says which path answered).
 
     Model version: the controller follows :meth:`Robot.set_limits
     <taskspace.model.Robot.set_limits>`; the next step after a change rebuilds the torque-limit
@@ -399,6 +421,9 @@ class InverseDynamicsQP:
         )
         iq, iv = robot.limited_joints_q, robot.limited_joints_v
         self._limit_iq, self._limit_iv = _as_index(iq), _as_index(iv)
+        # the compiled step, when the controller's objects declare that the kernel serves them
+        self.native_reason = unsupported(self)
+        self._native = None if self.native_reason else NativeInverseDynamics(self)
         # joint-limit acceleration bounds (see _acceleration_bounds), constant parts
         horizon = self.options.limits_horizon
         self._limit_c = 2.0 / (horizon * horizon)
@@ -546,6 +571,38 @@ class InverseDynamicsQP:
         t0 = time.perf_counter()
         if self.options.hierarchical:
             return self._solve_hierarchical(state, t0)
+        self._follower.sync()  # one integer comparison; rebuilds after robot.set_limits
+        native = self._native
+        if native is not None:
+            if state._model is not native.model:  # the kernel must never see another Data
+                raise InvalidInputError(
+                    f"this controller is built for robot '{self.robot.name}'; the state belongs "
+                    f"to robot '{state.robot.name}': make the state with this robot's state(q, v)"
+                )
+            if not state.has_velocity:
+                raise InvalidInputError(
+                    "inverse dynamics needs the velocity: use robot.state(q, v) / "
+                    "state.update(q, v)"
+                )
+            out = native.solve(state)
+            if out is not None:
+                qp, tau, t_build, t_solve = out
+                x = qp.x
+                nv = self.robot.nv
+                return InverseDynamicsResult(
+                    True,
+                    InverseDynamicsStatus.SOLVED,
+                    x[:nv].copy(),
+                    tau,
+                    {
+                        c.frame: x[nv + rows.start : nv + rows.stop].copy()
+                        for c, rows in self._contact_rows
+                    },
+                    qp,
+                    build_time=t_build,
+                    solve_time=t_solve,
+                    compiled=True,
+                )
         problem = self._build(state)
         t1 = time.perf_counter()
         result = self._solver.solve(problem)

@@ -1,11 +1,14 @@
-"""How a feature declares that the compiled IK kernel (``taskspace/_native``) can evaluate it.
+"""How a feature declares that the compiled kernels (``taskspace/_native``) can evaluate it.
 
-A feature class the kernel serves overrides :meth:`Feature.compiled_term
+A feature class the kernels serve overrides :meth:`Feature.compiled_term
 <taskspace.features.feature.Feature.compiled_term>` and returns a :class:`CompiledTerm`
-naming the kernel's evaluation of that feature; the IK solver then runs the stack on the
-kernel when every task's feature has one. Adding a feature the kernel serves is code in the
-feature's class only. Only the class's own declaration counts (:func:`compiled_term`): a
-subclass may change the map, so it is served only if it declares a term itself.
+naming the kernels' evaluation of that feature; the IK solver then runs the stack on the
+IK kernel when every task's feature has a term of :data:`IK_KINDS`, and the inverse-dynamics
+QP runs on its kernel when every task's feature has one of :data:`KINDS` (at the acceleration
+level: the same residual and Jacobian, and the feature's drift). Adding a feature the kernel
+serves is code in the feature's class only. Only the class's own declaration counts
+(:func:`compiled_term`): a subclass may change the map, so it is served only if it declares a
+term itself.
 """
 
 from __future__ import annotations
@@ -15,8 +18,11 @@ from typing import TYPE_CHECKING, NamedTuple
 if TYPE_CHECKING:
     from taskspace.features.feature import Feature
 
-KINDS = ("pose", "position", "com", "posture")
-"""The feature evaluations the compiled kernel implements."""
+KINDS = ("pose", "position", "com", "posture", "orientation")
+"""The feature evaluations the compiled kernels implement (the inverse-dynamics kernel: all)."""
+
+IK_KINDS = ("pose", "position", "com", "posture")
+"""The kinds the compiled IK kernel (``_ik_kernel``) implements."""
 
 
 class CompiledTerm(NamedTuple):
@@ -25,8 +31,9 @@ class CompiledTerm(NamedTuple):
     Attributes:
         kind: one of :data:`KINDS`: ``pose`` (``log6`` frame error, LOCAL Jacobian),
             ``position`` (frame origin, LOCAL_WORLD_ALIGNED Jacobian), ``com`` (center of
-            mass), ``posture`` (``difference(q*, q)`` over all or ``rows`` of the joints).
-        frame_id: Pinocchio frame index (``pose``, ``position``).
+            mass), ``posture`` (``difference(q*, q)`` over all or ``rows`` of the joints),
+            ``orientation`` (``log3`` frame rotation error, angular LOCAL Jacobian).
+        frame_id: Pinocchio frame index (``pose``, ``position``, ``orientation``).
         rows: selected tangent rows (``posture``; ``None`` for all).
     """
 
@@ -46,4 +53,4 @@ def compiled_term(feature: Feature) -> CompiledTerm | None:
     return term  # type: ignore[no-any-return]
 
 
-__all__ = ["KINDS", "CompiledTerm", "compiled_term"]
+__all__ = ["IK_KINDS", "KINDS", "CompiledTerm", "compiled_term"]

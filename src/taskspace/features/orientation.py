@@ -9,6 +9,7 @@ import pinocchio as pin
 
 from taskspace._validation import FloatArray, as_matrix
 from taskspace.errors import InvalidInputError
+from taskspace.features.compiled import CompiledTerm
 from taskspace.features.feature import Feature
 
 if TYPE_CHECKING:
@@ -50,6 +51,10 @@ class Orientation(Feature):
         """3 x nv angular LOCAL Jacobian."""
         self._check_state(state)
         return state.frame_jacobian_local(self.frame_id)[3:]
+
+    def compiled_term(self) -> CompiledTerm:
+        """The inverse-dynamics kernel evaluates the rotation error and its LOCAL Jacobian."""
+        return CompiledTerm("orientation", self.frame_id)
 
     def drift(self, state: State) -> FloatArray:
         """Body angular acceleration at zero joint acceleration [rad/s^2]."""

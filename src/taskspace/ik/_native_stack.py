@@ -19,7 +19,7 @@ import numpy as np
 from taskspace._native import ik_kernel
 from taskspace.constraints.constraint import Constraint
 from taskspace.errors import InvalidInputError
-from taskspace.features.compiled import CompiledTerm, compiled_term
+from taskspace.features.compiled import IK_KINDS, CompiledTerm, compiled_term
 from taskspace.model.robot import Robot
 from taskspace.model.state import State
 from taskspace.model.versioning import ModelFollower
@@ -46,7 +46,9 @@ def supported(tasks: Sequence[Task]) -> bool:
     """Whether the compiled kernel can run these tasks (with box constraints only)."""
     if ik_kernel() is None or not tasks:
         return False
-    return all(compiled_term(t.feature) is not None for t in tasks)
+    return all(
+        (term := compiled_term(t.feature)) is not None and term.kind in IK_KINDS for t in tasks
+    )
 
 
 class NativeWeightedStack:
@@ -71,7 +73,7 @@ class NativeWeightedStack:
         terms: list[tuple[Task, CompiledTerm]] = []
         for t in tasks:
             term = compiled_term(t.feature)
-            if term is None:
+            if term is None or term.kind not in IK_KINDS:
                 raise InvalidInputError(
                     f"task '{t.name}': its feature declares no compiled term (use the Python "
                     "path: DifferentialIKOptions(native=False))"

@@ -117,6 +117,9 @@ class WalkingResult:
             foot frame [N, N m]; zero while the foot swings.
         control_times: (T,) wall time of each QP solve [s].
         message: why the walk stopped early, if it did.
+        solves: summary of the QP solves: steps per path and backend (``"compiled
+            cholesky"``, ``"compiled proxsuite"``, or the Python path's backends) and the
+            largest KKT residuals (primal, dual, complementarity) of the weighted QPs.
     """
 
     success: bool
@@ -133,6 +136,7 @@ class WalkingResult:
     wrenches: dict[str, FloatArray]
     control_times: FloatArray
     message: str = ""
+    solves: dict[str, Any] = field(default_factory=dict)
 
 
 def plan_from_robot(
@@ -312,11 +316,13 @@ class _PhaseControl:
         log: list[float],
         ramps: list[_ForceRamp],
         last_forces: dict[str, float],
+        solves: dict[str, Any] | None = None,
     ) -> None:
         self.qp, self.state, self.com_task = qp, state, com_task
         self.com_reference, self.start = com_reference, start
         self.swing, self.swing_tasks, self.log = swing, swing_tasks, log
         self.ramps, self.last_forces = ramps, last_forces
+        self.solves: dict[str, Any] = solves if solves is not None else {}
 
     def __call__(self, t: float, q: FloatArray, v: FloatArray) -> FloatArray:
         c, cd, cdd = self.com_reference(self.start + t)
@@ -333,9 +339,24 @@ class _PhaseControl:
         t0 = time.perf_counter()
         res = self.qp.solve(self.state)
         self.log.append(time.perf_counter() - t0)
+        _record_solve(self.solves, res)
         for frame, f in res.forces.items():
             self.last_forces[frame] = float(f[2])
         return np.asarray(res.tau)
+
+
+def _record_solve(solves: dict[str, Any], res: Any) -> None:
+    """Count ``res``'s path and backend in ``solves``; keep the largest KKT residuals."""
+    qp = res.qp
+    backend = qp.backend if qp is not None else "cascade"
+    key = backend if res.compiled else f"python {backend}"
+    paths = solves.setdefault("paths", {})
+    paths[key] = paths.get(key, 0) + 1
+    if qp is not None:
+        for name in ("primal", "dual", "complementarity"):
+            value = float(getattr(qp.kkt, name))
+            worst = solves.get(f"max_kkt_{name}", 0.0)
+            solves[f"max_kkt_{name}"] = value if not value <= worst else worst  # NaN sticks
 
 
 def _swing_trajectory(phase: Any, clearance: float, height: float) -> SwingTrajectory:
@@ -427,6 +448,7 @@ def walk(robot: Any, plan: FootstepPlan, options: WalkingOptions | None = None) 
 
     t_all, q_all, v_all, tau_all, com_all, cref_all, zmp_all, margin_all = ([] for _ in range(8))
     control_times: list[float] = []
+    solves: dict[str, Any] = {}
     wrench_log: dict[str, list[FloatArray]] = {"left": [], "right": []}
     phases_done: list[tuple[str, float, float]] = []
     worst_cone = -np.inf
@@ -472,6 +494,7 @@ def walk(robot: Any, plan: FootstepPlan, options: WalkingOptions | None = None) 
             control_times,
             ramps,
             last_forces,
+            solves,
         )
 
         roll = simulate_with_contacts(
@@ -547,6 +570,7 @@ def walk(robot: Any, plan: FootstepPlan, options: WalkingOptions | None = None) 
         wrenches={side: np.vstack(w) for side, w in wrench_log.items()},
         control_times=np.array(control_times),
         message=message,
+        solves=solves,
     )
 
 
