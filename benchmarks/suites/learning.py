@@ -31,8 +31,9 @@ Scenes (built separately from timing):
   theta^T obs > 0``, population 10, sigma 0.5, over 10 seeds (quick: 3): environment steps
   until a candidate first balances a whole 500-step episode, at most 100 rollouts (<= 50,000
   steps), on our cart-pole and on ``CartPole-v1``; median and success count in ``extra``.
-* ``via_point_power`` / ``via_point_pi2`` / ``via_point_cma_es`` / ``via_point_mu_lambda_es``:
-  PoWER, PI^2, CMA-ES (pycma) and the (mu, lambda)-ES on the 2-D DMP via-point task
+* ``via_point_power`` / ``via_point_pi2`` / ``via_point_pi2_per_step`` / ``via_point_cma_es`` /
+  ``via_point_mu_lambda_es``: PoWER, PI^2 (episodic, and per time step with the DMP basis
+  activations), CMA-ES (pycma) and the (mu, lambda)-ES on the 2-D DMP via-point task
   (8 basis functions per dimension, population 10, 4 elites, sigma 20 decaying by 0.93;
   CMA-ES adapts its own sigma),
   over 5 seeds (quick: 2): rollouts until a rollout first passes within 2 cm of the via point,
@@ -506,7 +507,18 @@ def scene_via_point() -> ViaPointTask:
 
 def _via_point_rows(quick: bool) -> list[Row]:
     rows = []
-    methods = (("power", power), ("pi2", pi2), ("cma_es", cma_es), ("mu_lambda_es", mu_lambda_es))
+    activations = scene_via_point().activations()
+
+    def pi2_per_step(rollout: Any, theta0: np.ndarray, options: PolicySearchOptions) -> Any:
+        return pi2(rollout, theta0, options, activations=activations)
+
+    methods = (
+        ("power", power),
+        ("pi2", pi2),
+        ("pi2_per_step", pi2_per_step),
+        ("cma_es", cma_es),
+        ("mu_lambda_es", mu_lambda_es),
+    )
     for name, method in methods:
         firsts: list[int | None] = []
         finals, wall = [], []

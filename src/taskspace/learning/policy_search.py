@@ -22,8 +22,21 @@ Parameter exploration, ``theta_i = theta + eps_i``, ``eps_i ~ N(0, sigma^2 I)``:
   (``h`` = ``temperature``). A linear reward ``R - min R`` (used before) weighs the elite
   almost uniformly: on the DMP via-point task the mean then moved too little per update and
   the decaying exploration ran out before the via point (0 of 5 seeds within 2 cm).
-* PI^2 (episodic, Theodorou et al.): ``theta += sum_i P_i eps_i``,
-  ``P_i ∝ exp(-h (S_i - min S) / (max S - min S))`` with the cost ``S = -R``.
+* PI^2 (Theodorou, Buchli and Schaal 2010), two forms:
+
+  - episodic: ``theta += sum_k P_k eps_k``, ``P_k ∝ exp(-h (S_k - min S) / (max S - min S))``
+    with the cost ``S = -R`` (one cost per rollout);
+  - per time step (the paper's Table 2), when ``activations`` (N x p: the basis activation
+    ``w_{j,t_i}`` of parameter j at step i, e.g. :meth:`ViaPointTask.activations`) are given
+    and each episode's ``rewards`` has N entries (cost ``r = -reward``, terminal cost in the
+    last step): cost-to-go ``S(tau_{i,k}) = sum_{j >= i} r_{j,k}``; probabilities per step
+    ``P(tau_{i,k}) ∝ exp(-h (S_{i,k} - min_k S_{i,k}) / (max_k S_{i,k} - min_k S_{i,k}))``;
+    update per step ``dtheta_{t_i} = sum_k P(tau_{i,k}) eps_k``; time average
+    ``[dtheta]_j = sum_i (N - i) w_{j,t_i} [dtheta_{t_i}]_j / sum_i (N - i) w_{j,t_i}``
+    (i = 0 .. N-1); ``theta += dtheta``. The exploration ``eps_k`` is constant over a rollout
+    (parameter exploration); the paper's projection ``M_{t_i}`` of the noise onto the basis
+    at ``t_i`` is left out, the activation weighting carries the time locality (as in
+    Stulp and Sigaud's PI^2 with constant exploration). See :func:`pi2_update`.
 * (mu, lambda)-ES: keep the ``mu`` best of ``lambda`` offspring, new mean = their average.
 * CMA-ES: ``cma.CMAEvolutionStrategy`` (pycma, Hansen's reference implementation).
 """
@@ -320,12 +333,79 @@ def power_update(returns: FloatArray, perturbations: FloatArray, temperature: fl
     return np.asarray((w[:, None] * perturbations).sum(axis=0) / w.sum(), dtype=float)
 
 
+def _softmax_weights(S: FloatArray, temperature: float) -> FloatArray:
+    """``exp(-h (S - min S) / (max S - min S))`` along the last axis, normalized to sum 1.
+
+    Equal costs give equal weights.
+    """
+    lo = S.min(axis=-1, keepdims=True)
+    span = S.max(axis=-1, keepdims=True) - lo
+    safe = np.where(span > 0, span, 1.0)
+    w = np.where(span > 0, np.exp(-temperature * (S - lo) / safe), 1.0)
+    return np.asarray(w / w.sum(axis=-1, keepdims=True), dtype=float)
+
+
+def pi2_update(
+    costs: FloatArray,
+    perturbations: FloatArray,
+    temperature: float,
+    activations: FloatArray | None = None,
+) -> FloatArray:
+    """PI^2 parameter update ``dtheta`` from K rollouts.
+
+    Args:
+        costs: (K,) one cost per rollout (episodic form), or (K x N) per-step costs
+            ``r_{t_i,k}`` (terminal cost in the last column) for the per-time-step form.
+        perturbations: (K x p) exploration ``eps_k`` of each rollout (constant over it).
+        temperature: ``h``.
+        activations: (N x p) basis activation ``w_{j,t_i}`` of each parameter at each step;
+            needed by the per-time-step form, ``None`` for the episodic one.
+
+    Per time step: ``S_{i,k} = sum_{j >= i} r_{j,k}``, ``P_{i,k}`` the softmax of
+    ``-h (S_{i,k} - min_k) / (max_k - min_k)`` over k, ``dtheta_{t_i} = sum_k P_{i,k} eps_k``
+    and ``[dtheta]_j = sum_i (N - i) w_{j,t_i} [dtheta_{t_i}]_j / sum_i (N - i) w_{j,t_i}``.
+    A parameter that is never active (all its ``w_{j,t_i}`` zero) gets ``dtheta_j = 0``.
+
+    Raises:
+        InvalidInputError: inconsistent shapes.
+    """
+    eps = np.asarray(perturbations, dtype=float)
+    C = np.asarray(costs, dtype=float)
+    if eps.ndim != 2 or C.shape[:1] != eps.shape[:1]:
+        raise InvalidInputError(
+            f"need costs (K,) or (K x N) and perturbations (K x p) for the same K rollouts, "
+            f"got {C.shape} and {eps.shape}"
+        )
+    if activations is None:
+        if C.ndim != 1:
+            raise InvalidInputError(
+                f"per-step costs {C.shape} need activations (N x p); pass (K,) costs "
+                "for the episodic form"
+            )
+        return np.asarray(_softmax_weights(C, temperature) @ eps, dtype=float)
+    W = np.asarray(activations, dtype=float)
+    if C.ndim != 2 or W.shape != (C.shape[1], eps.shape[1]):
+        raise InvalidInputError(
+            f"per-time-step PI^2 needs costs (K x N) and activations (N x p) = "
+            f"({C.shape[-1]} x {eps.shape[1]}), got costs {C.shape} and activations {W.shape}"
+        )
+    N = C.shape[1]
+    S = np.cumsum(C[:, ::-1], axis=1)[:, ::-1]  # cost-to-go S_{i,k} (K x N)
+    P = _softmax_weights(S.T, temperature)  # (N x K): probabilities per step
+    step = P @ eps  # (N x p): dtheta_{t_i}
+    weight = (N - np.arange(N))[:, None] * W  # (N - i) w_{j,t_i}
+    total = weight.sum(axis=0)
+    num = (weight * step).sum(axis=0)
+    return np.asarray(np.where(total > 0, num / np.where(total > 0, total, 1.0), 0.0), float)
+
+
 def _parameter_exploration(
     rollout: Rollout,
     theta0: FloatArray,
     options: PolicySearchOptions | None,
     executor: Executor | BatchExecutor | None,
     method: str,
+    activations: FloatArray | None = None,
 ) -> PolicySearchResult:
     s = _Search(rollout, theta0, options or PolicySearchOptions(), executor)
     o = s.options
@@ -344,10 +424,11 @@ def _parameter_exploration(
                 o.temperature,
             )
         elif method == "pi2":
-            S = -R
-            span = S.max() - S.min()
-            P = np.exp(-o.temperature * (S - S.min()) / span) if span > 0 else np.ones_like(S)
-            s.theta = s.theta + (P[:, None] * noise).sum(axis=0) / P.sum()
+            if activations is None:
+                s.theta = s.theta + pi2_update(-R, noise, o.temperature)
+            else:
+                costs = _step_costs(eps, activations.shape[0])
+                s.theta = s.theta + pi2_update(costs, noise, o.temperature, activations)
         else:  # (mu, lambda)-ES
             idx = np.argsort(R)[::-1][: o.elite]
             s.theta = s.theta + noise[idx].mean(axis=0)
@@ -371,15 +452,42 @@ def power(
     return _parameter_exploration(rollout, theta0, options, executor, "power")
 
 
+def _step_costs(episodes: Sequence[Episode], steps: int) -> FloatArray:
+    costs = []
+    for e in episodes:
+        r = np.asarray(e.rewards, dtype=float).ravel()
+        if r.size != steps:
+            raise InvalidInputError(
+                f"per-time-step PI^2 needs {steps} per-step rewards per episode (one per row "
+                f"of activations), got {r.size}"
+            )
+        costs.append(-r)
+    return np.array(costs)
+
+
 def pi2(
     rollout: Rollout,
     theta0: FloatArray,
     options: PolicySearchOptions | None = None,
     *,
     executor: Executor | BatchExecutor | None = None,
+    activations: FloatArray | None = None,
 ) -> PolicySearchResult:
-    """Episodic PI^2: softmax-of-cost weighted average of the perturbations."""
-    return _parameter_exploration(rollout, theta0, options, executor, "pi2")
+    """PI^2 (see :func:`pi2_update`).
+
+    Without ``activations``: the episodic form (one cost ``-R`` per rollout). With
+    ``activations`` (N x p, e.g. :meth:`ViaPointTask.activations`): the per-time-step form;
+    each episode's ``rewards`` must then hold N per-step rewards.
+    """
+    W = None
+    if activations is not None:
+        W = as_float_array(activations, "activations")
+        theta = np.asarray(theta0).ravel()
+        if W.ndim != 2 or W.shape[1] != theta.size or not np.all(np.isfinite(W)) or W.min() < 0:
+            raise InvalidInputError(
+                f"activations must be finite, nonnegative, (N x {theta.size}), got {W.shape}"
+            )
+    return _parameter_exploration(rollout, theta0, options, executor, "pi2", W)
 
 
 def mu_lambda_es(

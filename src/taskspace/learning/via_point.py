@@ -61,15 +61,32 @@ class ViaPointTask:
         y = self.trajectory(theta)
         return float(np.linalg.norm(y[round(self.via_time / self.dt)] - self.via_point))
 
+    def activations(self) -> FloatArray:
+        """Basis activation of each weight at each rollout step (K x d num_basis).
+
+        Column ``j = dim * num_basis + b`` (the flattened weights) holds the DMP's normalized
+        basis ``x psi_b(x) / sum psi(x)`` at the phases of the rollout steps: the
+        ``w_{j,t_i}`` of per-time-step PI^2 (``pi2(..., activations=task.activations())``).
+        """
+        steps = round(self.dmp.tau / self.dt) + 1
+        o = self.dmp.options
+        x = (1.0 - self.dt * o.alpha_x / self.dmp.tau) ** np.arange(steps)
+        return np.tile(self.dmp.basis(x), (1, self.dmp.weights.shape[0]))
+
     def rollout(self, theta: FloatArray, seed: int) -> Episode:
-        """Deterministic rollout (``seed`` unused)."""
+        """Deterministic rollout (``seed`` unused).
+
+        ``rewards`` holds the per-step rewards: ``-w_acc |y''_k|^2 dt`` at every step k, plus
+        ``-w_via |y(t_via) - p_via|^2`` at the via step; they sum to ``total_return``.
+        """
         traj = self._dmp(theta).rollout(self.dt, duration=self.dmp.tau)
-        err = traj.y[round(self.via_time / self.dt)] - np.asarray(self.via_point, dtype=float)
-        acc = float(np.sum(traj.ydd**2) * self.dt)
-        ret = -(self.via_weight * float(err @ err) + self.acceleration_weight * acc)
+        k_via = round(self.via_time / self.dt)
+        err = traj.y[k_via] - np.asarray(self.via_point, dtype=float)
+        rewards = -self.acceleration_weight * np.sum(traj.ydd**2, axis=1) * self.dt
+        rewards[k_via] -= self.via_weight * float(err @ err)
         return Episode(
-            total_return=ret,
+            total_return=float(rewards.sum()),
             log_likelihood_gradient=np.zeros(self.num_parameters),
-            rewards=np.array([ret]),
+            rewards=rewards,
             steps=traj.time.size,
         )
