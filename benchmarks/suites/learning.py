@@ -6,7 +6,9 @@ Scenes (built separately from timing):
   ``CartPole-v1`` (closed forms in Python), unwrapped, interleaved in the same process.
 * ``cartpole_batched_1024``: one step of 1,024 cart-poles, our ``CartPoleVectorEnv`` against
   Gymnasium's own ``CartPoleVectorEnv`` (``make_vec(..., vectorization_mode=
-  "vector_entry_point")``); steps/s per core in ``extra``.
+  "vector_entry_point")``); steps/s per core in ``extra``. Ours twice, interleaved with
+  theirs: the default (URDF point-mass pole, 2 semi-implicit Euler substeps) and
+  ``model="gymnasium"`` (CartPole-v1's equations, 1 explicit Euler step: the same work).
 * ``panda_reach_step``: one ``step`` of ``PandaReachEnv`` (unwrapped; TCP forward kinematics
   and an exact mesh collision check per step) beside one step of Gymnasium's MuJoCo
   ``Reacher-v5`` (a 2-link planar arm, frame skip 2) run by ``benchmarks/peers/
@@ -196,10 +198,14 @@ def _stepper(env: Any, actions: list[Any]) -> Any:
     return step
 
 
-def scene_batched(num_envs: int) -> tuple[Any, Any, np.ndarray]:
-    """Ours and Gymnasium's vector cart-poles (reset) and a fixed action batch."""
+def scene_batched(num_envs: int, **kwargs: Any) -> tuple[Any, Any, np.ndarray]:
+    """Ours (``kwargs``: e.g. ``model="gymnasium"``) and Gymnasium's vector cart-poles (reset)
+    and a fixed action batch."""
     ours = gym.make_vec(
-        "taskspace/CartPole-v0", num_envs=num_envs, vectorization_mode="vector_entry_point"
+        "taskspace/CartPole-v0",
+        num_envs=num_envs,
+        vectorization_mode="vector_entry_point",
+        **kwargs,
     )
     theirs = gym.make_vec("CartPole-v1", num_envs=num_envs, vectorization_mode="vector_entry_point")
     ours.reset(seed=0)
@@ -238,14 +244,23 @@ def _env_rows(quick: bool) -> list[Row]:
         )
     n = 1024
     ours, theirs, acts = scene_batched(n)
-    c1, c2 = iter(range(10**12)), iter(range(10**12))
-    t_ours, t_peer = measure_interleaved(
-        [lambda: ours.step(acts[next(c1) & 63]), lambda: theirs.step(acts[next(c2) & 63])],
+    ours_g = scene_batched(n, model="gymnasium")[0]
+    c1, c2, c3 = iter(range(10**12)), iter(range(10**12)), iter(range(10**12))
+    t_ours, t_peer, t_g = measure_interleaved(
+        [
+            lambda: ours.step(acts[next(c1) & 63]),
+            lambda: theirs.step(acts[next(c2) & 63]),
+            lambda: ours_g.step(acts[next(c3) & 63]),
+        ],
         warmup=20,
         rounds=20 if quick else 100,
         block=10,
     )
-    for method, t in (("taskspace", t_ours), ("gymnasium CartPoleVectorEnv", t_peer)):
+    for method, t in (
+        ("taskspace", t_ours),
+        ("taskspace model=gymnasium", t_g),
+        ("gymnasium CartPoleVectorEnv", t_peer),
+    ):
         rows.append(
             Row(
                 SUITE,
@@ -253,7 +268,7 @@ def _env_rows(quick: bool) -> list[Row]:
                 method,
                 t,
                 {"copies": n, "steps_per_s": n * 1e6 / t.median_us, "target_steps_per_s": 20000},
-                ratio_to="gymnasium CartPoleVectorEnv" if method == "taskspace" else None,
+                ratio_to="gymnasium CartPoleVectorEnv" if method.startswith("taskspace") else None,
             )
         )
     return rows

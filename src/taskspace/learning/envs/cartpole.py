@@ -207,6 +207,10 @@ def _rectangle(xy: tuple[float, float], width: float, height: float, **kw: Any) 
     return Rectangle(xy, width, height, **kw)
 
 
+GYMNASIUM_GRAVITY = 9.8
+"""Gravity of Gymnasium's ``CartPole-v1`` [m/s^2] (ours: standard gravity 9.80665)."""
+
+
 class CartPoleVectorEnv(RobotVectorEnv):
     """N cart-poles stepped together (numpy, no loop over copies), auto-reset on termination.
 
@@ -214,7 +218,23 @@ class CartPoleVectorEnv(RobotVectorEnv):
     ``max_episode_steps``. Registered as ``taskspace/CartPole-v0``'s vector entry point:
     ``gymnasium.make_vec("taskspace/CartPole-v0", num_envs=N,
     vectorization_mode="vector_entry_point")``.
+
+    Args:
+        num_envs: number of copies N.
+        force: push magnitude [N]; dt: control period [s].
+        substeps: integration steps per period (default: 2 for ``model="urdf"``, the same
+            as :class:`CartPoleEnv`; 1 for ``model="gymnasium"``, as ``CartPole-v1``).
+        model: ``"urdf"`` (default): the registry's cart-pole (point-mass pole, standard
+            gravity), semi-implicit Euler with ``dt / substeps``, as :class:`CartPoleEnv`.
+            ``"gymnasium"``: Gymnasium's ``CartPole-v1`` dynamics, the same equations in the
+            same order (a uniform pole of half-length 0.5 m, inertia ``4/3 m l^2`` about
+            the pivot, gravity 9.8, explicit Euler: positions advance with the old
+            velocities); with ``substeps = 1`` and ``dt = 0.02`` a step equals
+            ``CartPole-v1``'s to the last bit from the same state.
+        max_episode_steps: truncation; render_mode: as :class:`CartPoleEnv`.
     """
+
+    MODELS = ("urdf", "gymnasium")
 
     def __init__(
         self,
@@ -222,11 +242,17 @@ class CartPoleVectorEnv(RobotVectorEnv):
         *,
         force: float = 10.0,
         dt: float = 0.02,
-        substeps: int = 2,
+        substeps: int | None = None,
+        model: str = "urdf",
         max_episode_steps: int = 500,
         render_mode: str | None = None,
     ) -> None:
+        if model not in self.MODELS:
+            raise InvalidInputError(f"unknown cart-pole model {model!r}; valid: {self.MODELS}")
+        if substeps is None:
+            substeps = 1 if model == "gymnasium" else 2
         super().__init__(num_envs, dt, substeps, max_episode_steps, render_mode)
+        self.model = model
         self.force = float(force)
         self._set_spaces(*_spaces())
         self.q = np.zeros((self.num_envs, 2))
@@ -254,13 +280,38 @@ class CartPoleVectorEnv(RobotVectorEnv):
             raise InvalidInputError("actions must be 0 or 1")
         F = np.where(act == 1, self.force, -self.force)
         h = self.dt / self.substeps
-        for _ in range(self.substeps):
-            a = cartpole_acceleration(self.q, self.v, F)
-            self.v = self.v + h * a
-            self.q = self.q + h * self.v
+        if self.model == "gymnasium":
+            self._gymnasium_substeps(F, h)
+        else:
+            for _ in range(self.substeps):
+                a = cartpole_acceleration(self.q, self.v, F)
+                self.v = self.v + h * a
+                self.q = self.q + h * self.v
         self.steps += 1
         terminated = (np.abs(self.q[:, 0]) > X_LIMIT) | (np.abs(self.q[:, 1]) > THETA_LIMIT)
         truncated = self.steps >= self.max_episode_steps
         reward = np.ones(self.num_envs)
         self._autoreset(reward, terminated, truncated)
         return self._obs(), reward, terminated, truncated, {}
+
+    def _gymnasium_substeps(self, F: np.ndarray, h: float) -> None:
+        """Gymnasium's ``CartPole-v1`` equations (Florian 2007), explicit Euler, same order."""
+        masspole, masscart, length = 0.1, 1.0, 0.5
+        total_mass = masspole + masscart
+        polemass_length = masspole * length
+        x, theta = self.q[:, 0], self.q[:, 1]
+        x_dot, theta_dot = self.v[:, 0], self.v[:, 1]
+        for _ in range(self.substeps):
+            costheta = np.cos(theta)
+            sintheta = np.sin(theta)
+            temp = (F + polemass_length * np.square(theta_dot) * sintheta) / total_mass
+            thetaacc = (GYMNASIUM_GRAVITY * sintheta - costheta * temp) / (
+                length * (4.0 / 3.0 - masspole * np.square(costheta) / total_mass)
+            )
+            xacc = temp - polemass_length * thetaacc * costheta / total_mass
+            x = x + h * x_dot
+            x_dot = x_dot + h * xacc
+            theta = theta + h * theta_dot
+            theta_dot = theta_dot + h * thetaacc
+        self.q = np.stack([x, theta], axis=1)
+        self.v = np.stack([x_dot, theta_dot], axis=1)
