@@ -112,14 +112,17 @@ def continuous_white_noise(
     """
     d, h, b = _check(dim, dt, block_size, order_by_dim)
     q = check_positive(spectral_density, "spectral_density", strict=False)
-    Q1 = np.empty((d, d))
-    with np.errstate(over="ignore", invalid="ignore"):
-        for i in range(d):
-            for j in range(d):
-                p = 2 * d - 1 - i - j
-                # 1 / (a! b!) as exp(-lgamma): exact factorials overflow a float for dim > 85.
-                inv_fact = math.exp(-math.lgamma(d - i) - math.lgamma(d - j))
-                Q1[i, j] = q * np.power(h, p) * inv_fact / p
+    # Q_ij = q h a_i a_j / p_ij with a_i = h^k / k!, k = dim-1-i, p_ij = 2 dim - 1 - i - j,
+    # summed in logs (h^k and k! overflow a float for dim > 85; their ratio may not). Vectorized:
+    # the double Python loop took 38 s for dim 2000 and ~30 min at the cap of 10000.
+    k = np.arange(d - 1, -1, -1, dtype=float)
+    with np.errstate(over="ignore", invalid="ignore", under="ignore", divide="ignore"):
+        log_h = math.log(h)
+        la = np.array([ki * log_h - math.lgamma(ki + 1.0) for ki in k])
+        Q1 = la[:, None] + la[None, :]
+        np.exp(Q1, out=Q1)
+        Q1 *= q * h
+        Q1 /= k[:, None] + k[None, :] + 1.0
     return _arrange(_finite(Q1, dt), b, bool(order_by_dim))
 
 
