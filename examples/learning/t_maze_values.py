@@ -1,5 +1,8 @@
 """T-maze (gamma = 0.5): exact values by value iteration, and what Q-learning and TD(lambda)
 learn from samples.
+
+The maze is a reconstruction (see :func:`taskspace.optimal_control.t_maze`): the lecture
+notes' exercise is not in the project's copy of the notes.
 """
 
 from __future__ import annotations

@@ -241,8 +241,13 @@ def t_maze(
     moves towards the junction, ``left``/``right`` at the junction enter the arms and move along
     them; an impossible move stays in place. Entering an arm's terminal cell pays its reward.
 
+    A reconstruction: the lecture notes' T-maze exercise (Toussaint, Introduction to Robotics,
+    2013/14, chapter 10 and the exercises) is not in the project's copy of the notes, which
+    ends in chapter 7. Only ``gamma = 0.5`` comes from issue #18; the layout, the arm lengths
+    and the rewards are our choice (their exact values are in the tests).
+
     Args:
-        gamma: discount (the exercise's 0.5).
+        gamma: discount (0.5 in issue #18).
         stem: number of stem cells (>= 1).
         left: (length, reward) of the left arm.
         right: (length, reward) of the right arm.
