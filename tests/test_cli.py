@@ -130,10 +130,13 @@ def test_info_reports_versions_and_kernels(capsys, monkeypatch):
     assert lines["pinocchio"] == pin.__version__
     ik = lines["IK kernel (weighted differential IK)"]
     assert ik == ("compiled, in use" if _native.ik_kernel() is not None else "not in use")
+    idqp = lines["inverse-dynamics kernel (weighted ID-QP step)"]
+    assert idqp == ("compiled, in use" if _native.idqp_kernel() is not None else "not in use")
     # without the kernels: said so, with the reason
     monkeypatch.setattr(_native, "ik_kernel", lambda: None)
+    monkeypatch.setattr(_native, "idqp_kernel", lambda: None)
     monkeypatch.setattr(_native, "planning_kernel", lambda: None)
     monkeypatch.setattr(_native, "status", lambda: "not built (test)")
     assert main(["info"]) == 0
     out = capsys.readouterr().out
-    assert out.count("not in use") == 2 and "not built (test)" in out
+    assert out.count("not in use") == 3 and "not built (test)" in out

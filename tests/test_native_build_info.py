@@ -53,6 +53,7 @@ def test_record_names_the_libraries_imported_now() -> None:
     assert info["arch"] in ("portable", "native")
     assert _native.mismatches(info, _native.runtime_versions()) == []
     assert _native.ik_kernel() is not None and _native.planning_kernel() is not None
+    assert _native.idqp_kernel() is not None  # proxsuite is a build requirement
 
 
 RUNNING = {
@@ -128,6 +129,7 @@ def test_kernel_with_edited_record_is_refused_and_python_runs(
         ik = DifferentialIK(robot, tasks)
         assert not ik.native  # the kernel is refused: Python path
     assert _native.ik_kernel() is None and _native.planning_kernel() is None
+    assert _native.idqp_kernel() is None
     expected = (
         f"pinocchio 9.9.9 (built against) != {pin.__version__} (imported); "
         f"coal 0.0.1 (built against) != {coal.__version__} (imported)"
@@ -144,7 +146,7 @@ def test_kernel_with_edited_record_is_refused_and_python_runs(
 
     assert main(["info"]) == 0
     out = capsys.readouterr().out
-    assert out.count("not in use") == 2 and expected in out
+    assert out.count("not in use") == 3 and expected in out
 
     # the real record again: loaded
     monkeypatch.undo()
