@@ -35,7 +35,8 @@ Scenes (built separately from timing):
   steps), on our cart-pole and on ``CartPole-v1``; median and success count in ``extra``.
 * ``via_point_power`` / ``via_point_pi2`` / ``via_point_pi2_per_step`` / ``via_point_cma_es`` /
   ``via_point_mu_lambda_es``: PoWER, PI^2 (episodic, and per time step with the DMP basis
-  activations), CMA-ES (pycma) and the (mu, lambda)-ES on the 2-D DMP via-point task
+  activations, also ``via_point_pi2_per_step_projected`` with the paper's projection of the
+  noise onto the basis), CMA-ES (pycma) and the (mu, lambda)-ES on the 2-D DMP via-point task
   (8 basis functions per dimension, population 10, 4 elites, sigma 20 decaying by 0.93;
   CMA-ES adapts its own sigma),
   over 5 seeds (quick: 2): rollouts until a rollout first passes within 2 cm of the via point,
@@ -527,10 +528,14 @@ def _via_point_rows(quick: bool) -> list[Row]:
     def pi2_per_step(rollout: Any, theta0: np.ndarray, options: PolicySearchOptions) -> Any:
         return pi2(rollout, theta0, options, activations=activations)
 
+    def pi2_projected(rollout: Any, theta0: np.ndarray, options: PolicySearchOptions) -> Any:
+        return pi2(rollout, theta0, options, activations=activations, projection_blocks=2)
+
     methods = (
         ("power", power),
         ("pi2", pi2),
         ("pi2_per_step", pi2_per_step),
+        ("pi2_per_step_projected", pi2_projected),
         ("cma_es", cma_es),
         ("mu_lambda_es", mu_lambda_es),
     )

@@ -37,6 +37,31 @@ def test_pi2_update_against_a_hand_computation() -> None:
         pi2_update(costs, eps, 1.0, W[:2])
 
 
+def test_pi2_projection_against_a_hand_computation() -> None:
+    # The same rollouts, activations at step 1 = (1, 2); one block: M eps = g g^T eps / g^T g.
+    costs = np.array([[1.0, 0.0, 2.0], [0.0, 3.0, 0.0]])
+    eps = np.array([[1.0, 0.0], [0.0, 2.0]])
+    W = np.array([[1.0, 0.0], [1.0, 2.0], [0.0, 1.0]])
+    # Step 0: g = (1, 0): M eps = (1, 0), (0, 0); P = (1/2, 1/2) -> (1/2, 0).
+    # Step 1: g = (1, 2): M eps = (1/5)(1, 2), (4/5)(1, 2); P = (2/3, 1/3) -> (0.4, 0.8).
+    # Step 2: g = (0, 1): M eps = (0, 0), (0, 2); P = (1/3, 2/3) -> (0, 4/3).
+    # j = 0: (3 * 1/2 + 2 * 0.4) / (3 + 2) = 23/50
+    # j = 1: (2 * 2 * 0.8 + 1 * 4/3) / (4 + 1) = 68/75
+    d = pi2_update(costs, eps, np.log(2.0), W, projection_blocks=1)
+    assert d == pytest.approx([23 / 50, 68 / 75], abs=1e-14)
+    # Without the projection: step 1 is (2/3, 2/3): j = 1 gives (4 * 2/3 + 4/3) / 5 = 4/5.
+    assert pi2_update(costs, eps, np.log(2.0), W) == pytest.approx([17 / 30, 4 / 5], abs=1e-14)
+    # Two blocks of one parameter: each projection is the identity (g scalar).
+    assert pi2_update(costs, eps, np.log(2.0), W, projection_blocks=2) == pytest.approx(
+        [17 / 30, 4 / 5], abs=1e-14
+    )
+    for bad in (3, 0, True, 1.0):
+        with pytest.raises(InvalidInputError, match="projection_blocks"):
+            pi2_update(costs, eps, 1.0, W, projection_blocks=bad)  # type: ignore[arg-type]
+    with pytest.raises(InvalidInputError, match="projection_blocks"):
+        pi2_update(costs.sum(axis=1), eps, 1.0, projection_blocks=1)
+
+
 def _task() -> ViaPointTask:
     t = np.linspace(0, 1, 101)
     mj = 10 * t**3 - 15 * t**4 + 6 * t**5
@@ -79,6 +104,12 @@ def test_per_step_pi2_reaches_the_via_point_within_2cm() -> None:
     assert task.via_error(episodic.parameters) < 0.02
     # The two forms are different updates.
     assert not np.allclose(res.parameters, episodic.parameters)
+    # With the paper's projection M of the noise onto each dimension's basis (measured: a
+    # rollout within 2 cm after median 191 rollouts, 181 at seed 0).
+    projected = pi2(
+        task.rollout, theta0, options, activations=task.activations(), projection_blocks=2
+    )
+    assert task.via_error(projected.parameters) < 0.02
 
 
 def test_per_step_pi2_errors() -> None:
@@ -88,3 +119,5 @@ def test_per_step_pi2_errors() -> None:
         pi2(task.rollout, theta0, activations=np.ones((101, 3)))
     with pytest.raises(InvalidInputError, match="per-step rewards"):
         pi2(task.rollout, theta0, activations=np.ones((7, 16)))
+    with pytest.raises(InvalidInputError, match="projection_blocks needs activations"):
+        pi2(task.rollout, theta0, projection_blocks=2)

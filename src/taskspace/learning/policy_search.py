@@ -350,6 +350,7 @@ def pi2_update(
     perturbations: FloatArray,
     temperature: float,
     activations: FloatArray | None = None,
+    projection_blocks: int | None = None,
 ) -> FloatArray:
     """PI^2 parameter update ``dtheta`` from K rollouts.
 
@@ -360,6 +361,11 @@ def pi2_update(
         temperature: ``h``.
         activations: (N x p) basis activation ``w_{j,t_i}`` of each parameter at each step;
             needed by the per-time-step form, ``None`` for the episodic one.
+        projection_blocks: ``None`` (default): no projection. ``d``: the parameters are d
+            contiguous blocks (e.g. the d dimensions of a DMP) and each block's noise is
+            projected at each step onto that block's activations ``g = w_{.,t_i}``, the
+            paper's ``M_{t_i} eps = g g^T eps / (g^T g)`` (control cost ``R = I``), before
+            ``dtheta_{t_i}`` is formed.
 
     Per time step: ``S_{i,k} = sum_{j >= i} r_{j,k}``, ``P_{i,k}`` the softmax of
     ``-h (S_{i,k} - min_k) / (max_k - min_k)`` over k, ``dtheta_{t_i} = sum_k P_{i,k} eps_k``
@@ -375,6 +381,14 @@ def pi2_update(
         raise InvalidInputError(
             f"need costs (K,) or (K x N) and perturbations (K x p) for the same K rollouts, "
             f"got {C.shape} and {eps.shape}"
+        )
+    if projection_blocks is not None and (
+        activations is None
+        or isinstance(projection_blocks, (bool, np.bool_))
+        or not isinstance(projection_blocks, (int, np.integer))
+    ):
+        raise InvalidInputError(
+            f"projection_blocks must be an integer and needs activations, got {projection_blocks!r}"
         )
     if activations is None:
         if C.ndim != 1:
@@ -392,7 +406,20 @@ def pi2_update(
     N = C.shape[1]
     S = np.cumsum(C[:, ::-1], axis=1)[:, ::-1]  # cost-to-go S_{i,k} (K x N)
     P = _softmax_weights(S.T, temperature)  # (N x K): probabilities per step
-    step = P @ eps  # (N x p): dtheta_{t_i}
+    if projection_blocks is None:
+        step = P @ eps  # (N x p): dtheta_{t_i}
+    else:
+        d = int(projection_blocks)
+        K, p = eps.shape
+        if d < 1 or p % d:
+            raise InvalidInputError(
+                f"projection_blocks must divide the {p} parameters, got {projection_blocks!r}"
+            )
+        G = W.reshape(N, d, p // d)  # g_{t_i} of each block
+        E = eps.reshape(K, d, p // d)
+        gg = (G * G).sum(axis=2)  # (N x d)
+        coef = np.einsum("ndb,kdb->nkd", G, E) / np.where(gg > 0, gg, 1.0)[:, None, :]
+        step = np.einsum("nk,nkd,ndb->ndb", P, coef, G).reshape(N, p)
     weight = (N - np.arange(N))[:, None] * W  # (N - i) w_{j,t_i}
     total = weight.sum(axis=0)
     num = (weight * step).sum(axis=0)
@@ -406,6 +433,7 @@ def _parameter_exploration(
     executor: Executor | BatchExecutor | None,
     method: str,
     activations: FloatArray | None = None,
+    projection_blocks: int | None = None,
 ) -> PolicySearchResult:
     s = _Search(rollout, theta0, options or PolicySearchOptions(), executor)
     o = s.options
@@ -428,7 +456,9 @@ def _parameter_exploration(
                 s.theta = s.theta + pi2_update(-R, noise, o.temperature)
             else:
                 costs = _step_costs(eps, activations.shape[0])
-                s.theta = s.theta + pi2_update(costs, noise, o.temperature, activations)
+                s.theta = s.theta + pi2_update(
+                    costs, noise, o.temperature, activations, projection_blocks
+                )
         else:  # (mu, lambda)-ES
             idx = np.argsort(R)[::-1][: o.elite]
             s.theta = s.theta + noise[idx].mean(axis=0)
@@ -472,12 +502,15 @@ def pi2(
     *,
     executor: Executor | BatchExecutor | None = None,
     activations: FloatArray | None = None,
+    projection_blocks: int | None = None,
 ) -> PolicySearchResult:
     """PI^2 (see :func:`pi2_update`).
 
     Without ``activations``: the episodic form (one cost ``-R`` per rollout). With
     ``activations`` (N x p, e.g. :meth:`ViaPointTask.activations`): the per-time-step form;
-    each episode's ``rewards`` must then hold N per-step rewards.
+    each episode's ``rewards`` must then hold N per-step rewards. ``projection_blocks``
+    (per-time-step form only): project the noise onto the activations, see
+    :func:`pi2_update`.
     """
     W = None
     if activations is not None:
@@ -487,7 +520,9 @@ def pi2(
             raise InvalidInputError(
                 f"activations must be finite, nonnegative, (N x {theta.size}), got {W.shape}"
             )
-    return _parameter_exploration(rollout, theta0, options, executor, "pi2", W)
+    elif projection_blocks is not None:
+        raise InvalidInputError("projection_blocks needs activations (per-time-step PI^2)")
+    return _parameter_exploration(rollout, theta0, options, executor, "pi2", W, projection_blocks)
 
 
 def mu_lambda_es(
