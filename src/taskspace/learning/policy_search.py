@@ -34,9 +34,9 @@ Parameter exploration, ``theta_i = theta + eps_i``, ``eps_i ~ N(0, sigma^2 I)``:
     update per step ``dtheta_{t_i} = sum_k P(tau_{i,k}) eps_k``; time average
     ``[dtheta]_j = sum_i (N - i) w_{j,t_i} [dtheta_{t_i}]_j / sum_i (N - i) w_{j,t_i}``
     (i = 0 .. N-1); ``theta += dtheta``. The exploration ``eps_k`` is constant over a rollout
-    (parameter exploration); the paper's projection ``M_{t_i}`` of the noise onto the basis
-    at ``t_i`` is left out, the activation weighting carries the time locality (as in
-    Stulp and Sigaud's PI^2 with constant exploration). See :func:`pi2_update`.
+    (parameter exploration). The paper's projection ``M_{t_i} eps = g g^T eps / (g^T g)``
+    of the noise onto the basis ``g`` at ``t_i`` is optional (``projection_blocks``); without
+    it the activation weighting alone carries the time locality. See :func:`pi2_update`.
 * (mu, lambda)-ES: keep the ``mu`` best of ``lambda`` offspring, new mean = their average.
 * CMA-ES: ``cma.CMAEvolutionStrategy`` (pycma, Hansen's reference implementation).
 """
