@@ -358,3 +358,19 @@ def test_continuous_white_noise_large_dim_matches_exact_rationals() -> None:
         exact /= math.factorial(d - 1 - i) * math.factorial(d - 1 - j) * p
         assert Q[i, j] == pytest.approx(float(exact), rel=1e-12, abs=0.0), (i, j)
     assert Q[299, 119] > 0.0  # dt^181 / 180! = 1.6e-274: was lost to underflow
+
+
+@pytest.mark.parametrize(
+    ("profile", "args"),
+    [("TrapezoidalProfile", (2.2250738585e-313,)), ("SCurveProfile", (1e-200, 2e-200))],
+)
+def test_profiles_with_subnormal_fractions_are_refused(
+    profile: str, args: tuple[float, ...]
+) -> None:
+    # before: TrapezoidalProfile(2.2e-313).derivative(0) gave NaN (0 * inf); the S-curve gave
+    # a bare ZeroDivisionError (t_j (t_a - t_j) (1 - t_a) underflowed to 0)
+    from taskspace import trajopt
+    from taskspace.errors import InvalidInputError
+
+    with pytest.raises(InvalidInputError, match="too small"):
+        getattr(trajopt, profile)(*args)

@@ -292,6 +292,11 @@ class TrapezoidalProfile(_PiecewiseProfile):
             raise InvalidInputError(f"accel_fraction must be in (0, 0.5], got {accel_fraction!r}")
         self.accel_fraction = f
         self._amax = 1.0 / (f * (1.0 - f))
+        if not math.isfinite(self._amax):  # f = 2e-313 (subnormal): MP'' = inf, MP = NaN
+            raise InvalidInputError(
+                f"accel_fraction {accel_fraction!r} is too small: the peak acceleration "
+                "1 / (f (1 - f)) is not a float64; use accel_fraction >= 1e-300"
+            )
         a = self._amax
         super().__init__([f, max(1.0 - 2.0 * f, 0.0), f], [0.0, 0.0, 0.0], [a, 0.0, -a])
 
@@ -359,7 +364,14 @@ class SCurveProfile(_PiecewiseProfile):
         ta = min(ta, 0.5)
         tj = min(tj, 0.5 * ta)
         self.jerk_fraction, self.accel_fraction = tj, ta
-        j = 1.0 / (tj * (ta - tj) * (1.0 - ta))
+        den = tj * (ta - tj) * (1.0 - ta)
+        j = 1.0 / den if den > 0.0 else math.inf
+        if not math.isfinite(j):  # subnormal fractions: an inf jerk gives NaN positions
+            raise InvalidInputError(
+                f"S-curve fractions jerk_fraction={jerk_fraction!r}, "
+                f"accel_fraction={accel_fraction!r} are too small: the peak jerk "
+                "1 / (t_j (t_a - t_j) (1 - t_a)) is not a float64; use fractions >= 1e-100"
+            )
         self._peaks = (j * tj * (ta - tj), j * tj, j)
         tc = max(ta - 2.0 * tj, 0.0)
         tv = max(1.0 - 2.0 * ta, 0.0)
