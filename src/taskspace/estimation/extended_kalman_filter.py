@@ -65,6 +65,11 @@ class ExtendedKalmanFilter:
         residual: ``residual(z, z_hat) -> (m,)`` (default ``z - z_hat``; wrap bearings here).
         state_normalize: optional ``g(x) -> x`` applied after each step (e.g. wrap headings).
         options: filter settings.
+
+    User functions: an exception other than a ``TaskspaceError`` raised by one of them is
+    re-raised as :class:`~taskspace.errors.CallbackError` naming it (the original is its
+    ``__cause__``); what they return is checked (shape, finiteness) before it is used; the
+    belief is left unchanged when a step fails.
     """
 
     def __init__(

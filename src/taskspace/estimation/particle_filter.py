@@ -107,6 +107,11 @@ class ParticleFilter:
         observation_sampler: optional ``h(z, n, rng) -> (n, d)`` draws from a proposal
             proportional to ``P(z | x)`` (the mixture proposal of slide 7:25).
         options: settings.
+
+    User functions: an exception other than a ``TaskspaceError`` raised by one of them is
+    re-raised as :class:`~taskspace.errors.CallbackError` naming it (the original is its
+    ``__cause__``); what they return is checked (shape, finiteness) before it is used; the
+    belief is left unchanged when a step fails.
     """
 
     def __init__(

@@ -106,6 +106,11 @@ class UnscentedKalmanFilter:
         mean_x: ``mean_x(points (N, n), weights (N,)) -> (n,)`` (default weighted sum).
         mean_z: ``mean_z(points (N, m), weights (N,)) -> (m,)`` (default weighted sum).
         options: sigma-point parameters.
+
+    User functions: an exception other than a ``TaskspaceError`` raised by one of them is
+    re-raised as :class:`~taskspace.errors.CallbackError` naming it (the original is its
+    ``__cause__``); what they return is checked (shape, finiteness) before it is used; the
+    belief is left unchanged when a step fails.
     """
 
     def __init__(
