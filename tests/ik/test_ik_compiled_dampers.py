@@ -208,8 +208,14 @@ def test_trajectory_behind_the_obstacle_never_penetrates() -> None:
         result = ik.solve(state, DT)
         assert result.success
         native += result.qp.backend == "native"
+        # the kernel's rows are those of every pair within the influence distance (its
+        # culling by bounding volumes and by the motion since the last query is exact)
+        d = _coal_distances(robot, q)
+        pairs = ik._native.damper_rows()[3]
+        assert pairs == [k for k in range(len(d)) if d[k] < INFLUENCE]
+        smallest = min(smallest, d.min())
         q = pin.integrate(robot.model, q, result.dq)
-        smallest = min(smallest, _coal_distances(robot, q).min())
+    smallest = min(smallest, _coal_distances(robot, q).min())
     assert smallest > 0.0  # never penetrates (coal, every pair)
     assert smallest > SAFETY - 0.005  # the dampers hold about the safety distance
     assert native >= 450  # the compiled path serves the trajectory

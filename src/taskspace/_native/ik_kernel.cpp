@@ -84,6 +84,12 @@ struct Item {
 struct Damper {
   int pair;
   double safety, influence, gain;
+  // the last exact distance and the placements it was computed at (the geometries' sphere
+  // centres and rotations): a lower bound of the distance at other placements
+  bool ref = false;
+  double d_ref = 0.0;
+  Eigen::Vector3d ca_ref, cb_ref;
+  Eigen::Matrix3d Ra_ref, Rb_ref;
 };
 
 // Status codes returned to Python.
@@ -195,7 +201,12 @@ class WeightedIKKernel {
     for (long i = 0; i < n; ++i) {
       const int k = bp::extract<int>(pairs[i]);
       if (k < 0 || k >= npairs) raise_invalid("collision pair index out of range");
-      dampers_.push_back({k, safety, influence, gain});
+      Damper dm;
+      dm.pair = k;
+      dm.safety = safety;
+      dm.influence = influence;
+      dm.gain = gain;
+      dampers_.push_back(dm);
     }
     const std::size_t ng = geom.geometryObjects.size();
     sphere_c_.resize(ng);
@@ -530,12 +541,20 @@ class WeightedIKKernel {
       row_dist_.assign(nd, 0.0);
     }
     int m = 0;
-    for (const Damper& dm : dampers_) {
+    for (Damper& dm : dampers_) {
       const auto& pair = geom.collisionPairs[dm.pair];
       const std::size_t ga = pair.first, gb = pair.second;
       const Eigen::Vector3d ca = gdata.oMg[ga].act(sphere_c_[ga]);
       const Eigen::Vector3d cb = gdata.oMg[gb].act(sphere_c_[gb]);
       if ((ca - cb).norm() - sphere_r_[ga] - sphere_r_[gb] >= dm.influence) continue;
+      // since the last exact distance no point of a geometry moved more than
+      // |centre shift| + radius * |R - R_ref|_F: the distance fell by at most their sum
+      if (dm.ref) {
+        const double moved = (ca - dm.ca_ref).norm() + (cb - dm.cb_ref).norm() +
+                             sphere_r_[ga] * (gdata.oMg[ga].rotation() - dm.Ra_ref).norm() +
+                             sphere_r_[gb] * (gdata.oMg[gb].rotation() - dm.Rb_ref).norm();
+        if (dm.d_ref - moved >= dm.influence) continue;
+      }
       // the world AABBs of the two local boxes: their distance bounds the pair's from below
       const auto& Ra = gdata.oMg[ga].rotation();
       const auto& Rb = gdata.oMg[gb].rotation();
@@ -546,6 +565,12 @@ class WeightedIKKernel {
       if (gap.norm() >= dm.influence) continue;
       const coal::DistanceResult& res = pinocchio::computeDistance(geom, gdata, dm.pair);
       const double d = res.min_distance;
+      dm.ref = std::isfinite(d) && std::isfinite(sphere_r_[ga]) && std::isfinite(sphere_r_[gb]);
+      dm.d_ref = d;
+      dm.ca_ref = ca;
+      dm.cb_ref = cb;
+      dm.Ra_ref = gdata.oMg[ga].rotation();
+      dm.Rb_ref = gdata.oMg[gb].rotation();
       if (!(d < dm.influence)) continue;
       auto row = C_.row(m);
       row.setZero();

@@ -266,9 +266,13 @@ class NativeWeightedStack:
         """Send the rows' declarations again when they or the obstacle world changed."""
         robot = self.robot
         version = robot.world.version
+        if version == self._world_version:
+            for declare, before in zip(self._declare, self._declared):
+                if declare() is not before:
+                    break
+            else:
+                return
         declared = [declare() for declare in self._declare]
-        if version == self._world_version and all(a is b for a, b in zip(declared, self._declared)):
-            return
         kernel = self.kernel
         kernel.clear_dampers()
         geometry = robot.collision_model

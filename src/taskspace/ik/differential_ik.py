@@ -30,7 +30,7 @@ from taskspace.ik._native_stack import NativeWeightedStack
 from taskspace.ik._native_stack import supported as native_supported
 from taskspace.model.robot import Robot
 from taskspace.model.state import State
-from taskspace.qp.kkt import box_kkt_residuals
+from taskspace.qp.kkt import KKTResiduals, box_kkt_residuals
 from taskspace.qp.problem import QPProblem
 from taskspace.qp.result import QPResult, QPStatus
 from taskspace.qp.rows import WeightedQPBuilder
@@ -123,6 +123,8 @@ class IKStepResult:
         """The QP result (status, backend, iterations, KKT residuals, culprits when relaxed)."""
         qp = self._qp
         if type(qp) is tuple:  # the fields of a QPResult, given by the compiled path
+            if len(qp) > 9:  # with the kernel's KKT residuals as a plain tuple
+                qp = (*qp[:9], KKTResiduals(*qp[9]))
             qp = self._qp = QPResult(*qp)
         return qp  # type: ignore[return-value]
 
@@ -363,7 +365,7 @@ class DifferentialIK:
         )
         qp: QPResult | tuple[Any, ...] = fields  # made on first access of result.qp
         if native.has_rows:  # the kernel's own KKT residuals (the step is accepted on them)
-            qp = (*fields, [], {}, native.residuals())
+            qp = (*fields, [], {}, native.kernel.residuals())  # made on first access
         elif self.options.native_residuals:
             qp = QPResult(*fields)
             qp.kkt = box_kkt_residuals(self._build(state, dt), dq)
