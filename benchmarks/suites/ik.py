@@ -8,6 +8,13 @@ Scenes (issue 3):
 * ``g1 hierarchy``: the G1 tasks as 4 strict levels (feet + CoM-in-support-box inequality;
   CoM; hands; posture).
 * ``panda global``: ``solve_ik`` on random reachable tcp poses.
+* ``panda dampers``: the main demo's scene (``examples/demo_main.py``): Panda with convex
+  collision geometry, a 7 cm ball in the way of a tcp pose task whose target slides 45 cm
+  behind it, posture (1e-5), joint position + velocity limits and collision velocity dampers
+  (every self and ball pair; safety 2 cm, influence 12 cm, gain 0.5), dt = 10 ms, 400 steps.
+  Rows: the compiled kernel with the dampers, the same stack without them (the ratio of
+  issue 16's target), the Python path, and placo with its self-collision constraint on the
+  same scene (the ball a fixed link of its URDF), in alternating rounds.
 
 A step is timed from the state update to the integrated configuration (build + solve +
 integrate); the target update of the scene is not timed, for every library alike. Each
@@ -29,7 +36,12 @@ import pinocchio as pin
 from benchmarks.common import Row, Timing, run_peer
 from taskspace import features as F
 from taskspace._native import ik_kernel
-from taskspace.constraints import FeatureBounds, JointPositionLimits, JointVelocityLimits
+from taskspace.constraints import (
+    CollisionAvoidance,
+    FeatureBounds,
+    JointPositionLimits,
+    JointVelocityLimits,
+)
 from taskspace.ik import (
     DifferentialIK,
     DifferentialIKOptions,
@@ -37,7 +49,7 @@ from taskspace.ik import (
     SolveIKOptions,
     solve_ik,
 )
-from taskspace.model import Robot
+from taskspace.model import Obstacle, Robot
 from taskspace.qp.kkt import box_kkt_residuals
 from taskspace.tasks import Task
 
@@ -188,6 +200,143 @@ def run_global(n: int) -> dict[str, Any]:
     return {"times": np.array(times), "success_rate": success / n, "max_error": max(errors)}
 
 
+DEMO_DT = 0.01
+DEMO_BALL = (0.07, (0.0, 0.22, -0.03))  # radius [m], centre offset from the start tcp [m]
+DEMO_GOAL = (0.0, 0.45, -0.05)  # goal offset from the start tcp [m]
+
+
+def run_panda_dampers(steps: int, native: bool = True, dampers: bool = True) -> dict[str, Any]:
+    """The main demo's scene (see the module docstring), ``steps`` steps."""
+    robot = Robot.load("panda", convex_collision=True)
+    tcp = robot.end_effectors[0]
+    q = robot.q_default.copy()
+    state = robot.state(q)
+    start = state.frame_placement(robot.frame_id(tcp)).copy()
+    goal = start.copy()
+    goal.translation = start.translation + np.array(DEMO_GOAL)
+    radius, offset = DEMO_BALL
+    robot.add_obstacle(Obstacle.sphere("ball", radius, start.translation + np.array(offset)))
+    pose = Task(F.FramePose(robot, tcp), weight=1.0, gain=0.5, name="tcp")
+    posture = Task(F.JointConfiguration(robot), robot.q_default, weight=1e-5, name="posture")
+    avoid = CollisionAvoidance(robot, safety_distance=0.02, influence_distance=0.12, gain=0.5)
+    constraints = [JointPositionLimits(robot), JointVelocityLimits(robot)]
+    if dampers:
+        constraints.append(avoid)
+    ik = DifferentialIK(
+        robot, [pose, posture], constraints, options=DifferentialIKOptions(native=native)
+    )
+    times = np.empty(steps)
+    kkt = {"primal": 0.0, "dual": 0.0, "complementarity": 0.0, "not_computed": 0}
+    failed = native_steps = 0
+    smallest = np.inf
+    for k in range(steps):
+        s = min(1.0, k / (0.75 * steps))
+        pose.set_target(pin.SE3.Interpolate(start, goal, 0.5 * (1 - np.cos(np.pi * s))))
+        t0 = time.perf_counter()
+        state.update(q)
+        result = ik.solve(state, DEMO_DT)
+        q = pin.integrate(robot.model, q, result.dq)
+        times[k] = time.perf_counter() - t0
+        failed += not result.success  # below: outside the timed part
+        qp = result.qp
+        native_steps += qp.backend == "native"
+        if not np.isfinite(qp.kkt.primal) and qp.backend == "native":  # box-only kernel step
+            qp.kkt = box_kkt_residuals(ik.build(state, DEMO_DT), result.dq)
+        if np.isfinite(qp.kkt.primal) and qp.kkt.within(1e-9, 1e-9):
+            for key in ("primal", "dual", "complementarity"):
+                kkt[key] = max(kkt[key], float(getattr(qp.kkt, key)))
+        else:
+            kkt["not_computed"] += 1
+        smallest = min(smallest, float(avoid.distances.value(state).min()))
+    state.update(q)
+    return {
+        "times": times,
+        "failed": failed,
+        "native_steps": native_steps,
+        "kkt": kkt,
+        "min_distance_m": smallest,
+        "final_tcp_error_m": float(np.linalg.norm(pose.error(state)[:3])),
+        "q0": robot.q_default,
+        "pairs": avoid.distances.pair_names,
+    }
+
+
+def panda_dampers_rows(steps: int, rounds: int = 3) -> list[Row]:
+    """The demo scene: compiled with and without dampers, Python path, placo; alternating."""
+    variants = {
+        "taskspace": {"native": True, "dampers": True},
+        "taskspace, no dampers": {"native": True, "dampers": False},
+        "taskspace, Python path": {"native": False, "dampers": True},
+    }
+    samples: dict[str, list[np.ndarray]] = {name: [] for name in variants}
+    last: dict[str, dict[str, Any]] = {}
+    for _ in range(rounds):  # alternate the variants: the machine's load drifts
+        for name, kwargs in variants.items():
+            out = run_panda_dampers(steps, **kwargs)
+            samples[name].append(out["times"])
+            last[name] = out
+    rows = []
+    for name, out in last.items():
+        extra = {
+            "failed_steps": out["failed"],
+            "compiled_steps": out["native_steps"],
+            "min_distance_m": round(out["min_distance_m"], 5),
+            "tcp_error_m": round(out["final_tcp_error_m"], 5),
+            **_kkt_extra(out["kkt"]),
+        }
+        ratio_to = None if name == "taskspace, no dampers" else "taskspace, no dampers"
+        timing = Timing.from_samples(np.concatenate(samples[name]))
+        rows.append(Row(SUITE, "panda dampers", name, timing, extra, ratio_to=ratio_to))
+    q0 = last["taskspace"]["q0"]
+    # the scene's collision pairs by link name (geometry "<link>_<k>"; the ball is "ball")
+    pairs = sorted(
+        {
+            tuple(g.rsplit("_", 1)[0] if g != "ball" else g for g in p)
+            for p in last["taskspace"]["pairs"]
+        }
+    )
+    with tempfile.TemporaryDirectory() as tmp:
+        spec = Path(tmp) / "scene.json"
+        spec.write_text(
+            json.dumps(
+                {
+                    "steps": steps,
+                    "dt": DEMO_DT,
+                    "q0": q0.tolist(),
+                    "ball": [DEMO_BALL[0], list(DEMO_BALL[1])],
+                    "goal": list(DEMO_GOAL),
+                    "rounds": rounds,
+                    "pairs": [list(p) for p in pairs],
+                }
+            )
+        )
+        try:
+            out = run_peer("placo", "placo_dampers.py", [str(spec)])
+        except Exception as exc:
+            rows.append(Row(SUITE, "panda dampers", "placo", None, note=f"failed: {exc!s:.200}"))
+            return rows
+    if out is None:
+        note = "peer env missing (make bench-peers)"
+        rows.append(Row(SUITE, "panda dampers", "placo", None, note=note))
+    elif "error" in out:
+        rows.append(Row(SUITE, "panda dampers", "placo", None, note=out["error"]))
+    else:
+        extra = {k: v for k, v in out.items() if k not in ("times", "note")}
+        timing = Timing.from_samples(np.array(out["times"]))
+        rows.append(
+            Row(
+                SUITE,
+                "panda dampers",
+                "placo",
+                timing,
+                extra,
+                "taskspace, no dampers",
+                out.get("note", ""),
+            )
+        )
+    return rows
+
+
 def _peer_rows(scene: str, steps: int, q0: np.ndarray) -> list[Row]:
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
@@ -263,6 +412,7 @@ def run(quick: bool) -> list[Row]:
                     )
                 )
             rows += _peer_rows(scene, steps, Robot.load(robot_name).q_default)
+    rows += panda_dampers_rows(150 if quick else 400, rounds=2 if quick else 3)
     out = run_global(100 if quick else 1000)
     rows.append(
         Row(

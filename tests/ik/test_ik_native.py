@@ -17,6 +17,7 @@ import pytest
 from taskspace._native import ik_kernel, status
 from taskspace.constraints import (
     CollisionAvoidance,
+    FeatureBounds,
     JointAccelerationLimits,
     JointPositionLimits,
     JointVelocityLimits,
@@ -192,7 +193,9 @@ def test_unsupported_stacks_take_the_python_path(panda: Robot) -> None:
     assert not DifferentialIK(panda, [tcp, orient]).native
     assert not DifferentialIK(panda, [offset]).native
     assert not DifferentialIK(panda, [tcp], equality_tasks=[orient]).native
-    assert not DifferentialIK(panda, [tcp], [CollisionAvoidance(panda)]).native
+    rows = FeatureBounds(Position(panda, "panda_hand_tcp"), [-1.0, -1.0, 0.1], [1.0, 1.0, 2.0])
+    assert not DifferentialIK(panda, [tcp], [rows]).native  # rows without a compiled form
+    assert DifferentialIK(panda, [tcp], [CollisionAvoidance(panda)]).native  # declared rows
     assert DifferentialIK(panda, [tcp], [JointPositionLimits(panda)]).native
 
 

@@ -26,6 +26,9 @@
 #include <pinocchio/algorithm/jacobian.hpp>
 #include <pinocchio/algorithm/joint-configuration.hpp>
 #include <pinocchio/algorithm/kinematics.hpp>
+#include <pinocchio/algorithm/geometry.hpp>
+#include <pinocchio/collision/distance.hpp>
+#include <pinocchio/multibody/geometry.hpp>
 
 #include <algorithm>
 #include <chrono>
@@ -37,6 +40,8 @@
 
 namespace bp = boost::python;
 using pinocchio::Data;
+using pinocchio::GeometryData;
+using pinocchio::GeometryModel;
 using pinocchio::Model;
 using pinocchio::SE3;
 using Eigen::MatrixXd;
@@ -73,6 +78,19 @@ struct Item {
               "the IK Hessian H = M^T M + mu I is not positive definite (damping 0 and a "
               "rank-deficient task stack, or a NaN weight); use a damping > 0");
 }
+
+// One collision velocity damper (taskspace.constraints.CollisionAvoidance): the row
+// J_d dq >= -gain (d - safety) of collision pair `pair` when its distance d < influence.
+struct Damper {
+  int pair;
+  double safety, influence, gain;
+  // the last exact distance and the placements it was computed at (the geometries' sphere
+  // centres and rotations): a lower bound of the distance at other placements
+  bool ref = false;
+  double d_ref = 0.0;
+  Eigen::Vector3d ca_ref, cb_ref;
+  Eigen::Matrix3d Ra_ref, Rb_ref;
+};
 
 // Status codes returned to Python.
 constexpr int kUnconstrained = 0;
@@ -161,11 +179,118 @@ class WeightedIKKernel {
     pl_set_ = true;
   }
 
+  // Collision velocity dampers (CollisionAvoidance): forget them all.
+  void clear_dampers() {
+    dampers_.clear();
+    geom_set_ = false;
+  }
+
+  // Add the dampers of one CollisionAvoidance: collision pairs (indices into
+  // geom.collisionPairs) with its safety and influence distances [m] and gain. The bounding
+  // sphere and the local AABB of each geometry (coal's) are read here: a pair whose spheres,
+  // or whose boxes (the local AABBs as world AABBs), are farther apart than the influence
+  // distance is skipped without a distance query (its distance is at least theirs: the same
+  // rows as the Python path).
+  void add_dampers(const Model& model, GeometryModel& geom, bp::object pairs, double safety,
+                   double influence, double gain) {
+    if (model.nv != nv_) raise_invalid("model size mismatch");
+    if (!(safety >= 0.0) || !(influence > safety) || !(gain > 0.0 && gain <= 1.0))
+      raise_invalid("damper parameters: need 0 <= safety < influence and 0 < gain <= 1");
+    const long n = bp::len(pairs);
+    const long npairs = static_cast<long>(geom.collisionPairs.size());
+    for (long i = 0; i < n; ++i) {
+      const int k = bp::extract<int>(pairs[i]);
+      if (k < 0 || k >= npairs) raise_invalid("collision pair index out of range");
+      Damper dm;
+      dm.pair = k;
+      dm.safety = safety;
+      dm.influence = influence;
+      dm.gain = gain;
+      dampers_.push_back(dm);
+    }
+    const std::size_t ng = geom.geometryObjects.size();
+    sphere_c_.resize(ng);
+    sphere_r_.resize(ng);
+    box_c_.resize(ng);
+    box_h_.resize(ng);
+    for (std::size_t g = 0; g < ng; ++g) {
+      auto& shape = geom.geometryObjects[g].geometry;
+      if (!shape) {
+        sphere_c_[g].setZero();
+        sphere_r_[g] = kInf;
+        box_c_[g].setZero();
+        box_h_[g].setConstant(kInf);
+        continue;
+      }
+      if (!(shape->aabb_radius >= 0.0)) shape->computeLocalAABB();
+      sphere_c_[g] = shape->aabb_center;
+      sphere_r_[g] = std::isfinite(shape->aabb_radius) ? shape->aabb_radius : kInf;
+      const auto& box = shape->aabb_local;
+      box_c_[g] = 0.5 * (box.min_ + box.max_);
+      box_h_[g] = 0.5 * (box.max_ - box.min_);
+      if (!box_c_[g].allFinite() || !box_h_[g].allFinite()) {
+        box_c_[g].setZero();
+        box_h_[g].setConstant(kInf);
+      }
+    }
+    // support columns of every joint (the nonzero columns of its WORLD Jacobian)
+    joint_cols_.assign(model.njoints, {});
+    for (int j = 1; j < model.njoints; ++j) {
+      for (const auto s : model.supports[j]) {
+        if (s == 0) continue;
+        for (int c = 0; c < model.nvs[s]; ++c) joint_cols_[j].push_back(model.idx_vs[s] + c);
+      }
+      std::sort(joint_cols_[j].begin(), joint_cols_[j].end());
+    }
+    geom_set_ = true;
+  }
+
+  void set_tolerances(double eps_abs, double eps_rel) {
+    if (!(eps_abs >= 0.0) || !(eps_rel >= 0.0)) raise_invalid("tolerances must be >= 0");
+    eps_abs_ = eps_abs;
+    eps_rel_ = eps_rel;
+  }
+
+  // The damper rows of the last solve: (C, l, u, pair indices, distances) (copies).
+  bp::tuple damper_rows() const {
+    const MatrixXd C = C_.topRows(m_in_);
+    const VectorXd l = l_.head(m_in_);
+    const VectorXd u = VectorXd::Constant(m_in_, kInf);
+    bp::list pairs, dists;
+    for (int k = 0; k < m_in_; ++k) {
+      pairs.append(row_pair_[k]);
+      dists.append(row_dist_[k]);
+    }
+    return bp::make_tuple(C, l, u, pairs, dists);
+  }
+
+  // KKT residuals of the last solve (primal, dual, complementarity, duality gap, primal
+  // scale, dual scale, gap scale), as taskspace.qp.kkt.kkt_residuals defines them, for the
+  // QP with the damper rows and the box; and the multipliers (z of the rows, z_box).
+  bp::tuple residuals() const {
+    return bp::make_tuple(res_[0], res_[1], res_[2], res_[3], res_[4], res_[5], res_[6]);
+  }
+  bp::tuple multipliers() const {
+    const VectorXd z = z_.head(m_in_);
+    return bp::make_tuple(z, zbox_);
+  }
+
+  // solve() of a stack without dampers (no collision model).
+  bp::tuple solve_boxes(const Model& model, Data& data, const Eigen::Ref<const VectorXd>& q,
+                        bp::list targets, bp::list hard_boxes, bp::list soft_boxes,
+                        double damping, Eigen::Ref<VectorXd> out, int max_iter) {
+    return solve(model, data, q, targets, hard_boxes, soft_boxes, damping, out, max_iter,
+                 bp::object(), bp::object());
+  }
+
   // Evaluate the stack at (model, data, q) and solve; returns (status, iterations, objective,
   // build time, QP time, row time) [s]. The step is written into ``out`` (size nv).
+  // With dampers, geom/gdata are the collision model and a GeometryData of it (placements
+  // updated here from data.oMi, distances computed here); otherwise None.
   bp::tuple solve(const Model& model, Data& data, const Eigen::Ref<const VectorXd>& q,
                   bp::list targets, bp::list hard_boxes, bp::list soft_boxes, double damping,
-                  Eigen::Ref<VectorXd> out, int max_iter) {
+                  Eigen::Ref<VectorXd> out, int max_iter, bp::object geom_obj,
+                  bp::object gdata_obj) {
     if (model.nv != nv_ || model.nq != nq_) raise_invalid("model size mismatch");
     if (q.size() != nq_ || out.size() != nv_)
       raise_invalid("vector size mismatch");
@@ -196,14 +321,37 @@ class WeightedIKKernel {
     H_.diagonal().array() += damping;
     add_posture_terms(model, q, targets);
     H_.triangularView<Eigen::StrictlyUpper>() = H_.transpose();
+    m_in_ = 0;
+    if (!dampers_.empty()) {
+      if (!geom_set_) raise_invalid("dampers without a collision model");
+      const GeometryModel& geom = bp::extract<const GeometryModel&>(geom_obj);
+      GeometryData& gdata = bp::extract<GeometryData&>(gdata_obj);
+      if (gdata.oMg.size() != geom.geometryObjects.size() ||
+          gdata.distanceResults.size() != geom.collisionPairs.size() ||
+          sphere_r_.size() != geom.geometryObjects.size())
+        raise_invalid("the collision data do not match the collision model");
+      fill_dampers(model, data, geom, gdata);
+    }
     const auto t2 = std::chrono::steady_clock::now();
     int iterations = 0;
-    const int status = box_qp(lb_, ub_, max_iter, iterations);
-    if (!x_.allFinite())
-      raise_invalid("the IK step is not finite: a task target, weight or bound is NaN or inf");
+    int status = box_qp(lb_, ub_, max_iter, iterations);
+    if (status == kUnconstrained) std::fill(state_.begin(), state_.end(), 0);
+    double objective;
+    if (m_in_ > 0) {
+      status = general_qp(status, max_iter, iterations);
+      if (!x_.allFinite())
+        raise_invalid("the IK step is not finite: a task target, weight or bound is NaN or inf");
+      objective = 0.5 * x_.dot(H_ * x_) + g_.dot(x_);
+    } else {
+      if (!x_.allFinite())
+        raise_invalid("the IK step is not finite: a task target, weight or bound is NaN or inf");
+      // 1/2 x^T H x + g^T x, with H x = grad - g (box_qp leaves grad = H x + g at x)
+      objective = 0.5 * x_.dot(grad_) + 0.5 * g_.dot(x_);
+      if (!dampers_.empty() && status != kMaxIterations) {
+        if (!kkt_check()) status = kMaxIterations;
+      }
+    }
     out = x_;
-    // 1/2 x^T H x + g^T x, with H x = grad - g (box_qp leaves grad = H x + g at x)
-    const double objective = 0.5 * x_.dot(grad_) + 0.5 * g_.dot(x_);
     const auto t3 = std::chrono::steady_clock::now();
     const auto sec = [](auto a, auto b) { return std::chrono::duration<double>(b - a).count(); };
     return bp::make_tuple(status, iterations, objective, sec(t0, t2), sec(t2, t3), sec(t0, t1));
@@ -377,6 +525,281 @@ class WeightedIKKernel {
     }
   }
 
+  // Damper rows of the pairs within their influence distance: C_ (rows), l_ (lower bounds;
+  // the upper bounds are +inf). Same rows as CollisionAvoidance.inequalities and
+  // CollisionDistance.jacobian: row = [n; p_b x n]^T J_b - [n; p_a x n]^T J_a with J the
+  // WORLD joint Jacobians (data.J on the joints' support columns).
+  void fill_dampers(const Model& model, Data& data, const GeometryModel& geom,
+                    GeometryData& gdata) {
+    pinocchio::updateGeometryPlacements(model, data, geom, gdata);
+    const int nd = static_cast<int>(dampers_.size());
+    if (C_.rows() < nd) {
+      C_.setZero(nd, nv_);
+      l_.setZero(nd);
+      z_.setZero(nd);
+      row_pair_.assign(nd, 0);
+      row_dist_.assign(nd, 0.0);
+    }
+    int m = 0;
+    for (Damper& dm : dampers_) {
+      const auto& pair = geom.collisionPairs[dm.pair];
+      const std::size_t ga = pair.first, gb = pair.second;
+      const Eigen::Vector3d ca = gdata.oMg[ga].act(sphere_c_[ga]);
+      const Eigen::Vector3d cb = gdata.oMg[gb].act(sphere_c_[gb]);
+      if ((ca - cb).norm() - sphere_r_[ga] - sphere_r_[gb] >= dm.influence) continue;
+      // since the last exact distance no point of a geometry moved more than
+      // |centre shift| + radius * |R - R_ref|_F: the distance fell by at most their sum
+      if (dm.ref) {
+        const double moved = (ca - dm.ca_ref).norm() + (cb - dm.cb_ref).norm() +
+                             sphere_r_[ga] * (gdata.oMg[ga].rotation() - dm.Ra_ref).norm() +
+                             sphere_r_[gb] * (gdata.oMg[gb].rotation() - dm.Rb_ref).norm();
+        if (dm.d_ref - moved >= dm.influence) continue;
+      }
+      // the world AABBs of the two local boxes: their distance bounds the pair's from below
+      const auto& Ra = gdata.oMg[ga].rotation();
+      const auto& Rb = gdata.oMg[gb].rotation();
+      const Eigen::Vector3d gap =
+          ((gdata.oMg[ga].act(box_c_[ga]) - gdata.oMg[gb].act(box_c_[gb])).cwiseAbs() -
+           Ra.cwiseAbs() * box_h_[ga] - Rb.cwiseAbs() * box_h_[gb])
+              .cwiseMax(0.0);
+      if (gap.norm() >= dm.influence) continue;
+      const coal::DistanceResult& res = pinocchio::computeDistance(geom, gdata, dm.pair);
+      const double d = res.min_distance;
+      dm.ref = std::isfinite(d) && std::isfinite(sphere_r_[ga]) && std::isfinite(sphere_r_[gb]);
+      dm.d_ref = d;
+      dm.ca_ref = ca;
+      dm.cb_ref = cb;
+      dm.Ra_ref = gdata.oMg[ga].rotation();
+      dm.Rb_ref = gdata.oMg[gb].rotation();
+      if (!(d < dm.influence)) continue;
+      auto row = C_.row(m);
+      row.setZero();
+      const Eigen::Vector3d n = res.normal;
+      const int ja = static_cast<int>(geom.geometryObjects[ga].parentJoint);
+      const int jb = static_cast<int>(geom.geometryObjects[gb].parentJoint);
+      add_point_row(data, jb, n, res.nearest_points[1], 1.0, row);
+      add_point_row(data, ja, n, res.nearest_points[0], -1.0, row);
+      l_[m] = -dm.gain * (d - dm.safety);
+      row_pair_[m] = dm.pair;
+      row_dist_[m] = d;
+      ++m;
+    }
+    m_in_ = m;
+  }
+
+  template <typename Row>
+  void add_point_row(const Data& data, int joint, const Eigen::Vector3d& n,
+                     const Eigen::Vector3d& p, double sign, Row& row) const {
+    if (joint <= 0) return;  // the universe (an obstacle) does not move
+    Eigen::Matrix<double, 6, 1> w;
+    w.head<3>() = n;
+    w.tail<3>() = p.cross(n);
+    for (const int c : joint_cols_[joint]) row[c] += sign * w.dot(data.J.col(c));
+  }
+
+  // KKT residuals of (x_, z_ (rows), zbox_) for min 1/2 x'Hx + g'x, l <= C x, lb <= x <= ub
+  // (taskspace.qp.kkt.kkt_residuals); zbox_ is recovered from stationarity on the components
+  // held at a bound (state_). Returns whether they meet eps_abs + eps_rel * scale.
+  bool kkt_check() {
+    const int n = nv_, m = m_in_;
+    const auto C = C_.topRows(m);
+    const auto z = z_.head(m);
+    hx_.noalias() = H_ * x_;
+    force_.noalias() = C.transpose() * z;
+    // box multipliers: minus the rest of the stationarity on the held components
+    zbox_.setZero(n);
+    for (int i = 0; i < n; ++i)
+      if (state_[i] != 0) zbox_[i] = -(hx_[i] + g_[i] + force_[i]);
+    force_ += zbox_;
+    double primal = 0.0, comp = 0.0, gap = x_.dot(hx_) + g_.dot(x_);
+    double pscale = x_.cwiseAbs().maxCoeff();
+    cx_.noalias() = C * x_;
+    for (int k = 0; k < m; ++k) {
+      const double below = l_[k] - cx_[k], above = cx_[k] - kInf;
+      primal = std::max(primal, std::max(below, above));
+      pscale = std::max(pscale, std::abs(cx_[k]));
+      const double zk = z[k];
+      comp = std::max(comp, std::min(std::abs(zk), std::abs(zk > 0 ? above : below)));
+      gap += (zk > 0 ? kInf : l_[k]) * zk;
+    }
+    for (int i = 0; i < n; ++i) {
+      const double below = lb_[i] - x_[i], above = x_[i] - ub_[i];
+      primal = std::max(primal, std::max(below, above));
+      const double zi = zbox_[i];
+      comp = std::max(comp, std::min(std::abs(zi), std::abs(zi > 0 ? above : below)));
+      if (zi != 0.0) gap += (zi > 0 ? ub_[i] : lb_[i]) * zi;
+    }
+    const double dual = (hx_ + g_ + force_).cwiseAbs().maxCoeff();
+    const double dscale = std::max(
+        {hx_.cwiseAbs().maxCoeff(), g_.cwiseAbs().maxCoeff(), force_.cwiseAbs().maxCoeff()});
+    const double gscale =
+        std::max({1.0, std::abs(x_.dot(hx_)), std::abs(g_.dot(x_))});
+    res_[0] = primal;
+    res_[1] = dual;
+    res_[2] = comp;
+    res_[3] = std::abs(gap);
+    res_[4] = pscale;
+    res_[5] = dscale;
+    res_[6] = gscale;
+    return primal <= eps_abs_ + eps_rel_ * pscale && dual <= eps_abs_ + eps_rel_ * dscale &&
+           comp <= eps_abs_ + eps_rel_ * std::max(pscale, dscale);
+  }
+
+  // The equality QP of the working set: box components with state_ != 0 held at their
+  // bound, rows with row_on_ held at their lower bound; the others free. Solved by the Schur
+  // complement of H_FF. Writes the minimizer to xw_ and the rows' multipliers to z_.
+  bool working_set_minimizer() {
+    const int n = nv_, m = m_in_;
+    F_.clear();
+    A_.clear();
+    xw_ = x_;
+    for (int i = 0; i < n; ++i) {
+      if (state_[i] == 0) F_.push_back(i);
+      else if (state_[i] == 2) xw_[i] = 0.5 * (lb_[i] + ub_[i]);
+      else xw_[i] = state_[i] < 0 ? lb_[i] : ub_[i];
+    }
+    for (int k = 0; k < m; ++k)
+      if (row_on_[k]) A_.push_back(k);
+    const int nf = static_cast<int>(F_.size()), na = static_cast<int>(A_.size());
+    z_.head(m).setZero();
+    if (nf == 0) return na == 0;
+    // rhs1 = -g_F - H_FB x_B, rhs2 = l_A - C_AB x_B
+    Hff_.resize(nf, nf);
+    Caf_.resize(na, nf);
+    r1_.resize(nf);
+    r2_.resize(na);
+    for (int a = 0; a < nf; ++a) {
+      double s = -g_[F_[a]];
+      for (int j = 0; j < n; ++j)
+        if (state_[j] != 0) s -= H_(F_[a], j) * xw_[j];
+      r1_[a] = s;
+      for (int b = 0; b < nf; ++b) Hff_(a, b) = H_(F_[a], F_[b]);
+    }
+    for (int c = 0; c < na; ++c) {
+      double s = l_[A_[c]];
+      for (int j = 0; j < n; ++j)
+        if (state_[j] != 0) s -= C_(A_[c], j) * xw_[j];
+      r2_[c] = s;
+      for (int b = 0; b < nf; ++b) Caf_(c, b) = C_(A_[c], F_[b]);
+    }
+    if (!cholesky(Hff_)) return false;
+    VectorXd xf = r1_;
+    cholesky_solve(Hff_, xf);
+    if (na > 0) {
+      MatrixXd HiCt = Caf_.transpose();
+      Hff_.triangularView<Eigen::Lower>().solveInPlace(HiCt);  // L^-1 C'
+      MatrixXd S = HiCt.transpose() * HiCt;                     // C H^-1 C'
+      Hff_.triangularView<Eigen::Lower>().transpose().solveInPlace(HiCt);  // H^-1 C'
+      if (!cholesky(S)) return false;  // dependent rows in the working set
+      VectorXd zA = Caf_ * xf - r2_;
+      cholesky_solve(S, zA);
+      if (!zA.allFinite()) return false;
+      xf.noalias() -= HiCt * zA;
+      for (int c = 0; c < na; ++c) z_[A_[c]] = zA[c];
+    }
+    for (int a = 0; a < nf; ++a) xw_[F_[a]] = xf[a];
+    return true;
+  }
+
+  // The QP with the damper rows (l <= C x, lb <= x <= ub). When the box QP's solution
+  // satisfies the rows it is the optimum. Otherwise a primal active-set method (exact,
+  // finite): it starts at the point of the segment from 0 to the box solution where the
+  // first row blocks (feasible when 0 is: the robot outside the dampers' safety distance and
+  // inside its limits), then moves toward the minimizer of its working set, adding the
+  // blocking constraint, or drops the constraint whose multiplier has the wrong sign. The
+  // result is accepted only when its KKT residuals meet the tolerances (kkt_check);
+  // otherwise kMaxIterations: the caller takes the Python path.
+  int general_qp(int box_status, int max_iter, int& iterations) {
+    const int n = nv_, m = m_in_;
+    const double tol = 1e-10;
+    row_on_.assign(m, 0);
+    cx_.noalias() = C_.topRows(m) * x_;
+    double t = 1.0;
+    int blocking = -1;
+    for (int k = 0; k < m; ++k) {
+      if (cx_[k] >= l_[k] - tol * std::max(1.0, std::abs(l_[k]))) continue;
+      if (l_[k] > 0.0) return kMaxIterations;  // 0 violates the row: no feasible start here
+      const double tk = l_[k] / cx_[k];          // C_k (t x) = l_k, with C_k x < l_k <= 0
+      if (tk < t) t = tk, blocking = k;
+    }
+    if (blocking < 0) {  // the box solution satisfies every row: it is the optimum
+      z_.head(m).setZero();
+      if (box_status == kMaxIterations) return kMaxIterations;
+      return kkt_check() ? box_status : kMaxIterations;
+    }
+    for (int i = 0; i < n; ++i)
+      if (lb_[i] > 0.0 || ub_[i] < 0.0) return kMaxIterations;  // 0 outside the box
+    // start: t x (inside the box: 0 and x are), the blocking row held; a box component stays
+    // held only where it is still at its bound
+    x_ *= t;
+    for (int i = 0; i < n; ++i) {
+      if (state_[i] == 2) continue;
+      if (ub_[i] <= lb_[i]) state_[i] = 2;
+      else if (x_[i] <= lb_[i]) state_[i] = -1, x_[i] = lb_[i];
+      else if (x_[i] >= ub_[i]) state_[i] = 1, x_[i] = ub_[i];
+      else state_[i] = 0;
+    }
+    row_on_[blocking] = 1;
+    for (int it = 0; it < max_iter; ++it) {
+      ++iterations;
+      if (!working_set_minimizer()) return kMaxIterations;
+      // step from x toward the working set's minimizer, stopped by the first constraint
+      step_ = xw_ - x_;
+      double alpha = 1.0;
+      int block_row = -1, block_box = -1, side = 0;
+      if (step_.cwiseAbs().maxCoeff() > 1e-15) {
+        cx_.noalias() = C_.topRows(m) * x_;
+        const VectorXd cp = C_.topRows(m) * step_;
+        for (int k = 0; k < m; ++k) {
+          if (row_on_[k] || cp[k] >= 0.0) continue;
+          const double ak = std::max(0.0, (l_[k] - cx_[k]) / cp[k]);
+          if (ak < alpha) alpha = ak, block_row = k, block_box = -1;
+        }
+        for (const int i : F_) {
+          const double d = step_[i];
+          if (d < 0.0 && xw_[i] < lb_[i]) {
+            const double ai = std::max(0.0, (lb_[i] - x_[i]) / d);
+            if (ai < alpha) alpha = ai, block_box = i, side = -1, block_row = -1;
+          } else if (d > 0.0 && xw_[i] > ub_[i]) {
+            const double ai = std::max(0.0, (ub_[i] - x_[i]) / d);
+            if (ai < alpha) alpha = ai, block_box = i, side = 1, block_row = -1;
+          }
+        }
+      }
+      if (block_row >= 0 || block_box >= 0) {
+        x_ += alpha * step_;
+        if (block_row >= 0) row_on_[block_row] = 1;
+        else state_[block_box] = side, x_[block_box] = side < 0 ? lb_[block_box] : ub_[block_box];
+        continue;
+      }
+      x_ = xw_;
+      // at the working set's minimizer: the multipliers (rows: z <= 0 at a lower bound; box:
+      // z_box <= 0 at lb, >= 0 at ub)
+      hx_.noalias() = H_ * x_;
+      hx_ += g_;
+      hx_.noalias() += C_.topRows(m).transpose() * z_.head(m);
+      double wrong = 1e-12 * std::max(1.0, g_.cwiseAbs().maxCoeff());
+      int drop_row = -1, drop_box = -1;
+      for (const int k : A_)
+        if (z_[k] > wrong) wrong = z_[k], drop_row = k, drop_box = -1;
+      for (int i = 0; i < n; ++i) {
+        const double zb = -hx_[i];
+        const double v = state_[i] == -1 ? zb : (state_[i] == 1 ? -zb : 0.0);
+        if (v > wrong) wrong = v, drop_box = i, drop_row = -1;
+      }
+      if (drop_row >= 0) {
+        row_on_[drop_row] = 0;
+        continue;
+      }
+      if (drop_box >= 0) {
+        state_[drop_box] = 0;
+        continue;
+      }
+      return kkt_check() ? kSolved : kMaxIterations;
+    }
+    return kMaxIterations;
+  }
+
   // In-place Cholesky factor (lower) of a small SPD matrix: Eigen's unblocked kernel, which
   // at these sizes (n < 100) is several times faster than the blocked LLT.
   static bool cholesky(MatrixXd& A) {
@@ -503,6 +926,21 @@ class WeightedIKKernel {
   bool pl_set_ = false, pl_hard_ = false;
   Eigen::Matrix<double, 6, 6> Jlog_;
   VectorXd r_, e_, w_, c_, g_, x_, grad_;
+  // collision dampers
+  std::vector<Damper> dampers_;
+  std::vector<Eigen::Vector3d> sphere_c_, box_c_, box_h_;
+  std::vector<double> sphere_r_;
+  std::vector<std::vector<int>> joint_cols_;
+  bool geom_set_ = false;
+  int m_in_ = 0;
+  RowMatrixXd C_;
+  VectorXd l_, z_, zbox_, hx_, force_, cx_;
+  std::vector<int> row_pair_, row_on_, F_, A_;
+  MatrixXd Hff_, Caf_;
+  VectorXd r1_, r2_, xw_, step_;
+  std::vector<double> row_dist_;
+  double eps_abs_ = 1e-9, eps_rel_ = 1e-9;
+  double res_[7] = {0, 0, 0, 0, 0, 0, 0};
   std::vector<int> state_;
   MatrixXd L_;
 };
@@ -534,5 +972,12 @@ BOOST_PYTHON_MODULE(_ik_kernel) {
       .add_property("rows", &WeightedIKKernel::rows)
       .def("set_scaling", &WeightedIKKernel::set_scaling)
       .def("set_position_limits", &WeightedIKKernel::set_position_limits)
+      .def("clear_dampers", &WeightedIKKernel::clear_dampers)
+      .def("add_dampers", &WeightedIKKernel::add_dampers)
+      .def("set_tolerances", &WeightedIKKernel::set_tolerances)
+      .def("damper_rows", &WeightedIKKernel::damper_rows)
+      .def("residuals", &WeightedIKKernel::residuals)
+      .def("multipliers", &WeightedIKKernel::multipliers)
+      .def("solve", &WeightedIKKernel::solve_boxes)
       .def("solve", &WeightedIKKernel::solve);
 }

@@ -11,6 +11,7 @@ from taskspace._validation import check_positive
 from taskspace.constraints.constraint import Constraint
 from taskspace.errors import InvalidInputError
 from taskspace.features.collision import CollisionDistance
+from taskspace.features.compiled import CompiledConstraint
 from taskspace.features.rows import INF, InequalityRows
 
 if TYPE_CHECKING:
@@ -52,6 +53,7 @@ class CollisionAvoidance(Constraint):
             raise InvalidInputError(f"gain must be in (0, 1], got {gain}")
         self.gain = float(gain)
         self.distances = CollisionDistance(robot, pairs)
+        self._compiled: tuple[tuple[int, float, float, float], CompiledConstraint] | None = None
 
     def inequalities(self, state: State, dt: float) -> InequalityRows:
         """Rows for the pairs within the influence distance (possibly zero rows)."""
@@ -63,6 +65,28 @@ class CollisionAvoidance(Constraint):
         J = self.distances.jacobian(state, rows=near)
         lower = -self.gain * (d[near] - self.safety_distance)
         return InequalityRows(J, lower, np.full(J.shape[0], INF))
+
+    def compiled_constraint(self) -> CompiledConstraint:
+        """The dampers as the compiled IK kernel evaluates them (the same rows).
+
+        The same object while the obstacle world and the parameters are unchanged (the
+        compiled path asks at every step and compares by identity).
+        """
+        distances = self.distances
+        key = (
+            self.robot.world.version,
+            self.safety_distance,
+            self.influence_distance,
+            self.gain,
+        )
+        cached = self._compiled
+        if cached is not None and cached[0] == key:
+            return cached[1]
+        if key[0] != distances._world_version:
+            distances._follow_world()  # pair indices shift when obstacles change
+        rows = CompiledConstraint("dampers", tuple(distances._pairs), *key[1:])
+        self._compiled = (key, rows)
+        return rows
 
     def active_pairs(self, state: State) -> list[tuple[str, str, float]]:
         """Pairs within the influence distance with their distances [m]."""

@@ -6,6 +6,7 @@ import abc
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
+    from taskspace.features.compiled import CompiledConstraint
     from taskspace.features.rows import Box, InequalityRows
     from taskspace.model.robot import Robot
     from taskspace.model.state import State
@@ -35,6 +36,15 @@ class Constraint(abc.ABC):
 
     def inequalities(self, state: State, dt: float) -> InequalityRows | None:
         """Rows ``(C, l, u)`` with ``l <= C dq <= u`` or ``None`` (a plain tuple is accepted)."""
+        return None
+
+    def compiled_constraint(self) -> CompiledConstraint | None:
+        """How the compiled IK kernel evaluates :meth:`inequalities`, or ``None`` (Python path).
+
+        A constraint class the kernel serves overrides this method (see
+        :mod:`taskspace.features.compiled`); only a class's own override counts, so a
+        subclass that changes the rows is not served by the kernel unless it declares them.
+        """
         return None
 
     def __repr__(self) -> str:

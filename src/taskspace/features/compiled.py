@@ -16,6 +16,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, NamedTuple
 
 if TYPE_CHECKING:
+    from taskspace.constraints.constraint import Constraint
     from taskspace.features.feature import Feature
 
 KINDS = ("pose", "position", "com", "posture", "orientation")
@@ -42,6 +43,40 @@ class CompiledTerm(NamedTuple):
     rows: tuple[int, ...] | None = None
 
 
+CONSTRAINT_KINDS = ("dampers",)
+"""The constraint rows the compiled IK kernel evaluates."""
+
+
+class CompiledConstraint(NamedTuple):
+    """Inequality rows of a constraint as the compiled kernel evaluates them.
+
+    Attributes:
+        kind: one of :data:`CONSTRAINT_KINDS`: ``dampers`` (collision velocity dampers
+            ``J_d dq >= -gain (d - safety_distance)`` for the collision pairs closer than
+            ``influence_distance``, distances and witness points from coal in the kernel).
+        pairs: indices into ``robot.collision_model.collisionPairs``.
+        safety_distance, influence_distance: [m].
+        gain: damper gain in (0, 1].
+    """
+
+    kind: str
+    pairs: tuple[int, ...] = ()
+    safety_distance: float = 0.0
+    influence_distance: float = 0.0
+    gain: float = 0.0
+
+
+def compiled_constraint(constraint: Constraint) -> CompiledConstraint | None:
+    """The rows ``type(constraint)`` itself declares, or ``None`` (the Python path serves it)."""
+    method = type(constraint).__dict__.get("compiled_constraint")
+    if method is None:
+        return None
+    rows = method(constraint)
+    if rows is not None and rows.kind not in CONSTRAINT_KINDS:
+        return None
+    return rows  # type: ignore[no-any-return]
+
+
 def compiled_term(feature: Feature) -> CompiledTerm | None:
     """The term ``type(feature)`` itself declares, or ``None`` (the Python path serves it)."""
     method = type(feature).__dict__.get("compiled_term")
@@ -53,4 +88,12 @@ def compiled_term(feature: Feature) -> CompiledTerm | None:
     return term  # type: ignore[no-any-return]
 
 
-__all__ = ["IK_KINDS", "KINDS", "CompiledTerm", "compiled_term"]
+__all__ = [
+    "CONSTRAINT_KINDS",
+    "IK_KINDS",
+    "KINDS",
+    "CompiledConstraint",
+    "CompiledTerm",
+    "compiled_constraint",
+    "compiled_term",
+]

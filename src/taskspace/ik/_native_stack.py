@@ -5,8 +5,13 @@ Pinocchio data, ``H = M^T M + mu I``, boxes combined by the rules of
 :func:`taskspace.qp.rows.combine_boxes`) and solves it exactly with a primal active-set
 method on the box. It serves stacks whose every feature declares a
 :class:`~taskspace.features.compiled.CompiledTerm` (frame poses, frame origins, the center of
-mass, postures), with box constraints only (joint position, velocity and acceleration
-limits); anything else takes the Python path.
+mass, postures), with box constraints (joint position, velocity and acceleration limits) and
+inequality rows whose constraints declare a
+:class:`~taskspace.features.compiled.CompiledConstraint` (collision velocity dampers: coal
+distances computed in the kernel). With rows, the box solution is kept when it satisfies
+them; otherwise a primal-dual active-set method on the rows and the box runs from the box's
+active set, and its step is accepted only when its KKT residuals meet the solver's
+tolerances (they are carried on the result). Anything else takes the Python path.
 """
 
 from __future__ import annotations
@@ -19,10 +24,17 @@ import numpy as np
 from taskspace._native import ik_kernel
 from taskspace.constraints.constraint import Constraint
 from taskspace.errors import InvalidInputError
-from taskspace.features.compiled import IK_KINDS, CompiledTerm, compiled_term
+from taskspace.features.compiled import (
+    IK_KINDS,
+    CompiledConstraint,
+    CompiledTerm,
+    compiled_constraint,
+    compiled_term,
+)
 from taskspace.model.robot import Robot
 from taskspace.model.state import State
 from taskspace.model.versioning import ModelFollower
+from taskspace.qp.kkt import KKTResiduals
 from taskspace.tasks import Task
 
 MAX_ACTIVE_SET_ITERATIONS = 200
@@ -42,13 +54,26 @@ _FULL_TANGENT = frozenset({"posture"})
 selected rows set); the kernel keeps them after the other terms."""
 
 
-def supported(tasks: Sequence[Task]) -> bool:
-    """Whether the compiled kernel can run these tasks (with box constraints only)."""
+# How each kind of constraint rows is registered with the kernel (the kernel's own API).
+_REGISTER_ROWS: dict[str, Callable[[Any, Robot, CompiledConstraint], Any]] = {
+    "dampers": lambda kernel, robot, rows: kernel.add_dampers(
+        robot.model,
+        robot.collision_model,
+        list(rows.pairs),
+        rows.safety_distance,
+        rows.influence_distance,
+        rows.gain,
+    ),
+}
+
+
+def supported(tasks: Sequence[Task], inequality_constraints: Sequence[Constraint] = ()) -> bool:
+    """Whether the compiled kernel can run these tasks and constraints with inequality rows."""
     if ik_kernel() is None or not tasks:
         return False
     return all(
         (term := compiled_term(t.feature)) is not None and term.kind in IK_KINDS for t in tasks
-    )
+    ) and all(compiled_constraint(c) is not None for c in inequality_constraints)
 
 
 class NativeWeightedStack:
@@ -62,7 +87,14 @@ class NativeWeightedStack:
     :class:`~taskspace.ik.DifferentialIK` serializes its calls with its lock.
     """
 
-    def __init__(self, robot: Robot, tasks: Sequence[Task], constraints: Sequence[Constraint]):
+    def __init__(
+        self,
+        robot: Robot,
+        tasks: Sequence[Task],
+        constraints: Sequence[Constraint],
+        inequality_constraints: Sequence[Constraint] = (),
+        tolerances: tuple[float, float] = (1e-9, 1e-9),
+    ):
         module = ik_kernel()
         assert module is not None
         self.module = module
@@ -106,6 +138,21 @@ class NativeWeightedStack:
         self._hard = [c for c in boxes if c.hard_bounds]
         self._soft = [c for c in boxes if not c.hard_bounds]
         self.nv = robot.nv
+        # constraints with inequality rows the kernel evaluates (declared, sent again when
+        # their declaration or the obstacle world changes)
+        self._rows = list(inequality_constraints)
+        for c in self._rows:
+            if compiled_constraint(c) is None:
+                raise InvalidInputError(
+                    f"constraint '{c.name}' declares no compiled rows (use the Python path: "
+                    "DifferentialIKOptions(native=False))"
+                )
+        # each class's own declaration (compiled_constraint checked it is the class's own)
+        self._declare = [c.compiled_constraint for c in self._rows]
+        self._declared: list[CompiledConstraint | None] = []
+        self._world_version = -1
+        self._geometry: tuple[Any, Any] = (None, None)
+        kernel.set_tolerances(*tolerances)
         self._kernel_solve = kernel.solve
         self._max_iterations = module.MAX_ITERATIONS
 
@@ -162,6 +209,8 @@ class NativeWeightedStack:
             self._scale()
         if self._position_limits is not None:
             self._position_limits.sync()
+        if self._rows:
+            self._sync_rows()
         hard, soft = self._hard, self._soft
         try:
             status, iterations, objective, t_build, t_qp, _ = self._kernel_solve(
@@ -174,6 +223,7 @@ class NativeWeightedStack:
                 damping,
                 out,
                 MAX_ACTIVE_SET_ITERATIONS,
+                *self._geometry,
             )
         except (TypeError, ValueError, RuntimeError):
             for t in self.tasks:
@@ -182,6 +232,62 @@ class NativeWeightedStack:
         if status == self._max_iterations:
             return None
         return status, iterations, objective, t_build, t_qp
+
+    @property
+    def has_rows(self) -> bool:
+        """Whether the kernel evaluates inequality rows (its solves carry KKT residuals)."""
+        return bool(self._rows)
+
+    def residuals(self) -> KKTResiduals:
+        """KKT residuals of the last solve with rows (the kernel's, see ``taskspace.qp.kkt``)."""
+        return KKTResiduals(*self.kernel.residuals())
+
+    def damper_rows(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[int], list[float]]:
+        """The kernel's inequality rows of the last solve: ``(C, l, u, pairs, distances)``.
+
+        ``pairs`` are the indices into ``robot.collision_model.collisionPairs`` of the rows
+        and ``distances`` their coal distances [m] (for inspection and tests).
+        """
+        C, l, u, pairs, distances = self.kernel.damper_rows()
+        m = len(pairs)
+        return (
+            np.asarray(C).reshape(m, self.nv),
+            np.asarray(l).reshape(m),
+            np.asarray(u).reshape(m),
+            list(pairs),
+            list(distances),
+        )
+
+    def multipliers(self) -> tuple[np.ndarray, np.ndarray]:
+        """Multipliers of the last solve: of the rows (``<= 0``) and of the box (size nv)."""
+        z, z_box = self.kernel.multipliers()
+        return np.asarray(z).reshape(-1), np.asarray(z_box).reshape(-1)
+
+    def _sync_rows(self) -> None:
+        """Send the rows' declarations again when they or the obstacle world changed."""
+        robot = self.robot
+        version = robot.world.version
+        if version == self._world_version:
+            for declare, before in zip(self._declare, self._declared):
+                if declare() is not before:
+                    break
+            else:
+                return
+        declared = [declare() for declare in self._declare]
+        kernel = self.kernel
+        kernel.clear_dampers()
+        geometry = robot.collision_model
+        for c, rows in zip(self._rows, declared):
+            if rows is None or rows.kind not in _REGISTER_ROWS:
+                raise InvalidInputError(
+                    f"constraint '{c.name}' no longer declares compiled rows (use the Python "
+                    "path: DifferentialIKOptions(native=False))"
+                )
+            _REGISTER_ROWS[rows.kind](kernel, robot, rows)
+        if version != self._world_version:  # a data of the collision model as it is now
+            self._geometry = (geometry, geometry.createData())
+        self._world_version = version
+        self._declared = declared
 
 
 def _has_bounds(c: Constraint) -> bool:

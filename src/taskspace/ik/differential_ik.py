@@ -30,7 +30,7 @@ from taskspace.ik._native_stack import NativeWeightedStack
 from taskspace.ik._native_stack import supported as native_supported
 from taskspace.model.robot import Robot
 from taskspace.model.state import State
-from taskspace.qp.kkt import box_kkt_residuals
+from taskspace.qp.kkt import KKTResiduals, box_kkt_residuals
 from taskspace.qp.problem import QPProblem
 from taskspace.qp.result import QPResult, QPStatus
 from taskspace.qp.rows import WeightedQPBuilder
@@ -123,6 +123,8 @@ class IKStepResult:
         """The QP result (status, backend, iterations, KKT residuals, culprits when relaxed)."""
         qp = self._qp
         if type(qp) is tuple:  # the fields of a QPResult, given by the compiled path
+            if len(qp) > 9:  # with the kernel's KKT residuals as a plain tuple
+                qp = (*qp[:9], KKTResiduals(*qp[9]))
             qp = self._qp = QPResult(*qp)
         return qp  # type: ignore[return-value]
 
@@ -149,16 +151,23 @@ class DifferentialIKOptions:
         native: run the compiled kernel (``taskspace/_native``) when it is built and the
             stack is one it serves: every task's feature declares a compiled term
             (:meth:`~taskspace.features.feature.Feature.compiled_term`: frame pose, frame
-            origin, center of mass, posture) and the constraints are boxes only (joint
-            position, velocity, acceleration limits). It solves the same QP exactly (a
-            primal active-set method on the box); every other stack, and any step whose
-            active set does not settle, takes the Python path with ``solver``.
+            origin, center of mass, posture) and the constraints are boxes (joint position,
+            velocity, acceleration limits) or inequality rows whose constraint declares how
+            the kernel evaluates them
+            (:meth:`~taskspace.constraints.constraint.Constraint.compiled_constraint`:
+            collision velocity dampers, coal distances computed in the kernel). It solves the
+            same QP exactly (a primal active-set method on the box, then a primal-dual
+            active-set method on the rows and the box when the box solution violates a row;
+            a step with rows carries its KKT residuals and is accepted only within the
+            tolerances of ``solver``); every other stack, and any step whose active set does
+            not settle, takes the Python path with ``solver``.
         native_residuals: give the compiled kernel's steps their KKT residuals
             (``IKStepResult.qp.kkt``): the QP of the Python path (:meth:`DifferentialIK.build`)
             is built for the same state and checked at the kernel's step, with the bound
             multipliers recovered from stationarity (:func:`~taskspace.qp.kkt.box_kkt_residuals`).
             Off by default: building that QP costs more than the kernel's whole step; when off,
-            a kernel step's ``qp.kkt`` is NaN (not computed).
+            a kernel step's ``qp.kkt`` is NaN (not computed). Steps of stacks with compiled
+            inequality rows always carry the kernel's own residuals (this option is unused).
     """
 
     damping: float = 1e-6
@@ -268,10 +277,16 @@ class DifferentialIK:
             if (
                 self.options.native
                 and not self.equality_tasks
-                and not self._inequality_constraints
-                and native_supported(self.tasks)
+                and native_supported(self.tasks, self._inequality_constraints)
             ):
-                self._native = NativeWeightedStack(self.robot, self.tasks, self.constraints)
+                solver = self.options.solver
+                self._native = NativeWeightedStack(
+                    self.robot,
+                    self.tasks,
+                    self.constraints,
+                    self._inequality_constraints,
+                    (solver.eps_abs, solver.eps_rel),
+                )
         return self._native is not None
 
     def build(self, state: State, dt: float) -> QPProblem:
@@ -349,7 +364,9 @@ class DifferentialIK:
             "native",
         )
         qp: QPResult | tuple[Any, ...] = fields  # made on first access of result.qp
-        if self.options.native_residuals:
+        if native.has_rows:  # the kernel's own KKT residuals (the step is accepted on them)
+            qp = (*fields, [], {}, native.kernel.residuals())  # made on first access
+        elif self.options.native_residuals:
             qp = QPResult(*fields)
             qp.kkt = box_kkt_residuals(self._build(state, dt), dq)
         return IKStepResult(True, IKStatus.SOLVED, dq, None, qp, None, build_time, qp_time, dt=dt)
