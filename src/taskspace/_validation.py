@@ -64,7 +64,9 @@ def as_float_array(x: Any, name: str) -> FloatArray:
             )
         )
     try:
-        if not isinstance(x, (list, tuple)):
+        if not isinstance(x, (list, tuple)) and not (
+            isinstance(x, np.ndarray) and x.dtype.kind == "O"
+        ):
             return np.asarray(x, dtype=np.float64)
         # nested sequences may hold complex, text or None entries (NumPy would truncate
         # complex values, parse text and turn None into NaN)
@@ -75,8 +77,23 @@ def as_float_array(x: Any, name: str) -> FloatArray:
         ) from exc
     if raw.dtype.kind in _REJECTED_KINDS:
         return as_float_array(raw, name)
-    if raw.dtype.kind == "O" and any(item is None for item in raw.flat):
-        raise InvalidInputError(f"{name} must be an array of real numbers, got a None entry")
+    if raw.dtype.kind == "O":
+        # entries of an object array (e.g. [10**30, 1j]: a big int makes NumPy keep objects)
+        for item in raw.flat:
+            if item is None:
+                raise InvalidInputError(
+                    f"{name} must be an array of real numbers, got a None entry"
+                )
+            if isinstance(item, (complex, np.complexfloating, str, bytes)):
+                what = "text" if isinstance(item, (str, bytes)) else "complex"
+                raise InvalidInputError(
+                    f"{name} must be real numbers, got a {what} entry {item!r}"
+                    + (
+                        " (pass x.real if the imaginary part is meant to be zero)"
+                        if what == "complex"
+                        else ""
+                    )
+                )
     try:
         return raw.astype(np.float64, copy=False)
     except (TypeError, ValueError, OverflowError) as exc:
