@@ -374,3 +374,42 @@ def test_profiles_with_subnormal_fractions_are_refused(
 
     with pytest.raises(InvalidInputError, match="too small"):
         getattr(trajopt, profile)(*args)
+
+
+def test_object_arrays_with_complex_or_text_entries_are_refused() -> None:
+    # before: plan_motion(10**30, np.complex128(1 + 0j), ...) gave a ComplexWarning and a
+    # silently dropped imaginary part (the big int made NumPy keep an object array)
+    import warnings
+
+    from taskspace._validation import as_float_array
+    from taskspace.errors import InvalidInputError
+    from taskspace.trajopt import plan_motion
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(InvalidInputError, match="complex"):
+            plan_motion(10**30, np.complex128(1 + 0j), 1.0, profile="minimum_jerk")
+        with pytest.raises(InvalidInputError, match="complex"):
+            as_float_array(np.array([1.0, 1j], dtype=object), "x")
+        with pytest.raises(InvalidInputError, match="text"):
+            as_float_array([10**30, "a"], "x")
+        assert as_float_array([10**30, 2], "x").tolist() == [1e30, 2.0]
+
+
+@pytest.mark.parametrize("which", ["lqr", "dlqr", "care", "dare"])
+def test_linear_systems_without_states_or_inputs_are_refused(which: str) -> None:
+    # before: A 0 x 0 gave a bare ValueError (max of an empty array)
+    from taskspace.control import dlqr, lqr
+    from taskspace.control.riccati import solve_continuous_riccati, solve_discrete_riccati
+    from taskspace.errors import InvalidInputError
+
+    fn = {
+        "lqr": lqr,
+        "dlqr": dlqr,
+        "care": solve_continuous_riccati,
+        "dare": solve_discrete_riccati,
+    }[which]
+    with pytest.raises(InvalidInputError, match="at least one state and one input"):
+        fn(np.zeros((0, 0)), np.array([]), math.nan, None)
+    with pytest.raises(InvalidInputError, match="at least one state and one input"):
+        fn(np.zeros((2, 2)), np.zeros((2, 0)), 1.0, 1.0)

@@ -28,6 +28,10 @@ def system(A: Any, B: Any) -> tuple[FloatArray, FloatArray]:
     if B_arr.ndim == 1:
         B_arr = B_arr[:, None]
     B = as_matrix(B_arr, (n, None), "B")
+    if n == 0 or B.shape[1] == 0:
+        raise InvalidInputError(
+            f"the system needs at least one state and one input; got A {A.shape}, B {B.shape}"
+        )
     return A, B
 
 
@@ -37,7 +41,7 @@ def symmetric_psd(x: Any, name: str, n: int, *, definite: bool) -> FloatArray:
     if arr.ndim == 0:
         arr = float(arr) * np.eye(n)
     arr = square(arr, name, n)
-    scale = max(1.0, float(np.max(np.abs(arr))))
+    scale = max(1.0, float(np.max(np.abs(arr)))) if arr.size else 1.0
     if np.max(np.abs(arr - arr.T)) > 1e-9 * scale:
         raise InvalidInputError(f"{name} must be symmetric")
     arr = 0.5 * (arr + arr.T)
