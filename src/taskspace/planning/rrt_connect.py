@@ -63,6 +63,23 @@ about 1 ms per query plus 2.7-2.9 us per check (fit of the scenario medians), ou
 costs per check times that of the checks on the long ones (cage: 2,250 against 4,560 checks,
 median).
 
+Sphere checkers (``RRTConnectOptions.checker``, compiled planner only; #22 item 4): the
+robot's conservative spheres (:meth:`~taskspace.planning.CollisionChecker.sphere_model`,
+204 on the Panda) checked per link, per object and per sphere against the obstacles'
+primitives and the self pairs' spheres, with kinematics only (no geometry placements), see
+the kernel's header. ``"spheres"`` runs coal's exact narrow phase where spheres touch: the
+same answers as ``"mesh"`` (the same trees and paths, tested) at 0.86-1.3 us per
+configuration near the trees against 1.0-1.5 us (random configurations, which collide
+more often: 2.1-2.6 against 1.6-1.9 us); ``"spheres_only"`` stops at the spheres
+(0.73-0.9 us; 1.4-1.7 us on random configurations) and is conservative: 10-16 % of the
+random free configurations are refused, so tight goals (cage, the grasps of table_pick)
+become hard. Every path found with them is re-checked with the exact checker at the full
+resolution (a median of about 230 exact checks, 0.3 ms). Measured on the 313 problems
+(``benchmarks/suites/planning.py``, loaded 2-core machine, OMPL in the same run, 5.24 ms):
+``"mesh"`` 0.95 ms (313 solved), ``"spheres"`` 1.35 ms (313), ``"spheres_only"`` 2.12 ms
+(230): not faster. VAMP's tens of microseconds need the checks of many configurations at
+once in SIMD lanes (single precision, structure of arrays), which this checker does not do.
+
 Measured for the Python path (same problems, same checker, 2-core machine; see
 ``benchmarks/suites/planning.py``):
 the lazy coarse-to-fine checks need about 35 % fewer collision checks than checking every
