@@ -224,6 +224,18 @@ def test_paths_planned_with_spheres_are_exact_valid(robot: Any, scenario: str) -
             assert _dense_valid(ref, certified.path, 0.01)
 
 
+def test_a_straight_path_is_rechecked_exactly(robot: Any) -> None:
+    req, _ = _scene(robot, "box")
+    space = ConfigurationSpace.from_robot(robot, edge=EdgeCheckOptions(resolution=0.03))
+    goal = req.start + 0.1 * (req.goal - req.start) / np.linalg.norm(req.goal - req.start)
+    assert Reference(robot).collides(goal) is False
+    for checker in ("spheres", "spheres_only"):
+        res = rrt_connect(space, req.start, goal, RRTConnectOptions(checker=checker))
+        assert res.success and len(res.path) == 2  # the straight line
+        # both ends and the 3 interior points at 0.03 rad, with the exact checker
+        assert res.log["exact_recheck_checks"] == 5.0
+
+
 def test_bad_inputs(robot: Any) -> None:
     motionbenchmaker_problems(ROOT, "box", [3])[0].apply(robot)
     checker = CollisionChecker(robot)

@@ -67,8 +67,11 @@
 // coal's exact narrow phase (the exact answer: same trees and paths as the mesh checker in
 // the planner), checker 2 ("spheres_only") answers "colliding" (conservative: 10-16 % of
 // random free configurations flagged on the MotionBenchMaker scenes, self pairs most).
-// The exact mesh checker stays the final validator: rrt_connect re-checks a path found with a
-// sphere checker at the full resolution with checker 0 and returns no path when it fails.
+// The exact mesh checker stays the final validator: with a sphere checker, rrt_connect's lazy
+// fine pass (verify) uses checker 0, and the returned path's nodes and coarse points (or all
+// its points when the plan is not lazy or the path is the straight line) are re-checked with
+// checker 0 at the full resolution: every point of the path at the resolution is checked
+// exactly once; a failure returns no path (the Python side re-plans with "mesh").
 // Measured (300 configurations near the planner's trees, minimum of 300 rounds, loaded
 // 2-core machine): mesh 1.0-1.5 us, spheres 0.86-1.3 us, spheres only 0.73-0.9 us per
 // configuration; kinematics about 0.22 us of it, the link masks 0.17 us. GJK warm start: off
@@ -1180,8 +1183,10 @@ class RRTConnect {
 
   // The exact checker's verdict on the returned path (sphere checkers): every node and the
   // interior points of every edge at the full resolution (bisection order), as the edges
-  // were checked. False on the first collision.
-  bool path_valid_exact() {
+  // were checked; with fine_done (a lazy plan's path: verify checked the fine points of every
+  // edge with the exact checker), only the coarse points (multiples of the stride) are left.
+  // False on the first collision.
+  bool path_valid_exact(bool fine_done) {
     const std::size_t n_nodes = res.path.size() / d_;
     for (std::size_t i = 0; i < n_nodes; ++i) {
       const auto p0 = Eigen::Map<const VectorXd>(res.path.data() + i * d_, d_);
@@ -1191,6 +1196,7 @@ class RRTConnect {
       const auto p1 = Eigen::Map<const VectorXd>(res.path.data() + (i + 1) * d_, d_);
       const int n = lines_.segments((p1 - p0).norm());
       for (int k : bisection_order(n)) {
+        if (fine_done && k % lines_.stride != 0) continue;  // checked exactly by verify
         x_ = p0 + (double(k) / n) * (p1 - p0);
         ++res.exact_checks;
         if (ck_.collides(x_, kMesh)) return false;
@@ -1280,7 +1286,9 @@ class RRTConnect {
         for (double u : lines_.orders(n).fine) {
           x_ = p0 + u * (p1 - p0);
           if (stop()) return false;  // the plan ends: nothing is removed
-          if (ck_.collides(x_, checker_)) {
+          // the exact checker (also with a sphere checker: the fine points of the path are
+          // then exact-checked once, here, and path_valid_exact checks the coarse ones)
+          if (ck_.collides(x_, kMesh)) {
             ++res.rejections;
             res.removed += t.remove_subtree(i);
             return false;
@@ -1310,9 +1318,11 @@ class RRTConnect {
     goal_ = std::make_unique<Tree>(qg);
     ++res.edge_checks;
     if (motion_valid(qs, qg)) {
+      direct_ = true;
       res.status = kSolved;
       res.path.assign(qs.data(), qs.data() + d_);
       res.path.insert(res.path.end(), qg.data(), qg.data() + d_);
+      recheck();
       return;
     }
     Tree* ta = start_.get();
@@ -1381,7 +1391,13 @@ class RRTConnect {
       std::swap(ta, tb);
     }
     if (res.status != kSolved && stopped_) res.status = kTimeLimit;
-    if (res.status == kSolved && checker_ != kMesh && !path_valid_exact()) {
+    recheck();
+  }
+
+  // A solved plan with a sphere checker: the exact checker's verdict on the path (none when
+  // it finds a collision, recheck_failed set).
+  void recheck() {
+    if (res.status == kSolved && checker_ != kMesh && !path_valid_exact(lines_.lazy && !direct_)) {
       res.recheck_failed = true;
       res.status = kIterationLimit;
       res.path.clear();
@@ -1396,7 +1412,7 @@ class RRTConnect {
  private:
   using clock = std::chrono::steady_clock;
   GilRelease* gil_ = nullptr;
-  bool limited_ = false, stopped_ = false;
+  bool limited_ = false, stopped_ = false, direct_ = false;
   unsigned ticks_ = 0;
   clock::time_point deadline_, next_poll_;
   CollisionKernel& ck_;
