@@ -12,7 +12,7 @@ locked at 0.04 m, convex-hull collision geometry)? Then, with a 1 s limit:
 * the compiled RRT-Connect with the sphere checkers (``checker="spheres"``: the robot's
   conservative spheres as the broad phase and coal's exact narrow phase where they touch,
   the same answers; ``"spheres_only"``: spheres only, conservative), each returned path
-  re-checked with the exact checker at the full resolution (included in the time);
+  exact-checked at the full resolution (lazy fine pass and re-check, in the time);
   per-configuration check times of the three checkers on random configurations;
 * taskspace RRT-Connect "classic" (every tree edge checked at 0.03 rad, uniform sampling and
   alternate turns only: Kuffner and LaValle's algorithm, the same checks as OMPL's RRTConnect
