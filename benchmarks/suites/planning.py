@@ -9,6 +9,11 @@ locked at 0.04 m, convex-hull collision geometry)? Then, with a 1 s limit:
   for a trapped tree), run by the compiled planner
   (``taskspace/_native/planning_kernel.cpp``) when it is built, and the same algorithm in
   Python (``rrt_connect_python``, ``native=False``);
+* the compiled RRT-Connect with the sphere checkers (``checker="spheres"``: the robot's
+  conservative spheres as the broad phase and coal's exact narrow phase where they touch,
+  the same answers; ``"spheres_only"``: spheres only, conservative), each returned path
+  exact-checked at the full resolution (lazy fine pass and re-check, in the time);
+  per-configuration check times of the three checkers on random configurations;
 * taskspace RRT-Connect "classic" (every tree edge checked at 0.03 rad, uniform sampling and
   alternate turns only: Kuffner and LaValle's algorithm, the same checks as OMPL's RRTConnect
   at the same range; compiled when built) to show where the collision checks and the time go;
@@ -53,7 +58,22 @@ RESOLUTION = 0.03  # local-planner resolution delta [rad], shared with the peers
 STEP_SIZE = RRTConnectOptions().step_size  # RRT-Connect range alpha [rad], shared with OMPL
 TIME_LIMIT = 1.0  # [s]
 LAZY_PRM = PRMOptions(n_samples=300, k_neighbors=12)
-METHODS = ("rrt_connect", "rrt_connect_python", "rrt_connect_classic", "lazy_prm", "prm")
+METHODS = (
+    "rrt_connect",
+    "rrt_connect_spheres",
+    "rrt_connect_spheres_only",
+    "rrt_connect_python",
+    "rrt_connect_classic",
+    "lazy_prm",
+    "prm",
+)
+OURS_RRT = (
+    "taskspace rrt_connect",
+    "taskspace rrt_connect_spheres",
+    "taskspace rrt_connect_spheres_only",
+    "taskspace rrt_connect_python",
+    "taskspace rrt_connect_classic",
+)
 OMPL_SAME = f"ompl RRTConnect range={STEP_SIZE:g} (our checker)"
 PYROBOPLAN = "pyroboplan RRTConnect (own checker)"
 
@@ -97,6 +117,19 @@ def checker_cost(robot: Any, rng: np.random.Generator) -> dict[str, float]:
             kernel.collisions(qs)
             native.append((time.perf_counter() - t0) / len(qs))
         out["check_native_us"] = min(native) * 1e6
+    kernel = checker.sphere_kernel()
+    if kernel is not None:  # the sphere checkers (1: then exact, 2: spheres only)
+        for code, key in (
+            (0, "check_mesh_us"),
+            (1, "check_spheres_us"),
+            (2, "check_spheres_only_us"),
+        ):
+            times = []
+            for _ in range(5):
+                t0 = time.perf_counter()
+                kernel.collisions_with(qs, code)
+                times.append((time.perf_counter() - t0) / len(qs))
+            out[key] = min(times) * 1e6
     return out
 
 
@@ -134,10 +167,14 @@ def _plan_problem(item: tuple[Any, ...], rng: np.random.Generator, robot: Any) -
         out["invalid"] = f"{problem.index}: {str(exc)[:90]}"
         return out
     per = out["samples"]
-    for method, coarse, local, native in (
-        ("rrt_connect", 0.15, 0.5, True),
-        ("rrt_connect_python", 0.15, 0.5, False),
-        ("rrt_connect_classic", None, 0.0, True),
+    assert isinstance(space.checker, CollisionChecker)
+    space.checker.sphere_kernel()  # the sphere model is built before timing (once per robot)
+    for method, coarse, local, native, checker in (
+        ("rrt_connect", 0.15, 0.5, True, "mesh"),
+        ("rrt_connect_spheres", 0.15, 0.5, True, "spheres"),
+        ("rrt_connect_spheres_only", 0.15, 0.5, True, "spheres_only"),
+        ("rrt_connect_python", 0.15, 0.5, False, "mesh"),
+        ("rrt_connect_classic", None, 0.0, True, "mesh"),
     ):
         opts = RRTConnectOptions(
             step_size=STEP_SIZE,
@@ -147,6 +184,7 @@ def _plan_problem(item: tuple[Any, ...], rng: np.random.Generator, robot: Any) -
             time_limit_s=TIME_LIMIT,
             seed=k,
             native=native,
+            checker=checker,
         )
         res = rrt_connect(space, req.start, req.goal, opts)
         row = {
@@ -274,11 +312,7 @@ def run(quick: bool) -> list[Row]:
             medians[(scene, label)] = extra["median_ms"]
             peer = not label.startswith("taskspace")
             if peer:
-                for mine in (
-                    "taskspace rrt_connect",
-                    "taskspace rrt_connect_python",
-                    "taskspace rrt_connect_classic",
-                ):
+                for mine in OURS_RRT:
                     if medians.get((scene, mine)) and extra["median_ms"]:
                         key = f"ratio_median_{mine.split()[1]}_over_peer"
                         extra[key] = medians[(scene, mine)] / extra["median_ms"]

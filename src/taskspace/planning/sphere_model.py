@@ -46,9 +46,11 @@ fields, octrees) are refused.
 
 :func:`obstacle_signed_distances` and :func:`spheres_hit_obstacles` test the spheres against
 the world's boxes, spheres, cylinders and capsules for a batch of configurations, in NumPy
-(forward kinematics one configuration at a time through Pinocchio): the reference for a
-compiled batched checker (next step, not done here), tested to never call "free" a
-configuration whose meshes touch an obstacle. Robot self-collision is not checked here.
+(forward kinematics one configuration at a time through Pinocchio), tested to never call
+"free" a configuration whose meshes touch an obstacle. Robot self-collision is not checked
+here. The compiled sphere checkers (``taskspace/_native/planning_kernel.cpp``, self pairs
+included; :meth:`taskspace.planning.CollisionChecker.sphere_kernel` and
+``RRTConnectOptions.checker``) use these spheres.
 """
 
 from __future__ import annotations

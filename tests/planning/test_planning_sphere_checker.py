@@ -1,0 +1,273 @@
+"""The compiled sphere checker (planning_kernel.cpp, checkers 1 and 2) and RRT-Connect with it.
+
+Reference: Pinocchio's ``computeCollisions`` over every collision pair (coal's exact narrow
+phase on each pair, no broad phase, no spheres, GJK warm start off), independent of the
+kernel's culling. Checker 2 (spheres only) must never call "free" a configuration the
+reference finds colliding; checker 1 (spheres, then the exact narrow phase where they touch)
+must give the reference's answers. Random configurations, configurations bisected to first
+contact, edges, and planned paths (densely) on the MotionBenchMaker Panda scenes.
+"""
+
+from __future__ import annotations
+
+import itertools
+import warnings
+from typing import Any
+
+import coal
+import numpy as np
+import pinocchio as pin
+import pytest
+from _mbm import ROOT, SKIP_REASON
+
+from taskspace._native import planning_kernel
+from taskspace.errors import InvalidInputError, UnknownNameError
+from taskspace.planning.collision_checker import CollisionChecker
+from taskspace.planning.configuration_space import (
+    ConfigurationSpace,
+    EdgeCheckOptions,
+    bisection_order,
+)
+from taskspace.planning.rrt_connect import RRTConnectOptions, rrt_connect
+from taskspace.planning.scene_loader import (
+    MOTIONBENCHMAKER_SCENARIOS,
+    motionbenchmaker_panda,
+    motionbenchmaker_problems,
+)
+
+pytestmark = [
+    pytest.mark.skipif(ROOT is None, reason=SKIP_REASON),
+    pytest.mark.skipif(planning_kernel() is None, reason="compiled planning kernel not built"),
+]
+
+MESH, SPHERES, SPHERES_ONLY = 0, 1, 2
+# A valid problem (start and goal free) per scenario.
+PROBLEM = {s: 1 for s in MOTIONBENCHMAKER_SCENARIOS} | {"box": 3, "table_pick": 3}
+
+
+class Reference:
+    """Exact collision test of every pair of the robot's collision model (no warm start)."""
+
+    def __init__(self, robot: Any) -> None:
+        self.model, self.geom = robot.model, robot.collision_model
+        self.data, self.gdata = self.model.createData(), self.geom.createData()
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", DeprecationWarning)
+            for request in self.gdata.collisionRequests:
+                request.enable_cached_gjk_guess = False
+                request.gjk_initial_guess = coal.GJKInitialGuess.DefaultGuess
+
+    def collides(self, q: np.ndarray) -> bool:
+        return bool(pin.computeCollisions(self.model, self.data, self.geom, self.gdata, q, True))
+
+    def many(self, qs: np.ndarray) -> np.ndarray:
+        return np.array([self.collides(q) for q in qs])
+
+
+@pytest.fixture(scope="module")
+def robot() -> Any:
+    return motionbenchmaker_panda()
+
+
+def _scene(robot: Any, scenario: str) -> tuple[Any, Any]:
+    req = motionbenchmaker_problems(ROOT, scenario, [PROBLEM[scenario]])[0].apply(robot)
+    kernel = CollisionChecker(robot).sphere_kernel()
+    assert kernel.has_spheres and kernel.sphere_count > 100
+    return req, kernel
+
+
+def _touching(ref: Reference, free: np.ndarray, hit: np.ndarray) -> np.ndarray:
+    """Bisect each segment free -> colliding (reference) to 1e-6 rad: the colliding ends."""
+    out = []
+    for a, b in zip(free, hit):
+        lo, hi = 0.0, 1.0
+        while (hi - lo) * float(np.abs(b - a).max()) > 1e-6:
+            mid = 0.5 * (lo + hi)
+            lo, hi = (lo, mid) if ref.collides(a + mid * (b - a)) else (mid, hi)
+        out.append(a + hi * (b - a))
+    return np.array(out)
+
+
+@pytest.mark.parametrize("scenario", MOTIONBENCHMAKER_SCENARIOS)
+def test_spheres_never_free_where_the_meshes_collide(robot: Any, scenario: str) -> None:
+    _, kernel = _scene(robot, scenario)
+    ref = Reference(robot)
+    rng = np.random.default_rng(7)
+    lo, hi = robot.model.lowerPositionLimit, robot.model.upperPositionLimit
+    qs = rng.uniform(lo, hi, (600, robot.nq))
+    exact = ref.many(qs)
+    assert exact.any() and (~exact).any()
+    only = kernel.collisions_with(qs, SPHERES_ONLY).astype(bool)
+    spheres = kernel.collisions_with(qs, SPHERES).astype(bool)
+    assert not np.any(exact & ~only), "spheres only: free where the meshes collide"
+    np.testing.assert_array_equal(spheres, exact)  # spheres, then exact: the same answers
+    # conservativeness: colliding for the spheres, free for the meshes (reported; sane bound)
+    false_hits = float(np.mean(only[~exact]))
+    print(f"{scenario}: spheres only flag {false_hits:.1%} of the free configurations")
+    assert false_hits < 0.5
+    # configurations at first contact (bisected to 1e-6 rad), in a shuffled order
+    touching = _touching(ref, qs[~exact][:15], qs[exact][:15])
+    assert ref.many(touching).all()
+    for checker in (SPHERES_ONLY, SPHERES, MESH):
+        assert kernel.collisions_with(touching, checker).all(), checker
+    mixed = np.vstack([touching, qs[:40]])[rng.permutation(len(touching) + 40)]
+    np.testing.assert_array_equal(kernel.collisions_with(mixed, SPHERES), ref.many(mixed))
+
+
+def test_no_stale_warm_start(robot: Any) -> None:
+    """Why the kernel turns Pinocchio's GJK warm start off, and its answers without it.
+
+    bookshelf_small problem 1: panda_link5 is 1.3 cm inside shelf_bottom at configuration b;
+    with the GJK guess Pinocchio's requests cache from a call of the same pair at
+    configuration a, coal's narrow phase reports the pair free. The kernels call a pair's
+    narrow phase only at some configurations (when its boxes or spheres touch), so the cached
+    guess may come from far away (with it kept, the sphere checker's answers differed from
+    the reference in test_spheres_never_free_where_the_meshes_collide).
+    """
+    motionbenchmaker_problems(ROOT, "bookshelf_small", [1])[0].apply(robot)
+    rng = np.random.default_rng(0)
+    lo, hi = robot.model.lowerPositionLimit, robot.model.upperPositionLimit
+    qs = rng.uniform(lo, hi, (1000, robot.nq))
+    a, b = qs[192], qs[837]
+    model, geom = robot.model, robot.collision_model
+    pair = next(
+        p
+        for p, cp in enumerate(geom.collisionPairs)
+        if {geom.geometryObjects[cp.first].name, geom.geometryObjects[cp.second].name}
+        == {"panda_link5_0", "shelf_bottom"}
+    )
+    data, gdata = model.createData(), geom.createData()  # Pinocchio's default requests
+    pin.updateGeometryPlacements(model, data, geom, gdata, a)
+    pin.computeCollision(geom, gdata, pair)
+    pin.updateGeometryPlacements(model, data, geom, gdata, b)
+    cp = geom.collisionPairs[pair]
+    result = coal.DistanceResult()
+    coal.distance(
+        geom.geometryObjects[cp.first].geometry,
+        gdata.oMg[cp.first],
+        geom.geometryObjects[cp.second].geometry,
+        gdata.oMg[cp.second],
+        coal.DistanceRequest(),
+        result,
+    )
+    assert result.min_distance < -0.01  # 1.3 cm deep ...
+    assert not pin.computeCollision(geom, gdata, pair)  # ... and "free" after the call at a
+    kernel = CollisionChecker(robot).sphere_kernel()
+    assert Reference(robot).collides(b)
+    for checker in (SPHERES, MESH, SPHERES_ONLY):
+        assert kernel.collisions_with(np.stack([a, b, b]), checker)[1:].all(), checker
+        assert kernel.collisions_with(qs[:838], checker)[-1] == 1, checker
+
+
+def test_edge_in_one_call_matches_the_reference_order(robot: Any) -> None:
+    _, kernel = _scene(robot, "bookshelf_tall")
+    ref = Reference(robot)
+    rng = np.random.default_rng(3)
+    lo, hi = robot.model.lowerPositionLimit, robot.model.upperPositionLimit
+    seen = {True: 0, False: 0}
+    for _ in range(60):
+        q0 = rng.uniform(lo, hi)
+        q1 = np.clip(q0 + rng.normal(0.0, 0.6, robot.nq), lo, hi)
+        n = int(rng.integers(1, 40))
+        order = bisection_order(n)
+        flags = [ref.collides(q0 + (k / n) * (q1 - q0)) for k in order]
+        want = int(order[flags.index(True)]) if any(flags) else -1
+        got = kernel.first_invalid_on_edge(q0, q1, n, SPHERES)
+        assert got == want
+        assert kernel.first_invalid_on_edge(q0, q1, n, MESH) == want
+        only = kernel.first_invalid_on_edge(q0, q1, n, SPHERES_ONLY)
+        if want >= 0:  # the conservative check stops at or before the first collision
+            assert only >= 0 and list(order).index(only) <= list(order).index(want)
+        seen[want >= 0] += 1
+    assert seen[True] > 5 and seen[False] > 5
+
+
+def _dense_valid(ref: Reference, path: np.ndarray, step: float) -> bool:
+    for a, b in itertools.pairwise(path):
+        n = max(1, int(np.ceil(np.linalg.norm(b - a) / step)))
+        for t in np.linspace(0.0, 1.0, n + 1):
+            if ref.collides(a + t * (b - a)):
+                return False
+    return True
+
+
+@pytest.mark.parametrize("scenario", ["bookshelf_small", "box", "table_under_pick"])
+def test_paths_planned_with_spheres_are_exact_valid(robot: Any, scenario: str) -> None:
+    req, _ = _scene(robot, scenario)
+    space = ConfigurationSpace.from_robot(robot, edge=EdgeCheckOptions(resolution=0.03))
+    ref = Reference(robot)
+    for seed in range(2):
+        mesh = rrt_connect(space, req.start, req.goal, RRTConnectOptions(seed=seed))
+        spheres = rrt_connect(
+            space, req.start, req.goal, RRTConnectOptions(seed=seed, checker="spheres")
+        )
+        assert spheres.success and spheres.log["checker"] == 1.0
+        assert spheres.log["exact_recheck_checks"] >= len(spheres.path)
+        assert spheres.log["sphere_recheck_failed"] == 0.0
+        # the same answers as the exact checker: the same tree and path
+        np.testing.assert_array_equal(spheres.path, mesh.path)
+        assert _dense_valid(ref, spheres.path, 0.03)
+        only = rrt_connect(
+            space, req.start, req.goal, RRTConnectOptions(seed=seed, checker="spheres_only")
+        )
+        if only.success:
+            assert np.array_equal(only.path[0], req.start)
+            assert np.array_equal(only.path[-1], req.goal)
+            assert _dense_valid(ref, only.path, 0.01)
+        certified = rrt_connect(
+            space,
+            req.start,
+            req.goal,
+            RRTConnectOptions(seed=seed, checker="spheres", certify=True),
+        )
+        if certified.success:  # proven free between its points: densely valid
+            assert _dense_valid(ref, certified.path, 0.01)
+
+
+def test_a_straight_path_is_rechecked_exactly(robot: Any) -> None:
+    req, _ = _scene(robot, "box")
+    space = ConfigurationSpace.from_robot(robot, edge=EdgeCheckOptions(resolution=0.03))
+    goal = req.start + 0.1 * (req.goal - req.start) / np.linalg.norm(req.goal - req.start)
+    assert Reference(robot).collides(goal) is False
+    for checker in ("spheres", "spheres_only"):
+        res = rrt_connect(space, req.start, goal, RRTConnectOptions(checker=checker))
+        assert res.success and len(res.path) == 2  # the straight line
+        # both ends and the 3 interior points at 0.03 rad, with the exact checker
+        assert res.log["exact_recheck_checks"] == 5.0
+
+
+def test_bad_inputs(robot: Any) -> None:
+    motionbenchmaker_problems(ROOT, "box", [3])[0].apply(robot)
+    checker = CollisionChecker(robot)
+    kernel = checker.native_kernel()
+    q = np.zeros((1, robot.nq))
+    with pytest.raises(InvalidInputError, match="set_spheres first"):
+        kernel.collisions_with(q, SPHERES)
+    with pytest.raises(InvalidInputError, match="checker must be"):
+        kernel.collisions_with(q, 3)
+    spheres = checker.sphere_model()
+    keep = spheres.geometries != spheres.geometries[0]
+    with pytest.raises(InvalidInputError, match="without spheres: panda_link1_0"):
+        kernel.set_spheres(
+            spheres.centers[keep],
+            spheres.radii[keep],
+            spheres.joints[keep].astype(np.int32),
+            spheres.geometries[keep].astype(np.int32),
+        )
+    with pytest.raises(InvalidInputError, match="attached to joint"):
+        kernel.set_spheres(
+            spheres.centers,
+            spheres.radii,
+            (spheres.joints + 1).astype(np.int32),
+            spheres.geometries.astype(np.int32),
+        )
+    with pytest.raises(InvalidInputError, match="M rows"):
+        kernel.set_spheres(
+            spheres.centers[:3],
+            spheres.radii,
+            spheres.joints.astype(np.int32),
+            spheres.geometries.astype(np.int32),
+        )
+    space = ConfigurationSpace.from_robot(robot)
+    with pytest.raises(UnknownNameError, match="valid checkers are: mesh, spheres"):
+        rrt_connect(space, q[0], q[0], RRTConnectOptions(checker="sphere"))
