@@ -251,13 +251,17 @@ class _PiecewiseProfile(MotionProfile):
                 acc + j * h,
             )
         self._breaks = breaks
+        self._durations = np.asarray(durations, dtype=float)
         self._coefs = coefs
 
     def derivative(self, s: Any, order: int = 0) -> FloatArray:
         """Piecewise-polynomial evaluation (segment found by binary search)."""
         s = _as_s(s)
         idx = np.clip(np.searchsorted(self._breaks, s, side="right") - 1, 0, len(self._coefs) - 1)
-        u = s - self._breaks[idx]
+        # the local time never leaves its segment: the breaks are rounded to ~1e-16 near s = 1
+        # (and the last one forced to 1), so a segment much shorter than that (an S-curve's
+        # jerk phases in a 1e17 s move) would otherwise be evaluated far past its end
+        u = np.clip(s - self._breaks[idx], 0.0, self._durations[idx])
         c = self._coefs[idx]
         if order == 0:
             return c[..., 0] + u * (c[..., 1] + u * (c[..., 2] + u * c[..., 3]))
