@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 import pytest
@@ -413,3 +414,37 @@ def test_linear_systems_without_states_or_inputs_are_refused(which: str) -> None
         fn(np.zeros((0, 0)), np.array([]), math.nan, None)
     with pytest.raises(InvalidInputError, match="at least one state and one input"):
         fn(np.zeros((2, 2)), np.zeros((2, 0)), 1.0, 1.0)
+
+
+@pytest.mark.parametrize("model", ["velocity", "odometry", "car"])
+def test_motion_models_refuse_non_finite_poses_and_controls(model: str) -> None:
+    # before: OdometryMotionModel().mean([0, 0, 0], [0, 0, nan]) returned [0, 0, nan]
+    from taskspace.errors import NotFiniteError
+    from taskspace.estimation import KinematicCarModel, OdometryMotionModel
+
+    m: Any = {
+        "velocity": VelocityMotionModel(dt=0.1),
+        "odometry": OdometryMotionModel(),
+        "car": KinematicCarModel(dt=0.1, wheelbase=1.0),
+    }[model]
+    k = 3 if model == "odometry" else 2
+    with pytest.raises(NotFiniteError, match="u"):
+        m.mean(np.zeros(3), np.array([0.0] * (k - 1) + [math.nan]))
+    with pytest.raises(NotFiniteError, match="x"):
+        m.mean(np.array([0.0, math.inf, 0.0]), np.zeros(k))
+
+
+def test_scurve_end_of_a_very_long_motion_is_at_rest() -> None:
+    # before: a 1e17 s S-curve (jerk phases of 3e-18 of the motion, below the 1e-16 rounding
+    # of the normalized breaks) had a velocity of 165 > vmax = 70 at t = T (evaluated past the
+    # end of its last segment)
+    from taskspace.trajopt import plan_motion
+
+    goal = 6_822_376_050_898_684_417.0
+    m = plan_motion(0.0, goal, 70.0, 1.0, 3.0, "scurve")
+    # by hand: v j = 210 >= a^2 = 1, so T_j = a/j = 1/3, T_a = 1/3 + 70, T = d/v + T_a
+    assert m.duration == pytest.approx(goal / 70.0 + 1.0 / 3.0 + 70.0, rel=1e-15)
+    s = m.evaluate(np.linspace(0.0, m.duration, 7))
+    assert np.abs(s.velocity).max() <= 70.0 * (1 + 1e-9)
+    assert abs(s.velocity[-1]) < 1e-9 and s.velocity[3] == pytest.approx(70.0, rel=1e-12)
+    assert s.position[-1] == goal

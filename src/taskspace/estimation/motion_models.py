@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from taskspace._validation import FloatArray, as_float_array, as_vector
+from taskspace._validation import FloatArray, as_float_array, as_vector, check_finite
 from taskspace.errors import InvalidInputError, ShapeError
 
 
@@ -27,6 +27,7 @@ def _poses(x: Any) -> FloatArray:
     arr = as_float_array(x, "x")
     if arr.shape[-1:] != (3,) or arr.ndim > 2:
         raise ShapeError("x", (-1, 3), tuple(arr.shape))
+    check_finite(arr, "x")  # a NaN pose or control gave a NaN successor silently
     return arr
 
 
@@ -34,6 +35,7 @@ def _controls(u: Any, k: int) -> FloatArray:
     arr = as_float_array(u, "u")
     if arr.shape[-1:] != (k,) or arr.ndim > 2:
         raise ShapeError("u", (-1, k), tuple(arr.shape))
+    check_finite(arr, "u")
     return arr
 
 
