@@ -67,6 +67,7 @@ from taskspace.errors import (
     StaleModelError,
     UnknownNameError,
 )
+from taskspace.model.collision_requests import without_cached_guess
 from taskspace.model.registry import RobotSpec, example_robot_data_loaders, robot_spec
 from taskspace.model.world import Obstacle, World
 
@@ -194,7 +195,7 @@ class Robot:
         self._q_shape = (self._nq,)
         self._v_shape = (self._nv,)
         self.data = model.createData()
-        self.collision_data = collision_model.createData()
+        self.collision_data = without_cached_guess(collision_model.createData())
         self._version = next(_ROBOT_VERSIONS)
         self._setup_joint_structure()
         self._setup_actuation_limits(passive_joints)
@@ -1100,7 +1101,7 @@ class Robot:
         for rid in range(self._robot_geometry_count):
             if self.collision_model.geometryObjects[rid].parentJoint != 0:
                 self.collision_model.addCollisionPair(pin.CollisionPair(rid, gid))
-        self.collision_data = self.collision_model.createData()
+        self.collision_data = without_cached_guess(self.collision_model.createData())
 
     def add_obstacles(self, obstacles: Iterable[Obstacle]) -> None:
         """Add several obstacles."""
@@ -1111,7 +1112,7 @@ class Robot:
         """Remove the obstacle ``name`` (raises UnknownNameError listing the obstacles)."""
         obstacle = self.world.remove(name)
         self.collision_model.removeGeometryObject(name)
-        self.collision_data = self.collision_model.createData()
+        self.collision_data = without_cached_guess(self.collision_model.createData())
         return obstacle
 
     def clear_obstacles(self) -> None:
@@ -1119,7 +1120,7 @@ class Robot:
         for obstacle in list(self.world):
             self.collision_model.removeGeometryObject(obstacle.name)
             self.world.remove(obstacle.name)
-        self.collision_data = self.collision_model.createData()
+        self.collision_data = without_cached_guess(self.collision_model.createData())
 
     @property
     def collision_pairs(self) -> list[tuple[str, str]]:
@@ -1292,7 +1293,7 @@ def prune_collision_pairs(
     options = options or CollisionPruningOptions()
     model, collision = robot.model, robot.collision_model
     data = model.createData()
-    geom_data = collision.createData()
+    geom_data = without_cached_guess(collision.createData())
     n_robot = robot.robot_geometry_count
     pairs = [
         (int(p.first), int(p.second))
@@ -1331,7 +1332,7 @@ def prune_collision_pairs(
         always = candidates
     for first, second in default + always:
         collision.removeCollisionPair(pin.CollisionPair(first, second))
-    robot.collision_data = collision.createData()
+    robot.collision_data = without_cached_guess(collision.createData())
     result = PrunedCollisionPairs(
         adjacent=tuple(adjacent),
         default_posture=tuple(_pair_names(collision, a, b) for a, b in default),

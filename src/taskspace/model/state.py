@@ -10,6 +10,7 @@ import pinocchio as pin
 
 from taskspace._validation import FloatArray
 from taskspace.errors import InvalidInputError
+from taskspace.model.collision_requests import without_cached_guess
 
 if TYPE_CHECKING:
     from taskspace.model.robot import Robot
@@ -88,7 +89,7 @@ class State:
         # them once saves building a new Python object at each access.
         self._com_ref: FloatArray = self._data.com[0]
         self._placements: dict[int, pin.SE3] = {}
-        self._collision_data = robot.collision_model.createData()
+        self._collision_data = without_cached_guess(robot.collision_model.createData())
         self._collision_version = robot.world.version
         self._distance_handles: tuple[Any, list[Any]] | None = None
         self._a0 = _frozen(np.zeros(robot.nv))  # also serves as the zero velocity
@@ -343,7 +344,7 @@ class State:
             or len(self._collision_data.distanceResults) != len(geom.collisionPairs)
         ):
             # the world (obstacles or collision pairs) changed since the data were made
-            self._collision_data = geom.createData()
+            self._collision_data = without_cached_guess(geom.createData())
             self._collision_version = version
         pin.updateGeometryPlacements(self._model, self._data, geom, self._collision_data)
         pin.computeDistances(geom, self._collision_data)

@@ -38,6 +38,7 @@ import pinocchio as pin
 from taskspace._validation import as_float_array, check_count, check_positive
 from taskspace.errors import InvalidInputError
 from taskspace.model import Robot
+from taskspace.model.collision_requests import without_cached_guess
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -292,7 +293,7 @@ def certify_path(
             "norm; normalize them (pinocchio.normalize) before certifying"
         )
     bound = motion_bound(robot, arr)
-    data, gd = model.createData(), gm.createData()
+    data, gd = model.createData(), without_cached_guess(gm.createData())
     n_robot = robot.robot_geometry_count
     pairs = gm.collisionPairs
     self_pair = np.array([p.first < n_robot and p.second < n_robot for p in pairs])

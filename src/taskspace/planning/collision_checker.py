@@ -54,6 +54,7 @@ import pinocchio as pin
 
 from taskspace._validation import as_matrix
 from taskspace.errors import PlanningError
+from taskspace.model.collision_requests import without_cached_guess
 from taskspace.model.robot import Robot
 
 logger = logging.getLogger(__name__)
@@ -168,10 +169,14 @@ class CollisionChecker:
         if self.options.broadphase:
             pool = pin.TreeBroadPhaseManagerPool_DynamicAABBTreeCollisionManager
             self._pool = pool(model, geom, 1)
+            datas = self._pool.getGeometryDatas()
         else:
             self._geometry_pool = pin.GeometryPool(model, geom, 1)
+            datas = self._geometry_pool.getGeometryDatas()
+        for geometry_data in datas:  # the pools' own data: no cached GJK guess either
+            without_cached_guess(geometry_data)
         self._data = model.createData()
-        self._geom_data = geom.createData()
+        self._geom_data = without_cached_guess(geom.createData())
         self._ngeoms = geom.ngeoms
         self._npairs = len(geom.collisionPairs)
         self._kernel = None

@@ -1,0 +1,43 @@
+"""Collision and distance requests without a cached GJK guess (one place for every query).
+
+Pinocchio's ``GeometryData`` requests keep coal's cached GJK guess: each pair's narrow phase
+starts from the support directions of its previous call. When that call was at a far
+configuration, coal can answer "free" for a real penetration (MotionBenchMaker
+bookshelf_small problem 1: ``panda_link5`` 1.3 cm inside ``shelf_bottom`` reported free after a
+call of that pair at another configuration). Every ``GeometryData`` taskspace queries goes
+through :func:`without_cached_guess`, so each query starts from coal's default guess and its
+answer does not depend on earlier calls.
+"""
+
+from __future__ import annotations
+
+import warnings
+from typing import Any
+
+import coal
+
+__all__ = ["without_cached_guess"]
+
+
+def _reset(request: Any) -> None:
+    request.gjk_initial_guess = coal.GJKInitialGuess.DefaultGuess
+    request.enable_cached_gjk_guess = False  # deprecated in coal 3, still read by coal
+
+
+def without_cached_guess(geometry_data: Any) -> Any:
+    """Turn the cached GJK guess off in every request of ``geometry_data`` (in place).
+
+    Args:
+        geometry_data: a ``pin.GeometryData`` (its ``collisionRequests`` and
+            ``distanceRequests`` are modified).
+
+    Returns:
+        ``geometry_data`` itself, so that ``without_cached_guess(geom.createData())`` works.
+    """
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)
+        for request in geometry_data.collisionRequests:
+            _reset(request)
+        for request in geometry_data.distanceRequests:
+            _reset(request)
+    return geometry_data
