@@ -25,7 +25,7 @@ import threading
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import cast
+from typing import NoReturn, cast
 
 import numpy as np
 import pinocchio as pin
@@ -209,6 +209,13 @@ class CenterOfPressureTask:
         return np.array([[0.0, 0.0, -py, 1.0, 0.0, 0.0], [0.0, 0.0, px, 0.0, 1.0, 0.0]])
 
 
+def _fixed(name: str) -> NoReturn:
+    raise InvalidInputError(
+        f"InverseDynamicsQP.{name} is fixed at construction (the QP's rows, buffers and "
+        f"compiled kernel are derived from it): build a new InverseDynamicsQP with the new {name}"
+    )
+
+
 def _as_index(indices: np.ndarray) -> slice | np.ndarray:
     """A slice when ``indices`` are consecutive (faster indexing), else the array."""
     if indices.size and np.all(np.diff(indices) == 1):
@@ -235,6 +242,10 @@ class InverseDynamicsQP:
     Model version: the controller follows :meth:`Robot.set_limits
     <taskspace.model.Robot.set_limits>`; the next step after a change rebuilds the torque-limit
     rows, the actuated/unactuated split and the joint-limit bounds from the new limits.
+    ``tasks``, ``contacts``, ``pressure_tasks`` and ``options`` are fixed at construction
+    (tuples; assigning them raises :class:`~taskspace.errors.InvalidInputError`): a different
+    set is a new controller. Targets, gains, weights, contact references and normal-force
+    limits are read at every step.
 
     Args:
         robot: the robot.
@@ -253,10 +264,12 @@ class InverseDynamicsQP:
         pressure_tasks: Sequence[CenterOfPressureTask] = (),
     ) -> None:
         self.robot = robot
-        self.tasks = list(tasks)
-        self.contacts = list(contacts)
-        self.options = options or InverseDynamicsOptions()
-        self.pressure_tasks = list(pressure_tasks)
+        # fixed at construction (tuples, no setters): the QP's rows, buffers and the compiled
+        # kernel are derived from them; a changed set of tasks or contacts is a new controller
+        self._tasks: tuple[Task, ...] = tuple(tasks)
+        self._contacts: tuple[Contact, ...] = tuple(contacts)
+        self._options = options or InverseDynamicsOptions()
+        self._pressure_tasks: tuple[CenterOfPressureTask, ...] = tuple(pressure_tasks)
         for pt in self.pressure_tasks:
             if not isinstance(pt, CenterOfPressureTask):
                 raise InvalidInputError(
@@ -287,6 +300,42 @@ class InverseDynamicsQP:
         self._lock = threading.Lock()
         self._acquire = self._lock.acquire
         self._release = self._lock.release
+
+    @property
+    def tasks(self) -> tuple[Task, ...]:
+        """The tasks (fixed at construction; their targets, gains and weights may change)."""
+        return self._tasks
+
+    @tasks.setter
+    def tasks(self, value: object) -> None:
+        _fixed("tasks")
+
+    @property
+    def contacts(self) -> tuple[Contact, ...]:
+        """The contacts (fixed at construction; gains, references, force limits may change)."""
+        return self._contacts
+
+    @contacts.setter
+    def contacts(self, value: object) -> None:
+        _fixed("contacts")
+
+    @property
+    def pressure_tasks(self) -> tuple[CenterOfPressureTask, ...]:
+        """The center-of-pressure tasks (fixed at construction)."""
+        return self._pressure_tasks
+
+    @pressure_tasks.setter
+    def pressure_tasks(self, value: object) -> None:
+        _fixed("pressure_tasks")
+
+    @property
+    def options(self) -> InverseDynamicsOptions:
+        """The settings (fixed at construction; :class:`InverseDynamicsOptions` is frozen)."""
+        return self._options
+
+    @options.setter
+    def options(self, value: object) -> None:
+        _fixed("options")
 
     def _setup(self) -> None:
         """Build the QP's buffers and constant blocks from the robot's current model.

@@ -1,0 +1,220 @@
+"""The compiled inverse-dynamics step tried as a new user would (issue #15, trust).
+
+Every answer is checked against references independent of the kernel: the Python path's QP
+(``InverseDynamicsQP.build``) solved by quadprog, the KKT conditions of that QP computed with
+NumPy at the kernel's point and multipliers, and Pinocchio's RNEA (see
+``test_control_idqp_compiled._check_step``).
+"""
+
+from __future__ import annotations
+
+import threading
+import warnings
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from taskspace import features as F
+from taskspace._native import idqp_kernel
+from taskspace.constraints import Contact, Contact6D, PointContact
+from taskspace.control.inverse_dynamics_qp import InverseDynamicsOptions, InverseDynamicsQP
+from taskspace.errors import InvalidInputError, TaskspaceError
+from taskspace.model import Robot, State
+from taskspace.tasks import Task
+from tests.control.test_control_all_legged_stand import LEGGED, _standing_posture, _with_flat_soles
+from tests.control.test_control_idqp_compiled import (
+    _check_kkt,
+    _check_step,
+    _g1_standing,
+    _pair,
+    _quadprog,
+    _random_state,
+)
+
+pytestmark = pytest.mark.skipif(idqp_kernel() is None, reason="compiled kernels not built")
+
+
+def _fresh_g1() -> Robot:
+    """A G1 of its own (``set_limits`` must not leak into the session's cached robot)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return Robot.load("g1", geometry=False)
+
+
+# ---------------------------------------------------------------- derived objects / versions
+def test_tasks_contacts_and_options_are_fixed_after_construction() -> None:
+    """Before: ``ctrl.tasks.append(t)`` / ``ctrl.contacts.pop()`` were accepted and ignored by
+    both paths (rows, buffers and the kernel were built at construction): the answer silently
+    ignored the new task and still pushed on the removed foot. Now they are tuples and
+    assigning them raises."""
+    robot = _fresh_g1()
+    tasks, contacts = _g1_standing(robot)
+    compiled, python = _pair(robot, tasks, contacts)
+    for ctrl in (compiled, python):
+        with pytest.raises((AttributeError, TypeError)):
+            ctrl.tasks.append(tasks[0])  # type: ignore[attr-defined]
+        with pytest.raises((AttributeError, TypeError)):
+            ctrl.contacts.pop()  # type: ignore[attr-defined]
+        for name in ("tasks", "contacts", "pressure_tasks", "options"):
+            with pytest.raises(InvalidInputError, match="fixed at construction"):
+                setattr(ctrl, name, [])
+    # the caller's own lists are copies: changing them changes nothing
+    tasks.pop()
+    contacts.pop()
+    assert len(compiled.tasks) == 4 and len(compiled.contacts) == 2
+    state = _random_state(robot, np.random.default_rng(3))
+    _check_step(compiled, python, state)
+
+
+@pytest.mark.parametrize("which", ["effort", "position", "velocity"])
+def test_set_limits_after_construction_are_used(which: str) -> None:
+    """``Robot.set_limits`` after the first step: the compiled step answers the QP of a
+    controller built after the change (quadprog), never the old limits."""
+    robot = _fresh_g1()
+    tasks, contacts = _g1_standing(robot)
+    compiled = InverseDynamicsQP(robot, tasks, contacts)
+    state = _random_state(robot, np.random.default_rng(1))
+    before = compiled.solve(state)
+    assert before.compiled
+    q, v = state.q, state.v
+    if which == "effort":
+        effort = robot.effort_limits.copy()
+        effort[6:] *= 0.3
+        robot.set_limits(effort=effort)
+    elif which == "position":
+        lo, up = robot.lower_limits.copy(), robot.upper_limits.copy()
+        lo[7:] = np.maximum(lo[7:], q[7:] - 0.02)
+        up[7:] = np.minimum(up[7:], q[7:] + 0.02)
+        robot.set_limits(lower=lo, upper=up)
+        v = np.zeros(robot.nv)
+    else:
+        vel = robot.velocity_limits.copy()
+        vel[6:] = 0.3
+        robot.set_limits(velocity=vel)
+        v = np.clip(v, -0.29, 0.29)
+    state = robot.state(q, v)
+    fresh = InverseDynamicsQP(robot, tasks, contacts, InverseDynamicsOptions(native=False))
+    p = fresh.build(state)
+    x_ref = _quadprog(p)
+    res = compiled.solve(state)
+    assert res.compiled
+    np.testing.assert_allclose(res.qp.x, x_ref, atol=1e-6 * max(1.0, np.abs(x_ref).max()))
+    _check_kkt(p, res.qp.x, res.qp.y, res.qp.z, res.qp.z_box)
+
+
+def test_state_of_another_robot_is_refused() -> None:
+    robot, other = _fresh_g1(), _fresh_g1()
+    tasks, contacts = _g1_standing(robot)
+    ctrl = InverseDynamicsQP(robot, tasks, contacts)
+    with pytest.raises(InvalidInputError, match="belongs to robot"):
+        ctrl.solve(other.state(other.q_default, np.zeros(other.nv)))
+    with pytest.raises(InvalidInputError, match="velocity"):
+        ctrl.solve(robot.state(robot.q_default))
+
+
+# ---------------------------------------------------------------- inputs
+@pytest.mark.filterwarnings("ignore::RuntimeWarning")
+@pytest.mark.parametrize("bad", [np.nan, np.inf, 1e300])
+def test_bad_numbers_never_give_a_solved_non_finite_torque(bad: float) -> None:
+    robot = _fresh_g1()
+    tasks, contacts = _g1_standing(robot)
+    ctrl = InverseDynamicsQP(robot, tasks, contacts)
+    state = _random_state(robot, np.random.default_rng(1))
+    for i in (0, 10):
+        for which in ("q", "v"):
+            q, v = state.q.copy(), state.v.copy()
+            (q if which == "q" else v)[i + (7 if which == "q" else 0)] = bad
+            try:
+                res = ctrl.solve(robot.state(q, v))
+            except TaskspaceError:
+                continue
+            assert not res.success or np.all(np.isfinite(res.tau))
+    q = state.q.copy()
+    q[3:7] *= 3.0  # unnormalized quaternion
+    with pytest.raises(TaskspaceError, match="unit norm"):
+        ctrl.solve(robot.state(q, state.v))
+
+
+def test_float32_and_int_states_match_float64() -> None:
+    robot = _fresh_g1()
+    tasks, contacts = _g1_standing(robot)
+    compiled, python = _pair(robot, tasks, contacts)
+    state = _random_state(robot, np.random.default_rng(1))
+    q32, v32 = state.q.astype(np.float32), state.v.astype(np.float32)
+    _check_step(compiled, python, robot.state(q32, v32))
+    _check_step(compiled, python, robot.state(robot.q_default, np.zeros(robot.nv, dtype=int)))
+
+
+# ---------------------------------------------------------------- threads
+def test_one_controller_shared_by_two_threads_equals_sequential() -> None:
+    robot = _fresh_g1()
+    tasks, contacts = _g1_standing(robot)
+    ctrl = InverseDynamicsQP(robot, tasks, contacts)
+    rng = np.random.default_rng(5)
+    states = [_random_state(robot, rng) for _ in range(6)]
+    expected = [ctrl.solve(s).tau.copy() for s in states]
+    got: dict[tuple[int, int], np.ndarray] = {}
+    errors: list[BaseException] = []
+
+    def work(k: int) -> None:
+        try:
+            for _ in range(10):
+                for i, s in enumerate(states):
+                    got[(k, i)] = ctrl.solve(s).tau.copy()
+        except BaseException as e:  # pragma: no cover - reported below
+            errors.append(e)
+
+    threads = [threading.Thread(target=work, args=(k,)) for k in range(2)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert not errors, errors
+    for (_, i), tau in got.items():
+        # warm starts differ by call order: equal to the solver's tolerance, not bit for bit
+        np.testing.assert_allclose(tau, expected[i], atol=1e-6 * max(1.0, np.abs(tau).max()))
+
+
+# ---------------------------------------------------------------- every legged robot
+def _legged_controllers(name: str) -> tuple[Robot, InverseDynamicsQP, InverseDynamicsQP]:
+    legged = LEGGED[name]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        robot = Robot.load(name, geometry=False)
+    feet = legged.feet
+    if legged.flat_soles:
+        robot, feet = _with_flat_soles(robot, feet)
+    q0 = _standing_posture(robot, legged)
+    s = robot.state(q0, np.zeros(robot.nv))
+    contacts: list[Contact] = [
+        PointContact(robot, f, friction=0.6)
+        if legged.point
+        else Contact6D(robot, f, half_length=0.05, half_width=0.03, friction=0.6)
+        for f in feet
+    ]
+    com = Task(F.CenterOfMass(robot), kp=10.0)
+    com.set_target_from_state(s)
+    posture = Task(F.JointConfiguration(robot), q0, weight=1e-2, kp=10.0)
+    opts = InverseDynamicsOptions()
+    compiled = InverseDynamicsQP(robot, [com, posture], contacts, opts)
+    python = InverseDynamicsQP(robot, [com, posture], contacts, replace(opts, native=False))
+    assert compiled._native is not None, compiled.native_reason
+    return robot, compiled, python
+
+
+@pytest.mark.slow
+@pytest.mark.filterwarnings("ignore")
+@pytest.mark.parametrize("name", sorted(LEGGED))
+def test_every_legged_robot_compiled_equals_python_path(name: str) -> None:
+    robot, compiled, python = _legged_controllers(name)
+    q0 = compiled.tasks[1].target
+    rng = np.random.default_rng(7)
+    states: list[State] = [robot.state(q0, np.zeros(robot.nv))]
+    for _ in range(2):
+        q = np.asarray(q0, dtype=float).copy()
+        q[7:] += 0.02 * rng.standard_normal(robot.nq - 7)
+        q = np.clip(q, robot.lower_limits, robot.upper_limits)
+        states.append(robot.state(robot.normalize(q), 0.1 * rng.standard_normal(robot.nv)))
+    for s in states:
+        _check_step(compiled, python, s)
