@@ -103,7 +103,9 @@ def test_robot_queries_do_not_depend_on_earlier_queries(scene: Any) -> None:
 
 def test_every_geometry_data_taskspace_makes_has_no_cached_guess(scene: Any) -> None:
     robot = scene[0]
-    datas = [robot.collision_data, State(robot, scene[1]).collision_data]
+    state = State(robot, scene[1])
+    state.compute_distances()  # the state turns the guess off at its first distance query
+    datas = [robot.collision_data, state.collision_data]
     for options in OPTIONS.values():
         checker = CollisionChecker(robot, options)
         datas.append(checker._geom_data)

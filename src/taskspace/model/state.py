@@ -66,6 +66,7 @@ class State:
         "_data",
         "_distance_handles",
         "_distances_done",
+        "_guess_reset",
         "_has_velocity",
         "_model",
         "_nframes",
@@ -89,7 +90,8 @@ class State:
         # them once saves building a new Python object at each access.
         self._com_ref: FloatArray = self._data.com[0]
         self._placements: dict[int, pin.SE3] = {}
-        self._collision_data = without_cached_guess(robot.collision_model.createData())
+        self._collision_data = robot.collision_model.createData()
+        self._guess_reset: Any = None  # the data whose cached GJK guess is off (lazily)
         self._collision_version = robot.world.version
         self._distance_handles: tuple[Any, list[Any]] | None = None
         self._a0 = _frozen(np.zeros(robot.nv))  # also serves as the zero velocity
@@ -344,8 +346,10 @@ class State:
             or len(self._collision_data.distanceResults) != len(geom.collisionPairs)
         ):
             # the world (obstacles or collision pairs) changed since the data were made
-            self._collision_data = without_cached_guess(geom.createData())
+            self._collision_data = geom.createData()
             self._collision_version = version
+        if self._guess_reset is not self._collision_data:  # once per data, here: ~0.5 ms
+            self._guess_reset = without_cached_guess(self._collision_data)
         pin.updateGeometryPlacements(self._model, self._data, geom, self._collision_data)
         pin.computeDistances(geom, self._collision_data)
         self._distances_done = True
