@@ -289,7 +289,18 @@ def _check_lm_damping(task: Task, value: Any) -> float:
     return check_positive(value, f"lm_damping of task '{_label(task)}'", strict=False)
 
 
+def _check_feature(task: Task, value: Any) -> Any:
+    if "feature" in task.__dict__:
+        # solvers and compiled kernels derive rows (sizes, frames) from it at construction
+        raise InvalidInputError(
+            f"task '{_label(task)}': its feature is fixed at construction (solvers, "
+            f"controllers and compiled kernels are built from it): make a new Task"
+        )
+    return value
+
+
 _SETTERS: dict[str, Callable[[Task, Any], Any]] = {
+    "feature": _check_feature,
     "lm_damping": _check_lm_damping,
     "sqrt_weight": _check_sqrt_weight,
     "gain": _check_gain,

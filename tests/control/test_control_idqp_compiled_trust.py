@@ -13,6 +13,7 @@ import warnings
 from dataclasses import replace
 
 import numpy as np
+import pinocchio as pin
 import pytest
 
 from taskspace import features as F
@@ -65,6 +66,20 @@ def test_tasks_contacts_and_options_are_fixed_after_construction() -> None:
     assert len(compiled.tasks) == 4 and len(compiled.contacts) == 2
     state = _random_state(robot, np.random.default_rng(3))
     _check_step(compiled, python, state)
+
+
+def test_task_feature_is_fixed_after_construction() -> None:
+    """Before: ``task.feature = FramePose(robot, "pelvis")`` was accepted; the Python path then
+    drove the pelvis while the compiled kernel (its term built at construction) still drove
+    the hand: two different answers, both SOLVED. Now the assignment raises."""
+    robot = _fresh_g1()
+    tasks, contacts = _g1_standing(robot)
+    compiled, python = _pair(robot, tasks, contacts)
+    hand = tasks[1]
+    with pytest.raises(InvalidInputError, match="feature is fixed"):
+        hand.feature = F.FramePose(robot, "pelvis")
+    assert hand.feature.frame_id == robot.frame_id("left_rubber_hand")  # type: ignore[attr-defined]
+    _check_step(compiled, python, _random_state(robot, np.random.default_rng(4)))
 
 
 @pytest.mark.parametrize("which", ["effort", "position", "velocity"])
@@ -217,4 +232,36 @@ def test_every_legged_robot_compiled_equals_python_path(name: str) -> None:
         q = np.clip(q, robot.lower_limits, robot.upper_limits)
         states.append(robot.state(robot.normalize(q), 0.1 * rng.standard_normal(robot.nv)))
     for s in states:
-        _check_step(compiled, python, s)
+        _check_legged_step(robot, compiled, python, s)
+
+
+def _check_legged_step(
+    robot: Robot, compiled: InverseDynamicsQP, python: InverseDynamicsQP, state: State
+) -> None:
+    """Compiled vs the Python path, quadprog, the KKT conditions and RNEA.
+
+    A state whose QP is infeasible (joint-limit box against the torque limits) has no
+    certified kernel answer: the compiled controller runs the Python path and says so.
+    """
+    ref = robot.state(state.q, state.v)
+    res_py = python.solve(ref)
+    res = compiled.solve(state)
+    if not res_py.success:
+        assert not res.success and not res.compiled and res.status == res_py.status
+        return
+    assert res.success and res.compiled, (res.status, compiled.native_reason)
+    qp = res.qp
+    assert qp is not None and qp.kkt.within(1e-9, 1e-9), qp
+    p = python.build(ref)
+    _check_kkt(p, qp.x, qp.y, qp.z, qp.z_box)
+    x_ref = _quadprog(p)
+    np.testing.assert_allclose(qp.x, x_ref, atol=1e-6 * max(1.0, np.abs(x_ref).max()))
+    np.testing.assert_allclose(res.tau, res_py.tau, atol=1e-6 * max(1.0, np.abs(res_py.tau).max()))
+    # M a + h - J_c^T f = S^T tau by Pinocchio's RNEA, to the certificate's primal tolerance
+    rhs = pin.rnea(robot.model, robot.model.createData(), state.q, state.v, res.a).copy()
+    for c in compiled.contacts:
+        rhs -= c.jacobian(ref).T @ res.forces[c.frame]
+    tol = 1e-8 * max(1.0, qp.kkt.primal_scale, np.abs(rhs).max())
+    act = compiled.actuated
+    np.testing.assert_allclose(rhs[act], res.tau[act], rtol=0, atol=tol)
+    assert np.abs(rhs[compiled.unactuated]).max(initial=0.0) <= tol
