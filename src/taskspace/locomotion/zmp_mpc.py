@@ -123,9 +123,19 @@ class ZmpMpc:
         self._Gf = Gf
         self._GfW = Gf.T @ Wb
         self._Esel = Gam[:, 0, :]  # e_k rows: (N, N)
+        # Per step only the linear term and the polygon rows change: g_a = Gx xt_a + Gr dr_a
+        # and the free e_k = Phi_k[0] xt_0 + Psi_k[0] dr (both axes as the two columns).
+        self._Gx = self._GfW @ self._Phi.reshape(N * 4, 4)  # (N, 4)
+        self._Gr = self._GfW @ Psi.reshape(N * 4, N)  # (N, N)
+        self._Fx = self._Phi[:, 0, :].copy()  # (N, 4)
+        self._Fr = Psi[:, 0, :].copy()  # (N, N)
         self._solver = QPSolver(self.options.qp)
-        # id(polygon) -> (polygon, A, b); the polygon is kept so that its id stays its own.
-        self._halfspace_cache: dict[int, tuple[SupportPolygon, FloatArray, FloatArray]] = {}
+        # id(polygon) -> (polygon, A, b, padded A, padded b); the polygon is kept so that its
+        # id stays its own. Padded: (MAX_EDGES, 2) / (MAX_EDGES,), rows past the edges are
+        # zero with b = +inf (an unbounded row).
+        self._halfspace_cache: dict[
+            int, tuple[SupportPolygon, FloatArray, FloatArray, FloatArray, FloatArray]
+        ] = {}
 
     def build(
         self,
@@ -133,57 +143,86 @@ class ZmpMpc:
         reference: FloatArray,
         polygons: list[SupportPolygon] | None,
     ) -> QPProblem:
-        """The QP of one step.
+        """The QP of one step (a new problem; :meth:`simulate` reuses its buffers).
 
         Args:
             augmented_state: (4, 2) ``(e_0, dx_0)`` per axis.
             reference: (N + 1, 2) ``r_0 .. r_N``.
             polygons: N support polygons at ``t_1 .. t_N`` (``None``: unconstrained).
         """
-        N = self.horizon
-        dr = np.diff(reference, axis=0)  # (N, 2): dr_{1..N}
-        g = np.empty(2 * N)
-        free = np.empty((N, 2))  # e_k without inputs
-        for a in range(2):
-            x_free = self._Phi @ augmented_state[:, a] + self._Psi @ dr[:, a]  # (N, 4)
-            g[a * N : (a + 1) * N] = self._GfW @ x_free.ravel()
-            free[:, a] = x_free[:, 0]
-        n = 2 * N
         if polygons is None:
-            return QPProblem.unconstrained(self._H, g)
-        rows = N * MAX_EDGES
-        C = np.zeros((rows, n))
-        u = np.full(rows, INF)
-        margin = self.options.zmp_margin
-        for k, poly in enumerate(polygons):
-            Ah, bh = self._halfspaces(poly, k)
-            m = Ah.shape[0]
-            r0 = k * MAX_EDGES
-            C[r0 : r0 + m, :N] = np.outer(Ah[:, 0], self._Esel[k])
-            C[r0 : r0 + m, N:] = np.outer(Ah[:, 1], self._Esel[k])
-            u[r0 : r0 + m] = bh - margin - Ah @ (free[k] + reference[k + 1])
-        problem = QPProblem.unconstrained(self._H, g)
-        problem.C, problem.l, problem.u = C, np.full(rows, -INF), u
-        return problem
+            return self._fill(augmented_state, reference, None, None, None)
+        Ah, bh = self._padded(polygons)
+        return self._fill(augmented_state, reference, Ah, bh, None)
+
+    def _padded(self, polygons: list[SupportPolygon]) -> tuple[FloatArray, FloatArray]:
+        """(K, MAX_EDGES, 2) and (K, MAX_EDGES) padded half-spaces of K polygons."""
+        entries = [self._halfspaces_entry(poly, k) for k, poly in enumerate(polygons)]
+        return np.stack([e[3] for e in entries]), np.stack([e[4] for e in entries])
+
+    def _fill(
+        self,
+        augmented_state: FloatArray,
+        reference: FloatArray,
+        Ah: FloatArray | None,
+        bh: FloatArray | None,
+        out: QPProblem | None,
+    ) -> QPProblem:
+        """The QP of one step from padded half-spaces ``Ah`` (N, MAX_EDGES, 2), ``bh``.
+
+        ``out``: a problem of the right shape whose ``g``, ``C`` and ``u`` are overwritten
+        (``H`` and ``l`` are constant); ``None`` allocates a new one.
+        """
+        N = self.horizon
+        dr = reference[1:] - reference[:-1]  # (N, 2): dr_{1..N}
+        if out is None:
+            out = QPProblem.unconstrained(self._H, np.empty(2 * N))
+            if Ah is not None:
+                rows = N * MAX_EDGES
+                out.C, out.l, out.u = np.empty((rows, 2 * N)), np.full(rows, -INF), np.empty(rows)
+        g = (self._Gx @ augmented_state + self._Gr @ dr).T  # (2, N)
+        out.g.reshape(2, N)[:] = g
+        if Ah is None or bh is None:
+            return out
+        free = self._Fx @ augmented_state + self._Fr @ dr  # (N, 2): e_k without inputs
+        C = out.C.reshape(N, MAX_EDGES, 2, N)
+        np.multiply(Ah[:, :, :, None], self._Esel[:, None, None, :], out=C)
+        p = free + reference[1:]  # (N, 2)
+        u = out.u.reshape(N, MAX_EDGES)
+        np.subtract(bh, self.options.zmp_margin, out=u)
+        u -= np.einsum("kmj,kj->km", Ah, p)
+        return out
 
     def _halfspaces(self, poly: SupportPolygon, k: int) -> tuple[FloatArray, FloatArray]:
         """``poly.halfspaces()``, computed once per polygon object (a walk repeats them)."""
+        entry = self._halfspaces_entry(poly, k)
+        return entry[1], entry[2]
+
+    def _halfspaces_entry(
+        self, poly: SupportPolygon, k: int
+    ) -> tuple[SupportPolygon, FloatArray, FloatArray, FloatArray, FloatArray]:
         hit = self._halfspace_cache.get(id(poly))
         if hit is not None and hit[0] is poly:
-            return hit[1], hit[2]
+            return hit
         if poly.is_degenerate:
             raise InvalidInputError(
                 f"the support polygon at predicted step {k + 1} has no interior"
             )
         Ah, bh = poly.halfspaces()
-        if Ah.shape[0] > MAX_EDGES:
+        m = Ah.shape[0]
+        if m > MAX_EDGES:
             raise InvalidInputError(
-                f"support polygon with {Ah.shape[0]} edges; at most {MAX_EDGES} supported"
+                f"support polygon with {m} edges; at most {MAX_EDGES} supported"
             )
+        A_pad = np.zeros((MAX_EDGES, 2))
+        A_pad[:m] = Ah
+        b_pad = np.full(MAX_EDGES, INF)
+        b_pad[:m] = bh
         if len(self._halfspace_cache) > 4096:
             self._halfspace_cache.clear()
-        self._halfspace_cache[id(poly)] = (poly, Ah, bh)
-        return Ah, bh
+        entry = (poly, Ah, bh, A_pad, b_pad)
+        self._halfspace_cache[id(poly)] = entry
+        return entry
 
     def simulate(
         self,
@@ -220,12 +259,19 @@ class ZmpMpc:
         x_prev, u = x.copy(), np.zeros(2)
         states, jerk = np.empty((T, 3, 2)), np.empty((T, 2))
         statuses, times, active = [], np.empty(T), 0
+        # padded half-spaces of every sample once; a step takes a window of them
+        Ah_all, bh_all = self._padded(polys) if polys and constrain else (None, None)
+        problem: QPProblem | None = None
+        xt = np.empty((4, 2))
         for k in range(T):
             states[k] = x
-            xt = np.vstack([c @ x - r[k], x - x_prev])
-            problem = self.build(
-                xt, padded[k : k + N + 1], polys[k + 1 : k + N + 1] if polys and constrain else None
-            )
+            np.subtract(c @ x, r[k], out=xt[0])
+            np.subtract(x, x_prev, out=xt[1:])
+            if Ah_all is None or bh_all is None:
+                problem = self._fill(xt, padded[k : k + N + 1], None, None, problem)
+            else:
+                Ah, bh = Ah_all[k + 1 : k + N + 1], bh_all[k + 1 : k + N + 1]
+                problem = self._fill(xt, padded[k : k + N + 1], Ah, bh, problem)
             t0 = time.perf_counter()
             res = self._solver.solve(problem)
             times[k] = time.perf_counter() - t0
