@@ -108,6 +108,7 @@ def test_every_geometry_data_taskspace_makes_has_no_cached_guess(scene: Any) -> 
     datas = [robot.collision_data, state.collision_data]
     for options in OPTIONS.values():
         checker = CollisionChecker(robot, options)
+        checker.colliding_pairs(scene[1])  # turned off at the first Python-side query
         datas.append(checker._geom_data)
         pool = checker._pool if checker._pool is not None else checker._geometry_pool
         datas.extend(pool.getGeometryDatas())

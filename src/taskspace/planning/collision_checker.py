@@ -169,14 +169,11 @@ class CollisionChecker:
         if self.options.broadphase:
             pool = pin.TreeBroadPhaseManagerPool_DynamicAABBTreeCollisionManager
             self._pool = pool(model, geom, 1)
-            datas = self._pool.getGeometryDatas()
         else:
             self._geometry_pool = pin.GeometryPool(model, geom, 1)
-            datas = self._geometry_pool.getGeometryDatas()
-        for geometry_data in datas:  # the pools' own data: no cached GJK guess either
-            without_cached_guess(geometry_data)
         self._data = model.createData()
-        self._geom_data = without_cached_guess(geom.createData())
+        self._geom_data = geom.createData()
+        self._guess_off = False  # see _no_cached_guess (done at the first Python-side query)
         self._ngeoms = geom.ngeoms
         self._npairs = len(geom.collisionPairs)
         self._kernel = None
@@ -184,6 +181,20 @@ class CollisionChecker:
         self._world = robot.world
         self._world_version = robot.world.version
         self._geometry_model = geom
+
+    def _no_cached_guess(self) -> None:
+        """Turn the cached GJK guess off in the data of the Python-side queries (once a world).
+
+        Pinocchio's default requests start each pair's narrow phase from its previous call,
+        which can report a real penetration free (see ``taskspace.model.collision_requests``).
+        Done at the first query that uses the pools or ``_geom_data`` rather than in
+        :meth:`update_world` (about 0.7 ms per data on the Panda with a shelf; the compiled
+        kernel, used by default, turns it off on its own copy).
+        """
+        pool = self._pool if self._pool is not None else self._geometry_pool
+        for geometry_data in [*pool.getGeometryDatas(), self._geom_data]:
+            without_cached_guess(geometry_data)
+        self._guess_off = True
 
     def _query_kernel(self) -> Any:
         """The compiled checker if the queries use it (``options.native``), else ``None``."""
@@ -340,6 +351,8 @@ class CollisionChecker:
                     rows[start : start + KERNEL_CHUNK]
                 )
             return out
+        if not self._guess_off:
+            self._no_cached_guess()
         qs = configurations.T  # column-major (nq, n) view: what Eigen expects, no copy
         if not qs.flags.f_contiguous:
             qs = np.asfortranarray(qs)
@@ -375,6 +388,8 @@ class CollisionChecker:
         kernel = self._query_kernel()
         if kernel is not None:
             return bool(kernel.first_invalid(column.T) < 0)
+        if not self._guess_off:
+            self._no_cached_guess()
         if self._pool is not None:
             return not pin.computeCollisionsInParallel(1, self._pool, column, True, True)[0]
         return not bool(self._batch(column.T, True)[0])
@@ -401,6 +416,8 @@ class CollisionChecker:
             bad = int(kernel.first_invalid(rows))
             self.checks += rows.shape[0] if bad < 0 else bad + 1
             return bad
+        if not self._guess_off:
+            self._no_cached_guess()
         if self._pool is not None and rows.flags.c_contiguous:
             hits = pin.computeCollisionsInParallel(1, self._pool, rows.T, True, True)
         else:
@@ -418,6 +435,8 @@ class CollisionChecker:
         qa = self._as_rows(q)[0]
         robot = self.robot
         geom = robot.collision_model
+        if not self._guess_off:
+            self._no_cached_guess()
         pin.computeCollisions(robot.model, self._data, geom, self._geom_data, qa, False)
         objs = geom.geometryObjects
         return [
@@ -448,6 +467,8 @@ class CollisionChecker:
         geom = robot.collision_model
         if len(geom.collisionPairs) == 0:
             raise PlanningError(f"robot '{robot.name}' has no collision pair to measure")
+        if not self._guess_off:
+            self._no_cached_guess()
         k = int(pin.computeDistances(robot.model, self._data, geom, self._geom_data, qa))
         pair = geom.collisionPairs[k]
         objs = geom.geometryObjects
