@@ -33,6 +33,7 @@ Energy is conserved during the swing and lost only at impacts.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -357,13 +358,61 @@ class LimitCycle:
         return bool(np.all(np.abs(self.floquet_multipliers) < 1.0))
 
 
-def _jacobian(walker: CompassGait, z: FloatArray, h: float, kw: dict[str, float]) -> FloatArray:
+def _central_jacobian(P: Callable[[FloatArray], FloatArray], z: FloatArray, h: float) -> FloatArray:
+    """``dP/dz`` (3 x 3) by central differences of step ``h``."""
     J = np.empty((3, 3))
     for i in range(3):
         dz = np.zeros(3)
         dz[i] = h
-        J[:, i] = (return_map(walker, z + dz, **kw) - return_map(walker, z - dz, **kw)) / (2 * h)
+        J[:, i] = (P(z + dz) - P(z - dz)) / (2 * h)
     return J
+
+
+def _newton_limit_cycle(
+    P: Callable[[FloatArray], FloatArray],
+    section: Callable[[FloatArray], FloatArray],
+    period: Callable[[FloatArray], float],
+    initial_guess: Any,
+    options: LimitCycleOptions,
+) -> LimitCycle:
+    """Newton on ``P(z) - z = 0`` (3-D section), the Floquet multipliers at the fixed point.
+
+    Shared by :func:`find_limit_cycle` and the kneed walker's ``find_kneed_limit_cycle``.
+
+    Args:
+        P: return map of the section coordinates.
+        section: the full post-impact state of a section point.
+        period: the step duration from a section point.
+        initial_guess: starting section point.
+        options: tolerance, iteration cap, finite-difference step.
+    """
+    opts = options
+    t0 = time.perf_counter()
+    max_iterations = check_count(opts.max_iterations, "max_iterations")
+    z = as_vector(initial_guess, 3, "initial_guess").copy()
+    residual = np.inf
+    iterations = 0
+    for iterations in range(1, max_iterations + 1):  # noqa: B007
+        F = P(z) - z
+        residual = float(np.abs(F).max())
+        if residual < opts.tolerance:
+            break
+        J = _central_jacobian(P, z, opts.fd_step)
+        z = z - np.linalg.solve(J - np.eye(3), F)
+    J = _central_jacobian(P, z, opts.fd_step)
+    duration = period(z)
+    multipliers: npt.NDArray[np.complex128] = np.linalg.eigvals(J).astype(np.complex128)
+    return LimitCycle(
+        success=residual < opts.tolerance,
+        fixed_point=z,
+        post_impact=section(z),
+        residual=residual,
+        jacobian=J,
+        floquet_multipliers=multipliers,
+        period=duration,
+        iterations=iterations,
+        solve_time=time.perf_counter() - t0,
+    )
 
 
 def find_limit_cycle(
@@ -375,29 +424,13 @@ def find_limit_cycle(
     by central differences of the return map.
     """
     opts = options or LimitCycleOptions()
-    t0 = time.perf_counter()
-    max_iterations = check_count(opts.max_iterations, "max_iterations")
-    z = as_vector(initial_guess, 3, "initial_guess").copy()
     kw = {"rtol": opts.rtol, "atol": opts.atol}
-    residual = np.inf
-    iterations = 0
-    for iterations in range(1, max_iterations + 1):  # noqa: B007
-        F = return_map(walker, z, **kw) - z
-        residual = float(np.abs(F).max())
-        if residual < opts.tolerance:
-            break
-        J = _jacobian(walker, z, opts.fd_step, kw)
-        z = z - np.linalg.solve(J - np.eye(3), F)
-    J = _jacobian(walker, z, opts.fd_step, kw)
-    step = simulate_step(walker, _section(walker, z), rtol=opts.rtol, atol=opts.atol)
-    return LimitCycle(
-        success=residual < opts.tolerance,
-        fixed_point=z,
-        post_impact=_section(walker, z),
-        residual=residual,
-        jacobian=J,
-        floquet_multipliers=np.linalg.eigvals(J).astype(np.complex128),
-        period=step.duration,
-        iterations=iterations,
-        solve_time=time.perf_counter() - t0,
+    return _newton_limit_cycle(
+        lambda z: return_map(walker, z, **kw),
+        lambda z: _section(walker, z),
+        lambda z: (
+            simulate_step(walker, _section(walker, z), rtol=opts.rtol, atol=opts.atol).duration
+        ),
+        initial_guess,
+        opts,
     )

@@ -49,19 +49,17 @@ has no contact there); with the knee locked, only heel strike ahead of the stanc
 
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass
 from functools import cached_property
 from typing import Any
 
 import numpy as np
-import numpy.typing as npt
 import pinocchio as pin
 from scipy.integrate import solve_ivp
 
 from taskspace._validation import FloatArray, as_vector, check_count, check_positive
 from taskspace.errors import InvalidInputError, SolverError
-from taskspace.locomotion.compass_gait import LimitCycle, LimitCycleOptions
+from taskspace.locomotion.compass_gait import LimitCycle, LimitCycleOptions, _newton_limit_cycle
 
 POINTS = (
     "stance_shank_mass",
@@ -584,16 +582,6 @@ def kneed_return_map(walker: KneedWalker, z: Any, **kwargs: Any) -> FloatArray:
     return np.array([x[0], x[3], x[4]])
 
 
-def _jacobian(walker: KneedWalker, z: FloatArray, h: float, kw: dict[str, float]) -> FloatArray:
-    J = np.empty((3, 3))
-    for i in range(3):
-        dz = np.zeros(3)
-        dz[i] = h
-        plus, minus = kneed_return_map(walker, z + dz, **kw), kneed_return_map(walker, z - dz, **kw)
-        J[:, i] = (plus - minus) / (2 * h)
-    return J
-
-
 def find_kneed_limit_cycle(
     walker: KneedWalker, initial_guess: Any, options: LimitCycleOptions | None = None
 ) -> LimitCycle:
@@ -604,30 +592,15 @@ def find_kneed_limit_cycle(
     ``dP/dz`` at the fixed point. ``post_impact`` of the result is the 6-state.
     """
     opts = options or LimitCycleOptions()
-    t0 = time.perf_counter()
-    max_iterations = check_count(opts.max_iterations, "max_iterations")
-    z = as_vector(initial_guess, 3, "initial_guess").copy()
     kw = {"rtol": opts.rtol, "atol": opts.atol}
-    residual = np.inf
-    iterations = 0
-    for iterations in range(1, max_iterations + 1):  # noqa: B007
-        F = kneed_return_map(walker, z, **kw) - z
-        residual = float(np.abs(F).max())
-        if residual < opts.tolerance:
-            break
-        J = _jacobian(walker, z, opts.fd_step, kw)
-        z = z - np.linalg.solve(J - np.eye(3), F)
-    J = _jacobian(walker, z, opts.fd_step, kw)
-    step = simulate_kneed_step(walker, _section(walker, z), rtol=opts.rtol, atol=opts.atol)
-    multipliers: npt.NDArray[np.complex128] = np.linalg.eigvals(J).astype(np.complex128)
-    return LimitCycle(
-        success=residual < opts.tolerance,
-        fixed_point=z,
-        post_impact=_section(walker, z),
-        residual=residual,
-        jacobian=J,
-        floquet_multipliers=multipliers,
-        period=step.duration,
-        iterations=iterations,
-        solve_time=time.perf_counter() - t0,
+    return _newton_limit_cycle(
+        lambda z: kneed_return_map(walker, z, **kw),
+        lambda z: _section(walker, z),
+        lambda z: (
+            simulate_kneed_step(
+                walker, _section(walker, z), rtol=opts.rtol, atol=opts.atol
+            ).duration
+        ),
+        initial_guess,
+        opts,
     )
