@@ -161,6 +161,14 @@ def test_float32_and_int_states_match_float64() -> None:
     _check_step(compiled, python, robot.state(robot.q_default, np.zeros(robot.nv, dtype=int)))
 
 
+@pytest.mark.parametrize("horizon", [1e-300, 1e-160, 1e-7, 1e300])
+def test_limits_horizon_out_of_range_is_refused(horizon: float) -> None:
+    """Before: 1e-300 gave a bare ZeroDivisionError building the controller; 1e-160 (2 / T^2 = inf)
+    an infinite joint-limit box, i.e. the limits silently gone, reported SOLVED."""
+    with pytest.raises(InvalidInputError, match="limits_horizon"):
+        InverseDynamicsOptions(limits_horizon=horizon)
+
+
 # ---------------------------------------------------------------- threads
 def test_one_controller_shared_by_two_threads_equals_sequential() -> None:
     robot = _fresh_g1()
@@ -189,6 +197,45 @@ def test_one_controller_shared_by_two_threads_equals_sequential() -> None:
     for (_, i), tau in got.items():
         # warm starts differ by call order: equal to the solver's tolerance, not bit for bit
         np.testing.assert_allclose(tau, expected[i], atol=1e-6 * max(1.0, np.abs(tau).max()))
+
+
+def test_two_controllers_on_two_threads_sharing_states() -> None:
+    """Two compiled controllers (own kernels) on two threads, on the same State objects (the
+    kernel also writes the state's center-of-mass entries): each equals its sequential run."""
+    robot = _fresh_g1()
+    tasks_a, contacts_a = _g1_standing(robot)
+    tasks_b, contacts_b = _g1_standing(robot)
+    tasks_b[0].kp = 80.0
+    ctrls = [
+        InverseDynamicsQP(robot, tasks_a, contacts_a),
+        InverseDynamicsQP(robot, tasks_b, contacts_b),
+    ]
+    rng = np.random.default_rng(6)
+    states = [_random_state(robot, rng) for _ in range(5)]
+    expected = [[c.solve(s).tau.copy() for s in states] for c in ctrls]
+    got: list[list[np.ndarray]] = [[], []]
+    errors: list[BaseException] = []
+
+    def work(k: int) -> None:
+        try:
+            for _ in range(10):
+                for s in states:
+                    got[k].append(ctrls[k].solve(s).tau.copy())
+                    s.com()  # the Python side reads the data the kernel writes
+        except BaseException as e:  # pragma: no cover - reported below
+            errors.append(e)
+
+    threads = [threading.Thread(target=work, args=(k,)) for k in range(2)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert not errors, errors
+    for k in range(2):
+        for j, tau in enumerate(got[k]):
+            ref = expected[k][j % len(states)]
+            np.testing.assert_allclose(tau, ref, atol=1e-6 * max(1.0, np.abs(ref).max()))
+    assert np.abs(expected[0][0] - expected[1][0]).max() > 1e-3  # the two controllers differ
 
 
 # ---------------------------------------------------------------- every legged robot

@@ -109,7 +109,8 @@ class InverseDynamicsOptions:
         torque_limits: enforce ``|tau| <= effort limits``.
         joint_limits: bound accelerations so joints stop within their position and
             velocity limits over ``limits_horizon``.
-        limits_horizon: look-ahead of the joint-limit bounds [s].
+        limits_horizon: look-ahead of the joint-limit bounds [s], in
+            ``[MIN_LIMITS_HORIZON, MAX_LIMITS_HORIZON]`` (1e-6 to 1e6 s).
         hierarchical: strict priorities (task ``priority``) instead of weights.
         solver: QP solver settings of the weighted problem (default daqp, proxsuite as
             fallback: on the G1 benchmark, with cones or limits active in half the steps,
@@ -145,7 +146,20 @@ class InverseDynamicsOptions:
             self.acceleration_regularization, "acceleration_regularization", strict=False
         )
         check_positive(self.force_regularization, "force_regularization", strict=False)
-        check_positive(self.limits_horizon, "limits_horizon")
+        h = check_positive(self.limits_horizon, "limits_horizon")
+        if not MIN_LIMITS_HORIZON <= h <= MAX_LIMITS_HORIZON:
+            # 2 / T^2 overflows (or 2 / T underflows) outside: a ZeroDivisionError, or an
+            # infinite joint-limit box that silently removed the limits
+            raise InvalidInputError(
+                f"limits_horizon must be in [{MIN_LIMITS_HORIZON:g}, {MAX_LIMITS_HORIZON:g}] s, "
+                f"got {self.limits_horizon!r}"
+            )
+
+
+MIN_LIMITS_HORIZON = 1e-6
+"""Smallest ``InverseDynamicsOptions.limits_horizon`` [s]."""
+MAX_LIMITS_HORIZON = 1e6
+"""Largest ``InverseDynamicsOptions.limits_horizon`` [s]."""
 
 
 class CenterOfPressureTask:
