@@ -2,9 +2,9 @@
 
 A cap is an integer (``check_count``): ``inf``, ``nan``, ``2.5``, ``None``, ``True`` or text
 raise :class:`InvalidInputError` naming the option, instead of a bare ``TypeError`` from
-``range`` (potential field, dynamic programming, Newton-Kleinman, compass-gait limit cycle,
-bug algorithms) or a loop that never ends (``max_attempts=inf`` of the car's control tree when
-every motion collides). A valid cap still gives the algorithm's result.
+``range`` (potential field, dynamic programming, Newton-Kleinman, compass-gait and kneed-walker
+limit cycles, bug algorithms) or a loop that never ends (``max_attempts=inf`` of the car's
+control tree when every motion collides). A valid cap still gives the algorithm's result.
 """
 
 from __future__ import annotations
@@ -39,6 +39,7 @@ from taskspace.learning import (
     td_lambda,
 )
 from taskspace.locomotion.compass_gait import CompassGait, LimitCycleOptions, find_limit_cycle
+from taskspace.locomotion.kneed_walker import KneedWalker, find_kneed_limit_cycle
 from taskspace.optimal_control import (
     DoubleIntegrator,
     FittedValueIterationOptions,
@@ -82,6 +83,10 @@ def _riccati(options: RiccatiOptions) -> Any:
 
 def _limit_cycle(options: LimitCycleOptions) -> Any:
     return find_limit_cycle(CompassGait(), [-0.2, 1.0, -0.4], options)
+
+
+def _kneed_limit_cycle(options: LimitCycleOptions) -> Any:
+    return find_kneed_limit_cycle(KneedWalker(), [-0.1877, 1.1014, -0.0399], options)
 
 
 def _fitted(options: FittedValueIterationOptions) -> Any:
@@ -193,6 +198,7 @@ CASES: dict[str, tuple[Callable[[Any], Any], Any, str]] = {
         "max_iterations",
     ),
     "compass_gait": (_limit_cycle, LimitCycleOptions(), "max_iterations"),
+    "kneed_walker": (_kneed_limit_cycle, LimitCycleOptions(), "max_iterations"),
     "bug1": (lambda o: bug1(RECT, (0, 0), (11, 0), options=o), BugOptions(), "max_hits"),
     "bug2": (lambda o: bug2(RECT, (0, 0), (11, 0), options=o), BugOptions(), "max_hits"),
     "fitted_value_iteration.refinements": (
@@ -230,7 +236,15 @@ CASES: dict[str, tuple[Callable[[Any], Any], Any, str]] = {
 # caps of fixed work, or of loops that end on a criterion only with luck: no huge-cap run
 FIXED_WORK = ("n_nodes", "stall_window", "refinements", "substeps", "episodes", "population")
 FIXED_WORK += ("elite", "max_rollouts", "horizon")
-ENDS_ON_SUCCESS_ONLY = ("compass_gait", "reinforce", "enac", "power", "pi2", "mu_lambda_es")
+ENDS_ON_SUCCESS_ONLY = (
+    "compass_gait",
+    "kneed_walker",
+    "reinforce",
+    "enac",
+    "power",
+    "pi2",
+    "mu_lambda_es",
+)
 ENDS_ON_SUCCESS_ONLY += ("cma_es",)
 
 
