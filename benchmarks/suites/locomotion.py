@@ -425,7 +425,8 @@ def _tsid_walking_row(robot: Robot, plan: Any, n_steps: int, ours_us: Any) -> Ro
         "transition_time": opts.transition_time,
         "phases": ref.phases,
     }
-    arrays = {
+    # Any: a dict[str, ndarray] splatted into np.savez could hit its allow_pickle: bool (mypy)
+    arrays: dict[str, Any] = {
         "times": ref.times,
         "com": ref.com,
         "com_velocity": ref.com_velocity,
