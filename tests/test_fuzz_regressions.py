@@ -448,3 +448,15 @@ def test_scurve_end_of_a_very_long_motion_is_at_rest() -> None:
     assert np.abs(s.velocity).max() <= 70.0 * (1 + 1e-9)
     assert abs(s.velocity[-1]) < 1e-9 and s.velocity[3] == pytest.approx(70.0, rel=1e-12)
     assert s.position[-1] == goal
+
+
+def test_spline_evaluate_refuses_a_ragged_time_list() -> None:
+    # before: bare ValueError (inhomogeneous shape) from np.ndim(t)
+    from taskspace.errors import InvalidInputError
+    from taskspace.trajopt import cubic_spline
+
+    spline = cubic_spline([0.0, 2.0])
+    with pytest.raises(InvalidInputError, match="t must be"):
+        spline.evaluate([[1], [2, 3]])
+    # two waypoints: the straight line 2 t (natural end conditions), by hand
+    assert spline.evaluate(0.5).tolist() == pytest.approx([1.0], abs=1e-12)

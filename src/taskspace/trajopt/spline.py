@@ -147,7 +147,8 @@ class Spline:
     def evaluate(self, t: Any, order: int = 0, *, side: str = "right") -> FloatArray:
         """Return ``q^(order)(t)`` with shape ``(len(t), n)`` (``(n,)`` for scalar ``t``)."""
         order = check_count(order, "order")
-        scalar = np.ndim(t) == 0
+        t = as_float_array(t, "t")  # before np.ndim: a ragged list gave a bare ValueError
+        scalar = t.ndim == 0
         val = self.evaluate_derivatives(t, order, side=side)[order]
         return val[0] if scalar else val
 
