@@ -103,6 +103,7 @@ def test_robot_queries_do_not_depend_on_earlier_queries(scene: Any) -> None:
 
 def test_every_geometry_data_taskspace_makes_has_no_cached_guess(scene: Any) -> None:
     robot = scene[0]
+    robot.is_collision_free(scene[1])  # the robot turns it off at its first query
     state = State(robot, scene[1])
     state.compute_distances()  # the state turns the guess off at its first distance query
     datas = [robot.collision_data, state.collision_data]

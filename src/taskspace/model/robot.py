@@ -195,7 +195,8 @@ class Robot:
         self._q_shape = (self._nq,)
         self._v_shape = (self._nv,)
         self.data = model.createData()
-        self.collision_data = without_cached_guess(collision_model.createData())
+        self.collision_data = collision_model.createData()
+        self._guess_reset: Any = None  # the collision data whose cached GJK guess is off
         self._version = next(_ROBOT_VERSIONS)
         self._setup_joint_structure()
         self._setup_actuation_limits(passive_joints)
@@ -1101,7 +1102,7 @@ class Robot:
         for rid in range(self._robot_geometry_count):
             if self.collision_model.geometryObjects[rid].parentJoint != 0:
                 self.collision_model.addCollisionPair(pin.CollisionPair(rid, gid))
-        self.collision_data = without_cached_guess(self.collision_model.createData())
+        self.collision_data = self.collision_model.createData()
 
     def add_obstacles(self, obstacles: Iterable[Obstacle]) -> None:
         """Add several obstacles."""
@@ -1112,7 +1113,7 @@ class Robot:
         """Remove the obstacle ``name`` (raises UnknownNameError listing the obstacles)."""
         obstacle = self.world.remove(name)
         self.collision_model.removeGeometryObject(name)
-        self.collision_data = without_cached_guess(self.collision_model.createData())
+        self.collision_data = self.collision_model.createData()
         return obstacle
 
     def clear_obstacles(self) -> None:
@@ -1120,7 +1121,7 @@ class Robot:
         for obstacle in list(self.world):
             self.collision_model.removeGeometryObject(obstacle.name)
             self.world.remove(obstacle.name)
-        self.collision_data = without_cached_guess(self.collision_model.createData())
+        self.collision_data = self.collision_model.createData()
 
     @property
     def collision_pairs(self) -> list[tuple[str, str]]:
@@ -1130,23 +1131,35 @@ class Robot:
             (objs[p.first].name, objs[p.second].name) for p in self.collision_model.collisionPairs
         ]
 
+    def _queried_collision_data(self) -> Any:
+        """``collision_data`` with the cached GJK guess off (once per data, ~0.5 ms).
+
+        Pinocchio's default requests can report a real penetration free after a query of the
+        same pair at another configuration (see ``taskspace.model.collision_requests``); done
+        here rather than at each world change so that adding obstacles stays cheap.
+        """
+        data = self.collision_data
+        if self._guess_reset is not data:
+            self._guess_reset = without_cached_guess(data)
+        return data
+
     def is_collision_free(self, q: Any) -> bool:
         """True if no checked pair (self or world) collides at ``q``; stops at the first hit."""
         qa = self.check_configuration(q)
+        data = self._queried_collision_data()
         return not pin.computeCollisions(
-            self.model, self.data, self.collision_model, self.collision_data, qa, True
+            self.model, self.data, self.collision_model, data, qa, True
         )
 
     def colliding_pairs(self, q: Any) -> list[tuple[str, str]]:
         """Names of all colliding pairs at ``q``."""
         qa = self.check_configuration(q)
-        pin.computeCollisions(
-            self.model, self.data, self.collision_model, self.collision_data, qa, False
-        )
+        data = self._queried_collision_data()
+        pin.computeCollisions(self.model, self.data, self.collision_model, data, qa, False)
         objs = self.collision_model.geometryObjects
         out = []
         for k, pair in enumerate(self.collision_model.collisionPairs):
-            if self.collision_data.collisionResults[k].isCollision():
+            if data.collisionResults[k].isCollision():
                 out.append((objs[pair.first].name, objs[pair.second].name))
         return out
 
@@ -1332,7 +1345,7 @@ def prune_collision_pairs(
         always = candidates
     for first, second in default + always:
         collision.removeCollisionPair(pin.CollisionPair(first, second))
-    robot.collision_data = without_cached_guess(collision.createData())
+    robot.collision_data = collision.createData()
     result = PrunedCollisionPairs(
         adjacent=tuple(adjacent),
         default_posture=tuple(_pair_names(collision, a, b) for a, b in default),
