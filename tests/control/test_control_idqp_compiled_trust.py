@@ -161,6 +161,36 @@ def test_float32_and_int_states_match_float64() -> None:
     _check_step(compiled, python, robot.state(robot.q_default, np.zeros(robot.nv, dtype=int)))
 
 
+def test_contact_reference_is_validated() -> None:
+    """Before: ``contact.reference = np.zeros(3)`` gave a bare Boost TypeError (compiled) or
+    AttributeError (Python path) at the next step; a scaled "rotation" (2 I) was used by both
+    paths (log6 of a non-rotation, SOLVED); ``set_reference`` with a state of another robot
+    anchored the contact at that robot's frame of the same index, silently."""
+    robot = _fresh_g1()
+    tasks, contacts = _g1_standing(robot)
+    compiled, python = _pair(robot, tasks, contacts)
+    foot = contacts[0]
+    foot.kp = 10.0
+    state = _random_state(robot, np.random.default_rng(2))
+    good = state.frame_placement(foot.frame_id)
+    bad_rotation = pin.SE3(2.0 * np.eye(3), np.zeros(3))
+    nan = pin.SE3(np.eye(3), np.array([np.nan, 0.0, 0.0]))
+    for value in (np.zeros(3), "floor", bad_rotation, nan):
+        with pytest.raises(InvalidInputError, match="reference of contact"):
+            foot.reference = value
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        solo = Robot.load("solo12", geometry=False)
+    with pytest.raises(InvalidInputError, match="set_reference needs a state of that robot"):
+        foot.set_reference(solo.state(solo.q_default))
+    assert foot.reference is None
+    foot.reference = good  # a copy is kept
+    good.translation[0] += 1.0
+    assert foot.reference is not None and foot.reference.translation[0] != good.translation[0]
+    foot.set_reference(robot.state(robot.q_default))
+    _check_step(compiled, python, state)
+
+
 @pytest.mark.parametrize("horizon", [1e-300, 1e-160, 1e-7, 1e300])
 def test_limits_horizon_out_of_range_is_refused(horizon: float) -> None:
     """Before: 1e-300 gave a bare ZeroDivisionError building the controller; 1e-160 (2 / T^2 = inf)

@@ -43,6 +43,24 @@ _FIXED = frozenset(
 """Contact attributes that cannot change after construction (see ``Contact.__setattr__``)."""
 
 
+def _check_reference(frame: str, value: object) -> pin.SE3:
+    """A contact reference: a ``pin.SE3`` with a finite translation and a rotation matrix."""
+    if not isinstance(value, pin.SE3):
+        raise InvalidInputError(
+            f"reference of contact '{frame}' must be a pinocchio.SE3 or None (or use "
+            f"set_reference(state)), got {type(value).__name__}"
+        )
+    R, p = np.asarray(value.rotation), np.asarray(value.translation)
+    if not (np.all(np.isfinite(R)) and np.all(np.isfinite(p))):
+        raise InvalidInputError(f"reference of contact '{frame}' has non-finite entries")
+    if np.abs(R.T @ R - np.eye(3)).max() > 1e-6 or np.linalg.det(R) < 0:
+        raise InvalidInputError(
+            f"reference of contact '{frame}': its rotation is not a rotation matrix "
+            f"(R^T R != I or det R < 0)"
+        )
+    return value.copy()
+
+
 class Contact:
     """Base class of rigid contacts (see the module docstring).
 
@@ -91,6 +109,8 @@ class Contact:
         """Validate the gains (finite, ``>= 0``); the cone's parameters are fixed once set."""
         if name in ("kp", "kd"):
             value = check_positive(value, f"{name} of contact '{self.frame}'", strict=False)
+        elif name == "reference" and value is not None:
+            value = _check_reference(self.frame, value)
         elif name in _FIXED and name in self.__dict__:
             raise InvalidInputError(
                 f"contact '{self.frame}': {name} is fixed at construction (the friction cone "
@@ -101,6 +121,13 @@ class Contact:
 
     def set_reference(self, state: State) -> None:
         """Anchor the contact where the frame is now (the Baumgarte position reference)."""
+        robot = getattr(state, "robot", None)
+        if robot is not self.robot:
+            raise InvalidInputError(
+                f"contact '{self.frame}' is defined on robot '{self.robot.name}'; "
+                f"set_reference needs a state of that robot (robot.state(q)), got "
+                f"{type(state).__name__} of {getattr(robot, 'name', robot)!r}"
+            )
         self.reference = state.frame_placement(self.frame_id).copy()
 
     def jacobian(self, state: State) -> FloatArray:
