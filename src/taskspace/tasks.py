@@ -170,13 +170,8 @@ class Task:
 
     def set_reference(self, velocity: Any = None, acceleration: Any = None) -> None:
         """Feed-forward velocity and acceleration of the target (tangent, size dim)."""
-        d = self.feature.dim
-        self.reference_velocity = (
-            None if velocity is None else as_vector(velocity, d, "reference velocity")
-        )
-        self.reference_acceleration = (
-            None if acceleration is None else as_vector(acceleration, d, "reference acceleration")
-        )
+        self.reference_velocity = velocity  # validated by __setattr__ (_SETTERS)
+        self.reference_acceleration = acceleration
 
     def acceleration_rows(self, state: State) -> TaskRows:
         """Weighted rows ``(sqrt(rho) J, sqrt(rho)(y''* - Jdot v))`` of ``J a ~ y''* - Jdot v``.
@@ -289,6 +284,18 @@ def _check_lm_damping(task: Task, value: Any) -> float:
     return check_positive(value, f"lm_damping of task '{_label(task)}'", strict=False)
 
 
+def _check_reference_velocity(task: Task, value: Any) -> FloatArray | None:
+    if value is None:
+        return None
+    return as_vector(value, task.feature.dim, f"reference velocity of task '{_label(task)}'")
+
+
+def _check_reference_acceleration(task: Task, value: Any) -> FloatArray | None:
+    if value is None:
+        return None
+    return as_vector(value, task.feature.dim, f"reference acceleration of task '{_label(task)}'")
+
+
 def _check_feature(task: Task, value: Any) -> Any:
     if "feature" in task.__dict__:
         # solvers and compiled kernels derive rows (sizes, frames) from it at construction
@@ -301,6 +308,8 @@ def _check_feature(task: Task, value: Any) -> Any:
 
 _SETTERS: dict[str, Callable[[Task, Any], Any]] = {
     "feature": _check_feature,
+    "reference_velocity": _check_reference_velocity,
+    "reference_acceleration": _check_reference_acceleration,
     "lm_damping": _check_lm_damping,
     "sqrt_weight": _check_sqrt_weight,
     "gain": _check_gain,

@@ -20,7 +20,7 @@ from taskspace import features as F
 from taskspace._native import idqp_kernel
 from taskspace.constraints import Contact, Contact6D, PointContact
 from taskspace.control.inverse_dynamics_qp import InverseDynamicsOptions, InverseDynamicsQP
-from taskspace.errors import InvalidInputError, TaskspaceError
+from taskspace.errors import InvalidInputError, ShapeError, TaskspaceError
 from taskspace.model import Robot, State
 from taskspace.tasks import Task
 from tests.control.test_control_all_legged_stand import LEGGED, _standing_posture, _with_flat_soles
@@ -189,6 +189,35 @@ def test_contact_reference_is_validated() -> None:
     assert foot.reference is not None and foot.reference.translation[0] != good.translation[0]
     foot.set_reference(robot.state(robot.q_default))
     _check_step(compiled, python, state)
+
+
+def test_pose_target_and_task_references_are_validated() -> None:
+    """Before: ``FramePose`` accepted a ``pin.SE3`` whose "rotation" is 2 I (both paths then
+    SOLVED a log6 of a non-rotation) or NaN (caught only as a non-finite QP);
+    ``task.reference_velocity = np.zeros(5)`` on a 3-D task gave a bare numpy broadcast
+    ValueError at the next step, a list was taken as is."""
+    robot = _fresh_g1()
+    tasks, contacts = _g1_standing(robot)
+    compiled, python = _pair(robot, tasks, contacts)
+    com, hand = tasks[0], tasks[1]
+    target = hand.target.copy()
+    for bad in (
+        pin.SE3(2.0 * np.eye(3), target.translation),
+        pin.SE3(np.eye(3), np.array([np.nan, 0.0, 0.0])),
+        pin.SE3(np.diag([1.0, 1.0, -1.0]), target.translation),  # a reflection
+    ):
+        with pytest.raises(InvalidInputError, match="target of feature"):
+            hand.set_target(bad)
+    assert hand.target == target
+    with pytest.raises(ShapeError):
+        com.reference_velocity = np.zeros(5)
+    with pytest.raises(TaskspaceError, match="reference acceleration"):
+        com.reference_acceleration = [np.nan, 0.0, 0.0]
+    assert com.reference_velocity is None and com.reference_acceleration is None
+    com.reference_acceleration = [0.1, 0.0, -0.2]  # converted to a float vector
+    assert isinstance(com.reference_acceleration, np.ndarray)
+    com.set_reference([0.0, 0.05, 0.0], None)
+    _check_step(compiled, python, _random_state(robot, np.random.default_rng(8)))
 
 
 @pytest.mark.parametrize("horizon", [1e-300, 1e-160, 1e-7, 1e300])

@@ -33,15 +33,14 @@ def as_se3(pose: Any, name: str = "pose") -> pin.SE3:
         name: argument name used in error messages.
     """
     if isinstance(pose, pin.SE3):
+        # a pin.SE3 holds any 3x3 block and NaN: checked as a 4x4 matrix is (a scaled or
+        # NaN "rotation" gave a log6 of a non-rotation, reported as a solved step)
+        _check_homogeneous(pose.homogeneous, name)
         return pose.copy()
     arr = as_float_array(pose, name)  # refuses None, text, complex values, ragged nesting
     if arr.shape == (4, 4):
-        if not np.all(np.isfinite(arr)):
-            raise InvalidInputError(f"{name} has non-finite entries")
-        rot = arr[:3, :3]
-        if not np.allclose(rot.T @ rot, np.eye(3), atol=1e-6) or np.linalg.det(rot) < 0:
-            raise InvalidInputError(f"{name} rotation block is not a rotation matrix")
-        return pin.SE3(rot, arr[:3, 3])
+        _check_homogeneous(arr, name)
+        return pin.SE3(arr[:3, :3], arr[:3, 3])
     if arr.shape == (3,):
         return pin.SE3(np.eye(3), as_vector(arr, 3, name))
     if arr.shape == (7,):
@@ -57,6 +56,17 @@ def as_se3(pose: Any, name: str = "pose") -> pin.SE3:
         f"{name} must be a pin.SE3, a 4x4 matrix, [x, y, z] or [x, y, z, qx, qy, qz, qw]; "
         f"got an array of shape {arr.shape}"
     )
+
+
+def _check_homogeneous(arr: np.ndarray, name: str) -> None:
+    if not np.isfinite(arr[:3]).all():
+        raise InvalidInputError(f"{name} has non-finite entries")
+    rot = arr[:3, :3]
+    if np.abs(rot.T @ rot - _EYE3).max() > 1e-6 or np.linalg.det(rot) < 0:
+        raise InvalidInputError(f"{name} rotation block is not a rotation matrix")
+
+
+_EYE3 = np.eye(3)
 
 
 @dataclass(frozen=True)
