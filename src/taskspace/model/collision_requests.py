@@ -4,9 +4,13 @@ Pinocchio's ``GeometryData`` requests keep coal's cached GJK guess: each pair's 
 starts from the support directions of its previous call. When that call was at a far
 configuration, coal can answer "free" for a real penetration (MotionBenchMaker
 bookshelf_small problem 1: ``panda_link5`` 1.3 cm inside ``shelf_bottom`` reported free after a
-call of that pair at another configuration). Every ``GeometryData`` taskspace queries goes
-through :func:`without_cached_guess`, so each query starts from coal's default guess and its
-answer does not depend on earlier calls.
+call of that pair at another configuration). The ``GeometryData`` of ``Robot``'s queries, of
+``State``'s distances, of ``CollisionChecker`` (its data and pools) and of ``certify_path``
+go through :func:`without_cached_guess` (lazily, at their first query: it costs about 0.5 ms
+for 156 pairs), so each query starts from coal's default guess and its answer does not
+depend on earlier calls. The compiled planning kernel does the same on its own copy. Not
+covered: the compiled IK kernel's distance data (distances only; with the cached guess they
+differed from a tight-tolerance reference by at most 0.05-0.11 mm in our measurements).
 """
 
 from __future__ import annotations
