@@ -70,6 +70,7 @@ def _walk(mpc: ZmpMpc, ref, polys, x0=None):
     x_prev, u = x.copy(), np.zeros(2)
     solver = QPSolver(mpc.options.qp)
     zmp = np.empty((T, 2))
+    statuses = []
     cond = np.linalg.cond(mpc._H)
     for k in range(T):
         xt = np.vstack([c @ x - ref[k], x - x_prev])
@@ -77,6 +78,7 @@ def _walk(mpc: ZmpMpc, ref, polys, x0=None):
         old = _reference_build(mpc, xt, padded[k : k + N + 1], window)
         _assert_same(mpc.build(xt, padded[k : k + N + 1], window), old)
         sol = solver.solve(old)
+        statuses.append(sol.status)
         # the same (cold) solver on the new and the reference data: H's condition number
         # (4e7 here) turns the 1e-16 rounding differences of g into ~1e-10 in du, so du is
         # compared at that bound and the predicted ZMP it gives (E du) to 1e-10
@@ -92,6 +94,7 @@ def _walk(mpc: ZmpMpc, ref, polys, x0=None):
         x_prev = x
         x = A @ x + np.outer(B, u)
     np.testing.assert_allclose(res.trajectory.zmp, zmp, rtol=0, atol=1e-9)
+    assert res.statuses == statuses  # the unconstrained shortcut where QPSolver takes it
     return res
 
 

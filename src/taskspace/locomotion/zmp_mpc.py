@@ -14,6 +14,11 @@ controllers agree; with active constraints the ZMP stays in the polygon where th
 controller would leave it. Both axes are solved together because the polygon couples them;
 the QP goes through :class:`~taskspace.qp.QPSolver` (its workspace is kept between steps:
 every polygon is padded to the same number of rows).
+
+Everything but the linear term and the polygon rows is built once (the condensed prediction,
+``H`` and its Cholesky factor); a step writes ``g``, ``C`` and ``u`` into reused buffers, and
+the unconstrained minimizer (from the kept factor) is taken without calling the QP solver when
+it satisfies the polygon rows, as the solver's own first try would.
 """
 
 from __future__ import annotations
@@ -23,6 +28,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from scipy.linalg.lapack import dpotrf, dpotrs
 
 from taskspace._validation import FloatArray, as_float_array
 from taskspace.errors import InvalidInputError, SolverError
@@ -130,6 +136,9 @@ class ZmpMpc:
         self._Fx = self._Phi[:, 0, :].copy()  # (N, 4)
         self._Fr = Psi[:, 0, :].copy()  # (N, N)
         self._solver = QPSolver(self.options.qp)
+        # Cholesky factor of the constant H for the unconstrained shortcut of simulate()
+        chol, info = dpotrf(self._H, lower=0)
+        self._chol: FloatArray | None = chol if info == 0 else None
         # id(polygon) -> (polygon, A, b, padded A, padded b); the polygon is kept so that its
         # id stays its own. Padded: (MAX_EDGES, 2) / (MAX_EDGES,), rows past the edges are
         # zero with b = +inf (an unbounded row).
@@ -224,6 +233,23 @@ class ZmpMpc:
         self._halfspace_cache[id(poly)] = entry
         return entry
 
+    def _unconstrained(self, problem: QPProblem) -> FloatArray | None:
+        """The unconstrained minimizer ``-H^-1 g`` if it satisfies the polygon rows.
+
+        :class:`~taskspace.qp.QPSolver`'s first try (``try_unconstrained``: LAPACK's ``dposv``,
+        i.e. ``dpotrf`` + ``dpotrs``) with the factor of the constant ``H`` kept: the same point,
+        without refactorizing ``H`` every step. ``None``: a row is violated by more than
+        ``feasibility_tolerance`` (or NaN), the QP solver decides.
+        """
+        x, info = dpotrs(self._chol, -problem.g, lower=0)
+        if info != 0:
+            return None
+        if problem.C.shape[0]:
+            violation = float(np.max(problem.C @ x - problem.u))
+            if not violation <= self.options.qp.feasibility_tolerance:
+                return None
+        return np.asarray(x)
+
     def simulate(
         self,
         reference: Any,
@@ -263,6 +289,7 @@ class ZmpMpc:
         Ah_all, bh_all = self._padded(polys) if polys and constrain else (None, None)
         problem: QPProblem | None = None
         xt = np.empty((4, 2))
+        shortcut = self.options.qp.try_unconstrained and self._chol is not None
         for k in range(T):
             states[k] = x
             np.subtract(c @ x, r[k], out=xt[0])
@@ -273,14 +300,19 @@ class ZmpMpc:
                 Ah, bh = Ah_all[k + 1 : k + N + 1], bh_all[k + 1 : k + N + 1]
                 problem = self._fill(xt, padded[k : k + N + 1], Ah, bh, problem)
             t0 = time.perf_counter()
-            res = self._solver.solve(problem)
+            sol = self._unconstrained(problem) if shortcut else None
+            if sol is None:
+                res = self._solver.solve(problem)
+                if not res.success:
+                    raise SolverError(f"ZMP MPC QP failed at step {k} ({res.status.value})")
+                sol, status = res.x, res.status
+            else:
+                status = QPStatus.UNCONSTRAINED
             times[k] = time.perf_counter() - t0
-            if not res.success:
-                raise SolverError(f"ZMP MPC QP failed at step {k} ({res.status.value})")
-            statuses.append(res.status)
-            if problem.C.shape[0] and np.any(problem.C @ res.x >= problem.u - 1e-7):
+            statuses.append(status)
+            if problem.C.shape[0] and np.any(problem.C @ sol >= problem.u - 1e-7):
                 active += 1
-            u = u + np.array([res.x[0], res.x[N]])
+            u = u + np.array([sol[0], sol[N]])
             jerk[k] = u
             x_prev = x
             x = A @ x + np.outer(B, u)
