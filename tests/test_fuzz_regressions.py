@@ -460,3 +460,19 @@ def test_spline_evaluate_refuses_a_ragged_time_list() -> None:
         spline.evaluate([[1], [2, 3]])
     # two waypoints: the straight line 2 t (natural end conditions), by hand
     assert spline.evaluate(0.5).tolist() == pytest.approx([1.0], abs=1e-12)
+
+
+def test_viewer_floor_line_count_is_bounded() -> None:
+    # before: add_floor((-1e6, -1e6, 1e6, 1e6)) built 8 million tube meshes per axis (hang);
+    # an automatic extent around a far marker did the same
+    pytest.importorskip("meshcat")
+    from taskspace.errors import InvalidInputError
+    from taskspace.viz import Viewer
+    from tests.conftest import load_robot
+
+    viewer = Viewer(load_robot("ur5"))
+    with pytest.raises(InvalidInputError, match="lines per axis"):
+        viewer.add_floor((-1e6, -1e6, 1e6, 1e6))
+    viewer.add_floor((-1.0, -1.0, 1.0, 1.0))  # 9 lines per axis at 0.25 m
+    viewer.add_points("far", [[1e6, 1e6, 0.0]])
+    viewer.add_floor()  # automatic extent: a coarser grid, not an error

@@ -52,6 +52,7 @@ DEFAULT_VIEW_DIRECTION = (1.0, 0.75, 0.55)
 """Direction from the target to the camera used by automatic framing (z up)."""
 
 _AXIS_COLORS = ((0.9, 0.1, 0.1, 1.0), (0.1, 0.75, 0.1, 1.0), (0.1, 0.25, 0.95, 1.0))
+_MAX_FLOOR_LINES = 1000  # grid lines per axis of add_floor (each a 4-sided tube mesh)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -644,6 +645,20 @@ class Viewer:
             x0, y0, x1, y1 = (float(e) for e in as_vector(extent, 4, "extent"))
             if not (x1 > x0 and y1 > y0):
                 raise InvalidInputError(f"extent must have x_max > x_min, y_max > y_min: {extent}")
+        span = max(x1 - x0, y1 - y0)
+        if not math.isfinite(span):
+            raise InvalidInputError(
+                f"the floor extent ({x0:g}, {y0:g}, {x1:g}, {y1:g}) is not finite: pass a finite "
+                "extent (the default follows the scene bounds)"
+            )
+        if span / step > _MAX_FLOOR_LINES:
+            # ~1e6 m at 0.25 m spacing was 8 million tubes per axis (the viewer hung)
+            if extent is not None:
+                raise InvalidInputError(
+                    f"a floor of extent {span:g} m with spacing {step:g} m has more than "
+                    f"{_MAX_FLOOR_LINES} lines per axis: pass a larger spacing or a smaller extent"
+                )
+            step = span / _MAX_FLOOR_LINES  # automatic extent (far markers): coarser grid
         xs = np.arange(x0, x1 + 0.5 * step, step)
         ys = np.arange(y0, y1 + 0.5 * step, step)
         segments = [((x, y0, 0.0), (x, y1, 0.0)) for x in xs]
