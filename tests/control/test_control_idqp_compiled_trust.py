@@ -82,7 +82,7 @@ def test_task_feature_is_fixed_after_construction() -> None:
     _check_step(compiled, python, _random_state(robot, np.random.default_rng(4)))
 
 
-@pytest.mark.parametrize("which", ["effort", "position", "velocity"])
+@pytest.mark.parametrize("which", ["effort", "unactuated", "position", "velocity"])
 def test_set_limits_after_construction_are_used(which: str) -> None:
     """``Robot.set_limits`` after the first step: the compiled step answers the QP of a
     controller built after the change (quadprog), never the old limits."""
@@ -96,6 +96,10 @@ def test_set_limits_after_construction_are_used(which: str) -> None:
     if which == "effort":
         effort = robot.effort_limits.copy()
         effort[6:] *= 0.3
+        robot.set_limits(effort=effort)
+    elif which == "unactuated":  # the wrist joints lose their motors: n_eq grows
+        effort = robot.effort_limits.copy()
+        effort[-3:] = 0.0
         robot.set_limits(effort=effort)
     elif which == "position":
         lo, up = robot.lower_limits.copy(), robot.upper_limits.copy()
@@ -116,6 +120,7 @@ def test_set_limits_after_construction_are_used(which: str) -> None:
     assert res.compiled
     np.testing.assert_allclose(res.qp.x, x_ref, atol=1e-6 * max(1.0, np.abs(x_ref).max()))
     _check_kkt(p, res.qp.x, res.qp.y, res.qp.z, res.qp.z_box)
+    assert np.all(res.tau[fresh.unactuated] == 0.0)
 
 
 def test_state_of_another_robot_is_refused() -> None:
