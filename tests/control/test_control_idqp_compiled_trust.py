@@ -329,7 +329,6 @@ def _legged_controllers(name: str) -> tuple[Robot, InverseDynamicsQP, InverseDyn
     return robot, compiled, python
 
 
-@pytest.mark.slow
 @pytest.mark.filterwarnings("ignore")
 @pytest.mark.parametrize("name", sorted(LEGGED))
 def test_every_legged_robot_compiled_equals_python_path(name: str) -> None:
