@@ -476,3 +476,18 @@ def test_viewer_floor_line_count_is_bounded() -> None:
     viewer.add_floor((-1.0, -1.0, 1.0, 1.0))  # 9 lines per axis at 0.25 m
     viewer.add_points("far", [[1e6, 1e6, 0.0]])
     viewer.add_floor()  # automatic extent: a coarser grid, not an error
+
+
+def test_angle_residual_refuses_non_finite_inputs() -> None:
+    # before: angle_residual(0)(nan, zeros(3)) returned [nan, nan, nan]
+    from taskspace.errors import NotFiniteError
+    from taskspace.estimation import angle_residual
+
+    residual = angle_residual(0)
+    with pytest.raises(NotFiniteError, match="a"):
+        residual(math.nan, np.zeros(3))
+    with pytest.raises(NotFiniteError, match="b"):
+        residual(np.zeros(3), np.array([0.0, math.inf, 0.0]))
+    # by hand: the angle 3 - (-3) = 6 wraps to 6 - 2 pi, the others are plain differences
+    out = residual(np.array([3.0, 1.0, 2.0]), np.array([-3.0, 0.5, 2.5]))
+    assert out.tolist() == pytest.approx([6.0 - 2 * math.pi, 0.5, -0.5], abs=1e-15)

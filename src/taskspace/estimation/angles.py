@@ -16,7 +16,7 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
-from taskspace._validation import FloatArray, as_float_array, check_int
+from taskspace._validation import FloatArray, as_float_array, check_finite, check_int
 from taskspace.errors import InvalidInputError
 from taskspace.estimation.motion_models import wrap_angle
 
@@ -52,7 +52,11 @@ def angle_residual(angular: int | Sequence[int]) -> ResidualFn:
     idx = _indices(angular, "angular")
 
     def residual(a: FloatArray, b: FloatArray) -> FloatArray:
-        d = np.subtract(as_float_array(a, "a"), as_float_array(b, "b"))
+        # NaN/inf inputs gave a NaN residual silently (angle_residual(0)(nan, zeros(3)))
+        a_arr, b_arr = as_float_array(a, "a"), as_float_array(b, "b")
+        check_finite(a_arr, "a")
+        check_finite(b_arr, "b")
+        d = np.subtract(a_arr, b_arr)
         if d.ndim != 1 or any(not -d.shape[0] <= i < d.shape[0] for i in idx):
             raise InvalidInputError(
                 f"angle_residual({idx}) got vectors of shape {d.shape}: the angle indices must "
