@@ -491,3 +491,18 @@ def test_angle_residual_refuses_non_finite_inputs() -> None:
     # by hand: the angle 3 - (-3) = 6 wraps to 6 - 2 pi, the others are plain differences
     out = residual(np.array([3.0, 1.0, 2.0]), np.array([-3.0, 0.5, 2.5]))
     assert out.tolist() == pytest.approx([6.0 - 2 * math.pi, 0.5, -0.5], abs=1e-15)
+
+
+def test_angle_mean_refuses_non_finite_inputs() -> None:
+    # before: a NaN point or weight gave a NaN mean
+    from taskspace.errors import NotFiniteError
+    from taskspace.estimation import angle_mean
+
+    mean = angle_mean(0)
+    with pytest.raises(NotFiniteError, match="points"):
+        mean(np.array([[math.nan, 0.0, 0.0]]), np.array([1.0]))
+    with pytest.raises(NotFiniteError, match="weights"):
+        mean(np.zeros((1, 3)), np.array([math.nan]))
+    # by hand: angles 3 and -3 average to pi (circular), the others arithmetically
+    out = mean(np.array([[3.0, 1.0, 0.0], [-3.0, 3.0, 2.0]]), np.array([0.5, 0.5]))
+    assert abs(abs(out[0]) - math.pi) < 1e-12 and out[1:].tolist() == [2.0, 1.0]

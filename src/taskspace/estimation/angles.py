@@ -96,6 +96,8 @@ def angle_mean(angular: int | Sequence[int]) -> MeanFn:
                 f"angle_mean({idx}) got points of dimension {X.shape[1]}: the angle indices must "
                 "be inside the vector"
             )
+        check_finite(X, "points")  # NaN points or weights gave a NaN mean silently
+        check_finite(w, "weights")
         out = w @ X
         out[idx] = np.arctan2(w @ np.sin(X[:, idx]), w @ np.cos(X[:, idx]))
         return np.asarray(out)
