@@ -506,3 +506,14 @@ def test_angle_mean_refuses_non_finite_inputs() -> None:
     # by hand: angles 3 and -3 average to pi (circular), the others arithmetically
     out = mean(np.array([[3.0, 1.0, 0.0], [-3.0, 3.0, 2.0]]), np.array([0.5, 0.5]))
     assert abs(abs(out[0]) - math.pi) < 1e-12 and out[1:].tolist() == [2.0, 1.0]
+
+
+def test_chi2_bounds_huge_dof() -> None:
+    # before: dof * num_runs = 2**64 (a Python int past int64) gave a bare TypeError in scipy
+    dof = num_runs = 2**32
+    lo, hi = chi2_bounds(dof, num_runs, 0.5)
+    # reference: chi2(k) ~ N(k, 2k) for huge k; z_0.75 = 0.6744897501960817
+    k = float(dof * num_runs)
+    half = 0.6744897501960817 * math.sqrt(2.0 * k)
+    assert lo * num_runs == pytest.approx(k - half, rel=1e-15, abs=1e3)
+    assert hi * num_runs == pytest.approx(k + half, rel=1e-15, abs=1e3)

@@ -60,7 +60,7 @@ def chi2_bounds(dof: int, num_runs: int = 1, confidence: float = 0.95) -> tuple[
         raise InvalidInputError(
             f"need dof >= 1, num_runs >= 1, 0 < confidence < 1; got {dof}, {num_runs}, {confidence}"
         )
-    k = dof * num_runs
+    k = float(dof * num_runs)  # a Python int past int64 (2**32 * 2**32) gave a bare TypeError
     lo = float(scipy.stats.chi2.ppf(0.5 * (1.0 - confidence), k)) / num_runs
     hi = float(scipy.stats.chi2.ppf(0.5 * (1.0 + confidence), k)) / num_runs
     return lo, hi
