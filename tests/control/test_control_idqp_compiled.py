@@ -336,3 +336,28 @@ def test_uncertified_steps_take_the_python_path() -> None:
     res = ctrl.solve(_random_state(robot, np.random.default_rng(7)))
     assert not res.compiled
     assert res.qp is not None and not res.qp.backend.startswith("compiled")
+
+
+def test_reset_forgets_warm_starts() -> None:
+    # A step whose solve depends on the previous step's active set (a lowered force limit
+    # binds): after reset() the same states give a fresh controller's results bit for bit.
+    robot = load_robot("g1")
+    tasks, _ = _g1_standing(robot)
+    contacts = [
+        Contact6D(robot, f, half_length=0.1, half_width=0.03, max_force=1000.0) for f in G1_FEET
+    ]
+    contacts[0].set_normal_force_limit(40.0)
+    try:
+        rng = np.random.default_rng(5)
+        states = [_random_state(robot, rng) for _ in range(6)]
+        fresh = InverseDynamicsQP(robot, tasks, contacts)
+        first = [fresh.solve(s).tau.copy() for s in states]
+        used = InverseDynamicsQP(robot, tasks, contacts)
+        for s in reversed(states):  # other warm starts
+            used.solve(s)
+        used.reset()
+        again = [used.solve(s).tau.copy() for s in states]
+        for a, b in zip(first, again):
+            np.testing.assert_array_equal(a, b)
+    finally:
+        contacts[0].set_normal_force_limit(None)

@@ -621,6 +621,25 @@ class InverseDynamicsQP:
             np.subtract(self._effort, h_act, out=u[n_cone:])
         return C, l, u, self._in_blocks
 
+    def reset(self) -> None:
+        """Forget what the solvers keep between steps (warm starts, active sets).
+
+        The next step then solves as the first one did: the same states give the same
+        results, bit for bit (an episode of a Gymnasium env after ``reset(seed=...)``).
+        """
+        self._acquire()
+        try:
+            self._solver = QPSolver(self.options.solver)
+            self._hierarchy = HierarchySolver(
+                HierarchyOptions(solver=self.options.solver)
+                if self.options.solver_for_hierarchy
+                else None
+            )
+            if self._native is not None:
+                self._native = NativeInverseDynamics(self)
+        finally:
+            self._release()
+
     # ------------------------------------------------------------------ solve
     def solve(self, state: State) -> InverseDynamicsResult:
         """One control step: accelerations, contact forces and torques at ``state``."""

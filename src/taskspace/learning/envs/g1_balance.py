@@ -129,6 +129,7 @@ class G1BalanceEnv(gym.Env[np.ndarray, np.ndarray]):
         """
         super().reset(seed=seed)
         self._follower.sync()
+        self.controller.reset()  # no warm start carried over: episodes are reproducible
         self.q = self.robot.q_default.copy()
         self.v = np.zeros(self.robot.nv)
         # The free-flyer velocity is in the base frame (upright at the default posture).
