@@ -517,3 +517,26 @@ def test_chi2_bounds_huge_dof() -> None:
     half = 0.6744897501960817 * math.sqrt(2.0 * k)
     assert lo * num_runs == pytest.approx(k - half, rel=1e-15, abs=1e3)
     assert hi * num_runs == pytest.approx(k + half, rel=1e-15, abs=1e3)
+
+
+def test_dubins_straight_segment_exact_when_start_and_goal_nearly_coincide() -> None:
+    # (0,0,0) -> (0, y, 0): L(pi/2) S(p) L(3 pi/2) ends at (0, p): p = y exactly (circles of
+    # unit radius). The expanded p^2 = 2 + d^2 - 2 cos(a-b) + 2 d (sa - sb) cancelled to a
+    # straight of 4.09e-8 for y = 1e-10 (found by test_invariances_and_bounds, seed 3).
+    from taskspace.planning.dubins import (
+        dubins_shortest,
+        dubins_shortest_numpy,
+        dubins_word_lengths,
+    )
+
+    for y in (1e-10, 1e-12, 3e-9):
+        lengths, valid = dubins_word_lengths(np.array([0.0]), np.array([y]), np.array([0.0]))
+        assert valid[0, 0] and valid[1, 0]
+        assert abs(lengths[0, 0, 1] - y) <= 1e-16 and abs(lengths[1, 0, 1] - y) <= 1e-16
+        # the compiled kernel computes the same straight segment
+        for theta in (0.0, 1.0, -2.5):
+            c, s = np.cos(theta), np.sin(theta)
+            goal = (-s * y, c * y, theta)
+            native = dubins_shortest((0.0, 0.0, theta), goal, 1.0).length
+            reference = dubins_shortest_numpy((0.0, 0.0, theta), goal, 1.0).length
+            assert native == pytest.approx(reference, rel=0, abs=1e-12)

@@ -237,8 +237,12 @@ int dubins_best(double x, double y, double phi, DubinsWords* w, double* total,
   for (int i = 0; i < 4; ++i) {
     exists[i] = p2[i] >= -1e-12;
     p[i] = exists[i] ? std::sqrt(std::max(p2[i], 0.0)) : 0.0;
-    bound[i] = p[i] + turn[i];
   }
+  // LSL and RSR: p2 is the sum of two squares; the norm keeps the straight segment exact when
+  // start and goal nearly coincide (the expanded sum cancels: 4e-8 for a true 1e-10)
+  p[0] = norm2(d + sa - sb, cb - ca);
+  p[1] = norm2(d - sa + sb, ca - cb);
+  for (int i = 0; i < 4; ++i) bound[i] = p[i] + turn[i];
   const double c[2] = {(6.0 - d * d + 2.0 * cab + 2.0 * d * (sa - sb)) / 8.0,   // RLR
                        (6.0 - d * d + 2.0 * cab + 2.0 * d * (sb - sa)) / 8.0};  // LRL
   for (int i = 4; i < 6; ++i) {

@@ -120,12 +120,16 @@ def dubins_word_lengths(x: Any, y: Any, phi: Any) -> tuple[FloatArray, BoolArray
         # LSL
         p2 = 2.0 + d * d - 2.0 * cab + 2.0 * d * (sa - sb)
         tmp = np.arctan2(cb - ca, d + sa - sb)
-        out[0] = np.stack([_mod2pi(-a + tmp), np.sqrt(np.maximum(p2, 0.0)), _mod2pi(b - tmp)], -1)
+        # p2 is a sum of two squares: their norm stays exact where start and goal nearly
+        # coincide (the expanded sum cancels to 4e-8 for a true 1e-10)
+        p = np.hypot(d + sa - sb, cb - ca)
+        out[0] = np.stack([_mod2pi(-a + tmp), p, _mod2pi(b - tmp)], -1)
         valid[0] = p2 >= -1e-12
         # RSR
         p2 = 2.0 + d * d - 2.0 * cab + 2.0 * d * (sb - sa)
         tmp = np.arctan2(ca - cb, d - sa + sb)
-        out[1] = np.stack([_mod2pi(a - tmp), np.sqrt(np.maximum(p2, 0.0)), _mod2pi(-b + tmp)], -1)
+        p = np.hypot(d - sa + sb, ca - cb)
+        out[1] = np.stack([_mod2pi(a - tmp), p, _mod2pi(-b + tmp)], -1)
         valid[1] = p2 >= -1e-12
         # LSR
         p2 = -2.0 + d * d + 2.0 * cab + 2.0 * d * (sa + sb)
