@@ -26,7 +26,7 @@ wheel=$(ls "$work"/dist/taskspace-*.whl)
 import sys, zipfile
 names = zipfile.ZipFile(sys.argv[1]).namelist()
 kernels = [n for n in names if n.startswith("taskspace/_native/_") and n.endswith(".so")]
-assert len(kernels) == 2 and "taskspace/_native/_build_info.json" in names, names
+assert len(kernels) == 3 and "taskspace/_native/_build_info.json" in names, names
 assert not [n for n in names if n.endswith((".cpp", "build.py"))], "C++ sources in the wheel"
 assert "taskspace/examples/demo_main.py" in names, "examples/ missing from the wheel"
 assert not [n for n in names if "__pycache__" in n], "bytecode caches in the wheel"
