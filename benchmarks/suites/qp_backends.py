@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import copy
 import time
+from collections.abc import Callable
 from dataclasses import replace
 from typing import Any
 
@@ -150,31 +151,14 @@ def run_backend(
     # one solver per QP structure: the cascade keeps one per level, and its levels differ in
     # size (with one solver for all, every level would rebuild the workspace of the last)
     solvers: dict[tuple[int, int, int], QPSolver] = {}
-    times = np.empty(len(problems))
-    solved = 0
-    primal = dual = gap = 0.0
-    statuses: dict[str, int] = {}
-    for i, p in enumerate(problems):
+
+    def solve(p: QPProblem) -> Any:
         solver = solvers.get(p.structure())
         if solver is None:
             solver = solvers[p.structure()] = QPSolver(bare)
-        t0 = time.perf_counter()
-        r = solver.solve(p)
-        times[i] = time.perf_counter() - t0
-        solved += r.status is QPStatus.SOLVED
-        statuses[r.status.value] = statuses.get(r.status.value, 0) + 1
-        if np.isfinite(r.kkt.primal):
-            primal = max(primal, r.kkt.primal)
-            dual = max(dual, r.kkt.dual)
-            gap = max(gap, r.kkt.duality_gap)
-    return {
-        "times": times,
-        "success": f"{solved}/{len(problems)}",
-        "primal": primal,
-        "dual": dual,
-        "gap": gap,
-        "statuses": statuses,
-    }
+        return solver.solve(p)
+
+    return _run_set(problems, solve, with_backend=False)
 
 
 def run_cascade_pipeline(problems: list[QPProblem]) -> dict[str, Any]:
@@ -186,21 +170,31 @@ def run_cascade_pipeline(problems: list[QPProblem]) -> dict[str, Any]:
         CASCADE_SOLVER_OPTIONS, fallbacks=(), relax_on_failure=False, try_unconstrained=False
     )
     solvers: dict[tuple[int, int, int], tuple[QPSolver, QPSolver]] = {}
+
+    def solve(p: QPProblem) -> Any:
+        pair = solvers.get(p.structure())
+        if pair is None:
+            pair = solvers[p.structure()] = (QPSolver(exact), QPSolver(main))
+        r = pair[0].solve(p)
+        return r if r.success else pair[1].solve(p)
+
+    return _run_set(problems, solve, with_backend=True)
+
+
+def _run_set(
+    problems: list[QPProblem], solve: Callable[[QPProblem], Any], with_backend: bool
+) -> dict[str, Any]:
+    """Time ``solve`` on each QP of the set; success count, largest KKT residuals, statuses."""
     times = np.empty(len(problems))
     solved = 0
     primal = dual = gap = 0.0
     statuses: dict[str, int] = {}
     for i, p in enumerate(problems):
-        pair = solvers.get(p.structure())
-        if pair is None:
-            pair = solvers[p.structure()] = (QPSolver(exact), QPSolver(main))
         t0 = time.perf_counter()
-        r = pair[0].solve(p)
-        if not r.success:
-            r = pair[1].solve(p)
+        r = solve(p)
         times[i] = time.perf_counter() - t0
         solved += r.status is QPStatus.SOLVED
-        key = f"{r.status.value} {r.backend}"
+        key = f"{r.status.value} {r.backend}" if with_backend else r.status.value
         statuses[key] = statuses.get(key, 0) + 1
         if np.isfinite(r.kkt.primal):
             primal = max(primal, r.kkt.primal)
