@@ -54,7 +54,7 @@ def _kernel(robot: Robot) -> tuple[Any, dict[str, Any]]:
 
 
 def _solve(kernel: Any, a: dict[str, Any]) -> Any:
-    return kernel.solve(
+    return kernel.solve_boxes(
         a["model"],
         a["data"],
         a["q"],

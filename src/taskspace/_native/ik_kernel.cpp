@@ -978,6 +978,6 @@ BOOST_PYTHON_MODULE(_ik_kernel) {
       .def("damper_rows", &WeightedIKKernel::damper_rows)
       .def("residuals", &WeightedIKKernel::residuals)
       .def("multipliers", &WeightedIKKernel::multipliers)
-      .def("solve", &WeightedIKKernel::solve_boxes)
+      .def("solve_boxes", &WeightedIKKernel::solve_boxes)
       .def("solve", &WeightedIKKernel::solve);
 }

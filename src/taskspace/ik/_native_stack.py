@@ -151,9 +151,12 @@ class NativeWeightedStack:
         self._declare = [c.compiled_constraint for c in self._rows]
         self._declared: list[CompiledConstraint | None] = []
         self._world_version = -1
-        self._geometry: tuple[Any, Any] = (None, None)
+        self._geometry: tuple[Any, ...] = ()
         kernel.set_tolerances(*tolerances)
-        self._kernel_solve = kernel.solve
+        # without rows: the entry point without the collision arguments (fewer conversions)
+        self._kernel_solve = kernel.solve if self._rows else kernel.solve_boxes
+        self.has_rows = bool(self._rows)
+        """Whether the kernel evaluates inequality rows (its solves carry KKT residuals)."""
         self._max_iterations = module.MAX_ITERATIONS
 
     def _send_position_limits(self) -> None:
@@ -209,7 +212,7 @@ class NativeWeightedStack:
             self._scale()
         if self._position_limits is not None:
             self._position_limits.sync()
-        if self._rows:
+        if self.has_rows:
             self._sync_rows()
         hard, soft = self._hard, self._soft
         try:
@@ -223,7 +226,7 @@ class NativeWeightedStack:
                 damping,
                 out,
                 MAX_ACTIVE_SET_ITERATIONS,
-                *self._geometry,
+                *self._geometry,  # () without rows
             )
         except (TypeError, ValueError, RuntimeError):
             for t in self.tasks:
@@ -232,11 +235,6 @@ class NativeWeightedStack:
         if status == self._max_iterations:
             return None
         return status, iterations, objective, t_build, t_qp
-
-    @property
-    def has_rows(self) -> bool:
-        """Whether the kernel evaluates inequality rows (its solves carry KKT residuals)."""
-        return bool(self._rows)
 
     def residuals(self) -> KKTResiduals:
         """KKT residuals of the last solve with rows (the kernel's, see ``taskspace.qp.kkt``)."""
