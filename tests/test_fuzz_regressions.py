@@ -361,6 +361,26 @@ def test_continuous_white_noise_large_dim_matches_exact_rationals() -> None:
     assert Q[299, 119] > 0.0  # dt^181 / 180! = 1.6e-274: was lost to underflow
 
 
+@pytest.mark.parametrize("block_size", [1, 2])
+def test_white_noise_memory_stays_near_its_result(block_size: int) -> None:
+    # before: a second d x d array for the denominators and np.kron(I_1, Q1) copying the
+    # result: the peak was 2x the result for one axis (1.6 GB at the cap dim 10000)
+    import tracemalloc
+
+    from taskspace.estimation.process_noise import discrete_white_noise
+
+    for make in (continuous_white_noise, discrete_white_noise):
+        tracemalloc.start()
+        try:
+            Q = make(1200 // block_size, 0.01, 1.0, block_size)
+            peak = tracemalloc.get_traced_memory()[1]
+        finally:
+            tracemalloc.stop()
+        assert Q.shape == (1200, 1200) and np.isfinite(Q).all()
+        # one axis: the result and a block of 256 rows; several: the result and Q1
+        assert peak <= 1.3 * Q.nbytes, (make.__name__, peak / Q.nbytes)
+
+
 @pytest.mark.parametrize(
     ("profile", "args"),
     [("TrapezoidalProfile", (2.2250738585e-313,)), ("SCurveProfile", (1e-200, 2e-200))],

@@ -29,12 +29,15 @@ from taskspace.errors import InvalidInputError
 
 
 def _arrange(Q1: FloatArray, block_size: int, order_by_dim: bool) -> FloatArray:
+    if block_size == 1:  # ``np.kron`` with I_1 would copy Q1 (twice its memory at the cap)
+        return Q1
     eye = np.eye(block_size)
     return np.asarray(np.kron(eye, Q1) if order_by_dim else np.kron(Q1, eye), dtype=np.float64)
 
 
 def _finite(Q1: FloatArray, dt: float) -> FloatArray:
-    if not np.isfinite(Q1).all():
+    # NaN propagates through min and max: no boolean array of the size of Q1
+    if not (math.isfinite(Q1.max()) and math.isfinite(Q1.min())):
         raise InvalidInputError(
             f"the process noise overflows for dt = {dt!r} and this variance: use a smaller dt "
             "(or other time units)"
@@ -122,7 +125,8 @@ def continuous_white_noise(
         Q1 = la[:, None] + la[None, :]
         np.exp(Q1, out=Q1)
         Q1 *= q * h
-        Q1 /= k[:, None] + k[None, :] + 1.0
+        for r in range(0, d, 256):  # in row blocks: no second d x d array
+            Q1[r : r + 256] /= k[r : r + 256, None] + k[None, :] + 1.0
     return _arrange(_finite(Q1, dt), b, bool(order_by_dim))
 
 
