@@ -560,3 +560,34 @@ def test_dubins_straight_segment_exact_when_start_and_goal_nearly_coincide() -> 
             native = dubins_shortest((0.0, 0.0, theta), goal, 1.0).length
             reference = dubins_shortest_numpy((0.0, 0.0, theta), goal, 1.0).length
             assert native == pytest.approx(reference, rel=0, abs=1e-12)
+
+
+def test_private_task_target_is_validated_like_set_target() -> None:
+    # before: ``task._target = np.eye(4)`` made the compiled IK step fail with a bare Boost
+    # TypeError and the Python path with an AttributeError ('numpy.ndarray' ... 'actInv')
+    import pinocchio as pin
+
+    from taskspace import features as F
+    from taskspace.errors import InvalidInputError
+    from taskspace.ik import DifferentialIK, DifferentialIKOptions
+    from taskspace.model import Robot
+    from taskspace.tasks import Task
+
+    robot = Robot.load("panda")
+    state = robot.state(robot.q_default)
+    T = state.frame_placement(robot.frame_id("panda_hand_tcp")) * pin.SE3(
+        np.eye(3), np.array([0.05, 0.0, 0.02])
+    )
+    for native in (True, False):
+        reference = Task(F.FramePose(robot, "panda_hand_tcp"))
+        reference.set_target(T.homogeneous)
+        private = Task(F.FramePose(robot, "panda_hand_tcp"))
+        private._target = T.homogeneous
+        assert isinstance(private._target, pin.SE3)
+        options = DifferentialIKOptions(native=native)
+        a = DifferentialIK(robot, [reference], options=options).solve(state, 0.01)
+        b = DifferentialIK(robot, [private], options=options).solve(state, 0.01)
+        np.testing.assert_array_equal(a.dq, b.dq)
+        with pytest.raises(InvalidInputError, match="real numbers"):
+            private._target = "x"
+        assert private._target.isApprox(T)  # unchanged

@@ -130,7 +130,7 @@ class Task:
 
     def set_target(self, target: Any) -> None:
         """Validate and set the target."""
-        self._target = self.feature.check_target(target)
+        object.__setattr__(self, "_target", self.feature.check_target(target))
 
     def set_target_from_state(self, state: State) -> None:
         """Set the target to the feature's current value (hold the current value)."""
@@ -296,6 +296,14 @@ def _check_reference_acceleration(task: Task, value: Any) -> FloatArray | None:
     return as_vector(value, task.feature.dim, f"reference acceleration of task '{_label(task)}'")
 
 
+def _check_target(task: Task, value: Any) -> Any:
+    # ``task._target = x`` (private, but reachable): the kernels extract it as the feature's
+    # target type (a bare Boost TypeError otherwise), so it is validated like set_target's
+    if value is None or "feature" not in task.__dict__:
+        return value
+    return task.feature.check_target(value)
+
+
 def _check_feature(task: Task, value: Any) -> Any:
     if "feature" in task.__dict__:
         # solvers and compiled kernels derive rows (sizes, frames) from it at construction
@@ -307,6 +315,7 @@ def _check_feature(task: Task, value: Any) -> Any:
 
 
 _SETTERS: dict[str, Callable[[Task, Any], Any]] = {
+    "_target": _check_target,
     "feature": _check_feature,
     "reference_velocity": _check_reference_velocity,
     "reference_acceleration": _check_reference_acceleration,
