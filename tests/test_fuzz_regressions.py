@@ -591,3 +591,42 @@ def test_private_task_target_is_validated_like_set_target() -> None:
         with pytest.raises(InvalidInputError, match="real numbers"):
             private._target = "x"
         assert private._target.isApprox(T)  # unchanged
+
+
+@pytest.mark.parametrize(
+    "kwargs",
+    [
+        {"eps_abs": 1e300},
+        {"eps_rel": 0.5},
+        {"feasibility_tolerance": 1e300},
+        {"proxsuite_eps_rel": 1.0},
+        {"proxsuite_eps_primal_inf": 10.0},
+    ],
+)
+def test_qp_tolerances_that_certify_nothing_are_refused(kwargs: dict[str, float]) -> None:
+    # before: eps_abs=1e300 was accepted and every point of every QP came back SOLVED
+    from taskspace.errors import InvalidInputError
+    from taskspace.qp.solver import QPSolverOptions
+
+    with pytest.raises(InvalidInputError, match=next(iter(kwargs))):
+        QPSolverOptions(**kwargs)
+
+
+@pytest.mark.parametrize(
+    "kwargs",
+    [
+        {"rank_tolerance": math.nan},
+        {"row_tolerance": 1e300},
+        {"damping": -1.0},
+        {"solver": 3},
+        {"exact_first": "daqp"},
+    ],
+)
+def test_hierarchy_options_are_validated(kwargs: dict[str, object]) -> None:
+    # before: HierarchyOptions(row_tolerance=1e300) was accepted (every projected row of
+    # every level counts as vanished) and NaN tolerances made every rank decision False
+    from taskspace.errors import InvalidInputError
+    from taskspace.qp.hierarchy import HierarchyOptions
+
+    with pytest.raises(InvalidInputError, match=next(iter(kwargs))):
+        HierarchyOptions(**kwargs)  # type: ignore[arg-type]

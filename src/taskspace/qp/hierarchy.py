@@ -23,6 +23,7 @@ import numpy.typing as npt
 from scipy.linalg.lapack import dgeqp3, dgeqrf, dorgqr, dposv, dtrtrs
 
 from taskspace._validation import FloatArray
+from taskspace.errors import InvalidInputError
 from taskspace.qp.kkt import KKTResiduals, least_squares_kkt_residuals
 from taskspace.qp.problem import INF, QPProblem, RowBlock
 from taskspace.qp.result import QPResult, QPStatus
@@ -161,6 +162,27 @@ class HierarchyOptions:
     row_tolerance: float = 1e-10
     solver: QPSolverOptions = field(default_factory=lambda: CASCADE_SOLVER_OPTIONS)
     exact_first: QPSolverOptions | None = field(default_factory=lambda: EXACT_FIRST_OPTIONS)
+
+    def __post_init__(self) -> None:
+        """Refuse values that would hide levels or rows (NaN, negative, absurdly large)."""
+        for name, high in (("damping", 1.0), ("rank_tolerance", 1e-2), ("row_tolerance", 1e-2)):
+            value = getattr(self, name)
+            if not (
+                isinstance(value, int | float)
+                and not isinstance(value, bool)
+                and math.isfinite(value)
+                and 0.0 <= value <= high
+            ):
+                raise InvalidInputError(f"{name} must be in [0, {high:g}], got {value!r}")
+        for name in ("solver", "exact_first"):
+            value = getattr(self, name)
+            if not isinstance(value, QPSolverOptions) and not (
+                name == "exact_first" and value is None
+            ):
+                raise InvalidInputError(
+                    f"{name} must be QPSolverOptions{' or None' if name == 'exact_first' else ''}, "
+                    f"got {type(value).__name__}"
+                )
 
 
 def _qr_level(JZ: FloatArray, res: FloatArray) -> tuple[FloatArray, FloatArray] | None:

@@ -88,6 +88,10 @@ def check_backend(name: str) -> str:
     return name
 
 
+MAX_TOLERANCE = 1e-2
+"""Largest accepted KKT tolerance of :class:`QPSolverOptions` (``eps_abs``, ``eps_rel``...)."""
+
+
 @dataclass(frozen=True, kw_only=True)
 class QPSolverOptions:
     """Settings of :class:`QPSolver`.
@@ -191,6 +195,20 @@ class QPSolverOptions:
             value = getattr(self, name)
             if not (isinstance(value, int | float) and np.isfinite(value) and value >= 0):
                 raise InvalidInputError(f"{name} must be finite and >= 0, got {value!r}")
+        # ``SOLVED`` certifies the KKT conditions to these tolerances: past MAX_TOLERANCE the
+        # certificate says nothing (1e300 passed every point)
+        for name in ("eps_abs", "eps_rel", "feasibility_tolerance", "proxsuite_eps_rel"):
+            value = getattr(self, name)
+            if value is not None and value > MAX_TOLERANCE:
+                raise InvalidInputError(
+                    f"{name} must be in [0, {MAX_TOLERANCE:g}] (a KKT residual tolerance; "
+                    f"SOLVED would certify nothing above it), got {value!r}"
+                )
+        if self.proxsuite_eps_primal_inf > 1.0:
+            raise InvalidInputError(
+                "proxsuite_eps_primal_inf must be in (0, 1] (proxsuite's infeasibility "
+                f"certificate tolerance), got {self.proxsuite_eps_primal_inf!r}"
+            )
         if self.relaxation_weight <= 0:
             raise InvalidInputError(
                 f"relaxation_weight must be > 0, got {self.relaxation_weight!r}"
