@@ -31,6 +31,7 @@ from taskspace.features.compiled import (
     compiled_constraint,
     compiled_term,
 )
+from taskspace.model.collision_requests import without_cached_guess
 from taskspace.model.robot import Robot
 from taskspace.model.state import State
 from taskspace.model.versioning import ModelFollower
@@ -283,7 +284,8 @@ class NativeWeightedStack:
                 )
             _REGISTER_ROWS[rows.kind](kernel, robot, rows)
         if version != self._world_version:  # a data of the collision model as it is now
-            self._geometry = (geometry, geometry.createData())
+            # cached GJK guesses off, as everywhere else (distances independent of history)
+            self._geometry = (geometry, without_cached_guess(geometry.createData()))
         self._world_version = version
         self._declared = declared
 
