@@ -630,3 +630,26 @@ def test_hierarchy_options_are_validated(kwargs: dict[str, object]) -> None:
 
     with pytest.raises(InvalidInputError, match=next(iter(kwargs))):
         HierarchyOptions(**kwargs)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("scale", [1e160, 1e200, 1e300])
+def test_grasp_epsilon_is_scale_free_without_overflow(scale: float) -> None:
+    # before: a grasp of size 1e160 m scored 0 (|p|^2 overflowed in the default torque
+    # scale: moments / inf); epsilon with the default torque scale is scale free (moments
+    # are divided by the grasp radius), so every size scores as the unit grasp
+    from taskspace import grasping as g
+
+    ang = np.array([0.3, 1.9, 4.0, 5.2])
+    P = np.stack([np.cos(ang), np.sin(ang), 0.2 * np.cos(3 * ang)], 1)
+    N = -P / np.linalg.norm(P, axis=1, keepdims=True)
+    for k in (3, 4):  # three contacts: closed-form facets; four: a hull
+        unit = g.grasp_epsilon_batch(P[None, :k], N[None, :k])
+        big = g.grasp_epsilon_batch(scale * P[None, :k], N[None, :k])
+        assert unit[0] > 0.05
+        np.testing.assert_allclose(big, unit, rtol=1e-9)
+        contacts = [g.GraspContact(scale * p, n) for p, n in zip(P[:k], N[:k])]
+        W, _ = g.primitive_wrenches(contacts)
+        unit_contacts = [g.GraspContact(p, n) for p, n in zip(P[:k], N[:k])]
+        W1, _ = g.primitive_wrenches(unit_contacts)
+        np.testing.assert_allclose(W, W1, rtol=1e-12, atol=1e-15)
+        assert g.epsilon_l1(W) == pytest.approx(g.epsilon_l1(W1), rel=1e-9)

@@ -218,10 +218,10 @@ def primitive_wrenches(
     rows, owner = [], []
     for i, contact in enumerate(contacts):
         gens = contact_edges(contact, edges, mu=contact.mu * mu_scale)
-        r = contact.position - c
+        r = (contact.position - c) / rho  # scaled first: r x f / rho could overflow
         for g in gens:
             f, tau_n = g[:3], g[3]
-            rows.append(np.hstack([f, (np.cross(r, f) + tau_n * contact.normal) / rho]))
+            rows.append(np.hstack([f, np.cross(r, f) + (tau_n / rho) * contact.normal]))
             owner.append(i)
     return np.array(rows), owner
 
@@ -230,5 +230,5 @@ def grasp_radius(contacts: list[GraspContact], center: FloatArray | None = None)
     """The largest distance of a contact from ``center`` [m] (1 when every contact is on it)."""
     contacts = check_contacts(contacts)
     c = check_center(center)
-    r = max(float(np.linalg.norm(k.position - c)) for k in contacts)
+    r = max(float(np.hypot.reduce(k.position - c)) for k in contacts)  # no overflow at 1e154
     return r if r > 1e-12 else 1.0

@@ -236,7 +236,7 @@ def _contact_inputs(
         )
     r = p - (c[:, None, :] if c.ndim == 2 else c)
     if torque_scale is None:
-        rho = np.linalg.norm(r, axis=-1).max(axis=1)
+        rho = np.hypot.reduce(r, axis=-1).max(axis=1)  # no overflow of |r|^2 past 1e154
         rho = np.where(rho > 1e-12, rho, 1.0)
     elif isinstance(torque_scale, (bool, np.bool_)):
         raise InvalidInputError(f"torque_scale must be a length [m] > 0, got {torque_scale!r}")
@@ -256,13 +256,16 @@ def _wrenches_of(
         np.cos(theta)[None, None, :, None] * t1[:, :, None, :]
         + np.sin(theta)[None, None, :, None] * t2[:, :, None, :]
     )
-    moments = np.cross(r[:, :, None, :], forces)
+    # moments of r / rho (not r x f / rho: it would overflow for huge r and a huge rho)
+    rs = r / rho[:, None, None]
+    moments = np.cross(rs[:, :, None, :], forces)
     if torsion > 0:
         both = np.stack([n, n], axis=2)
         twist = np.array([torsion, -torsion])[None, None, :, None] * n[:, :, None, :]
         forces = np.concatenate([forces, both], axis=2)
-        moments = np.concatenate([moments, np.cross(r[:, :, None, :], both) + twist], axis=2)
-    W = np.concatenate([forces, moments / rho[:, None, None, None]], axis=3)
+        twist = twist / rho[:, None, None, None]
+        moments = np.concatenate([moments, np.cross(rs[:, :, None, :], both) + twist], axis=2)
+    W = np.concatenate([forces, moments], axis=3)
     return W.reshape(len(n), -1, 6)
 
 
