@@ -653,3 +653,22 @@ def test_grasp_epsilon_is_scale_free_without_overflow(scale: float) -> None:
         W1, _ = g.primitive_wrenches(unit_contacts)
         np.testing.assert_allclose(W, W1, rtol=1e-12, atol=1e-15)
         assert g.epsilon_l1(W) == pytest.approx(g.epsilon_l1(W1), rel=1e-9)
+
+
+@pytest.mark.parametrize(
+    ("model", "kwargs"),
+    [
+        ("KneedWalker", {"a1": 1e300}),  # before: find_kneed_limit_cycle ran forever
+        ("KneedWalker", {"hip_mass": True}),
+        ("KneedWalker", {"slope": 1.6}),
+        ("CompassGait", {"slope": math.inf}),  # before: accepted, a step "fell" at once
+        ("CompassGait", {"a": "x"}),  # before: a bare TypeError from the comparison
+        ("CompassGait", {"leg_mass": 1e7}),
+    ],
+)
+def test_walker_parameters_out_of_scale_are_refused(model: str, kwargs: dict[str, object]) -> None:
+    from taskspace import locomotion
+    from taskspace.errors import InvalidInputError
+
+    with pytest.raises(InvalidInputError, match=next(iter(kwargs))):
+        getattr(locomotion, model)(**kwargs)

@@ -44,6 +44,28 @@ from scipy.integrate import solve_ivp
 from taskspace._validation import FloatArray, as_vector, check_count, check_positive
 from taskspace.errors import InvalidInputError, SolverError
 
+MAX_WALKER_SCALE = 1e6
+"""Largest mass [kg], length [m] and gravity [m/s^2] of the walker models: their squares and
+products stay far from overflow (at 1e300 the integrator took ever smaller steps, forever)."""
+
+
+def check_walker_scales(walker: Any, names: tuple[str, ...], slope: Any) -> None:
+    """Refuse walker parameters beyond :data:`MAX_WALKER_SCALE` and slopes of 90 degrees or more."""
+    for name in names:
+        value = getattr(walker, name)
+        if not (_is_real(value) and abs(float(value)) <= MAX_WALKER_SCALE):  # also NaN
+            raise InvalidInputError(
+                f"{name} must be a number in [0, {MAX_WALKER_SCALE:g}] (SI units), got {value!r}"
+            )
+    if not (_is_real(slope) and abs(float(slope)) < 0.5 * np.pi):
+        raise InvalidInputError(f"slope must be in (-pi/2, pi/2) [rad], got {slope!r}")
+
+
+def _is_real(value: Any) -> bool:
+    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(
+        value, (bool, np.bool_)
+    )
+
 
 @dataclass(frozen=True, kw_only=True)
 class CompassGait:
@@ -70,6 +92,9 @@ class CompassGait:
         check_positive(self.leg_mass, "leg_mass")
         check_positive(self.leg_length, "leg_length")
         check_positive(self.gravity, "gravity")
+        check_walker_scales(
+            self, ("hip_mass", "leg_mass", "leg_length", "a", "gravity"), self.slope
+        )
         if not 0.0 < self.a < self.leg_length:
             raise InvalidInputError(
                 f"the leg mass must sit on the leg: 0 < a < leg_length, got a = {self.a}"

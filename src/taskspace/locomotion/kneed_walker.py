@@ -59,7 +59,12 @@ from scipy.integrate import solve_ivp
 
 from taskspace._validation import FloatArray, as_vector, check_count, check_positive
 from taskspace.errors import InvalidInputError, SolverError
-from taskspace.locomotion.compass_gait import LimitCycle, LimitCycleOptions, _newton_limit_cycle
+from taskspace.locomotion.compass_gait import (
+    LimitCycle,
+    LimitCycleOptions,
+    _newton_limit_cycle,
+    check_walker_scales,
+)
 
 POINTS = (
     "stance_shank_mass",
@@ -147,6 +152,8 @@ class KneedWalker:
         check_positive(self.gravity, "gravity")
         if not np.isfinite(self.slope):
             raise InvalidInputError(f"slope must be finite, got {self.slope!r}")
+        names = ("hip_mass", "thigh_mass", "shank_mass", "a1", "b1", "a2", "b2", "gravity")
+        check_walker_scales(self, names, self.slope)
 
     @property
     def thigh_length(self) -> float:
