@@ -672,3 +672,35 @@ def test_walker_parameters_out_of_scale_are_refused(model: str, kwargs: dict[str
 
     with pytest.raises(InvalidInputError, match=next(iter(kwargs))):
         getattr(locomotion, model)(**kwargs)
+
+
+def test_environment_actions_and_sizes_are_validated() -> None:
+    # before: Pendulum-v0 stepped a NaN torque into NaN observations and rewards; a text
+    # action or a wrong-sized batch gave bare ValueErrors; num_envs=2.5 made 2 copies and
+    # num_envs=10**9 tried to allocate them
+    import gymnasium as gym
+
+    from taskspace.errors import InvalidInputError, NotFiniteError, ShapeError
+    from taskspace.learning.envs import CartPoleVectorEnv, PendulumVectorEnv
+
+    env = gym.make("taskspace/Pendulum-v0")
+    env.reset(seed=0)
+    with pytest.raises(NotFiniteError):
+        env.step(np.array([np.nan]))
+    with pytest.raises(InvalidInputError, match="real numbers"):
+        env.step("x")
+    with pytest.raises(ShapeError):
+        env.step(np.array([0.1, 0.2]))  # was: silently the first entry
+    obs, reward, *_ = env.step(np.array([np.inf]))  # clipped to the torque limit
+    assert np.isfinite(obs).all() and np.isfinite(reward)
+    vec = CartPoleVectorEnv(num_envs=4)
+    vec.reset(seed=0)
+    with pytest.raises(ShapeError):
+        vec.step(np.array([0, 1]))
+    pend = PendulumVectorEnv(num_envs=3)
+    pend.reset(seed=0)
+    with pytest.raises(NotFiniteError):
+        pend.step(np.array([0.0, np.nan, 0.0]))
+    for n in (2.5, 10**9, True):
+        with pytest.raises(InvalidInputError, match="num_envs"):
+            CartPoleVectorEnv(num_envs=n)  # type: ignore[arg-type]

@@ -27,7 +27,7 @@ import pinocchio as pin
 from gymnasium import spaces
 
 from taskspace.errors import InvalidInputError
-from taskspace.learning.envs.robot_env import RobotEnv, RobotVectorEnv, snap_roundoff
+from taskspace.learning.envs.robot_env import RobotEnv, RobotVectorEnv, action_array, snap_roundoff
 from taskspace.optimal_control.problems import cartpole_acceleration
 
 THETA_LIMIT = 12 * 2 * np.pi / 360
@@ -275,7 +275,7 @@ class CartPoleVectorEnv(RobotVectorEnv):
         self, actions: Any
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         """Step every copy; copies that ended on the previous step are reset instead."""
-        act = np.asarray(actions).reshape(self.num_envs)
+        act = action_array(actions, (self.num_envs,), "actions")
         if not np.all((act == 0) | (act == 1)):
             raise InvalidInputError("actions must be 0 or 1")
         F = np.where(act == 1, self.force, -self.force)

@@ -34,7 +34,7 @@ from taskspace.constraints import Contact6D
 from taskspace.control import InverseDynamicsQP, simulate_with_contacts
 from taskspace.errors import InvalidInputError, StaleModelError
 from taskspace.features import CenterOfMass, JointConfiguration
-from taskspace.learning.envs.robot_env import check_render_mode
+from taskspace.learning.envs.robot_env import action_array, check_render_mode
 from taskspace.model.robot import Robot
 from taskspace.model.versioning import ModelFollower
 from taskspace.tasks import Task
@@ -145,7 +145,7 @@ class G1BalanceEnv(gym.Env[np.ndarray, np.ndarray]):
             StaleModelError: the robot's limits changed since the last reset.
         """
         self._check_version()
-        a = np.clip(np.asarray(action, dtype=float).reshape(3), -1.0, 1.0)
+        a = np.clip(action_array(action, (3,)), -1.0, 1.0)
         self.com_task.set_target(self.c0 + COM_RANGE * a)
         failed: list[str] = []
         ratio = [0.0]

@@ -23,7 +23,7 @@ from gymnasium import spaces
 
 from taskspace.errors import InvalidInputError, StaleModelError
 from taskspace.learning.envs.batched_kinematics import BatchedFramePosition
-from taskspace.learning.envs.robot_env import RobotVectorEnv
+from taskspace.learning.envs.robot_env import RobotVectorEnv, action_array
 from taskspace.model.robot import Robot
 from taskspace.planning.collision_checker import CollisionChecker
 
@@ -127,7 +127,7 @@ class PandaReachEnv(gym.Env[np.ndarray, np.ndarray]):
             StaleModelError: the robot's limits changed since the last reset.
         """
         self._check_version()
-        a = np.clip(np.asarray(action, dtype=float).reshape(7), -1.0, 1.0)
+        a = np.clip(action_array(action, (7,)), -1.0, 1.0)
         self.q = np.clip(self.q + self.dt * a * self.v_max, self.lower, self.upper)
         tcp = self.tcp()
         distance = float(np.linalg.norm(tcp - self.target))
@@ -238,7 +238,7 @@ class PandaReachVectorEnv(RobotVectorEnv):
                 self.model_version,
                 self.robot.version,
             )
-        a = np.clip(np.asarray(actions, dtype=float).reshape(self.num_envs, 7), -1.0, 1.0)
+        a = np.clip(action_array(actions, (self.num_envs, 7), "actions"), -1.0, 1.0)
         self.q = np.clip(self.q + self.dt * a * self.v_max, self.lower, self.upper)
         self._tcp = self.tcp_position(self.q)
         distance = np.linalg.norm(self._tcp - self.target, axis=1)

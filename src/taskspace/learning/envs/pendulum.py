@@ -24,7 +24,7 @@ import pinocchio as pin
 from gymnasium import spaces
 
 from taskspace.dynamics.pendulum import pendulum_acceleration
-from taskspace.learning.envs.robot_env import RobotEnv, RobotVectorEnv, snap_roundoff
+from taskspace.learning.envs.robot_env import RobotEnv, RobotVectorEnv, action_array, snap_roundoff
 
 _PI = math.pi
 _TWO_PI = 2.0 * math.pi
@@ -37,8 +37,10 @@ def _wrap(a: float) -> float:
 def _scalar_action(action: Any) -> float:
     """The first entry of an action (a ``(1,)`` array, a sequence or a number) as a float."""
     if type(action) is np.ndarray and action.size == 1:
-        return float(action.item())
-    return float(np.asarray(action, dtype=float).reshape(-1)[0])
+        value = float(action.item())
+        if value == value:  # not NaN
+            return value
+    return float(action_array(action, (1,))[0])
 
 
 class RevoluteJointDynamics:
@@ -238,7 +240,7 @@ class PendulumVectorEnv(RobotVectorEnv):
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         """Step every copy; copies that ended on the previous step are reset instead."""
         u = np.clip(
-            np.asarray(actions, dtype=float).reshape(self.num_envs),
+            action_array(actions, (self.num_envs,), "actions"),
             -self.max_torque,
             self.max_torque,
         )

@@ -24,8 +24,8 @@ from gymnasium import spaces
 from gymnasium.vector import VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from taskspace._validation import require_extra
-from taskspace.errors import InvalidInputError
+from taskspace._validation import as_float_array, check_count, require_extra
+from taskspace.errors import InvalidInputError, NotFiniteError, ShapeError
 from taskspace.model.robot import Robot
 
 RENDER_MODES = ("rgb_array", "human")
@@ -134,6 +134,26 @@ class RobotEnv(gym.Env[np.ndarray, Any]):
         self._figure = None
 
 
+MAX_NUM_ENVS = 1_000_000
+"""Most copies of a batched environment (their state arrays are allocated at once)."""
+
+
+def action_array(action: Any, shape: tuple[int, ...], name: str = "action") -> np.ndarray:
+    """``action`` as a float array of ``shape``.
+
+    Text, complex values, a wrong size or NaN raise (``inf`` is clipped to the action bounds
+    by the environments, like any large value).
+    """
+    arr = as_float_array(action, name)
+    if arr.size != int(np.prod(shape)):
+        raise ShapeError(name, shape, arr.shape)
+    arr = arr.reshape(shape)
+    nan = np.isnan(arr.ravel())
+    if nan.any():
+        raise NotFiniteError(name, np.flatnonzero(nan).tolist())
+    return arr
+
+
 class RobotVectorEnv(VectorEnv):
     """N copies stepped together with numpy, next-step auto-reset (no rendering).
 
@@ -151,9 +171,10 @@ class RobotVectorEnv(VectorEnv):
                 f"render_mode {render_mode!r} is not supported by the batched environments; "
                 "use None (render a single environment instead)"
             )
-        if num_envs < 1:
-            raise InvalidInputError(f"num_envs must be >= 1, got {num_envs}")
-        self.num_envs = int(num_envs)
+        num_envs = check_count(num_envs, "num_envs", minimum=1)
+        if num_envs > MAX_NUM_ENVS:
+            raise InvalidInputError(f"num_envs must be at most {MAX_NUM_ENVS}, got {num_envs}")
+        self.num_envs = num_envs
         self.dt = float(dt)
         self.substeps = int(substeps)
         self.max_episode_steps = int(max_episode_steps)
