@@ -79,3 +79,8 @@ def panda_ik(item: Any, rng: np.random.Generator, context: Any) -> list[float]:
     options = SolveIKOptions(restarts=5)
     result = solve_ik(robot, [task], q0=robot.random_configuration(rng), options=options, rng=rng)
     return [float(result.success), *np.asarray(result.q).tolist()]
+
+
+def returns_a_lambda(item: Any, rng: np.random.Generator, context: Any) -> Any:
+    """A value the worker cannot send back (not picklable)."""
+    return lambda: item

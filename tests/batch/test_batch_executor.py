@@ -203,3 +203,25 @@ def test_executor_keeps_workers_and_contexts_between_runs() -> None:
     pids = {r[0] for r in first}
     assert {r[0] for r in second} <= pids  # the same worker processes
     assert all(r[2] == 1 for r in first + second)  # each built its context once in all
+
+
+def test_batch_inputs_that_cannot_work_are_refused_or_reported(tmp_path: Path) -> None:
+    # before: workers=10**6 and retries=10**9 were accepted (a task that kills its worker
+    # was retried 1e9 times), progress="yes" too; a lambda task on the processes backend, an
+    # unpicklable task value and a results file that is a directory raised bare
+    # AttributeError / IsADirectoryError
+    from taskspace.batch import BatchOptions, Executor
+    from taskspace.errors import InvalidInputError
+
+    for kwargs in ({"workers": 10**6}, {"retries": 10**9}, {"progress": "yes"}, {"workers": True}):
+        with pytest.raises(InvalidInputError, match=next(iter(kwargs))):
+            BatchOptions(**kwargs)  # type: ignore[arg-type]
+    options = BatchOptions(backend="processes", workers=2, chunk_size=1, progress=False)
+    with Executor(options) as ex:
+        with pytest.raises(InvalidInputError, match="picklable"):
+            ex.map(lambda x, rng, ctx: x, [1, 2])
+        result = ex.map(T.returns_a_lambda, [1, 2, 3])
+        assert not any(r.ok for r in result.records)
+        assert all("picklable" in r.error for r in result.records)
+        with pytest.raises(InvalidInputError, match="results_file"):
+            ex.map(T.returns_a_lambda, [1], results_file=tmp_path)

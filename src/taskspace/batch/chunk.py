@@ -35,9 +35,12 @@ class Chunk:
 
     def died(self, reason: str) -> list[TaskRecord]:
         """Failure records for every task of a chunk whose worker kept dying."""
+        return self.failed(f"worker died: {reason}")
+
+    def failed(self, error: str) -> list[TaskRecord]:
+        """Failure records with ``error`` for every task of the chunk."""
         return [
-            TaskRecord(i, False, error=f"worker died: {reason}", attempts=self.attempts, item=x)
-            for i, x in self.tasks
+            TaskRecord(i, False, error=error, attempts=self.attempts, item=x) for i, x in self.tasks
         ]
 
 

@@ -35,6 +35,12 @@ BACKENDS = ("serial", "processes", "ray")
 START_METHODS = ("forkserver", "spawn", "fork")
 
 
+MAX_WORKERS = 4096
+"""Most workers of an executor (processes, or Ray actors on a cluster)."""
+MAX_RETRIES = 100
+"""Most restarts of a chunk whose worker died (a task that always kills its worker fails)."""
+
+
 @dataclass(frozen=True, kw_only=True)
 class BatchOptions:
     """Settings of an :class:`Executor`.
@@ -73,10 +79,22 @@ class BatchOptions:
             raise UnknownNameError("backend", str(self.backend), BACKENDS)
         for name in ("workers", "chunk_size"):
             value = getattr(self, name)
-            if value is not None and (not isinstance(value, int) or value < 1):
+            if value is not None and (
+                isinstance(value, bool) or not isinstance(value, int) or value < 1
+            ):
                 raise InvalidInputError(f"{name} must be a positive integer or None, got {value!r}")
-        if not isinstance(self.retries, int) or self.retries < 0:
-            raise InvalidInputError(f"retries must be an integer >= 0, got {self.retries!r}")
+        if self.workers is not None and self.workers > MAX_WORKERS:
+            raise InvalidInputError(f"workers must be at most {MAX_WORKERS}, got {self.workers}")
+        if (
+            isinstance(self.retries, bool)
+            or not isinstance(self.retries, int)
+            or not 0 <= self.retries <= MAX_RETRIES
+        ):
+            raise InvalidInputError(
+                f"retries must be an integer in [0, {MAX_RETRIES}], got {self.retries!r}"
+            )
+        if not isinstance(self.progress, bool):
+            raise InvalidInputError(f"progress must be True or False, got {self.progress!r}")
         if not isinstance(self.seed, int) or self.seed < 0:
             raise InvalidInputError(f"seed must be an integer >= 0, got {self.seed!r}")
         if not (isinstance(self.min_chunk_seconds, (int, float)) and self.min_chunk_seconds >= 0):
@@ -158,15 +176,29 @@ class Executor:
         items = list(items)
         n = len(items)
         opts = self.options
+        if opts.backend == "processes":  # Ray pickles with cloudpickle (lambdas included)
+            _require_picklable(fn, "fn")
+            _require_picklable(context, "context")
         store = None
         done: dict[int, TaskRecord] = {}
         if results_file is not None:
             store = ResultsFile(results_file, {"tasks": n, "seed": opts.seed})
-            done = store.load()
+            try:
+                done = store.load()
+            except OSError as exc:
+                raise InvalidInputError(
+                    f"results_file {str(results_file)!r} cannot be read: {exc}"
+                ) from exc
         todo = [(i, x) for i, x in enumerate(items) if i not in done]
         bar = tqdm(total=n, initial=len(done), desc=description, disable=not opts.progress)
         if store is not None:
-            store.open()
+            try:
+                store.open()
+            except OSError as exc:
+                bar.close()
+                raise InvalidInputError(
+                    f"results_file {str(results_file)!r} cannot be written: {exc}"
+                ) from exc
         try:
             yield from done.values()
             if not todo:
@@ -246,6 +278,16 @@ class Executor:
             seconds=time.perf_counter() - t0,
             n_resumed=sum(r.resumed for r in records),
         )
+
+
+def _require_picklable(obj: Any, name: str) -> None:
+    try:
+        pickle.dumps(obj)
+    except Exception as exc:
+        raise InvalidInputError(
+            f"{name} must be picklable for the processes backend (a module-level function or a "
+            f"functools.partial of one, not a lambda or a local function): {exc}"
+        ) from exc
 
 
 def _context_key(factory: Callable[[], Any] | None) -> str:

@@ -42,6 +42,13 @@ def _stop(pool: ProcessPoolExecutor | None) -> None:
         p.join(timeout=5)
 
 
+def _unsendable(exc: BaseException) -> str:
+    return (
+        f"the chunk's results could not be sent back from the worker ({exc!r}): task values "
+        "must be picklable (numbers, arrays, dicts, dataclasses; not lambdas or open files)"
+    )
+
+
 class ProcessPool:
     """A pool kept between runs, replaced when a worker death breaks it.
 
@@ -100,6 +107,9 @@ def run_processes(
                     else:
                         yield chunk.died(f"{exc} (alone, {chunk.crashes} times)")
                     continue
+                except Exception as exc:  # the records could not be sent back
+                    yield chunk.failed(_unsendable(exc))
+                    continue
                 yield chunk.stamp(records)
                 continue
             in_flight: dict[Future[list[TaskRecord]], Chunk] = {}
@@ -117,6 +127,8 @@ def run_processes(
                     except BrokenProcessPool:
                         suspects.append(chunk)
                         broken = True
+                    except Exception as exc:  # the records could not be sent back
+                        yield chunk.failed(_unsendable(exc))
                     else:
                         yield chunk.stamp(records)
             if broken:
