@@ -704,3 +704,21 @@ def test_environment_actions_and_sizes_are_validated() -> None:
     for n in (2.5, 10**9, True):
         with pytest.raises(InvalidInputError, match="num_envs"):
             CartPoleVectorEnv(num_envs=n)  # type: ignore[arg-type]
+
+
+def test_walking_patterns_refuse_sample_counts_and_margins_out_of_range() -> None:
+    # before: CartTable(dt=1e-9) made mpc_walking_pattern allocate 44 GiB (bare MemoryError);
+    # zmp_margin=-0.1 was accepted (the ZMP allowed 10 cm outside the feet), NaN gave a NaN
+    # QP and constrain_zmp="no" counted as True
+    from taskspace import locomotion as L
+    from taskspace.errors import InvalidInputError
+
+    plan = L.straight_walk(3)
+    for pattern in (L.mpc_walking_pattern, L.preview_walking_pattern):
+        with pytest.raises(InvalidInputError, match="samples"):
+            pattern(plan, L.CartTable(dt=1e-9))
+    for kwargs in ({"zmp_margin": -0.1}, {"zmp_margin": math.nan}, {"constrain_zmp": "no"}):
+        with pytest.raises(InvalidInputError, match=next(iter(kwargs))):
+            L.ZmpMpcOptions(**kwargs)  # type: ignore[arg-type]
+    times = L.CartTable(dt=0.05).sample_times(plan.duration)
+    assert times[0] == 0.0 and times[-1] >= plan.duration > times[-2]

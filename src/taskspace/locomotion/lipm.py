@@ -20,6 +20,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from taskspace._validation import FloatArray, check_positive
+from taskspace.errors import InvalidInputError
+
+MAX_SAMPLES = 1_000_000
+"""Most samples of a walking pattern (the MPC solves one QP per sample)."""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -40,6 +44,20 @@ class CartTable:
         check_positive(self.com_height, "com_height")
         check_positive(self.dt, "dt")
         check_positive(self.gravity, "gravity")
+
+    def sample_times(self, duration: float) -> FloatArray:
+        """``0, dt, 2 dt, ...`` covering ``duration`` [s] (at most :data:`MAX_SAMPLES` samples).
+
+        Raises:
+            InvalidInputError: the duration needs more than :data:`MAX_SAMPLES` samples of ``dt``.
+        """
+        n = float(np.ceil(duration / self.dt)) + 1
+        if not n <= MAX_SAMPLES:
+            raise InvalidInputError(
+                f"a {duration:g} s walk sampled every dt = {self.dt:g} s has {n:.3g} samples "
+                f"(at most {MAX_SAMPLES}): use a larger dt"
+            )
+        return np.arange(int(n), dtype=np.float64) * self.dt
 
     @property
     def A(self) -> FloatArray:

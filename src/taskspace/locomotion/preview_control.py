@@ -201,7 +201,7 @@ def preview_walking_pattern(
     """CoM trajectory for a footstep plan by preview control (reference from the plan)."""
     t0 = time.perf_counter()
     model = model or CartTable()
-    times = model.dt * np.arange(int(np.ceil(plan.duration / model.dt)) + 1)
+    times = model.sample_times(plan.duration)
     ref = zmp_reference(plan, times)
     traj = PreviewController(model, options).simulate(ref)
     return WalkingPattern(plan, traj, time.perf_counter() - t0)

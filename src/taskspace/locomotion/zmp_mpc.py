@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 from scipy.linalg.lapack import dpotrf, dpotrs
 
-from taskspace._validation import FloatArray, as_float_array
+from taskspace._validation import FloatArray, as_float_array, check_positive
 from taskspace.errors import InvalidInputError, SolverError
 from taskspace.locomotion.footsteps import FootstepPlan
 from taskspace.locomotion.lipm import CartTable, LipmTrajectory
@@ -64,6 +64,19 @@ class ZmpMpcOptions:
     constrain_zmp: bool = True
     zmp_margin: float = 0.0
     qp: QPSolverOptions = field(default_factory=QPSolverOptions)
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.constrain_zmp, (bool, np.bool_)):
+            raise InvalidInputError(
+                f"constrain_zmp must be True or False, got {self.constrain_zmp!r}"
+            )
+        # a negative margin would let the ZMP leave the support polygon
+        check_positive(self.zmp_margin, "zmp_margin [m]", strict=False)
+        for name, kind in (("preview", PreviewOptions), ("qp", QPSolverOptions)):
+            if not isinstance(getattr(self, name), kind):
+                raise InvalidInputError(
+                    f"{name} must be {kind.__name__}, got {type(getattr(self, name)).__name__}"
+                )
 
 
 @dataclass(frozen=True)
@@ -328,7 +341,7 @@ def mpc_walking_pattern(
     """CoM trajectory of a footstep plan by ZMP MPC (reference and polygons from the plan)."""
     t0 = time.perf_counter()
     model = model or CartTable(dt=0.05)
-    times = model.dt * np.arange(int(np.ceil(plan.duration / model.dt)) + 1)
+    times = model.sample_times(plan.duration)
     ref = zmp_reference(plan, times)
     polys = support_polygons(plan, times, sole)
     res = ZmpMpc(model, options).simulate(ref, polys)
