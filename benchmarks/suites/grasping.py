@@ -1,13 +1,16 @@
 """Grasp analysis and synthesis.
 
 * ``epsilon``: the Ferrari-Canny epsilon (L1) of random 3- and 5-contact grasps with 8-edge
-  friction cones, per grasp: taskspace (one unmerged hull, certified; ``epsilon_l1``), the
-  previous path (qhull's merged hull, "Qx", the scipy default) alternated with it round by
-  round on the same grasps, and the textbook reference written for this suite (one QP per hull
-  facet, as Dex-Net computes it) in the same run; the values are checked against each other.
+  friction cones, per grasp: taskspace (``epsilon_l1``: column generation, the certified
+  unmerged hull of a subset grown by support points of its nearest facets), the previous
+  paths (one certified unmerged hull of all wrenches; qhull's merged hull, "Qx", the scipy
+  default) alternated with it round by round on the same grasps, and the textbook reference
+  written for this suite (one QP per hull facet, as Dex-Net computes it) in the same run;
+  the values are checked against each other.
 * ``epsilon batch``: ``grasp_epsilon_batch`` (vectorized primitive wrenches; three contacts:
-  facets in closed form, all grasps at once; five: one certified hull per grasp after cheap
-  separating directions) against one certified hull per grasp, alternated: grasps per second,
+  facets in closed form, all grasps at once; five: column generation per grasp after cheap
+  separating directions) against ``epsilon_l1_batch`` of the wrenches (one ``epsilon_l1``
+  per grasp), alternated: grasps per second,
   all grasps and in-closure only (values checked equal).
 * ``closure``: the LP closure test per grasp.
 * ``synthesis``: antipodal candidates sampled and scored per second on a box and a cylinder;
@@ -26,6 +29,7 @@ from typing import Any
 
 import numpy as np
 
+import taskspace.grasping.epsilon as eps_module
 from benchmarks.common import Row, Timing
 from benchmarks.ferrari_canny_reference import epsilon_reference
 from taskspace.grasping import (
@@ -68,6 +72,13 @@ def _epsilon_merged(W: np.ndarray) -> float:
     return _margin(wrench_space_l1(W))
 
 
+def _epsilon_full_hull(W: np.ndarray) -> float:
+    """The previous epsilon_l1: one certified unmerged hull (Q0) of all wrenches."""
+    scale = float(np.abs(W).max())
+    Wn = W / scale
+    return 0.0 if eps_module._separated(Wn) else eps_module._epsilon_full(Wn) * scale
+
+
 def _per_call(fn: Callable[[Any], Any], items: list[Any]) -> tuple[list[float], list[Any]]:
     times, values = [], []
     for x in items:
@@ -108,14 +119,15 @@ def _epsilon_rows(quick: bool, rng: np.random.Generator) -> list[Row]:
     rounds = 3 if quick else 5
     for k in (3, 5):
         grasps = _grasps(k, n, rng)
-        (t_new, t_old), (m_new, m_old), (v_new, v_old) = _alternate(
-            [epsilon_l1, _epsilon_merged], grasps, rounds
+        (t_new, t_full, t_old), (m_new, m_full, m_old), (v_new, v_full, v_old) = _alternate(
+            [epsilon_l1, _epsilon_full_hull, _epsilon_merged], grasps, rounds
         )
         ref_items = grasps[: max(5, n // 10)]  # the reference is slow
         t_ref, v_ref = _per_call(epsilon_reference, ref_items)
         scale = max(1e-300, max(v_ref))
         err_ref = max(abs(a - b) / max(b, 1e-12 * scale) for a, b in zip(v_new, v_ref))
         err_old = max(abs(a - b) / max(b, 1e-12) for a, b in zip(v_new, v_old))
+        err_full = max(abs(a - b) / max(b, 1e-12) for a, b in zip(v_new, v_full))
         scene = f"epsilon L1, {k} contacts, 8-edge cones"
         closed = float(np.mean([v > 0 for v in v_new]))
         rows.append(
@@ -129,8 +141,19 @@ def _epsilon_rows(quick: bool, rng: np.random.Generator) -> list[Row]:
                     "in_closure": closed,
                     "max_rel_diff_to_reference": err_ref,
                     "max_rel_diff_to_merged_hull": err_old,
+                    "max_rel_diff_to_full_hull": err_full,
                     **_round_stats(m_new),
                 },
+            )
+        )
+        rows.append(
+            Row(
+                SUITE,
+                scene,
+                "taskspace before: one certified hull of all wrenches (Q0)",
+                Timing.from_samples(t_full),
+                _round_stats(m_full),
+                ratio_to="taskspace",
             )
         )
         rows.append(
@@ -180,7 +203,7 @@ def _batch_rows(quick: bool, rng: np.random.Generator) -> list[Row]:
         scene = f"epsilon L1 batch, {k} contacts, 8-edge cones"
         for method, t, ratio_to in (
             ("taskspace", t_b, None),
-            ("taskspace: one certified hull per grasp", t_h, "taskspace"),
+            ("taskspace: epsilon_l1_batch (one per grasp)", t_h, "taskspace"),
         ):
             every, only = np.array(t[0::2]) / n, np.array(t[1::2]) / closed
             rows.append(

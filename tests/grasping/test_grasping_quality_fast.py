@@ -251,6 +251,7 @@ def test_a_wrong_unmerged_hull_is_refused(monkeypatch: pytest.MonkeyPatch) -> No
     W, _ = primitive_wrenches(random_grasp(rng, 4, mu=0.8), edges=8)
     expected = enumerated_epsilon(W) if len(W) <= 12 else textbook_epsilon(W)
     real = eps_module.ConvexHull
+    monkeypatch.setattr(eps_module, "GENERATION_MIN_WRENCHES", 10**9)  # the full-hull path
 
     class Corrupted:
         def __init__(self, points: np.ndarray, qhull_options: str | None = None) -> None:
@@ -327,3 +328,89 @@ def test_three_point_contacts_closed_form_equals_the_hull(mu: float, edges: int)
     if edges == 4:
         for b in range(0, 80, 8):
             assert fast[b] == pytest.approx(enumerated_epsilon(W[b]), rel=1e-9, abs=1e-14)
+
+
+def _generated_grasps(k: int, n: int, seed: int, **kw: object) -> list[np.ndarray]:
+    rng = np.random.default_rng(seed)
+    return [primitive_wrenches(random_grasp(rng, k, **kw), edges=8)[0] for _ in range(n)]
+
+
+@pytest.mark.parametrize("k", [3, 4, 5])
+def test_column_generation_matches_the_textbook_definition(k: int) -> None:
+    """The subset hull grown by support points (``_epsilon_generated``) against one QP per
+    facet of qhull's merged hull of all wrenches, and the closure LP, on random grasps; the
+    generated path is the one that answered (not its full-hull fallback)."""
+    used = 0
+    for W in _generated_grasps(k, 6, seed=10 + k, mu=0.7):
+        scale = np.abs(W).max()
+        e = epsilon_l1_fast(W)
+        assert e == pytest.approx(textbook_epsilon(W), rel=1e-9, abs=1e-12 * scale)
+        assert (e > 0) == closure_lp(W).closure
+        if not eps_module._separated(W / scale):
+            used += eps_module._epsilon_generated(W / scale) is not None
+    assert used >= 3
+
+
+@pytest.mark.parametrize("k", [6, 8])
+def test_column_generation_many_contacts_against_the_merged_hull(k: int) -> None:
+    """6 and 8 contacts (48, 64 wrenches): qhull's merged hull of all wrenches (its least
+    facet offset) is the reference; the generated subset stays well below all wrenches."""
+    for W in _generated_grasps(k, 3, seed=20 + k, mu=0.5):
+        scale = np.abs(W).max()
+        offsets = -ConvexHull(W).equations[:, -1]
+        expected = max(0.0, float(offsets.min()))
+        expected = expected if expected > 1e-9 * scale else 0.0
+        assert epsilon_l1_fast(W) == pytest.approx(expected, rel=1e-9, abs=1e-12 * scale)
+
+
+def test_column_generation_degenerate_grasps() -> None:
+    """Frictionless contacts (each cone's 8 edges coincide), coplanar contacts, and the
+    origin on the boundary (two opposed frictionless pairs): values of the enumeration and
+    the textbook definition; the generated path never answers wrongly, whatever it does."""
+    rng = np.random.default_rng(7)
+    # frictionless, 9 contacts: 72 wrenches, 9 distinct (enumerated: 84 planes)
+    W, _ = primitive_wrenches(random_grasp(rng, 9, mu=0.0), edges=8)
+    distinct = np.unique(W.round(15), axis=0)
+    assert len(distinct) == 9
+    assert epsilon_l1_fast(W) == pytest.approx(enumerated_epsilon(distinct), abs=1e-12)
+    # coplanar contacts (all in z = 0, normals in the plane)
+    contacts = [
+        contact([0.05 * np.cos(t), 0.05 * np.sin(t), 0.0], [-np.cos(t), -np.sin(t), 0.0], mu=0.6)
+        for t in 2 * np.pi * np.arange(5) / 5
+    ]
+    W, _ = primitive_wrenches(contacts, edges=8)
+    assert epsilon_l1_fast(W) == pytest.approx(textbook_epsilon(W), rel=1e-9, abs=1e-12)
+    # origin on the boundary: frictionless opposed fingers, repeated to 24 wrenches
+    pair = [contact([0, 0, 0.05], [0, 0, -1], mu=0.0), contact([0, 0, -0.05], [0, 0, 1], mu=0.0)]
+    W, _ = primitive_wrenches(pair * 3, edges=4)
+    assert len(W) >= eps_module.GENERATION_MIN_WRENCHES
+    assert epsilon_l1_fast(W) == 0.0
+
+
+def test_a_wrong_subset_hull_is_refused(monkeypatch: pytest.MonkeyPatch) -> None:
+    """An incremental hull whose nearest facet is moved inwards fails the certificate (the
+    full hull answers); one whose planes are right but which stops at the first step would
+    be wrong, so the support test must be what stops it."""
+    W = next(w for w in _generated_grasps(5, 10, seed=31, mu=0.7) if closure_lp(w).closure)
+    W = W / np.abs(W).max()
+    expected = textbook_epsilon(W)
+    assert expected > 0
+    real = eps_module.ConvexHull
+
+    class Corrupted:
+        def __init__(self, points: np.ndarray, **kw: object) -> None:
+            self._hull = real(points, **kw)  # type: ignore[arg-type]
+
+        def __getattr__(self, name: str) -> object:
+            return getattr(self._hull, name)
+
+        @property
+        def equations(self) -> np.ndarray:
+            E = self._hull.equations.copy()
+            E[np.argmax(E[:, -1]), -1] += 0.05
+            return E
+
+    monkeypatch.setattr(eps_module, "ConvexHull", Corrupted)
+    assert eps_module._epsilon_generated(W) is None
+    monkeypatch.setattr(eps_module, "ConvexHull", real)
+    assert eps_module._epsilon_generated(W) == pytest.approx(expected, rel=1e-9)

@@ -88,11 +88,83 @@ def _merged_offsets(W: FloatArray) -> FloatArray | None:
         return None  # flat: the origin is not strictly inside
 
 
+SUPPORT_TOLERANCE = 1e-12
+"""Column generation stops when the support of every wrench along the nearest facet's normal
+exceeds that facet's offset by at most this (relative to the largest entry): the value
+returned is then below the true epsilon by at most this much."""
+
+GENERATION_MIN_WRENCHES = 20
+"""Wrench sets at least this large use :func:`_epsilon_generated` (a hull of a subset);
+smaller ones build the hull of all wrenches at once (as cheap, fewer steps)."""
+
+_FACETS_PER_STEP = 5
+"""Facets (the nearest ones) whose support points are added per column-generation step."""
+
+
+def _epsilon_generated(W: FloatArray) -> float | None:
+    """Epsilon of ``W`` (largest entry 1) from the hull of a growing subset; None when unsure.
+
+    ``S`` starts as the support points of ``W`` along the ``2 d`` coordinate directions and
+    grows (qhull incremental, unmerged) by the support points ``argmax_i u . w_i`` of the
+    nearest facets of ``conv S`` that ``W`` violates. It stops when the nearest facet
+    ``(u, b)`` supports all of ``W`` (``max_i u . w_i <= b + SUPPORT_TOLERANCE``); the hull of
+    ``S`` is then certified as in :func:`_certified_offsets`, so ``b = eps(conv S)``. Since
+    ``conv S`` is inside ``P = conv W``, ``eps(P) >= b``; since the ball of radius ``eps(P)``
+    is inside ``P``, ``eps(P) <= h_P(u) <= b + SUPPORT_TOLERANCE``. Only the facets near the
+    origin are ever built: a subset of about half the wrenches for 5 contacts.
+    """
+    k, d = W.shape
+    start = np.unique(np.argmax(np.hstack([W, -W]), axis=0))
+    if len(start) <= d:
+        return None
+    chosen = np.zeros(k, dtype=bool)
+    chosen[start] = True
+    try:
+        hull = ConvexHull(W[start], incremental=True, qhull_options="Q0")
+    except (QhullError, ValueError):
+        return None
+    try:
+        for _ in range(k):
+            E = hull.equations
+            offsets = -E[:, -1]
+            near = np.argsort(offsets)[:_FACETS_PER_STEP]
+            support = W @ E[near, :-1].T  # (k, facets)
+            best = np.argmax(support, axis=0)
+            excess = support[best, np.arange(len(near))] - offsets[near]
+            if excess[0] <= SUPPORT_TOLERANCE:
+                if np.any(hull.neighbors < 0):
+                    return None
+                violation = float((hull.points @ E[:, :-1].T + E[:, -1]).max())
+                if not violation <= CERTIFICATE_TOLERANCE:
+                    return None
+                return float(offsets[near[0]])
+            new = np.unique(best[excess > SUPPORT_TOLERANCE])
+            new = new[~chosen[new]]
+            if len(new) == 0:  # a chosen wrench outside a facet of conv S: not certified
+                return None
+            chosen[new] = True
+            hull.add_points(W[new])
+    except (QhullError, ValueError):
+        return None
+    finally:
+        hull.close()
+    return None
+
+
 def _epsilon_normalized(W: FloatArray) -> float:
     """Epsilon of ``W`` scaled to a largest entry of 1 (no validation)."""
     k, d = W.shape
     if k <= d or _separated(W):
         return 0.0
+    if k >= GENERATION_MIN_WRENCHES:
+        margin = _epsilon_generated(W)
+        if margin is not None:
+            return margin if margin > MARGIN_TOLERANCE else 0.0
+    return _epsilon_full(W)
+
+
+def _epsilon_full(W: FloatArray) -> float:
+    """Epsilon of ``W`` (largest entry 1, not separated) from the hull of all of ``W``."""
     offsets = _certified_offsets(W)
     if offsets is None:
         offsets = _merged_offsets(W)
