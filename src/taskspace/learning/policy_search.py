@@ -327,10 +327,39 @@ def power_update(returns: FloatArray, perturbations: FloatArray, temperature: fl
     the current mean (rows of ``perturbations``), ``h = temperature``; equal weights if all
     costs are equal.
     """
-    S = -np.asarray(returns, dtype=float)
-    span = S.max() - S.min()
-    w = np.exp(-temperature * (S - S.min()) / span) if span > 0 else np.ones_like(S)
-    return np.asarray((w[:, None] * perturbations).sum(axis=0) / w.sum(), dtype=float)
+    S, eps = _checked_rollouts(returns, perturbations, "returns")
+    if S.ndim != 1:
+        raise InvalidInputError(f"returns must be (K,), got {S.shape}")
+    w = _softmax_weights(-S, check_positive(temperature, "temperature"))
+    return np.asarray(w @ eps, dtype=float)
+
+
+def _checked_rollouts(
+    values: FloatArray, perturbations: FloatArray, name: str
+) -> tuple[FloatArray, FloatArray]:
+    """``values`` (K, ...) and ``perturbations`` (K x p) as finite real arrays, K >= 1.
+
+    ``values`` is scaled by a power of two (exact) so that its largest magnitude is below 1:
+    the weights only depend on ``(S - min S) / span``, and sums and spans of costs up to
+    1.8e308 then cannot overflow to inf (which made the update NaN).
+    """
+    C = as_float_array(values, name)
+    eps = as_float_array(perturbations, "perturbations")
+    if eps.ndim != 2 or C.ndim == 0 or C.shape[:1] != eps.shape[:1] or eps.shape[0] == 0:
+        raise InvalidInputError(
+            f"need {name} (K,) or (K x N) and perturbations (K x p) for the same K >= 1 "
+            f"rollouts, got {C.shape} and {eps.shape}"
+        )
+    for label, a in ((name, C), ("perturbations", eps)):
+        bad = ~np.isfinite(a).reshape(a.shape[0], -1).all(axis=1)
+        if bad.any():
+            raise InvalidInputError(
+                f"{label} must be finite; NaN or inf in rollout(s) {np.flatnonzero(bad).tolist()}"
+            )
+    top = float(np.max(np.abs(C))) if C.size else 0.0
+    if top > 0.0:
+        C = C * 2.0 ** -np.frexp(top)[1]
+    return C, eps
 
 
 def _softmax_weights(S: FloatArray, temperature: float) -> FloatArray:
@@ -373,15 +402,11 @@ def pi2_update(
     A parameter that is never active (all its ``w_{j,t_i}`` zero) gets ``dtheta_j = 0``.
 
     Raises:
-        InvalidInputError: inconsistent shapes.
+        InvalidInputError: inconsistent shapes, no rollout, non-real or non-finite costs,
+            perturbations or activations, a temperature that is not finite and > 0.
     """
-    eps = np.asarray(perturbations, dtype=float)
-    C = np.asarray(costs, dtype=float)
-    if eps.ndim != 2 or C.shape[:1] != eps.shape[:1]:
-        raise InvalidInputError(
-            f"need costs (K,) or (K x N) and perturbations (K x p) for the same K rollouts, "
-            f"got {C.shape} and {eps.shape}"
-        )
+    C, eps = _checked_rollouts(costs, perturbations, "costs")
+    temperature = check_positive(temperature, "temperature")
     if projection_blocks is not None and (
         activations is None
         or isinstance(projection_blocks, (bool, np.bool_))
@@ -397,7 +422,9 @@ def pi2_update(
                 "for the episodic form"
             )
         return np.asarray(_softmax_weights(C, temperature) @ eps, dtype=float)
-    W = np.asarray(activations, dtype=float)
+    W = as_float_array(activations, "activations")
+    if not np.all(np.isfinite(W)) or (W.size and W.min() < 0):
+        raise InvalidInputError("activations must be finite and nonnegative")
     if C.ndim != 2 or W.shape != (C.shape[1], eps.shape[1]):
         raise InvalidInputError(
             f"per-time-step PI^2 needs costs (K x N) and activations (N x p) = "
