@@ -153,7 +153,16 @@ class NativeWeightedStack:
         self._world_version = -1
         self._geometry: tuple[Any, Any] = (None, None)
         kernel.set_tolerances(*tolerances)
-        self._kernel_solve = kernel.solve
+        # whether the kernel evaluates inequality rows (its solves carry KKT residuals): fixed
+        # at construction, a plain attribute (read at every step)
+        self.has_rows = bool(self._rows)
+        # without rows, the kernel's 9-argument solve under its own name (no overload dispatch,
+        # no collision arguments): the step of a box-only stack costs what it did before the
+        # dampers were added; with rows, the 11-argument solve
+        # (a kernel built before solve_boxes existed: its 9-argument solve overload)
+        self._kernel_solve = (
+            kernel.solve if self._rows else getattr(kernel, "solve_boxes", kernel.solve)
+        )
         self._max_iterations = module.MAX_ITERATIONS
 
     def _send_position_limits(self) -> None:
@@ -209,12 +218,38 @@ class NativeWeightedStack:
             self._scale()
         if self._position_limits is not None:
             self._position_limits.sync()
-        if self._rows:
-            self._sync_rows()
+        if self._rows:  # collision rows: the 11-argument solve
+            return self._solve_rows(state, dt, damping, out, targets)
+        hard, soft = self._hard, self._soft
+        try:  # solve_boxes: the same call as before the rows existed (no collision arguments)
+            status, iterations, objective, t_build, t_qp, _ = self._kernel_solve(
+                model,
+                state._data,  # made by the state for ``state._model``, cannot be replaced
+                state.q,
+                targets,
+                [b for c in hard if (b := c.bounds(state, dt)) is not None] if hard else [],
+                [b for c in soft if (b := c.bounds(state, dt)) is not None] if soft else [],
+                damping,
+                out,
+                MAX_ACTIVE_SET_ITERATIONS,
+            )
+        except (TypeError, ValueError, RuntimeError):
+            for t in self.tasks:
+                t._require_target()  # a task without a target: raises, naming it
+            raise
+        if status == self._max_iterations:
+            return None
+        return status, iterations, objective, t_build, t_qp
+
+    def _solve_rows(
+        self, state: State, dt: float, damping: float, out: np.ndarray, targets: list[Any]
+    ) -> tuple[int, int, float, float, float] | None:
+        """:meth:`solve` of a stack with inequality rows (the kernel computes their distances)."""
+        self._sync_rows()
         hard, soft = self._hard, self._soft
         try:
             status, iterations, objective, t_build, t_qp, _ = self._kernel_solve(
-                model,
+                self.model,
                 state._data,  # made by the state for ``state._model``, cannot be replaced
                 state.q,
                 targets,
@@ -232,11 +267,6 @@ class NativeWeightedStack:
         if status == self._max_iterations:
             return None
         return status, iterations, objective, t_build, t_qp
-
-    @property
-    def has_rows(self) -> bool:
-        """Whether the kernel evaluates inequality rows (its solves carry KKT residuals)."""
-        return bool(self._rows)
 
     def residuals(self) -> KKTResiduals:
         """KKT residuals of the last solve with rows (the kernel's, see ``taskspace.qp.kkt``)."""
