@@ -27,7 +27,7 @@ from taskspace.batch.processes import ProcessPool, run_processes
 from taskspace.batch.ray_backend import run_ray
 from taskspace.batch.records import BatchError, BatchResult, ResultsFile, TaskRecord, roundtrip
 from taskspace.batch.serial import run_serial
-from taskspace.batch.worker import TaskFunction, run_chunk
+from taskspace.batch.worker import TaskFunction, run_chunk, worker_context
 from taskspace.errors import InvalidInputError, UnknownNameError
 
 Backend = Literal["serial", "processes", "ray"]
@@ -38,6 +38,10 @@ START_METHODS = ("forkserver", "spawn", "fork")
 MAX_WORKERS = 4096
 """Most workers of an executor (processes, or Ray actors on a cluster)."""
 MAX_RETRIES = 100
+PROBE_TASKS = 3
+"""Most tasks the driver runs itself to time a task when choosing the chunk size."""
+PROBE_SECONDS = 0.25
+"""The driver starts no further probe task after this long [s]."""
 """Most restarts of a chunk whose worker died (a task that always kills its worker fails)."""
 
 
@@ -209,11 +213,25 @@ class Executor:
             if opts.backend == "serial":
                 chunk_size = chunk_size or 1
             elif chunk_size is None:
-                # Time the first task here to size the chunks; its record is kept.
+                # Time the first task here to size the chunks; its record is kept. The
+                # context (a robot, a scene) is built first, outside the timing: counted in,
+                # its load time made every chunk a single task (IK dataset, MBM campaign).
+                try:
+                    worker_context(key, context)
+                except Exception:  # run_chunk reports it as the task's failure
+                    pass
+                # The first task often pays one-time costs (lazy imports, warm-up): up to
+                # PROBE_TASKS tasks are timed while the probe stays short, and the fastest counts.
                 t0 = time.perf_counter()
-                probe = run_chunk(fn, key, context, todo[:1], opts.seed)
-                elapsed = max(time.perf_counter() - t0, 1e-7)
-                todo = todo[1:]
+                while (
+                    len(probe) < min(PROBE_TASKS, len(todo) - 1)
+                    and time.perf_counter() - t0 < PROBE_SECONDS
+                ) or not probe:
+                    probe += run_chunk(
+                        fn, key, context, todo[len(probe) : len(probe) + 1], opts.seed
+                    )
+                elapsed = max(min(r.seconds for r in probe), 1e-7)
+                todo = todo[len(probe) :]
                 per_worker = max(1, math.ceil(len(todo) / (4 * self.workers)))
                 chunk_size = max(1, min(math.ceil(opts.min_chunk_seconds / elapsed), per_worker))
             self.last_chunk_size = chunk_size
