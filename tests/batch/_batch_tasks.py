@@ -84,3 +84,15 @@ def panda_ik(item: Any, rng: np.random.Generator, context: Any) -> list[float]:
 def returns_a_lambda(item: Any, rng: np.random.Generator, context: Any) -> Any:
     """A value the worker cannot send back (not picklable)."""
     return lambda: item
+
+
+def slow_context() -> str:
+    """A context that takes 0.3 s to build (a robot model or a scene loading)."""
+    time.sleep(0.3)
+    return "ready"
+
+
+def millisecond(item: Any, rng: np.random.Generator, context: Any) -> int:
+    """A task of about 1 ms."""
+    time.sleep(0.001)
+    return int(item)

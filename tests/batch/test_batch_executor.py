@@ -225,3 +225,14 @@ def test_batch_inputs_that_cannot_work_are_refused_or_reported(tmp_path: Path) -
         assert all("picklable" in r.error for r in result.records)
         with pytest.raises(InvalidInputError, match="results_file"):
             ex.map(T.returns_a_lambda, [1], results_file=tmp_path)
+
+
+def test_automatic_chunks_ignore_the_context_build_time() -> None:
+    # 1 ms tasks, a 0.3 s context: chunks should hold ~10 tasks (min_chunk_seconds=0.01),
+    # capped at ceil(remaining / (4 * workers)) = 5; timing the context build with the
+    # first task gave 1 (fails on the old code: assert 1 == 5).
+    opts = BatchOptions(backend="processes", workers=2, progress=False)
+    with Executor(opts) as ex:
+        result = ex.map(T.millisecond, range(40), context=T.slow_context)
+    assert result.values == list(range(40))
+    assert 1 < result.chunk_size <= 5
