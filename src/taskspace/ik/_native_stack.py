@@ -152,7 +152,7 @@ class NativeWeightedStack:
         self._declare = [c.compiled_constraint for c in self._rows]
         self._declared: list[CompiledConstraint | None] = []
         self._world_version = -1
-        self._geometry: tuple[Any, Any] = (None, None)
+        self._geometry: tuple[Any, ...] = ()  # (collision model, its data) with rows
         kernel.set_tolerances(*tolerances)
         # whether the kernel evaluates inequality rows (its solves carry KKT residuals): fixed
         # at construction, a plain attribute (read at every step)
@@ -219,10 +219,10 @@ class NativeWeightedStack:
             self._scale()
         if self._position_limits is not None:
             self._position_limits.sync()
-        if self._rows:  # collision rows: the 11-argument solve
-            return self._solve_rows(state, dt, damping, out, targets)
+        if self._rows:  # collision rows: their declarations, then the 11-argument solve
+            self._sync_rows()
         hard, soft = self._hard, self._soft
-        try:  # solve_boxes: the same call as before the rows existed (no collision arguments)
+        try:
             status, iterations, objective, t_build, t_qp, _ = self._kernel_solve(
                 model,
                 state._data,  # made by the state for ``state._model``, cannot be replaced
@@ -233,33 +233,7 @@ class NativeWeightedStack:
                 damping,
                 out,
                 MAX_ACTIVE_SET_ITERATIONS,
-            )
-        except (TypeError, ValueError, RuntimeError):
-            for t in self.tasks:
-                t._require_target()  # a task without a target: raises, naming it
-            raise
-        if status == self._max_iterations:
-            return None
-        return status, iterations, objective, t_build, t_qp
-
-    def _solve_rows(
-        self, state: State, dt: float, damping: float, out: np.ndarray, targets: list[Any]
-    ) -> tuple[int, int, float, float, float] | None:
-        """:meth:`solve` of a stack with inequality rows (the kernel computes their distances)."""
-        self._sync_rows()
-        hard, soft = self._hard, self._soft
-        try:
-            status, iterations, objective, t_build, t_qp, _ = self._kernel_solve(
-                self.model,
-                state._data,  # made by the state for ``state._model``, cannot be replaced
-                state.q,
-                targets,
-                [b for c in hard if (b := c.bounds(state, dt)) is not None] if hard else [],
-                [b for c in soft if (b := c.bounds(state, dt)) is not None] if soft else [],
-                damping,
-                out,
-                MAX_ACTIVE_SET_ITERATIONS,
-                *self._geometry,
+                *self._geometry,  # () without rows: solve_boxes, no collision arguments
             )
         except (TypeError, ValueError, RuntimeError):
             for t in self.tasks:
