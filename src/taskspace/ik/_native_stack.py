@@ -162,7 +162,7 @@ class NativeWeightedStack:
         # dampers were added; with rows, the 11-argument solve
         # (a kernel built before solve_boxes existed: its 9-argument solve overload)
         self._kernel_solve = (
-            kernel.solve if self._rows else getattr(kernel, "solve_boxes", kernel.solve)
+            self._solve_with_rows if self._rows else getattr(kernel, "solve_boxes", kernel.solve)
         )
         self._max_iterations = module.MAX_ITERATIONS
 
@@ -219,7 +219,7 @@ class NativeWeightedStack:
             self._scale()
         if self._position_limits is not None:
             self._position_limits.sync()
-        if self._rows:  # collision rows: their declarations, then the 11-argument solve
+        if self._rows:  # collision rows: their declarations (the solve adds the geometry)
             self._sync_rows()
         hard, soft = self._hard, self._soft
         try:
@@ -233,7 +233,6 @@ class NativeWeightedStack:
                 damping,
                 out,
                 MAX_ACTIVE_SET_ITERATIONS,
-                *self._geometry,  # () without rows: solve_boxes, no collision arguments
             )
         except (TypeError, ValueError, RuntimeError):
             for t in self.tasks:
@@ -242,6 +241,10 @@ class NativeWeightedStack:
         if status == self._max_iterations:
             return None
         return status, iterations, objective, t_build, t_qp
+
+    def _solve_with_rows(self, *args: Any) -> Any:
+        """The kernel's 11-argument solve: ``args`` and the collision model with its data."""
+        return self.kernel.solve(*args, *self._geometry)
 
     def residuals(self) -> KKTResiduals:
         """KKT residuals of the last solve with rows (the kernel's, see ``taskspace.qp.kkt``)."""
