@@ -38,11 +38,11 @@ START_METHODS = ("forkserver", "spawn", "fork")
 MAX_WORKERS = 4096
 """Most workers of an executor (processes, or Ray actors on a cluster)."""
 MAX_RETRIES = 100
+"""Most restarts of a chunk whose worker died (a task that always kills its worker fails)."""
 PROBE_TASKS = 3
 """Most tasks the driver runs itself to time a task when choosing the chunk size."""
 PROBE_SECONDS = 0.25
 """The driver starts no further probe task after this long [s]."""
-"""Most restarts of a chunk whose worker died (a task that always kills its worker fails)."""
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -72,13 +72,16 @@ def _certified_offsets(W: FloatArray) -> FloatArray | None:
         hull = ConvexHull(W, qhull_options="Q0")
     except (QhullError, ValueError):
         return None
+    return -hull.equations[:, -1] if _hull_certified(hull, W) else None
+
+
+def _hull_certified(hull: ConvexHull, points: FloatArray) -> bool:
+    """The facets of ``hull`` close up and each of ``points`` is inside every facet plane."""
     E = hull.equations
     if np.any(hull.neighbors < 0):
-        return None
-    violation = float((W @ E[:, :-1].T + E[:, -1]).max())
-    if not violation <= CERTIFICATE_TOLERANCE:
-        return None
-    return -E[:, -1]
+        return False
+    violation = float((points @ E[:, :-1].T + E[:, -1]).max())
+    return violation <= CERTIFICATE_TOLERANCE
 
 
 def _merged_offsets(W: FloatArray) -> FloatArray | None:
@@ -132,12 +135,7 @@ def _epsilon_generated(W: FloatArray) -> float | None:
             best = np.argmax(support, axis=0)
             excess = support[best, np.arange(len(near))] - offsets[near]
             if excess[0] <= SUPPORT_TOLERANCE:
-                if np.any(hull.neighbors < 0):
-                    return None
-                violation = float((hull.points @ E[:, :-1].T + E[:, -1]).max())
-                if not violation <= CERTIFICATE_TOLERANCE:
-                    return None
-                return float(offsets[near[0]])
+                return float(offsets[near[0]]) if _hull_certified(hull, hull.points) else None
             new = np.unique(best[excess > SUPPORT_TOLERANCE])
             new = new[~chosen[new]]
             if len(new) == 0:  # a chosen wrench outside a facet of conv S: not certified
