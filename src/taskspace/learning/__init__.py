@@ -51,6 +51,7 @@ from taskspace.learning.rollout import (
     Episode,
     LinearQuadraticTask,
     Rollout,
+    RolloutError,
     evaluate_population,
     policy_rollout,
 )
@@ -89,6 +90,7 @@ __all__ = [
     "RBFPolicy",
     "RhythmicDMP",
     "Rollout",
+    "RolloutError",
     "SoftPolicy",
     "SphereRepulsion",
     "TabularOptions",

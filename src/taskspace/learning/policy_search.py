@@ -59,8 +59,12 @@ from taskspace._validation import (
     check_seed,
 )
 from taskspace.batch import Executor as BatchExecutor
-from taskspace.errors import InvalidInputError
+from taskspace.errors import InvalidInputError, SolverError
 from taskspace.learning.rollout import Episode, Rollout, evaluate_population
+
+MAX_POPULATION_ENTRIES = 10**8
+"""Cap on ``population x parameters`` (the noise of one update, 0.8 GB): above it
+:class:`PolicySearchOptions` is refused instead of failing in a bare ``MemoryError``."""
 
 
 class PolicySearchStatus(enum.Enum):
@@ -132,7 +136,14 @@ class PolicySearchResult:
 def _arrays(episodes: Sequence[Episode]) -> tuple[FloatArray, FloatArray]:
     if not episodes:
         raise InvalidInputError("need at least one episode")
-    G = np.stack([e.log_likelihood_gradient for e in episodes])
+    grads = [np.asarray(e.log_likelihood_gradient, dtype=float).ravel() for e in episodes]
+    sizes = sorted({g.size for g in grads})
+    if len(sizes) > 1:
+        raise InvalidInputError(
+            f"every episode's log_likelihood_gradient needs one entry per parameter; got sizes "
+            f"{sizes}"
+        )
+    G = np.stack(grads)
     R = np.array([e.total_return for e in episodes], dtype=float)
     return G, R
 
@@ -231,6 +242,12 @@ class _Search:
         self.theta = as_float_array(theta0, "initial parameters").ravel().copy()
         if self.theta.size == 0 or not np.all(np.isfinite(self.theta)):
             raise InvalidInputError("initial parameters must be finite and not empty")
+        if options.population * self.theta.size > MAX_POPULATION_ENTRIES:
+            raise InvalidInputError(
+                f"population x parameters = {options.population} x {self.theta.size} exceeds "
+                f"{MAX_POPULATION_ENTRIES:.0e} numbers per update (the noise alone would need "
+                f"{options.population * self.theta.size * 8 / 2**30:.3g} GiB)"
+            )
         self.options = options
         self.executor = executor
         self.seeds = np.random.SeedSequence(options.seed)
@@ -256,6 +273,16 @@ class _Search:
                 res.best_parameters = np.asarray(p, dtype=float).copy()
         res.mean_returns.append(float(np.mean([e.total_return for e in eps])))
         return eps
+
+    def set_theta(self, theta: FloatArray) -> None:
+        """Take the update ``theta``; a NaN or infinite update raises (never returned)."""
+        if not np.all(np.isfinite(theta)):
+            raise SolverError(
+                f"the update after {len(self.result.mean_returns)} populations is not finite "
+                f"(returns {self.result.mean_returns[-1:]}); scale the returns down or lower "
+                "learning_rate / exploration"
+            )
+        self.theta = theta
 
     def done(self) -> bool:
         o, res = self.options, self.result
@@ -294,7 +321,7 @@ def _gradient_method(
         if s.done():
             break
         step = enac_gradient(eps)[0] if natural else reinforce_gradient(eps)
-        s.theta = s.theta + s.options.learning_rate * step
+        s.set_theta(s.theta + s.options.learning_rate * step)
     return s.finish()
 
 
@@ -468,27 +495,38 @@ def _parameter_exploration(
     memory: list[tuple[float, FloatArray]] = []  # PoWER: the best rollouts of all iterations
     for _ in range(s.iterations):
         noise = sigma * s.rng.standard_normal((o.population, s.theta.size))
+        if not np.all(np.isfinite(s.theta + noise)):
+            raise InvalidInputError(
+                f"the exploration noise overflowed (sigma = {sigma!r} after "
+                f"{len(s.result.mean_returns)} updates: exploration {o.exploration!r}, "
+                f"exploration_decay {o.exploration_decay!r}); use a smaller exploration or "
+                "a decay <= 1"
+            )
         eps = s.evaluate(list(s.theta + noise))
         R = np.array([e.total_return for e in eps])
         if method == "power":
             memory.extend((float(r), s.theta + n) for r, n in zip(R, noise))
             memory = sorted(memory, key=lambda m: -m[0])[: o.elite]
-            s.theta = s.theta + power_update(
-                np.array([m[0] for m in memory]),
-                np.array([m[1] for m in memory]) - s.theta,
-                o.temperature,
+            s.set_theta(
+                s.theta
+                + power_update(
+                    np.array([m[0] for m in memory]),
+                    np.array([m[1] for m in memory]) - s.theta,
+                    o.temperature,
+                )
             )
         elif method == "pi2":
             if activations is None:
-                s.theta = s.theta + pi2_update(-R, noise, o.temperature)
+                s.set_theta(s.theta + pi2_update(-R, noise, o.temperature))
             else:
                 costs = _step_costs(eps, activations.shape[0])
-                s.theta = s.theta + pi2_update(
-                    costs, noise, o.temperature, activations, projection_blocks
+                s.set_theta(
+                    s.theta
+                    + pi2_update(costs, noise, o.temperature, activations, projection_blocks)
                 )
         else:  # (mu, lambda)-ES
             idx = np.argsort(R)[::-1][: o.elite]
-            s.theta = s.theta + noise[idx].mean(axis=0)
+            s.set_theta(s.theta + noise[idx].mean(axis=0))
         sigma *= o.exploration_decay
         if s.done():
             break
@@ -579,6 +617,15 @@ def cma_es(
 
     s = _Search(rollout, theta0, options or PolicySearchOptions(), executor)
     o = s.options
+    if o.population < 2:
+        raise InvalidInputError(f"cma_es needs population >= 2, got {o.population}")
+    if o.seed >= 2**32 - 1:
+        raise InvalidInputError(f"cma_es needs seed < 2**32 - 1 (pycma's limit), got {o.seed}")
+    if o.exploration < 1e-300:
+        raise InvalidInputError(
+            f"cma_es needs exploration >= 1e-300, got {o.exploration!r} (pycma fails an "
+            "internal assertion on subnormal step sizes)"
+        )
     es = cma.CMAEvolutionStrategy(
         s.theta,
         o.exploration,
@@ -587,7 +634,7 @@ def cma_es(
     for _ in range(s.iterations):
         candidates = [np.asarray(c, dtype=float) for c in es.ask()]
         eps = s.evaluate(candidates)
-        es.tell(candidates, [-e.total_return for e in eps])
+        es.tell(candidates, [-float(e.total_return) for e in eps])
         s.theta = np.asarray(es.mean, dtype=float).copy()
         if s.done() or es.stop():
             break

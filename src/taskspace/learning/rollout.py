@@ -17,8 +17,32 @@ import numpy as np
 
 from taskspace._validation import FloatArray, check_count, check_positive
 from taskspace.batch import Executor as BatchExecutor
-from taskspace.errors import InvalidInputError
+from taskspace.errors import InvalidInputError, TaskspaceError
 from taskspace.learning.policies import LinearPolicy, Policy
+
+
+class RolloutError(TaskspaceError):
+    """A user rollout raised, or returned something that is not a valid :class:`Episode`.
+
+    A rollout's exception (other than a :class:`TaskspaceError`, re-raised as is) is the
+    ``__cause__``. A return that is NaN or infinite is refused: a search would otherwise keep
+    it as the best rollout (the (mu, lambda)-ES sorted NaN first) or average it into a NaN
+    step; give a failing rollout a large finite penalty instead.
+
+    Attributes:
+        index: position of the rollout in the population.
+        parameters: the parameters it was given.
+        seed: the seed it was given.
+    """
+
+    def __init__(self, message: str, index: int, parameters: FloatArray, seed: int) -> None:
+        self.index = index
+        self.parameters = parameters
+        self.seed = seed
+        super().__init__(
+            f"rollout {index} (seed {seed}, parameters {np.array2string(parameters, threshold=8)})"
+            f" {message}"
+        )
 
 
 @dataclass
@@ -58,21 +82,74 @@ def evaluate_population(
     (local processes or Ray; the rollout is shipped once per worker as its context, and a
     failing rollout raises :class:`taskspace.batch.BatchError` naming its parameters).
 
+    Every result is checked: an :class:`Episode` whose ``total_return`` is a finite real
+    number, ``log_likelihood_gradient`` finite real numbers and ``steps`` an integer >= 0.
+
     Raises:
         InvalidInputError: different numbers of parameter vectors and seeds.
+        RolloutError: a rollout raised (other than a :class:`TaskspaceError`, which passes
+            through) or returned an invalid episode (e.g. a NaN or infinite return).
     """
     params = [np.asarray(p, dtype=float) for p in parameters]
     if len(params) != len(seeds):
         raise InvalidInputError(f"{len(params)} parameter vectors but {len(seeds)} seeds")
-    if executor is None:
-        return [rollout(p, int(s)) for p, s in zip(params, seeds)]
+    seed_list = [int(s) for s in seeds]
+    episodes: list[Any] = []
     if isinstance(executor, BatchExecutor):
-        items = [(p, int(s)) for p, s in zip(params, seeds)]
+        items = list(zip(params, seed_list))
         result = executor.map(
             _rollout_task, items, context=functools.partial(_same, rollout), description="rollouts"
         )
-        return list(result.values)
-    return list(executor.map(rollout, params, [int(s) for s in seeds]))
+        episodes = list(result.values)
+    else:
+        results = (
+            map(rollout, params, seed_list)
+            if executor is None
+            else executor.map(rollout, params, seed_list)
+        )
+        try:
+            for episode in results:
+                episodes.append(episode)
+        except TaskspaceError:
+            raise
+        except Exception as exc:
+            i = len(episodes)
+            raise RolloutError(
+                f"raised {type(exc).__name__}: {exc}", i, params[i], seed_list[i]
+            ) from exc
+    for i, episode in enumerate(episodes):
+        problem = _episode_problem(episode)
+        if problem:
+            raise RolloutError(problem, i, params[i], seed_list[i])
+    return episodes
+
+
+def _episode_problem(episode: Any) -> str:
+    """Why ``episode`` is not a valid :class:`Episode` ("" if it is)."""
+    if not isinstance(episode, Episode):
+        return f"returned a {type(episode).__name__}, not an Episode"
+    ret = episode.total_return
+    if isinstance(ret, np.ndarray) and ret.shape == ():
+        ret = ret[()]
+    if isinstance(ret, (bool, np.bool_)) or not isinstance(
+        ret, (int, float, np.integer, np.floating)
+    ):
+        return f"returned total_return={ret!r}, not a real number"
+    if not np.isfinite(ret):
+        return (
+            f"returned total_return={ret!r}; returns must be finite (give a failing rollout a "
+            "large finite penalty instead)"
+        )
+    steps = episode.steps
+    if isinstance(steps, (bool, np.bool_)) or not isinstance(steps, (int, np.integer)) or steps < 0:
+        return f"returned steps={steps!r}, not an integer >= 0"
+    try:
+        g = np.asarray(episode.log_likelihood_gradient)
+    except ValueError:  # ragged nested sequences
+        g = np.asarray(None)
+    if g.dtype.kind not in "fiu" or not np.all(np.isfinite(g)):
+        return "returned a log_likelihood_gradient that is not finite real numbers"
+    return ""
 
 
 def _same(value: Any) -> Any:
