@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import os
 import shutil
+import socket
 import subprocess
 import sys
 import tempfile
+import time
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -72,38 +74,69 @@ def test_ray_reports_failures_and_survives_killed_workers(local_ray: None, tmp_p
     assert "worker died" in poisoned.failures[0].error
 
 
-def test_ray_cluster_by_address() -> None:
-    """`ray start --head` in a subprocess, then a run connected with address='auto'."""
+def _free_port() -> int:
+    with socket.socket() as sock:
+        sock.bind(("", 0))
+        return int(sock.getsockname()[1])
+
+
+def test_ray_cluster_by_address(monkeypatch: pytest.MonkeyPatch) -> None:
+    """`ray start --head` in a subprocess, then a run connected to that cluster's address.
+
+    The address is the one `ray start` records in its temp dir: with ``"auto"`` Ray picks any
+    cluster it finds on the machine when the record is elsewhere (here the local runtime of the
+    tests above may still be shutting down), which made this test fail now and then. The
+    cluster is started with ``--block`` and stopped by terminating that process, so no other
+    Ray cluster on the machine is touched (``ray stop`` would stop them all); it gets a free
+    port, as another cluster may hold Ray's default one. Ray turns token authentication on for
+    a ``ray start`` when a token file exists but never for a driver given an explicit address:
+    the test cluster runs without it, on both sides.
+    """
     ray_cli = shutil.which("ray", path=str(Path(sys.executable).parent))
     if ray_cli is None:
         pytest.skip("the ray command is not installed next to this Python")
     if ray.is_initialized():
         ray.shutdown()
+    monkeypatch.setenv("RAY_AUTH_MODE", "disabled")
     env = {**os.environ, "RAY_USAGE_STATS_ENABLED": "0", "PYTHONPATH": _pythonpath()}
     temp_dir = tempfile.mkdtemp(prefix="ray", dir="/tmp")  # Ray's socket paths must be short
-    start = subprocess.run(
+    address_file = Path(temp_dir) / "ray_current_cluster"
+    head = subprocess.Popen(
         [
             ray_cli,
             "start",
             "--head",
+            "--block",
+            f"--port={_free_port()}",
             "--num-cpus=2",
             "--include-dashboard=false",
             f"--temp-dir={temp_dir}",
         ],
         env=env,
-        capture_output=True,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
         text=True,
-        timeout=180,
     )
-    assert start.returncode == 0, start.stdout + start.stderr
     try:
-        result = run_batch(T.noisy, range(12), options=_ray(ray_address="auto"))
+        deadline = time.monotonic() + 180
+        while not address_file.exists() or not address_file.read_text().strip():
+            if head.poll() is not None:
+                pytest.fail(f"ray start exited with {head.returncode}: {head.stderr.read()}")
+            assert time.monotonic() < deadline, "ray start did not record its address in 180 s"
+            time.sleep(0.2)
+        address = address_file.read_text().strip()
+        result = run_batch(T.noisy, range(12), options=_ray(ray_address=address))
         serial = run_batch(
             T.noisy, range(12), options=BatchOptions(backend="serial", progress=False)
         )
         assert result.values == serial.values
-        assert ray.get_runtime_context().gcs_address  # really connected to that cluster
+        assert ray.get_runtime_context().gcs_address == address  # really that cluster
     finally:
         ray.shutdown()
-        subprocess.run([ray_cli, "stop", "--force"], env=env, capture_output=True, timeout=120)
+        head.terminate()
+        try:
+            head.wait(timeout=120)
+        except subprocess.TimeoutExpired:
+            head.kill()
+            head.wait()
         shutil.rmtree(temp_dir, ignore_errors=True)

@@ -1,7 +1,8 @@
 """The Ray backend: the same chunks as Ray tasks, on a local Ray runtime or a cluster.
 
 ``address=None`` starts a local runtime with ``workers`` CPUs (``ray.init(num_cpus=...)``);
-``"auto"`` joins the cluster that ``ray start --head`` started on this machine, and
+``"auto"`` joins the cluster that ``ray start --head`` started on this machine (with several
+clusters running Ray picks one: pass its ``"HOST:PORT"`` to be sure), and
 ``"ray://host:10001"`` a remote one; with no address, Ray's own ``RAY_ADDRESS`` environment
 variable is honoured. Ray re-runs a task whose worker died (``max_retries``);
 a chunk that still fails is split into single tasks, and a single task that keeps killing its
@@ -11,6 +12,7 @@ worker is reported as failed with its input.
 from __future__ import annotations
 
 import os
+import re
 import sys
 from collections import deque
 from collections.abc import Callable, Iterator
@@ -41,6 +43,33 @@ def _driver_path() -> str:
     return os.pathsep.join(dict.fromkeys(keep))
 
 
+_ANSI = re.compile(r"\x1b\[[0-9;]*m")
+_MAX_REASON = 2000
+
+
+def _reason(exc: BaseException) -> str:
+    """Ray's whole error on one line, colour codes removed, its cause kept when shortened.
+
+    A ``RayTaskError`` starts with ``ray::run_chunk() (pid=..., ip=...)``; what went wrong (a
+    ``RaySystemError``'s "System error: ...", the worker's traceback) is on the lines after it.
+    """
+    lines = [line.strip() for line in _ANSI.sub("", str(exc)).splitlines() if line.strip()]
+    text = f"{type(exc).__name__}: " + " | ".join(lines)
+    if len(text) > _MAX_REASON:
+        text = text[: _MAX_REASON // 4] + " ... " + text[-(3 * _MAX_REASON) // 4 :]
+    return text
+
+
+def _chain(exc: BaseException) -> str:
+    """The messages of an exception and of its causes."""
+    parts: list[str] = []
+    seen: BaseException | None = exc
+    while seen is not None and len(parts) < 10:
+        parts.append(str(seen))
+        seen = seen.__cause__ or seen.__context__
+    return " <- ".join(parts)
+
+
 def connect(address: str | None, workers: int) -> Any:
     """The ``ray`` module, connected (a local runtime when ``address`` is None)."""
     ray = _ray()
@@ -56,9 +85,19 @@ def connect(address: str | None, workers: int) -> Any:
         try:
             ray.init(**kwargs)
         except Exception as exc:
+            hint = (
+                "for a cluster, run `ray start --head` first and pass address='auto' or "
+                "'ray://HOST:10001'"
+            )
+            if "authentication" in _chain(exc).lower() and "RAY_AUTH_MODE" not in os.environ:
+                # Ray enables token authentication for 'auto' but never for an explicit address.
+                hint = (
+                    "the cluster asks for Ray's token authentication, which Ray turns on for "
+                    "an explicit address only with RAY_AUTH_MODE=token (the token is read from "
+                    "RAY_AUTH_TOKEN or ~/.ray/auth_token)"
+                )
             raise BatchError(
-                f"could not start or reach Ray (address={address!r}): {exc}; for a cluster, "
-                "run `ray start --head` first and pass address='auto' or 'ray://HOST:10001'"
+                f"could not start or reach Ray (address={address!r}): {_reason(exc)}; {hint}"
             ) from exc
     return ray
 
@@ -96,7 +135,7 @@ def run_ray(
                     if len(chunk.tasks) > 1:
                         queue.extendleft(reversed(chunk.split()))
                     else:
-                        yield chunk.died(f"{type(exc).__name__}: {exc}".splitlines()[0])
+                        yield chunk.died(_reason(exc))
                     continue
                 yield chunk.stamp(records)
     finally:
