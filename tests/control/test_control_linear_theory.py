@@ -225,7 +225,7 @@ def test_error_paths() -> None:
         )
     with pytest.raises(SolverError, match="no unique solution"):
         solve_lyapunov(np.array([[0.0, 1.0], [-1.0, 0.0]]), np.eye(2))
-    with pytest.raises(InvalidInputError, match="N must be >= 1"):
+    with pytest.raises(InvalidInputError, match="N must be an integer >= 1"):
         solve_riccati_recursion(np.eye(1), np.eye(1), 1.0, 1.0, 1.0, 0)
     with pytest.raises(InvalidInputError, match=r"horizon \[s\] must be finite and > 0"):
         solve_riccati_differential(np.eye(1), np.eye(1), 1.0, 1.0, 1.0, horizon=0.0)

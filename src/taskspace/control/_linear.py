@@ -6,8 +6,8 @@ from typing import Any
 
 import numpy as np
 
-from taskspace._validation import FloatArray, as_float_array, as_matrix
-from taskspace.errors import InvalidInputError
+from taskspace._validation import FloatArray, as_float_array, as_matrix, check_positive
+from taskspace.errors import InvalidInputError, SolverError
 
 
 def square(x: Any, name: str, n: int | None = None) -> FloatArray:
@@ -55,3 +55,50 @@ def symmetric_psd(x: Any, name: str, n: int, *, definite: bool) -> FloatArray:
             f"{name} must be positive semidefinite, its smallest eigenvalue is {eig_min:.3g}"
         )
     return arr
+
+
+def rank_tolerance(tolerance: Any, name: str = "tolerance") -> float | None:
+    """A relative singular-value threshold in ``[0, 1)``, or ``None`` (the default).
+
+    NaN made every rank 0 (every pair "uncontrollable"), a negative or >= 1 threshold every
+    rank full or 0.
+    """
+    if tolerance is None:
+        return None
+    tol = check_positive(tolerance, name, strict=False)
+    if tol >= 1.0:
+        raise InvalidInputError(
+            f"{name} is a relative singular-value threshold and must be in [0, 1), got {tol!r}"
+        )
+    return tol
+
+
+def check_overflow(M: FloatArray, what: str, hint: str) -> FloatArray:
+    """``M`` if finite; else ``InvalidInputError``: an intermediate overflowed float64."""
+    if not np.all(np.isfinite(M)):
+        raise InvalidInputError(f"{what} overflows float64 (entries beyond 1.8e308): {hint}")
+    return M
+
+
+def check_solution(P: FloatArray, what: str) -> FloatArray:
+    """``P`` if finite; else ``SolverError`` (the solve overflowed or broke down)."""
+    if not np.all(np.isfinite(P)):
+        raise SolverError(
+            f"{what} is not finite (the computation overflowed float64): rescale the problem "
+            "(state and input units) so that A, B, Q and R have moderate entries"
+        )
+    return P
+
+
+def safe_norm(X: Any, axis: int | None = None) -> Any:
+    """Frobenius (or column, with ``axis=0``) norm without overflow: ``s |X / s|``, ``s = max|X|``.
+
+    ``np.linalg.norm`` squares the entries: a matrix with entries near 1e300 had norm inf.
+    """
+    X = np.asarray(X)
+    if X.size == 0:
+        return 0.0 if axis is None else np.zeros(X.shape[1 - axis])
+    s = np.max(np.abs(X), axis=axis, keepdims=axis is not None)
+    s = np.where(s > 0, s, 1.0)
+    out = np.linalg.norm(X / s, axis=axis) * (s.ravel() if axis is not None else s)
+    return float(out) if axis is None else out

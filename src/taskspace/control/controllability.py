@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from taskspace._validation import FloatArray
-from taskspace.control._linear import system
+from taskspace.control._linear import check_overflow, rank_tolerance, safe_norm, system
 
 
 @dataclass
@@ -47,13 +47,28 @@ class ControllabilityResult:
 
 
 def controllability_matrix(A: Any, B: Any) -> FloatArray:
-    """``[B, A B, ..., A^{n-1} B]`` (n x n m)."""
+    """``[B, A B, ..., A^{n-1} B]`` (n x n m).
+
+    Raises:
+        InvalidInputError: a power ``A^k B`` overflows float64.
+    """
     A, B = system(A, B)
     n = A.shape[0]
     blocks = [B]
-    for _ in range(n - 1):
-        blocks.append(A @ blocks[-1])
-    return np.hstack(blocks)
+    with np.errstate(over="ignore", invalid="ignore"):
+        for _ in range(n - 1):
+            blocks.append(A @ blocks[-1])
+    return check_overflow(
+        np.hstack(blocks),
+        "the controllability matrix [B, AB, ..., A^(n-1)B]",
+        "rescale the state or the time unit so that A has moderate entries",
+    )
+
+
+def _norm2(M: FloatArray) -> float:
+    """Spectral norm without overflow (``np.linalg.norm(M, 2)`` was inf near 1e300)."""
+    s = float(np.max(np.abs(M))) if M.size else 0.0
+    return s * float(np.linalg.norm(M / s, 2)) if s > 0 else 0.0
 
 
 def _rank(M: FloatArray, tol: float) -> tuple[int, FloatArray]:
@@ -75,19 +90,27 @@ def controllability(A: Any, B: Any, tolerance: float | None = None) -> Controlla
     Args:
         A: system matrix (n x n).
         B: input matrix (n x m) (a vector is one input).
-        tolerance: relative rank threshold; default ``max(n, m) n * eps * 1e3``.
+        tolerance: relative rank threshold in ``[0, 1)``; default ``max(n, m) n * eps * 1e3``.
+
+    Raises:
+        InvalidInputError: bad shapes or values, a tolerance outside ``[0, 1)`` (NaN made
+            every pair uncontrollable), or the controllability matrix overflows.
     """
     A, B = system(A, B)
     n, m = B.shape
-    tol = float(tolerance) if tolerance is not None else max(n, m) * n * np.finfo(float).eps * 1e3
+    user_tol = rank_tolerance(tolerance)
+    tol = user_tol if user_tol is not None else max(n, m) * n * np.finfo(float).eps * 1e3
     C = controllability_matrix(A, B)
-    norms = np.linalg.norm(C, axis=0)
+    norms = safe_norm(C, axis=0)  # np.linalg.norm was inf for entries ~1e300 (column -> 0)
     Cn = C[:, norms > 0] / norms[norms > 0]
     rank, s = _rank(Cn, tol)
     modes = []
-    scale = max(1.0, float(np.linalg.norm(A, 2)), float(np.linalg.norm(B, 2)))
+    # the two column blocks scaled separately (the rank is unchanged): one common scale made
+    # B vanish next to an A near 1e300 (every mode "uncontrollable" although rank C = n)
+    scale_a = max(1.0, _norm2(A))
+    scale_b = max(1.0, _norm2(B))
     for lam in np.linalg.eigvals(A):
-        pbh = np.hstack([A - lam * np.eye(n), B]) / scale
+        pbh = np.hstack([(A - lam * np.eye(n)) / scale_a, B / scale_b])
         r, _ = _rank(pbh, tol)
         sv = np.linalg.svd(pbh, compute_uv=False)
         if r < n or (sv.size >= n and sv[n - 1] <= tol):

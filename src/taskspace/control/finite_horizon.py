@@ -19,9 +19,14 @@ from typing import Any
 
 import numpy as np
 
-from taskspace._validation import FloatArray, check_positive
-from taskspace.control._linear import symmetric_psd, system
-from taskspace.errors import InvalidInputError
+from taskspace._validation import FloatArray, as_vector, check_count, check_positive
+from taskspace.control._linear import check_overflow, symmetric_psd, system
+from taskspace.dynamics.simulation import available_memory_bytes
+from taskspace.errors import InvalidInputError, SolverError
+
+MAX_TABLE_BYTES = 2 * 2**30
+"""Largest table of cost-to-go matrices and gains allocated (2 GiB, or half the available
+memory if less)."""
 
 
 @dataclass
@@ -41,8 +46,8 @@ class FiniteHorizonLQR:
     discrete: bool
 
     def cost(self, x0: Any) -> float:
-        """Optimal cost ``x0^T P_0 x0`` from ``x0``."""
-        x = np.asarray(x0, dtype=float)
+        """Optimal cost ``x0^T P_0 x0`` from ``x0`` (n,)."""
+        x = as_vector(x0, self.P.shape[1], "x0")
         return float(x @ self.P[0] @ x)
 
 
@@ -60,6 +65,26 @@ def _inputs(
     )
 
 
+def _check_table(samples: int, n: int, m: int, name: str, what: str) -> None:
+    """Refuse a table of ``samples`` (n x n) and (m x n) matrices larger than the budget."""
+    needed = 8 * samples * n * (n + m)
+    available = available_memory_bytes()
+    budget = MAX_TABLE_BYTES if available is None else min(MAX_TABLE_BYTES, available // 2)
+    if needed > budget:
+        raise InvalidInputError(
+            f"{name} = {samples - 1:,} {what} would store {needed / 1e9:.3g} GB of matrices but "
+            f"the budget is {budget / 1e9:.3g} GB (half the available memory, at most "
+            f"{MAX_TABLE_BYTES / 2**30:g} GiB); use fewer {what}"
+        )
+
+
+def _overflowed(P: FloatArray, where: str) -> SolverError:
+    return SolverError(
+        f"the cost-to-go P overflowed float64 (or became NaN) at {where}: rescale the problem "
+        "(state and input units), shorten the horizon, or use more steps"
+    )
+
+
 def solve_riccati_differential(
     A: Any, B: Any, Q: Any, R: Any, Qf: Any, horizon: float, steps: int = 1000
 ) -> FiniteHorizonLQR:
@@ -70,32 +95,41 @@ def solve_riccati_differential(
     Args:
         A, B, Q, R, Qf: the problem (see the module docstring).
         horizon: ``T`` [s] (> 0).
-        steps: number of RK4 steps (>= 1).
+        steps: number of RK4 steps (an integer >= 1).
+
+    Raises:
+        InvalidInputError: bad inputs, a non-integer ``steps``, or a table larger than the
+            memory budget (:data:`MAX_TABLE_BYTES`).
+        SolverError: ``P`` overflows (too large steps on a fast system, or huge weights).
     """
     A, B, Q, R, Qf = _inputs(A, B, Q, R, Qf)
     T = check_positive(horizon, "horizon [s]")
-    if int(steps) < 1:
-        raise InvalidInputError(f"steps must be >= 1, got {steps}")
-    steps = int(steps)
-    G = B @ np.linalg.solve(R, B.T)
+    steps = check_count(steps, "steps", minimum=1)
+    n, m = B.shape
+    _check_table(steps + 1, n, m, "steps", "RK4 steps")
+    with np.errstate(over="ignore", invalid="ignore"):
+        G = B @ np.linalg.solve(R, B.T)
+    check_overflow(G, "B R^-1 B^T", "rescale the problem (state and input units)")
     At = A.T
 
     def rhs(P: FloatArray) -> FloatArray:  # dP/ds, s = T - t
         return At @ P + P @ A - P @ G @ P + Q
 
     h = T / steps
-    n = A.shape[0]
     Ps = np.empty((steps + 1, n, n))
     P = Qf.copy()
     Ps[steps] = P
-    for k in range(steps, 0, -1):
-        k1 = rhs(P)
-        k2 = rhs(P + 0.5 * h * k1)
-        k3 = rhs(P + 0.5 * h * k2)
-        k4 = rhs(P + h * k3)
-        P = P + (h / 6.0) * (k1 + 2.0 * (k2 + k3) + k4)
-        P = 0.5 * (P + P.T)
-        Ps[k - 1] = P
+    with np.errstate(over="ignore", invalid="ignore"):
+        for k in range(steps, 0, -1):
+            k1 = rhs(P)
+            k2 = rhs(P + 0.5 * h * k1)
+            k3 = rhs(P + 0.5 * h * k2)
+            k4 = rhs(P + h * k3)
+            P = P + (h / 6.0) * (k1 + 2.0 * (k2 + k3) + k4)
+            P = 0.5 * (P + P.T)
+            if not np.isfinite(P).all():  # a NaN P made every gain NaN, silently
+                raise _overflowed(P, f"t = {(k - 1) * h:.6g} s (step {steps - k + 1} of {steps})")
+            Ps[k - 1] = P
     K = np.linalg.solve(R, B.T @ Ps)  # R^-1 B^T P(t) for every sample
     return FiniteHorizonLQR(times=np.linspace(0.0, T, steps + 1), P=Ps, K=K, discrete=False)
 
@@ -105,21 +139,28 @@ def solve_riccati_recursion(A: Any, B: Any, Q: Any, R: Any, Qf: Any, N: int) -> 
 
     Args:
         A, B, Q, R, Qf: the problem.
-        N: number of stages (>= 1).
+        N: number of stages (an integer >= 1).
+
+    Raises:
+        InvalidInputError: bad inputs, a non-integer ``N``, or a table larger than the memory
+            budget (:data:`MAX_TABLE_BYTES`).
+        SolverError: ``P`` overflows.
     """
     A, B, Q, R, Qf = _inputs(A, B, Q, R, Qf)
-    if int(N) < 1:
-        raise InvalidInputError(f"N must be >= 1, got {N}")
-    N = int(N)
+    N = check_count(N, "N", minimum=1)
     n, m = B.shape
+    _check_table(N + 1, n, m, "N", "stages")
     Ps = np.empty((N + 1, n, n))
     Ks = np.empty((N, m, n))
     P = Qf.copy()
     Ps[N] = P
-    for k in range(N - 1, -1, -1):
-        PB = P @ B
-        K = np.linalg.solve(R + B.T @ PB, PB.T @ A)
-        P = Q + A.T @ P @ (A - B @ K)
-        P = 0.5 * (P + P.T)
-        Ps[k], Ks[k] = P, K
+    with np.errstate(over="ignore", invalid="ignore"):
+        for k in range(N - 1, -1, -1):
+            PB = P @ B
+            K = np.linalg.solve(R + B.T @ PB, PB.T @ A)
+            P = Q + A.T @ P @ (A - B @ K)
+            P = 0.5 * (P + P.T)
+            if not (np.isfinite(P).all() and np.isfinite(K).all()):
+                raise _overflowed(P, f"stage {k} (of {N})")
+            Ps[k], Ks[k] = P, K
     return FiniteHorizonLQR(times=np.arange(N + 1, dtype=float), P=Ps, K=Ks, discrete=True)

@@ -18,8 +18,8 @@ from typing import Any
 import numpy as np
 import scipy.linalg as sla
 
-from taskspace._validation import FloatArray
-from taskspace.control._linear import square
+from taskspace._validation import FloatArray, as_vector
+from taskspace.control._linear import check_solution, square
 from taskspace.errors import InvalidInputError, SolverError
 
 SINGULARITY_TOLERANCE = 1e-12
@@ -27,14 +27,27 @@ SINGULARITY_TOLERANCE = 1e-12
 
 
 def _schur_pair(A: FloatArray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    R, U = sla.schur(A.T, output="complex")
-    S, W = sla.schur(A, output="complex")
+    try:
+        R, U = sla.schur(A.T, output="complex")
+        S, W = sla.schur(A, output="complex")
+    except (ValueError, np.linalg.LinAlgError) as exc:  # overflow inside LAPACK
+        raise SolverError(f"the Schur form of A failed ({exc}): {_RESCALE}") from exc
     return R, U, S, W
+
+
+_RESCALE = "rescale A and Q (state and time units) so that they have moderate entries"
+
+
+def _solve_column(lhs: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+    with np.errstate(over="ignore", invalid="ignore"):
+        if not (np.all(np.isfinite(lhs)) and np.all(np.isfinite(rhs))):
+            raise SolverError(f"the Lyapunov solve overflowed float64: {_RESCALE}")
+        return np.asarray(sla.solve_triangular(lhs, rhs))
 
 
 def _finish(X: np.ndarray) -> FloatArray:
     P = np.real(X)
-    return 0.5 * (P + P.T)
+    return check_solution(0.5 * (P + P.T), "the Lyapunov solution P")
 
 
 def solve_lyapunov(A: Any, Q: Any) -> FloatArray:
@@ -55,7 +68,8 @@ def solve_lyapunov(A: Any, Q: Any) -> FloatArray:
     n = A.shape[0]
     Q = square(Q, "Q", n)
     R, U, S, W = _schur_pair(A)
-    F = U.conj().T @ (-Q) @ W
+    with np.errstate(over="ignore", invalid="ignore"):
+        F = U.conj().T @ (-Q) @ W
     Y = np.zeros((n, n), dtype=complex)
     scale = max(1.0, float(np.max(np.abs(A))) if A.size else 1.0)
     eye = np.eye(n)
@@ -67,9 +81,12 @@ def solve_lyapunov(A: Any, Q: Any) -> FloatArray:
                 "A^T P + P A + Q = 0 has no unique solution: A has eigenvalues with "
                 "lambda_i + lambda_j = 0 (A must not have opposite or imaginary-axis eigenvalues)"
             )
-        rhs = F[:, k] - Y[:, :k] @ S[:k, k]
-        Y[:, k] = sla.solve_triangular(lhs, rhs)
-    return _finish(U @ Y @ W.conj().T)
+        with np.errstate(over="ignore", invalid="ignore"):
+            rhs = F[:, k] - Y[:, :k] @ S[:k, k]
+        Y[:, k] = _solve_column(lhs, rhs)
+    with np.errstate(over="ignore", invalid="ignore"):
+        X = U @ Y @ W.conj().T
+    return _finish(X)
 
 
 def solve_discrete_lyapunov(A: Any, Q: Any) -> FloatArray:
@@ -82,20 +99,25 @@ def solve_discrete_lyapunov(A: Any, Q: Any) -> FloatArray:
     n = A.shape[0]
     Q = square(Q, "Q", n)
     R, U, S, W = _schur_pair(A)
-    F = U.conj().T @ (-Q) @ W
+    with np.errstate(over="ignore", invalid="ignore"):
+        F = U.conj().T @ (-Q) @ W
     Y = np.zeros((n, n), dtype=complex)
     eye = np.eye(n)
     for k in range(n):
-        lhs = S[k, k] * R - eye
+        with np.errstate(over="ignore", invalid="ignore"):
+            lhs = S[k, k] * R - eye
         pivots = np.abs(np.diag(lhs))
         if pivots.size and np.min(pivots) <= SINGULARITY_TOLERANCE:
             raise SolverError(
                 "A^T P A - P + Q = 0 has no unique solution: A has eigenvalues with "
                 "lambda_i lambda_j = 1 (e.g. on the unit circle)"
             )
-        rhs = F[:, k] - R @ (Y[:, :k] @ S[:k, k])
-        Y[:, k] = sla.solve_triangular(lhs, rhs)
-    return _finish(U @ Y @ W.conj().T)
+        with np.errstate(over="ignore", invalid="ignore"):
+            rhs = F[:, k] - R @ (Y[:, :k] @ S[:k, k])
+        Y[:, k] = _solve_column(lhs, rhs)
+    with np.errstate(over="ignore", invalid="ignore"):
+        X = U @ Y @ W.conj().T
+    return _finish(X)
 
 
 @dataclass
@@ -117,8 +139,9 @@ class LyapunovCertificate:
 
     def value(self, P: Any, x: Any) -> float:
         """``V(x) = x^T P x``."""
-        xa = np.asarray(x, dtype=float)
-        return float(xa @ np.asarray(P, dtype=float) @ xa)
+        Pa = square(P, "P")
+        xa = as_vector(x, Pa.shape[0], "x")
+        return float(xa @ Pa @ xa)
 
 
 def lyapunov_check(A: Any, P: Any, *, discrete: bool = False) -> LyapunovCertificate:

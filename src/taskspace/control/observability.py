@@ -24,15 +24,15 @@ from typing import Any
 import numpy as np
 import scipy.linalg as sla
 
-from taskspace._validation import FloatArray, as_matrix
-from taskspace.control._linear import square, system
+from taskspace._validation import FloatArray, as_float_array, as_matrix
+from taskspace.control._linear import check_overflow, rank_tolerance, square, system
 from taskspace.control.controllability import controllability, controllability_matrix
 
 
 def _output(A: Any, C: Any) -> tuple[FloatArray, FloatArray]:
     A = square(A, "A")
     n = A.shape[0]
-    C_arr = np.asarray(C, dtype=float)
+    C_arr = as_float_array(C, "C")  # refuses text, None, complex (was truncated silently)
     if C_arr.ndim == 1:
         C_arr = C_arr[None, :]
     return A, as_matrix(C_arr, (None, n), "C")
@@ -43,9 +43,14 @@ def observability_matrix(A: Any, C: Any) -> FloatArray:
     A, C = _output(A, C)
     n = A.shape[0]
     blocks = [C]
-    for _ in range(n - 1):
-        blocks.append(blocks[-1] @ A)
-    return np.vstack(blocks)
+    with np.errstate(over="ignore", invalid="ignore"):
+        for _ in range(n - 1):
+            blocks.append(blocks[-1] @ A)
+    return check_overflow(
+        np.vstack(blocks),
+        "the observability matrix [C; CA; ...; CA^(n-1)]",
+        "rescale the state or the time unit so that A has moderate entries",
+    )
 
 
 @dataclass
@@ -161,15 +166,15 @@ def kalman_decomposition(
 
     Args:
         A: (n x n); B: (n x m); C: (p x n).
-        tolerance: relative rank threshold of the SVDs; default ``n max(m, p) eps 1e3``.
+        tolerance: relative rank threshold of the SVDs in ``[0, 1)``; default
+            ``n max(m, p) eps 1e3``.
     """
     A, B = system(A, B)
     A, C = _output(A, C)
     n, m = B.shape
     p = C.shape[0]
-    tol = (
-        float(tolerance) if tolerance is not None else max(n, m, p) * n * np.finfo(float).eps * 1e3
-    )
+    user_tol = rank_tolerance(tolerance)
+    tol = user_tol if user_tol is not None else max(n, m, p) * n * np.finfo(float).eps * 1e3
     Ctrb = controllability_matrix(A, B)
     Obsv = observability_matrix(A, C)
     scale_c = max(1.0, float(np.max(np.abs(Ctrb))))

@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from taskspace._validation import FloatArray
+from taskspace._validation import FloatArray, as_float_array, check_count, check_positive
 from taskspace.control._linear import system
 from taskspace.control.controllability import controllability, controllability_matrix
 from taskspace.errors import InvalidInputError, SolverError
@@ -81,7 +81,20 @@ class PolePlacementResult:
 
 
 def _poles(poles: Any, n: int) -> np.ndarray:
-    p = np.atleast_1d(np.asarray(poles, dtype=complex)).ravel()
+    raw = np.asarray(poles, dtype=object) if not isinstance(poles, np.ndarray) else poles
+    if (
+        poles is None
+        or raw.dtype.kind in "SUV"
+        or (
+            raw.dtype.kind == "O"
+            and any(item is None or isinstance(item, (str, bytes)) for item in raw.flat)
+        )
+    ):
+        raise InvalidInputError(f"poles must be real or complex numbers, got {poles!r}")
+    try:
+        p = np.atleast_1d(np.asarray(poles, dtype=complex)).ravel()
+    except (TypeError, ValueError) as exc:
+        raise InvalidInputError(f"poles must be real or complex numbers: {exc}") from exc
     if p.size != n:
         raise InvalidInputError(f"need exactly n = {n} poles, got {p.size}")
     if not np.all(np.isfinite(p)):
@@ -132,12 +145,19 @@ def acker(A: Any, B: Any, poles: Any) -> FloatArray:
         )
     coeffs = np.real(np.poly(p))  # phi(s) = s^n + c1 s^{n-1} + ... + cn
     phi = np.zeros((n, n))
-    for c in coeffs:  # Horner: phi(A) = (((A + c1) A + c2) A + ...)
-        phi = phi @ A + c * np.eye(n)
-    e_n = np.zeros(n)
-    e_n[-1] = 1.0
-    row = np.linalg.solve(controllability_matrix(A, B).T, e_n)
-    return np.asarray(row @ phi, dtype=float)[None, :]
+    with np.errstate(over="ignore", invalid="ignore"):
+        for c in coeffs:  # Horner: phi(A) = (((A + c1) A + c2) A + ...)
+            phi = phi @ A + c * np.eye(n)
+        e_n = np.zeros(n)
+        e_n[-1] = 1.0
+        row = np.linalg.solve(controllability_matrix(A, B).T, e_n)
+        K = np.asarray(row @ phi, dtype=float)[None, :]
+    if not np.all(np.isfinite(K)):  # was returned as a NaN gain
+        raise InvalidInputError(
+            "Ackermann's formula overflowed float64 (phi(A) or C^-1 not representable): "
+            "rescale the state or the time unit, or use place_poles(..., method='tits_yang')"
+        )
+    return K
 
 
 def place_poles(
@@ -157,6 +177,11 @@ def place_poles(
         SolverError: the achieved poles miss the requested ones by more than the tolerance.
     """
     options = options or PolePlacementOptions()
+    tolerance = check_positive(options.tolerance, "PolePlacementOptions.tolerance", strict=False)
+    rtol = check_positive(options.rtol, "PolePlacementOptions.rtol", strict=False)
+    max_iterations = check_count(
+        options.max_iterations, "PolePlacementOptions.max_iterations", minimum=1
+    )
     try:
         method = PolePlacementMethod(options.method)
     except ValueError:
@@ -188,9 +213,7 @@ def place_poles(
             )
         name = "YT" if method is PolePlacementMethod.TITS_YANG else "KNV0"
         try:
-            out = scipy.signal.place_poles(
-                A, B, p, method=name, rtol=options.rtol, maxiter=options.max_iterations
-            )
+            out = scipy.signal.place_poles(A, B, p, method=name, rtol=rtol, maxiter=max_iterations)
         except ValueError as exc:
             raise InvalidInputError(f"pole placement failed: {exc}") from exc
         K = np.asarray(out.gain_matrix, dtype=float).reshape(m, n)
@@ -199,10 +222,10 @@ def place_poles(
     computed = _match(requested, eig)
     err = float(np.max(np.abs(computed - requested))) if n else 0.0
     scale = max(1.0, float(np.max(np.abs(p)))) if n else 1.0
-    if err > options.tolerance * scale:
+    if not err <= tolerance * scale:  # a NaN error is a miss
         raise SolverError(
             f"pole placement ({method.value}) missed the requested poles by {err:.3g} "
-            f"(tolerance {options.tolerance * scale:.3g}); the problem is ill-conditioned "
+            f"(tolerance {tolerance * scale:.3g}); the problem is ill-conditioned "
             "(try the robust method or less extreme poles)"
         )
     return PolePlacementResult(
@@ -232,8 +255,8 @@ def observer_gain(
     Raises:
         InvalidInputError: ``(A, C)`` not observable, or as :func:`place_poles`.
     """
-    A_arr = np.asarray(A, dtype=float)
-    C_arr = np.asarray(C, dtype=float)
+    A_arr = as_float_array(A, "A")
+    C_arr = as_float_array(C, "C")
     if C_arr.ndim == 1:
         C_arr = C_arr[None, :]
     try:

@@ -24,8 +24,14 @@ from typing import Any
 import numpy as np
 import scipy.linalg as sla
 
-from taskspace._validation import FloatArray, as_matrix, check_count
-from taskspace.control._linear import symmetric_psd, system
+from taskspace._validation import FloatArray, as_matrix, check_count, check_positive
+from taskspace.control._linear import (
+    check_overflow,
+    check_solution,
+    safe_norm,
+    symmetric_psd,
+    system,
+)
 from taskspace.control.lyapunov import solve_lyapunov
 from taskspace.errors import InvalidInputError, SolverError
 
@@ -68,7 +74,9 @@ class RiccatiResult:
         success: ``P`` is the stabilizing solution within tolerance.
         status: see :class:`RiccatiStatus`.
         P: the solution (n x n), symmetric positive semidefinite.
-        residual: relative residual ``|Ric(P)|_F / max(1, |P|_F)``.
+        residual: relative residual ``|Ric(P)|_F / max(1, |P|_F)`` of the problem with ``Q``
+            and ``R`` divided by the power of two nearest their largest entry (``P`` scales
+            with them; the gain does not).
         iterations: Newton iterations (0 for the Schur methods).
         solve_time: wall time [s].
         method: the method used.
@@ -102,8 +110,9 @@ def care_residual(A: Any, B: Any, Q: Any, R: Any, P: Any) -> float:
 def _care_residual(
     A: FloatArray, B: FloatArray, Q: FloatArray, R: FloatArray, P: FloatArray
 ) -> float:
-    res = A.T @ P + P @ A - P @ B @ np.linalg.solve(R, B.T @ P) + Q
-    return float(np.linalg.norm(res) / max(1.0, np.linalg.norm(P)))
+    with np.errstate(over="ignore", invalid="ignore"):
+        res = A.T @ P + P @ A - P @ B @ np.linalg.solve(R, B.T @ P) + Q
+    return float(safe_norm(res) / max(1.0, safe_norm(P)))
 
 
 def dare_residual(A: Any, B: Any, Q: Any, R: Any, P: Any) -> float:
@@ -115,9 +124,32 @@ def dare_residual(A: Any, B: Any, Q: Any, R: Any, P: Any) -> float:
 def _dare_residual(
     A: FloatArray, B: FloatArray, Q: FloatArray, R: FloatArray, P: FloatArray
 ) -> float:
-    BtPA = B.T @ P @ A
-    res = Q + A.T @ P @ A - BtPA.T @ np.linalg.solve(R + B.T @ P @ B, BtPA) - P
-    return float(np.linalg.norm(res) / max(1.0, np.linalg.norm(P)))
+    with np.errstate(over="ignore", invalid="ignore"):
+        BtPA = B.T @ P @ A
+        res = Q + A.T @ P @ A - BtPA.T @ np.linalg.solve(R + B.T @ P @ B, BtPA) - P
+    return float(safe_norm(res) / max(1.0, safe_norm(P)))
+
+
+_RESCALE = "rescale the problem (state and input units) so that A, B, Q and R have moderate entries"
+
+
+def _cost_exponent(Q: FloatArray, R: FloatArray) -> int:
+    """Exponent ``e`` of the power of two nearest ``max(|Q|, |R|)``.
+
+    ``P(2^-e Q, 2^-e R) = 2^-e P(Q, R)`` exactly (powers of two scale without rounding) and
+    ``K`` is unchanged; solving the scaled problem keeps the Hamiltonian balanced: Q, R near
+    1e-200 or 1e200 made the Schur method report "no stabilizing solution" and Newton-Kleinman
+    stop at its second iterate (P off by 27 %).
+    """
+    top = max(float(np.max(np.abs(Q))), float(np.max(np.abs(R))))
+    return int(np.frexp(top)[1]) if top > 0 else 0
+
+
+def _gain_matrix(B: FloatArray, R: FloatArray) -> FloatArray:
+    """``B R^-1 B^T``, refusing an overflow (huge ``B`` or tiny ``R``)."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        G = B @ np.linalg.solve(R, B.T)
+    return check_overflow(G, "B R^-1 B^T", _RESCALE)
 
 
 def _method(value: RiccatiMethod | str) -> RiccatiMethod:
@@ -135,7 +167,13 @@ def _method(value: RiccatiMethod | str) -> RiccatiMethod:
 def _care_schur(A: FloatArray, G: FloatArray, Q: FloatArray) -> FloatArray:
     n = A.shape[0]
     H = np.block([[A, -G], [-Q, -A.T]])
-    _, U, sdim = sla.schur(H, output="real", sort="lhp")
+    try:
+        _, U, sdim = sla.schur(H, output="real", sort="lhp")
+    except (ValueError, np.linalg.LinAlgError) as exc:  # overflow inside LAPACK
+        raise SolverError(
+            f"the ordered Schur form of the Hamiltonian failed ({exc}): rescale the problem "
+            "(state and input units) so that A, B, Q and R have moderate entries"
+        ) from exc
     if sdim != n:
         raise SolverError(
             f"the Hamiltonian matrix has {2 * n - sdim} eigenvalues with Re >= 0 instead of {n}: "
@@ -147,7 +185,7 @@ def _care_schur(A: FloatArray, G: FloatArray, Q: FloatArray) -> FloatArray:
             "U11 of the stable invariant subspace is singular: no stabilizing solution"
         )
     P = np.linalg.solve(U11.T, U21.T).T
-    return 0.5 * (P + P.T)
+    return check_solution(0.5 * (P + P.T), "the CARE solution P")
 
 
 def solve_continuous_riccati(
@@ -175,10 +213,12 @@ def solve_continuous_riccati(
     """
     options = options or RiccatiOptions()
     method = _method(options.method)
-    A, B, Q, R = _problem(A, B, Q, R)
+    A, B, Q_user, R_user = _problem(A, B, Q, R)
     n, m = B.shape
     t0 = time.perf_counter()
-    G = B @ np.linalg.solve(R, B.T)
+    e = _cost_exponent(Q_user, R_user)
+    Q, R = np.ldexp(Q_user, -e), np.ldexp(R_user, -e)
+    G = _gain_matrix(B, R)
     iterations = 0
     status = RiccatiStatus.SOLVED
     if method is RiccatiMethod.SCHUR:
@@ -198,16 +238,25 @@ def solve_continuous_riccati(
         P = np.zeros((n, n))
         status = RiccatiStatus.MAX_ITERATIONS
         max_iterations = check_count(options.max_iterations, "max_iterations", minimum=1)
-        for iterations in range(1, max_iterations + 1):  # noqa: B007
+        tolerance = check_positive(options.tolerance, "RiccatiOptions.tolerance", strict=False)
+        for iterations in range(1, max_iterations + 1):
             Ak = A - B @ K
-            P_new = solve_lyapunov(Ak, Q + K.T @ R @ K)
-            K = np.linalg.solve(R, B.T @ P_new)
-            change = float(np.linalg.norm(P_new - P))
-            P = P_new
-            if change <= options.tolerance * max(1.0, float(np.linalg.norm(P))):
+            with np.errstate(over="ignore", invalid="ignore"):
+                rhs = Q + K.T @ R @ K
+            P_new = check_solution(
+                solve_lyapunov(Ak, check_overflow(rhs, "Q + K^T R K", _RESCALE)),
+                f"the Newton-Kleinman iterate P (iteration {iterations})",
+            )
+            with np.errstate(over="ignore", invalid="ignore"):
+                K = np.linalg.solve(R, B.T @ P_new)
+            check_overflow(K, "the Newton-Kleinman gain R^-1 B^T P", _RESCALE)
+            change = safe_norm(P_new - P)  # np.linalg.norm was inf for entries ~1e300, and
+            P = P_new  # inf <= tolerance * inf stopped at iteration 1 as "solved"
+            if change <= tolerance * safe_norm(P):  # relative (was absolute below |P| = 1)
                 status = RiccatiStatus.SOLVED
                 break
     residual = _care_residual(A, B, Q, R, P)
+    P = check_solution(np.ldexp(P, e), "the CARE solution P")
     return RiccatiResult(
         success=status is RiccatiStatus.SOLVED,
         status=status,
@@ -237,14 +286,21 @@ def solve_discrete_riccati(
     options = options or RiccatiOptions()
     if _method(options.method) is not RiccatiMethod.SCHUR:
         raise InvalidInputError("solve_discrete_riccati supports method='schur' only")
-    A, B, Q, R = _problem(A, B, Q, R)
+    A, B, Q_user, R_user = _problem(A, B, Q, R)
     n = A.shape[0]
     t0 = time.perf_counter()
-    G = B @ np.linalg.solve(R, B.T)
+    e = _cost_exponent(Q_user, R_user)
+    Q, R = np.ldexp(Q_user, -e), np.ldexp(R_user, -e)
+    G = _gain_matrix(B, R)
     eye, zero = np.eye(n), np.zeros((n, n))
     L = np.block([[A, zero], [-Q, eye]])
     N = np.block([[eye, G], [zero, A.T]])
-    _, _, alpha, beta, _, Z = sla.ordqz(L, N, sort="iuc", output="real")
+    try:
+        _, _, alpha, beta, _, Z = sla.ordqz(L, N, sort="iuc", output="real")
+    except (ValueError, np.linalg.LinAlgError) as exc:  # overflow or failed reordering
+        raise SolverError(
+            f"the ordered QZ decomposition of the symplectic pencil failed ({exc}): {_RESCALE}"
+        ) from exc
     stable = np.sum(np.abs(alpha) < np.abs(beta) * (1.0 - 1e-12))
     if stable != n:
         raise SolverError(
@@ -257,12 +313,14 @@ def solve_discrete_riccati(
             "Z11 of the stable deflating subspace is singular: no stabilizing solution"
         )
     P = np.linalg.solve(Z11.T, Z21.T).T
-    P = 0.5 * (P + P.T)
+    P = check_solution(0.5 * (P + P.T), "the DARE solution P")
+    residual = _dare_residual(A, B, Q, R, P)
+    P = check_solution(np.ldexp(P, e), "the DARE solution P")
     return RiccatiResult(
         success=True,
         status=RiccatiStatus.SOLVED,
         P=P,
-        residual=_dare_residual(A, B, Q, R, P),
+        residual=residual,
         iterations=0,
         solve_time=time.perf_counter() - t0,
         method="schur",
