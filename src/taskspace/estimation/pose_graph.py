@@ -27,7 +27,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from taskspace._validation import FloatArray, check_count
+from taskspace._validation import FloatArray, as_float_array, check_count
 from taskspace.errors import InvalidInputError, ShapeError
 from taskspace.estimation.motion_models import wrap_angle
 
@@ -87,28 +87,102 @@ class PoseGraph:
     fixed: int = 0
 
     def validate(self) -> None:
-        """Check shapes, indices and information matrices; raise taskspace errors."""
-        P = np.asarray(self.poses)
+        """Check shapes, types, indices and information matrices; raise taskspace errors.
+
+        Node indices must be integers (``1.5`` was truncated to 1); measurements finite real
+        vectors (NaN gave a FAILED result, complex values were truncated); information
+        matrices finite and symmetric (positive definiteness is checked by the optimizer).
+        Nodes not connected to the fixed pose are reported by :meth:`disconnected`.
+        """
+        P = as_float_array(self.poses, "poses")
         if P.ndim != 2 or P.shape[1] != 3:
             raise ShapeError("poses", (-1, 3), tuple(P.shape))
-        L = np.asarray(self.landmarks)
+        L = as_float_array(self.landmarks, "landmarks")
         if L.ndim != 2 or L.shape[1] != 2:
             raise ShapeError("landmarks", (-1, 2), tuple(L.shape))
         if not (np.isfinite(P).all() and np.isfinite(L).all()):
             raise InvalidInputError("pose graph has non-finite initial poses or landmarks")
         n = P.shape[0]
-        if not 0 <= self.fixed < n:
+        if n == 0:
+            raise InvalidInputError("the pose graph has no pose")
+        fixed = _index(self.fixed, "fixed")
+        if not 0 <= fixed < n:
             raise InvalidInputError(f"fixed pose {self.fixed} is not in [0, {n})")
-        for e in self.edges:
-            if not (0 <= e.i < n and 0 <= e.j < n) or e.i == e.j:
-                raise InvalidInputError(f"edge ({e.i}, {e.j}) refers to missing poses (have {n})")
-            if np.asarray(e.information).shape != (3, 3):
-                raise ShapeError(
-                    f"information of edge ({e.i}, {e.j})", (3, 3), np.asarray(e.information).shape
+        for name, edges, kind in (
+            ("edges", self.edges, PoseEdge),
+            ("landmark_edges", self.landmark_edges, LandmarkEdge),
+        ):
+            if not isinstance(edges, (list, tuple)) or not all(isinstance(e, kind) for e in edges):
+                raise InvalidInputError(
+                    f"{name} must be a list of {kind.__name__}, got {type(edges).__name__}"
+                    + (
+                        f" holding {sorted({type(e).__name__ for e in edges})}"
+                        if isinstance(edges, (list, tuple))
+                        else ""
+                    )
                 )
+        for e in self.edges:
+            what = f"edge ({e.i!r}, {e.j!r})"
+            i, j = _index(e.i, f"{what} index i"), _index(e.j, f"{what} index j")
+            if not (0 <= i < n and 0 <= j < n) or i == j:
+                raise InvalidInputError(f"{what} refers to missing poses (have {n})")
+            _vector(e.measurement, 3, f"measurement of {what}")
+            _information(e.information, 3, f"information of {what}")
         for le in self.landmark_edges:
-            if not (0 <= le.i < n and 0 <= le.k < L.shape[0]):
-                raise InvalidInputError(f"landmark edge ({le.i}, {le.k}) refers to missing nodes")
+            what = f"landmark edge ({le.i!r}, {le.k!r})"
+            i, k = _index(le.i, f"{what} pose index"), _index(le.k, f"{what} landmark index")
+            if not (0 <= i < n and 0 <= k < L.shape[0]):
+                raise InvalidInputError(f"{what} refers to missing nodes")
+            _vector(le.measurement, 2, f"measurement of {what}")
+            _information(le.information, 2, f"information of {what}")
+
+    def disconnected(self) -> tuple[list[int], list[int]]:
+        """Poses and landmarks joined to the fixed pose by no chain of factors.
+
+        Any placement of them is optimal (gauge freedom): the optimizer leaves them at their
+        initial guess and says so in ``PoseGraphResult.message``.
+        """
+        from scipy.sparse.csgraph import connected_components
+
+        n, num_landmarks = len(self.poses), len(self.landmarks)
+        a = [int(e.i) for e in self.edges] + [int(e.i) for e in self.landmark_edges]
+        b = [int(e.j) for e in self.edges] + [n + int(e.k) for e in self.landmark_edges]
+        size = n + num_landmarks
+        adj = sp.coo_matrix((np.ones(len(a)), (a, b)), shape=(size, size))
+        _, labels = connected_components(adj, directed=False)
+        loose = np.flatnonzero(labels != labels[int(self.fixed)])
+        return loose[loose < n].tolist(), (loose[loose >= n] - n).tolist()
+
+
+def _index(value: Any, name: str) -> int:
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+        raise InvalidInputError(f"{name} must be an integer, got {value!r}")
+    return int(value)
+
+
+def _vector(value: Any, size: int, name: str) -> FloatArray:
+    arr = as_float_array(value, name)
+    if arr.shape != (size,):
+        raise ShapeError(name, (size,), tuple(arr.shape))
+    if not np.isfinite(arr).all():
+        raise InvalidInputError(f"{name} must be finite, got {arr.tolist()}")
+    return arr
+
+
+def _information(value: Any, size: int, name: str) -> FloatArray:
+    arr = as_float_array(value, name)
+    if arr.shape != (size, size):
+        raise ShapeError(name, (size, size), tuple(arr.shape))
+    if not np.isfinite(arr).all():
+        raise InvalidInputError(f"{name} must be finite")
+    scale = max(1.0, float(np.max(np.abs(arr))))
+    if np.max(np.abs(arr - arr.T)) > 1e-9 * scale:
+        raise InvalidInputError(f"{name} must be symmetric, got {arr.tolist()}")
+    return arr
+
+
+MAX_GENERATED_POSES = 10_000_000
+"""Largest ``num_poses`` of :func:`manhattan_pose_graph`."""
 
 
 class PoseGraphStatus(enum.Enum):
@@ -172,10 +246,19 @@ def _rot(th: FloatArray) -> FloatArray:
     return np.stack([np.stack([c, -s], -1), np.stack([s, c], -1)], -2)
 
 
+def _poses(x: Any, name: str) -> FloatArray:
+    """Real finite poses ``(..., 3)`` (a wrong last size was a bare IndexError)."""
+    arr = as_float_array(x, name)
+    if arr.ndim == 0 or arr.shape[-1] != 3:
+        raise ShapeError(name, (-1, 3) if arr.ndim > 1 else (3,), tuple(arr.shape))
+    if not np.isfinite(arr).all():
+        raise InvalidInputError(f"{name} must hold finite poses (x, y, theta)")
+    return arr
+
+
 def compose(a: Any, b: Any) -> FloatArray:
     """SE(2) composition ``a (+) b`` of poses ``(..., 3)``."""
-    A = np.asarray(a, dtype=np.float64)
-    B = np.asarray(b, dtype=np.float64)
+    A, B = _poses(a, "a"), _poses(b, "b")
     c, s = np.cos(A[..., 2]), np.sin(A[..., 2])
     return np.stack(
         [
@@ -189,8 +272,7 @@ def compose(a: Any, b: Any) -> FloatArray:
 
 def relative(a: Any, b: Any) -> FloatArray:
     """SE(2) relative pose ``a^-1 b`` of poses ``(..., 3)``."""
-    A = np.asarray(a, dtype=np.float64)
-    B = np.asarray(b, dtype=np.float64)
+    A, B = _poses(a, "a"), _poses(b, "b")
     c, s = np.cos(A[..., 2]), np.sin(A[..., 2])
     dx, dy = B[..., 0] - A[..., 0], B[..., 1] - A[..., 1]
     return np.stack([c * dx + s * dy, -s * dx + c * dy, wrap_angle(B[..., 2] - A[..., 2])], -1)
@@ -207,20 +289,28 @@ class _Problem:
         self.ej = np.array([e.j for e in g.edges], dtype=np.intp)
         self.Z = np.array([e.measurement for e in g.edges], dtype=np.float64).reshape(E, 3)
         info = np.array([e.information for e in g.edges], dtype=np.float64).reshape(E, 3, 3)
+        K = len(g.landmark_edges)
+        linfo = np.array([e.information for e in g.landmark_edges], dtype=np.float64).reshape(
+            K, 2, 2
+        )
+        # Every information matrix divided by the same power of two (exact; the MAP does not
+        # change): information near 1e300 overflowed J^T J, every step was rejected and the
+        # initial guess came back "converged". Costs are reported in the user's units.
+        top = max(
+            float(np.max(np.abs(info), initial=0.0)), float(np.max(np.abs(linfo), initial=0.0))
+        )
+        self.exponent = int(np.frexp(top)[1]) if top > 0 else 0
+        info, linfo = np.ldexp(info, -self.exponent), np.ldexp(linfo, -self.exponent)
         try:
             self.W = np.linalg.cholesky(info).transpose(0, 2, 1)  # Omega = W^T W
         except np.linalg.LinAlgError as exc:
             raise InvalidInputError(
                 f"an edge information matrix is not positive definite: {exc}"
             ) from exc
-        K = len(g.landmark_edges)
         self.li = np.array([e.i for e in g.landmark_edges], dtype=np.intp)
         self.lk = np.array([e.k for e in g.landmark_edges], dtype=np.intp)
         self.lz = np.array([e.measurement for e in g.landmark_edges], dtype=np.float64).reshape(
             K, 2
-        )
-        linfo = np.array([e.information for e in g.landmark_edges], dtype=np.float64).reshape(
-            K, 2, 2
         )
         try:
             self.lW = np.linalg.cholesky(linfo).transpose(0, 2, 1)
@@ -342,12 +432,19 @@ def optimize_pose_graph(
             "observation: nothing determines the poses other than the fixed one; add "
             "PoseEdge or LandmarkEdge factors"
         )
+    loose_poses, loose_landmarks = graph.disconnected()
     t0 = time.perf_counter()
     prob = _Problem(graph)
     X = np.array(graph.poses, dtype=np.float64)
     Lm = np.array(graph.landmarks, dtype=np.float64).reshape(-1, 2)
     r = prob.residual(X, Lm)
     cost = float(r @ r)
+    if not np.isfinite(cost):
+        raise InvalidInputError(
+            "the initial cost sum e^T Omega e overflows float64: the initial guess is too far "
+            "from the measurements for the given information matrices (or the values are "
+            "beyond ~1e150); rescale the units"
+        )
     initial = cost
     history = [cost]
     lam = None
@@ -410,6 +507,11 @@ def optimize_pose_graph(
             status = PoseGraphStatus.CONVERGED
             break
     ok = status is PoseGraphStatus.CONVERGED
+    if loose_poses or loose_landmarks:
+        message = (message + "; " if message else "") + (
+            f"poses {loose_poses[:20]} and landmarks {loose_landmarks[:20]} are not connected "
+            "to the fixed pose by any factor: undetermined, left at their initial guess"
+        )
     if not ok:
         logger.info("pose graph optimization stopped: %s %s", status.value, message)
     return PoseGraphResult(
@@ -418,9 +520,9 @@ def optimize_pose_graph(
         poses=X,
         landmarks=Lm,
         iterations=it,
-        initial_cost=initial,
-        final_cost=cost,
-        cost_history=history,
+        initial_cost=float(np.ldexp(initial, prob.exponent)),
+        final_cost=float(np.ldexp(cost, prob.exponent)),
+        cost_history=[float(np.ldexp(c, prob.exponent)) for c in history],
         time_s=time.perf_counter() - t0,
         message=message,
     )
@@ -448,8 +550,30 @@ def manhattan_pose_graph(
     Returns:
         The graph and the ``(num_poses, 3)`` ground-truth poses.
     """
-    if num_poses < 2:
-        raise InvalidInputError(f"num_poses must be >= 2, got {num_poses}")
+    num_poses = check_count(num_poses, "num_poses", minimum=2)
+    if num_poses > MAX_GENERATED_POSES:
+        raise InvalidInputError(
+            f"num_poses = {num_poses:,} exceeds {MAX_GENERATED_POSES:,} (each pose and edge is "
+            "a Python object of ~1 kB)"
+        )
+    grid_size = check_count(grid_size, "grid_size", minimum=2)
+    max_closures_per_pose = check_count(max_closures_per_pose, "max_closures_per_pose")
+    for name, value in (("sigma_xy", sigma_xy), ("sigma_theta", sigma_theta)):
+        if not (isinstance(value, (int, float, np.number)) and not isinstance(value, bool)):
+            raise InvalidInputError(f"{name} must be a number > 0, got {value!r}")
+        if not (np.isfinite(value) and value > 0):
+            raise InvalidInputError(f"{name} must be finite and > 0 (use noise_scale=0)")
+    if not (
+        isinstance(noise_scale, (int, float, np.number))
+        and not isinstance(noise_scale, bool)
+        and np.isfinite(noise_scale)
+        and noise_scale >= 0
+    ):
+        raise InvalidInputError(f"noise_scale must be finite and >= 0, got {noise_scale!r}")
+    if not isinstance(rng, np.random.Generator):
+        raise InvalidInputError(
+            f"rng must be a numpy.random.Generator (np.random.default_rng(seed)), got {rng!r}"
+        )
     truth = np.zeros((num_poses, 3))
     cell = np.array([grid_size // 2, grid_size // 2])
     heading = 0
