@@ -25,9 +25,14 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from taskspace._validation import FloatArray, check_count
+from taskspace._validation import FloatArray, as_float_array, check_count, check_positive
+from taskspace.dynamics.simulation import available_memory_bytes
 from taskspace.errors import InvalidInputError, SolverError
 from taskspace.optimal_control.mdp import MDP
+
+MAX_TABLE_BYTES = 2 * 2**30
+"""Largest value/policy table of :func:`finite_horizon_value_iteration` (2 GiB, or half the
+available memory if less)."""
 
 
 class DPStatus(enum.Enum):
@@ -92,10 +97,15 @@ class FiniteHorizonResult:
     policy: np.ndarray
 
 
+def _tolerance(options: ValueIterationOptions) -> float:
+    """``options.tolerance`` finite and >= 0 (NaN ran every iteration and never converged)."""
+    return check_positive(options.tolerance, "ValueIterationOptions.tolerance", strict=False)
+
+
 def _initial(mdp: MDP, value: Any) -> FloatArray:
     if value is None:
         return np.zeros(mdp.num_states)
-    V = np.asarray(value, dtype=float).copy()
+    V = as_float_array(value, "initial value").copy()
     if V.shape != (mdp.num_states,) or not np.all(np.isfinite(V)):
         raise InvalidInputError(f"initial value must be a finite vector of size {mdp.num_states}")
     return V
@@ -116,8 +126,16 @@ def finite_horizon_value_iteration(
         horizon: number of decisions ``T`` (>= 1).
         terminal_value: ``V_T`` (S,); ``None`` is zero.
     """
-    if horizon < 1:
-        raise InvalidInputError(f"horizon must be >= 1, got {horizon}")
+    horizon = check_count(horizon, "horizon", minimum=1)  # 2.5, NaN, "3" were bare errors
+    needed = 16 * (horizon + 1) * max(1, mdp.num_states)  # V (float) and policy (intp)
+    available = available_memory_bytes()
+    budget = MAX_TABLE_BYTES if available is None else min(MAX_TABLE_BYTES, available // 2)
+    if needed > budget:
+        raise InvalidInputError(
+            f"horizon = {horizon:,} would store {needed / 1e9:.3g} GB of values and policies but "
+            f"the budget is {budget / 1e9:.3g} GB (half the available memory, at most "
+            f"{MAX_TABLE_BYTES / 2**30:g} GiB); use a shorter horizon or value_iteration"
+        )
     V = np.empty((horizon + 1, mdp.num_states))
     V[horizon] = _initial(mdp, terminal_value)
     pi = np.empty((horizon, mdp.num_states), dtype=int)
@@ -137,6 +155,7 @@ def value_iteration(mdp: MDP, options: ValueIterationOptions | None = None) -> D
     options = options or ValueIterationOptions()
     t0 = time.perf_counter()
     max_iterations = check_count(options.max_iterations, "max_iterations")
+    tolerance = _tolerance(options)
     V = _initial(mdp, options.initial_value)
     history: list[float] = []
     status = DPStatus.MAX_ITERATIONS
@@ -146,7 +165,7 @@ def value_iteration(mdp: MDP, options: ValueIterationOptions | None = None) -> D
         delta = float(np.max(np.abs(V_new - V))) if V.size else 0.0
         history.append(delta)
         V = V_new
-        if delta <= options.tolerance:
+        if delta <= tolerance:
             status = DPStatus.CONVERGED
             break
     Q = mdp.q_values(V)
@@ -197,6 +216,7 @@ def policy_iteration(mdp: MDP, options: ValueIterationOptions | None = None) -> 
     options = options or ValueIterationOptions()
     t0 = time.perf_counter()
     max_iterations = check_count(options.max_iterations, "max_iterations")
+    tolerance = _tolerance(options)
     pi = greedy_policy(mdp, _initial(mdp, options.initial_value))
     history: list[float] = []
     V = evaluate_policy(mdp, pi)
@@ -206,7 +226,7 @@ def policy_iteration(mdp: MDP, options: ValueIterationOptions | None = None) -> 
     for k in range(1, max_iterations + 1):  # noqa: B007
         Q = mdp.q_values(V)
         best = np.argmax(Q, axis=1)
-        improve = Q[rows, best] > Q[rows, pi] + options.tolerance
+        improve = Q[rows, best] > Q[rows, pi] + tolerance
         if not np.any(improve):
             status = DPStatus.CONVERGED
             break

@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 import scipy.sparse as sp
 
-from taskspace._validation import FloatArray
+from taskspace._validation import FloatArray, as_float_array, check_positive
 from taskspace.errors import InvalidInputError
 
 
@@ -154,8 +154,15 @@ def make_grid(axes: Sequence[Any], *, periods: Sequence[float] | None = None) ->
         InvalidInputError: unsorted or non-finite axes, or a periodic axis longer than its
             period.
     """
-    arrs = tuple(np.asarray(a, dtype=float).ravel() for a in axes)
-    per = tuple(float(p) for p in (periods if periods is not None else [0.0] * len(arrs)))
+    if isinstance(axes, (str, bytes)) or not hasattr(axes, "__iter__"):
+        raise InvalidInputError(f"axes must be a sequence of 1-D arrays, got {axes!r}")
+    arrs = tuple(as_float_array(a, f"axis {i}").ravel() for i, a in enumerate(axes))
+    if not arrs:
+        raise InvalidInputError("a grid needs at least one axis")
+    per = tuple(
+        check_positive(p, f"period of axis {i}", strict=False)  # NaN was accepted
+        for i, p in enumerate(periods if periods is not None else [0.0] * len(arrs))
+    )
     if len(per) != len(arrs):
         raise InvalidInputError(f"need {len(arrs)} periods, got {len(per)}")
     for i, (a, p) in enumerate(zip(arrs, per)):

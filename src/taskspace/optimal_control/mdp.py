@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 import scipy.sparse as sp
 
-from taskspace._validation import FloatArray
+from taskspace._validation import FloatArray, as_float_array, as_scalar, check_positive
 from taskspace.errors import InvalidInputError
 
 
@@ -63,7 +63,7 @@ class MDP:
 
     def policy_matrix(self, policy: Any) -> tuple[sp.csr_matrix, FloatArray]:
         """Transition matrix ``P_pi`` (S x S) and rewards ``R_pi`` of a deterministic policy."""
-        pi = np.asarray(policy, dtype=int)
+        pi = integer_array(policy, "policy")
         if (
             pi.shape != (self.num_states,)
             or pi.min(initial=0) < 0
@@ -78,6 +78,32 @@ class MDP:
             mask = sp.diags((pi == a).astype(float))
             rows = rows + mask @ P
         return sp.csr_matrix(rows), self.rewards[np.arange(S), pi]
+
+
+def _transition_matrix(P: Any, a: int) -> sp.csr_matrix:
+    """One action's transition matrix as CSR (text, ragged, complex and 3-D refused)."""
+    name = f"transition matrix of action {a}"
+    if sp.issparse(P):
+        if P.dtype.kind not in "biuf":
+            raise InvalidInputError(f"{name} must hold real numbers, got dtype {P.dtype}")
+        return sp.csr_matrix(P, dtype=float)
+    arr = as_float_array(P, name)
+    if arr.ndim != 2:
+        raise InvalidInputError(f"{name} must be a 2-D S x S matrix, got shape {arr.shape}")
+    return sp.csr_matrix(arr)
+
+
+def integer_array(x: Any, name: str) -> np.ndarray:
+    """An integer array; floats only when integral (``1.7`` was truncated to 1), no bools."""
+    raw = np.asarray(x) if not isinstance(x, (str, bytes)) else np.asarray(None)
+    if raw.dtype.kind in "iu":
+        return raw.astype(np.intp)
+    if raw.dtype.kind == "b":
+        raise InvalidInputError(f"{name} must hold integers, got booleans")
+    arr = as_float_array(x, name)
+    if not (np.all(np.isfinite(arr)) and np.all(arr == np.round(arr))):
+        raise InvalidInputError(f"{name} must hold integers, got {arr.ravel()[:10].tolist()}")
+    return arr.astype(np.intp)
 
 
 def make_mdp(
@@ -102,18 +128,27 @@ def make_mdp(
         InvalidInputError: shapes, negative probabilities, rows not summing to 1, gamma out of
             ``[0, 1]``, or non-finite rewards.
     """
-    mats = [
-        sp.csr_matrix(np.asarray(P, dtype=float) if not sp.issparse(P) else P, dtype=float)
-        for P in transitions
-    ]
+    if isinstance(transitions, (str, bytes)) or not hasattr(transitions, "__iter__"):
+        raise InvalidInputError(
+            "transitions must be a sequence of S x S matrices (one per action) or an A x S x S "
+            f"array, got {type(transitions).__name__}"
+        )
+    tolerance = check_positive(tolerance, "tolerance", strict=False)  # NaN passed every row
+    mats = [_transition_matrix(P, a) for a, P in enumerate(transitions)]
     if not mats:
         raise InvalidInputError("an MDP needs at least one action (one transition matrix)")
     S = mats[0].shape[0]
+    if S == 0:
+        raise InvalidInputError(
+            "an MDP needs at least one state (the transition matrices are 0 x 0)"
+        )
     for a, P in enumerate(mats):
         if P.shape != (S, S):
             raise InvalidInputError(
                 f"transition matrix of action {a} must be {S} x {S}, got {P.shape}"
             )
+        if P.nnz and not np.all(np.isfinite(P.data)):  # NaN passed both checks below
+            raise InvalidInputError(f"transition matrix of action {a} has non-finite probabilities")
         if P.nnz and P.data.min() < 0:
             raise InvalidInputError(f"transition matrix of action {a} has negative probabilities")
         sums = np.asarray(P.sum(axis=1)).ravel()
@@ -124,13 +159,14 @@ def make_mdp(
                 f"{sums[bad[:10]].tolist()}, not 1 (every state needs a successor distribution; "
                 "make terminal states absorbing with P[s, s] = 1 and zero reward)"
             )
-    R = np.asarray(rewards, dtype=float)
+    R = as_float_array(rewards, "rewards")
     if R.ndim == 1:
         R = np.repeat(R[:, None], len(mats), axis=1)
     if R.shape != (S, len(mats)):
         raise InvalidInputError(f"rewards must have shape ({S}, {len(mats)}), got {R.shape}")
     if not np.all(np.isfinite(R)):
         raise InvalidInputError("rewards must be finite")
+    gamma = as_scalar(gamma, "gamma")
     if not 0.0 <= gamma <= 1.0:
         raise InvalidInputError(f"gamma must be in [0, 1], got {gamma}")
     if state_names and len(state_names) != S:
@@ -162,7 +198,7 @@ def deterministic_mdp(
         gamma: discount factor.
         state_names, action_names: optional labels.
     """
-    nxt = np.asarray(successors, dtype=int)
+    nxt = integer_array(successors, "successors")
     if nxt.ndim != 2:
         raise InvalidInputError(f"successors must be an S x A integer table, got shape {nxt.shape}")
     S, A = nxt.shape
