@@ -70,7 +70,7 @@ def test_slam_errors():
         EKFSLAM(m, s, np.zeros(3), np.eye(3), EKFSLAMOptions(association="jcbb"))
     with pytest.raises(InvalidInputError, match="P0 must be positive semi-definite"):
         EKFSLAM(m, s, np.zeros(3), -np.eye(3))
-    with pytest.raises(InvalidInputError, match="num_particles must be >= 1"):
+    with pytest.raises(InvalidInputError, match="num_particles must be an integer >= 1"):
         FastSLAM(m, s, np.zeros(3), 3, np.random.default_rng(0), FastSLAMOptions(num_particles=0))
 
 

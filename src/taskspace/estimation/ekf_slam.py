@@ -22,11 +22,15 @@ from typing import Any
 import numpy as np
 import scipy.stats
 
-from taskspace._validation import FloatArray, as_vector
+from taskspace._validation import FloatArray, as_vector, check_positive
 from taskspace.errors import InvalidInputError, UnknownNameError
 from taskspace.estimation.covariance import as_covariance
 from taskspace.estimation.motion_models import VelocityMotionModel, wrap_angle
-from taskspace.estimation.observation_models import LandmarkObservation, RangeBearingModel
+from taskspace.estimation.observation_models import (
+    LandmarkObservation,
+    RangeBearingModel,
+    checked_observation,
+)
 from taskspace.estimation.slam_result import SLAMResult, SLAMStatus
 
 
@@ -69,6 +73,30 @@ class EKFSLAM:
             raise UnknownNameError(
                 "association", self.options.association, ["known", "nearest_neighbor"]
             )
+        for name, value in (
+            ("gate", self.options.gate),
+            ("new_landmark", self.options.new_landmark),
+        ):
+            v = check_positive(value, f"EKFSLAMOptions.{name}")
+            if not v < 1.0:  # NaN or >= 1: chi2.ppf NaN/inf gated every measurement out/in
+                raise InvalidInputError(
+                    f"EKFSLAMOptions.{name} is a chi-square probability in (0, 1), got {value!r}"
+                )
+        if self.options.new_landmark < self.options.gate:
+            raise InvalidInputError(
+                f"EKFSLAMOptions.new_landmark ({self.options.new_landmark}) must be >= gate "
+                f"({self.options.gate}): a measurement cannot both match and be new"
+            )
+        if not isinstance(sensor, RangeBearingModel):
+            raise InvalidInputError(
+                f"sensor must be a RangeBearingModel, got {type(sensor).__name__}"
+            )
+        for method in ("mean", "jacobians", "state_covariance"):
+            if not callable(getattr(motion, method, None)):
+                raise InvalidInputError(
+                    f"motion must provide mean, jacobians and state_covariance (e.g. "
+                    f"VelocityMotionModel), {type(motion).__name__} has no {method}"
+                )
         self.motion = motion
         self.sensor = sensor
         self.mu = as_vector(x0, 3, "x0").copy()
@@ -173,7 +201,13 @@ class EKFSLAM:
 
     def update(self, obs: LandmarkObservation) -> None:
         """Process every measurement of one time step (association, init, update)."""
-        for zid, z in zip(obs.ids, obs.z):
+        ids, zs = checked_observation(obs)
+        if self.options.association == "known" and np.any(ids < 0):
+            raise InvalidInputError(
+                f"association='known' needs landmark ids >= 0, got {ids.tolist()} (-1 marks an "
+                "unknown correspondence: use association='nearest_neighbor')"
+            )
+        for zid, z in zip(ids, zs):
             if self.options.association == "known":
                 if int(zid) in self.ids:
                     self._update_landmark(z, self.ids.index(int(zid)))

@@ -21,10 +21,14 @@ from typing import Any
 
 import numpy as np
 
-from taskspace._validation import FloatArray, as_float_array, as_vector
+from taskspace._validation import FloatArray, as_float_array, as_vector, check_count
 from taskspace.errors import InvalidInputError
 from taskspace.estimation.motion_models import wrap_angle
-from taskspace.estimation.observation_models import LandmarkObservation, RangeBearingModel
+from taskspace.estimation.observation_models import (
+    LandmarkObservation,
+    RangeBearingModel,
+    checked_observation,
+)
 from taskspace.estimation.resampling import get_resampler
 from taskspace.estimation.slam_result import SLAMResult, SLAMStatus
 
@@ -42,6 +46,10 @@ class FastSLAMOptions:
     num_particles: int = 100
     resampling: str = "systematic"
     ess_threshold: float = 0.5
+
+
+MAX_PARTICLE_BYTES = 4 * 2**30
+"""Largest particle set of :class:`FastSLAM` (poses, landmark means and covariances)."""
 
 
 def _inv2(S: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -73,9 +81,29 @@ class FastSLAM:
         options: FastSLAMOptions | None = None,
     ) -> None:
         self.options = options or FastSLAMOptions()
-        M = self.options.num_particles
-        if M < 1 or num_landmarks < 0:
-            raise InvalidInputError("num_particles must be >= 1 and num_landmarks >= 0")
+        M = check_count(self.options.num_particles, "FastSLAMOptions.num_particles", minimum=1)
+        num_landmarks = check_count(num_landmarks, "num_landmarks")
+        needed = 8 * M * (3 + 6 * num_landmarks)  # poses, landmark means and covariances
+        if needed > MAX_PARTICLE_BYTES:
+            raise InvalidInputError(
+                f"{M:,} particles x {num_landmarks:,} landmarks would need {needed / 1e9:.3g} GB "
+                f"(at most {MAX_PARTICLE_BYTES / 2**30:g} GiB): use fewer particles"
+            )
+        ess = self.options.ess_threshold
+        if (
+            isinstance(ess, bool)
+            or not isinstance(ess, (int, float, np.number))
+            or not (0.0 <= ess <= 1.0)
+        ):  # NaN or negative never resampled, silently
+            raise InvalidInputError(f"FastSLAMOptions.ess_threshold must be in [0, 1], got {ess!r}")
+        if not isinstance(rng, np.random.Generator):
+            raise InvalidInputError(
+                f"rng must be a numpy.random.Generator (np.random.default_rng(seed)), got {rng!r}"
+            )
+        if not isinstance(sensor, RangeBearingModel):
+            raise InvalidInputError(
+                f"sensor must be a RangeBearingModel, got {type(sensor).__name__}"
+            )
         self._resample = get_resampler(self.options.resampling)
         self.motion = motion
         self.sensor = sensor
@@ -94,7 +122,8 @@ class FastSLAM:
         """Landmark EKF updates and importance weights, then resampling if needed."""
         R = self.sensor.R
         x = self.poses
-        for k, z in zip(obs.ids, obs.z):
+        ids, zs = checked_observation(obs)
+        for k, z in zip(ids, zs):
             k = int(k)
             if not 0 <= k < self.seen.shape[0]:
                 raise InvalidInputError(f"landmark id {k} is outside [0, {self.seen.shape[0]})")

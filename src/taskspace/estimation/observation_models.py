@@ -12,7 +12,14 @@ from typing import Any
 
 import numpy as np
 
-from taskspace._validation import FloatArray, as_float_array, as_matrix, as_vector, check_finite
+from taskspace._validation import (
+    FloatArray,
+    as_float_array,
+    as_matrix,
+    as_vector,
+    check_finite,
+    check_positive,
+)
 from taskspace.errors import InvalidInputError, ShapeError
 from taskspace.estimation.motion_models import wrap_angle
 
@@ -39,6 +46,34 @@ class LandmarkObservation:
     z: FloatArray
 
 
+def checked_observation(obs: Any, name: str = "obs") -> tuple[np.ndarray, FloatArray]:
+    """``(ids, z)`` of a :class:`LandmarkObservation`, validated.
+
+    ``ids`` integers (``0.5`` was truncated to landmark 0) and ``z`` finite real ``(k, 2)``
+    with as many rows as ids (``zip`` dropped the extra ones silently).
+    """
+    if not isinstance(obs, LandmarkObservation):
+        raise InvalidInputError(
+            f"{name} must be a LandmarkObservation(ids=..., z=...), got {type(obs).__name__} "
+            "(an empty step is LandmarkObservation(ids=np.zeros(0, int), z=np.zeros((0, 2))))"
+        )
+    raw = np.asarray(obs.ids) if not isinstance(obs.ids, (str, bytes)) else np.asarray(None)
+    if raw.dtype.kind in "iu":
+        ids = raw.astype(np.intp).ravel()
+    else:
+        arr = as_float_array(obs.ids, f"{name}.ids") if raw.dtype.kind != "b" else None
+        if arr is None or not (np.all(np.isfinite(arr)) and np.all(arr == np.round(arr))):
+            raise InvalidInputError(f"{name}.ids must be integers, got {obs.ids!r}")
+        ids = arr.astype(np.intp).ravel()
+    z = as_float_array(obs.z, f"{name}.z")
+    if z.size == 0 and ids.size == 0:
+        return ids, np.zeros((0, 2))
+    if z.ndim != 2 or z.shape[1] != 2 or z.shape[0] != ids.size:
+        raise ShapeError(f"{name}.z (range, bearing) rows", (ids.size, 2), tuple(z.shape))
+    check_finite(z, f"{name}.z")
+    return ids, z
+
+
 @dataclass(frozen=True, kw_only=True)
 class RangeBearingModel:
     """Range-bearing sensor with a limited range and field of view.
@@ -54,6 +89,20 @@ class RangeBearingModel:
     sigma_bearing: float = 0.02
     max_range: float = 10.0
     field_of_view: float = 2.0 * np.pi
+
+    def __post_init__(self) -> None:
+        for name in ("sigma_range", "sigma_bearing"):  # NaN gave a NaN covariance R
+            check_positive(getattr(self, name), name, strict=False)
+        for name in ("max_range", "field_of_view"):  # inf allowed (no limit), NaN refused
+            value = getattr(self, name)
+            if (
+                isinstance(value, bool)
+                or not isinstance(value, (int, float, np.number))
+                or not (value > 0)
+            ):
+                raise InvalidInputError(
+                    f"{name} must be a number > 0 (inf: no limit), got {value!r}"
+                )
 
     @property
     def R(self) -> FloatArray:
