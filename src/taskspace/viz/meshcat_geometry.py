@@ -39,14 +39,26 @@ def parse_color(color: Any, name: str = "color") -> FloatArray:
         color: RGB or RGBA in [0, 1], or an integer ``0xRRGGBB``.
         name: argument name used in error messages.
     """
-    if isinstance(color, (int, np.integer)) and not isinstance(color, bool):
+    if isinstance(color, (int, np.integer)) and not isinstance(color, (bool, np.bool_)):
         value = int(color)
+        if not 0 <= value <= 0xFFFFFF:
+            # -1 was masked to white and 0x1000000 to black
+            raise InvalidInputError(
+                f"{name} as an integer must be 0xRRGGBB in [0, 0xFFFFFF], got {value:#x}"
+            )
         return np.array(
             [((value >> 16) & 255) / 255, ((value >> 8) & 255) / 255, (value & 255) / 255, 1.0]
         )
     arr = as_float_array(color, name).ravel()
     if arr.shape not in ((3,), (4,)) or not np.all(np.isfinite(arr)):
         raise InvalidInputError(f"{name} must be RGB or RGBA in [0, 1], got {color!r}")
+    if arr.min() < -1e-9 or arr.max() > 1.0 + 1e-9:
+        # (128, 128, 128) was clipped to white without a word
+        hint = " (0..255 values? divide by 255)" if arr.max() <= 255.0 else ""
+        raise InvalidInputError(
+            f"{name} must be RGB or RGBA with entries in [0, 1], got {color!r}{hint}; "
+            "or an integer 0xRRGGBB"
+        )
     if arr.shape == (3,):
         arr = np.append(arr, 1.0)
     return np.clip(arr, 0.0, 1.0)
@@ -307,7 +319,11 @@ def geometry_commands(
 
     geom = geometry_object.geometry
     mesh_path = str(geometry_object.meshPath or "")
-    rgba = parse_color(color if color is not None else geometry_object.meshColor)
+    # the model's own colors are clipped (a description may overshoot [0, 1]); the user's are
+    # checked by parse_color
+    rgba = parse_color(
+        color if color is not None else np.clip(np.asarray(geometry_object.meshColor), 0, 1)
+    )
     node = mp.Path(tuple(p for p in path.split("/") if p))
     prim = primitive_geometry(geom)
     if prim is not None:

@@ -29,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from taskspace._validation import check_int
+from taskspace._validation import check_count, check_int, check_positive
 from taskspace.errors import InvalidInputError, TaskspaceError
 
 logger = logging.getLogger(__name__)
@@ -99,6 +99,19 @@ class SnapshotOptions:
     stable_captures: int = 2
     offline: bool = True
     animation_time: float | None = 0.0
+
+    def __post_init__(self) -> None:
+        # NaN timeouts failed at once, inf ones made playwright raise, negative polls a bare
+        # playwright error; a snapshot needs a finite wait
+        check_positive(self.timeout, "timeout")
+        if self.timeout > 3600.0:
+            raise InvalidInputError(f"timeout must be at most 3600 s, got {self.timeout!r}")
+        check_positive(self.poll_interval, "poll_interval")
+        check_count(self.stable_captures, "stable_captures", minimum=1)
+        if not isinstance(self.offline, (bool, np.bool_)):
+            raise InvalidInputError(f"offline must be True or False, got {self.offline!r}")
+        if self.animation_time is not None:
+            check_positive(self.animation_time, "animation_time", strict=False)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -376,6 +389,8 @@ def snapshot(
         SnapshotError: Chromium is missing (``apt-get install chromium``) or the scene did
             not become ready.
     """
+    if path is not None:
+        check_output_path(path)  # before the seconds of rendering
     result = render_html(scene_or_html, size, options)
     if not result.success:
         raise SnapshotError(
@@ -383,7 +398,39 @@ def snapshot(
             f"({result.seconds:.1f} s); is an animation playing?"
         )
     if path is not None:
-        out = Path(path)
-        out.parent.mkdir(parents=True, exist_ok=True)
-        out.write_bytes(result.png)
+        write_output(path, result.png)
     return result.png
+
+
+def check_output_path(path: Any) -> Path:
+    """An output file path, refused if it cannot be a file (checked before any rendering).
+
+    Raises:
+        InvalidInputError: not a path, an existing directory, or under an existing file.
+    """
+    if not isinstance(path, (str, Path)) or not str(path):
+        raise InvalidInputError(f"path must be a file name (str or Path), got {path!r}")
+    out = Path(path)
+    if out.is_dir():
+        raise InvalidInputError(f"{out} is a directory; give a file name, e.g. {out / 'scene'}")
+    for parent in out.parents:
+        if parent.exists():
+            if not parent.is_dir():
+                raise InvalidInputError(f"cannot write {out}: {parent} is a file")
+            break
+    return out
+
+
+def write_output(path: Any, data: bytes) -> Path:
+    """Write ``data`` to ``path`` (parent directories are created).
+
+    Raises:
+        InvalidInputError: the path cannot be written (the OS error is the cause).
+    """
+    out = check_output_path(path)
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.write_bytes(data)
+    except OSError as exc:
+        raise InvalidInputError(f"cannot write {out}: {exc.strerror or exc}") from exc
+    return out

@@ -25,7 +25,14 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pinocchio as pin
 
-from taskspace._validation import FloatArray, as_float_array, as_matrix, as_vector, check_positive
+from taskspace._validation import (
+    FloatArray,
+    as_float_array,
+    as_matrix,
+    as_vector,
+    check_count,
+    check_positive,
+)
 from taskspace.errors import InvalidInputError, UnknownNameError
 from taskspace.model.world import World, as_se3
 from taskspace.viz.meshcat_geometry import (
@@ -53,6 +60,55 @@ DEFAULT_VIEW_DIRECTION = (1.0, 0.75, 0.55)
 
 _AXIS_COLORS = ((0.9, 0.1, 0.1, 1.0), (0.1, 0.75, 0.1, 1.0), (0.1, 0.25, 0.95, 1.0))
 _MAX_FLOOR_LINES = 1000  # grid lines per axis of add_floor (each a 4-sided tube mesh)
+MAX_COORDINATE = 1e30
+"""Largest coordinate or length [m] a marker may have: WebGL stores vertices as float32
+(largest 3.4e38), so larger values were drawn as inf (an arrow of length 1e300 had an infinite
+shaft) without a word."""
+MAX_ANIMATION_FRAMES = 100_000
+"""Largest number of frames :meth:`Viewer.play` records (``fps=1e9`` recorded frames for ever)."""
+ZMQ_CONNECT_TIMEOUT_S = 5.0
+"""How long ``Viewer(zmq_url=...)`` waits for the meshcat server to answer."""
+
+
+def _check_extent(values: Any, name: str) -> None:
+    """Refuse coordinates or lengths beyond :data:`MAX_COORDINATE` (float32 in WebGL)."""
+    top = float(np.max(np.abs(values))) if np.size(values) else 0.0
+    if not top <= MAX_COORDINATE:
+        raise InvalidInputError(
+            f"{name} reaches {top:.3g} m; markers must stay within {MAX_COORDINATE:.0e} m "
+            "(WebGL draws in float32, larger values become infinite)"
+        )
+
+
+def _check_meshcat_server(zmq_url: str) -> None:
+    """Ask the meshcat server at ``zmq_url`` for its web URL, with a timeout.
+
+    meshcat itself waits for the answer for ever (a wrong port hung ``Viewer(zmq_url=...)``).
+    """
+    import zmq
+
+    if not isinstance(zmq_url, str) or not zmq_url:
+        raise InvalidInputError(
+            f"zmq_url must be a URL such as 'tcp://127.0.0.1:6000', got {zmq_url!r}"
+        )
+    socket: Any = zmq.Context.instance().socket(zmq.REQ)
+    socket.setsockopt(zmq.LINGER, 0)
+    try:
+        try:
+            socket.connect(zmq_url)
+        except zmq.ZMQError as exc:
+            raise InvalidInputError(
+                f"zmq_url {zmq_url!r} is not a valid zmq address: {exc}"
+            ) from None
+        socket.send(b"url")
+        if not socket.poll(int(ZMQ_CONNECT_TIMEOUT_S * 1000)):
+            raise InvalidInputError(
+                f"no meshcat server answered at {zmq_url} within {ZMQ_CONNECT_TIMEOUT_S:g} s: "
+                "start one (meshcat-server) or use Viewer(..., live=True)"
+            )
+        socket.recv()
+    finally:
+        socket.close()
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -113,11 +169,21 @@ class Viewer:
     ) -> None:
         import meshcat
 
+        from taskspace.model.robot import Robot
+
+        if robot is not None and not isinstance(robot, Robot):
+            raise InvalidInputError(
+                f"robot must be a taskspace Robot (e.g. Robot.load('panda')) or None, got "
+                f"{type(robot).__name__}"
+            )
         if geometry not in ("visual", "collision"):
             raise InvalidInputError(f"geometry must be 'visual' or 'collision', got {geometry!r}")
         forward = None
+        if zmq_url is not None:
+            _check_meshcat_server(zmq_url)
         if live or zmq_url is not None:
             forward = meshcat.Visualizer(zmq_url=zmq_url).window
+        self._closed = False
         self.recorder = SceneRecorder(forward=forward)
         self.vis = meshcat.Visualizer(window=self.recorder)
         self.robot = robot
@@ -228,6 +294,7 @@ class Viewer:
         placement = as_se3(pose if isinstance(pose, pin.SE3) else as_float_array(pose, "pose"))
         length = check_positive(scale, "scale")
         r = length / 25.0 if radius is None else check_positive(radius, "radius")
+        _check_extent([*placement.translation, length, r], "the frame (position, scale, radius)")
         node = self._marker(name)
         self.vis[node].delete()
         for axis, label in enumerate("xyz"):
@@ -262,6 +329,7 @@ class Viewer:
         import meshcat.geometry as mg
 
         p = as_matrix(points, (None, 3), "points")
+        _check_extent([*p.ravel(), check_positive(size, "size")], "points (and size)")
         node = self._marker(name)
         material = mg.PointsMaterial(
             size=check_positive(size, "size"), color=rgb_int(parse_color(color))
@@ -289,16 +357,18 @@ class Viewer:
         p = as_matrix(points, (None, 3), "points")
         if p.shape[0] < 2:
             raise InvalidInputError(f"a path needs at least 2 points, got {p.shape[0]}")
+        r = None if radius is None else check_positive(radius, "radius")
+        _check_extent([*p.ravel(), r or 0.0], "path (points, radius)")
         node = self._marker(name)
         rgba = parse_color(color)
-        if radius is None:
+        if r is None:
             line = mg.Line(
                 mg.PointsGeometry(p.T.astype(np.float32)),
                 mg.LineBasicMaterial(color=rgb_int(rgba)),
             )
             self.vis[node].set_object(line)
         else:
-            vertices, faces = tube_mesh(p, check_positive(radius, "radius"))
+            vertices, faces = tube_mesh(p, r)
             self.vis[node].set_object(mg.TriangularMeshGeometry(vertices, faces), phong(rgba))
         self._bounds[node] = p
 
@@ -347,6 +417,10 @@ class Viewer:
             )
         if not np.all(np.isfinite(s)):
             raise InvalidInputError("segments have non-finite entries")
+        _check_extent(
+            [*s.ravel(), 0.0 if radius is None else check_positive(radius, "radius")],
+            "segments (radius)",
+        )
         node = self._marker(name)
         rgba = parse_color(color)
         flat = s.reshape(-1, 3)
@@ -380,9 +454,13 @@ class Viewer:
         """
         p = as_matrix(nodes, (None, 3), "nodes")
         try:
-            e = np.asarray(edges, dtype=int).reshape(-1, 2)
+            raw = np.asarray(edges)
+            e = raw.astype(int).reshape(-1, 2)
         except (TypeError, ValueError) as exc:
             raise InvalidInputError(f"edges must be integer pairs (E, 2): {exc}") from exc
+        if raw.dtype.kind not in "iub" and not np.array_equal(raw.reshape(-1, 2), e):
+            # [[0.5, 1.7]] was truncated to the edge (0, 1)
+            raise InvalidInputError(f"edges must be integer node indices, got {edges!r}")
         if e.size and (e.min() < 0 or e.max() >= p.shape[0]):
             raise InvalidInputError(
                 f"edges index nodes 0..{p.shape[0] - 1}, got indices in [{e.min()}, {e.max()}]"
@@ -411,6 +489,7 @@ class Viewer:
 
         o = as_vector(origin, 3, "origin")
         v = as_vector(vector, 3, "vector")
+        _check_extent([*o, *v, check_positive(radius, "radius")], "arrow (origin, vector, radius)")
         length = float(np.linalg.norm(v))
         node = self._marker(name)
         self.vis[node].delete()
@@ -470,6 +549,7 @@ class Viewer:
         com = np.asarray(pin.centerOfMass(robot.model, robot.model.createData(), qa), dtype=float)
         node = self._marker(name)
         material = phong(color, on_top=on_top)
+        _check_extent(check_positive(radius, "radius"), "radius")
         self.vis[f"{node}/ball"].set_object(mg.Sphere(check_positive(radius, "radius")), material)
         self.vis[f"{node}/ball"].set_transform(homogeneous(translation=com))
         ground = np.array([com, [com[0], com[1], 0.0]])
@@ -500,7 +580,8 @@ class Viewer:
     def delete(self, name: str) -> None:
         """Remove a marker (or ``"obstacles"``) from the scene."""
         node = name if name == "obstacles" else self._marker(name)
-        known = {k for k in self._bounds if k.startswith(node)}
+        # the node and what lies under it ("tcp" must not take "tcp2" or "tcp_nodes" along)
+        known = {k for k in self._bounds if k == node or k.startswith(node + "/")}
         if not known and name != "obstacles":
             valid = [k.removeprefix("markers/") for k in self._bounds if k.startswith("markers/")]
             raise UnknownNameError("marker", name, valid)
@@ -534,12 +615,21 @@ class Viewer:
         qs = as_matrix(configurations, (None, robot.nq), "configurations")
         step = check_positive(dt, "dt")
         rate = check_positive(fps, "fps")
+        loops = check_count(repetitions, "repetitions", minimum=1)
+        if not isinstance(autoplay, (bool, np.bool_)):
+            raise InvalidInputError(f"autoplay must be True or False, got {autoplay!r}")
         if qs.shape[0] < 1:
             raise InvalidInputError("play needs at least one configuration")
+        duration = (qs.shape[0] - 1) * step
+        frames = duration * rate
+        if not frames < MAX_ANIMATION_FRAMES:
+            raise InvalidInputError(
+                f"{qs.shape[0]} configurations every {step:g} s at {rate:g} fps make "
+                f"{frames:.3g} animation frames (at most {MAX_ANIMATION_FRAMES}): lower fps"
+            )
         for i, q in enumerate(qs):
             robot.check_configuration(q, f"configurations[{i}]")
-        duration = (qs.shape[0] - 1) * step
-        n_frames = max(1, math.floor(duration * rate + 1e-9) + 1)
+        n_frames = max(1, math.floor(frames + 1e-9) + 1)
         self.display(qs[0])
         animation = Animation(default_framerate=rate)
         for frame in range(n_frames):
@@ -553,7 +643,7 @@ class Viewer:
             with animation.at_frame(self.vis, frame) as anim_frame:
                 for node, placement in zip(self._geom_paths, self._placements(q)):
                     anim_frame[node].set_transform(placement.homogeneous)
-        self.vis.set_animation(animation, play=autoplay, repetitions=int(repetitions))
+        self.vis.set_animation(animation, play=bool(autoplay), repetitions=loops)
         return n_frames
 
     # ------------------------------------------------------------------ camera
@@ -576,6 +666,7 @@ class Viewer:
 
         p = as_vector(position, 3, "position")
         t = as_vector(target, 3, "target")
+        _check_extent([*p, *t], "camera position and target")
         d = p - t
         if float(np.linalg.norm(d)) < 1e-6:
             raise InvalidInputError("camera position and target must differ")
@@ -679,6 +770,8 @@ class Viewer:
         drawn if enabled and not drawn yet. ``compress`` stores each mesh once, compressed
         (see :meth:`SceneRecorder.static_html`).
         """
+        if not isinstance(title, str):
+            raise InvalidInputError(f"title must be a string, got {type(title).__name__}")
         self._prepare_export()
         return self.recorder.static_html(title=title, compress=compress)
 
@@ -692,16 +785,18 @@ class Viewer:
         self, path: str | Path, title: str = "taskspace scene", *, compress: bool = True
     ) -> Path:
         """Write :meth:`static_html` to ``path`` (parent directories are created)."""
-        out = Path(path)
-        out.parent.mkdir(parents=True, exist_ok=True)
-        out.write_text(self.static_html(title, compress=compress), encoding="utf-8")
-        return out
+        from taskspace.viz.snapshots import check_output_path, write_output
+
+        check_output_path(path)  # before the seconds of exporting
+        return write_output(path, self.static_html(title, compress=compress).encode("utf-8"))
 
     def snapshot(self, path: str | Path | None = None, size: tuple[int, int] = (640, 480)) -> bytes:
         """Render the scene to PNG in headless Chromium (see :func:`taskspace.viz.snapshot`)."""
-        from taskspace.viz.snapshots import check_size, snapshot
+        from taskspace.viz.snapshots import check_output_path, check_size, snapshot
 
         width, height = check_size(size)
+        if path is not None:
+            check_output_path(path)  # before the seconds of rendering
         self._prepare_export(aspect=width / height)
         return snapshot(self, path, size)
 
@@ -715,18 +810,23 @@ class Viewer:
     def url(self) -> str:
         """URL of the live meshcat server (open it in a browser)."""
         if self.recorder.forward is None:
-            raise InvalidInputError(
-                "this viewer is not live: create it with Viewer(..., live=True)"
-            )
+            raise InvalidInputError(self._not_live())
         return str(self.recorder.forward.web_url)  # type: ignore[attr-defined]
 
     def open(self) -> None:
         """Open the live viewer in a web browser."""
         if self.recorder.forward is None:
-            raise InvalidInputError(
-                "this viewer is not live: create it with Viewer(..., live=True)"
-            )
+            raise InvalidInputError(self._not_live())
         self.recorder.forward.open()  # type: ignore[attr-defined]
+
+    def _not_live(self) -> str:
+        if self._closed:
+            return (
+                "this viewer is not live any more: close() stopped its meshcat server; the "
+                "recorded scene remains (save_html / snapshot), or create a new "
+                "Viewer(..., live=True)"
+            )
+        return "this viewer is not live: create it with Viewer(..., live=True)"
 
     def wait_until_interrupted(self, timeout: float | None = None) -> bool:
         """Keep the live meshcat server up until Ctrl-C (or ``timeout`` [s]), then stop it.
@@ -735,9 +835,7 @@ class Viewer:
             ``True`` when Ctrl-C ended the wait, ``False`` when the timeout did.
         """
         if self.recorder.forward is None:
-            raise InvalidInputError(
-                "this viewer is not live: create it with Viewer(..., live=True)"
-            )
+            raise InvalidInputError(self._not_live())
         end = None if timeout is None else time.monotonic() + check_positive(timeout, "timeout")
         interrupted = False
         try:
@@ -753,6 +851,7 @@ class Viewer:
     def close(self) -> None:
         """Stop the live meshcat server this viewer started (the recorded scene stays)."""
         forward, self.recorder.forward = self.recorder.forward, None
+        self._closed = self._closed or forward is not None
         process = getattr(forward, "server_proc", None)
         if process is not None and process.poll() is None:
             process.terminate()
