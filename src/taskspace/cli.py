@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import argparse
 import ast
+import json
 import logging
 import os
 import shutil
@@ -202,6 +203,26 @@ def _caller_path(text: str | None) -> Path | None:
     return None if not text else Path(os.path.abspath(Path(text).expanduser()))
 
 
+def _check_output_file(flag: str, text: str | None) -> None:
+    """Refuse an output path that cannot be a file before any work is done.
+
+    Raises:
+        CliError: the path is a directory, or a parent of it is an existing non-directory.
+    """
+    path = _caller_path(text)
+    if path is None:
+        return
+    if path.is_dir():
+        raise CliError(f"{flag} {text}: is a directory; give a file name, e.g. {path / 'out'}")
+    for parent in path.parents:
+        if parent.exists():
+            if not parent.is_dir():
+                raise CliError(f"{flag} {text}: {parent} is a file, not a directory")
+            if not os.access(parent, os.W_OK):
+                raise CliError(f"{flag} {text}: cannot write into {parent} (permission denied)")
+            break
+
+
 def _picture(folder: Path, stem: str) -> Path | None:
     """The demo's picture: the robot (``<stem>_robot.png``, a snapshot), else ``<stem>.png``."""
     pngs = sorted(folder.rglob("*.png"))
@@ -230,6 +251,11 @@ def cmd_demo(args: argparse.Namespace, extra: list[str]) -> int:
     from taskspace.viz.figure_page import save_figure_page
 
     path = _example_path(args.name)
+    for flag, text in (("--png", args.png), ("--html", args.html)):
+        _check_output_file(flag, text)
+    save_path = _caller_path(args.save)
+    if save_path is not None and save_path.exists() and not save_path.is_dir():
+        raise CliError(f"--save {args.save}: is a file; give a directory")
     html, png, save = (_caller_path(x) for x in (args.html, args.png, args.save))
     native = native_flags(path)
     forwarded = list(extra)
@@ -285,9 +311,31 @@ def cmd_demo(args: argparse.Namespace, extra: list[str]) -> int:
             temporary.cleanup()
 
 
+_QUIET_INTERRUPT = """\
+import os, runpy, sys
+del sys.argv[0]
+try:
+    if sys.argv[0] == "-m":
+        del sys.argv[0]
+        runpy.run_module(sys.argv[0], run_name="__main__", alter_sys=True)
+    else:
+        sys.path[0] = os.path.dirname(os.path.abspath(sys.argv[0]))
+        runpy.run_path(sys.argv[0], run_name="__main__")
+except KeyboardInterrupt:
+    raise SystemExit(130) from None
+"""
+"""Runs ``SCRIPT ARGS...`` or ``-m MODULE ARGS...`` as ``python`` would (``__main__``,
+``sys.argv``, ``sys.path[0]``), except that Ctrl-C exits with status 130 without a traceback."""
+
+
 def _run_until_done(command: list[str], env: dict[str, str]) -> int:
-    """Run ``command``; on Ctrl-C let it stop by itself (it got the same SIGINT), exit 130."""
-    proc = subprocess.Popen(command, env=env)
+    """Run ``command`` (``[python, SCRIPT | -m MODULE, ARGS...]``); on Ctrl-C exit 130.
+
+    The child got the same SIGINT from the terminal: it is let stop by itself (its cleanup
+    runs) and exits 130 without a traceback (see :data:`_QUIET_INTERRUPT`).
+    """
+    python, *rest = command
+    proc = subprocess.Popen([python, "-c", _QUIET_INTERRUPT, *rest], env=env)
     try:
         return proc.wait()
     except KeyboardInterrupt:
@@ -296,7 +344,7 @@ def _run_until_done(command: list[str], env: dict[str, str]) -> int:
         except subprocess.TimeoutExpired:
             proc.terminate()
             proc.wait()
-        return 130
+        raise  # main() reports it and exits 130
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
@@ -307,6 +355,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
     if args.quick:
         argv.append("--quick")
     if args.save:
+        _check_output_file("--save", args.save)
         argv += ["--save", str(_caller_path(args.save))]
     if args.executor:
         argv += ["--executor", args.executor]
@@ -315,6 +364,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
         for f in files:
             if f is None or not f.is_file():
                 raise CliError(f"--compare: no such results file {f}")
+            _check_results_file(f)
         argv = ["--compare", *(str(f) for f in files)]
     else:
         unknown = [s for s in args.suites if s not in benchmark_suites()]
@@ -322,6 +372,28 @@ def cmd_bench(args: argparse.Namespace) -> int:
             valid = ", ".join(benchmark_suites())
             raise CliError(f"unknown suite(s) {', '.join(unknown)}; valid suites are: {valid}")
     return _run_until_done([sys.executable, "-m", "benchmarks.run", *argv], _bench_env())
+
+
+def _check_results_file(path: Path) -> None:
+    """Refuse a ``--compare`` file that is not a saved run (JSON ``{"rows": [...]}``).
+
+    Raises:
+        CliError: the file is not JSON, or has no list of rows with suite, scene, method and
+            timing.
+    """
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, ValueError) as exc:
+        raise CliError(f"--compare: {path} is not a JSON file of saved results: {exc}") from None
+    rows = data.get("rows") if isinstance(data, dict) else None
+    keys = ("suite", "scene", "method", "timing")
+    if not isinstance(rows, list) or not all(
+        isinstance(r, dict) and all(k in r for k in keys) for r in rows
+    ):
+        raise CliError(
+            f"--compare: {path} is not a run saved by `taskspace bench --save` (needs "
+            f'{{"rows": [...]}} with {", ".join(keys)} in every row)'
+        )
 
 
 def _bench_env() -> dict[str, str]:
@@ -363,6 +435,8 @@ def cmd_snapshot(args: argparse.Namespace) -> int:
         raise CliError(f"unknown robot '{args.robot}'; valid robots are: {valid}")
     if not args.png and not args.html:
         raise CliError("give --png FILE and/or --html FILE")
+    for flag, text in (("--png", args.png), ("--html", args.html)):
+        _check_output_file(flag, text)
     robot = Robot.load(args.robot)
     q = robot.q_default if args.q is None else parse_configuration(args.q, robot.nq)
     from taskspace.viz import Viewer
@@ -547,6 +621,15 @@ def main(argv: list[str] | None = None) -> int:
     except TaskspaceError as exc:
         print(f"taskspace {args.command}: error: {exc}", file=sys.stderr)
         return 1
+    except OSError as exc:  # a file that cannot be read or written (the message names it)
+        print(f"taskspace {args.command}: error: {exc}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        # Ctrl-C: no traceback; the usual status of a command ended by SIGINT. Futures that
+        # the headless browser's driver leaves unfinished would be logged at exit: not errors.
+        logging.getLogger("asyncio").setLevel(logging.CRITICAL)
+        print(f"taskspace {args.command}: interrupted", file=sys.stderr)
+        return 130
     parser.error(f"unknown command {args.command}")
     return 2  # pragma: no cover
 
