@@ -58,6 +58,9 @@ if TYPE_CHECKING:
 
 logger = logging.getLogger(__name__)
 
+MAX_HORIZON = 100_000
+"""Largest number of time slices ``T`` of a :class:`PathProblem`."""
+
 FINITE_DIFFERENCE_COEFFICIENTS: dict[int, tuple[float, ...]] = {
     1: (1.0, -1.0),
     2: (1.0, -2.0, 1.0),
@@ -399,6 +402,11 @@ class PathProblem:
             )
         if isinstance(horizon, bool) or not isinstance(horizon, (int, np.integer)) or horizon < 1:
             raise InvalidInputError(f"horizon T must be an integer >= 1, got {horizon!r}")
+        if horizon > MAX_HORIZON:  # two States per slice: 10**9 slices ran for ever
+            raise InvalidInputError(
+                f"horizon T = {horizon:,} exceeds {MAX_HORIZON:,} slices (each slice holds two "
+                "kinematic states); use fewer slices"
+            )
         self.robot = robot
         self.horizon = T = int(horizon)
         self.nv = nv = robot.nv
@@ -412,9 +420,19 @@ class PathProblem:
             if wk > 0:
                 self.control_weights[k] = wk
         self.order = max(self.control_weights, default=0)
-        self._scales = {
-            k: math.sqrt(w * self.dt) / self.dt**k for k, w in self.control_weights.items()
-        }
+        self._scales = {}
+        for k, w in self.control_weights.items():
+            try:
+                scale = math.sqrt(w * self.dt) / self.dt**k
+            except (ZeroDivisionError, OverflowError):  # dt**k underflowed or overflowed
+                scale = math.nan
+            if not (math.isfinite(scale) and scale > 0.0):
+                raise InvalidInputError(
+                    f"the order-{k} control cost scale sqrt(w dt) / dt^{k} with w = {w:g}, "
+                    f"dt = duration / T = {self.dt:g} s is not a positive float64; choose a "
+                    "duration and weight in a representable range (e.g. seconds, weights near 1)"
+                )
+            self._scales[k] = scale
         if prefix is None:
             self.prefix = np.tile(self.q_start, (self.order, 1))
         else:
@@ -422,9 +440,9 @@ class PathProblem:
             if pre.shape[0] < self.order:
                 raise ShapeError("prefix", (self.order, robot.nq), pre.shape)
             self.prefix = pre[pre.shape[0] - self.order :].copy()
-        self.costs = list(costs)
-        self.equalities = list(equalities)
-        self.inequalities = list(inequalities)
+        self.costs = _terms(costs, PathCost, "costs")
+        self.equalities = _terms(equalities, PathEquality, "equalities")
+        self.inequalities = _terms(inequalities, PathInequality, "inequalities")
         self.joint_limits = bool(joint_limits)
         self._slices = [_SliceTerms() for _ in range(T)]
         self._cost_terms: list[_Term] = []
@@ -1215,8 +1233,28 @@ def _damped_step(
     return x
 
 
+def _terms(items: Any, kind: type, name: str) -> list[Any]:
+    """A list of ``kind`` terms (an int was a bare TypeError, a Task a bare AttributeError)."""
+    if isinstance(items, (str, bytes)) or not hasattr(items, "__iter__"):
+        raise InvalidInputError(
+            f"{name} must be a list of {kind.__name__}, got {type(items).__name__}"
+        )
+    out = list(items)
+    bad = sorted({type(x).__name__ for x in out if not isinstance(x, kind)})
+    if bad:
+        raise InvalidInputError(
+            f"{name} must hold {kind.__name__} objects, got {', '.join(bad)} (wrap a Task as "
+            f"{kind.__name__}(task, times=...))"
+        )
+    return out
+
+
 def _check_options(opts: PathOptimizationOptions) -> None:
     """Iteration counts are integers (a float cap such as ``math.inf`` would never stop)."""
+    if not isinstance(opts, PathOptimizationOptions):
+        raise InvalidInputError(
+            f"options must be a PathOptimizationOptions, got {type(opts).__name__}"
+        )
     check_count(opts.max_iterations, "max_iterations")
     check_count(opts.max_outer_iterations, "max_outer_iterations")
     check_count(opts.repair_iterations, "repair_iterations")
@@ -1268,7 +1306,9 @@ def optimize_path(
             tolerance, penalty or damping.
         SolverError: the banded factorization failed even with large damping.
     """
-    opts = options or PathOptimizationOptions()
+    if not isinstance(problem, PathProblem):
+        raise InvalidInputError(f"problem must be a PathProblem, got {type(problem).__name__}")
+    opts = options if options is not None else PathOptimizationOptions()
     _check_options(opts)
     t_start = time.perf_counter()
     path = problem.initial_path(initial_path)

@@ -51,7 +51,7 @@ from taskspace._validation import (
     check_finite,
     check_positive,
 )
-from taskspace.errors import InvalidInputError, ShapeError, UnknownNameError
+from taskspace.errors import InvalidInputError, ShapeError, TaskspaceError, UnknownNameError
 from taskspace.trajopt.motion_profile import _limit_vector
 from taskspace.trajopt.spline import BoundaryCondition, Spline, cubic_spline
 
@@ -69,6 +69,9 @@ logger = logging.getLogger(__name__)
 
 MAX_GRID_POINTS = 10_000_000
 """Largest ``grid_points`` (a few arrays of this size are allocated)."""
+
+MAX_SAMPLES = 10_000_000
+"""Largest number of samples of :meth:`TimeParametrizationResult.sample`."""
 
 PathFunction = Callable[[FloatArray], tuple[Any, Any, Any]]
 _BIG = 1e300
@@ -227,7 +230,13 @@ class TimeParametrizationResult:
             raise InvalidInputError("cannot sample an infeasible time parametrization")
         if not (dt > 0.0 and np.isfinite(dt)):
             raise InvalidInputError(f"dt must be finite and > 0, got {dt!r}")
-        n = int(np.ceil(self.duration / dt - 1e-9))
+        samples = self.duration / dt
+        if not samples <= MAX_SAMPLES:  # np.arange(1e300) was a bare ValueError
+            raise InvalidInputError(
+                f"sample(dt={dt!r}) would take {samples:.3g} samples over {self.duration:.6g} s "
+                f"(at most {MAX_SAMPLES:,}): use a larger dt"
+            )
+        n = int(np.ceil(samples - 1e-9))
         return self.evaluate(np.minimum(np.arange(n + 1) * dt, self.duration))
 
 
@@ -237,7 +246,15 @@ def _evaluate_path(path: Spline | CallablePath, s: FloatArray) -> tuple[Any, Any
         return q, dq, ddq
     try:
         out = path.function(s)
-        q, dq, ddq = (np.asarray(x, dtype=np.float64) for x in out)
+    except TaskspaceError:
+        raise
+    except Exception as exc:  # a user function: its own error was a bare traceback
+        raise InvalidInputError(
+            f"the path function raised {type(exc).__name__}: {exc} (it is called with an array "
+            "s of shape (m,) in [s_start, s_end] and must return (q, dq/ds, d2q/ds2))"
+        ) from exc
+    try:
+        q, dq, ddq = (as_float_array(x, "path function output") for x in out)
     except (TypeError, ValueError) as exc:
         raise InvalidInputError(
             f"path function must return (q, dq/ds, d2q/ds2) arrays of shape (m, n): {exc}"
@@ -397,7 +414,9 @@ def time_parametrize(
 
     Returns:
         The result; ``success`` is ``False`` when the requested start/end path velocities are
-        not reachable (``INFEASIBLE``) or the jerk heuristic did not converge.
+        not reachable (``INFEASIBLE``; also when the path velocity is 0 at both ends of a grid
+        segment, so that the path cannot move there, or the duration overflows) or the jerk
+        heuristic did not converge.
 
     Raises:
         InvalidInputError: non-positive limits, NaN waypoints, bad options.
@@ -451,7 +470,16 @@ def time_parametrize(
         if x is None:
             return _infeasible(geo, s, n, xs, beta, t0)
         sd = np.sqrt(x)
-        dt = 2.0 * delta / np.maximum(sd[:-1] + sd[1:], 1e-300)
+        stuck = np.flatnonzero(sd[:-1] + sd[1:] <= 0.0)
+        if stuck.size:  # dt = 2 delta / 1e-300: a "successful" timing lasting 2e300 s
+            logger.warning(
+                "time_parametrize: path velocity 0 at both ends of grid segment(s) %s: the path "
+                "cannot move there (too few grid_points for zero start/end velocities, or "
+                "limits so small that sdot^2 underflows); reported infeasible",
+                stuck[:10].tolist(),
+            )
+            return _infeasible(geo, s, n, xs, beta, t0)
+        dt = 2.0 * delta / (sd[:-1] + sd[1:])
         u_full = np.append(u, u[-1])
         qdd = dq * u_full[:, None] + ddq * x[:, None]
         qddd = np.diff(qdd, axis=0) / dt[:, None]
@@ -472,6 +500,9 @@ def time_parametrize(
         factor[1:] = np.minimum(factor[1:], 1.0 / r)
         cap = np.minimum(cap, np.where(factor < 1.0, x * factor, cap))
     times = np.concatenate(([0.0], np.cumsum(dt)))
+    if not np.isfinite(times[-1]):
+        logger.warning("time_parametrize: the duration overflows float64; reported infeasible")
+        return _infeasible(geo, s, n, xs, beta, t0)
     qd = dq * sd[:, None]
     tol = 1.0 - opts.active_tolerance
     return TimeParametrizationResult(
