@@ -13,6 +13,7 @@ after ``close()`` the viewer said it had never been live.
 
 from __future__ import annotations
 
+import io
 import socket
 import time
 from pathlib import Path
@@ -211,3 +212,40 @@ def test_a_closed_viewer_says_so_and_keeps_its_scene(robot_loader, tmp_path: Pat
     viewer.display(np.array([0.3, -0.2]))  # recorded, not sent
     viewer.add_frame("f", [0.0, 0.0, 0.5])
     assert viewer.save_html(tmp_path / "after_close.html").stat().st_size > 1000
+
+
+@pytest.mark.slow
+@pytest.mark.snapshot
+@pytest.mark.xdist_group("browser")
+def test_snapshots_from_threads_and_after_ctrl_c(robot_loader) -> None:  # type: ignore[no-untyped-def]
+    """Before: the browser belonged to the first snapshot's thread; any other thread got
+    "Cannot switch to a different thread", and once that thread ended no snapshot worked."""
+    import os
+    import signal
+    import threading
+    from concurrent.futures import ThreadPoolExecutor
+
+    from PIL import Image
+
+    robot = robot_loader("planar_2link")
+
+    def shot(i: int) -> bytes:
+        return Viewer(robot, q=np.array([0.4 * i, 0.2]), floor=False).snapshot(size=(64, 48))
+
+    with ThreadPoolExecutor(2) as pool:
+        pngs = list(pool.map(shot, range(3)))
+    pngs.append(shot(0))  # the main thread, after the pool's threads have ended
+    for png in pngs:
+        assert Image.open(io.BytesIO(png)).size == (64, 48)
+    assert pngs[0] == pngs[3] and pngs[0] != pngs[1]  # the same scene, the same image
+    if threading.current_thread() is threading.main_thread():
+        # a real SIGINT (Ctrl-C) during a snapshot stops the wait; the browser stays usable
+        timer = threading.Timer(0.2, lambda: os.kill(os.getpid(), signal.SIGINT))
+        timer.start()
+        try:
+            with pytest.raises(KeyboardInterrupt):
+                for _ in range(50):  # one of them is interrupted
+                    shot(1)
+        finally:
+            timer.cancel()
+        assert shot(0) == pngs[0]

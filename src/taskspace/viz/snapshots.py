@@ -11,13 +11,18 @@ SwiftShader). The renderer waits for
    screenshots of the page (the WebGL canvas) are identical; the last one is returned.
 
 One browser is started per process and reused (about 1 s to start, then each snapshot costs
-the page load).
+the page load). Playwright's synchronous API only works on the thread that started it, so the
+browser lives on one thread of its own and every snapshot, from any thread, runs there (one at
+a time). Ctrl-C in the caller stops the wait at once; the page being rendered is abandoned at
+its next poll and the browser stays usable.
 """
 
 from __future__ import annotations
 
 import atexit
+import concurrent.futures
 import logging
+import queue
 import shutil
 import tempfile
 import threading
@@ -179,24 +184,78 @@ class BrowserSession:
             shutil.rmtree(self._profile, ignore_errors=True)
 
 
-_SESSION: BrowserSession | None = None
+class _BrowserThread:
+    """The thread that owns the process-wide :class:`BrowserSession`; runs jobs in order.
+
+    Before, the session belonged to whichever thread made the first snapshot: a snapshot from
+    any other thread failed ("Cannot switch to a different thread"), and once that thread had
+    ended, no snapshot worked and the exit printed a greenlet traceback.
+    """
+
+    def __init__(self) -> None:
+        self.session: BrowserSession | None = None
+        self._jobs: queue.SimpleQueue[Any] = queue.SimpleQueue()
+        self._thread = threading.Thread(target=self._run, name="taskspace-browser", daemon=True)
+        self._thread.start()
+
+    def _run(self) -> None:
+        while True:
+            job = self._jobs.get()
+            if job is None:
+                return
+            fn, future = job
+            if not future.set_running_or_notify_cancel():
+                continue
+            try:
+                future.set_result(fn())
+            except BaseException as exc:  # handed to the caller
+                future.set_exception(exc)
+
+    def submit(self, fn: Any) -> concurrent.futures.Future[Any]:
+        future: concurrent.futures.Future[Any] = concurrent.futures.Future()
+        self._jobs.put((fn, future))
+        return future
+
+    def ensure_session(self) -> BrowserSession:
+        """The session (started on first use); call on the browser thread only."""
+        if self.session is None:
+            self.session = BrowserSession()
+        return self.session
+
+    def close(self, timeout: float) -> None:
+        def close_session() -> None:
+            session, self.session = self.session, None
+            if session is not None:
+                session.close()
+
+        future = self.submit(close_session)
+        self._jobs.put(None)
+        try:
+            future.result(timeout=timeout)
+        except concurrent.futures.TimeoutError:
+            logger.warning("the snapshot browser did not close within %.0f s", timeout)
 
 
-def browser_session() -> BrowserSession:
-    """The process-wide :class:`BrowserSession` (started on first use, closed at exit)."""
-    global _SESSION
-    if _SESSION is None:
-        _SESSION = BrowserSession()
-        atexit.register(close_browser)
-    return _SESSION
+_BROWSER: _BrowserThread | None = None
+_BROWSER_LOCK = threading.Lock()
+
+
+def _browser_thread() -> _BrowserThread:
+    global _BROWSER
+    with _BROWSER_LOCK:
+        if _BROWSER is None:
+            _BROWSER = _BrowserThread()
+            atexit.register(close_browser)
+        return _BROWSER
 
 
 def close_browser() -> None:
     """Close the process-wide browser (a later snapshot starts a new one)."""
-    global _SESSION
-    if _SESSION is not None:
-        session, _SESSION = _SESSION, None
-        session.close()
+    global _BROWSER
+    with _BROWSER_LOCK:
+        browser, _BROWSER = _BROWSER, None
+    if browser is not None:
+        browser.close(timeout=30.0)
 
 
 def _html_source(scene_or_html: Any) -> tuple[Path, Path | None, str | None]:
@@ -254,13 +313,45 @@ def render_html(
         SnapshotError: Chromium missing or failing, or the scene not ready within the timeout.
     """
     opts = options if options is not None else SnapshotOptions()
+    if not isinstance(opts, SnapshotOptions):
+        raise InvalidInputError(f"options must be SnapshotOptions, got {type(opts).__name__}")
     width, height = check_size(size)
     source, temporary, token = _html_source(scene_or_html)
-    session = browser_session()
+    cancel = threading.Event()
+    browser = _browser_thread()
+    future = browser.submit(
+        lambda: _render_on_browser_thread(
+            browser, source, token, (width, height), opts, cancel, temporary
+        )
+    )
+    try:
+        result: SnapshotResult = future.result()
+    except BaseException:
+        cancel.set()  # Ctrl-C: the browser thread abandons the page at its next poll
+        if future.cancel() and temporary is not None:
+            temporary.unlink(missing_ok=True)  # never started: nobody else deletes it
+        raise
+    for message in result.page_errors:
+        logger.warning("snapshot page: %s", message)
+    return result
+
+
+def _render_on_browser_thread(
+    browser: _BrowserThread,
+    source: Path,
+    token: str | None,
+    size: tuple[int, int],
+    opts: SnapshotOptions,
+    cancel: threading.Event,
+    temporary: Path | None,
+) -> SnapshotResult:
+    """The body of :func:`render_html`, run on the browser's own thread."""
+    width, height = size
     start = time.perf_counter()
     blocked: list[str] = []
     errors: list[str] = []
     try:
+        session = browser.ensure_session()
         with session.lock:
             page = session.context.new_page()
             try:
@@ -284,7 +375,7 @@ def render_html(
 
                     page.route("**/*", _route)
                 page.goto(source.as_uri(), wait_until="load", timeout=opts.timeout * 1000)
-                seen, captures, still, png = _wait_ready(page, token, opts, start)
+                seen, captures, still, png = _wait_ready(page, token, opts, start, cancel)
                 errors.extend(page.evaluate("() => window.__taskspace_errors || []"))
             finally:
                 page.close()
@@ -295,8 +386,6 @@ def render_html(
     finally:
         if temporary is not None:
             temporary.unlink(missing_ok=True)
-    for message in errors:
-        logger.warning("snapshot page: %s", message)
     return SnapshotResult(
         png=png,
         success=seen is not None and still,
@@ -327,15 +416,28 @@ def check_size(size: Any) -> tuple[int, int]:
 
 
 def _wait_ready(
-    page: Any, token: str | None, opts: SnapshotOptions, start: float
+    page: Any,
+    token: str | None,
+    opts: SnapshotOptions,
+    start: float,
+    cancel: threading.Event | None = None,
 ) -> tuple[str | None, int, bool, bytes]:
     """Poll the readiness token, then screenshots until ``stable_captures`` agree.
 
     Returns ``(token, captures, still, last screenshot)``.
+
+    Raises:
+        SnapshotError: not ready within the timeout, or ``cancel`` set (the caller is gone).
     """
     deadline = start + opts.timeout
+
+    def check_cancel() -> None:
+        if cancel is not None and cancel.is_set():
+            raise SnapshotError("the snapshot was cancelled (its caller was interrupted)")
+
     seen: str | None = None
     while time.perf_counter() < deadline:
+        check_cancel()
         seen = page.evaluate(_READY_JS)
         if seen is not None and (token is None or seen == token):
             break
@@ -352,6 +454,7 @@ def _wait_ready(
     identical = 0
     captures = 0
     while time.perf_counter() < deadline:
+        check_cancel()
         capture = page.screenshot(type="png", full_page=False)
         captures += 1
         if capture == previous:
