@@ -28,9 +28,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from taskspace._validation import FloatArray, check_positive
+from taskspace._validation import FloatArray, as_scalar, as_vector, check_positive
 from taskspace.dynamics.pendulum import STANDARD_GRAVITY
-from taskspace.errors import InvalidInputError
+from taskspace.dynamics.simulation import MAX_RECORD_BYTES, available_memory_bytes
+from taskspace.errors import InvalidInputError, SolverError, TaskspaceError
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -187,17 +188,61 @@ def simulate_adaptive_pendulum(
         reference_model: see :class:`ReferenceModel`.
         initial_state: plant ``(theta, theta')`` [rad, rad/s]; the model starts at rest at 0.
         initial_mass_estimate: ``m_hat(0)`` [kg].
+
+    Raises:
+        InvalidInputError: bad arguments, a record larger than half the available memory, a
+            ``command`` that raises or returns a non-finite or non-scalar value.
+        SolverError: the closed loop diverges (non-finite state).
     """
-    check_positive(true_mass, "true_mass [kg]")
-    check_positive(duration, "duration [s]")
-    check_positive(dt, "dt [s]")
-    if not np.isfinite(initial_mass_estimate):
-        raise InvalidInputError("initial_mass_estimate must be finite")
+    if not isinstance(controller, AdaptivePendulumController):
+        raise InvalidInputError(
+            f"controller must be an AdaptivePendulumController, got {type(controller).__name__}"
+        )
+    if not callable(command):
+        raise InvalidInputError(f"command must be a function r(t) [rad], got {command!r}")
+    true_mass = check_positive(true_mass, "true_mass [kg]")
+    duration = check_positive(duration, "duration [s]")
+    dt = check_positive(dt, "dt [s]")
+    if dt > duration:  # one step of dt was taken: the record covered dt, not duration
+        raise InvalidInputError(f"dt = {dt:g} s must be <= duration = {duration:g} s")
+    initial_mass_estimate = as_scalar(initial_mass_estimate, "initial_mass_estimate")
+    theta0, theta_dot0 = as_vector(initial_state, 2, "initial_state")
     model = reference_model or ReferenceModel()
+    if not isinstance(model, ReferenceModel):
+        raise InvalidInputError(f"reference_model must be a ReferenceModel, got {model!r}")
+    check_positive(model.natural_frequency, "ReferenceModel.natural_frequency [rad/s]")
+    check_positive(model.damping_ratio, "ReferenceModel.damping_ratio")
+    samples = duration / dt + 1.0
+    needed = 8 * 12 * samples  # rows (5), times, torques, refs (3), lyapunov, error
+    available = available_memory_bytes()
+    budget = MAX_RECORD_BYTES if available is None else min(MAX_RECORD_BYTES, available // 2)
+    if not needed <= budget:
+        raise InvalidInputError(
+            f"simulate_adaptive_pendulum(duration={duration:g}, dt={dt:g}) would record "
+            f"{samples:.3g} samples ({needed / 1e9:.3g} GB) but the budget is "
+            f"{budget / 1e9:.3g} GB (half the available memory): use a larger dt or a shorter "
+            "duration"
+        )
     length, gravity = controller.length, controller.gravity
 
+    def command_at(t: float) -> float:
+        try:
+            value = command(t)
+        except TaskspaceError:
+            raise
+        except Exception as exc:
+            raise InvalidInputError(
+                f"the user function command raised {type(exc).__name__} at t = {t:g} s: {exc}"
+            ) from exc
+        r = as_scalar(value, f"command({t:g})")  # NaN made the whole run NaN, silently
+        return r
+
     def ref(z: FloatArray, t: float) -> tuple[float, float, float]:
-        return (float(z[2]), float(z[3]), model.acceleration(float(z[2]), float(z[3]), command(t)))
+        return (
+            float(z[2]),
+            float(z[3]),
+            model.acceleration(float(z[2]), float(z[3]), command_at(t)),
+        )
 
     def f(z: FloatArray, t: float) -> tuple[FloatArray, float]:
         r = ref(z, t)
@@ -207,7 +252,7 @@ def simulate_adaptive_pendulum(
         return np.array([z[1], ddq, z[3], r[2], dm]), u
 
     steps = int(np.ceil(duration / dt))
-    z = np.array([initial_state[0], initial_state[1], 0.0, 0.0, initial_mass_estimate], dtype=float)
+    z = np.array([theta0, theta_dot0, 0.0, 0.0, initial_mass_estimate], dtype=float)
     rows = np.empty((steps + 1, 5))
     times = np.arange(steps + 1, dtype=np.float64) * float(dt)
     torques = np.empty(steps + 1)
@@ -220,7 +265,13 @@ def simulate_adaptive_pendulum(
         k2, _ = f(z + 0.5 * dt * k1, t + 0.5 * dt)
         k3, _ = f(z + 0.5 * dt * k2, t + 0.5 * dt)
         k4, _ = f(z + dt * k3, t + dt)
-        z = z + dt / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
+        with np.errstate(over="ignore", invalid="ignore"):
+            z = z + dt / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
+        if not np.all(np.isfinite(z)):  # a diverging loop returned NaN trajectories
+            raise SolverError(
+                f"the closed loop diverged (non-finite state at t = {t + dt:g} s): reduce dt "
+                "(RK4 stability: dt * feedback_gain / (m l^2) must stay small) or the gains"
+            )
     refs = np.array([ref(rows[k], float(times[k])) for k in range(steps + 1)])
     V = np.array(
         [

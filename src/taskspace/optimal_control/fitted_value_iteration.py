@@ -28,8 +28,8 @@ from typing import Any
 import numpy as np
 import scipy.sparse as sp
 
-from taskspace._validation import FloatArray, check_count, check_positive
-from taskspace.errors import InvalidInputError
+from taskspace._validation import FloatArray, as_float_array, check_count, check_positive
+from taskspace.errors import InvalidInputError, ShapeError, TaskspaceError
 from taskspace.optimal_control.dynamic_programming import (
     DPResult,
     ValueIterationOptions,
@@ -37,6 +37,9 @@ from taskspace.optimal_control.dynamic_programming import (
 )
 from taskspace.optimal_control.grid import StateGrid
 from taskspace.optimal_control.mdp import MDP, make_mdp
+
+MAX_REFINEMENTS = 64
+"""Largest ``FittedValueIterationOptions.refinements``."""
 
 Dynamics = Callable[[FloatArray, FloatArray], FloatArray]
 """``f(X, U)``: state derivatives (K x d) of states X (K x d) under actions U (K x m)."""
@@ -116,7 +119,10 @@ class FittedValueIterationResult:
 
         Minimizes ``l dt + J(x + f dt)`` (one Euler step, interpolated ``J``) over the actions.
         """
-        X = np.atleast_2d(np.asarray(X, dtype=float))
+        X = np.atleast_2d(as_float_array(X, "X"))
+        if X.ndim != 2 or X.shape[1] != self.grid.dim:
+            raise ShapeError("X", (-1, self.grid.dim), X.shape)
+        dt = check_positive(dt, "dt [s]")
         K, A = X.shape[0], self.actions.shape[0]
         XX = np.repeat(X, A, axis=0)
         UU = np.tile(self.actions, (K, 1))
@@ -127,15 +133,46 @@ class FittedValueIterationResult:
 def rk4_step(
     dynamics: Dynamics, X: FloatArray, U: FloatArray, dt: float, substeps: int = 1
 ) -> FloatArray:
-    """``substeps`` RK4 steps of ``x' = f(x, u)`` with ``u`` held, total time ``dt`` [s]."""
+    """``substeps`` RK4 steps of ``x' = f(x, u)`` with ``u`` held, total time ``dt`` [s].
+
+    Raises:
+        InvalidInputError: ``dt`` not finite and > 0, ``substeps`` not an integer >= 1, or
+            ``dynamics`` raising or returning an array of another shape than ``X`` (a (K, 1)
+            output was broadcast over every state component).
+    """
+    dt = check_positive(dt, "dt [s]")
+    substeps = check_count(substeps, "substeps", minimum=1)
+    X = as_float_array(X, "X")
     h = dt / substeps
+
+    def f(Y: FloatArray) -> FloatArray:
+        out = as_float_array(_call(dynamics, "dynamics", Y, U), "dynamics(X, U)")
+        if out.shape != Y.shape:
+            raise ShapeError("dynamics(X, U)", Y.shape, out.shape)
+        return out
+
     for _ in range(substeps):
-        k1 = dynamics(X, U)
-        k2 = dynamics(X + 0.5 * h * k1, U)
-        k3 = dynamics(X + 0.5 * h * k2, U)
-        k4 = dynamics(X + h * k3, U)
+        k1 = f(X)
+        k2 = f(X + 0.5 * h * k1)
+        k3 = f(X + 0.5 * h * k2)
+        k4 = f(X + h * k3)
         X = X + h / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
     return X
+
+
+def _call(fn: Callable[..., Any], name: str, *args: Any) -> Any:
+    """Call a user function; its own exception becomes an InvalidInputError naming it."""
+    if not callable(fn):
+        raise InvalidInputError(f"{name} must be a function, got {type(fn).__name__}")
+    try:
+        return fn(*args)
+    except TaskspaceError:
+        raise
+    except Exception as exc:
+        raise InvalidInputError(
+            f"the user function {name} raised {type(exc).__name__}: {exc} (it is called with "
+            "the grid states X (K x d) and actions U (K x m) as arrays)"
+        ) from exc
 
 
 def fitted_value_iteration(
@@ -165,15 +202,33 @@ def fitted_value_iteration(
     check_positive(options.discount_rate, "discount_rate [1/s]", strict=False)
     check_count(options.substeps, "substeps", minimum=1)
     t0 = time.perf_counter()
-    U = np.asarray(actions, dtype=float)
+    if not isinstance(grid, StateGrid):
+        raise InvalidInputError(
+            f"grid must be a StateGrid (make_grid(...)), got {type(grid).__name__}"
+        )
+    U = as_float_array(actions, "actions")
     if U.ndim == 1:
         U = U[:, None]
     if U.ndim != 2 or U.shape[0] == 0 or not np.all(np.isfinite(U)):
         raise InvalidInputError("actions must be a non-empty finite (A x m) array")
     refinements = check_count(options.refinements, "refinements")
+    if refinements > MAX_REFINEMENTS:  # each round is a full value iteration (10**9 hung)
+        raise InvalidInputError(
+            f"refinements must be at most {MAX_REFINEMENTS} (the action resolution halves each "
+            f"round: 2^-{MAX_REFINEMENTS} of the action gap is below float64 precision), "
+            f"got {refinements}"
+        )
     X = grid.points()
     N, m = X.shape[0], U.shape[1]
-    goal = np.zeros(N, dtype=bool) if target is None else np.asarray(target(X), dtype=bool)
+    goal = np.zeros(N, dtype=bool)
+    if target is not None:
+        goal = np.asarray(_call(target, "target", X))
+        if goal.shape != (N,) or goal.dtype.kind not in "biu":
+            raise InvalidInputError(
+                f"target(X) must return a boolean mask of shape ({N},), got shape {goal.shape} "
+                f"and dtype {goal.dtype}"
+            )
+        goal = goal.astype(bool)
     # All (state, action) pairs at once, row s A + a (the MDP's stacked order).
     UU = np.tile(U, (N, 1))
     mdp, dp, c, XX = _solve(grid, X, UU, U.shape[0], goal, dynamics, cost, options)
@@ -232,7 +287,7 @@ def _solve(
     Xn = rk4_step(dynamics, XX, UU, options.dt, options.substeps)
     if not np.all(np.isfinite(Xn)):
         raise InvalidInputError("the dynamics gave non-finite successors")
-    c = np.asarray(cost(XX, UU), dtype=float)
+    c = as_float_array(_call(cost, "cost", XX, UU), "cost(X, U)")
     if c.shape != (N * A,) or np.any(c < 0) or not np.all(np.isfinite(c)):
         raise InvalidInputError("cost(X, U) must return one finite nonnegative value per row")
     W = grid.interpolation_matrix(Xn).tocsr()
