@@ -17,6 +17,7 @@ import io
 import socket
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -249,3 +250,43 @@ def test_snapshots_from_threads_and_after_ctrl_c(robot_loader) -> None:  # type:
         finally:
             timer.cancel()
         assert shot(0) == pngs[0]
+
+
+def test_save_robot_motion_arguments(viewer, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    from taskspace.viz.motion import save_robot_motion
+
+    qs = np.zeros((3, 2))
+
+    def save(**kw: Any) -> list[Path]:
+        args: dict[str, Any] = dict(
+            configurations=qs, save=tmp_path, name="m", dt=0.1, title="t", snapshot=False
+        )
+        args.update(kw)
+        return save_robot_motion(viewer, **args)
+
+    cases: list[tuple[dict[str, Any], str]] = [
+        (dict(picture=2.5), "picture must be an integer"),  # was an IndexError with a snapshot
+        (dict(picture=True), "picture must be an integer"),  # was the index 1
+        (dict(picture="0"), "picture must be"),  # was a bare TypeError
+        (dict(configurations=qs + 1j), "complex"),  # imaginary part was dropped
+        (dict(configurations="ab"), "text"),  # bare ValueError
+        (dict(name="../../x"), "file stem"),  # wrote outside the output directory
+        (dict(save=tmp_path / "m.html" / "sub"), "m.html is a file"),
+    ]
+    for kw, match in cases:
+        (tmp_path / "m.html").write_text("x")
+        with pytest.raises(InvalidInputError, match=match):
+            save(**kw)
+    (tmp_path / "m.html").unlink()
+    assert [p.name for p in save(picture=np.int64(-1))] == ["m.html"]
+
+
+def test_figure_page_arguments(tmp_path: Path) -> None:
+    from taskspace.viz import figure_page_html, save_figure_page
+
+    with pytest.raises(InvalidInputError, match="one path"):
+        figure_page_html(str(tmp_path / "a.png"))  # was read letter by letter: "not found: /"
+    with pytest.raises(InvalidInputError, match="title must be a string"):
+        figure_page_html([tmp_path / "a.png"], title=None)  # type: ignore[arg-type]
+    with pytest.raises(InvalidInputError, match="is a directory"):
+        save_figure_page(tmp_path, [tmp_path / "a.png"])

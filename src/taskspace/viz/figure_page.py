@@ -37,6 +37,11 @@ def figure_page_html(images: Sequence[str | Path], title: str = "taskspace figur
     Raises:
         InvalidInputError: no image, a missing file, or a file that is not a PNG.
     """
+    if isinstance(images, (str, Path)):
+        # a single path was read letter by letter ("image not found: /")
+        raise InvalidInputError(f"images must be a list of PNG paths, got one path {images!r}")
+    if not isinstance(title, str):
+        raise InvalidInputError(f"title must be a string, got {type(title).__name__}")
     if not images:
         raise InvalidInputError("figure_page_html needs at least one PNG file")
     parts = []
@@ -60,8 +65,7 @@ def save_figure_page(
     path: str | Path, images: Sequence[str | Path], title: str = "taskspace figures"
 ) -> Path:
     """Write :func:`figure_page_html` to ``path`` (parent directories are created)."""
-    out = Path(path)
-    text = figure_page_html(images, title)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(text, encoding="utf-8")
-    return out
+    from taskspace.viz.snapshots import check_output_path, write_output
+
+    check_output_path(path)
+    return write_output(path, figure_page_html(images, title).encode("utf-8"))

@@ -7,8 +7,7 @@ import os
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-import numpy as np
-
+from taskspace._validation import as_float_array, check_int
 from taskspace.errors import InvalidInputError
 
 if TYPE_CHECKING:
@@ -62,11 +61,20 @@ def save_robot_motion(
     out = output_directory(save)
     if out is None:
         return []
-    qs = np.asarray(configurations, dtype=float)
+    qs = as_float_array(configurations, "configurations")  # complex, text: refused
     if qs.ndim != 2 or qs.shape[0] == 0:
         raise InvalidInputError(f"configurations must be (N, nq) with N >= 1, got {qs.shape}")
-    if not -qs.shape[0] <= picture < qs.shape[0]:
+    index = check_int(picture, "picture")  # 2.5 was an IndexError, True the index 1
+    if not -qs.shape[0] <= index < qs.shape[0]:
         raise InvalidInputError(f"picture index {picture} outside 0..{qs.shape[0] - 1}")
+    if not isinstance(name, str) or not name or Path(name).name != name or name in (".", ".."):
+        # "../../x" wrote outside the output directory
+        raise InvalidInputError(f"name must be a file stem without directories, got {name!r}")
+    for folder in (out, *out.parents):
+        if folder.exists():
+            if not folder.is_dir():
+                raise InvalidInputError(f"save: {folder} is a file, not a directory")
+            break
     if snapshot is None:
         snapshot = os.environ.get("TASKSPACE_SNAPSHOTS", "1") != "0"
     out.mkdir(parents=True, exist_ok=True)
@@ -75,7 +83,7 @@ def save_robot_motion(
         from taskspace.viz.snapshots import SnapshotError
 
         png = out / f"{name}_robot.png"
-        viewer.display(qs[picture])
+        viewer.display(qs[index])
         print(f"rendering {png.name} in headless Chromium...", flush=True)
         try:
             viewer.snapshot(png, size=SNAPSHOT_SIZE)
