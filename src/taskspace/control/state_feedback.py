@@ -11,8 +11,9 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pinocchio as pin
 
-from taskspace._validation import FloatArray, as_matrix
+from taskspace._validation import FloatArray, as_matrix, as_vector
 from taskspace.control.linearization import LinearizedSystem
+from taskspace.errors import InvalidInputError
 
 if TYPE_CHECKING:
     from taskspace.model.robot import Robot
@@ -28,6 +29,16 @@ class StateFeedbackController:
     """
 
     def __init__(self, robot: Robot, system: LinearizedSystem, K: Any) -> None:
+        if not isinstance(system, LinearizedSystem):
+            raise InvalidInputError(
+                f"system must be the LinearizedSystem of linearize(robot, ...), got "
+                f"{type(system).__name__}"
+            )
+        if system.q_eq.shape != (robot.nq,):
+            raise InvalidInputError(
+                f"system was linearized on a robot with nq = {system.q_eq.shape[0]}, not on "
+                f"'{robot.name}' (nq = {robot.nq})"
+            )
         self.robot = robot
         self.system = system
         m = system.actuated.size
@@ -36,7 +47,14 @@ class StateFeedbackController:
         self._nv = robot.nv
 
     def state_error(self, q: FloatArray, v: FloatArray) -> FloatArray:
-        """``x = (q (-) q_eq, v - v_eq)`` (2 nv)."""
+        """``x = (q (-) q_eq, v - v_eq)`` (2 nv).
+
+        Raises:
+            ShapeError, NotFiniteError: ``q`` or ``v`` of the wrong size or not finite (a
+                wrong size was a bare Pinocchio error, NaN gave NaN torques).
+        """
+        q = as_vector(q, self.robot.nq, "q")
+        v = as_vector(v, self._nv, "v")
         dq = pin.difference(self._model, self.system.q_eq, q)
         return np.concatenate([dq, v - self.system.v_eq])
 

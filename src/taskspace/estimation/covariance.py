@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from taskspace._validation import FloatArray, as_float_array
+from taskspace._validation import FloatArray, as_float_array, check_count, check_positive
 from taskspace.errors import InvalidInputError, NotFiniteError, ShapeError
 
 _SYM_RTOL = 1e-8
@@ -82,6 +82,10 @@ def covariance_ellipse(cov: Any, n_sigma: float = 2.0, num_points: int = 64) -> 
         ``(num_points, 2)`` array of contour points [units].
     """
     a = as_covariance(cov, 2, "cov")
+    n_sigma = check_positive(n_sigma, "n_sigma", strict=False)  # NaN gave NaN points
+    num_points = check_count(num_points, "num_points", minimum=1)
+    if num_points > 10_000_000:  # 10**12 was a bare MemoryError
+        raise InvalidInputError(f"num_points must be at most 10,000,000, got {num_points:,}")
     lam, vec = np.linalg.eigh(a)
     t = np.linspace(0.0, 2.0 * np.pi, num_points)
     circle = np.stack([np.cos(t), np.sin(t)])

@@ -22,8 +22,11 @@ from typing import Any
 
 import numpy as np
 
-from taskspace._validation import FloatArray, as_float_array, as_matrix, as_vector
+from taskspace._validation import FloatArray, as_float_array, as_matrix, as_vector, check_int
 from taskspace.errors import InvalidInputError, ShapeError
+
+MAX_CELLS = 16_384
+"""Largest ``num_cells`` of :func:`shift_transition_matrix` (a dense 2 GiB matrix)."""
 
 
 def shift_transition_matrix(
@@ -43,6 +46,13 @@ def shift_transition_matrix(
     Returns:
         ``(K, K)`` column-stochastic matrix.
     """
+    num_cells = check_int(num_cells, "num_cells", minimum=1)
+    if num_cells > MAX_CELLS:  # a dense K x K matrix: 10**6 cells was a bare MemoryError
+        raise InvalidInputError(
+            f"num_cells must be at most {MAX_CELLS:,} (the transition matrix is dense "
+            f"K x K), got {num_cells:,}"
+        )
+    shift = check_int(shift, "shift")  # 2.5 was a bare IndexError
     k = as_float_array(kernel, "kernel")
     if k.ndim != 1 or k.size % 2 == 0 or (k < 0).any() or k.sum() <= 0:
         raise InvalidInputError("kernel must be a 1-D non-negative array of odd length")

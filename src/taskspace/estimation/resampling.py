@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from taskspace._validation import FloatArray, as_float_array
+from taskspace._validation import FloatArray, as_float_array, check_count
 from taskspace.errors import InvalidInputError, NotFiniteError, ShapeError, UnknownNameError
 
 IndexArray = npt.NDArray[np.intp]
@@ -33,16 +33,39 @@ def normalize_weights(weights: Any, name: str = "weights") -> FloatArray:
         raise NotFiniteError(name, [int(i) for i in np.flatnonzero(~np.isfinite(w))[:20]])
     if (w < 0.0).any():
         raise InvalidInputError(f"{name} must be non-negative; min is {float(w.min()):.3g}")
-    total = float(w.sum())
-    if not total > 0.0:
+    top = float(w.max())
+    if not top > 0.0:
         raise InvalidInputError(f"{name} sum to zero: every particle has zero weight")
-    return w / total
+    # divided by the largest weight first: [1e308, 1e308] summed to inf, every normalized
+    # weight became 0 and resampling returned the last particle only
+    w = w / top
+    return w / float(w.sum())
 
 
 def effective_sample_size(weights: Any) -> float:
     """Effective sample size ``N_eff = 1 / sum_i w_i^2`` of normalized weights (in ``[1, N]``)."""
     w = normalize_weights(weights)
     return float(1.0 / np.dot(w, w))
+
+
+MAX_DRAWS = 100_000_000
+"""Largest number of indices drawn by one resampling call."""
+
+
+def _draws(w: FloatArray, num: Any, rng: Any) -> int:
+    """``num`` (default ``N``) as an integer in ``[1, MAX_DRAWS]``; ``rng`` a Generator.
+
+    ``num = 2.5`` was truncated to 2, ``10**13`` a bare MemoryError, ``rng = None`` a bare
+    AttributeError.
+    """
+    if not isinstance(rng, np.random.Generator):
+        raise InvalidInputError(
+            f"rng must be a numpy.random.Generator (np.random.default_rng(seed)), got {rng!r}"
+        )
+    k = w.shape[0] if num is None else check_count(num, "num", minimum=1)
+    if k > MAX_DRAWS:
+        raise InvalidInputError(f"num must be at most {MAX_DRAWS:,}, got {k:,}")
+    return k
 
 
 def _inverse_cdf(w: FloatArray, u: FloatArray) -> IndexArray:
@@ -66,7 +89,7 @@ def multinomial_resample(
         ``(num,)`` particle indices.
     """
     w = normalize_weights(weights)
-    k = w.shape[0] if num is None else int(num)
+    k = _draws(w, num, rng)
     return _inverse_cdf(w, rng.random(k))
 
 
@@ -82,7 +105,7 @@ def residual_resample(weights: Any, rng: np.random.Generator, num: int | None = 
         ``(num,)`` particle indices (sorted).
     """
     w = normalize_weights(weights)
-    k = w.shape[0] if num is None else int(num)
+    k = _draws(w, num, rng)
     scaled = k * w
     counts = np.floor(scaled).astype(np.intp)
     rest = k - int(counts.sum())
@@ -97,7 +120,7 @@ def stratified_resample(
 ) -> IndexArray:
     """Stratified resampling: ``u_j = (j + U_j) / num`` with independent ``U_j ~ U(0, 1)``."""
     w = normalize_weights(weights)
-    k = w.shape[0] if num is None else int(num)
+    k = _draws(w, num, rng)
     return _inverse_cdf(w, (np.arange(k) + rng.random(k)) / k)
 
 
@@ -106,7 +129,7 @@ def systematic_resample(
 ) -> IndexArray:
     """Systematic resampling: ``u_j = (j + U) / num`` with one shared ``U ~ U(0, 1)``."""
     w = normalize_weights(weights)
-    k = w.shape[0] if num is None else int(num)
+    k = _draws(w, num, rng)
     return _inverse_cdf(w, (np.arange(k) + rng.random()) / k)
 
 

@@ -60,6 +60,11 @@ def rts_smooth(result: FilterResult) -> SmootherResult:
         InvalidInputError: if the run failed or is empty.
         SolverError: if a predicted covariance is singular.
     """
+    if not isinstance(result, FilterResult):
+        raise InvalidInputError(
+            f"rts_smooth needs the FilterResult of a KF, EKF or UKF run, got "
+            f"{type(result).__name__}"
+        )
     if not result.success:
         raise InvalidInputError(f"cannot smooth a failed filter run: {result.message}")
     T, n = result.means.shape

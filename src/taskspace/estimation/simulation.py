@@ -14,7 +14,8 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from taskspace._validation import FloatArray, as_matrix, as_vector
+from taskspace._validation import FloatArray, as_matrix, as_scalar, as_vector, check_count
+from taskspace.errors import InvalidInputError
 from taskspace.estimation.observation_models import LandmarkObservation, RangeBearingModel
 
 
@@ -78,6 +79,12 @@ def simulate_landmark_world(
     Returns:
         The :class:`Simulation`.
     """
+    if not isinstance(rng, np.random.Generator):
+        raise InvalidInputError(
+            f"rng must be a numpy.random.Generator (np.random.default_rng(seed)), got {rng!r}"
+        )
+    if not isinstance(sensor, RangeBearingModel):
+        raise InvalidInputError(f"sensor must be a RangeBearingModel, got {type(sensor).__name__}")
     t0 = time.perf_counter()
     x = as_vector(x0, 3, "x0")
     U = as_matrix(controls, (None, None), "controls")
@@ -104,5 +111,14 @@ def simulate_landmark_world(
 
 
 def loop_controls(num_steps: int, speed: float = 1.0, turn_rate: float = 0.2) -> FloatArray:
-    """Velocity controls ``(v, w)`` driving a closed loop: constant speed and turn rate."""
-    return np.tile([speed, turn_rate], (int(num_steps), 1)).astype(np.float64)
+    """Velocity controls ``(v, w)`` driving a closed loop: constant speed and turn rate.
+
+    Raises:
+        InvalidInputError: ``num_steps`` not an integer in ``[0, 10**8]`` (2.5 was truncated,
+            NaN and negative values were bare errors), speed or turn rate not finite.
+    """
+    n = check_count(num_steps, "num_steps")
+    if n > 100_000_000:
+        raise InvalidInputError(f"num_steps must be at most 100,000,000, got {n:,}")
+    v, w = as_scalar(speed, "speed"), as_scalar(turn_rate, "turn_rate")
+    return np.tile([v, w], (n, 1)).astype(np.float64)
