@@ -66,7 +66,9 @@
 // touch: checker 1 ("spheres") places the two objects, applies the oriented-box test and
 // coal's exact narrow phase (the exact answer: same trees and paths as the mesh checker in
 // the planner), checker 2 ("spheres_only") answers "colliding" (conservative: 10-16 % of
-// random free configurations flagged on the MotionBenchMaker scenes, self pairs most).
+// random free configurations flagged on the MotionBenchMaker scenes, self pairs most);
+// rrt_connect's fallback_iterations switches a plan from checker 2 to checker 1 after that
+// many iterations without a path (the spheres' margin closes narrow passages: cage, grasps).
 // The exact mesh checker stays the final validator: with a sphere checker, rrt_connect's lazy
 // fine pass (verify) uses checker 0, and the returned path's nodes and coarse points (or all
 // its points when the plan is not lazy or the path is the straight line) are re-checked with
