@@ -525,6 +525,7 @@ def _rrt_connect_native(
     if limits[1] != math.inf:
         remaining = max(0.0, limits[1] - (time.perf_counter() - t0))
     kernel_checks0 = kernel.checks
+    fallback = opts.fallback_iterations
     try:
         out = module.rrt_connect(
             kernel,
@@ -541,10 +542,8 @@ def _rrt_connect_native(
             limits[0],
             remaining,
             seed & _SEED_MASK,
-            collision_checker=CHECKERS.index(opts.checker),
-            fallback_iterations=-1
-            if opts.fallback_iterations is None
-            else min(opts.fallback_iterations, _LONG_MAX),
+            CHECKERS.index(opts.checker),  # collision_checker (positional: 2.5 us less)
+            -1 if fallback is None else min(fallback, _LONG_MAX),  # fallback_iterations
         )
     finally:  # also after Ctrl-C: the checks the kernel made are counted
         space.checker.checks += int(kernel.checks - kernel_checks0)
