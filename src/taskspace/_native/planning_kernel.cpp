@@ -514,6 +514,10 @@ class CollisionKernel {
         static_box_[3 + a].push_back(boxes_[gp.partner].max_[a] + max_margin_);
       }
     }
+    // whole blocks of kBoxLanes (at most 64 bits): padding boxes at +inf never touch
+    while (static_box_[0].size() % kBoxLanes != 0)
+      for (int a = 0; a < 6; ++a)
+        static_box_[a].push_back(std::numeric_limits<double>::infinity());
     pair_bit_.assign(group_pairs_.size(), -1);
     pair_margin_.assign(group_pairs_.size(), 0.0);
     for (std::size_t j = 0; j < group_pairs_.size(); ++j) {
@@ -594,6 +598,36 @@ class CollisionKernel {
     }
   }
 
+  // Bit o set when the sphere (c, sqrt(r2)) touches static box o (of ns, a multiple of
+  // kBoxLanes): the box tests kBoxLanes at a time in vector operations (the same arithmetic
+  // per box as one at a time: the distance per axis max(lo - c, c - hi, 0), then the squared
+  // distance compared with r2). Two lanes: one SSE2 register in the portable build. Measured
+  // (kernel.collisions_with on 2,000 configurations of 5 scenes, min of 25 rounds, alternating
+  // builds, loaded 2-core machine): spheres only 1.10-1.25 us per configuration against
+  // 1.31-1.46 us one box at a time; four lanes (GCC's generic lowering of 256-bit vectors
+  // without AVX) were slower than one (1.9-10 us).
+  static constexpr int kBoxLanes = 2;
+  typedef double BoxLanes __attribute__((vector_size(kBoxLanes * sizeof(double))));
+  std::uint64_t link_box_mask(const coal::Vec3s& c, double r2, std::size_t ns) const {
+    std::uint64_t mask = 0;
+    const BoxLanes zero = {};
+    for (std::size_t o = 0; o < ns; o += kBoxLanes) {
+      BoxLanes d2 = zero;
+      for (int a = 0; a < 3; ++a) {
+        BoxLanes lo, hi;
+        std::memcpy(&lo, static_box_[a].data() + o, sizeof(lo));
+        std::memcpy(&hi, static_box_[3 + a].data() + o, sizeof(hi));
+        const BoxLanes below = lo - c[a], above = c[a] - hi;
+        BoxLanes d = below > above ? below : above;
+        d = d > zero ? d : zero;
+        d2 += d * d;
+      }
+      for (int k = 0; k < kBoxLanes; ++k)
+        mask |= static_cast<std::uint64_t>(d2[k] <= r2) << (o + k);
+    }
+    return mask;
+  }
+
   bool has_spheres() const { return has_spheres_; }
   // Counters of the sphere checker (for profiling): bounding-sphere passes, leaf hits and
   // exact narrow-phase calls, self pairs then static pairs.
@@ -620,25 +654,12 @@ class CollisionKernel {
       std::fill(stamp_of_.begin(), stamp_of_.end(), 0u);
       stamp_ = 1;
     }
+    // (static_box_ holds whole blocks of kBoxLanes boxes: the padding never touches)
     const std::size_t ns = static_box_[0].size();
     for (Link& l : links_) {  // the link's bounding sphere against every static box
       const auto& M = data_.oMi[l.joint];
       const coal::Vec3s c = M.rotation() * l.center + M.translation();
-      const double r2 = l.radius * l.radius;
-      std::uint64_t mask = 0;
-      const double *x0 = static_box_[0].data(), *y0 = static_box_[1].data(),
-                   *z0 = static_box_[2].data(), *x1 = static_box_[3].data(),
-                   *y1 = static_box_[4].data(), *z1 = static_box_[5].data();
-      for (std::size_t o = 0; o < ns; ++o) {
-        double dx = x0[o] - c[0] > c[0] - x1[o] ? x0[o] - c[0] : c[0] - x1[o];
-        double dy = y0[o] - c[1] > c[1] - y1[o] ? y0[o] - c[1] : c[1] - y1[o];
-        double dz = z0[o] - c[2] > c[2] - z1[o] ? z0[o] - c[2] : c[2] - z1[o];
-        dx = dx > 0.0 ? dx : 0.0;
-        dy = dy > 0.0 ? dy : 0.0;
-        dz = dz > 0.0 ? dz : 0.0;
-        mask |= static_cast<std::uint64_t>(dx * dx + dy * dy + dz * dz <= r2) << o;
-      }
-      l.mask = mask;
+      l.mask = link_box_mask(c, l.radius * l.radius, ns);
       l.world = c;
     }
     for (std::size_t i : moving_) {
