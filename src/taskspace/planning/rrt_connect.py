@@ -89,7 +89,12 @@ solved problem 0.91-0.98x); OMPL's RRTConnect in the suite's run 5.24 ms. Since 
 without a path, inside the kernel (the trees stay: their nodes and coarse points are free for
 the spheres, hence free): on the 313 problems (seed = problem number, 1 s limit) 313 solved
 with the fallback (with a threshold of 100 or 300 too; 142 and 72 of them fell back), 295
-(94.3 %) without it. Not the issue's
+(94.3 %) without it. With the endpoint checks and the path length in the kernel and the
+link-level box tests in SSE2 lanes (2026-11-27; per problem the minimum of 5 runs of the
+seeded plan, two rounds alternating with main's kernel on a loaded 2-core machine, medians
+over the 313 problems): ``"mesh"`` 0.640-0.657 ms (main 0.702-0.748), ``"spheres"``
+0.669-0.687 ms (main 0.779-0.809), ``"spheres_only"`` 0.652-0.655 ms with 313 solved (main
+0.741-0.761 ms, 295-296 solved; mean 3.3-7.7 ms against 71 ms). Not the issue's
 0.1 ms: VAMP's tens of microseconds need the checks of many configurations at once in SIMD
 lanes (single precision, structure of arrays) and far fewer checks per plan, which this
 checker does not do; the kinematics alone cost about 0.22 us per configuration here.
