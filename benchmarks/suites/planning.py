@@ -11,7 +11,8 @@ locked at 0.04 m, convex-hull collision geometry)? Then, with a 1 s limit:
   Python (``rrt_connect_python``, ``native=False``);
 * the compiled RRT-Connect with the sphere checkers (``checker="spheres"``: the robot's
   conservative spheres as the broad phase and coal's exact narrow phase where they touch,
-  the same answers; ``"spheres_only"``: spheres only, conservative), each returned path
+  the same answers; ``"spheres_only"``: spheres only, conservative, going on with
+  ``"spheres"`` after 200 iterations without a path), each returned path
   exact-checked at the full resolution (lazy fine pass and re-check, in the time);
   per-configuration check times of the three checkers on random configurations;
 * taskspace RRT-Connect "classic" (every tree edge checked at 0.03 rad, uniform sampling and

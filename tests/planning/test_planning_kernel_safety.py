@@ -232,12 +232,14 @@ def test_kernel_checks_its_own_arguments(plate: tuple[Robot, np.ndarray, np.ndar
         {"alpha": 1e-12},
         {"sigma": 0.0},
         {"local": math.nan},
-        {"start": bad_start},
         {"lower": space.upper, "upper": space.lower},
         {"start": q0[:3]},
     ):
         with pytest.raises(TaskspaceError):
             module.rrt_connect(**{**good, **change})
+    # a non-finite or out-of-bounds endpoint is a status (the wrapper raises PlanningError)
+    assert module.rrt_connect(**{**good, "start": bad_start})[0] == module.START_INVALID
+    assert module.rrt_connect(**{**good, "goal": space.upper + 1.0})[0] == module.GOAL_INVALID
     with pytest.raises(TaskspaceError, match="nq = 7 columns"):
         kernel.first_invalid(np.zeros((2, 3)))
 

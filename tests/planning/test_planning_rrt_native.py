@@ -186,10 +186,34 @@ def test_bad_input_raises_before_the_kernel(robot) -> None:  # type: ignore[no-u
         rrt_connect(space, bad, goal)
     with pytest.raises(PlanningError, match="goal"):
         rrt_connect(space, start, goal[:3])
+    with pytest.raises(PlanningError, match="goal"):
+        rrt_connect(space, start, [0.0] * 6 + ["x"])
+    # outside the bounds (the kernel refuses it; the message is the Python check's)
+    high = start.copy()
+    high[2] = space.upper[2] + 0.25
+    with pytest.raises(PlanningError, match=r"start is outside the joint limits: panda_joint3="):
+        rrt_connect(space, high, goal)
+    with pytest.raises(PlanningError, match=r"goal is outside the joint limits: panda_joint3="):
+        rrt_connect(space, start, high.tolist())  # a list: converted by the wrapper
     closed = motionbenchmaker_panda(finger_opening=0.001)  # closed fingers hit the can
     space_c, start_c, goal_c = _space(closed, "bookshelf_small", 1)
+    assert CollisionChecker(closed, POOL).are_valid(np.stack([start_c, goal_c])).tolist() == [
+        True,
+        False,
+    ]  # Pinocchio's pool: the goal collides, the start is free
     with pytest.raises(PlanningError, match="goal is in collision: colliding pairs"):
         rrt_connect(space_c, start_c, goal_c)
+    with pytest.raises(PlanningError, match="start is in collision: colliding pairs"):
+        rrt_connect(space_c, goal_c, start_c)
+    for checker in ("spheres", "spheres_only"):  # the endpoints are checked exactly
+        with pytest.raises(PlanningError, match="goal is in collision"):
+            rrt_connect(space_c, start_c, goal_c, RRTConnectOptions(checker=checker))
+    # the kernel counts its two endpoint checks: a free straight line costs 2 + its points
+    near = start + 0.05 * (goal - start) / np.linalg.norm(goal - start)
+    res = rrt_connect(space, start, near)
+    assert res.success and len(res.path) == 2
+    assert res.collision_checks == 2 + math.ceil(0.05 / DELTA - 1e-12) - 1
+    assert res.path_length == pytest.approx(0.05)
 
 
 def test_python_path_without_kernel(robot, monkeypatch) -> None:  # type: ignore[no-untyped-def]

@@ -271,3 +271,33 @@ def test_bad_inputs(robot: Any) -> None:
     space = ConfigurationSpace.from_robot(robot)
     with pytest.raises(UnknownNameError, match="valid checkers are: mesh, spheres"):
         rrt_connect(space, q[0], q[0], RRTConnectOptions(checker="sphere"))
+
+
+def test_spheres_only_falls_back_to_spheres(robot: Any) -> None:
+    """Where the conservative spheres close the passage, the plan goes on with "spheres"."""
+    req, _ = _scene(robot, "table_pick")
+    space = ConfigurationSpace.from_robot(robot, edge=EdgeCheckOptions(resolution=0.03))
+    budget = {"seed": 0, "max_iterations": 1500, "time_limit_s": None}
+    only = RRTConnectOptions(checker="spheres_only", fallback_iterations=None, **budget)
+    stuck = rrt_connect(space, req.start, req.goal, only)
+    assert not stuck.success  # the spheres' margin closes the grasp (this problem, seed)
+    assert stuck.log["spheres_fallback"] == 0.0
+    assert stuck.log["spheres_fallback_iteration"] == -1.0
+    assert RRTConnectOptions().fallback_iterations == 200
+    fell = rrt_connect(
+        space, req.start, req.goal, RRTConnectOptions(checker="spheres_only", **budget)
+    )
+    assert fell.success and fell.log["spheres_fallback"] == 1.0
+    assert fell.log["spheres_fallback_iteration"] == 201.0  # visible in the result
+    assert fell.iterations > 201
+    assert _dense_valid(Reference(robot), fell.path, 0.03)
+    # from the first iteration: the "spheres" plan, i.e. the exact checker's trees and path
+    first = RRTConnectOptions(checker="spheres_only", fallback_iterations=0, **budget)
+    at_once = rrt_connect(space, req.start, req.goal, first)
+    mesh = rrt_connect(space, req.start, req.goal, RRTConnectOptions(**budget))
+    assert len(mesh.path) > 2  # not the straight line (checked before the first iteration)
+    assert at_once.log["spheres_fallback_iteration"] == 1.0
+    np.testing.assert_array_equal(at_once.path, mesh.path)
+    for bad in (-1, 2.5):
+        with pytest.raises(InvalidInputError, match="fallback_iterations"):
+            rrt_connect(space, req.start, req.goal, RRTConnectOptions(fallback_iterations=bad))  # type: ignore[arg-type]

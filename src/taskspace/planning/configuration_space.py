@@ -497,6 +497,34 @@ class ConfigurationSpace:
             raise PlanningError(f"{name} is in collision: {self.checker.explain(qa)}")
         return qa
 
+    def endpoint_vector(self, q: Any, name: str) -> FloatArray:
+        """``q`` as a float vector of size d, for a planner that checks the rest itself.
+
+        The first half of :meth:`check_endpoint` (the stale-model check, the conversion, the
+        size), without the bounds and collision checks: the compiled RRT-Connect makes those
+        in its call (and calls :meth:`check_endpoint` for the message when they fail). A
+        contiguous float64 array of size d is returned as is (not copied); other inputs are
+        converted and must be finite.
+
+        Raises:
+            PlanningError: ``q`` has the wrong size, is not real numbers, or (not an array of
+                floats) is not finite.
+            StaleModelError: as :meth:`check_endpoint`.
+        """
+        if self._manifold is not None and self._manifold._follower is None:
+            self._manifold._sync()  # a bare model: its limits are compared, once per plan
+        if (
+            type(q) is np.ndarray
+            and q.dtype == np.float64
+            and q.shape == (self.dim,)
+            and q.flags.c_contiguous
+        ):
+            return q
+        try:
+            return as_vector(q, self.dim, name)
+        except InvalidInputError as exc:
+            raise PlanningError(f"{name}: {exc}") from exc
+
     # ------------------------------------------------------------------ local planner
     def segments(self, q0: FloatArray, q1: FloatArray) -> int:
         """Number of segments ``n = max(1, ceil(d(q0, q1) / delta))``."""

@@ -53,7 +53,11 @@ when the space's checker is a :class:`~taskspace.planning.CollisionChecker`; the
 checks call Pinocchio and coal directly (about 1.35 us per configuration inside the planner on
 the MotionBenchMaker Panda scenes, against 10-13 us through Python). Its random stream is its
 own (seeded by ``seed`` or by the ``rng`` passed), so its trees differ from this module's; its
-paths carry the same guarantee. Inputs are validated here before the call. Measured on the 313
+paths carry the same guarantee. Options are validated here before the call; the kernel
+checks the start and goal (finite, inside the bounds, free for the exact checker) and computes
+the path's length in the same call (a failed endpoint is then re-checked here for the error
+message), so a plan is one kernel call and a few Python objects (about 25-40 us of Python per
+plan, was 70-110 us). Measured on the 313
 valid MotionBenchMaker Panda problems (2026-11-25, ``benchmarks/results/planning_full.json``):
 313 solved within 1 s, median 0.56 ms (per scenario 0.35-0.75 ms, cage 3.3 ms); this module
 with the same compiled checker 1.70 ms; OMPL's RRTConnect at the same range calling the same
@@ -80,7 +84,17 @@ resolution is checked exactly once (a median of 60 re-check calls). Measured on 
 problems, seed 0, alternating with main's kernel in three rounds on a loaded 2-core machine
 (medians over the problems): ``"mesh"`` 0.98-1.18 ms, ``"spheres"`` 0.94-1.23 ms (per problem
 0.96-1.00x ``"mesh"``), ``"spheres_only"`` 0.89-1.11 ms with 292-293 of 313 solved (per
-solved problem 0.91-0.98x); OMPL's RRTConnect in the suite's run 5.24 ms. Not the issue's
+solved problem 0.91-0.98x); OMPL's RRTConnect in the suite's run 5.24 ms. Since then
+``"spheres_only"`` falls back to ``"spheres"`` after ``fallback_iterations`` (200) iterations
+without a path, inside the kernel (the trees stay: their nodes and coarse points are free for
+the spheres, hence free): on the 313 problems (seed = problem number, 1 s limit) 313 solved
+with the fallback (with a threshold of 100 or 300 too; 142 and 72 of them fell back), 295
+(94.3 %) without it. With the endpoint checks and the path length in the kernel and the
+link-level box tests in SSE2 lanes (2026-11-27; per problem the minimum of 5 runs of the
+seeded plan, two rounds alternating with main's kernel on a loaded 2-core machine, medians
+over the 313 problems): ``"mesh"`` 0.640-0.657 ms (main 0.702-0.748), ``"spheres"``
+0.669-0.687 ms (main 0.779-0.809), ``"spheres_only"`` 0.652-0.655 ms with 313 solved (main
+0.741-0.761 ms, 295-296 solved; mean 3.3-7.7 ms against 71 ms). Not the issue's
 0.1 ms: VAMP's tens of microseconds need the checks of many configurations at once in SIMD
 lanes (single precision, structure of arrays) and far fewer checks per plan, which this
 checker does not do; the kinematics alone cost about 0.22 us per configuration here.
@@ -104,8 +118,8 @@ from typing import Any
 
 import numpy as np
 
-from taskspace._validation import check_positive, check_seed
-from taskspace.errors import InvalidInputError, UnknownNameError
+from taskspace._validation import check_count, check_positive, check_seed
+from taskspace.errors import InvalidInputError, PlanningError, UnknownNameError
 from taskspace.planning.certify import certify_planned
 from taskspace.planning.collision_checker import CollisionChecker
 from taskspace.planning.configuration_space import (
@@ -168,6 +182,11 @@ class RRTConnectOptions:
             points are re-checked); a path that fails is dropped and the problem planned
             again with ``"mesh"`` (``log["sphere_recheck_failed"]``). The Python planner
             ignores it (exact checks).
+        fallback_iterations: with ``checker="spheres_only"``: after this many iterations
+            without a path, the plan goes on with ``"spheres"`` (the spheres' margin may close
+            a narrow passage; the trees stay, their nodes are free).
+            ``log["spheres_fallback"]`` is 1 when it happened and
+            ``log["spheres_fallback_iteration"]`` the iteration (-1: none). ``None``: never.
     """
 
     step_size: float = 0.5
@@ -184,6 +203,7 @@ class RRTConnectOptions:
     certify_retries: int = 2
     certify_tolerance: float = 1e-4
     checker: str = "mesh"
+    fallback_iterations: int | None = 200
 
 
 CHECKERS = ("mesh", "spheres", "spheres_only")
@@ -464,7 +484,9 @@ def _native_kernel(space: ConfigurationSpace, opts: RRTConnectOptions) -> Any:
 
 
 _NATIVE_STATUS = (PlannerStatus.SOLVED, PlannerStatus.TIME_LIMIT, PlannerStatus.ITERATION_LIMIT)
+_START_INVALID, _GOAL_INVALID = 3, 4  # the kernel's codes for an invalid start or goal
 _SEED_MASK = (1 << 64) - 1
+_LONG_MAX = (1 << 63) - 1  # the kernel's iteration counts are C longs
 # A line of the space is cut into at most diameter / min(alpha, delta) steps or checks.
 _MAX_LINE_PIECES = float(1 << 30)
 
@@ -481,13 +503,17 @@ def _rrt_connect_native(
     t0: float,
     checks0: int,
 ) -> PlannerResult:
-    """:func:`rrt_connect` by the compiled kernel (inputs already validated).
+    """:func:`rrt_connect` by the compiled kernel (options already validated).
+
+    The kernel validates the endpoints (finite, inside the bounds, free for the exact checker)
+    before it plans; when one is not, :meth:`ConfigurationSpace.check_endpoint` runs on it
+    and raises the error with the reason (the out-of-bounds coordinates, the colliding pairs).
 
     Args:
         space: configuration space whose checker is a ``CollisionChecker``.
         kernel: that checker's compiled kernel.
-        q_start: validated start (size d).
-        q_goal: validated goal (size d).
+        q_start: start as a float vector of size d (:meth:`ConfigurationSpace.endpoint_vector`).
+        q_goal: goal, as ``q_start``.
         opts: planner settings.
         resolutions: ``(alpha, delta, delta_c)`` [rad or m].
         limits: validated ``(max_iterations, time limit [s])``, ``math.inf`` for none.
@@ -504,6 +530,7 @@ def _rrt_connect_native(
     if limits[1] != math.inf:
         remaining = max(0.0, limits[1] - (time.perf_counter() - t0))
     kernel_checks0 = kernel.checks
+    fallback = opts.fallback_iterations
     try:
         out = module.rrt_connect(
             kernel,
@@ -520,22 +547,20 @@ def _rrt_connect_native(
             limits[0],
             remaining,
             seed & _SEED_MASK,
-            collision_checker=CHECKERS.index(opts.checker),
+            CHECKERS.index(opts.checker),  # collision_checker (positional: 2.5 us less)
+            -1 if fallback is None else min(fallback, _LONG_MAX),  # fallback_iterations
         )
     finally:  # also after Ctrl-C: the checks the kernel made are counted
         space.checker.checks += int(kernel.checks - kernel_checks0)
-    status_code, path, iterations, edges, rejections, removed, turns, start_tree, goal_tree = out[
-        :9
-    ]
-    exact_checks, recheck_failed = int(out[9]), bool(out[10])
-    space.edge_checks += int(edges)
-    status = _NATIVE_STATUS[int(status_code)]
+    (status_code, path, iterations, edges, rejections, removed, turns, start_tree, goal_tree,
+     exact_checks, recheck_failed, length, fallback) = out  # fmt: skip
+    if status_code >= _START_INVALID:
+        _raise_endpoint(space, q_start, q_goal, status_code)
+    space.edge_checks += edges
+    status = _NATIVE_STATUS[status_code]
     success = status is PlannerStatus.SOLVED
-    path = np.asarray(path, dtype=np.float64).reshape(-1, space.dim)
-    trees = [
-        Tree(nodes=np.asarray(nodes, dtype=np.float64), parents=np.asarray(parents, np.int64))
-        for nodes, parents in (start_tree, goal_tree)
-    ]
+    trees = [Tree(nodes=start_tree[0], parents=start_tree[1].astype(np.int64))]
+    trees.append(Tree(nodes=goal_tree[0], parents=goal_tree[1].astype(np.int64)))
     dt = time.perf_counter() - t0
     logger.debug(
         "rrt_connect (native) %s in %.3f s, %d iterations, %d+%d nodes, %d lazy rejections",
@@ -550,10 +575,10 @@ def _rrt_connect_native(
         success=success,
         status=status,
         path=path if success else np.empty((0, space.dim)),
-        path_length=path_length(path) if success else math.inf,
-        iterations=int(iterations),
+        path_length=length if success else math.inf,
+        iterations=iterations,
         collision_checks=space.checks - checks0,
-        edge_checks=int(edges),
+        edge_checks=edges,
         time_s=dt,
         trees=trees,
         log={
@@ -566,7 +591,20 @@ def _rrt_connect_native(
             "checker": float(CHECKERS.index(opts.checker)),
             "exact_recheck_checks": float(exact_checks),
             "sphere_recheck_failed": float(recheck_failed),
+            "spheres_fallback": float(fallback >= 0),
+            "spheres_fallback_iteration": float(fallback),
         },
+    )
+
+
+def _raise_endpoint(space: ConfigurationSpace, q_start: Any, q_goal: Any, code: int) -> None:
+    """Raise the error of the endpoint the kernel refused (code 3: start, 4: goal)."""
+    space.check_endpoint(q_start, "start")  # raises if the start is the invalid one
+    if code == _GOAL_INVALID:
+        space.check_endpoint(q_goal, "goal")
+    name = "start" if code == _START_INVALID else "goal"
+    raise PlanningError(  # the checks disagree (a configuration grazing an obstacle)
+        f"{name} is not finite, outside the joint limits or in collision for the compiled checker"
     )
 
 
@@ -659,6 +697,8 @@ def _plan(
     check_positive(opts.local_sigma, "local_sigma")
     if not 0.0 <= opts.trapped_priority <= 1.0:
         raise InvalidInputError(f"trapped_priority must be in [0, 1], got {opts.trapped_priority}")
+    if opts.fallback_iterations is not None:
+        check_count(opts.fallback_iterations, "fallback_iterations")
     delta = space.edge.resolution
     delta_c = delta
     if opts.coarse_resolution is not None:
@@ -672,10 +712,10 @@ def _plan(
         )
     checks0, edges0 = space.checks, space.edge_checks
     t0 = time.perf_counter()
-    q_start = space.check_endpoint(start, "start")
-    q_goal = space.check_endpoint(goal, "goal")
     kernel = _native_kernel(space, opts)
-    if kernel is not None:
+    if kernel is not None:  # the kernel checks the endpoints' bounds and collisions
+        q_start = space.endpoint_vector(start, "start")
+        q_goal = space.endpoint_vector(goal, "goal")
         seed = seed if rng is None else int(rng.integers(1 << 63))
         result = _rrt_connect_native(
             space,
@@ -710,6 +750,8 @@ def _plan(
         )
         retry.log["sphere_recheck_failed"] = 1.0
         return retry
+    q_start = space.check_endpoint(start, "start")
+    q_goal = space.check_endpoint(goal, "goal")
     rng = rng if rng is not None else np.random.default_rng(seed)
     deadline = t0 + time_limit
     metric = None if space.is_euclidean else space.distances
