@@ -29,8 +29,21 @@ from typing import Any
 
 import numpy as np
 
-from taskspace._validation import FloatArray, check_positive
+from taskspace._validation import (
+    FloatArray,
+    as_float_array,
+    as_scalar,
+    as_vector,
+    check_count,
+    check_positive,
+)
 from taskspace.errors import InvalidInputError
+
+MAX_BASIS = 10_000
+"""Largest ``num_basis`` (10**9 tried to allocate the basis of every sample)."""
+MAX_ROLLOUT_SAMPLES = 10_000_000
+"""Largest number of samples of a rollout (``duration / dt``); more was a bare MemoryError
+(745 GiB for ``duration=1e9``) or ran for hours (``dt=1e-9``)."""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -50,6 +63,47 @@ class DMPOptions:
     alpha_x: float = 4.0
     alpha_g: float = 12.5
     regularization: float = 1e-8
+
+    def __post_init__(self) -> None:
+        # 0 or 2.5 basis functions, NaN or negative gains gave NaN or diverging rollouts
+        n = check_count(self.num_basis, "num_basis", minimum=1)
+        if n > MAX_BASIS:
+            raise InvalidInputError(f"num_basis must be at most {MAX_BASIS}, got {n}")
+        for name in ("alpha_z", "alpha_x", "alpha_g"):
+            check_positive(getattr(self, name), name)
+        check_positive(self.regularization, "regularization", strict=False)
+
+
+def _check_weights(weights: Any, options: Any) -> FloatArray:
+    """``weights`` (d x num_basis) finite, for ``options`` a :class:`DMPOptions`."""
+    if not isinstance(options, DMPOptions):
+        raise InvalidInputError(f"options must be DMPOptions, got {type(options).__name__}")
+    W = as_float_array(weights, "weights")
+    if W.ndim != 2 or W.shape[1] != options.num_basis or W.shape[0] < 1:
+        raise InvalidInputError(
+            f"weights must be (d x num_basis = {options.num_basis}) with d >= 1, got {W.shape}"
+        )
+    if not np.all(np.isfinite(W)):
+        raise InvalidInputError("weights must be finite")
+    return W.copy()
+
+
+def _vector(x: Any, d: int, name: str) -> FloatArray:
+    """``x`` as a finite (d,) vector; any shape with d entries (a scalar for d = 1) is taken."""
+    return as_vector(np.ravel(as_float_array(x, name)), d, name)
+
+
+def _rollout_steps(dt: Any, duration: Any) -> tuple[float, int]:
+    """``(dt, number of samples)`` of a rollout over ``duration`` [s] (finite, >= 0)."""
+    step = check_positive(dt, "dt [s]")
+    span = check_positive(duration, "duration [s]", strict=False)
+    samples = span / step + 1
+    if samples > MAX_ROLLOUT_SAMPLES:
+        raise InvalidInputError(
+            f"duration {span:g} s with dt {step:g} s gives {samples:.3g} samples (at most "
+            f"{MAX_ROLLOUT_SAMPLES}): use a larger dt or a shorter duration"
+        )
+    return step, round(span / step) + 1
 
 
 @dataclass
@@ -94,10 +148,11 @@ class DiscreteDMP:
     def __init__(
         self, weights: FloatArray, y0: FloatArray, goal: FloatArray, tau: float, options: DMPOptions
     ) -> None:
-        self.weights = np.asarray(weights, dtype=float)
-        self.y0 = np.asarray(y0, dtype=float)
-        self.goal = np.asarray(goal, dtype=float)
-        self.tau = float(tau)
+        self.weights = _check_weights(weights, options)
+        d = self.weights.shape[0]
+        self.y0 = _vector(y0, d, "y0")
+        self.goal = _vector(goal, d, "goal")
+        self.tau = check_positive(tau, "tau [s]")
         self.options = options
         self.initial_velocity = np.zeros_like(self.y0)
         n = options.num_basis
@@ -113,7 +168,9 @@ class DiscreteDMP:
 
     def basis(self, x: Any) -> FloatArray:
         """Normalized basis ``x psi(x) / sum psi(x)`` (K x num_basis) at phases ``x``."""
-        x = np.atleast_1d(np.asarray(x, dtype=float))
+        x = np.atleast_1d(as_float_array(x, "x"))
+        if not np.all(np.isfinite(x)):
+            raise InvalidInputError("phases x must be finite")
         psi = np.exp(-self.widths * (x[:, None] - self.centers) ** 2)
         return np.asarray(psi * x[:, None] / (psi.sum(axis=1, keepdims=True) + 1e-300), float)
 
@@ -182,24 +239,18 @@ class DiscreteDMP:
             goal_changes: ``(time [s], new goal)`` events; the goal is filtered toward them.
             yd0: initial velocity (default: the demonstration's; zero for a start at rest).
         """
-        check_positive(dt, "dt [s]")
-        tau = float(tau) if tau is not None else self.tau
-        check_positive(tau, "tau [s]")
-        duration = 1.5 * tau if duration is None else float(duration)
+        tau = self.tau if tau is None else check_positive(tau, "tau [s]")
+        dt, steps = _rollout_steps(dt, 1.5 * tau if duration is None else duration)
         d = self.weights.shape[0]
-        start = self.y0.copy() if y0 is None else np.asarray(y0, dtype=float).reshape(d)
-        g_target = self.goal.copy() if goal is None else np.asarray(goal, dtype=float).reshape(d)
+        start = self.y0.copy() if y0 is None else _vector(y0, d, "y0")
+        g_target = self.goal.copy() if goal is None else _vector(goal, d, "goal")
         g = g_target.copy()
-        events = sorted(
-            ((float(tc), np.asarray(gn, dtype=float).reshape(d)) for tc, gn in goal_changes),
-            key=lambda e: e[0],
-        )
-        steps = round(duration / dt) + 1
+        events = sorted(_goal_events(goal_changes, d), key=lambda e: e[0])
         Y = np.empty((steps, d))
         Yd = np.empty((steps, d))
         Ydd = np.empty((steps, d))
         X = np.empty(steps)
-        v0 = self.initial_velocity if yd0 is None else np.asarray(yd0, dtype=float).reshape(d)
+        v0 = self.initial_velocity if yd0 is None else _vector(yd0, d, "yd0")
         y, z = start.copy(), tau * v0
         o = self.options
         # The phase does not depend on the state: its samples and the weighted basis come first.
@@ -221,6 +272,24 @@ class DiscreteDMP:
         )
 
 
+def _goal_events(goal_changes: Any, d: int) -> list[tuple[float, FloatArray]]:
+    """``goal_changes`` as ``(time >= 0 [s], goal (d,))`` pairs, each finite."""
+    if isinstance(goal_changes, (str, bytes)) or not hasattr(goal_changes, "__iter__"):
+        raise InvalidInputError(f"goal_changes must be (time, goal) pairs, got {goal_changes!r}")
+    events = []
+    for i, event in enumerate(goal_changes):
+        if isinstance(event, (str, bytes)) or not hasattr(event, "__len__") or len(event) != 2:
+            raise InvalidInputError(f"goal_changes[{i}] must be a (time, goal) pair, got {event!r}")
+        time, new_goal = event
+        events.append(
+            (
+                check_positive(time, f"goal_changes[{i}] time [s]", strict=False),
+                _vector(new_goal, d, f"goal_changes[{i}] goal"),
+            )
+        )
+    return events
+
+
 class RhythmicDMP:
     """A rhythmic (periodic) DMP; build it with :meth:`fit` from one period of a demonstration.
 
@@ -231,16 +300,18 @@ class RhythmicDMP:
     def __init__(
         self, weights: FloatArray, anchor: FloatArray, tau: float, options: DMPOptions
     ) -> None:
-        self.weights = np.asarray(weights, dtype=float)
-        self.anchor = np.asarray(anchor, dtype=float)
-        self.tau = float(tau)
+        self.weights = _check_weights(weights, options)
+        self.anchor = _vector(anchor, self.weights.shape[0], "anchor")
+        self.tau = check_positive(tau, "tau [s]")
         self.options = options
         self.centers = np.linspace(0, 2 * np.pi, options.num_basis, endpoint=False)
         self.h = 2.5 * options.num_basis
 
     def basis(self, phi: Any) -> FloatArray:
         """Normalized von Mises basis (K x num_basis) at phases ``phi`` [rad]."""
-        phi = np.atleast_1d(np.asarray(phi, dtype=float))
+        phi = np.atleast_1d(as_float_array(phi, "phi"))
+        if not np.all(np.isfinite(phi)):
+            raise InvalidInputError("phases phi must be finite")
         psi = np.exp(self.h * (np.cos(phi[:, None] - self.centers) - 1.0))
         return np.asarray(psi / psi.sum(axis=1, keepdims=True), dtype=float)
 
@@ -291,13 +362,13 @@ class RhythmicDMP:
             y0: start (default: the demonstration's start is unknown here, so the anchor).
             amplitude: ``r``; tau: temporal scale [s] (default: learned).
         """
-        check_positive(dt, "dt [s]")
-        tau = float(tau) if tau is not None else self.tau
+        tau = self.tau if tau is None else check_positive(tau, "tau [s]")
+        dt, steps = _rollout_steps(dt, duration)
+        amplitude = as_scalar(amplitude, "amplitude")
         d = self.weights.shape[0]
-        y = self.anchor.copy() if y0 is None else np.asarray(y0, dtype=float).reshape(d)
+        y = self.anchor.copy() if y0 is None else _vector(y0, d, "y0")
         z = np.zeros(d)
         phi = 0.0
-        steps = round(duration / dt) + 1
         Y, Yd, Ydd, P = (
             np.empty((steps, d)),
             np.empty((steps, d)),

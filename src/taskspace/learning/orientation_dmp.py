@@ -20,15 +20,22 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from taskspace._validation import FloatArray, check_positive
+from taskspace._validation import FloatArray, as_float_array, check_positive
 from taskspace.errors import InvalidInputError
-from taskspace.learning.dmp import DiscreteDMP, DMPOptions
+from taskspace.learning.dmp import DiscreteDMP, DMPOptions, _check_weights, _rollout_steps, _vector
 
 
 def _rotation(q: Any) -> FloatArray:
-    arr = np.asarray(q, dtype=float)
+    arr = as_float_array(q, "orientation")
     if arr.shape == (3, 3):
-        return arr
+        # a NaN or non-orthonormal matrix was integrated as given
+        if not (
+            np.all(np.isfinite(arr))
+            and np.allclose(arr @ arr.T, np.eye(3), atol=1e-6)
+            and np.linalg.det(arr) > 0
+        ):
+            raise InvalidInputError("a 3 x 3 orientation must be a finite rotation matrix")
+        return arr.copy()
     if arr.shape == (4,):
         n = np.linalg.norm(arr)
         if not np.isfinite(n) or n < 1e-12:
@@ -70,10 +77,12 @@ class OrientationDMP:
     def __init__(
         self, weights: FloatArray, R0: FloatArray, goal: FloatArray, tau: float, options: DMPOptions
     ) -> None:
-        self.weights = np.asarray(weights, dtype=float)
-        self.R0 = np.asarray(R0, dtype=float)
-        self.goal = np.asarray(goal, dtype=float)
-        self.tau = float(tau)
+        self.weights = _check_weights(weights, options)
+        if self.weights.shape[0] != 3:
+            raise InvalidInputError(f"weights must be (3 x num_basis), got {self.weights.shape}")
+        self.R0 = _rotation(R0)
+        self.goal = _rotation(goal)
+        self.tau = check_positive(tau, "tau [s]")
         self.options = options
         self._phase = DiscreteDMP(
             np.zeros((1, options.num_basis)), np.zeros(1), np.ones(1), tau, options
@@ -135,17 +144,15 @@ class OrientationDMP:
             start, goal: quaternions (x, y, z, w) or rotations (default: demonstrated).
             angular_velocity0: initial angular velocity [rad/s] (default: demonstrated).
         """
-        check_positive(dt, "dt [s]")
         tau = self.tau
-        duration = 1.5 * tau if duration is None else float(duration)
+        dt, steps = _rollout_steps(dt, 1.5 * tau if duration is None else duration)
         R = self.R0.copy() if start is None else _rotation(start)
         g = self.goal.copy() if goal is None else _rotation(goal)
         w0 = self.initial_angular_velocity if angular_velocity0 is None else angular_velocity0
-        eta = tau * np.asarray(w0, dtype=float).reshape(3)
+        eta = tau * _vector(w0, 3, "angular_velocity0")
         D0 = self._scale(g, R)
         o = self.options
         beta = o.alpha_z / 4.0
-        steps = round(duration / dt) + 1
         Rs = np.empty((steps, 3, 3))
         Q = np.empty((steps, 4))
         W = np.empty((steps, 3))

@@ -8,6 +8,7 @@ cluster through :class:`taskspace.batch.Executor`, with :func:`evaluate_populati
 from __future__ import annotations
 
 import functools
+import math
 from collections.abc import Callable, Sequence
 from concurrent.futures import Executor
 from dataclasses import dataclass, field
@@ -302,13 +303,29 @@ def policy_rollout(
         rng = np.random.default_rng(seed)
         s = np.asarray(initial_state(rng), dtype=float)
         grad = np.zeros(th.size)
-        rewards = []
+        rewards: list[Any] = []
         for _ in range(horizon):
-            a = policy.mean_action(th, s)
+            a = policy._mean_action(th, s)  # th checked above; s is checked
             if sigma > 0:
                 a = a + sigma * rng.standard_normal(a.shape)
                 grad += policy.log_likelihood_gradient(th, s, a, sigma)
-            s, r, done = step(s, a)
+            out = step(s, a)
+            if not (isinstance(out, tuple) and len(out) == 3):
+                raise InvalidInputError(
+                    f"step(s, a) must return (next_state, reward, done), got {out!r} at step "
+                    f"{len(rewards)}"
+                )
+            s, r, done = out
+            if not (r.__class__ is float and math.isfinite(r)) and (
+                isinstance(r, (bool, np.bool_))
+                or not isinstance(r, (int, float, np.integer, np.floating))
+                or not np.isfinite(r)
+            ):
+                # a NaN reward made a NaN return, text a bare ValueError
+                raise InvalidInputError(
+                    f"step(s, a) returned the reward {r!r} at step {len(rewards)}; rewards must "
+                    "be finite real numbers"
+                )
             rewards.append(r)
             if done:
                 break

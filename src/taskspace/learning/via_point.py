@@ -12,9 +12,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from taskspace._validation import FloatArray
+from taskspace._validation import FloatArray, check_positive
 from taskspace.errors import InvalidInputError
-from taskspace.learning.dmp import DiscreteDMP
+from taskspace.learning.dmp import DiscreteDMP, _vector
 from taskspace.learning.rollout import Episode
 
 
@@ -35,6 +35,22 @@ class ViaPointTask:
     dt: float = 0.01
     via_weight: float = 1e3
     acceleration_weight: float = 1e-4
+
+    def __post_init__(self) -> None:
+        # a via time after the rollout was a bare IndexError, NaN a bare ValueError, a NaN via
+        # point a NaN return
+        if not isinstance(self.dmp, DiscreteDMP):
+            raise InvalidInputError(f"dmp must be a DiscreteDMP, got {type(self.dmp).__name__}")
+        dt = check_positive(self.dt, "dt [s]")
+        t = check_positive(self.via_time, "via_time [s]", strict=False)
+        steps = round(self.dmp.tau / dt)
+        if round(t / dt) > steps:
+            raise InvalidInputError(
+                f"via_time {t:g} s is after the rollout's end (tau = {self.dmp.tau:g} s)"
+            )
+        self.via_point = _vector(self.via_point, self.dmp.weights.shape[0], "via_point")
+        check_positive(self.via_weight, "via_weight", strict=False)
+        check_positive(self.acceleration_weight, "acceleration_weight", strict=False)
 
     @property
     def num_parameters(self) -> int:
@@ -84,6 +100,11 @@ class ViaPointTask:
         err = traj.y[k_via] - np.asarray(self.via_point, dtype=float)
         rewards = -self.acceleration_weight * np.sum(traj.ydd**2, axis=1) * self.dt
         rewards[k_via] -= self.via_weight * float(err @ err)
+        if not np.all(np.isfinite(rewards)):
+            raise InvalidInputError(
+                "the DMP rollout overflowed with these weights (non-finite rewards); use "
+                "smaller weights"
+            )
         return Episode(
             total_return=float(rewards.sum()),
             log_likelihood_gradient=np.zeros(self.num_parameters),
