@@ -190,3 +190,19 @@ def test_via_point_task() -> None:
     task = ViaPointTask(dmp, 0.5, [0.5])
     with pytest.raises(InvalidInputError, match="overflowed"):
         task.rollout(np.full(10, 1e300), 0)
+
+
+def test_tabular_simulator_and_learners_check_their_mdp() -> None:
+    from taskspace.learning import MDPSimulator, TabularOptions, q_learning
+    from taskspace.optimal_control.mdp import t_maze
+
+    mdp = t_maze()
+    rng = np.random.default_rng(0)
+    sim = MDPSimulator(mdp, rng)
+    for s, a in ((999, 0), (0, 999), (-1, 0), (0.5, 0), (True, 0)):
+        with pytest.raises(InvalidInputError, match="must be an integer in"):
+            sim.step(s, a)  # was a bare IndexError; -1 silently the last state
+    s2, r = sim.step(0, 0)
+    assert 0 <= s2 < mdp.num_states and r == mdp.rewards[0, 0]
+    with pytest.raises(InvalidInputError, match="mdp must be an MDP"):
+        q_learning("maze", TabularOptions(episodes=1), rng=rng)  # was an AttributeError

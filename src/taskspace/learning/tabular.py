@@ -83,6 +83,8 @@ class MDPSimulator:
     """
 
     def __init__(self, mdp: MDP, rng: np.random.Generator) -> None:
+        _check_mdp(mdp)
+        _check_rng(rng)
         self.mdp = mdp
         self.rng = rng
         self._rows = [(P.indptr, P.indices, P.data) for P in mdp.transitions]
@@ -96,7 +98,23 @@ class MDPSimulator:
         return out
 
     def step(self, s: int, a: int) -> tuple[int, float]:
-        """Sample ``(s', r)``."""
+        """Sample ``(s', r)``.
+
+        Raises:
+            InvalidInputError: ``s`` or ``a`` not an index of the MDP (was a bare IndexError;
+                -1 silently meant the last state).
+        """
+        for name, value, size in (("s", s, self.mdp.num_states), ("a", a, self.mdp.num_actions)):
+            if (
+                isinstance(value, (bool, np.bool_))
+                or not isinstance(value, (int, np.integer))
+                or not 0 <= value < size
+            ):
+                raise InvalidInputError(f"{name} must be an integer in [0, {size}), got {value!r}")
+        return self._step(int(s), int(a))
+
+    def _step(self, s: int, a: int) -> tuple[int, float]:
+        """:meth:`step` without the checks (the learners pass valid indices)."""
         indptr, indices, data = self._rows[a]
         lo, hi = indptr[s], indptr[s + 1]
         if hi - lo == 1:
@@ -152,6 +170,14 @@ def _check(options: TabularOptions) -> tuple[int, int]:
     return episodes, max_steps
 
 
+def _check_mdp(mdp: object) -> None:
+    if not isinstance(mdp, MDP):  # a str was a bare AttributeError
+        raise InvalidInputError(
+            f"mdp must be an MDP (taskspace.optimal_control.make_mdp, grid_world...), got "
+            f"{type(mdp).__name__}"
+        )
+
+
 def _check_rng(rng: object) -> None:
     if not isinstance(rng, np.random.Generator):
         raise InvalidInputError(
@@ -184,7 +210,7 @@ def _control(
         a = _epsilon_greedy(Q, s, eps, rng)
         total = 0.0
         for _ in range(max_steps):
-            s2, r = sim.step(s, a)
+            s2, r = sim._step(s, a)
             total += r
             a2 = _epsilon_greedy(Q, s2, eps, rng)
             n[s, a] += 1
@@ -270,7 +296,7 @@ def td_lambda(
         total = 0.0
         for _ in range(max_steps):
             a = min(int(np.searchsorted(cum[s], rng.random(), side="right")), A - 1)
-            s2, r = sim.step(s, a)
+            s2, r = sim._step(s, a)
             total += r
             v2 = 0.0 if sim.absorbing[s2] else V[s2]
             delta = r + mdp.gamma * v2 - V[s]
