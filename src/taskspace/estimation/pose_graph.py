@@ -20,6 +20,7 @@ from __future__ import annotations
 import enum
 import logging
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -121,6 +122,11 @@ class PoseGraph:
                         else ""
                     )
                 )
+        if _edges_ok(self.edges, ("i", "j"), n, n, 3) and _edges_ok(
+            self.landmark_edges, ("i", "k"), n, L.shape[0], 2
+        ):
+            return  # the vectorized checks passed (M3500: ~1 ms instead of ~300 ms per edge)
+        # something is wrong: find the first bad edge, edge by edge, for the message
         for e in self.edges:
             what = f"edge ({e.i!r}, {e.j!r})"
             i, j = _index(e.i, f"{what} index i"), _index(e.j, f"{what} index j")
@@ -152,6 +158,36 @@ class PoseGraph:
         _, labels = connected_components(adj, directed=False)
         loose = np.flatnonzero(labels != labels[int(self.fixed)])
         return loose[loose < n].tolist(), (loose[loose >= n] - n).tolist()
+
+
+def _edges_ok(edges: Sequence[Any], names: tuple[str, str], n_a: int, n_b: int, size: int) -> bool:
+    """All edges valid, checked on stacked arrays (``False``: check them one by one)."""
+    if not edges:
+        return True
+    a = [getattr(e, names[0]) for e in edges]
+    b = [getattr(e, names[1]) for e in edges]
+    for idx in (a, b):  # Python or NumPy integers, not bools (checked per type: cheap)
+        if not all(type(v) is int or isinstance(v, np.integer) for v in idx):
+            return False
+    ia, ib = np.asarray(a), np.asarray(b)
+    if ia.min() < 0 or ia.max() >= n_a or ib.min() < 0 or ib.max() >= n_b:
+        return False
+    if names[1] == "j" and np.any(ia == ib):
+        return False
+    try:
+        Z = np.asarray([e.measurement for e in edges])
+        W = np.asarray([e.information for e in edges])
+    except (TypeError, ValueError):
+        return False
+    if Z.dtype.kind not in "iuf" or W.dtype.kind not in "iuf":
+        return False
+    if Z.shape != (len(edges), size) or W.shape != (len(edges), size, size):
+        return False
+    if not (np.isfinite(Z).all() and np.isfinite(W).all()):
+        return False
+    scale = np.maximum(1.0, np.abs(W).max(axis=(1, 2)))
+    asym = np.abs(W - W.transpose(0, 2, 1)).max(axis=(1, 2))
+    return bool(np.all(asym <= 1e-9 * scale))
 
 
 def _index(value: Any, name: str) -> int:
