@@ -206,3 +206,26 @@ def test_tabular_simulator_and_learners_check_their_mdp() -> None:
     assert 0 <= s2 < mdp.num_states and r == mdp.rewards[0, 0]
     with pytest.raises(InvalidInputError, match="mdp must be an MDP"):
         q_learning("maze", TabularOptions(episodes=1), rng=rng)  # was an AttributeError
+
+
+@pytest.mark.filterwarnings("ignore:overflow encountered:RuntimeWarning")
+def test_irl_and_imitation_inputs() -> None:
+    from taskspace.learning import behaviour_cloning, max_entropy_irl, soft_value_iteration
+    from taskspace.optimal_control.mdp import t_maze
+
+    mdp = t_maze()
+    S = mdp.num_states
+    start = np.full(S, 1.0 / S)
+    with pytest.raises(InvalidInputError, match="horizon x states x actions"):
+        max_entropy_irl(mdp, np.eye(S), np.full(S, 0.5), start, 10**9)  # was a MemoryError
+    with pytest.raises(InvalidInputError, match="horizon x states x actions"):
+        soft_value_iteration(mdp, np.zeros(S), 10**9)
+    with pytest.raises(InvalidInputError, match="soft values overflowed"):
+        soft_value_iteration(mdp, np.full(S, 1e308), 5)  # inf values, NaN policy before
+    soft = soft_value_iteration(mdp, np.zeros(S), 3)
+    # zero rewards: every action equally likely
+    np.testing.assert_allclose(soft.policy, 1.0 / mdp.num_actions)
+    with pytest.raises(InvalidInputError, match="policy must be a Policy"):
+        behaviour_cloning("linear", np.zeros((5, 2)), np.zeros((5, 1)))
+    with pytest.raises(InvalidInputError, match="complex"):
+        behaviour_cloning(LinearPolicy(2, 1), np.zeros((5, 2)) + 1j, np.zeros((5, 1)))

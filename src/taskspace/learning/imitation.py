@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from taskspace._validation import FloatArray
+from taskspace._validation import FloatArray, as_float_array
 from taskspace.errors import InvalidInputError
 from taskspace.learning.policies import Policy
 
@@ -51,8 +51,12 @@ def behaviour_cloning(
     Raises:
         InvalidInputError: shapes or non-finite data.
     """
-    S = np.atleast_2d(np.asarray(states, dtype=float))
-    A = np.asarray(actions, dtype=float)
+    if not isinstance(policy, Policy):  # a str was a bare AttributeError
+        raise InvalidInputError(
+            f"policy must be a Policy (LinearPolicy, RBFPolicy...), got {type(policy).__name__}"
+        )
+    S = np.atleast_2d(as_float_array(states, "states"))  # complex: refused, not truncated
+    A = as_float_array(actions, "actions")
     if A.ndim == 1:
         A = A[:, None]
     if S.shape[0] != A.shape[0] or A.shape[1] != policy.action_dim or S.shape[0] == 0:

@@ -113,6 +113,10 @@ class MaxEntIRLResult:
     history: list[float] = field(default_factory=list)
 
 
+MAX_POLICY_ENTRIES = 10**8
+"""Cap on ``horizon x states x actions`` of a soft policy (0.8 GB)."""
+
+
 def _check(mdp: MDP, features: Any, start: Any, horizon: int) -> tuple[FloatArray, FloatArray]:
     if not isinstance(mdp, MDP):
         raise InvalidInputError(
@@ -121,6 +125,12 @@ def _check(mdp: MDP, features: Any, start: Any, horizon: int) -> tuple[FloatArra
     if isinstance(horizon, bool) or not isinstance(horizon, (int, np.integer)) or horizon < 1:
         raise InvalidInputError(f"horizon must be an integer >= 1, got {horizon!r}")
     S = mdp.num_states
+    if horizon * S * mdp.num_actions > MAX_POLICY_ENTRIES:
+        # horizon=10**9 was a bare MemoryError (44.7 GiB for the values alone)
+        raise InvalidInputError(
+            f"horizon x states x actions = {horizon} x {S} x {mdp.num_actions} exceeds "
+            f"{MAX_POLICY_ENTRIES:.0e} (the time-varying policy is stored): use a shorter horizon"
+        )
     Phi = np.asarray(features, dtype=float)
     if Phi.ndim != 2 or Phi.shape[0] != S or not np.all(np.isfinite(Phi)):
         raise InvalidInputError(f"features must be a finite ({S} x k) array, got {Phi.shape}")
@@ -150,6 +160,12 @@ def soft_value_iteration(mdp: MDP, state_rewards: Any, horizon: int) -> SoftPoli
         Q = np.stack([P @ nxt for P in mdp.transitions], axis=1)
         V[t] = scipy.special.logsumexp(Q, axis=1)
         pi[t] = np.exp(Q - V[t][:, None])
+    if not np.all(np.isfinite(V[0])):
+        # rewards near 1e308 summed over the horizon gave inf values and a NaN policy
+        raise InvalidInputError(
+            f"the soft values overflowed over {horizon} steps (largest |reward| "
+            f"{float(np.max(np.abs(r))):.3g}): scale the rewards down"
+        )
     return SoftPolicy(V=V, policy=pi)
 
 
