@@ -27,6 +27,82 @@ validity callback (same resolution; range = our step, and OMPL's default range),
 pyroboplan's RRT-Connect with its own collision checking. Per scenario and over all
 scenarios ("all"): valid problems, solved within 1 s, median / p95 time, collision checks,
 path length (raw and, for taskspace RRT-Connect, after shortcutting), ratios to OMPL.
+
+Measurements formerly kept in ``taskspace.planning.rrt_connect``'s docstring (oldest first)::
+
+    Trapped trees: in pick problems the goal often lies in a tight region (fingers around an
+    object in a shelf) from which steps towards uniform samples nearly always collide; the goal
+    tree then stays at a few nodes while the start tree grows to thousands. When a tree has fewer
+    than a quarter of the other's nodes, its target is, with probability ``local_sampling``, drawn
+    around one of its own nodes (a Gaussian of standard deviation ``local_sigma``), which lets it
+    grow out of the region (on the 313 valid MotionBenchMaker Panda problems: 313 instead of 309
+    solved within 1 s). Such a tree also takes the other tree's turn with probability
+    ``trapped_priority`` (the other tree then CONNECTs towards its new node): the free tree, whose
+    EXTEND nearly always succeeds, would otherwise spend most of the collision checks on growing
+    (cage: 86 % of the start tree's EXTEND succeed, 11-16 % of the goal tree's; half the checks
+    went into the start tree's steps). Measured for the compiled planner against alternate turns
+    (0) in the same runs, interleaved, on the 313 problems with three sets of 20 seeds: median time
+    per scenario 2-15 % lower (cage 11-13 %) but box's in one set (+2 %), mean time 1-29 % lower
+    but box's in one set (+5 %), all solved; for this module (3 seeds) 0.81x the total time.
+
+    Compiled planner: ``RRTConnectOptions.native`` (default) runs this algorithm in C++
+    (``taskspace/_native/planning_kernel.cpp``, compiled when taskspace is pip-installed)
+    when the space's checker is a :class:`~taskspace.planning.CollisionChecker`; the collision
+    checks call Pinocchio and coal directly (about 1.35 us per configuration inside the planner on
+    the MotionBenchMaker Panda scenes, against 10-13 us through Python). Its random stream is its
+    own (seeded by ``seed`` or by the ``rng`` passed), so its trees differ from this module's; its
+    paths carry the same guarantee. Options are validated here before the call; the kernel
+    checks the start and goal (finite, inside the bounds, free for the exact checker) and computes
+    the path's length in the same call (a failed endpoint is then re-checked here for the error
+    message), so a plan is one kernel call and a few Python objects (about 25-40 us of Python per
+    plan, was 70-110 us). Measured on the 313
+    valid MotionBenchMaker Panda problems (2026-11-25, ``benchmarks/results/planning_full.json``):
+    313 solved within 1 s, median 0.56 ms (per scenario 0.35-0.75 ms, cage 3.3 ms); this module
+    with the same compiled checker 1.70 ms; OMPL's RRTConnect at the same range calling the same
+    checker through Python 3.29 ms (0.17x; per scenario 0.11-0.23x, cage 0.24x). OMPL's time is
+    about 1 ms per query plus 2.7-2.9 us per check (fit of the scenario medians), ours about
+    1.1-1.5 us per check: the ratio is lowest on the easy problems and tends to the ratio of the
+    costs per check times that of the checks on the long ones (cage: 2,250 against 4,560 checks,
+    median).
+
+    Sphere checkers (``RRTConnectOptions.checker``, compiled planner only; #22 item 4): the
+    robot's conservative spheres (:meth:`~taskspace.planning.CollisionChecker.sphere_model`,
+    204 on the Panda) checked per link, per object and per sphere against the obstacles'
+    primitives and the self pairs' spheres, with kinematics only (no geometry placements), see
+    the kernel's header. ``"spheres"`` runs coal's exact narrow phase where spheres touch: the
+    same answers as ``"mesh"`` (the same trees and paths, tested) at 0.86-1.3 us per
+    configuration near the trees against 1.0-1.5 us (random configurations, which collide
+    more often: 2.1-2.6 against 1.6-1.9 us); ``"spheres_only"`` stops at the spheres
+    (0.73-0.9 us; 1.4-1.7 us on random configurations) and is conservative: 10-16 % of the
+    random free configurations are refused, so tight goals (cage, the grasps of table_pick)
+    become hard. The exact checker stays the final validator: with a sphere checker the lazy
+    fine pass uses it, and the returned path's nodes and coarse points (all its points for the
+    straight start-goal line) are re-checked with it, so every point of the path at the
+    resolution is checked exactly once (a median of 60 re-check calls). Measured on the 313
+    problems, seed 0, alternating with main's kernel in three rounds on a loaded 2-core machine
+    (medians over the problems): ``"mesh"`` 0.98-1.18 ms, ``"spheres"`` 0.94-1.23 ms (per problem
+    0.96-1.00x ``"mesh"``), ``"spheres_only"`` 0.89-1.11 ms with 292-293 of 313 solved (per
+    solved problem 0.91-0.98x); OMPL's RRTConnect in the suite's run 5.24 ms. Since then
+    ``"spheres_only"`` falls back to ``"spheres"`` after ``fallback_iterations`` (200) iterations
+    without a path, inside the kernel (the trees stay: their nodes and coarse points are free for
+    the spheres, hence free): on the 313 problems (seed = problem number, 1 s limit) 313 solved
+    with the fallback (with a threshold of 100 or 300 too; 142 and 72 of them fell back), 295
+    (94.3 %) without it. With the endpoint checks and the path length in the kernel and the
+    link-level box tests in SSE2 lanes (2026-11-27; per problem the minimum of 5 runs of the
+    seeded plan, two rounds alternating with main's kernel on a loaded 2-core machine, medians
+    over the 313 problems): ``"mesh"`` 0.640-0.657 ms (main 0.702-0.748), ``"spheres"``
+    0.669-0.687 ms (main 0.779-0.809), ``"spheres_only"`` 0.652-0.655 ms with 313 solved (main
+    0.741-0.761 ms, 295-296 solved; mean 3.3-7.7 ms against 71 ms). Not the issue's
+    0.1 ms: VAMP's tens of microseconds need the checks of many configurations at once in SIMD
+    lanes (single precision, structure of arrays) and far fewer checks per plan, which this
+    checker does not do; the kinematics alone cost about 0.22 us per configuration here.
+
+    Measured for the Python path (same problems, same checker, 2-core machine; see
+    ``benchmarks/suites/planning.py``):
+    the lazy coarse-to-fine checks need about 35 % fewer collision checks than checking every
+    edge at ``delta`` (which needs the same checks as OMPL's RRTConnect at the same range and
+    resolution), and the batched calls cost about 10 us per configuration instead of about 15 us
+    one by one.
 """
 
 from __future__ import annotations
