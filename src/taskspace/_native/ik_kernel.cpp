@@ -97,7 +97,11 @@ constexpr int kUnconstrained = 0;
 constexpr int kSolved = 1;
 constexpr int kMaxIterations = 2;
 
+class HierarchicalIKKernel;  // hier_kernel.hpp: reuses this kernel's rows and boxes
+
 class WeightedIKKernel {
+  friend class HierarchicalIKKernel;
+
  public:
   WeightedIKKernel(int nv, int nq) : nv_(nv), nq_(nq), m_(0) {
     if (nv <= 0 || nq <= 0) raise_invalid("nv and nq must be positive");
@@ -955,6 +959,8 @@ double abi_selfcheck(const Model& model) {
   return data.oMi[model.njoints - 1].translation().norm();
 }
 
+#include "hier_kernel.hpp"  // the compiled closed-form step of HierarchicalIK
+
 }  // namespace
 
 BOOST_PYTHON_MODULE(_ik_kernel) {
@@ -983,4 +989,5 @@ BOOST_PYTHON_MODULE(_ik_kernel) {
       // the 9-argument solve under its own name: one signature, no overload dispatch (a
       // failed arity match of the 11-argument overload first cost ~0.4 us per call)
       .def("solve_boxes", &WeightedIKKernel::solve_boxes);
+  register_hierarchical_ik_kernel();
 }
