@@ -308,3 +308,36 @@ def test_native_step_declines_with_levenberg_marquardt_damping(panda: Robot) -> 
     ik = HierarchicalIK(panda, task_levels, _limits(panda))
     result = ik.solve(panda.state(panda.q_default), DT)
     assert not result.native and result.native_declined == DECLINED[-1]
+
+
+def test_native_step_with_two_posture_tasks_equals_the_nullspace_formula(g1: Robot) -> None:
+    # posture rows of a joint subset on level 2 and of every joint, the free flyer included
+    # (its Lie-group dDifference block), on level 3; the state away from the targets
+    q = g1.q_default.copy()
+    q[:3] += np.array([0.01, -0.02, 0.0])
+    q[7:] += 0.03
+    state = g1.state(q)
+    feet = [Task(FramePose(g1, f)) for f in FRAMES["g1"][0]]
+    for t in feet:
+        t.set_target_from_state(state)
+    waist = Task(
+        JointConfiguration(g1, ["waist_yaw_joint", "left_elbow_joint", "right_elbow_joint"]),
+        g1.q_default,
+        weight=4.0,
+        name="waist and elbows",
+    )
+    everything = Task(
+        JointConfiguration(g1, floating_base=True), g1.q_default, weight=0.3, name="posture"
+    )
+    task_levels: list[list[Task | Constraint]] = [[*feet], [waist], [everything]]
+    ik = HierarchicalIK(g1, task_levels)
+    result = ik.solve(state, DT)
+    assert result.native, result.native_declined
+    jacobians, targets = [], []
+    for level in task_levels:
+        rows = [t.rows(state) for t in level if isinstance(t, Task)]
+        jacobians.append(np.vstack([r[0] for r in rows]))
+        targets.append(np.concatenate([r[1] for r in rows]))
+    reference = hierarchical_step_exact(jacobians, targets)
+    scale = max(1.0, float(np.abs(reference).max()))
+    np.testing.assert_allclose(result.dq, reference, rtol=0, atol=1e-9 * scale)
