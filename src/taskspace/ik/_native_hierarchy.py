@@ -116,6 +116,49 @@ class _NativeLevelResult(QPResult):
 _BACKEND = "native closed form"
 
 
+class _NativeHierarchyResult(HierarchyResult):
+    """The cascade's result from the kernel.
+
+    The per-level results are made on first access of :attr:`level_results` (from the
+    kernel's per-level data and steps, kept here).
+    """
+
+    def __init__(self, x: np.ndarray, info: np.ndarray, steps: np.ndarray, solve_time: float):
+        # the fields of HierarchyResult, set directly (the level results come later)
+        self.success = True
+        self.status = QPStatus.UNCONSTRAINED
+        self.x = x
+        self.residuals = info[:, 0].tolist()
+        self.violations = info[:, 1].tolist()
+        self.nullspace_dims = info[:, 2].astype(int).tolist()
+        self.solve_time = solve_time
+        self.culprits = []
+        self._pending: tuple[np.ndarray, np.ndarray] | None = (info, steps)
+        self._level_results: list[QPResult] = []
+
+    @property  # type: ignore[override]
+    def level_results(self) -> list[QPResult]:
+        """Per level, its closed-form result.
+
+        ``x``: the level's step, ``kkt``: its KKT residuals computed by the kernel.
+        """
+        pending = self._pending
+        if pending is not None:
+            self._pending = None
+            info, steps = pending
+            pos = 0
+            for row in info:
+                size = int(row[11])
+                self._level_results.append(_NativeLevelResult(steps[pos : pos + size], row))
+                pos += size
+        return self._level_results
+
+    @level_results.setter
+    def level_results(self, value: list[QPResult]) -> None:
+        self._pending = None
+        self._level_results = value
+
+
 class NativeHierarchy:
     """Owns one compiled hierarchical kernel for fixed levels of tasks and box constraints.
 
@@ -316,24 +359,7 @@ class NativeHierarchy:
             raise
         if status != 0:
             return int(status)
-        info = self.kernel.info()
-        steps = steps.copy()
-        level_results: list[QPResult] = []
-        pos = 0
-        for row in info:
-            size = int(row[11])
-            level_results.append(_NativeLevelResult(steps[pos : pos + size], row))
-            pos += size
-        return HierarchyResult(
-            True,
-            QPStatus.UNCONSTRAINED,
-            out.copy(),
-            residuals=info[:, 0].tolist(),
-            violations=info[:, 1].tolist(),
-            nullspace_dims=[int(d) for d in info[:, 2]],
-            level_results=level_results,
-            solve_time=solve_time,
-        )
+        return _NativeHierarchyResult(out.copy(), self.kernel.info(), steps.copy(), solve_time)
 
     def level_rows(self, k: int) -> tuple[np.ndarray, np.ndarray]:
         """Level ``k``'s rows ``(J, r)`` of the last solve (copies; for tests)."""
