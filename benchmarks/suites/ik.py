@@ -8,9 +8,10 @@ Scenes (issue 3):
 * ``g1 hierarchy``: the G1 tasks as 4 strict levels (feet + CoM-in-support-box inequality;
   CoM; hands; posture). Rows: the compiled closed-form step (``native_steps``: how many
   steps it answered; the others ran the Python cascade) and the Python cascade alone.
-* ``g1 hierarchy, active CoM box``: the same with the support box's front edge 2 mm ahead of
-  the initial CoM, so that the hands' motion pushes the CoM against it: on those steps the
-  level-1 inequality is active and the level QPs run (the compiled step declines).
+* ``g1 hierarchy, active CoM box``: the same with the support box's front edge 2 mm behind
+  the initial CoM (the CoM task's target): the level-1 inequality moves the CoM behind it and
+  then holds it against the CoM level on every step, so the level QPs run (the compiled step
+  declines; the row says what the level-QP path costs).
 * ``panda global``: ``solve_ik`` on random reachable tcp poses.
 * ``panda dampers``: the main demo's scene (``examples/demo_main.py``): Panda with convex
   collision geometry, a 7 cm ball in the way of a tcp pose task whose target slides 45 cm
@@ -159,7 +160,7 @@ def run_g1_hierarchy(steps: int, native: bool = True, front: float = 0.08) -> di
     """G1 as 4 strict levels, with an inequality (CoM inside the feet's box) on level 1.
 
     ``native``: the compiled closed-form step first; ``front``: the box's front edge ahead
-    of the feet [m] (0.08; ``run_g1_hierarchy_active``: 2 mm ahead of the CoM).
+    of the feet [m] (0.08; ``run_g1_hierarchy_active``: 2 mm behind the CoM).
     """
     robot = Robot.load("g1")
     groups, moving = g1_tasks(robot)
@@ -184,11 +185,11 @@ def run_g1_hierarchy(steps: int, native: bool = True, front: float = 0.08) -> di
 
 
 def run_g1_hierarchy_active(steps: int, native: bool = True) -> dict[str, Any]:
-    """:func:`run_g1_hierarchy` with the box's front edge 2 mm ahead of the initial CoM."""
+    """:func:`run_g1_hierarchy` with the box's front edge 2 mm behind the initial CoM."""
     robot = Robot.load("g1")
     s = robot.state(robot.q_default)
     feet_x = max(s.frame_placement(robot.frame_id(f)).translation[0] for f in G1_FEET)
-    return run_g1_hierarchy(steps, native, float(s.com()[0]) + 0.002 - feet_x)
+    return run_g1_hierarchy(steps, native, float(s.com()[0]) - 0.002 - feet_x)
 
 
 def run_panda(steps: int, native: bool = True) -> dict[str, Any]:
