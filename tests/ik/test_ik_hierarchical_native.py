@@ -341,3 +341,33 @@ def test_native_step_with_two_posture_tasks_equals_the_nullspace_formula(g1: Rob
     reference = hierarchical_step_exact(jacobians, targets)
     scale = max(1.0, float(np.abs(reference).max()))
     np.testing.assert_allclose(result.dq, reference, rtol=0, atol=1e-9 * scale)
+
+
+@pytest.mark.parametrize("hard", [False, True])
+def test_native_step_checks_inequality_rows_evaluated_in_python(panda: Robot, hard: bool) -> None:
+    # a cap on a point 1 cm off the tcp frame: no compiled term, its rows are evaluated in
+    # Python and passed to the kernel's check (on level 1, or binding every level)
+    state = panda.state(panda.q_default)
+    tcp = "panda_hand_tcp"
+    offset = np.array([0.0, 0.0, 0.01])
+    point = Position(panda, tcp, offset)
+    z = float(point.value(state)[2]) + 0.002  # where level 1 sends it (about)
+    for above, native in ((0.05, True), (-0.001, False)):
+        task_levels = _panda(panda, 0.05, inequality=False)
+        cap = FeatureBounds(point, [-INF, -INF, -INF], [INF, INF, z + above], name="point cap")
+        constraints = _limits(panda)
+        if hard:
+            constraints.append(cap)
+        else:
+            task_levels[0].append(cap)
+        ik = HierarchicalIK(panda, task_levels, constraints)
+        result = ik.solve(state, DT)
+        assert result.native is native, result.native_declined
+        if not native:
+            assert result.native_declined == DECLINED[3]
+        levels, lb, ub = _levels_and_box(ik, panda, state)
+        if native or hard:  # held: satisfied (level 1 cannot reach its target under it)
+            C, _, u = cap.inequalities(state, DT)
+            assert np.all(C @ result.dq <= u + 1e-9)
+        if not hard:
+            _check_against_reference(levels, result.dq, lb, ub)
