@@ -371,3 +371,21 @@ def test_native_step_checks_inequality_rows_evaluated_in_python(panda: Robot, ha
             assert np.all(C @ result.dq <= u + 1e-9)
         if not hard:
             _check_against_reference(levels, result.dq, lb, ub)
+
+
+def test_native_step_with_one_level_is_the_damped_least_squares_step(panda: Robot) -> None:
+    # one level (the kernel's per-level data has one row): its damped normal equations
+    state = panda.state(panda.q_default)
+    task_levels = _panda(panda, 0.05, inequality=False)
+    tasks = [t for level in task_levels for t in level if isinstance(t, Task)]
+    ik = HierarchicalIK(panda, [tasks])
+    result = ik.solve(state, DT)
+    assert result.native, result.native_declined
+    rows = [t.rows(state) for t in tasks]
+    J = np.vstack([r[0] for r in rows])
+    r = np.concatenate([r[1] for r in rows])
+    mu = ik.solver.options.damping
+    reference = np.linalg.solve(J.T @ J + mu * np.eye(panda.nv), J.T @ r)
+    np.testing.assert_allclose(result.dq, reference, rtol=0, atol=1e-9)
+    assert len(result.hierarchy.level_results) == 1
+    assert result.hierarchy.nullspace_dims == [panda.nv]

@@ -243,6 +243,7 @@ class NativeHierarchy:
         self._soft = [c for c in boxes if not c.hard_bounds]
         self._out = np.zeros(robot.nv)
         self._steps = np.zeros(len(levels) * robot.nv)
+        self._n_levels = len(levels)
         self._zeros = [np.zeros(3) for _ in self._bounds]  # the bounds' targets
         self.squared_rhs = 0.0  # of the last solve: the sum of the squared weighted residuals
         self.build_time = 0.0
@@ -359,7 +360,9 @@ class NativeHierarchy:
             raise
         if status != 0:
             return int(status)
-        return _NativeHierarchyResult(out.copy(), self.kernel.info(), steps.copy(), solve_time)
+        # (levels, 12); eigenpy gives a one-row matrix (one level) as a vector
+        info = self.kernel.info().reshape(self._n_levels, -1)
+        return _NativeHierarchyResult(out.copy(), info, steps.copy(), solve_time)
 
     def level_rows(self, k: int) -> tuple[np.ndarray, np.ndarray]:
         """Level ``k``'s rows ``(J, r)`` of the last solve (copies; for tests)."""
