@@ -970,6 +970,7 @@ BOOST_PYTHON_MODULE(_ik_kernel) {
   bp::scope().attr("SOLVED") = kSolved;
   bp::scope().attr("MAX_ITERATIONS") = kMaxIterations;
   bp::def("abi_selfcheck", &abi_selfcheck, bp::args("model"));
+  register_hierarchical_ik_kernel();  // hier_kernel.hpp
   bp::class_<WeightedIKKernel>("WeightedIKKernel", bp::init<int, int>(bp::args("self", "nv", "nq")))
       .def("add_pose", &WeightedIKKernel::add_pose)
       .def("add_position", &WeightedIKKernel::add_position)
@@ -989,5 +990,4 @@ BOOST_PYTHON_MODULE(_ik_kernel) {
       // the 9-argument solve under its own name: one signature, no overload dispatch (a
       // failed arity match of the 11-argument overload first cost ~0.4 us per call)
       .def("solve_boxes", &WeightedIKKernel::solve_boxes);
-  register_hierarchical_ik_kernel();
 }
