@@ -289,11 +289,11 @@ class HierarchicalIK:
         assert native is not None
         t0 = time.perf_counter()
         result = native.solve(state, dt, self.solver.options.damping)
-        if result == -1:
-            return DECLINED[-1]
+        if isinstance(result, int) and result < 0:  # no kernel call (LM damping)
+            return DECLINED[result]
         if not native.squared_rhs <= _MAX_SQUARED_RESIDUAL:  # also NaN: the Python path
             return "a weighted task residual is too large"  # raises, naming the level
-        if not isinstance(result, HierarchyResult):
+        if isinstance(result, int):
             return DECLINED[result]
         x = result.x
         solve_time = result.solve_time
