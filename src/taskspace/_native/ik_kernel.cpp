@@ -97,7 +97,11 @@ constexpr int kUnconstrained = 0;
 constexpr int kSolved = 1;
 constexpr int kMaxIterations = 2;
 
+class HierarchicalIKKernel;  // hier_kernel.hpp: reuses this kernel's rows and boxes
+
 class WeightedIKKernel {
+  friend class HierarchicalIKKernel;
+
  public:
   WeightedIKKernel(int nv, int nq) : nv_(nv), nq_(nq), m_(0) {
     if (nv <= 0 || nq <= 0) raise_invalid("nv and nq must be positive");
@@ -955,6 +959,8 @@ double abi_selfcheck(const Model& model) {
   return data.oMi[model.njoints - 1].translation().norm();
 }
 
+#include "hier_kernel.hpp"  // the compiled closed-form step of HierarchicalIK
+
 }  // namespace
 
 BOOST_PYTHON_MODULE(_ik_kernel) {
@@ -964,6 +970,7 @@ BOOST_PYTHON_MODULE(_ik_kernel) {
   bp::scope().attr("SOLVED") = kSolved;
   bp::scope().attr("MAX_ITERATIONS") = kMaxIterations;
   bp::def("abi_selfcheck", &abi_selfcheck, bp::args("model"));
+  register_hierarchical_ik_kernel();  // hier_kernel.hpp
   bp::class_<WeightedIKKernel>("WeightedIKKernel", bp::init<int, int>(bp::args("self", "nv", "nq")))
       .def("add_pose", &WeightedIKKernel::add_pose)
       .def("add_position", &WeightedIKKernel::add_position)

@@ -13,6 +13,8 @@ import pinocchio as pin
 from taskspace._validation import FloatArray, check_positive
 from taskspace.constraints.constraint import Constraint
 from taskspace.errors import InvalidInputError, SolverError
+from taskspace.ik._native_hierarchy import DECLINED, NativeHierarchy
+from taskspace.ik._native_hierarchy import supported as native_supported
 from taskspace.model.robot import Robot
 from taskspace.model.state import State
 from taskspace.qp.hierarchy import (
@@ -39,6 +41,10 @@ class HierarchicalIKResult:
         violations: per level, the largest violation of its inequalities (linearized).
         hierarchy: the cascade's result (per-level QP results, nullspace dimensions).
         build_time, solve_time: wall times [s].
+        native: the compiled closed-form step answered (every level in closed form, every
+            inequality and bound satisfied at its point; see ``HierarchicalIK``'s ``native``).
+        native_declined: why the compiled step declined and the Python cascade answered
+            (empty when it answered or did not run).
     """
 
     success: bool
@@ -49,6 +55,8 @@ class HierarchicalIKResult:
     hierarchy: HierarchyResult
     build_time: float = 0.0
     solve_time: float = 0.0
+    native: bool = False
+    native_declined: str = ""
 
 
 MAX_WEIGHTED_RESIDUAL = 1e30
@@ -123,6 +131,12 @@ class HierarchicalIK:
         levels: highest priority first; each level a list of tasks and constraints.
         constraints: hard constraints for all levels.
         options: cascade settings (damping, rank tolerance, QP solver).
+        native: try the compiled closed-form step first (``taskspace/_native``; when it is
+            built and every task's feature declares a compiled term): one kernel call builds
+            every level's rows and runs the equality cascade, and answers when no inequality
+            or bound is violated at its point and no level is close to rank-deficient;
+            otherwise the Python cascade (level QPs) answers. The result's ``native`` says
+            which did.
     """
 
     def __init__(
@@ -131,6 +145,8 @@ class HierarchicalIK:
         levels: Sequence[Sequence[Task | Constraint]],
         constraints: Sequence[Constraint] = (),
         options: HierarchyOptions | None = None,
+        *,
+        native: bool = True,
     ) -> None:
         self.robot = robot
         self.levels = _check_levels(levels)
@@ -183,6 +199,19 @@ class HierarchicalIK:
         self._hard_inequalities = InequalityStack(self.constraints, nv)
         self._boxes = BoxStack(self.constraints, nv)
         self._lock = threading.Lock()
+        self._level_tasks = level_tasks
+        self._native_option = bool(native)
+        self._native: NativeHierarchy | None = None
+        self._native_checked = False
+
+    @property
+    def native(self) -> bool:
+        """Whether steps try the compiled closed-form step first (see ``native``)."""
+        if not self._native_checked:
+            self._native_checked = True
+            if self._native_option and native_supported(self._level_tasks):
+                self._native = NativeHierarchy(self.robot, self.levels, self.constraints)
+        return self._native is not None
 
     @classmethod
     def from_priorities(
@@ -254,7 +283,39 @@ class HierarchicalIK:
         with self._lock:
             return self._solve(state, dt)
 
+    def _solve_native(self, state: State, dt: float) -> HierarchicalIKResult | str:
+        """The compiled closed-form step, or why it declined (the caller holds the lock)."""
+        native = self._native
+        assert native is not None
+        t0 = time.perf_counter()
+        result = native.solve(state, dt, self.solver.options.damping)
+        if isinstance(result, int) and result < 0:  # no kernel call (LM damping)
+            return DECLINED[result]
+        if not native.squared_rhs <= _MAX_SQUARED_RESIDUAL:  # also NaN: the Python path
+            return "a weighted task residual is too large"  # raises, naming the level
+        if isinstance(result, int):
+            return DECLINED[result]
+        x = result.x
+        solve_time = result.solve_time
+        return HierarchicalIKResult(
+            True,
+            x,
+            x / dt,
+            result.residuals,
+            result.violations,
+            result,
+            time.perf_counter() - t0 - solve_time,
+            solve_time,
+            native=True,
+        )
+
     def _solve(self, state: State, dt: float) -> HierarchicalIKResult:
+        declined = ""
+        if self._native is not None or (not self._native_checked and self.native):
+            answer = self._solve_native(state, dt)
+            if not isinstance(answer, str):
+                return answer
+            declined = answer
         t0 = time.perf_counter()
         levels = self._build(state, dt)
         r_all = self._r_all
@@ -295,6 +356,7 @@ class HierarchicalIK:
             result,
             t1 - t0,
             t2 - t1,
+            native_declined=declined,
         )
 
     def _residual_error(self, levels: list[HierarchyLevel]) -> None:

@@ -1,0 +1,449 @@
+// Compiled closed-form step of taskspace's hierarchical differential IK (HierarchicalIK).
+//
+// Included by ik_kernel.cpp (inside its anonymous namespace, after WeightedIKKernel, whose
+// row evaluation it reuses: HierarchicalIKKernel is its friend). One call fills every
+// level's weighted task rows  J_k x ~ r_k  from a State's pinocchio Data (the same rows as
+// taskspace.qp.rows.TaskRowStack.velocity), combines the boxes (the weighted kernel's rules),
+// and runs the equality cascade of taskspace/qp/hierarchy.py (HierarchySolver
+// ._equality_cascade): per level, the least-norm solution of  J_k Z z = r_k - J_k x  and the
+// nullspace basis of  J_k Z  from one Householder QR (of J_k Z when it has at least as many
+// rows as columns, else of its transpose), with the Python path's rank test (a diagonal entry
+// of R at most 1e-6 times the largest, or 1: declined); the last level by a Cholesky solve
+// of its damped normal equations. Then the `_violations` check: the bounds, the hard
+// inequality rows and every level's inequality rows at the cascade's point (1e-10).
+//
+// Anything this path does not decide exactly is declined (a status > 0) and the caller runs
+// the Python cascade: near-rank-deficient levels (pivoted QR / damped SVD there), an
+// inequality or a bound violated at the closed-form point (the level QPs), a failed Cholesky
+// or a non-finite step.
+
+class HierarchicalIKKernel {
+  struct Bounds {  // a FeatureBounds evaluated here (see add_bounds)
+    int row, dim, level;
+    double gain;
+    VectorXd lower, upper;
+  };
+
+ public:
+  // Status codes (returned to Python).
+  static constexpr int kAnswered = 0;
+  static constexpr int kRankDeficient = 1;
+  static constexpr int kNotFinite = 2;
+  static constexpr int kInfeasible = 3;
+  static constexpr int kInfoColumns = 12;
+
+  HierarchicalIKKernel(int nv, int nq) : k_(nv, nq), nv_(nv), nq_(nq) {}
+
+  // Terms are registered level by level (all terms of level 0 first, ...), then set_levels.
+  void add_pose(const Model& model, int frame) { k_.add_pose(model, frame), order_.push_back(0); }
+  void add_position(const Model& model, int frame) {
+    k_.add_position(model, frame), order_.push_back(0);
+  }
+  void add_com() { k_.add_com(), order_.push_back(0); }
+  void add_posture(bp::object rows) { k_.add_posture(rows), order_.push_back(1); }
+
+  // Bounds lower <= phi(q) + J dq <= upper on a CoM or frame-origin feature (FeatureBounds,
+  // with its gain), held by level `level` (-1: by every level, a hard constraint). Registered
+  // after every task (their rows follow the tasks' in the weighted kernel's row block: the
+  // feature's rows with weight 1 and target 0, i.e. J and phi); their targets (zeros) follow
+  // the row tasks' targets.
+  void add_bounds(const Model& model, int kind, int frame, const Eigen::Ref<const VectorXd>& lower,
+                  const Eigen::Ref<const VectorXd>& upper, double gain, int level) {
+    if (kind == kCom) k_.add_com();
+    else if (kind == kPosition) k_.add_position(model, frame);
+    else raise_invalid("bounds: only CoM and frame-origin features");
+    const Item& it = k_.items_.back();
+    if (lower.size() != it.dim || upper.size() != it.dim) raise_invalid("bounds: size != 3");
+    if (lower.hasNaN() || upper.hasNaN() || !(gain > 0.0 && gain <= 1.0))
+      raise_invalid("bounds: NaN bounds or a gain outside (0, 1]");
+    bounds_.push_back({it.row, it.dim, level, gain, lower, upper});
+  }
+
+  // New lower, upper bounds and gain of the i-th registered bounds.
+  void set_bounds(int i, const Eigen::Ref<const VectorXd>& lower,
+                  const Eigen::Ref<const VectorXd>& upper, double gain) {
+    if (i < 0 || i >= static_cast<int>(bounds_.size())) raise_invalid("bounds index out of range");
+    Bounds& b = bounds_[i];
+    if (lower.size() != b.dim || upper.size() != b.dim) raise_invalid("bounds: size != 3");
+    if (lower.hasNaN() || upper.hasNaN() || !(gain > 0.0 && gain <= 1.0))
+      raise_invalid("bounds: NaN bounds or a gain outside (0, 1]");
+    b.lower = lower;
+    b.upper = upper;
+    b.gain = gain;
+  }
+
+  // counts[k]: the number of terms of level k (in registration order).
+  void set_levels(bp::object counts) {
+    const long nl = bp::len(counts);
+    long total = 0;
+    level_rows_.clear();
+    level_posture_.clear();
+    std::size_t term = 0;
+    int row = 0, posture = 0;
+    for (long k = 0; k < nl; ++k) {
+      const int c = bp::extract<int>(counts[k]);
+      if (c < 0) raise_invalid("level term counts must be >= 0");
+      total += c;
+      if (total > static_cast<long>(order_.size())) raise_invalid("more terms than registered");
+      const int first = row;
+      std::vector<int> pst;
+      for (int i = 0; i < c; ++i, ++term) {
+        if (order_[term] == 1) {
+          pst.push_back(posture++);
+        } else {
+          // the row item registered as number (term - postures so far)
+          const Item& it = k_.items_[term - posture];
+          if (it.row != row) throw std::logic_error("row layout");
+          row += it.dim;
+        }
+      }
+      level_rows_.push_back({first, row});
+      level_posture_.push_back(pst);
+    }
+    if (total != static_cast<long>(order_.size())) raise_invalid("fewer terms than registered");
+    if (!bounds_.empty() && bounds_.front().row < row) raise_invalid("bounds before tasks");
+    J_.assign(nl, MatrixXd());
+    r_.assign(nl, VectorXd());
+    for (long k = 0; k < nl; ++k) {
+      int m = level_rows_[k].second - level_rows_[k].first;
+      for (const int p : level_posture_[k]) m += k_.posture_[p].dim;
+      J_[k].setZero(m, nv_);
+      r_[k].setZero(m);
+    }
+    info_.setZero(nl, kInfoColumns);
+    levels_set_ = true;
+  }
+
+  // The weighted kernel's scaling (row tasks, then nv entries per posture task), kept here
+  // for the posture rows: sqrt(weight) and -gain * sqrt(weight) per tangent row.
+  void set_scaling(const Eigen::Ref<const VectorXd>& w, const Eigen::Ref<const VectorXd>& c) {
+    k_.set_scaling(w, c);
+    const int m = k_.m_;
+    psw_.resize(k_.posture_.size());
+    psc_.resize(k_.posture_.size());
+    for (const Bounds& b : bounds_)
+      if ((w.segment(b.row, b.dim).array() != 1.0).any() ||
+          (c.segment(b.row, b.dim).array() != 1.0).any())
+        raise_invalid("bounds rows: weight and scale must be 1");
+    for (std::size_t k = 0; k < k_.posture_.size(); ++k) {
+      psw_[k] = w.segment(m + k * nv_, nv_);
+      psc_[k] = c.segment(m + k * nv_, nv_);
+    }
+  }
+
+  void set_position_limits(bp::object iq, bp::object iv, const Eigen::Ref<const VectorXd>& low,
+                           const Eigen::Ref<const VectorXd>& high, bool hard) {
+    k_.set_position_limits(iq, iv, low, high, hard);
+  }
+
+  // One step: rows, boxes, cascade, checks. `inequalities`: per level None or (C, l, u) (the
+  // level's inequality rows, evaluated by the caller); `hard`: None or (C, l, u) binding every
+  // level. Writes the step to `out` (size nv, valid when the status is 0) and the rows of
+  // `info` (levels x 12): |J_k x - r_k|, the level's inequality violation, the nullspace
+  // dimension after the level, the level's KKT residuals (primal, dual, complementarity,
+  // duality gap, primal scale, dual scale, gap scale; see
+  // taskspace.qp.kkt.least_squares_kkt_residuals), its objective and the length of its z; `steps` (size >= the sum
+  // of the levels' freedoms) receives each level's step z, concatenated. Returns (status,
+  // sum of squared r over all levels, build time, cascade time) [s].
+  bp::tuple solve(const Model& model, Data& data, const Eigen::Ref<const VectorXd>& q,
+                  bp::list targets, bp::list hard_boxes, bp::list soft_boxes,
+                  bp::list inequalities, bp::object hard, double damping,
+                  Eigen::Ref<VectorXd> out, Eigen::Ref<VectorXd> steps) {
+    if (!levels_set_) raise_invalid("set_levels was not called");
+    if (model.nv != nv_ || model.nq != nq_) raise_invalid("model size mismatch");
+    if (q.size() != nq_ || out.size() != nv_) raise_invalid("vector size mismatch");
+    const int nl = static_cast<int>(J_.size());
+    if (steps.size() < static_cast<long>(nl) * nv_) raise_invalid("steps buffer too small");
+    if (bp::len(targets) != static_cast<long>(k_.items_.size() + k_.posture_.size()))
+      raise_invalid("one target per task expected");
+    if (bp::len(inequalities) != nl) raise_invalid("one inequality entry per level expected");
+    if (!k_.scaled_) raise_invalid("set_scaling was not called");
+    if (!(damping >= 0.0) || !std::isfinite(damping))
+      raise_invalid("damping must be finite and >= 0, got " + std::to_string(damping));
+    if (!q.allFinite()) raise_invalid("q must be finite");
+    const auto t0 = std::chrono::steady_clock::now();
+    // boxes (the weighted kernel's position limits from q and combination rules)
+    if (k_.pl_set_) {
+      for (std::size_t k = 0; k < k_.pl_iq_.size(); ++k) {
+        const double qk = q[k_.pl_iq_[k]];
+        k_.pl_lb_[k_.pl_iv_[k]] = k_.pl_low_[k] - qk;
+        k_.pl_ub_[k_.pl_iv_[k]] = k_.pl_high_[k] - qk;
+      }
+    }
+    k_.combine_bounds(hard_boxes, soft_boxes);
+    // the row tasks' rows (M_, r_ = -gain sqrt(w) e), then the levels' rows
+    k_.fill_rows(model, data, targets);
+    fill_posture(model, q, targets);
+    double r2 = 0.0;
+    for (int k = 0; k < nl; ++k) {
+      const int a = level_rows_[k].first, m = level_rows_[k].second - a;
+      J_[k].topRows(m) = k_.M_.middleRows(a, m);
+      r_[k].head(m) = k_.r_.segment(a, m);
+      int row = m;
+      for (const int p : level_posture_[k]) {
+        const Item& it = k_.posture_[p];
+        for (int i = 0; i < it.dim; ++i, ++row) {
+          const int t = it.rows.empty() ? i : it.rows[i];
+          J_[k].row(row) = psw_[p][t] * pjd_[p].row(t);
+          r_[k][row] = psc_[p][t] * pdiff_[p][t];
+        }
+      }
+      r2 += r_[k].squaredNorm();
+    }
+    const auto t1 = std::chrono::steady_clock::now();
+    const int status = cascade(damping, steps);
+    if (status == kAnswered) {
+      const int checked = check(inequalities, hard);
+      const auto t2 = std::chrono::steady_clock::now();
+      const auto sec = [](auto a, auto b) { return std::chrono::duration<double>(b - a).count(); };
+      if (checked == kAnswered) out = x_;
+      return bp::make_tuple(checked, r2, sec(t0, t1), sec(t1, t2));
+    }
+    const auto t2 = std::chrono::steady_clock::now();
+    const auto sec = [](auto a, auto b) { return std::chrono::duration<double>(b - a).count(); };
+    return bp::make_tuple(status, r2, sec(t0, t1), sec(t1, t2));
+  }
+
+  // The per-level data of the last solve (levels x 12, see solve).
+  MatrixXd info() const { return info_; }
+
+  // The rows of level k of the last solve: (J, r) (copies; for tests and inspection).
+  bp::tuple level_rows(int k) const {
+    if (k < 0 || k >= static_cast<int>(J_.size())) raise_invalid("level index out of range");
+    return bp::make_tuple(J_[k], r_[k]);
+  }
+
+ private:
+  // Posture rows: sqrt(w) dDifference(q*, q) (block diagonal per joint: identity on the
+  // vector-space joints) and -gain sqrt(w) difference(q*, q), for every posture task.
+  void fill_posture(const Model& model, const Eigen::Ref<const VectorXd>& q, bp::list& targets) {
+    const std::size_t np = k_.posture_.size();
+    pjd_.resize(np);
+    pdiff_.resize(np);
+    for (std::size_t p = 0; p < np; ++p) posture_jd(model, q, targets, p, pjd_[p], pdiff_[p]);
+  }
+
+  void posture_jd(const Model& model, const Eigen::Ref<const VectorXd>& q, bp::list& targets,
+                  std::size_t k, MatrixXd& Jd, VectorXd& diff) {
+    const VectorXd qt = bp::extract<VectorXd>(targets[k_.items_.size() + k]);
+    if (qt.size() != nq_) raise_invalid("posture target size != nq");
+    diff.resize(nv_);
+    pinocchio::difference(model, qt, q, diff);
+    Jd.setZero(nv_, nv_);
+    bool jd_done = false;
+    for (pinocchio::JointIndex j = 1; j < static_cast<pinocchio::JointIndex>(model.njoints); ++j) {
+      const int iv = model.idx_vs[j], nvj = model.nvs[j];
+      if (nvj == 0) continue;
+      if (model.nqs[j] == nvj) {  // vector-space joint: identity
+        Jd.block(iv, iv, nvj, nvj).setIdentity();
+        continue;
+      }
+      if (!jd_done) {  // one dDifference for every Lie-group joint (the weighted kernel's)
+        pinocchio::dDifference(model, qt, q, k_.Jdiff_, pinocchio::ARG1);
+        jd_done = true;
+      }
+      Jd.block(iv, iv, nvj, nvj) = k_.Jdiff_.block(iv, iv, nvj, nvj);
+    }
+  }
+
+ private:
+  // Least-norm solution of JZ z = res and a basis of null(JZ) by one QR (hierarchy.py's
+  // _qr_level); false when JZ is close to rank-deficient (the Python path decides).
+  bool qr_level(const MatrixXd& JZ, const VectorXd& res, VectorXd& z, MatrixXd& basis) {
+    const int m = static_cast<int>(JZ.rows()), r = static_cast<int>(JZ.cols());
+    if (m >= r) {
+      if (r == 0) {
+        z.resize(0);
+        basis.resize(0, 0);
+        return true;
+      }
+      qr_.compute(JZ);
+      const auto R = qr_.matrixQR().topRows(r);
+      const VectorXd d = R.diagonal().cwiseAbs();
+      if (d.minCoeff() <= 1e-6 * std::max(1.0, d.maxCoeff())) return false;
+      z.noalias() = JZ.transpose() * res;
+      R.triangularView<Eigen::Upper>().transpose().solveInPlace(z);
+      R.triangularView<Eigen::Upper>().solveInPlace(z);
+      basis.resize(r, 0);
+      return true;
+    }
+    qr_.compute(JZ.transpose());
+    const auto& QR = qr_.matrixQR();
+    const VectorXd d = QR.diagonal().cwiseAbs();
+    if (d.minCoeff() <= 1e-6 * std::max(1.0, d.maxCoeff())) return false;
+    Q_.setIdentity(r, r);
+    Q_.applyOnTheLeft(qr_.householderQ());
+    VectorXd y = res;
+    QR.topLeftCorner(m, m).triangularView<Eigen::Upper>().transpose().solveInPlace(y);
+    z.noalias() = Q_.leftCols(m) * y;
+    basis = Q_.rightCols(r - m);
+    return true;
+  }
+
+  // The equality cascade (hierarchy.py's _equality_cascade from x = 0, Z = I) and each
+  // level's KKT residuals without the primal part (added by check).
+  int cascade(double damping, Eigen::Ref<VectorXd> steps) {
+    const int nl = static_cast<int>(J_.size()), n = nv_;
+    x_.setZero(n);
+    bool identity = true;  // Z = I (no level has reduced the freedom yet)
+    info_.setZero(nl, kInfoColumns);
+    long zpos = 0;
+    for (int k = 0; k < nl; ++k) {
+      const MatrixXd& J = J_[k];
+      const int m = static_cast<int>(J.rows());
+      const int r = identity ? n : static_cast<int>(Z_.cols());
+      if (m > 0 && r > 0) {
+        if (identity) JZ_ = J;
+        else JZ_.noalias() = J * Z_;
+        res_ = r_[k];
+        res_.noalias() -= J * x_;
+        double mu = damping;
+        if (k == nl - 1) {
+          mu = std::max(mu, 1e-12);
+          G_.setZero(r, r);
+          G_.selfadjointView<Eigen::Lower>().rankUpdate(JZ_.transpose());
+          G_.diagonal().array() += mu;
+          z_.noalias() = JZ_.transpose() * res_;
+          if (!WeightedIKKernel::cholesky(G_)) return kNotFinite;
+          WeightedIKKernel::cholesky_solve(G_, z_);
+        } else if (!qr_level(JZ_, res_, z_, basis_)) {
+          return kRankDeficient;
+        }
+        if (identity) x_ += z_;
+        else x_.noalias() += Z_ * z_;
+        if (k < nl - 1) {
+          if (identity) Z_ = basis_;
+          else tmp_.noalias() = Z_ * basis_, Z_.swap(tmp_);
+          identity = false;
+        }
+        steps.segment(zpos, r) = z_;
+        zpos += r;
+        // least_squares_kkt_residuals (primal: set by check)
+        fit_.noalias() = JZ_ * z_;
+        Hz_.noalias() = JZ_.transpose() * fit_;  // H z = JZ^T JZ z + mu z
+        Hz_ += mu * z_;
+        g_.noalias() = -(JZ_.transpose() * res_);  // g = -JZ^T res
+        fit_ -= res_;
+        const double zHz = z_.dot(Hz_), gz = g_.dot(z_);
+        info_(k, 4) = (Hz_ + g_).cwiseAbs().maxCoeff();
+        info_(k, 5) = 0.0;
+        info_(k, 6) = std::abs(zHz + gz);
+        info_(k, 7) = z_.cwiseAbs().maxCoeff();
+        info_(k, 8) = std::max(Hz_.cwiseAbs().maxCoeff(), g_.cwiseAbs().maxCoeff());
+        info_(k, 9) = std::max({1.0, std::abs(zHz), std::abs(gz)});
+        info_(k, 10) = 0.5 * (fit_.squaredNorm() + mu * z_.squaredNorm());
+      } else {
+        info_(k, 9) = 1.0;  // an empty level: KKTResiduals(primal, 0, 0, 0, 0, 0, 1)
+      }
+      info_(k, 2) = identity ? n : static_cast<double>(Z_.cols());
+      info_(k, 11) = static_cast<double>(r > 0 && m > 0 ? r : 0);  // length of the level's z
+    }
+    if (!x_.allFinite()) return kNotFinite;
+    return kAnswered;
+  }
+
+  // Largest violation of l <= C x <= u (0 when none), C given as a (C, l, u) tuple.
+  double violation(bp::object rows, bool& ok) const {
+    const Eigen::Ref<const RowMatrixXd> C = bp::extract<Eigen::Ref<const RowMatrixXd>>(rows[0]);
+    const Eigen::Ref<const VectorXd> l = bp::extract<Eigen::Ref<const VectorXd>>(rows[1]);
+    const Eigen::Ref<const VectorXd> u = bp::extract<Eigen::Ref<const VectorXd>>(rows[2]);
+    if (C.cols() != nv_ || l.size() != C.rows() || u.size() != C.rows()) {
+      ok = false;
+      return 0.0;
+    }
+    double v = 0.0;
+    for (long i = 0; i < C.rows(); ++i) {
+      const double cx = C.row(i).dot(x_);
+      v = std::max(v, std::max(l[i] - cx, cx - u[i]));
+    }
+    return v;
+  }
+
+  // Violation at x of FeatureBounds' rows (their inequalities(): lower - phi <= J dq <=
+  // upper - phi, a bound already violated relaxed to the fraction `gain` of the way back).
+  double bound_violation(const Bounds& b) const {
+    double v = 0.0;
+    for (int i = 0; i < b.dim; ++i) {
+      const double y = k_.r_[b.row + i];  // phi (weight 1, target 0)
+      const double cx = k_.M_.row(b.row + i).dot(x_);
+      double lo = b.lower[i] - y, hi = b.upper[i] - y;
+      if (lo > 0) lo *= b.gain;
+      if (hi < 0) hi *= b.gain;
+      lo = std::max(lo, -WeightedIKKernel::kInf);
+      hi = std::min(hi, WeightedIKKernel::kInf);
+      v = std::max(v, std::max(lo - cx, cx - hi));
+    }
+    return v;
+  }
+
+  // hierarchy.py's _violations at x (tol 1e-10) and _finish's residuals and violations.
+  int check(bp::list& inequalities, bp::object& hard) {
+    const int nl = static_cast<int>(J_.size());
+    const double tol = 1e-10;
+    double h = 0.0;
+    for (int i = 0; i < nv_; ++i)
+      h = std::max(h, std::max(k_.lb_[i] - x_[i], x_[i] - k_.ub_[i]));
+    if (h > tol) return kInfeasible;
+    bool ok = true;
+    for (const Bounds& b : bounds_)
+      if (b.level < 0) h = std::max(h, bound_violation(b));
+    if (!hard.is_none()) {
+      h = std::max(h, violation(hard, ok));
+      if (!ok) raise_invalid("hard inequality rows: sizes differ");
+      if (h > tol) return kInfeasible;
+    }
+    for (int k = 0; k < nl; ++k) {
+      double own = 0.0;
+      bp::object rows = inequalities[k];
+      if (!rows.is_none()) {
+        own = violation(rows, ok);
+        if (!ok) raise_invalid("level inequality rows: sizes differ");
+      }
+      for (const Bounds& b : bounds_)
+        if (b.level == k) own = std::max(own, bound_violation(b));
+      const double v = std::max(h, own);
+      if (v > tol) return kInfeasible;
+      info_(k, 3) = v;                   // the KKT primal residual
+      info_(k, 1) = std::max(own, 0.0);  // the level's violation (_finish)
+      info_(k, 0) = (J_[k] * x_ - r_[k]).norm();
+    }
+    return kAnswered;
+  }
+
+ private:
+  WeightedIKKernel k_;
+  std::vector<Bounds> bounds_;
+  int nv_, nq_;
+  bool levels_set_ = false;
+  std::vector<int> order_;  // per registered term: 0 a row task, 1 a posture task
+  std::vector<std::pair<int, int>> level_rows_;
+  std::vector<std::vector<int>> level_posture_;
+  std::vector<VectorXd> psw_, psc_, pdiff_;
+  std::vector<MatrixXd> pjd_;
+  std::vector<MatrixXd> J_;
+  std::vector<VectorXd> r_;
+  MatrixXd Z_, JZ_, basis_, tmp_, G_, Q_, info_;
+  VectorXd x_, z_, res_, Hz_, g_, fit_;
+  Eigen::HouseholderQR<MatrixXd> qr_;
+};
+
+void register_hierarchical_ik_kernel() {
+  bp::scope().attr("HIERARCHY_ANSWERED") = HierarchicalIKKernel::kAnswered;
+  bp::scope().attr("HIERARCHY_RANK_DEFICIENT") = HierarchicalIKKernel::kRankDeficient;
+  bp::scope().attr("HIERARCHY_NOT_FINITE") = HierarchicalIKKernel::kNotFinite;
+  bp::scope().attr("HIERARCHY_INFEASIBLE") = HierarchicalIKKernel::kInfeasible;
+  bp::class_<HierarchicalIKKernel, boost::noncopyable>(
+      "HierarchicalIKKernel", bp::init<int, int>(bp::args("self", "nv", "nq")))
+      .def("add_pose", &HierarchicalIKKernel::add_pose)
+      .def("add_position", &HierarchicalIKKernel::add_position)
+      .def("add_com", &HierarchicalIKKernel::add_com)
+      .def("add_posture", &HierarchicalIKKernel::add_posture)
+      .def("set_levels", &HierarchicalIKKernel::set_levels)
+      .def("add_bounds", &HierarchicalIKKernel::add_bounds)
+      .def("set_bounds", &HierarchicalIKKernel::set_bounds)
+      .def("set_scaling", &HierarchicalIKKernel::set_scaling)
+      .def("set_position_limits", &HierarchicalIKKernel::set_position_limits)
+      .def("solve", &HierarchicalIKKernel::solve)
+      .def("info", &HierarchicalIKKernel::info)
+      .def("level_rows", &HierarchicalIKKernel::level_rows);
+}

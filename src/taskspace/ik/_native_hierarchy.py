@@ -1,0 +1,370 @@
+"""The compiled closed-form step of :class:`~taskspace.ik.HierarchicalIK`.
+
+The kernel is ``taskspace/_native/hier_kernel.hpp`` (part of ``_ik_kernel``).
+
+One kernel call fills every level's weighted task rows (the rows of
+:meth:`~taskspace.qp.rows.TaskRowStack.velocity`, evaluated from the declared
+:class:`~taskspace.features.compiled.CompiledTerm` of each task's feature, as the compiled
+weighted IK does), combines the boxes, runs the equality cascade of
+:class:`~taskspace.qp.hierarchy.HierarchySolver` (one QR per level, the same rank test) and
+checks the bounds and the inequality rows at its point. The inequality rows themselves (a
+level's constraints, the hard ones) are evaluated here in Python and passed to the kernel.
+
+When every row holds at the cascade's point, that point is the cascade of QPs' solution (each
+level's QP has no active inequality: its closed form is its optimum); the kernel returns it
+with each level's KKT residuals. Otherwise (an inequality or a bound violated, a level close
+to rank-deficient, a failed factorization) the kernel declines and the Python cascade, which
+solves the level QPs, answers the step.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import numpy as np
+
+from taskspace._native import ik_kernel
+from taskspace.constraints.constraint import Constraint
+from taskspace.constraints.feature_bounds import FeatureBounds
+from taskspace.errors import InvalidInputError
+from taskspace.features.compiled import IK_KINDS, CompiledTerm, compiled_term
+from taskspace.model.robot import Robot
+from taskspace.model.state import State
+from taskspace.model.versioning import ModelFollower
+from taskspace.qp.hierarchy import HierarchyResult
+from taskspace.qp.kkt import KKTResiduals
+from taskspace.qp.result import QPResult, QPStatus
+from taskspace.qp.rows import InequalityStack
+from taskspace.tasks import Task
+
+DECLINED = {
+    -1: "a task has Levenberg-Marquardt damping (the kernel's damping is fixed)",
+    1: "a level is close to rank-deficient (pivoted QR / damped SVD)",
+    2: "a factorization failed or the step is not finite",
+    3: "an inequality or a bound is violated at the closed-form point (level QPs)",
+}
+"""Why the kernel declined a step (its status), recorded on the Python path's result."""
+
+_REGISTER: dict[str, Callable[[Any, Any, CompiledTerm], Any]] = {
+    "pose": lambda kernel, model, term: kernel.add_pose(model, term.frame_id),
+    "position": lambda kernel, model, term: kernel.add_position(model, term.frame_id),
+    "com": lambda kernel, model, term: kernel.add_com(),
+    "posture": lambda kernel, model, term: kernel.add_posture(
+        None if term.rows is None else list(term.rows)
+    ),
+}
+_FULL_TANGENT = frozenset({"posture"})
+
+
+def supported(levels: Sequence[Sequence[Task]]) -> bool:
+    """Whether the compiled closed-form step can evaluate these levels' tasks."""
+    module = ik_kernel()
+    if module is None or not hasattr(module, "HierarchicalIKKernel"):
+        return False
+    return all(
+        type(t).rows is Task.rows
+        and (term := compiled_term(t.feature)) is not None
+        and term.kind in IK_KINDS
+        for tasks in levels
+        for t in tasks
+    )
+
+
+def _has_bounds(c: Constraint) -> bool:
+    return type(c).bounds is not Constraint.bounds
+
+
+_BOUND_KINDS = {"com": 2, "position": 1}  # the kernel's term kinds
+
+
+def _compiled_bounds(c: Constraint) -> CompiledTerm | None:
+    """The term of a :class:`FeatureBounds` (that class only) the kernel evaluates, or ``None``."""
+    if type(c) is not FeatureBounds:
+        return None
+    term = compiled_term(c.feature)
+    return term if term is not None and term.kind in _BOUND_KINDS else None
+
+
+class _NativeLevelResult(QPResult):
+    """A level answered by the compiled closed-form step.
+
+    ``x`` is the level's step ``z``; ``kkt`` (the residuals of
+    :func:`~taskspace.qp.kkt.least_squares_kkt_residuals`, computed by the kernel) is made on
+    first access.
+    """
+
+    def __init__(self, z: np.ndarray, info: np.ndarray) -> None:
+        self._info: np.ndarray | None = None
+        super().__init__(True, QPStatus.UNCONSTRAINED, z, float(info[10]), 0, 0.0, _BACKEND)
+        self._info = info
+
+    @property  # type: ignore[override]
+    def kkt(self) -> KKTResiduals:
+        """The level's KKT residuals (see the class)."""
+        info = self._info
+        if info is not None:
+            self._info = None
+            self._kkt = KKTResiduals(*info[3:10].tolist())
+        return self._kkt
+
+    @kkt.setter
+    def kkt(self, value: KKTResiduals) -> None:
+        self._kkt = value
+
+
+_BACKEND = "native closed form"
+
+
+class _NativeHierarchyResult(HierarchyResult):
+    """The cascade's result from the kernel.
+
+    The per-level results are made on first access of :attr:`level_results` (from the
+    kernel's per-level data and steps, kept here).
+    """
+
+    def __init__(self, x: np.ndarray, info: np.ndarray, steps: np.ndarray, solve_time: float):
+        # the fields of HierarchyResult, set directly (the level results come later)
+        self.success = True
+        self.status = QPStatus.UNCONSTRAINED
+        self.x = x
+        self.residuals = info[:, 0].tolist()
+        self.violations = info[:, 1].tolist()
+        self.nullspace_dims = info[:, 2].astype(int).tolist()
+        self.solve_time = solve_time
+        self.culprits = []
+        self._pending: tuple[np.ndarray, np.ndarray] | None = (info, steps)
+        self._level_results: list[QPResult] = []
+
+    @property  # type: ignore[override]
+    def level_results(self) -> list[QPResult]:
+        """Per level, its closed-form result.
+
+        ``x``: the level's step, ``kkt``: its KKT residuals computed by the kernel.
+        """
+        pending = self._pending
+        if pending is not None:
+            self._pending = None
+            info, steps = pending
+            pos = 0
+            for row in info:
+                size = int(row[11])
+                self._level_results.append(_NativeLevelResult(steps[pos : pos + size], row))
+                pos += size
+        return self._level_results
+
+    @level_results.setter
+    def level_results(self, value: list[QPResult]) -> None:
+        self._pending = None
+        self._level_results = value
+
+
+class NativeHierarchy:
+    """Owns one compiled hierarchical kernel for fixed levels of tasks and box constraints.
+
+    The kernel is built for ``robot.model`` and only receives the ``pin.Data`` of a
+    :class:`~taskspace.model.State` of that model. Not thread-safe (the kernel holds its
+    buffers): :class:`~taskspace.ik.HierarchicalIK` serializes its calls with its lock.
+    """
+
+    def __init__(
+        self,
+        robot: Robot,
+        levels: Sequence[Sequence[Task | Constraint]],
+        constraints: Sequence[Constraint],
+    ) -> None:
+        module = ik_kernel()
+        assert module is not None
+        model = robot.model
+        self.robot = robot
+        self.model = model
+        self.nv = robot.nv
+        kernel = module.HierarchicalIKKernel(robot.nv, robot.nq)
+        rows: list[tuple[Task, CompiledTerm]] = []
+        full: list[tuple[Task, CompiledTerm]] = []
+        level_tasks = [[t for t in level if isinstance(t, Task)] for level in levels]
+        for tasks in level_tasks:
+            for t in tasks:
+                term = compiled_term(t.feature)
+                if term is None or term.kind not in IK_KINDS:
+                    raise InvalidInputError(
+                        f"task '{t.name}': its feature declares no compiled term"
+                    )
+                _REGISTER[term.kind](kernel, model, term)
+                (full if term.kind in _FULL_TANGENT else rows).append((t, term))
+        # FeatureBounds on a CoM or frame origin: evaluated by the kernel (rows after the
+        # tasks'); the other inequality rows are evaluated here and passed to each solve
+        self._bounds: list[FeatureBounds] = []
+        level_constraints = [[c for c in level if isinstance(c, Constraint)] for level in levels]
+        for k, group in enumerate([*level_constraints, list(constraints)]):
+            level = k if k < len(levels) else -1
+            for c in group:
+                bterm = _compiled_bounds(c)
+                if bterm is None:
+                    continue
+                assert isinstance(c, FeatureBounds)
+                kernel.add_bounds(
+                    model,
+                    _BOUND_KINDS[bterm.kind],
+                    -1 if bterm.frame_id is None else bterm.frame_id,
+                    c.lower,
+                    c.upper,
+                    c.gain,
+                    level,
+                )
+                self._bounds.append(c)
+        self._bound_keys = [self._bound_key(c) for c in self._bounds]
+        self._level_inequalities = [
+            InequalityStack([c for c in group if _compiled_bounds(c) is None], robot.nv)
+            for group in level_constraints
+        ]
+        self._hard_inequalities = InequalityStack(
+            [c for c in constraints if _compiled_bounds(c) is None], robot.nv
+        )
+        kernel.set_levels([len(tasks) for tasks in level_tasks])
+        # the kernel's target order: the row tasks, then the full-tangent (posture) ones
+        terms = rows + full
+        self.tasks = [t for t, _ in terms]
+        self._terms = [term for _, term in terms]
+        self._n_rows = sum(t.dim for t, _ in rows) + 3 * len(self._bounds)
+        self._n_full = len(full)
+        self._keys: list[tuple[Any, Any]] = []
+        self.kernel = kernel
+        boxes = [c for c in constraints if _has_bounds(c)]
+        position = next((c for c in boxes if "kernel_arguments" in type(c).__dict__), None)
+        self._position = position
+        self._position_limits: ModelFollower | None = None
+        if position is not None:
+            self._position_limits = ModelFollower(
+                robot, "compiled hierarchical IK position limits", self._send_position_limits
+            )
+            boxes.remove(position)
+        self._hard = [c for c in boxes if c.hard_bounds]
+        self._soft = [c for c in boxes if not c.hard_bounds]
+        self._out = np.zeros(robot.nv)
+        self._steps = np.zeros(len(levels) * robot.nv)
+        self._n_levels = len(levels)
+        self._zeros = [np.zeros(3) for _ in self._bounds]  # the bounds' targets
+        self.squared_rhs = 0.0  # of the last solve: the sum of the squared weighted residuals
+        self.build_time = 0.0
+
+    @staticmethod
+    def _bound_key(c: FeatureBounds) -> tuple[bytes, bytes, float]:
+        return (c.lower.tobytes(), c.upper.tobytes(), c.gain)
+
+    def _send_position_limits(self) -> None:
+        self.kernel.set_position_limits(*self._position.kernel_arguments())  # type: ignore[union-attr]
+
+    def _scale(self) -> None:
+        """Send the rows' weights and gains to the kernel (the weighted kernel's layout)."""
+        nv = self.nv
+        w = np.zeros(self._n_rows + nv * self._n_full)
+        c = np.zeros_like(w)
+        k = 0
+        bounds_at: int | None = None
+        for t, term in zip(self.tasks, self._terms):
+            if term.kind in _FULL_TANGENT and bounds_at is None:
+                bounds_at = k  # the bounds' rows: after the row tasks', weight 1, scale 1
+                k += 3 * len(self._bounds)
+            if term.kind in _FULL_TANGENT and term.rows is not None:
+                sel = k + np.asarray(term.rows, dtype=int)
+                w[sel] = t.sqrt_weight
+                c[sel] = -t.gain * np.asarray(t.sqrt_weight)
+                k += nv
+                continue
+            d = nv if term.kind in _FULL_TANGENT else t.dim
+            w[k : k + d] = t.sqrt_weight
+            c[k : k + d] = -t.gain * np.asarray(t.sqrt_weight)
+            k += d
+        if bounds_at is None:
+            bounds_at = k
+        w[bounds_at : bounds_at + 3 * len(self._bounds)] = 1.0
+        c[bounds_at : bounds_at + 3 * len(self._bounds)] = 1.0
+        self.kernel.set_scaling(w, c)
+        self._keys = [(t.sqrt_weight, t.gain) for t in self.tasks]
+
+    def solve(self, state: State, dt: float, damping: float) -> HierarchyResult | int:
+        """The step's cascade result, or why the kernel declined (a key of :data:`DECLINED`).
+
+        -1: a task has Levenberg-Marquardt damping, which the kernel's fixed damping does not
+        model; > 0: the kernel's status.
+
+        Raises the Python path's errors for a state of another robot or a task without a
+        target; the caller checks :attr:`squared_rhs` (the weighted residuals' size).
+        """
+        model = self.model
+        if state._model is not model:
+            raise InvalidInputError(
+                f"this IK solver is built for robot '{self.robot.name}'; the state belongs to "
+                f"robot '{state.robot.name}': make the state with this robot's state(q)"
+            )
+        keys = self._keys
+        rescale = not keys
+        targets: list[Any] = []
+        n_rows = len(self.tasks) - self._n_full
+        for i, t in enumerate(self.tasks):
+            if t.lm_damping:
+                return -1
+            if not rescale and (t.sqrt_weight is not keys[i][0] or t.gain is not keys[i][1]):
+                rescale = True
+            if i == n_rows:
+                targets += self._zeros
+            targets.append(t._target)
+        if n_rows == len(self.tasks):
+            targets += self._zeros
+        if rescale:
+            self._scale()
+        for i, c in enumerate(self._bounds):
+            key = self._bound_key(c)
+            if key != self._bound_keys[i]:  # bounds reassigned or changed in place
+                self.kernel.set_bounds(i, c.lower, c.upper, c.gain)
+                self._bound_keys[i] = key
+        if self._position_limits is not None:
+            self._position_limits.sync()
+        inequalities: list[Any] = []
+        for stack in self._level_inequalities:
+            rows = None
+            if stack:
+                rows, blocks = stack.fill(state, dt)
+                if not blocks:
+                    rows = None
+            inequalities.append(rows)
+        hard = None
+        if self._hard_inequalities:
+            hard, blocks = self._hard_inequalities.fill(state, dt)
+            if not blocks:
+                hard = None
+        hard_boxes, soft_boxes = self._hard, self._soft
+        out, steps = self._out, self._steps
+        try:
+            status, self.squared_rhs, self.build_time, solve_time = self.kernel.solve(
+                model,
+                state._data,
+                state.q,
+                targets,
+                [b for c in hard_boxes if (b := c.bounds(state, dt)) is not None]
+                if hard_boxes
+                else [],
+                [b for c in soft_boxes if (b := c.bounds(state, dt)) is not None]
+                if soft_boxes
+                else [],
+                inequalities,
+                hard,
+                damping,
+                out,
+                steps,
+            )
+        except (TypeError, ValueError, RuntimeError):
+            for t in self.tasks:
+                t._require_target()  # a task without a target: raises, naming it
+            raise
+        if status != 0:
+            return int(status)
+        # (levels, 12); eigenpy gives a one-row matrix (one level) as a vector
+        info = self.kernel.info().reshape(self._n_levels, -1)
+        return _NativeHierarchyResult(out.copy(), info, steps.copy(), solve_time)
+
+    def level_rows(self, k: int) -> tuple[np.ndarray, np.ndarray]:
+        """Level ``k``'s rows ``(J, r)`` of the last solve (copies; for tests)."""
+        J, r = self.kernel.level_rows(k)
+        return np.asarray(J), np.asarray(r).reshape(-1)
