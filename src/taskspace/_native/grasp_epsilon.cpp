@@ -79,7 +79,6 @@ struct Ridge {
   std::uint64_t key;  // the 4 vertices of a new facet's sub-ridge other than the apex
   int facet;
   int slot;
-  bool operator<(const Ridge& o) const { return key < o.key; }
 };
 
 class Hull {
@@ -266,34 +265,63 @@ class Hull {
           return false;
         }
         fh.nb[j] = id;
-        for (int k = 0; k < 6; ++k) {
-          if (k == i) continue;
-          int w[4];
-          int n = 0;
-          for (int l = 0; l < 6; ++l)
-            if (l != i && l != k) w[n++] = f.v[l];
-          std::sort(w, w + 4);
+        // the ridge's 5 vertices, sorted (insertion sort, with their slots); each sub-ridge
+        // key leaves one out and stays sorted
+        int w[5], ws[5];
+        int n = 0;
+        for (int l = 0; l < 6; ++l) {
+          if (l == i) continue;
+          int m = n++;
+          while (m > 0 && w[m - 1] > f.v[l]) {
+            w[m] = w[m - 1];
+            ws[m] = ws[m - 1];
+            --m;
+          }
+          w[m] = f.v[l];
+          ws[m] = l;
+        }
+        for (int out = 0; out < 5; ++out) {
           std::uint64_t key = 0;
-          for (int l = 0; l < 4; ++l) key = (key << 16) | static_cast<std::uint64_t>(w[l]);
-          ridges_.push_back({key, id, k});
+          for (int l = 0; l < 5; ++l)
+            if (l != out) key = (key << 16) | static_cast<std::uint64_t>(w[l]);
+          ridges_.push_back({key, id, ws[out]});
         }
       }
     }
     for (const int g : visible) F[g].alive = false;
-    std::sort(ridges_.begin(), ridges_.end());
-    if (ridges_.size() % 2 != 0) {
+    // pair the new facets' sub-ridges (each 4-vertex key exactly twice) in a hash table
+    if (ridges_.size() > kTableSize / 2) {  // keeps the linear probing short (and finite)
       status = kUnmatched;
       return false;
     }
-    for (std::size_t q = 0; q < ridges_.size(); q += 2) {
-      const Ridge& a = ridges_[q];
-      const Ridge& c = ridges_[q + 1];
-      if (a.key != c.key || (q + 2 < ridges_.size() && ridges_[q + 2].key == a.key)) {
-        status = kUnmatched;
-        return false;
+    ++table_stamp_;
+    int open = 0;
+    for (const Ridge& r : ridges_) {
+      std::size_t slot = (r.key * 0x9E3779B97F4A7C15ULL) >> (64 - kTableBits);
+      while (true) {
+        Entry& e = table_[slot];
+        if (e.stamp != table_stamp_) {  // empty: first of the pair
+          e = {r.key, r.facet, r.slot, table_stamp_, false};
+          ++open;
+          break;
+        }
+        if (e.key == r.key) {
+          if (e.paired) {  // a third facet on one sub-ridge
+            status = kUnmatched;
+            return false;
+          }
+          e.paired = true;
+          --open;
+          F[e.facet].nb[e.slot] = r.facet;
+          F[r.facet].nb[r.slot] = e.facet;
+          break;
+        }
+        slot = (slot + 1) & (kTableSize - 1);
       }
-      F[a.facet].nb[a.slot] = c.facet;
-      F[c.facet].nb[c.slot] = a.facet;
+    }
+    if (open != 0) {
+      status = kUnmatched;
+      return false;
     }
     return true;
   }
@@ -319,6 +347,18 @@ class Hull {
 
   std::vector<int> visible_;
   std::vector<Ridge> ridges_;
+
+  struct Entry {
+    std::uint64_t key;
+    int facet;
+    int slot;
+    int stamp;
+    bool paired;
+  };
+  static constexpr int kTableBits = 13;
+  static constexpr std::size_t kTableSize = std::size_t{1} << kTableBits;
+  std::vector<Entry> table_ = std::vector<Entry>(kTableSize, Entry{0, 0, 0, 0, false});
+  int table_stamp_ = 0;
 };
 
 using Rows = Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::RowMajor>;
@@ -365,28 +405,6 @@ double epsilon_one(Hull& hull, const Rows& W, double support_tol, double cert_to
   if (!hull.start()) {
     *status = kThin;
     return 0.0;
-  }
-  for (int k : axes) {
-    if (in_s[k] >= 0) continue;
-    const Vec x = W.row(k).transpose();
-    int seed = -1;
-    double far = hull.visible_tol;
-    for (std::size_t id = 0; id < hull.F.size(); ++id) {
-      const Facet& f = hull.F[id];
-      if (!f.alive) continue;
-      const double d = f.u.dot(x) - f.b;
-      if (d > far) {
-        far = d;
-        seed = static_cast<int>(id);
-      }
-    }
-    if (seed < 0) continue;  // inside conv S already
-    in_s[k] = static_cast<int>(hull.S.size());
-    hull.S.push_back(x);
-    if (!hull.add(in_s[k], seed)) {
-      *status = hull.status;
-      return 0.0;
-    }
   }
   for (int step = 0; step <= K; ++step) {
     const int f = hull.nearest();
