@@ -501,11 +501,211 @@ PyObject* py_epsilon_l1(PyObject* /*self*/, PyObject* args) {
   return Py_BuildValue("(NNN)", out, st, sz);
 }
 
+// The L-infinity wrench space P = sum_c conv({0} u W_c) (W_c: the rows of contact c) is
+// given by its support only: h(u) = sum_c max(0, max_{w in W_c} u . w), attained at the sum
+// of each contact's best row (none when all are negative). The same expansion and
+// certificate as epsilon_one; a point of S is identified by its choice of rows.
+class LinfSupport {
+ public:
+  LinfSupport(const Rows& W, const std::vector<int>& owner, int contacts)
+      : W_(W), owner_(owner), contacts_(contacts) {}
+
+  double support(const Vec& u, Vec& x, std::vector<int>& pick) {
+    values_.noalias() = W_ * u;
+    best_.assign(contacts_, 0.0);
+    pick.assign(contacts_, -1);
+    for (Eigen::Index k = 0; k < W_.rows(); ++k) {
+      const int c = owner_[k];
+      if (values_[k] > best_[c]) {
+        best_[c] = values_[k];
+        pick[c] = static_cast<int>(k);
+      }
+    }
+    x.setZero();
+    double h = 0.0;
+    for (int c = 0; c < contacts_; ++c) {
+      if (pick[c] < 0) continue;
+      x += W_.row(pick[c]).transpose();
+      h += best_[c];
+    }
+    return h;
+  }
+
+ private:
+  const Rows& W_;
+  const std::vector<int>& owner_;
+  int contacts_;
+  Eigen::VectorXd values_;
+  std::vector<double> best_;
+};
+
+double epsilon_linf_one(Hull& hull, const Rows& W, const std::vector<int>& owner, int contacts,
+                        double support_tol, double cert_tol, double margin_tol, int corrupt,
+                        int max_steps, int* status) {
+  hull.reset(0.5 * cert_tol);
+  LinfSupport oracle(W, owner, contacts);
+  // supports along the 12 +-axes first, then along the 60 +-(e_i +- e_j)
+  std::vector<Vec> dirs;
+  for (int j = 0; j < 6; ++j)
+    for (double sgn : {1.0, -1.0}) dirs.push_back(sgn * Vec::Unit(j));
+  for (int i = 0; i < 6; ++i)
+    for (int j = i + 1; j < 6; ++j)
+      for (double a : {1.0, -1.0})
+        for (double c : {1.0, -1.0}) dirs.push_back((a * Vec::Unit(i) + c * Vec::Unit(j)).normalized());
+  Rows cand(static_cast<Eigen::Index>(dirs.size()), 6);
+  std::vector<std::vector<int>> picks(dirs.size());
+  Vec x;
+  for (std::size_t q = 0; q < dirs.size(); ++q) {
+    oracle.support(dirs[q], x, picks[q]);
+    cand.row(static_cast<Eigen::Index>(q)) = x.transpose();
+  }
+  std::vector<int> first;
+  for (int q = 0; q < 12; ++q) first.push_back(q);
+  std::vector<int> chosen;
+  if (!hull.simplex(cand, first, chosen)) {
+    *status = kFlat;
+    return 0.0;
+  }
+  std::vector<std::vector<int>> seen;
+  for (int q : chosen) {
+    hull.S.push_back(cand.row(q).transpose());
+    seen.push_back(picks[q]);
+  }
+  if (!hull.start()) {
+    *status = kThin;
+    return 0.0;
+  }
+  std::vector<int> pick;
+  for (int step = 0; step < max_steps; ++step) {
+    const int f = hull.nearest();
+    if (f < 0) {
+      *status = kUnmatched;
+      return 0.0;
+    }
+    const Vec u = hull.F[f].u;
+    const double b = hull.F[f].b;
+    const double h = oracle.support(u, x, pick);
+    if (h - b <= support_tol) {
+      if (b + support_tol <= margin_tol) {
+        *status = kZero;
+        return 0.0;
+      }
+      if (corrupt == 1) hull.F[f].b -= 1e-6;
+      if (corrupt == 2) hull.F[f].nb[0] = f;
+      if (!hull.certified(cert_tol)) {
+        *status = kUncertified;
+        return 0.0;
+      }
+      *status = kCertified;
+      return hull.F[f].b > margin_tol ? hull.F[f].b : 0.0;
+    }
+    if (std::find(seen.begin(), seen.end(), pick) != seen.end()) {
+      *status = kRepeated;
+      return 0.0;
+    }
+    seen.push_back(pick);
+    hull.S.push_back(x);
+    if (!hull.add(static_cast<int>(hull.S.size()) - 1, f)) {
+      *status = hull.status;
+      return 0.0;
+    }
+  }
+  *status = kSteps;
+  return 0.0;
+}
+
+// epsilon_linf(W, owner, support_tol, cert_tol, margin_tol, max_steps, corrupt=0)
+//     -> (eps (B,), status (B,) int8, sizes (B, 2) int32)
+// owner: int (K,) contact index of each row, 0 .. C-1.
+PyObject* py_epsilon_linf(PyObject* /*self*/, PyObject* args) {
+  PyObject* obj = nullptr;
+  PyObject* own = nullptr;
+  double support_tol = 0.0, cert_tol = 0.0, margin_tol = 0.0;
+  int max_steps = 0, corrupt = 0;
+  if (!PyArg_ParseTuple(args, "OOdddi|i", &obj, &own, &support_tol, &cert_tol, &margin_tol,
+                        &max_steps, &corrupt))
+    return nullptr;
+  PyArrayObject* arr = reinterpret_cast<PyArrayObject*>(
+      PyArray_FROMANY(obj, NPY_DOUBLE, 3, 3, NPY_ARRAY_IN_ARRAY));
+  if (arr == nullptr) return nullptr;
+  PyArrayObject* owners =
+      reinterpret_cast<PyArrayObject*>(PyArray_FROMANY(own, NPY_INT32, 1, 1, NPY_ARRAY_IN_ARRAY));
+  if (owners == nullptr) {
+    Py_DECREF(arr);
+    return nullptr;
+  }
+  const npy_intp* shape = PyArray_DIMS(arr);
+  const npy_intp B = shape[0], K = shape[1];
+  std::vector<int> owner(static_cast<std::size_t>(K), -1);
+  int contacts = 0;
+  bool ok = shape[2] == 6 && PyArray_DIMS(owners)[0] == K && max_steps > 0 && max_steps < 60000;
+  if (ok) {
+    const std::int32_t* o = static_cast<const std::int32_t*>(PyArray_DATA(owners));
+    for (npy_intp k = 0; k < K; ++k) {
+      ok = ok && o[k] >= 0 && o[k] < K;
+      owner[k] = o[k];
+      contacts = std::max(contacts, o[k] + 1);
+    }
+  }
+  Py_DECREF(owners);
+  if (!ok) {
+    Py_DECREF(arr);
+    PyErr_SetString(PyExc_ValueError,
+                    "epsilon_linf: W must be (B, K, 6), owner (K,) ints in [0, K), "
+                    "0 < max_steps < 60000");
+    return nullptr;
+  }
+  npy_intp dims[1] = {B};
+  npy_intp dims2[2] = {B, 2};
+  PyArrayObject* out = reinterpret_cast<PyArrayObject*>(PyArray_ZEROS(1, dims, NPY_DOUBLE, 0));
+  PyArrayObject* st = reinterpret_cast<PyArrayObject*>(PyArray_ZEROS(1, dims, NPY_INT8, 0));
+  PyArrayObject* sz = reinterpret_cast<PyArrayObject*>(PyArray_ZEROS(2, dims2, NPY_INT32, 0));
+  if (out == nullptr || st == nullptr || sz == nullptr) {
+    Py_XDECREF(out);
+    Py_XDECREF(st);
+    Py_XDECREF(sz);
+    Py_DECREF(arr);
+    return nullptr;
+  }
+  const double* data = static_cast<const double*>(PyArray_DATA(arr));
+  double* eps = static_cast<double*>(PyArray_DATA(out));
+  std::int8_t* status = static_cast<std::int8_t*>(PyArray_DATA(st));
+  std::int32_t* sizes = static_cast<std::int32_t*>(PyArray_DATA(sz));
+  Py_BEGIN_ALLOW_THREADS;
+  Hull hull;
+  Rows W(K, 6);
+  for (npy_intp g = 0; g < B; ++g) {
+    const Eigen::Map<const Rows> raw(data + g * K * 6, K, 6);
+    const double scale = K > 0 ? raw.cwiseAbs().maxCoeff() : 0.0;
+    hull.reset(0.5 * cert_tol);
+    if (!(scale > 0)) {
+      eps[g] = 0.0;
+      status[g] = kZero;
+      continue;
+    }
+    W = raw / scale;
+    int s = kUncertified;
+    const double e = epsilon_linf_one(hull, W, owner, contacts, support_tol, cert_tol,
+                                      margin_tol, corrupt, max_steps, &s);
+    status[g] = static_cast<std::int8_t>(s);
+    sizes[2 * g] = static_cast<std::int32_t>(hull.S.size());
+    sizes[2 * g + 1] = static_cast<std::int32_t>(hull.F.size());
+    eps[g] = s == kCertified ? e * scale : 0.0;
+  }
+  Py_END_ALLOW_THREADS;
+  Py_DECREF(arr);
+  return Py_BuildValue("(NNN)", out, st, sz);
+}
+
 PyMethodDef kMethods[] = {
     {"epsilon_l1", py_epsilon_l1, METH_VARARGS,
      "Ferrari-Canny L1 epsilon of (B, K, 6) wrenches (W, support_tol, cert_tol, margin_tol"
      "[, corrupt]) -> (eps (B,), status (B,) int8: 1 certified, 2 zero, <= 0 not certified, "
      "sizes (B, 2) int32: points in S and facets made)."},
+    {"epsilon_linf", py_epsilon_linf, METH_VARARGS,
+     "Ferrari-Canny L-infinity epsilon of (B, K, 6) wrenches of contacts owner (K,) (W, owner, "
+     "support_tol, cert_tol, margin_tol, max_steps[, corrupt]) -> (eps, status, sizes) as "
+     "epsilon_l1."},
     {nullptr, nullptr, 0, nullptr}};
 
 }  // namespace

@@ -198,6 +198,41 @@ def _compiled(W: FloatArray) -> tuple[FloatArray, npt.NDArray[np.bool_]] | None:
     return eps, status > 0
 
 
+LINF_MAX_STEPS = 20_000
+"""Most support points the compiled L-infinity epsilon adds before it gives up (then the hull
+of the Minkowski sum is built, when small enough)."""
+
+
+def epsilon_linf_compiled(W: FloatArray, owner: npt.NDArray[np.int64]) -> float | None:
+    """L-infinity epsilon of validated ``(K, 6)`` wrenches from the compiled kernel.
+
+    The L-infinity wrench space ``sum_i conv({0} u W_i)`` is only queried through its support
+    ``h(u) = sum_i max(0, max_{w in W_i} u . w)``: the same expansion and certificate as the
+    L1 epsilon, on support points of the sum (never its vertices, whose number grows as the
+    product of the contacts'). Tolerances relative to the largest wrench entry. None when the
+    kernel is not built, ``d != 6``, or it could not certify (the caller builds the hull).
+
+    Args:
+        W: wrenches ``(K, 6)``, finite.
+        owner: ``(K,)`` contact of each row (any ints; relabelled here).
+    """
+    if W.ndim != 2 or W.shape[1] != 6 or len(W) == 0:
+        return None
+    kernel = planning_kernel()
+    if kernel is None or not hasattr(kernel, "epsilon_linf"):
+        return None
+    labels = np.unique(owner, return_inverse=True)[1].astype(np.int32)
+    eps, status, _ = kernel.epsilon_linf(
+        np.ascontiguousarray(W[None], dtype=float),
+        labels,
+        SUPPORT_TOLERANCE,
+        CERTIFICATE_TOLERANCE,
+        MARGIN_TOLERANCE,
+        LINF_MAX_STEPS,
+    )
+    return float(eps[0]) if status[0] > 0 else None
+
+
 def _check_batch(W: object, name: str) -> FloatArray:
     arr = as_float_array(W, name)
     if arr.ndim != 3 or 0 in arr.shape or arr.shape[2] < 2:
