@@ -13,6 +13,9 @@
   facets in closed form, all grasps at once; five, column generation on qhull per grasp) and
   ``epsilon_l1_batch(native=False)`` of the wrenches (one qhull ``epsilon_l1`` per grasp),
   alternated: grasps per second, all grasps and in-closure only (values checked equal).
+* ``epsilon L-infinity``: the compiled kernel (support points of the Minkowski sum) against
+  the hull of the sum (``native=False``) on 3 contacts with 4-edge cones, alternated; 5
+  contacts with 8-edge cones by the kernel alone (the sum's hull is too large).
 * ``closure``: the LP closure test per grasp.
 * ``synthesis``: antipodal candidates sampled and scored per second on a box and a cylinder;
   scoring alone (two soft fingers: facets in closed form, all candidates at once) against the
@@ -43,6 +46,7 @@ from taskspace.grasping import (
     epsilon_l1,
     epsilon_l1_batch,
     epsilon_l1_fast,
+    epsilon_linf,
     grasp_epsilon_batch,
     primitive_wrenches,
     primitive_wrenches_batch,
@@ -342,6 +346,68 @@ def _synthesis_rows(quick: bool, rng: np.random.Generator) -> list[Row]:
     return rows
 
 
+def _linf_rows(quick: bool, rng: np.random.Generator) -> list[Row]:
+    """L-infinity epsilon per grasp: the compiled kernel (support of the Minkowski sum)
+    alternated with the hull of the sum (native=False) on 3 contacts with 4-edge cones; 5
+    contacts with 8-edge cones only by the kernel (the sum's hull is refused: too large)."""
+    rows: list[Row] = []
+    positions, normals = _contacts(3, 4 if quick else 8, rng)
+    grasps = [
+        primitive_wrenches([GraspContact(a, b, mu=0.6) for a, b in zip(p, m)], edges=4)
+        for p, m in zip(positions, normals)
+    ]
+
+    def native(g: Any) -> float:
+        return epsilon_linf(*g)
+
+    def hull(g: Any) -> float:
+        return epsilon_linf(*g, native=False)
+
+    (t_n, t_h), (m_n, m_h), (v_n, v_h) = _alternate([native, hull], grasps, 2)
+    np.testing.assert_allclose(v_n, v_h, rtol=1e-9, atol=1e-15)
+    scene = "epsilon L-infinity, 3 contacts, 4-edge cones"
+    rows.append(
+        Row(
+            SUITE,
+            scene,
+            "taskspace",
+            Timing.from_samples(t_n),
+            {"in_closure": float(np.mean([v > 0 for v in v_n])), **_round_stats(m_n)},
+        )
+    )
+    rows.append(
+        Row(
+            SUITE,
+            scene,
+            "taskspace before: hull of the Minkowski sum (native=False)",
+            Timing.from_samples(t_h),
+            _round_stats(m_h),
+            ratio_to="taskspace",
+        )
+    )
+    positions, normals = _contacts(5, 30 if quick else 200, rng)
+    grasps = [
+        primitive_wrenches([GraspContact(a, b, mu=0.6) for a, b in zip(p, m)], edges=8)
+        for p, m in zip(positions, normals)
+    ]
+    t, v = _per_call(native, grasps)
+    rows.append(
+        Row(
+            SUITE,
+            "epsilon L-infinity, 5 contacts, 8-edge cones",
+            "taskspace",
+            Timing.from_samples(t),
+            {"grasps_per_s": 1 / np.median(t), "in_closure": float(np.mean([x > 0 for x in v]))},
+        )
+    )
+    return rows
+
+
 def run(quick: bool) -> list[Row]:
     rng = np.random.default_rng(0)
-    return _epsilon_rows(quick, rng) + _batch_rows(quick, rng) + _synthesis_rows(quick, rng)
+    return (
+        _epsilon_rows(quick, rng)
+        + _batch_rows(quick, rng)
+        + _linf_rows(quick, rng)
+        + _synthesis_rows(quick, rng)
+    )
