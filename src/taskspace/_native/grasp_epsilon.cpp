@@ -467,9 +467,9 @@ PyObject* py_epsilon_l1(PyObject* /*self*/, PyObject* args) {
       PyArray_FROMANY(obj, NPY_DOUBLE, 3, 3, NPY_ARRAY_IN_ARRAY));
   if (arr == nullptr) return nullptr;
   const npy_intp* shape = PyArray_DIMS(arr);
-  if (shape[2] != 6 || shape[1] >= 65536) {
+  if (shape[2] != 6 || shape[1] >= 65000) {  // S indices (< K + 7) fit the 16-bit ridge keys
     Py_DECREF(arr);
-    PyErr_SetString(PyExc_ValueError, "epsilon_l1: W must be (B, K < 65536, 6)");
+    PyErr_SetString(PyExc_ValueError, "epsilon_l1: W must be (B, K < 65000, 6)");
     return nullptr;
   }
   const npy_intp B = shape[0], K = shape[1];

@@ -187,7 +187,7 @@ def _compiled(W: FloatArray) -> tuple[FloatArray, npt.NDArray[np.bool_]] | None:
     None when the kernel is not built (or ``d != 6``); the grasps not certified (``False``)
     must be answered by the qhull path.
     """
-    if W.shape[2] != 6 or W.shape[1] >= 65536:
+    if W.shape[2] != 6 or W.shape[1] >= 65000:
         return None
     kernel = planning_kernel()
     if kernel is None or not hasattr(kernel, "epsilon_l1"):
