@@ -1,17 +1,21 @@
 """Grasp analysis and synthesis.
 
 * ``epsilon``: the Ferrari-Canny epsilon (L1) of random 3- and 5-contact grasps with 8-edge
-  friction cones, per grasp: taskspace (``epsilon_l1``: column generation, the certified
-  unmerged hull of a subset grown by support points of its nearest facets), the previous
-  paths (one certified unmerged hull of all wrenches; qhull's merged hull, "Qx", the scipy
-  default) alternated with it round by round on the same grasps, and the textbook reference
+  friction cones, per grasp: taskspace (``epsilon_l1``: the compiled kernel, column
+  generation on its own simplicial hull, when built), the previous paths (the same column
+  generation on qhull's incremental hull, ``native=False``; one certified unmerged hull of all
+  wrenches; qhull's merged hull, "Qx", the scipy default) alternated with it round by round on
+  the same grasps, and the textbook reference
   written for this suite (one QP per hull facet, as Dex-Net computes it) in the same run;
   the values are checked against each other.
-* ``epsilon batch``: ``grasp_epsilon_batch`` (vectorized primitive wrenches; three contacts:
-  facets in closed form, all grasps at once; five: column generation per grasp after cheap
-  separating directions) against ``epsilon_l1_batch`` of the wrenches (one ``epsilon_l1``
-  per grasp), alternated: grasps per second,
-  all grasps and in-closure only (values checked equal).
+* ``epsilon batch``: ``grasp_epsilon_batch`` (vectorized primitive wrenches, all grasps in
+  one call of the compiled kernel) against its NumPy path (``native=False``: three contacts,
+  facets in closed form, all grasps at once; five, column generation on qhull per grasp) and
+  ``epsilon_l1_batch(native=False)`` of the wrenches (one qhull ``epsilon_l1`` per grasp),
+  alternated: grasps per second, all grasps and in-closure only (values checked equal).
+* ``epsilon L-infinity``: the compiled kernel (support points of the Minkowski sum) against
+  the hull of the sum (``native=False``) on 3 contacts with 4-edge cones, alternated; 5
+  contacts with 8-edge cones by the kernel alone (the sum's hull is too large).
 * ``closure``: the LP closure test per grasp.
 * ``synthesis``: antipodal candidates sampled and scored per second on a box and a cylinder;
   scoring alone (two soft fingers: facets in closed form, all candidates at once) against the
@@ -41,6 +45,8 @@ from taskspace.grasping import (
     cylinder_mesh,
     epsilon_l1,
     epsilon_l1_batch,
+    epsilon_l1_fast,
+    epsilon_linf,
     grasp_epsilon_batch,
     primitive_wrenches,
     primitive_wrenches_batch,
@@ -70,6 +76,11 @@ def _grasps(k: int, n: int, rng: np.random.Generator) -> list[np.ndarray]:
 def _epsilon_merged(W: np.ndarray) -> float:
     """The previous epsilon_l1: qhull's merged hull (scipy default options), facet offsets."""
     return _margin(wrench_space_l1(W))
+
+
+def _epsilon_qhull_generated(W: np.ndarray) -> float:
+    """The previous epsilon_l1: column generation on qhull's incremental hull (no kernel)."""
+    return epsilon_l1_fast(W, native=False)
 
 
 def _epsilon_full_hull(W: np.ndarray) -> float:
@@ -119,15 +130,20 @@ def _epsilon_rows(quick: bool, rng: np.random.Generator) -> list[Row]:
     rounds = 3 if quick else 5
     for k in (3, 5):
         grasps = _grasps(k, n, rng)
-        (t_new, t_full, t_old), (m_new, m_full, m_old), (v_new, v_full, v_old) = _alternate(
-            [epsilon_l1, _epsilon_full_hull, _epsilon_merged], grasps, rounds
+        times, means, values = _alternate(
+            [epsilon_l1, _epsilon_qhull_generated, _epsilon_full_hull, _epsilon_merged],
+            grasps,
+            rounds,
         )
+        (t_new, t_gen, t_full, t_old), (m_new, m_gen, m_full, m_old) = times, means
+        v_new, v_gen, v_full, v_old = values
         ref_items = grasps[: max(5, n // 10)]  # the reference is slow
         t_ref, v_ref = _per_call(epsilon_reference, ref_items)
         scale = max(1e-300, max(v_ref))
         err_ref = max(abs(a - b) / max(b, 1e-12 * scale) for a, b in zip(v_new, v_ref))
         err_old = max(abs(a - b) / max(b, 1e-12) for a, b in zip(v_new, v_old))
         err_full = max(abs(a - b) / max(b, 1e-12) for a, b in zip(v_new, v_full))
+        err_gen = max(abs(a - b) / max(b, 1e-12) for a, b in zip(v_new, v_gen))
         scene = f"epsilon L1, {k} contacts, 8-edge cones"
         closed = float(np.mean([v > 0 for v in v_new]))
         rows.append(
@@ -142,8 +158,19 @@ def _epsilon_rows(quick: bool, rng: np.random.Generator) -> list[Row]:
                     "max_rel_diff_to_reference": err_ref,
                     "max_rel_diff_to_merged_hull": err_old,
                     "max_rel_diff_to_full_hull": err_full,
+                    "max_rel_diff_to_qhull_generation": err_gen,
                     **_round_stats(m_new),
                 },
+            )
+        )
+        rows.append(
+            Row(
+                SUITE,
+                scene,
+                "taskspace before: column generation on qhull (native=False)",
+                Timing.from_samples(t_gen),
+                _round_stats(m_gen),
+                ratio_to="taskspace",
             )
         )
         rows.append(
@@ -192,18 +219,26 @@ def _batch_rows(quick: bool, rng: np.random.Generator) -> list[Row]:
         def batch(sel: Any, p: np.ndarray = positions, m: np.ndarray = normals) -> np.ndarray:
             return grasp_epsilon_batch(p[sel], m[sel], mu=0.6, edges=8)
 
+        def numpy(sel: Any, p: np.ndarray = positions, m: np.ndarray = normals) -> np.ndarray:
+            return grasp_epsilon_batch(p[sel], m[sel], mu=0.6, edges=8, native=False)
+
         def hulls(sel: Any, p: np.ndarray = positions, m: np.ndarray = normals) -> np.ndarray:
-            return epsilon_l1_batch(primitive_wrenches_batch(p[sel], m[sel], mu=0.6, edges=8))
+            W = primitive_wrenches_batch(p[sel], m[sel], mu=0.6, edges=8)
+            return epsilon_l1_batch(W, native=False)
 
         everything = slice(None)
-        (t_b, t_h), _, (v_b, v_h) = _alternate([batch, hulls], [everything, inside], rounds)
-        np.testing.assert_allclose(v_b[0], v_h[0], rtol=1e-9, atol=0)
-        np.testing.assert_allclose(v_b[1], v_h[1], rtol=1e-9, atol=0)
+        (t_b, t_n, t_h), _, (v_b, v_n, v_h) = _alternate(
+            [batch, numpy, hulls], [everything, inside], rounds
+        )
+        for v in (v_n, v_h):
+            np.testing.assert_allclose(v_b[0], v[0], rtol=1e-9, atol=0)
+            np.testing.assert_allclose(v_b[1], v[1], rtol=1e-9, atol=0)
         closed = max(1, int(inside.sum()))
         scene = f"epsilon L1 batch, {k} contacts, 8-edge cones"
         for method, t, ratio_to in (
             ("taskspace", t_b, None),
-            ("taskspace: epsilon_l1_batch (one per grasp)", t_h, "taskspace"),
+            ("taskspace before: grasp_epsilon_batch(native=False)", t_n, "taskspace"),
+            ("taskspace: epsilon_l1_batch(native=False) (one qhull per grasp)", t_h, "taskspace"),
         ):
             every, only = np.array(t[0::2]) / n, np.array(t[1::2]) / closed
             rows.append(
@@ -311,6 +346,68 @@ def _synthesis_rows(quick: bool, rng: np.random.Generator) -> list[Row]:
     return rows
 
 
+def _linf_rows(quick: bool, rng: np.random.Generator) -> list[Row]:
+    """L-infinity epsilon per grasp: the compiled kernel (support of the Minkowski sum)
+    alternated with the hull of the sum (native=False) on 3 contacts with 4-edge cones; 5
+    contacts with 8-edge cones only by the kernel (the sum's hull is refused: too large)."""
+    rows: list[Row] = []
+    positions, normals = _contacts(3, 4 if quick else 8, rng)
+    grasps = [
+        primitive_wrenches([GraspContact(a, b, mu=0.6) for a, b in zip(p, m)], edges=4)
+        for p, m in zip(positions, normals)
+    ]
+
+    def native(g: Any) -> float:
+        return epsilon_linf(*g)
+
+    def hull(g: Any) -> float:
+        return epsilon_linf(*g, native=False)
+
+    (t_n, t_h), (m_n, m_h), (v_n, v_h) = _alternate([native, hull], grasps, 2)
+    np.testing.assert_allclose(v_n, v_h, rtol=1e-9, atol=1e-15)
+    scene = "epsilon L-infinity, 3 contacts, 4-edge cones"
+    rows.append(
+        Row(
+            SUITE,
+            scene,
+            "taskspace",
+            Timing.from_samples(t_n),
+            {"in_closure": float(np.mean([v > 0 for v in v_n])), **_round_stats(m_n)},
+        )
+    )
+    rows.append(
+        Row(
+            SUITE,
+            scene,
+            "taskspace before: hull of the Minkowski sum (native=False)",
+            Timing.from_samples(t_h),
+            _round_stats(m_h),
+            ratio_to="taskspace",
+        )
+    )
+    positions, normals = _contacts(5, 30 if quick else 200, rng)
+    grasps = [
+        primitive_wrenches([GraspContact(a, b, mu=0.6) for a, b in zip(p, m)], edges=8)
+        for p, m in zip(positions, normals)
+    ]
+    t, v = _per_call(native, grasps)
+    rows.append(
+        Row(
+            SUITE,
+            "epsilon L-infinity, 5 contacts, 8-edge cones",
+            "taskspace",
+            Timing.from_samples(t),
+            {"grasps_per_s": 1 / np.median(t), "in_closure": float(np.mean([x > 0 for x in v]))},
+        )
+    )
+    return rows
+
+
 def run(quick: bool) -> list[Row]:
     rng = np.random.default_rng(0)
-    return _epsilon_rows(quick, rng) + _batch_rows(quick, rng) + _synthesis_rows(quick, rng)
+    return (
+        _epsilon_rows(quick, rng)
+        + _batch_rows(quick, rng)
+        + _linf_rows(quick, rng)
+        + _synthesis_rows(quick, rng)
+    )

@@ -176,6 +176,16 @@ def test_linf_epsilon_of_many_contacts_is_refused_not_left_running():
     contacts = [GraspContact(0.04 * p, -p) for p in points]
     W, owner = primitive_wrenches(contacts, edges=8)
     with pytest.raises(SolverError, match="MAX_LINF_POINTS"):
-        epsilon_linf(W, owner)
+        epsilon_linf(W, owner, native=False)
     quality = grasp_quality(contacts, linf=False)
     assert np.isnan(quality.epsilon_linf) and quality.epsilon_l1 > 0
+    from taskspace._native import planning_kernel
+
+    if planning_kernel() is not None:  # the compiled kernel needs only the sum's support
+        linf = epsilon_linf(W, owner)
+        assert linf >= quality.epsilon_l1  # the L-infinity space contains the L1 one
+        u = rng.normal(size=(2000, 6))
+        u /= np.linalg.norm(u, axis=1, keepdims=True)
+        owners = np.asarray(owner)
+        support = sum(np.maximum(0, (u @ W[owners == i].T).max(axis=1)) for i in range(10))
+        assert linf <= support.min() + 1e-12  # the ball of radius epsilon is inside

@@ -215,21 +215,24 @@ def test_out_of_closure_is_zero_as_the_lp_says() -> None:
     assert out >= 5
 
 
-def test_invariances_and_degenerate_inputs() -> None:
+@pytest.mark.parametrize("native", [True, False])
+def test_invariances_and_degenerate_inputs(native: bool) -> None:
+    """Also the qhull path alone (native=False; the compiled kernel answers most of these)."""
     rng = np.random.default_rng(2)
     W, _ = primitive_wrenches(random_grasp(rng, 4, mu=0.8), edges=8)
-    e = epsilon_l1_fast(W)
+    e = epsilon_l1_fast(W, native=native)
     assert e > 0
-    assert epsilon_l1_fast(W[rng.permutation(len(W))]) == pytest.approx(e, rel=1e-12)
-    assert epsilon_l1_fast(np.vstack([W, W, W[:5]])) == pytest.approx(e, rel=1e-12)
+    shuffled = W[rng.permutation(len(W))]
+    assert epsilon_l1_fast(shuffled, native=native) == pytest.approx(e, rel=1e-12)
+    assert epsilon_l1_fast(np.vstack([W, W, W[:5]]), native=native) == pytest.approx(e, rel=1e-12)
     for s in (1e-6, 1e6):
-        assert epsilon_l1_fast(s * W) == pytest.approx(s * e, rel=1e-12)
+        assert epsilon_l1_fast(s * W, native=native) == pytest.approx(s * e, rel=1e-12)
     # Coplanar wrenches (rank 5 in 6-D): no hull, not in closure.
     flat = W.copy()
     flat[:, 5] = 0.0
-    assert epsilon_l1_fast(flat) == 0.0
-    assert epsilon_l1_fast(np.zeros((10, 6))) == 0.0
-    assert epsilon_l1_fast(W[:6]) == 0.0  # fewer than d + 1 points
+    assert epsilon_l1_fast(flat, native=native) == 0.0
+    assert epsilon_l1_fast(np.zeros((10, 6)), native=native) == 0.0
+    assert epsilon_l1_fast(W[:6], native=native) == 0.0  # fewer than d + 1 points
     bad = W.copy()
     bad[3, 2] = np.nan
     with pytest.raises(InvalidInputError, match="finite"):
@@ -262,7 +265,7 @@ def test_a_wrong_unmerged_hull_is_refused(monkeypatch: pytest.MonkeyPatch) -> No
                 self.equations[np.argmax(self.equations[:, -1]), -1] += 0.05
 
     monkeypatch.setattr(eps_module, "ConvexHull", Corrupted)
-    assert epsilon_l1_fast(W) == pytest.approx(expected, rel=1e-9)
+    assert epsilon_l1_fast(W, native=False) == pytest.approx(expected, rel=1e-9)
 
     class Open(Corrupted):
         def __init__(self, points: np.ndarray, qhull_options: str | None = None) -> None:
@@ -272,7 +275,7 @@ def test_a_wrong_unmerged_hull_is_refused(monkeypatch: pytest.MonkeyPatch) -> No
                 self.neighbors[0, 0] = -1
 
     monkeypatch.setattr(eps_module, "ConvexHull", Open)
-    assert epsilon_l1_fast(W) == pytest.approx(expected, rel=1e-9)
+    assert epsilon_l1_fast(W, native=False) == pytest.approx(expected, rel=1e-9)
 
 
 @pytest.mark.parametrize(
@@ -290,9 +293,9 @@ def test_two_soft_fingers_closed_form_equals_the_hull(
     normals = -positions + 0.015 * rng.standard_normal((60, 2, 3))
     center = np.array([0.002, 0.0, -0.001])
     kw = {"mu": mu, "edges": edges, "torsion": torsion, "center": center}
-    fast = grasp_epsilon_batch(positions, normals, **kw)  # type: ignore[arg-type]
+    fast = grasp_epsilon_batch(positions, normals, native=False, **kw)  # type: ignore[arg-type]
     W = primitive_wrenches_batch(positions, normals, **kw)  # type: ignore[arg-type]
-    hull = epsilon_l1_batch(W)
+    hull = epsilon_l1_batch(W, native=False)
     assert 10 <= np.count_nonzero(hull) <= 55  # both in and out of closure
     np.testing.assert_array_equal(fast > 0, hull > 0)
     np.testing.assert_allclose(fast, hull, rtol=1e-9, atol=0)
@@ -316,12 +319,12 @@ def test_three_point_contacts_closed_form_equals_the_hull(mu: float, edges: int)
     positions[0], normals[0] = 0.04 * ring, -ring
     # Two fingers on one spot: [L_1 L_2 L_3] has rank < 6, the hull decides (0: flat).
     positions[1, 1], normals[1, 1] = positions[1, 0], normals[1, 0]
-    fast = grasp_epsilon_batch(positions, normals, mu=mu, edges=edges)
+    fast = grasp_epsilon_batch(positions, normals, mu=mu, edges=edges, native=False)
     n, r, rho, *_ = eps_module._contact_inputs(positions, normals, mu, edges, 0.0, None, None)
     W = primitive_wrenches_batch(positions, normals, mu=mu, edges=edges)
     closed = eps_module._three_point_contacts(W[:2], n[:2], r[:2], rho[:2], mu, edges)
     assert np.isnan(closed[1]) and np.isfinite(closed[0]) and fast[1] == 0.0
-    hull = epsilon_l1_batch(W)
+    hull = epsilon_l1_batch(W, native=False)
     assert 10 <= np.count_nonzero(hull) <= 75
     np.testing.assert_array_equal(fast > 0, hull > 0)
     np.testing.assert_allclose(fast, hull, rtol=1e-9, atol=0)
@@ -343,7 +346,7 @@ def test_column_generation_matches_the_textbook_definition(k: int) -> None:
     used = 0
     for W in _generated_grasps(k, 6, seed=10 + k, mu=0.7):
         scale = np.abs(W).max()
-        e = epsilon_l1_fast(W)
+        e = epsilon_l1_fast(W, native=False)
         assert e == pytest.approx(textbook_epsilon(W), rel=1e-9, abs=1e-12 * scale)
         assert (e > 0) == closure_lp(W).closure
         if not eps_module._separated(W / scale):
@@ -360,10 +363,13 @@ def test_column_generation_many_contacts_against_the_merged_hull(k: int) -> None
         offsets = -ConvexHull(W).equations[:, -1]
         expected = max(0.0, float(offsets.min()))
         expected = expected if expected > 1e-9 * scale else 0.0
-        assert epsilon_l1_fast(W) == pytest.approx(expected, rel=1e-9, abs=1e-12 * scale)
+        assert epsilon_l1_fast(W, native=False) == pytest.approx(
+            expected, rel=1e-9, abs=1e-12 * scale
+        )
 
 
-def test_column_generation_degenerate_grasps() -> None:
+@pytest.mark.parametrize("native", [True, False])
+def test_column_generation_degenerate_grasps(native: bool) -> None:
     """Frictionless contacts (each cone's 8 edges coincide), coplanar contacts, and the
     origin on the boundary (two opposed frictionless pairs): values of the enumeration and
     the textbook definition; the generated path never answers wrongly, whatever it does."""
@@ -372,19 +378,21 @@ def test_column_generation_degenerate_grasps() -> None:
     W, _ = primitive_wrenches(random_grasp(rng, 9, mu=0.0), edges=8)
     distinct = np.unique(W.round(15), axis=0)
     assert len(distinct) == 9
-    assert epsilon_l1_fast(W) == pytest.approx(enumerated_epsilon(distinct), abs=1e-12)
+    expected = enumerated_epsilon(distinct)
+    assert epsilon_l1_fast(W, native=native) == pytest.approx(expected, abs=1e-12)
     # coplanar contacts (all in z = 0, normals in the plane)
     contacts = [
         contact([0.05 * np.cos(t), 0.05 * np.sin(t), 0.0], [-np.cos(t), -np.sin(t), 0.0], mu=0.6)
         for t in 2 * np.pi * np.arange(5) / 5
     ]
     W, _ = primitive_wrenches(contacts, edges=8)
-    assert epsilon_l1_fast(W) == pytest.approx(textbook_epsilon(W), rel=1e-9, abs=1e-12)
+    expected = textbook_epsilon(W)
+    assert epsilon_l1_fast(W, native=native) == pytest.approx(expected, rel=1e-9, abs=1e-12)
     # origin on the boundary: frictionless opposed fingers, repeated to 24 wrenches
     pair = [contact([0, 0, 0.05], [0, 0, -1], mu=0.0), contact([0, 0, -0.05], [0, 0, 1], mu=0.0)]
     W, _ = primitive_wrenches(pair * 3, edges=4)
     assert len(W) >= eps_module.GENERATION_MIN_WRENCHES
-    assert epsilon_l1_fast(W) == 0.0
+    assert epsilon_l1_fast(W, native=native) == 0.0
 
 
 def test_a_wrong_subset_hull_is_refused(monkeypatch: pytest.MonkeyPatch) -> None:

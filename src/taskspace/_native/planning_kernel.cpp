@@ -1582,10 +1582,13 @@ Eigen::VectorXi tree_nearest(const Eigen::Ref<const RowMatrixXd>& nodes,
 
 // Dubins and Reeds-Shepp curves (curves.cpp): plain CPython functions added to this module.
 int taskspace_register_curves(PyObject* module);
+// Batched Ferrari-Canny epsilon (grasp_epsilon.cpp): plain CPython functions added to this module.
+int taskspace_register_grasp_epsilon(PyObject* module);
 
 BOOST_PYTHON_MODULE(_planning_kernel) {
   eigenpy::enableEigenPy();
   if (taskspace_register_curves(bp::scope().ptr()) < 0) bp::throw_error_already_set();
+  if (taskspace_register_grasp_epsilon(bp::scope().ptr()) < 0) bp::throw_error_already_set();
   bp::scope().attr("PINOCCHIO_VERSION") = std::string(PINOCCHIO_VERSION);
   bp::scope().attr("SOLVED") = kSolved;
   bp::scope().attr("TIME_LIMIT") = kTimeLimit;

@@ -18,6 +18,14 @@ is rebuilt with qhull's merging options (the exact default). A grasp out of clos
 recognized before any hull: a direction ``c`` with ``c^T w_k >= 0`` for every ``k`` (the
 mean wrench, the coordinate axes) proves it (Gordan's alternative).
 
+Compiled path: when taskspace's compiled kernels are built, 6-D wrench sets are first given to
+``_planning_kernel.epsilon_l1`` (src/taskspace/_native/grasp_epsilon.cpp), the same column
+generation as :func:`_epsilon_generated` on its own simplicial hull (an EPA-style expansion from
+a simplex, one support point per step, no qhull), all grasps of a batch in one call, with the
+same certificate (closed surface, every point of the subset inside every facet plane; the
+nearest facet supports every wrench to :data:`SUPPORT_TOLERANCE`). A grasp it cannot certify
+(flat, too thin a facet, a failed certificate) is answered by the qhull path below.
+
 For two soft fingers and for three point contacts, :func:`grasp_epsilon_batch` needs no hull:
 each contact's wrenches span a small polytope in a low-dimensional flat (a bipyramid, a
 polygon), every facet of ``P`` is spanned by faces of these, and the few candidate planes of
@@ -32,6 +40,7 @@ import numpy as np
 import numpy.typing as npt
 from scipy.spatial import ConvexHull, QhullError
 
+from taskspace._native import planning_kernel
 from taskspace._validation import as_float_array, check_positive
 from taskspace.errors import InvalidInputError, ShapeError
 from taskspace.grasping.contact import check_edges, nonnegative
@@ -172,6 +181,58 @@ def _epsilon_full(W: FloatArray) -> float:
     return margin if margin > MARGIN_TOLERANCE else 0.0
 
 
+def _compiled(W: FloatArray) -> tuple[FloatArray, npt.NDArray[np.bool_]] | None:
+    """Epsilons of ``(B, K, 6)`` wrenches from the compiled kernel and which it certified.
+
+    None when the kernel is not built (or ``d != 6``); the grasps not certified (``False``)
+    must be answered by the qhull path.
+    """
+    if W.shape[2] != 6 or W.shape[1] >= 65000:
+        return None
+    kernel = planning_kernel()
+    if kernel is None or not hasattr(kernel, "epsilon_l1"):
+        return None
+    eps, status, _ = kernel.epsilon_l1(
+        np.ascontiguousarray(W), SUPPORT_TOLERANCE, CERTIFICATE_TOLERANCE, MARGIN_TOLERANCE
+    )
+    return eps, status > 0
+
+
+LINF_MAX_STEPS = 20_000
+"""Most support points the compiled L-infinity epsilon adds before it gives up (then the hull
+of the Minkowski sum is built, when small enough)."""
+
+
+def epsilon_linf_compiled(W: FloatArray, owner: npt.NDArray[np.int64]) -> float | None:
+    """L-infinity epsilon of validated ``(K, 6)`` wrenches from the compiled kernel.
+
+    The L-infinity wrench space ``sum_i conv({0} u W_i)`` is only queried through its support
+    ``h(u) = sum_i max(0, max_{w in W_i} u . w)``: the same expansion and certificate as the
+    L1 epsilon, on support points of the sum (never its vertices, whose number grows as the
+    product of the contacts'). Tolerances relative to the largest wrench entry. None when the
+    kernel is not built, ``d != 6``, or it could not certify (the caller builds the hull).
+
+    Args:
+        W: wrenches ``(K, 6)``, finite.
+        owner: ``(K,)`` contact of each row (any ints; relabelled here).
+    """
+    if W.ndim != 2 or W.shape[1] != 6 or len(W) == 0:
+        return None
+    kernel = planning_kernel()
+    if kernel is None or not hasattr(kernel, "epsilon_linf"):
+        return None
+    labels = np.unique(owner, return_inverse=True)[1].astype(np.int32)
+    eps, status, _ = kernel.epsilon_linf(
+        np.ascontiguousarray(W[None], dtype=float),
+        labels,
+        SUPPORT_TOLERANCE,
+        CERTIFICATE_TOLERANCE,
+        MARGIN_TOLERANCE,
+        LINF_MAX_STEPS,
+    )
+    return float(eps[0]) if status[0] > 0 else None
+
+
 def _check_batch(W: object, name: str) -> FloatArray:
     arr = as_float_array(W, name)
     if arr.ndim != 3 or 0 in arr.shape or arr.shape[2] < 2:
@@ -188,7 +249,7 @@ def _check_batch(W: object, name: str) -> FloatArray:
     return arr
 
 
-def epsilon_l1_fast(W: FloatArray) -> float:
+def epsilon_l1_fast(W: FloatArray, *, native: bool = True) -> float:
     """Ferrari-Canny epsilon of the L1 wrench space of primitive wrenches ``W`` (rows).
 
     ``eps = min_j b_j`` over the facets ``a_j^T w <= b_j`` of ``conv W``; 0 when the origin
@@ -197,6 +258,8 @@ def epsilon_l1_fast(W: FloatArray) -> float:
 
     Args:
         W: primitive wrenches, shape ``(K, d)`` with ``d >= 2`` (finite).
+        native: use the compiled kernel for 6-D wrenches when it is built (same values to
+            rounding; what it cannot certify goes to qhull); False: qhull only.
 
     Raises:
         InvalidInputError: when ``W`` is not a finite ``(K, d)`` array with ``d >= 2``.
@@ -209,15 +272,21 @@ def epsilon_l1_fast(W: FloatArray) -> float:
         )
     if not np.all(np.isfinite(arr)):
         raise InvalidInputError("W must be finite (no NaN or inf entries)")
+    if native:
+        compiled = _compiled(arr[None])
+        if compiled is not None and compiled[1][0]:
+            return float(compiled[0][0])
     scale = float(np.abs(arr).max())
     return _epsilon_normalized(arr / scale) * scale if scale > 0 else 0.0
 
 
-def epsilon_l1_batch(W: FloatArray) -> FloatArray:
+def epsilon_l1_batch(W: FloatArray, *, native: bool = True) -> FloatArray:
     """Epsilon (L1) of many grasps with the same number of wrenches.
 
     Args:
         W: ``(B, K, d)``: grasp ``b``'s primitive wrenches are ``W[b]`` (rows).
+        native: score 6-D wrenches with the compiled kernel when it is built, all grasps in
+            one call (what it cannot certify goes to qhull); False: qhull only.
 
     Returns:
         ``(B,)`` epsilons, each equal to :func:`epsilon_l1_fast` of ``W[b]``.
@@ -225,7 +294,12 @@ def epsilon_l1_batch(W: FloatArray) -> FloatArray:
     arr = _check_batch(W, "W")
     scale = np.abs(arr).max(axis=(1, 2))
     out = np.zeros(len(arr))
-    for b in np.flatnonzero(scale > 0):
+    todo = scale > 0
+    compiled = _compiled(arr) if native else None
+    if compiled is not None:
+        out, done = compiled
+        todo &= ~done
+    for b in np.flatnonzero(todo):
         out[b] = _epsilon_normalized(arr[b] / scale[b]) * scale[b]
     return out
 
@@ -348,26 +422,49 @@ def grasp_epsilon_batch(
     torsion: float = 0.0,
     center: FloatArray | None = None,
     torque_scale: float | None = None,
+    native: bool = True,
 ) -> FloatArray:
     """Epsilon (L1) of ``B`` grasps of ``k`` friction contacts, ``(B,)`` (0 out of closure).
 
-    The arguments are those of :func:`primitive_wrenches_batch`. Two soft fingers (``k = 2``,
+    The arguments are those of :func:`primitive_wrenches_batch`. With the compiled kernel
+    built (and ``native``), all grasps are scored by it in one call; the grasps it cannot
+    certify, and all of them without it, take the NumPy paths: two soft fingers (``k = 2``,
     ``torsion > 0``: parallel-jaw grasps) and three point contacts (``k = 3``, no torsion, at
-    most 16 edges) are scored without a hull, all at once, by enumerating their facets in
-    closed form (a grasp where that is degenerate falls back to its hull); other grasps build
-    one certified hull each.
+    most 16 edges) without a hull, all at once, by enumerating their facets in closed form (a
+    grasp where that is degenerate falls back to its hull); other grasps build one certified
+    hull each.
     """
     n, r, rho, mu, edges, torsion = _contact_inputs(
         positions, normals, mu, edges, torsion, center, torque_scale
     )
     W = _wrenches_of(n, r, rho, mu, edges, torsion)
+    compiled = _compiled(W) if native else None
+    if compiled is None:
+        return _closed_forms(W, n, r, rho, mu, edges, torsion)
+    out, done = compiled
+    rest = np.flatnonzero(~done)
+    if len(rest):
+        out[rest] = _closed_forms(W[rest], n[rest], r[rest], rho[rest], mu, edges, torsion)
+    return out
+
+
+def _closed_forms(
+    W: FloatArray,
+    n: FloatArray,
+    r: FloatArray,
+    rho: FloatArray,
+    mu: float,
+    edges: int,
+    torsion: float,
+) -> FloatArray:
+    """The NumPy path of :func:`grasp_epsilon_batch` (closed forms, else qhull)."""
     k = n.shape[1]
     if k == 2 and torsion > 0 and mu > 0:
         chunk = _CHUNK
     elif k == 3 and torsion == 0 and mu > 0 and edges <= 16:
         chunk = max(1, _CHUNK * 512 // edges**3)
     else:
-        return epsilon_l1_batch(W)
+        return epsilon_l1_batch(W, native=False)
     out = np.empty(len(W))
     for start in range(0, len(W), chunk):
         part = slice(start, start + chunk)
@@ -377,7 +474,7 @@ def grasp_epsilon_batch(
             out[part] = _three_point_contacts(W[part], n[part], r[part], rho[part], mu, edges)
     rest = np.flatnonzero(np.isnan(out))
     if len(rest):
-        out[rest] = epsilon_l1_batch(W[rest])
+        out[rest] = epsilon_l1_batch(W[rest], native=False)
     return out
 
 

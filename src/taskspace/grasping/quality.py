@@ -29,7 +29,11 @@ from taskspace.grasping.contact import (
     grasp_radius,
     primitive_wrenches,
 )
-from taskspace.grasping.epsilon import MARGIN_TOLERANCE, epsilon_l1_fast
+from taskspace.grasping.epsilon import (
+    MARGIN_TOLERANCE,
+    epsilon_l1_fast,
+    epsilon_linf_compiled,
+)
 from taskspace.grasping.grasp_matrix import grasp_matrix
 
 FloatArray = npt.NDArray[np.float64]
@@ -88,6 +92,20 @@ def _wrenches(W: object) -> FloatArray:
     return normalized * scale
 
 
+def _owners(owner: object, rows: int) -> npt.NDArray[np.int64]:
+    """``owner`` as an int array of one contact index per row of ``W``."""
+    try:
+        owners = np.asarray(owner)
+    except (TypeError, ValueError):
+        owners = np.zeros(0)
+    if owners.shape != (rows,) or owners.dtype.kind not in "iu":
+        raise InvalidInputError(
+            f"owner must give the contact index (an int) of each of the {rows} rows of W, "
+            f"as returned by primitive_wrenches; got {np.shape(owners)} {owners.dtype} values"
+        )
+    return owners.astype(np.int64)
+
+
 def wrench_space_linf(W: FloatArray, owner: list[int]) -> ConvexHull | None:
     """The L-infinity grasp wrench space, a Minkowski sum of one hull per contact.
 
@@ -96,15 +114,7 @@ def wrench_space_linf(W: FloatArray, owner: list[int]) -> ConvexHull | None:
     """
     W = _wrenches(W)
     d = W.shape[1]
-    try:
-        owners = np.asarray(owner)
-    except (TypeError, ValueError):
-        owners = np.zeros(0)
-    if owners.shape != (len(W),) or owners.dtype.kind not in "iu":
-        raise InvalidInputError(
-            f"owner must give the contact index (an int) of each of the {len(W)} rows of W, "
-            f"as returned by primitive_wrenches; got {np.shape(owners)} {owners.dtype} values"
-        )
+    owners = _owners(owner, len(W))
     owner = owners.tolist()
     points = np.zeros((1, d))
     contacts = sorted(set(owner))
@@ -136,8 +146,22 @@ def epsilon_l1(W: FloatArray) -> float:
     return epsilon_l1_fast(_wrenches(W))
 
 
-def epsilon_linf(W: FloatArray, owner: list[int]) -> float:
-    """Ferrari-Canny epsilon of the L-infinity wrench space."""
+def epsilon_linf(W: FloatArray, owner: list[int], *, native: bool = True) -> float:
+    """Ferrari-Canny epsilon of the L-infinity wrench space.
+
+    With the compiled kernels built (``native``) and 6-D wrenches, the epsilon comes from the
+    support function of the Minkowski sum (``epsilon_linf_compiled`` of
+    :mod:`taskspace.grasping.epsilon`, certified; any number of contacts). Otherwise, or when
+    it cannot certify, from the hull of the sum (:func:`wrench_space_linf`;
+    :class:`SolverError` past :data:`MAX_LINF_POINTS` candidate vertices). Margins within
+    :data:`MARGIN_TOLERANCE` of the largest entry count as 0 (of ``W`` for the kernel, of the
+    sum's points for the hull).
+    """
+    if native:
+        wrenches = _wrenches(W)
+        value = epsilon_linf_compiled(wrenches, _owners(owner, len(wrenches)))
+        if value is not None:
+            return value
     return _margin(wrench_space_linf(W, owner))
 
 
@@ -156,9 +180,9 @@ def grasp_quality(
         edges: edges of each linearized friction cone.
         center: moment reference point [m] (default: origin of the object frame).
         torque_scale: moment scale ``rho`` [m] (default: the grasp radius).
-        linf: compute the L-infinity epsilon (a Minkowski sum whose size grows quickly with
-            the number of contacts; :class:`SolverError` past :data:`MAX_LINF_POINTS`);
-            ``False`` reports it as NaN.
+        linf: compute the L-infinity epsilon (:func:`epsilon_linf`: without the compiled
+            kernel a Minkowski sum whose size grows quickly with the number of contacts,
+            :class:`SolverError` past :data:`MAX_LINF_POINTS`); ``False`` reports it as NaN.
     """
     contacts = check_contacts(contacts)
     c = check_center(center)
