@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -98,6 +99,13 @@ def safe_norm(X: Any, axis: int | None = None) -> Any:
     X = np.asarray(X)
     if X.size == 0:
         return 0.0 if axis is None else np.zeros(X.shape[1 - axis])
+    # the common case first (callers that may see huge entries hold np.errstate)
+    direct = np.linalg.norm(X, axis=axis)
+    if axis is None:
+        if math.isfinite(direct):
+            return float(direct)
+    elif np.isfinite(direct).all():
+        return direct
     s = np.max(np.abs(X), axis=axis, keepdims=axis is not None)
     s = np.where(s > 0, s, 1.0)
     out = np.linalg.norm(X / s, axis=axis) * (s.ravel() if axis is not None else s)

@@ -9,6 +9,7 @@ stable (``Re lambda < 0``, or ``|lambda| < 1`` in discrete time).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -67,7 +68,10 @@ def controllability_matrix(A: Any, B: Any) -> FloatArray:
 
 def _norm2(M: FloatArray) -> float:
     """Spectral norm without overflow (``np.linalg.norm(M, 2)`` was inf near 1e300)."""
-    s = float(np.max(np.abs(M))) if M.size else 0.0
+    direct = float(np.linalg.norm(M, 2)) if M.size else 0.0  # caller holds np.errstate
+    if math.isfinite(direct):
+        return direct
+    s = float(np.max(np.abs(M)))
     return s * float(np.linalg.norm(M / s, 2)) if s > 0 else 0.0
 
 
@@ -101,14 +105,15 @@ def controllability(A: Any, B: Any, tolerance: float | None = None) -> Controlla
     user_tol = rank_tolerance(tolerance)
     tol = user_tol if user_tol is not None else max(n, m) * n * np.finfo(float).eps * 1e3
     C = controllability_matrix(A, B)
-    norms = safe_norm(C, axis=0)  # np.linalg.norm was inf for entries ~1e300 (column -> 0)
+    with np.errstate(over="ignore", invalid="ignore"):
+        norms = safe_norm(C, axis=0)  # np.linalg.norm was inf for entries ~1e300 (column -> 0)
+        # the two column blocks of the PBH test scaled separately (the rank is unchanged): one
+        # common scale made B vanish next to an A near 1e300 (every mode "uncontrollable")
+        scale_a = max(1.0, _norm2(A))
+        scale_b = max(1.0, _norm2(B))
     Cn = C[:, norms > 0] / norms[norms > 0]
     rank, s = _rank(Cn, tol)
     modes = []
-    # the two column blocks scaled separately (the rank is unchanged): one common scale made
-    # B vanish next to an A near 1e300 (every mode "uncontrollable" although rank C = n)
-    scale_a = max(1.0, _norm2(A))
-    scale_b = max(1.0, _norm2(B))
     for lam in np.linalg.eigvals(A):
         pbh = np.hstack([(A - lam * np.eye(n)) / scale_a, B / scale_b])
         r, _ = _rank(pbh, tol)
