@@ -140,11 +140,11 @@ def _cost_exponent(Q: FloatArray, R: FloatArray) -> int:
     ``P(2^-e Q, 2^-e R) = 2^-e P(Q, R)`` exactly (powers of two scale without rounding) and
     ``K`` is unchanged; solving the scaled problem keeps the Hamiltonian balanced: Q, R near
     1e-200 or 1e200 made the Schur method report "no stabilizing solution" and Newton-Kleinman
-    stop at its second iterate (P off by 27 %). Weights within 2^+-64 are used as given.
+    stop at its second iterate (P off by 27 %). Even moderate
+    scales matter: Q = R = 1e9 I gave P 49 % off with SUCCESS on the double integrator.
     """
     top = max(float(np.abs(Q).max()), float(np.abs(R).max()))
-    e = math.frexp(top)[1] if top > 0 else 0
-    return 0 if abs(e) <= 64 else e  # moderate weights: solved as given (bit-identical)
+    return math.frexp(top)[1] if top > 0 else 0
 
 
 def _gain_matrix(B: FloatArray, R: FloatArray) -> FloatArray:
