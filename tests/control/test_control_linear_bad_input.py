@@ -226,3 +226,16 @@ def test_cost_and_lyapunov_value_check_x() -> None:
     assert cert.value(np.eye(2), [3.0, 4.0]) == 25.0
     with pytest.raises(InvalidInputError):
         cert.value(np.eye(2), [1.0, 2.0, 3.0])
+
+
+@pytest.mark.parametrize("q", [1e-6, 1.0, 1e6, 1e9, 1e12, 1e14])
+def test_care_against_the_closed_form_with_unbalanced_weights(q: float) -> None:
+    # double integrator, Q = q I, R = 1: p12 = sqrt(q), p22 = sqrt(q + 2 p12), p11 = p12 p22.
+    # The Schur method alone was 5e-6 off at q = 1e12 (relative residual 6e-6, SUCCESS); its
+    # solution is now refined by Newton-Kleinman steps while the backward error decreases.
+    p12 = np.sqrt(q)
+    p22 = np.sqrt(q + 2.0 * p12)
+    exact = np.array([[p12 * p22, p12], [p12, p22]])
+    res = lqr(A, B, q * np.eye(2), 1.0)
+    assert res.success
+    np.testing.assert_allclose(res.P, exact, rtol=1e-9)

@@ -190,6 +190,57 @@ def _care_schur(A: FloatArray, G: FloatArray, Q: FloatArray) -> FloatArray:
     return check_solution(0.5 * (P + P.T), "the CARE solution P")
 
 
+REFINE_RESIDUAL = 1e-13
+"""Backward error of the CARE (see :func:`_care_errors`) above which the Schur
+solution is refined by Newton-Kleinman steps."""
+
+
+def _care_errors(
+    A: FloatArray, B: FloatArray, Q: FloatArray, R: FloatArray, P: FloatArray
+) -> tuple[float, float]:
+    """The reported residual ``|Ric(P)|_F / max(1, |P|_F)`` and the backward error.
+
+    The backward error ``|Ric(P)|_F / (|A^T P + P A|_F + |P G P|_F + |Q|_F)`` is scale-free,
+    unlike the reported residual (a tiny P looked exact with 2e-4 relative error).
+    """
+    with np.errstate(over="ignore", invalid="ignore"):
+        lin = A.T @ P + P @ A
+        quad = P @ B @ np.linalg.solve(R, B.T @ P)
+        r = safe_norm(lin - quad + Q)
+        den = safe_norm(lin) + safe_norm(quad) + safe_norm(Q)
+        return float(r / max(1.0, safe_norm(P))), (float(r / den) if den > 0 else 0.0)
+
+
+def _refine(
+    A: FloatArray, B: FloatArray, Q: FloatArray, R: FloatArray, P: FloatArray
+) -> tuple[FloatArray, int]:
+    """Newton-Kleinman steps from the Schur solution while its backward error decreases.
+
+    The ordered Schur method alone left backward errors of 1e-6 (Q = 1e12 I, R = 1 on the
+    double integrator: relative residual 6e-6) and P entries 2e-4 off (Q = 1e-12 I) against
+    the closed form; Newton's method from its stabilizing gain converges quadratically. At
+    most 8 steps, only when the backward error exceeds :data:`REFINE_RESIDUAL`.
+    """
+    _, err = _care_errors(A, B, Q, R, P)
+    steps = 0
+    for k in range(1, 9):
+        if not err > REFINE_RESIDUAL:
+            break
+        with np.errstate(over="ignore", invalid="ignore"):
+            K = np.linalg.solve(R, B.T @ P)
+            try:
+                P_new = solve_lyapunov(A - B @ K, Q + K.T @ R @ K)
+            except (SolverError, InvalidInputError):
+                break
+        if not np.all(np.isfinite(P_new)):
+            break
+        _, err_new = _care_errors(A, B, Q, R, P_new)
+        if not err_new < err:
+            break
+        P, err, steps = P_new, err_new, k
+    return P, steps
+
+
 def solve_continuous_riccati(
     A: Any,
     B: Any,
@@ -259,7 +310,10 @@ def solve_continuous_riccati(
             if change <= tolerance * size:  # relative (was absolute below |P| = 1)
                 status = RiccatiStatus.SOLVED
                 break
-    residual = _care_residual(A, B, Q, R, P)
+    residual, backward = _care_errors(A, B, Q, R, P)
+    if method is RiccatiMethod.SCHUR and backward > REFINE_RESIDUAL:
+        P, iterations = _refine(A, B, Q, R, P)
+        residual, _ = _care_errors(A, B, Q, R, P)
     P = check_solution(np.ldexp(P, e), "the CARE solution P") if e else P
     return RiccatiResult(
         success=status is RiccatiStatus.SOLVED,
