@@ -109,6 +109,7 @@ class WeightedIKKernel {
     x_.setZero(nv);
     grad_.setZero(nv);
     state_.assign(nv, 0);
+    a0_.setZero(nv);
   }
 
   int add_pose(const Model& model, int frame) {
@@ -355,6 +356,38 @@ class WeightedIKKernel {
     const auto t3 = std::chrono::steady_clock::now();
     const auto sec = [](auto a, auto b) { return std::chrono::duration<double>(b - a).count(); };
     return bp::make_tuple(status, iterations, objective, sec(t0, t2), sec(t2, t3), sec(t0, t1));
+  }
+
+  // One whole step in one call (DifferentialIK.advance): solve() at (data, q), whose
+  // kinematics the caller guarantees are those of q (a State's), then, unless the status is
+  // kMaxIterations (the caller takes the Python path; data untouched), write
+  // q_next = integrate(q, step) and recompute the kinematics of ``data`` at q_next exactly as
+  // State.update does: computeJointJacobians(q_next), or with the velocity (with_velocity:
+  // v_next = step / dt written) forwardKinematics(q_next, v_next, 0) + computeJointJacobians,
+  // then updateFramePlacements. geom/gdata as in solve() (None without dampers).
+  bp::tuple advance(const Model& model, Data& data, const Eigen::Ref<const VectorXd>& q,
+                    bp::list targets, bp::list hard_boxes, bp::list soft_boxes, double damping,
+                    Eigen::Ref<VectorXd> out, int max_iter, Eigen::Ref<VectorXd> q_next,
+                    Eigen::Ref<VectorXd> v_next, double dt, bp::object geom_obj,
+                    bp::object gdata_obj) {
+    if (q_next.size() != nq_ || (dt > 0.0 && v_next.size() != nv_))
+      raise_invalid("vector size mismatch");
+    const bool with_velocity = dt > 0.0;
+    if (dt != 0.0 && !(with_velocity && std::isfinite(dt)))
+      raise_invalid("dt must be finite and > 0 (or 0: no velocity), got " + std::to_string(dt));
+    bp::tuple result = solve(model, data, q, targets, hard_boxes, soft_boxes, damping, out,
+                             max_iter, geom_obj, gdata_obj);
+    if (bp::extract<int>(result[0]) == kMaxIterations) return result;
+    pinocchio::integrate(model, q, x_, q_next);
+    if (with_velocity) {
+      v_next = x_ / dt;
+      pinocchio::forwardKinematics(model, data, q_next, v_next, a0_);
+      pinocchio::computeJointJacobians(model, data);
+    } else {
+      pinocchio::computeJointJacobians(model, data, q_next);
+    }
+    pinocchio::updateFramePlacements(model, data);
+    return result;
   }
 
  private:
@@ -943,6 +976,7 @@ class WeightedIKKernel {
   double res_[7] = {0, 0, 0, 0, 0, 0, 0};
   std::vector<int> state_;
   MatrixXd L_;
+  VectorXd a0_;  // zero acceleration (advance with a velocity)
 };
 
 // Objects allocated by Pinocchio's library and freed here (a Data, the vector of neutral):
@@ -982,5 +1016,7 @@ BOOST_PYTHON_MODULE(_ik_kernel) {
       .def("solve", &WeightedIKKernel::solve)
       // the 9-argument solve under its own name: one signature, no overload dispatch (a
       // failed arity match of the 11-argument overload first cost ~0.4 us per call)
-      .def("solve_boxes", &WeightedIKKernel::solve_boxes);
+      .def("solve_boxes", &WeightedIKKernel::solve_boxes)
+      // solve, integrate and the kinematics at the new configuration in one call
+      .def("advance", &WeightedIKKernel::advance);
 }

@@ -39,6 +39,7 @@ from taskspace.qp.kkt import KKTResiduals
 from taskspace.tasks import Task
 
 MAX_ACTIVE_SET_ITERATIONS = 200
+_empty = np.empty
 
 
 # How each kind of term is registered with the kernel (the kernel's own API).
@@ -165,6 +166,12 @@ class NativeWeightedStack:
             self._solve_with_rows if self._rows else getattr(kernel, "solve_boxes", kernel.solve)
         )
         self._max_iterations = module.MAX_ITERATIONS
+        # the fused step (solve, integrate, kinematics of the new q): one signature, the
+        # collision model and its data always given (None without rows)
+        self._kernel_advance: Any = getattr(kernel, "advance", None)
+        self._advance_geometry: tuple[Any, Any] = (None, None)
+        self._nq = robot.nq
+        self._no_velocity = np.zeros(0)  # v_next of a state without velocity (not written)
 
     def _send_position_limits(self) -> None:
         self.kernel.set_position_limits(*self._position.kernel_arguments())  # type: ignore[union-attr]
@@ -191,12 +198,19 @@ class NativeWeightedStack:
         self._keys = keys
 
     def solve(
-        self, state: State, dt: float, damping: float, out: np.ndarray
+        self, state: State, dt: float, damping: float, out: np.ndarray, move: bool = False
     ) -> tuple[int, int, float, float, float] | None:
         """``(status, iterations, objective, build_time, qp_time)``; the step is written to ``out``.
 
         ``None`` when the active set did not settle, or a task has Levenberg-Marquardt damping
-        (the kernel's damping is fixed): the caller takes the Python path.
+        (the kernel's damping is fixed): the caller takes the Python path, and ``state`` is
+        unchanged.
+
+        ``move``: the kernel's ``advance`` (one call): after the solve it integrates
+        ``q (+) dq`` and recomputes the kinematics of ``state``'s data there, exactly as
+        :meth:`State.update` does (with the velocity ``dq / dt`` when the state has one); the
+        state then adopts the new ``q`` (and ``v``) and marks what it derived from the old
+        kinematics stale (:meth:`State._adopt`).
         """
         model = self.model
         if state._model is not model:  # the kernel must never see a Data of another model
@@ -223,17 +237,41 @@ class NativeWeightedStack:
             self._sync_rows()
         hard, soft = self._hard, self._soft
         try:
-            status, iterations, objective, t_build, t_qp, _ = self._kernel_solve(
-                model,
-                state._data,  # made by the state for ``state._model``, cannot be replaced
-                state.q,
-                targets,
-                [b for c in hard if (b := c.bounds(state, dt)) is not None] if hard else [],
-                [b for c in soft if (b := c.bounds(state, dt)) is not None] if soft else [],
-                damping,
-                out,
-                MAX_ACTIVE_SET_ITERATIONS,
-            )
+            if move:
+                q_next = _empty(self._nq)
+                has_velocity = state._has_velocity
+                v_next = _empty(self.nv) if has_velocity else self._no_velocity
+                geometry = self._advance_geometry
+                status, iterations, objective, t_build, t_qp, _ = self._kernel_advance(
+                    model,
+                    state._data,  # made by the state for ``state._model``, cannot be replaced
+                    state._q,
+                    targets,
+                    [b for c in hard if (b := c.bounds(state, dt)) is not None] if hard else [],
+                    [b for c in soft if (b := c.bounds(state, dt)) is not None] if soft else [],
+                    damping,
+                    out,
+                    MAX_ACTIVE_SET_ITERATIONS,
+                    q_next,
+                    v_next,
+                    dt if has_velocity else 0.0,
+                    geometry[0],
+                    geometry[1],
+                )
+                if status != self._max_iterations:  # the data hold the kinematics of q_next
+                    state._adopt(q_next, v_next if has_velocity else None)
+            else:
+                status, iterations, objective, t_build, t_qp, _ = self._kernel_solve(
+                    model,
+                    state._data,  # made by the state for ``state._model``, cannot be replaced
+                    state._q,
+                    targets,
+                    [b for c in hard if (b := c.bounds(state, dt)) is not None] if hard else [],
+                    [b for c in soft if (b := c.bounds(state, dt)) is not None] if soft else [],
+                    damping,
+                    out,
+                    MAX_ACTIVE_SET_ITERATIONS,
+                )
         except (TypeError, ValueError, RuntimeError):
             for t in self.tasks:
                 t._require_target()  # a task without a target: raises, naming it
@@ -295,6 +333,7 @@ class NativeWeightedStack:
         if version != self._world_version:  # a data of the collision model as it is now
             # cached GJK guesses off, as everywhere else (distances independent of history)
             self._geometry = (geometry, without_cached_guess(geometry.createData()))
+            self._advance_geometry = self._geometry
         self._world_version = version
         self._declared = declared
 

@@ -39,6 +39,7 @@ from taskspace.tasks import Task
 
 _perf_counter = time.perf_counter
 _empty = np.empty
+_integrate = pin.integrate
 _SOLVED = QPStatus.SOLVED
 _UNCONSTRAINED = QPStatus.UNCONSTRAINED
 
@@ -264,7 +265,9 @@ class DifferentialIK:
         self._inequality_constraints = self._builder.inequalities.constraints
         self._native: NativeWeightedStack | None = None
         self._native_checked = False
+        self._fused = False  # advance() runs the kernel's fused step (set with _native)
         self._nv = robot.nv
+        self._damping = self.options.damping  # options are frozen
         self._lock = threading.Lock()
         self._acquire = self._lock.acquire
         self._release = self._lock.release
@@ -286,6 +289,12 @@ class DifferentialIK:
                     self.constraints,
                     self._inequality_constraints,
                     (solver.eps_abs, solver.eps_rel),
+                )
+                # advance() in one kernel call; not with native_residuals (they are checked on
+                # the QP built at the state before it moves), nor with a kernel built before
+                # its advance existed
+                self._fused = (
+                    self._native._kernel_advance is not None and not self.options.native_residuals
                 )
         return self._native is not None
 
@@ -324,6 +333,49 @@ class DifferentialIK:
         finally:
             self._release()
 
+    def advance(self, state: State, dt: float) -> IKStepResult:
+        """One step that moves ``state``: solve at it, then ``state`` goes to ``q (+) dq``.
+
+        The loop ``state.update(q); result = solve(state, dt); q = q (+) result.dq`` in one
+        call: on the compiled kernel the solve, the integration and the kinematics of the
+        new configuration (Pinocchio's ``computeJointJacobians`` and frame placements, as
+        :meth:`State.update`) run in one compiled call on the state's own data; on the
+        Python path (or when the kernel's step is not accepted) the same as :meth:`solve`
+        followed by ``state.update``. Either way ``state`` ends exactly as
+        ``state.update(q (+) dq, v)`` would leave it, with ``v = dq / dt`` when the state has
+        a velocity and none otherwise.
+
+        The state moves by the returned step whatever its status (as :meth:`step`); check
+        ``result.success``. The state's previous ``q`` is not modified (``q`` arrays are
+        never written in place).
+
+        Args:
+            state: current state, moved to the new configuration.
+            dt: time step [s].
+        """
+        if type(state) is not State and not isinstance(state, State):
+            _require_state(state)
+        dt = check_positive(dt, "dt")
+        self._acquire()
+        try:
+            result = None
+            if self._native is not None or (not self._native_checked and self.native):
+                fused = self._fused
+                result = self._solve_native(state, dt, fused)
+                if fused and result is not None:  # the state has moved
+                    return result
+            if result is None:
+                result = self._solve_python(state, dt)
+            dq = result.dq
+            state.update(
+                _integrate(self.robot.model, state._q, dq),
+                dq / dt if state._has_velocity else None,
+                validate=False,
+            )
+            return result
+        finally:
+            self._release()
+
     def _solve_python(self, state: State, dt: float) -> IKStepResult:
         """:meth:`solve` by the Python path (the caller holds the lock)."""
         t0 = time.perf_counter()
@@ -343,14 +395,15 @@ class DifferentialIK:
             result.success, status, dq, None, result, culprits, t1 - t0, t2 - t1, dt=dt
         )
 
-    def _solve_native(self, state: State, dt: float) -> IKStepResult | None:
+    def _solve_native(self, state: State, dt: float, move: bool = False) -> IKStepResult | None:
+        """The kernel's step (``move``: and the state moved, see :meth:`advance`)."""
         if state._robot is not self.robot:  # the slot: cheaper than the read-only property
             self.tasks[0].feature._check_state(state)
         native = self._native
         assert native is not None
         t0 = _perf_counter()
         dq = _empty(self._nv)
-        out = native.solve(state, dt, self.options.damping, dq)
+        out = native.solve(state, dt, self._damping, dq, move)
         if out is None:
             return None
         status, iterations, objective, build_time, qp_time = out

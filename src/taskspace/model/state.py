@@ -156,24 +156,36 @@ class State:
                 v = np.array(v, dtype=float)
         data = self._data
         model = self._model
-        # ``q`` and ``v`` are private copies (check_configuration/check_velocity and
-        # np.array copy). They are made read-only for good: the buffer is locked and only a
-        # view of it is kept; numpy refuses to make a view of a locked buffer writable.
-        q.setflags(write=False)
-        q = q.view()
         if v is None:
-            self._has_velocity = False
-            v = self._a0
             _compute_joint_jacobians(model, data, q)
         else:
-            self._has_velocity = True
-            v.setflags(write=False)
-            v = v.view()
             _forward_kinematics(model, data, q, v, self._a0)
             _compute_joint_jacobians(model, data)
         _update_frame_placements(model, data)
-        self._q = q
-        self._v = v
+        self._adopt(q, v)
+
+    def _adopt(self, q: FloatArray, v: FloatArray | None) -> None:
+        """Make ``q`` and ``v`` the state's, the kinematics of ``data`` being already theirs.
+
+        The one place that records a new configuration: :meth:`update` calls it after
+        Pinocchio, and a compiled kernel that has just written the kinematics of ``q`` (and
+        ``v``) into this state's data (``DifferentialIK.advance``) calls it after its call.
+        Everything derived from the previous kinematics (cached Jacobians, center of mass,
+        collision distances) is marked stale here.
+
+        ``q`` and ``v`` must be private copies (nobody else holds them): they are made
+        read-only for good (the buffer is locked and only a view of it is kept; numpy refuses
+        to make a view of a locked buffer writable). ``v`` None: no velocity (zero).
+        """
+        q.setflags(write=False)
+        self._q = q.view()
+        if v is None:
+            self._has_velocity = False
+            self._v = self._a0
+        else:
+            self._has_velocity = True
+            v.setflags(write=False)
+            self._v = v.view()
         if self._cache_lwa:
             self._cache_lwa.clear()
         if self._cache_local:
