@@ -40,6 +40,7 @@ from taskspace.tasks import Task
 _perf_counter = time.perf_counter
 _empty = np.empty
 _integrate = pin.integrate
+_INF = float("inf")
 _SOLVED = QPStatus.SOLVED
 _UNCONSTRAINED = QPStatus.UNCONSTRAINED
 
@@ -355,7 +356,8 @@ class DifferentialIK:
         """
         if type(state) is not State and not isinstance(state, State):
             _require_state(state)
-        dt = check_positive(dt, "dt")
+        if dt.__class__ is not float or not 0.0 < dt < _INF:  # NaN fails the comparison
+            dt = check_positive(dt, "dt")
         self._acquire()
         try:
             result = None
