@@ -256,3 +256,25 @@ def test_advance_with_collision_dampers_equals_solve_then_update() -> None:
         rows += len(fused._native.damper_rows()[3])  # type: ignore[union-attr]
     assert rows > 0  # the dampers were in the QP
     _assert_kinematics(robot, a)
+
+
+def test_reassigned_weights_gains_and_lm_damping_are_seen() -> None:
+    """The kernel re-reads its tasks after any task assignment (``tasks.ASSIGNMENTS``)."""
+    robot = load_robot("panda")
+    ik, tcp = _panda_ik(robot)
+    posture = ik.tasks[1]
+    state = robot.state(robot.q_default)
+    changes = [
+        ("weight", posture, 0.5, "native"),
+        ("gain", tcp, 0.3, "native"),
+        ("weight", tcp, np.array([1.0, 2.0, 0.5, 1.0, 1.0, 3.0]), "native"),
+        ("lm_damping", tcp, 1e-2, "python"),  # the kernel's damping is fixed: Python path
+        ("lm_damping", tcp, 0.0, "native"),
+    ]
+    for name, task, value, backend in changes:
+        setattr(task, name, value)
+        for _ in range(2):
+            dq = _quadprog_step(ik, state, DT)
+            result = ik.advance(state, DT)
+            assert (result.qp.backend == "native") is (backend == "native")
+            np.testing.assert_allclose(result.dq, dq, atol=1e-7, rtol=0)

@@ -36,6 +36,7 @@ from taskspace.model.robot import Robot
 from taskspace.model.state import State
 from taskspace.model.versioning import ModelFollower
 from taskspace.qp.kkt import KKTResiduals
+from taskspace.tasks import ASSIGNMENTS as _ASSIGNMENTS
 from taskspace.tasks import Task
 
 MAX_ACTIVE_SET_ITERATIONS = 200
@@ -125,6 +126,8 @@ class NativeWeightedStack:
         self._n_rows = sum(t.dim for t, term in terms if term.kind not in _FULL_TANGENT)
         self._n_full = sum(1 for term in self._terms if term.kind in _FULL_TANGENT)
         self._keys: list[tuple[Any, float]] = []
+        self._assignments = -1  # tasks.ASSIGNMENTS when the tasks were last read
+        self._lm_damping = False
         boxes = [c for c in constraints if _has_bounds(c)]
         # the first joint-position box is evaluated by the kernel from q (the others here)
         # (a class that declares ``kernel_arguments`` itself: a subclass may change the box)
@@ -173,6 +176,17 @@ class NativeWeightedStack:
         self._nq = robot.nq
         self._no_velocity = np.zeros(0)  # v_next of a state without velocity (not written)
 
+    def _check_tasks(self) -> None:
+        """Read the tasks' weights, gains and LM damping (after an assignment to a task)."""
+        self._assignments = _ASSIGNMENTS[0]
+        tasks = self.tasks
+        self._lm_damping = any(t.lm_damping for t in tasks)
+        keys = self._keys
+        if not keys or any(
+            t.sqrt_weight is not w or t.gain is not g for t, (w, g) in zip(tasks, keys)
+        ):
+            self._scale()
+
     def _send_position_limits(self) -> None:
         self.kernel.set_position_limits(*self._position.kernel_arguments())  # type: ignore[union-attr]
 
@@ -218,19 +232,14 @@ class NativeWeightedStack:
                 f"this IK solver is built for robot '{self.robot.name}'; the state belongs to "
                 f"robot '{state.robot.name}': make the state with this robot's state(q)"
             )
-        # one pass over the tasks: Levenberg-Marquardt damping (the kernel's damping is fixed:
-        # the Python path), reassigned weights or gains (sent again), the targets
-        keys = self._keys
-        rescale = not keys
-        targets = []
-        for i, t in enumerate(self.tasks):
-            if t.lm_damping:
-                return None
-            if not rescale and (t.sqrt_weight is not keys[i][0] or t.gain is not keys[i][1]):
-                rescale = True
-            targets.append(t._target)
-        if rescale:
-            self._scale()
+        # the tasks' weights, gains and Levenberg-Marquardt damping are read again only after
+        # an assignment to some task (the kernel's damping is fixed: LM damping takes the
+        # Python path; reassigned weights or gains are sent again)
+        if _ASSIGNMENTS[0] != self._assignments:
+            self._check_tasks()
+        if self._lm_damping:
+            return None
+        targets = [t._target for t in self.tasks]
         if self._position_limits is not None:
             self._position_limits.sync()
         if self._rows:  # collision rows: their declarations (the solve adds the geometry)
