@@ -278,3 +278,12 @@ def test_reassigned_weights_gains_and_lm_damping_are_seen() -> None:
             result = ik.advance(state, DT)
             assert (result.qp.backend == "native") is (backend == "native")
             np.testing.assert_allclose(result.dq, dq, atol=1e-7, rtol=0)
+
+
+def test_options_are_read_only() -> None:
+    """The damping and residual settings are read once: replacing the options is refused."""
+    robot = load_robot("panda")
+    ik, _ = _panda_ik(robot)
+    with pytest.raises(InvalidInputError, match="read-only"):
+        ik.options = DifferentialIKOptions(damping=1.0)
+    assert ik.options.damping == 1e-6

@@ -53,6 +53,9 @@ class IKStatus(enum.Enum):
     FAILED = "failed"
 
 
+_IK_SOLVED = IKStatus.SOLVED
+
+
 class IKStepResult:
     """Result of one differential IK step.
 
@@ -249,7 +252,7 @@ class DifferentialIK:
             raise InvalidInputError(
                 f"options must be a DifferentialIKOptions, got {type(options).__name__}"
             )
-        self.options = options or DifferentialIKOptions()
+        self._options = options or DifferentialIKOptions()
         check_positive(self.options.damping, "damping", strict=False)
         for item in [*self.tasks, *self.equality_tasks]:
             if item.feature.robot is not robot:
@@ -268,10 +271,23 @@ class DifferentialIK:
         self._native_checked = False
         self._fused = False  # advance() runs the kernel's fused step (set with _native)
         self._nv = robot.nv
-        self._damping = self.options.damping  # options are frozen
+        self._damping = self.options.damping  # options are frozen and fixed (read-only)
+        self._native_residuals = self.options.native_residuals
         self._lock = threading.Lock()
         self._acquire = self._lock.acquire
         self._release = self._lock.release
+
+    @property
+    def options(self) -> DifferentialIKOptions:
+        """The settings (read-only: the QP builder, solver and kernel are made from them)."""
+        return self._options
+
+    @options.setter
+    def options(self, value: Any) -> None:
+        raise InvalidInputError(
+            "DifferentialIK.options is read-only (the QP builder, the solver and the compiled "
+            "kernel are made from them at construction): make a new DifferentialIK"
+        )
 
     @property
     def native(self) -> bool:
@@ -421,10 +437,10 @@ class DifferentialIK:
         qp: QPResult | tuple[Any, ...] = fields  # made on first access of result.qp
         if native.has_rows:  # the kernel's own KKT residuals (the step is accepted on them)
             qp = (*fields, [], {}, native.kernel.residuals())  # made on first access
-        elif self.options.native_residuals:
+        elif self._native_residuals:  # (never with move: advance does not fuse then)
             qp = QPResult(*fields)
             qp.kkt = box_kkt_residuals(self._build(state, dt), dq)
-        return IKStepResult(True, IKStatus.SOLVED, dq, None, qp, None, build_time, qp_time, dt=dt)
+        return IKStepResult(True, _IK_SOLVED, dq, None, qp, None, build_time, qp_time, dt=dt)
 
     def _culprits(self, problem: QPProblem, result: QPResult, state: State, dt: float) -> list[str]:
         """Constraints violated by the least-violating step, each box against its own bounds."""
