@@ -38,11 +38,15 @@ class State:
     Invariants (by construction): ``q``, ``v``, ``robot`` and ``data`` are read-only;
     ``collision_data`` accepts only a data of the robot's collision model. ``q`` and ``v``
     are private copies whose buffers cannot be made writable again, so the kinematics always
-    belong to the ``q`` and ``v`` the state reports: the only way to change them is
-    :meth:`update`, which recomputes everything. ``data`` is the ``pin.Data`` of
-    ``robot.model`` made by this state; it cannot be replaced (a ``Data`` of another model
-    would make Pinocchio and the compiled kernels write out of bounds). The collision data
-    follow the robot's obstacle world by its :attr:`~taskspace.model.World.version`.
+    belong to the ``q`` and ``v`` the state reports: the only ways to change them are
+    :meth:`update`, which recomputes everything, and
+    :meth:`DifferentialIK.advance <taskspace.ik.DifferentialIK.advance>`, whose compiled
+    kernel writes the kinematics of the new configuration into ``data`` exactly as
+    :meth:`update` would and then records it (``_adopt``, the one place both go through).
+    ``data`` is the ``pin.Data`` of ``robot.model`` made by this state; it cannot be
+    replaced (a ``Data`` of another model would make Pinocchio and the compiled kernels write
+    out of bounds). The collision data follow the robot's obstacle world by its
+    :attr:`~taskspace.model.World.version`.
 
     Thread safety: a state is a workspace and is not thread-safe; use one state per thread
     (reading the same state from several threads without updating it is safe).
