@@ -317,7 +317,7 @@ class WeightedIKKernel {
     g_.setZero();
     fill_rows(model, data, targets);
     const auto t1 = std::chrono::steady_clock::now();
-    H_.selfadjointView<Eigen::Lower>().rankUpdate(M_.transpose());
+    add_gram();
     g_.noalias() -= M_.transpose() * r_;
     H_.diagonal().array() += damping;
     add_posture_terms(model, q, targets);
@@ -411,6 +411,26 @@ class WeightedIKKernel {
     r_.setZero(m_);
     e_.setZero(m_);
     return item.row;
+  }
+
+  // H += M^T M (lower triangle), task by task on its support columns S: a task's rows are
+  // zero outside S, so its block is (M_S)^T M_S scattered to (S, S). A floating-base robot's
+  // limbs touch a third of the columns: about 4x fewer products than the dense rank update
+  // (kept for tasks whose support is every column).
+  void add_gram() {
+    for (const Item& it : items_) {
+      const int ns = static_cast<int>(it.rows.size());
+      const auto rows = M_.middleRows(it.row, it.dim);
+      if (ns == nv_) {
+        H_.selfadjointView<Eigen::Lower>().rankUpdate(rows.transpose());
+        continue;
+      }
+      Ms_.resize(it.dim, ns);
+      for (int a = 0; a < ns; ++a) Ms_.col(a) = rows.col(it.rows[a]);
+      Hs_.noalias() = Ms_.transpose() * Ms_;
+      for (int b = 0; b < ns; ++b)  // support columns ascending: (a >= b) is in the lower part
+        for (int a = b; a < ns; ++a) H_(it.rows[a], it.rows[b]) += Hs_(a, b);
+    }
   }
 
   // Weighted task rows sqrt(w) J in M (written on each task's support columns S only: the
@@ -952,7 +972,7 @@ class WeightedIKKernel {
   static constexpr double kInf = 1e20;  // taskspace.qp.problem.INF
   VectorXd diff_;
   bool scaled_ = false;
-  MatrixXd M_, Jdiff_, H_;
+  MatrixXd M_, Jdiff_, H_, Ms_, Hs_;
   Eigen::Matrix<double, 6, Eigen::Dynamic> J6_, Jg_, Jw_;
   std::vector<int> pl_iq_, pl_iv_;
   VectorXd pl_low_, pl_high_, pl_lb_, pl_ub_;
