@@ -145,7 +145,8 @@ def _loop(  # type: ignore[type-arg]
         worst_violation = max(
             worst_violation, float(np.maximum(lo[idx] - q[idx], q[idx] - hi[idx]).max())
         )
-    tracking = float(np.linalg.norm(moving[0][0].error(state)[:3]))
+    # at the state the last step was solved at (as before advance existed)
+    tracking = float(np.linalg.norm(moving[0][0].error(before)[:3]))
     return {
         "times": times,
         "failed": failed,
