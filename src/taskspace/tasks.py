@@ -102,6 +102,7 @@ class Task:
         check = _SETTERS.get(name)
         if check is not None:
             value = check(self, value)
+            ASSIGNMENTS[0] += 1  # after the check: a refused value leaves everything as it was
         object.__setattr__(self, name, value)
 
     @property
@@ -313,6 +314,12 @@ def _check_feature(task: Task, value: Any) -> Any:
         )
     return value
 
+
+ASSIGNMENTS = [0]
+"""How many checked attributes (weights, gains, damping, ...) of any task were assigned so
+far (one counter for all tasks, in a list so that readers see it change). A solver that
+keeps a copy of its tasks' weights (the compiled IK kernel) re-reads them only when it has
+changed: one comparison per step instead of one per task."""
 
 _SETTERS: dict[str, Callable[[Task, Any], Any]] = {
     "_target": _check_target,

@@ -36,9 +36,11 @@ from taskspace.model.robot import Robot
 from taskspace.model.state import State
 from taskspace.model.versioning import ModelFollower
 from taskspace.qp.kkt import KKTResiduals
+from taskspace.tasks import ASSIGNMENTS as _ASSIGNMENTS
 from taskspace.tasks import Task
 
 MAX_ACTIVE_SET_ITERATIONS = 200
+_empty = np.empty
 
 
 # How each kind of term is registered with the kernel (the kernel's own API).
@@ -124,6 +126,8 @@ class NativeWeightedStack:
         self._n_rows = sum(t.dim for t, term in terms if term.kind not in _FULL_TANGENT)
         self._n_full = sum(1 for term in self._terms if term.kind in _FULL_TANGENT)
         self._keys: list[tuple[Any, float]] = []
+        self._assignments = -1  # tasks.ASSIGNMENTS when the tasks were last read
+        self._lm_damping = False
         boxes = [c for c in constraints if _has_bounds(c)]
         # the first joint-position box is evaluated by the kernel from q (the others here)
         # (a class that declares ``kernel_arguments`` itself: a subclass may change the box)
@@ -165,6 +169,23 @@ class NativeWeightedStack:
             self._solve_with_rows if self._rows else getattr(kernel, "solve_boxes", kernel.solve)
         )
         self._max_iterations = module.MAX_ITERATIONS
+        # the fused step (solve, integrate, kinematics of the new q): one signature, the
+        # collision model and its data always given (None without rows)
+        self._kernel_advance: Any = getattr(kernel, "advance", None)
+        self._advance_geometry: tuple[Any, Any] = (None, None)
+        self._nq = robot.nq
+        self._no_velocity = np.zeros(0)  # v_next of a state without velocity (not written)
+
+    def _check_tasks(self) -> None:
+        """Read the tasks' weights, gains and LM damping (after an assignment to a task)."""
+        self._assignments = _ASSIGNMENTS[0]
+        tasks = self.tasks
+        self._lm_damping = any(t.lm_damping for t in tasks)
+        keys = self._keys
+        if not keys or any(
+            t.sqrt_weight is not w or t.gain is not g for t, (w, g) in zip(tasks, keys)
+        ):
+            self._scale()
 
     def _send_position_limits(self) -> None:
         self.kernel.set_position_limits(*self._position.kernel_arguments())  # type: ignore[union-attr]
@@ -191,12 +212,19 @@ class NativeWeightedStack:
         self._keys = keys
 
     def solve(
-        self, state: State, dt: float, damping: float, out: np.ndarray
+        self, state: State, dt: float, damping: float, out: np.ndarray, move: bool = False
     ) -> tuple[int, int, float, float, float] | None:
         """``(status, iterations, objective, build_time, qp_time)``; the step is written to ``out``.
 
         ``None`` when the active set did not settle, or a task has Levenberg-Marquardt damping
-        (the kernel's damping is fixed): the caller takes the Python path.
+        (the kernel's damping is fixed): the caller takes the Python path, and ``state`` is
+        unchanged.
+
+        ``move``: the kernel's ``advance`` (one call): after the solve it integrates
+        ``q (+) dq`` and recomputes the kinematics of ``state``'s data there, exactly as
+        :meth:`State.update` does (with the velocity ``dq / dt`` when the state has one); the
+        state then adopts the new ``q`` (and ``v``) and marks what it derived from the old
+        kinematics stale (:meth:`State._adopt`).
         """
         model = self.model
         if state._model is not model:  # the kernel must never see a Data of another model
@@ -204,36 +232,55 @@ class NativeWeightedStack:
                 f"this IK solver is built for robot '{self.robot.name}'; the state belongs to "
                 f"robot '{state.robot.name}': make the state with this robot's state(q)"
             )
-        # one pass over the tasks: Levenberg-Marquardt damping (the kernel's damping is fixed:
-        # the Python path), reassigned weights or gains (sent again), the targets
-        keys = self._keys
-        rescale = not keys
-        targets = []
-        for i, t in enumerate(self.tasks):
-            if t.lm_damping:
-                return None
-            if not rescale and (t.sqrt_weight is not keys[i][0] or t.gain is not keys[i][1]):
-                rescale = True
-            targets.append(t._target)
-        if rescale:
-            self._scale()
+        # the tasks' weights, gains and Levenberg-Marquardt damping are read again only after
+        # an assignment to some task (the kernel's damping is fixed: LM damping takes the
+        # Python path; reassigned weights or gains are sent again)
+        if _ASSIGNMENTS[0] != self._assignments:
+            self._check_tasks()
+        if self._lm_damping:
+            return None
+        targets = [t._target for t in self.tasks]
         if self._position_limits is not None:
             self._position_limits.sync()
         if self._rows:  # collision rows: their declarations (the solve adds the geometry)
             self._sync_rows()
         hard, soft = self._hard, self._soft
         try:
-            status, iterations, objective, t_build, t_qp, _ = self._kernel_solve(
-                model,
-                state._data,  # made by the state for ``state._model``, cannot be replaced
-                state.q,
-                targets,
-                [b for c in hard if (b := c.bounds(state, dt)) is not None] if hard else [],
-                [b for c in soft if (b := c.bounds(state, dt)) is not None] if soft else [],
-                damping,
-                out,
-                MAX_ACTIVE_SET_ITERATIONS,
-            )
+            if move:
+                q_next = _empty(self._nq)
+                has_velocity = state._has_velocity
+                v_next = _empty(self.nv) if has_velocity else self._no_velocity
+                geometry = self._advance_geometry
+                status, iterations, objective, t_build, t_qp, _ = self._kernel_advance(
+                    model,
+                    state._data,  # made by the state for ``state._model``, cannot be replaced
+                    state._q,
+                    targets,
+                    [b for c in hard if (b := c.bounds(state, dt)) is not None] if hard else [],
+                    [b for c in soft if (b := c.bounds(state, dt)) is not None] if soft else [],
+                    damping,
+                    out,
+                    MAX_ACTIVE_SET_ITERATIONS,
+                    q_next,
+                    v_next,
+                    dt if has_velocity else 0.0,
+                    geometry[0],
+                    geometry[1],
+                )
+                if status != self._max_iterations:  # the data hold the kinematics of q_next
+                    state._adopt(q_next, v_next if has_velocity else None)
+            else:
+                status, iterations, objective, t_build, t_qp, _ = self._kernel_solve(
+                    model,
+                    state._data,  # made by the state for ``state._model``, cannot be replaced
+                    state._q,
+                    targets,
+                    [b for c in hard if (b := c.bounds(state, dt)) is not None] if hard else [],
+                    [b for c in soft if (b := c.bounds(state, dt)) is not None] if soft else [],
+                    damping,
+                    out,
+                    MAX_ACTIVE_SET_ITERATIONS,
+                )
         except (TypeError, ValueError, RuntimeError):
             for t in self.tasks:
                 t._require_target()  # a task without a target: raises, naming it
@@ -295,6 +342,7 @@ class NativeWeightedStack:
         if version != self._world_version:  # a data of the collision model as it is now
             # cached GJK guesses off, as everywhere else (distances independent of history)
             self._geometry = (geometry, without_cached_guess(geometry.createData()))
+            self._advance_geometry = self._geometry
         self._world_version = version
         self._declared = declared
 

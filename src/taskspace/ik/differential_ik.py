@@ -39,6 +39,8 @@ from taskspace.tasks import Task
 
 _perf_counter = time.perf_counter
 _empty = np.empty
+_integrate = pin.integrate
+_INF = float("inf")
 _SOLVED = QPStatus.SOLVED
 _UNCONSTRAINED = QPStatus.UNCONSTRAINED
 
@@ -49,6 +51,9 @@ class IKStatus(enum.Enum):
     SOLVED = "solved"
     RELAXED = "relaxed"
     FAILED = "failed"
+
+
+_IK_SOLVED = IKStatus.SOLVED
 
 
 class IKStepResult:
@@ -247,7 +252,7 @@ class DifferentialIK:
             raise InvalidInputError(
                 f"options must be a DifferentialIKOptions, got {type(options).__name__}"
             )
-        self.options = options or DifferentialIKOptions()
+        self._options = options or DifferentialIKOptions()
         check_positive(self.options.damping, "damping", strict=False)
         for item in [*self.tasks, *self.equality_tasks]:
             if item.feature.robot is not robot:
@@ -264,10 +269,25 @@ class DifferentialIK:
         self._inequality_constraints = self._builder.inequalities.constraints
         self._native: NativeWeightedStack | None = None
         self._native_checked = False
+        self._fused = False  # advance() runs the kernel's fused step (set with _native)
         self._nv = robot.nv
+        self._damping = self.options.damping  # options are frozen and fixed (read-only)
+        self._native_residuals = self.options.native_residuals
         self._lock = threading.Lock()
         self._acquire = self._lock.acquire
         self._release = self._lock.release
+
+    @property
+    def options(self) -> DifferentialIKOptions:
+        """The settings (read-only: the QP builder, solver and kernel are made from them)."""
+        return self._options
+
+    @options.setter
+    def options(self, value: Any) -> None:
+        raise InvalidInputError(
+            "DifferentialIK.options is read-only (the QP builder, the solver and the compiled "
+            "kernel are made from them at construction): make a new DifferentialIK"
+        )
 
     @property
     def native(self) -> bool:
@@ -286,6 +306,12 @@ class DifferentialIK:
                     self.constraints,
                     self._inequality_constraints,
                     (solver.eps_abs, solver.eps_rel),
+                )
+                # advance() in one kernel call; not with native_residuals (they are checked on
+                # the QP built at the state before it moves), nor with a kernel built before
+                # its advance existed
+                self._fused = (
+                    self._native._kernel_advance is not None and not self.options.native_residuals
                 )
         return self._native is not None
 
@@ -324,6 +350,50 @@ class DifferentialIK:
         finally:
             self._release()
 
+    def advance(self, state: State, dt: float) -> IKStepResult:
+        """One step that moves ``state``: solve at it, then ``state`` goes to ``q (+) dq``.
+
+        The loop ``state.update(q); result = solve(state, dt); q = q (+) result.dq`` in one
+        call: on the compiled kernel the solve, the integration and the kinematics of the
+        new configuration (Pinocchio's ``computeJointJacobians`` and frame placements, as
+        :meth:`State.update`) run in one compiled call on the state's own data; on the
+        Python path (or when the kernel's step is not accepted) the same as :meth:`solve`
+        followed by ``state.update``. Either way ``state`` ends exactly as
+        ``state.update(q (+) dq, v)`` would leave it, with ``v = dq / dt`` when the state has
+        a velocity and none otherwise.
+
+        The state moves by the returned step whatever its status (as :meth:`step`); check
+        ``result.success``. The state's previous ``q`` is not modified (``q`` arrays are
+        never written in place).
+
+        Args:
+            state: current state, moved to the new configuration.
+            dt: time step [s].
+        """
+        if type(state) is not State and not isinstance(state, State):
+            _require_state(state)
+        if dt.__class__ is not float or not 0.0 < dt < _INF:  # NaN fails the comparison
+            dt = check_positive(dt, "dt")
+        self._acquire()
+        try:
+            result = None
+            if self._native is not None or (not self._native_checked and self.native):
+                fused = self._fused
+                result = self._solve_native(state, dt, fused)
+                if fused and result is not None:  # the state has moved
+                    return result
+            if result is None:
+                result = self._solve_python(state, dt)
+            dq = result.dq
+            state.update(
+                _integrate(self.robot.model, state._q, dq),
+                dq / dt if state._has_velocity else None,
+                validate=False,
+            )
+            return result
+        finally:
+            self._release()
+
     def _solve_python(self, state: State, dt: float) -> IKStepResult:
         """:meth:`solve` by the Python path (the caller holds the lock)."""
         t0 = time.perf_counter()
@@ -343,14 +413,15 @@ class DifferentialIK:
             result.success, status, dq, None, result, culprits, t1 - t0, t2 - t1, dt=dt
         )
 
-    def _solve_native(self, state: State, dt: float) -> IKStepResult | None:
+    def _solve_native(self, state: State, dt: float, move: bool = False) -> IKStepResult | None:
+        """The kernel's step (``move``: and the state moved, see :meth:`advance`)."""
         if state._robot is not self.robot:  # the slot: cheaper than the read-only property
             self.tasks[0].feature._check_state(state)
         native = self._native
         assert native is not None
         t0 = _perf_counter()
         dq = _empty(self._nv)
-        out = native.solve(state, dt, self.options.damping, dq)
+        out = native.solve(state, dt, self._damping, dq, move)
         if out is None:
             return None
         status, iterations, objective, build_time, qp_time = out
@@ -366,10 +437,10 @@ class DifferentialIK:
         qp: QPResult | tuple[Any, ...] = fields  # made on first access of result.qp
         if native.has_rows:  # the kernel's own KKT residuals (the step is accepted on them)
             qp = (*fields, [], {}, native.kernel.residuals())  # made on first access
-        elif self.options.native_residuals:
+        elif self._native_residuals:  # (never with move: advance does not fuse then)
             qp = QPResult(*fields)
             qp.kkt = box_kkt_residuals(self._build(state, dt), dq)
-        return IKStepResult(True, IKStatus.SOLVED, dq, None, qp, None, build_time, qp_time, dt=dt)
+        return IKStepResult(True, _IK_SOLVED, dq, None, qp, None, build_time, qp_time, dt=dt)
 
     def _culprits(self, problem: QPProblem, result: QPResult, state: State, dt: float) -> list[str]:
         """Constraints violated by the least-violating step, each box against its own bounds."""

@@ -38,11 +38,15 @@ class State:
     Invariants (by construction): ``q``, ``v``, ``robot`` and ``data`` are read-only;
     ``collision_data`` accepts only a data of the robot's collision model. ``q`` and ``v``
     are private copies whose buffers cannot be made writable again, so the kinematics always
-    belong to the ``q`` and ``v`` the state reports: the only way to change them is
-    :meth:`update`, which recomputes everything. ``data`` is the ``pin.Data`` of
-    ``robot.model`` made by this state; it cannot be replaced (a ``Data`` of another model
-    would make Pinocchio and the compiled kernels write out of bounds). The collision data
-    follow the robot's obstacle world by its :attr:`~taskspace.model.World.version`.
+    belong to the ``q`` and ``v`` the state reports: the only ways to change them are
+    :meth:`update`, which recomputes everything, and
+    :meth:`DifferentialIK.advance <taskspace.ik.DifferentialIK.advance>`, whose compiled
+    kernel writes the kinematics of the new configuration into ``data`` exactly as
+    :meth:`update` would and then records it (``_adopt``, the one place both go through).
+    ``data`` is the ``pin.Data`` of ``robot.model`` made by this state; it cannot be
+    replaced (a ``Data`` of another model would make Pinocchio and the compiled kernels write
+    out of bounds). The collision data follow the robot's obstacle world by its
+    :attr:`~taskspace.model.World.version`.
 
     Thread safety: a state is a workspace and is not thread-safe; use one state per thread
     (reading the same state from several threads without updating it is safe).
@@ -156,24 +160,36 @@ class State:
                 v = np.array(v, dtype=float)
         data = self._data
         model = self._model
-        # ``q`` and ``v`` are private copies (check_configuration/check_velocity and
-        # np.array copy). They are made read-only for good: the buffer is locked and only a
-        # view of it is kept; numpy refuses to make a view of a locked buffer writable.
-        q.setflags(write=False)
-        q = q.view()
         if v is None:
-            self._has_velocity = False
-            v = self._a0
             _compute_joint_jacobians(model, data, q)
         else:
-            self._has_velocity = True
-            v.setflags(write=False)
-            v = v.view()
             _forward_kinematics(model, data, q, v, self._a0)
             _compute_joint_jacobians(model, data)
         _update_frame_placements(model, data)
-        self._q = q
-        self._v = v
+        self._adopt(q, v)
+
+    def _adopt(self, q: FloatArray, v: FloatArray | None) -> None:
+        """Make ``q`` and ``v`` the state's, the kinematics of ``data`` being already theirs.
+
+        The one place that records a new configuration: :meth:`update` calls it after
+        Pinocchio, and a compiled kernel that has just written the kinematics of ``q`` (and
+        ``v``) into this state's data (``DifferentialIK.advance``) calls it after its call.
+        Everything derived from the previous kinematics (cached Jacobians, center of mass,
+        collision distances) is marked stale here.
+
+        ``q`` and ``v`` must be private copies (nobody else holds them): they are made
+        read-only for good (the buffer is locked and only a view of it is kept; numpy refuses
+        to make a view of a locked buffer writable). ``v`` None: no velocity (zero).
+        """
+        q.setflags(write=False)
+        self._q = q.view()
+        if v is None:
+            self._has_velocity = False
+            self._v = self._a0
+        else:
+            self._has_velocity = True
+            v.setflags(write=False)
+            self._v = v.view()
         if self._cache_lwa:
             self._cache_lwa.clear()
         if self._cache_local:
