@@ -482,9 +482,12 @@ def cmd_info(args: argparse.Namespace) -> int:
 
     rows = [(name, version(dist)) for name, dist in INFO_PACKAGES]
     kernels = [
-        ("IK kernel (weighted differential IK)", _native.ik_kernel()),
+        ("IK kernel (weighted and hierarchical differential IK)", _native.ik_kernel()),
         ("inverse-dynamics kernel (weighted ID-QP step)", _native.idqp_kernel()),
-        ("planning kernel (RRT-Connect, collision check)", _native.planning_kernel()),
+        (
+            "planning kernel (RRT-Connect, collision check, curves, grasp epsilon)",
+            _native.planning_kernel(),
+        ),
     ]
     width = max(len(n) for n, _ in [*rows, *kernels])
     for name, value in rows:
