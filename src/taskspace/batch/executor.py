@@ -24,7 +24,7 @@ from tqdm import tqdm
 
 from taskspace.batch.chunk import Chunk, make_chunks
 from taskspace.batch.processes import ProcessPool, run_processes
-from taskspace.batch.ray_backend import run_ray
+from taskspace.batch.ray_backend import RayPool, run_ray
 from taskspace.batch.records import BatchError, BatchResult, ResultsFile, TaskRecord, roundtrip
 from taskspace.batch.serial import run_serial
 from taskspace.batch.worker import TaskFunction, run_chunk, worker_context
@@ -128,11 +128,13 @@ class Executor:
         self.options = options or BatchOptions()
         self.workers = self.options.workers or os.cpu_count() or 1
         self._pool = ProcessPool(self.workers, self.options.start_method)
+        self._actors = RayPool(self.options.workers, self.options.ray_address)
         self.last_chunk_size = 0
 
     def close(self) -> None:
-        """Stop the worker processes kept between runs (the processes backend)."""
+        """Stop the workers kept between runs (processes, or the Ray backend's actors)."""
         self._pool.discard()
+        self._actors.discard()
 
     def __enter__(self) -> Executor:
         return self
@@ -141,9 +143,10 @@ class Executor:
         self.close()
 
     def __del__(self) -> None:
-        pool = getattr(self, "_pool", None)
-        if pool is not None:
-            pool.discard()
+        for name in ("_pool", "_actors"):
+            pool = getattr(self, name, None)
+            if pool is not None:
+                pool.discard()
 
     def as_completed(
         self,
@@ -208,6 +211,8 @@ class Executor:
             if not todo:
                 return
             key = _context_key(context)
+            if opts.backend == "ray":  # the actors start and build the context during the probe
+                self._actors.start(fn, key, context, opts.seed)
             probe: list[TaskRecord] = []
             chunk_size = opts.chunk_size
             if opts.backend == "serial":
@@ -254,7 +259,7 @@ class Executor:
             return run_serial(*args)
         if opts.backend == "processes":
             return run_processes(*args, pools=self._pool)
-        return run_ray(*args, address=opts.ray_address)
+        return run_ray(*args, pool=self._actors)
 
     @staticmethod
     def _finish(
