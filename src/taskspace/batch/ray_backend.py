@@ -208,6 +208,11 @@ def run_ray(
                     records = ray.get(ref)
                 except ray.exceptions.RayError as exc:
                     if isinstance(exc, ray.exceptions.RayActorError):
+                        if exc.actor_init_failed:  # not a task's fault: no worker can start
+                            raise BatchError(
+                                "the Ray workers could not start (is taskspace importable "
+                                f"on every node, with the driver's version?): {exc}"
+                            ) from exc
                         pool.replace(index)
                     chunk.crashes += 1
                     if chunk.crashes <= retries:
