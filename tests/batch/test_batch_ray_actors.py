@@ -86,3 +86,14 @@ def test_interrupted_ray_run_stops_its_actors(local_ray: None) -> None:
     ex.close()
     serial = Executor(BatchOptions(backend="serial", progress=False)).map(T.noisy, range(6))
     assert again == serial.values
+
+
+def test_ray_executor_outlives_a_ray_restart(local_ray: None) -> None:
+    serial = Executor(BatchOptions(backend="serial", progress=False)).map(T.noisy, range(6))
+    with Executor(_ray(chunk_size=2)) as ex:
+        assert ex.map(T.noisy, range(6)).values == serial.values
+        context = ray.get_runtime_context()
+        env = context.runtime_env
+        ray.shutdown()  # the executor's actors went with it
+        ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False, runtime_env=env)
+        assert ex.map(T.noisy, range(6)).values == serial.values  # new actors

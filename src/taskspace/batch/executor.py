@@ -52,8 +52,9 @@ class BatchOptions:
     Attributes:
         backend: ``"serial"`` (this process), ``"processes"`` (local worker processes) or
             ``"ray"`` (a Ray runtime: local, or a cluster through ``ray_address``).
-        workers: worker processes (None: every core of this machine; for Ray, the CPUs of
-            the local runtime it starts).
+        workers: worker processes (None: every core of this machine); for Ray, the actors
+            (at most, and with None all of, the cluster's CPUs) and the CPUs of the local
+            runtime it starts.
         chunk_size: tasks sent to a worker at once (None: chosen so that a chunk takes at
             least ``min_chunk_seconds``, from the time of the first task).
         min_chunk_seconds: the shortest chunk worth sending [s]. Ray's documentation puts the

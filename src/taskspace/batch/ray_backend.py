@@ -118,6 +118,7 @@ class RayPool:
     address: str | None = None
     actors: list[Any] = field(default_factory=list)
     _run: tuple[Any, ...] | None = None
+    _job: str | None = None
 
     def start(
         self, fn: TaskFunction, key: str, factory: Callable[[], Any] | None, seed: int
@@ -128,6 +129,12 @@ class RayPool:
         build the context meanwhile.
         """
         ray = connect(self.address, self.workers or os.cpu_count() or 1)
+        # The actors belong to this driver's connection: after ray.shutdown() they are gone.
+        context = ray.get_runtime_context()
+        job = f"{context.gcs_address}/{context.get_node_id()}/{context.get_job_id()}"
+        if self.actors and job != self._job:
+            self.actors = []
+        self._job = job
         if not self.actors:
             cpus = int(ray.cluster_resources().get("CPU", 1))
             cls = _actor_class(ray)
