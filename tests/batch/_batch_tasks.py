@@ -96,3 +96,9 @@ def millisecond(item: Any, rng: np.random.Generator, context: Any) -> int:
     """A task of about 1 ms."""
     time.sleep(0.001)
     return int(item)
+
+
+def slow_pid(item: Any, rng: np.random.Generator, context: Any) -> int:
+    """The worker's process id, after 50 ms."""
+    time.sleep(0.05)
+    return os.getpid()

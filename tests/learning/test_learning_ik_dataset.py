@@ -6,7 +6,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from taskspace.batch import BatchOptions
+from taskspace.batch import BatchOptions, Executor
 from taskspace.errors import InvalidInputError, ShapeError, UnknownNameError
 from taskspace.learning.ik_dataset import IKDatasetOptions, ik_dataset, sample_reachable_poses
 from taskspace.model import Robot
@@ -49,3 +49,24 @@ def test_ik_dataset_bad_input() -> None:
         ik_dataset("panda", np.full((1, 4, 4), np.nan))
     with pytest.raises(UnknownNameError, match="valid frames are"):
         ik_dataset("panda", np.eye(4)[None], options=IKDatasetOptions(frame="hnd"))
+
+
+def test_ik_dataset_reuses_a_given_executor() -> None:
+    robot = Robot.load("panda")
+    poses = sample_reachable_poses(robot, 6, np.random.default_rng(8))
+    serial = ik_dataset("panda", poses, batch=BatchOptions(backend="serial", progress=False))
+    with Executor(BatchOptions(backend="processes", workers=2, progress=False)) as ex:
+        first = ik_dataset("panda", poses[:3], executor=ex)
+        second = ik_dataset("panda", poses, executor=ex)
+        assert ex._pool._pool is not None  # not closed by ik_dataset: still there to reuse
+    assert np.array_equal(first.q, serial.q[:3])
+    assert np.array_equal(second.q, serial.q) and np.array_equal(second.success, serial.success)
+    # Independent check with Pinocchio: the successes reach their poses.
+    data = robot.model.createData()
+    fid = robot.model.getFrameId(serial.frame)
+    for pose, q, ok in zip(poses, second.q, second.success):
+        if ok:
+            pin.framesForwardKinematics(robot.model, data, q)
+            assert np.linalg.norm(data.oMf[fid].translation - pose[:3, 3]) < 1e-5
+    with pytest.raises(InvalidInputError, match="not both"):
+        ik_dataset("panda", poses, batch=BatchOptions(progress=False), executor=ex)

@@ -1,12 +1,18 @@
-"""The Ray backend: the same chunks as Ray tasks, on a local Ray runtime or a cluster.
+"""The Ray backend: the same chunks on a pool of Ray actors, on a local runtime or a cluster.
 
 ``address=None`` starts a local runtime with ``workers`` CPUs (``ray.init(num_cpus=...)``);
 ``"auto"`` joins the cluster that ``ray start --head`` started on this machine (with several
 clusters running Ray picks one: pass its ``"HOST:PORT"`` to be sure), and
 ``"ray://host:10001"`` a remote one; with no address, Ray's own ``RAY_ADDRESS`` environment
-variable is honoured. Ray re-runs a task whose worker died (``max_retries``);
-a chunk that still fails is split into single tasks, and a single task that keeps killing its
-worker is reported as failed with its input.
+variable is honoured.
+
+The workers are actors (one CPU each, as many as the executor's workers and at most the
+cluster's CPUs), kept by the executor between runs like a process pool: each one imports the
+task's modules and builds the context (a robot, a scene) once, and a call to an actor goes
+straight to its process instead of through Ray's task scheduler. Each actor runs one chunk at a
+time, so the death of an actor is the fault of the chunk it ran: the actor is replaced, the
+chunk run again up to ``retries`` times, then split into single tasks, and a single task that
+keeps killing its worker is reported as failed with its input.
 """
 
 from __future__ import annotations
@@ -16,11 +22,12 @@ import re
 import sys
 from collections import deque
 from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
 from typing import Any
 
 from taskspace.batch.chunk import Chunk
 from taskspace.batch.records import BatchError, TaskRecord
-from taskspace.batch.worker import TaskFunction, run_chunk
+from taskspace.batch.worker import TaskFunction, run_chunk, worker_context
 
 
 def _ray() -> Any:
@@ -102,6 +109,111 @@ def connect(address: str | None, workers: int) -> Any:
     return ray
 
 
+class RayWorker:
+    """One worker of the pool: runs chunks of the run set up last (see :class:`RayPool`)."""
+
+    def __init__(self) -> None:
+        self._run: tuple[Any, str, Any, int] | None = None
+
+    def setup(
+        self, fn: TaskFunction, key: str, factory: Callable[[], Any] | None, seed: int
+    ) -> int:
+        """Keep the run's task function and seed; build its context now (errors: at the run)."""
+        self._run = (fn, key, factory, seed)
+        try:
+            worker_context(key, factory)
+        except Exception:  # run_chunk reports it on each task
+            pass
+        return os.getpid()
+
+    def run(self, tasks: list[tuple[int, Any]]) -> list[TaskRecord]:
+        """The records of one chunk of the run set up last."""
+        if self._run is None:  # pragma: no cover - the pool always sets up first
+            raise BatchError("RayWorker.run before setup")
+        fn, key, factory, seed = self._run
+        return run_chunk(fn, key, factory, tasks, seed)
+
+
+_ACTOR_CLASS: list[Any] = []
+
+
+def _actor_class(ray: Any) -> Any:
+    if not _ACTOR_CLASS:
+        # max_restarts=0: the pool replaces a dead actor itself, knowing which chunk it ran.
+        _ACTOR_CLASS.append(ray.remote(num_cpus=1, max_restarts=0)(RayWorker))
+    return _ACTOR_CLASS[0]
+
+
+@dataclass
+class RayPool:
+    """Actors kept between the runs of an executor; :meth:`discard` kills them.
+
+    Attributes:
+        workers: actors wanted (None: one per CPU of the Ray cluster, which is also the most).
+        address: where Ray runs (see :func:`connect`).
+    """
+
+    workers: int | None
+    address: str | None = None
+    actors: list[Any] = field(default_factory=list)
+    _run: tuple[Any, ...] | None = None
+    _job: str | None = None
+
+    def start(
+        self, fn: TaskFunction, key: str, factory: Callable[[], Any] | None, seed: int
+    ) -> list[Any]:
+        """The actors, started if needed and set up for a run (asynchronously: no waiting).
+
+        Called before the driver times its probe tasks, so that the actors start, import and
+        build the context meanwhile.
+        """
+        ray = connect(self.address, self.workers or os.cpu_count() or 1)
+        # The actors belong to this driver's connection: after ray.shutdown() they are gone.
+        context = ray.get_runtime_context()
+        job = f"{context.gcs_address}/{context.get_node_id()}/{context.get_job_id()}"
+        if self.actors and job != self._job:
+            self.actors = []
+        self._job = job
+        if not self.actors:
+            cpus = int(ray.cluster_resources().get("CPU", 1))
+            cls = _actor_class(ray)
+            self.actors = [cls.remote() for _ in range(max(1, min(self.workers or cpus, cpus)))]
+        # Each actor runs its calls in order: the set-up comes before the run's chunks. The
+        # context is kept by key (worker_context), so a later run of the same one reuses it.
+        self._run = (ray.put(fn), key, ray.put(factory), seed)
+        for actor in self.actors:
+            actor.setup.remote(*self._run)
+        return self.actors
+
+    def replace(self, index: int) -> Any:
+        """A new actor, set up for the current run, in place of actor ``index`` (dead)."""
+        ray = _ray()
+        try:
+            ray.kill(self.actors[index], no_restart=True)
+        except Exception:  # already gone
+            pass
+        actor = _actor_class(ray).remote()
+        if self._run is not None:
+            actor.setup.remote(*self._run)
+        self.actors[index] = actor
+        return actor
+
+    def discard(self) -> None:
+        """Kill the actors (the next run starts new ones)."""
+        actors, self.actors, self._run = self.actors, [], None
+        if not actors:
+            return
+        try:
+            import ray
+
+            if not ray.is_initialized():
+                return
+            for actor in actors:
+                ray.kill(actor, no_restart=True)
+        except Exception:  # Ray already shut down: its actors went with it
+            pass
+
+
 def run_ray(
     fn: TaskFunction,
     key: str,
@@ -110,34 +222,55 @@ def run_ray(
     seed: int,
     workers: int,
     retries: int,
-    address: str | None = None,
+    pool: RayPool,
 ) -> Iterator[list[TaskRecord]]:
-    """Yield each chunk's records as it finishes, in completion order."""
-    ray = connect(address, workers)
-    remote = ray.remote(max_retries=retries, retry_exceptions=False)(run_chunk)
-    fn_ref, factory_ref = ray.put(fn), ray.put(factory)
+    """Yield each chunk's records as it finishes, in completion order.
+
+    ``pool`` was started for this run (:meth:`RayPool.start`). The driver blocks in
+    ``ray.wait`` (no polling) and collects every chunk finished by then; an interruption
+    (Ctrl-C, or the caller closing the generator) kills the actors.
+    """
+    del fn, key, factory, seed, workers  # set up on the pool's actors by pool.start
+    ray = _ray()
     queue: deque[Chunk] = deque(chunks)
-    in_flight: dict[Any, Chunk] = {}
-    limit = 2 * max(1, int(ray.available_resources().get("CPU", workers)))
+    idle = deque(range(len(pool.actors)))
+    in_flight: dict[Any, tuple[int, Chunk]] = {}
+    finished = False
     try:
         while queue or in_flight:
-            while queue and len(in_flight) < limit:
+            while queue and idle:
+                index = idle.popleft()
                 chunk = queue.popleft()
                 chunk.attempts += 1
-                in_flight[remote.remote(fn_ref, key, factory_ref, chunk.tasks, seed)] = chunk
-            done, _ = ray.wait(list(in_flight), num_returns=1)
+                in_flight[pool.actors[index].run.remote(chunk.tasks)] = (index, chunk)
+            refs = list(in_flight)
+            done, rest = ray.wait(refs, num_returns=1)
+            if rest:  # whatever else finished meanwhile, without waiting
+                more, _ = ray.wait(rest, num_returns=len(rest), timeout=0)
+                done += more
             for ref in done:
-                chunk = in_flight.pop(ref)
+                index, chunk = in_flight.pop(ref)
                 try:
                     records = ray.get(ref)
                 except ray.exceptions.RayError as exc:
+                    if isinstance(exc, ray.exceptions.RayActorError):
+                        if exc.actor_init_failed:  # not a task's fault: no worker can start
+                            raise BatchError(
+                                "the Ray workers could not start (is taskspace importable "
+                                f"on every node, with the driver's version?): {_reason(exc)}"
+                            ) from exc
+                        pool.replace(index)
                     chunk.crashes += 1
-                    if len(chunk.tasks) > 1:
+                    if chunk.crashes <= retries:
+                        queue.appendleft(chunk)
+                    elif len(chunk.tasks) > 1:
                         queue.extendleft(reversed(chunk.split()))
                     else:
                         yield chunk.died(_reason(exc))
-                    continue
-                yield chunk.stamp(records)
+                else:
+                    yield chunk.stamp(records)
+                idle.append(index)
+        finished = True
     finally:
-        for ref in in_flight:
-            ray.cancel(ref, force=True)
+        if not finished:
+            pool.discard()

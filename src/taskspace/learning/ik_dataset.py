@@ -138,6 +138,7 @@ def ik_dataset(
     *,
     options: IKDatasetOptions | None = None,
     batch: BatchOptions | None = None,
+    executor: Executor | None = None,
     results_file: str | os.PathLike[str] | None = None,
 ) -> IKDataset:
     """Solve IK for every pose, in parallel through :class:`taskspace.batch.Executor`.
@@ -146,12 +147,22 @@ def ik_dataset(
         robot: the robot's name (as for ``Robot.load``; each worker loads it once).
         poses: homogeneous transforms ``(N, 4, 4)`` of the frame in the world [m].
         options: IK settings.
-        batch: the executor's settings (backend, workers, seed).
+        batch: the settings (backend, workers, seed) of an executor made for this call and
+            closed after it.
+        executor: an executor to use instead (not closed): its worker processes or actors,
+            started and holding the robot after a first call, serve the next ones at once.
         results_file: a JSON Lines file that makes an interrupted run resumable.
 
     Returns:
         The dataset; ``success`` says which poses were reached.
+
+    Raises:
+        InvalidInputError: if both ``batch`` and ``executor`` are given.
     """
+    if batch is not None and executor is not None:
+        raise InvalidInputError(
+            "pass batch (the options of a new executor) or executor (one to reuse), not both"
+        )
     opts = options or IKDatasetOptions()
     arr = as_float_array(poses, "poses")
     if arr.ndim != 3 or arr.shape[1:] != (4, 4):
@@ -161,13 +172,19 @@ def ik_dataset(
     loaded = Robot.load(robot)
     frame = _frame(loaded, opts.frame)
     items = [p.tolist() for p in arr]
-    result = Executor(batch).map(
-        _solve_pose,
-        items,
-        context=functools.partial(_context, robot, frame, opts),
-        results_file=results_file,
-        description=f"IK {robot}",
-    )
+    owned = executor is None
+    runner = Executor(batch) if executor is None else executor
+    try:
+        result = runner.map(
+            _solve_pose,
+            items,
+            context=functools.partial(_context, robot, frame, opts),
+            results_file=results_file,
+            description=f"IK {robot}",
+        )
+    finally:
+        if owned:
+            runner.close()
     nq = loaded.model.nq
     q = np.full((len(items), nq), np.nan)
     success = np.zeros(len(items), dtype=bool)
