@@ -90,14 +90,16 @@ def test_ray_cluster_by_address(monkeypatch: pytest.MonkeyPatch) -> None:
     Ray cluster on the machine is touched (``ray stop`` would stop them all); it gets a free
     port, as another cluster may hold Ray's default one. Ray turns token authentication on for
     a ``ray start`` when a token file exists but never for a driver given an explicit address:
-    the test cluster runs without it, on both sides.
+    both sides get the same ``RAY_AUTH_MODE``.
     """
     ray_cli = shutil.which("ray", path=str(Path(sys.executable).parent))
     if ray_cli is None:
         pytest.skip("the ray command is not installed next to this Python")
     if ray.is_initialized():
         ray.shutdown()
-    monkeypatch.setenv("RAY_AUTH_MODE", "disabled")
+    # Keep this process's mode (a local ray.init above set "token"): actors created after a
+    # reconnection with another mode die at once (Ray 2.60).
+    monkeypatch.setenv("RAY_AUTH_MODE", os.environ.get("RAY_AUTH_MODE", "disabled"))
     env = {**os.environ, "RAY_USAGE_STATS_ENABLED": "0", "PYTHONPATH": _pythonpath()}
     temp_dir = tempfile.mkdtemp(prefix="ray", dir="/tmp")  # Ray's socket paths must be short
     address_file = Path(temp_dir) / "ray_current_cluster"
