@@ -29,9 +29,9 @@ from taskspace.constraints.constraint import Constraint
 from taskspace.constraints.feature_bounds import FeatureBounds
 from taskspace.errors import InvalidInputError
 from taskspace.features.compiled import IK_KINDS, CompiledTerm, compiled_term
+from taskspace.ik._native_stack import split_boxes
 from taskspace.model.robot import Robot
 from taskspace.model.state import State
-from taskspace.model.versioning import ModelFollower
 from taskspace.qp.hierarchy import HierarchyResult
 from taskspace.qp.kkt import KKTResiduals
 from taskspace.qp.result import QPResult, QPStatus
@@ -69,10 +69,6 @@ def supported(levels: Sequence[Sequence[Task]]) -> bool:
         for tasks in levels
         for t in tasks
     )
-
-
-def _has_bounds(c: Constraint) -> bool:
-    return type(c).bounds is not Constraint.bounds
 
 
 _BOUND_KINDS = {"com": 2, "position": 1}  # the kernel's term kinds
@@ -230,17 +226,12 @@ class NativeHierarchy:
         self._n_full = len(full)
         self._keys: list[tuple[Any, Any]] = []
         self.kernel = kernel
-        boxes = [c for c in constraints if _has_bounds(c)]
-        position = next((c for c in boxes if "kernel_arguments" in type(c).__dict__), None)
-        self._position = position
-        self._position_limits: ModelFollower | None = None
-        if position is not None:
-            self._position_limits = ModelFollower(
-                robot, "compiled hierarchical IK position limits", self._send_position_limits
-            )
-            boxes.remove(position)
-        self._hard = [c for c in boxes if c.hard_bounds]
-        self._soft = [c for c in boxes if not c.hard_bounds]
+        self._position, self._position_limits, self._hard, self._soft = split_boxes(
+            robot,
+            constraints,
+            "compiled hierarchical IK position limits",
+            self._send_position_limits,
+        )
         self._out = np.zeros(robot.nv)
         self._steps = np.zeros(len(levels) * robot.nv)
         self._n_levels = len(levels)
@@ -252,8 +243,8 @@ class NativeHierarchy:
     def _bound_key(c: FeatureBounds) -> tuple[bytes, bytes, float]:
         return (c.lower.tobytes(), c.upper.tobytes(), c.gain)
 
-    def _send_position_limits(self) -> None:
-        self.kernel.set_position_limits(*self._position.kernel_arguments())  # type: ignore[union-attr]
+    def _send_position_limits(self, position: Any) -> None:
+        self.kernel.set_position_limits(*position.kernel_arguments())
 
     def _scale(self) -> None:
         """Send the rows' weights and gains to the kernel (the weighted kernel's layout)."""

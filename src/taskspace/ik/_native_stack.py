@@ -128,20 +128,9 @@ class NativeWeightedStack:
         self._keys: list[tuple[Any, float]] = []
         self._assignments = -1  # tasks.ASSIGNMENTS when the tasks were last read
         self._lm_damping = False
-        boxes = [c for c in constraints if _has_bounds(c)]
-        # the first joint-position box is evaluated by the kernel from q (the others here)
-        # (a class that declares ``kernel_arguments`` itself: a subclass may change the box)
-        position = next((c for c in boxes if "kernel_arguments" in type(c).__dict__), None)
-        self._position = position
-        self._position_limits: ModelFollower | None = None
-        if position is not None:
-            # the kernel keeps a copy of the limits: sent again after Robot.set_limits
-            self._position_limits = ModelFollower(
-                robot, "compiled IK position limits", self._send_position_limits
-            )
-            boxes.remove(position)
-        self._hard = [c for c in boxes if c.hard_bounds]
-        self._soft = [c for c in boxes if not c.hard_bounds]
+        self._position, self._position_limits, self._hard, self._soft = split_boxes(
+            robot, constraints, "compiled IK position limits", self._send_position_limits
+        )
         self.nv = robot.nv
         # constraints with inequality rows the kernel evaluates (declared, sent again when
         # their declaration or the obstacle world changes)
@@ -187,8 +176,8 @@ class NativeWeightedStack:
         ):
             self._scale()
 
-    def _send_position_limits(self) -> None:
-        self.kernel.set_position_limits(*self._position.kernel_arguments())  # type: ignore[union-attr]
+    def _send_position_limits(self, position: Any) -> None:
+        self.kernel.set_position_limits(*position.kernel_arguments())
 
     def _scale(self) -> None:
         """Send the rows' weights and gains to the kernel (when a task's were reassigned)."""
@@ -245,6 +234,8 @@ class NativeWeightedStack:
         if self._rows:  # collision rows: their declarations (the solve adds the geometry)
             self._sync_rows()
         hard, soft = self._hard, self._soft
+        hard_boxes = [b for c in hard if (b := c.bounds(state, dt)) is not None] if hard else []
+        soft_boxes = [b for c in soft if (b := c.bounds(state, dt)) is not None] if soft else []
         try:
             if move:
                 q_next = _empty(self._nq)
@@ -256,8 +247,8 @@ class NativeWeightedStack:
                     state._data,  # made by the state for ``state._model``, cannot be replaced
                     state._q,
                     targets,
-                    [b for c in hard if (b := c.bounds(state, dt)) is not None] if hard else [],
-                    [b for c in soft if (b := c.bounds(state, dt)) is not None] if soft else [],
+                    hard_boxes,
+                    soft_boxes,
                     damping,
                     out,
                     MAX_ACTIVE_SET_ITERATIONS,
@@ -275,8 +266,8 @@ class NativeWeightedStack:
                     state._data,  # made by the state for ``state._model``, cannot be replaced
                     state._q,
                     targets,
-                    [b for c in hard if (b := c.bounds(state, dt)) is not None] if hard else [],
-                    [b for c in soft if (b := c.bounds(state, dt)) is not None] if soft else [],
+                    hard_boxes,
+                    soft_boxes,
                     damping,
                     out,
                     MAX_ACTIVE_SET_ITERATIONS,
@@ -349,3 +340,27 @@ class NativeWeightedStack:
 
 def _has_bounds(c: Constraint) -> bool:
     return type(c).bounds is not Constraint.bounds
+
+
+def split_boxes(
+    robot: Robot, constraints: Sequence[Constraint], what: str, send: Callable[[Any], None]
+) -> tuple[Constraint | None, ModelFollower | None, list[Constraint], list[Constraint]]:
+    """The constraints with a box, for a compiled kernel: ``(position, follower, hard, soft)``.
+
+    The first joint-position box is evaluated by the kernel from q (a class that declares
+    ``kernel_arguments`` itself: a subclass may change the box); the kernel keeps a copy of its
+    limits, which ``follower`` sends (``send(position)``) now and after ``Robot.set_limits``.
+    The other boxes are evaluated in Python, split into hard and soft ones.
+    """
+    boxes = [c for c in constraints if _has_bounds(c)]
+    position = next((c for c in boxes if "kernel_arguments" in type(c).__dict__), None)
+    follower: ModelFollower | None = None
+    if position is not None:
+        follower = ModelFollower(robot, what, lambda: send(position))
+        boxes.remove(position)
+    return (
+        position,
+        follower,
+        [c for c in boxes if c.hard_bounds],
+        [c for c in boxes if not c.hard_bounds],
+    )
