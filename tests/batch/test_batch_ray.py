@@ -9,7 +9,6 @@ import subprocess
 import sys
 import tempfile
 import time
-from collections.abc import Iterator
 from pathlib import Path
 
 import _batch_tasks as T
@@ -25,21 +24,6 @@ HERE = Path(__file__).resolve().parent
 
 def _pythonpath() -> str:
     return f"{HERE}{os.pathsep}{os.environ.get('PYTHONPATH', '')}"
-
-
-@pytest.fixture(scope="module")
-def local_ray() -> Iterator[None]:
-    # Workers import the task module by name: give them this folder on their path.
-    ray.init(
-        num_cpus=2,
-        include_dashboard=False,
-        log_to_driver=False,
-        runtime_env={
-            "env_vars": {"PYTHONPATH": f"{HERE}{os.pathsep}{os.environ.get('PYTHONPATH', '')}"}
-        },
-    )
-    yield
-    ray.shutdown()
 
 
 def _ray(**kw: object) -> BatchOptions:

@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import os
 import time
-from collections.abc import Iterator
-from pathlib import Path
 
 import _batch_tasks as T
 import numpy as np
@@ -16,23 +14,6 @@ from taskspace.batch import BatchOptions, Executor
 ray = pytest.importorskip("ray")
 pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("ray")]
 os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
-HERE = Path(__file__).resolve().parent
-
-
-@pytest.fixture(scope="module")
-def local_ray() -> Iterator[None]:
-    if ray.is_initialized():
-        ray.shutdown()
-    ray.init(
-        num_cpus=2,
-        include_dashboard=False,
-        log_to_driver=False,
-        runtime_env={
-            "env_vars": {"PYTHONPATH": f"{HERE}{os.pathsep}{os.environ.get('PYTHONPATH', '')}"}
-        },
-    )
-    yield
-    ray.shutdown()
 
 
 def _alive(pid: int) -> bool:
