@@ -34,12 +34,6 @@
 // contact's best row), so its vertices, whose number is the product of the contacts', are
 // never enumerated.
 //
-// Speed (2026-11-27, the shared 2-core machine, CPU time, 2,000 random grasps on a 5 cm
-// sphere, mu 0.6, 8-edge cones): 5 contacts ~10,900 grasps/s (18 points of S, 510 facets made
-// per grasp), 3 contacts ~48,000/s. Tried without gain: inserting the 12 axis supports first
-// (slower: 609 facets), other initial simplices, a smaller hash table, -fno-math-errno; the
-// QR plane of every new facet (before the rotation formula of rotated()) cost 2.6x.
-//
 // W: float64 (B, K, 6). status: 1 certified hull value, 2 zero (a separating direction or the
 // support bound), <= 0 not certified (the reasons: the k* constants below). corrupt (tests
 // only): 1 moves the nearest facet inwards by 1e-6, 2 unlinks one neighbour, before the

@@ -601,11 +601,8 @@ class CollisionKernel {
   // Bit o set when the sphere (c, sqrt(r2)) touches static box o (of ns, a multiple of
   // kBoxLanes): the box tests kBoxLanes at a time in vector operations (the same arithmetic
   // per box as one at a time: the distance per axis max(lo - c, c - hi, 0), then the squared
-  // distance compared with r2). Two lanes: one SSE2 register in the portable build. Measured
-  // (kernel.collisions_with on 2,000 configurations of 5 scenes, min of 25 rounds, alternating
-  // builds, loaded 2-core machine): spheres only 1.10-1.25 us per configuration against
-  // 1.31-1.46 us one box at a time; four lanes (GCC's generic lowering of 256-bit vectors
-  // without AVX) were slower than one (1.9-10 us).
+  // distance compared with r2). Two lanes: one SSE2 register in the portable build (the
+  // measurements, four lanes included, are in the commit that introduced them, 7d87f43).
   static constexpr int kBoxLanes = 2;
   typedef double BoxLanes __attribute__((vector_size(kBoxLanes * sizeof(double))));
   std::uint64_t link_box_mask(const coal::Vec3s& c, double r2, std::size_t ns) const {
