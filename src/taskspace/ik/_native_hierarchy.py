@@ -29,7 +29,7 @@ from taskspace.constraints.constraint import Constraint
 from taskspace.constraints.feature_bounds import FeatureBounds
 from taskspace.errors import InvalidInputError
 from taskspace.features.compiled import IK_KINDS, CompiledTerm, compiled_term
-from taskspace.ik._native_stack import split_boxes
+from taskspace.ik._native_stack import split_boxes, write_scaling
 from taskspace.model.robot import Robot
 from taskspace.model.state import State
 from taskspace.qp.hierarchy import HierarchyResult
@@ -257,16 +257,7 @@ class NativeHierarchy:
             if term.kind in _FULL_TANGENT and bounds_at is None:
                 bounds_at = k  # the bounds' rows: after the row tasks', weight 1, scale 1
                 k += 3 * len(self._bounds)
-            if term.kind in _FULL_TANGENT and term.rows is not None:
-                sel = k + np.asarray(term.rows, dtype=int)
-                w[sel] = t.sqrt_weight
-                c[sel] = -t.gain * np.asarray(t.sqrt_weight)
-                k += nv
-                continue
-            d = nv if term.kind in _FULL_TANGENT else t.dim
-            w[k : k + d] = t.sqrt_weight
-            c[k : k + d] = -t.gain * np.asarray(t.sqrt_weight)
-            k += d
+            k = write_scaling(w, c, k, t, term, nv)
         if bounds_at is None:
             bounds_at = k
         w[bounds_at : bounds_at + 3 * len(self._bounds)] = 1.0

@@ -187,16 +187,7 @@ class NativeWeightedStack:
         c = np.zeros_like(w)
         k = 0
         for t, term in zip(self.tasks, self._terms):
-            if term.kind in _FULL_TANGENT and term.rows is not None:
-                sel = k + np.asarray(term.rows, dtype=int)
-                w[sel] = t.sqrt_weight
-                c[sel] = -t.gain * np.asarray(t.sqrt_weight)
-                k += nv
-                continue
-            d = nv if term.kind in _FULL_TANGENT else t.dim
-            w[k : k + d] = t.sqrt_weight
-            c[k : k + d] = -t.gain * np.asarray(t.sqrt_weight)
-            k += d
+            k = write_scaling(w, c, k, t, term, nv)
         self.kernel.set_scaling(w, c)
         self._keys = keys
 
@@ -236,6 +227,17 @@ class NativeWeightedStack:
         hard, soft = self._hard, self._soft
         hard_boxes = [b for c in hard if (b := c.bounds(state, dt)) is not None] if hard else []
         soft_boxes = [b for c in soft if (b := c.bounds(state, dt)) is not None] if soft else []
+        args = (
+            model,
+            state._data,  # made by the state for ``state._model``, cannot be replaced
+            state._q,
+            targets,
+            hard_boxes,
+            soft_boxes,
+            damping,
+            out,
+            MAX_ACTIVE_SET_ITERATIONS,
+        )
         try:
             if move:
                 q_next = _empty(self._nq)
@@ -243,15 +245,7 @@ class NativeWeightedStack:
                 v_next = _empty(self.nv) if has_velocity else self._no_velocity
                 geometry = self._advance_geometry
                 status, iterations, objective, t_build, t_qp, _ = self._kernel_advance(
-                    model,
-                    state._data,  # made by the state for ``state._model``, cannot be replaced
-                    state._q,
-                    targets,
-                    hard_boxes,
-                    soft_boxes,
-                    damping,
-                    out,
-                    MAX_ACTIVE_SET_ITERATIONS,
+                    *args,
                     q_next,
                     v_next,
                     dt if has_velocity else 0.0,
@@ -261,17 +255,7 @@ class NativeWeightedStack:
                 if status != self._max_iterations:  # the data hold the kinematics of q_next
                     state._adopt(q_next, v_next if has_velocity else None)
             else:
-                status, iterations, objective, t_build, t_qp, _ = self._kernel_solve(
-                    model,
-                    state._data,  # made by the state for ``state._model``, cannot be replaced
-                    state._q,
-                    targets,
-                    hard_boxes,
-                    soft_boxes,
-                    damping,
-                    out,
-                    MAX_ACTIVE_SET_ITERATIONS,
-                )
+                status, iterations, objective, t_build, t_qp, _ = self._kernel_solve(*args)
         except (TypeError, ValueError, RuntimeError):
             for t in self.tasks:
                 t._require_target()  # a task without a target: raises, naming it
@@ -340,6 +324,25 @@ class NativeWeightedStack:
 
 def _has_bounds(c: Constraint) -> bool:
     return type(c).bounds is not Constraint.bounds
+
+
+def write_scaling(
+    w: np.ndarray, c: np.ndarray, k: int, task: Task, term: CompiledTerm, nv: int
+) -> int:
+    """Write a task's row weights ``sqrt_weight`` and gains ``-gain * sqrt_weight`` at row ``k``.
+
+    A full-tangent (posture) term takes ``nv`` rows, of which only its selected ``rows`` when
+    it has some; another term its task's ``dim`` rows. Returns the next row.
+    """
+    if term.kind in _FULL_TANGENT and term.rows is not None:
+        sel = k + np.asarray(term.rows, dtype=int)
+        w[sel] = task.sqrt_weight
+        c[sel] = -task.gain * np.asarray(task.sqrt_weight)
+        return k + nv
+    d = nv if term.kind in _FULL_TANGENT else task.dim
+    w[k : k + d] = task.sqrt_weight
+    c[k : k + d] = -task.gain * np.asarray(task.sqrt_weight)
+    return k + d
 
 
 def split_boxes(
