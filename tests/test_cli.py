@@ -128,7 +128,7 @@ def test_info_reports_versions_and_kernels(capsys, monkeypatch):
         if re.search(r"\S\s{2,}\S", line)
     )
     assert lines["pinocchio"] == pin.__version__
-    ik = lines["IK kernel (weighted differential IK)"]
+    ik = lines["IK kernel (weighted and hierarchical differential IK)"]
     assert ik == ("compiled, in use" if _native.ik_kernel() is not None else "not in use")
     idqp = lines["inverse-dynamics kernel (weighted ID-QP step)"]
     assert idqp == ("compiled, in use" if _native.idqp_kernel() is not None else "not in use")
