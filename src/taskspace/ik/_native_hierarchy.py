@@ -19,7 +19,7 @@ solves the level QPs, answers the step.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -29,7 +29,7 @@ from taskspace.constraints.constraint import Constraint
 from taskspace.constraints.feature_bounds import FeatureBounds
 from taskspace.errors import InvalidInputError
 from taskspace.features.compiled import IK_KINDS, CompiledTerm, compiled_term
-from taskspace.ik._native_stack import split_boxes, write_scaling
+from taskspace.ik._native_stack import _FULL_TANGENT, _REGISTER, split_boxes, write_scaling
 from taskspace.model.robot import Robot
 from taskspace.model.state import State
 from taskspace.qp.hierarchy import HierarchyResult
@@ -45,16 +45,6 @@ DECLINED = {
     3: "an inequality or a bound is violated at the closed-form point (level QPs)",
 }
 """Why the kernel declined a step (its status), recorded on the Python path's result."""
-
-_REGISTER: dict[str, Callable[[Any, Any, CompiledTerm], Any]] = {
-    "pose": lambda kernel, model, term: kernel.add_pose(model, term.frame_id),
-    "position": lambda kernel, model, term: kernel.add_position(model, term.frame_id),
-    "com": lambda kernel, model, term: kernel.add_com(),
-    "posture": lambda kernel, model, term: kernel.add_posture(
-        None if term.rows is None else list(term.rows)
-    ),
-}
-_FULL_TANGENT = frozenset({"posture"})
 
 
 def supported(levels: Sequence[Sequence[Task]]) -> bool:
