@@ -30,7 +30,7 @@ import numpy as np
 
 from taskspace._validation import FloatArray, as_scalar, as_vector, check_positive
 from taskspace.dynamics.pendulum import STANDARD_GRAVITY
-from taskspace.dynamics.simulation import MAX_RECORD_BYTES, available_memory_bytes
+from taskspace.dynamics.simulation import MAX_RECORD_BYTES, memory_budget
 from taskspace.errors import InvalidInputError, SolverError, TaskspaceError
 
 
@@ -214,8 +214,7 @@ def simulate_adaptive_pendulum(
     check_positive(model.damping_ratio, "ReferenceModel.damping_ratio")
     samples = duration / dt + 1.0
     needed = 8 * 12 * samples  # rows (5), times, torques, refs (3), lyapunov, error
-    available = available_memory_bytes()
-    budget = MAX_RECORD_BYTES if available is None else min(MAX_RECORD_BYTES, available // 2)
+    budget = memory_budget(MAX_RECORD_BYTES)
     if not needed <= budget:
         raise InvalidInputError(
             f"simulate_adaptive_pendulum(duration={duration:g}, dt={dt:g}) would record "

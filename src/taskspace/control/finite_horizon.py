@@ -21,7 +21,7 @@ import numpy as np
 
 from taskspace._validation import FloatArray, as_vector, check_count, check_positive
 from taskspace.control._linear import check_overflow, symmetric_psd, system
-from taskspace.dynamics.simulation import available_memory_bytes
+from taskspace.dynamics.simulation import memory_budget
 from taskspace.errors import InvalidInputError, SolverError
 
 MAX_TABLE_BYTES = 2 * 2**30
@@ -68,8 +68,7 @@ def _inputs(
 def _check_table(samples: int, n: int, m: int, name: str, what: str) -> None:
     """Refuse a table of ``samples`` (n x n) and (m x n) matrices larger than the budget."""
     needed = 8 * samples * n * (n + m)
-    available = available_memory_bytes()
-    budget = MAX_TABLE_BYTES if available is None else min(MAX_TABLE_BYTES, available // 2)
+    budget = memory_budget(MAX_TABLE_BYTES)
     if needed > budget:
         raise InvalidInputError(
             f"{name} = {samples - 1:,} {what} would store {needed / 1e9:.3g} GB of matrices but "

@@ -234,6 +234,12 @@ def available_memory_bytes() -> int | None:
     return available
 
 
+def memory_budget(cap: int) -> int:
+    """Bytes a table or record may take: ``cap``, or half the available memory when less."""
+    available = available_memory_bytes()
+    return cap if available is None else min(cap, available // 2)
+
+
 def check_record_size(
     n_steps: int, nq: int, nv: int, T: float, dt: float, *, name: str = "simulate", extra: int = 0
 ) -> None:
@@ -248,8 +254,7 @@ def check_record_size(
     """
     row = 8 * (nq + 3 * nv + 3 + extra)  # t, q, v, a, tau, kinetic and potential energy
     needed = (n_steps + 1) * row
-    available = available_memory_bytes()
-    budget = MAX_RECORD_BYTES if available is None else min(MAX_RECORD_BYTES, available // 2)
+    budget = memory_budget(MAX_RECORD_BYTES)
     if needed > budget:
         raise InvalidInputError(
             f"{name}(T={T:g}, dt={dt:g}) would record {n_steps + 1:,} samples "

@@ -26,7 +26,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from taskspace._validation import FloatArray, as_float_array, check_count, check_positive
-from taskspace.dynamics.simulation import available_memory_bytes
+from taskspace.dynamics.simulation import memory_budget
 from taskspace.errors import InvalidInputError, SolverError
 from taskspace.optimal_control.mdp import MDP
 
@@ -128,8 +128,7 @@ def finite_horizon_value_iteration(
     """
     horizon = check_count(horizon, "horizon", minimum=1)  # 2.5, NaN, "3" were bare errors
     needed = 16 * (horizon + 1) * max(1, mdp.num_states)  # V (float) and policy (intp)
-    available = available_memory_bytes()
-    budget = MAX_TABLE_BYTES if available is None else min(MAX_TABLE_BYTES, available // 2)
+    budget = memory_budget(MAX_TABLE_BYTES)
     if needed > budget:
         raise InvalidInputError(
             f"horizon = {horizon:,} would store {needed / 1e9:.3g} GB of values and policies but "
