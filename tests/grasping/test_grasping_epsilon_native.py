@@ -199,6 +199,9 @@ def test_kernel_refuses_other_shapes() -> None:
     assert KERNEL is not None
     with pytest.raises(ValueError, match=r"\(B, K < 65000, 6\)"):
         KERNEL.epsilon_l1(np.zeros((2, 10, 3)), 1e-12, 1e-12, 1e-9)
+    # no wrench at all: epsilon 0, status "zero" (the scale of an empty set is not read)
+    eps, status, _ = KERNEL.epsilon_l1(np.zeros((2, 0, 6)), 1e-12, 1e-12, 1e-9)
+    assert eps.tolist() == [0.0, 0.0] and status.tolist() == [2, 2]
     # 3-D wrenches (planar grasps) take the qhull path
     W = grasps(4, 2, seed=1, mu=0.8)[:, :, [0, 1, 5]]
     np.testing.assert_allclose(epsilon_l1_batch(W), epsilon_l1_batch(W, native=False), rtol=0)

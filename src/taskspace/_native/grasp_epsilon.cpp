@@ -451,26 +451,18 @@ double epsilon_one(Hull& hull, const Rows& W, double support_tol, double cert_to
   return 0.0;
 }
 
-PyObject* py_epsilon_l1(PyObject* /*self*/, PyObject* args) {
-  PyObject* obj = nullptr;
-  double support_tol = 0.0, cert_tol = 0.0, margin_tol = 0.0;
-  int corrupt = 0;
-  if (!PyArg_ParseTuple(args, "Oddd|i", &obj, &support_tol, &cert_tol, &margin_tol, &corrupt))
-    return nullptr;
-  PyArrayObject* arr = reinterpret_cast<PyArrayObject*>(
-      PyArray_FROMANY(obj, NPY_DOUBLE, 3, 3, NPY_ARRAY_IN_ARRAY));
-  if (arr == nullptr) return nullptr;
+// The batch loop of epsilon_l1 and epsilon_linf, GIL released: each grasp's wrenches (K, 6)
+// scaled by their largest entry, one(hull, W, &status) -> the scaled set's epsilon; an empty
+// or all-zero set is kZero. Takes arr's reference; returns (eps (B,), status (B,) int8,
+// sizes (B, 2) int32) or nullptr with a Python error set.
+template <class One>
+PyObject* epsilon_batch(PyArrayObject* arr, const One& one) {
   const npy_intp* shape = PyArray_DIMS(arr);
-  if (shape[2] != 6 || shape[1] >= 65000) {  // S indices (< K + 7) fit the 16-bit ridge keys
-    Py_DECREF(arr);
-    PyErr_SetString(PyExc_ValueError, "epsilon_l1: W must be (B, K < 65000, 6)");
-    return nullptr;
-  }
   const npy_intp B = shape[0], K = shape[1];
   npy_intp dims[1] = {B};
+  npy_intp dims2[2] = {B, 2};
   PyArrayObject* out = reinterpret_cast<PyArrayObject*>(PyArray_ZEROS(1, dims, NPY_DOUBLE, 0));
   PyArrayObject* st = reinterpret_cast<PyArrayObject*>(PyArray_ZEROS(1, dims, NPY_INT8, 0));
-  npy_intp dims2[2] = {B, 2};
   PyArrayObject* sz = reinterpret_cast<PyArrayObject*>(PyArray_ZEROS(2, dims2, NPY_INT32, 0));
   if (out == nullptr || st == nullptr || sz == nullptr) {
     Py_XDECREF(out);
@@ -488,7 +480,7 @@ PyObject* py_epsilon_l1(PyObject* /*self*/, PyObject* args) {
   Rows W(K, 6);
   for (npy_intp g = 0; g < B; ++g) {
     const Eigen::Map<const Rows> raw(data + g * K * 6, K, 6);
-    const double scale = raw.cwiseAbs().maxCoeff();
+    const double scale = K > 0 ? raw.cwiseAbs().maxCoeff() : 0.0;
     if (!(scale > 0)) {
       eps[g] = 0.0;
       status[g] = kZero;
@@ -496,7 +488,7 @@ PyObject* py_epsilon_l1(PyObject* /*self*/, PyObject* args) {
     }
     W = raw / scale;
     int s = kUncertified;
-    const double e = epsilon_one(hull, W, support_tol, cert_tol, margin_tol, corrupt, &s);
+    const double e = one(hull, W, &s);
     status[g] = static_cast<std::int8_t>(s);
     sizes[2 * g] = static_cast<std::int32_t>(hull.S.size());
     sizes[2 * g + 1] = static_cast<std::int32_t>(hull.F.size());
@@ -505,6 +497,26 @@ PyObject* py_epsilon_l1(PyObject* /*self*/, PyObject* args) {
   Py_END_ALLOW_THREADS;
   Py_DECREF(arr);
   return Py_BuildValue("(NNN)", out, st, sz);
+}
+
+PyObject* py_epsilon_l1(PyObject* /*self*/, PyObject* args) {
+  PyObject* obj = nullptr;
+  double support_tol = 0.0, cert_tol = 0.0, margin_tol = 0.0;
+  int corrupt = 0;
+  if (!PyArg_ParseTuple(args, "Oddd|i", &obj, &support_tol, &cert_tol, &margin_tol, &corrupt))
+    return nullptr;
+  PyArrayObject* arr = reinterpret_cast<PyArrayObject*>(
+      PyArray_FROMANY(obj, NPY_DOUBLE, 3, 3, NPY_ARRAY_IN_ARRAY));
+  if (arr == nullptr) return nullptr;
+  const npy_intp* shape = PyArray_DIMS(arr);
+  if (shape[2] != 6 || shape[1] >= 65000) {  // S indices (< K + 7) fit the 16-bit ridge keys
+    Py_DECREF(arr);
+    PyErr_SetString(PyExc_ValueError, "epsilon_l1: W must be (B, K < 65000, 6)");
+    return nullptr;
+  }
+  return epsilon_batch(arr, [&](Hull& hull, const Rows& W, int* s) {
+    return epsilon_one(hull, W, support_tol, cert_tol, margin_tol, corrupt, s);
+  });
 }
 
 // The L-infinity wrench space P = sum_c conv({0} u W_c) (W_c: the rows of contact c) is
@@ -642,7 +654,7 @@ PyObject* py_epsilon_linf(PyObject* /*self*/, PyObject* args) {
     return nullptr;
   }
   const npy_intp* shape = PyArray_DIMS(arr);
-  const npy_intp B = shape[0], K = shape[1];
+  const npy_intp K = shape[1];
   std::vector<int> owner(static_cast<std::size_t>(K), -1);
   int contacts = 0;
   bool ok = shape[2] == 6 && PyArray_DIMS(owners)[0] == K && max_steps > 0 && max_steps < 60000;
@@ -662,46 +674,10 @@ PyObject* py_epsilon_linf(PyObject* /*self*/, PyObject* args) {
                     "0 < max_steps < 60000");
     return nullptr;
   }
-  npy_intp dims[1] = {B};
-  npy_intp dims2[2] = {B, 2};
-  PyArrayObject* out = reinterpret_cast<PyArrayObject*>(PyArray_ZEROS(1, dims, NPY_DOUBLE, 0));
-  PyArrayObject* st = reinterpret_cast<PyArrayObject*>(PyArray_ZEROS(1, dims, NPY_INT8, 0));
-  PyArrayObject* sz = reinterpret_cast<PyArrayObject*>(PyArray_ZEROS(2, dims2, NPY_INT32, 0));
-  if (out == nullptr || st == nullptr || sz == nullptr) {
-    Py_XDECREF(out);
-    Py_XDECREF(st);
-    Py_XDECREF(sz);
-    Py_DECREF(arr);
-    return nullptr;
-  }
-  const double* data = static_cast<const double*>(PyArray_DATA(arr));
-  double* eps = static_cast<double*>(PyArray_DATA(out));
-  std::int8_t* status = static_cast<std::int8_t*>(PyArray_DATA(st));
-  std::int32_t* sizes = static_cast<std::int32_t*>(PyArray_DATA(sz));
-  Py_BEGIN_ALLOW_THREADS;
-  Hull hull;
-  Rows W(K, 6);
-  for (npy_intp g = 0; g < B; ++g) {
-    const Eigen::Map<const Rows> raw(data + g * K * 6, K, 6);
-    const double scale = K > 0 ? raw.cwiseAbs().maxCoeff() : 0.0;
-    hull.reset(0.5 * cert_tol);
-    if (!(scale > 0)) {
-      eps[g] = 0.0;
-      status[g] = kZero;
-      continue;
-    }
-    W = raw / scale;
-    int s = kUncertified;
-    const double e = epsilon_linf_one(hull, W, owner, contacts, support_tol, cert_tol,
-                                      margin_tol, corrupt, max_steps, &s);
-    status[g] = static_cast<std::int8_t>(s);
-    sizes[2 * g] = static_cast<std::int32_t>(hull.S.size());
-    sizes[2 * g + 1] = static_cast<std::int32_t>(hull.F.size());
-    eps[g] = s == kCertified ? e * scale : 0.0;
-  }
-  Py_END_ALLOW_THREADS;
-  Py_DECREF(arr);
-  return Py_BuildValue("(NNN)", out, st, sz);
+  return epsilon_batch(arr, [&](Hull& hull, const Rows& W, int* s) {
+    return epsilon_linf_one(hull, W, owner, contacts, support_tol, cert_tol, margin_tol, corrupt,
+                            max_steps, s);
+  });
 }
 
 PyMethodDef kMethods[] = {
