@@ -16,7 +16,7 @@ equilibrium without contacts.
 from __future__ import annotations
 
 import warnings
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -62,11 +62,24 @@ class LinearizedSystem:
         return np.eye(nv)[self.actuated]
 
 
-def _actuated_indices(robot: Robot, actuated: Sequence[str] | None) -> np.ndarray:
+def _actuated_indices(robot: Robot, actuated: Sequence[str] | str | None) -> np.ndarray:
     if actuated is None:
         return np.arange(robot.nv)
+    # One name is one joint (iterating "slider" looked up the joint 's').
+    names: Any = [actuated] if isinstance(actuated, str) else actuated
+    if isinstance(names, (bytes, bytearray)) or not isinstance(names, Iterable):
+        raise InvalidInputError(
+            f"actuated must be a joint name or a list of joint names, got {actuated!r}"
+        )
+    names = list(names)
+    for name in names:
+        if not isinstance(name, str):
+            raise InvalidInputError(
+                f"actuated must hold joint names (str), got {name!r} in {actuated!r}; "
+                f"valid joints are: {', '.join(robot.model.names[1:])}"
+            )
     idx: list[int] = []
-    for name in actuated:
+    for name in names:
         jid = robot.joint_id(name)  # raises UnknownNameError listing the joints
         joint = robot.model.joints[jid]
         idx.extend(range(joint.idx_v, joint.idx_v + joint.nv))
@@ -81,7 +94,7 @@ def linearize(
     v_eq: Any = None,
     tau_eq: Any = None,
     *,
-    actuated: Sequence[str] | None = None,
+    actuated: Sequence[str] | str | None = None,
 ) -> LinearizedSystem:
     """Linearize ``q'' = ABA(q, v, tau)`` about an equilibrium (fixed-base robots).
 
@@ -91,11 +104,11 @@ def linearize(
         v_eq: equilibrium velocity (nv) [rad/s]; zero if omitted.
         tau_eq: equilibrium torques (nv) [N m]; default: gravity compensation
             ``G(q_eq)`` on the actuated joints, zero on the others.
-        actuated: names of the actuated joints (``B`` has their columns only); all joints if
-            omitted. For the cart-pole: ``["slider"]``.
+        actuated: names of the actuated joints (``B`` has their columns only), or one name;
+            all joints if omitted. For the cart-pole: ``["slider"]`` or ``"slider"``.
 
     Raises:
-        InvalidInputError: floating-base robot, bad sizes.
+        InvalidInputError: floating-base robot, bad sizes, ``actuated`` not names.
         UnknownNameError: an actuated joint does not exist.
 
     Warns:
