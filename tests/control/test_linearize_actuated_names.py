@@ -21,7 +21,7 @@ B_SLIDER = np.array([[0.0], [0.0], [1.0 / M_CART], [-1.0 / (M_CART * L_POLE)]])
 @pytest.mark.parametrize(
     "actuated", ["slider", ["slider"], ("slider",), np.array(["slider"]), iter(["slider"])]
 )
-def test_one_name_or_a_list_give_the_analytic_input_matrix(robot_loader: Any, actuated: Any) -> None:
+def test_one_name_or_a_list_give_the_analytic_b(robot_loader: Any, actuated: Any) -> None:
     sys = linearize(robot_loader("cartpole"), np.zeros(2), actuated=actuated)
     np.testing.assert_allclose(sys.B, B_SLIDER, atol=1e-10)
     assert list(sys.actuated) == [0]
