@@ -69,6 +69,7 @@ from taskspace.errors import (
 )
 from taskspace.model.collision_requests import without_cached_guess
 from taskspace.model.registry import RobotSpec, example_robot_data_loaders, robot_spec
+from taskspace.model.urdf_check import srdf_problem, urdf_physical_problem, urdf_problem
 from taskspace.model.world import Obstacle, World
 
 if TYPE_CHECKING:
@@ -353,10 +354,21 @@ class Robot:
                     f"(package:// paths are searched in {dirs}; pass package_dirs=[the "
                     "directory that contains the package folder], or geometry=False)"
                 ) from exc
-            raise ModelLoadError(f"cannot load URDF {path}: {exc}") from exc
+            problem = urdf_problem(path)
+            raise ModelLoadError(
+                f"cannot load URDF {problem}"
+                if problem
+                else f"cannot load URDF {path}: {exc} (Pinocchio's parser printed the cause above)"
+            ) from exc
+        problem = urdf_physical_problem(path)
+        if problem:
+            raise ModelLoadError(f"cannot load URDF {problem}")
         if srdf is not None:
             if not Path(srdf).is_file():
                 raise ModelLoadError(f"SRDF file not found: {srdf}")
+            problem = srdf_problem(srdf)
+            if problem:
+                raise ModelLoadError(f"cannot read SRDF {problem}")
             try:
                 pin.loadReferenceConfigurations(model, str(srdf), False)
             except Exception as exc:
