@@ -309,11 +309,15 @@ def _plan(
 def _roadmap(graph: _Graph, versions: tuple[int | None, int | None], lazy: bool) -> Roadmap:
     pairs, cost, status = graph.edges()
     n = graph.n
-    adjacency: list[list[tuple[int, float]]] = [[] for _ in range(n)]
-    for (a, b), c, s in zip(pairs.tolist(), cost.tolist(), status.tolist()):
-        if s > 0 or (lazy and s == 0):
-            adjacency[a].append((b, c))
-            adjacency[b].append((a, c))
+    keep = (status > 0) | ((status == 0) if lazy else False)
+    a, b, c = pairs[keep, 0], pairs[keep, 1], cost[keep]
+    # both directions of each edge, grouped by node in edge order (stable sort)
+    src = np.stack([a, b], axis=1).ravel()
+    order = np.argsort(src, kind="stable")
+    dst = np.stack([b, a], axis=1).ravel()[order]
+    entries = list(zip(dst.tolist(), np.repeat(c, 2)[order].tolist()))
+    ends = np.cumsum(np.bincount(src, minlength=n)).tolist()
+    adjacency = [entries[lo:hi] for lo, hi in zip([0, *ends[:-1]], ends)]
     return Roadmap(
         nodes=graph.nodes[:n].copy(),
         adjacency=adjacency,

@@ -83,8 +83,13 @@ def _point_at(
     return i, space.interpolate(path[i], path[i + 1], [t])[0]
 
 
-def _check_input(space: ConfigurationSpace, path: FloatArray) -> None:
-    """Raise :class:`PlanningError` unless every waypoint and edge of ``path`` is free."""
+def _check_input(
+    space: ConfigurationSpace, path: FloatArray, caller: str = "shortcut_path"
+) -> None:
+    """Raise :class:`PlanningError` unless every waypoint and edge of ``path`` is free.
+
+    ``caller`` is the public function named in the message.
+    """
     if space.manifold is not None:
         for i, q in enumerate(path):
             if space.manifold.unit_error(q) > 1e-6:
@@ -102,13 +107,13 @@ def _check_input(space: ConfigurationSpace, path: FloatArray) -> None:
     if bad >= 0:
         raise PlanningError(
             f"path waypoint {bad} is in collision: {space.checker.explain(path[bad])}; "
-            "shortcut_path needs a collision-free path"
+            f"{caller} needs a collision-free path"
         )
     for i in range(path.shape[0] - 1):
         if not space.motion_valid(path[i], path[i + 1]):
             raise PlanningError(
                 f"path edge {i} -> {i + 1} is in collision at the resolution "
-                f"{space.edge.resolution:g}; shortcut_path needs a collision-free path"
+                f"{space.edge.resolution:g}; {caller} needs a collision-free path"
             )
 
 

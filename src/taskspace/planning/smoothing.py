@@ -112,7 +112,7 @@ def smooth_bspline(
     t0 = time.perf_counter()
     deadline = t0 + limit
     checks0 = space.checks
-    _check_input(space, arr)
+    _check_input(space, arr, "smooth_bspline")
     before = space.path_length(arr)
     current = arr.copy()
     moved = rejected = passes = 0

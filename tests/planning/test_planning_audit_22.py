@@ -1,0 +1,103 @@
+"""Gaps found by the issue-22 audit (H7): messages, roadmap export, the arena's cost rows.
+
+References are written here by hand: the expected adjacency lists of a small graph, and the
+medians and ratios of a hand-filled arena database.
+"""
+
+from __future__ import annotations
+
+import math
+import sqlite3
+
+import numpy as np
+import pytest
+
+from benchmarks.suites import planner_arena as arena
+from taskspace.errors import PlanningError
+from taskspace.planning.prm_star import _Graph, _roadmap
+from taskspace.planning.shortcut import shortcut_path
+from taskspace.planning.smoothing import smooth_bspline
+from tests.planning._planning_worlds import wall_space
+
+THROUGH_THE_WALL = [[1.0, 2.0], [9.0, 2.0]]  # free end points, the edge crosses the wall
+
+
+@pytest.mark.parametrize("fn", [smooth_bspline, shortcut_path])
+def test_colliding_input_error_names_the_function_called(fn) -> None:  # type: ignore[no-untyped-def]
+    with pytest.raises(PlanningError, match=f"{fn.__name__} needs a collision-free path"):
+        fn(wall_space(resolution=0.02), THROUGH_THE_WALL)
+
+
+def _small_graph() -> _Graph:
+    g = _Graph(2)
+    g.add_nodes(np.arange(10.0).reshape(5, 2))
+    # edges (i < j), cost, status: 1 free, 0 unchecked, -1 colliding; in two batches
+    g.add_edges(
+        np.array([[0, 1], [1, 3], [0, 2]]), np.array([1.0, 2.0, 3.0]), np.array([1, 0, 1], np.int8)
+    )
+    g.add_edges(
+        np.array([[2, 3], [1, 4], [0, 3]]), np.array([4.0, 5.0, 6.0]), np.array([-1, 1, 0], np.int8)
+    )
+    return g
+
+
+@pytest.mark.parametrize("lazy", [False, True])
+def test_roadmap_adjacency_is_the_edge_list_in_both_directions(lazy: bool) -> None:
+    rm = _roadmap(_small_graph(), (7, 3), lazy)
+    free = {0: [(1, 1.0), (2, 3.0)], 1: [(0, 1.0), (4, 5.0)], 2: [(0, 3.0)], 3: [], 4: [(1, 5.0)]}
+    unchecked = {0: [(3, 6.0)], 1: [(3, 2.0)], 3: [(1, 2.0), (0, 6.0)]}  # kept by lazy roadmaps
+    for node in range(5):
+        expected = free[node] + (unchecked.get(node, []) if lazy else [])
+        assert sorted(rm.adjacency[node]) == sorted(expected)
+    assert rm.nodes.shape == (5, 2)
+    assert (rm.world_version, rm.model_version) == (7, 3)
+
+
+def test_roadmap_of_a_graph_without_edges() -> None:
+    g = _Graph(2)
+    g.add_nodes(np.zeros((3, 2)))
+    assert _roadmap(g, (None, None), lazy=True).adjacency == [[], [], []]
+
+
+def _db(runs: list[tuple[str, str, int, float, bool, float | None]]) -> sqlite3.Connection:
+    db = sqlite3.connect(":memory:")
+    db.executescript(arena.SCHEMA)
+    for planner, scenario, problem, limit, ok, cost in runs:
+        db.execute(
+            "INSERT INTO runs (planner, scenario, problem, seed, time_limit_s, success, cost) "
+            "VALUES (?, ?, ?, 0, ?, ?, ?)",
+            (planner, scenario, problem, limit, int(ok), cost),
+        )
+    return db
+
+
+def test_cost_rows_put_ours_beside_ompls_after_each_budget() -> None:
+    short = arena.checkpoint_name
+    runs = [
+        # after 1 s: problem 0 ours 2, 4 (median 3) vs OMPL 6; problem 1 ours 5 vs OMPL 5
+        ("rrt_star", "s", 0, 1.0, True, 2.0),
+        ("rrt_star", "s", 0, 1.0, True, 4.0),
+        ("rrt_star", "s", 1, 1.0, True, 5.0),
+        ("rrt_star", "s", 1, 1.0, False, None),
+        ("ompl RRTstar", "s", 0, 1.0, True, 6.0),
+        ("ompl RRTstar", "s", 1, 1.0, True, 5.0),
+        # after 0.1 s: ours 8 vs OMPL unsolved on problem 0 (no ratio), 4 vs 2 on problem 1
+        (short("rrt_star", 0.1), "s", 0, 0.1, True, 8.0),
+        (short("rrt_star", 0.1), "s", 1, 0.1, True, 4.0),
+        (short("ompl RRTstar", 0.1), "s", 0, 0.1, False, None),
+        (short("ompl RRTstar", 0.1), "s", 1, 0.1, True, 2.0),
+        # informed RRT* without OMPL's runs
+        ("informed_rrt_star", "s", 0, 1.0, True, 3.0),
+    ]
+    rows = {r.method: r.extra for r in arena.cost_rows(_db(runs))}
+    long = rows["rrt_star cost after 1 s"]
+    assert long["success"] == 0.75 and long["median_cost"] == 4.0
+    assert long["ompl_success"] == 1.0 and long["ompl_median_cost"] == 5.5
+    assert long["cost_ratio"] == pytest.approx(np.median([3.0 / 6.0, 5.0 / 5.0]))
+    quick = rows["rrt_star cost after 0.1 s"]
+    assert quick["budget_s"] == 0.1 and quick["median_cost"] == 6.0
+    assert quick["ompl_success"] == 0.5 and quick["cost_ratio"] == pytest.approx(2.0)
+    informed = rows["informed_rrt_star cost after 1 s"]
+    assert informed["median_cost"] == 3.0 and "cost_ratio" not in informed
+    assert "informed_rrt_star cost after 0.1 s" not in rows  # no runs with that budget
+    assert math.isclose(arena.CHECKPOINT_S, 0.1)
