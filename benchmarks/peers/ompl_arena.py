@@ -71,16 +71,27 @@ def main() -> None:
     parser.add_argument("--quick", action="store_true")
     parser.add_argument("--time", type=float, default=1.0)
     parser.add_argument("--seeds", type=int, default=2)
+    parser.add_argument(
+        "--checkpoint", type=float, default=None,
+        help="also run RRTstar and InformedRRTstar with this limit (runs named NAME@LIMITs)",
+    )  # fmt: skip
     args = parser.parse_args()
     ou.setLogLevel(ou.LOG_ERROR)
     runs = []
     for p in _problems(args.quick):
-        for name, cls in PLANNERS.items():
+        jobs = [(cls, args.time, name) for name, cls in PLANNERS.items()]
+        if args.checkpoint is not None:
+            jobs += [
+                (PLANNERS[name], args.checkpoint, f"{name}@{args.checkpoint:g}s")
+                for name in ("ompl RRTstar", "ompl InformedRRTstar")
+                if name in PLANNERS
+            ]
+        for cls, limit, label in jobs:
             for seed in range(args.seeds):
-                ok, dt, cost = solve(p, cls, args.time)
+                ok, dt, cost = solve(p, cls, limit)
                 runs.append(
-                    {"planner": name, "scenario": p.scenario, "problem": p.index, "seed": seed,
-                     "success": ok, "time_s": dt, "cost": cost}
+                    {"planner": label, "scenario": p.scenario, "problem": p.index, "seed": seed,
+                     "success": ok, "time_s": dt, "cost": cost, "time_limit_s": limit}
                 )  # fmt: skip
     print(json.dumps({"runs": runs}))
 

@@ -186,6 +186,8 @@ def record_peers(db: sqlite3.Connection, problems: list[Problem], quick: bool, l
     Returns a note ("" when the peer ran).
     """
     args = ["--time", str(limit), "--seeds", str(seeds)] + (["--quick"] if quick else [])
+    if limit > CHECKPOINT_S:
+        args += ["--checkpoint", str(CHECKPOINT_S)]
     try:
         out = run_peer("ompl", "ompl_arena.py", args)
     except RuntimeError as exc:
@@ -201,7 +203,8 @@ def record_peers(db: sqlite3.Connection, problems: list[Problem], quick: bool, l
             "INSERT INTO runs (date, planner, scenario, problem, seed, time_limit_s, success, "
             "status, time_s, cost, path_length, first_solution_s, collision_checks, optimum) "
             "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
-            (date, r["planner"], r["scenario"], r["problem"], r["seed"], limit, int(ok),
+            (date, r["planner"], r["scenario"], r["problem"], r["seed"],
+             r.get("time_limit_s", limit), int(ok),
              "solved" if ok else "not solved", r["time_s"], r["cost"] if ok else None,
              r["cost"] if ok else None, None, None, None if math.isnan(opt) else opt),
         )  # fmt: skip
@@ -213,14 +216,100 @@ def record_peers(db: sqlite3.Connection, problems: list[Problem], quick: bool, l
     return ""
 
 
+CHECKPOINT_S = 0.1
+"""Issue 22's short budget: RRT* and informed RRT* (ours and OMPL's) also run with this limit."""
+
+CHECKPOINT_PLANNERS = ("rrt_star", "informed_rrt_star")
+OMPL_NAMES = {"rrt_star": "ompl RRTstar", "informed_rrt_star": "ompl InformedRRTstar"}
+
+
+def checkpoint_name(planner: str, limit: float) -> str:
+    """Name of the runs of ``planner`` with the short budget ``limit`` (e.g. ``rrt_star@0.1s``)."""
+    return f"{planner}@{limit:g}s"
+
+
 def arena(problems: list[Problem], limit: float, seeds: int, db: sqlite3.Connection) -> None:
-    """Every planner on every problem with ``seeds`` seeds; rows into ``db``."""
+    """Every planner on every problem with ``seeds`` seeds; rows into ``db``.
+
+    RRT* and informed RRT* also run with the :data:`CHECKPOINT_S` budget (rows named by
+    :func:`checkpoint_name`) when ``limit`` is longer: their cost after 0.1 s and after
+    ``limit`` beside OMPL's (:func:`cost_rows`).
+    """
     date = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
     for p in problems:
         for name, plan in PLANNERS.items():
             for seed in range(seeds):
                 record(db, date, name, p, seed, limit, plan(p, limit, seed))
+        if limit > CHECKPOINT_S:
+            for name in CHECKPOINT_PLANNERS:
+                short = checkpoint_name(name, CHECKPOINT_S)
+                for seed in range(seeds):
+                    res = PLANNERS[name](p, CHECKPOINT_S, seed)
+                    record(db, date, short, p, seed, CHECKPOINT_S, res)
     db.commit()
+
+
+def cost_rows(db: sqlite3.Connection) -> list[Row]:
+    """RRT* and informed RRT*: success and median cost after each budget, ours beside OMPL's.
+
+    One row per scenario, planner and budget (the arena's limit and :data:`CHECKPOINT_S`):
+    ``success`` and ``median_cost`` of ours and of OMPL's planner on the same problems and
+    seeds, and ``cost_ratio`` = our median cost / OMPL's (over the runs both solved: the
+    median over problems of the per-problem median ratio; < 1: ours is cheaper).
+    """
+    rows = []
+    scenarios = [r[0] for r in db.execute("SELECT DISTINCT scenario FROM runs ORDER BY scenario")]
+    limits = sorted(
+        {r[0] for r in db.execute("SELECT DISTINCT time_limit_s FROM runs")}, reverse=True
+    )
+    for scenario in scenarios:
+        for planner in CHECKPOINT_PLANNERS:
+            for limit in limits:
+                short = not math.isclose(limit, max(limits))
+                ours = checkpoint_name(planner, limit) if short else planner
+                peer = checkpoint_name(OMPL_NAMES[planner], limit) if short else OMPL_NAMES[planner]
+                a, b = _costs(db, scenario, ours), _costs(db, scenario, peer)
+                if not a:
+                    continue
+                extra: dict[str, Any] = {"budget_s": limit, **_summary(a, "")}
+                if b:
+                    extra.update(_summary(b, "ompl_"))
+                    ratios = [
+                        float(np.median([c for c in a[k] if c is not None]))
+                        / float(np.median([c for c in b[k] if c is not None]))
+                        for k in a
+                        if k in b
+                        and any(c is not None for c in a[k])
+                        and any(c is not None for c in b[k])
+                    ]
+                    if ratios:
+                        extra["cost_ratio"] = round(float(np.median(ratios)), 4)
+                note = "" if b else "OMPL's runs missing (peer not installed or failed)"
+                rows.append(
+                    Row(SUITE, scenario, f"{planner} cost after {limit:g} s", None, extra,
+                        note=note)
+                )  # fmt: skip
+    return rows
+
+
+def _costs(db: sqlite3.Connection, scenario: str, planner: str) -> dict[int, list[float | None]]:
+    """Costs (``None``: not solved) of each problem's runs."""
+    out: dict[int, list[float | None]] = {}
+    for problem, success, cost in db.execute(
+        "SELECT problem, success, cost FROM runs WHERE scenario = ? AND planner = ?",
+        (scenario, planner),
+    ):
+        out.setdefault(int(problem), []).append(float(cost) if success else None)
+    return out
+
+
+def _summary(costs: dict[int, list[float | None]], prefix: str) -> dict[str, Any]:
+    flat = [c for runs in costs.values() for c in runs]
+    solved = [c for c in flat if c is not None]
+    summary: dict[str, Any] = {f"{prefix}success": round(len(solved) / len(flat), 4)}
+    if solved:
+        summary[f"{prefix}median_cost"] = round(float(np.median(solved)), 4)
+    return summary
 
 
 def plot(db: sqlite3.Connection, out: Path) -> list[Path]:
@@ -330,7 +419,7 @@ def run(quick: bool, out: Path | None = None) -> list[Row]:
     arena(problems, limit, seeds, db)
     note = record_peers(db, problems, quick, limit, seeds)
     plot(db, out)
-    rows = table(db)
+    rows = table(db) + cost_rows(db)
     db.close()
     if note:
         rows.append(Row(SUITE, "-", "ompl", None, note=note))
