@@ -13,7 +13,10 @@ import numpy as np
 import pytest
 
 from benchmarks.suites import planner_arena as arena
-from taskspace.errors import PlanningError
+from taskspace.errors import InvalidInputError, PlanningError
+from taskspace.model import Robot
+from taskspace.planning.configuration_space import ConfigurationSpace
+from taskspace.planning.joint_manifold import JointManifold
 from taskspace.planning.prm_star import _Graph, _roadmap
 from taskspace.planning.shortcut import shortcut_path
 from taskspace.planning.smoothing import smooth_bspline
@@ -101,3 +104,13 @@ def test_cost_rows_put_ours_beside_ompls_after_each_budget() -> None:
     assert informed["median_cost"] == 3.0 and "cost_ratio" not in informed
     assert "informed_rrt_star cost after 0.1 s" not in rows  # no runs with that budget
     assert math.isclose(arena.CHECKPOINT_S, 0.1)
+
+
+def test_base_bounds_on_a_fixed_base_robot_are_refused() -> None:
+    """They were silently ignored: a user thought the base was sampled in that box."""
+    robot = Robot.load("ur5")
+    with pytest.raises(InvalidInputError, match="no JointModelPlanar or JointModelFreeFlyer"):
+        ConfigurationSpace.from_robot(robot, base_lower=[-3, -3], base_upper=[3, 3])
+    with pytest.raises(InvalidInputError, match="base_lower/base_upper"):
+        JointManifold(robot.model, base_upper=[1, 1])
+    assert ConfigurationSpace.from_robot(robot).dim == robot.model.nq  # without them: fine

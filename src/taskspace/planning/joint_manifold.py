@@ -185,6 +185,12 @@ class JointManifold:
             if np.any(hi <= lo):
                 raise InvalidInputError("base_upper must be > base_lower in every coordinate")
             self._base = (lo, hi)
+        elif base_lower is not None or base_upper is not None:
+            raise InvalidInputError(
+                "base_lower/base_upper bound a planar or floating base's translation, but the "
+                "model has no JointModelPlanar or JointModelFreeFlyer joint (a fixed-base "
+                "model; give the base joint when building the model to plan for a mobile base)"
+            )
         self.is_euclidean = all(b.kind == "vector" for b in self.blocks)
         self._unit = [b for b in self.blocks if b.kind != "vector"]
         self._snapshot: tuple[FloatArray, FloatArray] | None = None
