@@ -69,27 +69,29 @@ def main():
         task = keep(tsid.TaskSE3Equality(name, robot, name))
         task.setKp(50.0 * np.ones(6))
         task.setKd(2.0 * np.sqrt(50.0) * np.ones(6))
-        formulation.addMotionTask(task, 0.01, 1, 0.0)
+        formulation.addMotionTask(task, 0.1, 1, 0.0)  # our weights: hands 0.1
         ref = robot.framePosition(data, model.getFrameId(name))
         task.setReference(sample(tsid.TrajectorySE3Constant(name, keep(ref))))
     posture = tsid.TaskJointPosture("posture", robot)
     posture.setKp(30.0 * np.ones(robot.nv - 6))
     posture.setKd(2.0 * np.sqrt(30.0) * np.ones(robot.nv - 6))
-    formulation.addMotionTask(posture, 1e-4, 1, 0.0)
+    formulation.addMotionTask(posture, 1e-2, 1, 0.0)  # posture 1e-2
     posture.setReference(sample(tsid.TrajectoryEuclidianConstant("posture", keep(q[7:].copy()))))
     bounds = tsid.TaskActuationBounds("torques", robot)
     tau_max = model.effortLimit[6:]
     bounds.setBounds(-tau_max, tau_max)
     formulation.addActuationTask(bounds, 1.0, 0, 0.0)
+    check_data = model.createData()  # the CoM error, outside the timed region
     solver = tsid.SolverHQuadProgFast("qp")
     solver.resize(formulation.nVar, formulation.nEq, formulation.nIn)
-    times, failed = [], 0
+    times, failed, com_errors = [], 0, []
     t = 0.0
     for _ in range(steps):
         com_k = com_ref + np.array([0.0, 0.04 * np.sin(np.pi * t), 0.0])
         com_traj = tsid.TrajectoryEuclidianConstant("com", com_k)
         com_sample = com_traj.computeNext()
         com.setReference(com_sample)
+        com_errors.append(float(np.linalg.norm(pin.centerOfMass(model, check_data, q) - com_k)))
         t0 = time.perf_counter()
         problem = formulation.computeProblemData(t, q, v)
         sol = solver.solve(problem)
@@ -109,6 +111,7 @@ def main():
                 "variables": formulation.nVar,
                 "note": f"{formulation.nVar} variables, HQuadProgFast",
                 "final_tau_norm": float(np.linalg.norm(tau)),
+                "com_errors": com_errors,
             }
         )
     )

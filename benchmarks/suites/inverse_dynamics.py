@@ -2,7 +2,9 @@
 
 Tasks: CoM (swaying 4 cm sideways at 0.5 Hz), both hands, posture. Both libraries integrate
 their own accelerations (as TSID's demos do); a step is timed from the problem build to the
-torques.
+torques. Tracking quality of both in the same run (issue 16: CoM error over the run no worse
+than TSID's): the largest and RMS distance between the CoM and its reference at each step,
+before that step's solve, from Pinocchio's ``centerOfMass`` outside the timed region.
 """
 
 from __future__ import annotations
@@ -11,6 +13,7 @@ import json
 import tempfile
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
@@ -43,7 +46,7 @@ def scene(hierarchical: bool = False) -> tuple[Robot, InverseDynamicsQP, Task]:
     return robot, InverseDynamicsQP(robot, [com, *hands, posture], contacts, options), com
 
 
-def run_taskspace(steps: int, hierarchical: bool = False) -> dict[str, object]:
+def run_taskspace(steps: int, hierarchical: bool = False) -> dict[str, Any]:
     """Time ``steps`` control steps."""
     robot, ctrl, com = scene(hierarchical)
     c0 = com.target.copy()
@@ -54,8 +57,11 @@ def run_taskspace(steps: int, hierarchical: bool = False) -> dict[str, object]:
     statuses: dict[str, int] = {}
     paths = {"compiled": 0, "python": 0}
     kkt = {"primal": 0.0, "dual": 0.0, "complementarity": 0.0, "not_computed": 0}
+    com_errors = np.empty(steps)
+    data = robot.model.createData()
     for k in range(steps):
         com.set_target(c0 + np.array([0.0, 0.04 * np.sin(np.pi * k * DT), 0.0]))
+        com_errors[k] = np.linalg.norm(pin.centerOfMass(robot.model, data, q) - com.target)
         t0 = time.perf_counter()
         state.update(q, v)
         res = ctrl.solve(state)
@@ -78,12 +84,21 @@ def run_taskspace(steps: int, hierarchical: bool = False) -> dict[str, object]:
         "statuses": statuses,
         "paths": paths,
         "variables": ctrl.n,
+        "com_error": com_error_columns(com_errors),
         "kkt": {
             "max_kkt_primal": f"{kkt['primal']:.1e}",
             "max_kkt_dual": f"{kkt['dual']:.1e}",
             "max_kkt_complementarity": f"{kkt['complementarity']:.1e}",
             "solves_without_kkt": int(kkt["not_computed"]),
         },
+    }
+
+
+def com_error_columns(errors: np.ndarray) -> dict[str, float]:
+    """Largest and RMS CoM tracking error [mm] over a run."""
+    return {
+        "com_error_max_mm": round(1000 * float(np.max(errors)), 4),
+        "com_error_rms_mm": round(1000 * float(np.sqrt(np.mean(errors**2))), 4),
     }
 
 
@@ -104,6 +119,7 @@ def run(quick: bool) -> list[Row]:
                 "compiled_steps": out["paths"]["compiled"],
                 "python_steps": out["paths"]["python"],
                 **out["kkt"],
+                **out["com_error"],
             },
             ratio_to="tsid",
             note=f"QP statuses (backend) {out['statuses']}",
@@ -121,6 +137,7 @@ def run(quick: bool) -> list[Row]:
                 "compiled_steps": out["paths"]["compiled"],
                 "python_steps": out["paths"]["python"],
                 **out["kkt"],
+                **out["com_error"],
             },
             ratio_to="tsid",
             note="4 strict levels (dynamics+contacts, CoM, hands, posture)",
@@ -146,7 +163,15 @@ def run(quick: bool) -> list[Row]:
                 "g1 standing",
                 "tsid",
                 Timing.from_samples(np.array(peer["times"])),
-                {"failed_steps": peer["failed_steps"], "variables": peer["variables"]},
+                {
+                    "failed_steps": peer["failed_steps"],
+                    "variables": peer["variables"],
+                    **(
+                        com_error_columns(np.array(peer["com_errors"]))
+                        if "com_errors" in peer
+                        else {}
+                    ),
+                },
             )
         )
     return rows
