@@ -8,7 +8,7 @@ factorization): when it already satisfies every constraint it is the optimum.
 Every result is checked: a result is ``SOLVED`` only when its KKT residuals (primal, dual,
 complementarity, see :mod:`taskspace.qp.kkt`) at the returned point and multipliers meet
 ``eps_abs + eps_rel * scale``. That is a bound on residuals, not on the distance to the
-optimum, which can be ``dual residual / lambda_min(H)``; proxsuite's converged points are
+optimum, which can be ``dual residual / lambda_min(H)``; proxsuite's and OSQP's converged points are
 therefore refined on their active set (``QPSolverOptions.refine``) and the active-set
 backends (daqp, quadprog) solve that system directly: every ``SOLVED`` point of the default
 pipeline is then the optimum to rounding (``~1e-10`` on cond(H) ~ 1e6). A backend that
@@ -111,8 +111,8 @@ class QPSolverOptions:
             former 1000 x 1000 let one solve on a diverged state run for minutes.
         max_polish_iter: active-set corrections of the refinement of an inaccurate result
             (each one a least-squares KKT solve).
-        refine: solve the KKT system of the active set of proxsuite's converged result once
-            (one LAPACK factorization of the free variables and active rows) and keep that
+        refine: solve the KKT system of the active set of proxsuite's (and OSQP's) converged
+            result once (one LAPACK factorization of the free variables and active rows), keep that
             point when its KKT residuals are within the tolerances. proxsuite stops at
             residuals ``~eps``, and a point with dual residual ``r`` is up to
             ``r / lambda_min(H)`` from the optimum: ``1e-3`` on a G1 IK step whose floating
@@ -711,17 +711,22 @@ class QPSolver:
         z_box = (
             np.asarray(solution.z_box, dtype=float) if solution.z_box is not None else np.zeros(p.n)
         )
-        return self._finish(
-            backend,
-            p,
-            True,
-            x,
-            y if y is not None else np.zeros(p.n_eq),
-            z,
-            z_box,
-            0,
-            elapsed,
-        )
+        y = y if y is not None else np.zeros(p.n_eq)
+        if backend == "osqp" and options.refine:
+            # OSQP (ADMM) stops at residuals ~eps: on an ill-conditioned H (a G1 IK step whose
+            # floating base only the 1e-6 damping holds) that point passed the certificate
+            # 0.16 rad/s from the optimum (residual / lambda_min(H)). As for proxsuite: one
+            # direct solve on its active set, kept when certified, else the active-set polish.
+            refined = _refine_on_active_set(p, x, z, z_box)
+            if refined is not None:
+                out = self._finish(backend, p, True, *refined, 0, time.perf_counter() - t0)
+                if out.success:
+                    return out
+            out = self._finish(backend, p, True, x, y, z, z_box, 0, elapsed)
+            if out.success:
+                return self._polish(p, out) or out
+            return out
+        return self._finish(backend, p, True, x, y, z, z_box, 0, elapsed)
 
 
 # ---------------------------------------------------------------------- helpers
