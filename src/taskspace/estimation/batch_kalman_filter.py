@@ -18,14 +18,26 @@ so that each is one BLAS call or a handful of elementwise numpy operations over 
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
 
 from taskspace._validation import FloatArray, as_float_array, as_matrix
-from taskspace.errors import InvalidInputError, NotFiniteError, ShapeError, SolverError
+from taskspace.errors import (
+    InvalidInputError,
+    NotFiniteError,
+    ShapeError,
+    SolverError,
+    TaskspaceError,
+)
 from taskspace.estimation.covariance import as_covariance
+
+_CANCELLED = 1e-8
+"""Posterior/prior variance ratio below which an update is redone in Joseph form."""
+_LOST = 1e-24
+"""Posterior/prior variance ratio below which even the Joseph form is refused."""
 
 
 class BatchKalmanFilter:
@@ -56,8 +68,17 @@ class BatchKalmanFilter:
         # Kronecker products are sparse for structured models (36 of 256 entries for the CV
         # model) and scipy's sparse-dense product is single-threaded, so it does not suffer
         # from BLAS thread contention on busy machines.
-        self._FF = sp.csr_array(np.kron(self.F, self.F))
-        self._HH = sp.csr_array(np.kron(self.H, self.H))
+        with np.errstate(over="ignore", invalid="ignore"):
+            FF, HH = np.kron(self.F, self.F), np.kron(self.H, self.H)
+        for name, K in (("F", FF), ("H", HH)):
+            if not np.isfinite(K).all():  # F = 1e200 I gave zeros with overflow warnings
+                raise InvalidInputError(
+                    f"{name} (x) {name} overflows: entries of {name} up to "
+                    f"{float(np.max(np.abs(getattr(self, name)))):.3g} make {name} P {name}^T "
+                    "overflow; rescale the states and measurements (units)"
+                )
+        self._FF = sp.csr_array(FF)
+        self._HH = sp.csr_array(HH)
         self._HI = sp.csr_array(np.kron(self.H, np.eye(n)))
         self._Fs = sp.csr_array(self.F)
         self._Hs = sp.csr_array(self.H)
@@ -113,11 +134,17 @@ class BatchKalmanFilter:
         self._P = np.ascontiguousarray(Pa.reshape(N, n * n).T)
 
     def predict(self) -> None:
-        """Propagate all tracks: ``x_i = F x_i``, ``P_i = F P_i F^T + Q``."""
-        self._x = self._Fs @ self._x
-        P = self._FF @ self._P
-        P += self._Q_col
-        self._P = P
+        """Propagate all tracks: ``x_i = F x_i``, ``P_i = F P_i F^T + Q``.
+
+        Raises:
+            SolverError: a mean or covariance overflowed (the beliefs are left unchanged).
+        """
+        with np.errstate(over="ignore", invalid="ignore"):
+            x = self._Fs @ self._x
+            P = self._FF @ self._P
+            P += self._Q_col
+        _check_beliefs(x, P, "prediction")
+        self._x, self._P = x, P
 
     def update(self, z: Any) -> FloatArray:
         """Condition every track ``i`` on its measurement ``z_i``.
@@ -131,9 +158,9 @@ class BatchKalmanFilter:
         Raises:
             ShapeError: if ``z`` is not ``(N, m)``.
             NotFiniteError: if ``z`` has NaN or inf entries (indices are track numbers).
-            SolverError: if an innovation covariance is singular.
+            SolverError: if an innovation covariance is singular, or a mean or covariance
+                overflowed (the beliefs are left unchanged).
         """
-        n = self.dim_x
         N = self._x.shape[1]
         m = self.dim_z
         za = as_float_array(z, "z")
@@ -142,19 +169,32 @@ class BatchKalmanFilter:
         if not np.isfinite(za).all():
             bad = np.flatnonzero(~np.all(np.isfinite(za), axis=1))
             raise NotFiniteError("z", [int(i) for i in bad[:20]])
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            x, P, nis = self._update(za)
+        _check_beliefs(x, P, "update")
+        self._x, self._P = x, P
+        return nis
+
+    def _update(self, za: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+        n = self.dim_x
+        N = self._x.shape[1]
+        m = self.dim_z
         HP = (self._HI @ self._P).reshape(m, n, N)  # rows of H P = columns of P H^T
         S = self._HH @ self._P
         S += self._R_col
         r = za.T - self._Hs @ self._x
         if m == 2:
-            a, b, c, d = S
+            # S / s with s = max(S_00, S_11): a d overflowed for variances above 1e154 (det =
+            # inf, so K = 0 and the measurement was ignored: F = 1e100 I kept x = F x).
+            scale = np.maximum(S[0], S[3])  # > 0: R is positive definite
+            a, b, c, d = S / scale
             det = a * d - b * c
             if not np.all(det > 0.0):
                 raise SolverError(
                     "innovation covariance is not positive definite for tracks "
                     f"{np.flatnonzero(~(det > 0.0))[:20].tolist()}"
                 )
-            inv = 1.0 / det
+            inv = 1.0 / (det * scale)
             # w = S^-1 r and K = P H^T S^-1 with the closed-form 2 x 2 inverse.
             r0, r1 = r
             w0 = (d * r0 - b * r1) * inv
@@ -163,7 +203,7 @@ class BatchKalmanFilter:
             ph0, ph1 = HP
             K0 = ph0 * (d * inv) - ph1 * (c * inv)
             K1 = ph1 * (a * inv) - ph0 * (b * inv)
-            self._x = self._x + ph0 * w0 + ph1 * w1
+            x = self._x + ph0 * w0 + ph1 * w1
             P = self._P.reshape(n, n, N) - K0[:, None, :] * ph0[None, :, :]
             P -= K1[:, None, :] * ph1[None, :, :]
         else:
@@ -181,13 +221,74 @@ class BatchKalmanFilter:
             w = np.einsum("nij,jn->in", Sinv, r)
             nis = np.einsum("in,in->n", r, w)
             K = np.einsum("kin,nkl->lin", HP, Sinv)  # (m, n, N): K[:, i, l]
-            self._x = self._x + np.einsum("kin,kn->in", HP, w)
+            x = self._x + np.einsum("kin,kn->in", HP, w)
             P = self._P.reshape(n, n, N) - np.einsum("kin,kjn->ijn", K, HP)
+        P = self._joseph_where_cancelled(P, (K0, K1) if m == 2 else K)
         P = 0.5 * (P + P.transpose(1, 0, 2))
-        self._P = P.reshape(n * n, N)
-        return np.asarray(nis)
+        return x, P.reshape(n * n, N), np.asarray(nis)
+
+    def _joseph_where_cancelled(
+        self, P: FloatArray, K: FloatArray | tuple[FloatArray, FloatArray]
+    ) -> FloatArray:
+        """Redo in Joseph form the tracks whose short-form covariance lost its digits.
+
+        ``P - K H P`` cancels when the measurement dominates the prior: F = 1e20 I with unit
+        noises gave posterior variances 0 instead of ~R (the next updates then ignored the
+        measurements). ``(I - K H) P (I - K H)^T + K R K^T`` keeps ``K R K^T``. Tracks with a
+        posterior variance below :data:`_CANCELLED` times the prior one (or negative) are
+        recomputed; ``K`` is ``(m, n, N)`` with ``K[l, i, t] = K_t[i, l]`` (or its rows).
+        """
+        n = self.dim_x
+        N = P.shape[2]
+        # diagonals as strided views of the (n^2, N) storage: no copies on the common path
+        low = P.reshape(n * n, N)[:: n + 1] < _CANCELLED * self._P[:: n + 1]
+        if not low.any():
+            return P
+        bad = np.flatnonzero(low.any(axis=0))
+        prior = self._P.reshape(n, n, N)
+        Kt = (np.stack(K) if isinstance(K, tuple) else K)[:, :, bad].transpose(2, 1, 0)
+        IKH = np.eye(n) - Kt @ self.H
+        Pp = prior[:, :, bad].transpose(2, 0, 1)
+        Pj = IKH @ Pp @ IKH.transpose(0, 2, 1) + Kt @ self.R @ Kt.transpose(0, 2, 1)
+        lost = (np.diagonal(Pj, axis1=1, axis2=2) < _LOST * np.diagonal(Pp, axis1=1, axis2=2)).any(
+            axis=1
+        )
+        if lost.any():  # (I - K H) is only known to eps: its square to eps^2 of the prior
+            raise SolverError(
+                "the measurements are more than 1e12 times more precise than the predicted "
+                f"variances of tracks {bad[lost][:20].tolist()}: the covariance update loses "
+                "every digit (F = 1e150 I gave variances 1e268 instead of ~R); rescale the "
+                "states and measurements (units) or lower the prior/process variances"
+            )
+        P[:, :, bad] = Pj.transpose(1, 2, 0)
+        return P
 
     def step(self, z: Any) -> FloatArray:
-        """Predict, then update with ``z: (N, m)``; returns the NIS of each track."""
+        """Predict, then update with ``z: (N, m)``; returns the NIS of each track.
+
+        A step that raises leaves the beliefs as they were before it.
+        """
+        x, P = self._x, self._P
         self.predict()
-        return self.update(z)
+        try:
+            return self.update(z)
+        except TaskspaceError:
+            self._x, self._P = x, P  # a failed step leaves the beliefs as they were
+            raise
+
+
+def _check_beliefs(x: FloatArray, P: FloatArray, step: str) -> None:
+    """Raise :class:`SolverError` naming the tracks whose mean or covariance is not finite."""
+    # Fast path: one reduction each; a finite total means finite entries (an overflowing
+    # total of finite entries falls through to the exact test).
+    if math.isfinite(float(np.add.reduce(x, axis=None))) and math.isfinite(
+        float(np.add.reduce(P, axis=None))
+    ):
+        return
+    bad = ~(np.isfinite(x).all(axis=0) & np.isfinite(P).all(axis=0))
+    if bad.any():
+        raise SolverError(
+            f"the {step} gave a non-finite mean or covariance (overflow) for tracks "
+            f"{np.flatnonzero(bad)[:20].tolist()}: the beliefs are left unchanged; rescale the "
+            "states and measurements (units) or check the inputs"
+        )
