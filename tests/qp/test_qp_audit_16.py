@@ -64,3 +64,45 @@ def test_solved_steps_are_the_optimum(backend: str, name: str, frame: str) -> No
             scale = max(1.0, float(np.abs(ref.x).max()))
             assert np.abs(res.x - ref.x).max() <= 1e-7 * scale, np.abs(res.x - ref.x).max()
     assert solved >= 6  # the backends converge on these; the check must not be vacuous
+
+
+def test_damper_parameters_are_checked_on_assignment() -> None:
+    """Python path: gain 5 and influence -1 were used silently (the kernel refused them)."""
+    from taskspace.constraints import CollisionAvoidance
+    from taskspace.errors import InvalidInputError
+
+    ca = CollisionAvoidance(load_robot("panda"))
+    for name, bad in [
+        ("gain", 5.0),
+        ("gain", 0.0),
+        ("gain", float("nan")),
+        ("influence_distance", -1.0),
+        ("influence_distance", 0.005),  # below the safety distance 0.01
+        ("safety_distance", 0.2),  # above the influence distance 0.1
+        ("safety_distance", float("nan")),
+        ("gain", "0.5"),
+    ]:
+        with pytest.raises(InvalidInputError, match=name.split("_")[0]):
+            setattr(ca, name, bad)
+    assert (ca.safety_distance, ca.influence_distance, ca.gain) == (0.01, 0.1, 0.5)
+    ca.gain, ca.influence_distance, ca.safety_distance = 1.0, 0.2, 0.0  # valid changes kept
+    assert (ca.safety_distance, ca.influence_distance, ca.gain) == (0.0, 0.2, 1.0)
+    rows = ca.compiled_constraint()
+    assert (rows.safety_distance, rows.influence_distance, rows.gain) == (0.0, 0.2, 1.0)
+
+
+def test_position_limit_margin_cannot_be_changed_silently() -> None:
+    """An assignment was ignored: the box kept the construction's margin."""
+    from taskspace.constraints import JointPositionLimits
+    from taskspace.errors import InvalidInputError
+
+    robot = load_robot("panda")
+    limits = JointPositionLimits(robot, margin=0.1)
+    with pytest.raises(InvalidInputError, match="fixed at construction"):
+        limits.margin = 0.3
+    state = robot.state(robot.q_default, np.zeros(robot.nv))
+    lb, ub = limits.bounds(state, 0.01)
+    lo, hi = robot.model.lowerPositionLimit, robot.model.upperPositionLimit
+    np.testing.assert_allclose(ub, hi - 0.1 - robot.q_default)
+    np.testing.assert_allclose(lb, lo + 0.1 - robot.q_default)
+    assert limits.margin == 0.1

@@ -45,15 +45,29 @@ class CollisionAvoidance(Constraint):
         pairs: Sequence[tuple[str, str]] | None = None,
     ) -> None:
         super().__init__(robot, "collision avoidance")
-        self.safety_distance = check_positive(safety_distance, "safety_distance", strict=False)
-        self.influence_distance = check_positive(influence_distance, "influence_distance")
-        if self.influence_distance <= self.safety_distance:
-            raise InvalidInputError("influence_distance must be larger than safety_distance")
-        if not 0.0 < gain <= 1.0:
-            raise InvalidInputError(f"gain must be in (0, 1], got {gain}")
-        self.gain = float(gain)
+        self.safety_distance = safety_distance  # checked by __setattr__
+        self.influence_distance = influence_distance
+        self.gain = gain
         self.distances = CollisionDistance(robot, pairs)
         self._compiled: tuple[tuple[int, float, float, float], CompiledConstraint] | None = None
+
+    def __setattr__(self, name: str, value: object) -> None:
+        """Check ``safety_distance``, ``influence_distance`` and ``gain`` on every assignment.
+
+        They may change between steps (both paths read them at every step); a bad value raises
+        :class:`~taskspace.errors.InvalidInputError` and leaves the constraint unchanged.
+        """
+        if name in ("safety_distance", "influence_distance", "gain"):
+            value = check_positive(value, name, strict=name != "safety_distance")
+            if name == "gain" and value > 1.0:
+                raise InvalidInputError(f"gain must be in (0, 1], got {value}")
+            safety = value if name == "safety_distance" else getattr(self, "safety_distance", 0.0)
+            influence = (
+                value if name == "influence_distance" else getattr(self, "influence_distance", INF)
+            )
+            if influence <= safety:
+                raise InvalidInputError("influence_distance must be larger than safety_distance")
+        super().__setattr__(name, value)
 
     def inequalities(self, state: State, dt: float) -> InequalityRows:
         """Rows for the pairs within the influence distance (possibly zero rows)."""

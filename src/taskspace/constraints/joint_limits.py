@@ -59,16 +59,30 @@ class JointPositionLimits(Constraint):
 
     def __init__(self, robot: Robot, margin: float = 0.0) -> None:
         super().__init__(robot, "joint position limits")
-        self.margin = check_positive(margin, "margin", strict=False)
+        self._margin = check_positive(margin, "margin", strict=False)
         self._follower = ModelFollower(robot, "JointPositionLimits", self._derive)
+
+    @property
+    def margin(self) -> float:
+        """Distance ``m`` kept from the limits [rad or m] (fixed at construction)."""
+        return self._margin
+
+    @margin.setter
+    def margin(self, value: object) -> None:
+        # the limits are derived from it (and the compiled IK stack keeps a copy): an
+        # assignment was silently ignored until the robot's limits changed
+        raise InvalidInputError(
+            "JointPositionLimits.margin is fixed at construction; create a new "
+            f"JointPositionLimits(robot, margin={value!r})"
+        )
 
     def _derive(self) -> None:
         """Copy the robot's limits (again after :meth:`Robot.set_limits`)."""
         robot = self.robot
         iq = robot.limited_joints_q
         iv = robot.limited_joints_v
-        low = robot.lower_limits[iq] + self.margin
-        high = robot.upper_limits[iq] - self.margin
+        low = robot.lower_limits[iq] + self._margin
+        high = robot.upper_limits[iq] - self._margin
         if np.any(low > high):
             raise InvalidInputError(
                 f"margin {self.margin} is larger than half a joint range of robot '{robot.name}'"
