@@ -106,3 +106,39 @@ def test_position_limit_margin_cannot_be_changed_silently() -> None:
     np.testing.assert_allclose(ub, hi - 0.1 - robot.q_default)
     np.testing.assert_allclose(lb, lo + 0.1 - robot.q_default)
     assert limits.margin == 0.1
+
+
+def test_feature_bounds_and_acceleration_limits_are_checked_on_assignment() -> None:
+    """NaN bounds, lower > upper and gain 5 were accepted after construction."""
+    from taskspace.constraints import FeatureBounds, JointAccelerationLimits
+    from taskspace.errors import InvalidInputError
+
+    robot = load_robot("panda")
+    state = robot.state(robot.q_default, np.zeros(robot.nv))
+    feature = F.Position(robot, "panda_hand_tcp")
+    fb = FeatureBounds(feature, lower=[-1, -1, 0], upper=[1, 1, 2])
+    for name, bad, match in [
+        ("lower", [np.nan, 0, 0], "lower"),
+        ("upper", [1, 1], "upper"),
+        ("lower", [2, 2, 2], "lower > upper"),
+        ("upper", -5.0, "lower > upper"),
+        ("gain", 5.0, "gain"),
+        ("gain", float("nan"), "gain"),
+        ("gain", True, "gain"),
+    ]:
+        with pytest.raises(InvalidInputError, match=match):
+            setattr(fb, name, bad)
+    fb.upper = [1.0, 1.0, 0.1]  # below the hand: a violated bound, corrected with gain 0.5
+    fb.gain = 0.5
+    y = feature.value(state)
+    rows = fb.inequalities(state, 0.01)
+    np.testing.assert_allclose(rows.C, feature.jacobian(state))
+    assert y[2] > 0.1
+    np.testing.assert_allclose(rows.upper, [1 - y[0], 1 - y[1], 0.5 * (0.1 - y[2])])
+    np.testing.assert_allclose(rows.lower, [-1 - y[0], -1 - y[1], 0 - y[2]])
+    acc = JointAccelerationLimits(robot, np.ones(robot.nv))
+    for bad in (np.full(robot.nv, np.nan), -np.ones(robot.nv), np.ones(3)):
+        with pytest.raises(InvalidInputError, match="limits"):
+            acc.limits = bad
+    acc.limits = 2 * np.ones(robot.nv)
+    np.testing.assert_allclose(acc.limits, 2.0)

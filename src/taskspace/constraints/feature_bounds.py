@@ -36,17 +36,34 @@ class FeatureBounds(Constraint):
     ) -> None:
         super().__init__(feature.robot, name or f"bounds on {feature.name}")
         self.feature = feature
-        lo = np.asarray(lower, dtype=float)
-        hi = np.asarray(upper, dtype=float)
-        lo = np.where(np.isneginf(lo), -INF, lo) if lo.ndim else np.full(feature.dim, lo)
-        hi = np.where(np.isposinf(hi), INF, hi) if hi.ndim else np.full(feature.dim, hi)
-        self.lower = as_vector(np.maximum(lo, -INF), feature.dim, "lower")
-        self.upper = as_vector(np.minimum(hi, INF), feature.dim, "upper")
-        if np.any(self.lower > self.upper):
-            raise InvalidInputError(f"{self.name}: lower > upper")
-        if not 0.0 < gain <= 1.0:
-            raise InvalidInputError(f"gain must be in (0, 1], got {gain}")
-        self.gain = float(gain)
+        self.upper = upper  # each checked by __setattr__ (also when changed later)
+        self.lower = lower
+        self.gain = gain
+
+    def __setattr__(self, name: str, value: object) -> None:
+        """Check ``lower``, ``upper`` (``lower <= upper``) and ``gain`` on every assignment."""
+        if name in ("lower", "upper"):
+            arr = np.asarray(value, dtype=float)
+            dim = self.feature.dim
+            if name == "lower":
+                arr = np.where(np.isneginf(arr), -INF, arr) if arr.ndim else np.full(dim, arr)
+                value = as_vector(np.maximum(arr, -INF), dim, "lower")
+            else:
+                arr = np.where(np.isposinf(arr), INF, arr) if arr.ndim else np.full(dim, arr)
+                value = as_vector(np.minimum(arr, INF), dim, "upper")
+            other = getattr(self, "upper" if name == "lower" else "lower", None)
+            if other is not None:
+                lo, hi = (value, other) if name == "lower" else (other, value)
+                if np.any(lo > hi):
+                    raise InvalidInputError(f"{self.name}: lower > upper")
+        elif name == "gain":
+            ok = isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(
+                value, bool
+            )
+            if not ok or not 0.0 < value <= 1.0:  # type: ignore[operator]
+                raise InvalidInputError(f"gain must be in (0, 1], got {value}")
+            value = float(value)  # type: ignore[arg-type]
+        super().__setattr__(name, value)
 
     def inequalities(self, state: State, dt: float) -> InequalityRows:
         """``lower - phi <= J dq <= upper - phi`` (violations corrected with ``gain``)."""

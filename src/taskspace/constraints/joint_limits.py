@@ -220,9 +220,15 @@ class JointAccelerationLimits(Constraint):
 
     def __init__(self, robot: Robot, limits: Any) -> None:
         super().__init__(robot, "joint acceleration limits")
-        self.limits = as_vector(limits, robot.nv, "limits")
-        if np.any(self.limits <= 0):
-            raise InvalidInputError("acceleration limits must be > 0")
+        self.limits = limits  # checked by __setattr__ (also when changed later)
+
+    def __setattr__(self, name: str, value: object) -> None:
+        """Check ``limits`` (size nv, > 0) on every assignment."""
+        if name == "limits":
+            value = as_vector(value, self.robot.nv, "limits")
+            if np.any(value <= 0):
+                raise InvalidInputError("acceleration limits must be > 0")
+        super().__setattr__(name, value)
 
     def bounds(self, state: State, dt: float) -> Box:
         """Box on ``dq`` around ``v dt``."""
