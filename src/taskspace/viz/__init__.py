@@ -29,11 +29,12 @@ if TYPE_CHECKING:
         render_html,
         snapshot,
     )
-    from taskspace.viz.viewer import CameraPose, Viewer
+    from taskspace.viz.viewer import CameraPose, LiveViewerError, Viewer
 
 _EXPORTS = {
     "CameraPose": "taskspace.viz.viewer",
     "ImageComparison": "taskspace.viz.image_comparison",
+    "LiveViewerError": "taskspace.viz.viewer",
     "MeshcatRender": "taskspace.viz.env_viewer",
     "SceneRecorder": "taskspace.viz.scene_recorder",
     "SnapshotError": "taskspace.viz.snapshots",
@@ -54,6 +55,7 @@ _EXPORTS = {
 __all__ = [
     "CameraPose",
     "ImageComparison",
+    "LiveViewerError",
     "MeshcatRender",
     "SceneRecorder",
     "SnapshotError",

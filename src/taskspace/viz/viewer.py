@@ -21,6 +21,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
+from urllib.parse import quote, unquote
 
 import numpy as np
 import pinocchio as pin
@@ -33,7 +34,7 @@ from taskspace._validation import (
     check_count,
     check_positive,
 )
-from taskspace.errors import InvalidInputError, UnknownNameError
+from taskspace.errors import InvalidInputError, TaskspaceError, UnknownNameError
 from taskspace.model.world import World, as_se3
 from taskspace.viz.meshcat_geometry import (
     geometry_aabb,
@@ -111,6 +112,70 @@ def _check_meshcat_server(zmq_url: str) -> None:
         socket.close()
 
 
+LIVE_COMMAND_TIMEOUT_S = 10.0
+"""How long a command to a live meshcat server may wait for its answer before
+:class:`LiveViewerError` (meshcat itself waited for ever on a server killed from outside)."""
+
+
+class LiveViewerError(TaskspaceError):
+    """The live meshcat server of a :class:`Viewer` stopped answering (killed, frozen)."""
+
+
+class _LiveWindow:
+    """A meshcat ``ViewerWindow`` whose commands fail with :class:`LiveViewerError`.
+
+    A server killed from outside made the next command block for ever in meshcat's zmq
+    ``recv``. A server process that has exited is reported at once; one that does not answer
+    within :data:`LIVE_COMMAND_TIMEOUT_S` too. The zmq REQ socket is then unusable: the
+    viewer stops forwarding (``Viewer.live`` is False, ``url`` says why) and keeps recording,
+    so exports still work.
+    """
+
+    def __init__(self, window: Any) -> None:
+        import zmq
+
+        self.window = window
+        self.error: str | None = None
+        timeout_ms = max(1, int(LIVE_COMMAND_TIMEOUT_S * 1000))
+        window.zmq_socket.setsockopt(zmq.RCVTIMEO, timeout_ms)
+        window.zmq_socket.setsockopt(zmq.SNDTIMEO, timeout_ms)
+        window.zmq_socket.setsockopt(zmq.LINGER, 0)
+
+    @property
+    def server_proc(self) -> Any:
+        return getattr(self.window, "server_proc", None)
+
+    @property
+    def web_url(self) -> str:
+        return str(self.window.web_url)
+
+    def open(self) -> None:
+        self.window.open()
+
+    def _fail(self, why: str) -> LiveViewerError:
+        self.error = (
+            f"the live meshcat server ({self.window.zmq_url}) {why}; the scene is still "
+            "recorded (save_html / snapshot): call close(), or create a new "
+            "Viewer(..., live=True)"
+        )
+        return LiveViewerError(self.error)
+
+    def send(self, command: Any) -> None:
+        import zmq
+
+        if self.error is not None:
+            return  # reported once; the recorder keeps the scene
+        process = self.server_proc
+        if process is not None and process.poll() is not None:
+            raise self._fail(f"has exited (code {process.returncode})")
+        try:
+            self.window.send(command)
+        except zmq.ZMQError as exc:  # zmq.Again: no answer within the timeout
+            raise self._fail(
+                f"did not answer within {LIVE_COMMAND_TIMEOUT_S:g} s ({exc})"
+            ) from None
+
+
 @dataclass(frozen=True, kw_only=True)
 class CameraPose:
     """Camera placement in the world (z up).
@@ -131,7 +196,16 @@ def _root_path(name: str) -> Any:
 
 
 def _safe(name: str) -> str:
-    return name.replace("/", "_").replace(" ", "_") or "_"
+    """One meshcat path element per name, injectively (percent-encoding; "" -> "%").
+
+    Replacing "/" and " " by "_" made "a/b", "a b" and "a_b" one node: the second marker
+    silently replaced the first.
+    """
+    return quote(name, safe="") or "%"
+
+
+def _unsafe(element: str) -> str:
+    return "" if element == "%" else unquote(element)
 
 
 class Viewer:
@@ -182,7 +256,7 @@ class Viewer:
         if zmq_url is not None:
             _check_meshcat_server(zmq_url)
         if live or zmq_url is not None:
-            forward = meshcat.Visualizer(zmq_url=zmq_url).window
+            forward = _LiveWindow(meshcat.Visualizer(zmq_url=zmq_url).window)
         self._closed = False
         self.recorder = SceneRecorder(forward=forward)
         self.vis = meshcat.Visualizer(window=self.recorder)
@@ -583,7 +657,13 @@ class Viewer:
         # the node and what lies under it ("tcp" must not take "tcp2" or "tcp_nodes" along)
         known = {k for k in self._bounds if k == node or k.startswith(node + "/")}
         if not known and name != "obstacles":
-            valid = [k.removeprefix("markers/") for k in self._bounds if k.startswith("markers/")]
+            valid = list(
+                dict.fromkeys(
+                    _unsafe(k.removeprefix("markers/").split("/")[0])
+                    for k in self._bounds
+                    if k.startswith("markers/")
+                )
+            )
             raise UnknownNameError("marker", name, valid)
         self.vis[node].delete()
         for k in known:
@@ -803,23 +883,32 @@ class Viewer:
     # ------------------------------------------------------------------ live viewer
     @property
     def live(self) -> bool:
-        """Whether a live meshcat server receives the commands."""
-        return self.recorder.forward is not None
+        """Whether a live meshcat server receives the commands.
+
+        A live server that stops answering (killed, frozen) makes the next command raise
+        :class:`LiveViewerError` within :data:`LIVE_COMMAND_TIMEOUT_S`; the viewer is then
+        no longer live and keeps recording the scene.
+        """
+        forward = self.recorder.forward
+        return forward is not None and getattr(forward, "error", None) is None
 
     @property
     def url(self) -> str:
         """URL of the live meshcat server (open it in a browser)."""
-        if self.recorder.forward is None:
+        if not self.live:
             raise InvalidInputError(self._not_live())
-        return str(self.recorder.forward.web_url)  # type: ignore[attr-defined]
+        return str(self.recorder.forward.web_url)  # type: ignore[union-attr]
 
     def open(self) -> None:
         """Open the live viewer in a web browser."""
-        if self.recorder.forward is None:
+        if not self.live:
             raise InvalidInputError(self._not_live())
-        self.recorder.forward.open()  # type: ignore[attr-defined]
+        self.recorder.forward.open()  # type: ignore[union-attr]
 
     def _not_live(self) -> str:
+        error = getattr(self.recorder.forward, "error", None)
+        if error is not None:
+            return f"this viewer is not live any more: {error}"
         if self._closed:
             return (
                 "this viewer is not live any more: close() stopped its meshcat server; the "
@@ -834,7 +923,7 @@ class Viewer:
         Returns:
             ``True`` when Ctrl-C ended the wait, ``False`` when the timeout did.
         """
-        if self.recorder.forward is None:
+        if not self.live:
             raise InvalidInputError(self._not_live())
         end = None if timeout is None else time.monotonic() + check_positive(timeout, "timeout")
         interrupted = False
