@@ -1135,6 +1135,61 @@ class Robot:
             self.world.remove(obstacle.name)
         self.collision_data = self.collision_model.createData()
 
+    def disable_collision_pairs(self, pairs: Iterable[tuple[str, str]]) -> None:
+        """Stop checking pairs of robot geometries (names as in :attr:`collision_pairs`).
+
+        The world gets a new :attr:`~taskspace.model.World.version`, so every collision
+        checker, configuration space and planner built before follows the change. Change
+        pairs this way: edits of ``robot.collision_model`` in place (Pinocchio's
+        ``removeCollisionPair``...) carry no version, and objects built before keep their
+        copies.
+
+        Raises:
+            UnknownNameError: a name that is not a robot geometry (obstacle pairs follow the
+                obstacles: remove the obstacle instead).
+            InvalidInputError: not a list of (name, name) pairs, or a geometry paired with
+                itself.
+        """
+        self._edit_collision_pairs(pairs, enable=False)
+
+    def enable_collision_pairs(self, pairs: Iterable[tuple[str, str]]) -> None:
+        """Check pairs of robot geometries again (see :meth:`disable_collision_pairs`)."""
+        self._edit_collision_pairs(pairs, enable=True)
+
+    def _edit_collision_pairs(self, pairs: Iterable[tuple[str, str]], *, enable: bool) -> None:
+        objs = self.collision_model.geometryObjects
+        names = {objs[i].name: i for i in range(self._robot_geometry_count)}
+        if isinstance(pairs, (str, bytes)) or not isinstance(pairs, Iterable):
+            raise InvalidInputError(
+                f"pairs must be a list of (geometry name, geometry name), got {pairs!r}"
+            )
+        resolved = []
+        for pair in pairs:
+            if (
+                not isinstance(pair, (tuple, list))
+                or len(pair) != 2
+                or not all(isinstance(n, str) for n in pair)
+            ):
+                raise InvalidInputError(
+                    f"each pair must be (geometry name, geometry name), got {pair!r}"
+                )
+            ids = []
+            for n in pair:
+                if n not in names:
+                    raise UnknownNameError("robot geometry", n, names)
+                ids.append(names[n])
+            if ids[0] == ids[1]:
+                raise InvalidInputError(f"a geometry cannot be paired with itself: {pair!r}")
+            resolved.append(pin.CollisionPair(min(ids), max(ids)))
+        model = self.collision_model
+        for cp in resolved:
+            if enable and not model.existCollisionPair(cp):
+                model.addCollisionPair(cp)
+            elif not enable and model.existCollisionPair(cp):
+                model.removeCollisionPair(cp)
+        self.collision_data = model.createData()
+        self.world.mark_changed()
+
     @property
     def collision_pairs(self) -> list[tuple[str, str]]:
         """Checked collision pairs as (geometry name, geometry name)."""
