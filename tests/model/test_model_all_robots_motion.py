@@ -9,10 +9,12 @@ most joints between it and the root):
   configuration 5 % inside the joint limits, computed by Pinocchio); ``DifferentialIK``
   (pose task, position and velocity limits) driven from the default posture reaches it
   within 400 steps without ever leaving the limits, and ``solve_ik`` reaches it as well. Both
-  results are checked with Pinocchio's forward kinematics, not with the solvers' own errors.
+  results are checked with Pinocchio's forward kinematics, not with the solvers' own errors;
+* toward a target whose configuration has every limited joint 0.3 past a limit, 100 steps of
+  ``DifferentialIK`` and ``solve_ik`` stay within the limits (Pinocchio's arrays).
 
 Robots that cannot be loaded are those of ``EXPECTED_FAILURES`` in test_model_all_robots.py.
-The whole file takes about 10 s.
+The whole file takes about 30 s.
 """
 
 from __future__ import annotations
@@ -124,4 +126,30 @@ def test_ik_reaches_reachable_targets_within_limits(name: str) -> None:
     )
     assert solved.success, solved.status
     assert _pose_error(robot, solved.q, frame, target) < 1e-5
+    assert _within_limits(robot, solved.q)
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_ik_toward_a_target_beyond_the_limits_stays_within_them(name: str) -> None:
+    """The target's configuration has every limited joint 0.3 rad (or m) past a limit."""
+    robot = _load(name)
+    idx = robot.limited_joints_q
+    if idx.size == 0:
+        pytest.skip("no limited joint")
+    frame = _deepest_frame(robot)
+    rng = np.random.default_rng(zlib.crc32(name.encode()) + 2)
+    q_out = robot.q_default.copy()
+    side = rng.integers(0, 2, idx.size).astype(bool)
+    q_out[idx] = np.where(side, robot.upper_limits[idx] + 0.3, robot.lower_limits[idx] - 0.3)
+    target = robot.frame_placement(robot.normalize(q_out), frame)
+    ik = DifferentialIK(
+        robot,
+        [Task(F.FramePose(robot, frame), target)],
+        [JointPositionLimits(robot), JointVelocityLimits(robot)],
+    )
+    state = robot.state(robot.q_default)
+    for step in range(100):
+        ik.advance(state, DT)
+        assert _within_limits(robot, state.q), f"step {step}: q left the joint limits"
+    solved = solve_ik(robot, [Task(F.FramePose(robot, frame), target)])
     assert _within_limits(robot, solved.q)
