@@ -207,13 +207,19 @@ def _check_output_file(flag: str, text: str | None) -> None:
     """Refuse an output path that cannot be a file before any work is done.
 
     Raises:
-        CliError: the path is a directory, or a parent of it is an existing non-directory.
+        CliError: the path is a directory, or a parent of it is an existing non-directory;
+            ``--png`` with a suffix other than ``.png``.
     """
     path = _caller_path(text)
     if path is None:
         return
     if path.is_dir():
         raise CliError(f"{flag} {text}: is a directory; give a file name, e.g. {path / 'out'}")
+    if flag == "--png" and path.suffix and path.suffix.lower() != ".png":
+        # PNG bytes went into x.jpg (refused rather than converted: the picture is PNG)
+        raise CliError(
+            f"{flag} {text}: the picture is PNG data; name the file {path.with_suffix('.png').name}"
+        )
     for parent in path.parents:
         if parent.exists():
             if not parent.is_dir():

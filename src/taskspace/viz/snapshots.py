@@ -493,7 +493,7 @@ def snapshot(
             not become ready.
     """
     if path is not None:
-        check_output_path(path)  # before the seconds of rendering
+        check_png_path(path)  # before the seconds of rendering
     result = render_html(scene_or_html, size, options)
     if not result.success:
         raise SnapshotError(
@@ -521,6 +521,24 @@ def check_output_path(path: Any) -> Path:
             if not parent.is_dir():
                 raise InvalidInputError(f"cannot write {out}: {parent} is a file")
             break
+    return out
+
+
+def check_png_path(path: Any) -> Path:
+    """:func:`check_output_path` for PNG data: a suffix other than ``.png`` is refused.
+
+    PNG bytes in ``x.jpg`` made a file that image tools reject or misread (``taskspace
+    snapshot --png x.jpg`` wrote one). Refused rather than converted: the snapshot is PNG.
+
+    Raises:
+        InvalidInputError: as :func:`check_output_path`, or a suffix other than ``.png``.
+    """
+    out = check_output_path(path)
+    if out.suffix and out.suffix.lower() != ".png":
+        raise InvalidInputError(
+            f"{out}: a snapshot is PNG data; name the file {out.with_suffix('.png').name} "
+            f"(for {out.suffix}, convert it: PIL.Image.open(io.BytesIO(png)).save(...))"
+        )
     return out
 
 

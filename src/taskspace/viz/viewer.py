@@ -872,11 +872,11 @@ class Viewer:
 
     def snapshot(self, path: str | Path | None = None, size: tuple[int, int] = (640, 480)) -> bytes:
         """Render the scene to PNG in headless Chromium (see :func:`taskspace.viz.snapshot`)."""
-        from taskspace.viz.snapshots import check_output_path, check_size, snapshot
+        from taskspace.viz.snapshots import check_png_path, check_size, snapshot
 
         width, height = check_size(size)
         if path is not None:
-            check_output_path(path)  # before the seconds of rendering
+            check_png_path(path)  # before the seconds of rendering
         self._prepare_export(aspect=width / height)
         return snapshot(self, path, size)
 
