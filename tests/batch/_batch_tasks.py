@@ -102,3 +102,12 @@ def slow_pid(item: Any, rng: np.random.Generator, context: Any) -> int:
     """The worker's process id, after 50 ms."""
     time.sleep(0.05)
     return os.getpid()
+
+
+def dies_first_in_a_worker(driver_pid: int, folder: str) -> str:
+    """A context factory that SIGKILLs the first worker process building it (marker file)."""
+    marker = Path(folder) / "context-died"
+    if os.getpid() != driver_pid and not marker.exists():
+        marker.write_text("x")
+        os.kill(os.getpid(), signal.SIGKILL)
+    return "ready"

@@ -44,6 +44,21 @@ class Chunk:
         ]
 
 
-def make_chunks(tasks: list[tuple[int, Any]], size: int) -> list[Chunk]:
-    """Consecutive chunks of ``size`` tasks."""
-    return [Chunk(tasks[i : i + size]) for i in range(0, len(tasks), size)]
+def make_chunks(tasks: list[tuple[int, Any]], size: int, taper: int = 0) -> list[Chunk]:
+    """Consecutive chunks of ``size`` tasks, smaller toward the end when ``taper`` > 0.
+
+    With ``taper`` workers, a chunk holds at most ``ceil(remaining / (2 * taper))`` tasks
+    (guided self-scheduling, capped at ``size``): the last chunks shrink to single tasks, so
+    that the workers finish together instead of one running a whole chunk while the others
+    idle. Which tasks a chunk holds never changes their values (seeds are per task).
+    """
+    if taper <= 0:
+        return [Chunk(tasks[i : i + size]) for i in range(0, len(tasks), size)]
+    chunks = []
+    start = 0
+    while start < len(tasks):
+        remaining = len(tasks) - start
+        n = max(1, min(size, -(-remaining // (2 * taper))))
+        chunks.append(Chunk(tasks[start : start + n]))
+        start += n
+    return chunks

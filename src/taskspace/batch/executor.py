@@ -216,10 +216,13 @@ class Executor:
             if not todo:
                 return
             key = _context_key(context)
-            if opts.backend == "ray":  # the actors start and build the context during the probe
-                self._actors.start(fn, key, context, opts.seed)
-            probe: list[TaskRecord] = []
             chunk_size = opts.chunk_size
+            # The workers start and build the context while the driver runs the probe.
+            if opts.backend == "ray":
+                self._actors.start(fn, key, context, opts.seed)
+            elif opts.backend == "processes" and chunk_size is None:
+                self._pool.warm(key, context)
+            probe: list[TaskRecord] = []
             if opts.backend == "serial":
                 chunk_size = chunk_size or 1
             elif chunk_size is None:
@@ -250,7 +253,9 @@ class Executor:
             self.last_chunk_size = chunk_size
             for records in [probe] if probe else []:
                 yield from self._finish(records, store, bar)
-            chunks = make_chunks(todo, chunk_size)
+            # Automatic chunks shrink toward the end of the run (tail balance across workers).
+            taper = self.workers if opts.chunk_size is None and opts.backend != "serial" else 0
+            chunks = make_chunks(todo, chunk_size, taper)
             for records in self._backend(fn, key, context, chunks):
                 yield from self._finish(records, store, bar)
         finally:

@@ -18,7 +18,7 @@ from typing import Any
 
 from taskspace.batch.chunk import Chunk
 from taskspace.batch.records import TaskRecord
-from taskspace.batch.worker import TaskFunction, ignore_sigint, run_chunk
+from taskspace.batch.worker import TaskFunction, ignore_sigint, run_chunk, worker_context
 
 
 def _new_pool(workers: int, start_method: str) -> ProcessPoolExecutor:
@@ -42,6 +42,13 @@ def _stop(pool: ProcessPoolExecutor | None) -> None:
         p.join(timeout=5)
 
 
+def _warm(key: str, factory: Callable[[], Any]) -> None:
+    try:
+        worker_context(key, factory)
+    except Exception:  # run_chunk reports it on each task of the run
+        pass
+
+
 def _unsendable(exc: BaseException) -> str:
     return (
         f"the chunk's results could not be sent back from the worker ({exc!r}): task values "
@@ -61,10 +68,26 @@ class ProcessPool:
         self._pool: ProcessPoolExecutor | None = None
 
     def get(self) -> ProcessPoolExecutor:
-        """The live pool (started on first use)."""
+        """The live pool (started on first use, replaced if a worker died since the last run)."""
+        if self._pool is not None and getattr(self._pool, "_broken", False):
+            self.discard()
         if self._pool is None:
             self._pool = _new_pool(self.workers, self.start_method)
         return self._pool
+
+    def warm(self, key: str, factory: Callable[[], Any] | None) -> None:
+        """Start the workers and have them build the run's context, without waiting.
+
+        Called before the driver times its probe tasks, so that worker start-up, imports and
+        the context (a robot, a scene) overlap the probe instead of following it. A worker
+        that fails or dies here changes nothing: the run's chunks build the context again
+        (and report its error), and a pool broken meanwhile is replaced by :meth:`get`.
+        """
+        if factory is None:
+            return
+        pool = self.get()
+        for _ in range(self.workers):  # one call per worker (a pool starts one per call)
+            pool.submit(_warm, key, factory)
 
     def discard(self) -> None:
         """Stop the pool and its workers; the next :meth:`get` starts a new one."""

@@ -214,6 +214,11 @@ class RayPool:
             pass
 
 
+PIPELINE = 2
+"""Chunks sent to each actor at once: the next one waits in the actor's queue, so the actor
+does not idle for the driver's round trip (about 1 ms, 5 ms under load) between chunks."""
+
+
 def run_ray(
     fn: TaskFunction,
     key: str,
@@ -226,51 +231,85 @@ def run_ray(
 ) -> Iterator[list[TaskRecord]]:
     """Yield each chunk's records as it finishes, in completion order.
 
-    ``pool`` was started for this run (:meth:`RayPool.start`). The driver blocks in
+    ``pool`` was started for this run (:meth:`RayPool.start`). Each actor has up to
+    :data:`PIPELINE` chunks in flight; it runs them in the order they were sent, so when it
+    dies the oldest of them is the one it was running: that chunk counts the crash (retried,
+    then split, then reported), the others are sent again as they were. The driver blocks in
     ``ray.wait`` (no polling) and collects every chunk finished by then; an interruption
     (Ctrl-C, or the caller closing the generator) kills the actors.
     """
     del fn, key, factory, seed, workers  # set up on the pool's actors by pool.start
     ray = _ray()
     queue: deque[Chunk] = deque(chunks)
-    idle = deque(range(len(pool.actors)))
-    in_flight: dict[Any, tuple[int, Chunk]] = {}
+    sent: list[deque[tuple[Any, Chunk]]] = [deque() for _ in pool.actors]
+    in_flight: dict[Any, int] = {}  # ref -> actor index
     finished = False
+
+    def send() -> None:
+        for depth in range(1, PIPELINE + 1):  # fill every actor to depth 1, then 2, ...
+            for index, pending in enumerate(sent):
+                if not queue:
+                    return
+                if len(pending) < depth:
+                    chunk = queue.popleft()
+                    chunk.attempts += 1
+                    ref = pool.actors[index].run.remote(chunk.tasks)
+                    pending.append((ref, chunk))
+                    in_flight[ref] = index
+
     try:
         while queue or in_flight:
-            while queue and idle:
-                index = idle.popleft()
-                chunk = queue.popleft()
-                chunk.attempts += 1
-                in_flight[pool.actors[index].run.remote(chunk.tasks)] = (index, chunk)
+            send()
             refs = list(in_flight)
             done, rest = ray.wait(refs, num_returns=1)
             if rest:  # whatever else finished meanwhile, without waiting
                 more, _ = ray.wait(rest, num_returns=len(rest), timeout=0)
                 done += more
             for ref in done:
-                index, chunk = in_flight.pop(ref)
+                index = in_flight.pop(ref, None)
+                if index is None:  # its actor died and the chunk was already sent again
+                    continue
+                pending = sent[index]
+                position = next(i for i, (r, _) in enumerate(pending) if r == ref)
+                chunk = pending[position][1]
                 try:
                     records = ray.get(ref)
-                except ray.exceptions.RayError as exc:
-                    if isinstance(exc, ray.exceptions.RayActorError):
-                        if exc.actor_init_failed:  # not a task's fault: no worker can start
-                            raise BatchError(
-                                "the Ray workers could not start (is taskspace importable "
-                                f"on every node, with the driver's version?): {_reason(exc)}"
-                            ) from exc
-                        pool.replace(index)
-                    chunk.crashes += 1
-                    if chunk.crashes <= retries:
-                        queue.appendleft(chunk)
-                    elif len(chunk.tasks) > 1:
-                        queue.extendleft(reversed(chunk.split()))
-                    else:
-                        yield chunk.died(_reason(exc))
+                except ray.exceptions.RayActorError as exc:
+                    if exc.actor_init_failed:  # not a task's fault: no worker can start
+                        raise BatchError(
+                            "the Ray workers could not start (is taskspace importable "
+                            f"on every node, with the driver's version?): {_reason(exc)}"
+                        ) from exc
+                    pool.replace(index)
+                    # The actor ran its chunks in order: the oldest unfinished one killed it.
+                    lost = list(pending)
+                    pending.clear()
+                    for other, _ in lost:
+                        in_flight.pop(other, None)
+                    for _, innocent in reversed(lost[1:]):
+                        innocent.attempts -= 1  # sent again as if never started
+                        queue.appendleft(innocent)
+                    yield from _crashed(lost[0][1], exc, retries, queue)
+                except ray.exceptions.RayError as exc:  # e.g. the records could not be sent
+                    del pending[position]
+                    yield from _crashed(chunk, exc, retries, queue)
                 else:
+                    del pending[position]
                     yield chunk.stamp(records)
-                idle.append(index)
         finished = True
     finally:
         if not finished:
             pool.discard()
+
+
+def _crashed(
+    chunk: Chunk, exc: BaseException, retries: int, queue: deque[Chunk]
+) -> Iterator[list[TaskRecord]]:
+    """A chunk whose run failed in Ray: retried first, then split, then reported."""
+    chunk.crashes += 1
+    if chunk.crashes <= retries:
+        queue.appendleft(chunk)
+    elif len(chunk.tasks) > 1:
+        queue.extendleft(reversed(chunk.split()))
+    else:
+        yield chunk.died(_reason(exc))
