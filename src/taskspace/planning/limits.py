@@ -1,12 +1,19 @@
 """The one limit convention of every sampling-based planner of taskspace.
 
-Every planner's ``Options`` has ``max_iterations`` and ``time_limit_s``:
+Every planner's ``Options`` has ``max_iterations`` and ``time_limit_s`` (two exceptions
+below):
 
 * ``max_iterations``: an integer >= 0, or ``None`` for no cap (then the time limit must be
   finite). What one iteration is depends on the planner and is named in its options (one
   sample for the RRT family, PRM* and BIT*; one growth round for Lazy PRM);
 * ``time_limit_s``: a wall-clock budget [s], ``None`` or ``math.inf`` for none (then the
   iteration cap must be an integer); NaN, negative numbers and bools are refused.
+
+Two planners name their cap otherwise (same validation, same statuses):
+:func:`~taskspace.planning.prm.prm` and :func:`~taskspace.planning.prm.build_prm` take
+``PRMOptions.n_samples`` (roadmap nodes, the cap) and ``PRMOptions.time_limit_s``;
+:func:`~taskspace.planning.lazy_prm.lazy_prm` takes the keywords ``max_rounds`` (growth rounds,
+at least 1) and ``time_limit_s``.
 
 A planner stops at whichever limit comes first; its result says which one
 (:attr:`~taskspace.planning.PlannerStatus.TIME_LIMIT` or ``ITERATION_LIMIT`` when no path was
