@@ -2,13 +2,21 @@
 
 * ``overhead``: CPU-bound tasks of 10 ms on 2 workers, one task per chunk, against a plain
   ``multiprocessing.Pool`` (same start method, chunksize 1), pool start-up included in both;
-  the overhead is the wall time over the ideal ``n * 10 ms / workers``.
+  the overhead is the wall time over the ideal ``n * 10 ms / workers``. ``ROUNDS`` rounds,
+  the methods alternating within each; the overheads are of the fastest round (``overhead``,
+  ``vs_plain``) and of the median one (``..._median``).
 * ``per_task``: tiny tasks, one per chunk: what each backend costs per task (Ray's runtime
-  start-up excluded, reported apart).
+  start-up excluded, reported apart); ``ROUNDS`` rounds alternating, the table's median.
 * ``mbm_campaign``: the MotionBenchMaker Panda problems x 3 seeds (compiled and Python
   RRT-Connect on each), serially and on 2 workers: wall time and speed-up. Each backend gets a
   new executor inside the timed region: worker start-up (processes or Ray actors; not the Ray
   runtime, started before) and each worker's scene load are counted for both.
+  ``TASKSPACE_BATCH_CAMPAIGN_ROUNDS`` rounds (default 1; about 2 minutes each), the backends
+  alternating; the speed-ups are of the fastest runs (``speedup_over_serial``) and of the
+  medians.
+
+Every row carries ``load1``, the 1-minute load average when it was measured (this machine
+has 2 cores; numbers taken above a load of about 2 are not comparable).
 * ``ik_dataset``: ``learning.ik_dataset`` on random reachable Panda poses: poses per second
   per core. Each backend's executor is warmed first by a small dataset (workers started, robot
   loaded; its time is the ``startup_s`` column), the same way for serial, processes and Ray;
@@ -31,6 +39,13 @@ from taskspace.batch import BatchOptions, Executor, write_sqlite
 
 SUITE = "batch"
 WORKERS = 2
+ROUNDS = 3
+"""Rounds of the cheap rows (overhead, per task), the methods alternating in each."""
+
+
+def _load() -> float:
+    """The 1-minute load average (the machine's other work, which these timings share)."""
+    return round(os.getloadavg()[0], 2)
 
 
 def _wall(fn: Any) -> tuple[float, Any]:
@@ -63,79 +78,109 @@ def _overhead(quick: bool, ray_ok: bool) -> list[Row]:
     n, seconds = (40, 0.01) if quick else (400, 0.01)
     items = [seconds] * n
     ideal = n * seconds / WORKERS
-    rows = []
     ctx = multiprocessing.get_context("forkserver")
 
     def plain() -> Any:
         with ctx.Pool(WORKERS) as pool:
             return pool.map(T.spin_plain, items, chunksize=1)
 
-    t_plain, _ = _wall(plain)
-    rows.append(
-        Row(
-            SUITE,
-            "overhead 10 ms tasks",
-            "multiprocessing.Pool",
-            Timing.from_samples([t_plain / n]),
-            {"tasks": n, "overhead": t_plain / ideal - 1},
-        )
+    def ours(backend: str) -> Any:
+        opts = BatchOptions(backend=backend, workers=WORKERS, chunk_size=1, progress=False)  # type: ignore[arg-type]
+        with Executor(opts) as ex:
+            result = ex.map(T.spin, items)
+        assert result.success
+        return result
+
+    methods: dict[str, Any] = {"multiprocessing.Pool": plain}
+    methods["taskspace processes"] = lambda: ours("processes")
+    if ray_ok:
+        methods["taskspace ray"] = lambda: ours("ray")
+    times: dict[str, list[float]] = {name: [] for name in methods}
+    load = _load()
+    for _ in range(ROUNDS):
+        for name, fn in methods.items():
+            times[name].append(_wall(fn)[0])
+    plain_min, plain_med = (
+        min(times["multiprocessing.Pool"]),
+        float(np.median(times["multiprocessing.Pool"])),
     )
+    rows = []
+    for name, samples in times.items():
+        t_min, t_med = min(samples), float(np.median(samples))
+        extra: dict[str, Any] = {
+            "tasks": n,
+            "rounds": len(samples),
+            "overhead": t_min / ideal - 1,
+            "overhead_median": t_med / ideal - 1,
+            "load1": load,
+        }
+        if name != "multiprocessing.Pool":
+            extra["vs_plain"] = t_min / plain_min - 1
+            extra["vs_plain_median"] = t_med / plain_med - 1
+        rows.append(
+            Row(
+                SUITE,
+                "overhead 10 ms tasks",
+                name,
+                Timing.from_samples(np.asarray(samples) / n),
+                extra,
+                ratio_to=None if name == "multiprocessing.Pool" else "multiprocessing.Pool",
+            )
+        )
     dask = run_peer("dask", "dask_batch.py", [str(n), str(seconds), "20"])
-    rows.append(
+    rows.insert(
+        1,
         Row(
             SUITE,
             "overhead 10 ms tasks",
             "dask.distributed (LocalCluster)",
             Timing.from_samples([dask["overhead"] / n]) if dask else None,
-            {"tasks": n, "overhead": dask["overhead"] / ideal - 1, "startup_s": dask["startup"]}
+            {
+                "tasks": n,
+                "overhead": dask["overhead"] / ideal - 1,
+                "startup_s": dask["startup"],
+                "load1": load,
+            }
             if dask
             else {},
             ratio_to="multiprocessing.Pool",
             note="" if dask else "peer not installed (make bench-peers)",
-        )
+        ),
     )
-    backends = [("processes", "taskspace processes")]
-    if ray_ok:
-        backends.append(("ray", "taskspace ray"))
-    for backend, label in backends:
-        opts = BatchOptions(backend=backend, workers=WORKERS, chunk_size=1, progress=False)  # type: ignore[arg-type]
-        with Executor(opts) as ex:
-            t, result = _wall(lambda ex=ex: ex.map(T.spin, items))
-        assert result.success
-        rows.append(
-            Row(
-                SUITE,
-                "overhead 10 ms tasks",
-                label,
-                Timing.from_samples([t / n]),
-                {"tasks": n, "overhead": t / ideal - 1, "vs_plain": t / t_plain - 1},
-                ratio_to="multiprocessing.Pool",
-            )
-        )
     return rows
 
 
 def _per_task(quick: bool, ray_ok: bool) -> list[Row]:
     n = 200 if quick else 2000
-    rows = []
-    for backend in ("serial", "processes", "ray"):
-        if backend == "ray" and not ray_ok:
-            continue
-        opts = BatchOptions(backend=backend, workers=WORKERS, chunk_size=1, progress=False)  # type: ignore[arg-type]
-        with Executor(opts) as ex:
+    backends = ["serial", "processes"] + (["ray"] if ray_ok else [])
+    executors = {
+        b: Executor(BatchOptions(backend=b, workers=WORKERS, chunk_size=1, progress=False))  # type: ignore[arg-type]
+        for b in backends
+    }
+    times: dict[str, list[float]] = {b: [] for b in backends}
+    load = _load()
+    try:
+        for ex in executors.values():
             ex.map(T.noop, range(20))  # warm: pools, imports
-            t, result = _wall(lambda ex=ex: ex.map(T.noop, range(n)))
-        assert result.success
-        rows.append(
-            Row(
-                SUITE,
-                "per task (no-op)",
-                f"taskspace {backend}",
-                Timing.from_samples([t / n]),
-                {"tasks": n},
-                ratio_to="taskspace serial",
-            )
+        for _ in range(ROUNDS):
+            for b, ex in executors.items():
+                t, result = _wall(lambda ex=ex: ex.map(T.noop, range(n)))
+                assert result.success
+                times[b].append(t / n)
+    finally:
+        for ex in executors.values():
+            ex.close()
+    rows = [
+        Row(
+            SUITE,
+            "per task (no-op)",
+            f"taskspace {b}",
+            Timing.from_samples(times[b]),
+            {"tasks": n, "rounds": ROUNDS, "min_us": min(times[b]) * 1e6, "load1": load},
+            ratio_to="taskspace serial",
         )
+        for b in backends
+    ]
     dask = run_peer("dask", "dask_batch.py", ["4", "0.01", str(n)])
     rows.append(
         Row(
@@ -143,7 +188,7 @@ def _per_task(quick: bool, ray_ok: bool) -> list[Row]:
             "per task (no-op)",
             "dask.distributed",
             Timing.from_samples([dask["per_task"] / n]) if dask else None,
-            {"tasks": n},
+            {"tasks": n, "load1": load},
             ratio_to="taskspace serial",
             note="" if dask else "peer not installed (make bench-peers)",
         )
@@ -170,36 +215,45 @@ def _campaign(quick: bool, ray_ok: bool) -> list[Row]:
     scenarios = list(MOTIONBENCHMAKER_SCENARIOS)[:2] if quick else list(MOTIONBENCHMAKER_SCENARIOS)
     problems = range(1, 6 if quick else 51)
     items = [(s, p, seed) for s in scenarios for p in problems for seed in range(3)]
-    rows = []
-    serial_t = None
-    reference = None
+    rounds = int(os.environ.get("TASKSPACE_BATCH_CAMPAIGN_ROUNDS", "1"))
+    backends = ["serial", "processes"] + (["ray"] if ray_ok else [])
+    runs: dict[str, list[tuple[float, Any, float]]] = {b: [] for b in backends}
     db: Path | None = None
-    for backend in ("serial", "processes", "ray"):
-        if backend == "ray" and not ray_ok:
-            continue
-        opts = BatchOptions(backend=backend, workers=WORKERS, progress=False)  # type: ignore[arg-type]
-        with Executor(opts) as ex:
-            t, result = _wall(lambda ex=ex: ex.map(T.mbm_plan, items, context=T.mbm_context))
+    for _ in range(rounds):
+        for backend in backends:
+            opts = BatchOptions(backend=backend, workers=WORKERS, progress=False)  # type: ignore[arg-type]
+            load = _load()
+            with Executor(opts) as ex:
+                t, result = _wall(lambda ex=ex: ex.map(T.mbm_plan, items, context=T.mbm_context))
+            runs[backend].append((t, result, load))
+            if backend == "serial" and db is None:
+                # One row per run, OMPL-style (planner columns compiled.* and python.*).
+                db = write_sqlite(result, _campaign_db(), experiment="mbm_campaign")
+    serial_times = [t for t, _, _ in runs["serial"]]
+    reference = runs["serial"][0][1].values
+    rows = []
+    for backend in backends:
+        samples = [t for t, _, _ in runs[backend]]
+        t, result, load = min(runs[backend], key=lambda run: run[0])
         values = result.values
         solved = [v["compiled"]["solved"] for v in values if v["valid"]]
         py_time = float(np.median([v["python"]["time_s"] for v in values if v["valid"]]))
-        if backend == "serial":
-            serial_t, reference = t, values
-            # One row per run, OMPL-style (planner columns compiled.* and python.*).
-            db = write_sqlite(result, _campaign_db(), experiment="mbm_campaign")
         extra: dict[str, Any] = {
             "runs": len(items),
             "valid": len(solved),
             "solved": int(sum(solved)),
             "median_python_plan_ms": py_time * 1e3,
             "chunk_size": result.chunk_size,
+            "rounds": rounds,
+            "load1": [load for _, _, load in runs[backend]],
             "database": str(db),
         }
-        if serial_t is not None and backend != "serial":
-            extra["speedup_over_serial"] = serial_t / t
+        if backend != "serial":
+            extra["speedup_over_serial"] = min(serial_times) / t
+            extra["speedup_median"] = float(np.median(serial_times) / np.median(samples))
             same = [
                 a["compiled"]["solved"] == b["compiled"]["solved"]
-                for a, b in zip(values, reference or [])
+                for a, b in zip(values, reference)
                 if a["valid"] and b["valid"]  # invalid problems (start or goal in collision)
             ]
             extra["same_success_as_serial"] = float(np.mean(same))
@@ -208,7 +262,7 @@ def _campaign(quick: bool, ray_ok: bool) -> list[Row]:
                 SUITE,
                 "mbm_campaign",
                 f"taskspace {backend}",
-                Timing.from_samples([t]),
+                Timing.from_samples(samples),
                 extra,
                 ratio_to="taskspace serial",
             )
@@ -226,6 +280,7 @@ def _ik_dataset(quick: bool, ray_ok: bool) -> list[Row]:
     backends = [("serial", 1), ("processes", WORKERS)] + ([("ray", WORKERS)] if ray_ok else [])
     for backend, workers in backends:
         opts = BatchOptions(backend=backend, workers=WORKERS, progress=False)  # type: ignore[arg-type]
+        load = _load()
         with Executor(opts) as ex:
             # A small dataset first: starts the workers and loads the robot in each.
             startup, _ = _wall(lambda ex=ex: ik_dataset("panda", poses[:16], executor=ex))
@@ -242,6 +297,7 @@ def _ik_dataset(quick: bool, ray_ok: bool) -> list[Row]:
                     "success_rate": data.success_rate,
                     "chunk_size": data.batch.chunk_size,
                     "startup_s": startup,
+                    "load1": load,
                 },
                 ratio_to="taskspace serial",
             )
@@ -259,6 +315,7 @@ def run(quick: bool) -> list[Row]:
                 "ray runtime",
                 "ray.init(num_cpus=2)",
                 Timing.from_samples([ray_start or 0.0]),
+                {"load1": _load()},
                 note="start-up of the local runtime, excluded from the per-task rows",
             )
         ]
