@@ -19,6 +19,7 @@ so that each is one BLAS call or a handful of elementwise numpy operations over 
 from __future__ import annotations
 
 import math
+import threading
 from typing import Any
 
 import numpy as np
@@ -32,6 +33,7 @@ from taskspace.errors import (
     SolverError,
     TaskspaceError,
 )
+from taskspace.estimation._serialized import serialized
 from taskspace.estimation.covariance import as_covariance
 
 _CANCELLED = 1e-8
@@ -51,9 +53,16 @@ class BatchKalmanFilter:
         x0: ``(N, n)`` prior means.
         P0: ``(n, n)`` prior covariance shared by all tracks, or ``(N, n, n)`` per track
             (per-track covariances are checked for symmetry and finiteness, not eigenvalues).
+
+    Thread safety: calls are serialized by the filter's lock; each of ``set_belief``,
+    ``predict``, ``update``, ``step`` is atomic, so threads sharing one filter (a sensor
+    callback updating while a timer predicts) lose no update; they do not run in parallel (use
+    one filter per thread for that). Read the belief between calls, not during another thread's
+    update.
     """
 
     def __init__(self, F: Any, H: Any, Q: Any, R: Any, x0: Any, P0: Any) -> None:
+        self._lock = threading.RLock()
         self.F = as_matrix(F, (None, None), "F")
         n = self.F.shape[0]
         if self.F.shape[1] != n:
@@ -108,6 +117,7 @@ class BatchKalmanFilter:
         v.flags.writeable = False
         return v
 
+    @serialized
     def set_belief(self, x: Any, P: Any) -> None:
         """Replace the beliefs by ``N(x_i, P_i)``: ``x (N, n)``, ``P (n, n)`` or ``(N, n, n)``."""
         n = self.dim_x
@@ -133,6 +143,7 @@ class BatchKalmanFilter:
         self._x = np.ascontiguousarray(xa.T)
         self._P = np.ascontiguousarray(Pa.reshape(N, n * n).T)
 
+    @serialized
     def predict(self) -> None:
         """Propagate all tracks: ``x_i = F x_i``, ``P_i = F P_i F^T + Q``.
 
@@ -146,6 +157,7 @@ class BatchKalmanFilter:
         _check_beliefs(x, P, "prediction")
         self._x, self._P = x, P
 
+    @serialized
     def update(self, z: Any) -> FloatArray:
         """Condition every track ``i`` on its measurement ``z_i``.
 
@@ -263,6 +275,7 @@ class BatchKalmanFilter:
         P[:, :, bad] = Pj.transpose(1, 2, 0)
         return P
 
+    @serialized
     def step(self, z: Any) -> FloatArray:
         """Predict, then update with ``z: (N, m)``; returns the NIS of each track.
 

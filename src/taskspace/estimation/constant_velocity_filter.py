@@ -17,12 +17,14 @@ numpy implementation.
 from __future__ import annotations
 
 import math
+import threading
 from typing import Any
 
 import numpy as np
 
 from taskspace._validation import FloatArray, as_vector, check_positive
 from taskspace.errors import NotFiniteError, SolverError
+from taskspace.estimation._serialized import serialized
 from taskspace.estimation.covariance import as_covariance
 
 _IDX = ((0, 0), (0, 1), (0, 2), (0, 3), (1, 1), (1, 2), (1, 3), (2, 2), (2, 3), (3, 3))
@@ -64,11 +66,18 @@ class ConstantVelocityKalmanFilter:
         R: ``(2, 2)`` position measurement noise covariance [m^2].
         x0: ``(4,)`` prior mean ``(p_x, p_y, v_x, v_y)``.
         P0: ``(4, 4)`` prior covariance.
+
+    Thread safety: calls are serialized by the filter's lock; each of ``set_belief``,
+    ``predict``, ``update``, ``step`` is atomic, so threads sharing one filter (a sensor
+    callback updating while a timer predicts) lose no update; they do not run in parallel (use
+    one filter per thread for that). Read the belief between calls, not during another thread's
+    update.
     """
 
-    __slots__ = ("_dt", "_p", "_q", "_r", "_x")
+    __slots__ = ("_dt", "_lock", "_p", "_q", "_r", "_x")
 
     def __init__(self, dt: float, Q: Any, R: Any, x0: Any, P0: Any) -> None:
+        self._lock = threading.Lock()
         self._dt = check_positive(dt, "dt")
         Qm = as_covariance(Q, 4, "Q")
         Rm = as_covariance(R, 2, "R", positive_definite=True)
@@ -78,6 +87,7 @@ class ConstantVelocityKalmanFilter:
         self._p: tuple[float, ...] = ()
         self.set_belief(x0, P0)
 
+    @serialized
     def set_belief(self, x: Any, P: Any) -> None:
         """Replace the belief by ``N(x, P)``."""
         xv = as_vector(x, 4, "x")
@@ -100,6 +110,10 @@ class ConstantVelocityKalmanFilter:
 
     def predict(self) -> None:
         """Propagate one step: ``x = F x``, ``P = F P F^T + Q`` (slide 6:10 propagation)."""
+        with self._lock:
+            self._predict()
+
+    def _predict(self) -> None:
         dt = self._dt
         x0, x1, x2, x3 = self._x
         p00, p01, p02, p03, p11, p12, p13, p22, p23, p33 = self._p
@@ -129,6 +143,10 @@ class ConstantVelocityKalmanFilter:
             NotFiniteError: if ``z`` has NaN or inf entries.
             SolverError: if the innovation covariance is singular.
         """
+        with self._lock:
+            self._update(z)
+
+    def _update(self, z: Any) -> None:
         z0, z1 = z
         z0 = float(z0)
         z1 = float(z1)
@@ -178,5 +196,6 @@ class ConstantVelocityKalmanFilter:
 
     def step(self, z: Any) -> None:
         """One predict + update with position measurement ``z`` [m] (fused, same equations)."""
-        self.predict()
-        self.update(z)
+        with self._lock:  # one acquisition (a plain Lock: ~0.1 us)
+            self._predict()
+            self._update(z)

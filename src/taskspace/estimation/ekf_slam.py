@@ -14,6 +14,7 @@ smallest ``d^2`` exceeds ``chi2_2(new_landmark)``, dropped in between.
 
 from __future__ import annotations
 
+import threading
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -24,6 +25,7 @@ import scipy.stats
 
 from taskspace._validation import FloatArray, as_vector, check_positive
 from taskspace.errors import InvalidInputError, UnknownNameError
+from taskspace.estimation._serialized import serialized
 from taskspace.estimation.covariance import as_covariance
 from taskspace.estimation.motion_models import VelocityMotionModel, wrap_angle
 from taskspace.estimation.observation_models import (
@@ -58,6 +60,11 @@ class EKFSLAM:
         x0: ``(3,)`` initial pose.
         P0: ``(3, 3)`` initial pose covariance.
         options: settings.
+
+    Thread safety: calls are serialized by the estimator's lock; each of ``predict``,
+    ``update``, ``run`` is atomic, so threads sharing one estimator (a sensor callback updating
+    while a timer predicts) lose no update; they do not run in parallel (use one estimator per
+    thread for that). Read the belief between calls, not during another thread's update.
     """
 
     def __init__(
@@ -68,6 +75,7 @@ class EKFSLAM:
         P0: Any,
         options: EKFSLAMOptions | None = None,
     ) -> None:
+        self._lock = threading.RLock()
         self.options = options or EKFSLAMOptions()
         if self.options.association not in ("known", "nearest_neighbor"):
             raise UnknownNameError(
@@ -111,6 +119,7 @@ class EKFSLAM:
         """Number of landmarks in the map."""
         return (self.mu.shape[0] - 3) // 2
 
+    @serialized
     def predict(self, u: Any) -> None:
         """Pose prediction; the map is static."""
         x = self.mu[:3]
@@ -152,6 +161,7 @@ class EKFSLAM:
         S = Hs @ self.Sigma[np.ix_(idx, idx)] @ Hs.T + self.sensor.R
         return r, Hs, S
 
+    @serialized
     def mahalanobis_all(self, z: FloatArray) -> FloatArray:
         """``d_k^2 = r_k^T S_k^-1 r_k`` of measurement ``z`` against every landmark (vectorized)."""
         L = self.num_landmarks
@@ -199,6 +209,7 @@ class EKFSLAM:
         Sg = IKH @ self.Sigma @ IKH.T + K @ self.sensor.R @ K.T
         self.Sigma = 0.5 * (Sg + Sg.T)
 
+    @serialized
     def update(self, obs: LandmarkObservation) -> None:
         """Process every measurement of one time step (association, init, update)."""
         ids, zs = checked_observation(obs)
@@ -226,6 +237,7 @@ class EKFSLAM:
             else:
                 self.num_rejected += 1
 
+    @serialized
     def run(
         self, controls: Sequence[Any], observations: Sequence[LandmarkObservation]
     ) -> SLAMResult:

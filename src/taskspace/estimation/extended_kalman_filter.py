@@ -14,6 +14,7 @@ On a linear model (``f = F x + B u``, ``h = H x``) it is exactly the Kalman filt
 from __future__ import annotations
 
 import math
+import threading
 import time
 from collections.abc import Callable, Sequence
 from typing import Any
@@ -30,6 +31,7 @@ from taskspace.estimation._inputs import (
     checked_belief,
     model_output,
 )
+from taskspace.estimation._serialized import serialized
 from taskspace.estimation.angles import subtract
 from taskspace.estimation.covariance import as_covariance
 from taskspace.estimation.filter_result import FilterResult
@@ -70,6 +72,11 @@ class ExtendedKalmanFilter:
     re-raised as :class:`~taskspace.errors.CallbackError` naming it (the original is its
     ``__cause__``); what they return is checked (shape, finiteness) before it is used; the
     belief is left unchanged when a step fails.
+
+    Thread safety: calls are serialized by the filter's lock; each of ``predict``, ``update``,
+    ``run`` is atomic, so threads sharing one filter (a sensor callback updating while a timer
+    predicts) lose no update; they do not run in parallel (use one filter per thread for that).
+    Read the belief between calls, not during another thread's update.
     """
 
     def __init__(
@@ -87,6 +94,7 @@ class ExtendedKalmanFilter:
         state_normalize: Callable[[FloatArray], FloatArray] | None = None,
         options: KalmanFilterOptions | None = None,
     ) -> None:
+        self._lock = threading.RLock()
         self.x = as_state(x0, None, "x0")
         n = self.x.shape[0]
         self.P = as_covariance(P0, n, "P0")
@@ -115,6 +123,7 @@ class ExtendedKalmanFilter:
         self._last_F = np.eye(n)
         self._last_ll = 0.0
 
+    @serialized
     def predict(self, u: Any = None) -> None:
         """``x = f(x, u)``, ``P = F P F^T + Q`` with ``F = df/dx`` at the prior mean.
 
@@ -133,6 +142,7 @@ class ExtendedKalmanFilter:
         self.x, self.P = checked_belief(x, 0.5 * (P + P.T), "prediction")
         self._last_F = F
 
+    @serialized
     def update(
         self,
         z: Any,
@@ -193,6 +203,7 @@ class ExtendedKalmanFilter:
         self._last_ll = ll
         return nis
 
+    @serialized
     def run(
         self, measurements: Sequence[Any | None], controls: Sequence[Any] | None = None
     ) -> FilterResult:

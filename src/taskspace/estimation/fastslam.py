@@ -14,6 +14,7 @@ All operations are vectorized over particles (2 x 2 algebra in closed form).
 
 from __future__ import annotations
 
+import threading
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -23,6 +24,7 @@ import numpy as np
 
 from taskspace._validation import FloatArray, as_float_array, as_vector, check_count
 from taskspace.errors import InvalidInputError
+from taskspace.estimation._serialized import serialized
 from taskspace.estimation.motion_models import wrap_angle
 from taskspace.estimation.observation_models import (
     LandmarkObservation,
@@ -69,6 +71,11 @@ class FastSLAM:
         num_landmarks: number of landmark ids that may be observed.
         rng: random generator.
         options: settings.
+
+    Thread safety: calls are serialized by the estimator's lock; each of ``predict``,
+    ``update``, ``run`` is atomic, so threads sharing one estimator (a sensor callback updating
+    while a timer predicts) lose no update; they do not run in parallel (use one estimator per
+    thread for that). Read the belief between calls, not during another thread's update.
     """
 
     def __init__(
@@ -80,6 +87,7 @@ class FastSLAM:
         rng: np.random.Generator,
         options: FastSLAMOptions | None = None,
     ) -> None:
+        self._lock = threading.RLock()
         self.options = options or FastSLAMOptions()
         M = check_count(self.options.num_particles, "FastSLAMOptions.num_particles", minimum=1)
         num_landmarks = check_count(num_landmarks, "num_landmarks")
@@ -114,10 +122,12 @@ class FastSLAM:
         self.seen = np.zeros(num_landmarks, dtype=bool)
         self.log_w = np.zeros(M)
 
+    @serialized
     def predict(self, u: Any) -> None:
         """Sample the motion model for every particle."""
         self.poses = self.motion.sample(self.poses, u, self.rng)
 
+    @serialized
     def update(self, obs: LandmarkObservation) -> None:
         """Landmark EKF updates and importance weights, then resampling if needed."""
         R = self.sensor.R
@@ -168,10 +178,12 @@ class FastSLAM:
             self.covs = self.covs[idx]
             self.log_w = np.zeros(M)
 
+    @serialized
     def best_particle(self) -> int:
         """Index of the highest-weight particle."""
         return int(np.argmax(self.log_w))
 
+    @serialized
     def run(
         self, controls: Sequence[Any], observations: Sequence[LandmarkObservation]
     ) -> SLAMResult:

@@ -15,6 +15,7 @@ The 1-D hallway with doors of slides 7:9-7:15 is :class:`HallwayWorld`.
 from __future__ import annotations
 
 import enum
+import threading
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -24,6 +25,7 @@ import numpy as np
 
 from taskspace._validation import FloatArray, as_float_array, as_matrix, as_vector, check_int
 from taskspace.errors import InvalidInputError, ShapeError
+from taskspace.estimation._serialized import serialized
 
 MAX_CELLS = 16_384
 """Largest ``num_cells`` of :func:`shift_transition_matrix` (a dense 2 GiB matrix)."""
@@ -102,9 +104,15 @@ class HistogramFilter:
 
     Args:
         prior: ``(K,)`` non-negative prior (normalized internally).
+
+    Thread safety: calls are serialized by the filter's lock; each of ``predict``, ``update``,
+    ``run`` is atomic, so threads sharing one filter (a sensor callback updating while a timer
+    predicts) lose no update; they do not run in parallel (use one filter per thread for that).
+    Read the belief between calls, not during another thread's update.
     """
 
     def __init__(self, prior: Any) -> None:
+        self._lock = threading.RLock()
         p = as_vector(prior, None, "prior")
         if (p < 0).any() or p.sum() <= 0:
             raise InvalidInputError("prior must be non-negative with a positive sum")
@@ -115,6 +123,7 @@ class HistogramFilter:
         """Number of cells ``K``."""
         return int(self.belief.shape[0])
 
+    @serialized
     def predict(self, transition: Any) -> None:
         """``p_hat(x') = sum_x T[x', x] p(x)`` with a ``(K, K)`` column-stochastic ``T``."""
         K = self.num_cells
@@ -123,6 +132,7 @@ class HistogramFilter:
             raise InvalidInputError("transition must be column-stochastic (columns sum to 1)")
         self.belief = T @ self.belief
 
+    @serialized
     def update(self, likelihood: Any) -> float:
         """``p(x) = c P(y | x) p_hat(x)``; returns the evidence ``1 / c = sum_x P(y|x) p_hat(x)``.
 
@@ -142,6 +152,7 @@ class HistogramFilter:
         self.belief = post / ev
         return ev
 
+    @serialized
     def run(
         self, transitions: Sequence[Any], likelihoods: Sequence[Any | None]
     ) -> HistogramFilterResult:

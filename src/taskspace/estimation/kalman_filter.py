@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import logging
 import math
+import threading
 import time
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
@@ -28,6 +29,7 @@ from taskspace.estimation._inputs import (
     as_state,
     checked_belief,
 )
+from taskspace.estimation._serialized import serialized
 from taskspace.estimation.covariance import as_covariance
 from taskspace.estimation.filter_result import FilterResult, FilterStatus
 
@@ -128,6 +130,11 @@ class KalmanFilter:
         P0: ``(n, n)`` prior covariance.
         B: optional ``(n, p)`` control matrix.
         options: filter settings.
+
+    Thread safety: calls are serialized by the filter's lock; each of ``predict``, ``update``,
+    ``run`` is atomic, so threads sharing one filter (a sensor callback updating while a timer
+    predicts) lose no update; they do not run in parallel (use one filter per thread for that).
+    Read the belief between calls, not during another thread's update.
     """
 
     def __init__(
@@ -142,6 +149,7 @@ class KalmanFilter:
         B: Any | None = None,
         options: KalmanFilterOptions | None = None,
     ) -> None:
+        self._lock = threading.RLock()
         self.F = as_matrix(F, (None, None), "F")
         n = self.F.shape[0]
         if self.F.shape[1] != n:
@@ -161,6 +169,7 @@ class KalmanFilter:
         self.dim_x = n
         self.dim_z = m
 
+    @serialized
     def predict(self, u: Any | None = None) -> None:
         """Propagate the belief one step: ``x = F x + B u``, ``P = F P F^T + Q``.
 
@@ -177,6 +186,7 @@ class KalmanFilter:
             *kalman_predict(self.x, self.P, self.F, self.Q, Bu), "prediction"
         )
 
+    @serialized
     def update(self, z: Any, R: Any | None = None, H: Any | None = None) -> float:
         """Condition the belief on a measurement ``z`` (product identity, slide 6:10).
 
@@ -217,6 +227,7 @@ class KalmanFilter:
         self.x, self.P = checked_belief(x, P, "update")
         return nis
 
+    @serialized
     def run(
         self, measurements: Sequence[Any | None] | FloatArray, controls: Any | None = None
     ) -> FilterResult:

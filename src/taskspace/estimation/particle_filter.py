@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import enum
 import logging
+import threading
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -28,6 +29,7 @@ import numpy as np
 from taskspace._validation import FloatArray, as_float_array, check_finite
 from taskspace.errors import InvalidInputError, ShapeError
 from taskspace.estimation._inputs import call_model
+from taskspace.estimation._serialized import serialized
 from taskspace.estimation.resampling import get_resampler
 
 logger = logging.getLogger(__name__)
@@ -112,6 +114,11 @@ class ParticleFilter:
     re-raised as :class:`~taskspace.errors.CallbackError` naming it (the original is its
     ``__cause__``); what they return is checked (shape, finiteness) before it is used; the
     belief is left unchanged when a step fails.
+
+    Thread safety: calls are serialized by the filter's lock; each of ``predict``, ``update``,
+    ``resample``, ``run`` is atomic, so threads sharing one filter (a sensor callback updating
+    while a timer predicts) lose no update; they do not run in parallel (use one filter per
+    thread for that). Read the belief between calls, not during another thread's update.
     """
 
     def __init__(
@@ -124,6 +131,7 @@ class ParticleFilter:
         observation_sampler: ObservationSampler | None = None,
         options: ParticleFilterOptions | None = None,
     ) -> None:
+        self._lock = threading.RLock()
         self.options = options or ParticleFilterOptions()
         o = self.options
         self._resample = get_resampler(o.resampling)
@@ -178,6 +186,7 @@ class ParticleFilter:
         w = self.weights
         return float(1.0 / np.dot(w, w))
 
+    @serialized
     def predict(self, u: Any) -> None:
         """Move every particle with a sample of the motion model ``P(x_t | u, x_{t-1})``."""
         new = as_float_array(
@@ -189,6 +198,7 @@ class ParticleFilter:
         check_finite(new, "motion_sampler output")
         self.particles = new
 
+    @serialized
     def update(self, z: Any) -> float:
         """Reweight by ``P(z | x_i)``, then resample if ``N_eff < ess_threshold * N``.
 
@@ -237,6 +247,7 @@ class ParticleFilter:
             self.resample(z)
         return ess
 
+    @serialized
     def resample(self, z: Any | None = None) -> None:
         """Draw ``N`` unit-weight particles, then inject observation-proposal particles."""
         N = self.num_particles
@@ -264,6 +275,7 @@ class ParticleFilter:
                 self.particles[slots] = new
                 self.num_injected += k
 
+    @serialized
     def estimate(self) -> tuple[FloatArray, FloatArray]:
         """Weighted mean ``sum w_i x_i`` (circular for ``angular_dims``) and covariance."""
         w = self.weights
@@ -276,6 +288,7 @@ class ParticleFilter:
         cov = (diff * w[:, None]).T @ diff
         return mean, cov
 
+    @serialized
     def run(
         self, controls: Sequence[Any], measurements: Sequence[Any | None]
     ) -> ParticleFilterResult:

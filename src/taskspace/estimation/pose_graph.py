@@ -79,6 +79,10 @@ class PoseGraph:
         edges: pose-pose factors.
         landmark_edges: pose-landmark factors.
         fixed: index of the pose held fixed (gauge).
+
+    Thread safety: a graph is plain data, not locked. :func:`optimize_pose_graph` only reads
+    it (its workspace is per call), so several threads may optimize one graph at once; do not
+    mutate a graph (append edges, replace poses) while another thread optimizes it.
     """
 
     poses: FloatArray

@@ -16,6 +16,7 @@ For linear ``f`` and ``h`` the unscented transform is exact: the UKF equals the 
 from __future__ import annotations
 
 import math
+import threading
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -33,6 +34,7 @@ from taskspace.estimation._inputs import (
     checked_belief,
     model_output,
 )
+from taskspace.estimation._serialized import serialized
 from taskspace.estimation.angles import MeanFn, subtract, weighted_mean
 from taskspace.estimation.covariance import as_covariance
 from taskspace.estimation.filter_result import FilterResult
@@ -111,6 +113,11 @@ class UnscentedKalmanFilter:
     re-raised as :class:`~taskspace.errors.CallbackError` naming it (the original is its
     ``__cause__``); what they return is checked (shape, finiteness) before it is used; the
     belief is left unchanged when a step fails.
+
+    Thread safety: calls are serialized by the filter's lock; each of ``predict``, ``update``,
+    ``run`` is atomic, so threads sharing one filter (a sensor callback updating while a timer
+    predicts) lose no update; they do not run in parallel (use one filter per thread for that).
+    Read the belief between calls, not during another thread's update.
     """
 
     def __init__(
@@ -128,6 +135,7 @@ class UnscentedKalmanFilter:
         mean_z: MeanFn | None = None,
         options: UnscentedOptions | None = None,
     ) -> None:
+        self._lock = threading.RLock()
         self.x = as_state(x0, None, "x0")
         n = self.x.shape[0]
         self.P = as_covariance(P0, n, "P0")
@@ -177,6 +185,7 @@ class UnscentedKalmanFilter:
             ]
         ).reshape(pts.shape[0], n)
 
+    @serialized
     def predict(self, u: Any = None) -> None:
         """Unscented prediction ``x^- = mean_x(f(chi), W^m)``, ``P^- = sum W^c d d^T + Q``.
 
@@ -197,6 +206,7 @@ class UnscentedKalmanFilter:
         P = (D * wc[:, None]).T @ D + self.Q
         self.x, self.P = checked_belief(x, 0.5 * (P + P.T), "prediction")
 
+    @serialized
     def update(
         self,
         z: Any,
@@ -274,6 +284,7 @@ class UnscentedKalmanFilter:
         self._last_ll = last_ll
         return nis
 
+    @serialized
     def run(
         self, measurements: Sequence[Any | None], controls: Sequence[Any] | None = None
     ) -> FilterResult:
