@@ -6,18 +6,28 @@ medians and ratios of a hand-filled arena database.
 
 from __future__ import annotations
 
+import itertools
 import math
 import sqlite3
 
 import numpy as np
+import pinocchio as pin
 import pytest
 
 from benchmarks.suites import planner_arena as arena
 from taskspace.errors import InvalidInputError, PlanningError
-from taskspace.model import Robot
+from taskspace.model import Obstacle, Robot
+from taskspace.planning.bit_star import BITStarOptions, bit_star
 from taskspace.planning.configuration_space import ConfigurationSpace
 from taskspace.planning.joint_manifold import JointManifold
-from taskspace.planning.prm_star import _Graph, _roadmap
+from taskspace.planning.planner_result import PlannerStatus
+from taskspace.planning.prm_star import (
+    PRMStarOptions,
+    _Graph,
+    _roadmap,
+    lazy_prm_star,
+    prm_star,
+)
 from taskspace.planning.shortcut import shortcut_path
 from taskspace.planning.smoothing import smooth_bspline
 from tests.planning._planning_worlds import wall_space
@@ -114,3 +124,70 @@ def test_base_bounds_on_a_fixed_base_robot_are_refused() -> None:
     with pytest.raises(InvalidInputError, match="base_lower/base_upper"):
         JointManifold(robot.model, base_upper=[1, 1])
     assert ConfigurationSpace.from_robot(robot).dim == robot.model.nq  # without them: fine
+
+
+@pytest.fixture(scope="module")
+def panda_block():  # type: ignore[no-untyped-def]
+    """Panda turning its base joint from -1.2 to 1.2 rad through a block at its hand."""
+    robot = Robot.load("panda", convex_collision=True)
+    data = robot.model.createData()
+    pin.framesForwardKinematics(robot.model, data, robot.q_default)
+    hand = data.oMf[robot.model.getFrameId("panda_hand_tcp")].translation
+    robot.add_obstacle(Obstacle.box("block", [0.12, 0.12, 0.12], hand.copy()))
+    space = ConfigurationSpace.from_robot(robot)
+    start, goal = robot.q_default.copy(), robot.q_default.copy()
+    start[0], goal[0] = -1.2, 1.2
+    assert not space.motion_valid(start, goal)  # the straight path goes through the block
+    return robot, space, start, goal
+
+
+def _free_under_pinocchio(robot: Robot, path: np.ndarray, step: float = 0.004) -> bool:
+    """Pinocchio's computeCollisions every ``step`` rad along the path (independent check)."""
+    data, gdata = robot.model.createData(), robot.collision_model.createData()
+    for a, b in itertools.pairwise(path):
+        n = max(1, math.ceil(np.linalg.norm(b - a) / step))
+        for t in np.arange(n + 1) / n:
+            q = a + t * (b - a)
+            if pin.computeCollisions(robot.model, data, robot.collision_model, gdata, q, True):
+                return False
+    return True
+
+
+@pytest.mark.parametrize("planner", ["bit_star", "prm_star", "lazy_prm_star"])
+def test_optimal_planners_certify_their_paths(panda_block, planner: str) -> None:  # type: ignore[no-untyped-def]
+    """Only RRT-Connect and RRT* had ``certify``; BIT*, PRM* and Lazy PRM* now too."""
+    robot, space, start, goal = panda_block
+    if planner == "bit_star":
+        opts = BITStarOptions(certify=True, max_iterations=300, time_limit_s=None, seed=1)
+        result = bit_star(space, start, goal, opts)
+    else:
+        fn = prm_star if planner == "prm_star" else lazy_prm_star
+        star = PRMStarOptions(certify=True, max_iterations=300, time_limit_s=None, seed=1)
+        result, roadmap = fn(space, start, goal, star)
+        assert roadmap.size > 0 if planner == "prm_star" else roadmap.roadmap.size > 0
+    assert result.success and result.log["certified"] == 1.0
+    assert result.log["min_distance"] >= 1e-4
+    assert _free_under_pinocchio(robot, result.path)
+
+
+@pytest.mark.parametrize("planner", ["bit_star", "prm_star"])
+def test_uncertifiable_optimal_paths_are_reported(panda_block, planner: str) -> None:  # type: ignore[no-untyped-def]
+    _, space, start, goal = panda_block
+    if planner == "bit_star":
+        opts = BITStarOptions(
+            certify=True, certify_retries=1, certify_tolerance=5.0, max_iterations=200,
+            time_limit_s=None, seed=1,
+        )  # fmt: skip
+        result = bit_star(space, start, goal, opts)
+    else:
+        star = PRMStarOptions(
+            certify=True, certify_retries=1, certify_tolerance=5.0, max_iterations=200,
+            time_limit_s=None, seed=1,
+        )  # fmt: skip
+        result = prm_star(space, start, goal, star)[0]
+    assert not result.success and result.status is PlannerStatus.UNCERTIFIED
+    assert result.log["certify_attempts"] == 2.0 and result.log["certified"] == 0.0
+    with pytest.raises(InvalidInputError, match="certify=True needs a space built on a robot"):
+        bit_star(wall_space(), [1, 5], [9, 5], BITStarOptions(certify=True))
+    with pytest.raises(InvalidInputError, match="certify=True needs a space built on a robot"):
+        prm_star(wall_space(), [1, 5], [9, 5], PRMStarOptions(certify=True))

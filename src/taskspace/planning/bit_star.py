@@ -29,6 +29,7 @@ and returns the best path with its cost over time.
 
 from __future__ import annotations
 
+import dataclasses
 import heapq
 import math
 import time
@@ -39,6 +40,7 @@ import numpy as np
 import numpy.typing as npt
 
 from taskspace._validation import check_count, check_positive, check_seed
+from taskspace.planning.certify import certify_planned
 from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray, path_length
 from taskspace.planning.limits import Budget, planner_limits
 from taskspace.planning.objectives import (
@@ -65,6 +67,15 @@ class BITStarOptions:
         seed: random seed (an integer >= 0) used when no ``rng`` is passed.
         stop_at_first: return as soon as a first solution exists (not anytime).
         prune: drop samples and vertices that cannot improve the solution at each batch.
+        certify: prove the returned path free between its checked points
+            (:func:`~taskspace.planning.certify_path`, conservative advancement on the robot's
+            geometry); an uncertified path is re-planned with the next seeds
+            (``certify_retries`` times, within the time limit), and if none can be certified
+            the result has ``success=False``, status ``UNCERTIFIED`` and the failing segment
+            in ``log``. Needs a space built on a robot.
+        certify_retries: re-plans (next seeds) after an uncertified path.
+        certify_tolerance: the least robot-obstacle (and self) distance [m] along the path
+            counted as free by the certification.
     """
 
     batch_size: int = 100
@@ -74,6 +85,9 @@ class BITStarOptions:
     seed: int = 0
     stop_at_first: bool = False
     prune: bool = True
+    certify: bool = False
+    certify_retries: int = 2
+    certify_tolerance: float = 1e-4
 
 
 class _States:
@@ -156,9 +170,38 @@ def bit_star(
 
     Raises:
         PlanningError: start or goal outside the bounds or in collision.
-        InvalidInputError: bad options (see :mod:`taskspace.planning.limits`).
+        InvalidInputError: bad options (see :mod:`taskspace.planning.limits`); ``certify``
+            on a space without a robot.
     """
     opts = options or BITStarOptions()
+    if not opts.certify:
+        return _plan(space, start, goal, opts, objective, rng)
+    _, limit = planner_limits(opts.max_iterations, opts.time_limit_s)
+    seed = check_seed(opts.seed)
+
+    def plan(attempt: int, left: float) -> PlannerResult:
+        again = dataclasses.replace(
+            opts, seed=seed + attempt, time_limit_s=left if math.isfinite(left) else None
+        )
+        return _plan(space, start, goal, again, objective, rng)
+
+    return certify_planned(
+        space,
+        plan,
+        time_limit_s=limit,
+        retries=opts.certify_retries,
+        tolerance=opts.certify_tolerance,
+    )
+
+
+def _plan(
+    space: ConfigurationSpace,
+    start: Any,
+    goal: Any,
+    opts: BITStarOptions,
+    objective: OptimizationObjective | None,
+    rng: np.random.Generator | None,
+) -> PlannerResult:
     cap, limit = planner_limits(opts.max_iterations, opts.time_limit_s)
     batch = check_count(opts.batch_size, "batch_size", minimum=1)
     check_positive(opts.gamma_factor, "gamma_factor")

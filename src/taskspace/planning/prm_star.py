@@ -26,6 +26,7 @@ built for another version is refused (see :mod:`~taskspace.planning.prm`).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from dataclasses import dataclass
@@ -38,6 +39,7 @@ from scipy.sparse.csgraph import dijkstra
 from scipy.spatial import cKDTree
 
 from taskspace._validation import check_count, check_positive, check_seed
+from taskspace.planning.certify import certify_planned
 from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray, path_length
 from taskspace.planning.lazy_prm import LazyRoadmap, _check_edges
 from taskspace.planning.limits import Budget, planner_limits
@@ -68,6 +70,15 @@ class PRMStarOptions:
         coarse_resolution: first-pass resolution of the edge checks [rad or m] (PRM*
             checks a batch's edges coarse then fine, Lazy PRM* a candidate path's; every
             point of the space's resolution is checked before an edge is called free).
+        certify: prove the returned path free between its checked points
+            (:func:`~taskspace.planning.certify_path`, conservative advancement on the robot's
+            geometry); an uncertified path is re-planned (a new roadmap) with the next seeds
+            (``certify_retries`` times, within the time limit), and if none can be certified
+            the result has ``success=False``, status ``UNCERTIFIED`` and the failing segment
+            in ``log``. Needs a space built on a robot.
+        certify_retries: re-plans (next seeds) after an uncertified path.
+        certify_tolerance: the least robot-obstacle (and self) distance [m] along the path
+            counted as free by the certification.
     """
 
     batch_size: int = 64
@@ -77,6 +88,9 @@ class PRMStarOptions:
     seed: int = 0
     stop_at_first: bool = False
     coarse_resolution: float = 0.15
+    certify: bool = False
+    certify_retries: int = 2
+    certify_tolerance: float = 1e-4
 
 
 class _Graph:
@@ -358,8 +372,9 @@ def prm_star(
         PlanningError: start or goal outside the bounds or in collision.
         InvalidInputError: bad options (see :mod:`taskspace.planning.limits`).
     """
-    result, graph, version = _plan(space, start, goal, options, objective, rng, lazy=False)
-    return result, _roadmap(graph, version, lazy=False)
+    result, roadmap = _certified(space, start, goal, options, objective, rng, lazy=False)
+    assert isinstance(roadmap, Roadmap)
+    return result, roadmap
 
 
 def lazy_prm_star(
@@ -377,8 +392,50 @@ def lazy_prm_star(
     :class:`~taskspace.planning.LazyRoadmap` whose ``status`` says which edges were found free
     (1), colliding (-1) or never checked (0).
     """
-    result, graph, version = _plan(space, start, goal, options, objective, rng, lazy=True)
+    result, roadmap = _certified(space, start, goal, options, objective, rng, lazy=True)
+    assert isinstance(roadmap, LazyRoadmap)
+    return result, roadmap
+
+
+def _lazy_roadmap(graph: _Graph, versions: tuple[int | None, int | None]) -> LazyRoadmap:
     pairs, cost, status = graph.edges()
-    roadmap = _roadmap(graph, version, lazy=True)
-    lazy = LazyRoadmap(roadmap=roadmap, pairs=pairs.copy(), costs=cost.copy(), status=status.copy())
-    return result, lazy
+    roadmap = _roadmap(graph, versions, lazy=True)
+    return LazyRoadmap(roadmap=roadmap, pairs=pairs.copy(), costs=cost.copy(), status=status.copy())
+
+
+def _certified(
+    space: ConfigurationSpace,
+    start: Any,
+    goal: Any,
+    options: PRMStarOptions | None,
+    objective: OptimizationObjective | None,
+    rng: np.random.Generator | None,
+    lazy: bool,
+) -> tuple[PlannerResult, Roadmap | LazyRoadmap]:
+    """Plan once, or until a path is certified (``options.certify``, see PRMStarOptions)."""
+    opts = options or PRMStarOptions()
+    made: list[Roadmap | LazyRoadmap] = []
+
+    def plan(attempt: int, left: float) -> PlannerResult:
+        again = opts
+        if attempt or math.isfinite(left):
+            again = dataclasses.replace(
+                opts,
+                seed=check_seed(opts.seed) + attempt,
+                time_limit_s=left if math.isfinite(left) else None,
+            )
+        result, graph, versions = _plan(space, start, goal, again, objective, rng, lazy=lazy)
+        made.append(_lazy_roadmap(graph, versions) if lazy else _roadmap(graph, versions, False))
+        return result
+
+    if not opts.certify:
+        return plan(0, math.inf), made[-1]
+    _, limit = planner_limits(opts.max_iterations, opts.time_limit_s)
+    result = certify_planned(
+        space,
+        plan,
+        time_limit_s=limit,
+        retries=opts.certify_retries,
+        tolerance=opts.certify_tolerance,
+    )
+    return result, made[-1]
