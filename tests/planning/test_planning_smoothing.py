@@ -125,11 +125,17 @@ def test_smoothing_options_are_checked() -> None:
 @pytest.fixture(scope="module")
 def panda_block() -> tuple[Robot, ConfigurationSpace, np.ndarray, np.ndarray]:
     robot = Robot.load("panda", convex_collision=True)
-    robot.add_obstacle(Obstacle.box("block", [0.15, 0.15, 0.3], [0.5, 0.0, 0.35]))
+    data = robot.model.createData()
+    pin.framesForwardKinematics(robot.model, data, robot.q_default)
+    hand = data.oMf[robot.model.getFrameId("panda_hand_tcp")].translation
+    robot.add_obstacle(Obstacle.box("block", [0.12, 0.12, 0.12], hand.copy()))
     space = ConfigurationSpace.from_robot(robot)
     q0 = robot.q_default.copy()
     start, goal = q0.copy(), q0.copy()
     start[0], goal[0] = -1.2, 1.2
+    # the block sits at the hand: turning the base joint straight through it collides (the
+    # former block at (0.5, 0, 0.35) did not, so the planners returned the straight line)
+    assert not space.motion_valid(start, goal)
     return robot, space, start, goal
 
 
