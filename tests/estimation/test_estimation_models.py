@@ -85,7 +85,7 @@ def test_range_bearing_jacobians_and_inverse():
 def test_model_errors():
     with pytest.raises(ShapeError, match=r"x must have shape \(-1, 3\)"):
         VelocityMotionModel().mean(np.zeros(2), [1.0, 0.0])
-    with pytest.raises(InvalidInputError, match="wheelbase and dt must be > 0"):
+    with pytest.raises(InvalidInputError, match="wheelbase must be finite and > 0"):
         KinematicCarModel(wheelbase=0.0)
 
 

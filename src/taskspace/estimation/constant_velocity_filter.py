@@ -22,8 +22,8 @@ from typing import Any
 
 import numpy as np
 
-from taskspace._validation import FloatArray, as_vector, check_positive
-from taskspace.errors import NotFiniteError, SolverError
+from taskspace._validation import FloatArray, as_vector, check_count, check_positive
+from taskspace.errors import InvalidInputError, NotFiniteError, SolverError
 from taskspace.estimation._serialized import serialized
 from taskspace.estimation.covariance import as_covariance
 
@@ -47,9 +47,17 @@ def constant_velocity_model(
     """
     dt = check_positive(dt, "dt")
     q = check_positive(accel_noise, "accel_noise", strict=False)
+    dim = check_count(dim, "dim", minimum=1)
     eye = np.eye(dim)
     F = np.block([[eye, dt * eye], [np.zeros((dim, dim)), eye]])
-    Q = q * np.block([[dt**3 / 3 * eye, dt**2 / 2 * eye], [dt**2 / 2 * eye, dt * eye]])
+    with np.errstate(over="ignore", invalid="ignore"):  # dt**3 overflowed (bare OverflowError)
+        d = np.float64(dt)
+        Q = q * np.block([[d**3 / 3 * eye, d**2 / 2 * eye], [d**2 / 2 * eye, d * eye]])
+    if not np.isfinite(Q).all():
+        raise InvalidInputError(
+            f"the process noise Q overflows for dt = {dt:g} s and accel_noise = {q:g}: rescale "
+            "the time or the noise units"
+        )
     H = np.hstack([eye, np.zeros((dim, dim))])
     return F, Q, H
 

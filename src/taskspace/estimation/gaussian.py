@@ -24,11 +24,21 @@ class Gaussian:
 
     Attributes:
         mean: ``(n,)`` mean.
-        cov: ``(n, n)`` covariance.
+        cov: ``(n, n)`` covariance (symmetric positive semidefinite, checked).
+
+    Raises:
+        InvalidInputError: a mean or covariance that is not finite real numbers of matching
+            sizes, or a covariance that is not symmetric positive semidefinite.
     """
 
     mean: FloatArray
     cov: FloatArray
+
+    def __post_init__(self) -> None:
+        # was not checked: a negative, NaN, non-square or text covariance made a "Gaussian"
+        mean = as_vector(self.mean, None, "mean")
+        object.__setattr__(self, "mean", mean)
+        object.__setattr__(self, "cov", as_covariance(self.cov, mean.shape[0], "cov"))
 
 
 def gaussian_logpdf(x: Any, mean: Any, cov: Any) -> float:

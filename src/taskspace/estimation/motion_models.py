@@ -14,7 +14,13 @@ from typing import Any
 
 import numpy as np
 
-from taskspace._validation import FloatArray, as_float_array, as_vector, check_finite
+from taskspace._validation import (
+    FloatArray,
+    as_float_array,
+    as_vector,
+    check_finite,
+    check_positive,
+)
 from taskspace.errors import InvalidInputError, ShapeError
 
 
@@ -39,6 +45,27 @@ def _controls(u: Any, k: int) -> FloatArray:
     return arr
 
 
+def _check_fields(model: Any, positive: tuple[str, ...], non_negative: tuple[str, ...]) -> None:
+    """Validate a frozen model's numeric fields at construction (stored back as floats).
+
+    Before, nothing was checked: ``dt=NaN`` gave NaN poses, ``dt="x"`` or ``alphas=(1, 2)``
+    a bare TypeError/ValueError at the first use, a negative ``dt`` ran the model backward
+    and negative noise coefficients or stds were accepted.
+    """
+    for name in positive:
+        object.__setattr__(model, name, check_positive(getattr(model, name), name))
+    for name in non_negative:
+        object.__setattr__(model, name, check_positive(getattr(model, name), name, strict=False))
+    if hasattr(model, "alphas"):
+        alphas = model.alphas
+        values = as_float_array(alphas, "alphas")
+        if values.shape != (4,) or not np.all(np.isfinite(values)) or np.any(values < 0):
+            raise InvalidInputError(
+                f"alphas must be four finite noise coefficients >= 0, got {alphas!r}"
+            )
+        object.__setattr__(model, "alphas", tuple(float(a) for a in values))
+
+
 @dataclass(frozen=True, kw_only=True)
 class VelocityMotionModel:
     """Velocity motion model: the robot follows an arc with speed ``v`` and turn rate ``w``.
@@ -59,6 +86,9 @@ class VelocityMotionModel:
     alphas: tuple[float, float, float, float] = (0.01, 0.001, 0.001, 0.01)
     sigma_v: float = 0.02
     sigma_w: float = 0.01
+
+    def __post_init__(self) -> None:
+        _check_fields(self, ("dt",), ("sigma_v", "sigma_w"))
 
     def control_covariance(self, u: Any) -> FloatArray:
         """``M(u)``: ``(2, 2)`` covariance of the executed control."""
@@ -141,6 +171,9 @@ class OdometryMotionModel:
     alphas: tuple[float, float, float, float] = (0.01, 0.001, 0.01, 0.001)
     min_std: float = 1e-4
 
+    def __post_init__(self) -> None:
+        _check_fields(self, (), ("min_std",))
+
     @staticmethod
     def odometry_from_poses(x_prev: Any, x_next: Any) -> FloatArray:
         """Control ``u = (rot1, trans, rot2)`` that moves ``x_prev`` to ``x_next``."""
@@ -220,10 +253,9 @@ class KinematicCarModel:
     max_steering: float = 0.6
 
     def __post_init__(self) -> None:
-        if not self.wheelbase > 0.0 or not self.dt > 0.0:
-            raise InvalidInputError(
-                f"wheelbase and dt must be > 0, got {self.wheelbase} and {self.dt}"
-            )
+        # types were not checked ("x" gave a bare TypeError), nor the stds and the steering
+        # limit (NaN gave NaN headings)
+        _check_fields(self, ("dt", "wheelbase", "max_steering"), ("sigma_v", "sigma_delta"))
 
     def control_covariance(self, u: Any) -> FloatArray:
         """``(2, 2)`` control noise covariance."""
