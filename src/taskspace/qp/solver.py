@@ -97,7 +97,14 @@ class QPSolverOptions:
     """Settings of :class:`QPSolver`.
 
     Attributes:
-        backend: ``proxsuite`` (default), ``daqp``, ``osqp`` or ``quadprog``.
+        backend: ``proxsuite`` (default), ``daqp``, ``osqp`` or ``quadprog``. On the
+            project's own QPs (``python -m benchmarks.run qp_backends``) daqp is 3-5x faster
+            than proxsuite on IK and inverse-dynamics steps (both exact on all of them), but
+            fails degenerate hierarchy-level QPs that proxsuite with the cascade's settings
+            solves; proxsuite stays the default for that robustness (the design's choice),
+            the hierarchy cascade tries daqp first, and ``backend="daqp"`` (with proxsuite in
+            ``fallbacks``) is the faster choice for well-posed Python-path IK/ID steps. The
+            compiled kernels use their own methods (held to this setting's tolerances).
         eps_abs: absolute tolerance of the KKT residuals (and of the backends).
         eps_rel: relative tolerance of the KKT residuals (see :mod:`taskspace.qp.kkt`): a
             result is ``SOLVED`` only when its primal, dual and complementarity residuals are
