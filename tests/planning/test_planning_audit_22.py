@@ -191,3 +191,36 @@ def test_uncertifiable_optimal_paths_are_reported(panda_block, planner: str) -> 
         bit_star(wall_space(), [1, 5], [9, 5], BITStarOptions(certify=True))
     with pytest.raises(InvalidInputError, match="certify=True needs a space built on a robot"):
         prm_star(wall_space(), [1, 5], [9, 5], PRMStarOptions(certify=True))
+
+
+def _walled_in_goal():  # type: ignore[no-untyped-def]
+    """A 2-D space whose goal is enclosed by a ring: no path, so Lazy PRM grows until a limit."""
+    from taskspace.planning.collision_checker import FunctionChecker
+    from taskspace.planning.configuration_space import EdgeCheckOptions
+
+    def free(q: np.ndarray) -> np.ndarray:
+        r = np.linalg.norm(np.atleast_2d(q) - 0.8, axis=1)
+        return ~((r > 0.1) & (r < 0.12))
+
+    space = ConfigurationSpace(
+        [0, 0], [1, 1], FunctionChecker(free), edge=EdgeCheckOptions(resolution=0.005)
+    )
+    return space, [0.1, 0.1], [0.8, 0.8]
+
+
+def test_lazy_prm_follows_the_options_time_limit() -> None:
+    """PRMOptions.time_limit_s was silently ignored: the keyword's default 1 s ran instead."""
+    from taskspace.planning.lazy_prm import lazy_prm
+    from taskspace.planning.prm import PRMOptions
+
+    space, start, goal = _walled_in_goal()
+    result, _ = lazy_prm(space, start, goal, PRMOptions(n_samples=50, time_limit_s=0.0))
+    assert not result.success and result.log["growth_rounds"] == 1.0  # stopped by the options
+    result, _ = lazy_prm(space, start, goal, PRMOptions(n_samples=50), time_limit_s=0.0)
+    assert result.log["growth_rounds"] == 1.0  # the keyword alone, as before
+    with pytest.raises(InvalidInputError, match="disagree"):
+        lazy_prm(space, start, goal, PRMOptions(time_limit_s=2.0), time_limit_s=0.5)
+    result, _ = lazy_prm(  # both, agreeing: fine
+        space, start, goal, PRMOptions(n_samples=50, time_limit_s=0.0), time_limit_s=0.0
+    )
+    assert result.log["growth_rounds"] == 1.0

@@ -21,6 +21,7 @@ geodesics, and :func:`lazy_prm`'s samples near the start and goal are ``q (+) si
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 import time
@@ -155,6 +156,29 @@ def _check_edges(
     return free
 
 
+_FROM_OPTIONS: Any = object()
+"""Default of the ``time_limit_s`` keywords: take ``PRMOptions.time_limit_s``."""
+
+
+def _time_limit(keyword: Any, options: PRMOptions | None, default: float | None, who: str) -> Any:
+    """The time limit of a lazy PRM call: the keyword, else the options', else ``default``.
+
+    ``PRMOptions.time_limit_s`` was silently ignored by these functions (their keyword's
+    default won); a keyword and options that disagree are refused.
+    """
+    from_options = options.time_limit_s if options is not None else None
+    if keyword is _FROM_OPTIONS:
+        return from_options if from_options is not None else default
+    if from_options is not None and not (
+        isinstance(keyword, (int, float)) and float(keyword) == float(from_options)
+    ):
+        raise InvalidInputError(
+            f"{who}: time_limit_s={keyword!r} and options.time_limit_s={from_options!r} "
+            "disagree; give the time limit once"
+        )
+    return keyword
+
+
 def lazy_prm_query(
     space: ConfigurationSpace,
     lazy: LazyRoadmap,
@@ -162,7 +186,7 @@ def lazy_prm_query(
     goal: Any,
     options: PRMOptions | None = None,
     *,
-    time_limit_s: float | None = None,
+    time_limit_s: Any = _FROM_OPTIONS,
     coarse_resolution: float = 0.15,
 ) -> PlannerResult:
     """Answer a query on a lazy roadmap, checking only edges of candidate shortest paths.
@@ -180,9 +204,10 @@ def lazy_prm_query(
         lazy: from :func:`build_lazy_prm` (its edge states are updated).
         start: ``q_start``.
         goal: ``q_goal``.
-        options: ``k_neighbors`` is used.
+        options: ``k_neighbors`` and ``time_limit_s`` are used.
         time_limit_s: wall-clock budget [s] (``None`` or ``math.inf``: none; every round
-            removes an edge or ends, so the query ends without one).
+            removes an edge or ends, so the query ends without one); left out:
+            ``options.time_limit_s``. Given both, they must agree.
         coarse_resolution: first-pass resolution [rad or m].
 
     Raises:
@@ -192,6 +217,7 @@ def lazy_prm_query(
     """
     opts = options or PRMOptions()
     t0 = time.perf_counter()
+    time_limit_s = _time_limit(time_limit_s, options, None, "lazy_prm_query")
     deadline = t0 + check_time_limit(time_limit_s)
     check_positive(coarse_resolution, "coarse_resolution")
     checks0, edges0 = space.checks, space.edge_checks
@@ -307,7 +333,7 @@ def lazy_prm(
     goal: Any,
     options: PRMOptions | None = None,
     *,
-    time_limit_s: float | None = 1.0,
+    time_limit_s: Any = _FROM_OPTIONS,
     max_rounds: int | None = 100,
     endpoint_fraction: float = 0.2,
     rng: np.random.Generator | None = None,
@@ -329,9 +355,11 @@ def lazy_prm(
         space: the configuration space.
         start: ``q_start``.
         goal: ``q_goal``.
-        options: ``n_samples`` (nodes added per round), ``k_neighbors``, ``sigma``, ``seed``.
+        options: ``n_samples`` (nodes added per round), ``k_neighbors``, ``sigma``, ``seed``,
+            ``time_limit_s``.
         time_limit_s: wall-clock budget [s] (``None`` or ``math.inf``: none, then
-            ``max_rounds`` must be an integer).
+            ``max_rounds`` must be an integer); left out: ``options.time_limit_s`` when it is
+            set, else 1 s. Given both, they must agree.
         max_rounds: largest number of growth rounds (``None``: none, then ``time_limit_s``
             must be finite).
         endpoint_fraction: fraction of each round's nodes drawn near start and goal.
@@ -347,6 +375,8 @@ def lazy_prm(
             and ``max_rounds`` both ``None``), bad options.
     """
     opts = options or PRMOptions()
+    time_limit_s = _time_limit(time_limit_s, options, 1.0, "lazy_prm")
+    query_opts = dataclasses.replace(opts, time_limit_s=None)  # each query gets what is left
     cap, limit = check_limits(
         max_rounds, time_limit_s, names=("max_rounds", "time_limit_s"), minimum=1
     )
@@ -385,7 +415,7 @@ def lazy_prm(
             lazy = LazyRoadmap(roadmap=base)
         lazy = grow_lazy_prm(space, lazy, fresh, opts.k_neighbors)
         remaining = None if math.isinf(limit) else max(0.0, deadline - time.perf_counter())
-        result = lazy_prm_query(space, lazy, q_start, q_goal, opts, time_limit_s=remaining)
+        result = lazy_prm_query(space, lazy, q_start, q_goal, query_opts, time_limit_s=remaining)
         if result.success or time.perf_counter() > deadline:
             break
         if cap is not None and rounds >= cap:
