@@ -12,8 +12,8 @@ below):
 Two planners name their cap otherwise (same validation, same statuses):
 :func:`~taskspace.planning.prm.prm` and :func:`~taskspace.planning.prm.build_prm` take
 ``PRMOptions.n_samples`` (roadmap nodes, the cap) and ``PRMOptions.time_limit_s``;
-:func:`~taskspace.planning.lazy_prm.lazy_prm` takes the keywords ``max_rounds`` (growth rounds,
-at least 1) and ``time_limit_s``.
+:func:`~taskspace.planning.lazy_prm.lazy_prm` takes the keyword ``max_rounds`` (growth rounds,
+at least 1) and ``time_limit_s`` as a keyword or in ``PRMOptions`` (given twice, they must agree).
 
 A planner stops at whichever limit comes first; its result says which one
 (:attr:`~taskspace.planning.PlannerStatus.TIME_LIMIT` or ``ITERATION_LIMIT`` when no path was
