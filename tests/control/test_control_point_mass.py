@@ -78,7 +78,7 @@ def test_error_paths() -> None:
         PIDGains.from_wavelength(1.0, 0.0, 1.0)
     with pytest.raises(InvalidInputError, match="kd must be finite and >= 0"):
         PIDGains(kp=1.0, kd=-1.0)
-    with pytest.raises(InvalidInputError, match="q0 must be finite"):
+    with pytest.raises(InvalidInputError, match="q0 must be a finite"):
         pd_response(1.0, mass=1.0, kp=1.0, kd=1.0, q0=np.nan)
     pid = PIDController(PIDGains(kp=1.0, ki=1.0), 0.0)
     pid(1.0, 0.0, 0.0)

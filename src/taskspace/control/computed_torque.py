@@ -12,6 +12,7 @@ floating base is not actuated (use the inverse-dynamics QP for humanoids and qua
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -53,7 +54,13 @@ def gains_from_wavelength(wavelength: float, damping_ratio: float) -> tuple[floa
     """
     lam = check_positive(wavelength, "wavelength [s]")
     xi = check_positive(damping_ratio, "damping_ratio", strict=False)
-    return 1.0 / lam**2, 2.0 * xi / lam
+    kp, kd = (1.0 / lam) / lam, 2.0 * xi / lam  # lam**2 raised OverflowError / ZeroDivision
+    if not (math.isfinite(kp) and math.isfinite(kd) and kp > 0.0):
+        raise InvalidInputError(
+            f"wavelength {lam!r} s gives gains kp = {kp:g}, kd = {kd:g} outside the floats; "
+            "use a wavelength between about 1e-150 and 1e150 s"
+        )
+    return kp, kd
 
 
 class ComputedTorqueController:

@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from taskspace._validation import FloatArray, check_positive
+from taskspace._validation import FloatArray, as_float_array, as_scalar, check_positive
 from taskspace.errors import InvalidInputError, NotFiniteError
 from taskspace.model.robot import Robot
 
@@ -92,7 +92,7 @@ def damping_regime(mass: float, kp: float, kd: float) -> DampingRegime:
 
 
 def _times(t: Any) -> FloatArray:
-    arr = np.atleast_1d(np.asarray(t, dtype=float))
+    arr = np.atleast_1d(as_float_array(t, "t"))  # text / complex: bare ValueError before
     if arr.ndim != 1:
         raise InvalidInputError(
             f"t must be a scalar or a 1-D array of times, got shape {arr.shape}"
@@ -113,9 +113,8 @@ def _response(
     expected: tuple[DampingRegime, ...] | None,
 ) -> PointMassResponse:
     mass, kp, kd = _check_gains(mass, kp, kd)
-    for name, value in (("q0", q0), ("v0", v0), ("target", target)):
-        if not math.isfinite(float(value)):
-            raise InvalidInputError(f"{name} must be finite, got {value!r}")
+    # as_scalar: "x", None and complex values gave a bare ValueError / TypeError
+    q0, v0, target = (as_scalar(v, n) for v, n in ((q0, "q0"), (v0, "v0"), (target, "target")))
     ts = _times(t)
     regime = damping_regime(mass, kp, kd)
     if expected is not None and regime not in expected:
@@ -126,13 +125,45 @@ def _response(
             + " or ".join(r.value for r in expected)
             + "; use pd_response for any regime"
         )
-    e0 = float(q0) - float(target)
-    v0 = float(v0)
+    e0 = q0 - target
     sigma = kd / (2.0 * mass)  # decay rate Kd/2m [1/s]
-    disc = kd * kd - 4.0 * mass * kp
+    with np.errstate(over="ignore", under="ignore", invalid="ignore"):
+        e, ed, roots = _modes(ts, mass, kp, kd, e0, v0, sigma, regime)
+    if not (np.isfinite(e).all() and np.isfinite(ed).all()):
+        raise InvalidInputError(
+            f"the response overflows for kp={kp:g}, kd={kd:g}, m={mass:g} over t up to "
+            f"{float(np.max(np.abs(ts))):g} s (growing mode for t < 0, or values beyond the "
+            "floats): rescale the units"
+        )
+    return PointMassResponse(
+        t=ts,
+        q=target + e,
+        v=ed,
+        regime=regime,
+        damping_ratio=kd / math.sqrt(4.0 * mass * kp),
+        wavelength=math.sqrt(mass / kp),
+        exponents=roots,
+    )
+
+
+def _modes(
+    ts: FloatArray,
+    mass: float,
+    kp: float,
+    kd: float,
+    e0: float,
+    v0: float,
+    sigma: float,
+    regime: DampingRegime,
+) -> tuple[FloatArray, FloatArray, tuple[complex, complex]]:
+    """Error and its rate at ``ts`` for the regime's closed form."""
     if regime is DampingRegime.OVERDAMPED:
-        root = math.sqrt(disc) / (2.0 * mass)
-        w1, w2 = -sigma + root, -sigma - root
+        # w2 = -sigma - root without cancellation, w1 from w1 w2 = kp / m: -sigma + root lost
+        # its digits for kd >> sqrt(m kp) (kd = 1e8, kp = m = 1: w1 -7.45e-9 instead of
+        # -1e-8) and kd^2 overflowed above 1e154 (NaN responses)
+        ratio = (4.0 * mass * kp / kd) / kd
+        w2 = -sigma * (1.0 + math.sqrt(1.0 - ratio))
+        w1 = (kp / mass) / w2
         c1 = (v0 - w2 * e0) / (w1 - w2)
         c2 = e0 - c1
         x1, x2 = np.exp(w1 * ts), np.exp(w2 * ts)
@@ -153,15 +184,7 @@ def _response(
         e = x * (e0 * cos + b * sin)
         ed = x * ((b * wd - sigma * e0) * cos - (e0 * wd + sigma * b) * sin)
         roots = (complex(-sigma, wd), complex(-sigma, -wd))
-    return PointMassResponse(
-        t=ts,
-        q=float(target) + e,
-        v=ed,
-        regime=regime,
-        damping_ratio=kd / math.sqrt(4.0 * mass * kp),
-        wavelength=math.sqrt(mass / kp),
-        exponents=roots,
-    )
+    return e, ed, roots
 
 
 def pd_response(

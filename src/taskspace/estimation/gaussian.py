@@ -119,5 +119,11 @@ def gaussian_propagation(a: Any, A: Any, F: Any, b: Any, B: Any) -> Gaussian:
     bv = as_vector(b, m, "b")
     Am = as_covariance(A, n, "A")
     Bm = as_covariance(B, m, "B")
-    cov = Am + Fm @ Bm @ Fm.T
-    return Gaussian(av + Fm @ bv, 0.5 * (cov + cov.T))
+    with np.errstate(over="ignore", invalid="ignore"):
+        cov = Am + Fm @ Bm @ Fm.T
+        mean = av + Fm @ bv
+    if not (np.isfinite(cov).all() and np.isfinite(mean).all()):  # was: overflow warnings
+        raise InvalidInputError(
+            "gaussian_propagation overflows (F B F^T or F b beyond the floats): rescale F, b, B"
+        )
+    return Gaussian(mean, 0.5 * (cov + cov.T))
