@@ -1,6 +1,7 @@
 """taskspace: the algorithms of an introductory robotics course on real robot models."""
 
 from taskspace.errors import (
+    ConcurrentUseError,
     InfeasibleError,
     InvalidInputError,
     LimitError,
@@ -19,6 +20,7 @@ from taskspace.errors import (
 __version__ = "0.2.0.dev0"
 
 __all__ = [
+    "ConcurrentUseError",
     "InfeasibleError",
     "InvalidInputError",
     "LimitError",

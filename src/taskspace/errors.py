@@ -178,3 +178,22 @@ class StaleModelError(TaskspaceError):
         self.built_version = built_version
         self.current_version = current_version
         super().__init__(message)
+
+
+class ConcurrentUseError(TaskspaceError, RuntimeError):
+    """An object that is not thread-safe was used by a second thread while in use.
+
+    Raised (instead of a silently mixed-up result) by objects documented "one per thread"
+    that detect the overlap, e.g. the Gymnasium environments of
+    :mod:`taskspace.learning.envs`.
+
+    Attributes:
+        owner: what was shared (class name and method).
+    """
+
+    def __init__(self, owner: str) -> None:
+        self.owner = owner
+        super().__init__(
+            f"{owner} was called from a second thread while another call on the same object "
+            "was running; it is not thread-safe: give each thread its own object"
+        )

@@ -187,8 +187,7 @@ class JointVelocityLimits(Constraint):
             lim = lim.copy()
             lim[:6] = self._base
         self._limits = lim * self._scale
-        self._dt = -1.0
-        self._box = Box(self._limits, self._limits)
+        self._box_for_dt: tuple[float, Box] = (-1.0, Box(self._limits, self._limits))
 
     @property
     def limits(self) -> FloatArray:
@@ -201,11 +200,15 @@ class JointVelocityLimits(Constraint):
 
     def bounds(self, state: State, dt: float) -> Box:
         """Box on ``dq`` (cached per ``dt``; do not modify the returned arrays)."""
-        if self._follower.sync() or dt != self._dt:
+        # (dt, box) is one attribute, read and replaced at once: a constraint shared by two
+        # solvers stepping with different dt in two threads never returns the other's box.
+        synced = self._follower.sync()
+        cached_dt, box = self._box_for_dt
+        if synced or dt != cached_dt:
             step = np.minimum(self._limits * dt, INF)
-            self._box = Box(-step, step)
-            self._dt = dt
-        return self._box
+            box = Box(-step, step)
+            self._box_for_dt = (dt, box)
+        return box
 
 
 class JointAccelerationLimits(Constraint):

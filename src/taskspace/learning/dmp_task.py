@@ -24,6 +24,7 @@ attractor still pulls it to the goal around it.
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any, Protocol
@@ -151,6 +152,12 @@ class DMPTaskTarget:
 
     Raises:
         InvalidInputError: dimensions that do not match or a non-positive ``tau``.
+
+    Thread safety: :meth:`step` and :meth:`set_goal` may be called from several threads (a
+    control loop stepping while another thread moves the goal): they hold the target's lock,
+    so each step integrates the state left by the previous one and none is lost. The task it
+    drives is written under the same lock; do not step a solver on that task concurrently
+    with :meth:`step` unless the solver serializes its own calls.
     """
 
     def __init__(
@@ -199,11 +206,14 @@ class DMPTaskTarget:
         if self._pose:
             target = task.target if task.target is not None else pin.SE3.Identity()
             self._rotation = np.array(target.rotation, copy=True)
+        self._lock = threading.Lock()
         self._write(np.zeros(d), np.zeros(d))
 
     def set_goal(self, goal: Any) -> None:
         """Move the goal; the DMP's goal follows it through its filter (no jump)."""
-        self.goal_target = as_vector(goal, self.y.size, "goal")
+        goal = as_vector(goal, self.y.size, "goal")
+        with self._lock:
+            self.goal_target = goal
 
     def acceleration(self) -> tuple[FloatArray, FloatArray]:
         """``(tau z', sum C)`` at the current state."""
@@ -228,6 +238,10 @@ class DMPTaskTarget:
         The reported (and feed-forward) acceleration is the one integrated over the step.
         """
         check_positive(dt, "dt [s]")
+        with self._lock:
+            return self._step(dt)
+
+    def _step(self, dt: float) -> DMPStep:
         o = self.dmp.options
         zd, C = self.acceleration()
         ydd = zd / self.tau**2

@@ -7,6 +7,9 @@ one pass over the chain's joints, each a few ``(N, 3, 3)`` products. Revolute an
 joints (axis-aligned or not) are supported; other joints raise
 :class:`~taskspace.errors.InvalidInputError`. The results are Pinocchio's forward kinematics
 (checked against ``pin.framesForwardKinematics`` in the tests).
+
+Thread safety: a :class:`BatchedFramePosition` is read-only after construction; its calls
+allocate their own arrays and may run from several threads.
 """
 
 from __future__ import annotations

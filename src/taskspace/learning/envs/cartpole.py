@@ -15,6 +15,11 @@ Lagrangian of a cart on a prismatic joint carrying a pole on a revolute joint, w
 coefficients read from the model by CRBA and generalized gravity and checked against
 ``pin.aba`` at random states when the environment is built); the substeps run on Python
 floats. A model that fails the check is stepped with ``pin.aba``.
+
+Thread safety: an environment (single or batched) is a simulation state and is not thread-safe:
+one environment per thread. Shared use is detected: ``reset``/``step`` raise
+:class:`~taskspace.errors.ConcurrentUseError` while another thread is inside one of them (see
+:mod:`taskspace.learning.envs.robot_env`).
 """
 
 from __future__ import annotations
@@ -27,7 +32,13 @@ import pinocchio as pin
 from gymnasium import spaces
 
 from taskspace.errors import InvalidInputError
-from taskspace.learning.envs.robot_env import RobotEnv, RobotVectorEnv, action_array, snap_roundoff
+from taskspace.learning.envs.robot_env import (
+    RobotEnv,
+    RobotVectorEnv,
+    action_array,
+    one_thread_at_a_time,
+    snap_roundoff,
+)
 from taskspace.optimal_control.problems import cartpole_acceleration
 
 THETA_LIMIT = 12 * 2 * np.pi / 360
@@ -154,6 +165,7 @@ class CartPoleEnv(RobotEnv):
     def _obs(self) -> np.ndarray:
         return np.array([self.q[0], self.v[0], self.q[1], self.v[1]], dtype=np.float32)
 
+    @one_thread_at_a_time
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[np.ndarray, dict[str, Any]]:
@@ -165,6 +177,7 @@ class CartPoleEnv(RobotEnv):
         self._after_step()
         return self._obs(), {}
 
+    @one_thread_at_a_time
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         """Push for ``dt`` (ABA + semi-implicit Euler substeps)."""
         kind = type(action)
@@ -271,6 +284,7 @@ class CartPoleVectorEnv(RobotVectorEnv):
         else:
             self.q[mask], self.v[mask] = s[:, :2], s[:, 2:]
 
+    @one_thread_at_a_time
     def step(
         self, actions: Any
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:

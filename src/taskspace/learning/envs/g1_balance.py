@@ -19,6 +19,11 @@ limits (:attr:`G1BalanceEnv.tau_max`; the inverse-dynamics QP re-reads them too)
 :meth:`Robot.set_limits` gave the robot a new version; a :meth:`G1BalanceEnv.step` after such a
 change, before a reset, raises :class:`~taskspace.errors.StaleModelError` (an episode runs
 under one set of limits).
+
+Thread safety: an environment (single or batched) is a simulation state and is not thread-safe:
+one environment per thread. Shared use is detected: ``reset``/``step`` raise
+:class:`~taskspace.errors.ConcurrentUseError` while another thread is inside one of them (see
+:mod:`taskspace.learning.envs.robot_env`).
 """
 
 from __future__ import annotations
@@ -34,7 +39,7 @@ from taskspace.constraints import Contact6D
 from taskspace.control import InverseDynamicsQP, simulate_with_contacts
 from taskspace.errors import InvalidInputError, StaleModelError
 from taskspace.features import CenterOfMass, JointConfiguration
-from taskspace.learning.envs.robot_env import action_array, check_render_mode
+from taskspace.learning.envs.robot_env import action_array, check_render_mode, one_thread_at_a_time
 from taskspace.model.robot import Robot
 from taskspace.model.versioning import ModelFollower
 from taskspace.tasks import Task
@@ -120,6 +125,7 @@ class G1BalanceEnv(gym.Env[np.ndarray, np.ndarray]):
         c, vc = self._com()
         return np.concatenate([c - self.c0, vc]).astype(np.float32)
 
+    @one_thread_at_a_time
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[np.ndarray, dict[str, Any]]:
@@ -136,6 +142,7 @@ class G1BalanceEnv(gym.Env[np.ndarray, np.ndarray]):
         self.v[:2] = self.np_random.uniform(-self.push, self.push, 2)
         return self._obs(), {}
 
+    @one_thread_at_a_time
     def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         """Set the CoM reference and simulate ``dt`` under the inverse-dynamics QP.
 

@@ -11,6 +11,11 @@ Model version: the joint limits (position and velocity) and the observation spac
 ``robot.version``. :meth:`PandaReachEnv.reset` re-derives them when :meth:`Robot.set_limits`
 gave the robot a new version; a :meth:`PandaReachEnv.step` after such a change, before a
 reset, raises :class:`~taskspace.errors.StaleModelError` (the episode ran under other limits).
+
+Thread safety: an environment (single or batched) is a simulation state and is not thread-safe:
+one environment per thread. Shared use is detected: ``reset``/``step`` raise
+:class:`~taskspace.errors.ConcurrentUseError` while another thread is inside one of them (see
+:mod:`taskspace.learning.envs.robot_env`).
 """
 
 from __future__ import annotations
@@ -23,7 +28,7 @@ from gymnasium import spaces
 
 from taskspace.errors import InvalidInputError, StaleModelError
 from taskspace.learning.envs.batched_kinematics import BatchedFramePosition
-from taskspace.learning.envs.robot_env import RobotVectorEnv, action_array
+from taskspace.learning.envs.robot_env import RobotVectorEnv, action_array, one_thread_at_a_time
 from taskspace.model.robot import Robot
 from taskspace.planning.collision_checker import CollisionChecker
 
@@ -101,6 +106,7 @@ class PandaReachEnv(gym.Env[np.ndarray, np.ndarray]):
         tcp = self.tcp() if tcp is None else tcp
         return np.concatenate([self.q, tcp, self.target]).astype(np.float32)
 
+    @one_thread_at_a_time
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[np.ndarray, dict[str, Any]]:
@@ -120,6 +126,7 @@ class PandaReachEnv(gym.Env[np.ndarray, np.ndarray]):
         self.target = self.np_random.uniform(TARGET_LOW, TARGET_HIGH)
         return self._obs(), {"distance": float(np.linalg.norm(self.tcp() - self.target))}
 
+    @one_thread_at_a_time
     def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         """Move with the commanded joint velocities for ``dt``.
 
@@ -212,6 +219,7 @@ class PandaReachVectorEnv(RobotVectorEnv):
         self.target[idx] = self.np_random.uniform(TARGET_LOW, TARGET_HIGH, (idx.size, 3))
         self._tcp[idx] = self.tcp_position(q)
 
+    @one_thread_at_a_time
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[np.ndarray, dict[str, Any]]:
@@ -222,6 +230,7 @@ class PandaReachVectorEnv(RobotVectorEnv):
         distance = np.linalg.norm(self._tcp - self.target, axis=1)
         return obs, {"distance": distance, "_distance": np.ones(self.num_envs, dtype=bool)}
 
+    @one_thread_at_a_time
     def step(
         self, actions: Any
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:

@@ -12,6 +12,11 @@ base ABA is ``theta'' = (u - g(theta)) / I`` with a constant inertia ``I`` and a
 a few random states when the environment is built, and the substeps then run on Python floats
 (no Pinocchio call, no array per substep). A model that fails the check is stepped with
 ``pin.aba``.
+
+Thread safety: an environment (single or batched) is a simulation state and is not thread-safe:
+one environment per thread. Shared use is detected: ``reset``/``step`` raise
+:class:`~taskspace.errors.ConcurrentUseError` while another thread is inside one of them (see
+:mod:`taskspace.learning.envs.robot_env`).
 """
 
 from __future__ import annotations
@@ -24,7 +29,13 @@ import pinocchio as pin
 from gymnasium import spaces
 
 from taskspace.dynamics.pendulum import pendulum_acceleration
-from taskspace.learning.envs.robot_env import RobotEnv, RobotVectorEnv, action_array, snap_roundoff
+from taskspace.learning.envs.robot_env import (
+    RobotEnv,
+    RobotVectorEnv,
+    action_array,
+    one_thread_at_a_time,
+    snap_roundoff,
+)
 
 _PI = math.pi
 _TWO_PI = 2.0 * math.pi
@@ -140,6 +151,7 @@ class PendulumEnv(RobotEnv):
         th, w = self.state.tolist()
         return np.array([math.cos(th - _PI), math.sin(th - _PI), w], dtype=np.float32)
 
+    @one_thread_at_a_time
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[np.ndarray, dict[str, Any]]:
@@ -151,6 +163,7 @@ class PendulumEnv(RobotEnv):
         self._after_step()
         return self._obs(), {}
 
+    @one_thread_at_a_time
     def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         """Apply the clipped torque for ``dt`` (ABA, semi-implicit Euler substeps)."""
         u = _scalar_action(action)
@@ -235,6 +248,7 @@ class PendulumVectorEnv(RobotVectorEnv):
         else:
             self.state[mask] = self._sample(int(mask.sum()))
 
+    @one_thread_at_a_time
     def step(
         self, actions: Any
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:

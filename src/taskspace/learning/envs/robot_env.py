@@ -11,11 +11,21 @@ reset (with a non-interactive backend such as Agg nothing is shown). Subclasses 
 :class:`RobotVectorEnv` holds what the batched environments share: the batched spaces, the
 step counters and the next-step auto-reset of ``gymnasium.vector`` (a copy that ended on the
 previous step is reset instead of stepped, with reward 0).
+
+Thread safety: an environment is a simulation state (``q``, ``v``, Pinocchio data, step
+counters, RNG) and is not thread-safe, as Gymnasium environments are not: use one environment
+per thread (or a batched environment). Sharing is detected: ``reset``, ``step`` and
+``render`` of every environment of :mod:`taskspace.learning.envs` raise
+:class:`~taskspace.errors.ConcurrentUseError` when another thread is inside one of them on the
+same environment (instead of interleaving two threads' steps into one trajectory).
 """
 
 from __future__ import annotations
 
-from typing import Any
+import functools
+import threading
+from collections.abc import Callable
+from typing import Any, TypeVar
 
 import gymnasium as gym
 import numpy as np
@@ -25,8 +35,38 @@ from gymnasium.vector import VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from taskspace._validation import as_float_array, check_count, require_extra
-from taskspace.errors import InvalidInputError, NotFiniteError, ShapeError
+from taskspace.errors import ConcurrentUseError, InvalidInputError, NotFiniteError, ShapeError
 from taskspace.model.robot import Robot
+
+F = TypeVar("F", bound=Callable[..., Any])
+
+_GUARD_CREATION = threading.Lock()
+
+
+def one_thread_at_a_time(method: F) -> F:
+    """Raise :class:`ConcurrentUseError` when another thread is inside a guarded method.
+
+    The guard is a per-object re-entrant lock taken without blocking: the same thread may
+    nest guarded calls (``reset`` calling ``step``), a second thread gets the error instead of
+    a step interleaved with the first one's.
+    """
+    name = method.__name__
+
+    @functools.wraps(method)
+    def guarded(self: Any, *args: Any, **kwargs: Any) -> Any:
+        guard = self.__dict__.get("_one_thread_guard")
+        if guard is None:
+            with _GUARD_CREATION:
+                guard = self.__dict__.setdefault("_one_thread_guard", threading.RLock())
+        if not guard.acquire(blocking=False):
+            raise ConcurrentUseError(f"{type(self).__name__}.{name}")
+        try:
+            return method(self, *args, **kwargs)
+        finally:
+            guard.release()
+
+    return guarded  # type: ignore[return-value]
+
 
 RENDER_MODES = ("rgb_array", "human")
 IMAGE_SIZE = 400
@@ -88,6 +128,7 @@ class RobotEnv(gym.Env[np.ndarray, Any]):
         """Draw the current state on a matplotlib ``Axes``."""
         raise NotImplementedError
 
+    @one_thread_at_a_time
     def render(self) -> np.ndarray | None:  # type: ignore[override]
         """Render the current state.
 
@@ -192,6 +233,7 @@ class RobotVectorEnv(VectorEnv):
         """Draw new initial states for the copies in ``mask``."""
         raise NotImplementedError
 
+    @one_thread_at_a_time
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[np.ndarray, dict[str, Any]]:
