@@ -49,7 +49,8 @@ has no contact there); with the knee locked, only heel strike ahead of the stanc
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import threading
+from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Any
 
@@ -100,16 +101,42 @@ def _at(y: float) -> pin.SE3:
 
 @dataclass(frozen=True)
 class _Models:
+    """The walker's Pinocchio models; their ``pin.Data`` are per thread (made on first use).
+
+    A method evaluates and then reads its data (``framesForwardKinematics`` then ``oMf``,
+    ``impulseDynamics`` then ``impulse_c``): with one data shared by threads, another thread's
+    evaluation in between gave a silently wrong answer.
+    """
+
     unlocked: pin.Model
-    unlocked_data: pin.Data
     locked: pin.Model
-    locked_data: pin.Data
     floating: pin.Model
-    floating_data: pin.Data
     frames: dict[str, int]
     floating_foot: int
     jointed: pin.Model
-    jointed_data: pin.Data
+    _local: threading.local = field(default_factory=threading.local, repr=False, compare=False)
+
+    def _data(self, name: str) -> pin.Data:
+        data = self._local.__dict__.get(name)
+        if data is None:
+            data = self._local.__dict__[name] = getattr(self, name).createData()
+        return data
+
+    @property
+    def unlocked_data(self) -> pin.Data:
+        return self._data("unlocked")
+
+    @property
+    def locked_data(self) -> pin.Data:
+        return self._data("locked")
+
+    @property
+    def floating_data(self) -> pin.Data:
+        return self._data("floating")
+
+    @property
+    def jointed_data(self) -> pin.Data:
+        return self._data("jointed")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -126,6 +153,9 @@ class KneedWalker:
         b2: distance thigh mass - hip [m].
         slope: ``gamma`` [rad].
         gravity: ``g`` [m/s^2].
+
+    Thread safety: a walker is an immutable set of parameters; its Pinocchio data are per
+    thread, so one walker may be evaluated and simulated from several threads at once.
     """
 
     hip_mass: float = 0.5
@@ -227,15 +257,11 @@ class KneedWalker:
         floating = chain(locked=True, floating=True)
         return _Models(
             unlocked=unlocked,
-            unlocked_data=unlocked.createData(),
             locked=locked,
-            locked_data=locked.createData(),
             floating=floating,
-            floating_data=floating.createData(),
             frames={n: unlocked.getFrameId(n) for n in POINTS},
             floating_foot=floating.getFrameId("swing_foot"),
             jointed=jointed,
-            jointed_data=jointed.createData(),
         )
 
     # ----------------------------------------------------------------- kinematics

@@ -23,6 +23,7 @@ it satisfies the polygon rows, as the solver's own first try would.
 
 from __future__ import annotations
 
+import threading
 import time
 from dataclasses import dataclass, field
 from typing import Any
@@ -104,6 +105,11 @@ class ZmpMpcResult:
 class ZmpMpc:
     """ZMP MPC of the cart-table model (see the module docstring).
 
+    Thread safety: :meth:`simulate` and :meth:`build` may be called from several threads on one
+    controller: they hold its lock while they use its QP workspace and half-space cache, so
+    runs go one at a time and each gives the result it would give alone. For parallel runs,
+    give each thread its own controller.
+
     Args:
         model: cart-table model (its ``dt`` is the MPC sampling period).
         options: settings.
@@ -158,6 +164,7 @@ class ZmpMpc:
         self._halfspace_cache: dict[
             int, tuple[SupportPolygon, FloatArray, FloatArray, FloatArray, FloatArray]
         ] = {}
+        self._lock = threading.RLock()
 
     def build(
         self,
@@ -172,10 +179,11 @@ class ZmpMpc:
             reference: (N + 1, 2) ``r_0 .. r_N``.
             polygons: N support polygons at ``t_1 .. t_N`` (``None``: unconstrained).
         """
-        if polygons is None:
-            return self._fill(augmented_state, reference, None, None, None)
-        Ah, bh = self._padded(polygons)
-        return self._fill(augmented_state, reference, Ah, bh, None)
+        with self._lock:
+            if polygons is None:
+                return self._fill(augmented_state, reference, None, None, None)
+            Ah, bh = self._padded(polygons)
+            return self._fill(augmented_state, reference, Ah, bh, None)
 
     def _padded(self, polygons: list[SupportPolygon]) -> tuple[FloatArray, FloatArray]:
         """(K, MAX_EDGES, 2) and (K, MAX_EDGES) padded half-spaces of K polygons."""
@@ -287,6 +295,16 @@ class ZmpMpc:
                 "constrain_zmp needs one support polygon per reference sample "
                 "(or ZmpMpcOptions(constrain_zmp=False))"
             )
+        with self._lock:
+            return self._simulate(r, polygons, constrain, initial_state)
+
+    def _simulate(
+        self,
+        r: FloatArray,
+        polygons: list[SupportPolygon] | None,
+        constrain: bool,
+        initial_state: Any,
+    ) -> ZmpMpcResult:
         T, N = r.shape[0], self.horizon
         padded = np.vstack([r, np.repeat(r[-1:], N + 1, axis=0)])
         polys = list(polygons) + [polygons[-1]] * (N + 1) if polygons else None
