@@ -18,7 +18,13 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pinocchio as pin
 
-from taskspace._validation import FloatArray, as_vector, check_positive
+from taskspace._validation import (
+    FloatArray,
+    as_float_array,
+    as_vector,
+    check_finite,
+    check_positive,
+)
 from taskspace.control.reference import JointReference, ReferencePoint, as_reference
 from taskspace.errors import InvalidInputError
 
@@ -27,7 +33,7 @@ if TYPE_CHECKING:
 
 
 def _gain(value: Any, n: int, name: str) -> FloatArray:
-    arr = np.asarray(value, dtype=float)
+    arr = as_float_array(value, name)  # "x" / complex: bare ValueError / TypeError before
     if arr.ndim == 0:
         check_positive(float(arr), name, strict=False)
         return np.full(n, float(arr))
@@ -35,6 +41,25 @@ def _gain(value: Any, n: int, name: str) -> FloatArray:
     if np.any(arr < 0):
         raise InvalidInputError(f"{name} must be >= 0, got {value!r}")
     return arr
+
+
+def _diagnose(model: pin.Model, q: Any, v: Any) -> None:
+    """Raise the taskspace error naming a bad ``q`` or ``v``.
+
+    Called only after a failure or a non-finite (or complex) torque, so the common path pays
+    nothing: NaN gave NaN torques, text a bare Boost error, complex v complex torques.
+    """
+    as_vector(q, model.nq, "q")
+    as_vector(v, model.nv, "v")
+
+
+def _finite_torque(model: pin.Model, tau: FloatArray, q: Any, v: Any) -> FloatArray:
+    if tau.dtype != np.float64 or (
+        not math.isfinite(float(np.vdot(tau, tau))) and not np.isfinite(tau).all()
+    ):
+        _diagnose(model, q, v)
+        check_finite(tau, "torque (from finite q, v: overflow of gains or reference)")
+    return tau
 
 
 def _require_fixed_base(robot: Robot, what: str) -> None:
@@ -96,15 +121,33 @@ class ComputedTorqueController:
         return ComputedTorqueController(robot, reference, kp, kd)
 
     def desired_acceleration(self, t: float, q: FloatArray, v: FloatArray) -> FloatArray:
-        """``q''* = q''_ref + Kp (q_ref (-) q) + Kd (q'_ref - q')`` [rad/s^2] (slide 5:30)."""
+        """``q''* = q''_ref + Kp (q_ref (-) q) + Kd (q'_ref - q')`` [rad/s^2] (slide 5:30).
+
+        Raises:
+            ShapeError, NotFiniteError, InvalidInputError: ``q``, ``v`` of the wrong size,
+                not finite or not numbers (NaN gave NaN torques, text a bare Boost error).
+        """
+        try:
+            out = self._desired_acceleration(t, q, v)
+        except (TypeError, ValueError, RuntimeError):  # Boost ArgumentError is a TypeError
+            _diagnose(self._model, q, v)
+            raise
+        return _finite_torque(self._model, out, q, v)
+
+    def _desired_acceleration(self, t: float, q: FloatArray, v: FloatArray) -> FloatArray:
         ref: ReferencePoint = self.reference(t)
         error = pin.difference(self._model, q, ref.q)
         return ref.a + self.kp * error + self.kd * (ref.v - v)
 
     def __call__(self, t: float, q: FloatArray, v: FloatArray) -> FloatArray:
         """Torques ``u = M q''* + C q' + G`` [N m] at time ``t`` [s]."""
-        a_star = self.desired_acceleration(t, q, v)
-        return np.asarray(pin.rnea(self._model, self._data, q, v, a_star))
+        try:
+            a_star = self._desired_acceleration(t, q, v)
+            tau = np.asarray(pin.rnea(self._model, self._data, q, v, a_star))
+        except (TypeError, ValueError, RuntimeError):
+            _diagnose(self._model, q, v)
+            raise
+        return _finite_torque(self._model, tau, q, v)
 
 
 class JointPDController:
@@ -142,12 +185,16 @@ class JointPDController:
         self._data = robot.model.createData()
 
     def __call__(self, t: float, q: FloatArray, v: FloatArray) -> FloatArray:
-        """Torques [N m] at time ``t`` [s]."""
-        ref = self.reference(t)
-        tau = self.kp * pin.difference(self._model, q, ref.q) + self.kd * (ref.v - v)
-        if self.gravity_compensation:
-            tau = tau + np.asarray(pin.computeGeneralizedGravity(self._model, self._data, q))
-        return np.asarray(tau)
+        """Torques [N m] at time ``t`` [s] (``q``, ``v`` checked as by the computed torque)."""
+        try:
+            ref = self.reference(t)
+            tau = self.kp * pin.difference(self._model, q, ref.q) + self.kd * (ref.v - v)
+            if self.gravity_compensation:
+                tau = tau + np.asarray(pin.computeGeneralizedGravity(self._model, self._data, q))
+        except (TypeError, ValueError, RuntimeError):
+            _diagnose(self._model, q, v)
+            raise
+        return _finite_torque(self._model, np.asarray(tau), q, v)
 
 
 def tracking_error(times: Any, q: Any, reference: JointReference) -> FloatArray:

@@ -9,7 +9,14 @@ from typing import Any
 
 import numpy as np
 
-from taskspace._validation import FloatArray, as_matrix, as_vector, check_positive
+from taskspace._validation import (
+    FloatArray,
+    as_float_array,
+    as_matrix,
+    as_scalar,
+    as_vector,
+    check_positive,
+)
 from taskspace.errors import InvalidInputError
 
 
@@ -57,15 +64,27 @@ class SinusoidalReference:
     def __init__(self, center: Any, amplitude: Any, frequency: Any, phase: Any = 0.0) -> None:
         self.center = as_vector(center, None, "center")
         n = self.center.size
-        self.amplitude = as_vector(np.broadcast_to(np.asarray(amplitude, float), n), n, "amplitude")
-        freq = as_vector(np.broadcast_to(np.asarray(frequency, float), n), n, "frequency")
+        # as_float_array: text / complex values gave a bare ValueError / TypeError
+        self.amplitude = as_vector(
+            np.broadcast_to(as_float_array(amplitude, "amplitude"), n), n, "amplitude"
+        )
+        freq = as_vector(np.broadcast_to(as_float_array(frequency, "frequency"), n), n, "frequency")
         if np.any(freq < 0):
             raise InvalidInputError(f"frequency must be >= 0 [Hz], got {frequency!r}")
         self.omega = 2.0 * math.pi * freq
-        self.phase = as_vector(np.broadcast_to(np.asarray(phase, float), n), n, "phase")
+        self.phase = as_vector(np.broadcast_to(as_float_array(phase, "phase"), n), n, "phase")
+        with np.errstate(over="ignore", invalid="ignore"):
+            peak = np.abs(self.amplitude) * self.omega**2  # was: overflow warnings, inf
+        if not np.isfinite(peak).all():
+            raise InvalidInputError(
+                "amplitude * (2 pi frequency)^2 overflows (the reference acceleration): "
+                f"frequency {frequency!r} Hz, amplitude {amplitude!r}"
+            )
 
     def __call__(self, t: float) -> ReferencePoint:
-        """Reference at time ``t`` [s]."""
+        """Reference at time ``t`` [s] (finite; NaN gave a NaN reference)."""
+        if t.__class__ is not float or not math.isfinite(t):  # fast path: finite floats
+            t = as_scalar(t, "t")
         arg = self.omega * t + self.phase
         s, c = np.sin(arg), np.cos(arg)
         return ReferencePoint(
@@ -99,13 +118,15 @@ class SampledReference:
         v[0] = (q[1] - q[0]) / self.tau
         v[-1] = (q[-1] - q[-2]) / self.tau
         a = np.zeros_like(q)
-        a[1:-1] = (q[:-2] + q[2:] - 2.0 * q[1:-1]) / self.tau**2
+        a[1:-1] = (q[:-2] + q[2:] - 2.0 * q[1:-1]) / self.tau / self.tau  # tau**2 overflowed
         self.v = v
         self.a = a
         self.duration = self.tau * (q.shape[0] - 1)
 
     def __call__(self, t: float) -> ReferencePoint:
-        """Reference at time ``t`` [s]."""
+        """Reference at time ``t`` [s] (finite; NaN raised a bare ValueError)."""
+        if t.__class__ is not float or not math.isfinite(t):
+            t = as_scalar(t, "t")
         if t >= self.duration:
             zero = np.zeros(self.q.shape[1])
             return ReferencePoint(self.q[-1].copy(), zero, zero)
