@@ -61,6 +61,13 @@ class RRTStarOptions:
         certify_retries: re-plans (next seeds) after an uncertified path.
         certify_tolerance: the least robot-obstacle (and self) distance [m] along the path
             counted as free by the certification.
+        first_solution: how the first path is found. ``"rrt_connect"`` (default, with one
+            goal configuration): :func:`~taskspace.planning.rrt_connect` (two trees, greedy
+            connection) runs first within the same limits and its path becomes a branch of
+            the RRT* tree, which RRT* then rewires and improves; its iterations count toward
+            ``max_iterations``. ``"rrt_star"``: the plain goal-biased RRT* (OMPL's
+            ``RRTstar``), which in 7-D needs hundreds of iterations of 0.5 rad before a
+            goal sample is reached. Goal regions and several goals always use ``"rrt_star"``.
     """
 
     step_size: float = 0.5
@@ -75,6 +82,10 @@ class RRTStarOptions:
     certify: bool = False
     certify_retries: int = 2
     certify_tolerance: float = 1e-4
+    first_solution: str = "rrt_connect"
+
+
+FIRST_SOLUTIONS = ("rrt_connect", "rrt_star")
 
 
 def unit_ball_volume(d: int) -> float:
@@ -244,6 +255,11 @@ def _plan(
     if not 0.0 <= opts.goal_bias <= 1.0:
         raise InvalidInputError(f"goal_bias must be in [0, 1], got {opts.goal_bias}")
     check_positive(opts.gamma_factor, "gamma_factor")
+    if opts.first_solution not in FIRST_SOLUTIONS:
+        raise InvalidInputError(
+            f"first_solution must be one of {', '.join(FIRST_SOLUTIONS)}, "
+            f"got {opts.first_solution!r}"
+        )
     cost_of = space_objective(space, objective)
     rng = rng or np.random.default_rng(check_seed(opts.seed))
     q_start = space.check_endpoint(start, "start")
@@ -282,7 +298,26 @@ def _plan(
     costs: list[float] = []
     status = PlannerStatus.ITERATION_LIMIT
     it = 0
-    while it < iterations:
+    first_by = "rrt_star"
+    done = False
+    if opts.first_solution == "rrt_connect" and region is None and len(goals) == 1:
+        it, seeded = _seed_with_rrt_connect(space, tree, goals[0], cost_of, rng, iterations, limit)
+        if seeded >= 0:
+            first_by = "rrt_connect"
+            goal_nodes[0] = seeded
+            cost_times.append(time.perf_counter() - t0)
+            costs.append(float(tree.cost[seeded]))
+            if opts.stop_at_first:
+                status = PlannerStatus.SOLVED
+                done = True
+            elif reached_optimum(costs[-1], optimum_bound):
+                status = PlannerStatus.SOLVED
+                stopped_by = "optimal"  # the cost equals a lower bound of the optimum
+                done = True
+        elif time.perf_counter() - t0 > limit:
+            status = PlannerStatus.TIME_LIMIT
+            done = True
+    while not done and it < iterations:
         it += 1
         if time.perf_counter() - t0 > limit:
             status = PlannerStatus.TIME_LIMIT
@@ -383,6 +418,7 @@ def _plan(
         "costs": costs,
         "gamma": gamma,
         "goal_states": float(len(goals)),
+        "first_solution_by": first_by,
         "stopped_by": stopped_by
         or {
             PlannerStatus.TIME_LIMIT: "time",
@@ -403,6 +439,47 @@ def _plan(
         trees=[result_tree],
         log=log,
     )
+
+
+def _seed_with_rrt_connect(
+    space: ConfigurationSpace,
+    tree: _RRTStarTree,
+    q_goal: FloatArray,
+    cost_of: OptimizationObjective,
+    rng: np.random.Generator,
+    iterations: int,
+    limit: float,
+) -> tuple[int, int]:
+    """RRT-Connect's path from the root to ``q_goal`` as a branch of ``tree``.
+
+    Returns the iterations RRT-Connect used and the tree node of ``q_goal`` (-1 when
+    RRT-Connect found no path within the limits). Every edge of RRT-Connect's path is free
+    at the space's resolution, as RRT*'s own edges are.
+    """
+    from taskspace.planning.rrt_connect import RRTConnectOptions, rrt_connect
+
+    if iterations <= 0:
+        return 0, -1
+    result = rrt_connect(
+        space,
+        tree.nodes[0],
+        q_goal,
+        RRTConnectOptions(
+            max_iterations=iterations if iterations < 2**62 else None,
+            time_limit_s=limit if math.isfinite(limit) else None,
+            seed=int(rng.integers(2**31)),
+        ),
+    )
+    used = min(int(result.iterations), iterations)
+    path = result.path
+    if not result.success or path.shape[0] < 2 or space.distance(path[-1], q_goal) > 1e-9:
+        return used, -1
+    node = 0
+    steps = cost_of.motion_costs(path[:-1], path[1:]) if path.shape[0] > 1 else np.zeros(0)
+    for q, step in zip(path[1:-1], steps[:-1], strict=True):
+        node = tree.add(q, node, float(tree.cost[node] + step))
+    node = tree.add(q_goal, node, float(tree.cost[node] + steps[-1]))
+    return max(used, 1), node
 
 
 def _propagate(root: int, delta: float, cost: FloatArray, children: list[list[int]]) -> None:
