@@ -1,4 +1,12 @@
-"""Bounds on any vector feature, linearized: ``lower <= phi(q) + J dq <= upper``."""
+"""Bounds on any vector feature, linearized: ``lower <= phi(q) + J dq <= upper``.
+
+Thread safety: a constraint keeps no per-step workspace besides immutable caches replaced at
+once (e.g. the velocity box for the last ``dt``), and reads the :class:`~taskspace.model.State`
+it is given, so one constraint may serve solvers in several threads. What it derives from the
+robot (limits, collision pairs, compiled rows) is rebuilt on the next call after a model or
+world change; do not change the robot, the world or the constraint's parameters (bounds, gains,
+margins) while another thread steps with it.
+"""
 
 from __future__ import annotations
 

@@ -2,6 +2,9 @@
 
 ``T = 1/2 v^T M(q) v`` (``pin.computeKineticEnergy``) and ``U = -sum_i m_i g^T c_i(q)``
 (``pin.computePotentialEnergy``, zero at height 0).
+
+Thread safety: the functions build their own Pinocchio data (or none) per call and may run from
+several threads.
 """
 
 from __future__ import annotations

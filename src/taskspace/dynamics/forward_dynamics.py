@@ -4,10 +4,14 @@ Slide 5:29: "if we know which torques u we apply, use q''* = M(q)^-1 (u - F(q, q
 simulate the dynamics of the system". Pinocchio's articulated-body algorithm (``pin.aba``)
 computes this in O(n) without forming ``M``; this module adds optional joint friction (viscous
 damping and smoothed Coulomb friction) on top.
+
+Thread safety: :class:`JointFriction` is an immutable value; :class:`ForwardDynamics` gives
+each thread its own Pinocchio data (see there); :func:`forward_dynamics` builds its own.
 """
 
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -68,12 +72,18 @@ class ForwardDynamics:
     Args:
         robot: the robot.
         friction: joint friction (none by default).
+
+    Thread safety: :meth:`acceleration` may be called from several threads on one object:
+    ``data`` is used by the thread that built the object, every other thread gets its own
+    ``pin.Data`` on its first call. The coefficients are read-only.
     """
 
     def __init__(self, robot: Robot, friction: JointFriction | None = None) -> None:
         self.robot = robot
         self.model = robot.model
         self.data = robot.model.createData()
+        self._owner = threading.get_ident()
+        self._local = threading.local()
         friction = friction or JointFriction()
         self.friction = friction
         nv = robot.nv
@@ -111,7 +121,15 @@ class ForwardDynamics:
         """
         if self._has_friction:
             tau = tau + self.friction_torque(v)
-        return np.asarray(pin.aba(self.model, self.data, q, v, tau))
+        data = self.data if threading.get_ident() == self._owner else self._thread_data()
+        return np.asarray(pin.aba(self.model, data, q, v, tau))
+
+    def _thread_data(self) -> Any:
+        """The calling thread's ``pin.Data`` (made on its first call)."""
+        data = self._local.__dict__.get("data")
+        if data is None:
+            data = self._local.data = self.model.createData()
+        return data
 
 
 def forward_dynamics(

@@ -13,6 +13,10 @@ bases and unit complex numbers of continuous joints stay normalized.
 The applied torque is either a fixed vector (zero-order hold over the step, the way a
 digital controller acts) or a function ``tau(t, q, v)`` evaluated at every stage (a
 continuous-time control law).
+
+Thread safety: the steps are functions of their arguments (the enum and the named tuple are
+immutable); they may run from several threads as long as each thread's dynamics object is safe
+to share (:class:`~taskspace.dynamics.ForwardDynamics` is).
 """
 
 from __future__ import annotations

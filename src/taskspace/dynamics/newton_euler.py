@@ -10,6 +10,9 @@ With ``u = NE(q, q', q'')`` the recursive Newton-Euler algorithm (Pinocchio's ``
 These are the lecture's constructions; Pinocchio's dedicated algorithms
 (``computeGeneralizedGravity``, ``nonLinearEffects``, ``crba``) compute the same quantities
 faster and are used by the tests as the reference.
+
+Thread safety: the functions build their own Pinocchio data (or none) per call and may run from
+several threads.
 """
 
 from __future__ import annotations

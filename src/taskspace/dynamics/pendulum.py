@@ -9,6 +9,9 @@ Generalized coordinate ``q = theta`` (0: hanging straight down), a mass ``m`` at
 
 The registry's ``pendulum`` robot (1 kg at 1 m, revolute about y) realizes this model; the
 tests compare these closed forms with Pinocchio's Newton-Euler recursion.
+
+Thread safety: the functions build their own Pinocchio data (or none) per call and may run from
+several threads.
 """
 
 from __future__ import annotations

@@ -7,6 +7,12 @@ continuous-time control law; only for stateless controllers). The forward dynami
 ``q'' = M^-1 (u + tau_friction - F)`` (slide 5:29) come from ``pin.aba``; the integrators are
 in :mod:`taskspace.dynamics.integrators`. Every sample records the kinetic and potential
 energies (slide 5:25).
+
+Thread safety: :func:`simulate` builds its own dynamics and Pinocchio data per call, so calls
+may run from several threads (with a torque callback that is itself safe to call from them).
+:class:`SimulationOptions` and :class:`SimulationStatus` are immutable; a
+:class:`SimulationTrajectory` is plain result data (arrays), not locked: do not modify it while
+another thread reads it.
 """
 
 from __future__ import annotations

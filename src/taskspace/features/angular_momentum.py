@@ -1,4 +1,10 @@
-"""Centroidal angular momentum (TSID's ``TaskAMEquality``; Orin, Goswami and Lee 2013)."""
+"""Centroidal angular momentum (TSID's ``TaskAMEquality``; Orin, Goswami and Lee 2013).
+
+Thread safety: the feature evaluates Pinocchio's centroidal maps on its own data under its
+lock, so calls from several threads are serialized and each gets its own state's value;
+otherwise as every feature (see :mod:`taskspace.features.feature`): do not change the robot
+while another thread evaluates it.
+"""
 
 from __future__ import annotations
 

@@ -4,6 +4,13 @@ A feature is a differentiable map ``phi: q -> y`` with Jacobian ``J(q) = d phi /
 in Pinocchio's tangent space, size ``nv``) and drift ``Jdot v`` (for acceleration-level
 control: ``y'' = J q'' + Jdot v``). Every consumer of taskspace (IK, hierarchies,
 operational-space control, path optimization, planning) uses features through this class.
+
+Thread safety: a feature keeps no per-evaluation workspace: it reads the
+:class:`~taskspace.model.State` it is given (one state per thread), so one feature may be
+evaluated from several threads, e.g. by solvers in different threads sharing a task list. What
+it derives from the robot (limits, collision pairs) is rebuilt on the next call after a model
+or world change; do not change the robot, the world or the feature's own parameters while
+another thread evaluates it.
 """
 
 from __future__ import annotations

@@ -1,4 +1,12 @@
-"""Vector attached to link i expressed in link j (slide 2:49)."""
+"""Vector attached to link i expressed in link j (slide 2:49).
+
+Thread safety: a feature keeps no per-evaluation workspace: it reads the
+:class:`~taskspace.model.State` it is given (one state per thread), so one feature may be
+evaluated from several threads, e.g. by solvers in different threads sharing a task list. What
+it derives from the robot (limits, collision pairs) is rebuilt on the next call after a model
+or world change; do not change the robot, the world or the feature's own parameters while
+another thread evaluates it.
+"""
 
 from __future__ import annotations
 

@@ -13,6 +13,11 @@ edges of every contact). Two independent tests are provided:
   strictly on its inner side; the least margin is the Ferrari-Canny epsilon (L1).
 
 Form closure (first order) is force closure with frictionless contacts.
+
+Thread safety: the classes of this module are immutable values (frozen dataclasses, enums); its
+functions build their workspaces (Pinocchio and coal data, QP solvers, arrays) per call and may
+run from several threads. A numpy generator passed as ``rng`` is shared state: numpy serializes
+its draws, but for reproducible results give each thread its own.
 """
 
 from __future__ import annotations

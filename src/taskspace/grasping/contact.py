@@ -13,6 +13,11 @@ force a contact can apply lies in a cone:
 
 Each edge has a unit normal component, so a set of coefficients with ``sum <= 1`` bounds the
 normal force by one (the L1 convention of Ferrari and Canny).
+
+Thread safety: the classes of this module are immutable values (frozen dataclasses, enums); its
+functions build their workspaces (Pinocchio and coal data, QP solvers, arrays) per call and may
+run from several threads. A numpy generator passed as ``rng`` is shared state: numpy serializes
+its draws, but for reproducible results give each thread its own.
 """
 
 from __future__ import annotations

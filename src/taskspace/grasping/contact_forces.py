@@ -8,6 +8,13 @@ With each contact force a non-negative combination of its cone edges, ``f_i = E_
 
 where ``W`` holds the primitive wrenches (moments in N m). The part of ``f`` in the null space
 of the grasp matrix is the internal (squeezing) force. Solved with taskspace's QP layer.
+
+Thread safety: the classes of this module are immutable values (frozen dataclasses, enums); its
+functions build their workspaces (Pinocchio and coal data, QP solvers, arrays) per call and may
+run from several threads. A numpy generator passed as ``rng`` is shared state: numpy serializes
+its draws, but for reproducible results give each thread its own. A ``solver`` passed to
+:func:`balance_forces` is used as given: do not share one between threads unless
+:class:`~taskspace.qp.QPSolver` says it may be.
 """
 
 from __future__ import annotations

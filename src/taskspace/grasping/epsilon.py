@@ -30,6 +30,11 @@ For two soft fingers and for three point contacts, :func:`grasp_epsilon_batch` n
 each contact's wrenches span a small polytope in a low-dimensional flat (a bipyramid, a
 polygon), every facet of ``P`` is spanned by faces of these, and the few candidate planes of
 each grasp are solved in closed form for many grasps at once.
+
+Thread safety: the classes of this module are immutable values (frozen dataclasses, enums); its
+functions build their workspaces (Pinocchio and coal data, QP solvers, arrays) per call and may
+run from several threads. A numpy generator passed as ``rng`` is shared state: numpy serializes
+its draws, but for reproducible results give each thread its own.
 """
 
 from __future__ import annotations

@@ -8,6 +8,11 @@ the ``G_i`` side by side: ``w = G f``. Dually, ``G^T`` maps the object's twist (
 at ``c`` and angular velocity) to the velocities of the contact points in the contact frames,
 and the hand Jacobian maps joint velocities to the same: ``J_h qdot = G^T V_object`` is the
 grasp constraint.
+
+Thread safety: the classes of this module are immutable values (frozen dataclasses, enums); its
+functions build their workspaces (Pinocchio and coal data, QP solvers, arrays) per call and may
+run from several threads. A numpy generator passed as ``rng`` is shared state: numpy serializes
+its draws, but for reproducible results give each thread its own.
 """
 
 from __future__ import annotations

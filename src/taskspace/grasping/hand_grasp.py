@@ -17,6 +17,11 @@ distance (from coal) less half the contact tolerance divided by that bound.
 
 Distances and nearest points come from coal on the robot's collision geometry and the
 object's triangle mesh; the contact normal is the mesh face normal at the nearest point.
+
+Thread safety: the classes of this module are immutable values (frozen dataclasses, enums); its
+functions build their workspaces (Pinocchio and coal data, QP solvers, arrays) per call and may
+run from several threads. A numpy generator passed as ``rng`` is shared state: numpy serializes
+its draws, but for reproducible results give each thread its own.
 """
 
 from __future__ import annotations

@@ -4,6 +4,11 @@
    ``min_spacing`` apart, with point contacts with Coulomb friction along the inward normals.
 2. Keep the sets in force closure and score them by the Ferrari-Canny epsilon (L1) of their
    linearized friction cones (one convex hull each), best first.
+
+Thread safety: the classes of this module are immutable values (frozen dataclasses, enums); its
+functions build their workspaces (Pinocchio and coal data, QP solvers, arrays) per call and may
+run from several threads. A numpy generator passed as ``rng`` is shared state: numpy serializes
+its draws, but for reproducible results give each thread its own.
 """
 
 from __future__ import annotations

@@ -1,4 +1,10 @@
-"""Triangle meshes of grasped objects: primitives, surface sampling, ray casting, coal models."""
+"""Triangle meshes of grasped objects: primitives, surface sampling, ray casting, coal models.
+
+Thread safety: the classes of this module are immutable values (frozen dataclasses, enums); its
+functions build their workspaces (Pinocchio and coal data, QP solvers, arrays) per call and may
+run from several threads. A numpy generator passed as ``rng`` is shared state: numpy serializes
+its draws, but for reproducible results give each thread its own.
+"""
 
 from __future__ import annotations
 

@@ -8,6 +8,11 @@ metric is the radius of the largest ball about the origin inside the GWS: the ma
 smallest external wrench that, applied in the worst direction, the grasp can just resist
 (Ferrari and Canny 1992). Moments are divided by the torque scale ``rho`` [m] so that the ball
 mixes forces and moments in commensurate units.
+
+Thread safety: the classes of this module are immutable values (frozen dataclasses, enums); its
+functions build their workspaces (Pinocchio and coal data, QP solvers, arrays) per call and may
+run from several threads. A numpy generator passed as ``rng`` is shared state: numpy serializes
+its draws, but for reproducible results give each thread its own.
 """
 
 from __future__ import annotations

@@ -11,6 +11,11 @@
    solve IK for the tool frame (the fingers closing along its ``closing_axis`` onto the two
    contacts) and keep the configurations that reach it and are collision-free with the object
    (coal, through the robot's collision model).
+
+Thread safety: the classes of this module are immutable values (frozen dataclasses, enums); its
+functions build their workspaces (Pinocchio and coal data, QP solvers, arrays) per call and may
+run from several threads. A numpy generator passed as ``rng`` is shared state: numpy serializes
+its draws, but for reproducible results give each thread its own.
 """
 
 from __future__ import annotations

@@ -20,6 +20,11 @@ so a goal jump gives no discontinuous acceleration.
 Rhythmic DMP: phase ``phi' = 1 / tau`` (2 pi periodic), ``psi_i = exp(h (cos(phi - c_i) - 1))``,
 ``f = sum psi_i w_i / sum psi_i * r`` with amplitude ``r``; the same spring towards the
 anchor ``g`` (the centre of the oscillation).
+
+Thread safety: a fitted :class:`DiscreteDMP` / :class:`RhythmicDMP` is not changed by its
+methods (fitting returns a new one; a rollout integrates in local arrays), so one DMP may be
+rolled out from several threads. :class:`DMPOptions` is immutable; a :class:`DMPTrajectory` is
+plain result data, not locked.
 """
 
 from __future__ import annotations

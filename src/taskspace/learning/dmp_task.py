@@ -20,6 +20,10 @@ distance ``d`` from ``y`` to a sphere's surface (Khatib's FIRAS function),
 
 which grows without bound at the surface, so the DMP's path stays out of the sphere while the
 attractor still pulls it to the goal around it.
+
+Thread safety: :class:`DMPTaskTarget` serializes its steps with a lock (see there);
+:class:`SphereRepulsion` is immutable and :class:`DMPStep` plain result data. A user
+:class:`Coupling` is called under the target's lock.
 """
 
 from __future__ import annotations

@@ -4,6 +4,10 @@ Each pose is one task of a :mod:`taskspace.batch` run: :func:`taskspace.ik.solve
 robot's default posture, then from random restarts drawn from the task's own generator. The
 robot is loaded once per worker by name, so the same call runs serially, on local processes
 or on a Ray cluster, with the same configurations.
+
+Thread safety: :func:`ik_dataset` and :func:`sample_reachable_poses` build their robots,
+solvers and generators per call (or per worker of :mod:`taskspace.batch`) and may run from
+several threads; the options are immutable and an :class:`IKDataset` is plain result data.
 """
 
 from __future__ import annotations

@@ -7,6 +7,9 @@ policies.Policy`), behaviour cloning is the (ridge) least-squares problem
 
 solved from the stacked features. Demonstrations from a linear controller ``a = K s`` are
 reproduced exactly by a :class:`LinearPolicy` when the states span the state space.
+
+Thread safety: the functions keep their state local to the call and may run from several
+threads; :class:`BehaviourCloningResult` is plain result data, not locked.
 """
 
 from __future__ import annotations

@@ -10,6 +10,9 @@ policies found so far); set ``w = mu_E - mu_bar`` (the max-margin direction), co
 policy for ``R = Phi w`` by value iteration, add its ``mu``, project again; stop when
 ``t = |mu_E - mu_bar| <= tolerance`` (or when one policy alone matches ``mu_E`` within it).
 A mixture of the policies found attains ``mu_bar``.
+
+Thread safety: the functions keep their state local to the call and may run from several
+threads; :class:`ApprenticeshipResult` is plain result data, not locked.
 """
 
 from __future__ import annotations

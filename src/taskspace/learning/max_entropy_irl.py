@@ -18,6 +18,10 @@ where ``mu(w)`` are the expected feature counts of the soft-optimal policy (forw
 state visitation frequencies) and ``mu_E`` the expert's. At the optimum the learned policy
 matches the expert's feature counts. The weights are recovered up to the expert's temperature:
 an expert that is soft-optimal for ``beta w`` gives ``beta w``.
+
+Thread safety: the functions keep their state local to the call and may run from several
+threads; options and statuses are immutable, :class:`SoftPolicy` and :class:`MaxEntIRLResult`
+are plain result data, not locked.
 """
 
 from __future__ import annotations

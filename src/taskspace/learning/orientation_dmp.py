@@ -10,6 +10,10 @@ with ``eta = tau omega`` (scaled angular velocity, world frame) and the forcing 
 the start-to-goal rotation. The orientation is integrated on the group,
 ``R_{k+1} = exp3(dt omega) R_k``, so it stays a rotation (a unit quaternion) exactly.
 Learning is least squares on ``f_k = tau eta'_k - alpha_z (beta_z e_k - eta_k)``.
+
+Thread safety: a fitted :class:`OrientationDMP` is not changed by its methods (rollouts
+integrate in local arrays) and may be rolled out from several threads; an
+:class:`OrientationTrajectory` is plain result data, not locked.
 """
 
 from __future__ import annotations

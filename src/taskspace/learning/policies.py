@@ -9,6 +9,10 @@ One interface for every policy-search method: ``features(s)`` gives the (m x p) 
 * :class:`LinearPolicy`: ``Phi(s) = kron(I_m, [s, 1])`` (a gain matrix and optional bias).
 * :class:`RBFPolicy`: normalized Gaussian radial basis functions of the state,
   ``phi_j(s) = exp(-|s - c_j|^2 / (2 w^2)) / sum_k exp(...)``, ``Phi(s) = kron(I_m, phi(s)^T)``.
+
+Thread safety: a policy is a description (dimensions, centres, widths) that its methods do not
+change (the parameters ``theta`` are an argument), so one policy may be evaluated from several
+threads; do not assign its fields while other threads use it.
 """
 
 from __future__ import annotations

@@ -39,6 +39,12 @@ Parameter exploration, ``theta_i = theta + eps_i``, ``eps_i ~ N(0, sigma^2 I)``:
     it the activation weighting alone carries the time locality. See :func:`pi2_update`.
 * (mu, lambda)-ES: keep the ``mu`` best of ``lambda`` offspring, new mean = their average.
 * CMA-ES: ``cma.CMAEvolutionStrategy`` (pycma, Hansen's reference implementation).
+
+Thread safety: each search keeps its state (parameters, generator, history) local to the call,
+so searches may run in several threads at once; the user's rollout function is called as
+described in :mod:`taskspace.learning.rollout` (on the ``executor`` given, possibly from
+several threads). Options and statuses are immutable and :class:`PolicySearchResult` is plain
+result data.
 """
 
 from __future__ import annotations

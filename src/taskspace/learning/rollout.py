@@ -3,6 +3,13 @@
 ``rollout(theta, seed) -> Episode``: the same ``(theta, seed)`` always gives the same
 episode, so a population can be evaluated in any order, on threads or processes, or on a Ray
 cluster through :class:`taskspace.batch.Executor`, with :func:`evaluate_population`.
+
+Thread safety: :class:`LinearQuadraticTask` is immutable and its rollouts draw from a generator
+seeded per call (``seed``), so they may run from several threads; :class:`Episode` is plain
+result data, not locked. :func:`evaluate_population` calls the user's rollout function in the
+calling thread or on the executor given (a ``concurrent.futures`` thread pool runs it in
+several threads at once, see also :mod:`taskspace.batch`): a rollout that keeps state between
+calls must be safe for that.
 """
 
 from __future__ import annotations

@@ -13,6 +13,11 @@ With every state-action pair visited infinitely often and step sizes with
 ``sum alpha = inf``, ``sum alpha^2 < inf`` (``alpha = 1 / n(s, a)^omega``, ``1/2 < omega <= 1``)
 Q-learning converges to ``Q*`` and TD(lambda) to ``V^pi``; SARSA converges to ``Q*`` when the
 exploration decays (GLIE).
+
+Thread safety: the algorithms keep their tables local to the call. An :class:`MDPSimulator`
+draws from the generator it was given: numpy serializes the draws, so a simulator shared by
+threads gives valid but not reproducible episodes; use one simulator (and generator) per
+thread. :class:`TabularOptions` is immutable and :class:`TabularResult` plain result data.
 """
 
 from __future__ import annotations

@@ -4,6 +4,10 @@ The policy parameters are the forcing-term weights of a :class:`DiscreteDMP` (d 
 flattened); a rollout integrates the DMP and returns
 ``-(w_via |y(t_via) - p_via|^2 + w_acc sum_k |y''_k|^2 dt)``. The rollout is deterministic
 (the seed is unused): exploration comes from the parameter perturbations of the method.
+
+Thread safety: a :class:`ViaPointTask` is not changed by its methods (each rollout builds its
+DMP from ``theta``) and may be rolled out from several threads; do not assign its fields while
+other threads use it.
 """
 
 from __future__ import annotations

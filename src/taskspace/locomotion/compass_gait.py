@@ -28,6 +28,9 @@ hip (the only impulses act at the new contact and, for the trailing leg, at the 
     Q^+(alpha) qd^+ = Q^-(alpha) qd^-.
 
 Energy is conserved during the swing and lost only at impacts.
+
+Thread safety: the classes of this module are immutable values (frozen dataclasses, enums) and
+its functions keep their state local to the call, so both may be used from several threads.
 """
 
 from __future__ import annotations

@@ -11,6 +11,9 @@ Registered feet: Talos (``left_sole_link``/``right_sole_link``: a 0.221 m x 0.13
 from the collision mesh of ``leg_*_6_link``, sole plane at the frame origin) and G1
 (``left_ankle_roll_link``/``right_ankle_roll_link``: the four contact spheres of the collision
 model, radius 5 mm, whose lowest points are the point contacts, 35 mm below the frame).
+
+Thread safety: the classes of this module are immutable values (frozen dataclasses, enums) and
+its functions keep their state local to the call, so both may be used from several threads.
 """
 
 from __future__ import annotations

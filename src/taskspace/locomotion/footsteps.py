@@ -12,6 +12,9 @@ ends in double support with the feet side by side.
 Timing: an initial double support (the ZMP shifts onto the first stance foot), then per step
 a single support (one foot swings) followed by a double support (the ZMP moves to the foot
 that just landed), and a final double support back to the middle of the feet.
+
+Thread safety: the classes of this module are immutable values (frozen dataclasses, enums) and
+its functions keep their state local to the call, so both may be used from several threads.
 """
 
 from __future__ import annotations

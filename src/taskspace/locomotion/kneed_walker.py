@@ -45,6 +45,10 @@ Both impacts are solved by :func:`pinocchio.impulseDynamics`. Energy is conserve
 continuous phase; each impact loses ``1/2 (qd+ - qd-)^T M (qd+ - qd-)`` (Carnot).
 The swing foot touching the slope before the knee locks ends the step as a failure (the model
 has no contact there); with the knee locked, only heel strike ahead of the stance foot counts.
+
+Thread safety: a :class:`KneedWalker` is immutable and its Pinocchio data are per thread (see
+there), so one walker may be evaluated and simulated from several threads;
+:class:`KneedStepResult` is immutable.
 """
 
 from __future__ import annotations

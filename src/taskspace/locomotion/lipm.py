@@ -11,6 +11,9 @@ and ``x = (c, cdot, cddot)``, the exact discretization with step ``dt`` is
     x_{k+1} = A x_k + B u_k,   p_k = C x_k,
     A = [[1, dt, dt^2/2], [0, 1, dt], [0, 0, 1]],   B = [dt^3/6, dt^2/2, dt],
     C = [1, 0, -z_c / g].
+
+Thread safety: the classes of this module are immutable values (frozen dataclasses, enums) and
+its functions keep their state local to the call, so both may be used from several threads.
 """
 
 from __future__ import annotations

@@ -17,6 +17,10 @@ the reference increments previewed ``N`` steps is
 
 Summed over time this is Kajita's form ``u_k = -G_i sum_{i<=k} e_i - G_x x_k -
 sum_j G_p(j) r_{k+j}`` with ``G_i = K_e``, ``G_x = K_dx`` and ``G_p(j) = f_j``.
+
+Thread safety: a :class:`PreviewController` is not changed by its methods (its gains are
+computed once; a run integrates in local arrays), so one controller may run from several
+threads; options and patterns are immutable.
 """
 
 from __future__ import annotations

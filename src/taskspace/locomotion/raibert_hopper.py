@@ -28,6 +28,9 @@ Controller (the three decoupled parts):
    removes the steady-state speed error left by the asymmetry of a stance with thrust and
    damping, for which ``xdot T_s / 2`` is not exactly the neutral point.
 3. Body attitude: in stance the hip servos the pitch, ``tau = k_p (phi - phi_des) + k_d phidot``.
+
+Thread safety: the classes of this module are immutable values (frozen dataclasses, enums) and
+its functions keep their state local to the call, so both may be used from several threads.
 """
 
 from __future__ import annotations

@@ -10,6 +10,9 @@ it; the stability margin is the signed distance
 to the nearest edge (positive inside), with the polygon as ``{p : a_i^T p <= b_i}``. A single
 point or a segment (one point contact, two point contacts, a knife edge) has an empty interior:
 its margin is minus the distance to it.
+
+Thread safety: the classes of this module are immutable values (frozen dataclasses, enums) and
+its functions keep their state local to the call, so both may be used from several threads.
 """
 
 from __future__ import annotations

@@ -6,6 +6,9 @@ and touchdown); the height is a quintic spline (:func:`~taskspace.trajopt.quinti
 continuous up to the snap) through the lift-off height, an apex ``clearance`` above the
 higher of the two ends at mid-swing, and the touchdown height, with zero vertical velocity and
 acceleration at both ends.
+
+Thread safety: a :class:`SwingTrajectory` is not changed by sampling it and may be sampled from
+several threads; :class:`SwingSample` is immutable.
 """
 
 from __future__ import annotations

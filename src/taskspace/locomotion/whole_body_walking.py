@@ -26,6 +26,11 @@ the ground unloaded), and from the minimum force up to the robot's weight over t
 The contacts, their CoP rectangles and the measured ZMP live in the plane of the foot frames
 at the start (for G1 the ankle-roll frames, 35 mm above the soles; for Talos the sole
 frames).
+
+Thread safety: :func:`walk` builds its state, tasks, inverse-dynamics controllers and rollout
+per call, so walks may run in several threads (one robot may be shared as far as
+:class:`~taskspace.model.Robot` allows: do not change its model or world meanwhile). Options,
+references and results are immutable.
 """
 
 from __future__ import annotations

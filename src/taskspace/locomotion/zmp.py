@@ -19,6 +19,9 @@ Two ways to get the wrench:
 On flat ground with unilateral contacts the two agree and the ZMP is the CoP of the total
 ground reaction, inside the support polygon. The CoP of one foot is the same formula applied
 to that foot's wrench in its sole frame: ``p = (-tau_y / f_z, tau_x / f_z)`` at the sole.
+
+Thread safety: the classes of this module are immutable values (frozen dataclasses, enums) and
+its functions keep their state local to the call, so both may be used from several threads.
 """
 
 from __future__ import annotations

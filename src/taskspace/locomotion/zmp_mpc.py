@@ -19,6 +19,9 @@ Everything but the linear term and the polygon rows is built once (the condensed
 ``H`` and its Cholesky factor); a step writes ``g``, ``C`` and ``u`` into reused buffers, and
 the unconstrained minimizer (from the kept factor) is taken without calling the QP solver when
 it satisfies the polygon rows, as the solver's own first try would.
+
+Thread safety: :class:`ZmpMpc` serializes its runs with a lock (see there); options and results
+are immutable and :func:`mpc_walking_pattern` builds its own controller per call.
 """
 
 from __future__ import annotations

@@ -4,6 +4,9 @@ In single support the reference ZMP sits at the center of the stance foot; in do
 it moves linearly from the center of the foot it leaves to the center of the foot it goes to
 (at the start from the middle of the feet, at the end back to it). The support polygon is
 the stance sole in single support and the convex hull of both soles in double support.
+
+Thread safety: the classes of this module are immutable values (frozen dataclasses, enums) and
+its functions keep their state local to the call, so both may be used from several threads.
 """
 
 from __future__ import annotations

@@ -6,6 +6,11 @@ configuration only with its ``k`` neighbours on either side, so the Gauss-Newton
 ``|s - t| > k``. It is stored in LAPACK's lower band format with ``(k + 1) nv`` rows,
 ``ab[i - j, j] = H[i, j]`` for ``0 <= i - j < (k + 1) nv``, so memory and the Cholesky
 factorization cost ``O(T nv ((k + 1) nv)^2)``: linear in the number of time slices ``T``.
+
+Thread safety: a :class:`SymmetricBlockBanded` is a mutable matrix (its ``add_*`` methods
+change it in place) and is not locked: one matrix per thread, or no writes while other threads
+read it. The cached index helpers (``functools.lru_cache``) are safe to call from several
+threads.
 """
 
 from __future__ import annotations

@@ -22,6 +22,10 @@ Profiles (normalized, ``s`` in ``[0, 1]``):
 
 Multi-joint motions are synchronized so that every joint arrives at the same time
 (:func:`synchronize`).
+
+Thread safety: a profile is fixed at construction and not changed by sampling it (classes
+without mutating methods; the samples and motions are immutable), so one profile may be sampled
+from several threads; the functions keep their state local to the call.
 """
 
 from __future__ import annotations

@@ -25,6 +25,10 @@ and is assembled and factorized as a symmetric banded matrix
 Supported robots: configuration spaces that are vector spaces (``nq == nv``: fixed-base arms
 with revolute and prismatic joints). Floating bases and continuous joints (unit quaternions
 or unit complex numbers in ``q``) are rejected with an error.
+
+Thread safety: a :class:`PathProblem` serializes its evaluations with a lock (see there); the
+terms, options and statuses are immutable values; :class:`PathMultipliers` and
+:class:`PathOptimizationResult` are plain result data, not locked.
 """
 
 from __future__ import annotations

@@ -22,6 +22,9 @@ Two families are provided, both for multi-dimensional waypoints (one column per 
   velocity and acceleration given at both ends (rest-to-rest by default).
 
 Linear systems are solved with ``scipy.linalg.solve_banded`` (LAPACK ``gbsv``), ``O(m)``.
+
+Thread safety: a :class:`Spline` is immutable (a frozen dataclass; its arrays are not written
+by its methods) and may be evaluated from several threads.
 """
 
 from __future__ import annotations

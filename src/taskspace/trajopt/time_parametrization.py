@@ -31,6 +31,11 @@ as ``(qdd_{k+1} - qdd_k) / (t_{k+1} - t_k)``. Wherever it exceeds ``j_max`` by a
 passes are repeated, until the jerk limit holds or ``jerk_max_iterations`` is reached. This
 only slows the motion down (velocity and acceleration limits stay satisfied at every
 iteration) but is not jerk-time-optimal.
+
+Thread safety: :func:`time_parametrize` keeps its state local to the call and may run from
+several threads (a :class:`CallablePath` calls the user's function, which must then be safe to
+call from them). Options, samples and statuses are immutable; a
+:class:`TimeParametrizationResult` is plain result data, not locked.
 """
 
 from __future__ import annotations
