@@ -1,4 +1,12 @@
-"""A ``Task`` binds a feature to a target, a precision (weight), a gain and a priority level."""
+"""A ``Task`` binds a feature to a target, a precision (weight), a gain and a priority level.
+
+Thread safety: a task holds its target, reference, weight and gains, which its setters replace
+one attribute at a time, without a lock; building its rows reads them and the
+:class:`~taskspace.model.State` given. Solvers in several threads may share a task that nobody
+changes meanwhile; a task changed by one thread while another steps with it may be read partly
+changed (a new target with the old reference velocity). Change a task from the thread that
+steps with it, or between steps.
+"""
 
 from __future__ import annotations
 
