@@ -6,6 +6,7 @@ from taskspace.ik.differential_ik import (
     IKStatus,
     IKStepResult,
 )
+from taskspace.ik.feature_goal_region import FeatureGoalRegion
 from taskspace.ik.hierarchical_ik import HierarchicalIK, HierarchicalIKResult
 from taskspace.ik.interpolation import (
     InterpolationResult,
@@ -19,6 +20,7 @@ from taskspace.qp.rows import combine_bounds
 __all__ = [
     "DifferentialIK",
     "DifferentialIKOptions",
+    "FeatureGoalRegion",
     "HierarchicalIK",
     "HierarchicalIKResult",
     "IKStatus",
