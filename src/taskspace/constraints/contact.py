@@ -200,6 +200,19 @@ class Contact:
         limit = self.__dict__.get("_limit")
         return self.max_force if limit is None else float(limit)
 
+    @property
+    def max_normal_force(self) -> float | None:
+        """The upper bound of the normal force [N] now (same as :attr:`normal_force_limit`).
+
+        Assigning it is :meth:`set_normal_force_limit` (validated: in ``[min_force,
+        max_force]``; ``None`` restores ``max_force``).
+        """
+        return self.normal_force_limit
+
+    @max_normal_force.setter
+    def max_normal_force(self, value: float | None) -> None:
+        self.set_normal_force_limit(value)
+
     def set_normal_force_limit(self, value: float | None) -> None:
         """Bound the normal force by ``value`` [N] in ``[min_force, max_force]``.
 
@@ -214,7 +227,7 @@ class Contact:
                 f"contact '{self.frame}': a normal-force limit needs a contact built with "
                 "max_force (its cone then has the bound's row)"
             )
-        limit = float(value)
+        limit = check_positive(value, f"normal-force limit of contact '{self.frame}'", strict=False)
         if not (self.min_force <= limit <= self.max_force):
             raise InvalidInputError(
                 f"contact '{self.frame}': normal-force limit {limit:g} N outside "

@@ -89,8 +89,7 @@ class NativeInverseDynamics:
         self.contacts: list[Contact] = list(controller.contacts)
         self._limit_contacts: list[Contact] = []
         for c in self.contacts:
-            K, k = c.cone()
-            row = c.max_force_row
+            K, k, row = controller._cone(c)  # the contact's cone (with transition rows)
             kernel.add_contact(
                 model,
                 getattr(module, _CONTACT_KINDS[str(compiled_kind(c))]),
@@ -203,7 +202,10 @@ class NativeInverseDynamics:
         if resend:
             self._send_contact_gains()
         limits = (
-            np.array([c.normal_force_limit for c in self._limit_contacts], dtype=float)
+            np.array(
+                [self.controller._normal_force_limit(c) for c in self._limit_contacts],
+                dtype=float,
+            )
             if self._limit_contacts
             else _NO_LIMITS
         )

@@ -72,6 +72,10 @@ class InverseDynamicsResult:
         build_time, solve_time: wall times [s].
         compiled: the step was computed by the compiled kernel (``InverseDynamicsOptions.
             native``); ``qp.backend`` then says which of its solves answered.
+        contacts: frames of the contacts active in this step (the keys of ``forces``, in
+            the QP's order).
+        releasing: contacts being removed (:meth:`InverseDynamicsQP.remove_contact`) and the
+            upper bound of their normal force in this step [N].
     """
 
     success: bool
@@ -86,6 +90,8 @@ class InverseDynamicsResult:
     build_time: float = 0.0
     solve_time: float = 0.0
     compiled: bool = False
+    contacts: tuple[str, ...] = ()
+    releasing: dict[str, float] = field(default_factory=dict)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -230,6 +236,37 @@ def _fixed(name: str) -> NoReturn:
     )
 
 
+@dataclass
+class _Release:
+    """A contact being removed: its normal-force bound ramps from ``f_start`` to 0.
+
+    Step ``k`` (1 to ``steps``) of the controller after :meth:`InverseDynamicsQP.
+    remove_contact` bounds the normal force by ``f_start (1 - k / steps)``; the step after the
+    last one no longer has the contact.
+    """
+
+    contact: Contact
+    f_start: float
+    steps: int
+    done: int = 0
+
+    @property
+    def limit(self) -> float:
+        return self.f_start * max(0.0, 1.0 - self.done / self.steps)
+
+
+def _normal_index(contact: Contact) -> int:
+    """Which force variable of ``contact`` is its normal force (``Contact.normal_force``)."""
+    e = np.eye(contact.force_dim)
+    hits = [i for i in range(contact.force_dim) if contact.normal_force(e[i]) == 1.0]
+    if len(hits) != 1:
+        raise InvalidInputError(
+            f"contact '{contact.frame}': its normal_force is not one force variable, so it "
+            "cannot be released smoothly (use remove_contact(..., transition_time=0))"
+        )
+    return hits[0]
+
+
 def _as_index(indices: np.ndarray) -> slice | np.ndarray:
     """A slice when ``indices`` are consecutive (faster indexing), else the array."""
     if indices.size and np.all(np.diff(indices) == 1):
@@ -256,10 +293,13 @@ class InverseDynamicsQP:
     Model version: the controller follows :meth:`Robot.set_limits
     <taskspace.model.Robot.set_limits>`; the next step after a change rebuilds the torque-limit
     rows, the actuated/unactuated split and the joint-limit bounds from the new limits.
-    ``tasks``, ``contacts``, ``pressure_tasks`` and ``options`` are fixed at construction
-    (tuples; assigning them raises :class:`~taskspace.errors.InvalidInputError`): a different
-    set is a new controller. Targets, gains, weights, contact references and normal-force
-    limits are read at every step.
+    ``tasks``, ``pressure_tasks`` and ``options`` are fixed at construction (tuples; assigning
+    them raises :class:`~taskspace.errors.InvalidInputError`): a different set is a new
+    controller. ``contacts`` changes only through :meth:`add_contact` and
+    :meth:`remove_contact` (with a smooth force transition, as TSID's
+    ``removeRigidContact(name, transition_duration)``); each change rebuilds the QP's buffers,
+    solver workspaces and compiled kernel (``contacts_version`` counts the changes). Targets,
+    gains, weights, contact references and normal-force limits are read at every step.
 
     Args:
         robot: the robot.
@@ -308,6 +348,13 @@ class InverseDynamicsQP:
         for c in self.contacts:
             if c.robot is not robot:
                 raise InvalidInputError(f"contact '{c.name}' is defined on another robot")
+        frames = [c.frame for c in self.contacts]
+        if len(set(frames)) != len(frames):
+            raise InvalidInputError(f"two contacts on the same frame: {frames}")
+        # contacts being removed (remove_contact with a transition), by frame
+        self._releases: dict[str, _Release] = {}
+        self._last_forces: dict[str, FloatArray] = {}
+        self.contacts_version = 0
         # everything derived from the robot's limits (effort: which rows are actuated;
         # position/velocity limits: the acceleration box), again after robot.set_limits
         self._follower = ModelFollower(robot, "InverseDynamicsQP", self._setup)
@@ -326,12 +373,144 @@ class InverseDynamicsQP:
 
     @property
     def contacts(self) -> tuple[Contact, ...]:
-        """The contacts (fixed at construction; gains, references, force limits may change)."""
+        """The active contacts (see :meth:`add_contact`, :meth:`remove_contact`)."""
         return self._contacts
 
     @contacts.setter
     def contacts(self, value: object) -> None:
-        _fixed("contacts")
+        raise InvalidInputError(
+            "InverseDynamicsQP.contacts cannot be assigned (like the tasks, the set is fixed at "
+            "construction except through add_contact(contact) and remove_contact(frame, "
+            "transition_time=..., dt=...), which rebuild the QP)"
+        )
+
+    def add_contact(self, contact: Contact) -> None:
+        """Make ``contact`` active from the next step on (a touchdown).
+
+        The QP gets its force variables, acceleration rows and cone rows: the buffers, the
+        solver workspaces (their warm starts) and the compiled kernel are rebuilt. Anchor the
+        contact first (``contact.set_reference(state)``) when it has a position gain. A load
+        that should build up gradually is ``contact.max_normal_force`` raised step by step
+        (a contact built with ``max_force``).
+        """
+        if not isinstance(contact, Contact):
+            raise InvalidInputError(
+                f"add_contact needs a Contact (Contact6D, PointContact), got "
+                f"{type(contact).__name__}"
+            )
+        if contact.robot is not self.robot:
+            raise InvalidInputError(f"contact '{contact.name}' is defined on another robot")
+        self._acquire()
+        try:
+            if any(c.frame == contact.frame for c in self._contacts):
+                raise InvalidInputError(
+                    f"a contact on frame '{contact.frame}' is already active "
+                    f"(active: {[c.frame for c in self._contacts]})"
+                )
+            self._contacts = (*self._contacts, contact)
+            self._rebuild()
+        finally:
+            self._release()
+
+    def remove_contact(
+        self, frame: str, transition_time: float = 0.0, dt: float | None = None
+    ) -> None:
+        """Remove the contact on ``frame``, at once or after a force transition (a lift-off).
+
+        With ``transition_time = 0`` the next step has no such contact. Otherwise the
+        contact stays for ``steps = max(1, round(transition_time / dt))`` more calls of
+        :meth:`solve` (``dt``: the control period [s]) while the upper bound of its normal
+        force ramps linearly from ``f_start`` down to 0 (step ``k`` bounds it by
+        ``f_start (1 - k / steps)``; its minimum force is 0 meanwhile; ``f_start``: its normal
+        force at the last step, at most its ``normal_force_limit``; before any step that limit or
+        the robot's weight), so the other contacts
+        take the load over gradually, as TSID's ``removeRigidContact(name,
+        transition_duration)`` lowers the contact's maximum normal force; the step after the last
+        one has no such contact. Each step's result lists the bound in ``releasing``.
+        """
+        self._acquire()
+        try:
+            active = [c.frame for c in self._contacts]
+            if frame not in active:
+                raise InvalidInputError(f"no active contact on frame {frame!r}; active: {active}")
+            contact = self._contacts[active.index(frame)]
+            for pt in self.pressure_tasks:
+                if pt.contact is contact:
+                    raise InvalidInputError(
+                        f"'{pt.name}' drives the center of pressure of contact '{frame}': "
+                        "a controller with that task cannot remove the contact"
+                    )
+            T = check_positive(transition_time, "transition_time", strict=False)
+            if frame in self._releases:
+                raise InvalidInputError(f"contact '{frame}' is already being removed")
+            if T == 0.0:
+                self._drop(frame)
+                return
+            if dt is None:
+                raise InvalidInputError(
+                    "remove_contact with a transition_time needs dt, the control period [s] "
+                    "(one call of solve advances the transition by dt)"
+                )
+            step = check_positive(dt, "dt")
+            steps = max(1, round(T / step))
+            _normal_index(contact)  # refuses contacts without one normal force variable
+            top = contact.normal_force_limit
+            last = self._last_forces.get(frame)
+            f0 = (
+                contact.normal_force(last)
+                if last is not None
+                else (self._weight if top is None else top)
+            )
+            if top is not None:
+                f0 = min(f0, top)
+            self._releases[frame] = _Release(contact, max(f0, 0.0), steps)
+            self._rebuild()  # the contact's cone gets its transition rows
+        finally:
+            self._release()
+
+    def _drop(self, frame: str) -> None:
+        self._contacts = tuple(c for c in self._contacts if c.frame != frame)
+        self._releases.pop(frame, None)
+        self._rebuild()
+
+    def _rebuild(self) -> None:
+        """Everything sized by the contacts: buffers, workspaces, the compiled kernel."""
+        self._setup()
+        self.contacts_version += 1
+
+    def _advance_releases(self) -> None:
+        """One step of every transition; contacts whose transition ended are dropped."""
+        for frame in [f for f, r in self._releases.items() if r.done >= r.steps]:
+            self._drop(frame)
+        for r in self._releases.values():
+            r.done += 1
+
+    def _cone(self, contact: Contact) -> tuple[FloatArray, FloatArray, int | None]:
+        """``(K, k, limit row)`` of ``contact`` in this controller.
+
+        The contact's own cone, except while it is being removed: then its minimum normal
+        force is 0 and it has an upper-bound row (appended if it had none) set every step.
+        """
+        K, k = contact.cone()
+        row = contact.max_force_row
+        if contact.frame not in self._releases:
+            return K, k, row
+        K, k = np.array(K, dtype=float), np.array(k, dtype=float)
+        e = np.zeros(contact.force_dim)
+        e[_normal_index(contact)] = 1.0
+        k[np.all(K == e, axis=1) & (k > 0)] = 0.0  # the minimum-force row
+        if row is None:
+            K = np.vstack([K, -e])
+            k = np.append(k, 0.0)
+            row = K.shape[0] - 1
+        return K, k, row
+
+    def _normal_force_limit(self, contact: Contact) -> float:
+        """The upper bound of the normal force in this step (rows of :meth:`_cone`)."""
+        r = self._releases.get(contact.frame)
+        if r is not None:
+            return r.limit
+        return cast(float, contact.normal_force_limit)
 
     @property
     def pressure_tasks(self) -> tuple[CenterOfPressureTask, ...]:
@@ -379,19 +558,19 @@ class InverseDynamicsQP:
             else None
         )
         # static blocks: cone rows
-        cones = [c.cone() for c in self.contacts]
-        n_cone = sum(K.shape[0] for K, _ in cones)
+        cones = [self._cone(c) for c in self.contacts]
+        n_cone = sum(K.shape[0] for K, _, _ in cones)
         self._cone_C = np.zeros((n_cone, self.n))
         self._cone_l = np.zeros(n_cone)
         r, col = 0, nv
         # rows -f_n >= -limit that follow Contact.normal_force_limit at every step (contact
         # transitions: set_normal_force_limit ramps a foot's force down before lift-off)
         self._limit_rows: list[tuple[int, Contact]] = []
-        for (K, k), c in zip(cones, self.contacts):
+        for (K, k, limit_row), c in zip(cones, self.contacts):
             self._cone_C[r : r + K.shape[0], col : col + c.force_dim] = K
             self._cone_l[r : r + K.shape[0]] = k
-            if c.max_force_row is not None:
-                self._limit_rows.append((r + c.max_force_row, c))
+            if limit_row is not None:
+                self._limit_rows.append((r + limit_row, c))
             r += K.shape[0]
             col += c.force_dim
         weight = pin.computeTotalMass(robot.model) * float(
@@ -611,7 +790,7 @@ class InverseDynamicsQP:
         C, l, u = self._C, self._l, self._u_bound
         n_cone = self._cone_C.shape[0]
         for row, contact in self._limit_rows:
-            l[row] = -cast(float, contact.normal_force_limit)  # max_force unless lowered
+            l[row] = -self._normal_force_limit(contact)  # max_force unless lowered
         if self.options.torque_limits and len(self.actuated):
             act = self._act
             C[n_cone:, :nv] = M[act]
@@ -645,7 +824,14 @@ class InverseDynamicsQP:
         """One control step: accelerations, contact forces and torques at ``state``."""
         self._acquire()  # bound methods: about half the cost of ``with self._lock``
         try:
-            return self._solve(state)
+            if self._releases:
+                self._advance_releases()
+            out = self._solve(state)
+            out.contacts = tuple(c.frame for c in self._contacts)
+            if self._releases:
+                out.releasing = {f: r.limit for f, r in self._releases.items()}
+            self._last_forces = out.forces  # remove_contact starts its ramp there
+            return out
         finally:
             self._release()
 
