@@ -547,6 +547,7 @@ class InverseDynamicsQP:
         self._effort = effort[self.actuated]
         self._neg_effort = -self._effort
         self.nf = sum(c.force_dim for c in self.contacts)
+        self._contact_frames = tuple(c.frame for c in self.contacts)
         self.n = nv + self.nf
         self._data = robot.model.createData()
         self._last: tuple[FloatArray, FloatArray, FloatArray] | None = None
@@ -827,7 +828,7 @@ class InverseDynamicsQP:
             if self._releases:
                 self._advance_releases()
             out = self._solve(state)
-            out.contacts = tuple(c.frame for c in self._contacts)
+            out.contacts = self._contact_frames
             if self._releases:
                 out.releasing = {f: r.limit for f, r in self._releases.items()}
             self._last_forces = out.forces  # remove_contact starts its ramp there
