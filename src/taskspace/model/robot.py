@@ -218,6 +218,7 @@ class Robot:
         locked_values: dict[str, float] | None = None,
         collision_pruning: CollisionPruningOptions | None = None,
         geometry: bool = True,
+        base: str | None = None,
     ) -> Robot:
         """Load a robot by name: our registry, or any robot of example-robot-data.
 
@@ -241,6 +242,13 @@ class Robot:
                 kinematics and dynamics model only, with empty geometry models (like a URDF
                 without ``<collision>`` and ``<visual>`` elements): it loads several times
                 faster, and its self-collision checks see no robot geometry.
+            base: the root joint that attaches the robot to the world: ``None`` (the
+                registry's: a free flyer for legged robots, fixed otherwise), ``"fixed"``,
+                ``"planar"`` (Pinocchio's ``JointModelPlanar``: x, y [m] and yaw on the
+                ground, configuration ``(x, y, cos, sin)``; e.g. ``Robot.load("tiago",
+                base="planar")`` for a mobile manipulator whose base is planned with its
+                arm) or ``"free_flyer"``. Robots built by their own example-robot-data
+                loader (not a plain URDF) take only ``None``.
 
         Raises:
             UnknownNameError: ``name`` is not a known robot (the message lists the names).
@@ -249,6 +257,8 @@ class Robot:
         if not isinstance(geometry, bool):
             raise InvalidInputError(f"geometry must be True or False, got {geometry!r}")
         spec = robot_spec(name)
+        root = _check_base(base)
+        free_flyer = spec.free_flyer if root is None else root == "free_flyer"
         common: dict[str, Any] = {
             "locked_joints": spec.locked_joints,
             "name": name,
@@ -272,16 +282,27 @@ class Robot:
             if _is_plain_loader(loader):
                 urdf, package_dirs, srdf = _erd_paths(loader)
                 robot = cls.from_urdf(
-                    urdf, free_flyer=spec.free_flyer, package_dirs=package_dirs, srdf=srdf, **common
+                    urdf,
+                    free_flyer=free_flyer,
+                    base=root,
+                    package_dirs=package_dirs,
+                    srdf=srdf,
+                    **common,
                 )
             else:
+                if root is not None:
+                    raise InvalidInputError(
+                        f"base={base!r}: robot '{name}' is built by its own example-robot-data "
+                        "loader (not a plain URDF), which fixes its root joint; load it with "
+                        "base=None"
+                    )
                 robot = cls._from_erd_loader(loader, **common)
         else:
             if spec.urdf is None:
                 raise ModelLoadError(f"registry entry '{name}' has no urdf path")
             dirs = [str(spec.urdf.parent)]
             robot = cls.from_urdf(
-                spec.urdf, free_flyer=spec.free_flyer, package_dirs=dirs, **common
+                spec.urdf, free_flyer=free_flyer, base=root, package_dirs=dirs, **common
             )
         robot.description = spec.description
         return robot
@@ -304,6 +325,7 @@ class Robot:
         collision_pruning: CollisionPruningOptions | None = None,
         geometry: bool = True,
         _posture: RobotSpec | None = None,
+        base: str | None = None,
     ) -> Robot:
         """Load any URDF.
 
@@ -323,8 +345,11 @@ class Robot:
             collision_pruning: how collision pairs are checked on load.
             geometry: read the collision and visual geometry (``False``: empty geometry
                 models, see :meth:`load`).
+            base: root joint ``"fixed"``, ``"planar"`` or ``"free_flyer"`` (see
+                :meth:`load`); ``None``: a free flyer when ``free_flyer``, else fixed.
 
         Raises:
+            InvalidInputError: an unknown ``base``, or ``free_flyer=True`` with another base.
             ModelLoadError: missing or malformed URDF/SRDF, unknown locked joint, missing
                 meshes, unsupported joint type.
         """
@@ -334,14 +359,24 @@ class Robot:
         if not path.is_file():
             raise ModelLoadError(f"URDF file not found: {path}")
         dirs = list(package_dirs) if package_dirs is not None else [str(path.parent)]
-        root = pin.JointModelFreeFlyer() if free_flyer else None
+        kind = _check_base(base)
+        if kind is not None and free_flyer and kind != "free_flyer":
+            raise InvalidInputError(f"free_flyer=True contradicts base={base!r}")
+        if kind is None:
+            kind = "free_flyer" if free_flyer else "fixed"
+        root = {
+            "fixed": None,
+            "planar": pin.JointModelPlanar,
+            "free_flyer": pin.JointModelFreeFlyer,
+        }
+        root_joint = root[kind]() if root[kind] is not None else None
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                if root is None:
+                if root_joint is None:
                     model = pin.buildModelFromUrdf(str(path))
                 else:
-                    model = pin.buildModelFromUrdf(str(path), root)
+                    model = pin.buildModelFromUrdf(str(path), root_joint)
                 if geometry:
                     collision = pin.buildGeomFromUrdf(model, str(path), pin.COLLISION, dirs)
                     visual = pin.buildGeomFromUrdf(model, str(path), pin.VISUAL, dirs)
@@ -1239,6 +1274,17 @@ class Robot:
 
 
 # ---------------------------------------------------------------------- helpers
+BASES = ("fixed", "planar", "free_flyer")
+"""Root joints :meth:`Robot.load` and :meth:`Robot.from_urdf` build (``base=``)."""
+
+
+def _check_base(base: object) -> str | None:
+    """``base`` validated: ``None`` or one of :data:`BASES`."""
+    if base is None or (isinstance(base, str) and base in BASES):
+        return base
+    raise InvalidInputError(f"base must be None or one of {', '.join(BASES)}, got {base!r}")
+
+
 def _is_plain_loader(loader: Any) -> bool:
     """True when an example-robot-data loader only reads a URDF (and SRDF) of its package."""
     from example_robot_data.utils import RobotLoader
