@@ -49,6 +49,7 @@ def test_panda_hand_reaches_a_box_around_an_obstacle() -> None:
     opts = RRTStarOptions(max_iterations=400, time_limit_s=None, goal_bias=0.2, seed=2)
     result = rrt_star(space, start, region, opts)
     assert result.success
+    assert result.log["first_solution_by"] == "rrt_connect"  # to an IK sample of the region
     end_position = hand_position(robot, result.path[-1])
     assert np.all(end_position >= lower) and np.all(end_position <= upper)
     assert space.path_valid(result.path)

@@ -104,3 +104,23 @@ def test_plain_rrt_star_first_solution_and_bad_names() -> None:
     assert result.log["first_solution_by"] == "rrt_star"
     with pytest.raises(InvalidInputError, match="rrt_connect, rrt_star"):
         rrt_star(space, [0.1, 0.5], [0.9, 0.5], RRTStarOptions(first_solution="connect"))
+
+
+def test_several_goals_rrt_connect_aims_at_the_nearest_then_rrt_star_finds_the_cheaper() -> None:
+    space = square_world()
+    start = np.array([0.1, 0.5])
+    # the nearer goal (0.8 away) lies behind the square (about 0.92 around it); the farther
+    # one (0.854 away) is reached by a straight line above the square: the optimum
+    goals = np.array([[0.9, 0.5], [0.8, 0.99]])
+    free = float(np.linalg.norm(goals[1] - start))
+    assert space.path_valid(np.stack([start, goals[1]]))
+    assert not space.path_valid(np.stack([start, goals[0]]))
+    opts = RRTStarOptions(step_size=0.2, max_iterations=2000, time_limit_s=None, seed=0)
+    result = rrt_star(space, start, goals, opts)
+    assert result.success
+    assert result.log["first_solution_by"] == "rrt_connect"
+    assert result.log["costs"][0] > OPTIMUM_2D - 1e-9  # the first path went around the square
+    np.testing.assert_allclose(result.path[-1], goals[1])
+    length = float(np.linalg.norm(np.diff(result.path, axis=0), axis=1).sum())
+    assert result.cost == pytest.approx(length, rel=1e-12)
+    assert free - 1e-9 <= length <= free * 1.03

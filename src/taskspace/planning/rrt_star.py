@@ -67,7 +67,9 @@ class RRTStarOptions:
             the RRT* tree, which RRT* then rewires and improves; its iterations count toward
             ``max_iterations``. ``"rrt_star"``: the plain goal-biased RRT* (OMPL's
             ``RRTstar``), which in 7-D needs hundreds of iterations of 0.5 rad before a
-            goal sample is reached. Goal regions and several goals always use ``"rrt_star"``.
+            goal sample is reached. With several goal configurations RRT-Connect aims at the
+            nearest; with a :class:`GoalRegion`, at a configuration sampled from it (up to
+            three samples; none valid: plain RRT*). RRT* then reaches the other goals.
     """
 
     step_size: float = 0.5
@@ -300,11 +302,16 @@ def _plan(
     it = 0
     first_by = "rrt_star"
     done = False
-    if opts.first_solution == "rrt_connect" and region is None and len(goals) == 1:
-        it, seeded = _seed_with_rrt_connect(space, tree, goals[0], cost_of, rng, iterations, limit)
+    aim = -1
+    if opts.first_solution == "rrt_connect" and not region_nodes:
+        aim = _first_goal(space, q_start, goals, region, rng)
+    if aim >= 0:
+        it, seeded = _seed_with_rrt_connect(
+            space, tree, goals[aim], cost_of, rng, iterations, limit
+        )
         if seeded >= 0:
             first_by = "rrt_connect"
-            goal_nodes[0] = seeded
+            goal_nodes[aim] = seeded
             cost_times.append(time.perf_counter() - t0)
             costs.append(float(tree.cost[seeded]))
             if opts.stop_at_first:
@@ -439,6 +446,29 @@ def _plan(
         trees=[result_tree],
         log=log,
     )
+
+
+def _first_goal(
+    space: ConfigurationSpace,
+    q_start: FloatArray,
+    goals: list[FloatArray],
+    region: Any,
+    rng: np.random.Generator,
+) -> int:
+    """Index in ``goals`` of the goal RRT-Connect aims at first (-1: none).
+
+    With a goal region a valid sample of it is appended to ``goals`` (as the goal bias does).
+    """
+    if region is None:
+        if not goals:
+            return -1
+        return int(space.distances(np.asarray(goals), q_start).argmin())
+    for _ in range(3):
+        sampled = region.sample(rng)
+        if sampled is not None and space.within_bounds(sampled) and space.is_valid(sampled):
+            goals.append(np.asarray(sampled, dtype=np.float64))
+            return len(goals) - 1
+    return -1
 
 
 def _seed_with_rrt_connect(
