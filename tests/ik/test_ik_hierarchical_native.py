@@ -294,7 +294,13 @@ def test_native_step_follows_reassigned_weights_targets_and_bounds(g1: Robot) ->
     assert not a.native and a.native_declined == DECLINED[3]
     np.testing.assert_allclose(a.dq, b.dq, atol=1e-9)
     support.upper[0] += 0.049
+    # the step after an active one skips the kernel; the Python cascade then finds the
+    # inequalities inactive (closed form) and the kernel answers the next step
     a, b = ik.solve(state, DT), python.solve(state, DT)
+    assert not a.native and a.native_declined == DECLINED[-2]
+    assert a.hierarchy.status is QPStatus.UNCONSTRAINED
+    np.testing.assert_allclose(a.dq, b.dq, atol=1e-12)
+    a = ik.solve(state, DT)
     assert a.native
     levels, lb, ub = _levels_and_box(ik, g1, state)
     _check_against_reference(levels, a.dq, lb, ub)
@@ -389,3 +395,22 @@ def test_native_step_with_one_level_is_the_damped_least_squares_step(panda: Robo
     np.testing.assert_allclose(result.dq, reference, rtol=0, atol=1e-9)
     assert len(result.hierarchy.level_results) == 1
     assert result.hierarchy.nullspace_dims == [panda.nv]
+
+
+def test_after_an_active_step_the_python_cascade_answers_directly(g1: Robot) -> None:
+    # the CoM box active on every step: the first step's kernel call declines, the next steps
+    # skip it (the Python cascade answers directly, the same steps as without the kernel)
+    task_levels = _scene("g1", g1, active=True)
+    ik = HierarchicalIK(g1, task_levels, _limits(g1))
+    python = HierarchicalIK(g1, task_levels, _limits(g1), native=False)
+    state = g1.state(g1.q_default)
+    reasons = []
+    for _ in range(3):
+        a, b = ik.solve(state, DT), python.solve(state, DT)
+        assert not a.native and a.success
+        reasons.append(a.native_declined)
+        np.testing.assert_array_equal(a.dq, b.dq)
+        state.update(g1.integrate(state.q, a.dq))
+    assert reasons == [DECLINED[3], DECLINED[-2], DECLINED[-2]]
+    levels, lb, ub = _levels_and_box(ik, g1, state)
+    _check_against_reference(levels, ik.solve(state, DT).dq, lb, ub)

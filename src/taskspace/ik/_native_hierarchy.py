@@ -43,6 +43,8 @@ DECLINED = {
     1: "a level is close to rank-deficient (pivoted QR / damped SVD)",
     2: "a factorization failed or the step is not finite",
     3: "an inequality or a bound is violated at the closed-form point (level QPs)",
+    -2: "not tried: an earlier step's level QPs had an active inequality or bound (tried "
+    "again once the Python cascade finds every inequality and bound inactive)",
 }
 """Why the kernel declined a step (its status), recorded on the Python path's result."""
 

@@ -24,6 +24,7 @@ from taskspace.qp.hierarchy import (
     HierarchySolver,
 )
 from taskspace.qp.problem import RowBlock
+from taskspace.qp.result import QPStatus
 from taskspace.qp.rows import BoxStack, InequalityStack, TaskRowStack
 from taskspace.tasks import Task
 
@@ -136,7 +137,9 @@ class HierarchicalIK:
             every level's rows and runs the equality cascade, and answers when no inequality
             or bound is violated at its point and no level is close to rank-deficient;
             otherwise the Python cascade (level QPs) answers. The result's ``native`` says
-            which did.
+            which did. After a step declined for an active inequality or bound, the next
+            steps go to the Python cascade directly (``native_declined`` says so) until it
+            finds every inequality and bound inactive again.
     """
 
     def __init__(
@@ -203,6 +206,7 @@ class HierarchicalIK:
         self._native_option = bool(native)
         self._native: NativeHierarchy | None = None
         self._native_checked = False
+        self._native_backoff = False  # skip the kernel (see _solve)
 
     @property
     def native(self) -> bool:
@@ -311,11 +315,16 @@ class HierarchicalIK:
 
     def _solve(self, state: State, dt: float) -> HierarchicalIKResult:
         declined = ""
-        if self._native is not None or (not self._native_checked and self.native):
+        if self._native_backoff:
+            # the last steps' level QPs had an active row: the kernel would decline again
+            # (its call is wasted); the Python cascade answers until it finds them inactive
+            declined = DECLINED[-2]
+        elif self._native is not None or (not self._native_checked and self.native):
             answer = self._solve_native(state, dt)
             if not isinstance(answer, str):
                 return answer
             declined = answer
+            self._native_backoff = answer == DECLINED[3]
         t0 = time.perf_counter()
         levels = self._build(state, dt)
         r_all = self._r_all
@@ -341,6 +350,8 @@ class HierarchicalIK:
             hard_names=blocks,
         )
         t2 = time.perf_counter()
+        if self._native_backoff and result.status is QPStatus.UNCONSTRAINED:
+            self._native_backoff = False  # every inequality and bound inactive again
         if not np.isfinite(result.x).all():
             raise SolverError(
                 "the hierarchical step is not finite (overflow): the weighted task residuals "
