@@ -42,8 +42,9 @@ class HierarchicalIKResult:
         violations: per level, the largest violation of its inequalities (linearized).
         hierarchy: the cascade's result (per-level QP results, nullspace dimensions).
         build_time, solve_time: wall times [s].
-        native: the compiled closed-form step answered (every level in closed form, every
-            inequality and bound satisfied at its point; see ``HierarchicalIK``'s ``native``).
+        native: the compiled step answered (every level in closed form, or its level QPs
+            certified when an inequality or bound is active; see ``HierarchicalIK``'s
+            ``native`` and ``hierarchy.status``: ``UNCONSTRAINED`` or ``SOLVED``).
         native_declined: why the compiled step declined and the Python cascade answered
             (empty when it answered or did not run).
     """
@@ -59,6 +60,10 @@ class HierarchicalIKResult:
     native: bool = False
     native_declined: str = ""
 
+
+_BACKOFF = frozenset(DECLINED[k] for k in (3, 4, 5))
+"""Declines after which the next steps skip the kernel (see ``HierarchicalIK``'s ``native``)."""
+_BACKOFF_STEPS = 25
 
 MAX_WEIGHTED_RESIDUAL = 1e30
 """Largest norm of a level's weighted task residual that a step accepts (beyond it the QP
@@ -132,14 +137,17 @@ class HierarchicalIK:
         levels: highest priority first; each level a list of tasks and constraints.
         constraints: hard constraints for all levels.
         options: cascade settings (damping, rank tolerance, QP solver).
-        native: try the compiled closed-form step first (``taskspace/_native``; when it is
-            built and every task's feature declares a compiled term): one kernel call builds
-            every level's rows and runs the equality cascade, and answers when no inequality
-            or bound is violated at its point and no level is close to rank-deficient;
-            otherwise the Python cascade (level QPs) answers. The result's ``native`` says
-            which did. After a step declined for an active inequality or bound, the next
-            steps go to the Python cascade directly (``native_declined`` says so) until it
-            finds every inequality and bound inactive again.
+        native: try the compiled step first (``taskspace/_native``; when it is built and
+            every task's feature declares a compiled term): one kernel call builds every
+            level's rows and runs the equality cascade, and answers when no inequality or
+            bound is violated at its point; when one is, it solves the level QPs itself (an
+            active-set method, each level's KKT residuals certified to 1e-9). When a level
+            is close to rank-deficient or a level QP is not certified, the Python cascade
+            answers. The result's ``native`` says which did. After a
+            step it declined for an active inequality or bound (its level QPs not
+            certified, or turned off), the next steps go to the Python cascade directly
+            (``native_declined`` says so) until it finds every inequality and bound inactive
+            again, or for at most 25 steps.
     """
 
     def __init__(
@@ -206,7 +214,7 @@ class HierarchicalIK:
         self._native_option = bool(native)
         self._native: NativeHierarchy | None = None
         self._native_checked = False
-        self._native_backoff = False  # skip the kernel (see _solve)
+        self._native_backoff = 0  # steps that skip the kernel (see _solve)
 
     @property
     def native(self) -> bool:
@@ -324,7 +332,8 @@ class HierarchicalIK:
             if not isinstance(answer, str):
                 return answer
             declined = answer
-            self._native_backoff = answer == DECLINED[3]
+            if answer in _BACKOFF:
+                self._native_backoff = _BACKOFF_STEPS
         t0 = time.perf_counter()
         levels = self._build(state, dt)
         r_all = self._r_all
@@ -350,8 +359,10 @@ class HierarchicalIK:
             hard_names=blocks,
         )
         t2 = time.perf_counter()
-        if self._native_backoff and result.status is QPStatus.UNCONSTRAINED:
-            self._native_backoff = False  # every inequality and bound inactive again
+        if self._native_backoff:
+            self._native_backoff -= 1
+            if result.status is QPStatus.UNCONSTRAINED:
+                self._native_backoff = 0  # every inequality and bound inactive again
         if not np.isfinite(result.x).all():
             raise SolverError(
                 "the hierarchical step is not finite (overflow): the weighted task residuals "
