@@ -476,3 +476,34 @@ def test_after_an_active_step_the_python_cascade_answers_directly(g1: Robot) -> 
     assert reasons == [DECLINED[3], DECLINED[-2], DECLINED[-2]]
     levels, lb, ub = _levels_and_box(ik, g1, state)
     _check_against_reference(levels, ik.solve(state, DT).dq, lb, ub)
+
+
+@pytest.mark.parametrize("velocity", [False, True])
+def test_advance_solves_integrates_and_moves_the_state(g1: Robot, velocity: bool) -> None:
+    # the active scene (kernel level QPs): advance = solve at the state, then the state at
+    # q (+) dq (Pinocchio's integrate and forward kinematics as the reference)
+    import pinocchio as pin
+
+    task_levels = _scene("g1", g1, active=True)
+    ik = HierarchicalIK(g1, task_levels, _limits(g1))
+    twin = HierarchicalIK(g1, task_levels, _limits(g1))
+    q0 = g1.q_default.copy()
+    state = g1.state(q0, np.zeros(g1.nv) if velocity else None)
+    reference_state = g1.state(q0)
+    for _ in range(3):
+        expected = twin.solve(reference_state, DT)
+        result = ik.advance(state, DT)
+        assert result.native and expected.native
+        np.testing.assert_array_equal(result.dq, expected.dq)
+        q1 = pin.integrate(g1.model, reference_state.q, expected.dq)
+        np.testing.assert_allclose(state.q, q1, rtol=0, atol=1e-15)
+        if velocity:
+            np.testing.assert_allclose(state.v, expected.dq / DT, rtol=0, atol=1e-12)
+        data = g1.model.createData()
+        pin.framesForwardKinematics(g1.model, data, q1)
+        frame = g1.frame_id(FRAMES["g1"][1][0])
+        np.testing.assert_allclose(
+            state.frame_placement(frame).homogeneous, data.oMf[frame].homogeneous, atol=1e-12
+        )
+        reference_state.update(q1)
+    assert not np.shares_memory(state.q, q0) and np.array_equal(q0, g1.q_default)

@@ -397,6 +397,30 @@ class HierarchicalIK:
             "; check the targets and weights"
         )
 
+    def advance(self, state: State, dt: float) -> HierarchicalIKResult:
+        """One step that moves ``state``: solve at it, then ``state`` goes to ``q (+) dq``.
+
+        The loop ``state.update(q); result = solve(state, dt); q = q (+) result.dq`` in one
+        call (as :meth:`DifferentialIK.advance <taskspace.ik.DifferentialIK.advance>`):
+        ``state`` ends exactly as ``state.update(q (+) dq, v)`` would leave it, with ``v =
+        dq / dt`` when the state has a velocity and none otherwise. The state moves by the
+        returned step whatever its status (as :meth:`step`); check ``result.success``. The
+        state's previous ``q`` is not modified.
+
+        Args:
+            state: current state, moved to the new configuration.
+            dt: time step [s].
+        """
+        result = self.solve(state, dt)  # validates the state
+        dt = check_positive(dt, "dt")
+        dq = result.dq
+        state.update(
+            pin.integrate(self.robot.model, state._q, dq),
+            dq / dt if state._has_velocity else None,
+            validate=False,
+        )
+        return result
+
     def step(self, state: State, dt: float) -> tuple[FloatArray, HierarchicalIKResult]:
         """Solve one step and return ``(q (+) dq, result)``."""
         result = self.solve(state, dt)
