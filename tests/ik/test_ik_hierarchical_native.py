@@ -507,3 +507,48 @@ def test_advance_solves_integrates_and_moves_the_state(g1: Robot, velocity: bool
         )
         reference_state.update(q1)
     assert not np.shares_memory(state.q, q0) and np.array_equal(q0, g1.q_default)
+
+
+def test_native_level_qps_on_degenerate_levels_answer_or_decline(g1: Robot) -> None:
+    # random configurations and tight joint velocity boxes: the boxes and held rows block
+    # most of the lower levels' freedom (degenerate vertices: more rows tight than freedoms).
+    # Each step is either the kernel's certified level QPs, equal to the Python cascade's
+    # step, or declined (DECLINED[4]) and answered by the Python cascade
+    rng = np.random.default_rng(0)
+    idx = g1.limited_joints_q
+    lo, hi = g1.lower_limits[idx], g1.upper_limits[idx]
+    answered = 0
+    for _ in range(6):
+        q = g1.q_default.copy()
+        q[idx] = np.clip(q[idx] + 0.15 * rng.standard_normal(idx.size), lo, hi)
+        state = g1.state(q)
+        limits = [JointPositionLimits(g1), JointVelocityLimits(g1, scale=0.05)]
+        task_levels = _humanoid(
+            g1, float(rng.uniform(0, 0.02)), float(rng.uniform(-0.005, 0.01)), 0.01
+        )
+        ik = HierarchicalIK(g1, task_levels, limits)
+        result = ik.solve(state, DT)
+        python = HierarchicalIK(g1, task_levels, limits, native=False).solve(state, DT)
+        if result.native and python.success:
+            _check_level_qps(result, python)
+            answered += 1
+        elif result.native:
+            # the Python cascade relaxed a level (RELAXED: its QP solvers did not certify it
+            # and the polished answer violates a box): the kernel's step holds every box and
+            # equals it on the levels above
+            levels, lb, ub = _levels_and_box(ik, g1, state)
+            assert result.success and np.all(result.dq >= lb - 1e-10)
+            assert np.all(result.dq <= ub + 1e-10)
+            statuses = [lr.status for lr in python.hierarchy.level_results]
+            assert QPStatus.RELAXED in statuses, statuses
+            for level, lr in zip(levels, python.hierarchy.level_results, strict=True):
+                if lr.status is QPStatus.RELAXED:
+                    break
+                assert _level_value(level, result.dq) == pytest.approx(
+                    _level_value(level, python.dq), rel=1e-8, abs=1e-12
+                )
+            answered += 1
+        else:
+            assert result.native_declined == DECLINED[4], result.native_declined
+            np.testing.assert_array_equal(result.dq, python.dq)
+    assert answered >= 3

@@ -22,7 +22,7 @@
 // Givens updates are modelled): from the unconstrained minimum, the most violated constraint
 // is added, dropping active ones whose multipliers would turn negative, until none is
 // violated. Factors: J = L^-T (H = L L'), rotated by the active constraints (J'A_act' = [R; 0]).
-// The caller certifies the answer by its KKT residuals (HierarchicalIKKernel::qp_level).
+// The caller certifies the answer by its KKT residuals (HierarchicalIKKernel::qp_cascade).
 class GoldfarbIdnani {
  public:
   static constexpr int kSolved = 0;
@@ -43,6 +43,7 @@ class GoldfarbIdnani {
     act_.clear();
     lam_.setZero(n + 1);  // multipliers of the active rows (then the one being added)
     active_.assign(m, 0);
+    skipped_.assign(m, 0);
     double r_norm = 1.0;
     const int cap = 10 * (m + n) + 10;
     const double eps = std::numeric_limits<double>::epsilon();
@@ -52,7 +53,7 @@ class GoldfarbIdnani {
       double worst = 0.0;
       s_.noalias() = A * y - b;
       for (int i = 0; i < m; ++i) {
-        if (active_[i]) continue;
+        if (active_[i] || skipped_[i]) continue;
         const double tol = 1e-13 * (1.0 + std::abs(b[i]));
         if (s_[i] < -tol && s_[i] < worst) worst = s_[i], p = i;
       }
@@ -74,7 +75,19 @@ class GoldfarbIdnani {
         const bool full = z_.squaredNorm() > eps && zn > 0.0;
         const double t2 = full ? -sp / zn : std::numeric_limits<double>::infinity();
         const double t = std::min(t1, t2);
-        if (!std::isfinite(t)) return kFailed;  // infeasible
+        if (!std::isfinite(t)) {
+          // row p is (numerically) a combination of the active rows with no multiplier to
+          // trade: the problem would be infeasible. At a degenerate vertex (more rows
+          // tight than freedoms: a level whose freedom the held rows and boxes block) that
+          // is rounding: a row barely violated is left out and to the certificate (its
+          // violation is in the primal residual; the refinement below restores the
+          // stationarity of the active set, whose multipliers' signs are checked there)
+          if (-sp <= 1e-9 * (1.0 + std::abs(b[p]))) {
+            skipped_[p] = 1;
+            break;
+          }
+          return kFailed;
+        }
         if (full) y += t * z_;
         if (q) lam_.head(q) -= t * r_;
         uplus += t;
@@ -180,7 +193,7 @@ class GoldfarbIdnani {
   MatrixXd J_, R_;
   VectorXd d_, z_, r_, s_, lam_, rd_, ra_;
   std::vector<int> act_;
-  std::vector<char> active_;
+  std::vector<char> active_, skipped_;
 };
 
 class HierarchicalIKKernel {
@@ -681,7 +694,9 @@ class HierarchicalIKKernel {
           const double s = Ay[i] - ba_[i];
           primal = std::max(primal, -s);
           pscale = std::max(pscale, std::abs(Ay[i]));
-          if (uq_[i] != 0.0) compl_ = std::max(compl_, std::min(uq_[i], std::abs(s)));
+          // a negative multiplier pushes against the other side: a sign error, |u|
+          if (uq_[i] < 0.0) compl_ = std::max(compl_, -uq_[i]);
+          else if (uq_[i] > 0.0) compl_ = std::max(compl_, std::min(uq_[i], std::abs(s)));
         }
         const double dual = (Hz_ + gq_ + force_).cwiseAbs().maxCoeff();
         const double dscale = std::max({Hz_.cwiseAbs().maxCoeff(), gq_.cwiseAbs().maxCoeff(),
