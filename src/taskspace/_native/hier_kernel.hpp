@@ -1,4 +1,4 @@
-// Compiled closed-form step of taskspace's hierarchical differential IK (HierarchicalIK).
+// Compiled step of taskspace's hierarchical differential IK (HierarchicalIK).
 //
 // Included by ik_kernel.cpp (inside its anonymous namespace, after WeightedIKKernel, whose
 // row evaluation it reuses: HierarchicalIKKernel is its friend). One call fills every
@@ -12,16 +12,21 @@
 // of its damped normal equations. Then the `_violations` check: the bounds, the hard
 // inequality rows and every level's inequality rows at the cascade's point (1e-10).
 //
+// When an inequality or a bound is violated at that point, the Python path's level QPs are
+// solved here (qp_cascade: the same QPs in the same nullspace coordinates, by the dual
+// active-set method GoldfarbIdnani below, each level certified by its KKT residuals).
+//
 // Anything this path does not decide exactly is declined (a status > 0) and the caller runs
-// the Python cascade: near-rank-deficient levels (pivoted QR / damped SVD there), an
-// inequality or a bound violated at the closed-form point (the level QPs), a failed Cholesky
-// or a non-finite step.
+// the Python cascade: near-rank-deficient levels (pivoted QR / damped SVD there), a level QP
+// not certified, a held row vanishing in a level's freedom while violated (a culprit there),
+// a failed Cholesky or a non-finite step.
 
 // A strictly convex dense QP  min 1/2 y'Hy + g'y  s.t.  A y >= b  by the dual active-set method
-// of Goldfarb and Idnani (1983; the method of quadprog, on whose formulation QuadProg++'s
-// Givens updates are modelled): from the unconstrained minimum, the most violated constraint
-// is added, dropping active ones whose multipliers would turn negative, until none is
-// violated. Factors: J = L^-T (H = L L'), rotated by the active constraints (J'A_act' = [R; 0]).
+// of Goldfarb and Idnani (1983; quadprog's method; the Givens updates of the factors are
+// written as in L. Di Gaspero's QuadProg++): from the unconstrained minimum, the most
+// violated constraint is added, dropping active ones whose multipliers would turn negative,
+// until none is violated. Factors: J = L^-T (H = L L'), rotated by the active constraints
+// (J'A_act' = [R; 0]).
 // The caller certifies the answer by its KKT residuals (HierarchicalIKKernel::qp_cascade).
 class GoldfarbIdnani {
  public:
@@ -318,15 +323,17 @@ class HierarchicalIKKernel {
     k_.set_position_limits(iq, iv, low, high, hard);
   }
 
-  // One step: rows, boxes, cascade, checks. `inequalities`: per level None or (C, l, u) (the
-  // level's inequality rows, evaluated by the caller); `hard`: None or (C, l, u) binding every
-  // level. Writes the step to `out` (size nv, valid when the status is 0) and the rows of
-  // `info` (levels x 12): |J_k x - r_k|, the level's inequality violation, the nullspace
-  // dimension after the level, the level's KKT residuals (primal, dual, complementarity,
-  // duality gap, primal scale, dual scale, gap scale; see
-  // taskspace.qp.kkt.least_squares_kkt_residuals), its objective and the length of its z; `steps` (size >= the sum
-  // of the levels' freedoms) receives each level's step z, concatenated. Returns (status,
-  // sum of squared r over all levels, build time, cascade time) [s].
+  // One step: rows, boxes, cascade, checks (then the level QPs when a row is violated).
+  // `inequalities`: per level None or (C, l, u) (the level's inequality rows, evaluated by
+  // the caller); `hard`: None or (C, l, u) binding every level. Writes the step to `out`
+  // (size nv, valid when the status is 0) and the rows of `info` (levels x 14): |J_k x - r_k|,
+  // the level's inequality violation, the nullspace dimension after the level, the level's
+  // KKT residuals (primal, dual, complementarity, duality gap, primal scale, dual scale, gap
+  // scale; see taskspace.qp.kkt: least_squares_kkt_residuals in closed form, kkt_residuals of
+  // the level QP), its objective, the length of its step, 1 for a level QP (else 0) and the
+  // active-set iterations. `steps` (size >= the sum of the levels' freedoms) receives each
+  // closed-form level's step z, concatenated (the level QPs' (z, w): qp_steps). Returns
+  // (status, sum of squared r over all levels, build time, cascade time [s], level QPs ran).
   bp::tuple solve(const Model& model, Data& data, const Eigen::Ref<const VectorXd>& q,
                   bp::list targets, bp::list hard_boxes, bp::list soft_boxes,
                   bp::list inequalities, bp::object hard, double damping,
@@ -614,7 +621,8 @@ class HierarchicalIKKernel {
         res_ -= r_[k];  // J x - r
         const double mu = std::max(damping, 1e-14);
         Hq_.setZero(N, N);
-        if (JZ_.rows()) Hq_.topLeftCorner(r, r).selfadjointView<Eigen::Lower>().rankUpdate(JZ_.transpose());
+        if (JZ_.rows())
+          Hq_.topLeftCorner(r, r).selfadjointView<Eigen::Lower>().rankUpdate(JZ_.transpose());
         Hq_.topLeftCorner(r, r).triangularView<Eigen::StrictlyUpper>() =
             Hq_.topLeftCorner(r, r).transpose();
         Hq_.diagonal().head(r).array() += mu;
