@@ -6,12 +6,12 @@ Scenes (issue 3):
   joint position + velocity limits, dt = 5 ms, 1500 steps.
 * ``panda``: tcp pose (moving the same way) + posture, limits, 1500 steps.
 * ``g1 hierarchy``: the G1 tasks as 4 strict levels (feet + CoM-in-support-box inequality;
-  CoM; hands; posture). Rows: the compiled closed-form step (``native_steps``: how many
-  steps it answered; the others ran the Python cascade) and the Python cascade alone.
+  CoM; hands; posture). Rows: the compiled step (``native_steps``: how many steps it
+  answered; the others ran the Python cascade) and the Python cascade alone.
 * ``g1 hierarchy, active CoM box``: the same with the support box's front edge 2 mm behind
   the initial CoM (the CoM task's target): the level-1 inequality moves the CoM behind it and
-  then holds it against the CoM level on every step, so the level QPs run (the compiled step
-  declines; the row says what the level-QP path costs).
+  then holds it against the CoM level on every step, so the level QPs run (in the kernel:
+  its active-set level QPs, ``native_steps``; the Python row: the Python cascade's).
 * ``panda global``: ``solve_ik`` on random reachable tcp poses.
 * ``panda dampers``: the main demo's scene (``examples/demo_main.py``): Panda with convex
   collision geometry, a 7 cm ball in the way of a tcp pose task whose target slides 45 cm

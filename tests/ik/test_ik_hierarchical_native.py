@@ -206,18 +206,74 @@ def test_native_step_equals_the_recursive_nullspace_formula(
     )
 
 
+def _check_level_qps(result: object, python: object) -> None:
+    """The kernel's level QPs answered: certified, and the Python cascade's step."""
+    assert result.native, result.native_declined  # type: ignore[attr-defined]
+    hierarchy = result.hierarchy  # type: ignore[attr-defined]
+    assert result.success and hierarchy.status is QPStatus.SOLVED  # type: ignore[attr-defined]
+    for lr in hierarchy.level_results:
+        if lr.backend == "native active set":
+            assert lr.status is QPStatus.SOLVED
+            assert lr.kkt.within(1e-9, 1e-9), lr.kkt
+        else:  # a level without freedom
+            assert lr.x.size == 0
+    assert any(lr.backend == "native active set" for lr in hierarchy.level_results)
+    assert not python.native  # type: ignore[attr-defined]
+    # the Python cascade's level QPs (daqp / proxsuite, certified to 1e-9 / 1e-6): the same
+    # step up to the levels' conditioning (|J|^2 / damping ~ 1e9)
+    scale = max(1.0, float(np.abs(python.dq).max()))  # type: ignore[attr-defined]
+    np.testing.assert_allclose(
+        result.dq,  # type: ignore[attr-defined]
+        python.dq,  # type: ignore[attr-defined]
+        rtol=0,
+        atol=1e-6 * scale,
+    )
+
+
 @pytest.mark.parametrize("name", ["g1", "panda"])
-def test_native_step_declines_on_an_active_inequality(name: str, robot_loader: object) -> None:
+def test_native_level_qps_on_an_active_inequality(name: str, robot_loader: object) -> None:
     robot = robot_loader(name)  # type: ignore[operator]
     ik = HierarchicalIK(robot, _scene(name, robot, active=True), _limits(robot))
+    python = HierarchicalIK(robot, _scene(name, robot, active=True), _limits(robot), native=False)
     state = robot.state(robot.q_default)
     result = ik.solve(state, DT)
-    assert not result.native
-    assert result.native_declined == DECLINED[3]
-    assert result.success
-    statuses = [lr.status for lr in result.hierarchy.level_results]
-    assert QPStatus.SOLVED in statuses, statuses  # level QPs answered
+    _check_level_qps(result, python.solve(state, DT))
     levels, lb, ub = _levels_and_box(ik, robot, state)
+    _check_against_reference(levels, result.dq, lb, ub)
+    for level, residual, violation in zip(levels, result.residuals, result.violations, strict=True):
+        assert residual == pytest.approx(np.linalg.norm(level.J @ result.dq - level.r), abs=1e-12)
+        if level.C is not None:
+            assert level.l is not None and level.u is not None
+            v = level.C @ result.dq
+            assert violation == pytest.approx(
+                max(0.0, float(np.max(np.maximum(level.l - v, v - level.u)))), abs=1e-12
+            )
+    # the level QPs turned off: the kernel declines, the Python cascade answers
+    assert ik._native is not None
+    ik._native.kernel.set_level_qps(False)
+    result = ik.solve(state, DT)
+    assert not result.native and result.native_declined == DECLINED[3]
+    _check_against_reference(levels, result.dq, lb, ub)
+
+
+def test_native_level_qps_follow_the_active_scene_over_steps(g1: Robot) -> None:
+    # the CoM box active on every step while the hands move: every step by the kernel's
+    # level QPs, each the Python cascade's step; the last against the reference
+    task_levels = _scene("g1", g1, active=True)
+    ik = HierarchicalIK(g1, task_levels, _limits(g1))
+    python = HierarchicalIK(g1, task_levels, _limits(g1), native=False)
+    hands = task_levels[2]
+    state = g1.state(g1.q_default)
+    for k in range(12):
+        for sign, h in zip((1.0, -1.0), hands, strict=True):
+            assert isinstance(h, Task)
+            h.set_target(h.target + 0.003 * np.array([np.cos(k), sign, 0.5]))
+        a = ik.solve(state, DT)
+        _check_level_qps(a, python.solve(state, DT))
+        state.update(g1.integrate(state.q, a.dq))
+    levels, lb, ub = _levels_and_box(ik, g1, state)
+    result = ik.solve(state, DT)
+    assert result.native
     _check_against_reference(levels, result.dq, lb, ub)
 
 
@@ -226,19 +282,26 @@ def test_native_step_declines_on_an_active_bound_and_a_hard_inequality(panda: Ro
     # a joint step box tighter than the closed-form step
     tight = JointVelocityLimits(panda, scale=0.05)
     ik = HierarchicalIK(panda, _panda(panda, 0.05), [JointPositionLimits(panda), tight])
+    python = HierarchicalIK(
+        panda, _panda(panda, 0.05), [JointPositionLimits(panda), tight], native=False
+    )
     result = ik.solve(state, DT)
-    assert not result.native and result.native_declined == DECLINED[3]
+    _check_level_qps(result, python.solve(state, DT))
     levels, lb, ub = _levels_and_box(ik, panda, state)
     assert np.any(np.isclose(result.dq, lb) | np.isclose(result.dq, ub))  # the box is active
     _check_against_reference(levels, result.dq, lb, ub)
     # the height cap as a hard constraint (every level): inactive, then active
-    for above, native in ((0.05, True), (-0.001, False)):
+    for above, qp in ((0.05, False), (-0.001, True)):
         task_levels = _panda(panda, above)
         cap = task_levels[0].pop()
         assert isinstance(cap, FeatureBounds)
         ik = HierarchicalIK(panda, task_levels, [*_limits(panda), cap])
         result = ik.solve(state, DT)
-        assert result.native is native, result.native_declined
+        if qp:
+            python = HierarchicalIK(panda, task_levels, [*_limits(panda), cap], native=False)
+            _check_level_qps(result, python.solve(state, DT))
+        else:
+            assert result.native and result.hierarchy.status is QPStatus.UNCONSTRAINED
         C, _, u = cap.inequalities(state, DT)
         assert np.all(C @ result.dq <= u + 1e-9)  # a hard row: held
 
@@ -291,11 +354,10 @@ def test_native_step_follows_reassigned_weights_targets_and_bounds(g1: Robot) ->
     hand.set_target(hand.target + np.array([0.0, 0.0, 0.01]))
     support.upper[0] = support.upper[0] - 0.049  # changed in place: sent again, now active
     a, b = ik.solve(state, DT), python.solve(state, DT)
-    assert not a.native and a.native_declined == DECLINED[3]
-    np.testing.assert_allclose(a.dq, b.dq, atol=1e-9)
+    _check_level_qps(a, b)  # the level QPs
     support.upper[0] += 0.049
     a, b = ik.solve(state, DT), python.solve(state, DT)
-    assert a.native
+    assert a.native and a.hierarchy.status is QPStatus.UNCONSTRAINED  # closed form again
     levels, lb, ub = _levels_and_box(ik, g1, state)
     _check_against_reference(levels, a.dq, lb, ub)
 
@@ -352,7 +414,7 @@ def test_native_step_checks_inequality_rows_evaluated_in_python(panda: Robot, ha
     offset = np.array([0.0, 0.0, 0.01])
     point = Position(panda, tcp, offset)
     z = float(point.value(state)[2]) + 0.002  # where level 1 sends it (about)
-    for above, native in ((0.05, True), (-0.001, False)):
+    for above, qp in ((0.05, False), (-0.001, True)):
         task_levels = _panda(panda, 0.05, inequality=False)
         cap = FeatureBounds(point, [-INF, -INF, -INF], [INF, INF, z + above], name="point cap")
         constraints = _limits(panda)
@@ -362,11 +424,14 @@ def test_native_step_checks_inequality_rows_evaluated_in_python(panda: Robot, ha
             task_levels[0].append(cap)
         ik = HierarchicalIK(panda, task_levels, constraints)
         result = ik.solve(state, DT)
-        assert result.native is native, result.native_declined
-        if not native:
-            assert result.native_declined == DECLINED[3]
+        assert result.native, result.native_declined
+        if qp:  # the level QPs, the Python cascade's step
+            python = HierarchicalIK(panda, task_levels, constraints, native=False)
+            _check_level_qps(result, python.solve(state, DT))
+        else:
+            assert result.hierarchy.status is QPStatus.UNCONSTRAINED
         levels, lb, ub = _levels_and_box(ik, panda, state)
-        if native or hard:  # held: satisfied (level 1 cannot reach its target under it)
+        if not qp or hard:  # held: satisfied (level 1 cannot reach its target under it)
             C, _, u = cap.inequalities(state, DT)
             assert np.all(C @ result.dq <= u + 1e-9)
         if not hard:
@@ -389,3 +454,101 @@ def test_native_step_with_one_level_is_the_damped_least_squares_step(panda: Robo
     np.testing.assert_allclose(result.dq, reference, rtol=0, atol=1e-9)
     assert len(result.hierarchy.level_results) == 1
     assert result.hierarchy.nullspace_dims == [panda.nv]
+
+
+def test_after_an_active_step_the_python_cascade_answers_directly(g1: Robot) -> None:
+    # the CoM box active on every step, the kernel's level QPs off: the first step's kernel
+    # call declines, the next steps skip it (the Python cascade answers directly, the same
+    # steps as without the kernel)
+    task_levels = _scene("g1", g1, active=True)
+    ik = HierarchicalIK(g1, task_levels, _limits(g1))
+    assert ik.native and ik._native is not None
+    ik._native.kernel.set_level_qps(False)
+    python = HierarchicalIK(g1, task_levels, _limits(g1), native=False)
+    state = g1.state(g1.q_default)
+    reasons = []
+    for _ in range(3):
+        a, b = ik.solve(state, DT), python.solve(state, DT)
+        assert not a.native and a.success
+        reasons.append(a.native_declined)
+        np.testing.assert_array_equal(a.dq, b.dq)
+        state.update(g1.integrate(state.q, a.dq))
+    assert reasons == [DECLINED[3], DECLINED[-2], DECLINED[-2]]
+    levels, lb, ub = _levels_and_box(ik, g1, state)
+    _check_against_reference(levels, ik.solve(state, DT).dq, lb, ub)
+
+
+@pytest.mark.parametrize("velocity", [False, True])
+def test_advance_solves_integrates_and_moves_the_state(g1: Robot, velocity: bool) -> None:
+    # the active scene (kernel level QPs): advance = solve at the state, then the state at
+    # q (+) dq (Pinocchio's integrate and forward kinematics as the reference)
+    import pinocchio as pin
+
+    task_levels = _scene("g1", g1, active=True)
+    ik = HierarchicalIK(g1, task_levels, _limits(g1))
+    twin = HierarchicalIK(g1, task_levels, _limits(g1))
+    q0 = g1.q_default.copy()
+    state = g1.state(q0, np.zeros(g1.nv) if velocity else None)
+    reference_state = g1.state(q0)
+    for _ in range(3):
+        expected = twin.solve(reference_state, DT)
+        result = ik.advance(state, DT)
+        assert result.native and expected.native
+        np.testing.assert_array_equal(result.dq, expected.dq)
+        q1 = pin.integrate(g1.model, reference_state.q, expected.dq)
+        np.testing.assert_allclose(state.q, q1, rtol=0, atol=1e-15)
+        if velocity:
+            np.testing.assert_allclose(state.v, expected.dq / DT, rtol=0, atol=1e-12)
+        data = g1.model.createData()
+        pin.framesForwardKinematics(g1.model, data, q1)
+        frame = g1.frame_id(FRAMES["g1"][1][0])
+        np.testing.assert_allclose(
+            state.frame_placement(frame).homogeneous, data.oMf[frame].homogeneous, atol=1e-12
+        )
+        reference_state.update(q1)
+    assert not np.shares_memory(state.q, q0) and np.array_equal(q0, g1.q_default)
+
+
+def test_native_level_qps_on_degenerate_levels_answer_or_decline(g1: Robot) -> None:
+    # random configurations and tight joint velocity boxes: the boxes and held rows block
+    # most of the lower levels' freedom (degenerate vertices: more rows tight than freedoms).
+    # Each step is either the kernel's certified level QPs, equal to the Python cascade's
+    # step, or declined (DECLINED[4]) and answered by the Python cascade
+    rng = np.random.default_rng(0)
+    idx = g1.limited_joints_q
+    lo, hi = g1.lower_limits[idx], g1.upper_limits[idx]
+    answered = 0
+    for _ in range(6):
+        q = g1.q_default.copy()
+        q[idx] = np.clip(q[idx] + 0.15 * rng.standard_normal(idx.size), lo, hi)
+        state = g1.state(q)
+        limits = [JointPositionLimits(g1), JointVelocityLimits(g1, scale=0.05)]
+        task_levels = _humanoid(
+            g1, float(rng.uniform(0, 0.02)), float(rng.uniform(-0.005, 0.01)), 0.01
+        )
+        ik = HierarchicalIK(g1, task_levels, limits)
+        result = ik.solve(state, DT)
+        python = HierarchicalIK(g1, task_levels, limits, native=False).solve(state, DT)
+        if result.native and python.success:
+            _check_level_qps(result, python)
+            answered += 1
+        elif result.native:
+            # the Python cascade relaxed a level (RELAXED: its QP solvers did not certify it
+            # and the polished answer violates a box): the kernel's step holds every box and
+            # equals it on the levels above
+            levels, lb, ub = _levels_and_box(ik, g1, state)
+            assert result.success and np.all(result.dq >= lb - 1e-10)
+            assert np.all(result.dq <= ub + 1e-10)
+            statuses = [lr.status for lr in python.hierarchy.level_results]
+            assert QPStatus.RELAXED in statuses, statuses
+            for level, lr in zip(levels, python.hierarchy.level_results, strict=True):
+                if lr.status is QPStatus.RELAXED:
+                    break
+                assert _level_value(level, result.dq) == pytest.approx(
+                    _level_value(level, python.dq), rel=1e-8, abs=1e-12
+                )
+            answered += 1
+        else:
+            assert result.native_declined == DECLINED[4], result.native_declined
+            np.testing.assert_array_equal(result.dq, python.dq)
+    assert answered >= 3

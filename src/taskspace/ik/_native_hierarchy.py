@@ -1,4 +1,4 @@
-"""The compiled closed-form step of :class:`~taskspace.ik.HierarchicalIK`.
+"""The compiled step of :class:`~taskspace.ik.HierarchicalIK` (closed form or level QPs).
 
 The kernel is ``taskspace/_native/hier_kernel.hpp`` (part of ``_ik_kernel``).
 
@@ -12,9 +12,13 @@ level's constraints, the hard ones) are evaluated here in Python and passed to t
 
 When every row holds at the cascade's point, that point is the cascade of QPs' solution (each
 level's QP has no active inequality: its closed form is its optimum); the kernel returns it
-with each level's KKT residuals. Otherwise (an inequality or a bound violated, a level close
-to rank-deficient, a failed factorization) the kernel declines and the Python cascade, which
-solves the level QPs, answers the step.
+with each level's KKT residuals. When an inequality or a bound is violated there, the kernel
+solves the Python cascade's level QPs itself (the same QPs: each level in the nullspace of the
+levels above, its own rows with slacks, the rows of the levels above held) by a dual
+active-set method (Goldfarb-Idnani, refined on its final active set) and returns them when
+each level's KKT residuals meet 1e-9 (absolute and relative). Otherwise (a level close to
+rank-deficient, a level QP not certified, a held row vanishing while violated, a failed
+factorization) the kernel declines and the Python cascade answers the step.
 """
 
 from __future__ import annotations
@@ -43,6 +47,12 @@ DECLINED = {
     1: "a level is close to rank-deficient (pivoted QR / damped SVD)",
     2: "a factorization failed or the step is not finite",
     3: "an inequality or a bound is violated at the closed-form point (level QPs)",
+    4: "a level QP was not solved to its KKT tolerance (1e-9) by the compiled active-set method",
+    5: "a held or bound row vanishes in a level's freedom while its bounds exclude the point "
+    "(the Python cascade reports it as a culprit)",
+    -2: "not tried: an earlier step's kernel call declined for an active inequality or bound "
+    "(tried again once the Python cascade finds every inequality and bound inactive, or "
+    "after 25 steps)",
 }
 """Why the kernel declined a step (its status), recorded on the Python path's result."""
 
@@ -73,16 +83,24 @@ def _compiled_bounds(c: Constraint) -> CompiledTerm | None:
 
 
 class _NativeLevelResult(QPResult):
-    """A level answered by the compiled closed-form step.
+    """A level answered by the compiled step.
 
-    ``x`` is the level's step ``z``; ``kkt`` (the residuals of
-    :func:`~taskspace.qp.kkt.least_squares_kkt_residuals`, computed by the kernel) is made on
-    first access.
+    In closed form: ``x`` is the level's step ``z``, ``kkt`` the residuals of
+    :func:`~taskspace.qp.kkt.least_squares_kkt_residuals`. By a level QP (an active
+    inequality or bound; status ``SOLVED``): ``x`` is the QP's ``(z, w)`` (step and slacks of
+    the level's own inequality rows, as the Python cascade's level QP), ``kkt`` the QP's
+    residuals (:func:`~taskspace.qp.kkt.kkt_residuals`). Computed by the kernel; the
+    :class:`KKTResiduals` is made on first access.
     """
 
     def __init__(self, z: np.ndarray, info: np.ndarray) -> None:
         self._info: np.ndarray | None = None
-        super().__init__(True, QPStatus.UNCONSTRAINED, z, float(info[10]), 0, 0.0, _BACKEND)
+        if info[12]:
+            super().__init__(
+                True, QPStatus.SOLVED, z, float(info[10]), int(info[13]), 0.0, _QP_BACKEND
+            )
+        else:
+            super().__init__(True, QPStatus.UNCONSTRAINED, z, float(info[10]), 0, 0.0, _BACKEND)
         self._info = info
 
     @property  # type: ignore[override]
@@ -100,6 +118,7 @@ class _NativeLevelResult(QPResult):
 
 
 _BACKEND = "native closed form"
+_QP_BACKEND = "native active set"
 
 
 class _NativeHierarchyResult(HierarchyResult):
@@ -109,10 +128,12 @@ class _NativeHierarchyResult(HierarchyResult):
     kernel's per-level data and steps, kept here).
     """
 
-    def __init__(self, x: np.ndarray, info: np.ndarray, steps: np.ndarray, solve_time: float):
+    def __init__(
+        self, x: np.ndarray, info: np.ndarray, steps: np.ndarray, solve_time: float, qp: bool
+    ) -> None:
         # the fields of HierarchyResult, set directly (the level results come later)
         self.success = True
-        self.status = QPStatus.UNCONSTRAINED
+        self.status = QPStatus.SOLVED if qp else QPStatus.UNCONSTRAINED
         self.x = x
         self.residuals = info[:, 0].tolist()
         self.violations = info[:, 1].tolist()
@@ -124,7 +145,7 @@ class _NativeHierarchyResult(HierarchyResult):
 
     @property  # type: ignore[override]
     def level_results(self) -> list[QPResult]:
-        """Per level, its closed-form result.
+        """Per level, its result (closed form or level QP, see ``_NativeLevelResult``).
 
         ``x``: the level's step, ``kkt``: its KKT residuals computed by the kernel.
         """
@@ -309,7 +330,7 @@ class NativeHierarchy:
         hard_boxes, soft_boxes = self._hard, self._soft
         out, steps = self._out, self._steps
         try:
-            status, self.squared_rhs, self.build_time, solve_time = self.kernel.solve(
+            status, self.squared_rhs, self.build_time, solve_time, qp = self.kernel.solve(
                 model,
                 state._data,
                 state.q,
@@ -332,9 +353,10 @@ class NativeHierarchy:
             raise
         if status != 0:
             return int(status)
-        # (levels, 12); eigenpy gives a one-row matrix (one level) as a vector
+        # (levels, 14); eigenpy gives a one-row matrix (one level) as a vector
         info = self.kernel.info().reshape(self._n_levels, -1)
-        return _NativeHierarchyResult(out.copy(), info, steps.copy(), solve_time)
+        steps = np.asarray(self.kernel.qp_steps()).reshape(-1) if qp else steps.copy()
+        return _NativeHierarchyResult(out.copy(), info, steps, solve_time, qp)
 
     def level_rows(self, k: int) -> tuple[np.ndarray, np.ndarray]:
         """Level ``k``'s rows ``(J, r)`` of the last solve (copies; for tests)."""

@@ -24,6 +24,7 @@ from taskspace.qp.hierarchy import (
     HierarchySolver,
 )
 from taskspace.qp.problem import RowBlock
+from taskspace.qp.result import QPStatus
 from taskspace.qp.rows import BoxStack, InequalityStack, TaskRowStack
 from taskspace.tasks import Task
 
@@ -41,8 +42,9 @@ class HierarchicalIKResult:
         violations: per level, the largest violation of its inequalities (linearized).
         hierarchy: the cascade's result (per-level QP results, nullspace dimensions).
         build_time, solve_time: wall times [s].
-        native: the compiled closed-form step answered (every level in closed form, every
-            inequality and bound satisfied at its point; see ``HierarchicalIK``'s ``native``).
+        native: the compiled step answered (every level in closed form, or its level QPs
+            certified when an inequality or bound is active; see ``HierarchicalIK``'s
+            ``native`` and ``hierarchy.status``: ``UNCONSTRAINED`` or ``SOLVED``).
         native_declined: why the compiled step declined and the Python cascade answered
             (empty when it answered or did not run).
     """
@@ -58,6 +60,10 @@ class HierarchicalIKResult:
     native: bool = False
     native_declined: str = ""
 
+
+_BACKOFF = frozenset(DECLINED[k] for k in (3, 4, 5))
+"""Declines after which the next steps skip the kernel (see ``HierarchicalIK``'s ``native``)."""
+_BACKOFF_STEPS = 25
 
 MAX_WEIGHTED_RESIDUAL = 1e30
 """Largest norm of a level's weighted task residual that a step accepts (beyond it the QP
@@ -131,12 +137,17 @@ class HierarchicalIK:
         levels: highest priority first; each level a list of tasks and constraints.
         constraints: hard constraints for all levels.
         options: cascade settings (damping, rank tolerance, QP solver).
-        native: try the compiled closed-form step first (``taskspace/_native``; when it is
-            built and every task's feature declares a compiled term): one kernel call builds
-            every level's rows and runs the equality cascade, and answers when no inequality
-            or bound is violated at its point and no level is close to rank-deficient;
-            otherwise the Python cascade (level QPs) answers. The result's ``native`` says
-            which did.
+        native: try the compiled step first (``taskspace/_native``; when it is built and
+            every task's feature declares a compiled term): one kernel call builds every
+            level's rows and runs the equality cascade, and answers when no inequality or
+            bound is violated at its point; when one is, it solves the level QPs itself (an
+            active-set method, each level's KKT residuals certified to 1e-9). When a level
+            is close to rank-deficient or a level QP is not certified, the Python cascade
+            answers. The result's ``native`` says which did. After a
+            step it declined for an active inequality or bound (its level QPs not
+            certified, or turned off), the next steps go to the Python cascade directly
+            (``native_declined`` says so) until it finds every inequality and bound inactive
+            again, or for at most 25 steps.
     """
 
     def __init__(
@@ -203,6 +214,7 @@ class HierarchicalIK:
         self._native_option = bool(native)
         self._native: NativeHierarchy | None = None
         self._native_checked = False
+        self._native_backoff = 0  # steps that skip the kernel (see _solve)
 
     @property
     def native(self) -> bool:
@@ -311,11 +323,17 @@ class HierarchicalIK:
 
     def _solve(self, state: State, dt: float) -> HierarchicalIKResult:
         declined = ""
-        if self._native is not None or (not self._native_checked and self.native):
+        if self._native_backoff:
+            # the last steps' level QPs had an active row: the kernel would decline again
+            # (its call is wasted); the Python cascade answers until it finds them inactive
+            declined = DECLINED[-2]
+        elif self._native is not None or (not self._native_checked and self.native):
             answer = self._solve_native(state, dt)
             if not isinstance(answer, str):
                 return answer
             declined = answer
+            if answer in _BACKOFF:
+                self._native_backoff = _BACKOFF_STEPS
         t0 = time.perf_counter()
         levels = self._build(state, dt)
         r_all = self._r_all
@@ -341,6 +359,10 @@ class HierarchicalIK:
             hard_names=blocks,
         )
         t2 = time.perf_counter()
+        if self._native_backoff:
+            self._native_backoff -= 1
+            if result.status is QPStatus.UNCONSTRAINED:
+                self._native_backoff = 0  # every inequality and bound inactive again
         if not np.isfinite(result.x).all():
             raise SolverError(
                 "the hierarchical step is not finite (overflow): the weighted task residuals "
@@ -374,6 +396,30 @@ class HierarchicalIK:
             f"the weighted task residuals of the levels together exceed {MAX_WEIGHTED_RESIDUAL:g}"
             "; check the targets and weights"
         )
+
+    def advance(self, state: State, dt: float) -> HierarchicalIKResult:
+        """One step that moves ``state``: solve at it, then ``state`` goes to ``q (+) dq``.
+
+        The loop ``state.update(q); result = solve(state, dt); q = q (+) result.dq`` in one
+        call (as :meth:`DifferentialIK.advance <taskspace.ik.DifferentialIK.advance>`):
+        ``state`` ends exactly as ``state.update(q (+) dq, v)`` would leave it, with ``v =
+        dq / dt`` when the state has a velocity and none otherwise. The state moves by the
+        returned step whatever its status (as :meth:`step`); check ``result.success``. The
+        state's previous ``q`` is not modified.
+
+        Args:
+            state: current state, moved to the new configuration.
+            dt: time step [s].
+        """
+        result = self.solve(state, dt)  # validates the state
+        dt = check_positive(dt, "dt")
+        dq = result.dq
+        state.update(
+            pin.integrate(self.robot.model, state._q, dq),
+            dq / dt if state._has_velocity else None,
+            validate=False,
+        )
+        return result
 
     def step(self, state: State, dt: float) -> tuple[FloatArray, HierarchicalIKResult]:
         """Solve one step and return ``(q (+) dq, result)``."""
