@@ -575,6 +575,15 @@ class CollisionKernel {
       pinocchio::forwardKinematics(model_, data_, q);
       return;
     }
+    // the sines and cosines first: independent of each other, their latencies overlap
+    // (computed inside the joint chain they waited for the parent's placement)
+    fk_cos_.resize(fk_.size());
+    fk_sin_.resize(fk_.size());
+    for (std::size_t k = 0; k < fk_.size(); ++k)
+      if (fk_[k].kind == 0) {
+        fk_cos_[k] = std::cos(q[fk_[k].idx_q]);
+        fk_sin_[k] = std::sin(q[fk_[k].idx_q]);
+      }
     for (std::size_t k = 0; k < fk_.size(); ++k) {
       const FkJoint& f = fk_[k];
       const auto& P = data_.oMi[f.parent];
@@ -584,7 +593,7 @@ class CollisionKernel {
       coal::Matrix3s R = P.rotation() * f.R0;
       const coal::Vec3s t = P.rotation() * f.t0 + P.translation();
       if (f.kind == 0) {
-        const double c = std::cos(v), s = std::sin(v);
+        const double c = fk_cos_[k], s = fk_sin_[k];
         const int a = f.axis, b = (a + 1) % 3, d = (a + 2) % 3;
         const coal::Vec3s cb = R.col(b), cd = R.col(d);
         R.col(b) = c * cb + s * cd;
@@ -625,6 +634,130 @@ class CollisionKernel {
     return mask;
   }
 
+  // ------------------------------------------------------------ batched sphere checks
+  // kBatch configurations at once (VAMP-style, Thomason, Kingston and Kavraki, ICRA 2024, in
+  // double precision): the joint placements of the batch in structure-of-arrays form (one
+  // lane per configuration: each product of the joint chain is one vector operation for the
+  // whole batch), then the sphere tests configuration after configuration, in the given
+  // order, stopping at the first collision. The arithmetic per lane is the scalar
+  // kinematics' (same products and sums, double precision), so the spheres need no extra
+  // inflation. Used for the sphere checkers on models with the loop kinematics (fast_fk_):
+  // edges (first_collision: rrt_connect's EXTEND, CONNECT and straight lines,
+  // first_invalid_on_edge) and collisions_with.
+  static constexpr int kBatch = 4;
+  typedef double Batch __attribute__((vector_size(kBatch * sizeof(double))));
+  struct BatchPose {
+    Batch R[9];  // R[r + 3 * c]
+    Batch t[3];
+  };
+
+  // Joint placements of kBatch configurations (lane l: the nq coordinates at q[l]).
+  void kinematics_batch(const double* const* q) {
+    const std::size_t nj = fk_.size() + 1;
+    batch_pose_.resize(nj);
+    const auto& O = data_.oMi[0];
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 3; ++c)
+        for (int l = 0; l < kBatch; ++l) batch_pose_[0].R[r + 3 * c][l] = O.rotation()(r, c);
+      for (int l = 0; l < kBatch; ++l) batch_pose_[0].t[r][l] = O.translation()[r];
+    }
+    for (std::size_t k = 0; k < fk_.size(); ++k) {
+      const FkJoint& f = fk_[k];
+      const BatchPose& P = batch_pose_[f.parent];
+      BatchPose& M = batch_pose_[k + 1];
+      Batch v;
+      for (int l = 0; l < kBatch; ++l) v[l] = q[l][f.idx_q];
+      // parent * jointPlacement (R0 and t0 are the same for every lane)
+      for (int c = 0; c < 3; ++c)
+        for (int r = 0; r < 3; ++r)
+          M.R[r + 3 * c] = P.R[r] * f.R0(0, c) + P.R[r + 3] * f.R0(1, c) + P.R[r + 6] * f.R0(2, c);
+      for (int r = 0; r < 3; ++r)
+        M.t[r] = P.R[r] * f.t0[0] + P.R[r + 3] * f.t0[1] + P.R[r + 6] * f.t0[2] + P.t[r];
+      if (f.kind == 0) {  // revolute: columns b and d turn about the axis
+        Batch c, s;
+        for (int l = 0; l < kBatch; ++l) {
+          c[l] = std::cos(v[l]);
+          s[l] = std::sin(v[l]);
+        }
+        const int a = f.axis, b = (a + 1) % 3, d = (a + 2) % 3;
+        for (int r = 0; r < 3; ++r) {
+          const Batch cb = M.R[r + 3 * b], cd = M.R[r + 3 * d];
+          M.R[r + 3 * b] = c * cb + s * cd;
+          M.R[r + 3 * d] = c * cd - s * cb;
+        }
+      } else {  // prismatic: along the axis column
+        for (int r = 0; r < 3; ++r) M.t[r] = M.t[r] + v * M.R[r + 3 * f.axis];
+      }
+    }
+  }
+
+  // data_.oMi of lane l of the last kinematics_batch.
+  void load_lane(int l) {
+    for (std::size_t j = 1; j < batch_pose_.size(); ++j) {
+      const BatchPose& B = batch_pose_[j];
+      coal::Matrix3s R;
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c) R(r, c) = B.R[r + 3 * c][l];
+      data_.oMi[j].rotation(R);
+      data_.oMi[j].translation(coal::Vec3s(B.t[0][l], B.t[1][l], B.t[2][l]));
+    }
+  }
+
+  bool batched(int checker) const { return checker != kMesh && fast_fk_ && has_spheres_; }
+
+  // Index j of the first colliding point x_j = a + t[j] * b (j = 0..count-1, checked in that
+  // order), or -1 when all are free. stop() is called before each point's check; when it
+  // returns true the point counts as colliding (the planner's convention: a stopped plan
+  // treats the motion as blocked). The sphere checkers check the points in batches of
+  // kBatch (kinematics_batch); the mesh checker one at a time.
+  template <typename Stop>
+  int first_collision(const double* a, const double* b, const double* t, int count, int checker,
+                      Stop&& stop) {
+    const int n = model_.nq;
+    if (!batched(checker)) {
+      edge_x_.resize(n);
+      for (int j = 0; j < count; ++j) {
+        for (int k = 0; k < n; ++k) edge_x_[k] = a[k] + t[j] * b[k];
+        if (stop() || collides(edge_x_, checker)) return j;
+      }
+      return -1;
+    }
+    edge_buf_.resize(static_cast<std::size_t>(kBatch) * n);
+    const double* lanes[kBatch];
+    for (int s = 0; s < count; s += kBatch) {
+      const int m = std::min(kBatch, count - s);
+      for (int l = 0; l < kBatch; ++l) {
+        const double u = t[s + std::min(l, m - 1)];  // unused lanes repeat the last point
+        double* x = edge_buf_.data() + static_cast<std::size_t>(l) * n;
+        for (int k = 0; k < n; ++k) x[k] = a[k] + u * b[k];
+        lanes[l] = x;
+      }
+      kinematics_batch(lanes);
+      for (int l = 0; l < m; ++l) {
+        if (stop()) return s + l;
+        ++checks_;
+        load_lane(l);
+        if (spheres_placed(checker)) return s + l;
+      }
+    }
+    return -1;
+  }
+
+  // Collision flags of rows [begin, end) of qs into out (batched sphere checks).
+  void flags_batched(const Eigen::Ref<const RowMatrixXd>& qs, int checker, Eigen::VectorXi& out) {
+    const double* lanes[kBatch];
+    for (Eigen::Index s = 0; s < qs.rows(); s += kBatch) {
+      const int m = static_cast<int>(std::min<Eigen::Index>(kBatch, qs.rows() - s));
+      for (int l = 0; l < kBatch; ++l) lanes[l] = qs.row(s + std::min(l, m - 1)).data();
+      kinematics_batch(lanes);
+      for (int l = 0; l < m; ++l) {
+        ++checks_;
+        load_lane(l);
+        out[s + l] = spheres_placed(checker) ? 1 : 0;
+      }
+    }
+  }
+
   bool has_spheres() const { return has_spheres_; }
   // Counters of the sphere checker (for profiling): bounding-sphere passes, leaf hits and
   // exact narrow-phase calls, self pairs then static pairs.
@@ -646,6 +779,12 @@ class CollisionKernel {
     if (!has_spheres_) throw std::logic_error("collides_spheres without spheres");
     ++checks_;
     kinematics(q);
+    return spheres_placed(checker);
+  }
+
+  // The sphere check of the configuration whose joint placements are in data_.oMi
+  // (collides_spheres after the kinematics; the batched checks after load_lane).
+  bool spheres_placed(int checker) {
     ++stamp_;
     if (stamp_ == 0) {  // wrapped: invalidate every stamp
       std::fill(stamp_of_.begin(), stamp_of_.end(), 0u);
@@ -718,12 +857,13 @@ class CollisionKernel {
     if (n < 1) raise_invalid("n must be >= 1");
     check_checker(checker);
     const auto lock = lock_with_gil(mutex_);
-    VectorXd x(model_.nq);
-    for (int k : bisection_order(n)) {
-      x = q0 + (double(k) / n) * (q1 - q0);
-      if (collides(x, checker)) return k;
-    }
-    return -1;
+    const std::vector<int> order = bisection_order(n);
+    std::vector<double> t(order.size());
+    for (std::size_t j = 0; j < order.size(); ++j) t[j] = double(order[j]) / n;
+    const VectorXd dir = q1 - q0;
+    const int j = first_collision(q0.data(), dir.data(), t.data(), static_cast<int>(t.size()),
+                                  checker, [] { return false; });
+    return j < 0 ? -1 : order[j];
   }
 
   void check_checker(int checker) {
@@ -740,6 +880,10 @@ class CollisionKernel {
     check_checker(checker);
     const auto lock = lock_with_gil(mutex_);
     Eigen::VectorXi out(qs.rows());
+    if (batched(checker)) {
+      flags_batched(qs, checker, out);
+      return out;
+    }
     for (Eigen::Index i = 0; i < qs.rows(); ++i)
       out[i] = collides(qs.row(i).transpose(), checker) ? 1 : 0;
     return out;
@@ -870,6 +1014,10 @@ class CollisionKernel {
     coal::Vec3s t0;
   };
   std::vector<FkJoint> fk_;
+  std::vector<double> fk_cos_, fk_sin_;
+  std::vector<BatchPose> batch_pose_;     // kinematics_batch: joint placements, lanes
+  std::vector<double> edge_buf_;          // first_collision: the batch's configurations
+  VectorXd edge_x_;                       // first_collision: one configuration
   bool fast_fk_ = false;
   struct SphereGroup {  // a group's pairs for the sphere checker
     std::uint64_t bits = 0;            // bits of its static partners
@@ -1237,11 +1385,18 @@ class RRTConnect {
   // Straight line q0 -> q1 free at the full resolution (interior points, bisection order).
   bool motion_valid(const VectorXd& q0, const VectorXd& q1) {
     const int n = lines_.segments((q1 - q0).norm());
-    for (int k : bisection_order(n)) {
-      x_ = q0 + (double(k) / n) * (q1 - q0);
-      if (collides_or_stop(x_)) return false;
-    }
-    return true;
+    ts_.clear();
+    for (int k : bisection_order(n)) ts_.push_back(double(k) / n);
+    const VectorXd dir = q1 - q0;
+    return points_free(q0.data(), dir.data());
+  }
+
+  // The points a + ts_[j] * b free, checked in the order of ts_ (batched for the sphere
+  // checkers: CollisionKernel::first_collision), stopping at the first collision; a stopped
+  // plan counts as a collision (collides_or_stop).
+  bool points_free(const double* a, const double* b) {
+    return ck_.first_collision(a, b, ts_.data(), static_cast<int>(ts_.size()), checker_,
+                               [this] { return stop(); }) < 0;
   }
 
   // EXTEND(T, target): new node index or -1.
@@ -1257,10 +1412,9 @@ class RRTConnect {
       a_[k] = qn[k];
       b_[k] = target[k] - qn[k];
     }
-    for (double u : lines_.orders(n_seg).pattern) {
-      x_ = a_ + (u * step) * b_;
-      if (collides_or_stop(x_)) return -1;
-    }
+    ts_.clear();
+    for (double u : lines_.orders(n_seg).pattern) ts_.push_back(u * step);
+    if (!points_free(a_.data(), b_.data())) return -1;
     if (dist > alpha) {
       x_ = a_ + step * b_;
       return t.add(x_.data(), i_near, n_seg, lines_.lazy);
@@ -1284,10 +1438,10 @@ class RRTConnect {
       const double start = s * alpha, len = final_step ? last : alpha;
       const std::vector<double>& pattern = lines_.orders(n).pattern;
       // the target is a free node: its own check is skipped
-      for (std::size_t j = final_step ? 1 : 0; j < pattern.size(); ++j) {
-        x_ = q0 + ((start + pattern[j] * len) / dist) * delta;
-        if (collides_or_stop(x_)) return {par, false};
-      }
+      ts_.clear();
+      for (std::size_t j = final_step ? 1 : 0; j < pattern.size(); ++j)
+        ts_.push_back((start + pattern[j] * len) / dist);
+      if (!points_free(q0.data(), delta.data())) return {par, false};
       if (final_step) {
         par = t.add(target, par, n, lines_.lazy);
       } else {
@@ -1482,6 +1636,7 @@ class RRTConnect {
   std::mt19937_64 rng_;
   int d_;
   VectorXd a_, b_, x_;
+  std::vector<double> ts_;  // fractions of the points of the line being checked
 };
 
 MatrixXd rows_matrix(const std::vector<double>& flat, int d) {
