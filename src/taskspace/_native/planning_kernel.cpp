@@ -651,6 +651,50 @@ class CollisionKernel {
     Batch t[3];
   };
 
+  // Sines and cosines of the lanes of x, all lanes at once (libm's sincos cost about as much
+  // as the rest of the batch's kinematics): x = j pi/2 + r with j the nearest integer and
+  // |r| <= pi/4 (pi/2 in two parts, fdlibm's: j pi/2 is exact for |j| < 2^20), then Cephes'
+  // polynomials of sin and cos on [-pi/4, pi/4] (sin.c: relative error about 1e-16) and the
+  // quadrant j mod 4. Lanes beyond |x| < 1e5 (or not finite) take std::sin / std::cos.
+  static void batch_sincos(const Batch& x, Batch& s, Batch& c) {
+    constexpr double kTwoOverPi = 6.36619772367581382433e-01;
+    constexpr double kPio2Hi = 1.57079632673412561417e+00;  // first 33 bits of pi/2
+    constexpr double kPio2Lo = 6.07710050650619224932e-11;  // pi/2 - kPio2Hi
+    constexpr double kRound = 6755399441055744.0;           // 1.5 * 2^52: round to nearest
+    bool plain = true;
+    for (int l = 0; l < kBatch; ++l) plain = plain && std::abs(x[l]) < 1e5;
+    if (!plain) {
+      for (int l = 0; l < kBatch; ++l) {
+        s[l] = std::sin(x[l]);
+        c[l] = std::cos(x[l]);
+      }
+      return;
+    }
+    const Batch j = (x * kTwoOverPi + kRound) - kRound;
+    const Batch r = (x - j * kPio2Hi) - j * kPio2Lo;
+    const Batch z = r * r;
+    Batch ps = z * 1.58962301576546568060e-10 - 2.50507477628578072866e-8;
+    ps = ps * z + 2.75573136213857245213e-6;
+    ps = ps * z - 1.98412698295895385996e-4;
+    ps = ps * z + 8.33333333332211858878e-3;
+    ps = ps * z - 1.66666666666666307295e-1;
+    const Batch sr = r + r * z * ps;
+    Batch pc = z * -1.13585365213876817300e-11 + 2.08757008419747316778e-9;
+    pc = pc * z - 2.75573141792967388112e-7;
+    pc = pc * z + 2.48015872888517045348e-5;
+    pc = pc * z - 1.38888888888730564116e-3;
+    pc = pc * z + 4.16666666666665929218e-2;
+    const Batch cr = (1.0 - 0.5 * z) + z * z * pc;
+    for (int l = 0; l < kBatch; ++l) {
+      switch (static_cast<long>(j[l]) & 3) {  // two's complement: -1 & 3 = 3
+        case 0: s[l] = sr[l]; c[l] = cr[l]; break;
+        case 1: s[l] = cr[l]; c[l] = -sr[l]; break;
+        case 2: s[l] = -sr[l]; c[l] = -cr[l]; break;
+        default: s[l] = -cr[l]; c[l] = sr[l]; break;
+      }
+    }
+  }
+
   // Joint placements of kBatch configurations (lane l: the nq coordinates at q[l]).
   void kinematics_batch(const double* const* q) {
     const std::size_t nj = fk_.size() + 1;
@@ -675,10 +719,7 @@ class CollisionKernel {
         M.t[r] = P.R[r] * f.t0[0] + P.R[r + 3] * f.t0[1] + P.R[r + 6] * f.t0[2] + P.t[r];
       if (f.kind == 0) {  // revolute: columns b and d turn about the axis
         Batch c, s;
-        for (int l = 0; l < kBatch; ++l) {
-          c[l] = std::cos(v[l]);
-          s[l] = std::sin(v[l]);
-        }
+        batch_sincos(v, s, c);
         const int a = f.axis, b = (a + 1) % 3, d = (a + 2) % 3;
         for (int r = 0; r < 3; ++r) {
           const Batch cb = M.R[r + 3 * b], cd = M.R[r + 3 * d];
