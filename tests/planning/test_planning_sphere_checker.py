@@ -216,6 +216,7 @@ def test_paths_planned_with_spheres_are_exact_valid(robot: Any, scenario: str) -
             RRTConnectOptions(seed=seed, checker="spheres", validator="spheres"),
         )
         assert validated.log["validator"] == 1.0
+        assert validated.log["exact_recheck_checks"] == 0.0  # no repeated checks
         np.testing.assert_array_equal(validated.path, mesh.path)
         for validator in VALIDATORS:
             only = rrt_connect(

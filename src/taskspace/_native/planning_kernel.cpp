@@ -1648,8 +1648,13 @@ class RRTConnect {
 
   // A solved plan with a sphere checker: the exact checker's verdict on the path (none when
   // it finds a collision, recheck_failed set); then the length of a path that stays.
+  // With validator_ == kSpheres the re-check is skipped: every point of the path has then
+  // been checked by kSpheres already (the fine points by verify) or by kSpheresOnly, whose
+  // "free" implies kSpheres' (it answers "colliding" exactly where kSpheres would run the
+  // narrow phase), and the endpoints by kMesh; a re-check would repeat the same answers.
   void recheck() {
-    if (res.status == kSolved && checker_ != kMesh && !path_valid_exact(lines_.lazy && !direct_)) {
+    if (res.status == kSolved && checker_ != kMesh && validator_ == kMesh &&
+        !path_valid_exact(lines_.lazy && !direct_)) {
       res.recheck_failed = true;
       res.status = kIterationLimit;
       res.path.clear();

@@ -155,7 +155,10 @@ class RRTConnectOptions:
             coal's exact narrow phase where they touch: the same answers, tested against
             Pinocchio's ``computeCollisions``, about 0.69 instead of 1.16 us per path point on
             the MotionBenchMaker Panda problems; where no spheres touch, "free" rests on the
-            sphere model containing the meshes). Ignored with ``checker="mesh"``.
+            sphere model containing the meshes). With ``"spheres"`` the returned path is not
+            re-checked (``log["exact_recheck_checks"]`` 0): each of its points has then been
+            checked by ``"spheres"`` or by ``"spheres_only"``, whose "free" implies it.
+            Ignored with ``checker="mesh"``.
     """
 
     step_size: float = 0.5
