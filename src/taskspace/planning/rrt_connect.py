@@ -64,6 +64,10 @@ are free for the spheres, hence free), and says so in ``log["spheres_fallback"]`
 checker stays the final validator: with a sphere checker the lazy fine pass uses it, and the
 returned path's nodes and coarse points (all its points for the straight start-goal line) are
 re-checked with it, so every point of the path at the resolution is checked exactly once.
+``RRTConnectOptions.validator="spheres"`` makes ``"spheres"`` that validator instead (opt-in:
+the same answers, about 40 % cheaper per path point, but it trusts the sphere model where no
+spheres touch). The sphere checkers check an edge's points in batches of four (kinematics in
+vector lanes, then the tests point by point with early exit).
 
 Measured times, success rates and check counts (against OMPL and earlier versions) are in
 ``benchmarks/suites/planning.py`` and the README's benchmark table.
