@@ -110,7 +110,9 @@ Measurements formerly kept in ``taskspace.planning.rrt_connect``'s docstring (ol
     ``rrt_connect_spheres_only_validator_spheres`` row validates with ``"spheres"``
     (``RRTConnectOptions.validator``: the same answers, tested against Pinocchio, but "free"
     rests on the sphere model where no spheres touch) and skips the re-check that would
-    repeat it: ``"spheres_only"`` 0.431-0.433 ms, ``"spheres"`` 0.462-0.465 ms (313 solved).
+    repeat it: ``"spheres_only"`` 0.431-0.433 ms, ``"spheres"`` 0.462-0.465 ms (313 solved);
+    with the quadrant of the vector sines chosen without branches, one more round against
+    main: 0.404 and 0.446 ms (``"spheres_only"`` with the mesh validator 0.606, main 0.647).
     The issue's 0.1 ms stays out of reach: even the sphere checks of the path's points alone
     (0.65 us each) exceed it.
 
