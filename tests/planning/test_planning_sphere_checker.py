@@ -28,7 +28,7 @@ from taskspace.planning.configuration_space import (
     EdgeCheckOptions,
     bisection_order,
 )
-from taskspace.planning.rrt_connect import RRTConnectOptions, rrt_connect
+from taskspace.planning.rrt_connect import VALIDATORS, RRTConnectOptions, rrt_connect
 from taskspace.planning.scene_loader import (
     MOTIONBENCHMAKER_SCENARIOS,
     motionbenchmaker_panda,
@@ -207,13 +207,28 @@ def test_paths_planned_with_spheres_are_exact_valid(robot: Any, scenario: str) -
         # the same answers as the exact checker: the same tree and path
         np.testing.assert_array_equal(spheres.path, mesh.path)
         assert _dense_valid(ref, spheres.path, 0.03)
-        only = rrt_connect(
-            space, req.start, req.goal, RRTConnectOptions(seed=seed, checker="spheres_only")
+        # the "spheres" validator (fine pass and re-check, batched): the same answers, the
+        # same lazy rejections, hence the same path
+        validated = rrt_connect(
+            space,
+            req.start,
+            req.goal,
+            RRTConnectOptions(seed=seed, checker="spheres", validator="spheres"),
         )
-        if only.success:
-            assert np.array_equal(only.path[0], req.start)
-            assert np.array_equal(only.path[-1], req.goal)
-            assert _dense_valid(ref, only.path, 0.01)
+        assert validated.log["validator"] == 1.0
+        assert validated.log["exact_recheck_checks"] == 0.0  # no repeated checks
+        np.testing.assert_array_equal(validated.path, mesh.path)
+        for validator in VALIDATORS:
+            only = rrt_connect(
+                space,
+                req.start,
+                req.goal,
+                RRTConnectOptions(seed=seed, checker="spheres_only", validator=validator),
+            )
+            if only.success:
+                assert np.array_equal(only.path[0], req.start)
+                assert np.array_equal(only.path[-1], req.goal)
+                assert _dense_valid(ref, only.path, 0.01)
         certified = rrt_connect(
             space,
             req.start,
@@ -271,6 +286,8 @@ def test_bad_inputs(robot: Any) -> None:
     space = ConfigurationSpace.from_robot(robot)
     with pytest.raises(UnknownNameError, match="valid checkers are: mesh, spheres"):
         rrt_connect(space, q[0], q[0], RRTConnectOptions(checker="sphere"))
+    with pytest.raises(UnknownNameError, match="valid validators are: mesh, spheres"):
+        rrt_connect(space, q[0], q[0], RRTConnectOptions(validator="exact"))
 
 
 def test_spheres_only_falls_back_to_spheres(robot: Any) -> None:

@@ -64,6 +64,10 @@ are free for the spheres, hence free), and says so in ``log["spheres_fallback"]`
 checker stays the final validator: with a sphere checker the lazy fine pass uses it, and the
 returned path's nodes and coarse points (all its points for the straight start-goal line) are
 re-checked with it, so every point of the path at the resolution is checked exactly once.
+``RRTConnectOptions.validator="spheres"`` makes ``"spheres"`` that validator instead (opt-in:
+the same answers, about 40 % cheaper per path point, but it trusts the sphere model where no
+spheres touch). The sphere checkers check an edge's points in batches of four (kinematics in
+vector lanes, then the tests point by point with early exit).
 
 Measured times, success rates and check counts (against OMPL and earlier versions) are in
 ``benchmarks/suites/planning.py`` and the README's benchmark table.
@@ -149,6 +153,16 @@ class RRTConnectOptions:
             a narrow passage; the trees stay, their nodes are free).
             ``log["spheres_fallback"]`` is 1 when it happened and
             ``log["spheres_fallback_iteration"]`` the iteration (-1: none). ``None``: never.
+        validator: with a sphere checker, the checker of the lazy fine pass and of the
+            returned path's re-check (see :data:`VALIDATORS`): ``"mesh"`` (default: the exact
+            mesh checker, independent of the sphere model) or ``"spheres"`` (the spheres, then
+            coal's exact narrow phase where they touch: the same answers, tested against
+            Pinocchio's ``computeCollisions``, about 0.69 instead of 1.16 us per path point on
+            the MotionBenchMaker Panda problems; where no spheres touch, "free" rests on the
+            sphere model containing the meshes). With ``"spheres"`` the returned path is not
+            re-checked (``log["exact_recheck_checks"]`` 0): each of its points has then been
+            checked by ``"spheres"`` or by ``"spheres_only"``, whose "free" implies it.
+            Ignored with ``checker="mesh"``.
     """
 
     step_size: float = 0.5
@@ -166,10 +180,14 @@ class RRTConnectOptions:
     certify_tolerance: float = 1e-4
     checker: str = "mesh"
     fallback_iterations: int | None = 200
+    validator: str = "mesh"
 
 
 CHECKERS = ("mesh", "spheres", "spheres_only")
 """Values of :attr:`RRTConnectOptions.checker` (codes 0, 1, 2 of the compiled kernel)."""
+
+VALIDATORS = ("mesh", "spheres")
+"""Values of :attr:`RRTConnectOptions.validator` (codes 0, 1 of the compiled kernel)."""
 
 
 class _GrowingTree:
@@ -511,6 +529,7 @@ def _rrt_connect_native(
             seed & _SEED_MASK,
             CHECKERS.index(opts.checker),  # collision_checker (positional: 2.5 us less)
             -1 if fallback is None else min(fallback, _LONG_MAX),  # fallback_iterations
+            VALIDATORS.index(opts.validator),  # validator
         )
     finally:  # also after Ctrl-C: the checks the kernel made are counted
         space.checker.checks += int(kernel.checks - kernel_checks0)
@@ -551,6 +570,7 @@ def _rrt_connect_native(
             "trapped_turns": float(turns),
             "native": 1.0,
             "checker": float(CHECKERS.index(opts.checker)),
+            "validator": float(VALIDATORS.index(opts.validator) if opts.checker != "mesh" else 0),
             "exact_recheck_checks": float(exact_checks),
             "sphere_recheck_failed": float(recheck_failed),
             "spheres_fallback": float(fallback >= 0),
@@ -652,6 +672,8 @@ def _plan(
     alpha = check_positive(opts.step_size, "step_size")
     if opts.checker not in CHECKERS:
         raise UnknownNameError("checker", str(opts.checker), CHECKERS)
+    if opts.validator not in VALIDATORS:
+        raise UnknownNameError("validator", str(opts.validator), VALIDATORS)
     max_iterations, time_limit = planner_limits(opts.max_iterations, opts.time_limit_s)
     seed = check_seed(opts.seed)
     if not 0.0 <= opts.local_sampling <= 1.0:
