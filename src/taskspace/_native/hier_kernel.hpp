@@ -27,6 +27,11 @@
 // violated constraint is added, dropping active ones whose multipliers would turn negative,
 // until none is violated. Factors: J = L^-T (H = L L'), rotated by the active constraints
 // (J'A_act' = [R; 0]).
+// The add/drop steps and their Givens updates follow QuadProg++, Copyright (C) 2001-2016
+// Luca Di Gaspero, released under the MIT License (https://github.com/liuq/QuadProgpp):
+// "Permission is hereby granted, free of charge, to any person obtaining a copy of this
+// software ... The above copyright notice and this permission notice shall be included in all
+// copies or substantial portions of the Software." See THIRD_PARTY_NOTICES.md.
 // The caller certifies the answer by its KKT residuals (HierarchicalIKKernel::qp_cascade).
 class GoldfarbIdnani {
  public:
