@@ -65,7 +65,7 @@ checker stays the final validator: with a sphere checker the lazy fine pass uses
 returned path's nodes and coarse points (all its points for the straight start-goal line) are
 re-checked with it, so every point of the path at the resolution is checked exactly once.
 ``RRTConnectOptions.validator="spheres"`` makes ``"spheres"`` that validator instead (opt-in:
-the same answers, about 40 % cheaper per path point, but it trusts the sphere model where no
+the same answers, cheaper per path point (the planning suite measures it), but it trusts the sphere model where no
 spheres touch). The sphere checkers check an edge's points in batches of four (kinematics in
 vector lanes, then the tests point by point with early exit).
 
@@ -157,8 +157,8 @@ class RRTConnectOptions:
             returned path's re-check (see :data:`VALIDATORS`): ``"mesh"`` (default: the exact
             mesh checker, independent of the sphere model) or ``"spheres"`` (the spheres, then
             coal's exact narrow phase where they touch: the same answers, tested against
-            Pinocchio's ``computeCollisions``, about 0.69 instead of 1.16 us per path point on
-            the MotionBenchMaker Panda problems; where no spheres touch, "free" rests on the
+            Pinocchio's ``computeCollisions``, at a lower cost per path point; where no spheres
+            touch, "free" rests on the
             sphere model containing the meshes). With ``"spheres"`` the returned path is not
             re-checked (``log["exact_recheck_checks"]`` 0): each of its points has then been
             checked by ``"spheres"`` or by ``"spheres_only"``, whose "free" implies it.
