@@ -35,55 +35,6 @@ PENDING: frozenset[str] = frozenset(
         for n in ("BatchError", "BatchOptions", "BatchResult", "BatchStatus", "Executor")
     ]
     + ["taskspace.batch.TaskRecord"]
-    # taskspace.control (H5); the inverse-dynamics QP states it, its results and the
-    # rollout do not yet
-    + [
-        f"taskspace.control.{n}"
-        for n in (
-            "AdaptiveOptions",
-            "AdaptivePendulumController",
-            "AdaptiveSimulation",
-            "CenterOfPressureTask",
-            "ComputedTorqueController",
-            "ConstantReference",
-            "ContactRollout",
-            "ControllabilityResult",
-            "DampingRegime",
-            "FiniteHorizonLQR",
-            "InverseDynamicsOptions",
-            "InverseDynamicsResult",
-            "InverseDynamicsStatus",
-            "JointPDController",
-            "KalmanDecomposition",
-            "LQROptions",
-            "LQRResult",
-            "LQRStatus",
-            "LinearizedSystem",
-            "LyapunovCertificate",
-            "ObservabilityResult",
-            "OperationalSpaceController",
-            "OperationalSpaceOptions",
-            "OperationalSpaceResult",
-            "OperationalSpaceStatus",
-            "PIDController",
-            "PIDGains",
-            "PIDOptions",
-            "PointMassResponse",
-            "PolePlacementMethod",
-            "PolePlacementOptions",
-            "PolePlacementResult",
-            "ReferenceModel",
-            "ReferencePoint",
-            "RiccatiMethod",
-            "RiccatiOptions",
-            "RiccatiResult",
-            "RiccatiStatus",
-            "SampledReference",
-            "SinusoidalReference",
-            "StabilityResult",
-            "StateFeedbackController",
-        )
-    ]
     # taskspace.estimation (H5): the filters state it, options and models not yet
     + [
         f"taskspace.estimation.{n}"

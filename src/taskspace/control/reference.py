@@ -1,4 +1,9 @@
-"""Joint-space reference trajectories ``t -> (q_ref, q'_ref, q''_ref)`` (slide 5:30)."""
+"""Joint-space reference trajectories ``t -> (q_ref, q'_ref, q''_ref)`` (slide 5:30).
+
+Thread safety: :class:`ReferencePoint` is immutable and the references keep only the data given at
+construction (each call builds a new point), so they may be called from several threads as long as
+nobody modifies their arrays.
+"""
 
 from __future__ import annotations
 
