@@ -35,27 +35,6 @@ PENDING: frozenset[str] = frozenset(
         for n in ("BatchError", "BatchOptions", "BatchResult", "BatchStatus", "Executor")
     ]
     + ["taskspace.batch.TaskRecord"]
-    # taskspace.estimation (H5): the filters state it, options and models not yet
-    + [
-        f"taskspace.estimation.{n}"
-        for n in (
-            "EKFSLAMOptions",
-            "FastSLAMOptions",
-            "FilterResult",
-            "FilterStatus",
-            "Gaussian",
-            "HallwayWorld",
-            "KalmanFilterOptions",
-            "KinematicCarModel",
-            "OdometryMotionModel",
-            "ParticleFilterOptions",
-            "PoseGraphOptions",
-            "PositionModel",
-            "RangeBearingModel",
-            "UnscentedOptions",
-            "VelocityMotionModel",
-        )
-    ]
     # taskspace.ik: the solvers state it, options, results and goal regions not yet
     + [
         f"taskspace.ik.{n}"
@@ -81,23 +60,6 @@ PENDING: frozenset[str] = frozenset(
             "PrunedCollisionPairs",
             "Robot",
             "RobotSpec",
-        )
-    ]
-    # taskspace.optimal_control (H5)
-    + [
-        f"taskspace.optimal_control.{n}"
-        for n in (
-            "MDP",
-            "CartPoleBalance",
-            "DPResult",
-            "DPStatus",
-            "DoubleIntegrator",
-            "FiniteHorizonResult",
-            "FittedValueIterationOptions",
-            "FittedValueIterationResult",
-            "PendulumSwingUp",
-            "StateGrid",
-            "ValueIterationOptions",
         )
     ]
     # taskspace.planning: checkers, spaces and planners state it; options, results, the
@@ -158,26 +120,6 @@ PENDING: frozenset[str] = frozenset(
             "Tree",
             "WavefrontResult",
             "WeightedSum",
-        )
-    ]
-    # taskspace.qp
-    + [
-        f"taskspace.qp.{n}"
-        for n in (
-            "HierarchyLevel",
-            "HierarchyOptions",
-            "HierarchyResult",
-            "HierarchySolver",
-            "InequalityStack",
-            "KKTResiduals",
-            "QPProblem",
-            "QPResult",
-            "QPSolver",
-            "QPSolverOptions",
-            "QPStatus",
-            "RowBlock",
-            "TaskRowStack",
-            "WeightedQPBuilder",
         )
     ]
     # taskspace.viz (the viewer, H5's assignment)
