@@ -62,66 +62,6 @@ PENDING: frozenset[str] = frozenset(
             "RobotSpec",
         )
     ]
-    # taskspace.planning: checkers, spaces and planners state it; options, results, the
-    # 2-D worlds and objectives not yet
-    + [
-        f"taskspace.planning.{n}"
-        for n in (
-            "BITStarOptions",
-            "BugOptions",
-            "BugResult",
-            "BugStatus",
-            "CarModel",
-            "Clearance",
-            "CollisionCheckerOptions",
-            "ControlSamplingOptions",
-            "ControlTree",
-            "CurvePath",
-            "EdgeCheckOptions",
-            "FunctionChecker",
-            "GoalRegion",
-            "GraphSearchOptions",
-            "GraphSearchResult",
-            "GridPathResult",
-            "GridSearchOptions",
-            "GridStatus",
-            "GrowingNearest",
-            "JointManifold",
-            "KinodynamicRRTOptions",
-            "KinodynamicRRTResult",
-            "LazyRoadmap",
-            "MechanicalWork",
-            "MetricLength",
-            "MotionBound",
-            "OccupancyGrid",
-            "OptimizationObjective",
-            "PRMOptions",
-            "PRMStarOptions",
-            "PathCertificate",
-            "PathLength",
-            "PlannerResult",
-            "PlannerStatus",
-            "Polygon",
-            "PolygonWorld",
-            "PotentialField",
-            "PotentialFieldOptions",
-            "PotentialFieldResult",
-            "PotentialStatus",
-            "RRTConnectOptions",
-            "RRTOptions",
-            "RRTStarOptions",
-            "RRTStatus",
-            "Roadmap",
-            "SearchStatus",
-            "ShortcutOptions",
-            "ShortcutResult",
-            "SmoothingOptions",
-            "SmoothingResult",
-            "Tree",
-            "WavefrontResult",
-            "WeightedSum",
-        )
-    ]
     # taskspace.viz (the viewer, H5's assignment)
     + [
         f"taskspace.viz.{n}"
