@@ -35,22 +35,9 @@ PENDING: frozenset[str] = frozenset(
         for n in ("BatchError", "BatchOptions", "BatchResult", "BatchStatus", "Executor")
     ]
     + ["taskspace.batch.TaskRecord"]
-    # taskspace.ik: the solvers state it, options, results and goal regions not yet
-    + [
-        f"taskspace.ik.{n}"
-        for n in (
-            "DifferentialIKOptions",
-            "FeatureGoalRegion",
-            "HierarchicalIKResult",
-            "IKStatus",
-            "IKStepResult",
-            "InterpolationResult",
-            "PoseGoalRegion",
-            "SolveIKOptions",
-            "SolveIKResult",
-            "SolveIKStatus",
-        )
-    ]
+    # taskspace.ik.differential_ik (edited on another branch): its options, status and step
+    # result do not state it yet (the test reads the defining module, not ik/__init__.py)
+    + [f"taskspace.ik.{n}" for n in ("DifferentialIKOptions", "IKStatus", "IKStepResult")]
     # taskspace.model: State and World state it, Robot and the values not yet
     + [
         f"taskspace.model.{n}"
