@@ -232,33 +232,44 @@ def run_ray(
     """Yield each chunk's records as it finishes, in completion order.
 
     ``pool`` was started for this run (:meth:`RayPool.start`). Each actor has up to
-    :data:`PIPELINE` chunks in flight; it runs them in the order they were sent, so when it
-    dies the oldest of them is the one it was running: that chunk counts the crash (retried,
-    then split, then reported), the others are sent again as they were. The driver blocks in
+    :data:`PIPELINE` chunks in flight. When an actor with several chunks dies, which one
+    killed it is unknown (the one it ran, or one that had finished but whose records were
+    lost with the process): they all become suspects, each run again alone on an actor, where
+    a death is that chunk's fault (retried, then split, then reported). The driver blocks in
     ``ray.wait`` (no polling) and collects every chunk finished by then; an interruption
     (Ctrl-C, or the caller closing the generator) kills the actors.
     """
     del fn, key, factory, seed, workers  # set up on the pool's actors by pool.start
     ray = _ray()
     queue: deque[Chunk] = deque(chunks)
+    suspects: deque[Chunk] = deque()
+    # per actor: the chunks sent to it, oldest first, and whether they run alone (suspects)
     sent: list[deque[tuple[Any, Chunk]]] = [deque() for _ in pool.actors]
+    alone = [False] * len(pool.actors)
     in_flight: dict[Any, int] = {}  # ref -> actor index
     finished = False
 
+    def submit(index: int, chunk: Chunk) -> None:
+        chunk.attempts += 1
+        ref = pool.actors[index].run.remote(chunk.tasks)
+        sent[index].append((ref, chunk))
+        in_flight[ref] = index
+
     def send() -> None:
-        for depth in range(1, PIPELINE + 1):  # fill every actor to depth 1, then 2, ...
+        for index, pending in enumerate(sent):  # suspects first, each on an idle actor
+            if suspects and not pending:
+                alone[index] = True
+                submit(index, suspects.popleft())
+        for depth in range(1, PIPELINE + 1):  # then fill the others to depth 1, then 2, ...
             for index, pending in enumerate(sent):
-                if not queue:
+                if not queue or suspects:
                     return
-                if len(pending) < depth:
-                    chunk = queue.popleft()
-                    chunk.attempts += 1
-                    ref = pool.actors[index].run.remote(chunk.tasks)
-                    pending.append((ref, chunk))
-                    in_flight[ref] = index
+                if len(pending) < depth and not (pending and alone[index]):
+                    alone[index] = False
+                    submit(index, queue.popleft())
 
     try:
-        while queue or in_flight:
+        while queue or suspects or in_flight:
             send()
             refs = list(in_flight)
             done, rest = ray.wait(refs, num_returns=1)
@@ -267,7 +278,7 @@ def run_ray(
                 done += more
             for ref in done:
                 index = in_flight.pop(ref, None)
-                if index is None:  # its actor died and the chunk was already sent again
+                if index is None:  # its actor died and its chunk was already dealt with
                     continue
                 pending = sent[index]
                 position = next(i for i, (r, _) in enumerate(pending) if r == ref)
@@ -281,18 +292,17 @@ def run_ray(
                             f"on every node, with the driver's version?): {_reason(exc)}"
                         ) from exc
                     pool.replace(index)
-                    # The actor ran its chunks in order: the oldest unfinished one killed it.
-                    lost = list(pending)
-                    pending.clear()
-                    for other, _ in lost:
+                    lost = [c for _, c in pending]
+                    for other, _ in pending:
                         in_flight.pop(other, None)
-                    for _, innocent in reversed(lost[1:]):
-                        innocent.attempts -= 1  # sent again as if never started
-                        queue.appendleft(innocent)
-                    yield from _crashed(lost[0][1], exc, retries, queue)
+                    pending.clear()
+                    if len(lost) == 1:  # it ran alone: its fault
+                        yield from _crashed(lost[0], exc, retries, suspects)
+                    else:
+                        suspects.extend(lost)
                 except ray.exceptions.RayError as exc:  # e.g. the records could not be sent
                     del pending[position]
-                    yield from _crashed(chunk, exc, retries, queue)
+                    yield from _crashed(chunk, exc, retries, suspects)
                 else:
                     del pending[position]
                     yield chunk.stamp(records)
@@ -303,13 +313,13 @@ def run_ray(
 
 
 def _crashed(
-    chunk: Chunk, exc: BaseException, retries: int, queue: deque[Chunk]
+    chunk: Chunk, exc: BaseException, retries: int, suspects: deque[Chunk]
 ) -> Iterator[list[TaskRecord]]:
-    """A chunk whose run failed in Ray: retried first, then split, then reported."""
+    """A chunk whose run failed in Ray on its own: retried first, then split, then reported."""
     chunk.crashes += 1
     if chunk.crashes <= retries:
-        queue.appendleft(chunk)
+        suspects.appendleft(chunk)
     elif len(chunk.tasks) > 1:
-        queue.extendleft(reversed(chunk.split()))
+        suspects.extendleft(reversed(chunk.split()))
     else:
         yield chunk.died(_reason(exc))

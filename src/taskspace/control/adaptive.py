@@ -19,6 +19,13 @@ Lyapunov argument: the closed loop is ``m l^2 s' = (m_hat - m) Y_r - k s``; with
 So ``V`` never increases, ``s`` is square integrable and bounded, and by Barbalat's lemma
 ``s -> 0``, hence ``e -> 0`` (``e`` is ``s`` filtered by ``1 / (p + lambda)``). The mass estimate
 converges to ``m`` only if ``Y_r`` is persistently exciting.
+
+Thread safety: :class:`ReferenceModel` and :class:`AdaptiveOptions` are immutable;
+:class:`AdaptivePendulumController` keeps only its constants (the parameter estimate is part of the
+simulated state passed to its methods), so it may be shared by threads;
+:func:`simulate_adaptive_pendulum` keeps its state local to the call; an
+:class:`AdaptiveSimulation` is plain result data (arrays), not locked: do not modify it while
+another thread reads it.
 """
 
 from __future__ import annotations

@@ -8,6 +8,12 @@ With an exact model every joint error then obeys ``e'' + Kd e' + Kp e = 0``: "al
 behave exactly like a 1D point particle around the reference trajectory" (unit mass; the
 gains can be given as wavelength and damping ratio, slide 5:14). Fixed-base robots only: a
 floating base is not actuated (use the inverse-dynamics QP for humanoids and quadrupeds).
+
+Thread safety: the controllers keep their gains and reference fixed after construction and evaluate
+each call in one Pinocchio call on their own data, whose result is copied out (the bindings hold
+the GIL during the call), so one controller may be called from several threads, with a reference
+that is itself safe to share (those of :mod:`taskspace.control.reference` are). Do not reassign
+``kp``, ``kd`` or ``reference`` while other threads call it.
 """
 
 from __future__ import annotations

@@ -5,6 +5,9 @@ Kalman's test: the pair ``(A, B)`` is controllable iff the controllability matri
 with the Popov-Belevitch-Hautus test: an eigenvalue ``lambda`` of ``A`` is uncontrollable iff
 ``rank [A - lambda I, B] < n``. A pair is stabilizable iff every uncontrollable mode is
 stable (``Re lambda < 0``, or ``|lambda| < 1`` in discrete time).
+
+Thread safety: the functions keep their state local to the call; a :class:`ControllabilityResult`
+is plain result data (arrays), not locked: do not modify it while another thread reads it.
 """
 
 from __future__ import annotations

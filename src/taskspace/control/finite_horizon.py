@@ -10,6 +10,10 @@ recursion from ``P_N = Q_f``,
 
 ``K_k = (R + B^T P_{k+1} B)^-1 B^T P_{k+1} A``,  ``P_k = Q + A^T P_{k+1} (A - B K_k)``,
 ``u_k = -K_k x_k``.
+
+Thread safety: the solvers keep their state local to the call; a :class:`FiniteHorizonLQR` is plain
+result data (arrays) whose methods only read it, so it may be shared by threads as long as nobody
+modifies its arrays.
 """
 
 from __future__ import annotations

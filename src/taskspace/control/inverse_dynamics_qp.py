@@ -16,6 +16,12 @@ with ``y''* = y''_ref - kp e - kd e'`` per task. Without contacts on a fixed-bas
 the operational-space controller of slide 5:34 as a QP with torque limits. Tasks are weighted
 in one QP, or strictly prioritized (``hierarchical=True``: dynamics and contacts first, then
 the task priorities, as a cascade of QPs of any depth).
+
+Thread safety: :class:`InverseDynamicsQP` serializes its calls with a lock (see there);
+:class:`InverseDynamicsOptions` and :class:`InverseDynamicsStatus` are immutable; an
+:class:`InverseDynamicsResult` is plain result data, not locked. A :class:`CenterOfPressureTask` is
+mutable and not locked: its ``target``/``weight`` setters replace one attribute at a time (a reader
+sees the old or the new value), so set them from the thread that steps the controller.
 """
 
 from __future__ import annotations

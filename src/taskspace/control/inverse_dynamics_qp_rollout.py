@@ -9,6 +9,10 @@ contacts given as :class:`~taskspace.constraints.contact.Contact` objects, check
 their linearized friction cones ``K f >= k`` (a foot that would lift or slip shows up as a
 violation in ``ContactRollout.cone_violations``, or as a :class:`ContactViolationError` with
 ``raise_on_violation``).
+
+Thread safety: :func:`simulate_with_contacts` keeps its state local to the call and steps the given
+controller (an :class:`InverseDynamicsQP` serializes its calls); a :class:`ContactRollout` is plain
+result data (arrays), not locked: do not modify it while another thread reads it.
 """
 
 from __future__ import annotations

@@ -11,6 +11,10 @@ where ``da/dq``, ``da/dv`` and ``M^-1 = da/dtau`` are the derivatives of the for
 Fixed-base robots only: for a floating base ``q' != v`` on the base (the ``A`` block
 ``[0, I]`` would need the derivative of the exponential map) and the robot is not at an
 equilibrium without contacts.
+
+Thread safety: :func:`linearize` builds its own Pinocchio data per call and may run from several
+threads; a :class:`LinearizedSystem` is plain data that its users only read, so it may be shared as
+long as nobody modifies its arrays.
 """
 
 from __future__ import annotations

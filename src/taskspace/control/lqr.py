@@ -4,6 +4,10 @@ Continuous: minimize ``int_0^inf x^T Q x + u^T R u dt`` subject to ``x' = A x + 
 ``u = -K x``, ``K = R^-1 B^T P`` with ``P`` the stabilizing solution of the CARE.
 Discrete: minimize ``sum_k x_k^T Q x_k + u_k^T R u_k`` subject to ``x+ = A x + B u``:
 ``K = (R + B^T P B)^-1 B^T P A`` with ``P`` the stabilizing solution of the DARE.
+
+Thread safety: the functions keep their state local to the call; :class:`LQROptions` and
+:class:`LQRStatus` are immutable; an :class:`LQRResult` is plain result data (arrays), not locked:
+do not modify it while another thread reads it.
 """
 
 from __future__ import annotations

@@ -8,6 +8,9 @@ is stable, and ``V(x) = x^T P x`` is then a Lyapunov function: ``V > 0`` and
 Both equations are solved with the Bartels-Stewart method: complex Schur forms
 ``A^T = U R U^H`` and ``A = W S W^H`` turn the equation into a triangular one, solved column
 by column with triangular solves (O(n^3)).
+
+Thread safety: the functions keep their state local to the call; a :class:`LyapunovCertificate` is
+plain result data, not locked: do not modify it while another thread reads it.
 """
 
 from __future__ import annotations

@@ -14,6 +14,10 @@ uncontrollable and unobservable (``uu``). In the coordinates ``x = T z`` with
 ``T^-1 B = [B1; B2; 0; 0]``, ``C T = [C1, 0, C3, 0]``,
 
 and the transfer function ``C (sI - A)^-1 B = C1 (sI - A11)^-1 B1`` only sees the ``co`` part.
+
+Thread safety: the functions keep their state local to the call; :class:`ObservabilityResult` and
+:class:`KalmanDecomposition` are plain result data (arrays) whose methods only read them, not
+locked: do not modify them while another thread reads them.
 """
 
 from __future__ import annotations

@@ -15,6 +15,11 @@ taken from each :class:`~taskspace.tasks.Task` (its ``kp``, ``kd``, target and r
 
 Fixed-base robots only (``u`` is the full joint torque). The QP version with torque limits
 and contacts is :mod:`taskspace.control.inverse_dynamics_qp`.
+
+Thread safety: :func:`operational_space_control` keeps its state local to the call (with a
+:class:`~taskspace.model.State` per thread); :class:`OperationalSpaceController` serializes its
+calls with a lock (see there); :class:`OperationalSpaceOptions` and :class:`OperationalSpaceStatus`
+are immutable; an :class:`OperationalSpaceResult` is plain result data, not locked.
 """
 
 from __future__ import annotations

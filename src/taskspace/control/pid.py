@@ -7,6 +7,10 @@ closed loop of a point mass of mass ``m`` (slide 5:14): ``Kp = m / lambda^2``,
 ``Kd = 2 m xi / lambda``. The controller works on vectors (one independent loop per entry) and
 is the ``controller(t, q, v)`` of :func:`taskspace.dynamics.simulate` for robots whose joints
 are vector-valued (``nq == nv``).
+
+Thread safety: :class:`PIDGains` and :class:`PIDOptions` are immutable; a :class:`PIDController` is
+stateful (integral, time of the previous call, saturation) and not locked: one controller per
+thread (two threads calling one controller would mix their integrals).
 """
 
 from __future__ import annotations

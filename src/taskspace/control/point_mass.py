@@ -10,6 +10,10 @@
   ``exp(-Kd t / 2m)`` (``Kd = 0``: the undamped oscillation of slide 5:8).
 
 The closed forms below satisfy the initial conditions ``e(0) = q0 - q*``, ``e'(0) = v0``.
+
+Thread safety: the functions keep their state local to the call; :class:`DampingRegime` is
+immutable; a :class:`PointMassResponse` is plain result data (arrays), not locked: do not modify it
+while another thread reads it.
 """
 
 from __future__ import annotations

@@ -13,6 +13,10 @@ is controllable, any self-conjugate set of ``n`` eigenvalues can be assigned.
 
 An observer ``x_hat' = A x_hat + B u + L (y - C x_hat)`` has error dynamics ``A - L C``; its
 gain is the dual design ``L = place(A^T, C^T, poles)^T``.
+
+Thread safety: the functions keep their state local to the call; :class:`PolePlacementMethod` and
+:class:`PolePlacementOptions` are immutable; a :class:`PolePlacementResult` is plain result data
+(arrays), not locked: do not modify it while another thread reads it.
 """
 
 from __future__ import annotations

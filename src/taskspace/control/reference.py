@@ -1,4 +1,10 @@
-"""Joint-space reference trajectories ``t -> (q_ref, q'_ref, q''_ref)`` (slide 5:30)."""
+"""Joint-space reference trajectories ``t -> (q_ref, q'_ref, q''_ref)`` (slide 5:30).
+
+Thread safety: :class:`ReferencePoint` is immutable and the references keep only the data given at
+construction, so they may be called from several threads as long as nobody modifies their
+arrays, nor those of the points they return (a :class:`ConstantReference` returns its own ``q``
+and zero arrays).
+"""
 
 from __future__ import annotations
 

@@ -12,6 +12,10 @@ Methods:
 * DARE: the stable deflating subspace of the symplectic pencil
   ``[[A, 0], [-Q, I]] - z [[I, B R^-1 B^T], [0, A^T]]`` (ordered QZ), ``P = Z21 Z11^-1``
   (works for singular ``A``).
+
+Thread safety: the functions keep their state local to the call; :class:`RiccatiMethod`,
+:class:`RiccatiOptions` and :class:`RiccatiStatus` are immutable; a :class:`RiccatiResult` is plain
+result data (arrays), not locked: do not modify it while another thread reads it.
 """
 
 from __future__ import annotations

@@ -3,6 +3,9 @@
 Continuous time ``x' = A x``: asymptotically stable iff every eigenvalue has ``Re < 0``
 (spectral abscissa < 0). Discrete time ``x+ = A x``: iff every eigenvalue has ``|lambda| < 1``
 (spectral radius < 1).
+
+Thread safety: the functions keep their state local to the call; a :class:`StabilityResult` is
+plain result data, not locked: do not modify it while another thread reads it.
 """
 
 from __future__ import annotations

@@ -2,6 +2,10 @@
 
 ``x = (q (-) q_eq, v - v_eq)`` in tangent coordinates (``pin.difference``), ``K`` e.g. an LQR
 gain designed on :func:`taskspace.control.linearization.linearize`.
+
+Thread safety: a :class:`StateFeedbackController` keeps only its system and gain, fixed after
+construction (each call builds new arrays), so it may be called from several threads; do not
+reassign ``system`` or ``K`` meanwhile.
 """
 
 from __future__ import annotations

@@ -10,6 +10,9 @@ seen with the inverse model ``l = g(x, z) = p + r (cos(theta + b), sin(theta + b
 Data association is either known (measurement ids) or nearest neighbour on the Mahalanobis
 distance ``d^2 = r^T S^-1 r``: accepted when ``d^2 < chi2_2(gate)``, new landmark when the
 smallest ``d^2`` exceeds ``chi2_2(new_landmark)``, dropped in between.
+
+Thread safety: :class:`EKFSLAM` serializes its calls with a lock (see there);
+:class:`EKFSLAMOptions` is immutable.
 """
 
 from __future__ import annotations

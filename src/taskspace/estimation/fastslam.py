@@ -10,6 +10,9 @@ Each particle ``m`` carries a pose ``x^m`` and independent Gaussians ``N(l_k^m, 
 3. resample when the effective sample size is low.
 
 All operations are vectorized over particles (2 x 2 algebra in closed form).
+
+Thread safety: :class:`FastSLAM` serializes its calls with a lock (see there);
+:class:`FastSLAMOptions` is immutable.
 """
 
 from __future__ import annotations

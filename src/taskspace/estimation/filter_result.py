@@ -1,4 +1,8 @@
-"""Result of running a Gaussian filter (KF, EKF, UKF) over a measurement sequence."""
+"""Result of running a Gaussian filter (KF, EKF, UKF) over a measurement sequence.
+
+Thread safety: :class:`FilterResult` (a frozen dataclass) and :class:`FilterStatus` are immutable
+values; the result's arrays are not locked: do not modify them while another thread reads them.
+"""
 
 from __future__ import annotations
 

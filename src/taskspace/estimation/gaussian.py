@@ -4,6 +4,9 @@ These closed forms are the references that the Kalman filter equations are deriv
 
 * product: ``N(x|a,A) N(x|b,B) = N(x | B(A+B)^-1 a + A(A+B)^-1 b, A(A+B)^-1 B) N(a|b, A+B)``
 * propagation: ``int_y N(x | a + F y, A) N(y | b, B) dy = N(x | a + F b, A + F B F^T)``
+
+Thread safety: a :class:`Gaussian` is an immutable value (frozen dataclass) whose methods build new
+arrays, so it may be shared by threads as long as nobody modifies its ``mean``/``cov`` arrays.
 """
 
 from __future__ import annotations

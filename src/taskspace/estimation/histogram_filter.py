@@ -10,6 +10,10 @@ The belief is a table ``p_t(x)`` over ``K`` cells (slide 6:5). One step of the B
 
 Prediction alone is dead reckoning (slide 7:17): the belief only spreads out.
 The 1-D hallway with doors of slides 7:9-7:15 is :class:`HallwayWorld`.
+
+Thread safety: :class:`HistogramFilter` serializes its calls with a lock (see there);
+:class:`HallwayWorld` is an immutable value: :meth:`HallwayWorld.simulate` draws from the generator
+it is given (one generator per thread).
 """
 
 from __future__ import annotations

@@ -7,6 +7,9 @@ Model: ``x_k = F x_{k-1} + B u_{k-1} + w``, ``w ~ N(0, Q)`` and ``z_k = H x_k + 
 * update: ``S = H P^- H^T + R``, ``K = P^- H^T S^-1``, ``x = x^- + K (z - H x^-)`` and either the
   Joseph form ``P = (I - K H) P^- (I - K H)^T + K R K^T`` (default, stays PSD under round-off)
   or the short form ``P = P^- - K S K^T``.
+
+Thread safety: :class:`KalmanFilter` serializes its calls with a lock (see there);
+:class:`KalmanFilterOptions` is immutable; the functions keep their state local to the call.
 """
 
 from __future__ import annotations

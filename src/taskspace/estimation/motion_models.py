@@ -5,6 +5,10 @@ The pose is ``x = (p_x, p_y, theta)`` [m, m, rad]. Each model gives the transiti
 Jacobians (for the EKF), and samples (for the particle filter). Noise enters through the
 controls, ``u_hat ~ N(u, M(u))``, so the state-space covariance is ``Q = V M V^T`` with
 ``V = df/du``. All functions accept one pose ``(3,)`` or a batch ``(N, 3)``.
+
+Thread safety: the models are immutable values (frozen dataclasses) and their methods are functions
+of their arguments, so they may be shared by threads; ``sample`` draws from the generator it is
+given (one generator per thread: a numpy ``Generator`` is not thread-safe).
 """
 
 from __future__ import annotations

@@ -3,6 +3,10 @@
 * :class:`RangeBearingModel`: landmark ``l`` seen at range and bearing
   ``h(x, l) = (|l - p|, atan2(l_y - p_y, l_x - p_x) - theta)`` plus ``N(0, R)``;
 * :class:`PositionModel`: direct position fix ``h(x) = (p_x, p_y)`` plus ``N(0, R)`` (GPS-like).
+
+Thread safety: the models are immutable values (frozen dataclasses) and their methods are functions
+of their arguments, so they may be shared by threads (``sample`` draws from the generator it is
+given: one generator per thread); do not modify :attr:`PositionModel.R` in place.
 """
 
 from __future__ import annotations

@@ -12,6 +12,9 @@ Against particle depletion (slide 7:25) a fraction of the particles can be drawn
 observation-driven proposal ``x ~ P(y_t | x)`` (sensor resetting; with ``adaptive_mixture``
 the fraction follows the augmented-MCL rule ``max(0, 1 - w_fast / w_slow)`` of Thrun et al.).
 All operations are vectorized over particles; the callables receive the whole ``(N, d)`` array.
+
+Thread safety: :class:`ParticleFilter` serializes its calls with a lock (see there);
+:class:`ParticleFilterOptions` is immutable.
 """
 
 from __future__ import annotations

@@ -13,6 +13,9 @@ The MAP estimate minimizes ``sum e^T Omega e``; Gauss-Newton / Levenberg-Marquar
 to remove the gauge freedom. Jacobians (Grisetti et al., "A tutorial on graph-based SLAM"):
 ``de/dx_i = [[-R_z^T R_i^T, R_z^T dR_i^T/dtheta (t_j - t_i)], [0, 0, -1]]``,
 ``de/dx_j = [[R_z^T R_i^T, 0], [0, 0, 1]]``.
+
+Thread safety: :class:`PoseGraph` is plain data (see there); :class:`PoseGraphOptions` is
+immutable; :func:`optimize_pose_graph` keeps its state local to the call.
 """
 
 from __future__ import annotations

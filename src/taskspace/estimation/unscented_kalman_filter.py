@@ -11,6 +11,9 @@ The Gaussian belief ``N(x, P)`` is represented by ``2n + 1`` sigma points
   ``C = sum W^c_i d_i e_i^T``, ``K = C S^-1``, ``x = x^- + K (z - z_hat)``, ``P = P^- - K S K^T``.
 
 For linear ``f`` and ``h`` the unscented transform is exact: the UKF equals the Kalman filter.
+
+Thread safety: :class:`UnscentedKalmanFilter` serializes its calls with a lock (see there);
+:class:`UnscentedOptions` is immutable; :func:`sigma_points` keeps its state local to the call.
 """
 
 from __future__ import annotations

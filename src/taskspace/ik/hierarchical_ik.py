@@ -1,4 +1,9 @@
-"""Strict task hierarchies for differential IK (slides 2:42-2:44): a cascade of QPs."""
+"""Strict task hierarchies for differential IK (slides 2:42-2:44): a cascade of QPs.
+
+Thread safety: :class:`HierarchicalIK` serializes its calls with a lock (see there); a
+:class:`HierarchicalIKResult` is plain result data, not locked: do not modify it while another
+thread reads it.
+"""
 
 from __future__ import annotations
 

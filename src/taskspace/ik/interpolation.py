@@ -1,4 +1,10 @@
-"""Trajectory following with IK: joint- and task-space interpolation (slides 2:28, 2:33-2:35)."""
+"""Trajectory following with IK: joint- and task-space interpolation (slides 2:28, 2:33-2:35).
+
+Thread safety: the functions build their own state and IK solver per call, but
+:func:`task_space_interpolation` moves the target of the task it is given (left at the final
+target): threads must not share that task. An :class:`InterpolationResult` is plain result data,
+not locked: do not modify it while another thread reads it.
+"""
 
 from __future__ import annotations
 

@@ -5,6 +5,11 @@ It satisfies the planners' ``GoalRegion`` protocol (``contains``, ``sample``;
 ``position_tolerance`` [m] and ``rotation_tolerance`` [rad] of the target pose, and goal
 configurations are drawn by :func:`solve_ik` from random starts, with the target itself
 perturbed uniformly inside the tolerances.
+
+Thread safety: :meth:`PoseGoalRegion.sample` sets the target of the region's own IK task, so one
+region must not be sampled from two threads at once (give each thread its own region);
+:meth:`~PoseGoalRegion.contains` and :meth:`~PoseGoalRegion.errors` build their own state per call
+and may run from several threads.
 """
 
 from __future__ import annotations

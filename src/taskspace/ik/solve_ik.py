@@ -3,6 +3,11 @@
 Iterates the weighted differential step (all gains 1) from ``q``: ``q <- q (+) alpha dq`` with
 a backtracking line search on ``f(q) = sum_i rho_i |e_i(q)|^2`` and Levenberg-Marquardt
 damping adapted to progress, inside the joint limits. Optional random restarts (seeded).
+
+Thread safety: :func:`solve_ik` builds its own states and solvers per call and only reads the
+tasks, so calls may run from several threads (with tasks, constraints and robot not changed
+meanwhile); :class:`SolveIKOptions` and :class:`SolveIKStatus` are immutable; a
+:class:`SolveIKResult` is plain result data, not locked.
 """
 
 from __future__ import annotations

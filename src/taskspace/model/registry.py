@@ -6,6 +6,10 @@ posture, description) to some robots and defines a few of our own (planar arms, 
 cart-pole). Every other robot that example-robot-data provides (``ROBOTS`` of
 ``example_robot_data.robots_loader``) is available under its example-robot-data name with the
 loader's own free flyer, SRDF and reference posture.
+
+Thread safety: :class:`RobotSpec` is an immutable value (do not modify its ``default_posture``
+dictionary in place); the look-up functions only read the registry (cached once per process) and
+may run from several threads.
 """
 
 from __future__ import annotations

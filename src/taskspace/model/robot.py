@@ -39,6 +39,11 @@ read-only arrays, changed only by :meth:`Robot.set_limits`, which gives the robo
 built from the robot that keep limits (constraints, features, solvers, planning spaces) record
 the version and rebuild or raise :class:`StaleModelError` (:meth:`Robot.check_version`) when it
 differs. Do not edit ``robot.model``'s arrays in place: no derived object can see such edits.
+
+Thread safety: :class:`Robot` may be shared by threads that read it (see there: its own Pinocchio
+data is used under a lock); :class:`CollisionPruningOptions` and :class:`PrunedCollisionPairs` are
+immutable values; :func:`prune_collision_pairs` modifies the robot it is given (run on load: not
+while other threads use that robot).
 """
 
 from __future__ import annotations
@@ -48,6 +53,7 @@ import itertools
 import logging
 import math
 import os
+import threading
 import warnings
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
@@ -83,6 +89,14 @@ QUATERNION_TOLERANCE = 1e-6
 """Largest accepted deviation of a quaternion's (or unit complex's) norm from 1."""
 
 _ROBOT_VERSIONS = itertools.count(1)
+
+_DATA_LOCK = threading.Lock()
+"""Guards the robots' own ``data``/``collision_data`` (evaluate, then read the results).
+
+One lock for all robots (a lock attribute would make robots impossible to deep-copy); it is
+held only by :meth:`Robot.frame_placement`, :meth:`Robot.is_collision_free` and
+:meth:`Robot.colliding_pairs`, never while calling other code.
+"""
 """Source of robot model versions, shared by every robot (a version is never reused)."""
 
 _UNIT_COMPLEX_JOINTS = ("JointModelRUBX", "JointModelRUBY", "JointModelRUBZ")
@@ -162,6 +176,15 @@ class Robot:
         pruned_collision_pairs: collision pairs disabled on load and why.
         massless_joints: joints that move no mass and were given an armature (see the
             module docstring).
+
+    Thread safety: a robot may be shared by threads that read it. Its queries (limits,
+    configuration checks, ``random_configuration`` with each thread's own generator,
+    interpolation, distances) are functions of their arguments; :meth:`frame_placement`,
+    :meth:`is_collision_free` and :meth:`colliding_pairs` evaluate into the robot's own
+    ``data``/``collision_data`` under a lock (one for all robots: threads take turns), so many
+    evaluations belong in a :class:`~taskspace.model.State` or a collision checker per thread.
+    The mutators (:meth:`set_limits`, obstacles, collision pairs) are not locked: do not call
+    them while other threads use the robot or objects built from it.
     """
 
     def __init__(
@@ -1131,8 +1154,9 @@ class Robot:
         """Pose of ``frame`` in the world at configuration ``q``."""
         fid = self.frame_id(frame)
         qa = self.check_configuration(q)
-        pin.framesForwardKinematics(self.model, self.data, qa)
-        return self.data.oMf[fid].copy()
+        with _DATA_LOCK:
+            pin.framesForwardKinematics(self.model, self.data, qa)
+            return self.data.oMf[fid].copy()
 
     # ------------------------------------------------------------------ world and collisions
     @property
@@ -1248,22 +1272,22 @@ class Robot:
     def is_collision_free(self, q: Any) -> bool:
         """True if no checked pair (self or world) collides at ``q``; stops at the first hit."""
         qa = self.check_configuration(q)
-        data = self._queried_collision_data()
-        return not pin.computeCollisions(
-            self.model, self.data, self.collision_model, data, qa, True
-        )
+        with _DATA_LOCK:
+            data = self._queried_collision_data()
+            return not pin.computeCollisions(
+                self.model, self.data, self.collision_model, data, qa, True
+            )
 
     def colliding_pairs(self, q: Any) -> list[tuple[str, str]]:
         """Names of all colliding pairs at ``q``."""
         qa = self.check_configuration(q)
-        data = self._queried_collision_data()
-        pin.computeCollisions(self.model, self.data, self.collision_model, data, qa, False)
+        with _DATA_LOCK:  # another thread's query would overwrite the results being read
+            data = self._queried_collision_data()
+            pin.computeCollisions(self.model, self.data, self.collision_model, data, qa, False)
+            hits = [k for k, r in enumerate(data.collisionResults) if r.isCollision()]
         objs = self.collision_model.geometryObjects
-        out = []
-        for k, pair in enumerate(self.collision_model.collisionPairs):
-            if data.collisionResults[k].isCollision():
-                out.append((objs[pair.first].name, objs[pair.second].name))
-        return out
+        pairs = self.collision_model.collisionPairs
+        return [(objs[pairs[k].first].name, objs[pairs[k].second].name) for k in hits]
 
     def __repr__(self) -> str:
         return (

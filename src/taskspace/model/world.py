@@ -6,6 +6,9 @@ mutation. Objects derived from a world (collision checkers, configuration spaces
 checkers, the collision data of a state) record the version they were built from and rebuild
 when it changed: they are invalidated by construction, not by comparing counts (clearing the
 world and adding the same number of obstacles keeps the counts and changes the version).
+
+Thread safety: :class:`Obstacle` is an immutable value (do not modify its placement or geometry in
+place); a :class:`World` is not locked (see there).
 """
 
 from __future__ import annotations

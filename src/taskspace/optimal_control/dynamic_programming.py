@@ -11,6 +11,11 @@ Bellman's principle of optimality gives the optimal value as the fixed point of
   ``2 gamma tolerance / (1 - gamma)`` of optimal.
 * Policy iteration: evaluate the policy exactly, ``(I - gamma P_pi) V = R_pi`` (sparse LU),
   improve greedily, stop when the policy is stable (finitely many steps).
+
+Thread safety: the solvers keep their state local to the call (the
+:class:`~taskspace.optimal_control.MDP` is only read); :class:`ValueIterationOptions` and
+:class:`DPStatus` are immutable; :class:`DPResult` and :class:`FiniteHorizonResult` are plain
+result data (arrays), not locked: do not modify them while another thread reads them.
 """
 
 from __future__ import annotations

@@ -16,6 +16,10 @@ The interpolation weights form stochastic matrices, so this is value iteration o
 exists and is unique for ``gamma < 1`` or with a reachable absorbing target. The HJB residual
 ``min_u [l + dJ/dx f] - rho J`` (finite-difference gradient of the grid values) measures how
 well the result satisfies the continuous equation where ``J`` is smooth.
+
+Thread safety: the solver keeps its state local to the call; :class:`FittedValueIterationOptions`
+is immutable; a :class:`FittedValueIterationResult` is plain result data (arrays), not locked: do
+not modify it while another thread reads it.
 """
 
 from __future__ import annotations

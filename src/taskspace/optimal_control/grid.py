@@ -10,6 +10,9 @@ interpolation weights of the successor states (Munos and Moore's barycentric vie
 
 Axes are clipped at their ends, except periodic axes (angles), which wrap around with period
 ``period`` (the axis then covers ``[a_0, a_0 + period)``, the last point excluded).
+
+Thread safety: a :class:`StateGrid` is an immutable value (frozen dataclass) whose methods build
+new arrays, so it may be shared by threads as long as nobody modifies its axes in place.
 """
 
 from __future__ import annotations

@@ -4,6 +4,10 @@ An MDP has ``S`` states, ``A`` actions, transition matrices ``P_a[s, s'] = P(s' 
 (one ``scipy.sparse`` matrix per action, rows summing to 1), expected rewards ``R[s, a]`` and
 a discount ``gamma``. The agent maximizes ``E[sum_t gamma^t R(s_t, a_t)]``; costs are negative
 rewards.
+
+Thread safety: an :class:`MDP` is an immutable value (frozen dataclass; ``stacked`` is computed on
+first use, two threads racing on it compute equal matrices), so it may be shared by threads as long
+as nobody modifies its arrays in place.
 """
 
 from __future__ import annotations

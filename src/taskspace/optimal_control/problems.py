@@ -3,6 +3,9 @@
 Each problem gives the dynamics ``f(X, U)`` and running cost ``l(X, U)`` of
 :mod:`taskspace.optimal_control.fitted_value_iteration` for batches of states (K x d) and
 actions (K x m).
+
+Thread safety: the problems are immutable values (frozen dataclasses) whose methods are functions
+of their arguments, so they may be shared by threads.
 """
 
 from __future__ import annotations

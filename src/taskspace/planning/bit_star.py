@@ -25,6 +25,10 @@ improve the solution are checked). Informed samples: the prolate hyperspheroid o
 RRT* for the Euclidean length with one goal, otherwise rejection sampling of
 ``g_hat(q) + h_hat(q) < c_best``. Anytime: it stops at the time or iteration (sample) limit
 and returns the best path with its cost over time.
+
+Thread safety: :class:`BITStarOptions` is immutable; :func:`bit_star` keeps its state local to the
+call apart from the configuration space it is given (one space per thread, see
+:class:`~taskspace.planning.ConfigurationSpace`).
 """
 
 from __future__ import annotations

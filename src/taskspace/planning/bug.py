@@ -12,6 +12,10 @@ Both alternate *motion-to-goal* (drive straight at the goal) and *boundary follo
 
 Both terminate in a world of finitely many disjoint polygons. Bug1 travels at most
 ``|start goal| + 1.5 sum_i perimeter_i``.
+
+Thread safety: :class:`BugOptions` and :class:`BugStatus` are immutable; the planners keep their
+state local to the call (the world is only read); a :class:`BugResult` is plain result data, not
+locked: do not modify it while another thread reads it.
 """
 
 from __future__ import annotations

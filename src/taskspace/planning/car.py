@@ -10,6 +10,10 @@ velocity satisfies ``xdot sin(theta) - ydot cos(theta) = 0`` (slide 3:48). For c
 controls the motion is an arc of curvature ``kappa = tan(phi) / L`` and length ``v tau``,
 integrated exactly by :func:`taskspace.planning.se2.arc_pose`. The minimum turning radius is
 ``r = L / tan(Phi)``.
+
+Thread safety: :class:`CarModel` and :class:`ControlSamplingOptions` are immutable values whose
+methods are functions of their arguments; a :class:`ControlTree` is plain data built by one planner
+call, not locked: do not modify it while another thread reads it.
 """
 
 from __future__ import annotations

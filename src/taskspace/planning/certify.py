@@ -21,6 +21,10 @@ by ``min_p d_p / B_p`` over the pairs with no contact
 possible, and the segment is free when ``t`` reaches 1. A distance below ``tolerance`` stops
 the advancement: the segment is then reported uncertified (touching, or closer than the
 tolerance), never "free".
+
+Thread safety: :class:`MotionBound` and :class:`PathCertificate` are immutable values; the
+functions build their own Pinocchio data per call and may run from several threads (one robot may
+be shared as long as its model, limits and world are not changed meanwhile).
 """
 
 from __future__ import annotations

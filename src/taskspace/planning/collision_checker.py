@@ -39,6 +39,11 @@ pair collided, so the cache cannot be maintained from Python; (2) per-link bound
 against obstacle boxes as a Python prefilter: it needs the forward kinematics per
 configuration in Python and can only certify "free", which the broad phase already does in C++
 for every pair whose boxes are disjoint.
+
+Thread safety: :class:`CollisionChecker` is one per thread (see there);
+:class:`CollisionCheckerOptions` is immutable. A :class:`FunctionChecker` answers with its function
+(safe to share when the function is), but its ``checks`` counter is not locked (calls from several
+threads may lose counts): one per thread when the counts matter.
 """
 
 from __future__ import annotations

@@ -13,6 +13,9 @@ Lazy planners split the same interior points into a coarse pass (indices that ar
 of a stride, checked when an edge is created) and a fine pass (the others, checked only when
 the edge lies on a candidate path), see :func:`nested_orders`: together they are exactly the
 points of the resolution ``delta``.
+
+Thread safety: :class:`ConfigurationSpace` is one per thread (see there); :class:`EdgeCheckOptions`
+is immutable.
 """
 
 from __future__ import annotations

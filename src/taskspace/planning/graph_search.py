@@ -14,6 +14,11 @@ The graph can be given as
   ``i -> j`` (explicitly stored zeros are zero-cost edges).
 
 The same functions serve grid planners and roadmaps (PRM).
+
+Thread safety: :class:`GraphSearchOptions` and :class:`SearchStatus` are immutable; the searches
+keep their state local to the call (the graph callbacks are only called); a
+:class:`GraphSearchResult` is plain result data, not locked: do not modify it while another thread
+reads it.
 """
 
 from __future__ import annotations

@@ -10,6 +10,11 @@ regions (slide 3:24). A shortest path (in number of moves) follows strictly decr
 from the start to the goal (slide 3:25).
 
 Dijkstra / A* use edge costs 1 (orthogonal) and ``sqrt(2)`` (diagonal), in cells.
+
+Thread safety: :class:`OccupancyGrid` is an immutable value (do not modify its ``occupied`` array
+in place), :class:`GridSearchOptions` and :class:`GridStatus` are immutable; the searches keep
+their state local to the call; :class:`GridPathResult` and :class:`WavefrontResult` are plain
+result data, not locked: do not modify them while another thread reads them.
 """
 
 from __future__ import annotations

@@ -22,6 +22,10 @@ uses Pinocchio's own operations:
 :meth:`JointManifold.difference` is vectorized over rows in NumPy (closed-form logarithms of
 SO(2), SE(2), SO(3) and SE(3)) and agrees with ``pinocchio.difference``; interpolation calls
 ``pinocchio.interpolate``.
+
+Thread safety: a :class:`JointManifold` only reads its limits, which it derives again (in the
+calling thread) after :meth:`~taskspace.model.Robot.set_limits`; threads may share one, each
+sampling with its own generator, as long as the robot's limits are not changed while they use it.
 """
 
 from __future__ import annotations

@@ -21,6 +21,11 @@ random constant controls, goal reached within tolerances).
 Nearest neighbours: the curve length is at least the Euclidean distance between positions,
 so the ``nearest_candidates`` nodes closest in the naive SE(2) metric of slide 3:58 are
 re-ranked by the exact curve length (vectorised).
+
+Thread safety: :class:`KinodynamicRRTOptions` and :class:`RRTStatus` are immutable;
+:func:`kinodynamic_rrt` keeps its state local to the call (the world is only read); a
+:class:`KinodynamicRRTResult` is plain result data, not locked: do not modify it while another
+thread reads it.
 """
 
 from __future__ import annotations

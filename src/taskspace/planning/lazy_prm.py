@@ -17,6 +17,11 @@ full-resolution points, so a round costs one graph search (scipy) and two checke
 On a joint-manifold space (continuous joints, planar or floating bases) neighbours and edge
 costs are in the space's metric (see :mod:`taskspace.planning.prm`), edges are its
 geodesics, and :func:`lazy_prm`'s samples near the start and goal are ``q (+) sigma N(0, I)``.
+
+Thread safety: a :class:`LazyRoadmap` is not locked and queries write the edge states they learn
+back into it: query one roadmap from one thread at a time (:func:`grow_lazy_prm` returns a new
+roadmap). The planners keep their other state local to the call apart from the configuration space
+they are given (one space per thread).
 """
 
 from __future__ import annotations

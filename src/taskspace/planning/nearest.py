@@ -4,6 +4,9 @@ Nodes are stored in a preallocated array that doubles when full, with their squa
 query ranks the nodes by ``|q_i - q|^2 - |q|^2 = |q_i|^2 - 2 q_i . q`` (one matrix-vector
 product, O(n d), about 5 us for a few hundred 7-D nodes) and computes the exact distance of
 the winner only, which beats tree structures for the tree sizes of single-query planners.
+
+Thread safety: a :class:`GrowingNearest` is a mutable workspace (its points grow in place) and is
+not locked: one per thread, as owned by the planner call that builds it.
 """
 
 from __future__ import annotations

@@ -19,6 +19,11 @@ admissible lower bound ``c_hat(a, b) <= c(a, b)`` of the cost of *any* path from
   ``integral |tau_g(q) . dq|`` (work done and work recovered both count); ``c_hat = 0``;
 * :class:`WeightedSum`: ``c = sum_k lambda_k c_k`` (``lambda_k > 0``), ``c_hat = sum_k lambda_k
   c_hat_k`` (OMPL's ``MultiOptimizationObjective``).
+
+Thread safety: the objectives keep only the data given at construction; :class:`MechanicalWork`
+evaluates each gravity torque in one Pinocchio call on its own data, whose result is copied out
+(the bindings hold the GIL during the call). They may therefore be shared by threads, as far as the
+functions they wrap (``distances``, ``clearance``) are safe to call from them.
 """
 
 from __future__ import annotations

@@ -1,4 +1,8 @@
-"""Result of the sampling-based planners (PRM, Lazy PRM, RRT, RRT-Connect)."""
+"""Result of the sampling-based planners (PRM, Lazy PRM, RRT, RRT-Connect).
+
+Thread safety: :class:`PlannerStatus` is immutable; :class:`PlannerResult` and :class:`Tree` are
+plain result data (arrays), not locked: do not modify them while another thread reads them.
+"""
 
 from __future__ import annotations
 

@@ -16,6 +16,10 @@ Geometry used throughout (``cross(u, v) = u_x v_y - u_y v_x``):
   ``s* = (p - a).(b - a) / |b - a|^2``.
 
 All queries are vectorised over points and edges with numpy.
+
+Thread safety: :class:`Polygon` and :class:`PolygonWorld` are immutable values (frozen dataclasses)
+whose queries build new arrays, so they may be shared by threads as long as nobody modifies their
+arrays in place.
 """
 
 from __future__ import annotations

@@ -17,6 +17,10 @@ Repulsive (slide 3:14), summed over obstacles ``i`` with ``D_i(q)`` the distance
 Gradient descent ``q_{k+1} = q_k - alpha grad U(q_k)`` (step clipped to ``max_step``) is a
 feedback controller: it can stop in a local minimum of ``U`` that is not the goal (slide 3:16),
 for instance inside a concave obstacle facing the goal.
+
+Thread safety: :class:`PotentialField`, :class:`PotentialFieldOptions` and :class:`PotentialStatus`
+are immutable; the descent keeps its state local to the call; a :class:`PotentialFieldResult` is
+plain result data, not locked: do not modify it while another thread reads it.
 """
 
 from __future__ import annotations

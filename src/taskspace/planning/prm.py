@@ -16,6 +16,11 @@ On a joint-manifold space (continuous joints, planar or floating bases) the neig
 costs and the A* heuristic are in the space's metric (nearest neighbours by a scan instead of
 the KD-tree, ``O(n^2)`` distance evaluations for ``n`` nodes), edges are the space's
 geodesics, and only uniform sampling is available.
+
+Thread safety: :class:`PRMOptions` is immutable; a :class:`Roadmap` is only read by queries (its
+KD-tree is built on first use; threads racing on it build equal trees), so threads may query one
+roadmap, each with its own configuration space, as long as nobody modifies it. The planners keep
+their other state local to the call.
 """
 
 from __future__ import annotations

@@ -22,6 +22,9 @@ ever checked; every edge of a returned path is free at the space's resolution.
 Roadmaps record the obstacle world's version (:attr:`ConfigurationSpace.world_version`) and
 the robot limits' version (:attr:`ConfigurationSpace.model_version`); a query on a roadmap
 built for another version is refused (see :mod:`~taskspace.planning.prm`).
+
+Thread safety: :class:`PRMStarOptions` is immutable; the planners keep their state local to the
+call apart from the configuration space they are given (one space per thread).
 """
 
 from __future__ import annotations

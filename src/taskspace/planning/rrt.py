@@ -17,6 +17,9 @@ iterations (the figures of slide 3:38).
 On a joint-manifold space (continuous joints, planar or floating bases) distances are the
 space's metric, nearest neighbours are taken in it, and ``q_new`` is the point at ``alpha``
 along the geodesic ``q_near (+) t (q_target (-) q_near)`` (Pinocchio's ``interpolate``).
+
+Thread safety: :class:`RRTOptions` is immutable; the planners keep their state local to the call
+apart from the configuration space (one space per thread) and generator they are given.
 """
 
 from __future__ import annotations

@@ -71,6 +71,9 @@ vector lanes, then the tests point by point with early exit).
 
 Measured times, success rates and check counts (against OMPL and earlier versions) are in
 ``benchmarks/suites/planning.py`` and the README's benchmark table.
+
+Thread safety: :class:`RRTConnectOptions` is immutable; the planners keep their state local to the
+call apart from the configuration space (one space per thread) and generator they are given.
 """
 
 from __future__ import annotations

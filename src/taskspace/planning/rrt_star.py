@@ -12,6 +12,11 @@ and ``goal`` and transverse diameter ``c_best``: the only states that can improv
 Both are anytime: they run to the time or iteration limit and return the best path found,
 with its cost over time in ``log``. The cost is the path length in the space's Euclidean
 metric.
+
+Thread safety: :class:`RRTStarOptions` is immutable; :func:`rrt_star` keeps its state local to the
+call apart from the configuration space (one space per thread), generator and goal region it is
+given. :class:`GoalRegion` is a protocol: implementations state their own (those of
+:mod:`taskspace.ik` sample with their own IK task: one region per thread).
 """
 
 from __future__ import annotations

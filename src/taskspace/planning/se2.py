@@ -12,6 +12,9 @@ module holds:
 * :class:`CurvePath`, a sequence of constant-curvature segments (``L``, ``S``, ``R``) with
   signed lengths (negative = driving backwards), returned by the Dubins and Reeds-Shepp
   solvers.
+
+Thread safety: :class:`CurvePath` is an immutable value; the functions keep their state local to
+the call.
 """
 
 from __future__ import annotations

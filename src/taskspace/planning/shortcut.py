@@ -15,6 +15,10 @@ Two passes, both using the straight-line local planner (slide 3:32):
 On a joint-manifold space (continuous joints, planar or floating bases) the segments are the
 space's geodesics (``pinocchio.interpolate``), arc lengths are measured in its metric
 ``|W (q1 (-) q0)|`` and the cut points lie on the geodesics.
+
+Thread safety: :class:`ShortcutOptions` is immutable; :func:`shortcut_path` keeps its state local
+to the call apart from the configuration space (one space per thread) and generator it is given; a
+:class:`ShortcutResult` is plain result data, not locked.
 """
 
 from __future__ import annotations

@@ -20,6 +20,10 @@ is taken in the tangent space at ``q_i``:
 ``integrate``), segments are the space's geodesics, lengths are in its metric, and a move is
 kept only if it does not lengthen the two segments (the weighted metric of SE(3) need not obey
 the triangle inequality along such a cut).
+
+Thread safety: :class:`SmoothingOptions` is immutable; the smoothers keep their state local to the
+call apart from the configuration space (one space per thread) they are given; a
+:class:`SmoothingResult` is plain result data, not locked.
 """
 
 from __future__ import annotations

@@ -9,6 +9,11 @@ searching in the nullspace of their stacked Jacobians, ``x = x_{k-1} + Z_{k-1} z
 optimal residuals of earlier levels cannot change); earlier inequalities are held with their
 optimal slacks (``l' = min(l, C x*)``, ``u' = max(u, C x*)``). Each level is one QP solved by a
 persistent :class:`~taskspace.qp.solver.QPSolver` (unconstrained shortcut first).
+
+Thread safety: a :class:`HierarchySolver` keeps one :class:`~taskspace.qp.QPSolver` per level
+(warm-start workspaces) and is not locked: one solver per thread. :class:`HierarchyOptions` is
+immutable; :class:`HierarchyLevel` and :class:`HierarchyResult` are plain data, not locked: do not
+modify them while another thread reads them.
 """
 
 from __future__ import annotations

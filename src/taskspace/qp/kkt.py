@@ -20,6 +20,9 @@ dual tests). Complementarity is what proxsuite's default test omits: it then sto
 whose multipliers belong to another active set. The duality gap is reported with its scale
 ``max(1, |x'Hx|, |g'x|, |b'y|)``, not tested (huge multipliers of degenerate active sets
 make it large at exact solutions).
+
+Thread safety: the functions keep their state local to the call; :class:`KKTResiduals` is an
+immutable value.
 """
 
 from __future__ import annotations

@@ -2,6 +2,10 @@
 
 ``min_x 1/2 x^T H x + g^T x  s.t.  A x = b,  l <= C x <= u,  lb <= x <= ub``.
 Row blocks carry labels so that a solver can name the constraints at fault.
+
+Thread safety: :class:`QPProblem` and :class:`RowBlock` are plain mutable data, not locked: a
+solver only reads a problem, so threads may solve one problem with their own solvers, but nobody
+may modify it meanwhile.
 """
 
 from __future__ import annotations

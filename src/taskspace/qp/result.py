@@ -1,4 +1,8 @@
-"""QP results."""
+"""QP results.
+
+Thread safety: :class:`QPStatus` is immutable; a :class:`QPResult` is plain result data (arrays),
+not locked: do not modify it while another thread reads it.
+"""
 
 from __future__ import annotations
 

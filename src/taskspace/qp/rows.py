@@ -20,6 +20,10 @@ module holds the one set of rules that stacks them, used by every consumer:
 
 The compiled IK kernel (``taskspace/_native``) evaluates the same rules for the stacks it
 serves (see :mod:`taskspace.ik._native_stack`).
+
+Thread safety: :class:`TaskRowStack`, :class:`InequalityStack` and :class:`WeightedQPBuilder` are
+workspaces (preallocated buffers refilled in place by every call; the returned arrays are views of
+them) and are not locked: one per thread, as owned by the solvers that build them.
 """
 
 from __future__ import annotations

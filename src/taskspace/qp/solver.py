@@ -29,6 +29,11 @@ is ``SOLVED`` (or ``UNCONSTRAINED``) only with its KKT residuals within the tole
 iteration limit, an infeasible problem or a failed relaxation never is (except a proxsuite
 run stopped at its limit while asked for more than the certificate, ``proxsuite_eps_rel``
 below ``eps_rel``, whose point meets the certificate).
+
+Thread safety: a :class:`QPSolver` is a workspace (the warm-started proxsuite solver and the state
+of the current solve) and is not locked: one solver per thread (the IK and inverse-dynamics solvers
+that own one serialize their calls). :class:`QPSolverOptions` is immutable; the module functions
+keep their state local to the call.
 """
 
 from __future__ import annotations

@@ -17,6 +17,10 @@ marker.
 Example:
     >>> env = MeshcatRender(gym.make("taskspace/PandaReach-v0"), "human")  # doctest: +SKIP
     >>> print(env.url); env.reset(seed=0)                                   # doctest: +SKIP
+
+Thread safety: a :class:`MeshcatRender` is one per thread, like the environment it wraps
+(taskspace's environments raise :class:`~taskspace.errors.ConcurrentUseError` when a second thread
+steps them) and the :class:`Viewer` it draws into.
 """
 
 from __future__ import annotations

@@ -8,6 +8,9 @@ Two images match when
 
 The first bound catches local changes (a link moved by a few pixels), the second diffuse ones
 (lighting, background).
+
+Thread safety: :class:`ImageComparisonOptions` and :class:`ImageComparison` are immutable values;
+:func:`compare_images` keeps its state local to the call.
 """
 
 from __future__ import annotations

@@ -20,6 +20,9 @@ applied (see :mod:`taskspace.viz.snapshot`).
 
 A live meshcat window (zmq server) can be attached with ``forward``: commands are then both
 recorded and forwarded, so the static HTML always matches what the live viewer shows.
+
+Thread safety: a :class:`SceneRecorder` is a mutable scene tree (and command count) and is not
+locked: one thread at a time, as its :class:`~taskspace.viz.Viewer`.
 """
 
 from __future__ import annotations

@@ -15,6 +15,10 @@ the page load). Playwright's synchronous API only works on the thread that start
 browser lives on one thread of its own and every snapshot, from any thread, runs there (one at
 a time). Ctrl-C in the caller stops the wait at once; the page being rendered is abandoned at
 its next poll and the browser stays usable.
+
+Thread safety: snapshots may be requested from any thread: they run one at a time on the browser
+thread (above). :class:`SnapshotOptions` and :class:`SnapshotResult` are immutable values (do not
+modify the result's lists); :class:`SnapshotError` is an exception.
 """
 
 from __future__ import annotations

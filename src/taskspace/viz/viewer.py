@@ -10,6 +10,11 @@ controls always look at the origin. :meth:`Viewer.set_camera` therefore translat
 scene (``/meshcat``, ``/Grid``, ``/Axes``) by ``-target`` and sets the ``position`` property of
 ``/Cameras/default/rotated/<object>``, which lives in three.js' y-up frame: a z-up offset
 ``(x, y, z)`` is written as ``(x, z, -y)``.
+
+Thread safety: :class:`CameraPose` is an immutable value; a :class:`Viewer` is stateful (its scene,
+recorder and live window) and not locked: use it from one thread at a time (its snapshots, from any
+thread, run one at a time on the browser thread, see :mod:`taskspace.viz.snapshots`).
+:class:`LiveViewerError` is an exception.
 """
 
 from __future__ import annotations
