@@ -114,6 +114,10 @@ class WeightedIKKernel {
     grad_.setZero(nv);
     state_.assign(nv, 0);
     a0_.setZero(nv);
+    Lf_.setZero(nv, nv);
+    xf_.setZero(nv);
+    upd_.setZero(nv);
+    free_.reserve(nv);
   }
 
   int add_pose(const Model& model, int frame) {
@@ -867,94 +871,187 @@ class WeightedIKKernel {
     L.triangularView<Eigen::Lower>().transpose().solveInPlace(x);
   }
 
+  // Cholesky factor Lf_ (lower, leading nf x nf, nf = free_.size()) of H restricted to the
+  // free variables free_ (in that order), kept between the active-set iterations of box_qp:
+  // a released variable appends a row (O(nf^2)), a variable that meets a bound deletes its
+  // row and column with a rank-one update of the trailing block (O(nf^2)), instead of a new
+  // factorization (O(nf^3)) at every iteration.
+  bool factor_free() {
+    const int nf = static_cast<int>(free_.size());
+    for (int a = 0; a < nf; ++a)
+      for (int b = 0; b <= a; ++b) Lf_(a, b) = H_(free_[a], free_[b]);
+    if (nf == 0) return true;
+    auto block = Lf_.topLeftCorner(nf, nf);
+    return Eigen::internal::llt_inplace<double, Eigen::Lower>::unblocked(block) == -1;
+  }
+  // Append variable i to the free set: the new row [l^T d] with L l = H(F, i),
+  // d^2 = H_ii - l^T l. False when d^2 is not positive (the caller refactorizes).
+  bool free_append(int i) {
+    const int nf = static_cast<int>(free_.size());
+    double d2 = H_(i, i);
+    for (int b = 0; b < nf; ++b) {
+      double s = H_(i, free_[b]);
+      for (int c = 0; c < b; ++c) s -= Lf_(nf, c) * Lf_(b, c);
+      s /= Lf_(b, b);
+      Lf_(nf, b) = s;
+      d2 -= s * s;
+    }
+    free_.push_back(i);
+    if (!(d2 > 0.0)) return false;
+    Lf_(nf, nf) = std::sqrt(d2);
+    return true;
+  }
+  // Remove the free variable at position k: rows/columns after k move up/left and the
+  // trailing block gets L22 L22^T + l l^T (l: column k below the diagonal) by Givens-free
+  // rank-one Cholesky update.
+  void free_remove(int k) {
+    const int nf = static_cast<int>(free_.size());
+    const int m = nf - k - 1;
+    upd_.head(m) = Lf_.col(k).segment(k + 1, m);
+    for (int a = k + 1; a < nf; ++a)
+      for (int b = 0; b < k; ++b) Lf_(a - 1, b) = Lf_(a, b);
+    for (int a = k + 1; a < nf; ++a)
+      for (int b = k + 1; b <= a; ++b) Lf_(a - 1, b - 1) = Lf_(a, b);
+    for (int j = 0; j < m; ++j) {
+      const int jj = k + j;
+      const double ljj = Lf_(jj, jj), xj = upd_[j];
+      const double r = std::hypot(ljj, xj);
+      const double c = r / ljj, s = xj / ljj;
+      Lf_(jj, jj) = r;
+      for (int a = j + 1; a < m; ++a) {
+        const int aa = k + a;
+        Lf_(aa, jj) = (Lf_(aa, jj) + s * upd_[a]) / c;
+        upd_[a] = c * upd_[a] - s * Lf_(aa, jj);
+      }
+    }
+    free_.erase(free_.begin() + k);
+  }
+
   // Primal active-set method on the box (H symmetric positive definite).
   // state_[i]: 0 free, -1 at lb, +1 at ub, 2 fixed (lb == ub).
+  // Warm start: after a solve that ended with bounds active (a stack without dampers), the
+  // next one starts from that active set (the held variables at their bounds, the others at
+  // the previous step clipped to the box) and skips the factorization of the whole H; it
+  // ends at the same unique minimizer. The factor of the free block is updated between
+  // iterations (free_append / free_remove); at the end the free gradient is checked against
+  // a fresh factorization's accuracy (else refactorized once), and the multipliers of the
+  // held variables have their signs, so SOLVED is exact as before.
   int box_qp(const VectorXd& lb, const VectorXd& ub,
              int max_iter, int& iterations) {
     const int n = nv_;
     const double tol = 1e-10;
-    L_ = H_;
-    if (!cholesky(L_)) raise_not_positive_definite();
-    x_ = -g_;
-    cholesky_solve(L_, x_);
-    bool feasible = true;
-    for (int i = 0; i < n; ++i) {
-      if (x_[i] < lb[i] - tol || x_[i] > ub[i] + tol) {
-        feasible = false;
-        break;
-      }
-    }
-    if (feasible) {
-      grad_.setZero();  // H x + g = 0 at the unconstrained minimizer
-      return kUnconstrained;
-    }
-    // feasible start: the unconstrained minimizer clipped to the box
-    for (int i = 0; i < n; ++i) {
-      if (ub[i] <= lb[i]) {
-        state_[i] = 2;
-        x_[i] = 0.5 * (lb[i] + ub[i]);
-      } else if (x_[i] <= lb[i]) {
-        state_[i] = -1;
-        x_[i] = lb[i];
-      } else if (x_[i] >= ub[i]) {
-        state_[i] = 1;
-        x_[i] = ub[i];
-      } else {
-        state_[i] = 0;
-      }
-    }
-    std::vector<int> free_idx;
-    free_idx.reserve(n);
-    for (iterations = 1; iterations <= max_iter; ++iterations) {
-      free_idx.clear();
-      for (int i = 0; i < n; ++i)
-        if (state_[i] == 0) free_idx.push_back(i);
-      const int nf = static_cast<int>(free_idx.size());
-      // minimizer on the free variables with the others held
-      VectorXd xf(nf);
-      if (nf > 0) {
-        MatrixXd Hff(nf, nf);
-        VectorXd rhs(nf);
-        for (int a = 0; a < nf; ++a) {
-          const int i = free_idx[a];
-          double s = -g_[i];
-          for (int j = 0; j < n; ++j)
-            if (state_[j] != 0) s -= H_(i, j) * x_[j];
-          rhs[a] = s;
-          for (int b = 0; b <= a; ++b) Hff(a, b) = H_(i, free_idx[b]);
+    const bool warm = warm_ && x_.allFinite();
+    warm_ = false;
+    if (warm) {
+      for (int i = 0; i < n; ++i) {
+        if (ub[i] <= lb[i]) {
+          state_[i] = 2;
+          x_[i] = 0.5 * (lb[i] + ub[i]);
+        } else if (state_[i] == -1 || state_[i] == 1) {
+          x_[i] = state_[i] < 0 ? lb[i] : ub[i];
+        } else {
+          state_[i] = 0;
+          x_[i] = std::min(std::max(x_[i], lb[i]), ub[i]);
         }
-        if (!cholesky(Hff)) raise_not_positive_definite();
-        xf = rhs;
-        cholesky_solve(Hff, xf);
+      }
+    } else {
+      L_ = H_;
+      if (!cholesky(L_)) raise_not_positive_definite();
+      x_ = -g_;
+      cholesky_solve(L_, x_);
+      bool feasible = true;
+      for (int i = 0; i < n; ++i) {
+        if (x_[i] < lb[i] - tol || x_[i] > ub[i] + tol) {
+          feasible = false;
+          break;
+        }
+      }
+      if (feasible) {
+        grad_.setZero();  // H x + g = 0 at the unconstrained minimizer
+        return kUnconstrained;
+      }
+      // feasible start: the unconstrained minimizer clipped to the box
+      for (int i = 0; i < n; ++i) {
+        if (ub[i] <= lb[i]) {
+          state_[i] = 2;
+          x_[i] = 0.5 * (lb[i] + ub[i]);
+        } else if (x_[i] <= lb[i]) {
+          state_[i] = -1;
+          x_[i] = lb[i];
+        } else if (x_[i] >= ub[i]) {
+          state_[i] = 1;
+          x_[i] = ub[i];
+        } else {
+          state_[i] = 0;
+        }
+      }
+    }
+    free_.clear();
+    for (int i = 0; i < n; ++i)
+      if (state_[i] == 0) free_.push_back(i);
+    if (!factor_free()) raise_not_positive_definite();
+    bool fresh = true;  // Lf_ is a new factorization (not updated)
+    for (iterations = 1; iterations <= max_iter; ++iterations) {
+      const int nf = static_cast<int>(free_.size());
+      // minimizer on the free variables with the others held
+      for (int a = 0; a < nf; ++a) {
+        const int i = free_[a];
+        double s = -g_[i];
+        for (int j = 0; j < n; ++j)
+          if (state_[j] != 0) s -= H_(i, j) * x_[j];
+        xf_[a] = s;
+      }
+      if (nf > 0) {
+        auto L = Lf_.topLeftCorner(nf, nf);
+        auto xf = xf_.head(nf);
+        L.triangularView<Eigen::Lower>().solveInPlace(xf);
+        L.triangularView<Eigen::Lower>().transpose().solveInPlace(xf);
       }
       // step from x toward the free minimizer, stopped by the first bound it meets
       double alpha = 1.0;
       int blocking = -1;
       int side = 0;
       for (int a = 0; a < nf; ++a) {
-        const int i = free_idx[a];
-        const double d = xf[a] - x_[i];
-        if (d < 0 && xf[a] < lb[i] - tol) {
+        const int i = free_[a];
+        const double d = xf_[a] - x_[i];
+        if (d < 0 && xf_[a] < lb[i] - tol) {
           const double t = (lb[i] - x_[i]) / d;
-          if (t < alpha) { alpha = t; blocking = i; side = -1; }
-        } else if (d > 0 && xf[a] > ub[i] + tol) {
+          if (t < alpha) { alpha = t; blocking = a; side = -1; }
+        } else if (d > 0 && xf_[a] > ub[i] + tol) {
           const double t = (ub[i] - x_[i]) / d;
-          if (t < alpha) { alpha = t; blocking = i; side = 1; }
+          if (t < alpha) { alpha = t; blocking = a; side = 1; }
         }
       }
       if (alpha < 0) alpha = 0;
       for (int a = 0; a < nf; ++a) {
-        const int i = free_idx[a];
-        x_[i] += alpha * (xf[a] - x_[i]);
+        const int i = free_[a];
+        x_[i] += alpha * (xf_[a] - x_[i]);
       }
       if (blocking >= 0) {
-        state_[blocking] = side;
-        x_[blocking] = side < 0 ? lb[blocking] : ub[blocking];
+        const int i = free_[blocking];
+        state_[i] = side;
+        x_[i] = side < 0 ? lb[i] : ub[i];
+        free_remove(blocking);
+        fresh = false;
         continue;
       }
       // at the minimizer of the current face: check the multipliers of the held variables
       grad_.noalias() = H_ * x_;
       grad_ += g_;
+      if (!grad_.allFinite()) {  // a NaN/inf in H or g (a warm start may hold every variable)
+        x_.setConstant(std::numeric_limits<double>::quiet_NaN());  // solve() refuses it
+        return kSolved;
+      }
+      if (!fresh) {  // the updated factor's free gradient as small as a new one's would be
+        double worst = 0.0, scale = g_.cwiseAbs().maxCoeff();
+        for (int a = 0; a < nf; ++a) worst = std::max(worst, std::abs(grad_[free_[a]]));
+        scale += H_.cwiseAbs().maxCoeff() * x_.cwiseAbs().maxCoeff();
+        if (worst > 1e-12 * (1.0 + scale)) {
+          if (!factor_free()) raise_not_positive_definite();
+          fresh = true;
+          continue;
+        }
+      }
       int release = -1;
       double worst = tol;
       for (int i = 0; i < n; ++i) {
@@ -962,8 +1059,19 @@ class WeightedIKKernel {
         const double v = state_[i] == -1 ? -grad_[i] : (state_[i] == 1 ? grad_[i] : 0.0);
         if (v > worst) { worst = v; release = i; }
       }
-      if (release < 0) return kSolved;
+      if (release < 0) {
+        // the next solve starts from this active set (a stack without dampers)
+        warm_ = dampers_.empty() && nf < n;
+        if (nf == n) return kUnconstrained;  // (a warm start released every bound)
+        return kSolved;
+      }
       state_[release] = 0;
+      if (!free_append(release)) {
+        if (!factor_free()) raise_not_positive_definite();
+        fresh = true;
+      } else {
+        fresh = false;
+      }
     }
     iterations = max_iter;
     return kMaxIterations;
@@ -999,7 +1107,10 @@ class WeightedIKKernel {
   double eps_abs_ = 1e-9, eps_rel_ = 1e-9;
   double res_[7] = {0, 0, 0, 0, 0, 0, 0};
   std::vector<int> state_;
-  MatrixXd L_;
+  MatrixXd L_, Lf_;
+  std::vector<int> free_;
+  VectorXd xf_, upd_;
+  bool warm_ = false;  // the next box_qp starts from the last active set
   VectorXd a0_;  // zero acceleration (advance with a velocity)
 };
 

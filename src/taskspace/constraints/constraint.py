@@ -30,9 +30,14 @@ class Constraint(abc.ABC):
         name: label used in results and infeasibility diagnoses.
         hard_bounds: whether the box is physical (velocity/acceleration), so that it wins over
             softer boxes (position limits) when the two cannot both hold.
+        bounds_read_state: whether :meth:`bounds` reads the state. A class that declares it
+            False itself (a subclass does not inherit the declaration) promises that its box
+            depends only on ``dt`` and the robot's model version (:attr:`Robot.version`): a
+            solver may keep the box while both are unchanged (the compiled IK step does).
     """
 
     hard_bounds: bool = False
+    bounds_read_state: bool = True
 
     def __init__(self, robot: Robot, name: str) -> None:
         self.robot = robot

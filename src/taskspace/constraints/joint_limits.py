@@ -166,6 +166,7 @@ class JointVelocityLimits(Constraint):
     """
 
     hard_bounds = True
+    bounds_read_state = False  # the box depends only on dt and the robot's version
 
     def __init__(
         self,

@@ -157,13 +157,19 @@ class NativeWeightedStack:
         self._kernel_solve = (
             self._solve_with_rows if self._rows else getattr(kernel, "solve_boxes", kernel.solve)
         )
-        self._max_iterations = module.MAX_ITERATIONS
+        self.max_iterations = module.MAX_ITERATIONS
         # the fused step (solve, integrate, kinematics of the new q): one signature, the
         # collision model and its data always given (None without rows)
-        self._kernel_advance: Any = getattr(kernel, "advance", None)
+        self.advance: Any = getattr(kernel, "advance", None)
         self._advance_geometry: tuple[Any, Any] = (None, None)
-        self._nq = robot.nq
-        self._no_velocity = np.zeros(0)  # v_next of a state without velocity (not written)
+        self.nq = robot.nq
+        self.no_velocity = np.zeros(0)  # v_next of a state without velocity (not written)
+        # whether every box the stack evaluates in Python declares that it does not read the
+        # state (its class's own bounds_read_state = False): constant_boxes can keep them
+        self._constant = all(
+            type(c).__dict__.get("bounds_read_state", True) is False
+            for c in (*self._hard, *self._soft)
+        )
 
     def _check_tasks(self) -> None:
         """Read the tasks' weights, gains and LM damping (after an assignment to a task)."""
@@ -224,9 +230,7 @@ class NativeWeightedStack:
             self._position_limits.sync()
         if self._rows:  # collision rows: their declarations (the solve adds the geometry)
             self._sync_rows()
-        hard, soft = self._hard, self._soft
-        hard_boxes = [b for c in hard if (b := c.bounds(state, dt)) is not None] if hard else []
-        soft_boxes = [b for c in soft if (b := c.bounds(state, dt)) is not None] if soft else []
+        hard_boxes, soft_boxes = self.boxes(state, dt)
         args = (
             model,
             state._data,  # made by the state for ``state._model``, cannot be replaced
@@ -240,11 +244,11 @@ class NativeWeightedStack:
         )
         try:
             if move:
-                q_next = _empty(self._nq)
+                q_next = _empty(self.nq)
                 has_velocity = state._has_velocity
-                v_next = _empty(self.nv) if has_velocity else self._no_velocity
+                v_next = _empty(self.nv) if has_velocity else self.no_velocity
                 geometry = self._advance_geometry
-                status, iterations, objective, t_build, t_qp, _ = self._kernel_advance(
+                status, iterations, objective, t_build, t_qp, _ = self.advance(
                     *args,
                     q_next,
                     v_next,
@@ -252,17 +256,39 @@ class NativeWeightedStack:
                     geometry[0],
                     geometry[1],
                 )
-                if status != self._max_iterations:  # the data hold the kinematics of q_next
+                if status != self.max_iterations:  # the data hold the kinematics of q_next
                     state._adopt(q_next, v_next if has_velocity else None)
             else:
                 status, iterations, objective, t_build, t_qp, _ = self._kernel_solve(*args)
         except (TypeError, ValueError, RuntimeError):
-            for t in self.tasks:
-                t._require_target()  # a task without a target: raises, naming it
+            self.require_targets()
             raise
-        if status == self._max_iterations:
+        if status == self.max_iterations:
             return None
         return status, iterations, objective, t_build, t_qp
+
+    def boxes(self, state: State, dt: float) -> tuple[list[Any], list[Any]]:
+        """The hard and soft boxes evaluated in Python (the kernel evaluates the position box)."""
+        hard, soft = self._hard, self._soft
+        hard_boxes = [b for c in hard if (b := c.bounds(state, dt)) is not None] if hard else []
+        soft_boxes = [b for c in soft if (b := c.bounds(state, dt)) is not None] if soft else []
+        return hard_boxes, soft_boxes
+
+    def constant_boxes(self, dt: float) -> tuple[list[Any], list[Any]] | None:
+        """:meth:`boxes` at ``dt`` when no box reads the state, else ``None``.
+
+        Valid while ``dt`` and the robot's version are unchanged (``bounds_read_state``).
+        """
+        if not self._constant:
+            return None
+        hard = [b for c in self._hard if (b := c.bounds(None, dt)) is not None]  # type: ignore[arg-type]
+        soft = [b for c in self._soft if (b := c.bounds(None, dt)) is not None]  # type: ignore[arg-type]
+        return hard, soft
+
+    def require_targets(self) -> None:
+        """Raise, naming it, when a task has no target (after the kernel refused its call)."""
+        for t in self.tasks:
+            t._require_target()
 
     def _solve_with_rows(self, *args: Any) -> Any:
         """The kernel's 11-argument solve: ``args`` and the collision model with its data."""

@@ -26,7 +26,7 @@ import pinocchio as pin
 from taskspace._validation import FloatArray, check_positive
 from taskspace.constraints.constraint import Constraint
 from taskspace.errors import InvalidInputError
-from taskspace.ik._native_stack import NativeWeightedStack
+from taskspace.ik._native_stack import MAX_ACTIVE_SET_ITERATIONS, NativeWeightedStack
 from taskspace.ik._native_stack import supported as native_supported
 from taskspace.model.robot import Robot
 from taskspace.model.state import State
@@ -35,12 +35,15 @@ from taskspace.qp.problem import QPProblem
 from taskspace.qp.result import QPResult, QPStatus
 from taskspace.qp.rows import WeightedQPBuilder
 from taskspace.qp.solver import QPSolver, QPSolverOptions
+from taskspace.tasks import ASSIGNMENTS as _ASSIGNMENTS
 from taskspace.tasks import Task
 
 _perf_counter = time.perf_counter
 _empty = np.empty
+_new = object.__new__
 _integrate = pin.integrate
 _INF = float("inf")
+_NAN = float("nan")
 _SOLVED = QPStatus.SOLVED
 _UNCONSTRAINED = QPStatus.UNCONSTRAINED
 
@@ -276,6 +279,12 @@ class DifferentialIK:
         self._lock = threading.Lock()
         self._acquire = self._lock.acquire
         self._release = self._lock.release
+        # advance()'s lean path (see _arm): armed after a fused step of a box-only stack for
+        # this dt, task assignment count and robot version; NaN: not armed (equals no dt)
+        self._lean_dt = _NAN
+        self._lean_assignments = -1
+        self._lean_version = -1
+        self._lean_boxes: tuple[list[Any], list[Any]] | None = None
 
     @property
     def options(self) -> DifferentialIKOptions:
@@ -310,9 +319,7 @@ class DifferentialIK:
                 # advance() in one kernel call; not with native_residuals (they are checked on
                 # the QP built at the state before it moves), nor with a kernel built before
                 # its advance existed
-                self._fused = (
-                    self._native._kernel_advance is not None and not self.options.native_residuals
-                )
+                self._fused = self._native.advance is not None and not self.options.native_residuals
         return self._native is not None
 
     def build(self, state: State, dt: float) -> QPProblem:
@@ -364,35 +371,130 @@ class DifferentialIK:
 
         The state moves by the returned step whatever its status (as :meth:`step`); check
         ``result.success``. The state's previous ``q`` is not modified (``q`` arrays are
-        never written in place).
+        never written in place). Each call returns a new result (a kept result is never
+        changed by a later call).
 
         Args:
             state: current state, moved to the new configuration.
             dt: time step [s].
         """
+        self._acquire()
+        try:
+            # the lean path: one kernel call, everything that depends only on the stack, the
+            # tasks' assignments and the robot's version kept from the step that armed it
+            # (_arm: the same dt, already checked; a state of this robot, checked below)
+            if (
+                dt.__class__ is float
+                and dt == self._lean_dt
+                and type(state) is State
+                and _ASSIGNMENTS[0] == self._lean_assignments
+                and state._robot is self.robot
+                and self.robot._version == self._lean_version
+            ):
+                native = self._native
+                assert native is not None
+                boxes = self._lean_boxes
+                if boxes is None:
+                    hard_boxes, soft_boxes = native.boxes(state, dt)
+                else:
+                    hard_boxes, soft_boxes = boxes
+                has_velocity = state._has_velocity
+                dq = _empty(self._nv)
+                q_next = _empty(native.nq)
+                v_next = _empty(self._nv) if has_velocity else native.no_velocity
+                t0 = _perf_counter()
+                try:
+                    status, iterations, objective, build_time, qp_time, _ = native.advance(
+                        native.model,
+                        state._data,  # made by the state for this robot's model
+                        state._q,
+                        [t._target for t in native.tasks],
+                        hard_boxes,
+                        soft_boxes,
+                        self._damping,
+                        dq,
+                        MAX_ACTIVE_SET_ITERATIONS,
+                        q_next,
+                        v_next,
+                        dt if has_velocity else 0.0,
+                        None,
+                        None,
+                    )
+                except (TypeError, ValueError, RuntimeError):
+                    native.require_targets()  # a task without a target: raises, naming it
+                    raise
+                if status != native.max_iterations:  # the data hold the kinematics of q_next
+                    state._adopt(q_next, v_next if has_velocity else None)
+                    # IKStepResult(True, SOLVED, dq, None, qp, None, build_time, qp_time,
+                    # dt=dt) without its __init__ frame (its fields, nothing shared)
+                    result: IKStepResult = _new(IKStepResult)
+                    result.success = True
+                    result.status = _IK_SOLVED
+                    result.dq = dq
+                    result._velocity = None
+                    result._dt = dt
+                    # the QPResult's fields, made on first access of result.qp
+                    result._qp = (
+                        True,
+                        _UNCONSTRAINED if status == 0 else _SOLVED,
+                        dq,
+                        objective,
+                        iterations,
+                        _perf_counter() - t0,
+                        "native",
+                    )
+                    result.culprits = []
+                    result.build_time = build_time
+                    result.solve_time = qp_time
+                    return result
+                # the active set did not settle (the state has not moved): the Python path
+                self._lean_dt = _NAN
+            return self._advance(state, dt)
+        finally:
+            self._release()
+
+    def _advance(self, state: State, dt: float) -> IKStepResult:
+        """:meth:`advance` with every check (the caller holds the lock); arms the lean path."""
         if type(state) is not State and not isinstance(state, State):
             _require_state(state)
         if dt.__class__ is not float or not 0.0 < dt < _INF:  # NaN fails the comparison
             dt = check_positive(dt, "dt")
-        self._acquire()
-        try:
-            result = None
-            if self._native is not None or (not self._native_checked and self.native):
-                fused = self._fused
-                result = self._solve_native(state, dt, fused)
-                if fused and result is not None:  # the state has moved
-                    return result
-            if result is None:
-                result = self._solve_python(state, dt)
-            dq = result.dq
-            state.update(
-                _integrate(self.robot.model, state._q, dq),
-                dq / dt if state._has_velocity else None,
-                validate=False,
-            )
-            return result
-        finally:
-            self._release()
+        self._lean_dt = _NAN
+        result = None
+        if self._native is not None or (not self._native_checked and self.native):
+            fused = self._fused
+            result = self._solve_native(state, dt, fused)
+            if fused and result is not None:  # the state has moved
+                self._arm(dt)
+                return result
+        if result is None:
+            result = self._solve_python(state, dt)
+        dq = result.dq
+        state.update(
+            _integrate(self.robot.model, state._q, dq),
+            dq / dt if state._has_velocity else None,
+            validate=False,
+        )
+        return result
+
+    def _arm(self, dt: float) -> None:
+        """Arm :meth:`advance`'s lean path after a fused step at ``dt`` (a checked float).
+
+        Only for a stack without inequality rows nor Levenberg-Marquardt damping. What the
+        step read and the lean path keeps: the tasks' weights, gains and damping (until some
+        task attribute is assigned: ``taskspace.tasks.ASSIGNMENTS``), the kernel's copy of
+        the position limits (until the robot's version changes), and the boxes when every
+        box constraint declares that they do not read the state (``bounds_read_state``:
+        until ``dt`` or the robot's version changes).
+        """
+        native = self._native
+        assert native is not None
+        if native.has_rows or native._lm_damping:
+            return
+        self._lean_boxes = native.constant_boxes(dt)
+        self._lean_assignments = native._assignments
+        self._lean_version = self.robot._version
+        self._lean_dt = dt
 
     def _solve_python(self, state: State, dt: float) -> IKStepResult:
         """:meth:`solve` by the Python path (the caller holds the lock)."""
