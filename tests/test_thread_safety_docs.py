@@ -28,17 +28,7 @@ STATEMENT = re.compile(r"thread[ -]safety", re.IGNORECASE)
 EXTRA_MODULES = {"taskspace.tasks": ("Task",)}
 """Public top-level modules without ``__all__`` and the classes they export."""
 
-PENDING: frozenset[str] = frozenset(
-    # taskspace.batch (H4, issue #21)
-    [
-        f"taskspace.batch.{n}"
-        for n in ("BatchError", "BatchOptions", "BatchResult", "BatchStatus", "Executor")
-    ]
-    + ["taskspace.batch.TaskRecord"]
-    # taskspace.ik.differential_ik (edited on another branch): its options, status and step
-    # result do not state it yet (the test reads the defining module, not ik/__init__.py)
-    + [f"taskspace.ik.{n}" for n in ("DifferentialIKOptions", "IKStatus", "IKStepResult")]
-)
+PENDING: frozenset[str] = frozenset()
 
 
 def _subpackages(package: ModuleType) -> Iterator[ModuleType]:

@@ -5,6 +5,9 @@ inputs. ``rng`` is the task's own generator, derived from the run's seed and the
 (``SeedSequence(seed, spawn_key=(index,))``), so the values are the same whatever the backend,
 the number of workers and the chunking. ``context`` is built once per worker by a picklable
 factory (a robot model, a scene) instead of being shipped with every task.
+
+Thread safety: :class:`BatchOptions` is immutable; an :class:`Executor` runs one batch at a time
+(a second concurrent run raises :class:`~taskspace.errors.ConcurrentUseError`).
 """
 
 from __future__ import annotations
@@ -13,6 +16,7 @@ import hashlib
 import math
 import os
 import pickle
+import threading
 import time
 import uuid
 from collections.abc import Callable, Iterator, Sequence
@@ -28,7 +32,7 @@ from taskspace.batch.ray_backend import RayPool, run_ray
 from taskspace.batch.records import BatchError, BatchResult, ResultsFile, TaskRecord, roundtrip
 from taskspace.batch.serial import run_serial
 from taskspace.batch.worker import TaskFunction, run_chunk, worker_context
-from taskspace.errors import InvalidInputError, UnknownNameError
+from taskspace.errors import ConcurrentUseError, InvalidInputError, UnknownNameError
 
 Backend = Literal["serial", "processes", "ray"]
 BACKENDS = ("serial", "processes", "ray")
@@ -127,6 +131,12 @@ class Executor:
 
     Task functions, their inputs and the context factory must be picklable (module-level
     functions, ``functools.partial`` of them) for every backend but ``"serial"``.
+
+    Thread safety: one run at a time per executor. Its workers (processes, Ray actors) are
+    kept between runs and serve one run; a second :meth:`map` or :meth:`as_completed` started
+    while a run is in progress (from another thread, or a second stream interleaved in the
+    same thread) raises :class:`~taskspace.errors.ConcurrentUseError`: use one executor per
+    concurrent run. Options, records and results are plain data.
     """
 
     def __init__(self, options: BatchOptions | None = None) -> None:
@@ -135,6 +145,7 @@ class Executor:
         self._pool = ProcessPool(self.workers, self.options.start_method)
         self._actors = RayPool(self.options.workers, self.options.ray_address)
         self.last_chunk_size = 0
+        self._running = threading.Lock()
 
     def close(self) -> None:
         """Stop the workers kept between runs (processes, or the Ray backend's actors)."""
@@ -186,6 +197,21 @@ class Executor:
                 f"context must be a factory (a callable returning the context), got {context!r}"
             )
         items = list(items)
+        if not self._running.acquire(blocking=False):
+            raise ConcurrentUseError("Executor.map/as_completed (one run at a time per executor)")
+        try:
+            yield from self._run(fn, items, context, results_file, description)
+        finally:
+            self._running.release()
+
+    def _run(
+        self,
+        fn: TaskFunction,
+        items: list[Any],
+        context: Callable[[], Any] | None,
+        results_file: str | os.PathLike[str] | None,
+        description: str,
+    ) -> Iterator[TaskRecord]:
         n = len(items)
         opts = self.options
         if opts.backend == "processes":  # Ray pickles with cloudpickle (lambdas included)

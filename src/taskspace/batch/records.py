@@ -1,4 +1,9 @@
-"""What a batch run returns and writes: one record per task, a result, a JSON Lines store."""
+"""What a batch run returns and writes: one record per task, a result, a JSON Lines store.
+
+Thread safety: :class:`TaskRecord` is immutable and :class:`BatchResult` plain data (not
+locked: do not modify one while another thread reads it); :class:`BatchStatus` is an enum and
+:class:`BatchError` an exception.
+"""
 
 from __future__ import annotations
 

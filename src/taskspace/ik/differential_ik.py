@@ -9,6 +9,12 @@ One step solves
 the linearization of ``min_q |q - q0|^2_W + sum_i rho_i |phi_i(q) - y_i*|^2`` with
 ``W = mu I``. ``dq`` is a tangent vector: the next configuration is ``q (+) dq`` and the
 velocity ``dq / dt``.
+
+Thread safety: :class:`DifferentialIK` serializes ``solve`` and ``advance`` on a lock (each
+thread should still move its own :class:`~taskspace.model.State`); :class:`DifferentialIKOptions`
+is immutable and :class:`IKStatus` an enum; an :class:`IKStepResult` is plain data whose lazy
+``velocity`` and ``qp`` are computed idempotently on first access, so several threads may read
+one result (do not assign its fields while others read it).
 """
 
 from __future__ import annotations
