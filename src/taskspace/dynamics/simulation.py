@@ -345,7 +345,7 @@ def simulate(
                 ) from exc
             if tau.shape != (nv,):
                 raise ShapeError(f"controller torque at t={t:.6g}", (nv,), tau.shape)
-        if not math.isfinite(float(tau @ tau)):
+        if not math.isfinite(float(np.vdot(tau, tau))):
             check_finite(tau, f"controller torque at t={t:.6g}")
         if options.clip_torque:
             tau = np.clip(tau, lo, hi)
