@@ -1423,7 +1423,7 @@ class RRTConnect {
     for (std::size_t i = 0; i < n_nodes; ++i) {
       const auto p0 = Eigen::Map<const VectorXd>(res.path.data() + i * d_, d_);
       ++res.exact_checks;
-      if (ck_.collides(p0, validator_)) return false;
+      if (ck_.collides(p0, kMesh)) return false;
       if (i + 1 == n_nodes) break;
       const auto p1 = Eigen::Map<const VectorXd>(res.path.data() + (i + 1) * d_, d_);
       const int n = lines_.segments((p1 - p0).norm());
@@ -1434,7 +1434,7 @@ class RRTConnect {
       }
       dir_ = p1 - p0;
       const int j = ck_.first_collision(p0.data(), dir_.data(), ts_.data(),
-                                        static_cast<int>(ts_.size()), validator_,
+                                        static_cast<int>(ts_.size()), kMesh,
                                         [] { return false; });
       res.exact_checks += j < 0 ? static_cast<long>(ts_.size()) : j + 1;
       if (j >= 0) return false;
@@ -1657,13 +1657,11 @@ class RRTConnect {
 
   // A solved plan with a sphere checker: the exact checker's verdict on the path (none when
   // it finds a collision, recheck_failed set); then the length of a path that stays.
-  // With validator_ == kSpheres the re-check is skipped: every point of the path has then
-  // been checked by kSpheres already (the fine points by verify) or by kSpheresOnly, whose
-  // "free" implies kSpheres' (it answers "colliding" exactly where kSpheres would run the
-  // narrow phase), and the endpoints by kMesh; a re-check would repeat the same answers.
+  // The re-check is always the exact mesh checker; with validator_ == kSpheres the fine
+  // points were checked by the spheres (then the narrow phase), so they are re-checked too.
   void recheck() {
-    if (res.status == kSolved && checker_ != kMesh && validator_ == kMesh &&
-        !path_valid_exact(lines_.lazy && !direct_)) {
+    if (res.status == kSolved && checker_ != kMesh &&
+        !path_valid_exact(lines_.lazy && !direct_ && validator_ == kMesh)) {
       res.recheck_failed = true;
       res.status = kIterationLimit;
       res.path.clear();

@@ -64,9 +64,8 @@ are free for the spheres, hence free), and says so in ``log["spheres_fallback"]`
 checker stays the final validator: with a sphere checker the lazy fine pass uses it, and the
 returned path's nodes and coarse points (all its points for the straight start-goal line) are
 re-checked with it, so every point of the path at the resolution is checked exactly once.
-``RRTConnectOptions.validator="spheres"`` makes ``"spheres"`` that validator instead (opt-in:
-the same answers, cheaper per path point (the planning suite measures it), but it trusts the sphere model where no
-spheres touch). The sphere checkers check an edge's points in batches of four (kinematics in
+``RRTConnectOptions.validator="spheres"`` makes ``"spheres"`` the checker of the lazy fine pass
+(opt-in); the returned path is then re-checked with the exact checker at every point. The sphere checkers check an edge's points in batches of four (kinematics in
 vector lanes, then the tests point by point with early exit).
 
 Measured times, success rates and check counts (against OMPL and earlier versions) are in
@@ -156,16 +155,14 @@ class RRTConnectOptions:
             a narrow passage; the trees stay, their nodes are free).
             ``log["spheres_fallback"]`` is 1 when it happened and
             ``log["spheres_fallback_iteration"]`` the iteration (-1: none). ``None``: never.
-        validator: with a sphere checker, the checker of the lazy fine pass and of the
-            returned path's re-check (see :data:`VALIDATORS`): ``"mesh"`` (default: the exact
+        validator: with a sphere checker, the checker of the lazy fine pass (see
+            :data:`VALIDATORS`): ``"mesh"`` (default: the exact
             mesh checker, independent of the sphere model) or ``"spheres"`` (the spheres, then
             coal's exact narrow phase where they touch: the same answers, tested against
-            Pinocchio's ``computeCollisions``, at a lower cost per path point; where no spheres
-            touch, "free" rests on the
-            sphere model containing the meshes). With ``"spheres"`` the returned path is not
-            re-checked (``log["exact_recheck_checks"]`` 0): each of its points has then been
-            checked by ``"spheres"`` or by ``"spheres_only"``, whose "free" implies it.
-            Ignored with ``checker="mesh"``.
+            Pinocchio's ``computeCollisions``, at a lower cost per point; where no spheres
+            touch, "free" rests on the sphere model containing the meshes) for the lazy fine
+            pass. The returned path is always re-checked with the exact mesh checker, every
+            point at the full resolution with ``"spheres"``. Ignored with ``checker="mesh"``.
     """
 
     step_size: float = 0.5
