@@ -29,6 +29,7 @@ be shared as long as its model, limits and world are not changed meanwhile).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections.abc import Callable
@@ -418,3 +419,31 @@ def certify_planned(
     result.status = PlannerStatus.UNCERTIFIED
     result.time_s = time.perf_counter() - t0
     return result
+
+
+def plan_certified(space: Any, options: Any, run: Callable[[Any], Any]) -> Any:
+    """:func:`certify_planned` for a planner whose options carry the common fields.
+
+    Attempt ``k`` runs ``run(options)`` with ``seed + k`` and the time left as its limit;
+    ``options`` has ``seed``, ``max_iterations``, ``time_limit_s``, ``certify_retries`` and
+    ``certify_tolerance`` (RRT-Connect, RRT*, BIT*).
+    """
+    from taskspace._validation import check_seed
+    from taskspace.planning.limits import planner_limits
+
+    _, limit = planner_limits(options.max_iterations, options.time_limit_s)
+    seed = check_seed(options.seed)
+
+    def plan(attempt: int, left: float) -> Any:
+        again = dataclasses.replace(
+            options, seed=seed + attempt, time_limit_s=left if math.isfinite(left) else None
+        )
+        return run(again)
+
+    return certify_planned(
+        space,
+        plan,
+        time_limit_s=limit,
+        retries=options.certify_retries,
+        tolerance=options.certify_tolerance,
+    )

@@ -64,8 +64,9 @@ are free for the spheres, hence free), and says so in ``log["spheres_fallback"]`
 checker stays the final validator: with a sphere checker the lazy fine pass uses it, and the
 returned path's nodes and coarse points (all its points for the straight start-goal line) are
 re-checked with it, so every point of the path at the resolution is checked exactly once.
-``RRTConnectOptions.validator="spheres"`` makes ``"spheres"`` the checker of the lazy fine pass
-(opt-in); the returned path is then re-checked with the exact checker at every point. The sphere checkers check an edge's points in batches of four (kinematics in
+``RRTConnectOptions.validator="spheres"`` makes ``"spheres"`` the checker of the lazy fine
+pass (opt-in); the returned path is then re-checked with the exact checker at every point.
+The sphere checkers check an edge's points in batches of four (kinematics in
 vector lanes, then the tests point by point with early exit).
 
 Measured times, success rates and check counts (against OMPL and earlier versions) are in
@@ -88,7 +89,7 @@ import numpy as np
 
 from taskspace._validation import check_count, check_positive, check_seed
 from taskspace.errors import InvalidInputError, PlanningError, UnknownNameError
-from taskspace.planning.certify import certify_planned
+from taskspace.planning.certify import plan_certified
 from taskspace.planning.collision_checker import CollisionChecker
 from taskspace.planning.configuration_space import (
     ConfigurationSpace,
@@ -643,22 +644,7 @@ def rrt_connect(
     opts = options or RRTConnectOptions()
     if not opts.certify:
         return _plan(space, start, goal, opts, rng)
-    _, limit = planner_limits(opts.max_iterations, opts.time_limit_s)
-    seed = check_seed(opts.seed)
-
-    def plan(attempt: int, left: float) -> PlannerResult:
-        again = dataclasses.replace(
-            opts, seed=seed + attempt, time_limit_s=left if math.isfinite(left) else None
-        )
-        return _plan(space, start, goal, again, rng)
-
-    return certify_planned(
-        space,
-        plan,
-        time_limit_s=limit,
-        retries=opts.certify_retries,
-        tolerance=opts.certify_tolerance,
-    )
+    return plan_certified(space, opts, lambda o: _plan(space, start, goal, o, rng))
 
 
 def _plan(

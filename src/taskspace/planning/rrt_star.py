@@ -21,7 +21,6 @@ given. :class:`GoalRegion` is a protocol: implementations state their own (those
 
 from __future__ import annotations
 
-import dataclasses
 import itertools
 import math
 import time
@@ -32,7 +31,7 @@ import numpy as np
 
 from taskspace._validation import check_positive, check_seed
 from taskspace.errors import InvalidInputError
-from taskspace.planning.certify import certify_planned
+from taskspace.planning.certify import plan_certified
 from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray, path_length
 from taskspace.planning.limits import planner_limits
 from taskspace.planning.objectives import (
@@ -230,22 +229,7 @@ def rrt_star(
     opts = options or RRTStarOptions()
     if not opts.certify:
         return _plan(space, start, goal, opts, objective, rng)
-    _, limit = planner_limits(opts.max_iterations, opts.time_limit_s)
-    seed = check_seed(opts.seed)
-
-    def plan(attempt: int, left: float) -> PlannerResult:
-        again = dataclasses.replace(
-            opts, seed=seed + attempt, time_limit_s=left if math.isfinite(left) else None
-        )
-        return _plan(space, start, goal, again, objective, rng)
-
-    return certify_planned(
-        space,
-        plan,
-        time_limit_s=limit,
-        retries=opts.certify_retries,
-        tolerance=opts.certify_tolerance,
-    )
+    return plan_certified(space, opts, lambda o: _plan(space, start, goal, o, objective, rng))
 
 
 def _plan(
