@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections import deque
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -32,6 +33,22 @@ class Chunk:
             r if r.attempts == self.attempts else replace(r, attempts=self.attempts)
             for r in records
         ]
+
+    def crashed_alone(self, retries: int, suspects: deque[Chunk], reason: str) -> list[TaskRecord]:
+        """Count a crash of this chunk's worker while it ran alone (its own fault).
+
+        Retried first (back at the front of ``suspects``) while ``crashes <= retries``, then
+        split into single tasks; a single task that keeps crashing gets failure records
+        (returned; an empty list otherwise).
+        """
+        self.crashes += 1
+        if self.crashes <= retries:
+            suspects.appendleft(self)
+        elif len(self.tasks) > 1:
+            suspects.extendleft(reversed(self.split()))
+        else:
+            return self.died(reason)
+        return []
 
     def died(self, reason: str) -> list[TaskRecord]:
         """Failure records for every task of a chunk whose worker kept dying."""

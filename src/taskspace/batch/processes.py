@@ -122,13 +122,9 @@ def run_processes(
                     records = pool.submit(run_chunk, fn, key, factory, chunk.tasks, seed).result()
                 except BrokenProcessPool as exc:
                     pools.discard()
-                    chunk.crashes += 1
-                    if chunk.crashes <= retries:
-                        suspects.appendleft(chunk)
-                    elif len(chunk.tasks) > 1:
-                        suspects.extendleft(reversed(chunk.split()))
-                    else:
-                        yield chunk.died(f"{exc} (alone, {chunk.crashes} times)")
+                    reason = f"{exc} (alone, {chunk.crashes + 1} times)"
+                    if died := chunk.crashed_alone(retries, suspects, reason):
+                        yield died
                     continue
                 except Exception as exc:  # the records could not be sent back
                     yield chunk.failed(_unsendable(exc))

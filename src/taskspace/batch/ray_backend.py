@@ -316,10 +316,5 @@ def _crashed(
     chunk: Chunk, exc: BaseException, retries: int, suspects: deque[Chunk]
 ) -> Iterator[list[TaskRecord]]:
     """A chunk whose run failed in Ray on its own: retried first, then split, then reported."""
-    chunk.crashes += 1
-    if chunk.crashes <= retries:
-        suspects.appendleft(chunk)
-    elif len(chunk.tasks) > 1:
-        suspects.extendleft(reversed(chunk.split()))
-    else:
-        yield chunk.died(_reason(exc))
+    if died := chunk.crashed_alone(retries, suspects, _reason(exc)):
+        yield died
