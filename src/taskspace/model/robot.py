@@ -1520,17 +1520,25 @@ def _convexify(geometry_model: pin.GeometryModel) -> None:
     """Replace BVH mesh geometries by their convex hulls (qhull), in place.
 
     Not ``buildConvexRepresentation``: it takes the mesh's own triangles as the faces of the
-    polytope (the Panda's collision meshes have 8-41 edges that are not hull edges, vertices up
-    to 1 mm above a face's plane), and coal's support function (hill climbing over that vertex
-    graph) can stop at a vertex that is not the farthest, so GJK/EPA miss contacts:
-    panda_link6_0 19 um inside a box (MotionBenchMaker "cage") was reported 47 um away after a
-    2e-16 change of its placement (issue #22). The hull of the same points has a vertex graph
-    on which the climb reaches the farthest vertex.
+    polytope, and on a mesh that is not convex in that triangulation coal's support function
+    (hill climbing over the vertex graph) can stop at a vertex that is not the farthest, so
+    GJK/EPA miss contacts (issue #22). A mesh whose hull coal cannot represent (a vertex with
+    too many neighbours) keeps its mesh, with a :class:`ModelWarning` naming it.
     """
     for obj in geometry_model.geometryObjects:
         geom = obj.geometry
         if hasattr(geom, "buildConvexHull"):
-            geom.buildConvexHull(True, "Qt")
+            try:
+                geom.buildConvexHull(True, "Qt")
+            except RuntimeError as exc:
+                reason = str(exc).strip().splitlines()[-1]
+                warnings.warn(
+                    f"collision geometry '{obj.name}' keeps its mesh: coal could not build "
+                    f"its convex hull ({reason})",
+                    ModelWarning,
+                    stacklevel=4,
+                )
+                continue
             obj.geometry = geom.convex
 
 
