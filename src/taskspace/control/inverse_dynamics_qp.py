@@ -474,6 +474,20 @@ class InverseDynamicsQP:
         finally:
             self._release()
 
+    @property
+    def releasing(self) -> dict[str, float]:
+        """Contacts being removed with a transition, and their normal-force bound [N].
+
+        The bound of the last :meth:`solve` (of the next one before the first); a contact whose
+        transition ended (bound 0) is still listed, and still in :attr:`contacts`, until the
+        next :meth:`solve` drops it.
+        """
+        self._acquire()
+        try:
+            return {f: r.limit for f, r in self._releases.items()}
+        finally:
+            self._release()
+
     def _drop(self, frame: str) -> None:
         self._contacts = tuple(c for c in self._contacts if c.frame != frame)
         self._releases.pop(frame, None)

@@ -12,22 +12,26 @@ positions of the foot frames on the ground. Per contact phase:
 * a pelvis orientation task (turning with the feet) and a posture task take the remaining
   freedom.
 
-One :class:`~taskspace.control.InverseDynamicsQP` per contact set (both feet, left, right)
-computes the torques; the robot is simulated phase by phase with rigid contacts
-(:func:`~taskspace.control.simulate_with_contacts`), the contact set switched at lift-off and
-touchdown, a landing foot anchored where it touches down. The switches carry force
-transitions, as TSID's contact transitions do: the upper bound of a foot's normal force
-(:meth:`~taskspace.constraints.contact.Contact.set_normal_force_limit`, a row of the QP's
-friction cone) ramps linearly from the foot's current force down to the contacts' minimum
-force over the last ``transition_time`` of the double support before it lifts (the foot leaves
-the ground unloaded), and from the minimum force up to the robot's weight over the first
-``transition_time`` after it touches down (the load builds up at a bounded rate).
+One :class:`~taskspace.control.InverseDynamicsQP` computes the torques of the whole walk; its
+contacts change at run time (:meth:`~taskspace.control.InverseDynamicsQP.remove_contact` at
+lift-off, :meth:`~taskspace.control.InverseDynamicsQP.add_contact` at touchdown) and both feet's
+swing tasks are in it from the start, with weight 0 while the foot is a contact. The robot is
+simulated phase by phase with rigid contacts (:func:`~taskspace.control.simulate_with_contacts`,
+Pinocchio's constraint dynamics), the simulated contact set switched at lift-off and touchdown,
+a landing foot anchored where it touches down. The switches carry force transitions, as TSID's
+contact transitions do: a foot that lifts at the end of a double support is removed with a
+transition (``remove_contact(frame, transition_time, dt)``): over the last ``transition_time``
+of the double support the upper bound of its normal force ramps linearly from its current
+force down to 0 (the foot leaves the ground unloaded); a foot that lands is added with its
+normal-force bound (:attr:`~taskspace.constraints.contact.Contact.max_normal_force`) at the
+contacts' minimum force, raised linearly to the robot's weight over the first
+``transition_time`` of the double support (the load builds up at a bounded rate).
 
 The contacts, their CoP rectangles and the measured ZMP live in the plane of the foot frames
 at the start (for G1 the ankle-roll frames, 35 mm above the soles; for Talos the sole
 frames).
 
-Thread safety: :func:`walk` builds its state, tasks, inverse-dynamics controllers and rollout
+Thread safety: :func:`walk` builds its state, tasks, inverse-dynamics controller and rollout
 per call, so walks may run in several threads (one robot may be shared as far as
 :class:`~taskspace.model.Robot` allows: do not change its model or world meanwhile). Options,
 references and results are immutable.
@@ -83,7 +87,8 @@ class WalkingOptions:
         transition_time: duration of the force ramps at lift-off and touchdown [s] (clipped
             to the double support; 0: no ramps, the contacts switch with whatever force the
             ZMP reference leaves on them).
-        min_force: the contacts' minimum normal force [N] (the lift-off ramp ends there).
+        min_force: the contacts' minimum normal force [N] (the touchdown ramp starts there;
+            the lift-off ramp ends at 0).
     """
 
     feet: tuple[str, str] = ("left_ankle_roll_link", "right_ankle_roll_link")
@@ -120,11 +125,14 @@ class WalkingResult:
         phases: (kind, start, end) of each simulated phase.
         wrenches: per side (``"left"``, ``"right"``), (T, 6) simulated contact wrench in the
             foot frame [N, N m]; zero while the foot swings.
-        control_times: (T,) wall time of each QP solve [s].
+        control_times: wall time of each QP solve [s] (one per applied torque: the last
+            sample of a phase repeats the torque before it, see :func:`walk`).
         message: why the walk stopped early, if it did.
         solves: summary of the QP solves: steps per path and backend (``"compiled
             cholesky"``, ``"compiled proxsuite"``, or the Python path's backends) and the
-            largest KKT residuals (primal, dual, complementarity) of the weighted QPs.
+            largest KKT residuals (primal, dual, complementarity) of the weighted QPs;
+            ``contact_changes``: how often the one controller's contact set changed
+            (``InverseDynamicsQP.contacts_version``).
     """
 
     success: bool
@@ -276,38 +284,50 @@ def walking_reference(
 
 
 @dataclass
-class _ForceRamp:
-    """A linear ramp of a contact's normal-force limit.
+class _TouchdownRamp:
+    """The normal-force bound of a foot that just landed, raised linearly.
 
-    Over ``[start, start + duration]`` (phase time); ``f_start`` ``None``: the controller's
-    force when the ramp starts (TSID's lift-off transition). After the ramp the limit stays at
-    ``f_end`` or, with ``release``, returns to the contact's ``max_force``.
+    From ``contact.min_force`` at phase time 0 to ``f_end`` at ``duration``; after it the bound
+    is the contact's ``max_force`` again.
     """
 
     contact: Contact
-    start: float
     duration: float
     f_end: float
-    f_start: float | None = None
-    release: bool = False
 
-    def apply(self, t: float, last_force: float | None) -> None:
+    def apply(self, t: float) -> None:
         c = self.contact
-        if t < self.start - 1e-12:
-            c.set_normal_force_limit(None)
+        alpha = min(1.0, t / self.duration) if self.duration > 0 else 1.0
+        if alpha >= 1.0:
+            c.max_normal_force = None
             return
-        if self.f_start is None:
-            top = c.max_force if c.max_force is not None else self.f_end
-            self.f_start = min(max(last_force or top, c.min_force), top)
-        alpha = min(1.0, (t - self.start) / self.duration) if self.duration > 0 else 1.0
-        if alpha >= 1.0 and self.release:
-            c.set_normal_force_limit(None)
-            return
-        c.set_normal_force_limit(self.f_start + alpha * (self.f_end - self.f_start))
+        top = c.max_force if c.max_force is not None else self.f_end
+        c.max_normal_force = min(top, c.min_force + alpha * (self.f_end - c.min_force))
+
+
+@dataclass
+class _LiftOff:
+    """A foot removed from the controller with a transition starting at phase step ``start``.
+
+    Its ``steps`` solves end with the step before the phase's last sample, so the next phase
+    (the foot in the air) starts without it.
+    """
+
+    frame: str
+    start: int
+    steps: int
+    dt: float
+    started: bool = False
 
 
 class _PhaseControl:
-    """``tau = control(t, q, v)`` of one contact phase (``t`` from the phase start)."""
+    """``tau = control(t, q, v)`` of one contact phase (``t`` from the phase start).
+
+    One :class:`InverseDynamicsQP` for the whole walk. The phase's last sample (``t`` at its
+    end, ``last_step``) is the first sample of the next phase, whose own solve computes the
+    torque applied from there: the last sample is recorded with the torque before it, so the
+    controller solves once per applied torque and its transitions count applied steps.
+    """
 
     def __init__(
         self,
@@ -316,20 +336,28 @@ class _PhaseControl:
         com_task: Task,
         com_reference: Callable[[float], tuple[FloatArray, FloatArray, FloatArray]],
         start: float,
+        dt: float,
+        last_step: int,
         swing: SwingTrajectory | None,
         swing_tasks: dict[str, Task],
         log: list[float],
-        ramps: list[_ForceRamp],
-        last_forces: dict[str, float],
-        solves: dict[str, Any] | None = None,
+        touchdown: _TouchdownRamp | None,
+        lift_off: _LiftOff | None,
+        solves: dict[str, Any],
+        tau: list[FloatArray],
     ) -> None:
         self.qp, self.state, self.com_task = qp, state, com_task
-        self.com_reference, self.start = com_reference, start
+        self.com_reference, self.start, self.dt = com_reference, start, dt
+        self.last_step = last_step
         self.swing, self.swing_tasks, self.log = swing, swing_tasks, log
-        self.ramps, self.last_forces = ramps, last_forces
-        self.solves: dict[str, Any] = solves if solves is not None else {}
+        self.touchdown, self.lift_off = touchdown, lift_off
+        self.solves = solves
+        self.tau = tau  # [the last applied torque], shared by the phases
 
     def __call__(self, t: float, q: FloatArray, v: FloatArray) -> FloatArray:
+        step = round(t / self.dt)
+        if step >= self.last_step and self.tau:
+            return self.tau[0]
         c, cd, cdd = self.com_reference(self.start + t)
         self.com_task.set_target(c)
         self.com_task.set_reference(cd, cdd)
@@ -338,16 +366,20 @@ class _PhaseControl:
             task = self.swing_tasks[self.swing.land.side]
             task.set_target(s.position[0])
             task.set_reference(s.velocity[0], s.acceleration[0])
-        for ramp in self.ramps:
-            ramp.apply(t, self.last_forces.get(ramp.contact.frame))
+        if self.touchdown is not None:
+            self.touchdown.apply(t)
+        lift = self.lift_off
+        if lift is not None and not lift.started and step >= lift.start:
+            self.qp.remove_contact(lift.frame, lift.steps * lift.dt, lift.dt)
+            lift.started = True
         self.state.update(q, v)
         t0 = time.perf_counter()
         res = self.qp.solve(self.state)
         self.log.append(time.perf_counter() - t0)
         _record_solve(self.solves, res)
-        for frame, f in res.forces.items():
-            self.last_forces[frame] = float(f[2])
-        return np.asarray(res.tau)
+        tau = np.asarray(res.tau)
+        self.tau[:] = [tau]
+        return tau
 
 
 def _record_solve(solves: dict[str, Any], res: Any) -> None:
@@ -438,19 +470,26 @@ def walk(robot: Any, plan: FootstepPlan, options: WalkingOptions | None = None) 
         )
         for s, f in foot_frames.items()
     }
-    controllers: dict[tuple[str, ...], InverseDynamicsQP] = {}
-
-    def controller_for(stance: tuple[str, ...]) -> InverseDynamicsQP:
-        if stance not in controllers:
-            swing = [s for s in ("left", "right") if s not in stance]
-            tasks = [com_task, pelvis_task, posture]
-            for s in swing:
-                tasks += [swing_pos[s], swing_rot[s]]
-            controllers[stance] = InverseDynamicsQP(
-                robot, tasks, [contacts[s] for s in stance], opts.qp
-            )
-        return controllers[stance]
-
+    # one controller for the whole walk: both feet's swing tasks (weight 0 while the foot is a
+    # contact), the contacts of the first phase; lift-off and touchdown change its contacts
+    all_phases = plan.phases()
+    for s in foot_frames:
+        for task in (swing_pos[s], swing_rot[s]):
+            task.weight = 0.0
+            task.set_target_from_state(state)  # the foot where it stands (weight 0 there)
+    qp = InverseDynamicsQP(
+        robot,
+        [com_task, pelvis_task, posture, *swing_pos.values(), *swing_rot.values()],
+        [contacts[f.side] for f in all_phases[0].stance],
+        opts.qp,
+    )
+    corners = np.array(
+        [
+            [sx * opts.sole_half_length, sy * opts.sole_half_width, 0.0]
+            for sx in (-1, 1)
+            for sy in (-1, 1)
+        ]
+    )
     t_all, q_all, v_all, tau_all, com_all, cref_all, zmp_all, margin_all = ([] for _ in range(8))
     control_times: list[float] = []
     solves: dict[str, Any] = {}
@@ -459,11 +498,22 @@ def walk(robot: Any, plan: FootstepPlan, options: WalkingOptions | None = None) 
     worst_cone = -np.inf
     q, v = q0, v0
     message = ""
-    last_forces: dict[str, float] = {}
-    all_phases = plan.phases()
+    applied: list[FloatArray] = []
+    height = float(np.mean(list(ground.values())))
     for index, phase in enumerate(all_phases):
         stance_sides = tuple(f.side for f in phase.stance)
-        qp = controller_for(stance_sides)
+        last = index == len(all_phases) - 1
+        steps = round((phase.end - phase.start) / opts.dt)  # simulate_with_contacts' steps
+        active = set(qp.contacts)
+        for s in foot_frames:  # the contact set of this phase
+            c = contacts[s]
+            if s in stance_sides and c not in active:
+                qp.add_contact(c)  # touchdown (its bound: see _TouchdownRamp)
+            elif s not in stance_sides and c in active and c.frame not in qp.releasing:
+                qp.remove_contact(c.frame)  # lift-off without a transition
+            weight_s = 0.0 if s in stance_sides else opts.foot_weight
+            swing_pos[s].weight = weight_s
+            swing_rot[s].weight = weight_s
         swing_traj = None
         if phase.kind is PhaseKind.SINGLE_SUPPORT and phase.swing is not None:
             land = phase.swing[1]
@@ -481,70 +531,72 @@ def walk(robot: Any, plan: FootstepPlan, options: WalkingOptions | None = None) 
         )
         pelvis_task.set_target(_yaw_rotation(heading) @ pelvis0)
         t_phase0 = phase.start
-
-        duration = phase.end - phase.start
-        ramps = _transition_ramps(
-            all_phases, index, contacts, opts.transition_time, weight, opts.dt
-        )
+        touchdown, lift_off = _transitions(all_phases, index, contacts, opts, weight, steps)
         for c in contacts.values():
-            c.set_normal_force_limit(None)
+            c.max_normal_force = None
         control = _PhaseControl(
             qp,
             state,
             com_task,
             com_reference,
             t_phase0,
+            opts.dt,
+            steps + 1 if last else steps,
             swing_traj,
             swing_pos,
             control_times,
-            ramps,
-            last_forces,
+            touchdown,
+            lift_off,
             solves,
+            applied,
         )
-
         roll = simulate_with_contacts(
             robot,
             control,
             q,
             v,
-            duration,
+            phase.end - phase.start,
             opts.dt,
             [contacts[s] for s in stance_sides],
         )
+        # the last sample of a phase is the next phase's first (same state; its torque is
+        # computed and applied there): kept only at the end of the walk
+        keep = len(roll.t) if last else len(roll.t) - 1
         phases_done.append((phase.kind.value, phase.start, phase.end))
-        worst_cone = max(worst_cone, *roll.cone_violations.values())
         for side in ("left", "right"):
             frame = foot_frames[side]
             wrench_log[side].append(
-                roll.forces[frame] if side in stance_sides else np.zeros((len(roll.t), 6))
+                roll.forces[frame][:keep] if side in stance_sides else np.zeros((keep, 6))
             )
-        for k in range(len(roll.t)):
+        for s in stance_sides:  # the cones the controller gave the QP
+            K, k_min = contacts[s].cone()
+            f = roll.forces[foot_frames[s]][:keep]
+            bound = k_min - f.dot(K.T)
+            if lift_off is not None and lift_off.frame == foot_frames[s]:
+                # released: its minimum normal force is 0 from the transition's first step
+                normal = np.all(K == np.eye(K.shape[1])[2], axis=1) & (k_min > 0)
+                bound[lift_off.start :, normal] -= k_min[normal]
+            worst_cone = max(worst_cone, float(bound.max(initial=-np.inf)))
+        for k in range(keep):
             wrenches = []
             pts = []
             for s in stance_sides:
                 frame = foot_frames[s]
                 M = robot.frame_placement(roll.q[k], frame)
                 wrenches.append(ContactWrench.from_local(M, roll.forces[frame][k]))
-                corners = np.array(
-                    [
-                        [sx * opts.sole_half_length, sy * opts.sole_half_width, 0.0]
-                        for sx in (-1, 1)
-                        for sy in (-1, 1)
-                    ]
-                )
                 pts.append(corners @ M.rotation.T + M.translation)
             try:
-                z = zmp_from_wrenches(wrenches, height=float(np.mean(list(ground.values()))))[:2]
+                z = zmp_from_wrenches(wrenches, height=height)[:2]
             except InvalidInputError:
                 z = np.full(2, np.nan)
             zmp_all.append(z)
             margin_all.append(SupportPolygon.from_points(np.vstack(pts)).margin(z))
             cref_all.append(com_reference(t_phase0 + roll.t[k])[0])
-        t_all.append(t_phase0 + roll.t)
-        q_all.append(roll.q)
-        v_all.append(roll.v)
-        tau_all.append(roll.tau)
-        com_all.append(roll.com)
+        t_all.append(t_phase0 + roll.t[:keep])
+        q_all.append(roll.q[:keep])
+        v_all.append(roll.v[:keep])
+        tau_all.append(roll.tau[:keep])
+        com_all.append(roll.com[:keep])
         q, v = roll.q[-1], roll.v[-1]
         if not np.isfinite(q).all() or roll.com[-1, 2] < 0.5 * c0[2]:
             message = (
@@ -552,7 +604,8 @@ def walk(robot: Any, plan: FootstepPlan, options: WalkingOptions | None = None) 
             )
             break
     for c in contacts.values():
-        c.set_normal_force_limit(None)
+        c.max_normal_force = None
+    solves["contact_changes"] = qp.contacts_version
     margins = np.array(margin_all)
     ok = (
         not message
@@ -579,31 +632,29 @@ def walk(robot: Any, plan: FootstepPlan, options: WalkingOptions | None = None) 
     )
 
 
-def _transition_ramps(
+def _transitions(
     phases: list[Any],
     index: int,
     contacts: Mapping[str, Contact],
-    transition_time: float,
+    opts: WalkingOptions,
     weight: float,
-    dt: float,
-) -> list[_ForceRamp]:
-    """The force ramps of double-support phase ``index``.
+    steps: int,
+) -> tuple[_TouchdownRamp | None, _LiftOff | None]:
+    """The force transitions of double-support phase ``index`` (``steps`` control steps).
 
-    Down for a foot that lifts at its end, up for a foot that landed at its start.
+    Up for a foot that landed at its start, down (a removal with a transition) for a foot that
+    lifts at its end: its last transition step is the phase's last applied step.
     """
     phase = phases[index]
-    if transition_time <= 0 or phase.kind is not PhaseKind.DOUBLE_SUPPORT:
-        return []
-    # the simulated phase: a whole number of control steps (simulate_with_contacts)
-    duration = round((phase.end - phase.start) / dt) * dt
-    ramp = min(transition_time, duration)
-    ramps = []
+    if opts.transition_time <= 0 or phase.kind is not PhaseKind.DOUBLE_SUPPORT or steps < 1:
+        return None, None
+    n = max(1, min(steps, round(opts.transition_time / opts.dt)))
     before = phases[index - 1] if index > 0 else None
     after = phases[index + 1] if index + 1 < len(phases) else None
+    touchdown = lift_off = None
     if before is not None and before.swing is not None:
-        c = contacts[before.swing[1].side]
-        ramps.append(_ForceRamp(c, 0.0, ramp, weight, f_start=c.min_force, release=True))
+        touchdown = _TouchdownRamp(contacts[before.swing[1].side], n * opts.dt, weight)
     if after is not None and after.swing is not None:
-        c = contacts[after.swing[1].side]
-        ramps.append(_ForceRamp(c, duration - ramp, ramp, c.min_force))
-    return ramps
+        frame = contacts[after.swing[1].side].frame
+        lift_off = _LiftOff(frame, steps - n, n, opts.dt)
+    return touchdown, lift_off
