@@ -18,7 +18,11 @@ every polygon is padded to the same number of rows).
 Everything but the linear term and the polygon rows is built once (the condensed prediction,
 ``H`` and its Cholesky factor); a step writes ``g``, ``C`` and ``u`` into reused buffers, and
 the unconstrained minimizer (from the kept factor) is taken without calling the QP solver when
-it satisfies the polygon rows, as the solver's own first try would.
+it satisfies the polygon rows and its KKT residuals meet the tolerances, as the solver's own
+first try would. Every step's KKT residuals are in the result (``ZmpMpcResult.kkt``): each
+step is solved (``SOLVED``, or ``UNCONSTRAINED`` for the shortcut) only with primal, dual and
+complementarity residuals within ``ZmpMpcOptions.qp``'s ``eps_abs + eps_rel * scale`` (see
+:mod:`taskspace.qp.kkt`), as every QP of the library.
 
 Thread safety: :class:`ZmpMpc` serializes its runs with a lock (see there); options and results
 are immutable and :func:`mpc_walking_pattern` builds its own controller per call.
@@ -48,9 +52,13 @@ from taskspace.locomotion.preview_control import (
 from taskspace.locomotion.support_polygon import SupportPolygon
 from taskspace.locomotion.zmp_reference import SoleSize, support_polygons, zmp_reference
 from taskspace.qp import INF, QPProblem, QPSolver, QPSolverOptions, QPStatus
+from taskspace.qp.kkt import KKTResiduals
 
 MAX_EDGES = 8
 """Rows reserved per predicted sample for the support polygon (a hull of two soles)."""
+
+
+_max = np.maximum.reduce
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -92,12 +100,28 @@ class ZmpMpcResult:
         statuses: QP status of every step.
         active_steps: number of steps where a ZMP constraint was active.
         solve_times: (T,) QP time per step [s].
+        kkt: the KKT residuals of every step's QP (primal, dual, complementarity, duality
+            gap and their scales, :class:`~taskspace.qp.kkt.KKTResiduals`); a step is solved
+            only when they are within the QP options' tolerances.
     """
 
     trajectory: LipmTrajectory
     statuses: list[QPStatus]
     active_steps: int
     solve_times: FloatArray
+    kkt: tuple[KKTResiduals, ...] = ()
+
+    @property
+    def max_kkt(self) -> dict[str, float]:
+        """The largest KKT residuals over the run: ``primal``, ``dual``, ``complementarity``.
+
+        NaN when a step has none (or the run has no step).
+        """
+        out = {}
+        for name in ("primal", "dual", "complementarity"):
+            values = np.array([getattr(k, name) for k in self.kkt], dtype=float)
+            out[name] = float(np.max(values)) if values.size else float("nan")
+        return out
 
     @property
     def success(self) -> bool:
@@ -161,6 +185,9 @@ class ZmpMpc:
         # Cholesky factor of the constant H for the unconstrained shortcut of simulate()
         chol, info = dpotrf(self._H, lower=0)
         self._chol: FloatArray | None = chol if info == 0 else None
+        # rows H x, H x + g, x, g of the shortcut's residuals (one abs, one max for all)
+        self._kkt_rows = np.empty((4, 2 * N))
+        self._kkt_abs = np.empty((4, 2 * N))
         # id(polygon) -> (polygon, A, b, padded A, padded b); the polygon is kept so that its
         # id stays its own. Padded: (MAX_EDGES, 2) / (MAX_EDGES,), rows past the edges are
         # zero with b = +inf (an unbounded row).
@@ -257,22 +284,40 @@ class ZmpMpc:
         self._halfspace_cache[id(poly)] = entry
         return entry
 
-    def _unconstrained(self, problem: QPProblem) -> FloatArray | None:
-        """The unconstrained minimizer ``-H^-1 g`` if it satisfies the polygon rows.
+    def _unconstrained(self, problem: QPProblem) -> tuple[FloatArray, KKTResiduals] | None:
+        """The unconstrained minimizer ``-H^-1 g`` and its KKT residuals, if it is the answer.
 
         :class:`~taskspace.qp.QPSolver`'s first try (``try_unconstrained``: LAPACK's ``dposv``,
         i.e. ``dpotrf`` + ``dpotrs``) with the factor of the constant ``H`` kept: the same point,
         without refactorizing ``H`` every step. ``None``: a row is violated by more than
-        ``feasibility_tolerance`` (or NaN), the QP solver decides.
+        ``feasibility_tolerance`` (or NaN), or the residuals (zero multipliers: the dual
+        residual is ``|H x + g|``) exceed the tolerances; the QP solver decides.
         """
         x, info = dpotrs(self._chol, -problem.g, lower=0)
         if info != 0:
             return None
+        violation = 0.0
         if problem.C.shape[0]:
-            violation = float(np.max(problem.C @ x - problem.u))
+            violation = max(0.0, float(np.max(problem.C @ x - problem.u)))
             if not violation <= self.options.qp.feasibility_tolerance:
                 return None
-        return np.asarray(x)
+        x = np.asarray(x)
+        # taskspace.qp.kkt.equality_kkt_residuals without equalities, in fewer NumPy calls
+        rows, g = self._kkt_rows, problem.g
+        Hx, stationarity = rows[0], rows[1]
+        Hx[:] = problem.H.dot(x)  # dot's out= misses the BLAS path: slower here
+        np.add(Hx, g, out=stationarity)
+        rows[2] = x
+        rows[3] = g
+        np.abs(rows, out=self._kkt_abs)
+        hx, dual, xs, gs = _max(self._kkt_abs, axis=1).tolist()
+        xHx, gx = float(x.dot(Hx)), float(g.dot(x))
+        kkt = KKTResiduals(
+            violation, dual, 0.0, abs(xHx + gx), xs, max(hx, gs), max(1.0, abs(xHx), abs(gx))
+        )
+        if not kkt.within(self.options.qp.eps_abs, self.options.qp.eps_rel):
+            return None
+        return x, kkt
 
     def simulate(
         self,
@@ -319,6 +364,7 @@ class ZmpMpc:
         x_prev, u = x.copy(), np.zeros(2)
         states, jerk = np.empty((T, 3, 2)), np.empty((T, 2))
         statuses, times, active = [], np.empty(T), 0
+        kkts: list[KKTResiduals] = []
         # padded half-spaces of every sample once; a step takes a window of them
         Ah_all, bh_all = self._padded(polys) if polys and constrain else (None, None)
         problem: QPProblem | None = None
@@ -334,23 +380,26 @@ class ZmpMpc:
                 Ah, bh = Ah_all[k + 1 : k + N + 1], bh_all[k + 1 : k + N + 1]
                 problem = self._fill(xt, padded[k : k + N + 1], Ah, bh, problem)
             t0 = time.perf_counter()
-            sol = self._unconstrained(problem) if shortcut else None
-            if sol is None:
+            quick = self._unconstrained(problem) if shortcut else None
+            if quick is None:
                 res = self._solver.solve(problem)
                 if not res.success:
                     raise SolverError(f"ZMP MPC QP failed at step {k} ({res.status.value})")
-                sol, status = res.x, res.status
+                sol, status, kkt = res.x, res.status, res.kkt
             else:
-                status = QPStatus.UNCONSTRAINED
+                (sol, kkt), status = quick, QPStatus.UNCONSTRAINED
             times[k] = time.perf_counter() - t0
             statuses.append(status)
+            kkts.append(kkt)
             if problem.C.shape[0] and np.any(problem.C @ sol >= problem.u - 1e-7):
                 active += 1
             u = u + np.array([sol[0], sol[N]])
             jerk[k] = u
             x_prev = x
             x = A @ x + np.outer(B, u)
-        return ZmpMpcResult(_trajectory(self.model, states, r, jerk), statuses, active, times)
+        return ZmpMpcResult(
+            _trajectory(self.model, states, r, jerk), statuses, active, times, tuple(kkts)
+        )
 
 
 def mpc_walking_pattern(
