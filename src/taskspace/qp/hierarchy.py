@@ -293,12 +293,26 @@ def _level_step(
     QR when ``JZ`` is well conditioned, pivoted QR when it is clearly rank-deficient, else
     the damped SVD ``z = V diag(s / (s^2 + mu)) U^T res`` with rank cut at ``tol``.
     """
+    return _damped_level_step(JZ, res, mu, tol)[:2]
+
+
+def _damped_level_step(
+    JZ: FloatArray, res: FloatArray, mu: float, tol: float
+) -> tuple[FloatArray, FloatArray, float]:
+    """:func:`_level_step` and the damping its step minimizes with.
+
+    The QR steps are the least-norm minimizers of the undamped ``|JZ z - res|^2`` (damping
+    0: the limit of the damped minimizer as ``mu -> 0``; they differ by about ``mu /
+    s_min^2`` relative, ``s_min`` the smallest singular value of ``JZ``); the SVD step is the
+    damped one (``mu``).
+    """
     step = _qr_level(JZ, res)
     if step is None:
         step = _pivoted_qr_level(JZ, res, tol)
     if step is not None:
-        return step
-    return _svd_level(JZ, res, mu, tol)
+        return step[0], step[1], 0.0
+    z, basis = _svd_level(JZ, res, mu, tol)
+    return z, basis, mu
 
 
 def _svd_level(
@@ -360,7 +374,12 @@ class _ClosedFormLevelResult(QPResult):
 
     The level's QP is its damped least-squares problem ``min 1/2 |JZ z - res|^2 + mu/2
     |z|^2`` with every inequality inactive (all multipliers zero); ``x`` is the level's step
-    ``z``. ``objective`` and ``kkt`` (:func:`~taskspace.qp.kkt.least_squares_kkt_residuals`,
+    ``z``. ``mu`` is the damping the step minimizes with: 0 for a level solved by QR (the
+    least-norm minimizer of the undamped problem, as exact as the factorization: the damped
+    minimizer differs from it by about ``mu / s_min^2`` relative, ``s_min`` the smallest
+    singular value of ``JZ``), the level's damping for a damped SVD step and for the last level
+    (Cholesky of the damped normal equations). ``objective`` and ``kkt``
+    (:func:`~taskspace.qp.kkt.least_squares_kkt_residuals`,
     the primal residual being the largest violation of the bounds, hard rows and the level's
     inequalities at the cascade's point) are computed on first access: most steps never read
     them.
@@ -703,7 +722,7 @@ class HierarchySolver:
                     # the undamped QR step would ignore it
                     z, basis = _svd_level(JZ, res, mu, tol)
                 else:
-                    z, basis = _level_step(JZ, res, mu, tol)
+                    z, basis, mu = _damped_level_step(JZ, res, mu, tol)
                 x = x + (z if Z is None else Z @ z)
                 if k < last:
                     Z = basis if Z is None else Z @ basis
