@@ -74,11 +74,55 @@ def test_errors() -> None:
     com = Task(F.CenterOfMass(robot))
     with pytest.raises(TaskspaceError, match="not one of"):
         InverseDynamicsQP(robot, [com], [Contact6D(robot, FEET[1])], pressure_tasks=[task])
-    with pytest.raises(TaskspaceError, match="weighted mode"):
-        InverseDynamicsQP(
-            robot,
-            [com],
-            [contact],
-            InverseDynamicsOptions(hierarchical=True),
-            pressure_tasks=[task],
-        )
+    for bad in (-1, 1.5, "x", None):
+        with pytest.raises(TaskspaceError, match="priority"):
+            task.priority = bad  # type: ignore[assignment]
+    assert task.priority == 0
+
+
+def _hierarchy(cop_priority: int | None, target=(0.03, 0.01)):  # type: ignore[no-untyped-def]
+    robot = load_robot("g1")
+    s = robot.state(robot.q_default, np.zeros(robot.nv))
+    contacts = [Contact6D(robot, f, half_length=0.1, half_width=0.03) for f in FEET]
+    com = Task(F.CenterOfMass(robot), kp=10.0, priority=0)
+    com.set_target_from_state(s)
+    com.set_target(com.target + np.array([0.01, -0.005, 0.0]))
+    posture = Task(F.JointConfiguration(robot), robot.q_default, weight=1e-2, kp=30.0, priority=2)
+    cops = []
+    if cop_priority is not None:
+        cops = [CenterOfPressureTask(contacts[0], target, priority=cop_priority)]
+    options = InverseDynamicsOptions(hierarchical=True)
+    ctrl = InverseDynamicsQP(robot, [com, posture], contacts, options, pressure_tasks=cops)
+    return robot, s, ctrl
+
+
+@pytest.mark.parametrize("priority", [0, 1])
+def test_center_of_pressure_task_in_a_strict_hierarchy(priority: int) -> None:
+    """Hierarchical mode: the CoP task's rows join the level of its priority. Below the CoM
+    task it leaves the CoM level's outcome as without it (strict priority) and reaches its
+    target exactly (the analytic CoP of the returned wrench); the torques are Pinocchio's
+    RNEA with the contact forces."""
+    target = (0.03, 0.01)
+    robot, s, ctrl = _hierarchy(priority, target)
+    res = ctrl.solve(s)
+    assert res.success, res.status
+    for lr in res.level_results:
+        assert lr.kkt.within(1e-9, 1e-6), lr.kkt
+    f = res.forces[FEET[0]]
+    np.testing.assert_allclose(_cop(f), target, atol=1e-7)
+    model, data = robot.model, robot.model.createData()
+    rhs = pin.rnea(model, data, s.q, s.v, res.a)
+    pin.computeJointJacobians(model, data, s.q)
+    pin.updateFramePlacements(model, data)
+    for frame, wrench in res.forces.items():
+        rhs -= pin.getFrameJacobian(model, data, robot.frame_id(frame), pin.LOCAL).T @ wrench
+    np.testing.assert_allclose(rhs[:6], 0.0, atol=1e-6)
+    np.testing.assert_allclose(res.tau[6:], rhs[6:], atol=1e-6)
+    # without the task the CoP is elsewhere; the CoM level's residual is the same when the CoP
+    # task is below it
+    _, _, plain = _hierarchy(None)
+    base = plain.solve(s)
+    assert np.abs(_cop(base.forces[FEET[0]]) - target).max() > 5e-3
+    if priority == 1:
+        assert res.residuals[0] == pytest.approx(base.residuals[0], abs=1e-9)
+        assert len(res.level_results) == len(base.level_results) + 1

@@ -20,8 +20,9 @@ the task priorities, as a cascade of QPs of any depth).
 Thread safety: :class:`InverseDynamicsQP` serializes its calls with a lock (see there);
 :class:`InverseDynamicsOptions` and :class:`InverseDynamicsStatus` are immutable; an
 :class:`InverseDynamicsResult` is plain result data, not locked. A :class:`CenterOfPressureTask` is
-mutable and not locked: its ``target``/``weight`` setters replace one attribute at a time (a reader
-sees the old or the new value), so set them from the thread that steps the controller.
+mutable and not locked: its ``target``/``weight``/``priority`` setters replace one attribute at
+a time (a reader sees the old or the new value), so set them from the thread that steps the
+controller.
 """
 
 from __future__ import annotations
@@ -36,7 +37,7 @@ from typing import NoReturn, cast
 import numpy as np
 import pinocchio as pin
 
-from taskspace._validation import FloatArray, as_vector, check_positive
+from taskspace._validation import FloatArray, as_vector, check_int, check_positive
 from taskspace.constraints.contact import Contact, Contact6D
 from taskspace.control._native_idqp import NativeInverseDynamics, unsupported
 from taskspace.errors import InvalidInputError
@@ -181,16 +182,19 @@ class CenterOfPressureTask:
     ``p = (-tau_y / f_z, tau_x / f_z)``; the task is the linear least-squares term
     ``weight (|tau_x - p*_y f_z|^2 + |tau_y + p*_x f_z|^2) / (m g)^2`` on the force
     variables (``m g``: the robot's weight [N], as in the force regularization), which is zero
-    exactly when ``p = p*`` (TSID's ``TaskCopEquality``). Weighted mode of
-    :class:`InverseDynamicsQP` only.
+    exactly when ``p = p*`` (TSID's ``TaskCopEquality``). In hierarchical mode
+    (``InverseDynamicsOptions(hierarchical=True)``) its two rows, scaled by ``sqrt(weight) /
+    (m g)``, join the level of its ``priority`` beside the tasks of that priority (a level of
+    their own if no task has it).
 
     Attributes:
         contact: the :class:`~taskspace.constraints.Contact6D` whose center of pressure is
             driven.
         name: label.
 
-    ``target`` (``p*`` in the contact frame, x and y [m]) and ``weight`` (precision, finite
-    and ``>= 0``) are properties validated on assignment.
+    ``target`` (``p*`` in the contact frame, x and y [m]), ``weight`` (precision, finite
+    and ``>= 0``) and ``priority`` (level in a strict hierarchy, an integer ``>= 0``, 0 the
+    highest; ignored in weighted mode) are properties validated on assignment.
     """
 
     def __init__(
@@ -199,6 +203,7 @@ class CenterOfPressureTask:
         target: object = (0.0, 0.0),
         *,
         weight: float = 1.0,
+        priority: int = 0,
         name: str | None = None,
     ) -> None:
         if not isinstance(contact, Contact6D):
@@ -210,6 +215,19 @@ class CenterOfPressureTask:
         self.name = name or f"center of pressure({contact.frame})"
         self.target = target  # type: ignore[assignment]
         self.weight = weight
+        self.priority = priority
+
+    @property
+    def priority(self) -> int:
+        """Level in a strict hierarchy (0 = highest; ignored in weighted mode)."""
+        return self._priority
+
+    @priority.setter
+    def priority(self, value: int) -> None:
+        p = check_int(value, f"priority of '{self.name}'")
+        if p < 0:
+            raise InvalidInputError(f"priority of '{self.name}' must be >= 0, got {p}")
+        self._priority = p
 
     @property
     def target(self) -> FloatArray:
@@ -312,7 +330,7 @@ class InverseDynamicsQP:
         tasks: tasks with targets and PD gains (``Task.kp``, ``Task.kd``).
         contacts: active contacts.
         options: settings.
-        pressure_tasks: center-of-pressure tasks on some of ``contacts`` (weighted mode).
+        pressure_tasks: center-of-pressure tasks on some of ``contacts``.
     """
 
     def __init__(
@@ -340,11 +358,6 @@ class InverseDynamicsQP:
                     f"'{pt.name}': its contact is not one of this controller's contacts "
                     f"({[c.name for c in self.contacts]})"
                 )
-        if self.pressure_tasks and self.options.hierarchical:
-            raise InvalidInputError(
-                "center-of-pressure tasks are served in weighted mode only: use "
-                "InverseDynamicsOptions(hierarchical=False)"
-            )
         check_positive(self.options.limits_horizon, "limits_horizon")
         if not self.tasks:
             raise InvalidInputError("InverseDynamicsQP needs at least one task")
@@ -614,7 +627,7 @@ class InverseDynamicsQP:
         self._task_rows = TaskRowStack(self.tasks, nv)
         self._level_key: tuple[int, ...] | None = None
         self._levels: list[HierarchyLevel] = []
-        self._level_slices: list[slice] = []
+        self._level_slices: list[tuple[slice, list[CenterOfPressureTask]]] = []
         self._level_rows = self._task_rows
         # per-step buffers, refilled in place (the force block of H is constant)
         self._H = self._reg.copy()
@@ -915,9 +928,18 @@ class InverseDynamicsQP:
         A, b, _ = self._equalities(state, M, h, Jc)
         C, l, u, _ = self._inequalities(M, h, Jc)
         levels = self._hierarchy_levels()
-        Jt, _ = self._level_rows.acceleration(state)
-        for level, rows in zip(levels, self._level_slices):
-            level.J[:, :nv] = Jt[rows]  # level.r is a view into the stack's rhs
+        Jt, rt = self._level_rows.acceleration(state)
+        scale = 1.0 / max(self._weight, 1e-9)
+        for level, (rows, cops) in zip(levels, self._level_slices):
+            if not cops:
+                level.J[:, :nv] = Jt[rows]  # level.r is a view into the stack's rhs
+                continue
+            d = rows.stop - rows.start  # task rows, then two rows per center-of-pressure task
+            level.J[:d, :nv] = Jt[rows]
+            level.r[:d] = rt[rows]
+            for i, pt in enumerate(cops):
+                block = level.J[d + 2 * i : d + 2 * i + 2]
+                block[:, self._force_cols[id(pt.contact)]] = np.sqrt(pt.weight) * scale * pt.rows()
         lb, ub = self._acceleration_bounds(state)
         t1 = time.perf_counter()
         result = self._hierarchy.solve(levels, n, lb=lb, ub=ub, C=C, l=l, u=u, A=A, b=b)
@@ -929,26 +951,30 @@ class InverseDynamicsQP:
         return out
 
     def _hierarchy_levels(self) -> list[HierarchyLevel]:
-        """Levels of the cascade (one per task priority, then the force regularization).
+        """Levels of the cascade (one per priority, then the force regularization).
 
         Built once (again if a task's priority changed): their arrays are buffers refilled at
         every step, the task rows by one :class:`~taskspace.qp.rows.TaskRowStack` ordered by
-        priority.
+        priority, then two rows per center-of-pressure task of that priority (on its contact's
+        force variables, right-hand side 0).
         """
-        key = tuple(t.priority for t in self.tasks)
+        key = tuple(t.priority for t in self.tasks) + tuple(
+            -1 - pt.priority for pt in self.pressure_tasks
+        )
         if key == self._level_key:
             return self._levels
         nv, n = self.robot.nv, self.n
         ordered = sorted(self.tasks, key=lambda t: t.priority)
         self._level_rows = TaskRowStack(ordered, nv)
         levels, slices, row = [], [], 0
-        for p in sorted(set(key)):
+        priorities = {t.priority for t in self.tasks} | {pt.priority for pt in self.pressure_tasks}
+        for p in sorted(priorities):
             d = sum(t.dim for t in ordered if t.priority == p)
             rows = slice(row, row + d)
-            levels.append(
-                HierarchyLevel(f"priority {p}", np.zeros((d, n)), self._level_rows.rhs[rows])
-            )
-            slices.append(rows)
+            cops = [pt for pt in self.pressure_tasks if pt.priority == p]
+            r = self._level_rows.rhs[rows] if not cops else np.zeros(d + 2 * len(cops))
+            levels.append(HierarchyLevel(f"priority {p}", np.zeros((r.size, n)), r))
+            slices.append((rows, cops))
             row += d
         # last level: force regularization (distributes forces when contacts are redundant)
         if self.nf:
