@@ -74,14 +74,29 @@ class NativeInverseDynamics:
     def __init__(self, controller: InverseDynamicsQP) -> None:
         module = idqp_kernel()
         assert module is not None
-        robot = controller.robot
-        model = robot.model
         self.module = module
-        self.model = model
-        self.robot = robot
+        self.model = controller.robot.model
+        self.robot = controller.robot
         self.controller = controller
+        self._all_tasks: list[Task] = list(controller.tasks)
+        self._build()
+
+    def _build(self) -> None:
+        """The kernel for the controller's tasks of nonzero weight (all tasks if none has one).
+
+        A task of weight 0 adds nothing to the QP (its rows are scaled by 0): the kernel leaves
+        it out, so tasks kept at weight 0 while unused (a swing foot's tasks while the foot is
+        a contact) cost nothing; :meth:`solve` rebuilds the kernel when a weight changes to or
+        from 0.
+        """
+        module, model, robot, controller = self.module, self.model, self.robot, self.controller
+        self._all_weights = [t.sqrt_weight for t in self._all_tasks]
+        self._weighted = [bool(np.any(w)) for w in self._all_weights]
         kernel = module.InverseDynamicsKernel(model)
-        self.tasks: list[Task] = list(controller.tasks)
+        self.tasks: list[Task] = [t for t, on in zip(self._all_tasks, self._weighted) if on]
+        if not self.tasks:
+            self.tasks = list(self._all_tasks)
+        self._skipped = [t for t in self._all_tasks if t not in self.tasks]
         for t in self.tasks:
             term = compiled_term(t.feature)
             assert term is not None
@@ -161,6 +176,14 @@ class NativeInverseDynamics:
         set, ``compiled active set``; when that fails, proxsuite refined on its active set,
         ``compiled proxsuite``), all certified by the residuals.
         """
+        # a weight reassigned to or from 0: the kernel's task set changes
+        for t, w in zip(self._all_tasks, self._all_weights):
+            if t.sqrt_weight is not w:
+                self._reweigh()
+                break
+        for t in self._skipped:  # a task left out still needs its target, as on every path
+            if t._target is None:
+                t._require_target()
         # one pass over the tasks: reassigned weights or gains (sent again), targets, offsets
         keys = self._task_keys
         resend = not keys
@@ -251,6 +274,14 @@ class NativeInverseDynamics:
             z_box=z_box,
         )
         return result, tau, t_build, t_solve
+
+    def _reweigh(self) -> None:
+        """Weights were reassigned: rebuild the kernel if a task's weight became or left 0."""
+        weights = [t.sqrt_weight for t in self._all_tasks]
+        if [bool(np.any(w)) for w in weights] != self._weighted:
+            self._build()
+        else:
+            self._all_weights = weights
 
     def problem(self) -> tuple[np.ndarray, ...]:
         """The QP of the last step: ``(H, g, A, b, C, l, u, lb, ub)`` (copies)."""
