@@ -53,6 +53,7 @@ ROBOT_EXAMPLES = {
     "planar_3link_nullspace",
     "panda_dmp_obstacle",
     "g1_walking",
+    "solo12_trot",
     "panda_shelf",
     "panda_path_optimization",
     "panda_pipeline",

@@ -35,6 +35,7 @@ from taskspace.locomotion.preview_control import (
     WalkingPattern,
     preview_walking_pattern,
 )
+from taskspace.locomotion.quadruped_trot import TrotOptions, TrotResult, trot
 from taskspace.locomotion.raibert_hopper import (
     HopperParameters,
     HopperResult,
@@ -100,6 +101,8 @@ __all__ = [
     "SupportPolygon",
     "SwingSample",
     "SwingTrajectory",
+    "TrotOptions",
+    "TrotResult",
     "WalkingOptions",
     "WalkingPattern",
     "WalkingReference",
@@ -128,6 +131,7 @@ __all__ = [
     "support_polygon_at",
     "support_polygons",
     "total_wrench",
+    "trot",
     "turn_in_place",
     "walk",
     "walking_reference",
