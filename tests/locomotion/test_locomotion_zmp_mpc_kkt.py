@@ -9,6 +9,8 @@ The contract checked: a solved step (``SOLVED`` or ``UNCONSTRAINED``) carries re
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 import quadprog
@@ -84,3 +86,36 @@ def test_unconstrained_steps_are_the_preview_law():
     T = ref.shape[0]
     assert res.trajectory.com == pytest.approx(law.com[:T], abs=1e-9)
     assert res.trajectory.zmp == pytest.approx(law.zmp[:T], abs=1e-9)
+
+
+def test_a_shortcut_missing_the_tolerances_goes_to_the_qp_solver(monkeypatch):
+    """The shortcut's residuals are checked for all steps at the end of a run; a step that
+    misses the tolerances (here: made to, by inflating its dual residual) makes the run start
+    again with each step checked, and that step alone is solved by the QP solver."""
+    model = CartTable(com_height=0.8, dt=0.05)
+    plan = straight_walk(2)
+    times = model.dt * np.arange(int(np.ceil(plan.duration / model.dt)) + 1)
+    ref = zmp_reference(plan, times)
+    mpc = ZmpMpc(model, ZmpMpcOptions(constrain_zmp=False))
+    plain = mpc.simulate(ref)
+    residuals = mpc._shortcut_residuals
+    per_step = []
+
+    def inflated(X, G, v):  # type: ignore[no-untyped-def]
+        out = residuals(X, G, v)
+        if len(out) > 1:  # the batch at the end of the first run: step 3 misses
+            out[3] = dataclasses.replace(out[3], dual=1.0)
+        else:  # the run with each step checked
+            per_step.append(1)
+            if len(per_step) == 4:
+                out[0] = dataclasses.replace(out[0], dual=1.0)
+        return out
+
+    monkeypatch.setattr(mpc, "_shortcut_residuals", inflated)
+    calls = []
+    solve = mpc._solver.solve
+    monkeypatch.setattr(mpc._solver, "solve", lambda p: calls.append(1) or solve(p))
+    res = mpc.simulate(ref)
+    assert len(calls) == 1 and len(per_step) == len(ref)  # step 3 by the QP solver
+    _within(mpc, res)
+    assert res.trajectory.zmp == pytest.approx(plain.trajectory.zmp, abs=1e-9)

@@ -58,9 +58,6 @@ MAX_EDGES = 8
 """Rows reserved per predicted sample for the support polygon (a hull of two soles)."""
 
 
-_max = np.maximum.reduce
-
-
 @dataclass(frozen=True, kw_only=True)
 class ZmpMpcOptions:
     """Settings of :class:`ZmpMpc`.
@@ -185,9 +182,6 @@ class ZmpMpc:
         # Cholesky factor of the constant H for the unconstrained shortcut of simulate()
         chol, info = dpotrf(self._H, lower=0)
         self._chol: FloatArray | None = chol if info == 0 else None
-        # rows H x, H x + g, x, g of the shortcut's residuals (one abs, one max for all)
-        self._kkt_rows = np.empty((4, 2 * N))
-        self._kkt_abs = np.empty((4, 2 * N))
         # id(polygon) -> (polygon, A, b, padded A, padded b); the polygon is kept so that its
         # id stays its own. Padded: (MAX_EDGES, 2) / (MAX_EDGES,), rows past the edges are
         # zero with b = +inf (an unbounded row).
@@ -284,14 +278,14 @@ class ZmpMpc:
         self._halfspace_cache[id(poly)] = entry
         return entry
 
-    def _unconstrained(self, problem: QPProblem) -> tuple[FloatArray, KKTResiduals] | None:
-        """The unconstrained minimizer ``-H^-1 g`` and its KKT residuals, if it is the answer.
+    def _unconstrained(self, problem: QPProblem) -> tuple[FloatArray, float] | None:
+        """The unconstrained minimizer ``-H^-1 g`` and its largest row violation, if feasible.
 
         :class:`~taskspace.qp.QPSolver`'s first try (``try_unconstrained``: LAPACK's ``dposv``,
         i.e. ``dpotrf`` + ``dpotrs``) with the factor of the constant ``H`` kept: the same point,
         without refactorizing ``H`` every step. ``None``: a row is violated by more than
-        ``feasibility_tolerance`` (or NaN), or the residuals (zero multipliers: the dual
-        residual is ``|H x + g|``) exceed the tolerances; the QP solver decides.
+        ``feasibility_tolerance`` (or NaN), the QP solver decides. Its KKT residuals:
+        :meth:`_shortcut_residuals`.
         """
         x, info = dpotrs(self._chol, -problem.g, lower=0)
         if info != 0:
@@ -301,23 +295,35 @@ class ZmpMpc:
             violation = max(0.0, float(np.max(problem.C @ x - problem.u)))
             if not violation <= self.options.qp.feasibility_tolerance:
                 return None
-        x = np.asarray(x)
-        # taskspace.qp.kkt.equality_kkt_residuals without equalities, in fewer NumPy calls
-        rows, g = self._kkt_rows, problem.g
-        Hx, stationarity = rows[0], rows[1]
-        Hx[:] = problem.H.dot(x)  # dot's out= misses the BLAS path: slower here
-        np.add(Hx, g, out=stationarity)
-        rows[2] = x
-        rows[3] = g
-        np.abs(rows, out=self._kkt_abs)
-        hx, dual, xs, gs = _max(self._kkt_abs, axis=1).tolist()
-        xHx, gx = float(x.dot(Hx)), float(g.dot(x))
-        kkt = KKTResiduals(
-            violation, dual, 0.0, abs(xHx + gx), xs, max(hx, gs), max(1.0, abs(xHx), abs(gx))
-        )
-        if not kkt.within(self.options.qp.eps_abs, self.options.qp.eps_rel):
-            return None
-        return x, kkt
+        return np.asarray(x), violation
+
+    def _shortcut_residuals(
+        self, X: FloatArray, G: FloatArray, violations: list[float]
+    ) -> list[KKTResiduals]:
+        """KKT residuals of unconstrained minimizers ``X`` (m, 2N) of linear terms ``G``.
+
+        :func:`taskspace.qp.kkt.equality_kkt_residuals` without equalities (zero multipliers:
+        the dual residual is ``|H x + g|``), for ``m`` steps at once.
+        """
+        HX = X @ self._H  # H is symmetric
+        R = HX + G
+        dual = np.abs(R).max(axis=1)
+        xs, hx, gs = np.abs(X).max(axis=1), np.abs(HX).max(axis=1), np.abs(G).max(axis=1)
+        xHx = np.einsum("ij,ij->i", X, HX)
+        gx = np.einsum("ij,ij->i", G, X)
+        return [
+            KKTResiduals(v, d, 0.0, abs(a + b), s, max(h, q), max(1.0, abs(a), abs(b)))
+            for v, d, a, b, s, h, q in zip(
+                violations,
+                dual.tolist(),
+                xHx.tolist(),
+                gx.tolist(),
+                xs.tolist(),
+                hx.tolist(),
+                gs.tolist(),
+                strict=True,
+            )
+        ]
 
     def simulate(
         self,
@@ -352,7 +358,15 @@ class ZmpMpc:
         polygons: list[SupportPolygon] | None,
         constrain: bool,
         initial_state: Any,
+        check_each: bool = False,
     ) -> ZmpMpcResult:
+        """The closed loop of :meth:`simulate`.
+
+        The shortcut steps' residuals are computed at the end, for all steps at once
+        (``check_each=False``); if one misses the tolerances the run is made again with each
+        step checked before its shortcut is taken (``check_each=True``), so that a step whose
+        shortcut misses them is solved by the QP solver, as in :class:`QPSolver`.
+        """
         T, N = r.shape[0], self.horizon
         padded = np.vstack([r, np.repeat(r[-1:], N + 1, axis=0)])
         polys = list(polygons) + [polygons[-1]] * (N + 1) if polygons else None
@@ -364,7 +378,12 @@ class ZmpMpc:
         x_prev, u = x.copy(), np.zeros(2)
         states, jerk = np.empty((T, 3, 2)), np.empty((T, 2))
         statuses, times, active = [], np.empty(T), 0
-        kkts: list[KKTResiduals] = []
+        kkts: list[KKTResiduals | None] = []
+        quick_x: list[FloatArray] = []  # shortcut steps: minimizer, linear term, violation
+        quick_g: list[FloatArray] = []
+        quick_v: list[float] = []
+        quick_k: list[int] = []
+        eps_abs, eps_rel = self.options.qp.eps_abs, self.options.qp.eps_rel
         # padded half-spaces of every sample once; a step takes a window of them
         Ah_all, bh_all = self._padded(polys) if polys and constrain else (None, None)
         problem: QPProblem | None = None
@@ -381,24 +400,45 @@ class ZmpMpc:
                 problem = self._fill(xt, padded[k : k + N + 1], Ah, bh, problem)
             t0 = time.perf_counter()
             quick = self._unconstrained(problem) if shortcut else None
+            step_kkt: KKTResiduals | None = None
+            if quick is not None and check_each:
+                g = problem.g
+                step_kkt = self._shortcut_residuals(quick[0][None], g[None], [quick[1]])[0]
+                if not step_kkt.within(eps_abs, eps_rel):
+                    quick = None
             if quick is None:
                 res = self._solver.solve(problem)
                 if not res.success:
                     raise SolverError(f"ZMP MPC QP failed at step {k} ({res.status.value})")
-                sol, status, kkt = res.x, res.status, res.kkt
+                sol, status, step_kkt = res.x, res.status, res.kkt
             else:
-                (sol, kkt), status = quick, QPStatus.UNCONSTRAINED
+                sol, status = quick[0], QPStatus.UNCONSTRAINED
+                if not check_each:  # residuals at the end, for all shortcut steps at once
+                    quick_x.append(sol)
+                    quick_g.append(problem.g.copy())  # a buffer, refilled by the next step
+                    quick_v.append(quick[1])
+                    quick_k.append(k)
             times[k] = time.perf_counter() - t0
             statuses.append(status)
-            kkts.append(kkt)
+            kkts.append(step_kkt)
             if problem.C.shape[0] and np.any(problem.C @ sol >= problem.u - 1e-7):
                 active += 1
             u = u + np.array([sol[0], sol[N]])
             jerk[k] = u
             x_prev = x
             x = A @ x + np.outer(B, u)
+        if quick_k:
+            batch = self._shortcut_residuals(np.array(quick_x), np.array(quick_g), quick_v)
+            if not all(kkt.within(eps_abs, eps_rel) for kkt in batch):
+                return self._simulate(r, polygons, constrain, initial_state, check_each=True)
+            for k, kkt in zip(quick_k, batch, strict=True):
+                kkts[k] = kkt
         return ZmpMpcResult(
-            _trajectory(self.model, states, r, jerk), statuses, active, times, tuple(kkts)
+            _trajectory(self.model, states, r, jerk),
+            statuses,
+            active,
+            times,
+            tuple(k for k in kkts if k is not None),
         )
 
 
