@@ -117,7 +117,9 @@ class WalkingResult:
     Attributes:
         success: the walk finished with every contact force inside its cone and the
             measured ZMP inside the support polygon.
-        times: (T,) [s]; q: (T, nq); v: (T, nv); tau: (T, nv).
+        times: (T,) [s], strictly increasing: one sample per applied torque (a phase's last
+            simulated sample is the next phase's first, kept once); q: (T, nq); v: (T, nv);
+            tau: (T, nv).
         com: (T, 3) simulated CoM [m]; com_reference: (T, 3).
         zmp: (T, 2) ZMP of the simulated contact forces [m].
         zmp_margin: (T,) distance of the ZMP to the edge of the CoP rectangles' hull [m].
@@ -125,8 +127,7 @@ class WalkingResult:
         phases: (kind, start, end) of each simulated phase.
         wrenches: per side (``"left"``, ``"right"``), (T, 6) simulated contact wrench in the
             foot frame [N, N m]; zero while the foot swings.
-        control_times: wall time of each QP solve [s] (one per applied torque: the last
-            sample of a phase repeats the torque before it, see :func:`walk`).
+        control_times: (T,) wall time of each QP solve [s] (one per sample).
         message: why the walk stopped early, if it did.
         solves: summary of the QP solves: steps per path and backend (``"compiled
             cholesky"``, ``"compiled proxsuite"``, or the Python path's backends) and the
@@ -325,8 +326,9 @@ class _PhaseControl:
 
     One :class:`InverseDynamicsQP` for the whole walk. The phase's last sample (``t`` at its
     end, ``last_step``) is the first sample of the next phase, whose own solve computes the
-    torque applied from there: the last sample is recorded with the torque before it, so the
-    controller solves once per applied torque and its transitions count applied steps.
+    torque applied from there: at the last sample the torque before it is returned (the
+    simulator records it but applies nothing after it, and :func:`walk` drops the sample), so
+    the controller solves once per applied torque and its transitions count applied steps.
     """
 
     def __init__(
