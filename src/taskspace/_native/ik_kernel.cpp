@@ -98,9 +98,11 @@ constexpr int kSolved = 1;
 constexpr int kMaxIterations = 2;
 
 class HierarchicalIKKernel;  // hier_kernel.hpp: reuses this kernel's rows and boxes
+class GeneralIKStep;  // general_step.hpp: this kernel's QP with equality and inequality rows
 
 class WeightedIKKernel {
   friend class HierarchicalIKKernel;
+  friend class GeneralIKStep;
 
  public:
   WeightedIKKernel(int nv, int nq) : nv_(nv), nq_(nq), m_(0) {
@@ -1125,6 +1127,7 @@ double abi_selfcheck(const Model& model) {
 }
 
 #include "hier_kernel.hpp"  // the compiled closed-form step of HierarchicalIK
+#include "general_step.hpp"  // the weighted step with equality and inequality rows
 
 }  // namespace
 
@@ -1136,6 +1139,7 @@ BOOST_PYTHON_MODULE(_ik_kernel) {
   bp::scope().attr("MAX_ITERATIONS") = kMaxIterations;
   bp::def("abi_selfcheck", &abi_selfcheck, bp::args("model"));
   register_hierarchical_ik_kernel();  // hier_kernel.hpp
+  register_general_ik_step();  // general_step.hpp
   bp::class_<WeightedIKKernel>("WeightedIKKernel", bp::init<int, int>(bp::args("self", "nv", "nq")))
       .def("add_pose", &WeightedIKKernel::add_pose)
       .def("add_position", &WeightedIKKernel::add_position)

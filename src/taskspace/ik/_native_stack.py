@@ -11,7 +11,16 @@ inequality rows whose constraints declare a
 distances computed in the kernel). With rows, the box solution is kept when it satisfies
 them; otherwise a primal-dual active-set method on the rows and the box runs from the box's
 active set, and its step is accepted only when its KKT residuals meet the solver's
-tolerances (they are carried on the result). Anything else takes the Python path.
+tolerances (they are carried on the result).
+
+Equality tasks and the inequality rows of constraints that declare no rows the kernel
+evaluates (:class:`~taskspace.constraints.FeatureBounds`, a user's rows) are evaluated in
+Python (:class:`~taskspace.qp.rows.TaskRowStack`, :class:`~taskspace.qp.rows.InequalityStack`)
+and the whole QP, with the kernel's task rows, box and dampers, is solved by the kernel's
+general step (``taskspace/_native/general_step.hpp``: the dual active-set method of the
+hierarchical kernel, equalities first); its step is accepted only when its KKT residuals meet
+the solver's tolerances. A step the kernel declines takes the Python path, and the result says
+why (:data:`DECLINED`, ``IKStepResult.native_declined``).
 """
 
 from __future__ import annotations
@@ -36,6 +45,7 @@ from taskspace.model.robot import Robot
 from taskspace.model.state import State
 from taskspace.model.versioning import ModelFollower
 from taskspace.qp.kkt import KKTResiduals
+from taskspace.qp.rows import InequalityStack, TaskRowStack
 from taskspace.tasks import ASSIGNMENTS as _ASSIGNMENTS
 from taskspace.tasks import Task
 
@@ -70,13 +80,49 @@ _REGISTER_ROWS: dict[str, Callable[[Any, Robot, CompiledConstraint], Any]] = {
 }
 
 
-def supported(tasks: Sequence[Task], inequality_constraints: Sequence[Constraint] = ()) -> bool:
-    """Whether the compiled kernel can run these tasks and constraints with inequality rows."""
-    if ik_kernel() is None or not tasks:
+def _kernel_rows(c: Constraint) -> bool:
+    """Whether ``c`` declares rows the weighted kernel evaluates itself (its class's own)."""
+    rows = compiled_constraint(c)
+    return rows is not None and rows.kind in _REGISTER_ROWS
+
+
+def supported(
+    tasks: Sequence[Task],
+    inequality_constraints: Sequence[Constraint] = (),
+    equality_tasks: Sequence[Task] = (),
+) -> bool:
+    """Whether the compiled kernel can run these tasks, constraints and equality tasks.
+
+    The weighted tasks' features must declare a compiled term of :data:`IK_KINDS`. With the
+    general step (``GeneralIKStep``, see ``taskspace/_native/general_step.hpp``) any
+    equality tasks and inequality rows are served (the rows the kernel does not evaluate
+    itself are evaluated in Python); a kernel built without it serves only inequality rows
+    the kernel evaluates (collision dampers) and no equality tasks.
+    """
+    module = ik_kernel()
+    if module is None or not tasks:
         return False
-    return all(
+    if not all(
         (term := compiled_term(t.feature)) is not None and term.kind in IK_KINDS for t in tasks
-    ) and all(compiled_constraint(c) is not None for c in inequality_constraints)
+    ):
+        return False
+    if hasattr(module, "GeneralIKStep"):
+        return True
+    return not equality_tasks and all(_kernel_rows(c) for c in inequality_constraints)
+
+
+DECLINED = {
+    2: "the compiled active-set method did not settle or its step missed the KKT tolerances",
+    3: "the compiled dual active-set method found no point satisfying the equality, "
+    "inequality and box rows (or stopped at a degenerate vertex)",
+    4: "the equality rows are linearly dependent (redundant or conflicting equality tasks)",
+    5: "the compiled general step's KKT residuals exceed the solver's tolerances",
+    6: "the QP's Hessian M^T M + mu I is not positive definite (damping 0 and a "
+    "rank-deficient stack)",
+    -1: "a task has Levenberg-Marquardt damping (the kernel's damping is fixed)",
+}
+"""Why the compiled weighted step declined (a kernel status, or -1), recorded on the Python
+path's result as ``IKStepResult.native_declined``."""
 
 
 class NativeWeightedStack:
@@ -97,6 +143,7 @@ class NativeWeightedStack:
         constraints: Sequence[Constraint],
         inequality_constraints: Sequence[Constraint] = (),
         tolerances: tuple[float, float] = (1e-9, 1e-9),
+        equality_tasks: Sequence[Task] = (),
     ):
         module = ik_kernel()
         assert module is not None
@@ -133,14 +180,22 @@ class NativeWeightedStack:
         )
         self.nv = robot.nv
         # constraints with inequality rows the kernel evaluates (declared, sent again when
-        # their declaration or the obstacle world changes)
-        self._rows = list(inequality_constraints)
-        for c in self._rows:
-            if compiled_constraint(c) is None:
+        # their declaration or the obstacle world changes); the other rows and the equality
+        # tasks' rows are evaluated in Python and solved by the general step
+        self._rows = [c for c in inequality_constraints if _kernel_rows(c)]
+        python_rows = [c for c in inequality_constraints if not _kernel_rows(c)]
+        self._general: Any = None
+        if python_rows or equality_tasks:
+            if not hasattr(module, "GeneralIKStep"):
                 raise InvalidInputError(
-                    f"constraint '{c.name}' declares no compiled rows (use the Python path: "
-                    "DifferentialIKOptions(native=False))"
+                    "this build of the IK kernel has no general step (equality tasks, "
+                    "inequality rows evaluated in Python): use the Python path, "
+                    "DifferentialIKOptions(native=False), or rebuild taskspace"
                 )
+            self._general = module.GeneralIKStep()
+        self._python_rows = InequalityStack(python_rows, robot.nv)
+        self._equalities = TaskRowStack(equality_tasks, robot.nv) if equality_tasks else None
+        self.declined = ""  # why the last solve returned None (DECLINED)
         # each class's own declaration (compiled_constraint checked it is the class's own)
         self._declare = [c.compiled_constraint for c in self._rows]
         self._declared: list[CompiledConstraint | None] = []
@@ -149,7 +204,7 @@ class NativeWeightedStack:
         kernel.set_tolerances(*tolerances)
         # whether the kernel evaluates inequality rows (its solves carry KKT residuals): fixed
         # at construction, a plain attribute (read at every step)
-        self.has_rows = bool(self._rows)
+        self.has_rows = bool(self._rows) or self._general is not None
         # without rows, the kernel's 9-argument solve under its own name (no overload dispatch,
         # no collision arguments): the step of a box-only stack costs what it did before the
         # dampers were added; with rows, the 11-argument solve
@@ -160,7 +215,8 @@ class NativeWeightedStack:
         self.max_iterations = module.MAX_ITERATIONS
         # the fused step (solve, integrate, kinematics of the new q): one signature, the
         # collision model and its data always given (None without rows)
-        self.advance: Any = getattr(kernel, "advance", None)
+        # (not with the general step: its solve is followed by State.update)
+        self.advance: Any = None if self._general else getattr(kernel, "advance", None)
         self._advance_geometry: tuple[Any, Any] = (None, None)
         self.nq = robot.nq
         self.no_velocity = np.zeros(0)  # v_next of a state without velocity (not written)
@@ -224,6 +280,7 @@ class NativeWeightedStack:
         if _ASSIGNMENTS[0] != self._assignments:
             self._check_tasks()
         if self._lm_damping:
+            self.declined = DECLINED[-1]
             return None
         targets = [t._target for t in self.tasks]
         if self._position_limits is not None:
@@ -242,6 +299,8 @@ class NativeWeightedStack:
             out,
             MAX_ACTIVE_SET_ITERATIONS,
         )
+        if self._general is not None:
+            return self._solve_general(state, dt, args)
         try:
             if move:
                 q_next = _empty(self.nq)
@@ -264,8 +323,49 @@ class NativeWeightedStack:
             self.require_targets()
             raise
         if status == self.max_iterations:
+            self.declined = DECLINED[2]
             return None
         return status, iterations, objective, t_build, t_qp
+
+    def _solve_general(
+        self, state: State, dt: float, args: tuple[Any, ...]
+    ) -> tuple[int, int, float, float, float] | None:
+        """:meth:`solve` by the general step.
+
+        The equality rows and the inequality rows the kernel does not evaluate come from
+        Python; the kernel solves them with its own rows and box.
+        """
+        equalities = None
+        if self._equalities is not None:
+            equalities = self._equalities.velocity(state)
+        inequalities = None
+        if self._python_rows:
+            rows, blocks = self._python_rows.fill(state, dt)
+            if blocks:
+                inequalities = rows
+        geometry = self._geometry if self._rows else (None, None)
+        try:
+            status, iterations, objective, t_build, t_qp, _ = self._general.solve(
+                self.kernel, *args[:8], *geometry, equalities, inequalities
+            )
+        except (TypeError, ValueError, RuntimeError):
+            self.require_targets()
+            raise
+        if status > 1:
+            self.declined = DECLINED[status]
+            return None
+        return status, iterations, objective, t_build, t_qp
+
+    def general_multipliers(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Multipliers of the general step's last solve, signed as proxsuite's.
+
+        ``(y, z, z_dampers, z_box)``: of the equality rows (the equality tasks' rows, in
+        order), of the inequality rows evaluated in Python (the constraints' rows in order,
+        without the kernel's own), of the kernel's damper rows (:meth:`damper_rows`) and of
+        the box.
+        """
+        y, z, zd, zb = self._general.multipliers()
+        return tuple(np.asarray(a, dtype=float).reshape(-1) for a in (y, z, zd, zb))  # type: ignore[return-value]
 
     def boxes(self, state: State, dt: float) -> tuple[list[Any], list[Any]]:
         """The hard and soft boxes evaluated in Python (the kernel evaluates the position box)."""
