@@ -7,7 +7,9 @@
 // compiled task terms, the position box from q, the boxes' combination rules, the damper
 // rows from coal distances) are assembled exactly as WeightedIKKernel::solve assembles them
 // (GeneralIKStep is its friend); the rows the kernel does not evaluate come from Python:
-//     A x = b        equality rows (DifferentialIK's equality tasks),
+//     A x = b        equality rows (DifferentialIK's equality tasks; those whose feature
+//                    declares a term the kernel evaluates are evaluated here by a second
+//                    WeightedIKKernel holding only them: its weighted rows are the rows),
 //     l <= C x <= u  inequality rows of constraints without a compiled declaration of a kind
 //                    the weighted kernel evaluates (FeatureBounds, a user's rows).
 // The QP  min 1/2 x'Hx + g'x  s.t. those rows, the dampers and lb <= x <= ub  is solved by
@@ -27,16 +29,22 @@ class GeneralIKStep {
   static constexpr int kNotPositiveDefinite = 6;  // H = M'M + mu I is not positive definite
   static constexpr double kBig = 1e19;         // a bound beyond is infinite (INF = 1e20)
 
-  // One step of `kernel`'s stack at (model, data, q) with the Python rows `equalities`
-  // (None or (A, b)) and `inequalities` (None or (C, l, u)); the other arguments as
+  // One step of `kernel`'s stack at (model, data, q) with rows = (eq_kernel, eq_targets,
+  // equalities, inequalities): the equality rows of `eq_kernel` (None, or a WeightedIKKernel
+  // of the equality tasks it evaluates, without posture terms; its targets `eq_targets`, a
+  // list) followed by the Python rows `equalities` (None or (A, b)), and the Python rows
+  // `inequalities` (None or (C, l, u)); the other arguments as
   // WeightedIKKernel::solve (geom/gdata: None without dampers). The step is written into
   // `out` when the status is 0 or 1. Returns (status, iterations, objective, build time, QP
   // time, row time) [s]; the kernel's residuals() then hold the KKT residuals of the step.
   bp::tuple solve(WeightedIKKernel& k, const Model& model, Data& data,
                   const Eigen::Ref<const VectorXd>& q, bp::list targets, bp::list hard_boxes,
                   bp::list soft_boxes, double damping, Eigen::Ref<VectorXd> out,
-                  bp::object geom_obj, bp::object gdata_obj, bp::object equalities,
-                  bp::object inequalities) {
+                  bp::object geom_obj, bp::object gdata_obj, bp::tuple rows) {
+    if (bp::len(rows) != 4)
+      raise_invalid("rows: (eq_kernel, eq_targets, equalities, inequalities) expected");
+    bp::object eq_kernel = rows[0], equalities = rows[2], inequalities = rows[3];
+    bp::list eq_targets = bp::extract<bp::list>(rows[1]);
     const int n = k.nv_;
     if (model.nv != n || model.nq != k.nq_) raise_invalid("model size mismatch");
     if (q.size() != k.nq_ || out.size() != n) raise_invalid("vector size mismatch");
@@ -46,8 +54,18 @@ class GeneralIKStep {
     if (!(damping >= 0.0) || !std::isfinite(damping))
       raise_invalid("damping must be finite and >= 0, got " + std::to_string(damping));
     if (!q.allFinite()) raise_invalid("q must be finite");
-    read_rows(equalities, inequalities, n);
+    WeightedIKKernel* ek = nullptr;
+    if (!eq_kernel.is_none()) {
+      ek = bp::extract<WeightedIKKernel*>(eq_kernel);
+      if (ek->nv_ != n || ek->nq_ != k.nq_ || !ek->posture_.empty())
+        raise_invalid("equality kernel: size mismatch or posture terms");
+      if (bp::len(eq_targets) != static_cast<long>(ek->items_.size()))
+        raise_invalid("one target per equality task expected");
+      if (!ek->scaled_) raise_invalid("set_scaling was not called (equality kernel)");
+    }
     const auto t0 = std::chrono::steady_clock::now();
+    if (ek != nullptr) ek->fill_rows(model, data, eq_targets);
+    read_rows(ek, equalities, inequalities, n);
     // the weighted kernel's QP (WeightedIKKernel::solve's assembly)
     if (k.pl_set_) {
       for (std::size_t i = 0; i < k.pl_iq_.size(); ++i) {
@@ -166,25 +184,67 @@ class GeneralIKStep {
     return bp::make_tuple(status, iterations, objective, sec(t0, t2), sec(t2, t3), sec(t0, t1));
   }
 
+  // solve(), then, unless the step was declined (data untouched), q_next = integrate(q, step)
+  // and the kinematics of `data` at q_next exactly as WeightedIKKernel::advance computes
+  // them (with the velocity v_next = step / dt when dt > 0).
+  bp::tuple advance(WeightedIKKernel& k, const Model& model, Data& data,
+                    const Eigen::Ref<const VectorXd>& q, bp::list targets, bp::list hard_boxes,
+                    bp::list soft_boxes, double damping, Eigen::Ref<VectorXd> out,
+                    bp::object geom_obj, bp::object gdata_obj, bp::tuple rows,
+                    Eigen::Ref<VectorXd> q_next, Eigen::Ref<VectorXd> v_next, double dt) {
+    if (q_next.size() != k.nq_ || (dt > 0.0 && v_next.size() != k.nv_))
+      raise_invalid("vector size mismatch");
+    const bool with_velocity = dt > 0.0;
+    if (dt != 0.0 && !(with_velocity && std::isfinite(dt)))
+      raise_invalid("dt must be finite and > 0 (or 0: no velocity), got " + std::to_string(dt));
+    bp::tuple result = solve(k, model, data, q, targets, hard_boxes, soft_boxes, damping, out,
+                             geom_obj, gdata_obj, rows);
+    if (bp::extract<int>(result[0]) > kSolved) return result;
+    pinocchio::integrate(model, q, x_, q_next);
+    if (with_velocity) {
+      v_next = x_ / dt;
+      pinocchio::forwardKinematics(model, data, q_next, v_next, k.a0_);
+      pinocchio::computeJointJacobians(model, data);
+    } else {
+      pinocchio::computeJointJacobians(model, data, q_next);
+    }
+    pinocchio::updateFramePlacements(model, data);
+    return result;
+  }
+
   // Multipliers of the last solve, signed as proxsuite's: (y of the equality rows, z of the
   // Python inequality rows, z of the damper rows, z_box).
   bp::tuple multipliers() const { return bp::make_tuple(y_, z_, zd_, zbox_); }
 
  private:
-  void read_rows(bp::object& equalities, bp::object& inequalities, int n) {
-    A_.resize(0, n);
-    b_.resize(0);
+  // A_, b_: the equality kernel's weighted rows (sqrt(w) J, -gain sqrt(w) e) then the
+  // Python equality rows; C_, l_, u_: the Python inequality rows.
+  void read_rows(const WeightedIKKernel* ek, bp::object& equalities, bp::object& inequalities,
+                 int n) {
+    const int me = ek != nullptr ? ek->m_ : 0;
+    long mp = 0;
+    if (!equalities.is_none()) {
+      Ap_ = bp::extract<Eigen::Ref<const RowMatrixXd>>(equalities[0])();
+      bp_ = bp::extract<Eigen::Ref<const VectorXd>>(equalities[1])();
+      if (Ap_.cols() != n || bp_.size() != Ap_.rows()) raise_invalid("equality rows: sizes differ");
+      mp = Ap_.rows();
+    }
+    A_.resize(me + mp, n);
+    b_.resize(me + mp);
+    if (me) {
+      A_.topRows(me) = ek->M_;
+      b_.head(me) = ek->r_;
+    }
+    if (mp) {
+      A_.bottomRows(mp) = Ap_;
+      b_.tail(mp) = bp_;
+    }
+    if (!A_.allFinite() || !b_.allFinite())
+      raise_invalid("equality rows must be finite (an equality task's target, weight or "
+                    "Jacobian is NaN or inf)");
     C_.resize(0, n);
     l_.resize(0);
     u_.resize(0);
-    if (!equalities.is_none()) {
-      A_ = bp::extract<Eigen::Ref<const RowMatrixXd>>(equalities[0])();
-      b_ = bp::extract<Eigen::Ref<const VectorXd>>(equalities[1])();
-      if (A_.cols() != n || b_.size() != A_.rows()) raise_invalid("equality rows: sizes differ");
-      if (!A_.allFinite() || !b_.allFinite())
-        raise_invalid("equality rows must be finite (an equality task's target, weight or "
-                      "Jacobian is NaN or inf)");
-    }
     if (!inequalities.is_none()) {
       C_ = bp::extract<Eigen::Ref<const RowMatrixXd>>(inequalities[0])();
       l_ = bp::extract<Eigen::Ref<const VectorXd>>(inequalities[1])();
@@ -250,7 +310,8 @@ class GeneralIKStep {
   }
 
   GoldfarbIdnani gi_;
-  RowMatrixXd A_, C_;
+  RowMatrixXd A_, C_, Ap_;
+  VectorXd bp_;
   VectorXd b_, l_, u_;
   MatrixXd G_, Ga_;
   VectorXd h_, ha_, x_, w_, y_, z_, zd_, zbox_, hx_, force_, cd_;
@@ -265,5 +326,6 @@ void register_general_ik_step() {
   bp::scope().attr("GENERAL_NOT_POSITIVE_DEFINITE") = GeneralIKStep::kNotPositiveDefinite;
   bp::class_<GeneralIKStep, boost::noncopyable>("GeneralIKStep", bp::init<>(bp::args("self")))
       .def("solve", &GeneralIKStep::solve)
+      .def("advance", &GeneralIKStep::advance)
       .def("multipliers", &GeneralIKStep::multipliers);
 }

@@ -50,7 +50,7 @@ using RowMatrixXd = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen:
 
 namespace {
 
-enum Kind { kPose = 0, kPosition = 1, kCom = 2, kPosture = 3 };
+enum Kind { kPose = 0, kPosition = 1, kCom = 2, kPosture = 3, kOrientation = 4 };
 
 struct Item {
   int kind;
@@ -127,6 +127,11 @@ class WeightedIKKernel {
   }
   int add_position(const Model& model, int frame) {
     return add({kPosition, frame, m_, 3, support_columns(model, frame)});
+  }
+  // log3 rotation error, Jlog3 times the LOCAL angular Jacobian (taskspace's Orientation);
+  // the general step's equality rows (general_step.hpp)
+  int add_orientation(const Model& model, int frame) {
+    return add({kOrientation, frame, m_, 3, support_columns(model, frame)});
   }
   int add_com() {
     std::vector<int> all(nv_);
@@ -472,6 +477,18 @@ class WeightedIKKernel {
           pinocchio::getFrameJacobian(model, data, it.frame, pinocchio::LOCAL_WORLD_ALIGNED, J6_);
           for (int a = 0; a < ns; ++a) rows.col(it.rows[a]) = J6_.col(it.rows[a]).head<3>();
           e = data.oMf[it.frame].translation() - p;
+          break;
+        }
+        case kOrientation: {
+          const Eigen::Ref<const MatrixXd> Rt = bp::extract<Eigen::Ref<const MatrixXd>>(target);
+          if (Rt.rows() != 3 || Rt.cols() != 3) raise_invalid("orientation target is not 3x3");
+          const Eigen::Matrix3d err = Rt.transpose() * data.oMf[it.frame].rotation();
+          pinocchio::getFrameJacobian(model, data, it.frame, pinocchio::LOCAL, J6_);
+          Eigen::Matrix3d jlog3;
+          pinocchio::Jlog3(err, jlog3);
+          for (int a = 0; a < ns; ++a)
+            rows.col(it.rows[a]) = jlog3 * J6_.col(it.rows[a]).tail<3>();
+          e = pinocchio::log3(err);
           break;
         }
         case kCom: {
@@ -1144,6 +1161,7 @@ BOOST_PYTHON_MODULE(_ik_kernel) {
       .def("add_pose", &WeightedIKKernel::add_pose)
       .def("add_position", &WeightedIKKernel::add_position)
       .def("add_com", &WeightedIKKernel::add_com)
+      .def("add_orientation", &WeightedIKKernel::add_orientation)
       .def("add_posture", &WeightedIKKernel::add_posture)
       .add_property("rows", &WeightedIKKernel::rows)
       .def("set_scaling", &WeightedIKKernel::set_scaling)

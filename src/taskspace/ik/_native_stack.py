@@ -62,6 +62,14 @@ _REGISTER: dict[str, Callable[[Any, Any, CompiledTerm], Any]] = {
         None if term.rows is None else list(term.rows)
     ),
 }
+# How each kind of equality task is registered with the kernel that evaluates the general
+# step's equality rows (its weighted rows are the rows; no posture: that kind is a term of H)
+_REGISTER_EQUALITY: dict[str, Callable[[Any, Any, CompiledTerm], Any]] = {
+    "pose": _REGISTER["pose"],
+    "position": _REGISTER["position"],
+    "com": _REGISTER["com"],
+    "orientation": lambda kernel, model, term: kernel.add_orientation(model, term.frame_id),
+}
 _FULL_TANGENT = frozenset({"posture"})
 """Kinds whose kernel rows span the whole tangent space (their scaling has nv entries, the
 selected rows set); the kernel keeps them after the other terms."""
@@ -194,7 +202,42 @@ class NativeWeightedStack:
                 )
             self._general = module.GeneralIKStep()
         self._python_rows = InequalityStack(python_rows, robot.nv)
-        self._equalities = TaskRowStack(equality_tasks, robot.nv) if equality_tasks else None
+        # equality tasks whose feature declares a term the kernel evaluates: a second kernel
+        # holding only them (its weighted rows are the equality rows); the others in Python
+        evaluates = hasattr(module.WeightedIKKernel, "add_orientation")
+        compiled_eq: list[tuple[Task, CompiledTerm]] = []
+        python_eq: list[Task] = []
+        for t in equality_tasks:
+            term = compiled_term(t.feature)
+            if (
+                evaluates
+                and term is not None
+                and term.kind in _REGISTER_EQUALITY
+                and type(t).rows is Task.rows
+            ):
+                compiled_eq.append((t, term))
+            else:
+                python_eq.append(t)
+        self._eq_kernel: Any = None
+        self._eq_tasks = [t for t, _ in compiled_eq]
+        self._eq_terms = [term for _, term in compiled_eq]
+        self._eq_keys: list[tuple[Any, float]] = []
+        if compiled_eq:
+            self._eq_kernel = module.WeightedIKKernel(robot.nv, robot.nq)
+            for _, term in compiled_eq:
+                _REGISTER_EQUALITY[term.kind](self._eq_kernel, model, term)
+        self._equalities = TaskRowStack(python_eq, robot.nv) if python_eq else None
+        # the equality rows' order in the kernel (compiled tasks, then Python ones) as rows
+        # of the Python builder (equality tasks in the given order): y_builder[order] = y
+        starts = np.cumsum([0] + [t.dim for t in equality_tasks])
+        index = {id(t): k for k, t in enumerate(equality_tasks)}
+        self._eq_order = np.concatenate(
+            [np.zeros(0, dtype=int)]
+            + [
+                np.arange(starts[index[id(t)]], starts[index[id(t)] + 1])
+                for t in [*self._eq_tasks, *python_eq]
+            ]
+        )
         self.declined = ""  # why the last solve returned None (DECLINED)
         # each class's own declaration (compiled_constraint checked it is the class's own)
         self._declare = [c.compiled_constraint for c in self._rows]
@@ -215,8 +258,10 @@ class NativeWeightedStack:
         self.max_iterations = module.MAX_ITERATIONS
         # the fused step (solve, integrate, kinematics of the new q): one signature, the
         # collision model and its data always given (None without rows)
-        # (not with the general step: its solve is followed by State.update)
-        self.advance: Any = None if self._general else getattr(kernel, "advance", None)
+        # (the general step's: the same fused step, called by _solve_general)
+        self.advance: Any = (
+            self._general.advance if self._general else getattr(kernel, "advance", None)
+        )
         self._advance_geometry: tuple[Any, Any] = (None, None)
         self.nq = robot.nq
         self.no_velocity = np.zeros(0)  # v_next of a state without velocity (not written)
@@ -237,6 +282,20 @@ class NativeWeightedStack:
             t.sqrt_weight is not w or t.gain is not g for t, (w, g) in zip(tasks, keys)
         ):
             self._scale()
+        if self._eq_kernel is not None and (
+            not self._eq_keys
+            or any(
+                t.sqrt_weight is not w or t.gain is not g
+                for t, (w, g) in zip(self._eq_tasks, self._eq_keys)
+            )
+        ):
+            w = np.zeros(sum(t.dim for t in self._eq_tasks))
+            c = np.zeros_like(w)
+            k = 0
+            for t, term in zip(self._eq_tasks, self._eq_terms):
+                k = write_scaling(w, c, k, t, term, self.nv)
+            self._eq_kernel.set_scaling(w, c)
+            self._eq_keys = [(t.sqrt_weight, t.gain) for t in self._eq_tasks]
 
     def _send_position_limits(self, position: Any) -> None:
         self.kernel.set_position_limits(*position.kernel_arguments())
@@ -300,7 +359,7 @@ class NativeWeightedStack:
             MAX_ACTIVE_SET_ITERATIONS,
         )
         if self._general is not None:
-            return self._solve_general(state, dt, args)
+            return self._solve_general(state, dt, args, move)
         try:
             if move:
                 q_next = _empty(self.nq)
@@ -328,7 +387,7 @@ class NativeWeightedStack:
         return status, iterations, objective, t_build, t_qp
 
     def _solve_general(
-        self, state: State, dt: float, args: tuple[Any, ...]
+        self, state: State, dt: float, args: tuple[Any, ...], move: bool
     ) -> tuple[int, int, float, float, float] | None:
         """:meth:`solve` by the general step.
 
@@ -344,10 +403,32 @@ class NativeWeightedStack:
             if blocks:
                 inequalities = rows
         geometry = self._geometry if self._rows else (None, None)
+        general_rows = (
+            self._eq_kernel,
+            [t._target for t in self._eq_tasks],
+            equalities,
+            inequalities,
+        )
         try:
-            status, iterations, objective, t_build, t_qp, _ = self._general.solve(
-                self.kernel, *args[:8], *geometry, equalities, inequalities
-            )
+            if move:
+                q_next = _empty(self.nq)
+                has_velocity = state._has_velocity
+                v_next = _empty(self.nv) if has_velocity else self.no_velocity
+                status, iterations, objective, t_build, t_qp, _ = self._general.advance(
+                    self.kernel,
+                    *args[:8],
+                    *geometry,
+                    general_rows,
+                    q_next,
+                    v_next,
+                    dt if has_velocity else 0.0,
+                )
+                if status <= 1:  # the data hold the kinematics of q_next
+                    state._adopt(q_next, v_next if has_velocity else None)
+            else:
+                status, iterations, objective, t_build, t_qp, _ = self._general.solve(
+                    self.kernel, *args[:8], *geometry, general_rows
+                )
         except (TypeError, ValueError, RuntimeError):
             self.require_targets()
             raise
@@ -364,8 +445,10 @@ class NativeWeightedStack:
         without the kernel's own), of the kernel's damper rows (:meth:`damper_rows`) and of
         the box.
         """
-        y, z, zd, zb = self._general.multipliers()
-        return tuple(np.asarray(a, dtype=float).reshape(-1) for a in (y, z, zd, zb))  # type: ignore[return-value]
+        y, z, zd, zb = (np.asarray(a, dtype=float).reshape(-1) for a in self._general.multipliers())
+        y_builder = np.empty_like(y)
+        y_builder[self._eq_order] = y
+        return y_builder, z, zd, zb
 
     def boxes(self, state: State, dt: float) -> tuple[list[Any], list[Any]]:
         """The hard and soft boxes evaluated in Python (the kernel evaluates the position box)."""
@@ -387,7 +470,7 @@ class NativeWeightedStack:
 
     def require_targets(self) -> None:
         """Raise, naming it, when a task has no target (after the kernel refused its call)."""
-        for t in self.tasks:
+        for t in [*self.tasks, *self._eq_tasks]:
             t._require_target()
 
     def _solve_with_rows(self, *args: Any) -> Any:
