@@ -397,6 +397,36 @@ def test_nan_rows_are_refused(panda: Robot) -> None:
         ik.solve(state, DT)
 
 
+def test_user_rows_of_any_array_layout(panda: Robot) -> None:
+    """A user's rows as lists, integer or Fortran-ordered arrays: the same step."""
+    state = panda.state(panda.q_default)
+    tcp = F.Position(panda, panda.end_effectors[0])
+    task = Task(tcp, tcp.value(state) + np.array([0.05, 0.05, 0.05]))
+    C = np.zeros((2, panda.nv))
+    C[0, 0] = C[1, 1] = 1
+    steps = []
+    for rows in (
+        (C, np.array([-0.001, -INF]), np.array([0.001, 0.002])),
+        (C.astype(int).tolist(), [-0.001, -INF], [0.001, 0.002]),
+        (np.asfortranarray(C), np.array([-0.001, -INF]), np.array([0.001, 0.002])),
+    ):
+        ik = DifferentialIK(panda, [task], [FixedRows(panda, *rows)])  # type: ignore[arg-type]
+        r = ik.solve(state, DT)
+        assert r.qp.backend == "native general"
+        steps.append(r.dq)
+        active = np.count_nonzero(r.qp.z)
+    python = DifferentialIK(
+        panda,
+        [task],
+        [FixedRows(panda, C, np.array([-0.001, -INF]), np.array([0.001, 0.002]))],
+        options=DifferentialIKOptions(native=False),
+    )
+    reference = quadprog_step(python.build(state, DT))
+    for dq in steps:
+        np.testing.assert_allclose(dq, reference, atol=STEP_TOL, rtol=0)
+    assert active  # a row is active
+
+
 def test_hierarchy_serves_bounds_by_declaration_not_by_type(panda: Robot) -> None:
     """The hierarchical kernel evaluates the bounds a constraint class declares itself: a
     FeatureBounds subclass that does not declare them has its rows evaluated in Python; a

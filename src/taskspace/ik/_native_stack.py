@@ -53,6 +53,11 @@ MAX_ACTIVE_SET_ITERATIONS = 200
 _empty = np.empty
 
 
+def _floats(a: Any) -> np.ndarray:
+    """``a`` as a C-contiguous float array (itself when it is one)."""
+    return np.ascontiguousarray(a, dtype=float)
+
+
 # How each kind of term is registered with the kernel (the kernel's own API).
 _REGISTER: dict[str, Callable[[Any, Any, CompiledTerm], Any]] = {
     "pose": lambda kernel, model, term: kernel.add_pose(model, term.frame_id),
@@ -238,6 +243,10 @@ class NativeWeightedStack:
                 for t in [*self._eq_tasks, *python_eq]
             ]
         )
+        self._eq_permuted = bool((self._eq_order != np.arange(len(self._eq_order))).any())
+        # one Python constraint with rows: its rows passed as they are (the kernel checks
+        # and copies them), without the stack's buffers
+        self._single_rows = python_rows[0] if len(python_rows) == 1 else None
         self.declined = ""  # why the last solve returned None (DECLINED)
         # each class's own declaration (compiled_constraint checked it is the class's own)
         self._declare = [c.compiled_constraint for c in self._rows]
@@ -398,7 +407,12 @@ class NativeWeightedStack:
         if self._equalities is not None:
             equalities = self._equalities.velocity(state)
         inequalities = None
-        if self._python_rows:
+        single = self._single_rows
+        if single is not None:
+            rows = single.inequalities(state, dt)
+            if rows is not None and len(rows[0]):
+                inequalities = (_floats(rows[0]), _floats(rows[1]), _floats(rows[2]))
+        elif self._python_rows:
             rows, blocks = self._python_rows.fill(state, dt)
             if blocks:
                 inequalities = rows
@@ -445,10 +459,12 @@ class NativeWeightedStack:
         without the kernel's own), of the kernel's damper rows (:meth:`damper_rows`) and of
         the box.
         """
-        y, z, zd, zb = (np.asarray(a, dtype=float).reshape(-1) for a in self._general.multipliers())
-        y_builder = np.empty_like(y)
-        y_builder[self._eq_order] = y
-        return y_builder, z, zd, zb
+        y, z, zd, zb = self._general.multipliers()  # new 1-D arrays (eigenpy's vectors)
+        if self._eq_permuted:
+            y_builder = np.empty_like(y)
+            y_builder[self._eq_order] = y
+            y = y_builder
+        return y, z, zd, zb
 
     def boxes(self, state: State, dt: float) -> tuple[list[Any], list[Any]]:
         """The hard and soft boxes evaluated in Python (the kernel evaluates the position box)."""
