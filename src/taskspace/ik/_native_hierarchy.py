@@ -208,7 +208,7 @@ class NativeHierarchy:
                     )
                 _REGISTER[term.kind](kernel, model, term)
                 (full if term.kind in _FULL_TANGENT else rows).append((t, term))
-        # FeatureBounds on a CoM or frame origin: evaluated by the kernel (rows after the
+        # bounds declared on a CoM or frame origin: evaluated by the kernel (rows after the
         # tasks'); the other inequality rows are evaluated here and passed to each solve
         self._bounds: list[Constraint] = []
         self._bound_keys: list[tuple[bytes, bytes, float]] = []
