@@ -12,6 +12,13 @@ Scenes (issue 3):
   the initial CoM (the CoM task's target): the level-1 inequality moves the CoM behind it and
   then holds it against the CoM level on every step, so the level QPs run (in the kernel:
   its active-set level QPs, ``native_steps``; the Python row: the Python cascade's).
+* ``panda equality + rows``: Panda, tcp position following the ``panda`` offsets, the tcp
+  orientation held exactly (an equality task), posture (1e-3), joint position + velocity
+  limits and two joint-space half-spaces ``A q <= b`` (a user's constraint class: general
+  inequality rows evaluated in Python), dt = 5 ms, 1500 steps, timed ``advance``. Rows: the
+  compiled general step, the Python path (proxsuite), and placo with a ``hard`` orientation
+  task and its ``JointSpaceHalfSpacesConstraint`` (the same problem: its half-space
+  violation and orientation error are reported), in alternating rounds.
 * ``panda global``: ``solve_ik`` on random reachable tcp poses.
 * ``panda dampers``: the main demo's scene (``examples/demo_main.py``): Panda with convex
   collision geometry, a 7 cm ball in the way of a tcp pose task whose target slides 45 cm
@@ -53,6 +60,7 @@ from taskspace.constraints import (
     JointPositionLimits,
     JointVelocityLimits,
 )
+from taskspace.features.rows import INF, InequalityRows
 from taskspace.ik import (
     DifferentialIK,
     DifferentialIKOptions,
@@ -385,6 +393,150 @@ def panda_dampers_rows(steps: int, rounds: int = 3) -> list[Row]:
     return rows
 
 
+# ``panda equality + rows``: joint-space half-spaces A q <= q0-value + margin on the arm joints
+GENERAL_A = np.array([[0, 1, 0, 0, 0, 0, 0], [0, 0, 0, 1, 0, -1, 0]], dtype=float)
+GENERAL_MARGIN = np.array([0.3, 0.7])  # [rad]
+
+
+class JointHalfSpaces(Constraint):
+    """A user's joint-space half-spaces ``A q <= b`` (revolute joints: rows ``A dq <= b - A q``).
+
+    A general inequality row: no compiled declaration, evaluated in Python on both paths.
+    """
+
+    def __init__(self, robot: Robot, A: np.ndarray, b: np.ndarray) -> None:
+        super().__init__(robot, "joint half-spaces")
+        self.A, self.b = A, b
+        self._lower = np.full(len(b), -INF)
+
+    def inequalities(self, state: Any, dt: float) -> InequalityRows:
+        return InequalityRows(self.A, self._lower, self.b - self.A @ state.q)
+
+
+def run_panda_general(steps: int, native: bool = True) -> dict[str, Any]:
+    """Panda: tcp position (the ``panda`` offsets), tcp orientation held by an equality task,
+    posture (1e-3), limits and two joint-space half-spaces; timed: ``advance(state, DT)``."""
+    robot = Robot.load("panda")
+    state = robot.state(robot.q_default)
+    tcp = "panda_hand_tcp"
+    position = Task(F.Position(robot, tcp), name="tcp")
+    p0 = position.feature.value(state).copy()
+    orientation = Task(F.Orientation(robot, tcp), name="orientation")
+    orientation.set_target_from_state(state)
+    posture = Task(F.JointConfiguration(robot), robot.q_default, weight=1e-3, name="posture")
+    b = GENERAL_A @ robot.q_default + GENERAL_MARGIN
+    ik = DifferentialIK(
+        robot,
+        [position, posture],
+        [
+            JointPositionLimits(robot),
+            JointVelocityLimits(robot),
+            JointHalfSpaces(robot, GENERAL_A, b),
+        ],
+        equality_tasks=[orientation],
+        options=DifferentialIKOptions(native=native),
+    )
+    times = np.empty(steps)
+    kkt = {"primal": 0.0, "dual": 0.0, "complementarity": 0.0, "not_computed": 0}
+    failed = compiled = active = 0
+    declined: dict[str, int] = {}
+    violation = orientation_error = 0.0
+    for k in range(steps):
+        position.set_target(p0 + hand_offset(k))
+        t0 = time.perf_counter()
+        result = ik.advance(state, DT)
+        times[k] = time.perf_counter() - t0
+        failed += not result.success  # below: outside the timed part
+        qp = result.qp
+        compiled += qp.backend == "native general"
+        if result.native_declined:
+            declined[result.native_declined] = declined.get(result.native_declined, 0) + 1
+        active += bool(np.any(qp.z != 0.0))
+        if np.isfinite(qp.kkt.primal):
+            for key in ("primal", "dual", "complementarity"):
+                kkt[key] = max(kkt[key], float(getattr(qp.kkt, key)))
+        else:
+            kkt["not_computed"] += 1
+        violation = max(violation, float((GENERAL_A @ state.q - b).max()))
+        orientation_error = max(orientation_error, float(np.linalg.norm(orientation.error(state))))
+    return {
+        "times": times,
+        "failed": failed,
+        "compiled": compiled,
+        "active": active,
+        "declined": declined,
+        "kkt": kkt,
+        "violation": violation,
+        "orientation_error": orientation_error,
+        "tcp_error": float(np.linalg.norm(position.error(state))),
+    }
+
+
+def panda_general_rows(steps: int, rounds: int = 3) -> list[Row]:
+    """``panda equality + rows``: compiled general step, Python path, placo; alternating."""
+    scene = "panda equality + rows"
+    samples: dict[str, list[np.ndarray]] = {"taskspace": [], "taskspace, Python path": []}
+    last: dict[str, dict[str, Any]] = {}
+    placo_times: list[float] = []
+    placo_out: Any = None
+    placo_note = ""
+    robot = Robot.load("panda")
+    b = GENERAL_A @ robot.q_default + GENERAL_MARGIN
+    with tempfile.TemporaryDirectory() as tmp:
+        spec = Path(tmp) / "scene.json"
+        spec.write_text(
+            json.dumps(
+                {
+                    "steps": steps,
+                    "dt": DT,
+                    "q0": robot.q_default.tolist(),
+                    "A": GENERAL_A.tolist(),
+                    "b": b.tolist(),
+                }
+            )
+        )
+        for _ in range(rounds):  # alternate: the machine's load drifts
+            for name, native in (("taskspace", True), ("taskspace, Python path", False)):
+                out = run_panda_general(steps, native)
+                samples[name].append(out["times"])
+                last[name] = out
+            if placo_note:
+                continue
+            try:
+                placo_out = run_peer("placo", "placo_general.py", [str(spec)])
+            except Exception as exc:
+                placo_note = f"failed: {exc!s:.200}"
+                continue
+            if placo_out is None:
+                placo_note = "peer env missing (make bench-peers)"
+            elif "error" in placo_out:
+                placo_note = placo_out["error"]
+            else:
+                placo_times += placo_out["times"]
+    rows = []
+    for name, out in last.items():
+        extra = {
+            "failed_steps": out["failed"],
+            "compiled_steps": out["compiled"],
+            "steps_with_active_rows": out["active"],
+            "max_half_space_violation": f"{out['violation']:.1e}",
+            "max_orientation_error": f"{out['orientation_error']:.1e}",
+            "tcp_error_m": round(out["tcp_error"], 5),
+            **_kkt_extra(out["kkt"]),
+        }
+        if out["declined"]:
+            extra["declined"] = out["declined"]
+        timing = Timing.from_samples(np.concatenate(samples[name]))
+        rows.append(Row(SUITE, scene, name, timing, extra, ratio_to="placo"))
+    if placo_note or placo_out is None:
+        rows.append(Row(SUITE, scene, "placo", None, note=placo_note))
+    else:
+        extra = {k: v for k, v in placo_out.items() if k not in ("times", "note")}
+        timing = Timing.from_samples(np.array(placo_times))
+        rows.append(Row(SUITE, scene, "placo", timing, extra))
+    return rows
+
+
 def _peer_rows(scene: str, steps: int, q0: np.ndarray) -> list[Row]:
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
@@ -476,6 +628,7 @@ def run(quick: bool) -> list[Row]:
                 )
             rows += _peer_rows(scene, steps, Robot.load(robot_name).q_default)
     rows += panda_dampers_rows(150 if quick else 400, rounds=2 if quick else 3)
+    rows += panda_general_rows(300 if quick else 1500, rounds=2 if quick else 3)
     out = run_global(100 if quick else 1000)
     rows.append(
         Row(

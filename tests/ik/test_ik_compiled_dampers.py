@@ -227,7 +227,11 @@ def test_trajectory_behind_the_obstacle_never_penetrates() -> None:
 
 
 def test_declaration_selects_the_path() -> None:
-    """A subclass that does not declare its rows itself takes the Python path."""
+    """A subclass that does not declare its rows itself is not evaluated by the kernel.
+
+    Its rows are evaluated in Python (its own ``inequalities``) and solved by the general
+    step; the class that declares them has them evaluated by the kernel.
+    """
 
     class Custom(CollisionAvoidance):
         pass
@@ -235,8 +239,15 @@ def test_declaration_selects_the_path() -> None:
     robot = Robot.load("panda", convex_collision=True)
     pose = Task(F.FramePose(robot, robot.end_effectors[0]), name="tcp")
     pose.set_target_from_state(robot.state(robot.q_default))
-    assert DifferentialIK(robot, [pose], [CollisionAvoidance(robot)]).native
-    assert not DifferentialIK(robot, [pose], [Custom(robot)]).native
+    declared = DifferentialIK(robot, [pose], [CollisionAvoidance(robot)])
+    assert declared.native
+    assert declared._native is not None and declared._native._general is None
+    custom = DifferentialIK(robot, [pose], [Custom(robot)])
+    if hasattr(ik_kernel(), "GeneralIKStep"):
+        assert custom.native and custom._native is not None
+        assert custom._native._rows == [] and custom._native._general is not None
+    else:
+        assert not custom.native
 
 
 def test_an_obstacle_added_after_the_first_step_is_refused_as_on_the_python_path() -> None:

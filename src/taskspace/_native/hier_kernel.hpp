@@ -36,15 +36,20 @@
 class GoldfarbIdnani {
  public:
   static constexpr int kSolved = 0;
-  static constexpr int kFailed = 1;  // infeasible, not positive definite, degenerate, or the cap
+  static constexpr int kFailed = 1;  // infeasible, degenerate, or the cap
+  static constexpr int kDependent = 2;  // an equality row is a combination of the earlier ones
+  static constexpr int kNotPositiveDefinite = 3;  // H is not positive definite
 
-  // y, u (multipliers of the rows of A, >= 0, zero on inactive rows); returns the status.
+  // y, u (multipliers of the rows of A: >= 0 and zero on inactive rows for the inequality
+  // rows, any sign for the first `meq` rows, which are equalities A y = b); returns the
+  // status. The equality rows are added first, in order, and never leave the active set
+  // (QuadProg++'s treatment of equalities).
   int solve(const MatrixXd& H, const VectorXd& g, const MatrixXd& A, const VectorXd& b,
-            VectorXd& y, VectorXd& u, int& iterations) {
+            VectorXd& y, VectorXd& u, int& iterations, int meq = 0) {
     const int n = static_cast<int>(H.rows()), m = static_cast<int>(A.rows());
     iterations = 0;
     llt_.compute(H);
-    if (llt_.info() != Eigen::Success) return kFailed;
+    if (llt_.info() != Eigen::Success) return kNotPositiveDefinite;
     J_.setIdentity(n, n);
     llt_.matrixU().solveInPlace(J_);  // L' J = I
     R_.setZero(n, n);
@@ -57,6 +62,27 @@ class GoldfarbIdnani {
     double r_norm = 1.0;
     const int cap = 10 * (m + n) + 10;
     const double eps = std::numeric_limits<double>::epsilon();
+    meq_ = meq;
+    if (meq > n) return kDependent;
+    // the equality rows: the full step onto each (its multiplier may have either sign)
+    for (int p = 0; p < meq; ++p) {
+      ++iterations;
+      const int q = static_cast<int>(act_.size());
+      d_.noalias() = J_.transpose() * A.row(p).transpose();
+      z_.noalias() = J_.rightCols(n - q) * d_.tail(n - q);
+      r_ = d_.head(q);
+      if (q) R_.topLeftCorner(q, q).triangularView<Eigen::Upper>().solveInPlace(r_);
+      const double zn = z_.dot(A.row(p));
+      const double sp = A.row(p).dot(y) - b[p];
+      const double t = zn > 0.0 ? -sp / zn : 0.0;
+      if (!std::isfinite(t)) return kDependent;
+      y += t * z_;
+      if (q) lam_.head(q) -= t * r_;
+      if (!add(q, r_norm)) return kDependent;  // row p depends on the earlier equalities
+      lam_[q] = t;
+      act_.push_back(p);
+      active_[p] = 1;
+    }
     for (;;) {
       // the most violated inactive row (relative to its size)
       int p = -1;
@@ -79,7 +105,7 @@ class GoldfarbIdnani {
         if (q) R_.topLeftCorner(q, q).triangularView<Eigen::Upper>().solveInPlace(r_);
         double t1 = std::numeric_limits<double>::infinity();
         int l = -1;
-        for (int j = 0; j < q; ++j)
+        for (int j = meq_; j < q; ++j)  // (the equalities never leave)
           if (r_[j] > 0.0 && lam_[j] / r_[j] < t1) t1 = lam_[j] / r_[j], l = j;
         const double zn = z_.dot(A.row(p));
         const bool full = z_.squaredNorm() > eps && zn > 0.0;
@@ -204,6 +230,7 @@ class GoldfarbIdnani {
   VectorXd d_, z_, r_, s_, lam_, rd_, ra_;
   std::vector<int> act_;
   std::vector<char> active_, skipped_;
+  int meq_ = 0;
 };
 
 class HierarchicalIKKernel {

@@ -50,7 +50,7 @@ using RowMatrixXd = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen:
 
 namespace {
 
-enum Kind { kPose = 0, kPosition = 1, kCom = 2, kPosture = 3 };
+enum Kind { kPose = 0, kPosition = 1, kCom = 2, kPosture = 3, kOrientation = 4 };
 
 struct Item {
   int kind;
@@ -98,9 +98,11 @@ constexpr int kSolved = 1;
 constexpr int kMaxIterations = 2;
 
 class HierarchicalIKKernel;  // hier_kernel.hpp: reuses this kernel's rows and boxes
+class GeneralIKStep;  // general_step.hpp: this kernel's QP with equality and inequality rows
 
 class WeightedIKKernel {
   friend class HierarchicalIKKernel;
+  friend class GeneralIKStep;
 
  public:
   WeightedIKKernel(int nv, int nq) : nv_(nv), nq_(nq), m_(0) {
@@ -125,6 +127,11 @@ class WeightedIKKernel {
   }
   int add_position(const Model& model, int frame) {
     return add({kPosition, frame, m_, 3, support_columns(model, frame)});
+  }
+  // log3 rotation error, Jlog3 times the LOCAL angular Jacobian (taskspace's Orientation);
+  // the general step's equality rows (general_step.hpp)
+  int add_orientation(const Model& model, int frame) {
+    return add({kOrientation, frame, m_, 3, support_columns(model, frame)});
   }
   int add_com() {
     std::vector<int> all(nv_);
@@ -470,6 +477,18 @@ class WeightedIKKernel {
           pinocchio::getFrameJacobian(model, data, it.frame, pinocchio::LOCAL_WORLD_ALIGNED, J6_);
           for (int a = 0; a < ns; ++a) rows.col(it.rows[a]) = J6_.col(it.rows[a]).head<3>();
           e = data.oMf[it.frame].translation() - p;
+          break;
+        }
+        case kOrientation: {
+          const Eigen::Ref<const MatrixXd> Rt = bp::extract<Eigen::Ref<const MatrixXd>>(target);
+          if (Rt.rows() != 3 || Rt.cols() != 3) raise_invalid("orientation target is not 3x3");
+          const Eigen::Matrix3d err = Rt.transpose() * data.oMf[it.frame].rotation();
+          pinocchio::getFrameJacobian(model, data, it.frame, pinocchio::LOCAL, J6_);
+          Eigen::Matrix3d jlog3;
+          pinocchio::Jlog3(err, jlog3);
+          for (int a = 0; a < ns; ++a)
+            rows.col(it.rows[a]) = jlog3 * J6_.col(it.rows[a]).tail<3>();
+          e = pinocchio::log3(err);
           break;
         }
         case kCom: {
@@ -1125,6 +1144,7 @@ double abi_selfcheck(const Model& model) {
 }
 
 #include "hier_kernel.hpp"  // the compiled closed-form step of HierarchicalIK
+#include "general_step.hpp"  // the weighted step with equality and inequality rows
 
 }  // namespace
 
@@ -1136,10 +1156,12 @@ BOOST_PYTHON_MODULE(_ik_kernel) {
   bp::scope().attr("MAX_ITERATIONS") = kMaxIterations;
   bp::def("abi_selfcheck", &abi_selfcheck, bp::args("model"));
   register_hierarchical_ik_kernel();  // hier_kernel.hpp
+  register_general_ik_step();  // general_step.hpp
   bp::class_<WeightedIKKernel>("WeightedIKKernel", bp::init<int, int>(bp::args("self", "nv", "nq")))
       .def("add_pose", &WeightedIKKernel::add_pose)
       .def("add_position", &WeightedIKKernel::add_position)
       .def("add_com", &WeightedIKKernel::add_com)
+      .def("add_orientation", &WeightedIKKernel::add_orientation)
       .def("add_posture", &WeightedIKKernel::add_posture)
       .add_property("rows", &WeightedIKKernel::rows)
       .def("set_scaling", &WeightedIKKernel::set_scaling)

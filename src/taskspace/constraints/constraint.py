@@ -52,11 +52,13 @@ class Constraint(abc.ABC):
         return None
 
     def compiled_constraint(self) -> CompiledConstraint | None:
-        """How the compiled IK kernel evaluates :meth:`inequalities`, or ``None`` (Python path).
+        """How a compiled IK kernel evaluates :meth:`inequalities` itself, or ``None``.
 
-        A constraint class the kernel serves overrides this method (see
+        ``None``: the rows are evaluated in Python (:meth:`inequalities`); the compiled
+        weighted step still solves them (its general step), the other consumers may take
+        their Python path. A constraint class a kernel evaluates overrides this method (see
         :mod:`taskspace.features.compiled`); only a class's own override counts, so a
-        subclass that changes the rows is not served by the kernel unless it declares them.
+        subclass that changes the rows is not evaluated by a kernel unless it declares them.
         """
         return None
 

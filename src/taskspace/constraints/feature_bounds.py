@@ -17,6 +17,7 @@ import numpy as np
 from taskspace._validation import as_vector
 from taskspace.constraints.constraint import Constraint
 from taskspace.errors import InvalidInputError
+from taskspace.features.compiled import CompiledConstraint, compiled_term
 from taskspace.features.rows import INF, InequalityRows
 
 if TYPE_CHECKING:
@@ -72,6 +73,20 @@ class FeatureBounds(Constraint):
                 raise InvalidInputError(f"gain must be in (0, 1], got {value}")
             value = float(value)  # type: ignore[arg-type]
         super().__setattr__(name, value)
+
+    def compiled_constraint(self) -> CompiledConstraint | None:
+        """The bounds as a compiled kernel evaluates them, when the feature declares a term.
+
+        ``None`` when the feature's class declares no compiled term: the rows of
+        :meth:`inequalities` are then evaluated in Python (a compiled step may still take
+        them as rows). A subclass is served only if it declares this method itself.
+        """
+        term = compiled_term(self.feature)
+        if term is None:
+            return None
+        return CompiledConstraint(
+            "bounds", gain=self.gain, term=term, lower=self.lower, upper=self.upper
+        )
 
     def inequalities(self, state: State, dt: float) -> InequalityRows:
         """``lower - phi <= J dq <= upper - phi`` (violations corrected with ``gain``)."""

@@ -13,7 +13,7 @@ term itself.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 if TYPE_CHECKING:
     from taskspace.constraints.constraint import Constraint
@@ -43,8 +43,9 @@ class CompiledTerm(NamedTuple):
     rows: tuple[int, ...] | None = None
 
 
-CONSTRAINT_KINDS = ("dampers",)
-"""The constraint rows the compiled IK kernel evaluates."""
+CONSTRAINT_KINDS = ("dampers", "bounds")
+"""The constraint rows a compiled IK kernel may evaluate itself (each consumer serves the
+kinds it implements; the rows of the others are evaluated in Python and passed to it)."""
 
 
 class CompiledConstraint(NamedTuple):
@@ -53,10 +54,15 @@ class CompiledConstraint(NamedTuple):
     Attributes:
         kind: one of :data:`CONSTRAINT_KINDS`: ``dampers`` (collision velocity dampers
             ``J_d dq >= -gain (d - safety_distance)`` for the collision pairs closer than
-            ``influence_distance``, distances and witness points from coal in the kernel).
-        pairs: indices into ``robot.collision_model.collisionPairs``.
-        safety_distance, influence_distance: [m].
-        gain: damper gain in (0, 1].
+            ``influence_distance``, distances and witness points from coal in the kernel);
+            ``bounds`` (``lower - phi <= J dq <= upper - phi`` on a feature the kernel
+            evaluates, ``term``; a violated bound relaxed to the fraction ``gain`` of the way
+            back, as :class:`~taskspace.constraints.FeatureBounds`).
+        pairs: indices into ``robot.collision_model.collisionPairs`` (``dampers``).
+        safety_distance, influence_distance: [m] (``dampers``).
+        gain: damper or bounds gain in (0, 1].
+        term: the bounded feature's compiled term (``bounds``).
+        lower, upper: the bounds (``bounds``; arrays of the feature's dimension).
     """
 
     kind: str
@@ -64,6 +70,9 @@ class CompiledConstraint(NamedTuple):
     safety_distance: float = 0.0
     influence_distance: float = 0.0
     gain: float = 0.0
+    term: CompiledTerm | None = None
+    lower: Any = None
+    upper: Any = None
 
 
 def compiled_constraint(constraint: Constraint) -> CompiledConstraint | None:

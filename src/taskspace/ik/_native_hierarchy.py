@@ -30,9 +30,14 @@ import numpy as np
 
 from taskspace._native import ik_kernel
 from taskspace.constraints.constraint import Constraint
-from taskspace.constraints.feature_bounds import FeatureBounds
 from taskspace.errors import InvalidInputError
-from taskspace.features.compiled import IK_KINDS, CompiledTerm, compiled_term
+from taskspace.features.compiled import (
+    IK_KINDS,
+    CompiledConstraint,
+    CompiledTerm,
+    compiled_constraint,
+    compiled_term,
+)
 from taskspace.ik._native_stack import _FULL_TANGENT, _REGISTER, split_boxes, write_scaling
 from taskspace.model.robot import Robot
 from taskspace.model.state import State
@@ -74,12 +79,16 @@ def supported(levels: Sequence[Sequence[Task]]) -> bool:
 _BOUND_KINDS = {"com": 2, "position": 1}  # the kernel's term kinds
 
 
-def _compiled_bounds(c: Constraint) -> CompiledTerm | None:
-    """The term of a :class:`FeatureBounds` (that class only) the kernel evaluates, or ``None``."""
-    if type(c) is not FeatureBounds:
+def _compiled_bounds(c: Constraint) -> CompiledConstraint | None:
+    """The bounds ``c`` declares on a term the kernel evaluates, or ``None``.
+
+    Read from its class's own ``compiled_constraint``; ``None``: its rows are evaluated in
+    Python.
+    """
+    rows = compiled_constraint(c)
+    if rows is None or rows.kind != "bounds" or rows.term is None:
         return None
-    term = compiled_term(c.feature)
-    return term if term is not None and term.kind in _BOUND_KINDS else None
+    return rows if rows.term.kind in _BOUND_KINDS else None
 
 
 class _NativeLevelResult(QPResult):
@@ -199,28 +208,29 @@ class NativeHierarchy:
                     )
                 _REGISTER[term.kind](kernel, model, term)
                 (full if term.kind in _FULL_TANGENT else rows).append((t, term))
-        # FeatureBounds on a CoM or frame origin: evaluated by the kernel (rows after the
+        # bounds declared on a CoM or frame origin: evaluated by the kernel (rows after the
         # tasks'); the other inequality rows are evaluated here and passed to each solve
-        self._bounds: list[FeatureBounds] = []
+        self._bounds: list[Constraint] = []
+        self._bound_keys: list[tuple[bytes, bytes, float]] = []
         level_constraints = [[c for c in level if isinstance(c, Constraint)] for level in levels]
         for k, group in enumerate([*level_constraints, list(constraints)]):
             level = k if k < len(levels) else -1
             for c in group:
-                bterm = _compiled_bounds(c)
-                if bterm is None:
+                declared = _compiled_bounds(c)
+                if declared is None:
                     continue
-                assert isinstance(c, FeatureBounds)
+                assert declared.term is not None  # (_compiled_bounds checked it)
                 kernel.add_bounds(
                     model,
-                    _BOUND_KINDS[bterm.kind],
-                    -1 if bterm.frame_id is None else bterm.frame_id,
-                    c.lower,
-                    c.upper,
-                    c.gain,
+                    _BOUND_KINDS[declared.term.kind],
+                    -1 if declared.term.frame_id is None else declared.term.frame_id,
+                    declared.lower,
+                    declared.upper,
+                    declared.gain,
                     level,
                 )
                 self._bounds.append(c)
-        self._bound_keys = [self._bound_key(c) for c in self._bounds]
+                self._bound_keys.append(self._bound_key(declared))
         self._level_inequalities = [
             InequalityStack([c for c in group if _compiled_bounds(c) is None], robot.nv)
             for group in level_constraints
@@ -251,8 +261,10 @@ class NativeHierarchy:
         self.build_time = 0.0
 
     @staticmethod
-    def _bound_key(c: FeatureBounds) -> tuple[bytes, bytes, float]:
-        return (c.lower.tobytes(), c.upper.tobytes(), c.gain)
+    def _bound_key(declared: CompiledConstraint) -> tuple[bytes, bytes, float]:
+        lower = np.asarray(declared.lower, dtype=float)
+        upper = np.asarray(declared.upper, dtype=float)
+        return (lower.tobytes(), upper.tobytes(), declared.gain)
 
     def _send_position_limits(self, position: Any) -> None:
         self.kernel.set_position_limits(*position.kernel_arguments())
@@ -308,9 +320,15 @@ class NativeHierarchy:
         if rescale:
             self._scale()
         for i, c in enumerate(self._bounds):
-            key = self._bound_key(c)
+            declared = _compiled_bounds(c)
+            if declared is None:
+                raise InvalidInputError(
+                    f"constraint '{c.name}' no longer declares compiled bounds on a CoM or "
+                    "frame origin (make a new HierarchicalIK)"
+                )
+            key = self._bound_key(declared)
             if key != self._bound_keys[i]:  # bounds reassigned or changed in place
-                self.kernel.set_bounds(i, c.lower, c.upper, c.gain)
+                self.kernel.set_bounds(i, declared.lower, declared.upper, declared.gain)
                 self._bound_keys[i] = key
         if self._position_limits is not None:
             self._position_limits.sync()

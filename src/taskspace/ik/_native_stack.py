@@ -11,7 +11,16 @@ inequality rows whose constraints declare a
 distances computed in the kernel). With rows, the box solution is kept when it satisfies
 them; otherwise a primal-dual active-set method on the rows and the box runs from the box's
 active set, and its step is accepted only when its KKT residuals meet the solver's
-tolerances (they are carried on the result). Anything else takes the Python path.
+tolerances (they are carried on the result).
+
+Equality tasks and the inequality rows of constraints that declare no rows the kernel
+evaluates (:class:`~taskspace.constraints.FeatureBounds`, a user's rows) are evaluated in
+Python (:class:`~taskspace.qp.rows.TaskRowStack`, :class:`~taskspace.qp.rows.InequalityStack`)
+and the whole QP, with the kernel's task rows, box and dampers, is solved by the kernel's
+general step (``taskspace/_native/general_step.hpp``: the dual active-set method of the
+hierarchical kernel, equalities first); its step is accepted only when its KKT residuals meet
+the solver's tolerances. A step the kernel declines takes the Python path, and the result says
+why (:data:`DECLINED`, ``IKStepResult.native_declined``).
 """
 
 from __future__ import annotations
@@ -36,11 +45,17 @@ from taskspace.model.robot import Robot
 from taskspace.model.state import State
 from taskspace.model.versioning import ModelFollower
 from taskspace.qp.kkt import KKTResiduals
+from taskspace.qp.rows import InequalityStack, TaskRowStack
 from taskspace.tasks import ASSIGNMENTS as _ASSIGNMENTS
 from taskspace.tasks import Task
 
 MAX_ACTIVE_SET_ITERATIONS = 200
 _empty = np.empty
+
+
+def _floats(a: Any) -> np.ndarray:
+    """``a`` as a C-contiguous float array (itself when it is one)."""
+    return np.ascontiguousarray(a, dtype=float)
 
 
 # How each kind of term is registered with the kernel (the kernel's own API).
@@ -51,6 +66,14 @@ _REGISTER: dict[str, Callable[[Any, Any, CompiledTerm], Any]] = {
     "posture": lambda kernel, model, term: kernel.add_posture(
         None if term.rows is None else list(term.rows)
     ),
+}
+# How each kind of equality task is registered with the kernel that evaluates the general
+# step's equality rows (its weighted rows are the rows; no posture: that kind is a term of H)
+_REGISTER_EQUALITY: dict[str, Callable[[Any, Any, CompiledTerm], Any]] = {
+    "pose": _REGISTER["pose"],
+    "position": _REGISTER["position"],
+    "com": _REGISTER["com"],
+    "orientation": lambda kernel, model, term: kernel.add_orientation(model, term.frame_id),
 }
 _FULL_TANGENT = frozenset({"posture"})
 """Kinds whose kernel rows span the whole tangent space (their scaling has nv entries, the
@@ -70,13 +93,49 @@ _REGISTER_ROWS: dict[str, Callable[[Any, Robot, CompiledConstraint], Any]] = {
 }
 
 
-def supported(tasks: Sequence[Task], inequality_constraints: Sequence[Constraint] = ()) -> bool:
-    """Whether the compiled kernel can run these tasks and constraints with inequality rows."""
-    if ik_kernel() is None or not tasks:
+def _kernel_rows(c: Constraint) -> bool:
+    """Whether ``c`` declares rows the weighted kernel evaluates itself (its class's own)."""
+    rows = compiled_constraint(c)
+    return rows is not None and rows.kind in _REGISTER_ROWS
+
+
+def supported(
+    tasks: Sequence[Task],
+    inequality_constraints: Sequence[Constraint] = (),
+    equality_tasks: Sequence[Task] = (),
+) -> bool:
+    """Whether the compiled kernel can run these tasks, constraints and equality tasks.
+
+    The weighted tasks' features must declare a compiled term of :data:`IK_KINDS`. With the
+    general step (``GeneralIKStep``, see ``taskspace/_native/general_step.hpp``) any
+    equality tasks and inequality rows are served (the rows the kernel does not evaluate
+    itself are evaluated in Python); a kernel built without it serves only inequality rows
+    the kernel evaluates (collision dampers) and no equality tasks.
+    """
+    module = ik_kernel()
+    if module is None or not tasks:
         return False
-    return all(
+    if not all(
         (term := compiled_term(t.feature)) is not None and term.kind in IK_KINDS for t in tasks
-    ) and all(compiled_constraint(c) is not None for c in inequality_constraints)
+    ):
+        return False
+    if hasattr(module, "GeneralIKStep"):
+        return True
+    return not equality_tasks and all(_kernel_rows(c) for c in inequality_constraints)
+
+
+DECLINED = {
+    2: "the compiled active-set method did not settle or its step missed the KKT tolerances",
+    3: "the compiled dual active-set method found no point satisfying the equality, "
+    "inequality and box rows (or stopped at a degenerate vertex)",
+    4: "the equality rows are linearly dependent (redundant or conflicting equality tasks)",
+    5: "the compiled general step's KKT residuals exceed the solver's tolerances",
+    6: "the QP's Hessian M^T M + mu I is not positive definite (damping 0 and a "
+    "rank-deficient stack)",
+    -1: "a task has Levenberg-Marquardt damping (the kernel's damping is fixed)",
+}
+"""Why the compiled weighted step declined (a kernel status, or -1), recorded on the Python
+path's result as ``IKStepResult.native_declined``."""
 
 
 class NativeWeightedStack:
@@ -97,6 +156,7 @@ class NativeWeightedStack:
         constraints: Sequence[Constraint],
         inequality_constraints: Sequence[Constraint] = (),
         tolerances: tuple[float, float] = (1e-9, 1e-9),
+        equality_tasks: Sequence[Task] = (),
     ):
         module = ik_kernel()
         assert module is not None
@@ -133,14 +193,61 @@ class NativeWeightedStack:
         )
         self.nv = robot.nv
         # constraints with inequality rows the kernel evaluates (declared, sent again when
-        # their declaration or the obstacle world changes)
-        self._rows = list(inequality_constraints)
-        for c in self._rows:
-            if compiled_constraint(c) is None:
+        # their declaration or the obstacle world changes); the other rows and the equality
+        # tasks' rows are evaluated in Python and solved by the general step
+        self._rows = [c for c in inequality_constraints if _kernel_rows(c)]
+        python_rows = [c for c in inequality_constraints if not _kernel_rows(c)]
+        self._general: Any = None
+        if python_rows or equality_tasks:
+            if not hasattr(module, "GeneralIKStep"):
                 raise InvalidInputError(
-                    f"constraint '{c.name}' declares no compiled rows (use the Python path: "
-                    "DifferentialIKOptions(native=False))"
+                    "this build of the IK kernel has no general step (equality tasks, "
+                    "inequality rows evaluated in Python): use the Python path, "
+                    "DifferentialIKOptions(native=False), or rebuild taskspace"
                 )
+            self._general = module.GeneralIKStep()
+        self._python_rows = InequalityStack(python_rows, robot.nv)
+        # equality tasks whose feature declares a term the kernel evaluates: a second kernel
+        # holding only them (its weighted rows are the equality rows); the others in Python
+        evaluates = hasattr(module.WeightedIKKernel, "add_orientation")
+        compiled_eq: list[tuple[Task, CompiledTerm]] = []
+        python_eq: list[Task] = []
+        for t in equality_tasks:
+            term = compiled_term(t.feature)
+            if (
+                evaluates
+                and term is not None
+                and term.kind in _REGISTER_EQUALITY
+                and type(t).rows is Task.rows
+            ):
+                compiled_eq.append((t, term))
+            else:
+                python_eq.append(t)
+        self._eq_kernel: Any = None
+        self._eq_tasks = [t for t, _ in compiled_eq]
+        self._eq_terms = [term for _, term in compiled_eq]
+        self._eq_keys: list[tuple[Any, float]] = []
+        if compiled_eq:
+            self._eq_kernel = module.WeightedIKKernel(robot.nv, robot.nq)
+            for _, term in compiled_eq:
+                _REGISTER_EQUALITY[term.kind](self._eq_kernel, model, term)
+        self._equalities = TaskRowStack(python_eq, robot.nv) if python_eq else None
+        # the equality rows' order in the kernel (compiled tasks, then Python ones) as rows
+        # of the Python builder (equality tasks in the given order): y_builder[order] = y
+        starts = np.cumsum([0] + [t.dim for t in equality_tasks])
+        index = {id(t): k for k, t in enumerate(equality_tasks)}
+        self._eq_order = np.concatenate(
+            [np.zeros(0, dtype=int)]
+            + [
+                np.arange(starts[index[id(t)]], starts[index[id(t)] + 1])
+                for t in [*self._eq_tasks, *python_eq]
+            ]
+        )
+        self._eq_permuted = bool((self._eq_order != np.arange(len(self._eq_order))).any())
+        # one Python constraint with rows: its rows passed as they are (the kernel checks
+        # and copies them), without the stack's buffers
+        self._single_rows = python_rows[0] if len(python_rows) == 1 else None
+        self.declined = ""  # why the last solve returned None (DECLINED)
         # each class's own declaration (compiled_constraint checked it is the class's own)
         self._declare = [c.compiled_constraint for c in self._rows]
         self._declared: list[CompiledConstraint | None] = []
@@ -149,7 +256,7 @@ class NativeWeightedStack:
         kernel.set_tolerances(*tolerances)
         # whether the kernel evaluates inequality rows (its solves carry KKT residuals): fixed
         # at construction, a plain attribute (read at every step)
-        self.has_rows = bool(self._rows)
+        self.has_rows = bool(self._rows) or self._general is not None
         # without rows, the kernel's 9-argument solve under its own name (no overload dispatch,
         # no collision arguments): the step of a box-only stack costs what it did before the
         # dampers were added; with rows, the 11-argument solve
@@ -160,7 +267,10 @@ class NativeWeightedStack:
         self.max_iterations = module.MAX_ITERATIONS
         # the fused step (solve, integrate, kinematics of the new q): one signature, the
         # collision model and its data always given (None without rows)
-        self.advance: Any = getattr(kernel, "advance", None)
+        # (the general step's: the same fused step, called by _solve_general)
+        self.advance: Any = (
+            self._general.advance if self._general else getattr(kernel, "advance", None)
+        )
         self._advance_geometry: tuple[Any, Any] = (None, None)
         self.nq = robot.nq
         self.no_velocity = np.zeros(0)  # v_next of a state without velocity (not written)
@@ -181,6 +291,20 @@ class NativeWeightedStack:
             t.sqrt_weight is not w or t.gain is not g for t, (w, g) in zip(tasks, keys)
         ):
             self._scale()
+        if self._eq_kernel is not None and (
+            not self._eq_keys
+            or any(
+                t.sqrt_weight is not w or t.gain is not g
+                for t, (w, g) in zip(self._eq_tasks, self._eq_keys)
+            )
+        ):
+            w = np.zeros(sum(t.dim for t in self._eq_tasks))
+            c = np.zeros_like(w)
+            k = 0
+            for t, term in zip(self._eq_tasks, self._eq_terms):
+                k = write_scaling(w, c, k, t, term, self.nv)
+            self._eq_kernel.set_scaling(w, c)
+            self._eq_keys = [(t.sqrt_weight, t.gain) for t in self._eq_tasks]
 
     def _send_position_limits(self, position: Any) -> None:
         self.kernel.set_position_limits(*position.kernel_arguments())
@@ -224,6 +348,7 @@ class NativeWeightedStack:
         if _ASSIGNMENTS[0] != self._assignments:
             self._check_tasks()
         if self._lm_damping:
+            self.declined = DECLINED[-1]
             return None
         targets = [t._target for t in self.tasks]
         if self._position_limits is not None:
@@ -242,6 +367,8 @@ class NativeWeightedStack:
             out,
             MAX_ACTIVE_SET_ITERATIONS,
         )
+        if self._general is not None:
+            return self._solve_general(state, dt, args, move)
         try:
             if move:
                 q_next = _empty(self.nq)
@@ -264,8 +391,80 @@ class NativeWeightedStack:
             self.require_targets()
             raise
         if status == self.max_iterations:
+            self.declined = DECLINED[2]
             return None
         return status, iterations, objective, t_build, t_qp
+
+    def _solve_general(
+        self, state: State, dt: float, args: tuple[Any, ...], move: bool
+    ) -> tuple[int, int, float, float, float] | None:
+        """:meth:`solve` by the general step.
+
+        The equality rows and the inequality rows the kernel does not evaluate come from
+        Python; the kernel solves them with its own rows and box.
+        """
+        equalities = None
+        if self._equalities is not None:
+            equalities = self._equalities.velocity(state)
+        inequalities = None
+        single = self._single_rows
+        if single is not None:
+            rows = single.inequalities(state, dt)
+            if rows is not None and len(rows[0]):
+                inequalities = (_floats(rows[0]), _floats(rows[1]), _floats(rows[2]))
+        elif self._python_rows:
+            rows, blocks = self._python_rows.fill(state, dt)
+            if blocks:
+                inequalities = rows
+        geometry = self._geometry if self._rows else (None, None)
+        general_rows = (
+            self._eq_kernel,
+            [t._target for t in self._eq_tasks],
+            equalities,
+            inequalities,
+        )
+        try:
+            if move:
+                q_next = _empty(self.nq)
+                has_velocity = state._has_velocity
+                v_next = _empty(self.nv) if has_velocity else self.no_velocity
+                status, iterations, objective, t_build, t_qp, _ = self._general.advance(
+                    self.kernel,
+                    *args[:8],
+                    *geometry,
+                    general_rows,
+                    q_next,
+                    v_next,
+                    dt if has_velocity else 0.0,
+                )
+                if status <= 1:  # the data hold the kinematics of q_next
+                    state._adopt(q_next, v_next if has_velocity else None)
+            else:
+                status, iterations, objective, t_build, t_qp, _ = self._general.solve(
+                    self.kernel, *args[:8], *geometry, general_rows
+                )
+        except (TypeError, ValueError, RuntimeError):
+            self.require_targets()
+            raise
+        if status > 1:
+            self.declined = DECLINED[status]
+            return None
+        return status, iterations, objective, t_build, t_qp
+
+    def general_multipliers(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Multipliers of the general step's last solve, signed as proxsuite's.
+
+        ``(y, z, z_dampers, z_box)``: of the equality rows (the equality tasks' rows, in
+        order), of the inequality rows evaluated in Python (the constraints' rows in order,
+        without the kernel's own), of the kernel's damper rows (:meth:`damper_rows`) and of
+        the box.
+        """
+        y, z, zd, zb = self._general.multipliers()  # new 1-D arrays (eigenpy's vectors)
+        if self._eq_permuted:
+            y_builder = np.empty_like(y)
+            y_builder[self._eq_order] = y
+            y = y_builder
+        return y, z, zd, zb
 
     def boxes(self, state: State, dt: float) -> tuple[list[Any], list[Any]]:
         """The hard and soft boxes evaluated in Python (the kernel evaluates the position box)."""
@@ -287,7 +486,7 @@ class NativeWeightedStack:
 
     def require_targets(self) -> None:
         """Raise, naming it, when a task has no target (after the kernel refused its call)."""
-        for t in self.tasks:
+        for t in [*self.tasks, *self._eq_tasks]:
             t._require_target()
 
     def _solve_with_rows(self, *args: Any) -> Any:

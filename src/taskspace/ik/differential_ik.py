@@ -52,6 +52,8 @@ _INF = float("inf")
 _NAN = float("nan")
 _SOLVED = QPStatus.SOLVED
 _UNCONSTRAINED = QPStatus.UNCONSTRAINED
+_NO_Z = np.zeros(0)
+_NO_Z.flags.writeable = False
 
 
 class IKStatus(enum.Enum):
@@ -82,6 +84,7 @@ class IKStepResult:
     """
 
     __slots__ = (
+        "_declined",
         "_dt",
         "_qp",
         "_velocity",
@@ -92,6 +95,7 @@ class IKStepResult:
         "status",
         "success",
     )
+    _declined: str  # why the compiled kernel declined (set only then; see native_declined)
 
     def __init__(
         self,
@@ -133,12 +137,20 @@ class IKStepResult:
         self._velocity = value
 
     @property
+    def native_declined(self) -> str:
+        """Why the compiled kernel declined this step (the Python path answered).
+
+        ``""`` when the kernel answered or was not tried.
+        """
+        return getattr(self, "_declined", "")
+
+    @property
     def qp(self) -> QPResult:
         """The QP result (status, backend, iterations, KKT residuals, culprits when relaxed)."""
         qp = self._qp
         if type(qp) is tuple:  # the fields of a QPResult, given by the compiled path
-            if len(qp) > 9:  # with the kernel's KKT residuals as a plain tuple
-                qp = (*qp[:9], KKTResiduals(*qp[9]))
+            if len(qp) > 9:  # with the kernel's KKT residuals as a plain tuple (+ multipliers)
+                qp = (*qp[:9], KKTResiduals(*qp[9]), *qp[10:])
             qp = self._qp = QPResult(*qp)
         return qp  # type: ignore[return-value]
 
@@ -165,16 +177,19 @@ class DifferentialIKOptions:
         native: run the compiled kernel (``taskspace/_native``) when it is built and the
             stack is one it serves: every task's feature declares a compiled term
             (:meth:`~taskspace.features.feature.Feature.compiled_term`: frame pose, frame
-            origin, center of mass, posture) and the constraints are boxes (joint position,
-            velocity, acceleration limits) or inequality rows whose constraint declares how
-            the kernel evaluates them
+            origin, center of mass, posture). Boxes (joint position, velocity, acceleration
+            limits) and the inequality rows whose constraint declares that the kernel
+            evaluates them
             (:meth:`~taskspace.constraints.constraint.Constraint.compiled_constraint`:
-            collision velocity dampers, coal distances computed in the kernel). It solves the
-            same QP exactly (a primal active-set method on the box, then a primal-dual
-            active-set method on the rows and the box when the box solution violates a row;
-            a step with rows carries its KKT residuals and is accepted only within the
-            tolerances of ``solver``); every other stack, and any step whose active set does
-            not settle, takes the Python path with ``solver``.
+            collision velocity dampers, coal distances computed in the kernel) are solved by
+            a primal active-set method on the box, then a primal-dual active-set method on
+            the rows and the box when the box solution violates a row. Equality tasks and
+            the other inequality rows (feature bounds, a user's rows; evaluated in Python)
+            are solved with them by the kernel's general step (a dual active-set method).
+            A step with rows carries its KKT residuals and is accepted only within the
+            tolerances of ``solver``; other stacks, and any step the kernel declines (its
+            reason in ``IKStepResult.native_declined``), take the Python path with
+            ``solver``.
         native_residuals: give the compiled kernel's steps their KKT residuals
             (``IKStepResult.qp.kkt``): the QP of the Python path (:meth:`DifferentialIK.build`)
             is built for the same state and checked at the kernel's step, with the bound
@@ -309,10 +324,8 @@ class DifferentialIK:
         """Whether steps run on the compiled kernel (see :class:`DifferentialIKOptions`)."""
         if not self._native_checked:
             self._native_checked = True
-            if (
-                self.options.native
-                and not self.equality_tasks
-                and native_supported(self.tasks, self._inequality_constraints)
+            if self.options.native and native_supported(
+                self.tasks, self._inequality_constraints, self.equality_tasks
             ):
                 solver = self.options.solver
                 self._native = NativeWeightedStack(
@@ -321,6 +334,7 @@ class DifferentialIK:
                     self.constraints,
                     self._inequality_constraints,
                     (solver.eps_abs, solver.eps_rel),
+                    self.equality_tasks,
                 )
                 # advance() in one kernel call; not with native_residuals (they are checked on
                 # the QP built at the state before it moves), nor with a kernel built before
@@ -359,6 +373,9 @@ class DifferentialIK:
                 native = self._solve_native(state, dt)
                 if native is not None:
                     return native
+                result = self._solve_python(state, dt)
+                result._declined = self._native.declined  # type: ignore[union-attr]
+                return result
             return self._solve_python(state, dt)
         finally:
             self._release()
@@ -473,6 +490,9 @@ class DifferentialIK:
             if fused and result is not None:  # the state has moved
                 self._arm(dt)
                 return result
+            if result is None and self._native is not None:
+                result = self._solve_python(state, dt)
+                result._declined = self._native.declined
         if result is None:
             result = self._solve_python(state, dt)
         dq = result.dq
@@ -543,7 +563,13 @@ class DifferentialIK:
             "native",
         )
         qp: QPResult | tuple[Any, ...] = fields  # made on first access of result.qp
-        if native.has_rows:  # the kernel's own KKT residuals (the step is accepted on them)
+        if native._general is not None:  # the general step: its residuals and multipliers
+            fields = (*fields[:6], "native general")
+            y, z, _, z_box = native.general_multipliers()
+            # z is in the Python builder's row order only without kernel-evaluated rows
+            z = z if not native._rows else _NO_Z
+            qp = (*fields, [], {}, native.kernel.residuals(), y, z, z_box)
+        elif native.has_rows:  # the kernel's own KKT residuals (the step is accepted on them)
             qp = (*fields, [], {}, native.kernel.residuals())  # made on first access
         elif self._native_residuals:  # (never with move: advance does not fuse then)
             qp = QPResult(*fields)
