@@ -165,7 +165,8 @@ class JointManifold:
                 raise InvalidInputError(
                     f"joint '{name}' of type {short} cannot be planned on; supported: "
                     f"{', '.join(_SCALAR + _CIRCLE)}, JointModelPlanar, JointModelSpherical, "
-                    "JointModelFreeFlyer (lock it, e.g. Robot.load(..., locked_values=...))"
+                    "JointModelFreeFlyer (lock it: ConfigurationSpace.from_robot(..., "
+                    "locked_joints={name: value}))"
                 )
             blocks.append(JointBlock(kind, joint.idx_q, joint.nq, joint.idx_v, joint.nv, name))
         self.blocks = tuple(blocks)
