@@ -19,6 +19,7 @@ from taskspace.errors import InvalidInputError, PlanningError, UnknownNameError
 from taskspace.model import Obstacle, Robot
 from taskspace.planning.bit_star import BITStarOptions, bit_star
 from taskspace.planning.configuration_space import ConfigurationSpace
+from taskspace.planning.objectives import MechanicalWork
 from taskspace.planning.prm_star import PRMStarOptions, prm_star
 from taskspace.planning.rrt_connect import RRTConnectOptions, rrt_connect
 from taskspace.planning.rrt_star import RRTStarOptions, rrt_star
@@ -218,3 +219,22 @@ def test_bad_locked_joints_are_refused(panda_table: Robot) -> None:
     floating = Robot.load("ur5", base="free_flyer")
     with pytest.raises(InvalidInputError, match="unit norm"):
         ConfigurationSpace.from_robot(floating, locked_joints={"root_joint": [0] * 7})
+
+
+def test_mechanical_work_of_the_free_joints_on_the_reduced_model(panda_table: Robot) -> None:
+    """The reduced model's gravity torques are the full model's on the free joints."""
+    robot = panda_table
+    space = ConfigurationSpace.from_robot(robot, locked_joints=LOCKED)
+    assert space.planning_model is not None and space.planning_model.nq == 5
+    assert ConfigurationSpace.from_robot(robot).planning_model is robot.model
+    work = MechanicalWork(space.planning_model, resolution=math.inf)
+    rng = np.random.default_rng(4)
+    a, b = space.sample_uniform(rng, 20), space.sample_uniform(rng, 20)
+    values = {k: np.array([v]) for k, v in LOCKED.items()}
+    model, data = robot.model, robot.model.createData()
+    free_v = [model.joints[model.getJointId(n)].idx_v for n in robot.joint_names if n not in LOCKED]
+    ref = []
+    for x, y in zip(a, b, strict=True):
+        tau = pin.computeGeneralizedGravity(model, data, _assemble(model, (x + y) / 2, values))
+        ref.append(abs(float(tau[free_v] @ (y - x))))
+    np.testing.assert_allclose(work.motion_costs(a, b), ref, rtol=1e-10, atol=1e-12)

@@ -330,6 +330,7 @@ class ConfigurationSpace:
         locked = self.locked
         assert locked is not None
         model = locked.reduced_model(robot.model)
+        self._reduced_model = model
         if weights is not None:
             w = np.asarray(weights, dtype=np.float64)
             if w.shape == (locked.nv,):
@@ -351,6 +352,23 @@ class ConfigurationSpace:
         ]
 
     # ------------------------------------------------------------------ locked joints
+    @property
+    def planning_model(self) -> pin.Model | None:
+        """The Pinocchio model whose configurations are this space's points.
+
+        The robot's model for a space built on a robot; with locked joints, the model of the
+        free joints with the locked ones welded at their values (``pinocchio.
+        buildReducedModel``: same free joints, same bodies and placements), e.g. for
+        :class:`~taskspace.planning.MechanicalWork` on the free joints; ``None`` for a space
+        not built on a robot.
+        """
+        if (f := self._follower) is not None and f.version != f.robot._version:
+            f.sync()
+        if self.locked is not None:
+            return self._reduced_model
+        metric = getattr(self, "_robot_metric", None)
+        return None if metric is None else metric[0].model
+
     @property
     def full_dim(self) -> int:
         """Size of the robot's configuration (``nq``; :attr:`dim` without locked joints)."""
