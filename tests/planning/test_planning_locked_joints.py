@@ -238,3 +238,38 @@ def test_mechanical_work_of_the_free_joints_on_the_reduced_model(panda_table: Ro
         tau = pin.computeGeneralizedGravity(model, data, _assemble(model, (x + y) / 2, values))
         ref.append(abs(float(tau[free_v] @ (y - x))))
     np.testing.assert_allclose(work.motion_costs(a, b), ref, rtol=1e-10, atol=1e-12)
+
+
+@pytest.mark.slow  # Talos loads in ~5 s; RRT* and a dense check of its path
+@pytest.mark.parametrize("informed", [False, True])
+def test_floating_humanoid_rrt_star_with_locked_limbs(informed: bool) -> None:
+    """Talos's floating base and torso plan around a wall, every limb locked (8 of 38 dof)."""
+    robot = Robot.load("talos", convex_collision=True)
+    robot.add_obstacle(Obstacle.box("wall", [0.2, 1.0, 3.0], [0.0, 0.0, 1.5]))
+    model, q0 = robot.model, robot.q_default
+    free = {"root_joint", "torso_1_joint", "torso_2_joint"}
+    locked = {
+        n: q0[model.joints[model.getJointId(n)].idx_q : model.joints[model.getJointId(n)].idx_q
+              + model.joints[model.getJointId(n)].nq]
+        for n in robot.joint_names
+        if n not in free
+    }  # fmt: skip
+    space = ConfigurationSpace.from_robot(
+        robot, locked_joints=locked, base_lower=[-1.5, -1.5, 0.9], base_upper=[1.5, 1.5, 1.2],
+        weights=[1, 1, 1, 0.3, 0.3, 0.3, 1, 1],
+    )  # fmt: skip
+    assert space.tangent_dim == 8 and space.full_dim == 39
+    start, goal = q0.copy(), q0.copy()
+    start[:3], goal[:3] = [-0.8, 0.0, 1.0], [0.8, 0.0, 1.0]
+    opts = RRTStarOptions(max_iterations=300, time_limit_s=None, seed=0, informed=informed)
+    res = rrt_star(space, start, goal, opts)
+    assert res.success and res.cost <= res.log["costs"][0]
+    full = space.full_configurations(res.path)
+    moving = [model.joints[model.getJointId(n)] for n in free]
+    moving_q = np.concatenate([np.arange(j.idx_q, j.idx_q + j.nq) for j in moving])
+    lock_q = np.setdiff1d(np.arange(model.nq), moving_q)
+    assert lock_q.size == 39 - 9
+    assert np.array_equal(full[:, lock_q], np.tile(q0[lock_q], (full.shape[0], 1)))
+    np.testing.assert_array_equal(full[0], start)
+    np.testing.assert_array_equal(full[-1], goal)
+    assert _dense_hits(robot, full, 0.02) == 0
