@@ -7,13 +7,18 @@ time). OMPL's planners run on the same problems with the same checker when their
 environment is installed (``benchmarks/peers/ompl_arena.py``). Matplotlib figures show per
 scenario the success rate, the time and the cost distributions (cost divided by the known
 optimum where there is one) and the median cost over time. Scenarios: a 2-D square obstacle
-(optimum known), the Panda in free space (optimum: the straight line), and MotionBenchMaker
-Panda problems (when the data set is present).
+(optimum known), the Panda in free space (optimum: the straight line), Talos's torso and
+right arm with the rest of the humanoid locked (9 of 39 coordinates, over a shelf), and
+MotionBenchMaker Panda problems (when the data set is present).
 
 Run: ``python -m benchmarks.run planner_arena [--quick]`` (table) or
 ``python -m benchmarks.suites.planner_arena [--quick] [--out DIR]`` (table, database and
 figures). Environment: ``TASKSPACE_ARENA_DIR`` (output directory, default
-``benchmarks/results/planner_arena``), ``TASKSPACE_ARENA_TIME`` (time limit [s]).
+``benchmarks/results/planner_arena``), ``TASKSPACE_ARENA_TIME`` (time limit [s]),
+``TASKSPACE_ARENA_SEEDS`` (runs per planner and problem; 2 quick, 10 full),
+``TASKSPACE_ARENA_PROBLEMS`` (MotionBenchMaker problems per scenario; 2 quick, 5 full).
+The full arena (23 problems x 10 seeds, 1 s limit) takes about an hour (13.5 s of wall time
+per problem and seed in a reduced run, OMPL included).
 """
 
 from __future__ import annotations
@@ -89,6 +94,32 @@ def panda_free() -> list[Problem]:
     return [Problem("panda_free", 0, space, start, goal, optimum)]
 
 
+TALOS_START = [0.454, 0.333, 0.793, -0.301, -1.613, -2.003, -1.914, -1.183, 0.048]
+TALOS_GOAL = [1.016, -0.025, -0.263, -2.049, 0.421, -1.051, 1.568, 0.169, -0.295]
+
+
+def talos_arm_torso() -> list[Problem]:
+    """Talos's torso and right arm (9 dof; every other joint, the floating base included,
+    locked at the default posture with ``locked_joints``) move the hand from under a shelf
+    to above it (optimum unknown)."""
+    from taskspace.model import Obstacle, Robot
+
+    robot = Robot.load("talos", convex_collision=True)
+    model = robot.model
+    free = {"torso_1_joint", "torso_2_joint"} | {f"arm_right_{i}_joint" for i in range(1, 8)}
+    q0 = robot.q_default
+    locked = {
+        str(model.names[j]): q0[model.joints[j].idx_q : model.joints[j].idx_q + model.joints[j].nq]
+        for j in range(1, model.njoints)
+        if str(model.names[j]) not in free
+    }
+    robot.add_obstacle(Obstacle.box("shelf", [0.5, 0.6, 0.04], [0.6, -0.35, 1.25]))
+    space = ConfigurationSpace.from_robot(
+        robot, locked_joints=locked, edge=EdgeCheckOptions(resolution=RESOLUTION)
+    )
+    return [Problem("talos_arm_torso", 0, space, TALOS_START, TALOS_GOAL)]
+
+
 def motionbenchmaker(scenarios: list[str], count: int) -> list[Problem]:
     """The first ``count`` valid problems of each MotionBenchMaker scenario (optimum unknown)."""
     root = motionbenchmaker_dir()
@@ -127,6 +158,11 @@ PLANNERS: dict[str, Planner] = {
     "rrt_star": lambda p, t, s: rrt_star(
         p.space, p.start, p.goal,
         RRTStarOptions(time_limit_s=t, max_iterations=None, informed=False, seed=s),
+    ),
+    "rrt_star_plain": lambda p, t, s: rrt_star(
+        p.space, p.start, p.goal,
+        RRTStarOptions(time_limit_s=t, max_iterations=None, informed=False, seed=s,
+                       first_solution="rrt_star"),
     ),
     "informed_rrt_star": lambda p, t, s: rrt_star(
         p.space, p.start, p.goal, RRTStarOptions(time_limit_s=t, max_iterations=None, seed=s)
@@ -219,8 +255,12 @@ def record_peers(db: sqlite3.Connection, problems: list[Problem], quick: bool, l
 CHECKPOINT_S = 0.1
 """Issue 22's short budget: RRT* and informed RRT* (ours and OMPL's) also run with this limit."""
 
-CHECKPOINT_PLANNERS = ("rrt_star", "informed_rrt_star")
-OMPL_NAMES = {"rrt_star": "ompl RRTstar", "informed_rrt_star": "ompl InformedRRTstar"}
+CHECKPOINT_PLANNERS = ("rrt_star", "rrt_star_plain", "informed_rrt_star")
+OMPL_NAMES = {
+    "rrt_star": "ompl RRTstar",
+    "rrt_star_plain": "ompl RRTstar",  # like for like: no RRT-Connect first solution
+    "informed_rrt_star": "ompl InformedRRTstar",
+}
 
 
 def checkpoint_name(planner: str, limit: float) -> str:
@@ -398,15 +438,20 @@ def table(db: sqlite3.Connection) -> list[Row]:
 
 
 def _problems(quick: bool) -> list[Problem]:
+    """The arena's problems (``TASKSPACE_ARENA_PROBLEMS``: MotionBenchMaker ones per scenario).
+
+    The OMPL peer calls this too (same environment), so both sides plan the same problems.
+    """
     scen = ["bookshelf_small", "table_pick"] if quick else ["bookshelf_small", "box", "cage",
                                                             "table_pick"]  # fmt: skip
-    return square_2d() + panda_free() + motionbenchmaker(scen, 2 if quick else 5)
+    count = int(os.environ.get("TASKSPACE_ARENA_PROBLEMS", "2" if quick else "5"))
+    return square_2d() + panda_free() + talos_arm_torso() + motionbenchmaker(scen, count)
 
 
 def run(quick: bool, out: Path | None = None) -> list[Row]:
     """Run the arena; the database and figures go to ``out`` (or ``TASKSPACE_ARENA_DIR``)."""
     limit = float(os.environ.get("TASKSPACE_ARENA_TIME", "0.2" if quick else "1.0"))
-    seeds = 2 if quick else 10
+    seeds = int(os.environ.get("TASKSPACE_ARENA_SEEDS", "2" if quick else "10"))
     out = out or Path(
         os.environ.get("TASKSPACE_ARENA_DIR", ROOT / "benchmarks/results/planner_arena")
     )

@@ -54,6 +54,7 @@ from taskspace.planning.kinodynamic_rrt import (
 )
 from taskspace.planning.lazy_prm import LazyRoadmap, build_lazy_prm, lazy_prm, lazy_prm_query
 from taskspace.planning.limits import planner_limits
+from taskspace.planning.locked_joints import LockedJointChecker, LockedJoints
 from taskspace.planning.nearest import GrowingNearest
 from taskspace.planning.objectives import (
     Clearance,
@@ -129,6 +130,8 @@ __all__ = [
     "KinodynamicRRTOptions",
     "KinodynamicRRTResult",
     "LazyRoadmap",
+    "LockedJointChecker",
+    "LockedJoints",
     "MechanicalWork",
     "MetricLength",
     "MotionBound",

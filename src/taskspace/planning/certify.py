@@ -386,6 +386,9 @@ def certify_planned(
     from taskspace.planning.planner_result import PlannerStatus
 
     checker = getattr(space, "checker", None)
+    locked = getattr(space, "locked", None)
+    if locked is not None:  # a space of free joints: certify the robot's full configurations
+        checker = getattr(checker, "checker", None)
     if not isinstance(checker, CollisionChecker):
         raise InvalidInputError(
             "certify=True needs a space built on a robot (ConfigurationSpace.from_robot): "
@@ -404,7 +407,8 @@ def certify_planned(
         result.log["certify_attempts"] = float(attempt + 1)
         if not result.success:
             return result
-        cert = certify_path(checker.robot, result.path, tolerance=tolerance)
+        path = result.path if locked is None else locked.lift(result.path)
+        cert = certify_path(checker.robot, path, tolerance=tolerance)
         result.log["min_distance"] = cert.min_distance
         if cert.certified:
             result.log["certified"] = 1.0

@@ -23,6 +23,7 @@ from __future__ import annotations
 import itertools
 import math
 from collections import deque
+from collections.abc import Mapping
 from dataclasses import dataclass
 from functools import lru_cache
 from typing import Any
@@ -41,6 +42,7 @@ from taskspace.planning.collision_checker import (
     ValidityChecker,
 )
 from taskspace.planning.joint_manifold import JointManifold
+from taskspace.planning.locked_joints import LockedJointChecker, LockedJoints
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
@@ -165,6 +167,7 @@ class ConfigurationSpace:
         manifold: JointManifold | None = None,
     ) -> None:
         self._follower: ModelFollower | None = None
+        self.locked: LockedJoints | None = None
         self._set_bounds(lower, upper, manifold)
         self.checker = checker
         self.edge = edge or EdgeCheckOptions()
@@ -240,6 +243,7 @@ class ConfigurationSpace:
         base_lower: Any = None,
         base_upper: Any = None,
         weights: Any = None,
+        locked_joints: Mapping[str, Any] | None = None,
     ) -> ConfigurationSpace:
         """The configuration space of a robot with a :class:`CollisionChecker`.
 
@@ -255,7 +259,18 @@ class ConfigurationSpace:
             base_lower: lower corner of the base translation box [m] (x, y for a planar
                 root joint, x, y, z for a floating base); required for such robots.
             base_upper: upper corner of that box [m].
-            weights: metric weights per velocity coordinate (size nv; default 1).
+            weights: metric weights per velocity coordinate (size nv, or the free joints'
+                velocity size with ``locked_joints``; default 1).
+            locked_joints: joint name -> value of joints held fixed (see
+                :mod:`taskspace.planning.locked_joints`: a number, an angle or ``(cos, sin)``
+                for a continuous joint, the joint's ``nq`` coordinates for a planar joint or a
+                floating base). The space is then the sub-space of the other joints: its
+                configurations (:attr:`dim`, samples, planned paths, trees) are their
+                coordinates in the order of ``q``; :meth:`full_configurations` lifts them to
+                the robot's ``q`` with the locked values copied exactly, and the collision
+                checker sees those full configurations. Starts and goals may be given as
+                either (a full one must hold the locked values). The compiled RRT-Connect
+                does not run on such a space (RRT-Connect plans in Python).
 
         The space follows the robot's limits: after :meth:`Robot.set_limits` its bounds,
         samples and metric are those of the new limits (results kept outside the space,
@@ -264,11 +279,17 @@ class ConfigurationSpace:
         Raises:
             InvalidInputError: a joint without finite limits that is not continuous, a
                 moving base without its translation box, a joint type that cannot be
-                planned on.
+                planned on (lock it), a bad locked value, every joint locked.
+            UnknownNameError: a locked joint name the robot does not have (the valid names
+                are listed).
         """
-        checker = CollisionChecker(robot, checker_options)
+        checker: ValidityChecker = CollisionChecker(robot, checker_options)
         space = cls.__new__(cls)
         space._follower = None
+        space.locked = None
+        if locked_joints is not None:
+            space.locked = LockedJoints(robot.model, locked_joints)
+            checker = LockedJointChecker(checker, space.locked)  # type: ignore[arg-type]
         space.checker = checker
         space.edge = edge or EdgeCheckOptions()
         check_positive(space.edge.resolution, "resolution")
@@ -285,6 +306,9 @@ class ConfigurationSpace:
     def _derive_from_robot(self) -> None:
         """Bounds, names and metric of :meth:`from_robot` from the robot's current limits."""
         robot, weights, base_lower, base_upper = self._robot_metric
+        if self.locked is not None:
+            self._derive_locked(robot, weights, base_lower, base_upper)
+            return
         manifold = None
         simple = robot.limited_joints_q.size == robot.nq and robot.nq == robot.nv
         simple = simple and not robot.is_floating
@@ -300,6 +324,85 @@ class ConfigurationSpace:
         names = [str(robot.model.names[jid]) for jid in range(1, robot.model.njoints)]
         self._set_bounds(lo, hi, manifold)
         self.names = names if len(names) == lo.size else [f"q[{i}]" for i in range(lo.size)]
+
+    def _derive_locked(self, robot: Robot, weights: Any, base_lower: Any, base_upper: Any) -> None:
+        """:meth:`_derive_from_robot` for the free joints (the reduced Pinocchio model)."""
+        locked = self.locked
+        assert locked is not None
+        model = locked.reduced_model(robot.model)
+        self._reduced_model = model
+        if weights is not None:
+            w = np.asarray(weights, dtype=np.float64)
+            if w.shape == (locked.nv,):
+                weights = w[locked.free_v]
+        manifold: JointManifold | None = JointManifold(
+            model, weights=weights, base_lower=base_lower, base_upper=base_upper
+        )
+        assert manifold is not None
+        lo, hi = manifold.lower, manifold.upper
+        if manifold.is_euclidean and weights is None:
+            manifold = None
+            lo = np.array(model.lowerPositionLimit, dtype=np.float64)
+            hi = np.array(model.upperPositionLimit, dtype=np.float64)
+        self._set_bounds(lo, hi, manifold)
+        self.names = [
+            f"{model.names[j]}" if model.joints[j].nq == 1 else f"{model.names[j]}[{k}]"
+            for j in range(1, model.njoints)
+            for k in range(model.joints[j].nq)
+        ]
+
+    # ------------------------------------------------------------------ locked joints
+    @property
+    def planning_model(self) -> pin.Model | None:
+        """The Pinocchio model whose configurations are this space's points.
+
+        The robot's model for a space built on a robot; with locked joints, the model of the
+        free joints with the locked ones welded at their values (``pinocchio.
+        buildReducedModel``: same free joints, same bodies and placements), e.g. for
+        :class:`~taskspace.planning.MechanicalWork` on the free joints; ``None`` for a space
+        not built on a robot.
+        """
+        if (f := self._follower) is not None and f.version != f.robot._version:
+            f.sync()
+        if self.locked is not None:
+            return self._reduced_model
+        metric = getattr(self, "_robot_metric", None)
+        return None if metric is None else metric[0].model
+
+    @property
+    def full_dim(self) -> int:
+        """Size of the robot's configuration (``nq``; :attr:`dim` without locked joints)."""
+        return self.dim if self.locked is None else self.locked.nq
+
+    def full_configurations(self, path: Any) -> FloatArray:
+        """The robot's configurations of points of this space (rows or one vector).
+
+        With locked joints the free coordinates are written into a copy of the locked
+        configuration, so every locked coordinate holds its value exactly; otherwise the
+        points are returned (as a float array).
+        """
+        arr = np.asarray(path, dtype=np.float64)
+        if arr.shape[-1:] != (self.dim,):
+            raise InvalidInputError(
+                f"points of this space have {self.dim} coordinates, got shape {arr.shape}"
+            )
+        return arr if self.locked is None else self.locked.lift(arr)
+
+    def _free_coordinates(self, q: Any, name: str) -> Any:
+        """A full configuration given to a space with locked joints, reduced (else ``q``)."""
+        locked = self.locked
+        if locked is None:
+            return q
+        arr = np.asarray(q)
+        if arr.shape != (locked.nq,) or not np.issubdtype(arr.dtype, np.number):
+            return q
+        full = arr.astype(np.float64)
+        bad = locked.mismatch(full)
+        if bad:
+            raise PlanningError(
+                f"{name} is a full configuration whose locked joints are not at their values: {bad}"
+            )
+        return locked.reduce(full)
 
     # ------------------------------------------------------------------ basics
     @property
@@ -480,6 +583,7 @@ class ConfigurationSpace:
         """
         if self._manifold is not None and self._manifold._follower is None:
             self._manifold._sync()  # a bare model: its limits are compared, once per plan
+        q = self._free_coordinates(q, name)
         try:
             qa = as_vector(q, self.dim, name)
         except InvalidInputError as exc:
@@ -516,6 +620,7 @@ class ConfigurationSpace:
         """
         if self._manifold is not None and self._manifold._follower is None:
             self._manifold._sync()  # a bare model: its limits are compared, once per plan
+        q = self._free_coordinates(q, name)
         if (
             type(q) is np.ndarray
             and q.dtype == np.float64

@@ -165,7 +165,8 @@ class JointManifold:
                 raise InvalidInputError(
                     f"joint '{name}' of type {short} cannot be planned on; supported: "
                     f"{', '.join(_SCALAR + _CIRCLE)}, JointModelPlanar, JointModelSpherical, "
-                    "JointModelFreeFlyer (lock it, e.g. Robot.load(..., locked_values=...))"
+                    "JointModelFreeFlyer (lock it: ConfigurationSpace.from_robot(..., "
+                    "locked_joints={name: value}))"
                 )
             blocks.append(JointBlock(kind, joint.idx_q, joint.nq, joint.idx_v, joint.nv, name))
         self.blocks = tuple(blocks)
@@ -197,6 +198,15 @@ class JointManifold:
             )
         self.is_euclidean = all(b.kind == "vector" for b in self.blocks)
         self._unit = [b for b in self.blocks if b.kind != "vector"]
+        # difference() in a few array operations: the vector joints' coordinates (nq = nv)
+        # and the continuous joints' (cos, sin) pairs gathered once
+        vec = [b for b in self.blocks if b.kind == "vector"]
+        circ = [b for b in self.blocks if b.kind == "circle"]
+        self._vec_q = np.array([b.idx_q + k for b in vec for k in range(b.nq)], dtype=np.int64)
+        self._vec_v = np.array([b.idx_v + k for b in vec for k in range(b.nv)], dtype=np.int64)
+        self._circ_q = np.array([b.idx_q for b in circ], dtype=np.int64)
+        self._circ_v = np.array([b.idx_v for b in circ], dtype=np.int64)
+        self._lie = [b for b in self.blocks if b.kind not in ("vector", "circle")]
         self._snapshot: tuple[FloatArray, FloatArray] | None = None
         self._follower = (
             None if robot is None else ModelFollower(robot, "JointManifold", self._derive)
@@ -281,15 +291,16 @@ class JointManifold:
         """``q1 (-) q0`` row by row (``pinocchio.difference``), shape (n, nv)."""
         a, b = np.broadcast_arrays(np.atleast_2d(q0), np.atleast_2d(q1))
         out = np.empty((a.shape[0], self.nv))
-        for blk in self.blocks:
+        if self._vec_q.size:
+            out[:, self._vec_v] = b[:, self._vec_q] - a[:, self._vec_q]
+        if self._circ_q.size:
+            c = self._circ_q
+            out[:, self._circ_v] = _angle(a[:, c], a[:, c + 1], b[:, c], b[:, c + 1])
+        for blk in self._lie:
             qa = a[:, blk.idx_q : blk.idx_q + blk.nq]
             qb = b[:, blk.idx_q : blk.idx_q + blk.nq]
             v = slice(blk.idx_v, blk.idx_v + blk.nv)
-            if blk.kind == "vector":
-                out[:, v] = qb - qa
-            elif blk.kind == "circle":
-                out[:, v] = _angle(qa[:, 0], qa[:, 1], qb[:, 0], qb[:, 1])[:, None]
-            elif blk.kind == "planar":
+            if blk.kind == "planar":
                 th = _angle(qa[:, 2], qa[:, 3], qb[:, 2], qb[:, 3])
                 c, s = qa[:, 2], qa[:, 3]
                 dx, dy = qb[:, 0] - qa[:, 0], qb[:, 1] - qa[:, 1]

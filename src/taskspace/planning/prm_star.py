@@ -174,6 +174,13 @@ class _EdgeIndex:
         return np.asarray(self.order[pos], dtype=np.int64)
 
 
+_FIRST_POINTS = 256.0
+"""Points checked in the first chunk of edges (PRM*): later chunks are sized from its time."""
+
+_MAX_CHUNK = 256
+"""Most edges checked in one chunk (PRM*)."""
+
+
 def _plan(
     space: ConfigurationSpace,
     start: Any,
@@ -233,17 +240,39 @@ def _plan(
             if lazy:
                 graph.add_edges(pairs, cost, np.zeros(len(cost), np.int8))
             else:
-                # Coarse then fine passes over chunks of edges, one checker call per pass.
+                # Coarse then fine passes over chunks of edges, one checker call per pass;
+                # a chunk holds about limit / 50 seconds of checks (its points times the
+                # time per point so far), so that the limit is kept with costly checkers.
                 free = np.zeros(len(cost), dtype=bool)
-                for lo in range(0, len(cost), 256):
+                a_rows, b_rows = nodes[pairs[:, 0]], nodes[pairs[:, 1]]
+                if space.manifold is None:
+                    lengths = np.linalg.norm(b_rows - a_rows, axis=1)
+                else:
+                    lengths = space.manifold.distances(a_rows, b_rows)
+                points = np.cumsum(np.ceil(lengths / space.edge.resolution) + 1.0)
+                lo, per_point = 0, math.inf
+                while lo < len(cost):
                     if budget.out_of_time():
                         break
-                    chunk = pairs[lo : lo + 256]
+                    size = _MAX_CHUNK
+                    if math.isfinite(limit):
+                        allowed = _FIRST_POINTS
+                        if math.isfinite(per_point):
+                            allowed = max(1.0, limit / 50.0 / per_point)
+                        done = points[lo - 1] if lo else 0.0
+                        fit = int(np.searchsorted(points, done + allowed, side="right")) - lo
+                        size = min(_MAX_CHUNK, max(1, fit))
+                    chunk = pairs[lo : lo + size]
                     space.edge_checks += chunk.shape[0]
                     ends = [(nodes[a], nodes[b]) for a, b in chunk.tolist()]
+                    t_chunk, checks_before = time.perf_counter(), space.checks
                     free[lo : lo + chunk.shape[0]] = _check_edges(
                         space, ends, stride, complete=True
                     )
+                    checked = space.checks - checks_before
+                    if checked > 0:
+                        per_point = (time.perf_counter() - t_chunk) / checked
+                    lo += chunk.shape[0]
                 graph.add_edges(pairs[free], cost[free], np.ones(int(free.sum()), np.int8))
         # Search (and, lazily, validate) the shortest path.
         pairs_all, cost_all, status = graph.edges()

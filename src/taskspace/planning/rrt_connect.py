@@ -608,7 +608,14 @@ def rrt_connect(
     Args:
         space: configuration space with validity checker and local planner.
         start: start configuration ``q_start`` (size d).
-        goal: goal configuration ``q_goal`` (size d).
+        goal: goal configuration ``q_goal`` (size d); or several (k, d), or a
+            :class:`~taskspace.planning.GoalRegion` (e.g. :class:`taskspace.ik.PoseGoalRegion`,
+            :class:`taskspace.ik.FeatureGoalRegion`), as OMPL's goal states and sampleable
+            goal regions: every goal configuration (for a region: its valid samples, 20
+            drawn first, one more every 64 iterations, up to 32) is a root of the goal tree,
+            and the path ends at whichever the trees connect to (``log["goal_states"]``). A
+            start inside the region is a one-point path. Goal sets plan with the Python
+            planner (the compiled one takes one goal).
         options: planner settings.
         rng: random generator (default: ``np.random.default_rng(options.seed)``); the
             compiled planner draws its seed from it.
@@ -682,7 +689,8 @@ def _plan(
         )
     checks0, edges0 = space.checks, space.edge_checks
     t0 = time.perf_counter()
-    kernel = _native_kernel(space, opts)
+    goal_set = _is_goal_set(goal)  # several goals or a region: the Python planner
+    kernel = None if goal_set else _native_kernel(space, opts)
     if kernel is not None:  # the kernel checks the endpoints' bounds and collisions
         q_start = space.endpoint_vector(start, "start")
         q_goal = space.endpoint_vector(goal, "goal")
@@ -721,17 +729,36 @@ def _plan(
         retry.log["sphere_recheck_failed"] = 1.0
         return retry
     q_start = space.check_endpoint(start, "start")
-    q_goal = space.check_endpoint(goal, "goal")
     rng = rng if rng is not None else np.random.default_rng(seed)
     deadline = t0 + time_limit
+    region = None
+    if goal_set:
+        from taskspace.planning.rrt_star import goal_states
+
+        goals, region = goal_states(space, goal)
+        if region is not None:
+            goals = _region_samples(space, region, rng, _REGION_FIRST_ATTEMPTS, deadline)
+    else:
+        goals = [space.check_endpoint(goal, "goal")]
     metric = None if space.is_euclidean else space.distances
-    tree_start, tree_goal = _GrowingTree(q_start, metric), _GrowingTree(q_goal, metric)
     lines = _LinePlanner(alpha, delta, delta_c)
     status = PlannerStatus.ITERATION_LIMIT
     path: FloatArray = np.empty((0, space.dim))
     iterations = rejections = removed = turns = 0
-    if space.motion_valid(q_start, q_goal):
-        path = np.stack([q_start, q_goal])
+    tree_start = _GrowingTree(q_start, metric)
+    # every goal configuration is a root of the goal tree (OMPL's goal states)
+    tree_goal = _GrowingTree(goals[0] if goals else q_start, metric)
+    for q_goal in goals[1:]:
+        tree_goal.add(q_goal, -1)
+    order = np.argsort(space.distances(np.asarray(goals), q_start)).tolist() if goals else []
+    direct = next((g for g in order if space.motion_valid(q_start, goals[g])), -1)
+    if region is not None and region.contains(q_start):
+        path = q_start[None, :].copy()
+        status = PlannerStatus.SOLVED
+    elif not goals:
+        status = PlannerStatus.NO_PATH  # a region none of whose samples was valid
+    elif direct >= 0:
+        path = np.stack([q_start, goals[direct]])
         status = PlannerStatus.SOLVED
     else:
         tree_a, tree_b = tree_start, tree_goal
@@ -747,6 +774,10 @@ def _plan(
             if j == 0 and iterations > 1:
                 samples = space.sample_uniform(rng, block)
             q_rand = samples[j]
+            if region is not None and iterations % _REGION_EVERY == 0 and len(goals) < 32:
+                for q_goal in _region_samples(space, region, rng, 1, deadline):
+                    goals.append(q_goal)  # one more goal state: a new root of the goal tree
+                    tree_goal.add(q_goal, -1)
             if trapped > 0.0 and 4 * len(tree_b.nn) < len(tree_a.nn) and rng.random() < trapped:
                 # T_b is trapped: it takes T_a's turn (the trees are swapped back below).
                 tree_a, tree_b = tree_b, tree_a
@@ -816,5 +847,43 @@ def _plan(
             "lazy_rejections": float(rejections),
             "nodes_removed": float(removed),
             "trapped_turns": float(turns),
+            "goal_states": float(len(goals)),
         },
     )
+
+
+_REGION_FIRST_ATTEMPTS = 20
+"""Samples of a goal region drawn before planning (the valid ones become goal states)."""
+
+_REGION_EVERY = 64
+"""A goal region is sampled again every this many iterations (up to 32 goal states)."""
+
+
+def _is_goal_set(goal: Any) -> bool:
+    """Whether ``goal`` is several goal configurations (k, d) or a goal region."""
+    from taskspace.planning.rrt_star import GoalRegion
+
+    if isinstance(goal, GoalRegion):
+        return True
+    try:
+        return bool(np.ndim(goal) == 2)
+    except (TypeError, ValueError):  # ragged: refused by the endpoint check
+        return False
+
+
+def _region_samples(
+    space: ConfigurationSpace, region: Any, rng: np.random.Generator, attempts: int, deadline: float
+) -> list[FloatArray]:
+    """Valid configurations (within the bounds, free) among ``attempts`` samples of ``region``."""
+    out = []
+    for _ in range(attempts):
+        if time.perf_counter() > deadline:
+            break
+        q = region.sample(rng)
+        if q is None:
+            continue
+        q = np.asarray(q, dtype=np.float64)
+        if q.shape == (space.dim,) and space.within_bounds(q) and space.is_valid(q):
+            if region.contains(q):
+                out.append(q)
+    return out
