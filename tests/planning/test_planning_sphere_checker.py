@@ -263,7 +263,8 @@ def test_paths_planned_with_spheres_are_exact_valid(robot: Any, scenario: str) -
             space, req.start, req.goal, RRTConnectOptions(seed=seed, checker="spheres")
         )
         assert spheres.success and spheres.log["checker"] == 1.0
-        assert spheres.log["exact_recheck_checks"] >= len(spheres.path)
+        # the certified spheres (sphere_model's volume certificate): no re-check
+        assert spheres.log["exact_recheck_checks"] == 0.0
         assert spheres.log["sphere_recheck_failed"] == 0.0
         # the same answers as the exact checker: the same tree and path
         np.testing.assert_array_equal(spheres.path, mesh.path)
@@ -277,8 +278,7 @@ def test_paths_planned_with_spheres_are_exact_valid(robot: Any, scenario: str) -
             RRTConnectOptions(seed=seed, checker="spheres", validator="spheres"),
         )
         assert validated.log["validator"] == 1.0
-        # the exact checker re-checks every point of the returned path (not only the coarse)
-        assert validated.log["exact_recheck_checks"] >= spheres.log["exact_recheck_checks"] > 0
+        assert validated.log["exact_recheck_checks"] == 0.0
         np.testing.assert_array_equal(validated.path, mesh.path)
         for validator in VALIDATORS:
             only = rrt_connect(
@@ -301,16 +301,37 @@ def test_paths_planned_with_spheres_are_exact_valid(robot: Any, scenario: str) -
             assert _dense_valid(ref, certified.path, 0.01)
 
 
-def test_a_straight_path_is_rechecked_exactly(robot: Any) -> None:
+def test_uncertified_spheres_are_rechecked_exactly(robot: Any) -> None:
+    """Spheres set without the volume certificate (certified_margin 0): the returned path is
+    re-checked with the exact checker; with it, not (its sphere answers imply the exact's)."""
     req, _ = _scene(robot, "box")
     space = ConfigurationSpace.from_robot(robot, edge=EdgeCheckOptions(resolution=0.03))
     goal = req.start + 0.1 * (req.goal - req.start) / np.linalg.norm(req.goal - req.start)
-    assert Reference(robot).collides(goal) is False
+    ref = Reference(robot)
+    assert ref.collides(goal) is False
+    spheres = space.checker.sphere_model()
+    assert space.checker.sphere_kernel().certified_margin == spheres.certified_margin > 0.0
+    args = (
+        spheres.centers,
+        spheres.radii,
+        spheres.joints.astype(np.int32),
+        spheres.geometries.astype(np.int32),
+    )
+    try:
+        space.checker.sphere_kernel().set_spheres(*args)  # no certificate
+        for checker in ("spheres", "spheres_only"):
+            res = rrt_connect(space, req.start, goal, RRTConnectOptions(checker=checker))
+            assert res.success and len(res.path) == 2  # the straight line
+            # both ends and the 3 interior points at 0.03 rad, with the exact checker
+            assert res.log["exact_recheck_checks"] == 5.0
+            res = rrt_connect(space, req.start, req.goal, RRTConnectOptions(checker=checker))
+            assert res.success and res.log["exact_recheck_checks"] >= len(res.path)
+    finally:
+        space.checker.sphere_kernel().set_spheres(*args, spheres.certified_margin)
     for checker in ("spheres", "spheres_only"):
-        res = rrt_connect(space, req.start, goal, RRTConnectOptions(checker=checker))
-        assert res.success and len(res.path) == 2  # the straight line
-        # both ends and the 3 interior points at 0.03 rad, with the exact checker
-        assert res.log["exact_recheck_checks"] == 5.0
+        res = rrt_connect(space, req.start, req.goal, RRTConnectOptions(checker=checker))
+        assert res.success and res.log["exact_recheck_checks"] == 0.0
+        assert _dense_valid(ref, res.path, 0.01)
 
 
 def test_bad_inputs(robot: Any) -> None:

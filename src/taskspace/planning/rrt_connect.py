@@ -464,6 +464,10 @@ def _native_kernel(space: ConfigurationSpace, opts: RRTConnectOptions) -> Any:
     return space.checker.native_kernel()
 
 
+# Phases timed by the kernel (log["kernel_<phase>_us"]): the whole call, the endpoint checks,
+# the straight start-goal line, the nearest-neighbour scans, the lazy fine pass and the
+# exact re-check of the returned path; the tree growth is the rest of "run".
+_PHASES = ("run", "endpoints", "line", "nearest", "fine_pass", "recheck")
 _NATIVE_STATUS = (PlannerStatus.SOLVED, PlannerStatus.TIME_LIMIT, PlannerStatus.ITERATION_LIMIT)
 _START_INVALID, _GOAL_INVALID = 3, 4  # the kernel's codes for an invalid start or goal
 _SEED_MASK = (1 << 64) - 1
@@ -535,7 +539,7 @@ def _rrt_connect_native(
     finally:  # also after Ctrl-C: the checks the kernel made are counted
         space.checker.checks += int(kernel.checks - kernel_checks0)
     (status_code, path, iterations, edges, rejections, removed, turns, start_tree, goal_tree,
-     exact_checks, recheck_failed, length, fallback) = out  # fmt: skip
+     exact_checks, recheck_failed, length, fallback, phases) = out  # fmt: skip
     if status_code >= _START_INVALID:
         _raise_endpoint(space, q_start, q_goal, status_code)
     space.edge_checks += edges
@@ -576,6 +580,7 @@ def _rrt_connect_native(
             "sphere_recheck_failed": float(recheck_failed),
             "spheres_fallback": float(fallback >= 0),
             "spheres_fallback_iteration": float(fallback),
+            **{f"kernel_{name}_us": float(t) for name, t in zip(_PHASES, phases, strict=True)},
         },
     )
 
