@@ -69,15 +69,17 @@
 // random free configurations flagged on the MotionBenchMaker scenes, self pairs most);
 // rrt_connect's fallback_iterations switches a plan from checker 2 to checker 1 after that
 // many iterations without a path (the spheres' margin closes narrow passages: cage, grasps).
-// The exact mesh checker stays the final validator: with a sphere checker, rrt_connect's lazy
-// fine pass (verify) uses checker 0, and the returned path's nodes and coarse points (or all
-// its points when the plan is not lazy or the path is the straight line) are re-checked with
-// checker 0 at the full resolution: every point of the path at the resolution is checked
-// exactly once; a failure returns no path (the Python side re-plans with "mesh"). Optionally
-// (rrt_connect's validator = kSpheres) that validation uses checker 1 instead: the same
-// answers (tested against Pinocchio's computeCollisions), 0.69 instead of 1.16 us per path
-// point (median over 63 problems), but "free" then rests on the sphere model's
-// conservativeness where no spheres touch (no independent mesh check of those points).
+// The final validator: with a sphere checker, rrt_connect's lazy fine pass (verify) uses
+// checker 0 (or checker 1 with validator = kSpheres: the same answers, 0.69 instead of
+// 1.16 us per path point, median over 63 problems), the endpoints checker 0, the nodes and
+// coarse points the plan's sphere checker. When the spheres carry sphere_model's volume
+// certificate (set_spheres' certified_margin > 0: every point of each object's convex hull
+// lies that margin inside the union of its spheres, proved by simplices), a sphere
+// checker's "free" implies checker 0's "free" (the proof is at RRTConnect::recheck), so
+// every point of the returned path at the resolution has been validated: no re-check.
+// Without the certificate the returned path's nodes and coarse points (all its points with
+// validator kSpheres, the straight line or a plan that is not lazy) are re-checked with
+// checker 0; a failure returns no path (the Python side re-plans with "mesh").
 // Measured (300 configurations near the planner's trees, minimum of 300 rounds, loaded
 // 2-core machine): mesh 1.0-1.5 us, spheres 0.86-1.3 us, spheres only 0.73-0.9 us per
 // configuration; kinematics about 0.22 us of it, the link masks 0.17 us. GJK warm start: off
