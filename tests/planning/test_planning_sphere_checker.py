@@ -56,6 +56,9 @@ class Reference:
             for request in self.gdata.collisionRequests:
                 request.enable_cached_gjk_guess = False
                 request.gjk_initial_guess = coal.GJKInitialGuess.DefaultGuess
+                # EPA on GJK's "Collision": without it coal compares GJK's last distance (up
+                # to 1e-6) with a 1e-12 threshold and may call a deep overlap free (CAGE_DEEP)
+                request.enable_contact = True
 
     def collides(self, q: np.ndarray) -> bool:
         return bool(pin.computeCollisions(self.model, self.data, self.geom, self.gdata, q, True))
@@ -145,6 +148,44 @@ def test_certified_spheres_near_contact(robot: Any, scenario: str) -> None:
     # both sides of the contact are sampled, and some free ones are certified by the spheres
     assert exact_near.sum() > 100 and (~exact_near).sum() > 100
     assert (~only).sum() > 0
+
+
+# cage: panda_hand_0 (a Convex) 3.5 cm inside side_right (a Box), reported free by coal's
+# collide without contact information (Pinocchio's default requests, coal 3.0.3).
+CAGE_DEEP = [
+    -1.439221205408515,
+    0.8387561294300804,
+    2.5069599626644887,
+    -2.1441663789806995,
+    1.6692096036421296,
+    2.974228469191759,
+    2.0465730883600104,
+]
+
+
+def test_a_deep_overlap_is_a_collision(robot: Any) -> None:
+    """GJK stops with "Collision" at a last distance of 1.9e-7 m; coal without contact
+    information compares it with a 1e-12 threshold and reports the pair free. The kernel's
+    checkers set the threshold to GJK's tolerance: colliding, as the LP and coal with EPA."""
+    _, kernel = _scene(robot, "cage")
+    model, geom = robot.model, robot.collision_model
+    q = np.array(CAGE_DEEP)
+    names = [o.name for o in geom.geometryObjects]
+    a, b = names.index("panda_hand_0"), names.index("side_right")
+    data, gdata = model.createData(), geom.createData()
+    pin.updateGeometryPlacements(model, data, geom, gdata, q)
+    hand, box = geom.geometryObjects[a].geometry, geom.geometryObjects[b].geometry
+    pts = np.array(hand.points()) @ gdata.oMg[a].rotation.T + gdata.oMg[a].translation
+    signs = np.array(list(itertools.product((-1.0, 1.0), repeat=3)))
+    corners = (signs * (box.halfSide - 0.03)) @ gdata.oMg[b].rotation.T + gdata.oMg[b].translation
+    assert _overlap_lp(pts, corners)  # overlap even with the box 3 cm thinner on every side
+    tf = [coal.Transform3s(gdata.oMg[i].rotation, gdata.oMg[i].translation) for i in (a, b)]
+    request = coal.CollisionRequest()
+    request.enable_contact = True
+    assert coal.collide(hand, tf[0], box, tf[1], request, coal.CollisionResult()) > 0
+    assert Reference(robot).collides(q)
+    for checker in (MESH, SPHERES, SPHERES_ONLY):
+        assert kernel.collisions_with(q[None], checker)[0] == 1, checker
 
 
 # Issue #22: cage, panda_link6_0 (a Convex) 19 um inside side_frontA (a Box).
