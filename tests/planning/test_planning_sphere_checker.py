@@ -22,7 +22,7 @@ from _mbm import ROOT, SKIP_REASON
 
 from taskspace._native import planning_kernel
 from taskspace.errors import InvalidInputError, UnknownNameError
-from taskspace.planning.collision_checker import CollisionChecker
+from taskspace.planning.collision_checker import CollisionChecker, CollisionCheckerOptions
 from taskspace.planning.configuration_space import (
     ConfigurationSpace,
     EdgeCheckOptions,
@@ -186,6 +186,12 @@ def test_a_deep_overlap_is_a_collision(robot: Any) -> None:
     assert Reference(robot).collides(q)
     for checker in (MESH, SPHERES, SPHERES_ONLY):
         assert kernel.collisions_with(q[None], checker)[0] == 1, checker
+    # the Python-side queries (taskspace.model.collision_requests: enable_contact)
+    assert not robot.is_collision_free(q)
+    assert ("panda_hand_0", "side_right") in robot.colliding_pairs(q)
+    for broadphase in (True, False):
+        options = CollisionCheckerOptions(native=False, broadphase=broadphase)
+        assert not CollisionChecker(robot, options).is_valid(q), broadphase
 
 
 # Issue #22: cage, panda_link6_0 (a Convex) 19 um inside side_frontA (a Box).
