@@ -12,8 +12,9 @@ locked at 0.04 m, convex-hull collision geometry)? Then, with a 1 s limit:
 * the compiled RRT-Connect with the sphere checkers (``checker="spheres"``: the robot's
   conservative spheres as the broad phase and coal's exact narrow phase where they touch,
   the same answers; ``"spheres_only"``: spheres only, conservative, going on with
-  ``"spheres"`` after 200 iterations without a path), each returned path
-  exact-checked at the full resolution (lazy fine pass and re-check, in the time);
+  ``"spheres"`` after 200 iterations without a path), every point of each returned
+  path validated at the full resolution (the exact checker's lazy fine pass, the certified
+  spheres elsewhere: see "Certified spheres" below; in the time);
   per-configuration check times of the three checkers on random configurations;
 * taskspace RRT-Connect "classic" (every tree edge checked at 0.03 rad, uniform sampling and
   alternate turns only: Kuffner and LaValle's algorithm, the same checks as OMPL's RRTConnect
@@ -115,6 +116,23 @@ Measurements formerly kept in ``taskspace.planning.rrt_connect``'s docstring (ol
     main: 0.404 and 0.446 ms (``"spheres_only"`` with the mesh validator 0.606, main 0.647).
     The issue's 0.1 ms stays out of reach: even the sphere checks of the path's points alone
     (0.65 us each) exceed it.
+
+    Certified spheres, no re-check (2026-11-27, branch plan01): the sphere model carries a
+    proved volume certificate (``sphere_model.certify_cover``: every point of each link's
+    convex hull lies 10 um inside its spheres), so a sphere checker's "free" implies the
+    exact checker's and the returned path is no longer re-checked with the mesh checker
+    (every point of it was validated once: endpoints and fine pass by the validator, nodes
+    and coarse points by the sphere checker). Per problem the minimum of 3 runs of the
+    seeded plan, four rounds alternating with main on a loaded 2-core machine (load 10-16),
+    medians over the 313 problems, all solved: ``"spheres_only"`` 0.554-0.600 ms (main
+    0.643-0.736), with ``validator="spheres"`` 0.435-0.459 ms (main, which re-checked every
+    point: 0.769-0.891), ``"mesh"`` unchanged (0.72-0.79 against 0.71-0.83). Kernel phases
+    (``log["kernel_<phase>_us"]``, medians over the problems) with ``"spheres_only"`` and
+    ``validator="spheres"``: 435-459 us = Python and call 31-38 + endpoints 5 + straight line
+    4-5 + nearest 8 + tree growth 215-231 + fine pass 155 + re-check 0 (it was 325 us for
+    257 path points); 475 checks of about 0.75 us. The issue's 0.1 ms needs the checks
+    themselves several times cheaper (VAMP: float lanes over many configurations) or
+    fewer of them (a clearance certificate over whole edges).
 
     Measured for the Python path (same problems, same checker, 2-core machine; see
     ``benchmarks/suites/planning.py``):

@@ -22,7 +22,7 @@ from _mbm import ROOT, SKIP_REASON
 
 from taskspace._native import planning_kernel
 from taskspace.errors import InvalidInputError, UnknownNameError
-from taskspace.planning.collision_checker import CollisionChecker
+from taskspace.planning.collision_checker import CollisionChecker, CollisionCheckerOptions
 from taskspace.planning.configuration_space import (
     ConfigurationSpace,
     EdgeCheckOptions,
@@ -56,6 +56,9 @@ class Reference:
             for request in self.gdata.collisionRequests:
                 request.enable_cached_gjk_guess = False
                 request.gjk_initial_guess = coal.GJKInitialGuess.DefaultGuess
+                # EPA on GJK's "Collision": without it coal compares GJK's last distance (up
+                # to 1e-6) with a 1e-12 threshold and may call a deep overlap free (CAGE_DEEP)
+                request.enable_contact = True
 
     def collides(self, q: np.ndarray) -> bool:
         return bool(pin.computeCollisions(self.model, self.data, self.geom, self.gdata, q, True))
@@ -112,6 +115,83 @@ def test_spheres_never_free_where_the_meshes_collide(robot: Any, scenario: str) 
         assert kernel.collisions_with(touching, checker).all(), checker
     mixed = np.vstack([touching, qs[:40]])[rng.permutation(len(touching) + 40)]
     np.testing.assert_array_equal(kernel.collisions_with(mixed, SPHERES), ref.many(mixed))
+
+
+@pytest.mark.parametrize("scenario", ["cage", "bookshelf_tall", "table_pick"])
+def test_certified_spheres_near_contact(robot: Any, scenario: str) -> None:
+    """The volume certificate that lets the planner skip the exact re-check: where "spheres
+    only" says free, the reference says free, on configurations around first contact
+    (random offsets of 1e-5 to 1e-2 rad from configurations bisected to contact, both
+    sides)."""
+    _, kernel = _scene(robot, scenario)
+    assert kernel.certified_margin > 0.0
+    ref = Reference(robot)
+    rng = np.random.default_rng(11)
+    lo, hi = robot.model.lowerPositionLimit, robot.model.upperPositionLimit
+    qs = rng.uniform(lo, hi, (300, robot.nq))
+    exact = ref.many(qs)
+    touching = _touching(ref, qs[~exact][:20], qs[exact][:20])
+    scales = np.repeat([1e-5, 1e-4, 1e-3, 1e-2], 10)[:, None]
+    near = (touching[:, None, :] + scales * rng.standard_normal((20, 40, robot.nq))).reshape(
+        -1, robot.nq
+    )
+    near = np.clip(near, lo, hi)
+    exact_near = ref.many(near)
+    only = kernel.collisions_with(near, SPHERES_ONLY).astype(bool)
+    assert not np.any(exact_near & ~only), "spheres only: free where the meshes collide"
+    # "spheres" never free where the reference collides; at a few configurations within
+    # 1e-4 rad of contact it says colliding where the reference says free (coal's narrow
+    # phase at placements that differ by rounding, inside GJK's tolerance): conservative
+    sph = kernel.collisions_with(near, SPHERES).astype(bool)
+    assert not np.any(exact_near & ~sph), "spheres: free where the meshes collide"
+    assert np.mean(sph != exact_near) < 0.01
+    # both sides of the contact are sampled, and some free ones are certified by the spheres
+    assert exact_near.sum() > 100 and (~exact_near).sum() > 100
+    assert (~only).sum() > 0
+
+
+# cage: panda_hand_0 (a Convex) 3.5 cm inside side_right (a Box), reported free by coal's
+# collide without contact information (Pinocchio's default requests, coal 3.0.3).
+CAGE_DEEP = [
+    -1.439221205408515,
+    0.8387561294300804,
+    2.5069599626644887,
+    -2.1441663789806995,
+    1.6692096036421296,
+    2.974228469191759,
+    2.0465730883600104,
+]
+
+
+def test_a_deep_overlap_is_a_collision(robot: Any) -> None:
+    """GJK stops with "Collision" at a last distance of 1.9e-7 m; coal without contact
+    information compares it with a 1e-12 threshold and reports the pair free. The kernel's
+    checkers set the threshold to GJK's tolerance: colliding, as the LP and coal with EPA."""
+    _, kernel = _scene(robot, "cage")
+    model, geom = robot.model, robot.collision_model
+    q = np.array(CAGE_DEEP)
+    names = [o.name for o in geom.geometryObjects]
+    a, b = names.index("panda_hand_0"), names.index("side_right")
+    data, gdata = model.createData(), geom.createData()
+    pin.updateGeometryPlacements(model, data, geom, gdata, q)
+    hand, box = geom.geometryObjects[a].geometry, geom.geometryObjects[b].geometry
+    pts = np.array(hand.points()) @ gdata.oMg[a].rotation.T + gdata.oMg[a].translation
+    signs = np.array(list(itertools.product((-1.0, 1.0), repeat=3)))
+    corners = (signs * (box.halfSide - 0.03)) @ gdata.oMg[b].rotation.T + gdata.oMg[b].translation
+    assert _overlap_lp(pts, corners)  # overlap even with the box 3 cm thinner on every side
+    tf = [coal.Transform3s(gdata.oMg[i].rotation, gdata.oMg[i].translation) for i in (a, b)]
+    request = coal.CollisionRequest()
+    request.enable_contact = True
+    assert coal.collide(hand, tf[0], box, tf[1], request, coal.CollisionResult()) > 0
+    assert Reference(robot).collides(q)
+    for checker in (MESH, SPHERES, SPHERES_ONLY):
+        assert kernel.collisions_with(q[None], checker)[0] == 1, checker
+    # the Python-side queries (taskspace.model.collision_requests: enable_contact)
+    assert not robot.is_collision_free(q)
+    assert ("panda_hand_0", "side_right") in robot.colliding_pairs(q)
+    for broadphase in (True, False):
+        options = CollisionCheckerOptions(native=False, broadphase=broadphase)
+        assert not CollisionChecker(robot, options).is_valid(q), broadphase
 
 
 # Issue #22: cage, panda_link6_0 (a Convex) 19 um inside side_frontA (a Box).
@@ -263,7 +343,8 @@ def test_paths_planned_with_spheres_are_exact_valid(robot: Any, scenario: str) -
             space, req.start, req.goal, RRTConnectOptions(seed=seed, checker="spheres")
         )
         assert spheres.success and spheres.log["checker"] == 1.0
-        assert spheres.log["exact_recheck_checks"] >= len(spheres.path)
+        # the certified spheres (sphere_model's volume certificate): no re-check
+        assert spheres.log["exact_recheck_checks"] == 0.0
         assert spheres.log["sphere_recheck_failed"] == 0.0
         # the same answers as the exact checker: the same tree and path
         np.testing.assert_array_equal(spheres.path, mesh.path)
@@ -277,8 +358,7 @@ def test_paths_planned_with_spheres_are_exact_valid(robot: Any, scenario: str) -
             RRTConnectOptions(seed=seed, checker="spheres", validator="spheres"),
         )
         assert validated.log["validator"] == 1.0
-        # the exact checker re-checks every point of the returned path (not only the coarse)
-        assert validated.log["exact_recheck_checks"] >= spheres.log["exact_recheck_checks"] > 0
+        assert validated.log["exact_recheck_checks"] == 0.0
         np.testing.assert_array_equal(validated.path, mesh.path)
         for validator in VALIDATORS:
             only = rrt_connect(
@@ -301,16 +381,37 @@ def test_paths_planned_with_spheres_are_exact_valid(robot: Any, scenario: str) -
             assert _dense_valid(ref, certified.path, 0.01)
 
 
-def test_a_straight_path_is_rechecked_exactly(robot: Any) -> None:
+def test_uncertified_spheres_are_rechecked_exactly(robot: Any) -> None:
+    """Spheres set without the volume certificate (certified_margin 0): the returned path is
+    re-checked with the exact checker; with it, not (its sphere answers imply the exact's)."""
     req, _ = _scene(robot, "box")
     space = ConfigurationSpace.from_robot(robot, edge=EdgeCheckOptions(resolution=0.03))
     goal = req.start + 0.1 * (req.goal - req.start) / np.linalg.norm(req.goal - req.start)
-    assert Reference(robot).collides(goal) is False
+    ref = Reference(robot)
+    assert ref.collides(goal) is False
+    spheres = space.checker.sphere_model()
+    assert space.checker.sphere_kernel().certified_margin == spheres.certified_margin > 0.0
+    args = (
+        spheres.centers,
+        spheres.radii,
+        spheres.joints.astype(np.int32),
+        spheres.geometries.astype(np.int32),
+    )
+    try:
+        space.checker.sphere_kernel().set_spheres(*args)  # no certificate
+        for checker in ("spheres", "spheres_only"):
+            res = rrt_connect(space, req.start, goal, RRTConnectOptions(checker=checker))
+            assert res.success and len(res.path) == 2  # the straight line
+            # both ends and the 3 interior points at 0.03 rad, with the exact checker
+            assert res.log["exact_recheck_checks"] == 5.0
+            res = rrt_connect(space, req.start, req.goal, RRTConnectOptions(checker=checker))
+            assert res.success and res.log["exact_recheck_checks"] >= len(res.path)
+    finally:
+        space.checker.sphere_kernel().set_spheres(*args, spheres.certified_margin)
     for checker in ("spheres", "spheres_only"):
-        res = rrt_connect(space, req.start, goal, RRTConnectOptions(checker=checker))
-        assert res.success and len(res.path) == 2  # the straight line
-        # both ends and the 3 interior points at 0.03 rad, with the exact checker
-        assert res.log["exact_recheck_checks"] == 5.0
+        res = rrt_connect(space, req.start, req.goal, RRTConnectOptions(checker=checker))
+        assert res.success and res.log["exact_recheck_checks"] == 0.0
+        assert _dense_valid(ref, res.path, 0.01)
 
 
 def test_bad_inputs(robot: Any) -> None:

@@ -69,15 +69,17 @@
 // random free configurations flagged on the MotionBenchMaker scenes, self pairs most);
 // rrt_connect's fallback_iterations switches a plan from checker 2 to checker 1 after that
 // many iterations without a path (the spheres' margin closes narrow passages: cage, grasps).
-// The exact mesh checker stays the final validator: with a sphere checker, rrt_connect's lazy
-// fine pass (verify) uses checker 0, and the returned path's nodes and coarse points (or all
-// its points when the plan is not lazy or the path is the straight line) are re-checked with
-// checker 0 at the full resolution: every point of the path at the resolution is checked
-// exactly once; a failure returns no path (the Python side re-plans with "mesh"). Optionally
-// (rrt_connect's validator = kSpheres) that validation uses checker 1 instead: the same
-// answers (tested against Pinocchio's computeCollisions), 0.69 instead of 1.16 us per path
-// point (median over 63 problems), but "free" then rests on the sphere model's
-// conservativeness where no spheres touch (no independent mesh check of those points).
+// The final validator: with a sphere checker, rrt_connect's lazy fine pass (verify) uses
+// checker 0 (or checker 1 with validator = kSpheres: the same answers, 0.69 instead of
+// 1.16 us per path point, median over 63 problems), the endpoints checker 0, the nodes and
+// coarse points the plan's sphere checker. When the spheres carry sphere_model's volume
+// certificate (set_spheres' certified_margin > 0: every point of each object's convex hull
+// lies that margin inside the union of its spheres, proved by simplices), a sphere
+// checker's "free" implies checker 0's "free" (the proof is at RRTConnect::recheck), so
+// every point of the returned path at the resolution has been validated: no re-check.
+// Without the certificate the returned path's nodes and coarse points (all its points with
+// validator kSpheres, the straight line or a plan that is not lazy) are re-checked with
+// checker 0; a failure returns no path (the Python side re-plans with "mesh").
 // Measured (300 configurations near the planner's trees, minimum of 300 rounds, loaded
 // 2-core machine): mesh 1.0-1.5 us, spheres 0.86-1.3 us, spheres only 0.73-0.9 us per
 // configuration; kinematics about 0.22 us of it, the link masks 0.17 us. GJK warm start: off
@@ -235,9 +237,21 @@ class CollisionKernel {
     // bookshelf_small (problem 1): panda_link5 1.3 cm inside shelf_bottom (coal's distance)
     // reported free by computeCollision after a call at another configuration, found free
     // with the default guess (also from coal's own collide with that request).
+    // Collision threshold at GJK's tolerance: without contact information (Pinocchio's
+    // default, enable_contact false) coal's shape-shape collide skips EPA when GJK returns
+    // "Collision" and then compares GJK's last distance (anything up to gjk_tolerance,
+    // 1e-6 m) with collision_distance_threshold (1e-12 by default): a GJK that stops at
+    // 2e-7 reports "free". Seen on cage (tests: CAGE_DEEP): panda_hand_0 3.5 cm inside
+    // side_right (an LP on the hull's vertices and the box's corners confirms the overlap
+    // with the box shrunk by 3 cm) reported free by computeCollision and by this kernel's
+    // mesh and "spheres" checkers; 3 of 1,266 colliding pair evaluations on 2,100 random
+    // configurations of the seven scenes (coal 3.0.3). With the threshold at the tolerance
+    // every GJK "Collision" counts; a pair closer than 1e-6 m counts as colliding.
     for (auto& request : gdata_.collisionRequests) {
       request.enable_cached_gjk_guess = false;
       request.gjk_initial_guess = coal::GJKInitialGuess::DefaultGuess;
+      request.collision_distance_threshold =
+          std::max(request.collision_distance_threshold, request.gjk_tolerance);
     }
     manager_ = std::make_unique<Manager>(&model_, &geom_, &gdata_);
     // One complete update of Pinocchio's managers: registers the active objects and computes
@@ -393,9 +407,15 @@ class CollisionKernel {
   // a bounding sphere of its spheres (the first level of the hierarchy); the static objects
   // (obstacles, fixed base) get an exact point distance when they are a box, sphere,
   // cylinder or capsule, otherwise coal's sphere-vs-geometry test.
+  // certified_margin > 0: the spheres come with sphere_model's volume certificate (every
+  // point of each object's convex hull lies that far inside the union of its spheres), so a
+  // "free" of the sphere checkers implies the exact checker's "free" (spheres_certified).
   void set_spheres(const Eigen::Ref<const RowMatrixXd>& centers, const VectorXd& radii,
-                   const Eigen::VectorXi& joints, const Eigen::VectorXi& geometries) {
+                   const Eigen::VectorXi& joints, const Eigen::VectorXi& geometries,
+                   double certified_margin = 0.0) {
     const Eigen::Index m = centers.rows();
+    if (!(certified_margin >= 0.0) || !std::isfinite(certified_margin))
+      raise_invalid("certified_margin must be finite and >= 0");
     if (centers.cols() != 3 || radii.size() != m || joints.size() != m || geometries.size() != m)
       raise_invalid("centers (M, 3), radii, joints and geometries (M,) must have M rows");
     if (!centers.allFinite() || !radii.allFinite() || (radii.array() < 0.0).any())
@@ -545,6 +565,7 @@ class CollisionKernel {
     }
     setup_kinematics();
     has_spheres_ = true;
+    certified_margin_ = certified_margin;
   }
 
   // Joint placements data_.oMi for q: a loop over the joints for models whose joints are
@@ -813,6 +834,9 @@ class CollisionKernel {
   }
 
   bool has_spheres() const { return has_spheres_; }
+  // The spheres' volume certificate margin [m] (0: none; see set_spheres).
+  double certified_margin() const { return certified_margin_; }
+  bool spheres_certified() const { return has_spheres_ && certified_margin_ > 0.0; }
   // Counters of the sphere checker (for profiling): bounding-sphere passes, leaf hits and
   // exact narrow-phase calls, self pairs then static pairs.
   bp::tuple sphere_stats() const {
@@ -1001,8 +1025,9 @@ class CollisionKernel {
           hit = point_static_distance(b, sph_world_[s]) <= sph_r_[s] + margin + P.swept;
       } else {
         leaves(a);
-        coal::CollisionRequest req;
+        coal::CollisionRequest req;  // contact on (EPA), threshold as the exact checker's
         req.security_margin = margin;
+        req.collision_distance_threshold = std::max(req.collision_distance_threshold, req.gjk_tolerance);
         const coal::CollisionGeometry* geo = geom_.geometryObjects[b].geometry.get();
         for (int s = sph_begin_[a]; s < sph_begin_[a + 1] && !hit; ++s) {
           if (point_box_distance(sph_world_[s], boxes_[b]) > sph_r_[s] + margin) continue;
@@ -1082,6 +1107,7 @@ class CollisionKernel {
   std::vector<int> pair_bit_;        // per group pair: the static partner's bit (or -1)
   std::vector<double> pair_margin_;  // per group pair: its security margin (>= 0)
   bool has_spheres_ = false;
+  double certified_margin_ = 0.0;
   long stat_[6] = {0, 0, 0, 0, 0, 0};
   double max_margin_ = 0.0;
   std::vector<int> sph_begin_;
@@ -1377,6 +1403,11 @@ struct Result {
   std::vector<double> path;
   double path_length = std::numeric_limits<double>::infinity();  // sum of |q_{i+1} - q_i|
   long fallback_iteration = -1;  // iteration at which "spheres_only" became "spheres" (or -1)
+  // Wall time of the phases [s] (for profiling; a few clock reads per iteration): the whole
+  // run, the endpoint checks, the straight start-goal line, the nearest-neighbour scans,
+  // the lazy fine pass (verify) and the exact re-check of the returned path; the tree growth
+  // (EXTEND and CONNECT checks, sampling) is the rest.
+  double t_run = 0, t_endpoints = 0, t_line = 0, t_nearest = 0, t_verify = 0, t_recheck = 0;
 };
 
 class RRTConnect {
@@ -1461,7 +1492,9 @@ class RRTConnect {
 
   // EXTEND(T, target): new node index or -1.
   int extend(Tree& t, const double* target) {
+    const auto t_n = clock::now();
     auto [i_near, dist] = t.nearest(target);
+    res.t_nearest += seconds(t_n, clock::now());
     if (dist == 0.0) return -1;
     ++res.edge_checks;
     const double alpha = lines_.alpha;
@@ -1562,21 +1595,25 @@ class RRTConnect {
                          : clock::time_point::max();
     start_ = std::make_unique<Tree>(qs);
     goal_ = std::make_unique<Tree>(qg);
-    if (!endpoint_valid(qs)) {
-      res.status = kStartInvalid;
-      return;
-    }
-    if (!endpoint_valid(qg)) {
-      res.status = kGoalInvalid;
+    const bool start_ok = endpoint_valid(qs);
+    const bool goal_ok = start_ok && endpoint_valid(qg);
+    res.t_endpoints = seconds(t0, clock::now());
+    if (!start_ok || !goal_ok) {
+      res.status = start_ok ? kGoalInvalid : kStartInvalid;
+      res.t_run = seconds(t0, clock::now());
       return;
     }
     ++res.edge_checks;
-    if (motion_valid(qs, qg)) {
+    const auto t_l = clock::now();
+    const bool direct = motion_valid(qs, qg);
+    res.t_line = seconds(t_l, clock::now());
+    if (direct) {
       direct_ = true;
       res.status = kSolved;
       res.path.assign(qs.data(), qs.data() + d_);
       res.path.insert(res.path.end(), qg.data(), qg.data() + d_);
       recheck();
+      res.t_run = seconds(t0, clock::now());
       return;
     }
     Tree* ta = start_.get();
@@ -1611,7 +1648,9 @@ class RRTConnect {
       const int a_new = extend(*ta, target.data());
       if (a_new >= 0) {
         const double* q_new = ta->node(a_new);
+        const auto t_n = clock::now();
         auto [j_near, gap] = tb->nearest(q_new);
+        res.t_nearest += seconds(t_n, clock::now());
         int b_new = j_near;
         bool reached = true;
         if (gap != 0.0) {
@@ -1621,7 +1660,9 @@ class RRTConnect {
         if (reached) {
           bool ok = true;
           if (lines_.lazy) {
+            const auto t_v = clock::now();
             ok = ta == goal_.get() ? verify(*ta, a_new, *tb, b_new) : verify(*tb, b_new, *ta, a_new);
+            res.t_verify += seconds(t_v, clock::now());
           }
           if (ok) {
             std::vector<int> ia = ta->path_indices(a_new);  // a_new .. root
@@ -1653,19 +1694,38 @@ class RRTConnect {
     }
     if (res.status != kSolved && stopped_) res.status = kTimeLimit;
     recheck();
+    res.t_run = seconds(t0, clock::now());
   }
 
   // A solved plan with a sphere checker: the exact checker's verdict on the path (none when
   // it finds a collision, recheck_failed set); then the length of a path that stays.
-  // The re-check is always the exact mesh checker; with validator_ == kSpheres the fine
-  // points were checked by the spheres (then the narrow phase), so they are re-checked too.
+  // The re-check is the exact mesh checker; with validator_ == kSpheres the fine points
+  // were checked by the spheres (then the narrow phase), so they are re-checked too.
+  // No re-check when the spheres carry sphere_model's volume certificate
+  // (CollisionKernel::spheres_certified): every point of the path was then checked by the
+  // mesh checker (endpoints; the fine points with validator_ == kMesh) or by a sphere
+  // checker, and a sphere checker's "free" implies the mesh checker's. Proof: each moving
+  // object's convex hull H lies inside the union of its spheres shrunk by the margin
+  // epsilon (certify_cover in sphere_model.py). (a) Obstacle pairs: the spheres are tested
+  // against the obstacle's exact volume (point distance to a box / sphere / cylinder /
+  // capsule, coal's sphere-vs-shape test otherwise) inflated by the pair's security margin;
+  // no sphere within it means every point of H is more than epsilon + margin away, so the
+  // exact narrow phase (same placements up to the kinematics' rounding, ~1e-15 m; GJK
+  // tolerance 1e-6 m) finds no collision. (b) Self pairs: likewise, each point of H_a lies
+  // in a sphere of a, each point of H_b in a sphere of b; no touching spheres means no
+  // common point. (c) The link and object bounding spheres contain the spheres, so their
+  // culling is part of the same test. "spheres" answers exactly where spheres touch
+  // (coal's narrow phase on the pair, as the mesh checker). Tested against Pinocchio's
+  // computeCollisions near contact (tests/planning/test_planning_sphere_checker.py).
   void recheck() {
-    if (res.status == kSolved && checker_ != kMesh &&
+    const auto t_r = clock::now();
+    if (res.status == kSolved && checker_ != kMesh && !ck_.spheres_certified() &&
         !path_valid_exact(lines_.lazy && !direct_ && validator_ == kMesh)) {
       res.recheck_failed = true;
       res.status = kIterationLimit;
       res.path.clear();
     }
+    res.t_recheck = seconds(t_r, clock::now());
     if (res.status != kSolved) return;
     double length = 0.0;
     const std::size_t n_nodes = res.path.size() / d_;
@@ -1695,6 +1755,9 @@ class RRTConnect {
 
  private:
   using clock = std::chrono::steady_clock;
+  static double seconds(clock::time_point a, clock::time_point b) {
+    return std::chrono::duration<double>(b - a).count();
+  }
   GilRelease* gil_ = nullptr;
   bool limited_ = false, stopped_ = false, direct_ = false;
   unsigned ticks_ = 0;
@@ -1708,6 +1771,8 @@ class RRTConnect {
   VectorXd a_, b_, x_, dir_;
   std::vector<double> ts_;  // fractions of the points of the line being checked
 };
+
+BOOST_PYTHON_MEMBER_FUNCTION_OVERLOADS(set_spheres_overloads, CollisionKernel::set_spheres, 4, 5)
 
 MatrixXd rows_matrix(const std::vector<double>& flat, int d) {
   const Eigen::Index n = static_cast<Eigen::Index>(flat.size()) / d;
@@ -1725,7 +1790,8 @@ bp::tuple tree_tuple(const Tree& t) {
 
 // Plan with RRT-Connect; returns (status, path, iterations, edge_checks, rejections, removed,
 // trapped_turns, (start nodes, start parents), (goal nodes, goal parents), exact_checks,
-// recheck_failed, path_length, fallback_iteration). The start and goal are validated first
+// recheck_failed, path_length, fallback_iteration, phase times in us: (run, endpoints,
+// straight line, nearest, fine pass, re-check)). The start and goal are validated first
 // (finite, inside the bounds, free for the exact checker; status kStartInvalid / kGoalInvalid
 // otherwise, with no plan). fallback_iterations (checker kSpheresOnly, >= 0): after that many
 // iterations without a path the plan goes on with kSpheres (fallback_iteration: when; -1 if
@@ -1777,7 +1843,9 @@ bp::tuple rrt_connect(CollisionKernel& ck, const VectorXd& start, const VectorXd
   return bp::make_tuple(r.status, rows_matrix(r.path, static_cast<int>(d)), r.iterations,
                         r.edge_checks, r.rejections, r.removed, r.trapped_turns,
                         tree_tuple(*planner.start_), tree_tuple(*planner.goal_), r.exact_checks,
-                        r.recheck_failed, r.path_length, r.fallback_iteration);
+                        r.recheck_failed, r.path_length, r.fallback_iteration,
+                        bp::make_tuple(1e6 * r.t_run, 1e6 * r.t_endpoints, 1e6 * r.t_line,
+                                       1e6 * r.t_nearest, 1e6 * r.t_verify, 1e6 * r.t_recheck));
 }
 
 // Nearest node (Tree::nearest) of every query row in the tree whose nodes are the rows of
@@ -1836,8 +1904,10 @@ BOOST_PYTHON_MODULE(_planning_kernel) {
       .def("collisions", &CollisionKernel::collisions)
       .def("first_invalid", &CollisionKernel::first_invalid)
       .def("set_spheres", &CollisionKernel::set_spheres,
-           bp::args("self", "centers", "radii", "joints", "geometries"))
+           set_spheres_overloads(
+               bp::args("self", "centers", "radii", "joints", "geometries", "certified_margin")))
       .add_property("has_spheres", &CollisionKernel::has_spheres)
+      .add_property("certified_margin", &CollisionKernel::certified_margin)
       .add_property("sphere_count", &CollisionKernel::sphere_count)
       .def("sphere_stats", &CollisionKernel::sphere_stats)
       .def("reset_sphere_stats", &CollisionKernel::reset_sphere_stats)

@@ -8,7 +8,11 @@ call of that pair at another configuration). The ``GeometryData`` of ``Robot``'s
 ``State``'s distances, of ``CollisionChecker`` (its data and pools) and of ``certify_path``
 go through :func:`without_cached_guess` (lazily, at their first query: it costs about 0.5 ms
 for 156 pairs), so each query starts from coal's default guess and its answer does not
-depend on earlier calls. The compiled planning kernel does the same on its own copy. Not
+depend on earlier calls. The collision requests also get ``enable_contact`` (coal runs EPA
+when GJK finds a collision): without it, coal 3.0.3 compares GJK's last distance, anything up
+to GJK's 1e-6 tolerance, with a 1e-12 threshold and reported a 3.5 cm overlap free (the
+compiled kernel sets the threshold to the tolerance instead). The compiled planning kernel
+does the same on its own copy. Not
 covered: the compiled IK kernel's distance data (distances only; with the cached guess they
 differed from a tight-tolerance reference by at most 0.05-0.11 mm in our measurements).
 """
@@ -42,6 +46,10 @@ def without_cached_guess(geometry_data: Any) -> Any:
         warnings.simplefilter("ignore", DeprecationWarning)
         for request in geometry_data.collisionRequests:
             _reset(request)
+            # EPA on GJK's "Collision": without it coal compares GJK's last distance (up to
+            # its 1e-6 tolerance) with a 1e-12 threshold and may call a deep overlap free
+            # (cage: panda_hand_0 3.5 cm inside a wall; test_planning_sphere_checker.py)
+            request.enable_contact = True
         for request in geometry_data.distanceRequests:
             _reset(request)
     return geometry_data

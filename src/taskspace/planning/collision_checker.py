@@ -280,6 +280,7 @@ class CollisionChecker:
                 spheres.radii,
                 spheres.joints.astype(np.int32),
                 spheres.geometries.astype(np.int32),
+                spheres.certified_margin,
             )
         return kernel
 

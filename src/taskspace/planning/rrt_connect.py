@@ -60,12 +60,17 @@ spheres, with kinematics only (no geometry placements), see the kernel's header.
 conservative: some free configurations are refused, so tight goals (a grasp between shelf
 walls) become hard; it therefore goes on with ``"spheres"`` after ``fallback_iterations``
 iterations without a path, inside the kernel (the trees stay: their nodes and coarse points
-are free for the spheres, hence free), and says so in ``log["spheres_fallback"]``. The exact
-checker stays the final validator: with a sphere checker the lazy fine pass uses it, and the
-returned path's nodes and coarse points (all its points for the straight start-goal line) are
-re-checked with it, so every point of the path at the resolution is checked exactly once.
-``RRTConnectOptions.validator="spheres"`` makes ``"spheres"`` the checker of the lazy fine
-pass (opt-in); the returned path is then re-checked with the exact checker at every point.
+are free for the spheres, hence free), and says so in ``log["spheres_fallback"]``.
+Validation of the returned path: the lazy fine pass uses the exact checker (or ``"spheres"``
+with ``RRTConnectOptions.validator="spheres"``, the same answers at a lower cost), the
+endpoints are checked exactly, the nodes and coarse points by the sphere checker. The sphere
+model carries a proved volume certificate (:func:`~taskspace.planning.sphere_model.certify_cover`:
+each link's convex hull lies 10 um inside its spheres), so a sphere checker's "free" implies
+the exact checker's "free" (the proof is in the kernel, ``RRTConnect::recheck``; tested
+against Pinocchio near contact): every point of the path at the resolution is validated
+once, with no exact re-check (``log["exact_recheck_checks"]`` is 0). Spheres without the
+certificate (set by hand on the kernel) get the exact re-check of the nodes and coarse
+points (all points with ``validator="spheres"``).
 The sphere checkers check an edge's points in batches of four (kinematics in
 vector lanes, then the tests point by point with early exit).
 
@@ -147,10 +152,12 @@ class RRTConnectOptions:
             answers) or ``"spheres_only"`` (a pair whose spheres touch counts as colliding:
             conservative, may miss passages narrower than the spheres' margin). With the
             sphere checkers every point of the returned path at the full resolution is
-            checked with the exact checker (the lazy fine pass uses it; the nodes and coarse
-            points are re-checked); a path that fails is dropped and the problem planned
-            again with ``"mesh"`` (``log["sphere_recheck_failed"]``). The Python planner
-            ignores it (exact checks).
+            validated: by the exact checker (endpoints, the lazy fine pass) or by the sphere
+            checker, whose "free" implies the exact checker's (the sphere model's proved
+            volume certificate); without the certificate the nodes and coarse points are
+            re-checked exactly and a path that fails is dropped and the problem planned again
+            with ``"mesh"`` (``log["sphere_recheck_failed"]``). The Python planner ignores it
+            (exact checks).
         fallback_iterations: with ``checker="spheres_only"``: after this many iterations
             without a path, the plan goes on with ``"spheres"`` (the spheres' margin may close
             a narrow passage; the trees stay, their nodes are free).
@@ -161,9 +168,8 @@ class RRTConnectOptions:
             mesh checker, independent of the sphere model) or ``"spheres"`` (the spheres, then
             coal's exact narrow phase where they touch: the same answers, tested against
             Pinocchio's ``computeCollisions``, at a lower cost per point; where no spheres
-            touch, "free" rests on the sphere model containing the meshes) for the lazy fine
-            pass. The returned path is always re-checked with the exact mesh checker, every
-            point at the full resolution with ``"spheres"``. Ignored with ``checker="mesh"``.
+            touch, "free" rests on the sphere model's proved volume certificate) for the lazy
+            fine pass. Ignored with ``checker="mesh"``.
     """
 
     step_size: float = 0.5
@@ -464,6 +470,10 @@ def _native_kernel(space: ConfigurationSpace, opts: RRTConnectOptions) -> Any:
     return space.checker.native_kernel()
 
 
+# Phases timed by the kernel (log["kernel_<phase>_us"]): the whole call, the endpoint checks,
+# the straight start-goal line, the nearest-neighbour scans, the lazy fine pass and the
+# exact re-check of the returned path; the tree growth is the rest of "run".
+_PHASES = ("run", "endpoints", "line", "nearest", "fine_pass", "recheck")
 _NATIVE_STATUS = (PlannerStatus.SOLVED, PlannerStatus.TIME_LIMIT, PlannerStatus.ITERATION_LIMIT)
 _START_INVALID, _GOAL_INVALID = 3, 4  # the kernel's codes for an invalid start or goal
 _SEED_MASK = (1 << 64) - 1
@@ -535,7 +545,7 @@ def _rrt_connect_native(
     finally:  # also after Ctrl-C: the checks the kernel made are counted
         space.checker.checks += int(kernel.checks - kernel_checks0)
     (status_code, path, iterations, edges, rejections, removed, turns, start_tree, goal_tree,
-     exact_checks, recheck_failed, length, fallback) = out  # fmt: skip
+     exact_checks, recheck_failed, length, fallback, phases) = out  # fmt: skip
     if status_code >= _START_INVALID:
         _raise_endpoint(space, q_start, q_goal, status_code)
     space.edge_checks += edges
@@ -576,6 +586,7 @@ def _rrt_connect_native(
             "sphere_recheck_failed": float(recheck_failed),
             "spheres_fallback": float(fallback >= 0),
             "spheres_fallback_iteration": float(fallback),
+            **{f"kernel_{name}_us": float(t) for name, t in zip(_PHASES, phases, strict=True)},
         },
     )
 
@@ -624,7 +635,11 @@ def rrt_connect(
         A :class:`PlannerResult`; ``trees`` holds the start and goal trees; ``log`` has the
         node counts, the candidate paths rejected by the fine check (``lazy_rejections``),
         the nodes removed with them and the turns taken by a trapped tree (``trapped_turns``);
-        with ``certify``, ``certified``, ``min_distance`` [m] and ``certify_attempts``.
+        with ``certify``, ``certified``, ``min_distance`` [m] and ``certify_attempts``. The
+        compiled planner adds its checker, validator and re-check counts and the wall time
+        of its phases [us] (``kernel_run_us`` the whole call, ``kernel_endpoints_us``,
+        ``kernel_line_us`` the straight start-goal line, ``kernel_nearest_us``,
+        ``kernel_fine_pass_us``, ``kernel_recheck_us``; the tree growth is the rest).
 
     Interrupts and threads: the compiled planner runs with the GIL released and polls
     Python's signal handlers every 2 ms, so Ctrl-C stops it (``KeyboardInterrupt``) as it
