@@ -484,6 +484,26 @@ class NativeWeightedStack:
         soft = [b for c in self._soft if (b := c.bounds(None, dt)) is not None]  # type: ignore[arg-type]
         return hard, soft
 
+    def arm(
+        self, boxes: tuple[list[Any], list[Any]] | None, damping: float
+    ) -> Callable[..., Any] | None:
+        """The kernel's armed step ``step(data, q, dt or 0)``, or ``None``.
+
+        ``boxes``: :meth:`constant_boxes` at some ``dt`` (``None``: a box reads the state).
+        The kernel keeps the model, the tasks (it reads their targets at each call), these
+        boxes, the damping and the iteration limit: valid while ``dt``, the tasks'
+        assignments and the robot's version are those the boxes were made for (the caller
+        arms again when one changes). ``None`` (nothing kept): boxes that read the state,
+        inequality rows, or a kernel built before ``arm`` existed.
+        """
+        kernel = self.kernel
+        if boxes is None or self._rows or not hasattr(kernel, "arm"):
+            return None
+        hard, soft = boxes
+        kernel.arm(self.model, list(self.tasks), hard, soft, damping, MAX_ACTIVE_SET_ITERATIONS)
+        step: Callable[..., Any] = kernel.step
+        return step
+
     def require_targets(self) -> None:
         """Raise, naming it, when a task has no target (after the kernel refused its call)."""
         for t in [*self.tasks, *self._eq_tasks]:

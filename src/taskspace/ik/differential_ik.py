@@ -306,6 +306,7 @@ class DifferentialIK:
         self._lean_assignments = -1
         self._lean_version = -1
         self._lean_boxes: tuple[list[Any], list[Any]] | None = None
+        self._lean_step: Any = None  # the kernel's armed step (NativeWeightedStack.arm)
 
     @property
     def options(self) -> DifferentialIKOptions:
@@ -414,6 +415,41 @@ class DifferentialIK:
                 and state._robot is self.robot
                 and self.robot._version == self._lean_version
             ):
+                step = self._lean_step
+                if step is not None:  # the kernel keeps the boxes, model, tasks and damping
+                    t0 = _perf_counter()
+                    try:
+                        status, iterations, objective, build_time, qp_time, dq, q, v = step(
+                            state._data,  # made by the state for this robot's model
+                            state._q,
+                            dt if state._has_velocity else 0.0,
+                        )
+                    except (TypeError, ValueError, RuntimeError):
+                        self._native.require_targets()  # type: ignore[union-attr]
+                        raise
+                    if dq is not None:  # the data hold the kinematics of q (a locked view)
+                        state._adopt(q, v, True)
+                        result: IKStepResult = _new(IKStepResult)  # as below
+                        result.success = True
+                        result.status = _IK_SOLVED
+                        result.dq = dq
+                        result._velocity = None
+                        result._dt = dt
+                        result._qp = (
+                            True,
+                            _UNCONSTRAINED if status == 0 else _SOLVED,
+                            dq,
+                            objective,
+                            iterations,
+                            _perf_counter() - t0,
+                            "native",
+                        )
+                        result.culprits = []
+                        result.build_time = build_time
+                        result.solve_time = qp_time
+                        return result
+                    self._lean_dt = _NAN  # the active set did not settle: the Python path
+                    return self._advance(state, dt)
                 native = self._native
                 assert native is not None
                 boxes = self._lean_boxes
@@ -450,7 +486,7 @@ class DifferentialIK:
                     state._adopt(q_next, v_next if has_velocity else None)
                     # IKStepResult(True, SOLVED, dq, None, qp, None, build_time, qp_time,
                     # dt=dt) without its __init__ frame (its fields, nothing shared)
-                    result: IKStepResult = _new(IKStepResult)
+                    result = _new(IKStepResult)
                     result.success = True
                     result.status = _IK_SOLVED
                     result.dq = dq
@@ -511,13 +547,16 @@ class DifferentialIK:
         task attribute is assigned: ``taskspace.tasks.ASSIGNMENTS``), the kernel's copy of
         the position limits (until the robot's version changes), and the boxes when every
         box constraint declares that they do not read the state (``bounds_read_state``:
-        until ``dt`` or the robot's version changes).
+        until ``dt`` or the robot's version changes). With constant boxes the kernel itself
+        keeps them with the model, the tasks and the damping (``NativeWeightedStack.arm``):
+        the lean call then passes only the state's data, ``q`` and ``dt``.
         """
         native = self._native
         assert native is not None
         if native.has_rows or native._lm_damping:
             return
         self._lean_boxes = native.constant_boxes(dt)
+        self._lean_step = native.arm(self._lean_boxes, self._damping)
         self._lean_assignments = native._assignments
         self._lean_version = self.robot._version
         self._lean_dt = dt

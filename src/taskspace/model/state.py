@@ -168,7 +168,7 @@ class State:
         _update_frame_placements(model, data)
         self._adopt(q, v)
 
-    def _adopt(self, q: FloatArray, v: FloatArray | None) -> None:
+    def _adopt(self, q: FloatArray, v: FloatArray | None, locked: bool = False) -> None:
         """Make ``q`` and ``v`` the state's, the kinematics of ``data`` being already theirs.
 
         The one place that records a new configuration: :meth:`update` calls it after
@@ -180,16 +180,22 @@ class State:
         ``q`` and ``v`` must be private copies (nobody else holds them): they are made
         read-only for good (the buffer is locked and only a view of it is kept; numpy refuses
         to make a view of a locked buffer writable). ``v`` None: no velocity (zero).
+        ``locked``: ``q`` and ``v`` are already such views (a compiled kernel made them so).
         """
-        q.setflags(write=False)
-        self._q = q.view()
+        if locked:
+            self._q = q
+        else:
+            q.setflags(write=False)
+            self._q = q.view()
         if v is None:
             self._has_velocity = False
             self._v = self._a0
         else:
             self._has_velocity = True
-            v.setflags(write=False)
-            self._v = v.view()
+            if not locked:
+                v.setflags(write=False)
+                v = v.view()
+            self._v = v
         if self._cache_lwa:
             self._cache_lwa.clear()
         if self._cache_local:
