@@ -108,11 +108,32 @@ body {{ margin: 0; }}
 <body>
 <div id="meshcat-pane"></div>
 <script>
+window.__taskspace_errors = [];
+window.__taskspace_pending_images = 0;
+(function () {{
+  // texture images (created by three.js' ImageLoader) still loading: the snapshot waits
+  var create = document.createElementNS;
+  document.createElementNS = function (namespace, name) {{
+    var element = create.call(document, namespace, name);
+    if (String(name).toLowerCase() === "img") {{
+      window.__taskspace_pending_images++;
+      var done = function () {{
+        window.__taskspace_pending_images--;
+        element.removeEventListener("load", done);
+        element.removeEventListener("error", done);
+      }};
+      element.addEventListener("load", done);
+      element.addEventListener("error", done);
+    }}
+    return element;
+  }};
+}})();
+</script>
+<script>
 {javascript}
 </script>
 <script>
 var viewer = new MeshCat.Viewer(document.getElementById("meshcat-pane"));
-window.__taskspace_errors = [];
 (function () {{
   var commands = {commands};
   for (var k = 0; k < commands.length; k++) {{
@@ -145,10 +166,31 @@ body {{ margin: 0; }}
 <body>
 <div id="meshcat-pane"></div>
 <script>
+window.__taskspace_errors = [];
+window.__taskspace_pending_images = 0;
+(function () {{
+  // texture images (created by three.js' ImageLoader) still loading: the snapshot waits
+  var create = document.createElementNS;
+  document.createElementNS = function (namespace, name) {{
+    var element = create.call(document, namespace, name);
+    if (String(name).toLowerCase() === "img") {{
+      window.__taskspace_pending_images++;
+      var done = function () {{
+        window.__taskspace_pending_images--;
+        element.removeEventListener("load", done);
+        element.removeEventListener("error", done);
+      }};
+      element.addEventListener("load", done);
+      element.addEventListener("error", done);
+    }}
+    return element;
+  }};
+}})();
+</script>
+<script>
 var TASKSPACE_SCENE = {scene};
 </script>
 <script>
-window.__taskspace_errors = [];
 (async function () {{
   function inflate(text) {{
     var raw = atob(text);
@@ -160,6 +202,25 @@ window.__taskspace_errors = [];
   var scene = TASKSPACE_SCENE;
   (0, eval)(new TextDecoder().decode(await inflate(scene.js)));
   window.viewer = new MeshCat.Viewer(document.getElementById("meshcat-pane"));
+  // a mesh file shown by several nodes (a quadruped's legs) is parsed once and cloned
+  // (geometry and materials shared) while the recorded commands are replayed
+  var parseObject = viewer.set_object_from_json;
+  var parsed = new Map();
+  viewer.set_object_from_json = function (path, json) {{
+    var o = json && json.object, key = null;
+    if (o && o.type === "_meshfile_object" && typeof o.data === "string") {{
+      key = [o.format, JSON.stringify(json.materials || []), JSON.stringify(o.resources || {{}}),
+             o.data].join("\u0000");
+      var known = parsed.get(key);
+      if (known !== undefined) {{
+        viewer.set_object(path, known.clone());
+        viewer.set_dirty();
+        return;
+      }}
+    }}
+    parseObject.call(viewer, path, json);
+    if (key !== null) {{ parsed.set(key, viewer.scene_tree.find(path).object); }}
+  }};
   var data = await inflate(scene.data);
   var offsets = [0];
   for (var c = 0; c < scene.sizes.length; c++) {{ offsets.push(offsets[c] + scene.sizes[c]); }}
@@ -177,6 +238,8 @@ window.__taskspace_errors = [];
       window.__taskspace_errors.push("command " + k + ": " + err);
     }}
   }}
+  viewer.set_object_from_json = parseObject;
+  parsed.clear();
 }})().catch(function (err) {{
   window.__taskspace_errors.push("loading the scene: " + err);
   var hint = typeof DecompressionStream === "undefined" ? " (this page needs a browser with "
