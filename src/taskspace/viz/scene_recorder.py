@@ -37,6 +37,8 @@ import zlib
 from pathlib import Path
 from typing import Any, Protocol
 
+from taskspace.errors import InvalidInputError
+
 logger = logging.getLogger(__name__)
 
 READY_NODE = "taskspace_ready"
@@ -372,14 +374,20 @@ class SceneRecorder:
         """All recorded commands (msgpack bytes) in replay order, readiness token last."""
         return [b"".join(parts) for parts in self._ordered_parts()]
 
-    def static_html(self, title: str = "taskspace scene", *, compress: bool = True) -> str:
+    def static_html(
+        self, title: str = "taskspace scene", *, compress: bool = True, level: int = 6
+    ) -> str:
         """A self-contained HTML page of the scene (meshcat's JS inlined, no network access).
 
         Args:
             title: the page title.
             compress: store each distinct part once, zlib-compressed, inflated by the browser
                 (``DecompressionStream``); ``False`` writes every command in plain base64.
+            level: zlib level (1 fastest, 9 smallest); snapshots use 1 for their temporary
+                page (about 3x faster to write than 6 for mesh-heavy scenes).
         """
+        if isinstance(level, bool) or not isinstance(level, int) or not 1 <= level <= 9:
+            raise InvalidInputError(f"level must be an integer in 1..9, got {level!r}")
         if not compress:
             encoded = [base64.b64encode(c).decode("ascii") for c in self.packed_commands()]
             return _HTML_TEMPLATE.format(
@@ -394,7 +402,7 @@ class SceneRecorder:
         ]
         scene = {
             "js": _compressed_javascript(),
-            "data": base64.b64encode(zlib.compress(b"".join(chunks), 6)).decode("ascii"),
+            "data": base64.b64encode(zlib.compress(b"".join(chunks), level)).decode("ascii"),
             "sizes": [len(chunk) for chunk in chunks],
             "commands": commands,
         }

@@ -270,11 +270,12 @@ def _html_source(scene_or_html: Any) -> tuple[Path, Path | None, str | None]:
 
     token: str | None = None
     html: str | None = None
+    # the page is read once from a temporary file: the fastest compression
     if isinstance(scene_or_html, Viewer):
-        html = scene_or_html.static_html()
+        html = scene_or_html.static_html(level=1)
         token = scene_or_html.recorder.token
     elif isinstance(scene_or_html, SceneRecorder):
-        html = scene_or_html.static_html()
+        html = scene_or_html.static_html(level=1)
         token = scene_or_html.token
     elif isinstance(scene_or_html, Path):
         if not scene_or_html.is_file():

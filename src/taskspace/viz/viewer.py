@@ -848,17 +848,19 @@ class Viewer:
         self._floor_drawn = True
 
     # ------------------------------------------------------------------ export
-    def static_html(self, title: str = "taskspace scene", *, compress: bool = True) -> str:
+    def static_html(
+        self, title: str = "taskspace scene", *, compress: bool = True, level: int = 6
+    ) -> str:
         """Self-contained HTML of the scene (no network access needed to view it).
 
         If no camera was set, the scene is framed automatically first; the floor grid is
         drawn if enabled and not drawn yet. ``compress`` stores each mesh once, compressed
-        (see :meth:`SceneRecorder.static_html`).
+        with zlib ``level`` (see :meth:`SceneRecorder.static_html`).
         """
         if not isinstance(title, str):
             raise InvalidInputError(f"title must be a string, got {type(title).__name__}")
         self._prepare_export()
-        return self.recorder.static_html(title=title, compress=compress)
+        return self.recorder.static_html(title=title, compress=compress, level=level)
 
     def _prepare_export(self, aspect: float = 4 / 3) -> None:
         if self.floor and not self._floor_drawn:
