@@ -58,7 +58,7 @@ TWO_MESHES = """<?xml version="1.0" encoding="utf-8"?>
 
 
 def _attributes(mesh: ET.Element) -> set[str]:
-    semantics = {i.get("semantic") for i in mesh.iterfind(".//c:input", NS)}
+    semantics = {i.get("semantic", "") for i in mesh.iterfind(".//c:input", NS)}
     return semantics & {"TEXCOORD", "NORMAL", "COLOR"}
 
 

@@ -1,9 +1,8 @@
-"""Every robot of example-robot-data renders in a snapshot, whole and where it should be.
+"""A robot's snapshot, checked against Pinocchio (used for every robot of example-robot-data).
 
-For each loadable robot (cassie is SDF: see test_model_all_robots.py) the meshcat scene of
-``Viewer(robot)`` (visual geometry at the default posture, no floor or axes, a solid background) is
-rendered in headless Chromium and checked against Pinocchio, independently of the browser's
-mesh parsing:
+:func:`check_robot_snapshot` renders the meshcat scene of ``Viewer(robot)`` (visual geometry
+at the default posture, no floor or axes, a solid background) in headless Chromium and checks
+it against Pinocchio, independently of the browser's mesh parsing:
 
 * no JavaScript error (console errors, uncaught exceptions, failed scene commands) and no
   blocked request; the scene became ready and still;
@@ -15,37 +14,26 @@ mesh parsing:
   itself be drawn there).
 
 JavaScript errors known to be harmless would be listed in ``ALLOWED_PAGE_ERRORS`` with their
-reason; there are none.
-
-One browser serves all robots (module ``taskspace.viz.snapshots``); images are 200x150.
+reason; there are none. test_model_all_robots.py calls it on the robot it has just loaded and
+checked (one load per robot); one browser per test process serves all robots; images are
+200x150.
 """
 
 from __future__ import annotations
 
 import io
 import math
-import warnings
 
 import meshcat
 import meshcat.path as mp
 import numpy as np
 import pinocchio as pin
-import pytest
-from example_robot_data.robots_loader import ROBOTS
 from PIL import Image
 
-from taskspace.model import CollisionPruningOptions, Robot
+from taskspace.model import Robot
 from taskspace.viz import Viewer, render_html
 from taskspace.viz.viewer import CAMERA_FOV_DEG
 
-pytestmark = [
-    pytest.mark.slow,
-    pytest.mark.snapshot,
-    pytest.mark.xdist_group("browser"),
-    pytest.mark.filterwarnings("ignore"),
-]
-
-NAMES = sorted(set(ROBOTS) - {"cassie"})
 SIZE = (200, 150)
 BACKGROUND = (1.0, 0.0, 1.0)  # magenta: no robot of example-robot-data is drawn in it
 MARGIN = 2  # pixels of antialiasing around a projected box
@@ -104,11 +92,9 @@ def _box_mask(corners: np.ndarray, margin: int) -> np.ndarray:
     return mask
 
 
-@pytest.mark.parametrize("name", NAMES)
-def test_every_robot_renders_where_pinocchio_puts_it(name: str) -> None:
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        robot = Robot.load(name, collision_pruning=CollisionPruningOptions(enabled=False))
+def check_robot_snapshot(robot: Robot) -> None:
+    """Render ``robot`` and check the image (see the module docstring)."""
+    name = robot.name
     viewer = Viewer(robot, floor=False)
     background = meshcat.Visualizer.view_into(viewer.recorder, mp.Path(("Background",)))
     background.set_property("top_color", list(BACKGROUND))
