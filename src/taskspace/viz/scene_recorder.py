@@ -221,7 +221,14 @@ var TASKSPACE_SCENE = {scene};
       }}
     }}
     parseObject.call(viewer, path, json);
-    if (key !== null) {{ parsed.set(key, viewer.scene_tree.find(path).object); }}
+    var made = viewer.scene_tree.find(path.concat(["<object>"])).object;
+    if (made && Array.isArray(made.material)) {{
+      // meshcat merges the meshes of a file with one material slot per mesh; a mesh with
+      // several materials filled its slot with an array, which three.js draws as nothing
+      // (icub's shanks): such a mesh is drawn in its first material
+      made.material = made.material.map(function (m) {{ return Array.isArray(m) ? m[0] : m; }});
+    }}
+    if (key !== null) {{ parsed.set(key, made); }}
   }};
   var data = await inflate(scene.data);
   var offsets = [0];
