@@ -4,7 +4,10 @@ For each robot: ``Robot.load(name)``; the LOCAL Jacobian of a frame pose matches
 differences taken on the manifold (``pin.integrate``, ``pin.log6``) at a random configuration;
 after the pruning done on load, no collision pair collides in significantly more than 95 % of
 random configurations (counted here with Pinocchio directly, with another seed than the
-pruning, see ``_frequent_pairs``); the default posture is within the joint limits.
+pruning, see ``_frequent_pairs``); the default posture is within the joint limits; a snapshot
+of its visual geometry renders without JavaScript errors and shows every geometry where
+Pinocchio places it (``_robot_snapshot.check_robot_snapshot``, on the robot loaded here: one
+load per robot).
 Robots that cannot be loaded for a legitimate reason are listed in ``EXPECTED_FAILURES`` with
 the reason, and must raise a clear ``ModelLoadError``.
 """
@@ -18,13 +21,14 @@ import zlib
 import numpy as np
 import pinocchio as pin
 import pytest
+from _robot_snapshot import check_robot_snapshot
 from example_robot_data.robots_loader import ROBOTS
 
 from taskspace import ModelLoadError
 from taskspace import features as F
 from taskspace.model import Robot
 
-pytestmark = [pytest.mark.slow, pytest.mark.filterwarnings("ignore")]
+pytestmark = [pytest.mark.slow, pytest.mark.snapshot, pytest.mark.filterwarnings("ignore")]
 
 EXPECTED_FAILURES = {
     # The loader builds it from an SDF file; this Pinocchio build has no SDF parser.
@@ -123,3 +127,4 @@ def test_example_robot_data_robot(name: str) -> None:
         f"{name}: pairs colliding in significantly more than {FRACTION:.0%} of random "
         f"configurations after pruning (pair, frequency): {frequent}"
     )
+    check_robot_snapshot(robot)

@@ -86,3 +86,49 @@ def test_bad_pairs_are_refused(
     with pytest.raises(InvalidInputError, match="list of"):
         robot.disable_collision_pairs("ab")
     assert robot.world.version == version  # nothing changed
+
+
+def test_compiled_checker_sees_a_same_count_pair_swap_made_in_place(
+    ur5_self_collision: tuple[Robot, np.ndarray, tuple[str, str]],
+) -> None:
+    """Pinocchio's removeCollisionPair + addCollisionPair on robot.collision_model (no version).
+
+    The pair count is unchanged, which the checker compared before: the compiled checker handed
+    to a plan (``native_kernel``, called at every plan) kept answering with the old pairs. Now
+    the exact pair set is compared there.
+    """
+    robot, q, pair = ur5_self_collision
+    from taskspace.planning import CollisionCheckerOptions
+
+    space = ConfigurationSpace.from_robot(
+        robot, checker_options=CollisionCheckerOptions(native=True)
+    )
+    checker = space.checker
+    if checker.native_kernel() is None:
+        pytest.skip("compiled checker not built")
+    assert not space.is_valid(q)
+    cm = robot.collision_model
+    first, second = (cm.getGeometryId(n) for n in pair)
+    colliding = pin.CollisionPair(min(first, second), max(first, second))
+    free_pairs = [p for p in robot.collision_pairs if p != pair and p[::-1] != pair]
+    unchecked = next(
+        (a, b)
+        for a in range(robot.robot_geometry_count)
+        for b in range(a + 1, robot.robot_geometry_count)
+        if not cm.existCollisionPair(pin.CollisionPair(a, b))
+        and (a, b) != (colliding.first, colliding.second)
+    )
+    count = len(cm.collisionPairs)
+    cm.removeCollisionPair(colliding)
+    cm.addCollisionPair(pin.CollisionPair(*unchecked))
+    try:
+        assert len(cm.collisionPairs) == count
+        names = [cm.geometryObjects[i].name for i in unchecked]
+        expected = _reference_collides(robot, [*free_pairs, (names[0], names[1])], q)
+        checker.native_kernel()  # what a plan does first
+        assert space.is_valid(q) == (not expected)
+    finally:
+        cm.removeCollisionPair(pin.CollisionPair(*unchecked))
+        cm.addCollisionPair(colliding)
+    checker.native_kernel()
+    assert not space.is_valid(q)

@@ -59,7 +59,7 @@ def test_short_panda_animation_is_small(animation):
     plain = viewer.recorder.static_html(compress=False)
     assert len(compressed) < 5 * MB  # a 15 MB page before (Collada text in base64)
     assert len(plain) > 3 * len(compressed)
-    assert compressed.count("<script") == 2 and "MeshCat.Viewer" in compressed
+    assert compressed.count("<script") == 3 and "MeshCat.Viewer" in compressed
 
 
 def test_compressed_page_holds_the_same_commands(animation):

@@ -138,7 +138,7 @@ def test_markers_and_html_are_self_contained(panda):
     assert "/meshcat/markers/pts" not in paths
     assert {"/meshcat/markers/line", "/meshcat/markers/tree", "/meshcat/markers/f/shaft"} <= paths
     html = viewer.static_html()
-    assert html.count("<script") == 2 and "<script src" not in html
+    assert html.count("<script") == 3 and "<script src" not in html
 
 
 def test_errors_have_clear_messages(panda):

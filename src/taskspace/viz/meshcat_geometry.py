@@ -21,6 +21,11 @@ import pinocchio as pin
 
 from taskspace._validation import FloatArray, as_float_array
 from taskspace.errors import InvalidInputError
+from taskspace.viz.collada_resources import (
+    consistent_attributes,
+    consistent_obj,
+    texture_resources,
+)
 
 logger = logging.getLogger(__name__)
 
@@ -146,7 +151,8 @@ class DaeObjectCommand:
     """A ``set_object`` command of a Collada file with its own materials (``_meshfile_object``).
 
     Keeps the colors written in the ``.dae`` file (e.g. the Panda's white and black links),
-    which meshcat's ``DaeMeshGeometry`` (geometry only) loses.
+    which meshcat's ``DaeMeshGeometry`` (geometry only) loses, and its texture images
+    (embedded as ``data:`` URLs; see :func:`collada_file_for_browser`).
     """
 
     def __init__(self, path: str, dae_file: str | Path, material: Any = None) -> None:
@@ -154,7 +160,8 @@ class DaeObjectCommand:
 
         self.path = path
         self.uuid = mg.Geometry().uuid
-        self.data = compact_collada_file(str(Path(dae_file).resolve()))
+        self.data, resources = collada_file_for_browser(str(Path(dae_file).resolve()))
+        self.resources = dict(resources)
         self.material = material
 
     def lower(self) -> dict[str, Any]:
@@ -168,7 +175,7 @@ class DaeObjectCommand:
                 "type": "_meshfile_object",
                 "format": "dae",
                 "data": self.data,
-                "resources": {},
+                "resources": self.resources,
                 "matrix": list(np.eye(4).flatten()),
             },
         }
@@ -252,6 +259,29 @@ def compact_stl_file(path: str) -> bytes:
     return compact_stl(Path(path).read_bytes())
 
 
+@functools.lru_cache(maxsize=64)
+def collada_file_for_browser(path: str) -> tuple[str, tuple[tuple[str, str], ...]]:
+    """A ``.dae`` file as meshcat's viewer needs it: text and texture resources (cached).
+
+    The text is :func:`compact_collada` of the file with every mesh given the same vertex
+    attributes (:func:`~taskspace.viz.collada_resources.consistent_attributes`); the resources
+    are ``(image name, data URL)`` pairs of its textures
+    (:func:`~taskspace.viz.collada_resources.texture_resources`).
+    """
+    text = consistent_attributes(compact_collada_file(path))
+    resources = texture_resources(text, Path(path).parent)
+    return text, tuple(resources.items())
+
+
+@functools.lru_cache(maxsize=64)
+def obj_file_for_browser(path: str) -> str:
+    """An ``.obj`` file whose faces agree on texture and normal indices (cached).
+
+    See :func:`~taskspace.viz.collada_resources.consistent_obj`.
+    """
+    return consistent_obj(Path(path).read_text(encoding="utf-8", errors="replace"))
+
+
 def _mesh_file_geometry(mesh_path: str) -> Any:
     import meshcat.geometry as mg
 
@@ -263,7 +293,7 @@ def _mesh_file_geometry(mesh_path: str) -> Any:
         _, code = mg.threejs_type(np.uint8)
         return mg.MeshGeometry(umsgpack.Ext(code, contents), "stl")
     if suffix == ".obj":
-        return mg.ObjMeshGeometry.from_file(mesh_path)
+        return mg.MeshGeometry(obj_file_for_browser(str(Path(mesh_path).resolve())), "obj")
     if suffix == ".dae":
         return mg.DaeMeshGeometry.from_file(mesh_path)
     return None

@@ -6,7 +6,7 @@ SwiftShader). The renderer waits for
 
 1. the readiness token: the last scene command sets the property ``taskspace_ready_token`` of
    the node ``/taskspace_ready`` (polled through ``viewer.scene_tree``), so every command was
-   applied;
+   applied, and no texture image is still loading (the page counts them);
 2. a still scene: with meshcat's control panel (dat.gui) hidden by injected CSS, consecutive
    screenshots of the page (the WebGL canvas) are identical; the last one is returned.
 
@@ -68,6 +68,7 @@ HIDE_CONTROLS_CSS = ".dg, .dg.ac, .dg.main { display: none !important; }"
 _READY_JS = """() => {
   try {
     if (typeof viewer === "undefined") { return null; }
+    if ((window.__taskspace_pending_images || 0) > 0) { return null; }
     const node = viewer.scene_tree.find(["taskspace_ready"]);
     return node.object.taskspace_ready_token || null;
   } catch (e) { return null; }
@@ -269,11 +270,12 @@ def _html_source(scene_or_html: Any) -> tuple[Path, Path | None, str | None]:
 
     token: str | None = None
     html: str | None = None
+    # the page is read once from a temporary file: the fastest compression
     if isinstance(scene_or_html, Viewer):
-        html = scene_or_html.static_html()
+        html = scene_or_html.static_html(level=1)
         token = scene_or_html.recorder.token
     elif isinstance(scene_or_html, SceneRecorder):
-        html = scene_or_html.static_html()
+        html = scene_or_html.static_html(level=1)
         token = scene_or_html.token
     elif isinstance(scene_or_html, Path):
         if not scene_or_html.is_file():

@@ -219,7 +219,8 @@ class Viewer:
     Args:
         robot: robot to display (optional; markers can be drawn without one).
         q: initial configuration (default posture if omitted).
-        geometry: ``"visual"`` or ``"collision"`` geometry of the robot.
+        geometry: ``"visual"`` or ``"collision"`` geometry of the robot (a robot without
+            visual geometry shows its collision geometry, with a logged warning).
         color: RGBA override for every robot geometry (default: the model colors).
         live: also start (or connect to) a meshcat server and send every command to it.
         zmq_url: URL of an existing meshcat server (implies ``live``).
@@ -257,6 +258,17 @@ class Viewer:
             )
         if geometry not in ("visual", "collision"):
             raise InvalidInputError(f"geometry must be 'visual' or 'collision', got {geometry!r}")
+        if (
+            robot is not None
+            and geometry == "visual"
+            and robot.visual_model.ngeoms == 0
+            and robot.robot_geometry_count > 0
+        ):
+            # simple_humanoid of example-robot-data: the viewer showed an empty scene
+            logger.warning(
+                "robot '%s' has no visual geometry: showing its collision geometry", robot.name
+            )
+            geometry = "collision"
         forward = None
         if zmq_url is not None:
             _check_meshcat_server(zmq_url)
@@ -848,17 +860,19 @@ class Viewer:
         self._floor_drawn = True
 
     # ------------------------------------------------------------------ export
-    def static_html(self, title: str = "taskspace scene", *, compress: bool = True) -> str:
+    def static_html(
+        self, title: str = "taskspace scene", *, compress: bool = True, level: int = 6
+    ) -> str:
         """Self-contained HTML of the scene (no network access needed to view it).
 
         If no camera was set, the scene is framed automatically first; the floor grid is
         drawn if enabled and not drawn yet. ``compress`` stores each mesh once, compressed
-        (see :meth:`SceneRecorder.static_html`).
+        with zlib ``level`` (see :meth:`SceneRecorder.static_html`).
         """
         if not isinstance(title, str):
             raise InvalidInputError(f"title must be a string, got {type(title).__name__}")
         self._prepare_export()
-        return self.recorder.static_html(title=title, compress=compress)
+        return self.recorder.static_html(title=title, compress=compress, level=level)
 
     def _prepare_export(self, aspect: float = 4 / 3) -> None:
         if self.floor and not self._floor_drawn:
