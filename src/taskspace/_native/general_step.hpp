@@ -79,8 +79,7 @@ class GeneralIKStep {
     k.g_.setZero();
     k.fill_rows(model, data, targets);
     const auto t1 = std::chrono::steady_clock::now();
-    k.add_gram();
-    k.g_.noalias() -= k.M_.transpose() * k.r_;
+    k.add_gram();  // and g = -M^T r
     k.H_.diagonal().array() += damping;
     k.add_posture_terms(model, q, targets);
     k.H_.triangularView<Eigen::StrictlyUpper>() = k.H_.transpose();
