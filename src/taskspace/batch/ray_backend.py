@@ -25,7 +25,7 @@ from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
-from taskspace.batch.chunk import Chunk
+from taskspace.batch.chunk import Chunk, ChunkQueue
 from taskspace.batch.records import BatchError, TaskRecord
 from taskspace.batch.worker import TaskFunction, run_chunk, worker_context
 
@@ -223,7 +223,7 @@ def run_ray(
     fn: TaskFunction,
     key: str,
     factory: Callable[[], Any] | None,
-    chunks: list[Chunk],
+    chunks: ChunkQueue,
     seed: int,
     workers: int,
     retries: int,
@@ -241,7 +241,7 @@ def run_ray(
     """
     del fn, key, factory, seed, workers  # set up on the pool's actors by pool.start
     ray = _ray()
-    queue: deque[Chunk] = deque(chunks)
+    queue = chunks  # cut as the actors take them
     suspects: deque[Chunk] = deque()
     # per actor: the chunks sent to it, oldest first, and whether they run alone (suspects)
     sent: list[deque[tuple[Any, Chunk]]] = [deque() for _ in pool.actors]
