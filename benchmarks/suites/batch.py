@@ -70,12 +70,16 @@ def _ray_ready() -> float | None:
     path = os.environ.get("PYTHONPATH", "")  # workers import what the driver imports
     t0 = time.perf_counter()
     if not ray.is_initialized():
-        ray.init(
-            num_cpus=WORKERS,
-            include_dashboard=False,
-            log_to_driver=False,
-            runtime_env={"env_vars": {"PYTHONPATH": f"{here}{os.pathsep}{path}"}},
-        )
+        # Through the environment, as taskspace.batch does (not a runtime_env): the workers
+        # Ray starts with the runtime then serve the executors' actors.
+        os.environ["PYTHONPATH"] = f"{here}{os.pathsep}{path}"
+        try:
+            ray.init(num_cpus=WORKERS, include_dashboard=False, log_to_driver=False)
+        finally:
+            if path:
+                os.environ["PYTHONPATH"] = path
+            else:
+                os.environ.pop("PYTHONPATH", None)
     return time.perf_counter() - t0
 
 
