@@ -26,7 +26,8 @@ def noop(item: Any, rng: np.random.Generator, context: Any) -> Any:
     return item
 
 
-def mbm_context() -> Any:
+def mbm_context(nonce: Any = None) -> Any:
+    """The campaign's robot; ``nonce`` only tells runs apart (a new one: a new context key)."""
     from taskspace.planning.scene_loader import motionbenchmaker_panda
 
     return motionbenchmaker_panda()

@@ -10,8 +10,12 @@
 * ``mbm_campaign``: the MotionBenchMaker Panda problems x 3 seeds (compiled and Python
   RRT-Connect on each), serially and on 2 workers: wall time and speed-up. Each backend gets a
   new executor inside the timed region: worker start-up (processes or Ray actors; not the Ray
-  runtime, started before) and each worker's scene load are counted for both.
-  ``TASKSPACE_BATCH_CAMPAIGN_ROUNDS`` rounds (default 1; about 2 minutes each), the backends
+  runtime, started before) and the scene load are counted for every backend, serial included
+  (each run's context has a key of its own, so no process reuses a scene built before).
+  ``mbm_campaign warm``: the same campaign again on the same executor right after, so every
+  backend has its workers started and its scene built before the timing (serial: the
+  driver's scene); ``startup_s`` is the median of cold minus warm.
+  ``TASKSPACE_BATCH_CAMPAIGN_ROUNDS`` rounds (default 1; about 3.5 minutes each), the backends
   alternating; the speed-ups are of the fastest runs (``speedup_over_serial``) and of the
   medians.
 
@@ -25,6 +29,7 @@ has 2 cores; numbers taken above a load of about 2 are not comparable).
 
 from __future__ import annotations
 
+import functools
 import multiprocessing
 import os
 import time
@@ -65,12 +70,16 @@ def _ray_ready() -> float | None:
     path = os.environ.get("PYTHONPATH", "")  # workers import what the driver imports
     t0 = time.perf_counter()
     if not ray.is_initialized():
-        ray.init(
-            num_cpus=WORKERS,
-            include_dashboard=False,
-            log_to_driver=False,
-            runtime_env={"env_vars": {"PYTHONPATH": f"{here}{os.pathsep}{path}"}},
-        )
+        # Through the environment, as taskspace.batch does (not a runtime_env): the workers
+        # Ray starts with the runtime then serve the executors' actors.
+        os.environ["PYTHONPATH"] = f"{here}{os.pathsep}{path}"
+        try:
+            ray.init(num_cpus=WORKERS, include_dashboard=False, log_to_driver=False)
+        finally:
+            if path:
+                os.environ["PYTHONPATH"] = path
+            else:
+                os.environ.pop("PYTHONPATH", None)
     return time.perf_counter() - t0
 
 
@@ -217,56 +226,67 @@ def _campaign(quick: bool, ray_ok: bool) -> list[Row]:
     items = [(s, p, seed) for s in scenarios for p in problems for seed in range(3)]
     rounds = int(os.environ.get("TASKSPACE_BATCH_CAMPAIGN_ROUNDS", "1"))
     backends = ["serial", "processes"] + (["ray"] if ray_ok else [])
-    runs: dict[str, list[tuple[float, Any, float]]] = {b: [] for b in backends}
+    # per mode and backend: (wall time, result, load) of each round
+    runs: dict[str, dict[str, list[tuple[float, Any, float]]]] = {
+        mode: {b: [] for b in backends} for mode in ("cold", "warm")
+    }
     db: Path | None = None
-    for _ in range(rounds):
+    for r in range(rounds):
         for backend in backends:
             opts = BatchOptions(backend=backend, workers=WORKERS, progress=False)  # type: ignore[arg-type]
-            load = _load()
+            # A context key of its own: even serial builds its scene inside the cold timing
+            # (this process keeps the last context it built, e.g. by an earlier round).
+            context = functools.partial(T.mbm_context, (backend, r))
             with Executor(opts) as ex:
-                t, result = _wall(lambda ex=ex: ex.map(T.mbm_plan, items, context=T.mbm_context))
-            runs[backend].append((t, result, load))
-            if backend == "serial" and db is None:
+                for mode in ("cold", "warm"):  # warm: the same executor again
+                    load = _load()
+                    t, result = _wall(lambda ex=ex, c=context: ex.map(T.mbm_plan, items, context=c))
+                    runs[mode][backend].append((t, result, load))
+            if db is None:
                 # One row per run, OMPL-style (planner columns compiled.* and python.*).
                 db = write_sqlite(result, _campaign_db(), experiment="mbm_campaign")
-    serial_times = [t for t, _, _ in runs["serial"]]
-    reference = runs["serial"][0][1].values
+    reference = runs["cold"]["serial"][0][1].values
     rows = []
-    for backend in backends:
-        samples = [t for t, _, _ in runs[backend]]
-        t, result, load = min(runs[backend], key=lambda run: run[0])
-        values = result.values
-        solved = [v["compiled"]["solved"] for v in values if v["valid"]]
-        py_time = float(np.median([v["python"]["time_s"] for v in values if v["valid"]]))
-        extra: dict[str, Any] = {
-            "runs": len(items),
-            "valid": len(solved),
-            "solved": int(sum(solved)),
-            "median_python_plan_ms": py_time * 1e3,
-            "chunk_size": result.chunk_size,
-            "rounds": rounds,
-            "load1": [load for _, _, load in runs[backend]],
-            "database": str(db),
-        }
-        if backend != "serial":
-            extra["speedup_over_serial"] = min(serial_times) / t
-            extra["speedup_median"] = float(np.median(serial_times) / np.median(samples))
-            same = [
-                a["compiled"]["solved"] == b["compiled"]["solved"]
-                for a, b in zip(values, reference)
-                if a["valid"] and b["valid"]  # invalid problems (start or goal in collision)
-            ]
-            extra["same_success_as_serial"] = float(np.mean(same))
-        rows.append(
-            Row(
-                SUITE,
-                "mbm_campaign",
-                f"taskspace {backend}",
-                Timing.from_samples(samples),
-                extra,
-                ratio_to="taskspace serial",
+    for mode, by_backend in runs.items():
+        serial_times = [t for t, _, _ in by_backend["serial"]]
+        for backend in backends:
+            samples = [t for t, _, _ in by_backend[backend]]
+            t, result, _ = min(by_backend[backend], key=lambda run: run[0])
+            values = result.values
+            solved = [v["compiled"]["solved"] for v in values if v["valid"]]
+            py_time = float(np.median([v["python"]["time_s"] for v in values if v["valid"]]))
+            extra: dict[str, Any] = {
+                "runs": len(items),
+                "valid": len(solved),
+                "solved": int(sum(solved)),
+                "median_python_plan_ms": py_time * 1e3,
+                "chunk_size": result.chunk_size,
+                "rounds": rounds,
+                "load1": [load for _, _, load in by_backend[backend]],
+                "database": str(db),
+            }
+            if mode == "warm":
+                cold = [c for c, _, _ in runs["cold"][backend]]
+                extra["startup_s"] = float(np.median(np.subtract(cold, samples)))
+            if backend != "serial":
+                extra["speedup_over_serial"] = min(serial_times) / t
+                extra["speedup_median"] = float(np.median(serial_times) / np.median(samples))
+                same = [
+                    a["compiled"]["solved"] == b["compiled"]["solved"]
+                    for a, b in zip(values, reference)
+                    if a["valid"] and b["valid"]  # invalid problems (start or goal in collision)
+                ]
+                extra["same_success_as_serial"] = float(np.mean(same))
+            rows.append(
+                Row(
+                    SUITE,
+                    "mbm_campaign" if mode == "cold" else "mbm_campaign warm",
+                    f"taskspace {backend}",
+                    Timing.from_samples(samples),
+                    extra,
+                    ratio_to="taskspace serial",
+                )
             )
-        )
     return rows
 
 

@@ -1,8 +1,9 @@
-"""How a run is cut and started: tapered chunks, workers warmed during the probe, lazy imports."""
+"""How a run is cut and started: chunks sized from the task times, warm-up, lazy imports."""
 
 from __future__ import annotations
 
 import functools
+import math
 import os
 import signal
 import subprocess
@@ -15,7 +16,8 @@ import numpy as np
 import pytest
 
 from taskspace.batch import BatchOptions, Executor
-from taskspace.batch.chunk import make_chunks
+from taskspace.batch.chunk import ChunkQueue, make_chunks
+from taskspace.batch.records import TaskRecord
 
 HERE = Path(__file__).resolve().parent
 
@@ -56,6 +58,69 @@ def test_tapered_chunks_keep_every_task_in_order_and_end_small(
     ]
 
 
+def _gss_sizes(n: int, size: int, workers: int) -> list[int]:
+    """Guided self-scheduling enumerated: ceil(remaining / 2P) per chunk, capped at size."""
+    sizes, remaining = [], n
+    while remaining:
+        sizes.append(max(1, min(size, -(-remaining // (2 * workers)))))
+        remaining -= sizes[-1]
+    return sizes
+
+
+@pytest.mark.parametrize(
+    ("n", "workers", "least", "seconds", "size"),
+    [(200, 2, 0.01, 0.001, 10), (1050, 2, 0.1, 0.03, 4), (1050, 2, 0.01, 0.05, 1),
+     (9, 4, 0.01, 1e-4, 1), (100, 2, 1.0, 1e-3, 13)],
+)  # fmt: skip
+def test_automatic_chunks_are_sized_from_the_tasks_that_came_back(
+    n: int, workers: int, least: float, seconds: float, size: int
+) -> None:
+    tasks = [(i, f"x{i}") for i in range(n)]
+    queue = ChunkQueue(tasks, None, workers, least)
+    first = [queue.popleft() for _ in range(min(n, 2 * workers))]
+    assert [len(c.tasks) for c in first] == [1] * len(first)  # no time known yet
+    # a failure that never ran (a dead worker: 0 s), a resumed record and a fast failure
+    # say nothing about the task time
+    queue.observe([TaskRecord(0, False, error="worker died"), TaskRecord(1, True, 0, resumed=True)])
+    queue.observe([TaskRecord(2, False, error="ValueError", seconds=1e-9)])
+    assert queue.size == 1
+    queue.observe([TaskRecord(i, True, 0, seconds=seconds * (1 + i)) for i in range(3)])
+    # size: ceil(least / fastest), at most ceil(n / 4P) (the hand-computed column)
+    assert queue.size == size == max(1, min(math.ceil(least / seconds), -(-n // (4 * workers))))
+    rest = []
+    while queue:
+        rest.append(queue.popleft())
+    assert [len(c.tasks) for c in rest] == _gss_sizes(n - len(first), size, workers)
+    assert [t for c in first + rest for t in c.tasks] == tasks  # each task once, in order
+    assert queue.largest == max(len(c.tasks) for c in first + rest)
+    with pytest.raises(IndexError):
+        queue.popleft()
+
+
+def test_a_fixed_chunk_size_is_kept_to_the_end() -> None:
+    tasks = [(i, i) for i in range(23)]
+    queue = ChunkQueue(tasks, 5, 2, 0.01)
+    queue.observe([TaskRecord(0, True, 0, seconds=1e-6)])  # ignored: the size is the user's
+    sizes = []
+    while queue:
+        sizes.append(len(queue.popleft().tasks))
+    assert sizes == [5, 5, 5, 5, 3] == [len(c.tasks) for c in make_chunks(tasks, 5)]
+
+
+def test_the_driver_runs_no_task_and_builds_no_context() -> None:
+    # before: the driver built the context and timed up to 3 tasks itself to size the
+    # chunks (a third copy of a scene on 2 workers, competing with their start-up)
+    built_here = T._SERIAL[0]
+    opts = BatchOptions(backend="processes", workers=2, progress=False, seed=6)
+    with Executor(opts) as ex:
+        result = ex.map(T.context_pid, range(40), context=T.make_context)
+        noisy = ex.map(T.noisy, list(range(40)))
+    assert T._SERIAL[0] == built_here
+    assert all(pid != os.getpid() for pid, _, _ in result.values)
+    assert noisy.values == _reference(list(range(40)), 6)
+    assert 1 <= result.chunk_size <= 5
+
+
 def test_automatic_chunks_on_processes_give_the_reference_values() -> None:
     items = list(range(61))
     opts = BatchOptions(backend="processes", workers=2, progress=False, seed=11)
@@ -63,16 +128,13 @@ def test_automatic_chunks_on_processes_give_the_reference_values() -> None:
         result = ex.map(T.noisy, items, context=T.make_context)
         rows = ex.map(T.context_pid, range(30), context=T.make_context).values
     assert result.values == _reference(items, 11)
-    # the driver ran the probe tasks; the workers were warmed meanwhile and built the
-    # context once each for both runs
-    in_workers = [row for row in rows if row[0] != os.getpid()]
-    assert in_workers
-    assert all(pid == ctx_pid and serial == 1 for pid, ctx_pid, serial in in_workers)
+    # every task ran in a worker, which built the context once for both runs
+    assert all(pid != os.getpid() for pid, _, _ in rows)
+    assert all(pid == ctx_pid and serial == 1 for pid, ctx_pid, serial in rows)
 
 
-def test_processes_warm_up_starts_the_workers_during_the_probe() -> None:
-    # the context takes 0.3 s: warmed workers have it built when their first chunk arrives,
-    # so their first task starts soon after the probe (cold: 0.3 s + start-up later)
+def test_processes_warm_up_starts_every_worker_at_once() -> None:
+    # the context takes 0.3 s: warmed workers have it built when their first chunk arrives
     opts = BatchOptions(backend="processes", workers=2, progress=False)
     with Executor(opts) as ex:
         ex._pool.warm("key-of-nothing", T.slow_context)
@@ -85,9 +147,8 @@ def test_processes_warm_up_starts_the_workers_during_the_probe() -> None:
     assert not any(_alive(p) for p in pids), "warmed workers outlived close()"
 
 
-def test_the_executor_warms_every_worker_while_it_probes() -> None:
-    # 3 tasks: the driver probes 2 and one chunk is left, which starts one worker; the
-    # warm-up during the probe started both and built the context in each
+def test_the_executor_warms_every_worker() -> None:
+    # 3 tasks: both workers are started and build the context, whichever gets the tasks
     opts = BatchOptions(backend="processes", workers=2, progress=False)
     with Executor(opts) as ex:
         result = ex.map(T.context_pid, range(3), context=T.make_context)

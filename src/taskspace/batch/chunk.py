@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections import deque
 from dataclasses import dataclass, replace
 from typing import Any
@@ -79,3 +80,70 @@ def make_chunks(tasks: list[tuple[int, Any]], size: int, taper: int = 0) -> list
         chunks.append(Chunk(tasks[start : start + n]))
         start += n
     return chunks
+
+
+class ChunkQueue:
+    """The chunks of a run, cut when a worker takes one, sized from the tasks' own times.
+
+    With a fixed ``size`` every chunk holds ``size`` tasks. Without one (``size=None``), the
+    first chunks hold one task each; each record that comes back (:meth:`observe`) gives a
+    task time, and later chunks hold ``ceil(least_seconds / fastest task)`` tasks, capped at
+    ``ceil(tasks / (4 * workers))`` and tapered toward the end as :func:`make_chunks` does
+    (guided self-scheduling). The times come from the workers themselves, so the driver runs
+    no task and builds no context to size the chunks. Which tasks a chunk holds never changes
+    their values (seeds are per task).
+
+    Attributes:
+        largest: the most tasks cut into one chunk so far.
+    """
+
+    def __init__(
+        self,
+        tasks: list[tuple[int, Any]],
+        size: int | None,
+        workers: int,
+        least_seconds: float,
+    ) -> None:
+        self._tasks = tasks
+        self._start = 0
+        self._fixed = size
+        self._workers = max(1, workers)
+        self._least = least_seconds
+        self._cap = max(1, -(-len(tasks) // (4 * self._workers)))
+        self._fastest = math.inf
+        self.largest = 0
+
+    def __bool__(self) -> bool:
+        return self._start < len(self._tasks)
+
+    def __len__(self) -> int:
+        """Tasks not yet cut into a chunk."""
+        return len(self._tasks) - self._start
+
+    @property
+    def size(self) -> int:
+        """The size of the next full chunk (before the taper)."""
+        if self._fixed is not None:
+            return self._fixed
+        if not math.isfinite(self._fastest):
+            return 1
+        return max(1, min(math.ceil(self._least / max(self._fastest, 1e-7)), self._cap))
+
+    def observe(self, records: list[TaskRecord]) -> None:
+        """Take the task times of finished records into account for the next chunks."""
+        for r in records:  # failures may not have run (a dead worker): ok records only
+            if r.ok and not r.resumed and 0 < r.seconds < self._fastest:
+                self._fastest = r.seconds
+
+    def popleft(self) -> Chunk:
+        """The next chunk (the queue must not be empty)."""
+        if not self:
+            raise IndexError("popleft from an empty ChunkQueue")
+        n = self.size
+        if self._fixed is None:
+            remaining = len(self)
+            n = max(1, min(n, -(-remaining // (2 * self._workers))))
+        chunk = Chunk(self._tasks[self._start : self._start + n])
+        self._start += n
+        self.largest = max(self.largest, len(chunk.tasks))
+        return chunk

@@ -26,12 +26,12 @@ from typing import Any, Literal
 
 from tqdm import tqdm
 
-from taskspace.batch.chunk import Chunk, make_chunks
+from taskspace.batch.chunk import ChunkQueue
 from taskspace.batch.processes import ProcessPool, run_processes
 from taskspace.batch.ray_backend import RayPool, run_ray
 from taskspace.batch.records import BatchError, BatchResult, ResultsFile, TaskRecord, roundtrip
 from taskspace.batch.serial import run_serial
-from taskspace.batch.worker import TaskFunction, run_chunk, worker_context
+from taskspace.batch.worker import TaskFunction
 from taskspace.errors import ConcurrentUseError, InvalidInputError, UnknownNameError
 
 Backend = Literal["serial", "processes", "ray"]
@@ -43,10 +43,6 @@ MAX_WORKERS = 4096
 """Most workers of an executor (processes, or Ray actors on a cluster)."""
 MAX_RETRIES = 100
 """Most restarts of a chunk whose worker died (a task that always kills its worker fails)."""
-PROBE_TASKS = 3
-"""Most tasks the driver runs itself to time a task when choosing the chunk size."""
-PROBE_SECONDS = 0.25
-"""The driver starts no further probe task after this long [s]."""
 RAY_MIN_CHUNK_SECONDS = 0.1
 """The shortest automatic chunk on Ray [s]: a chunk costs the driver, Ray and the actor about
 1 ms of CPU there (0.2 ms with local processes), so 0.1 s keeps that near 1 %."""
@@ -62,8 +58,10 @@ class BatchOptions:
         workers: worker processes (None: every core of this machine); for Ray, the actors
             (at most, and with None all of, the cluster's CPUs) and the CPUs of the local
             runtime it starts.
-        chunk_size: tasks sent to a worker at once (None: chosen so that a chunk takes at
-            least ``min_chunk_seconds``, from the time of the first task).
+        chunk_size: tasks sent to a worker at once (None: one at first, then chosen so that
+            a chunk takes at least ``min_chunk_seconds``, from the fastest task finished so
+            far, and fewer toward the end of the run; see
+            :class:`~taskspace.batch.chunk.ChunkQueue`).
         min_chunk_seconds: the shortest chunk worth sending [s]. Ray's documentation puts the
             least task worth distributing at about 10 ms; process pools pay about 0.1-1 ms.
             On Ray, automatic chunks last at least ``RAY_MIN_CHUNK_SECONDS``.
@@ -242,55 +240,33 @@ class Executor:
             if not todo:
                 return
             key = _context_key(context)
-            chunk_size = opts.chunk_size
-            # The workers start and build the context while the driver runs the probe.
+            # The workers start and build the context before their first chunk arrives.
             if opts.backend == "ray":
                 self._actors.start(fn, key, context, opts.seed)
-            elif opts.backend == "processes" and chunk_size is None:
+            elif opts.backend == "processes" and opts.chunk_size is None:
                 self._pool.warm(key, context)
-            probe: list[TaskRecord] = []
-            if opts.backend == "serial":
-                chunk_size = chunk_size or 1
-            elif chunk_size is None:
-                # Time the first task here to size the chunks; its record is kept. The
-                # context (a robot, a scene) is built first, outside the timing: counted in,
-                # its load time made every chunk a single task (IK dataset, MBM campaign).
-                try:
-                    worker_context(key, context)
-                except Exception:  # run_chunk reports it as the task's failure
-                    pass
-                # The first task often pays one-time costs (lazy imports, warm-up): up to
-                # PROBE_TASKS tasks are timed while the probe stays short, and the fastest counts.
-                t0 = time.perf_counter()
-                while (
-                    len(probe) < min(PROBE_TASKS, len(todo) - 1)
-                    and time.perf_counter() - t0 < PROBE_SECONDS
-                ) or not probe:
-                    probe += run_chunk(
-                        fn, key, context, todo[len(probe) : len(probe) + 1], opts.seed
-                    )
-                elapsed = max(min(r.seconds for r in probe), 1e-7)
-                todo = todo[len(probe) :]
-                per_worker = max(1, math.ceil(len(todo) / (4 * self.workers)))
-                least = opts.min_chunk_seconds
-                if opts.backend == "ray":
-                    least = max(least, RAY_MIN_CHUNK_SECONDS)
-                chunk_size = max(1, min(math.ceil(least / elapsed), per_worker))
-            self.last_chunk_size = chunk_size
-            for records in [probe] if probe else []:
-                yield from self._finish(records, store, bar)
-            # Automatic chunks shrink toward the end of the run (tail balance across workers).
-            taper = self.workers if opts.chunk_size is None and opts.backend != "serial" else 0
-            chunks = make_chunks(todo, chunk_size, taper)
-            for records in self._backend(fn, key, context, chunks):
-                yield from self._finish(records, store, bar)
+            # Automatic chunks: the first ones hold one task each, later ones are sized from
+            # the times of the tasks finished so far (in the workers: the driver builds no
+            # context and runs no task of its own) and shrink toward the end of the run.
+            least = opts.min_chunk_seconds
+            if opts.backend == "ray":
+                least = max(least, RAY_MIN_CHUNK_SECONDS)
+            size = opts.chunk_size or (1 if opts.backend == "serial" else None)
+            chunks = ChunkQueue(todo, size, self.workers, least)
+            self.last_chunk_size = 0
+            try:
+                for records in self._backend(fn, key, context, chunks):
+                    chunks.observe(records)
+                    yield from self._finish(records, store, bar)
+            finally:
+                self.last_chunk_size = chunks.largest
         finally:
             bar.close()
             if store is not None:
                 store.close()
 
     def _backend(
-        self, fn: TaskFunction, key: str, context: Callable[[], Any] | None, chunks: list[Chunk]
+        self, fn: TaskFunction, key: str, context: Callable[[], Any] | None, chunks: ChunkQueue
     ) -> Iterator[list[TaskRecord]]:
         opts = self.options
         args = (fn, key, context, chunks, opts.seed, self.workers, opts.retries)

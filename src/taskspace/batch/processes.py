@@ -16,7 +16,7 @@ from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wai
 from concurrent.futures.process import BrokenProcessPool
 from typing import Any
 
-from taskspace.batch.chunk import Chunk
+from taskspace.batch.chunk import Chunk, ChunkQueue
 from taskspace.batch.records import TaskRecord
 from taskspace.batch.worker import TaskFunction, ignore_sigint, run_chunk, worker_context
 
@@ -99,7 +99,7 @@ def run_processes(
     fn: TaskFunction,
     key: str,
     factory: Callable[[], Any] | None,
-    chunks: list[Chunk],
+    chunks: ChunkQueue,
     seed: int,
     workers: int,
     retries: int,
@@ -109,7 +109,7 @@ def run_processes(
 
     An interruption (Ctrl-C, or the caller closing the generator) stops the pool's workers.
     """
-    queue: deque[Chunk] = deque(chunks)
+    queue = chunks  # cut as the workers take them
     suspects: deque[Chunk] = deque()
     finished = False
     try:

@@ -17,6 +17,7 @@ keeps killing its worker is reported as failed with its input.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import re
 import sys
@@ -25,7 +26,7 @@ from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
-from taskspace.batch.chunk import Chunk
+from taskspace.batch.chunk import Chunk, ChunkQueue
 from taskspace.batch.records import BatchError, TaskRecord
 from taskspace.batch.worker import TaskFunction, run_chunk, worker_context
 
@@ -48,6 +49,23 @@ def _driver_path() -> str:
         if os.path.isdir(path) and not any(path.startswith(p) for p in prefixes):
             keep.append(path)
     return os.pathsep.join(dict.fromkeys(keep))
+
+
+@contextlib.contextmanager
+def _environ(name: str, value: str | None) -> Iterator[None]:
+    """Environment variable ``name`` set to ``value`` inside the block (None: unchanged)."""
+    if value is None:
+        yield
+        return
+    before = os.environ.get(name)
+    os.environ[name] = value
+    try:
+        yield
+    finally:
+        if before is None:
+            os.environ.pop(name, None)
+        else:
+            os.environ[name] = before
 
 
 _ANSI = re.compile(r"\x1b\[[0-9;]*m")
@@ -83,14 +101,19 @@ def connect(address: str | None, workers: int) -> Any:
     address = address or os.environ.get("RAY_ADDRESS") or None
     if not ray.is_initialized():
         kwargs: dict[str, Any] = {"log_to_driver": False, "include_dashboard": False}
+        path = None
         if address is None:
-            # As a forked worker would: what the driver can import, the workers can.
+            # As a forked worker would: what the driver can import, the workers can. The path
+            # goes through the environment the local runtime inherits, not a runtime_env: the
+            # workers Ray starts ahead at init then serve the actors (a runtime_env makes Ray
+            # start new processes for them, which import Ray again: about 1 s of CPU each).
             kwargs["num_cpus"] = workers
-            kwargs["runtime_env"] = {"env_vars": {"PYTHONPATH": _driver_path()}}
+            path = _driver_path()
         else:
             kwargs = {"address": address, "log_to_driver": False}
         try:
-            ray.init(**kwargs)
+            with _environ("PYTHONPATH", path):
+                ray.init(**kwargs)
         except Exception as exc:
             hint = (
                 "for a cluster, run `ray start --head` first and pass address='auto' or "
@@ -223,7 +246,7 @@ def run_ray(
     fn: TaskFunction,
     key: str,
     factory: Callable[[], Any] | None,
-    chunks: list[Chunk],
+    chunks: ChunkQueue,
     seed: int,
     workers: int,
     retries: int,
@@ -241,7 +264,7 @@ def run_ray(
     """
     del fn, key, factory, seed, workers  # set up on the pool's actors by pool.start
     ray = _ray()
-    queue: deque[Chunk] = deque(chunks)
+    queue = chunks  # cut as the actors take them
     suspects: deque[Chunk] = deque()
     # per actor: the chunks sent to it, oldest first, and whether they run alone (suspects)
     sent: list[deque[tuple[Any, Chunk]]] = [deque() for _ in pool.actors]

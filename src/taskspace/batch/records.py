@@ -88,7 +88,7 @@ class BatchResult:
         status: COMPLETE when every task returned, PARTIAL otherwise.
         backend: the backend that ran the tasks.
         workers: the number of worker processes.
-        chunk_size: the number of tasks sent to a worker at once.
+        chunk_size: the number of tasks sent to a worker at once (automatic chunks: the most).
         seconds: wall time of the whole run [s].
         n_resumed: how many records were read back from the results file instead of run.
     """
