@@ -3,9 +3,9 @@
 The tcp position follows the ``panda`` scene's offsets (soft, weight 1), the tcp orientation
 is held exactly (a ``hard`` orientation task: placo's equality constraint), posture (1e-3),
 joint position and velocity limits, and the joint-space half-spaces ``A q <= b`` of the scene
-(placo's ``JointSpaceHalfSpacesConstraint``, configured ``hard``; A over the Panda's 7 arm joints, zero on the
-free flyer and the fingers). Reported beside the times: the largest half-space violation
-and orientation error over the run (the same problem is solved).
+(placo's ``JointSpaceHalfSpacesConstraint``, configured ``hard``; A over the Panda's 7 arm
+joints, zero on the free flyer and the fingers). Reported beside the times: the largest
+half-space violation and orientation error over the run (the same problem is solved).
 """
 
 import glob
