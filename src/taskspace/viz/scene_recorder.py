@@ -97,7 +97,9 @@ def meshcat_javascript() -> str:
     return js.read_text(encoding="utf-8")
 
 
-_HTML_TEMPLATE = """<!DOCTYPE html>
+# The start of both pages: the pane, the error list and the count of texture images still
+# loading (the snapshot waits for them).
+_PAGE_HEAD = """<!DOCTYPE html>
 <html>
 <head>
 <meta charset="utf-8">
@@ -131,7 +133,11 @@ window.__taskspace_pending_images = 0;
   }};
 }})();
 </script>
-<script>
+"""
+
+_HTML_TEMPLATE = (
+    _PAGE_HEAD
+    + """<script>
 {javascript}
 </script>
 <script>
@@ -153,43 +159,12 @@ var viewer = new MeshCat.Viewer(document.getElementById("meshcat-pane"));
 </body>
 </html>
 """
+)
 
 
-_COMPRESSED_TEMPLATE = """<!DOCTYPE html>
-<html>
-<head>
-<meta charset="utf-8">
-<title>{title}</title>
-<style>
-body {{ margin: 0; }}
-#meshcat-pane {{ width: 100vw; height: 100vh; overflow: hidden; }}
-</style>
-</head>
-<body>
-<div id="meshcat-pane"></div>
-<script>
-window.__taskspace_errors = [];
-window.__taskspace_pending_images = 0;
-(function () {{
-  // texture images (created by three.js' ImageLoader) still loading: the snapshot waits
-  var create = document.createElementNS;
-  document.createElementNS = function (namespace, name) {{
-    var element = create.call(document, namespace, name);
-    if (String(name).toLowerCase() === "img") {{
-      window.__taskspace_pending_images++;
-      var done = function () {{
-        window.__taskspace_pending_images--;
-        element.removeEventListener("load", done);
-        element.removeEventListener("error", done);
-      }};
-      element.addEventListener("load", done);
-      element.addEventListener("error", done);
-    }}
-    return element;
-  }};
-}})();
-</script>
-<script>
+_COMPRESSED_TEMPLATE = (
+    _PAGE_HEAD
+    + """<script>
 var TASKSPACE_SCENE = {scene};
 </script>
 <script>
@@ -259,6 +234,7 @@ var TASKSPACE_SCENE = {scene};
 </body>
 </html>
 """
+)
 
 
 @functools.lru_cache(maxsize=1)
