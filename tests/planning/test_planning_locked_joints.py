@@ -82,7 +82,34 @@ def test_checker_sees_the_full_configuration_with_the_locked_values(panda_table:
     assert "block" in space.checker.explain(free[bad])
 
 
-@pytest.mark.parametrize("planner", ["rrt_connect", "rrt_star", "prm_star", "bit_star"])
+def test_compiled_checker_of_the_free_joints_agrees_with_pinocchio(panda_table: Robot) -> None:
+    robot = panda_table
+    space = ConfigurationSpace.from_robot(robot, locked_joints=LOCKED)
+    kernel = space.checker.native_kernel()
+    if kernel is None:
+        pytest.skip("compiled planning kernel not built")
+    assert kernel.nq == 5
+    values = {k: np.array([v]) for k, v in LOCKED.items()}
+    free = space.sample_uniform(np.random.default_rng(11), 300)
+    ref = np.array([_collides(robot, _assemble(robot.model, f, values)) for f in free])
+    assert 0 < ref.sum() < ref.size
+    np.testing.assert_array_equal(np.asarray(kernel.collisions(free)) != 0, ref)
+    assert space.checker.native_kernel() is kernel  # cached while nothing changed
+    # a new obstacle: the next plan gets a kernel of the new world
+    robot.add_obstacle(Obstacle.box("extra", [0.2, 0.2, 0.2], [-0.4, 0.4, 0.5]))
+    try:
+        again = space.checker.native_kernel()
+        assert again is not kernel
+        ref2 = np.array([_collides(robot, _assemble(robot.model, f, values)) for f in free])
+        assert np.any(ref2 != ref)
+        np.testing.assert_array_equal(np.asarray(again.collisions(free)) != 0, ref2)
+    finally:
+        robot.remove_obstacle("extra")
+
+
+@pytest.mark.parametrize(
+    "planner", ["rrt_connect", "rrt_connect_python", "rrt_star", "prm_star", "bit_star"]
+)
 def test_paths_keep_the_locked_values_exactly_and_are_free(
     panda_table: Robot, planner: str
 ) -> None:
@@ -98,8 +125,12 @@ def test_paths_keep_the_locked_values_exactly_and_are_free(
     free_start = space.check_endpoint(start, "start")  # a full configuration, reduced
     np.testing.assert_array_equal(free_start, np.delete(start, list(idx.values())))
     assert not space.motion_valid(free_start, space.check_endpoint(goal, "goal"))
-    if planner == "rrt_connect":
-        res = rrt_connect(space, start, goal, RRTConnectOptions(seed=1, time_limit_s=10.0))
+    if planner.startswith("rrt_connect"):
+        native = planner == "rrt_connect"
+        opts = RRTConnectOptions(seed=1, time_limit_s=10.0, native=native, checker="spheres")
+        res = rrt_connect(space, start, goal, opts)
+        compiled = space.checker.native_kernel() is not None and native
+        assert ("kernel_run_us" in res.log) == compiled  # the compiled planner served it
     elif planner == "rrt_star":
         res = rrt_star(space, start, goal, RRTStarOptions(seed=1, time_limit_s=0.5))
     elif planner == "bit_star":

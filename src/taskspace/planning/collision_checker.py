@@ -221,12 +221,7 @@ class CollisionChecker:
         the current world; the compiled planner does so at every plan). ``None`` when the
         kernel is not built or the broad phase is disabled in the options.
         """
-        geom = self.robot.collision_model
-        if not np.array_equal(geom.collisionPairMapping, self._pair_mapping):
-            # pairs edited on robot.collision_model in place (no world version records that):
-            # compared exactly here, at every plan, not at every query (8-36 us)
-            self.update_world()
-        self._sync()
+        self.sync_for_plan()
         if self.robot.nq != self.robot.nv:  # the compiled checker takes plain vectors only
             self._kernel_checked = True
             return None
@@ -243,6 +238,17 @@ class CollisionChecker:
                 model, model.createData(), geom, geom.createData(), NATIVE_PAIR_CACHE
             )
         return self._kernel
+
+    def sync_for_plan(self) -> None:
+        """Rebuild the copies if the world changed or pairs were edited in place.
+
+        The exact pair-set comparison (8-36 us) is made once per plan, not at every query:
+        pairs edited on ``robot.collision_model`` in place change no world version.
+        """
+        geom = self.robot.collision_model
+        if not np.array_equal(geom.collisionPairMapping, self._pair_mapping):
+            self.update_world()
+        self._sync()
 
     def sphere_model(self) -> Any:
         """The conservative spheres of the robot's moving geometry objects (cached).

@@ -270,7 +270,8 @@ class ConfigurationSpace:
                 the robot's ``q`` with the locked values copied exactly, and the collision
                 checker sees those full configurations. Starts and goals may be given as
                 either (a full one must hold the locked values). The compiled RRT-Connect
-                does not run on such a space (RRT-Connect plans in Python).
+                plans such a space (when the free joints are plain bounded joints) on the
+                reduced model and geometry, with the exact checker.
 
         The space follows the robot's limits: after :meth:`Robot.set_limits` its bounds,
         samples and metric are those of the new limits (results kept outside the space,

@@ -31,7 +31,7 @@ import numpy.typing as npt
 import pinocchio as pin
 
 from taskspace.errors import InvalidInputError, UnknownNameError
-from taskspace.planning.collision_checker import BoolArray, CollisionChecker
+from taskspace.planning.collision_checker import NATIVE_PAIR_CACHE, BoolArray, CollisionChecker
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
@@ -112,22 +112,41 @@ class LockedJoints:
         Its configuration is :meth:`reduce` of the full one (same joints, same order) and
         its limits are the full model's current limits of the free coordinates.
         """
-        framed = [f.parentJoint for f in model.frames if f.type == pin.FrameType.JOINT]
-        if set(range(1, model.njoints)) - set(framed):
-            # pinocchio.buildReducedModel reads each joint's JOINT frame and crashes
-            # (segmentation fault) on a model built without them (addJoint alone): add them
-            # to a copy (frames only; the configuration layout is the same)
-            model = model.copy()
-            for j in sorted(set(range(1, model.njoints)) - set(framed)):
-                model.addJointFrame(j)
-        reduced = pin.buildReducedModel(model, list(self.joint_ids), self.q_locked)
+        reduced = pin.buildReducedModel(
+            _with_joint_frames(model), list(self.joint_ids), self.q_locked
+        )
+        self._check_layout(reduced)
+        return reduced
+
+    def reduced_models(
+        self, model: pin.Model, geometry: pin.GeometryModel
+    ) -> tuple[pin.Model, pin.GeometryModel]:
+        """:meth:`reduced_model` and the geometry model on it (the same objects and pairs).
+
+        Each geometry object of a locked joint's subtree is re-attached to the nearest free
+        ancestor joint (or the world) with its placement composed through the locked joints
+        at their values (``pinocchio.buildReducedModel`` with a geometry model); objects,
+        their order and the collision pairs are unchanged.
+        """
+        reduced, reduced_geometry = pin.buildReducedModel(
+            _with_joint_frames(model), geometry, list(self.joint_ids), self.q_locked
+        )
+        self._check_layout(reduced)
+        if reduced_geometry.ngeoms != geometry.ngeoms or len(
+            reduced_geometry.collisionPairs
+        ) != len(geometry.collisionPairs):
+            raise InvalidInputError(  # pragma: no cover - Pinocchio's contract
+                "pinocchio.buildReducedModel changed the geometry objects or collision pairs"
+            )
+        return reduced, reduced_geometry
+
+    def _check_layout(self, reduced: pin.Model) -> None:
         if reduced.nq != self.free_q.size or reduced.nv != self.free_v.size:
             raise InvalidInputError(  # pragma: no cover - Pinocchio's layout contract
                 "pinocchio.buildReducedModel returned a model of another size "
                 f"(nq {reduced.nq}, nv {reduced.nv}; expected {self.free_q.size}, "
                 f"{self.free_v.size})"
             )
-        return reduced
 
     def lift(self, configurations: Any) -> FloatArray:
         """Full configurations ``L(q_f)`` of free-coordinate rows (shape (n, nq) or (nq,))."""
@@ -164,6 +183,23 @@ class LockedJoints:
                     f"{np.round(self.q_locked[sl], 6).tolist()})"
                 )
         return ", ".join(parts)
+
+
+def _with_joint_frames(model: pin.Model) -> pin.Model:
+    """``model``, or a copy with a JOINT frame for every joint that has none.
+
+    ``pinocchio.buildReducedModel`` reads each joint's JOINT frame and crashes (segmentation
+    fault) on a model built without them (``addJoint`` alone); the configuration layout of
+    the copy is the same.
+    """
+    framed = {f.parentJoint for f in model.frames if f.type == pin.FrameType.JOINT}
+    missing = sorted(set(range(1, model.njoints)) - framed)
+    if not missing:
+        return model
+    model = model.copy()
+    for j in missing:
+        model.addJointFrame(j)
+    return model
 
 
 def _joint_value(model: pin.Model, joint: Any, name: str, value: Any) -> FloatArray:
@@ -217,6 +253,51 @@ class LockedJointChecker:
     def __init__(self, checker: CollisionChecker, locked: LockedJoints) -> None:
         self.checker = checker
         self.locked = locked
+        self._kernel: Any = None
+        self._kernel_key: tuple[Any, ...] = ()
+
+    def native_kernel(self) -> Any:
+        """The compiled checker of the free joints, or ``None`` (not built, or not plain).
+
+        A ``CollisionKernel`` on the reduced model and geometry
+        (:meth:`LockedJoints.reduced_models`): its configurations are the free coordinates,
+        the locked links are held at their values (re-attached to a free ancestor or the
+        world) and every collision pair of the robot is kept, so the compiled RRT-Connect
+        plans the space directly. Rebuilt when the robot's world, collision pairs or limits
+        change (checked at each call, as :meth:`CollisionChecker.native_kernel` does);
+        ``None`` when the kernel is not built, the broad phase is off or the free joints are
+        not plain vectors (``nq != nv``: a free floating base or continuous joint).
+        """
+        base = self.checker
+        base.sync_for_plan()
+        robot = base.robot
+        if not base.options.broadphase or self.locked.free_q.size != self.locked.free_v.size:
+            return None
+        # what the kernel's copies were made from: the checker's world (rebuilt by
+        # sync_for_plan on any change: a new pair-mapping array) and the robot's limits
+        key = (base._world_version, base._geometry_model, base._pair_mapping, robot._version)
+        old = self._kernel_key
+        if (
+            self._kernel is not None
+            and key[0] == old[0]
+            and key[1] is old[1]
+            and key[2] is old[2]
+            and key[3] == old[3]
+        ):
+            return self._kernel
+        from taskspace._native import planning_kernel
+
+        module = planning_kernel()
+        if module is None:
+            return None
+        model, geometry = self.locked.reduced_models(robot.model, robot.collision_model)
+        if model.nq != model.nv:  # pragma: no cover - free_q and free_v sizes agree
+            return None
+        self._kernel = module.CollisionKernel(
+            model, model.createData(), geometry, geometry.createData(), NATIVE_PAIR_CACHE
+        )
+        self._kernel_key = key
+        return self._kernel
 
     @property
     def checks(self) -> int:

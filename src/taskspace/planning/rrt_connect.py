@@ -104,6 +104,7 @@ from taskspace.planning.configuration_space import (
     path_length,
 )
 from taskspace.planning.limits import planner_limits
+from taskspace.planning.locked_joints import LockedJointChecker
 from taskspace.planning.nearest import GrowingNearest
 from taskspace.planning.planner_result import PlannerResult, PlannerStatus, Tree
 
@@ -460,14 +461,24 @@ def _verify(
 
 
 def _native_kernel(space: ConfigurationSpace, opts: RRTConnectOptions) -> Any:
-    """The compiled checker of the space if the compiled planner can run, else ``None``."""
-    if not opts.native or opts.partial_extend or type(space.checker) is not CollisionChecker:
+    """The compiled checker of the space if the compiled planner can run, else ``None``.
+
+    A locked-joint space is planned by the kernel of its reduced model and geometry
+    (:meth:`~taskspace.planning.LockedJointChecker.native_kernel`) with the exact checker
+    (its sphere checkers are not built for the reduced geometry).
+    """
+    if not opts.native or opts.partial_extend:
+        return None
+    checker = space.checker
+    if type(checker) is LockedJointChecker:
+        return checker.native_kernel() if space.is_euclidean else None
+    if type(checker) is not CollisionChecker:
         return None
     if not space.is_euclidean:  # the compiled planner moves along straight lines in R^d
         return None
     if opts.checker != "mesh":
-        return space.checker.sphere_kernel()
-    return space.checker.native_kernel()
+        return checker.sphere_kernel()
+    return checker.native_kernel()
 
 
 # Phases timed by the kernel (log["kernel_<phase>_us"]): the whole call, the endpoint checks,
@@ -710,6 +721,8 @@ def _plan(
         q_start = space.endpoint_vector(start, "start")
         q_goal = space.endpoint_vector(goal, "goal")
         seed = seed if rng is None else int(rng.integers(1 << 63))
+        if opts.checker != "mesh" and type(space.checker) is LockedJointChecker:
+            opts = dataclasses.replace(opts, checker="mesh")  # its kernel: exact checks
         result = _rrt_connect_native(
             space,
             kernel,
