@@ -288,7 +288,7 @@ def _plan(
         out: list[FloatArray] = []
         have = 0
         for _ in range(100):
-            if have >= m:
+            if have >= m or budget.out_of_time():
                 break
             if rotation is not None and math.isfinite(c_best):
                 cand = np.array(
@@ -354,13 +354,13 @@ def _plan(
             if fresh.shape[0]:
                 S.add(fresh, *heuristics(fresh))
             if region is not None:
-                sampled = region.sample(rng)
+                new = np.arange(S.n - fresh.shape[0], S.n)
+                goal_ids += [int(i) for i in new if region.contains(S.q[i])]
+                sampled = None if budget.out_of_time() else region.sample(rng)
                 if sampled is not None:
                     q = np.asarray(sampled, dtype=np.float64)
                     if q.shape == (d,) and space.within_bounds(q) and space.is_valid(q):
                         goal_ids.append(int(S.add(q[None, :], *heuristics(q[None, :]))[0]))
-                new = np.arange(S.n - fresh.shape[0], S.n)
-                goal_ids += [int(i) for i in new if region.contains(S.q[i])]
             n = S.n
             S.old[:n] = S.in_tree[:n]
             tree_ids = np.flatnonzero(S.in_tree[:n])
@@ -380,9 +380,13 @@ def _plan(
                 continue
             if queue_e and key_v > queue_e[0][0]:
                 break
+            if budget.out_of_time():  # expansions scan every state: many at high dof
+                break
             heapq.heappop(queue_v)
             expand(v)
             expansions += 1
+        if budget.stopped_by:
+            break
         if not queue_e:
             queue_v = []
             continue
@@ -398,6 +402,8 @@ def _plan(
         c = c_hat if exact else cost_of.motion_cost(S.q[v], S.q[x])
         if S.g_hat[v] + c + S.h_hat[x] >= c_best or S.g[v] + c >= S.g[x]:
             continue
+        if budget.out_of_time():  # read before each edge check: the overrun is one edge
+            break
         if not space.motion_valid(S.q[v], S.q[x]):
             failed.add((v, x))
             failed.add((x, v))

@@ -276,6 +276,7 @@ def _plan(
     )
     checks0, edges0 = space.checks, space.edge_checks
     t0 = time.perf_counter()
+    deadline = t0 + limit
 
     tree = _RRTStarTree(q_start)
     goal_nodes: dict[int, int] = {}  # goal state index -> its tree node
@@ -315,7 +316,7 @@ def _plan(
         aim = _first_goal(space, q_start, goals, region, rng)
     if aim >= 0:
         it, seeded = _seed_with_rrt_connect(
-            space, tree, goals[aim], cost_of, rng, iterations, limit
+            space, tree, goals[aim], cost_of, rng, iterations, deadline - time.perf_counter()
         )
         if seeded >= 0:
             first_by = "rrt_connect"
@@ -334,7 +335,7 @@ def _plan(
             done = True
     while not done and it < iterations:
         it += 1
-        if time.perf_counter() - t0 > limit:
+        if time.perf_counter() > deadline:
             status = PlannerStatus.TIME_LIMIT
             break
         _, c_best = best_goal()
@@ -369,7 +370,9 @@ def _plan(
             if f_hat + cost_to_go(x_new[None, :])[0] >= c_best:
                 pruned_samples += 1
                 continue
-        if not space.is_valid(x_new) or not space.motion_valid(nodes[near_i], x_new):
+        if not space.is_valid(x_new) or time.perf_counter() > deadline:
+            continue  # (out of time: the loop ends at its next clock reading)
+        if not space.motion_valid(nodes[near_i], x_new):
             continue
         n = tree.n
         dist = space.distances(nodes, x_new)
@@ -391,11 +394,20 @@ def _plan(
             # a parent through which x_new cannot lie on a better path is not worth an edge
             # check (near_i, already checked, serves as well)
             parent_bound = min(best_cost, c_best - cost_to_go(x_new[None, :])[0])
+        # The clock is read before every edge check of the parent choice and the rewiring
+        # (each may be hundreds of checks at high dof): the limit is overrun by one edge at
+        # most. The node is added with the parent found so far (near_i is checked).
+        late = False
         for j in near[np.argsort(cost[near] + edge[near])]:
             c = cost[j] + edge[j]
             if c >= parent_bound:
                 break
-            if j != near_i and space.motion_valid(nodes[j], x_new):
+            if j == near_i:
+                continue
+            if time.perf_counter() > deadline:
+                late = True
+                break
+            if space.motion_valid(nodes[j], x_new):
                 best_parent, best_cost = int(j), c
                 break
         new = tree.add(x_new, best_parent, float(best_cost))
@@ -409,19 +421,27 @@ def _plan(
             pruned_rewires += int(np.count_nonzero(improves & ~useful))
             improves &= useful
         for j, c in zip(near[improves].tolist(), through[improves].tolist(), strict=True):
+            if late:
+                break
             if c >= tree.cost[j] - 1e-12:
                 continue  # an earlier rewire of this iteration lowered it (its subtree)
+            if time.perf_counter() > deadline:
+                late = True
+                break
             if space.motion_valid(x_new, tree.nodes[j]):
                 tree.reparent(j, new, float(c))
         # Connect to the goals.
         if region is not None and region.contains(x_new):
             region_nodes.append(new)
         for g, q_goal in enumerate(goals):
-            if space.distance(q_goal, x_new) > eta:
+            if late or space.distance(q_goal, x_new) > eta:
                 continue
             to_goal = cost_of.motion_cost(x_new, q_goal)
             node = goal_nodes.get(g, -1)
             if best_cost + to_goal >= (tree.cost[node] if node >= 0 else math.inf):
+                continue
+            if time.perf_counter() > deadline:
+                late = True
                 continue
             if space.motion_valid(x_new, q_goal):
                 if node < 0:
@@ -510,6 +530,8 @@ def _seed_with_rrt_connect(
 ) -> tuple[int, int]:
     """RRT-Connect's path from the root to ``q_goal`` as a branch of ``tree``.
 
+    ``limit`` is the time left [s] (``math.inf``: none).
+
     Returns the iterations RRT-Connect used and the tree node of ``q_goal`` (-1 when
     RRT-Connect found no path within the limits). Every edge of RRT-Connect's path is free
     at the space's resolution, as RRT*'s own edges are.
@@ -524,7 +546,7 @@ def _seed_with_rrt_connect(
         q_goal,
         RRTConnectOptions(
             max_iterations=iterations if iterations < 2**62 else None,
-            time_limit_s=limit if math.isfinite(limit) else None,
+            time_limit_s=max(0.0, limit) if math.isfinite(limit) else None,
             seed=int(rng.integers(2**31)),
         ),
     )
