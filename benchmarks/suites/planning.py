@@ -171,7 +171,7 @@ ROOT = motionbenchmaker_dir()
 RESOLUTION = 0.03  # local-planner resolution delta [rad], shared with the peers
 STEP_SIZE = RRTConnectOptions().step_size  # RRT-Connect range alpha [rad], shared with OMPL
 TIME_LIMIT = 1.0  # [s]
-LAZY_PRM = PRMOptions(n_samples=300, k_neighbors=12)
+LAZY_PRM = PRMOptions(max_iterations=None, batch_size=300, k_neighbors=12)
 METHODS = (
     "rrt_connect",
     "rrt_connect_spheres",
@@ -325,7 +325,9 @@ def _plan_problem(item: tuple[Any, ...], rng: np.random.Generator, robot: Any) -
         "length": lres.path_length,
     }
     if quick and k < 2:  # quick runs: PRM on the first two problems
-        pres, _ = prm(space, req.start, req.goal, PRMOptions(n_samples=200, k_neighbors=8, seed=k))
+        pres, _ = prm(
+            space, req.start, req.goal, PRMOptions(max_iterations=200, k_neighbors=8, seed=k)
+        )
         per["prm"] = {
             "time": pres.time_s,
             "ok": float(pres.success and pres.time_s <= TIME_LIMIT),

@@ -119,7 +119,7 @@ def rrt_figures(save: str | None) -> None:
     )
 
     result, roadmap = prm(
-        space, start, goal, PRMOptions(n_samples=150 if FAST else 400, k_neighbors=8, seed=2)
+        space, start, goal, PRMOptions(max_iterations=150 if FAST else 400, k_neighbors=8, seed=2)
     )
     fig, ax = plt.subplots(figsize=(5, 5))
     draw_world(ax)

@@ -187,7 +187,7 @@ def test_configuration_space_follows_the_robot() -> None:
 def test_roadmap_of_old_limits_is_refused() -> None:
     robot = _fresh("ur5", geometry=True)
     space = ConfigurationSpace.from_robot(robot)
-    options = PRMOptions(n_samples=30, k_neighbors=5, seed=3)
+    options = PRMOptions(max_iterations=30, k_neighbors=5, seed=3)
     roadmap = build_prm(space, options)
     assert roadmap.model_version == robot.version
     start, goal = roadmap.nodes[0], roadmap.nodes[1]

@@ -214,13 +214,13 @@ def test_lazy_prm_follows_the_options_time_limit() -> None:
     from taskspace.planning.prm import PRMOptions
 
     space, start, goal = _walled_in_goal()
-    result, _ = lazy_prm(space, start, goal, PRMOptions(n_samples=50, time_limit_s=0.0))
+    result, _ = lazy_prm(space, start, goal, PRMOptions(batch_size=50, time_limit_s=0.0))
     assert not result.success and result.log["growth_rounds"] == 1.0  # stopped by the options
-    result, _ = lazy_prm(space, start, goal, PRMOptions(n_samples=50), time_limit_s=0.0)
+    result, _ = lazy_prm(space, start, goal, PRMOptions(batch_size=50), time_limit_s=0.0)
     assert result.log["growth_rounds"] == 1.0  # the keyword alone, as before
     with pytest.raises(InvalidInputError, match="disagree"):
         lazy_prm(space, start, goal, PRMOptions(time_limit_s=2.0), time_limit_s=0.5)
     result, _ = lazy_prm(  # both, agreeing: fine
-        space, start, goal, PRMOptions(n_samples=50, time_limit_s=0.0), time_limit_s=0.0
+        space, start, goal, PRMOptions(batch_size=50, time_limit_s=0.0), time_limit_s=0.0
     )
     assert result.log["growth_rounds"] == 1.0

@@ -87,7 +87,7 @@ def test_prm_turns_a_blocked_wheel_through_pi_and_answers_queries() -> None:
     space = _wheel_space()
     start = np.array([math.cos(1.0), math.sin(1.0)])
     goal = np.array([math.cos(-1.0), math.sin(-1.0)])
-    roadmap = build_prm(space, PRMOptions(n_samples=60, k_neighbors=4, seed=0))
+    roadmap = build_prm(space, PRMOptions(max_iterations=60, k_neighbors=4, seed=0))
     assert all(space.is_valid(q) for q in roadmap.nodes)
     for i, neighbours in enumerate(roadmap.adjacency):
         for j, cost in neighbours:  # edge costs are the circle's metric
@@ -101,7 +101,9 @@ def test_prm_turns_a_blocked_wheel_through_pi_and_answers_queries() -> None:
         # Dense roadmap on the circle: nearly the long way's exact length 2 pi - 2.
         assert 2 * math.pi - 2.0 - 1e-9 <= res.path_length < 2 * math.pi - 2.0 + 0.05
     free = np.array([math.cos(2.0), math.sin(2.0)])
-    short = prm(space, free, -free * np.array([1.0, -1.0]), PRMOptions(n_samples=40, seed=1))[0]
+    short = prm(space, free, -free * np.array([1.0, -1.0]), PRMOptions(max_iterations=40, seed=1))[
+        0
+    ]
     # From 2 rad to pi - 2 rad: a free arc, joined directly the short way (4 - pi rad).
     assert short.path_length == pytest.approx(4.0 - math.pi, abs=1e-9)
 
@@ -110,10 +112,8 @@ def test_lazy_prm_turns_a_blocked_wheel_through_pi() -> None:
     space = _wheel_space()
     start = np.array([math.cos(1.0), math.sin(1.0)])
     goal = np.array([math.cos(-1.0), math.sin(-1.0)])
-    res, lazy = lazy_prm(
-        space, start, goal, PRMOptions(n_samples=40, k_neighbors=4, sigma=0.3, seed=0),
-        max_rounds=20, time_limit_s=None,
-    )  # fmt: skip
+    opts = PRMOptions(batch_size=40, max_iterations=800, k_neighbors=4, sigma=0.3, seed=0)
+    res, lazy = lazy_prm(space, start, goal, opts, time_limit_s=None)
     assert res.success
     np.testing.assert_allclose(
         lazy.costs, space.distances(lazy.roadmap.nodes[lazy.pairs[:, 0]],
@@ -125,4 +125,4 @@ def test_lazy_prm_turns_a_blocked_wheel_through_pi() -> None:
     assert 2 * math.pi - 2.0 - 1e-9 <= res.path_length < 2 * math.pi - 2.0 + 0.1
     again = lazy_prm_query(space, lazy, start, goal, PRMOptions(k_neighbors=4))
     assert again.success and again.path_length == pytest.approx(res.path_length)
-    assert build_lazy_prm(space, PRMOptions(n_samples=10, seed=0)).roadmap.size == 10
+    assert build_lazy_prm(space, PRMOptions(max_iterations=10, seed=0)).roadmap.size == 10

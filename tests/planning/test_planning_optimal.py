@@ -18,7 +18,7 @@ from taskspace.model import Obstacle, Robot
 from taskspace.planning.bit_star import BITStarOptions, bit_star
 from taskspace.planning.collision_checker import FunctionChecker
 from taskspace.planning.configuration_space import ConfigurationSpace, EdgeCheckOptions
-from taskspace.planning.lazy_prm import build_lazy_prm, lazy_prm_query
+from taskspace.planning.lazy_prm import build_lazy_prm, lazy_prm, lazy_prm_query
 from taskspace.planning.planner_result import PlannerStatus
 from taskspace.planning.prm import PRMOptions, build_prm, prm, prm_query
 from taskspace.planning.prm_star import PRMStarOptions, lazy_prm_star, prm_star
@@ -157,7 +157,10 @@ ALL_PLANNERS = {
         s, START_2D, GOAL_2D, BITStarOptions(max_iterations=it, time_limit_s=t)
     ),
     "prm": lambda s, it, t: prm(
-        s, START_2D, GOAL_2D, PRMOptions(n_samples=it or 10, time_limit_s=t)
+        s, START_2D, GOAL_2D, PRMOptions(max_iterations=it, time_limit_s=t)
+    )[0],
+    "lazy_prm": lambda s, it, t: lazy_prm(
+        s, START_2D, GOAL_2D, PRMOptions(max_iterations=it, batch_size=50), time_limit_s=t
     )[0],
 }
 
@@ -168,18 +171,27 @@ def test_one_limit_convention(name: str) -> None:
     for bad in (math.nan, -1.0, True, "1"):
         with pytest.raises(InvalidInputError, match="time_limit_s"):
             plan(square_world(), 100, bad)
-    if name != "prm":  # PRM's cap is n_samples
-        with pytest.raises(InvalidInputError, match="max_iterations"):
-            plan(square_world(), None, None)  # no limit at all
-        with pytest.raises(InvalidInputError, match="max_iterations"):
-            plan(square_world(), -1, 1.0)
+    with pytest.raises(InvalidInputError, match="max_iterations"):
+        plan(square_world(), None, None)  # no limit at all (PRM: no roadmap size)
+    with pytest.raises(InvalidInputError, match="max_iterations"):
+        plan(square_world(), -1, 1.0)
+    if name != "prm":  # PRM's cap is its roadmap size
         res = plan(square_world(), None, 0.0)  # no cap, no time: stops at once
         assert res.status in (PlannerStatus.TIME_LIMIT, PlannerStatus.SOLVED)
         if not res.success:
             assert res.status is PlannerStatus.TIME_LIMIT
     res = plan(square_world(), 0 if name != "prm" else 1, None)
     if not res.success:
-        assert res.status in (PlannerStatus.ITERATION_LIMIT, PlannerStatus.NO_PATH)
+        assert res.status is PlannerStatus.ITERATION_LIMIT
+        assert res.log["stopped_by"] == "iterations"
+    # the same result fields: what stopped it and the cost over time
+    res = plan(square_world(), 400, 10.0)
+    assert res.success and res.status is PlannerStatus.SOLVED
+    assert res.log["stopped_by"] in ("first solution", "iterations", "optimal")
+    costs, times = res.log["costs"], res.log["cost_times"]
+    assert len(costs) == len(times) >= 1 and np.all(np.diff(costs) < 0)
+    assert np.all(np.diff(times) >= 0) and 0 <= times[-1] <= res.time_s
+    assert costs[-1] == pytest.approx(res.cost if res.cost is not None else res.path_length)
 
 
 def test_roadmaps_refuse_a_changed_world(panda: Robot) -> None:
@@ -189,8 +201,8 @@ def test_roadmaps_refuse_a_changed_world(panda: Robot) -> None:
     q1 = q0.copy()
     q1[0] += 1.0
     _, roadmap = prm_star(space, q0, q1, PRMStarOptions(max_iterations=64, time_limit_s=None))
-    eager = build_prm(space, PRMOptions(n_samples=30, k_neighbors=4))
-    lazy = build_lazy_prm(space, PRMOptions(n_samples=30, k_neighbors=4))
+    eager = build_prm(space, PRMOptions(max_iterations=30, k_neighbors=4))
+    lazy = build_lazy_prm(space, PRMOptions(max_iterations=30, k_neighbors=4))
     assert roadmap.world_version == eager.world_version == space.world_version is not None
     prm_query(space, eager, q0, q1, PRMOptions(k_neighbors=4))  # same world: answered
     robot.add_obstacle(Obstacle.sphere("ball", 0.05, [2.0, 2.0, 2.0]))  # touches nothing
@@ -202,7 +214,7 @@ def test_roadmaps_refuse_a_changed_world(panda: Robot) -> None:
         with pytest.raises(PlanningError, match=r"world version .* build a new roadmap"):
             query()
     try:
-        rebuilt = build_prm(space, PRMOptions(n_samples=30, k_neighbors=4))
+        rebuilt = build_prm(space, PRMOptions(max_iterations=30, k_neighbors=4))
         assert rebuilt.world_version == space.world_version != roadmap.world_version
         prm_query(space, rebuilt, q0, q1, PRMOptions(k_neighbors=4))
     finally:
@@ -253,14 +265,15 @@ def test_goal_region_is_reached_near_its_analytic_optimum(name: str) -> None:
 
 
 def test_prm_time_limit_cuts_the_roadmap_and_says_so() -> None:
-    """PRM's n_samples is its cap; a time limit that ends the edge checks gives TIME_LIMIT."""
+    """PRM's max_iterations is its roadmap size (the cap); a time limit that ends the edge
+    checks gives TIME_LIMIT."""
     res, roadmap = prm(
-        square_world(), START_2D, GOAL_2D, PRMOptions(n_samples=200, time_limit_s=0.0)
+        square_world(), START_2D, GOAL_2D, PRMOptions(max_iterations=200, time_limit_s=0.0)
     )
     assert not res.success and res.status is PlannerStatus.TIME_LIMIT
     assert roadmap.edges_tried == 0 and roadmap.edges.shape[0] == 0
     res, roadmap = prm(
-        square_world(), START_2D, GOAL_2D, PRMOptions(n_samples=200, time_limit_s=None)
+        square_world(), START_2D, GOAL_2D, PRMOptions(max_iterations=200, time_limit_s=None)
     )
     assert res.success and roadmap.edges_tried > 0
 

@@ -9,8 +9,8 @@ import pytest
 from scipy.sparse import lil_matrix
 from scipy.sparse.csgraph import shortest_path
 
-from taskspace.errors import PlanningError, UnknownNameError
-from taskspace.planning.lazy_prm import build_lazy_prm, lazy_prm_query
+from taskspace.errors import InvalidInputError, PlanningError, UnknownNameError
+from taskspace.planning.lazy_prm import build_lazy_prm, lazy_prm, lazy_prm_query
 from taskspace.planning.prm import PRMOptions, build_prm, prm, prm_query
 from taskspace.planning.sampling import sample_free
 from tests.planning._planning_worlds import WALL, wall_space
@@ -38,7 +38,7 @@ def _reference_cost(space, roadmap, q_s, q_g, k):  # type: ignore[no-untyped-def
 @pytest.mark.parametrize("search", ["dijkstra", "astar"])
 def test_prm_queries_equal_reference_shortest_paths(search: Literal["dijkstra", "astar"]) -> None:
     space = wall_space(resolution=0.05)
-    opts = PRMOptions(n_samples=300, k_neighbors=8, search=search, seed=3)
+    opts = PRMOptions(max_iterations=300, k_neighbors=8, search=search, seed=3)
     roadmap = build_prm(space, opts)
     assert roadmap.size == 300
     rng = np.random.default_rng(0)
@@ -58,7 +58,7 @@ def test_prm_queries_equal_reference_shortest_paths(search: Literal["dijkstra", 
 
 def test_prm_edges_are_free() -> None:
     space = wall_space(resolution=0.05)
-    res, roadmap = prm(space, START, GOAL, PRMOptions(n_samples=200, seed=1))
+    res, roadmap = prm(space, START, GOAL, PRMOptions(max_iterations=200, seed=1))
     assert res.success
     fine = wall_space(resolution=0.005)
     for i, j in roadmap.edges[:200]:
@@ -86,7 +86,7 @@ def test_samplers_concentrate_near_obstacles() -> None:
 
 def test_lazy_prm_matches_checked_prm_and_checks_fewer_edges() -> None:
     space = wall_space(resolution=0.05)
-    opts = PRMOptions(n_samples=300, k_neighbors=8, seed=4)
+    opts = PRMOptions(max_iterations=300, k_neighbors=8, seed=4)
     lazy = build_lazy_prm(space, opts)
     res = lazy_prm_query(space, lazy, START, GOAL, opts)
     assert res.success
@@ -102,7 +102,7 @@ def test_lazy_prm_matches_checked_prm_and_checks_fewer_edges() -> None:
 
 def test_prm_start_in_collision() -> None:
     space = wall_space()
-    roadmap = build_prm(space, PRMOptions(n_samples=50))
+    roadmap = build_prm(space, PRMOptions(max_iterations=50))
     with pytest.raises(PlanningError, match="start is in collision"):
         prm_query(space, roadmap, [5.0, 1.0], GOAL)
     assert WALL.shape == (2, 4)
@@ -113,7 +113,9 @@ def test_single_query_lazy_prm_grows_until_connected() -> None:
 
     space = wall_space(resolution=0.05)
     # 20 nodes rarely connect start and goal through the gap: the roadmap must grow.
-    res, lazy = lazy_prm(space, START, GOAL, PRMOptions(n_samples=20, k_neighbors=6, seed=0))
+    res, lazy = lazy_prm(
+        space, START, GOAL, PRMOptions(batch_size=20, max_iterations=2000, k_neighbors=6, seed=0)
+    )
     assert res.success and res.log["growth_rounds"] >= 1
     assert lazy.roadmap.size == 20 * res.log["growth_rounds"]
     assert wall_space(resolution=0.005).path_valid(res.path)
@@ -129,3 +131,26 @@ def test_single_query_lazy_prm_grows_until_connected() -> None:
     full = Roadmap(nodes=nodes, adjacency=adjacency)
     ref = _reference_cost(space, full, START, GOAL, 6)
     assert res.path_length == pytest.approx(ref, rel=1e-9)
+
+
+def test_deprecated_limit_names_still_work_with_a_warning() -> None:
+    """``PRMOptions.n_samples`` and ``lazy_prm(max_rounds=...)`` keep their old meaning."""
+    space = wall_space()
+    with pytest.warns(DeprecationWarning, match="n_samples is deprecated: use max_iterations"):
+        old = PRMOptions(n_samples=40, seed=2)
+    assert build_prm(space, old).size == 40  # PRM: the roadmap size
+    assert build_prm(space, PRMOptions(max_iterations=40, seed=2)).size == 40
+    assert build_lazy_prm(space, old).roadmap.size == 40
+    with pytest.warns(DeprecationWarning, match="max_rounds=.... is deprecated"):
+        res, lazy = lazy_prm(
+            space, START, GOAL, PRMOptions(batch_size=10, seed=0), max_rounds=2,
+            time_limit_s=None,
+        )  # fmt: skip
+    # Lazy PRM: n_samples was the nodes per round, max_rounds the rounds
+    assert res.log["growth_rounds"] <= 2 and lazy.roadmap.size <= 20
+    assert res.iterations <= 20
+    with pytest.warns(DeprecationWarning):
+        res, lazy = lazy_prm(space, START, GOAL, PRMOptions(n_samples=15, seed=0), max_rounds=1)
+    assert res.log["growth_rounds"] == 1 and lazy.roadmap.size <= 15
+    with pytest.raises(InvalidInputError, match="max_iterations=None"):
+        build_prm(space, PRMOptions(max_iterations=None))

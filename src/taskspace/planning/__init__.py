@@ -27,6 +27,7 @@ from taskspace.planning.configuration_space import (
     path_length,
 )
 from taskspace.planning.dubins import dubins_distance, dubins_paths, dubins_shortest
+from taskspace.planning.goals import GoalRegion
 from taskspace.planning.graph_search import (
     GraphSearchOptions,
     GraphSearchResult,
@@ -89,7 +90,7 @@ from taskspace.planning.reeds_shepp import (
 )
 from taskspace.planning.rrt import RRTOptions, rrt
 from taskspace.planning.rrt_connect import RRTConnectOptions, rrt_connect
-from taskspace.planning.rrt_star import GoalRegion, RRTStarOptions, interpolate, rrt_star
+from taskspace.planning.rrt_star import RRTStarOptions, interpolate, rrt_star
 from taskspace.planning.sampling import sample_free
 from taskspace.planning.scene_loader import (
     MOTIONBENCHMAKER_SCENARIOS,

@@ -45,6 +45,7 @@ import numpy.typing as npt
 from taskspace._validation import check_count, check_positive, check_seed
 from taskspace.planning.certify import plan_certified
 from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray, path_length
+from taskspace.planning.goals import goal_states
 from taskspace.planning.limits import Budget, planner_limits
 from taskspace.planning.objectives import (
     OptimizationObjective,
@@ -53,7 +54,7 @@ from taskspace.planning.objectives import (
     space_objective,
 )
 from taskspace.planning.planner_result import PlannerResult, PlannerStatus, Tree
-from taskspace.planning.rrt_star import _rotation_to_world, goal_states, informed_sample
+from taskspace.planning.rrt_star import _rotation_to_world, informed_sample
 
 
 @dataclass(frozen=True, kw_only=True)

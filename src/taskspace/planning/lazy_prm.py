@@ -26,10 +26,10 @@ they are given (one space per thread).
 
 from __future__ import annotations
 
-import dataclasses
 import logging
 import math
 import time
+import warnings
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -51,6 +51,8 @@ from taskspace.planning.configuration_space import (
     FloatArray,
     nested_orders,
 )
+from taskspace.planning.goals import REGION_FIRST_ATTEMPTS, goal_states, region_samples
+from taskspace.planning.limits import limit_log
 from taskspace.planning.planner_result import PlannerResult, PlannerStatus
 from taskspace.planning.prm import (
     PRMOptions,
@@ -97,12 +99,12 @@ def build_lazy_prm(
 ) -> LazyRoadmap:
     """Sample free nodes and connect k nearest neighbours without checking the edges."""
     opts = options or PRMOptions()
-    check_count(opts.n_samples, "n_samples", minimum=1)
+    n_samples = opts.roadmap_size()
     check_count(opts.k_neighbors, "k_neighbors", minimum=1)
     rng = rng if rng is not None else np.random.default_rng(check_seed(opts.seed))
     t0 = time.perf_counter()
     checks0 = space.checks
-    nodes = sample_free(space, opts.n_samples, rng, strategy=opts.sampler, sigma=opts.sigma)
+    nodes = sample_free(space, n_samples, rng, strategy=opts.sampler, sigma=opts.sigma)
     pairs = _candidate_pairs(nodes, opts.k_neighbors, space)
     costs = space.distances(nodes[pairs[:, 1]], nodes[pairs[:, 0]])
     adjacency: list[list[tuple[int, float]]] = [[] for _ in range(nodes.shape[0])]
@@ -193,11 +195,12 @@ def lazy_prm_query(
     *,
     time_limit_s: Any = _FROM_OPTIONS,
     coarse_resolution: float = 0.15,
+    rng: np.random.Generator | None = None,
 ) -> PlannerResult:
     """Answer a query on a lazy roadmap, checking only edges of candidate shortest paths.
 
-    Each round: shortest path from ``q_start`` to ``q_goal`` over the edges not known to
-    collide (scipy's Dijkstra on the sparse graph; start and goal are joined to their k
+    Each round: shortest path from ``q_start`` to the nearest goal over the edges not known
+    to collide (scipy's Dijkstra on the sparse graph; start and goals are joined to their k
     nearest nodes and to each other); its unchecked edges are checked together, first at
     ``coarse_resolution`` (every colliding edge found is removed, and the search is redone),
     then at the full resolution. The path is returned when all its edges are free, so it is
@@ -208,12 +211,16 @@ def lazy_prm_query(
         space: the configuration space of the roadmap.
         lazy: from :func:`build_lazy_prm` (its edge states are updated).
         start: ``q_start``.
-        goal: ``q_goal``.
-        options: ``k_neighbors`` and ``time_limit_s`` are used.
+        goal: ``q_goal``, several goal configurations (k, d), or a
+            :class:`~taskspace.planning.GoalRegion` (its valid samples among 20 are the goal
+            states; a start inside it is a one-point path): see
+            :mod:`taskspace.planning.goals`. The path ends at the goal of the shortest path.
+        options: ``k_neighbors`` and ``time_limit_s`` are used (``seed`` for a region).
         time_limit_s: wall-clock budget [s] (``None`` or ``math.inf``: none; every round
             removes an edge or ends, so the query ends without one); left out:
             ``options.time_limit_s``. Given both, they must agree.
         coarse_resolution: first-pass resolution [rad or m].
+        rng: random generator of a region's samples (default: from ``options.seed``).
 
     Raises:
         PlanningError: start or goal outside the bounds or in collision; the roadmap was
@@ -228,21 +235,27 @@ def lazy_prm_query(
     checks0, edges0 = space.checks, space.edge_checks
     check_roadmap_world(space, lazy.roadmap)
     q_start = space.check_endpoint(start, "start")
-    q_goal = space.check_endpoint(goal, "goal")
+    goals, region = goal_states(space, goal)
+    if region is not None:
+        rng = rng if rng is not None else np.random.default_rng(check_seed(opts.seed))
+        goals = region_samples(space, region, rng, REGION_FIRST_ATTEMPTS, deadline)
     roadmap = lazy.roadmap
     n = roadmap.size
-    s, g = n, n + 1
+    s = n
+    targets = np.arange(n + 1, n + 1 + len(goals))
     kk = min(opts.k_neighbors, n)
     stride = max(1, math.floor(coarse_resolution / space.edge.resolution + 1e-9))
-    points = np.vstack([roadmap.nodes, q_start, q_goal])
-    extra_pairs = [[s, g]]
-    for v in (s, g):
+    points = np.vstack([roadmap.nodes, q_start, *goals])
+    extra_pairs = [[s, int(g)] for g in targets]
+    for v in [s, *targets.tolist()]:
+        if kk == 0:
+            break
         if space.is_euclidean:
             _, idx = roadmap.kdtree.query(points[v], k=kk)
         else:
             _, idx = _nearest(space, roadmap.nodes, points[v], kk)
         extra_pairs += [[min(v, j), max(v, j)] for j in np.atleast_1d(idx).tolist()]
-    extra = np.asarray(extra_pairs, dtype=np.int64)
+    extra = np.asarray(extra_pairs, dtype=np.int64).reshape(-1, 2)
     pairs = np.vstack([lazy.pairs, extra])
     costs = np.concatenate([lazy.costs, space.distances(points[extra[:, 1]], points[extra[:, 0]])])
     status = np.concatenate([lazy.status, np.zeros(len(extra), dtype=np.int8)])
@@ -251,7 +264,10 @@ def lazy_prm_query(
     status_out = PlannerStatus.NO_PATH
     ids: list[int] = []
     rounds = 0
-    while True:
+    size = points.shape[0]
+    if region is not None and region.contains(q_start):
+        ids, status_out = [s], PlannerStatus.SOLVED
+    while not ids and targets.size:
         if time.perf_counter() > deadline:
             status_out = PlannerStatus.TIME_LIMIT
             break
@@ -259,8 +275,9 @@ def lazy_prm_query(
         keep = status >= 0
         # Zero-length edges would vanish from the sparse matrix: give them a tiny cost.
         weights = np.maximum(costs[keep], 1e-12)
-        graph = csr_matrix((weights, (pairs[keep, 0], pairs[keep, 1])), shape=(n + 2, n + 2))
+        graph = csr_matrix((weights, (pairs[keep, 0], pairs[keep, 1])), shape=(size, size))
         dist, pred = dijkstra(graph, directed=False, indices=s, return_predecessors=True)
+        g = int(targets[np.argmin(dist[targets])])
         if not np.isfinite(dist[g]):
             status_out = PlannerStatus.NO_PATH
             break
@@ -282,19 +299,27 @@ def lazy_prm_query(
         if not bad:
             for e in unknown:
                 status[e] = 1
+        ids = []
     lazy.status[:] = status[:m]  # roadmap edge states are kept for later queries
     success = status_out is PlannerStatus.SOLVED
     path = points[ids] if success else np.empty((0, space.dim))
+    length = space.path_length(path) if success else math.inf
+    dt = time.perf_counter() - t0
     return PlannerResult(
         success=success,
         status=status_out,
         path=path,
-        path_length=space.path_length(path) if success else math.inf,
+        path_length=length,
         iterations=rounds,
         collision_checks=space.checks - checks0,
         edge_checks=space.edge_checks - edges0,
-        time_s=time.perf_counter() - t0,
-        log={"search_rounds": float(rounds), "roadmap_nodes": float(roadmap.size)},
+        time_s=dt,
+        log={
+            "search_rounds": float(rounds),
+            "roadmap_nodes": float(roadmap.size),
+            "goal_states": float(len(goals)),
+            **limit_log(status_out, length, dt),
+        },
     )
 
 
@@ -332,6 +357,27 @@ def grow_lazy_prm(
     return LazyRoadmap(roadmap=roadmap, pairs=pairs, costs=costs, status=status)
 
 
+def _one_point(q: FloatArray) -> PlannerResult:
+    """The path of a start inside the goal region."""
+    return PlannerResult(
+        success=True,
+        status=PlannerStatus.SOLVED,
+        path=q[None, :].copy(),
+        path_length=0.0,
+        iterations=0,
+        collision_checks=0,
+        edge_checks=0,
+        time_s=0.0,
+    )
+
+
+_UNSET: Any = object()
+"""Default of the deprecated ``max_rounds`` keyword: not given."""
+
+_ROUNDS = 100
+"""Growth rounds of :func:`lazy_prm` under the deprecated ``n_samples`` without ``max_rounds``."""
+
+
 def lazy_prm(
     space: ConfigurationSpace,
     start: Any,
@@ -339,17 +385,17 @@ def lazy_prm(
     options: PRMOptions | None = None,
     *,
     time_limit_s: Any = _FROM_OPTIONS,
-    max_rounds: int | None = 100,
+    max_rounds: Any = _UNSET,
     endpoint_fraction: float = 0.2,
     rng: np.random.Generator | None = None,
 ) -> tuple[PlannerResult, LazyRoadmap]:
-    """Single-query Lazy PRM that grows its roadmap until start and goal are connected.
+    """Single-query Lazy PRM that grows its roadmap until start and a goal are connected.
 
-    Round ``r`` adds ``n_samples`` free nodes: a fraction ``endpoint_fraction`` drawn from
-    ``N(q_start, sigma^2 I)`` and ``N(q_goal, sigma^2 I)`` (the tight start and goal regions
-    of manipulation problems), the rest uniform; then :func:`lazy_prm_query` runs on the grown
-    roadmap (edge states carried over). Stops when a path is found, after ``max_rounds``
-    rounds or when the time runs out.
+    Round ``r`` adds ``batch_size`` free nodes: a fraction ``endpoint_fraction`` drawn from
+    ``N(q_start, sigma^2 I)`` and ``N(q_goal, sigma^2 I)`` around the start and the goals
+    (the tight start and goal regions of manipulation problems), the rest uniform; then
+    :func:`lazy_prm_query` runs on the grown roadmap (edge states carried over). Stops when a
+    path is found, after ``max_iterations`` samples or when the time runs out.
 
     Threads: Python code (the GIL runs one thread at a time; Ctrl-C interrupts it). Plans in
     several threads give the results of sequential runs when each thread has its own space
@@ -359,75 +405,142 @@ def lazy_prm(
     Args:
         space: the configuration space.
         start: ``q_start``.
-        goal: ``q_goal``.
-        options: ``n_samples`` (nodes added per round), ``k_neighbors``, ``sigma``, ``seed``,
-            ``time_limit_s``.
+        goal: ``q_goal``, several goal configurations (k, d), or a
+            :class:`~taskspace.planning.GoalRegion` (:mod:`taskspace.planning.goals`: its
+            valid samples among 20 are goal states, one more sample each round, up to 32;
+            a start inside it is a one-point path). The path ends at one of the goals.
+        options: ``max_iterations`` (samples in all rounds, ``None``: no cap),
+            ``batch_size`` (nodes added per round), ``k_neighbors``, ``sigma``, ``seed``,
+            ``time_limit_s``. Left out: no sample cap and a 1 s time limit.
         time_limit_s: wall-clock budget [s] (``None`` or ``math.inf``: none, then
-            ``max_rounds`` must be an integer); left out: ``options.time_limit_s`` when it is
-            set, else 1 s. Given both, they must agree.
-        max_rounds: largest number of growth rounds (``None``: none, then ``time_limit_s``
-            must be finite).
-        endpoint_fraction: fraction of each round's nodes drawn near start and goal.
+            ``max_iterations`` must be an integer); left out: ``options.time_limit_s`` when
+            it is set, else 1 s. Given both, they must agree.
+        max_rounds: deprecated (``DeprecationWarning``): a cap of ``max_rounds`` growth
+            rounds, i.e. ``max_rounds * batch_size`` samples (``None``: none).
+        endpoint_fraction: fraction of each round's nodes drawn near start and goals.
         rng: random generator (default: ``np.random.default_rng(options.seed)``).
 
     Returns:
         ``(result, lazy roadmap)``; ``time_s`` and ``collision_checks`` include construction;
-        status ``ITERATION_LIMIT`` after ``max_rounds`` rounds without a path.
+        ``iterations`` counts the samples; status ``ITERATION_LIMIT`` after
+        ``max_iterations`` samples without a path; ``log`` has ``growth_rounds``,
+        ``stopped_by``, ``costs`` and ``cost_times`` (:mod:`taskspace.planning.limits`).
 
     Raises:
         PlanningError: start or goal outside the bounds or in collision.
-        InvalidInputError: a NaN or negative time limit, no limit at all (``time_limit_s``
-            and ``max_rounds`` both ``None``), bad options.
+        InvalidInputError: a NaN or negative time limit, no limit at all
+            (``max_iterations`` and ``time_limit_s`` both ``None``), bad options.
     """
-    opts = options or PRMOptions()
+    opts = options or PRMOptions(max_iterations=None)
     time_limit_s = _time_limit(time_limit_s, options, 1.0, "lazy_prm")
-    query_opts = dataclasses.replace(opts, time_limit_s=None)  # each query gets what is left
-    cap, limit = check_limits(
-        max_rounds, time_limit_s, names=("max_rounds", "time_limit_s"), minimum=1
-    )
+    if opts.n_samples is not None:  # deprecated: nodes per round, rounds capped by max_rounds
+        batch = check_count(opts.n_samples, "n_samples", minimum=1)
+        rounds_cap = _ROUNDS
+    else:
+        batch = check_count(opts.batch_size, "batch_size", minimum=1)
+        rounds_cap = None
+    names = ("max_iterations", "time_limit_s")
+    cap_in: Any = opts.max_iterations
+    if max_rounds is not _UNSET:
+        warnings.warn(
+            "lazy_prm(max_rounds=...) is deprecated: use PRMOptions(max_iterations=...) "
+            "(samples in all rounds; batch_size samples per round)",
+            DeprecationWarning,
+            stacklevel=2,
+        )
+        rounds_cap = max_rounds
+        names = ("max_rounds", "time_limit_s")
+    if rounds_cap is not None or max_rounds is not _UNSET:
+        cap_in = rounds_cap
+    minimum = 1 if names[0] == "max_rounds" else 0
+    cap, limit = check_limits(cap_in, time_limit_s, names=names, minimum=minimum)
+    if names[0] == "max_rounds" or opts.n_samples is not None:
+        cap = None if cap is None else cap * batch  # rounds -> samples
     if not 0.0 <= endpoint_fraction <= 1.0:
         raise InvalidInputError(f"endpoint_fraction must be in [0, 1], got {endpoint_fraction}")
-    check_count(opts.n_samples, "n_samples", minimum=1)
     check_count(opts.k_neighbors, "k_neighbors", minimum=1)
     rng = rng if rng is not None else np.random.default_rng(check_seed(opts.seed))
     t0 = time.perf_counter()
     deadline = t0 + limit
     checks0, edges0 = space.checks, space.edge_checks
     q_start = space.check_endpoint(start, "start")
-    q_goal = space.check_endpoint(goal, "goal")
+    goals, region = goal_states(space, goal)
+    if region is not None:
+        goals = region_samples(space, region, rng, REGION_FIRST_ATTEMPTS, deadline)
+    query_opts = PRMOptions(
+        max_iterations=1, k_neighbors=opts.k_neighbors, seed=check_seed(opts.seed)
+    )
     lazy: LazyRoadmap | None = None
-    rounds = 0
-    while True:
+    rounds = samples = 0
+    result: PlannerResult | None = None
+    if region is not None and region.contains(q_start):
+        result = _one_point(q_start)
+    while result is None or not result.success:
+        if cap is not None and samples >= cap:
+            if result is not None:
+                result.status = PlannerStatus.ITERATION_LIMIT
+            break
+        if rounds and time.perf_counter() > deadline:  # (the first round always runs)
+            if result is not None:
+                result.status = PlannerStatus.TIME_LIMIT
+            break
         rounds += 1
-        n_end = int(endpoint_fraction * opts.n_samples) // 2
+        m = batch if cap is None else min(batch, cap - samples)
+        samples += m
+        if region is not None and len(goals) < 32:
+            goals += region_samples(space, region, rng, 1, deadline)
+        centres = [q_start, *goals]
+        n_end = int(endpoint_fraction * m) // 2
+        per_goal = -(-n_end // max(1, len(goals))) if goals else 0
         near = []
-        for q in (q_start, q_goal):
+        for which, q in enumerate(centres):
+            count = n_end if which == 0 else per_goal
+            if count == 0:
+                continue
             if space.is_euclidean:
                 cand = np.clip(
-                    q + opts.sigma * rng.standard_normal((4 * n_end, space.dim)),
+                    q + opts.sigma * rng.standard_normal((4 * count, space.dim)),
                     space.lower,
                     space.upper,
                 )
             else:  # q (+) sigma N(0, I) on the manifold, inside the bounds
-                steps = opts.sigma * rng.standard_normal((4 * n_end, space.tangent_dim))
+                steps = opts.sigma * rng.standard_normal((4 * count, space.tangent_dim))
                 moved = [space.retract(q, v) for v in steps]
                 cand = np.array([c for c in moved if space.within_bounds(c)]).reshape(-1, space.dim)
-            near.append(cand[space.checker.are_valid(cand)][:n_end])
-        uniform = sample_free(space, opts.n_samples - 2 * n_end, rng)
-        fresh = np.vstack([*near, uniform])
+            near.append(cand[space.checker.are_valid(cand)][:count])
+        near_count = sum(a.shape[0] for a in near)
+        uniform = sample_free(space, max(0, m - n_end - min(n_end, per_goal * len(goals))), rng)
+        fresh = np.vstack([*near, uniform]) if near_count or uniform.size else uniform
         if lazy is None:
             base = Roadmap(nodes=np.empty((0, space.dim)), adjacency=[])
             lazy = LazyRoadmap(roadmap=base)
         lazy = grow_lazy_prm(space, lazy, fresh, opts.k_neighbors)
+        if not goals:  # a region none of whose samples was valid yet
+            continue
         remaining = None if math.isinf(limit) else max(0.0, deadline - time.perf_counter())
-        result = lazy_prm_query(space, lazy, q_start, q_goal, query_opts, time_limit_s=remaining)
-        if result.success or time.perf_counter() > deadline:
-            break
-        if cap is not None and rounds >= cap:
-            result.status = PlannerStatus.ITERATION_LIMIT
-            break
+        result = lazy_prm_query(
+            space, lazy, q_start, np.asarray(goals), query_opts, time_limit_s=remaining
+        )
+    if lazy is None:  # no round ran (no samples allowed, or no time)
+        lazy = LazyRoadmap(roadmap=Roadmap(nodes=np.empty((0, space.dim)), adjacency=[]))
+    if result is None:  # no query ran
+        result = PlannerResult(
+            success=False,
+            status=PlannerStatus.ITERATION_LIMIT
+            if cap is not None and samples >= cap
+            else PlannerStatus.TIME_LIMIT,
+            path=np.empty((0, space.dim)),
+            path_length=math.inf,
+            iterations=0,
+            collision_checks=0,
+            edge_checks=0,
+            time_s=0.0,
+        )
     result.time_s = time.perf_counter() - t0
+    result.iterations = samples
     result.collision_checks = space.checks - checks0
     result.edge_checks = space.edge_checks - edges0
     result.log["growth_rounds"] = float(rounds)
+    result.log["goal_states"] = float(len(goals))
+    result.log.update(limit_log(result.status, result.path_length, result.time_s))
     return result, lazy

@@ -1,24 +1,29 @@
 """The one limit convention of every sampling-based planner of taskspace.
 
-Every planner's ``Options`` has ``max_iterations`` and ``time_limit_s`` (two exceptions
-below):
+Every planner's ``Options`` has ``max_iterations`` and ``time_limit_s``:
 
 * ``max_iterations``: an integer >= 0, or ``None`` for no cap (then the time limit must be
-  finite). What one iteration is depends on the planner and is named in its options (one
-  sample for the RRT family, PRM* and BIT*; one growth round for Lazy PRM);
+  finite). One iteration is one sample for every planner (RRT, RRT-Connect, RRT*, PRM, Lazy
+  PRM, PRM*, BIT*). A roadmap built at once (:func:`~taskspace.planning.build_prm`,
+  :func:`~taskspace.planning.prm`, :func:`~taskspace.planning.build_lazy_prm`) has
+  ``max_iterations`` nodes, so it needs an integer;
 * ``time_limit_s``: a wall-clock budget [s], ``None`` or ``math.inf`` for none (then the
   iteration cap must be an integer); NaN, negative numbers and bools are refused.
 
-Two planners name their cap otherwise (same validation, same statuses):
-:func:`~taskspace.planning.prm.prm` and :func:`~taskspace.planning.prm.build_prm` take
-``PRMOptions.n_samples`` (roadmap nodes, the cap) and ``PRMOptions.time_limit_s``;
-:func:`~taskspace.planning.lazy_prm.lazy_prm` takes the keyword ``max_rounds`` (growth rounds,
-at least 1) and ``time_limit_s`` as a keyword or in ``PRMOptions`` (given twice, they must agree).
+Deprecated names (still accepted, with a ``DeprecationWarning``): ``PRMOptions.n_samples``
+(``max_iterations`` for PRM; the samples per growth round, now ``PRMOptions.batch_size``,
+for Lazy PRM) and :func:`~taskspace.planning.lazy_prm`'s keyword ``max_rounds`` (growth rounds:
+a cap of ``max_rounds * batch_size`` samples). Lazy PRM also takes ``time_limit_s`` as a
+keyword (given twice, they must agree).
 
-A planner stops at whichever limit comes first; its result says which one
-(:attr:`~taskspace.planning.PlannerStatus.TIME_LIMIT` or ``ITERATION_LIMIT`` when no path was
-found, ``log["stopped_by"]`` for the anytime planners, which return ``SOLVED`` with the best
-path found).
+A planner stops at whichever limit comes first. Its result says which one: status
+:attr:`~taskspace.planning.PlannerStatus.TIME_LIMIT` or ``ITERATION_LIMIT`` when no path was
+found (the anytime planners return ``SOLVED`` with the best path found), and every planner's
+``log`` holds ``stopped_by`` (``"time"``, ``"iterations"``, ``"first solution"``,
+``"optimal"``, ``"no path"``) and the cost over time, ``costs`` and ``cost_times`` [s]: one
+entry for the planners that return their first path (:func:`limit_log`), every improvement for
+the anytime ones. The anytime planners read the clock before every edge check, so they
+overrun the time limit by one edge check at most.
 """
 
 from __future__ import annotations
@@ -27,6 +32,31 @@ import time
 from typing import Any
 
 from taskspace._validation import MAX_INT64, check_limits
+from taskspace.planning.planner_result import PlannerStatus
+
+_STOPPED_BY = {
+    PlannerStatus.SOLVED: "first solution",
+    PlannerStatus.TIME_LIMIT: "time",
+    PlannerStatus.ITERATION_LIMIT: "iterations",
+    PlannerStatus.NO_PATH: "no path",
+    PlannerStatus.UNCERTIFIED: "uncertified",
+}
+
+
+def limit_log(status: PlannerStatus, cost: float, time_s: float) -> dict[str, Any]:
+    """The log fields of a planner that returns its first path (the anytime planners' names).
+
+    Returns:
+        ``stopped_by`` (``"first solution"``, ``"time"``, ``"iterations"``, ``"no path"``)
+        and the cost over time: ``costs`` and ``cost_times`` [s], one entry (the path's
+        cost and the time it was returned) when a path was found, else empty.
+    """
+    solved = status is PlannerStatus.SOLVED
+    return {
+        "stopped_by": _STOPPED_BY[status],
+        "costs": [float(cost)] if solved else [],
+        "cost_times": [float(time_s)] if solved else [],
+    }
 
 
 def planner_limits(max_iterations: Any, time_limit_s: Any) -> tuple[int, float]:

@@ -28,6 +28,7 @@ from __future__ import annotations
 import logging
 import math
 import time
+import warnings
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from typing import Any, Literal
@@ -37,9 +38,11 @@ import numpy.typing as npt
 from scipy.spatial import cKDTree
 
 from taskspace._validation import check_count, check_seed, check_time_limit
-from taskspace.errors import PlanningError, StaleModelError
+from taskspace.errors import InvalidInputError, PlanningError, StaleModelError
 from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray
+from taskspace.planning.goals import REGION_FIRST_ATTEMPTS, goal_states, region_samples
 from taskspace.planning.graph_search import astar, dijkstra
+from taskspace.planning.limits import limit_log
 from taskspace.planning.planner_result import PlannerResult, PlannerStatus
 from taskspace.planning.sampling import Sampler, sample_free
 
@@ -48,28 +51,61 @@ logger = logging.getLogger(__name__)
 
 @dataclass(frozen=True, kw_only=True)
 class PRMOptions:
-    """Settings of :func:`build_prm` and :func:`prm_query`.
+    """Settings of :func:`build_prm`, :func:`prm_query` and the Lazy PRM functions.
 
     Attributes:
-        n_samples: number of roadmap nodes ``n``.
+        max_iterations: samples (one iteration = one free sample, as for every planner of
+            :mod:`taskspace.planning.limits`): the roadmap's nodes ``n`` for
+            :func:`build_prm`, :func:`prm` and :func:`~taskspace.planning.build_lazy_prm`
+            (an integer >= 1); for :func:`~taskspace.planning.lazy_prm`, the samples of all
+            its growth rounds (``None``: no cap, then the time limit must be finite).
         k_neighbors: neighbours ``k`` tried per node (slide 3:31).
         sampler: ``"uniform"``, ``"gaussian"`` or ``"bridge"`` (slide 3:35).
         sigma: standard deviation of Gaussian/bridge offsets [rad or m].
         search: ``"dijkstra"`` or ``"astar"`` for queries.
         seed: random seed used when no ``rng`` is passed.
-        time_limit_s: wall-clock budget [s] of :func:`build_prm` (``None`` or ``math.inf``:
-            none; NaN refused); ``n_samples`` is the iteration cap (see
-            :mod:`taskspace.planning.limits`). Edges not tried in time are left out, and
-            :func:`prm` then reports ``TIME_LIMIT`` when no path is found.
+        time_limit_s: wall-clock budget [s] (``None`` or ``math.inf``: none; NaN refused).
+            :func:`build_prm` leaves out the edges not tried in time, and :func:`prm` then
+            reports ``TIME_LIMIT`` when no path is found.
+        batch_size: samples added per growth round of :func:`~taskspace.planning.lazy_prm`.
+        n_samples: deprecated name (a ``DeprecationWarning``): for :func:`build_prm`,
+            :func:`prm` and :func:`~taskspace.planning.build_lazy_prm` it is
+            ``max_iterations``; for :func:`~taskspace.planning.lazy_prm` it is
+            ``batch_size`` (nodes per round, as before). ``None``: not given.
     """
 
-    n_samples: int = 500
+    max_iterations: int | None = 500
     k_neighbors: int = 10
     sampler: Sampler = "uniform"
     sigma: float = 0.3
     search: Literal["dijkstra", "astar"] = "dijkstra"
     seed: int = 0
     time_limit_s: float | None = None
+    batch_size: int = 500
+    n_samples: int | None = None
+
+    def __post_init__(self) -> None:
+        if self.n_samples is not None:
+            warnings.warn(
+                "PRMOptions.n_samples is deprecated: use max_iterations (the roadmap's "
+                "samples; for lazy_prm, batch_size: the samples per growth round)",
+                DeprecationWarning,
+                stacklevel=3,
+            )
+
+    def roadmap_size(self) -> int:
+        """The nodes of a roadmap built at once (``n_samples`` if given, else ``max_iterations``).
+
+        Raises:
+            InvalidInputError: not an integer >= 1 (a roadmap built at once needs its size).
+        """
+        n = self.n_samples if self.n_samples is not None else self.max_iterations
+        if n is None:
+            raise InvalidInputError(
+                "max_iterations=None: a roadmap built at once (build_prm, prm, build_lazy_prm) "
+                "needs its number of samples; give max_iterations an integer >= 1"
+            )
+        return check_count(n, "max_iterations", minimum=1)
 
 
 @dataclass
@@ -245,7 +281,7 @@ def build_prm(
         rng: random generator (default: ``np.random.default_rng(options.seed)``).
     """
     opts = options or PRMOptions()
-    check_count(opts.n_samples, "n_samples", minimum=1)
+    n_samples = opts.roadmap_size()
     check_count(opts.k_neighbors, "k_neighbors", minimum=1)
     rng = rng if rng is not None else np.random.default_rng(check_seed(opts.seed))
     t0 = time.perf_counter()
@@ -253,7 +289,7 @@ def build_prm(
     checks0 = space.checks
     version = space.world_version
     model_version = space.model_version
-    nodes = sample_free(space, opts.n_samples, rng, strategy=opts.sampler, sigma=opts.sigma)
+    nodes = sample_free(space, n_samples, rng, strategy=opts.sampler, sigma=opts.sigma)
     adjacency, tried = connect_roadmap(space, nodes, opts.k_neighbors, deadline=deadline)
     roadmap = Roadmap(
         nodes=nodes,
@@ -287,58 +323,67 @@ def _attach(
 def query_graph(
     roadmap: Roadmap,
     start_edges: list[tuple[int, float]],
-    goal_edges: list[tuple[int, float]],
-    goal_cost: float | None,
-    q_goal: FloatArray,
+    goal_edges: list[list[tuple[int, float]]],
+    goal_costs: list[float | None],
+    q_goals: FloatArray,
     search: str,
     blocked: set[tuple[int, int]] | None = None,
     space: ConfigurationSpace | None = None,
 ) -> tuple[list[int], float]:
-    """Shortest path over roadmap + start node ``-1`` + goal node ``-2``; ``([], inf)`` if none.
+    """Shortest path from the start to the nearest of several goals over the roadmap.
 
-    A* takes the distance to the goal in ``space``'s metric (Euclidean without one).
+    The start is node ``-1``, goal ``i`` node ``-2 - i`` (joined to the roadmap nodes of
+    ``goal_edges[i]`` and to the start at cost ``goal_costs[i]`` unless ``None``); a search
+    target one step past every goal (cost 0) picks the cheapest. Returns the node ids from
+    ``-1`` to the goal reached and the cost; ``([], inf)`` if no goal is connected. A* takes
+    the distance to the nearest goal in ``space``'s metric (Euclidean without one):
+    admissible for edge costs ``d(q, q')`` of a metric.
     """
-    s, g = -1, -2
-    goal_in = {j: c for j, c in goal_edges}
+    s = -1
+    k = len(goal_edges)
+    target = -2 - k
+    goal_in: dict[int, list[tuple[int, float]]] = {}
+    for i, edges in enumerate(goal_edges):
+        for j, c in edges:
+            goal_in.setdefault(j, []).append((-2 - i, c))
     blocked = blocked or set()
     adjacency = roadmap.adjacency
 
+    def free(node: int, edges: Iterable[tuple[int, float]]) -> list[tuple[int, float]]:
+        return [e for e in edges if (min(node, e[0]), max(node, e[0])) not in blocked]
+
     def neighbors(node: int) -> Iterable[tuple[int, float]]:
         if node == s:
-            out = list(start_edges)
-            if goal_cost is not None:
-                out.append((g, goal_cost))
-            return [e for e in out if (min(s, e[0]), max(s, e[0])) not in blocked]
-        if node == g:
+            direct = [(-2 - i, c) for i, c in enumerate(goal_costs) if c is not None]
+            return free(s, list(start_edges) + direct)
+        if node == target:
             return ()
-        out = [e for e in adjacency[node] if (min(node, e[0]), max(node, e[0])) not in blocked]
-        if node in goal_in and (min(node, g), max(node, g)) not in blocked:
-            out.append((g, goal_in[node]))
-        return out
+        if node < 0:  # a goal: the search target is one step away
+            return [(target, 0.0)]
+        return free(node, adjacency[node] + goal_in.get(node, []))
 
     if search == "astar":
         nodes = roadmap.nodes
 
         def heuristic(node: int) -> float:
-            # Distance to the goal: admissible for edge costs d(q, q') of a metric.
             if node < 0:
                 return 0.0
             if space is None or space.is_euclidean:
-                return float(np.linalg.norm(nodes[node] - q_goal))
-            return space.distance(nodes[node], q_goal)
+                return float(np.min(np.linalg.norm(q_goals - nodes[node], axis=1)))
+            return float(np.min(space.distances(q_goals, nodes[node])))
 
-        res = astar(neighbors, s, g, heuristic)
+        res = astar(neighbors, s, target, heuristic)
     else:
-        res = dijkstra(neighbors, s, g)
+        res = dijkstra(neighbors, s, target)
     if not res.success:
         return [], math.inf
-    return [int(v) for v in res.path], float(res.cost)
+    return [int(v) for v in res.path[:-1]], float(res.cost)
 
 
 def _assemble(
-    roadmap: Roadmap, ids: list[int], q_start: FloatArray, q_goal: FloatArray
+    roadmap: Roadmap, ids: list[int], q_start: FloatArray, q_goals: FloatArray
 ) -> FloatArray:
-    pts = [q_start if v == -1 else q_goal if v == -2 else roadmap.nodes[v] for v in ids]
+    pts = [q_start if v == -1 else q_goals[-2 - v] if v < 0 else roadmap.nodes[v] for v in ids]
     return np.asarray(pts)
 
 
@@ -348,6 +393,8 @@ def prm_query(
     start: Any,
     goal: Any,
     options: PRMOptions | None = None,
+    *,
+    rng: np.random.Generator | None = None,
 ) -> PlannerResult:
     """Answer one query on a roadmap (slide 3:30); the roadmap is left unchanged.
 
@@ -355,11 +402,17 @@ def prm_query(
         space: the configuration space the roadmap was built in.
         roadmap: from :func:`build_prm`.
         start: ``q_start``.
-        goal: ``q_goal``.
-        options: ``k_neighbors`` and ``search`` are used.
+        goal: ``q_goal`` (size d), several goal configurations (k, d), or a
+            :class:`~taskspace.planning.GoalRegion` (see :mod:`taskspace.planning.goals`:
+            its valid samples among 20 are the goal states; a start inside it is a
+            one-point path). Each goal is joined to its k nearest roadmap nodes; the path
+            ends at the goal of the shortest roadmap path.
+        options: ``k_neighbors`` and ``search`` are used (and ``seed`` for a region).
+        rng: random generator of a region's samples (default: from ``options.seed``).
 
     Returns:
-        A :class:`PlannerResult` (``NO_PATH`` when start and goal are not connected).
+        A :class:`PlannerResult` (``NO_PATH`` when start and goal are not connected);
+        ``log["goal_states"]`` counts the goal configurations.
 
     Raises:
         PlanningError: start or goal outside the bounds or in collision; the roadmap was
@@ -370,26 +423,42 @@ def prm_query(
     checks0, edges0 = space.checks, space.edge_checks
     check_roadmap_world(space, roadmap)
     q_start = space.check_endpoint(start, "start")
-    q_goal = space.check_endpoint(goal, "goal")
-    start_edges = _attach(space, roadmap, q_start, opts.k_neighbors, True)
-    goal_edges = _attach(space, roadmap, q_goal, opts.k_neighbors, True)
-    direct = space.distance(q_start, q_goal)
-    goal_cost = direct if space.motion_valid(q_start, q_goal) else None
-    ids, cost = query_graph(
-        roadmap, start_edges, goal_edges, goal_cost, q_goal, opts.search, space=space
-    )
+    goals, region = goal_states(space, goal)
+    if region is not None:
+        rng = rng if rng is not None else np.random.default_rng(check_seed(opts.seed))
+        goals = region_samples(space, region, rng, REGION_FIRST_ATTEMPTS)
+    q_goals = np.asarray(goals, dtype=np.float64).reshape(-1, space.dim)
+    ids: list[int] = []
+    cost = math.inf
+    if region is not None and region.contains(q_start):
+        ids, cost = [-1], 0.0
+    elif goals:
+        start_edges = _attach(space, roadmap, q_start, opts.k_neighbors, True)
+        goal_edges = [_attach(space, roadmap, g, opts.k_neighbors, True) for g in goals]
+        direct = [space.distance(q_start, g) if space.motion_valid(q_start, g) else None
+                  for g in goals]  # fmt: skip
+        ids, cost = query_graph(
+            roadmap, start_edges, goal_edges, direct, q_goals, opts.search, space=space
+        )
     success = bool(ids)
-    path = _assemble(roadmap, ids, q_start, q_goal) if success else np.empty((0, space.dim))
+    path = _assemble(roadmap, ids, q_start, q_goals) if success else np.empty((0, space.dim))
+    dt = time.perf_counter() - t0
+    length = space.path_length(path) if success else math.inf
     return PlannerResult(
         success=success,
         status=PlannerStatus.SOLVED if success else PlannerStatus.NO_PATH,
         path=path,
-        path_length=space.path_length(path) if success else math.inf,
+        path_length=length,
         iterations=roadmap.size,
         collision_checks=space.checks - checks0,
         edge_checks=space.edge_checks - edges0,
-        time_s=time.perf_counter() - t0,
-        log={"graph_cost": cost, "roadmap_nodes": float(roadmap.size)},
+        time_s=dt,
+        log={
+            "graph_cost": cost,
+            "roadmap_nodes": float(roadmap.size),
+            "goal_states": float(len(goals)),
+            **limit_log(PlannerStatus.SOLVED if success else PlannerStatus.NO_PATH, length, dt),
+        },
     )
 
 
@@ -408,21 +477,36 @@ def prm(
     (checker) and ``rng``; a compiled checker shared by threads is locked, a space's counters
     and a Python checker are not.
 
+    Args:
+        space: configuration space with checker and straight-line local planner.
+        start: ``q_start``.
+        goal: one goal configuration, several (k, d) or a goal region (see
+            :func:`prm_query`).
+        options: settings; ``max_iterations`` is the roadmap's size (the cap),
+            ``time_limit_s`` the budget of the edge checks.
+        rng: random generator (default: ``np.random.default_rng(options.seed)``).
+
     Returns:
-        ``(result, roadmap)``; reuse the roadmap with :func:`prm_query`.
+        ``(result, roadmap)``; reuse the roadmap with :func:`prm_query`. Without a path the
+        status is ``TIME_LIMIT`` when edges were left untried, else ``ITERATION_LIMIT`` (the
+        roadmap of ``max_iterations`` samples does not connect start and goal). ``log`` has
+        ``stopped_by`` and the cost (path length) over time (``costs``, ``cost_times``), as
+        every planner (:mod:`taskspace.planning.limits`).
     """
     opts = options or PRMOptions()
     space.check_endpoint(start, "start")
-    space.check_endpoint(goal, "goal")
+    goal_states(space, goal)  # refuse a bad goal before building
     checks0, edges0 = space.checks, space.edge_checks
+    rng = rng if rng is not None else np.random.default_rng(check_seed(opts.seed))
     roadmap = build_prm(space, opts, rng=rng)
-    result = prm_query(space, roadmap, start, goal, opts)
-    if (
-        not result.success
-        and roadmap.edges_tried < _candidate_pairs(roadmap.nodes, opts.k_neighbors, space).shape[0]
-    ):
-        result.status = PlannerStatus.TIME_LIMIT
+    result = prm_query(space, roadmap, start, goal, opts, rng=rng)
+    if not result.success:
+        pairs = _candidate_pairs(roadmap.nodes, opts.k_neighbors, space).shape[0]
+        # every edge tried: the roadmap of max_iterations samples does not connect them
+        timed_out = roadmap.edges_tried < pairs
+        result.status = PlannerStatus.TIME_LIMIT if timed_out else PlannerStatus.ITERATION_LIMIT
     result.time_s += roadmap.build_time_s
     result.collision_checks = space.checks - checks0
     result.edge_checks = space.edge_checks - edges0
+    result.log.update(limit_log(result.status, result.path_length, result.time_s))
     return result, roadmap

@@ -44,6 +44,7 @@ from scipy.spatial import cKDTree
 from taskspace._validation import check_count, check_positive, check_seed
 from taskspace.planning.certify import certify_planned
 from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray, path_length
+from taskspace.planning.goals import goal_states
 from taskspace.planning.lazy_prm import LazyRoadmap, _check_edges
 from taskspace.planning.limits import Budget, planner_limits
 from taskspace.planning.objectives import (
@@ -54,7 +55,6 @@ from taskspace.planning.objectives import (
 )
 from taskspace.planning.planner_result import PlannerResult, PlannerStatus
 from taskspace.planning.prm import Roadmap
-from taskspace.planning.rrt_star import goal_states
 from taskspace.planning.sampling import sample_free
 
 

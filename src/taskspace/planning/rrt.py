@@ -35,7 +35,7 @@ import numpy as np
 from taskspace._validation import check_positive, check_seed
 from taskspace.errors import InvalidInputError
 from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray
-from taskspace.planning.limits import planner_limits
+from taskspace.planning.limits import limit_log, planner_limits
 from taskspace.planning.planner_result import PlannerResult, PlannerStatus
 from taskspace.planning.rrt_connect import _GrowingTree, _steer
 
@@ -152,4 +152,5 @@ def rrt(
         edge_checks=space.edge_checks - edges0,
         time_s=dt,
         trees=[tree.freeze()],
+        log=limit_log(status, space.path_length(path) if success else math.inf, dt),
     )

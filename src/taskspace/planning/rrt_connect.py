@@ -103,7 +103,8 @@ from taskspace.planning.configuration_space import (
     nested_orders,
     path_length,
 )
-from taskspace.planning.limits import planner_limits
+from taskspace.planning.goals import REGION_FIRST_ATTEMPTS, goal_states, is_goal_set, region_samples
+from taskspace.planning.limits import limit_log, planner_limits
 from taskspace.planning.locked_joints import LockedJointChecker
 from taskspace.planning.nearest import GrowingNearest
 from taskspace.planning.planner_result import PlannerResult, PlannerStatus, Tree
@@ -597,6 +598,7 @@ def _rrt_connect_native(
             "sphere_recheck_failed": float(recheck_failed),
             "spheres_fallback": float(fallback >= 0),
             "spheres_fallback_iteration": float(fallback),
+            **limit_log(status, length, dt),
             **{f"kernel_{name}_us": float(t) for name, t in zip(_PHASES, phases, strict=True)},
         },
     )
@@ -715,7 +717,7 @@ def _plan(
         )
     checks0, edges0 = space.checks, space.edge_checks
     t0 = time.perf_counter()
-    goal_set = _is_goal_set(goal)  # several goals or a region: the Python planner
+    goal_set = is_goal_set(goal)  # several goals or a region: the Python planner
     kernel = None if goal_set else _native_kernel(space, opts)
     if kernel is not None:  # the kernel checks the endpoints' bounds and collisions
         q_start = space.endpoint_vector(start, "start")
@@ -761,11 +763,9 @@ def _plan(
     deadline = t0 + time_limit
     region = None
     if goal_set:
-        from taskspace.planning.rrt_star import goal_states
-
         goals, region = goal_states(space, goal)
         if region is not None:
-            goals = _region_samples(space, region, rng, _REGION_FIRST_ATTEMPTS, deadline)
+            goals = region_samples(space, region, rng, REGION_FIRST_ATTEMPTS, deadline)
     else:
         goals = [space.check_endpoint(goal, "goal")]
     metric = None if space.is_euclidean else space.distances
@@ -803,7 +803,7 @@ def _plan(
                 samples = space.sample_uniform(rng, block)
             q_rand = samples[j]
             if region is not None and iterations % _REGION_EVERY == 0 and len(goals) < 32:
-                for q_goal in _region_samples(space, region, rng, 1, deadline):
+                for q_goal in region_samples(space, region, rng, 1, deadline):
                     goals.append(q_goal)  # one more goal state: a new root of the goal tree
                     tree_goal.add(q_goal, -1)
             if trapped > 0.0 and 4 * len(tree_b.nn) < len(tree_a.nn) and rng.random() < trapped:
@@ -876,42 +876,10 @@ def _plan(
             "nodes_removed": float(removed),
             "trapped_turns": float(turns),
             "goal_states": float(len(goals)),
+            **limit_log(status, path_length(path) if success else math.inf, dt),
         },
     )
 
 
-_REGION_FIRST_ATTEMPTS = 20
-"""Samples of a goal region drawn before planning (the valid ones become goal states)."""
-
 _REGION_EVERY = 64
 """A goal region is sampled again every this many iterations (up to 32 goal states)."""
-
-
-def _is_goal_set(goal: Any) -> bool:
-    """Whether ``goal`` is several goal configurations (k, d) or a goal region."""
-    from taskspace.planning.rrt_star import GoalRegion
-
-    if isinstance(goal, GoalRegion):
-        return True
-    try:
-        return bool(np.ndim(goal) == 2)
-    except (TypeError, ValueError):  # ragged: refused by the endpoint check
-        return False
-
-
-def _region_samples(
-    space: ConfigurationSpace, region: Any, rng: np.random.Generator, attempts: int, deadline: float
-) -> list[FloatArray]:
-    """Valid configurations (within the bounds, free) among ``attempts`` samples of ``region``."""
-    out = []
-    for _ in range(attempts):
-        if time.perf_counter() > deadline:
-            break
-        q = region.sample(rng)
-        if q is None:
-            continue
-        q = np.asarray(q, dtype=np.float64)
-        if q.shape == (space.dim,) and space.within_bounds(q) and space.is_valid(q):
-            if region.contains(q):
-                out.append(q)
-    return out

@@ -15,8 +15,7 @@ metric.
 
 Thread safety: :class:`RRTStarOptions` is immutable; :func:`rrt_star` keeps its state local to the
 call apart from the configuration space (one space per thread), generator and goal region it is
-given. :class:`GoalRegion` is a protocol: implementations state their own (those of
-:mod:`taskspace.ik` sample with their own IK task: one region per thread).
+given (:mod:`taskspace.planning.goals`).
 """
 
 from __future__ import annotations
@@ -25,7 +24,7 @@ import itertools
 import math
 import time
 from dataclasses import dataclass
-from typing import Any, Protocol, runtime_checkable
+from typing import Any
 
 import numpy as np
 
@@ -33,6 +32,8 @@ from taskspace._validation import check_positive, check_seed
 from taskspace.errors import InvalidInputError
 from taskspace.planning.certify import plan_certified
 from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray, path_length
+from taskspace.planning.goals import GoalRegion as GoalRegion  # re-exported (moved to goals)
+from taskspace.planning.goals import goal_states
 from taskspace.planning.limits import planner_limits
 from taskspace.planning.objectives import (
     OptimizationObjective,
@@ -136,23 +137,6 @@ def _rotation_to_world(start: FloatArray, goal: FloatArray) -> FloatArray:
     return u @ np.diag(diag) @ vt
 
 
-@runtime_checkable
-class GoalRegion(Protocol):
-    """A set of goal configurations (OMPL's ``GoalSampleableRegion``).
-
-    ``contains(q)`` says whether ``q`` reaches the goal; ``sample(rng)`` returns a goal
-    configuration or ``None`` (a region that cannot be sampled is only recognised when the
-    tree reaches it). A pose within tolerances sampled by IK
-    (:class:`taskspace.ik.PoseGoalRegion`) or any feature within bounds fit this protocol.
-    """
-
-    def contains(self, q: FloatArray) -> bool:
-        """Whether ``q`` is a goal configuration."""
-
-    def sample(self, rng: np.random.Generator) -> FloatArray | None:
-        """A goal configuration, or ``None`` when none was found."""
-
-
 class _RRTStarTree:
     """Nodes, parents, costs-to-come and children of the tree (grown by doubling)."""
 
@@ -184,18 +168,6 @@ class _RRTStarTree:
         self.parents[i] = parent
         self.children[parent].append(i)
         _propagate(i, cost - self.cost[i], self.cost, self.children)
-
-
-def goal_states(space: ConfigurationSpace, goal: Any) -> tuple[list[FloatArray], Any]:
-    """Goal configurations (validated) and the goal region (or None)."""
-    if isinstance(goal, GoalRegion):
-        return [], goal
-    arr = np.asarray(goal, dtype=np.float64) if not isinstance(goal, np.ndarray) else goal
-    if arr.ndim == 2:
-        if arr.shape[0] == 0:
-            raise InvalidInputError("goal: an empty list of goal configurations")
-        return [space.check_endpoint(g, f"goal[{i}]") for i, g in enumerate(arr)], None
-    return [space.check_endpoint(goal, "goal")], None
 
 
 def rrt_star(

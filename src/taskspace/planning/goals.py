@@ -1,0 +1,104 @@
+"""Goals of the sampling-based planners: goal states, several of them, or a goal region.
+
+Every planner with a goal takes one of (OMPL's ``GoalState``, ``GoalStates`` and
+``GoalSampleableRegion``):
+
+* one goal configuration (size d);
+* several goal configurations, shape (k, d): the path ends at one of them (each planner says
+  which: the first reached, or the cheapest);
+* a :class:`GoalRegion`: any object with ``contains(q)`` and ``sample(rng)``, such as
+  :class:`taskspace.ik.PoseGoalRegion` (a pose within tolerances, sampled by IK) or
+  :class:`taskspace.ik.FeatureGoalRegion` (any feature within bounds). Its valid samples
+  become goal states (:func:`region_samples`); a path ends inside the region.
+
+:func:`goal_states` validates the goal once for every planner.
+
+Thread safety: :class:`GoalRegion` is a protocol: implementations state their own (those of
+:mod:`taskspace.ik` sample with their own IK task: one region per thread).
+"""
+
+from __future__ import annotations
+
+import time
+from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
+
+import numpy as np
+
+from taskspace.errors import InvalidInputError
+
+if TYPE_CHECKING:
+    from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray
+
+
+@runtime_checkable
+class GoalRegion(Protocol):
+    """A set of goal configurations (OMPL's ``GoalSampleableRegion``).
+
+    ``contains(q)`` says whether ``q`` reaches the goal; ``sample(rng)`` returns a goal
+    configuration or ``None`` (a region that cannot be sampled is only recognised when the
+    tree reaches it). A pose within tolerances sampled by IK
+    (:class:`taskspace.ik.PoseGoalRegion`) or any feature within bounds fit this protocol.
+    """
+
+    def contains(self, q: FloatArray) -> bool:
+        """Whether ``q`` is a goal configuration."""
+
+    def sample(self, rng: np.random.Generator) -> FloatArray | None:
+        """A goal configuration, or ``None`` when none was found."""
+
+
+def is_goal_set(goal: Any) -> bool:
+    """Whether ``goal`` is several goal configurations (k, d) or a goal region."""
+    if isinstance(goal, GoalRegion):
+        return True
+    try:
+        return bool(np.ndim(goal) == 2)
+    except (TypeError, ValueError):  # ragged: refused by the endpoint check
+        return False
+
+
+def goal_states(space: ConfigurationSpace, goal: Any) -> tuple[list[FloatArray], Any]:
+    """Goal configurations (validated: inside the bounds, free) and the goal region (or None).
+
+    Raises:
+        PlanningError: a goal configuration outside the bounds or in collision (named
+            ``goal[i]`` for several).
+        InvalidInputError: an empty list of goals.
+    """
+    if isinstance(goal, GoalRegion):
+        return [], goal
+    arr = np.asarray(goal, dtype=np.float64) if not isinstance(goal, np.ndarray) else goal
+    if arr.ndim == 2:
+        if arr.shape[0] == 0:
+            raise InvalidInputError("goal: an empty list of goal configurations")
+        return [space.check_endpoint(g, f"goal[{i}]") for i, g in enumerate(arr)], None
+    return [space.check_endpoint(goal, "goal")], None
+
+
+def region_samples(
+    space: ConfigurationSpace,
+    region: Any,
+    rng: np.random.Generator,
+    attempts: int,
+    deadline: float = float("inf"),
+) -> list[FloatArray]:
+    """Valid configurations (inside the bounds, free, in the region) among ``attempts`` samples.
+
+    Sampling stops at ``deadline`` (a ``time.perf_counter()`` value [s]).
+    """
+    out = []
+    for _ in range(attempts):
+        if time.perf_counter() > deadline:
+            break
+        q = region.sample(rng)
+        if q is None:
+            continue
+        q = np.asarray(q, dtype=np.float64)
+        if q.shape == (space.dim,) and space.within_bounds(q) and space.is_valid(q):
+            if region.contains(q):
+                out.append(q)
+    return out
+
+
+REGION_FIRST_ATTEMPTS = 20
+"""Samples of a goal region drawn before planning (the valid ones become goal states)."""
