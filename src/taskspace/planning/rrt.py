@@ -35,6 +35,7 @@ import numpy as np
 from taskspace._validation import check_positive, check_seed
 from taskspace.errors import InvalidInputError
 from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray
+from taskspace.planning.goals import REGION_FIRST_ATTEMPTS, goal_states, region_samples
 from taskspace.planning.limits import limit_log, planner_limits
 from taskspace.planning.planner_result import PlannerResult, PlannerStatus
 from taskspace.planning.rrt_connect import _GrowingTree, _steer
@@ -81,7 +82,13 @@ def rrt(
     Args:
         space: configuration space with validity checker and local planner.
         start: ``q_start`` (size d).
-        goal: ``q_goal`` (size d), or ``None`` to grow for ``max_iterations`` iterations.
+        goal: ``q_goal`` (size d); several goal configurations (k, d) (the goal bias
+            draws one of them; the path ends at the first one a new node reaches); a
+            :class:`~taskspace.planning.GoalRegion` (its valid samples among 20, and one
+            more every 64 iterations up to 32, are the goal states; a new node inside the
+            region also ends the path; a start inside it is a one-point path): see
+            :mod:`taskspace.planning.goals`. ``None`` grows for ``max_iterations``
+            iterations.
         options: planner settings (``alpha``, ``beta``, limits).
         rng: random generator (default: ``np.random.default_rng(options.seed)``).
 
@@ -102,19 +109,28 @@ def rrt(
     checks0, edges0 = space.checks, space.edge_checks
     t0 = time.perf_counter()
     q_start = space.check_endpoint(start, "start")
-    q_goal = None if goal is None else space.check_endpoint(goal, "goal")
     deadline = t0 + time_limit
+    goals: list[FloatArray] = []
+    region = None
+    if goal is not None:
+        goals, region = goal_states(space, goal)
+        if region is not None:
+            goals = region_samples(space, region, rng, REGION_FIRST_ATTEMPTS, deadline)
     euclidean = space.is_euclidean
     tree = _GrowingTree(q_start, None if euclidean else space.distances)
     status = PlannerStatus.ITERATION_LIMIT
     path: FloatArray = np.empty((0, space.dim))
     iterations = 0
-    for iterations in range(1, max_iterations + 1):  # noqa: B007
+    if region is not None and region.contains(q_start):
+        path, status, max_iterations = q_start[None, :].copy(), PlannerStatus.SOLVED, 0
+    for iterations in range(1, max_iterations + 1):
         if time.perf_counter() > deadline:
             status = PlannerStatus.TIME_LIMIT
             break
-        if q_goal is not None and rng.random() < opts.goal_bias:
-            q_target = q_goal
+        if region is not None and iterations % _REGION_EVERY == 0 and len(goals) < 32:
+            goals += region_samples(space, region, rng, 1, deadline)
+        if goal is not None and rng.random() < opts.goal_bias and (goals or region is None):
+            q_target = goals[0] if len(goals) == 1 else goals[int(rng.integers(len(goals)))]
         else:
             q_target = space.sample_uniform(rng)
         i_near, dist = tree.nn.nearest(q_target)
@@ -132,13 +148,17 @@ def rrt(
         if not space.motion_valid(q_near, q_new, check_end=True):
             continue
         i_new = tree.add(q_new, i_near)
-        if q_goal is not None:
-            gap = space.distance(q_new, q_goal)
-            if gap <= alpha and space.motion_valid(q_new, q_goal):
-                i_goal = i_new if gap == 0.0 else tree.add(q_goal, i_new)
-                path = tree.freeze().path_to(i_goal)
-                status = PlannerStatus.SOLVED
-                break
+        if region is not None and region.contains(q_new):
+            path = tree.freeze().path_to(i_new)  # inside the region: a goal configuration
+            status = PlannerStatus.SOLVED
+            break
+        i_goal = _reach_goal(space, tree, i_new, goals, alpha)
+        if i_goal >= 0:
+            path = tree.freeze().path_to(i_goal)
+            status = PlannerStatus.SOLVED
+            break
+    if goal is not None and not goals and status is not PlannerStatus.SOLVED:
+        status = PlannerStatus.NO_PATH  # a region none of whose samples was valid
     dt = time.perf_counter() - t0
     success = status is PlannerStatus.SOLVED
     logger.debug("rrt %s in %.3f s, %d nodes", status.value, dt, len(tree.nn))
@@ -152,5 +172,34 @@ def rrt(
         edge_checks=space.edge_checks - edges0,
         time_s=dt,
         trees=[tree.freeze()],
-        log=limit_log(status, space.path_length(path) if success else math.inf, dt),
+        log={
+            "goal_states": float(len(goals)),
+            **limit_log(status, space.path_length(path) if success else math.inf, dt),
+        },
     )
+
+
+_REGION_EVERY = 64
+"""A goal region is sampled again every this many iterations (up to 32 goal states)."""
+
+
+def _reach_goal(
+    space: ConfigurationSpace, tree: _GrowingTree, i_new: int, goals: list[FloatArray], alpha: float
+) -> int:
+    """The tree node of a goal within ``alpha`` of node ``i_new`` joined to it free, or -1.
+
+    Goals are tried nearest first; a goal at ``q_new`` itself is ``i_new``.
+    """
+    if not goals:
+        return -1
+    q_new = tree.nn.points[i_new]
+    if len(goals) == 1:
+        gaps = np.array([space.distance(q_new, goals[0])])
+    else:
+        gaps = space.distances(np.asarray(goals), q_new)
+    for g in np.argsort(gaps, kind="stable").tolist():
+        if gaps[g] > alpha:
+            break
+        if space.motion_valid(q_new, goals[g]):
+            return i_new if gaps[g] == 0.0 else tree.add(goals[g], i_new)
+    return -1
