@@ -42,6 +42,7 @@ from scipy.sparse.csgraph import dijkstra
 from scipy.spatial import cKDTree
 
 from taskspace._validation import check_count, check_positive, check_seed
+from taskspace.errors import InvalidInputError
 from taskspace.planning.certify import certify_planned
 from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray, path_length
 from taskspace.planning.goals import goal_states
@@ -82,6 +83,17 @@ class PRMStarOptions:
         certify_retries: re-plans (next seeds) after an uncertified path.
         certify_tolerance: the least robot-obstacle (and self) distance [m] along the path
             counted as free by the certification.
+        expand_fraction: PRM* (not Lazy PRM*): the fraction of each batch's samples spent
+            on the *expansion step* of Kavraki, Svestka, Latombe and Overmars (1996), as
+            OMPL's PRM and PRMstar do (a third of their time): random-bounce walks of up to
+            5 steps from roadmap nodes drawn with probability proportional to their failed
+            connection ratio (typically the start and the goal in a tight spot, which
+            uniform samples rarely reach), each step moving towards a uniform sample until
+            the first colliding point at the space's resolution; the walk's nodes are chained
+            to the node by those checked segments and its end is connected to its ``k_n``
+            nearest nodes as any new node. Only until a first path is found: then every
+            sample is uniform again, as PRM*'s convergence analysis assumes (the extra nodes
+            only add edges). 0 disables it.
     """
 
     batch_size: int = 64
@@ -94,6 +106,11 @@ class PRMStarOptions:
     certify: bool = False
     certify_retries: int = 2
     certify_tolerance: float = 1e-4
+    expand_fraction: float = 0.25
+
+
+BOUNCE_STEPS = 5
+"""Steps of a random-bounce walk of the expansion (OMPL's ``MAX_RANDOM_BOUNCE_STEPS``)."""
 
 
 class _Graph:
@@ -209,6 +226,13 @@ def _plan(
     k_prm = opts.gamma_factor * math.e * (1 + 1 / space.tangent_dim)
     stride = max(1, math.floor(coarse / space.edge.resolution + 1e-9))
 
+    expand = float(opts.expand_fraction)
+    if not 0.0 <= expand <= 1.0:
+        raise InvalidInputError(f"expand_fraction must be in [0, 1], got {opts.expand_fraction}")
+    expansion_nodes = 0
+    attempts = np.zeros(256)  # edges tried and found free per node (the expansion's weights)
+    successes = np.zeros(256)
+
     graph = _Graph(d)
     graph.add_nodes(q_start[None, :])
     goal_ids = graph.add_nodes(np.asarray(goals).reshape(-1, d)).tolist() if goals else []
@@ -274,6 +298,10 @@ def _plan(
                         per_point = (time.perf_counter() - t_chunk) / checked
                     lo += chunk.shape[0]
                 graph.add_edges(pairs[free], cost[free], np.ones(int(free.sum()), np.int8))
+                attempts, successes = _fit(attempts, graph.n), _fit(successes, graph.n)
+                tried = pairs[:lo]
+                np.add.at(attempts, tried.ravel(), 1.0)
+                np.add.at(successes, tried[free[:lo]].ravel(), 1.0)
         # Search (and, lazily, validate) the shortest path.
         pairs_all, cost_all, status = graph.edges()
         edge_index: _EdgeIndex | None = None
@@ -310,11 +338,35 @@ def _plan(
             if opts.stop_at_first and best_ids:
                 budget.stopped_by = "first solution"
             break
-        # Grow: a batch of free samples (and a goal sample from a region).
+        # Grow: a batch of free samples (and a goal sample from a region), and the
+        # expansion's random-bounce walks.
         m = min(batch, cap - samples)
-        fresh = sample_free(space, m, rng, max_draws=1000 * m)
+        expanding = not (lazy or best_ids or budget.out_of_time())  # until a first path
+        walks = math.ceil(expand * m / BOUNCE_STEPS) if expanding else 0
+        walks = min(walks, m // BOUNCE_STEPS)
+        m_uniform = m - walks * BOUNCE_STEPS
+        fresh = sample_free(space, m_uniform, rng, max_draws=1000 * max(1, m_uniform))
         samples += m
         new = graph.add_nodes(fresh)
+        if walks:
+            attempts, successes = _fit(attempts, graph.n), _fit(successes, graph.n)
+            walk_ends, chain_edges = _bounce_walks(
+                space, graph, (attempts, successes), walks, rng, budget
+            )
+            new = np.append(new, walk_ends)
+            expansion_nodes += chain_edges.shape[0]
+            attempts, successes = _fit(attempts, graph.n), _fit(successes, graph.n)
+            if chain_edges.shape[0]:
+                chain_cost = cost_of.motion_costs(
+                    graph.nodes[chain_edges[:, 0]], graph.nodes[chain_edges[:, 1]]
+                )
+                graph.add_edges(
+                    np.sort(chain_edges, axis=1), chain_cost, np.ones(len(chain_cost), np.int8)
+                )
+                # walk nodes count as hard to connect (OMPL: one attempt, no success)
+                inner = np.setdiff1d(chain_edges[:, 1], walk_ends)
+                attempts[inner] = 1.0
+                successes[inner] = 0.0
         if region is not None:
             sampled = region.sample(rng)
             if sampled is not None:
@@ -346,10 +398,73 @@ def _plan(
             "roadmap_nodes": float(graph.n),
             "roadmap_edges": float(graph.edges()[0].shape[0]),
             "search_rounds": float(rounds),
+            "expansion_nodes": float(expansion_nodes),
             "stopped_by": budget.stopped_by,
         },
     )
     return result, graph, (version, model_version)
+
+
+def _fit(counts: FloatArray, n: int) -> FloatArray:
+    """``counts`` with room for ``n`` nodes (zeros appended)."""
+    if counts.size >= n:
+        return counts
+    out = np.zeros(2 * n)
+    out[: counts.size] = counts
+    return out
+
+
+def _bounce_walks(
+    space: ConfigurationSpace,
+    graph: _Graph,
+    counts: tuple[FloatArray, FloatArray],
+    walks: int,
+    rng: np.random.Generator,
+    budget: Budget,
+) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]]:
+    """The expansion step: random-bounce walks from nodes that fail to connect.
+
+    Each walk starts at a node drawn with probability proportional to its failed connection
+    ratio ``(attempts - successes) / attempts`` and takes up to :data:`BOUNCE_STEPS` steps,
+    each towards a uniform sample as far as the line is free: its points at the space's
+    resolution are checked in order up to the first colliding one (one checker call), and
+    the last free one is the next node (the segment to it is free at the resolution: its
+    points are those checked). Returns the walks' end nodes (to be connected to their
+    nearest nodes) and the chain edges ``(from, to)`` (free). No walk starts after the
+    deadline.
+    """
+    attempts, successes = counts
+    n = graph.n
+    tried = attempts[:n]
+    weights = np.where(tried > 0, (tried - successes[:n]) / np.maximum(tried, 1.0), 0.0)
+    total = float(weights.sum())
+    if total <= 0.0:
+        return np.empty(0, np.int64), np.empty((0, 2), np.int64)
+    sources = rng.choice(n, size=walks, p=weights / total)
+    ends: list[int] = []
+    edges: list[tuple[int, int]] = []
+    delta = space.edge.resolution
+    for v in sources.tolist():
+        if budget.out_of_time():
+            break
+        q, node = graph.nodes[v].copy(), int(v)
+        for target in space.sample_uniform(rng, BOUNCE_STEPS):
+            length = space.distance(q, target)
+            steps = max(1, math.ceil(length / delta - 1e-12))
+            t = np.arange(1, steps + 1) / steps
+            points = space.interpolate(q, target, t)
+            bad = space.first_invalid(points)
+            reached = steps if bad < 0 else bad
+            if reached == 0:
+                continue  # blocked at once: bounce towards the next sample
+            q = points[reached - 1].copy()
+            child = int(graph.add_nodes(q[None, :])[0])
+            edges.append((node, child))
+            node = child
+        if node != v:
+            ends.append(node)
+    space.edge_checks += len(edges)
+    return np.asarray(ends, np.int64), np.asarray(edges, np.int64).reshape(-1, 2)
 
 
 def _roadmap(graph: _Graph, versions: tuple[int | None, int | None], lazy: bool) -> Roadmap:
