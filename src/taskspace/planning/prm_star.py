@@ -106,7 +106,7 @@ class PRMStarOptions:
     certify: bool = False
     certify_retries: int = 2
     certify_tolerance: float = 1e-4
-    expand_fraction: float = 0.25
+    expand_fraction: float = 0.5
 
 
 BOUNCE_STEPS = 5
@@ -449,6 +449,8 @@ def _bounce_walks(
             break
         q, node = graph.nodes[v].copy(), int(v)
         for target in space.sample_uniform(rng, BOUNCE_STEPS):
+            if budget.out_of_time():  # one line's checks at most past the deadline
+                break
             length = space.distance(q, target)
             steps = max(1, math.ceil(length / delta - 1e-12))
             t = np.arange(1, steps + 1) / steps
