@@ -121,6 +121,87 @@ def test_motion_bounds_hold_for_every_sphere(robot: Any) -> None:
     assert max(ratios) > 0.6 and max(pair_ratios) > 0.6
 
 
+def test_certified_radius_matches_a_reference(robot: Any) -> None:
+    """The kernel's certified radius (``clearance``: the minimum over the collision pairs of
+    the spheres' clearance over the pair's rate) recomputed here from Pinocchio's kinematics:
+    sphere-box distances (analytic), sphere-base distances (coal, less GJK's tolerance as the
+    kernel), sphere-sphere distances for the self pairs, the rates from the motion bounds
+    (per link; per self pair the joints that move one link only). Equal: the kernel's culling
+    drops no pair that matters (a radius too large) and adds no slack."""
+    _, space = _space(robot, "cage")
+    kernel = space.checker.sphere_kernel()
+    spheres = space.checker.sphere_model()
+    joints, mb = kernel.motion_bounds()
+    model, geom = robot.model, robot.collision_model
+    data, gdata = model.createData(), geom.createData()
+    row = {int(j): r for r, j in enumerate(joints)}
+    anc = np.zeros((len(joints), robot.nq), bool)
+    for r, j in enumerate(joints):
+        for k in model.supports[int(j)][1:]:
+            anc[r, model.joints[k].idx_v] = True
+    pin.updateGeometryPlacements(model, data, geom, gdata, pin.neutral(model))
+    static = {}
+    for g, obj in enumerate(geom.geometryObjects):
+        if obj.parentJoint == 0:
+            static[g] = (obj.geometry, pin.SE3(gdata.oMg[g]))
+    pairs = [
+        (p.first, p.second)
+        for k, p in enumerate(geom.collisionPairs)
+        if gdata.activeCollisionPairs[k]
+    ]
+    rng = np.random.default_rng(4)
+    compared = touching = 0
+    while compared < 40:
+        q = rng.uniform(space.lower, space.upper)
+        d = rng.standard_normal(robot.nq) * rng.uniform(0.05, 1.0)
+        pin.forwardKinematics(model, data, q)
+        centres = spheres.world_centers(data)
+        rate = mb @ np.abs(d)
+        ref, hit = 1.0, False
+        for g1, g2 in pairs:
+            if g1 in static and g2 in static:
+                continue
+            if g1 in static or g2 in static:
+                o, m = (g1, g2) if g1 in static else (g2, g1)
+                sel = spheres.geometries == m
+                c, r = centres[sel], spheres.radii[sel]
+                shape, placement = static[o]
+                if isinstance(shape, coal.Box):
+                    local = (c - placement.translation) @ placement.rotation
+                    gap = np.maximum(np.abs(local) - shape.halfSide, 0.0)
+                    dist = np.linalg.norm(gap, axis=1)
+                else:
+                    tf = coal.Transform3s(placement.rotation, placement.translation)
+                    dist = np.empty(len(c))
+                    for i, (ci, ri) in enumerate(zip(c, r, strict=True)):
+                        res = coal.DistanceResult()
+                        ball = coal.Sphere(ri)
+                        at = coal.Transform3s(np.eye(3), ci)
+                        coal.distance(ball, at, shape, tf, coal.DistanceRequest(), res)
+                        dist[i] = res.min_distance + ri - 1e-6  # coal's, less the tolerance
+                clear = dist - r
+                pair_rate = rate[row[int(geom.geometryObjects[m].parentJoint)]]
+            else:
+                s1, s2 = spheres.geometries == g1, spheres.geometries == g2
+                gap = np.linalg.norm(centres[s1][:, None] - centres[s2][None], axis=2)
+                clear = (gap - spheres.radii[s1][:, None] - spheres.radii[s2][None]).ravel()
+                r1 = row[int(geom.geometryObjects[g1].parentJoint)]
+                r2 = row[int(geom.geometryObjects[g2].parentJoint)]
+                only = mb[r1] * (anc[r1] & ~anc[r2]) + mb[r2] * (anc[r2] & ~anc[r1])
+                pair_rate = only @ np.abs(d)
+            hit = hit or bool(np.any(clear <= 0.0))
+            if pair_rate > 0.0:
+                ref = min(ref, float(np.min(clear)) / pair_rate)
+        got = kernel.clearance(q, d, 1.0)
+        if hit:
+            touching += 1
+            assert got == 0.0
+            continue
+        compared += 1
+        assert got == pytest.approx(ref, rel=1e-9, abs=2e-6 / rate.min())
+    assert touching > 0
+
+
 @pytest.mark.parametrize("scenario", ["table_pick", "cage"])
 def test_certified_edges_are_free(robot: Any, scenario: str) -> None:
     """Random edges from free configurations: every edge certify_edge certifies is free for
