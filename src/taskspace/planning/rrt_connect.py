@@ -711,7 +711,8 @@ def _plan(
     delta_c = delta
     if opts.coarse_resolution is not None:
         delta_c = max(delta, check_positive(opts.coarse_resolution, "coarse_resolution"))
-    diameter = float(np.linalg.norm(space.upper - space.lower))
+    width = space.upper - space.lower
+    diameter = math.sqrt(float(np.dot(width, width)))  # (np.linalg.norm: 3 us more)
     if diameter / min(alpha, delta) > _MAX_LINE_PIECES or delta_c / delta > _MAX_LINE_PIECES:
         raise InvalidInputError(
             f"step_size={alpha:g} and the space's resolution {delta:g} are too small for bounds "
@@ -892,6 +893,8 @@ _REGION_EVERY = 64
 
 def _is_goal_set(goal: Any) -> bool:
     """Whether ``goal`` is several goal configurations (k, d) or a goal region."""
+    if type(goal) is np.ndarray:  # the common case, before the protocol check (about 10 us)
+        return goal.ndim == 2
     from taskspace.planning.rrt_star import GoalRegion
 
     if isinstance(goal, GoalRegion):
