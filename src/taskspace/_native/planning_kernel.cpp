@@ -85,6 +85,21 @@
 // configuration; kinematics about 0.22 us of it, the link masks 0.17 us. GJK warm start: off
 // (see the constructor).
 //
+// Edge clearance certificates (checker kClearance, rrt_connect only; #22 items 4-5): the sphere
+// check returns a certified radius instead of a verdict (spheres_clearance: each sphere's
+// clearance to the obstacles and to the spheres of its self pairs, over a per-link bound on
+// how fast its centre moves along the edge, mb_ from the joint placements), and
+// certify_edge covers a whole edge with such intervals; the tree edges are then free
+// everywhere, no lazy fine pass (see the comment above setup_motion_bounds). Measured
+// (2026-11-27, loaded 2-core machine, every 5th MotionBenchMaker problem, validator
+// "spheres"): median 0.85 ms against 0.59 for "spheres_only"; on the 36 problems without a
+// fallback 0.54 against 0.36 ms, 332 against 321 checks: a clearance check costs about twice a
+// point check (distances instead of the first hit) and certifies about as much edge as the
+// coarse points plus the fine pass check, because the radius is about 7x below the first
+// contact along the edge (median over random configurations: the bound is a worst case over
+// all configurations and the clearance is Euclidean, not along the motion). Its value is the
+// guarantee: a path with log path_certified is free everywhere along it.
+//
 // Interrupts, limits and threads. rrt_connect checks every argument (InvalidInputError, a
 // TaskspaceError, raised from here: NaN, non-finite bounds, negative counts, steps too small
 // for the bounds) and plans with the GIL released; every kPollInterval (2 ms) it takes the GIL
