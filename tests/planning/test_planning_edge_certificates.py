@@ -326,6 +326,31 @@ def test_planned_paths_are_certified(robot: Any, scenario: str) -> None:
     assert n_certified >= 1 if ends_free else n_certified == 0
 
 
+def test_spheres_without_the_volume_certificate_certify_no_path(robot: Any) -> None:
+    """Spheres set without sphere_model's volume certificate (certified_margin 0) certify the
+    spheres, not the meshes: no path is reported certified (the exact re-check runs)."""
+    req, space = _space(robot, "bookshelf_small")
+    kernel = space.checker.sphere_kernel()
+    spheres = space.checker.sphere_model()
+    args = (
+        spheres.centers,
+        spheres.radii,
+        spheres.joints.astype(np.int32),
+        spheres.geometries.astype(np.int32),
+    )
+    opts = RRTConnectOptions(seed=0, checker="clearance")
+    try:
+        kernel.set_spheres(*args)  # no certificate
+        res = rrt_connect(space, req.start, req.goal, opts)
+        assert res.success and res.log["path_certified"] == 0.0
+        assert res.log["exact_recheck_checks"] > 0.0
+    finally:
+        kernel.set_spheres(*args, spheres.certified_margin)
+    res = rrt_connect(space, req.start, req.goal, opts)
+    assert res.success and res.log["path_certified"] == 1.0
+    assert res.log["exact_recheck_checks"] == 0.0
+
+
 def test_bad_inputs(robot: Any) -> None:
     _, space = _space(robot, "box")
     kernel = space.checker.sphere_kernel()

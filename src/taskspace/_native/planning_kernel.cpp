@@ -2121,8 +2121,9 @@ class RRTConnect {
     }
     res.t_recheck = seconds(t_r, clock::now());
     if (res.status != kSolved) return;
-    res.path_certified =
-        certify_ && res.fallback_iteration < 0 && !root_colliding_[0] && !root_colliding_[1];
+    // (free for the spheres everywhere; for the meshes with the spheres' volume certificate)
+    res.path_certified = certify_ && ck_.spheres_certified() && res.fallback_iteration < 0 &&
+                         !root_colliding_[0] && !root_colliding_[1];
     double length = 0.0;
     const std::size_t n_nodes = res.path.size() / d_;
     for (std::size_t i = 0; i + 1 < n_nodes; ++i)
