@@ -134,6 +134,22 @@ Measurements formerly kept in ``taskspace.planning.rrt_connect``'s docstring (ol
     themselves several times cheaper (VAMP: float lanes over many configurations) or
     fewer of them (a clearance certificate over whole edges).
 
+    Edge clearance certificates (2026-11-27, branch plan02; row ``rrt_connect_clearance``,
+    ``checker="clearance"``): a sphere check returns a certified radius along the edge (the
+    spheres' clearances over a per-link bound on their speed per radian) and every tree edge
+    is covered by such intervals, so the edges are free everywhere, not only at their
+    points, and there is no fine pass. Slower, not faster: median 0.806-0.817 ms (two
+    rounds, measure_min.py in /work/notes/s22/H4-plan02, same method as above, load about
+    10), 131 of the 313 paths certified whole (the others start or end closer to an obstacle
+    than the spheres' margin, or fell back to ``"spheres"``: 96 fallbacks against 90), all
+    solved; phases: tree growth 701-708 us, fine pass 15, 518 checks. With
+    ``validator="spheres"`` ``"spheres_only"`` took 0.458-0.463 ms in the same rounds (main
+    0.488-0.494: 12 us less Python per plan in this branch). A clearance check costs about
+    twice a point check and its radius is about 7x below the first contact along the edge
+    (a worst-case bound, a Euclidean clearance), so it certifies about as much edge per check
+    as the coarse points and the fine pass check: fewer checks needs tighter, configuration-
+    dependent bounds; cheaper checks need float lanes.
+
     Measured for the Python path (same problems, same checker, 2-core machine; see
     ``benchmarks/suites/planning.py``):
     the lazy coarse-to-fine checks need about 35 % fewer collision checks than checking every
@@ -177,6 +193,7 @@ METHODS = (
     "rrt_connect_spheres",
     "rrt_connect_spheres_only",
     "rrt_connect_spheres_only_validator_spheres",
+    "rrt_connect_clearance",
     "rrt_connect_python",
     "rrt_connect_classic",
     "lazy_prm",
@@ -187,6 +204,7 @@ OURS_RRT = (
     "taskspace rrt_connect_spheres",
     "taskspace rrt_connect_spheres_only",
     "taskspace rrt_connect_spheres_only_validator_spheres",
+    "taskspace rrt_connect_clearance",
     "taskspace rrt_connect_python",
     "taskspace rrt_connect_classic",
 )
@@ -290,6 +308,7 @@ def _plan_problem(item: tuple[Any, ...], rng: np.random.Generator, robot: Any) -
         ("rrt_connect_spheres", 0.15, 0.5, True, "spheres"),
         ("rrt_connect_spheres_only", 0.15, 0.5, True, "spheres_only"),
         ("rrt_connect_spheres_only_validator_spheres", 0.15, 0.5, True, "spheres_only"),
+        ("rrt_connect_clearance", 0.15, 0.5, True, "clearance"),
         ("rrt_connect_python", 0.15, 0.5, False, "mesh"),
         ("rrt_connect_classic", None, 0.0, True, "mesh"),
     ):
@@ -302,7 +321,9 @@ def _plan_problem(item: tuple[Any, ...], rng: np.random.Generator, robot: Any) -
             seed=k,
             native=native,
             checker=checker,
-            validator="spheres" if method.endswith("_validator_spheres") else "mesh",
+            validator=(
+                "spheres" if method.endswith(("_validator_spheres", "_clearance")) else "mesh"
+            ),
         )
         res = rrt_connect(space, req.start, req.goal, opts)
         row = {

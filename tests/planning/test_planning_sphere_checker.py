@@ -447,7 +447,7 @@ def test_bad_inputs(robot: Any) -> None:
             spheres.geometries.astype(np.int32),
         )
     space = ConfigurationSpace.from_robot(robot)
-    with pytest.raises(UnknownNameError, match="valid checkers are: mesh, spheres"):
+    with pytest.raises(UnknownNameError, match="valid checkers are: clearance, mesh, spheres"):
         rrt_connect(space, q[0], q[0], RRTConnectOptions(checker="sphere"))
     with pytest.raises(UnknownNameError, match="valid validators are: mesh, spheres"):
         rrt_connect(space, q[0], q[0], RRTConnectOptions(validator="exact"))
