@@ -12,6 +12,9 @@
 
 #include <boost/python.hpp>
 #include <eigenpy/eigenpy.hpp>
+#ifdef TASKSPACE_IK_PROXSUITE  // the general step's proxsuite engine (general_step.hpp)
+#include <proxsuite/proxqp/dense/dense.hpp>
+#endif
 
 #if __has_include(<pinocchio/multibody/data.hpp>)  // Pinocchio 3
 #include <pinocchio/multibody/data.hpp>
@@ -34,6 +37,8 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <map>
+#include <memory>
 #include <stdexcept>
 #include <string>
 #include <vector>
