@@ -645,6 +645,7 @@ class WeightedIKKernel {
           pinocchio::getFrameJacobian(model, data, it.frame, pinocchio::LOCAL, J6_);
           Eigen::Matrix3d jlog3;
           pinocchio::Jlog3(err, jlog3);
+          jlog3 = w_.segment<3>(it.row).asDiagonal() * jlog3;  // the rows' weights
           for (int a = 0; a < ns; ++a)
             rows.col(it.rows[a]) = jlog3 * J6_.col(it.rows[a]).tail<3>();
           e = pinocchio::log3(err);
