@@ -165,7 +165,9 @@ class GeneralIKStep {
       status = solve_proxsuite(k, meq, md, mc, iterations);
     } else {
       bool done = false;
-      if (warm_start_ && warm_valid_) {
+      // (without equalities and with no row active before, the warm start would test the
+      // unconstrained minimizer: GoldfarbIdnani's own first test)
+      if (warm_start_ && warm_valid_ && (meq > 0 || !prev_.empty())) {
         // the previous step's active rows (those that still exist), held with equality;
         // kept only when that point is feasible with nonnegative multipliers, i.e. optimal
         set_.clear();
