@@ -232,6 +232,11 @@ def test_orientation_as_a_weighted_task_on_the_compiled_path(panda: Robot) -> No
             )
             q = pin.integrate(panda.model, q, r.dq)
         assert np.linalg.norm(orientation.error(state)) > 0.01  # the target moved away
+        # the fused step (the armed lean step on the box-only stack) moves the state so
+        moved = panda.state(q)
+        step = native.solve(moved, 0.05).dq
+        native.advance(moved, 0.05)
+        np.testing.assert_allclose(moved.q, pin.integrate(panda.model, q, step), atol=1e-12)
 
 
 def test_unknown_engine_is_refused_with_the_valid_names() -> None:

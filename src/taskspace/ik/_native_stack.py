@@ -5,8 +5,8 @@ Pinocchio data, ``H = M^T M + mu I``, boxes combined by the rules of
 :func:`taskspace.qp.rows.combine_boxes`) and solves it exactly with a primal active-set
 method on the box. It serves stacks whose every feature declares a
 :class:`~taskspace.features.compiled.CompiledTerm` (frame poses, frame origins, the center of
-mass, postures), with box constraints (joint position, velocity and acceleration limits) and
-inequality rows whose constraints declare a
+mass, postures, frame orientations), with box constraints (joint position, velocity and
+acceleration limits) and inequality rows whose constraints declare a
 :class:`~taskspace.features.compiled.CompiledConstraint` (collision velocity dampers: coal
 distances computed in the kernel). With rows, the box solution is kept when it satisfies
 them; otherwise a primal-dual active-set method on the rows and the box runs from the box's
@@ -17,10 +17,12 @@ Equality tasks and the inequality rows of constraints that declare no rows the k
 evaluates (:class:`~taskspace.constraints.FeatureBounds`, a user's rows) are evaluated in
 Python (:class:`~taskspace.qp.rows.TaskRowStack`, :class:`~taskspace.qp.rows.InequalityStack`)
 and the whole QP, with the kernel's task rows, box and dampers, is solved by the kernel's
-general step (``taskspace/_native/general_step.hpp``: the dual active-set method of the
-hierarchical kernel, equalities first); its step is accepted only when its KKT residuals meet
-the solver's tolerances. A step the kernel declines takes the Python path, and the result says
-why (:data:`DECLINED`, ``IKStepResult.native_declined``).
+general step (``taskspace/_native/general_step.hpp``: by default the dual active-set method of
+the hierarchical kernel, equalities first, warm-started with the previous step's active set;
+or proxsuite's dense solver in C++, see :meth:`NativeWeightedStack._choose_engine`); its step
+is accepted only when its KKT residuals meet the solver's tolerances. A step the kernel
+declines takes the Python path, and the result says why (:data:`DECLINED`,
+``IKStepResult.native_declined``).
 """
 
 from __future__ import annotations

@@ -181,15 +181,17 @@ class DifferentialIKOptions:
         native: run the compiled kernel (``taskspace/_native``) when it is built and the
             stack is one it serves: every task's feature declares a compiled term
             (:meth:`~taskspace.features.feature.Feature.compiled_term`: frame pose, frame
-            origin, center of mass, posture). Boxes (joint position, velocity, acceleration
-            limits) and the inequality rows whose constraint declares that the kernel
-            evaluates them
+            origin, frame orientation, center of mass, posture). Boxes (joint position,
+            velocity, acceleration limits) and the inequality rows whose constraint declares
+            that the kernel evaluates them
             (:meth:`~taskspace.constraints.constraint.Constraint.compiled_constraint`:
             collision velocity dampers, coal distances computed in the kernel) are solved by
             a primal active-set method on the box, then a primal-dual active-set method on
             the rows and the box when the box solution violates a row. Equality tasks and
             the other inequality rows (feature bounds, a user's rows; evaluated in Python)
-            are solved with them by the kernel's general step (a dual active-set method).
+            are solved with them by the kernel's general step (a dual active-set method
+            warm-started with the previous step's active set, or proxsuite: see
+            ``native_general_engine``).
             A step with rows carries its KKT residuals and is accepted only within the
             tolerances of ``solver``; other stacks, and any step the kernel declines (its
             reason in ``IKStepResult.native_declined``), take the Python path with
