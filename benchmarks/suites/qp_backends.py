@@ -15,7 +15,9 @@ Problem sets (each a sequence of QPs copied from a real run):
   a run: the ``ik`` suite's ``panda equality + rows`` scene (tcp orientation held by an
   equality task, two joint-space half-spaces), G1 with the hands moving, the feet held by
   equality tasks and the CoM's box edge 2 mm behind the CoM (active), and the ``ik``
-  suite's Panda dampers scene (collision dampers, solved here by the general step). Besides
+  suite's Panda dampers scene (collision dampers, solved here by the general step), and the
+  ``ik`` suite's weighted G1 scene with 60 random joint-space half-spaces 2 mm from the start
+  (``general g1 60 rows``: many rows active at once). Besides
   the Python backends on the Python path's QPs of the same states, the compiled engines
   (``DifferentialIKOptions.native_general_engine``) solve them in C++ at each step: the
   dual active-set method warm-started with the previous step's active set (``active set``;
@@ -62,10 +64,12 @@ from taskspace import features as F
 from taskspace._native import ik_kernel
 from taskspace.constraints import (
     CollisionAvoidance,
+    Constraint,
     FeatureBounds,
     JointPositionLimits,
     JointVelocityLimits,
 )
+from taskspace.features.rows import InequalityRows
 from taskspace.ik import DifferentialIK, DifferentialIKOptions
 from taskspace.model import Obstacle, Robot
 from taskspace.qp import QPProblem, QPSolver, QPSolverOptions, QPStatus, available_backends
@@ -316,6 +320,44 @@ def _general_dampers(steps: int) -> tuple[Robot, Any, list[Any], list[Any], list
     return robot, state, [pose, posture], constraints, [], target, ik_suite.DEMO_DT
 
 
+class _JointRows(Constraint):
+    """A user's joint-space half-spaces ``A q_j <= b`` on the joint coordinates ``q_j`` (the
+    configuration after the free flyer's 7): rows ``A dq_j <= b - A q_j``."""
+
+    def __init__(self, robot: Robot, A: np.ndarray, b: np.ndarray) -> None:
+        super().__init__(robot, "joint half-spaces")
+        self.A, self.b = A, b
+        self._start = robot.nq - A.shape[1]
+        self._lower = np.full(len(b), -np.inf)
+
+    def inequalities(self, state: Any, dt: float) -> InequalityRows:
+        C = np.zeros((len(self.b), self.robot.nv))
+        C[:, self.robot.nv - self.A.shape[1] :] = self.A
+        return InequalityRows(C, self._lower, self.b - self.A @ state.q[self._start :])
+
+
+def _general_g1_rows() -> tuple[Robot, Any, list[Any], list[Any], list[Any], Any, float]:
+    """The weighted G1 scene of the ``ik`` suite (feet, CoM, hands, posture as tasks) with 60
+    random joint-space half-spaces 2 mm from the start: about 28 rows active per step."""
+    robot = Robot.load("g1")
+    groups, moving = ik_suite.g1_tasks(robot)
+    state = robot.state(robot.q_default)
+    rng = np.random.default_rng(0)
+    A = rng.standard_normal((60, robot.nv - 6))
+    rows = _JointRows(robot, A, A @ robot.q_default[7:] + 0.002)
+    tasks = [t for g in groups.values() for t in g]
+    constraints = [JointPositionLimits(robot), JointVelocityLimits(robot), rows]
+
+    def target(k: int) -> None:
+        off = ik_suite.hand_offset(k)
+        for task, T0 in moving:
+            T = T0.copy()
+            T.translation = T0.translation + off
+            task.set_target(T)
+
+    return robot, state, tasks, constraints, [], target, ik_suite.DT
+
+
 def general_sets(scene: str, steps: int) -> tuple[list[QPProblem], dict[str, dict[str, Any]]]:
     """One run of a general-step scene: the Python path's QP at each state, and each
     compiled engine's results at the same states (the run follows the first engine)."""
@@ -324,6 +366,8 @@ def general_sets(scene: str, steps: int) -> tuple[list[QPProblem], dict[str, dic
         robot, state, tasks, constraints, equality, target, dt = _general_panda()
     elif scene == "general g1":
         robot, state, tasks, constraints, equality, target, dt = _general_g1()
+    elif scene == "general g1 60 rows":
+        robot, state, tasks, constraints, equality, target, dt = _general_g1_rows()
     else:
         robot, state, tasks, constraints, equality, target, dt = _general_dampers(steps)
     python = DifferentialIK(
@@ -393,6 +437,7 @@ def run(quick: bool) -> list[Row]:
         ("general panda", 300 if quick else 1500),
         ("general g1", 60 if quick else 300),
         ("general panda dampers", 100 if quick else 400),
+        ("general g1 60 rows", 30 if quick else 150),
     ):
         problems, compiled[scene] = general_sets(scene, steps)
         sets[scene] = (problems, 1e-9)

@@ -324,10 +324,12 @@ class NativeWeightedStack:
 
         ``"auto"`` chooses ``"active_set"`` for every problem class the general step serves
         (weighted stacks with equality tasks, with a user's rows or feature bounds, with
-        collision dampers, on arms and floating-base humanoids): the project's default QP
-        backend is proxsuite, but the warm-started active-set method was faster on each of
-        these classes, with the same answers and KKT residuals (``python -m benchmarks.run
-        qp_backends``, rows ``general ...``, and ``benchmarks/suites/qp_backends.py``).
+        collision dampers, on arms and floating-base humanoids, with a few or dozens of
+        active rows): the project's default QP backend is proxsuite, but the warm-started
+        active-set method was faster on each of these classes, with the same answers and KKT
+        residuals (``python -m benchmarks.run qp_backends``, sets ``general ...``; with
+        dozens of rows active proxsuite beats the active-set method started cold, not the
+        warm-started one).
         """
         if engine not in GENERAL_ENGINES:
             raise InvalidInputError(
