@@ -189,14 +189,16 @@ class GeneralIKStep {
     }
     warm_valid_ = false;
     double objective = std::numeric_limits<double>::quiet_NaN();
-    if (status == kSolved) {
-      // multipliers signed as proxsuite's (H x + g + A'y + C'z + z_box = 0): a row
-      // sign * c'x >= rhs with multiplier w contributes -sign * w to c's multiplier
+    bool active = false;
+    // multipliers signed as proxsuite's (H x + g + A'y + C'z + z_box = 0): a row
+    // sign * c'x >= rhs with multiplier w contributes -sign * w to c's multiplier; then the
+    // KKT check of the step
+    auto certify = [&]() {
       y_.setZero(meq);
       z_.setZero(mc);
       zd_.setZero(md);
       zbox_.setZero(n);
-      bool active = false;
+      active = false;
       for (int r = 0; r < m; ++r) {
         const double v = -sign_[r] * w_[r];
         if (w_[r] != 0.0) active = true;
@@ -207,9 +209,24 @@ class GeneralIKStep {
           default: z_[index_[r]] += v; break;
         }
       }
-      if (!kkt(k)) {
-        status = kNotCertified;
-      } else {
+      return kkt(k);
+    };
+    const bool have_point = status == kSolved;
+    if (status == kSolved) {
+      bool certified = certify();
+      if (!certified && engine_ == kEngineProxsuite && !last_fresh_) {
+        // a warm proxsuite run whose point is not certified: once more from a fresh
+        // workspace (a stale preconditioner or warm start, as the Python path rebuilds it)
+        drop_workspace();
+        int more = 0;
+        status = solve_proxsuite(k, meq, md, mc, more);
+        iterations += more;
+        certified = status == kSolved && certify();
+      }
+      if (status == kSolved && !certified) status = kNotCertified;
+    }
+    if (have_point) {
+      if (status == kSolved) {
         if (!active && meq == 0) status = kUnconstrained;
         // the active inequality rows, the next step's warm start
         prev_.clear();
@@ -219,7 +236,7 @@ class GeneralIKStep {
       }
       k.x_ = x_;
       objective = 0.5 * x_.dot(k.H_ * x_) + k.g_.dot(x_);
-      if (status != kNotCertified) out = x_;
+      if (status == kSolved || status == kUnconstrained) out = x_;
     }
     k.warm_ = false;  // the box QP's active set is not this step's
     const auto t3 = std::chrono::steady_clock::now();
@@ -408,10 +425,12 @@ class GeneralIKStep {
     lbq_ = k.lb_.cwiseMax(-WeightedIKKernel::kInf);
     ubq_ = k.ub_.cwiseMin(WeightedIKKernel::kInf);
     const long key = (static_cast<long>(meq) << 32) | static_cast<long>(nin);
+    last_key_ = key;
     iterations = 0;
     for (int attempt = 0; attempt < 2; ++attempt) {
       auto it = qps_.find(key);
       const bool fresh = it == qps_.end();
+      last_fresh_ = fresh;
       if (fresh) {
         if (qps_.size() >= 16) qps_.clear();
         auto qp = std::make_unique<pq::dense::QP<double>>(n, meq, nin, true);
@@ -476,12 +495,18 @@ class GeneralIKStep {
     return kNotCertified;
   }
 
+  // forget the workspace of the last proxsuite solve
+  void drop_workspace() { qps_.erase(last_key_); }
+
   std::map<long, std::unique_ptr<proxsuite::proxqp::dense::QP<double>>> qps_;
+  long last_key_ = -1;
   MatrixXd Aq_, Cq_;
   VectorXd lq_, uq_, lbq_, ubq_, px_, wp_;
 #else
   int solve_proxsuite(WeightedIKKernel&, int, int, int, int&) { return kNotCertified; }
+  void drop_workspace() {}
 #endif
+  bool last_fresh_ = true;  // whether the last proxsuite solve started from a new workspace
 
   // A_, b_: the equality kernel's weighted rows (sqrt(w) J, -gain sqrt(w) e) then the
   // Python equality rows; C_, l_, u_: the Python inequality rows.
