@@ -145,8 +145,9 @@ def supported(
 
 DECLINED = {
     2: "the compiled active-set method did not settle or its step missed the KKT tolerances",
-    3: "the compiled dual active-set method found no point satisfying the equality, "
-    "inequality and box rows (or stopped at a degenerate vertex)",
+    3: "the compiled general step found no point satisfying the equality, inequality and "
+    "box rows (the dual active-set method: or it stopped at a degenerate vertex; proxsuite: "
+    "its primal infeasibility test, which feasible problems with large multipliers can pass)",
     4: "the equality rows are linearly dependent (redundant or conflicting equality tasks)",
     5: "the compiled general step's KKT residuals exceed the solver's tolerances",
     6: "the QP's Hessian M^T M + mu I is not positive definite (damping 0 and a "
