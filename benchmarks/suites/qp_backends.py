@@ -10,6 +10,26 @@ Problem sets (each a sequence of QPs copied from a real run):
   sent 0.78 m away (out of reach: the cascade's levels hold active inequalities; in the
   benchmark scene itself the equality cascade already satisfies them and no QP is solved).
 
+* ``general panda`` / ``general g1`` / ``general panda dampers``: QPs of the compiled general
+  IK step (``DifferentialIK`` stacks with equality tasks or rows evaluated in Python) along
+  a run: the ``ik`` suite's ``panda equality + rows`` scene (tcp orientation held by an
+  equality task, two joint-space half-spaces), G1 with the hands moving, the feet held by
+  equality tasks and the CoM's box edge 2 mm behind the CoM (active), and the ``ik``
+  suite's Panda dampers scene (collision dampers, solved here by the general step), and the
+  ``ik`` suite's weighted G1 scene with 60 random joint-space half-spaces 2 mm from the start
+  (``general g1 60 rows``: many rows active at once). Besides
+  the Python backends on the Python path's QPs of the same states, the compiled engines
+  (``DifferentialIKOptions.native_general_engine``) solve them in C++ at each step: the
+  dual active-set method warm-started with the previous step's active set (``active set``;
+  ``cold``: without the warm start) and proxsuite's dense solver with its workspace kept
+  per problem size and warm-started (``proxsuite``). Their time is the kernel's QP time
+  (rows stacked, solve, KKT check; the QP's build is excluded, as for the Python backends),
+  their residuals the kernel's KKT residuals, ``success`` the steps not declined. **Choice
+  of the default** (``"auto"``): the active-set engine on every one of these classes; the
+  project's default backend is proxsuite, but here the warm-started active-set method is
+  faster on each class with the same answers (see these rows; the numbers of the last run
+  are in the README and the session reports).
+
 Each backend solves each set in sequence with one persistent :class:`QPSolver` per QP size (the
 way the library uses it, one per cascade level: proxsuite warm-started, preconditioner kept,
 unless the settings say otherwise), without the unconstrained
@@ -38,11 +58,20 @@ import numpy as np
 import pinocchio as pin
 
 from benchmarks.common import Row, Timing
+from benchmarks.suites import ik as ik_suite
 from benchmarks.suites import inverse_dynamics
 from taskspace import features as F
-from taskspace.constraints import JointPositionLimits, JointVelocityLimits
+from taskspace._native import ik_kernel
+from taskspace.constraints import (
+    CollisionAvoidance,
+    Constraint,
+    FeatureBounds,
+    JointPositionLimits,
+    JointVelocityLimits,
+)
+from taskspace.features.rows import InequalityRows
 from taskspace.ik import DifferentialIK, DifferentialIKOptions
-from taskspace.model import Robot
+from taskspace.model import Obstacle, Robot
 from taskspace.qp import QPProblem, QPSolver, QPSolverOptions, QPStatus, available_backends
 from taskspace.qp.hierarchy import CASCADE_SOLVER_OPTIONS, EXACT_FIRST_OPTIONS, HierarchySolver
 from taskspace.tasks import Task
@@ -210,6 +239,190 @@ def _run_set(
     }
 
 
+COMPILED_ENGINES = (
+    ("active set", "active_set", True),
+    ("active set cold", "active_set", False),
+    ("proxsuite", "proxsuite", True),
+)
+"""Compiled rows of the general sets: (row name, engine, warm start)."""
+
+
+def _general_panda() -> tuple[Robot, Any, list[Any], list[Any], list[Any], Any, float]:
+    """The ``ik`` suite's ``panda equality + rows`` scene."""
+    robot = Robot.load("panda")
+    state = robot.state(robot.q_default)
+    tcp = "panda_hand_tcp"
+    position = Task(F.Position(robot, tcp), name="tcp")
+    p0 = position.feature.value(state).copy()
+    orientation = Task(F.Orientation(robot, tcp), name="orientation")
+    orientation.set_target_from_state(state)
+    posture = Task(F.JointConfiguration(robot), robot.q_default, weight=1e-3, name="posture")
+    b = ik_suite.GENERAL_A @ robot.q_default + ik_suite.GENERAL_MARGIN
+    constraints = [
+        JointPositionLimits(robot),
+        JointVelocityLimits(robot),
+        ik_suite.JointHalfSpaces(robot, ik_suite.GENERAL_A, b),
+    ]
+
+    def target(k: int) -> None:
+        position.set_target(p0 + ik_suite.hand_offset(k))
+
+    return robot, state, [position, posture], constraints, [orientation], target, ik_suite.DT
+
+
+def _general_g1() -> tuple[Robot, Any, list[Any], list[Any], list[Any], Any, float]:
+    """G1: hands moving (the ``ik`` suite's offsets), feet as equality tasks, CoM, posture,
+    limits, the CoM's box over the feet with its front edge 2 mm behind the CoM (active)."""
+    robot = Robot.load("g1")
+    groups, moving = ik_suite.g1_tasks(robot)
+    state = robot.state(robot.q_default)
+    feet = np.array(
+        [state.frame_placement(robot.frame_id(f)).translation[:2] for f in ik_suite.G1_FEET]
+    )
+    support = FeatureBounds(
+        F.CenterOfMass(robot),
+        [feet[:, 0].min() - 0.05, feet[:, 1].min(), -np.inf],
+        [float(state.com()[0]) - 0.002, feet[:, 1].max(), np.inf],
+        name="CoM over the feet",
+    )
+    tasks = [*groups["hands"], *groups["com"], *groups["posture"]]
+    constraints = [JointPositionLimits(robot), JointVelocityLimits(robot), support]
+
+    def target(k: int) -> None:
+        off = ik_suite.hand_offset(k)
+        for task, T0 in moving:
+            T = T0.copy()
+            T.translation = T0.translation + off
+            task.set_target(T)
+
+    return robot, state, tasks, constraints, groups["feet"], target, ik_suite.DT
+
+
+def _general_dampers(steps: int) -> tuple[Robot, Any, list[Any], list[Any], list[Any], Any, float]:
+    """The ``ik`` suite's Panda dampers scene (tcp pose to the goal past the ball)."""
+    robot = Robot.load("panda", convex_collision=True)
+    tcp = robot.end_effectors[0]
+    state = robot.state(robot.q_default)
+    start = state.frame_placement(robot.frame_id(tcp)).copy()
+    goal = start.copy()
+    goal.translation = start.translation + np.array(ik_suite.DEMO_GOAL)
+    radius, offset = ik_suite.DEMO_BALL
+    robot.add_obstacle(Obstacle.sphere("ball", radius, start.translation + np.array(offset)))
+    pose = Task(F.FramePose(robot, tcp), weight=1.0, gain=0.5, name="tcp")
+    posture = Task(F.JointConfiguration(robot), robot.q_default, weight=1e-5, name="posture")
+    avoid = CollisionAvoidance(robot, safety_distance=0.02, influence_distance=0.12, gain=0.5)
+    constraints = [JointPositionLimits(robot), JointVelocityLimits(robot), avoid]
+
+    def target(k: int) -> None:
+        s = min(1.0, k / (0.75 * steps))
+        pose.set_target(pin.SE3.Interpolate(start, goal, 0.5 * (1 - np.cos(np.pi * s))))
+
+    return robot, state, [pose, posture], constraints, [], target, ik_suite.DEMO_DT
+
+
+class _JointRows(Constraint):
+    """A user's joint-space half-spaces ``A q_j <= b`` on the joint coordinates ``q_j`` (the
+    configuration after the free flyer's 7): rows ``A dq_j <= b - A q_j``."""
+
+    def __init__(self, robot: Robot, A: np.ndarray, b: np.ndarray) -> None:
+        super().__init__(robot, "joint half-spaces")
+        self.A, self.b = A, b
+        self._start = robot.nq - A.shape[1]
+        self._lower = np.full(len(b), -np.inf)
+
+    def inequalities(self, state: Any, dt: float) -> InequalityRows:
+        C = np.zeros((len(self.b), self.robot.nv))
+        C[:, self.robot.nv - self.A.shape[1] :] = self.A
+        return InequalityRows(C, self._lower, self.b - self.A @ state.q[self._start :])
+
+
+def _general_g1_rows() -> tuple[Robot, Any, list[Any], list[Any], list[Any], Any, float]:
+    """The weighted G1 scene of the ``ik`` suite (feet, CoM, hands, posture as tasks) with 60
+    random joint-space half-spaces 2 mm from the start: about 28 rows active per step."""
+    robot = Robot.load("g1")
+    groups, moving = ik_suite.g1_tasks(robot)
+    state = robot.state(robot.q_default)
+    rng = np.random.default_rng(0)
+    A = rng.standard_normal((60, robot.nv - 6))
+    rows = _JointRows(robot, A, A @ robot.q_default[7:] + 0.002)
+    tasks = [t for g in groups.values() for t in g]
+    constraints = [JointPositionLimits(robot), JointVelocityLimits(robot), rows]
+
+    def target(k: int) -> None:
+        off = ik_suite.hand_offset(k)
+        for task, T0 in moving:
+            T = T0.copy()
+            T.translation = T0.translation + off
+            task.set_target(T)
+
+    return robot, state, tasks, constraints, [], target, ik_suite.DT
+
+
+def general_sets(scene: str, steps: int) -> tuple[list[QPProblem], dict[str, dict[str, Any]]]:
+    """One run of a general-step scene: the Python path's QP at each state, and each
+    compiled engine's results at the same states (the run follows the first engine)."""
+    module: Any = ik_kernel()
+    if scene == "general panda":
+        robot, state, tasks, constraints, equality, target, dt = _general_panda()
+    elif scene == "general g1":
+        robot, state, tasks, constraints, equality, target, dt = _general_g1()
+    elif scene == "general g1 60 rows":
+        robot, state, tasks, constraints, equality, target, dt = _general_g1_rows()
+    else:
+        robot, state, tasks, constraints, equality, target, dt = _general_dampers(steps)
+    python = DifferentialIK(
+        robot, tasks, constraints, equality, options=DifferentialIKOptions(native=False)
+    )
+    engines = [e for e in COMPILED_ENGINES if module is not None and e[1] in module.GENERAL_ENGINES]
+    solvers: list[Any] = []
+    for _, engine, warm in engines:
+        ik: Any = DifferentialIK(
+            robot, tasks, constraints, equality, DifferentialIKOptions(native_general_engine=engine)
+        )
+        assert ik.native and ik._native is not None
+        if ik._native._general is None:  # dampers only: the general step solves them here
+            ik._native._general = module.GeneralIKStep()
+            ik._native._general.set_engine(module.GENERAL_ENGINES.index(engine))
+        ik._native._general.set_warm_start(warm)
+        solvers.append(ik)
+    # a solver run first at each state, not recorded: whichever engine ran first paid ~2 us
+    # more (the state's data and the kernel's code out of the caches), an order effect
+    warm_up: Any = DifferentialIK(robot, tasks, constraints, equality)
+    if warm_up.native and warm_up._native._general is None:
+        warm_up._native._general = module.GeneralIKStep()
+    problems: list[QPProblem] = []
+    out: dict[str, dict[str, Any]] = {
+        name: {"times": [], "solved": 0, "primal": 0.0, "dual": 0.0, "gap": 0.0, "statuses": {}}
+        for name, _, _ in engines
+    }
+    q = state.q.copy()
+    for k in range(steps):
+        target(k)
+        state.update(q)
+        problems.append(_snapshot(python.build(state, dt)))
+        dq = None
+        warm_up.solve(state, dt)
+        for (name, _, _), ik in zip(engines, solvers):
+            r = ik.solve(state, dt)
+            o = out[name]
+            key = r.native_declined or "solved"
+            o["statuses"][key] = o["statuses"].get(key, 0) + 1
+            if not r.native_declined:
+                o["times"].append(r.solve_time)
+                o["solved"] += r.qp.kkt.within(1e-9, 1e-9)
+                o["primal"] = max(o["primal"], r.qp.kkt.primal)
+                o["dual"] = max(o["dual"], r.qp.kkt.dual)
+                o["gap"] = max(o["gap"], r.qp.kkt.duality_gap)
+            dq = r.dq if dq is None else dq
+        q = pin.integrate(robot.model, q, dq if dq is not None else python.solve(state, dt).dq)
+    for (name, _, _), ik in zip(engines, solvers):
+        o = out[name]
+        o["times"] = np.array(o["times"])
+        o["success"] = f"{o['solved']}/{steps}"
+        o["warm"] = ik._native._general.warm_stats()
+    return problems, out
+
+
 def run(quick: bool) -> list[Row]:
     """Every available backend on every problem set."""
     n = 20 if quick else 200
@@ -219,6 +432,15 @@ def run(quick: bool) -> list[Row]:
         "id g1": (id_problems(n, hierarchical=False), 1e-9),
         "hierarchy g1": (id_problems(max(n // 4, 5), hierarchical=True), 1e-6),
     }
+    compiled: dict[str, dict[str, dict[str, Any]]] = {}
+    for scene, steps in (
+        ("general panda", 300 if quick else 1500),
+        ("general g1", 60 if quick else 300),
+        ("general panda dampers", 100 if quick else 400),
+        ("general g1 60 rows", 30 if quick else 150),
+    ):
+        problems, compiled[scene] = general_sets(scene, steps)
+        sets[scene] = (problems, 1e-9)
     rows = []
     for scene, (problems, eps_rel) in sets.items():
         if not problems:
@@ -248,6 +470,24 @@ def run(quick: bool) -> list[Row]:
                     },
                     ratio_to="daqp",
                     note=f"{len(problems)} QPs; statuses {out['statuses']}",
+                )
+            )
+        for name, o in compiled.get(scene, {}).items():
+            rows.append(
+                Row(
+                    SUITE,
+                    scene,
+                    f"compiled {name}",
+                    Timing.from_samples(o["times"]),
+                    {
+                        "success": o["success"],
+                        "max_primal_residual": f"{o['primal']:.1e}",
+                        "max_dual_residual": f"{o['dual']:.1e}",
+                        "max_duality_gap": f"{o['gap']:.1e}",
+                    },
+                    ratio_to="daqp",
+                    note=f"{len(problems)} steps; statuses {o['statuses']}; (warm start kept, "
+                    f"missed, proxsuite workspaces made) {o['warm']}",
                 )
             )
         for method, backend, options in methods:

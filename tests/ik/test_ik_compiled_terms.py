@@ -55,10 +55,12 @@ def test_declared_terms(panda: Robot) -> None:
     assert compiled_term(CenterOfMass(panda)) == CompiledTerm("com")
     assert compiled_term(JointConfiguration(panda)) == CompiledTerm("posture")
     assert compiled_term(Position(panda, "panda_hand_tcp", offset=[0, 0, 0.1])) is None
-    # served by the inverse-dynamics kernel only: the IK kernel refuses the kind
+    # the hierarchical IK kernel does not evaluate orientations (IK_KINDS); the weighted
+    # kernel does when it has add_orientation
     assert compiled_term(Orientation(panda, "panda_hand_tcp")) == CompiledTerm("orientation", fid)
     assert "orientation" not in IK_KINDS
-    assert not supported([Task(Orientation(panda, "panda_hand_tcp"), np.eye(3))])
+    weighted = ik_kernel() is not None and hasattr(ik_kernel().WeightedIKKernel, "add_orientation")
+    assert supported([Task(Orientation(panda, "panda_hand_tcp"), np.eye(3))]) is weighted
     assert compiled_term(ShiftedPosition(panda, "panda_hand_tcp")) is None  # not inherited
     assert compiled_term(Origin(panda, "panda_hand_tcp")) == CompiledTerm("position", fid)
 

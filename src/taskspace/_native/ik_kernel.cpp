@@ -12,6 +12,9 @@
 
 #include <boost/python.hpp>
 #include <eigenpy/eigenpy.hpp>
+#ifdef TASKSPACE_IK_PROXSUITE  // the general step's proxsuite engine (general_step.hpp)
+#include <proxsuite/proxqp/dense/dense.hpp>
+#endif
 
 #if __has_include(<pinocchio/multibody/data.hpp>)  // Pinocchio 3
 #include <pinocchio/multibody/data.hpp>
@@ -34,6 +37,8 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <map>
+#include <memory>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -640,6 +645,7 @@ class WeightedIKKernel {
           pinocchio::getFrameJacobian(model, data, it.frame, pinocchio::LOCAL, J6_);
           Eigen::Matrix3d jlog3;
           pinocchio::Jlog3(err, jlog3);
+          jlog3 = w_.segment<3>(it.row).asDiagonal() * jlog3;  // the rows' weights
           for (int a = 0; a < ns; ++a)
             rows.col(it.rows[a]) = jlog3 * J6_.col(it.rows[a]).tail<3>();
           e = pinocchio::log3(err);

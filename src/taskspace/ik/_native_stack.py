@@ -5,8 +5,8 @@ Pinocchio data, ``H = M^T M + mu I``, boxes combined by the rules of
 :func:`taskspace.qp.rows.combine_boxes`) and solves it exactly with a primal active-set
 method on the box. It serves stacks whose every feature declares a
 :class:`~taskspace.features.compiled.CompiledTerm` (frame poses, frame origins, the center of
-mass, postures), with box constraints (joint position, velocity and acceleration limits) and
-inequality rows whose constraints declare a
+mass, postures, frame orientations), with box constraints (joint position, velocity and
+acceleration limits) and inequality rows whose constraints declare a
 :class:`~taskspace.features.compiled.CompiledConstraint` (collision velocity dampers: coal
 distances computed in the kernel). With rows, the box solution is kept when it satisfies
 them; otherwise a primal-dual active-set method on the rows and the box runs from the box's
@@ -17,10 +17,12 @@ Equality tasks and the inequality rows of constraints that declare no rows the k
 evaluates (:class:`~taskspace.constraints.FeatureBounds`, a user's rows) are evaluated in
 Python (:class:`~taskspace.qp.rows.TaskRowStack`, :class:`~taskspace.qp.rows.InequalityStack`)
 and the whole QP, with the kernel's task rows, box and dampers, is solved by the kernel's
-general step (``taskspace/_native/general_step.hpp``: the dual active-set method of the
-hierarchical kernel, equalities first); its step is accepted only when its KKT residuals meet
-the solver's tolerances. A step the kernel declines takes the Python path, and the result says
-why (:data:`DECLINED`, ``IKStepResult.native_declined``).
+general step (``taskspace/_native/general_step.hpp``: by default the dual active-set method of
+the hierarchical kernel, equalities first, warm-started with the previous step's active set;
+or proxsuite's dense solver in C++, see :meth:`NativeWeightedStack._choose_engine`); its step
+is accepted only when its KKT residuals meet the solver's tolerances. A step the kernel
+declines takes the Python path, and the result says why (:data:`DECLINED`,
+``IKStepResult.native_declined``).
 """
 
 from __future__ import annotations
@@ -66,7 +68,23 @@ _REGISTER: dict[str, Callable[[Any, Any, CompiledTerm], Any]] = {
     "posture": lambda kernel, model, term: kernel.add_posture(
         None if term.rows is None else list(term.rows)
     ),
+    "orientation": lambda kernel, model, term: kernel.add_orientation(model, term.frame_id),
 }
+
+
+def weighted_kinds(module: Any) -> tuple[str, ...]:
+    """The kinds of weighted terms the weighted kernel of ``module`` evaluates.
+
+    :data:`IK_KINDS`, and frame orientations when the kernel has ``add_orientation`` (the
+    hierarchical kernel does not: :data:`IK_KINDS` stays its list).
+    """
+    if hasattr(module.WeightedIKKernel, "add_orientation"):
+        return (*IK_KINDS, "orientation")
+    return IK_KINDS
+
+
+GENERAL_ENGINES = ("auto", "active_set", "proxsuite")
+"""QP engines of the general step (``DifferentialIKOptions.native_general_engine``)."""
 # How each kind of equality task is registered with the kernel that evaluates the general
 # step's equality rows (its weighted rows are the rows; no posture: that kind is a term of H)
 _REGISTER_EQUALITY: dict[str, Callable[[Any, Any, CompiledTerm], Any]] = {
@@ -106,8 +124,8 @@ def supported(
 ) -> bool:
     """Whether the compiled kernel can run these tasks, constraints and equality tasks.
 
-    The weighted tasks' features must declare a compiled term of :data:`IK_KINDS`. With the
-    general step (``GeneralIKStep``, see ``taskspace/_native/general_step.hpp``) any
+    The weighted tasks' features must declare a compiled term of :func:`weighted_kinds`. With
+    the general step (``GeneralIKStep``, see ``taskspace/_native/general_step.hpp``) any
     equality tasks and inequality rows are served (the rows the kernel does not evaluate
     itself are evaluated in Python); a kernel built without it serves only inequality rows
     the kernel evaluates (collision dampers) and no equality tasks.
@@ -115,8 +133,9 @@ def supported(
     module = ik_kernel()
     if module is None or not tasks:
         return False
+    kinds = weighted_kinds(module)
     if not all(
-        (term := compiled_term(t.feature)) is not None and term.kind in IK_KINDS for t in tasks
+        (term := compiled_term(t.feature)) is not None and term.kind in kinds for t in tasks
     ):
         return False
     if hasattr(module, "GeneralIKStep"):
@@ -126,8 +145,9 @@ def supported(
 
 DECLINED = {
     2: "the compiled active-set method did not settle or its step missed the KKT tolerances",
-    3: "the compiled dual active-set method found no point satisfying the equality, "
-    "inequality and box rows (or stopped at a degenerate vertex)",
+    3: "the compiled general step found no point satisfying the equality, inequality and "
+    "box rows (the dual active-set method: or it stopped at a degenerate vertex; proxsuite: "
+    "its primal infeasibility test, which feasible problems with large multipliers can pass)",
     4: "the equality rows are linearly dependent (redundant or conflicting equality tasks)",
     5: "the compiled general step's KKT residuals exceed the solver's tolerances",
     6: "the QP's Hessian M^T M + mu I is not positive definite (damping 0 and a "
@@ -157,6 +177,7 @@ class NativeWeightedStack:
         inequality_constraints: Sequence[Constraint] = (),
         tolerances: tuple[float, float] = (1e-9, 1e-9),
         equality_tasks: Sequence[Task] = (),
+        general_engine: str = "auto",
     ):
         module = ik_kernel()
         assert module is not None
@@ -166,9 +187,10 @@ class NativeWeightedStack:
         self.model = model
         kernel = module.WeightedIKKernel(robot.nv, robot.nq)
         terms: list[tuple[Task, CompiledTerm]] = []
+        kinds = weighted_kinds(module)
         for t in tasks:
             term = compiled_term(t.feature)
-            if term is None or term.kind not in IK_KINDS:
+            if term is None or term.kind not in kinds:
                 raise InvalidInputError(
                     f"task '{t.name}': its feature declares no compiled term (use the Python "
                     "path: DifferentialIKOptions(native=False))"
@@ -198,6 +220,7 @@ class NativeWeightedStack:
         self._rows = [c for c in inequality_constraints if _kernel_rows(c)]
         python_rows = [c for c in inequality_constraints if not _kernel_rows(c)]
         self._general: Any = None
+        self.general_engine = ""  # the general step's QP engine (none without it)
         if python_rows or equality_tasks:
             if not hasattr(module, "GeneralIKStep"):
                 raise InvalidInputError(
@@ -206,6 +229,8 @@ class NativeWeightedStack:
                     "DifferentialIKOptions(native=False), or rebuild taskspace"
                 )
             self._general = module.GeneralIKStep()
+            self.general_engine = self._choose_engine(general_engine)
+            self._general.set_engine(module.GENERAL_ENGINES.index(self.general_engine))
         self._python_rows = InequalityStack(python_rows, robot.nv)
         # equality tasks whose feature declares a term the kernel evaluates: a second kernel
         # holding only them (its weighted rows are the equality rows); the others in Python
@@ -280,6 +305,46 @@ class NativeWeightedStack:
             type(c).__dict__.get("bounds_read_state", True) is False
             for c in (*self._hard, *self._soft)
         )
+
+    def _choose_engine(self, engine: str) -> str:
+        """The QP engine of the general step: ``engine``, or the one ``"auto"`` chooses.
+
+        The engines (``taskspace/_native/general_step.hpp``), both certified by the same KKT
+        check of the step (``eps_abs + eps_rel * scale`` of the solver's tolerances):
+
+        * ``"active_set"``: the hierarchical kernel's dual active-set method (Goldfarb-Idnani,
+          equalities first), warm-started: the QP is first solved with the previous step's
+          active rows held (one Cholesky of ``H``, one of their Schur complement, one
+          refinement step), and that point is kept only when every row holds and no active
+          row's multiplier is negative (then it is the minimizer); otherwise the method runs
+          from the unconstrained minimizer;
+        * ``"proxsuite"``: proxsuite's dense solver in C++ with the settings of
+          :class:`~taskspace.qp.QPSolverOptions`' defaults, one workspace per problem size
+          kept between steps (preconditioner not recomputed, previous result as initial
+          guess), its point then solved exactly on its active set.
+
+        ``"auto"`` chooses ``"active_set"`` for every problem class the general step serves
+        (weighted stacks with equality tasks, with a user's rows or feature bounds, with
+        collision dampers, on arms and floating-base humanoids, with a few or dozens of
+        active rows): the project's default QP backend is proxsuite, but the warm-started
+        active-set method was faster on each of these classes, with the same answers and KKT
+        residuals (``python -m benchmarks.run qp_backends``, sets ``general ...``; with
+        dozens of rows active proxsuite beats the active-set method started cold, not the
+        warm-started one).
+        """
+        if engine not in GENERAL_ENGINES:
+            raise InvalidInputError(
+                f"general step engine must be one of {GENERAL_ENGINES}, got {engine!r}"
+            )
+        available = tuple(self.module.GENERAL_ENGINES)
+        if engine == "auto":
+            return "active_set"
+        if engine not in available:
+            raise InvalidInputError(
+                f"general step engine {engine!r} is not in this build of the IK kernel "
+                f"(available: {available})"
+            )
+        return engine
 
     def _check_tasks(self) -> None:
         """Read the tasks' weights, gains and LM damping (after an assignment to a task)."""

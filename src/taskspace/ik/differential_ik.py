@@ -32,7 +32,11 @@ import pinocchio as pin
 from taskspace._validation import FloatArray, check_positive
 from taskspace.constraints.constraint import Constraint
 from taskspace.errors import InvalidInputError
-from taskspace.ik._native_stack import MAX_ACTIVE_SET_ITERATIONS, NativeWeightedStack
+from taskspace.ik._native_stack import (
+    GENERAL_ENGINES,
+    MAX_ACTIVE_SET_ITERATIONS,
+    NativeWeightedStack,
+)
 from taskspace.ik._native_stack import supported as native_supported
 from taskspace.model.robot import Robot
 from taskspace.model.state import State
@@ -177,15 +181,17 @@ class DifferentialIKOptions:
         native: run the compiled kernel (``taskspace/_native``) when it is built and the
             stack is one it serves: every task's feature declares a compiled term
             (:meth:`~taskspace.features.feature.Feature.compiled_term`: frame pose, frame
-            origin, center of mass, posture). Boxes (joint position, velocity, acceleration
-            limits) and the inequality rows whose constraint declares that the kernel
-            evaluates them
+            origin, frame orientation, center of mass, posture). Boxes (joint position,
+            velocity, acceleration limits) and the inequality rows whose constraint declares
+            that the kernel evaluates them
             (:meth:`~taskspace.constraints.constraint.Constraint.compiled_constraint`:
             collision velocity dampers, coal distances computed in the kernel) are solved by
             a primal active-set method on the box, then a primal-dual active-set method on
             the rows and the box when the box solution violates a row. Equality tasks and
             the other inequality rows (feature bounds, a user's rows; evaluated in Python)
-            are solved with them by the kernel's general step (a dual active-set method).
+            are solved with them by the kernel's general step (a dual active-set method
+            warm-started with the previous step's active set, or proxsuite: see
+            ``native_general_engine``).
             A step with rows carries its KKT residuals and is accepted only within the
             tolerances of ``solver``; other stacks, and any step the kernel declines (its
             reason in ``IKStepResult.native_declined``), take the Python path with
@@ -197,12 +203,28 @@ class DifferentialIKOptions:
             Off by default: building that QP costs more than the kernel's whole step; when off,
             a kernel step's ``qp.kkt`` is NaN (not computed). Steps of stacks with compiled
             inequality rows always carry the kernel's own residuals (this option is unused).
+        native_general_engine: the QP engine of the kernel's general step (stacks with
+            equality tasks or rows evaluated in Python): ``"auto"`` (chosen per problem
+            class, see :class:`~taskspace.ik._native_stack.NativeWeightedStack`),
+            ``"active_set"`` (dual active-set method warm-started with the previous step's
+            active set) or ``"proxsuite"`` (proxsuite's dense solver in C++, workspace kept
+            and warm-started). Every engine's step is accepted only within the tolerances
+            of ``solver``.
     """
 
     damping: float = 1e-6
     solver: QPSolverOptions = field(default_factory=QPSolverOptions)
     native: bool = True
     native_residuals: bool = False
+    native_general_engine: str = "auto"
+
+    def __post_init__(self) -> None:
+        """Refuse an unknown general-step engine (the valid names listed)."""
+        if self.native_general_engine not in GENERAL_ENGINES:
+            raise InvalidInputError(
+                f"native_general_engine must be one of {GENERAL_ENGINES}, got "
+                f"{self.native_general_engine!r}"
+            )
 
 
 def _require_state(state: object) -> None:
@@ -336,6 +358,7 @@ class DifferentialIK:
                     self._inequality_constraints,
                     (solver.eps_abs, solver.eps_rel),
                     self.equality_tasks,
+                    self.options.native_general_engine,
                 )
                 # advance() in one kernel call; not with native_residuals (they are checked on
                 # the QP built at the state before it moves), nor with a kernel built before
