@@ -80,6 +80,13 @@ def test_in_place_edits_of_the_public_objects_change_nothing() -> None:
     ik = DifferentialIK(robot, [Task(F.Position(robot, TCP), tcp + 0.05)], [])
     dq_before = ik.solve(state, 0.1).dq
     free_before = robot.is_collision_free(q)
+    controller = InverseDynamicsQP(robot, [Task(F.JointConfiguration(robot), q, kp=0.0, kd=0.0)])
+    at_rest = robot.state(q, np.zeros(robot.nv))
+    tau_before = controller.solve(at_rest).tau
+    space = ConfigurationSpace.from_robot(robot)
+    q_far = q.copy()
+    q_far[3] = robot.upper_limits[3] - 0.01
+    valid_before = [space.is_valid(q), space.is_valid(q_far)]
 
     model = robot.model
     model.jointPlacements[1] = _raised(reference).jointPlacements[1]
@@ -99,6 +106,9 @@ def test_in_place_edits_of_the_public_objects_change_nothing() -> None:
     )
     np.testing.assert_allclose(ik.solve(robot.state(q), 0.1).dq, dq_before, atol=1e-12)
     assert robot.is_collision_free(q) == free_before
+    np.testing.assert_array_equal(controller.solve(at_rest).tau, tau_before)
+    assert [space.is_valid(q), space.is_valid(q_far)] == valid_before
+    assert space.lower[0] == lower[0]
     # the accessors hand out a copy equal to the robot's again, not the edited one
     assert robot.model is not model and robot.model == reference
     assert robot.collision_model.existCollisionPair(first)
