@@ -109,8 +109,12 @@ def test_in_place_edits_of_the_public_objects_change_nothing() -> None:
     np.testing.assert_array_equal(controller.solve(at_rest).tau, tau_before)
     assert [space.is_valid(q), space.is_valid(q_far)] == valid_before
     assert space.lower[0] == lower[0]
-    # the accessors hand out a copy equal to the robot's again, not the edited one
-    assert robot.model is not model and robot.model == reference
+    # after a change of the robot, the accessors hand out new copies of the robot's models
+    robot.set_limits(lower=lower)
+    robot.disable_collision_pairs([])
+    assert robot.model is not model and robot.collision_model is not geom
+    assert robot.model.jointPlacements[1] == reference.jointPlacements[1]
+    assert robot.model.inertias[3] == reference.inertias[3]
     assert robot.collision_model.existCollisionPair(first)
 
 

@@ -155,6 +155,6 @@ def test_in_place_edits_of_the_public_model_cannot_reach_the_robot() -> None:
     np.testing.assert_array_equal(robot.lower_limits, lower)
     assert robot.version == version
     robot.check_version(version, "JointPositionLimits")
-    assert robot.model.lowerPositionLimit[0] == lower[0]  # a fresh copy, equal to the robot's
     robot.set_limits(lower=np.asarray(model.lowerPositionLimit))  # adopt the edit
     assert robot.lower_limits[0] == 0.0 and robot.version != version
+    assert robot.model is not model and robot.model.lowerPositionLimit[0] == 0.0

@@ -216,7 +216,9 @@ class Robot:
         self._collision_model = collision_model.copy()
         model, collision_model = self._model, self._collision_model
         self._model_copy: pin.Model | None = None  # what the public accessors hand out
+        self._model_copy_version = 0
         self._collision_copy: pin.GeometryModel | None = None
+        self._collision_copy_stamp = (0, 0)
         self._visual_copy: pin.GeometryModel | None = None
         self._geometry_edits = 0  # edit_collision_model calls (caches of shapes follow it)
         self.srdf_path = srdf_path
@@ -850,44 +852,50 @@ class Robot:
     # ------------------------------------------------------------------ Pinocchio objects
     @property
     def model(self) -> pin.Model:
-        """A copy of the robot's ``pin.Model``, equal to it (read it; edits change nothing).
+        """A read-only copy of the robot's ``pin.Model``.
 
-        The robot keeps the copy it handed out and hands it out again while it still equals
-        the robot's model (a comparison: 1-3 us, Panda to Talos); after a change of the robot
-        or an edit of the copy, it hands out a new copy (5-20 us). Editing a copy changes
-        nothing of the robot or of the objects built from it: use :meth:`edit_model` or
-        :meth:`set_limits`. In a loop, keep it in a variable, or use :attr:`nq`, :attr:`nv`,
-        :attr:`joint_names`, :attr:`frame_names`, :meth:`frame_id`, :meth:`joint_id`.
-        Views into a copy (``model.lowerPositionLimit``, ``referenceConfigurations[...]``)
-        are valid while the copy lives: keep ``model = robot.model`` to hold them.
+        The robot makes the copy after each change (:meth:`set_limits`, :meth:`edit_model`;
+        5-20 us, Panda to Talos) and hands out the same object until the next one (an
+        integer comparison), so ``pin.integrate(robot.model, q, dq)`` in a loop costs what it
+        did. Do not edit it: an edit changes nothing of the robot or of the objects built
+        from it (use :meth:`edit_model` or :meth:`set_limits`), and later reads of
+        ``robot.model`` would show it until the robot changes; ``robot.model.copy()`` gives a
+        model of your own. Views into the copy (``model.lowerPositionLimit``,
+        ``referenceConfigurations[...]``) are valid while you hold it (``model =
+        robot.model``).
         """
         copy = self._model_copy
-        if copy is None or copy != self._model:
+        if copy is None or self._model_copy_version != self._version:
             copy = self._model_copy = self._model.copy()
+            self._model_copy_version = self._version
         return copy
 
     @property
     def collision_model(self) -> pin.GeometryModel:
-        """A copy of the robot's collision ``pin.GeometryModel`` (robot geometry + obstacles).
+        """A read-only copy of the robot's collision ``pin.GeometryModel`` (robot + obstacles).
 
-        Handed out as :attr:`model` is (the same copy while it equals the robot's); editing
-        it changes nothing of the robot (use :meth:`edit_collision_model`, the obstacle and
-        collision-pair methods). The copies share the coal shapes with the robot: never
-        modify a shape in place (assign a new one in :meth:`edit_collision_model`).
+        Handed out as :attr:`model` is: a new copy after each change of the robot's world
+        (obstacles, collision pairs, :meth:`edit_collision_model`, :meth:`edit_model`), the
+        same object in between. Do not edit it (an edit changes nothing of the robot: use
+        :meth:`edit_collision_model`, the obstacle and collision-pair methods). The copies
+        share the coal shapes with the robot: never modify a shape in place (assign a new one
+        in :meth:`edit_collision_model`).
         """
         copy = self._collision_copy
-        if copy is None or copy != self._collision_model:
+        stamp = (self.world.version, self._geometry_edits)
+        if copy is None or self._collision_copy_stamp != stamp:
             copy = self._collision_copy = self._collision_model.copy()
+            self._collision_copy_stamp = stamp
         return copy
 
     @property
     def visual_model(self) -> pin.GeometryModel:
-        """A copy of the robot's visual ``pin.GeometryModel`` (display only).
+        """A read-only copy of the robot's visual ``pin.GeometryModel`` (display only).
 
-        Handed out as :attr:`collision_model` is.
+        Made once (the visual model never changes) and handed out each time: do not edit it.
         """
         copy = self._visual_copy
-        if copy is None or copy != self._visual_model:
+        if copy is None:  # the visual model never changes
             copy = self._visual_copy = self._visual_model.copy()
         return copy
 
@@ -1727,6 +1735,7 @@ def prune_collision_pairs(
     for first, second in default + always:
         collision.removeCollisionPair(pin.CollisionPair(first, second))
     robot._collision_data = collision.createData()
+    robot.world.mark_changed()  # the pairs changed (also what robot.collision_model hands out)
     result = PrunedCollisionPairs(
         adjacent=tuple(adjacent),
         default_posture=tuple(_pair_names(collision, a, b) for a, b in default),
