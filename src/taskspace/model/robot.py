@@ -166,11 +166,12 @@ class Robot:
 
     Create with :meth:`load` (any name of :func:`~taskspace.model.registry.available_robots`:
     our registry and every robot of example-robot-data) or :meth:`from_urdf`. The robot owns
-    its Pinocchio objects (the constructor copies the ones it is given) and hands out copies:
-    :attr:`model`, :attr:`collision_model` and :attr:`visual_model` return a new copy at each
-    access, so editing what they return changes nothing of the robot and of the objects built
-    from it. Changes go through the robot, which then gets a new :attr:`version` (and its
-    world a new :attr:`~taskspace.model.World.version`) that every derived object follows:
+    its Pinocchio objects (the constructor copies the ones it is given) and hands out
+    read-only copies (:attr:`model`, :attr:`collision_model`, :attr:`visual_model`; a new
+    copy after each change of the robot): editing what they return changes nothing of the
+    robot and of the objects built from it. Changes go through the robot, which then gets a
+    new :attr:`version` (and its world a new :attr:`~taskspace.model.World.version`) that
+    every derived object follows:
     :meth:`set_limits`, :meth:`edit_model` (inertias, joint and frame placements, rotor
     parameters, gravity, limits), :meth:`edit_collision_model` (geometry placements and
     shapes, collision pairs), the obstacle and collision-pair methods.
