@@ -88,14 +88,14 @@ def test_bad_pairs_are_refused(
     assert robot.world.version == version  # nothing changed
 
 
-def test_compiled_checker_sees_a_same_count_pair_swap_made_in_place(
+def test_compiled_checker_sees_a_same_count_pair_swap_made_through_the_robot(
     ur5_self_collision: tuple[Robot, np.ndarray, tuple[str, str]],
 ) -> None:
-    """Pinocchio's removeCollisionPair + addCollisionPair on robot.collision_model (no version).
+    """A pair removed and another added in ``edit_collision_model`` (the count is unchanged).
 
-    The pair count is unchanged, which the checker compared before: the compiled checker handed
-    to a plan (``native_kernel``, called at every plan) kept answering with the old pairs. Now
-    the exact pair set is compared there.
+    The same swap made on ``robot.collision_model`` (a copy) changes nothing; made through
+    ``Robot.edit_collision_model`` it gives the world a new version, and the compiled checker
+    (built before) answers with the new pairs.
     """
     robot, q, pair = ur5_self_collision
     from taskspace.planning import CollisionCheckerOptions
@@ -119,16 +119,23 @@ def test_compiled_checker_sees_a_same_count_pair_swap_made_in_place(
         and (a, b) != (colliding.first, colliding.second)
     )
     count = len(cm.collisionPairs)
-    cm.removeCollisionPair(colliding)
-    cm.addCollisionPair(pin.CollisionPair(*unchecked))
+    names = [cm.geometryObjects[i].name for i in unchecked]
+    expected = _reference_collides(robot, [*free_pairs, (names[0], names[1])], q)
+
+    def swap(geom: pin.GeometryModel) -> None:
+        geom.removeCollisionPair(colliding)
+        geom.addCollisionPair(pin.CollisionPair(*unchecked))
+        assert len(geom.collisionPairs) == count
+
+    version = robot.world.version
+    swap(cm)  # on the copy: nothing changes
+    assert robot.world.version == version and not space.is_valid(q)
     try:
-        assert len(cm.collisionPairs) == count
-        names = [cm.geometryObjects[i].name for i in unchecked]
-        expected = _reference_collides(robot, [*free_pairs, (names[0], names[1])], q)
-        checker.native_kernel()  # what a plan does first
+        with robot.edit_collision_model() as geom:
+            swap(geom)
+        assert robot.world.version != version
         assert space.is_valid(q) == (not expected)
     finally:
-        cm.removeCollisionPair(pin.CollisionPair(*unchecked))
-        cm.addCollisionPair(colliding)
-    checker.native_kernel()
+        robot.disable_collision_pairs([(names[0], names[1])])
+        robot.enable_collision_pairs([pair])
     assert not space.is_valid(q)

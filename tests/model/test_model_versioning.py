@@ -146,15 +146,15 @@ def test_check_version_names_the_stale_object() -> None:
     assert info.value.built_version == built and info.value.current_version == robot.version
 
 
-def test_in_place_edits_of_the_pinocchio_model_are_detected() -> None:
-    """The documented misuse: the robot's arrays stay as they were, check_version raises."""
+def test_in_place_edits_of_the_public_model_cannot_reach_the_robot() -> None:
+    """``robot.model`` is a copy: editing it changes neither the limits nor the version."""
     robot = _fresh("panda")
-    lower = robot.lower_limits.copy()
-    model_lower = robot.model.lowerPositionLimit
-    model_lower[0] = 0.0
+    lower, version = robot.lower_limits.copy(), robot.version
+    model = robot.model
+    model.lowerPositionLimit[0] = 0.0
     np.testing.assert_array_equal(robot.lower_limits, lower)
-    with pytest.raises(StaleModelError, match="lowerPositionLimit was edited in place"):
-        robot.check_version(robot.version, "JointPositionLimits")
-    robot.set_limits(lower=np.asarray(robot.model.lowerPositionLimit))  # adopt the edit
-    robot.check_version(robot.version, "JointPositionLimits")
-    assert robot.lower_limits[0] == 0.0
+    assert robot.version == version
+    robot.check_version(version, "JointPositionLimits")
+    robot.set_limits(lower=np.asarray(model.lowerPositionLimit))  # adopt the edit
+    assert robot.lower_limits[0] == 0.0 and robot.version != version
+    assert robot.model is not model and robot.model.lowerPositionLimit[0] == 0.0

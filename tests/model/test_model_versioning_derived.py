@@ -145,7 +145,8 @@ def test_differential_ik_steps_respect_new_limits(native: bool) -> None:
 def test_joint_manifold_follows_the_robot_and_refuses_a_changed_bare_model() -> None:
     robot = _fresh("ur5")
     followed = JointManifold(robot)
-    bare = JointManifold(robot.model)
+    model = robot.model  # a copy: the robot's changes do not reach it, edits of it do
+    bare = JointManifold(model)
     version = followed.model_version
     _narrow_joint(robot, 2, 0.1, 0.3)
     lo, hi = _model_limits(robot)
@@ -154,6 +155,8 @@ def test_joint_manifold_follows_the_robot_and_refuses_a_changed_bare_model() -> 
     np.testing.assert_array_equal(followed.upper, hi)
     samples = followed.sample(np.random.default_rng(0), 200)
     assert np.all((samples[:, 2] >= 0.1) & (samples[:, 2] <= 0.3))
+    assert bare.lower[2] != 0.1  # its model is the robot's copy from before the change
+    model.lowerPositionLimit[2] = 0.1  # an edit of the bare model itself is refused
     for use in (lambda: bare.lower, lambda: bare.sample(np.random.default_rng(0), 3)):
         with pytest.raises(StaleModelError, match="bare Pinocchio model"):
             use()
@@ -215,16 +218,19 @@ def test_path_problem_limit_rows_follow_set_limits() -> None:
 
 
 def test_space_on_a_bare_model_manifold_refuses_plans_after_a_change() -> None:
-    """A space made by hand on JointManifold(robot.model) cannot follow a version: it refuses."""
+    """A space made by hand on a bare model refuses once that model's limits change."""
     from taskspace.planning.collision_checker import FunctionChecker
 
     robot = _fresh("ur5")
-    manifold = JointManifold(robot.model)
+    model = robot.model
+    manifold = JointManifold(model)
     free = FunctionChecker(lambda Q: np.ones(len(Q), dtype=bool))
     space = ConfigurationSpace(manifold.lower, manifold.upper, free, manifold=manifold)
     q = robot.q_default.copy()
     space.check_endpoint(q, "start")
     _narrow_joint(robot, 2, 0.1, 0.3)
+    space.check_endpoint(q, "start")  # the robot's change does not reach the copy
+    model.lowerPositionLimit[2] = 0.1  # a change of the bare model itself
     with pytest.raises(StaleModelError, match="bare Pinocchio model"):
         space.check_endpoint(q, "start")
     with pytest.raises(StaleModelError):

@@ -15,9 +15,10 @@ import pytest
 from _viz_scenes import PANDA_IK_Q, SCENES, panda_default, panda_ik_target
 from PIL import Image
 
+from taskspace.errors import InvalidInputError
 from taskspace.viz import compare_images, render_html
 from taskspace.viz.image_comparison import ImageComparisonOptions
-from taskspace.viz.snapshots import SnapshotOptions
+from taskspace.viz.snapshots import SnapshotError, SnapshotOptions, snapshot
 
 SNAPSHOTS = Path(__file__).resolve().parents[1] / "snapshots"
 FAILURES = SNAPSHOTS / "failures"
@@ -88,11 +89,32 @@ def test_static_html_renders_without_network(panda, tmp_path):
     html = html.replace("<body>", "<body>" + canary, 1)
     path = tmp_path / "scene.html"
     path.write_text(html, encoding="utf-8")
-    result = render_html(path, SIZE, SnapshotOptions(offline=True))
+    with pytest.raises(SnapshotError, match="JavaScript error") as info:
+        render_html(path, SIZE, SnapshotOptions(offline=True))  # the blocked canary: an error
+    assert info.value.page_errors and all("ERR_FAILED" in e for e in info.value.page_errors)
+    allowed = SnapshotOptions(offline=True, allowed_page_errors=("ERR_FAILED",))
+    result = render_html(path, SIZE, allowed)
     assert result.success, result
     assert result.blocked_requests == ["https://example.invalid/canary.png"]
-    assert not [e for e in result.page_errors if "canary" not in e and "ERR_FAILED" not in e]
+    assert result.page_errors and all("ERR_FAILED" in e for e in result.page_errors)
     assert _robot_pixels(result.png) > 1500
+
+
+def test_javascript_errors_fail_the_snapshot_unless_allowed(panda, tmp_path):
+    """A page that throws is refused (render_html and snapshot), with the messages."""
+    html = panda_default(panda).static_html()
+    script = "<script>setTimeout(() => { throw new Error('taskspace-canary-42'); }, 0);</script>"
+    path = tmp_path / "throws.html"
+    path.write_text(html.replace("</body>", script + "</body>", 1), encoding="utf-8")
+    with pytest.raises(SnapshotError, match="taskspace-canary-42") as info:
+        render_html(path, SIZE)
+    assert any("taskspace-canary-42" in e for e in info.value.page_errors)
+    with pytest.raises(SnapshotError, match="taskspace-canary-42"):
+        snapshot(path, size=SIZE)
+    result = render_html(path, SIZE, SnapshotOptions(allowed_page_errors=("canary-42",)))
+    assert result.success and any("taskspace-canary-42" in e for e in result.page_errors)
+    with pytest.raises(InvalidInputError, match="allowed_page_errors"):
+        SnapshotOptions(allowed_page_errors="canary")  # type: ignore[arg-type]
 
 
 def test_animation_frame_matches_static_scene(robot_loader):

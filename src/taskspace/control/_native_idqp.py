@@ -75,7 +75,7 @@ class NativeInverseDynamics:
         module = idqp_kernel()
         assert module is not None
         self.module = module
-        self.model = controller.robot.model
+        self.model = controller.robot._model
         self.robot = controller.robot
         self.controller = controller
         self._all_tasks: list[Task] = list(controller.tasks)

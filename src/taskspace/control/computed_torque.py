@@ -115,8 +115,8 @@ class ComputedTorqueController:
         self.reference: JointReference = as_reference(reference, robot.nq)
         self.kp = _gain(kp, nv, "kp [1/s^2]")
         self.kd = 2.0 * np.sqrt(self.kp) if kd is None else _gain(kd, nv, "kd [1/s]")
-        self._model = robot.model
-        self._data = robot.model.createData()
+        self._model = robot._model
+        self._data = robot._model.createData()
 
     @staticmethod
     def from_wavelength(
@@ -187,8 +187,8 @@ class JointPDController:
         self.kp = _gain(kp, nv, "kp [N m/rad]")
         self.kd = 2.0 * np.sqrt(self.kp) if kd is None else _gain(kd, nv, "kd [N m s/rad]")
         self.gravity_compensation = bool(gravity_compensation)
-        self._model = robot.model
-        self._data = robot.model.createData()
+        self._model = robot._model
+        self._data = robot._model.createData()
 
     def __call__(self, t: float, q: FloatArray, v: FloatArray) -> FloatArray:
         """Torques [N m] at time ``t`` [s] (``q``, ``v`` checked as by the computed torque)."""

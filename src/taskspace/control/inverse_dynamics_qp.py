@@ -582,7 +582,7 @@ class InverseDynamicsQP:
         self.nf = sum(c.force_dim for c in self.contacts)
         self._contact_frames = tuple(c.frame for c in self.contacts)
         self.n = nv + self.nf
-        self._data = robot.model.createData()
+        self._data = robot._model.createData()
         self._last: tuple[FloatArray, FloatArray, FloatArray] | None = None
         self._upper = np.triu(np.ones((nv, nv), dtype=bool))
         self._solver = QPSolver(self.options.solver)
@@ -607,8 +607,8 @@ class InverseDynamicsQP:
                 self._limit_rows.append((r + limit_row, c))
             r += K.shape[0]
             col += c.force_dim
-        weight = pin.computeTotalMass(robot.model) * float(
-            np.linalg.norm(robot.model.gravity.linear)
+        weight = pin.computeTotalMass(robot._model) * float(
+            np.linalg.norm(robot._model.gravity.linear)
         )
         force_weights = (
             np.concatenate([c.regularization_weights() for c in self.contacts])
@@ -717,7 +717,7 @@ class InverseDynamicsQP:
                 self._contact_kd[i] = c.kd
 
     def _dynamics(self, state: State) -> tuple[FloatArray, FloatArray, FloatArray]:
-        model, data = self.robot.model, self._data
+        model, data = self.robot._model, self._data
         M = pin.crba(model, data, state.q)  # only the upper triangle is meaningful
         M = np.where(self._upper, M, M.T)
         h = pin.nonLinearEffects(model, data, state.q, state.v)

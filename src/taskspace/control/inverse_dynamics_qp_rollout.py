@@ -147,7 +147,7 @@ def simulate_with_contacts(
     check_positive(dt, "dt")
     if not (isinstance(max_velocity, int | float) and max_velocity > 0):  # inf: no bound
         raise InvalidInputError(f"max_velocity must be > 0 (inf: no bound), got {max_velocity!r}")
-    model = robot.model
+    model = robot._model
     data = model.createData()
     q = robot.check_configuration(q0, "q0")
     v = robot.check_velocity(v0, "v0")

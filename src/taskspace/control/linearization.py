@@ -80,12 +80,12 @@ def _actuated_indices(robot: Robot, actuated: Sequence[str] | str | None) -> np.
         if not isinstance(name, str):
             raise InvalidInputError(
                 f"actuated must hold joint names (str), got {name!r} in {actuated!r}; "
-                f"valid joints are: {', '.join(robot.model.names[1:])}"
+                f"valid joints are: {', '.join(robot._model.names[1:])}"
             )
     idx: list[int] = []
     for name in names:
         jid = robot.joint_id(name)  # raises UnknownNameError listing the joints
-        joint = robot.model.joints[jid]
+        joint = robot._model.joints[jid]
         idx.extend(range(joint.idx_v, joint.idx_v + joint.nv))
     if not idx:
         raise InvalidInputError("actuated must name at least one joint")
@@ -123,7 +123,7 @@ def linearize(
         raise InvalidInputError(
             f"linearize supports fixed-base robots only; '{robot.name}' has a floating base"
         )
-    model = robot.model
+    model = robot._model
     data = model.createData()
     q = robot.check_configuration(q_eq, "q_eq")
     nv = robot.nv

@@ -149,10 +149,10 @@ def operational_space_control(
     nv = robot.nv
     h = _torque_weight(options, nv)
     q, v = state.q, state.v
-    data = robot.model.createData()
-    M = np.asarray(pin.crba(robot.model, data, q))
+    data = robot._model.createData()
+    M = np.asarray(pin.crba(robot._model, data, q))
     M = np.triu(M) + np.triu(M, 1).T
-    F = np.asarray(pin.nonLinearEffects(robot.model, data, q, v))
+    F = np.asarray(pin.nonLinearEffects(robot._model, data, q, v))
     # rows sqrt(C) J and sqrt(C) (y''* - Jdot v), stacked over tasks (slide 5:35)
     stack = TaskRowStack(tasks, nv)
     A, b = stack.acceleration(state)

@@ -47,7 +47,7 @@ class StateFeedbackController:
         self.system = system
         m = system.actuated.size
         self.K = as_matrix(K, (m, 2 * robot.nv), "K")
-        self._model = robot.model
+        self._model = robot._model
         self._nv = robot.nv
 
     def state_error(self, q: FloatArray, v: FloatArray) -> FloatArray:

@@ -27,13 +27,13 @@ def kinetic_energy(robot: Robot, q: Any, v: Any) -> float:
     """
     qa = robot.check_configuration(q)
     va = robot.check_velocity(v)
-    return float(pin.computeKineticEnergy(robot.model, robot.model.createData(), qa, va))
+    return float(pin.computeKineticEnergy(robot._model, robot._model.createData(), qa, va))
 
 
 def potential_energy(robot: Robot, q: Any) -> float:
     """Gravitational potential energy ``U = -sum_i m_i g^T c_i(q)`` [J] (zero at height 0)."""
     qa = robot.check_configuration(q)
-    return float(pin.computePotentialEnergy(robot.model, robot.model.createData(), qa))
+    return float(pin.computePotentialEnergy(robot._model, robot._model.createData(), qa))
 
 
 def mechanical_energy(robot: Robot, q: Any, v: Any) -> float:

@@ -80,8 +80,8 @@ class ForwardDynamics:
 
     def __init__(self, robot: Robot, friction: JointFriction | None = None) -> None:
         self.robot = robot
-        self.model = robot.model
-        self.data = robot.model.createData()
+        self.model = robot._model
+        self.data = robot._model.createData()
         self._owner = threading.get_ident()
         self._local = threading.local()
         friction = friction or JointFriction()

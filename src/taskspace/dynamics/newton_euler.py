@@ -40,14 +40,14 @@ def inverse_dynamics(robot: Robot, q: Any, v: Any, a: Any) -> FloatArray:
     qa = robot.check_configuration(q)
     va = robot.check_velocity(v)
     aa = as_vector(a, robot.nv, "a")
-    return np.asarray(pin.rnea(robot.model, robot.model.createData(), qa, va, aa))
+    return np.asarray(pin.rnea(robot._model, robot._model.createData(), qa, va, aa))
 
 
 def gravity_torque(robot: Robot, q: Any) -> FloatArray:
     """``G(q) = NE(q, 0, 0)`` [N m, N]: the torques holding the robot still against gravity."""
     qa = robot.check_configuration(q)
     zero = np.zeros(robot.nv)
-    return np.asarray(pin.rnea(robot.model, robot.model.createData(), qa, zero, zero))
+    return np.asarray(pin.rnea(robot._model, robot._model.createData(), qa, zero, zero))
 
 
 def nonlinear_effects(robot: Robot, q: Any, v: Any) -> FloatArray:
@@ -55,17 +55,17 @@ def nonlinear_effects(robot: Robot, q: Any, v: Any) -> FloatArray:
     qa = robot.check_configuration(q)
     va = robot.check_velocity(v)
     zero = np.zeros(robot.nv)
-    return np.asarray(pin.rnea(robot.model, robot.model.createData(), qa, va, zero))
+    return np.asarray(pin.rnea(robot._model, robot._model.createData(), qa, va, zero))
 
 
 def coriolis_torque(robot: Robot, q: Any, v: Any) -> FloatArray:
     """``C(q, v) v = NE(q, v, 0) - NE(q, 0, 0)`` [N m, N]: centripetal and Coriolis terms."""
     qa = robot.check_configuration(q)
     va = robot.check_velocity(v)
-    data = robot.model.createData()
+    data = robot._model.createData()
     zero = np.zeros(robot.nv)
-    return np.asarray(pin.rnea(robot.model, data, qa, va, zero)) - np.asarray(
-        pin.rnea(robot.model, data, qa, zero, zero)
+    return np.asarray(pin.rnea(robot._model, data, qa, va, zero)) - np.asarray(
+        pin.rnea(robot._model, data, qa, zero, zero)
     )
 
 
@@ -76,7 +76,7 @@ def mass_matrix(robot: Robot, q: Any) -> FloatArray:
         ``M(q)``, symmetric positive definite (nv, nv) [kg m^2, kg].
     """
     qa = robot.check_configuration(q)
-    model = robot.model
+    model = robot._model
     data = model.createData()
     nv = robot.nv
     zero = np.zeros(nv)

@@ -322,7 +322,7 @@ def simulate(
     n_steps = max(1, round(T / dt))
     nq, nv = robot.nq, robot.nv
     check_record_size(n_steps, nq, nv, T, dt)
-    model = robot.model
+    model = robot._model
     dynamics = ForwardDynamics(robot, options.friction)
     energy_data = model.createData()
     step = STEPPERS[integrator]

@@ -50,7 +50,7 @@ class AngularMomentum(Feature):
 
     def __init__(self, robot: Robot) -> None:
         super().__init__(robot, "angular_momentum")
-        self._data = robot.model.createData()
+        self._data = robot._model.createData()
         self._lock = threading.Lock()
         self._zero = np.zeros(3)
         self._zero.setflags(write=False)
@@ -79,14 +79,14 @@ class AngularMomentum(Feature):
         self._check_state(state)
         self._require_velocity(state)
         with self._lock:
-            pin.computeCentroidalMomentum(self.robot.model, self._data, state.q, state.v)
+            pin.computeCentroidalMomentum(self.robot._model, self._data, state.q, state.v)
             return np.asarray(self._data.hg.angular).copy()
 
     def jacobian(self, state: State) -> FloatArray:
         """``A_ang``: angular rows of the centroidal momentum matrix (3 x nv)."""
         self._check_state(state)
         with self._lock:
-            Ag = pin.computeCentroidalMap(self.robot.model, self._data, state.q)
+            Ag = pin.computeCentroidalMap(self.robot._model, self._data, state.q)
             return np.asarray(Ag[3:]).copy()
 
     def drift(self, state: State) -> FloatArray:
@@ -95,7 +95,7 @@ class AngularMomentum(Feature):
         self._require_velocity(state)
         with self._lock:
             pin.computeCentroidalMomentumTimeVariation(
-                self.robot.model, self._data, state.q, state.v, np.zeros(self.robot.nv)
+                self.robot._model, self._data, state.q, state.v, np.zeros(self.robot.nv)
             )
             return np.asarray(self._data.dhg.angular).copy()
 

@@ -76,8 +76,8 @@ class CollisionDistance(Feature):
                 idx.append(lookup[key])
             self.pair_indices = np.asarray(idx, dtype=int)
         self.dim = len(self.pair_indices)
-        objs = robot.collision_model.geometryObjects
-        cps = robot.collision_model.collisionPairs
+        objs = robot._collision_model.geometryObjects
+        cps = robot._collision_model.collisionPairs
         self._joints = [
             (int(objs[cps[int(k)].first].parentJoint), int(objs[cps[int(k)].second].parentJoint))
             for k in self.pair_indices
@@ -88,7 +88,7 @@ class CollisionDistance(Feature):
         self._world_version = robot.world.version
         # joint Jacobian of joint j in WORLD coordinates = data.J with the columns outside
         # the support of j zeroed: one mask row per pair and side (universe: all zero)
-        model = robot.model
+        model = robot._model
         support = np.zeros((model.njoints, robot.nv))
         for j in range(1, model.njoints):
             for s in model.supports[j]:
@@ -185,7 +185,7 @@ class CollisionDistance(Feature):
     def _point_drift(self, state: State, joint: int, p: FloatArray) -> FloatArray:
         import pinocchio as pin
 
-        model, data = self.robot.model, state.data
+        model, data = self.robot._model, state.data
         frame = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
         vel = pin.getVelocity(model, data, joint, frame)
         acc = pin.getClassicalAcceleration(model, data, joint, frame)

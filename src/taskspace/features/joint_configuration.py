@@ -69,7 +69,7 @@ class JointConfiguration(Feature):
                 raise InvalidInputError(f"joints has repeated names: {list(joints)}")
             rows: list[int] = []
             for name in joints:
-                joint = robot.model.joints[robot.joint_id(name)]
+                joint = robot._model.joints[robot.joint_id(name)]
                 rows.extend(range(joint.idx_v, joint.idx_v + joint.nv))
             self.rows = np.asarray(rows, dtype=int)
             self.dim = len(rows)
@@ -86,7 +86,7 @@ class JointConfiguration(Feature):
         if not self._vector_space and self.rows is not None:
             iq: list[int] = []
             for v_row in self.rows:
-                joint = robot.model.joints[_joint_of_v_row(robot, int(v_row))]
+                joint = robot._model.joints[_joint_of_v_row(robot, int(v_row))]
                 if joint.nq != joint.nv:
                     break
                 iq.append(joint.idx_q + int(v_row) - joint.idx_v)
@@ -124,7 +124,7 @@ class JointConfiguration(Feature):
         self._check_state(state)
         if self._q_rows is not None:
             return state.q[self._q_rows] - target[self._q_rows]
-        diff = np.asarray(pin.difference(self.robot.model, target, state.q))
+        diff = np.asarray(pin.difference(self.robot._model, target, state.q))
         return diff if self.rows is None else diff[self.rows]
 
     def residual_and_jacobian(self, state: State, target: Any) -> tuple[FloatArray, FloatArray]:
@@ -143,13 +143,13 @@ class JointConfiguration(Feature):
         self._check_state(state)
         if self._vector_space or self._q_rows is not None:
             return self._identity
-        J = np.asarray(pin.dDifference(self.robot.model, target, state.q, pin.ARG1))
+        J = np.asarray(pin.dDifference(self.robot._model, target, state.q, pin.ARG1))
         return J if self.rows is None else J[self.rows]
 
 
 def _joint_of_v_row(robot: Robot, v_row: int) -> int:
     """Index of the joint whose velocity block holds tangent row ``v_row``."""
-    model = robot.model
+    model = robot._model
     for j in range(1, model.njoints):
         joint = model.joints[j]
         if joint.idx_v <= v_row < joint.idx_v + joint.nv:

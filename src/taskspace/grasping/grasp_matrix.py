@@ -87,7 +87,7 @@ def hand_jacobian(
         if contact.frame is None:
             raise InvalidInputError("hand_jacobian needs the finger frame of every contact")
         fid = robot.frame_id(contact.frame)
-        J = pin.getFrameJacobian(robot.model, state.data, fid, pin.LOCAL_WORLD_ALIGNED)
+        J = pin.getFrameJacobian(robot._model, state.data, fid, pin.LOCAL_WORLD_ALIGNED)
         p_world = object_pose.act(contact.position)
         offset = p_world - state.data.oMf[fid].translation
         Jp = J[:3] - _skew(offset) @ J[3:]  # velocity of the finger point at the contact

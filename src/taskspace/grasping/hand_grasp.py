@@ -100,23 +100,23 @@ class Hand:
 
     def __post_init__(self) -> None:
         robot = self.robot
-        if robot.model.njoints > 1 and robot.model.joints[1].shortname() == "JointModelFreeFlyer":
+        if robot._model.njoints > 1 and robot._model.joints[1].shortname() == "JointModelFreeFlyer":
             raise InvalidInputError("the hand must be a fixed-base model rooted at its palm")
         robot.frame_id(self.palm_frame)  # UnknownNameError lists the frames
         a = as_float_array(self.approach, "approach").reshape(-1)
         if a.shape != (3,) or not np.all(np.isfinite(a)) or np.linalg.norm(a) < 1e-9:
             raise InvalidInputError(f"approach must be a non-zero 3-vector, got {self.approach!r}")
         q = robot.check_configuration(self.preshape, "preshape")
-        names = [robot.model.names[j] for j in range(1, robot.model.njoints)]
+        names = [robot._model.names[j] for j in range(1, robot._model.njoints)]
         index = {}
         for finger in self.fingers:
             for joint, closed in zip(finger.joints, finger.closed):
                 if joint not in names:
                     raise UnknownNameError("joint", joint, names)
-                jid = robot.model.getJointId(joint)
-                if robot.model.nqs[jid] != 1:
+                jid = robot._model.getJointId(joint)
+                if robot._model.nqs[jid] != 1:
                     raise InvalidInputError(f"finger joint {joint!r} must have one coordinate")
-                k = robot.model.idx_qs[jid]
+                k = robot._model.idx_qs[jid]
                 if not robot.lower_limits[k] <= closed <= robot.upper_limits[k]:
                     raise InvalidInputError(
                         f"closed angle {closed} of {joint!r} outside its limits "
@@ -141,7 +141,7 @@ class Hand:
         if robot is None:
             robot = Robot.load("allegro_right_hand")
         q = np.array(robot.q_default, dtype=float)
-        k12 = robot.model.idx_qs[robot.model.getJointId("joint_12.0")]
+        k12 = robot._model.idx_qs[robot._model.getJointId("joint_12.0")]
         q[k12] = 1.2
         fingers = []
         for name, first in (("index", 0), ("middle", 4), ("ring", 8), ("thumb", 12)):
@@ -152,7 +152,7 @@ class Hand:
                 joints = joints[1:]  # abduction stays at 0
             closed = []
             for joint in joints:
-                k = robot.model.idx_qs[robot.model.getJointId(joint)]
+                k = robot._model.idx_qs[robot._model.getJointId(joint)]
                 closed.append(float(closing * robot.upper_limits[k]))
             fingers.append(Finger(name, tuple(joints), tuple(closed)))
         center = np.array([0.0, 0.0, 0.03])
@@ -195,9 +195,9 @@ class _Scene:
     def __init__(self, hand: Hand, mesh: TriangleMesh) -> None:
         self.hand = hand
         self.robot = hand.robot
-        self.gmodel = self.robot.collision_model
+        self.gmodel = self.robot._collision_model
         self.gdata = self.gmodel.createData()
-        self.data = self.robot.model.createData()
+        self.data = self.robot._model.createData()
         self.mesh = mesh
         self.object = mesh.collision_geometry()
         self.normals = mesh.face_normals
@@ -205,7 +205,7 @@ class _Scene:
         self.radius = float(np.max(np.linalg.norm(mesh.vertices, axis=1)))
         palm = self.robot.frame_id(hand.palm_frame)
         self.q = hand.preshape.copy()
-        pin.framesForwardKinematics(self.robot.model, self.data, self.q)
+        pin.framesForwardKinematics(self.robot._model, self.data, self.q)
         self.palm = self.data.oMf[palm].copy()
         self.half_extent = [self._half_extent(g.geometry) for g in self.gmodel.geometryObjects]
         self.partners: dict[int, list[int]] = {}
@@ -222,7 +222,7 @@ class _Scene:
 
     def update(self, q: FloatArray) -> None:
         self.q = q
-        pin.updateGeometryPlacements(self.robot.model, self.data, self.gmodel, self.gdata, q)
+        pin.updateGeometryPlacements(self.robot._model, self.data, self.gmodel, self.gdata, q)
 
     def distance(self, g: int, pose: pin.SE3) -> coal.DistanceResult:
         result = coal.DistanceResult()
@@ -290,7 +290,7 @@ def _geoms_by_joint(scene: _Scene) -> dict[int, list[int]]:
 
 
 def _subtree_geoms(scene: _Scene, jid: int, by_joint: dict[int, list[int]]) -> list[int]:
-    model = scene.robot.model
+    model = scene.robot._model
     return [g for j in model.subtrees[jid] for g in by_joint.get(int(j), [])]
 
 
@@ -317,7 +317,7 @@ def _close_finger(
     scene: _Scene, finger: Finger, pose: pin.SE3, tolerance: float, by_joint: dict[int, list[int]]
 ) -> None:
     """Close one finger until each of its joints is stopped by a contact or its limit."""
-    model = scene.robot.model
+    model = scene.robot._model
     hand = scene.hand
     jids = [hand._joint_index[j] for j in finger.joints]
     ks = [model.idx_qs[j] for j in jids]
@@ -409,7 +409,7 @@ def close_hand(
         )
     scene = _Scene(hand, mesh)
     scene.update(hand.preshape.copy())
-    pin.forwardKinematics(hand.robot.model, scene.data, scene.q)
+    pin.forwardKinematics(hand.robot._model, scene.data, scene.q)
     pose = scene.palm * object_pose
     if approach:
         found = _approach(scene, pose, tolerance)
@@ -429,7 +429,7 @@ def _evaluate(scene: _Scene, pose: pin.SE3, mu: float, tolerance: float, edges: 
     joint_finger = {
         scene.hand._joint_index[j]: f.name for f in scene.hand.fingers for j in f.joints
     }
-    model = scene.robot.model
+    model = scene.robot._model
     distances = []
     for g in geoms:
         result = scene.distance(g, pose)

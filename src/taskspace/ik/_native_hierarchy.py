@@ -191,7 +191,7 @@ class NativeHierarchy:
     ) -> None:
         module = ik_kernel()
         assert module is not None
-        model = robot.model
+        model = robot._model
         self.robot = robot
         self.model = model
         self.nv = robot.nv

@@ -101,8 +101,8 @@ selected rows set); the kernel keeps them after the other terms."""
 # How each kind of constraint rows is registered with the kernel (the kernel's own API).
 _REGISTER_ROWS: dict[str, Callable[[Any, Robot, CompiledConstraint], Any]] = {
     "dampers": lambda kernel, robot, rows: kernel.add_dampers(
-        robot.model,
-        robot.collision_model,
+        robot._model,
+        robot._collision_model,
         list(rows.pairs),
         rows.safety_distance,
         rows.influence_distance,
@@ -182,7 +182,7 @@ class NativeWeightedStack:
         module = ik_kernel()
         assert module is not None
         self.module = module
-        model = robot.model
+        model = robot._model
         self.robot = robot
         self.model = model
         kernel = module.WeightedIKKernel(robot.nv, robot.nq)
@@ -616,7 +616,7 @@ class NativeWeightedStack:
         declared = [declare() for declare in self._declare]
         kernel = self.kernel
         kernel.clear_dampers()
-        geometry = robot.collision_model
+        geometry = robot._collision_model
         for c, rows in zip(self._rows, declared):
             if rows is None or rows.kind not in _REGISTER_ROWS:
                 raise InvalidInputError(

@@ -556,7 +556,7 @@ class DifferentialIK:
             result = self._solve_python(state, dt)
         dq = result.dq
         state.update(
-            _integrate(self.robot.model, state._q, dq),
+            _integrate(self.robot._model, state._q, dq),
             dq / dt if state._has_velocity else None,
             validate=False,
         )
@@ -652,4 +652,4 @@ class DifferentialIK:
     def step(self, state: State, dt: float) -> tuple[FloatArray, IKStepResult]:
         """Solve one step and return ``(q (+) dq, result)`` (the state is not modified)."""
         result = self.solve(state, dt)
-        return np.asarray(pin.integrate(self.robot.model, state.q, result.dq)), result
+        return np.asarray(pin.integrate(self.robot._model, state.q, result.dq)), result

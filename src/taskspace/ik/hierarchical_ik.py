@@ -420,7 +420,7 @@ class HierarchicalIK:
         dt = check_positive(dt, "dt")
         dq = result.dq
         state.update(
-            pin.integrate(self.robot.model, state._q, dq),
+            pin.integrate(self.robot._model, state._q, dq),
             dq / dt if state._has_velocity else None,
             validate=False,
         )
@@ -429,7 +429,7 @@ class HierarchicalIK:
     def step(self, state: State, dt: float) -> tuple[FloatArray, HierarchicalIKResult]:
         """Solve one step and return ``(q (+) dq, result)``."""
         result = self.solve(state, dt)
-        return np.asarray(pin.integrate(self.robot.model, state.q, result.dq)), result
+        return np.asarray(pin.integrate(self.robot._model, state.q, result.dq)), result
 
 
 __all__ = ["HierarchicalIK", "HierarchicalIKResult"]

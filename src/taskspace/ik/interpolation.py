@@ -122,10 +122,10 @@ def joint_space_interpolation(
     profile = profile or SineProfile()
     q_start = robot.check_configuration(q0, "q0")
     result = solve_ik(robot, tasks, q_start, options=options)
-    delta = pin.difference(robot.model, q_start, result.q)
+    delta = pin.difference(robot._model, q_start, result.q)
     qs = np.array(
         [
-            pin.integrate(robot.model, q_start, float(profile.position(t / steps)) * delta)
+            pin.integrate(robot._model, q_start, float(profile.position(t / steps)) * delta)
             for t in range(steps + 1)
         ]
     )

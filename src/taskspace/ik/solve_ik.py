@@ -233,7 +233,7 @@ def _gauss_newton(
         alpha = 1.0
         accepted = False
         while alpha > 1e-4:
-            q_new = pin.integrate(robot.model, state.q, alpha * dq)
+            q_new = pin.integrate(robot._model, state.q, alpha * dq)
             trial.update(q_new, validate=False)
             new_cost, new_errors = cost_and_errors(trial)
             if new_cost < cost * (1 - 1e-4 * alpha) or new_cost < 1e-30:

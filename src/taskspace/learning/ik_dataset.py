@@ -189,7 +189,7 @@ def ik_dataset(
     finally:
         if owned:
             runner.close()
-    nq = loaded.model.nq
+    nq = loaded.nq
     q = np.full((len(items), nq), np.nan)
     success = np.zeros(len(items), dtype=bool)
     error = np.full(len(items), np.nan)

@@ -170,7 +170,7 @@ def trot(robot: Any, n_swings: int, options: TrotOptions | None = None) -> TrotR
     dt = opts.dt
     q0 = robot.q_default.copy()
     state = robot.state(q0, np.zeros(robot.nv))
-    weight = robot.mass * float(np.linalg.norm(robot.model.gravity.linear))
+    weight = robot.mass * float(np.linalg.norm(robot._model.gravity.linear))
     c0 = np.asarray(state.com()).copy()
     phases: list[tuple[float, tuple[str, ...]]] = [(opts.end_time, ())]
     for i in range(n_swings):

@@ -200,6 +200,6 @@ def static_stability(
     margin = as_scalar(margin, "margin")
     qa = robot.check_configuration(q)
     polygon = support_polygon(robot, qa, feet)
-    com = np.asarray(pin.centerOfMass(robot.model, robot.model.createData(), qa)).copy()
+    com = np.asarray(pin.centerOfMass(robot._model, robot._model.createData(), qa)).copy()
     d = polygon.margin(com[:2])
     return StaticStability(stable=d >= margin, margin=d, com=com, polygon=polygon)

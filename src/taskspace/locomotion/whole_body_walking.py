@@ -451,7 +451,7 @@ def walk(robot: Any, plan: FootstepPlan, options: WalkingOptions | None = None) 
     )
     pelvis0 = robot.frame_placement(q0, opts.pelvis).rotation.copy()
     posture = Task(F.JointConfiguration(robot), q0, weight=opts.posture_weight, kp=opts.posture_kp)
-    weight = robot.mass * float(np.linalg.norm(robot.model.gravity.linear))
+    weight = robot.mass * float(np.linalg.norm(robot._model.gravity.linear))
     swing_pos = {
         s: Task(F.Position(robot, f), weight=opts.foot_weight, kp=opts.foot_kp, name=f"{s}_pos")
         for s, f in foot_frames.items()

@@ -110,7 +110,7 @@ def contact_wrench_from_dynamics(
 
     ``f = m (cddot - g)`` and ``tau_O = dL_G/dt + c x f`` (centroidal momentum rate).
     """
-    model = robot.model
+    model = robot._model
     q = robot.check_configuration(q)
     v = as_vector(v, model.nv, "v")
     a = as_vector(a, model.nv, "a")

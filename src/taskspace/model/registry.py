@@ -305,7 +305,7 @@ def _kinematic_size(spec: RobotSpec) -> tuple[int, int]:
             raise ModelLoadError("SDF description; this Pinocchio is built without SDF support")
         if loader.__init__ is not RobotLoader.__init__ or not loader.urdf_filename:
             inst = loader()  # custom loaders (SDF, reduced models): the loader's own model
-            model = inst.robot.model
+            model = inst.robot._model
             return _reduced_size(model, spec)
         from example_robot_data.robots_loader import getModelPath
 

@@ -34,11 +34,14 @@ listed in :attr:`Robot.massless_joints`, with a :class:`ModelWarning`.
 
 Model version: the limits a robot exposes (:attr:`Robot.lower_limits`, :attr:`Robot.upper_limits`,
 :attr:`Robot.velocity_limits`, :attr:`Robot.effort_limits`, the limited-joint indices) are
-read-only arrays, changed only by :meth:`Robot.set_limits`, which gives the robot a new
-:attr:`Robot.version` (drawn from one process-wide counter: a version is never reused). Objects
-built from the robot that keep limits (constraints, features, solvers, planning spaces) record
-the version and rebuild or raise :class:`StaleModelError` (:meth:`Robot.check_version`) when it
-differs. Do not edit ``robot.model``'s arrays in place: no derived object can see such edits.
+read-only arrays, changed only by :meth:`Robot.set_limits` (or :meth:`Robot.edit_model`),
+which gives the robot a new :attr:`Robot.version` (drawn from one process-wide counter: a
+version is never reused). Objects built from the robot that keep limits (constraints, features,
+solvers, planning spaces) record the version and rebuild or raise :class:`StaleModelError`
+(:meth:`Robot.check_version`) when it differs. The robot owns its Pinocchio objects:
+``robot.model``, ``robot.collision_model`` and ``robot.visual_model`` are copies, so an edit
+made on them cannot bypass the versions; the model's values change through
+:meth:`Robot.edit_model`, the collision geometry through :meth:`Robot.edit_collision_model`.
 
 Thread safety: :class:`Robot` may be shared by threads that read it (see there: its own Pinocchio
 data is used under a lock); :class:`CollisionPruningOptions` and :class:`PrunedCollisionPairs` are
@@ -55,7 +58,7 @@ import math
 import os
 import threading
 import warnings
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -162,15 +165,19 @@ class Robot:
     """A robot: kinematic/dynamic model, collision and visual geometry, obstacle world.
 
     Create with :meth:`load` (any name of :func:`~taskspace.model.registry.available_robots`:
-    our registry and every robot of example-robot-data) or :meth:`from_urdf`. The Pinocchio
-    objects are exposed as ``model``, ``collision_model`` and ``visual_model``; never modify
-    them in place, use the methods of this class (obstacles, collision pairs).
+    our registry and every robot of example-robot-data) or :meth:`from_urdf`. The robot owns
+    its Pinocchio objects (the constructor copies the ones it is given) and hands out
+    read-only copies (:attr:`model`, :attr:`collision_model`, :attr:`visual_model`; a new
+    copy after each change of the robot): editing what they return changes nothing of the
+    robot and of the objects built from it. Changes go through the robot, which then gets a
+    new :attr:`version` (and its world a new :attr:`~taskspace.model.World.version`) that
+    every derived object follows:
+    :meth:`set_limits`, :meth:`edit_model` (inertias, joint and frame placements, rotor
+    parameters, gravity, limits), :meth:`edit_collision_model` (geometry placements and
+    shapes, collision pairs), the obstacle and collision-pair methods.
 
     Attributes:
         name: robot name.
-        model: the ``pin.Model``.
-        collision_model: ``pin.GeometryModel`` of robot collision geometry plus obstacles.
-        visual_model: ``pin.GeometryModel`` for display.
         end_effectors: names of the end-effector frames.
         world: the obstacles (also present in ``collision_model``).
         passive_joints: names of the unactuated joints (effort limit 0).
@@ -184,8 +191,9 @@ class Robot:
     :meth:`is_collision_free` and :meth:`colliding_pairs` evaluate into the robot's own
     ``data``/``collision_data`` under a lock (one for all robots: threads take turns), so many
     evaluations belong in a :class:`~taskspace.model.State` or a collision checker per thread.
-    The mutators (:meth:`set_limits`, obstacles, collision pairs) are not locked: do not call
-    them while other threads use the robot or objects built from it.
+    The mutators (:meth:`set_limits`, :meth:`edit_model`, :meth:`edit_collision_model`,
+    obstacles, collision pairs) are not locked: do not call them while other threads use the
+    robot or objects built from it.
     """
 
     def __init__(
@@ -203,9 +211,17 @@ class Robot:
     ) -> None:
         self.name = name
         self.description = description
-        self.model = model
-        self.visual_model = visual_model
-        self.collision_model = collision_model
+        # the robot's own copies: what a caller keeps of its arguments cannot edit the robot
+        self._model = model.copy()
+        self._visual_model = visual_model.copy()
+        self._collision_model = collision_model.copy()
+        model, collision_model = self._model, self._collision_model
+        self._model_copy: pin.Model | None = None  # what the public accessors hand out
+        self._model_copy_version = 0
+        self._collision_copy: pin.GeometryModel | None = None
+        self._collision_copy_stamp = (0, 0)
+        self._visual_copy: pin.GeometryModel | None = None
+        self._geometry_edits = 0  # edit_collision_model calls (caches of shapes follow it)
         self.srdf_path = srdf_path
         self.world = World()
         self.pruned_collision_pairs = PrunedCollisionPairs()
@@ -219,8 +235,8 @@ class Robot:
         self._nv = int(model.nv)
         self._q_shape = (self._nq,)
         self._v_shape = (self._nv,)
-        self.data = model.createData()
-        self.collision_data = collision_model.createData()
+        self._data = model.createData()
+        self._collision_data = collision_model.createData()
         self._guess_reset: Any = None  # the collision data whose cached GJK guess is off
         self._version = next(_ROBOT_VERSIONS)
         self._setup_joint_structure()
@@ -436,7 +452,9 @@ class Robot:
             if problem:
                 raise ModelLoadError(f"cannot read SRDF {problem}")
             try:
-                pin.loadReferenceConfigurations(model, str(srdf), False)
+                _load_reference_configurations(model, Path(srdf))
+            except ModelLoadError:
+                raise
             except Exception as exc:
                 raise ModelLoadError(f"cannot read SRDF {srdf}: {exc}") from exc
         q_full = pin.neutral(model)
@@ -601,7 +619,7 @@ class Robot:
     # ------------------------------------------------------------------ structure
     def _setup_joint_structure(self) -> None:
         """Classify the joints: normalized blocks, scalar coordinates, unbounded ones."""
-        model = self.model
+        model = self._model
         self._normalized_blocks: list[tuple[int, int, str]] = []  # (idx_q, size, joint name)
         scalar_q: list[int] = []
         scalar_v: list[int] = []
@@ -693,7 +711,7 @@ class Robot:
 
     def _setup_actuation_limits(self, passive_joints: Sequence[str]) -> None:
         """Effort and velocity limits, with the documented choice for missing ones."""
-        model = self.model
+        model = self._model
         for j in passive_joints:
             self.joint_id(j)
         passive = set(passive_joints)
@@ -742,7 +760,7 @@ class Robot:
 
     def _setup_massless_joints(self) -> None:
         """Give joints that move no mass a small armature (see the module docstring)."""
-        model = self.model
+        model = self._model
         M = pin.crba(model, model.createData(), self._q_default)
         diagonal = np.diag(M).copy()
         scale = float(np.max(diagonal)) if diagonal.size else 0.0
@@ -770,12 +788,12 @@ class Robot:
     @property
     def nq(self) -> int:
         """Size of the configuration vector."""
-        return int(self.model.nq)
+        return int(self._model.nq)
 
     @property
     def nv(self) -> int:
         """Size of the velocity (tangent) vector."""
-        return int(self.model.nv)
+        return int(self._model.nv)
 
     @property
     def frame_names(self) -> list[str]:
@@ -805,7 +823,7 @@ class Robot:
 
     def joint_v_index(self, name: str) -> int:
         """First index of joint ``name`` in the velocity vector."""
-        return int(self.model.joints[self.joint_id(name)].idx_v)
+        return int(self._model.joints[self.joint_id(name)].idx_v)
 
     @property
     def limited_joints_q(self) -> np.ndarray:
@@ -829,39 +847,215 @@ class Robot:
 
     @property
     def version(self) -> int:
-        """Model version: changes at every :meth:`set_limits` and is never reused."""
+        """Model version: changes at every :meth:`set_limits` and :meth:`edit_model`."""
         return self._version
+
+    # ------------------------------------------------------------------ Pinocchio objects
+    @property
+    def model(self) -> pin.Model:
+        """A read-only copy of the robot's ``pin.Model``.
+
+        The robot makes the copy after each change (:meth:`set_limits`, :meth:`edit_model`;
+        5-20 us, Panda to Talos) and hands out the same object until the next one (an
+        integer comparison), so ``pin.integrate(robot.model, q, dq)`` in a loop costs what it
+        did. Do not edit it: an edit changes nothing of the robot or of the objects built
+        from it (use :meth:`edit_model` or :meth:`set_limits`), and later reads of
+        ``robot.model`` would show it until the robot changes; ``robot.model.copy()`` gives a
+        model of your own. Views into the copy (``model.lowerPositionLimit``,
+        ``referenceConfigurations[...]``) are valid while you hold it (``model =
+        robot.model``).
+        """
+        copy = self._model_copy
+        if copy is None or self._model_copy_version != self._version:
+            copy = self._model_copy = self._model.copy()
+            self._model_copy_version = self._version
+        return copy
+
+    @property
+    def collision_model(self) -> pin.GeometryModel:
+        """A read-only copy of the robot's collision ``pin.GeometryModel`` (robot + obstacles).
+
+        Handed out as :attr:`model` is: a new copy after each change of the robot's world
+        (obstacles, collision pairs, :meth:`edit_collision_model`, :meth:`edit_model`), the
+        same object in between. Do not edit it (an edit changes nothing of the robot: use
+        :meth:`edit_collision_model`, the obstacle and collision-pair methods). The copies
+        share the coal shapes with the robot: never modify a shape in place (assign a new one
+        in :meth:`edit_collision_model`).
+        """
+        copy = self._collision_copy
+        stamp = (self.world.version, self._geometry_edits)
+        if copy is None or self._collision_copy_stamp != stamp:
+            copy = self._collision_copy = self._collision_model.copy()
+            self._collision_copy_stamp = stamp
+        return copy
+
+    @property
+    def visual_model(self) -> pin.GeometryModel:
+        """A read-only copy of the robot's visual ``pin.GeometryModel`` (display only).
+
+        Made once (the visual model never changes) and handed out each time: do not edit it.
+        """
+        copy = self._visual_copy
+        if copy is None:  # the visual model never changes
+            copy = self._visual_copy = self._visual_model.copy()
+        return copy
+
+    @property
+    def data(self) -> pin.Data:
+        """The robot's own ``pin.Data``: scratch space of :meth:`frame_placement`.
+
+        A read-only attribute: evaluate into a :class:`~taskspace.model.State` or your own
+        ``robot.model.createData()`` instead.
+        """
+        return self._data
+
+    @property
+    def collision_data(self) -> pin.GeometryData:
+        """The robot's own ``pin.GeometryData`` (read-only attribute).
+
+        Scratch space of :meth:`is_collision_free` and :meth:`colliding_pairs`.
+        """
+        return self._collision_data
+
+    @contextlib.contextmanager
+    def edit_model(self) -> Iterator[pin.Model]:
+        """Edit the values of the robot's ``pin.Model``; the robot gets a new :attr:`version`.
+
+        Example::
+
+            with robot.edit_model() as model:
+                model.inertias[3] = pin.Inertia(2.0, model.inertias[3].lever, ...)
+                model.jointPlacements[2].translation[2] += 0.01
+
+        The block receives a copy of the model. When it ends without an exception, the
+        edits are checked and written into the robot's model; the robot gets a new
+        :attr:`version` and its world a new :attr:`~taskspace.model.World.version`, so every
+        object built from the robot (states, constraints, IK and inverse-dynamics solvers,
+        their compiled kernels, collision checkers, configuration spaces, planners) computes
+        with the new values or raises :class:`StaleModelError`. An exception in the block
+        leaves the robot unchanged. Call ``state.update(...)`` on states evaluated before.
+
+        Editable: ``jointPlacements``, ``inertias``, each frame's ``placement`` and
+        ``inertia``, ``armature``, ``damping``, ``friction``, ``rotorInertia``,
+        ``rotorGearRatio``, ``gravity``, and the limits ``lowerPositionLimit``,
+        ``upperPositionLimit``, ``velocityLimit``, ``effortLimit`` (checked as
+        :meth:`set_limits` checks them).
+
+        Raises:
+            InvalidInputError: anything else changed (joints, frames, names, parents, sizes,
+                other fields: build a new :class:`Robot`), or limits :meth:`set_limits`
+                refuses. The robot is then unchanged.
+        """
+        edited = self._model.copy()
+        yield edited
+        self._adopt_model(edited)
+
+    def _adopt_model(self, edited: Any) -> None:
+        """Check an edited copy of the model (values only) and write it into ours."""
+        if not isinstance(edited, pin.Model):
+            raise InvalidInputError(f"edit_model: the model was replaced by {edited!r}")
+        original = self._model
+        candidate = original.copy()
+        _copy_model_values(edited, candidate)
+        if candidate != edited:
+            raise InvalidInputError(
+                f"robot '{self.name}': edit_model changed more than values: only "
+                f"{', '.join(_EDITABLE_MODEL_FIELDS)} and the frames' placement and inertia "
+                "may change (joints, frames, names, parents and sizes need a new Robot, e.g. "
+                "Robot.from_urdf); the robot is unchanged"
+            )
+        limits: dict[str, Any] = {}
+        for key, field in (
+            ("lower", "lowerPositionLimit"),
+            ("upper", "upperPositionLimit"),
+            ("velocity", "velocityLimit"),
+            ("effort", "effortLimit"),
+        ):
+            value = np.asarray(getattr(edited, field), dtype=float)
+            if not np.array_equal(value, np.asarray(getattr(original, field))):
+                limits[key] = value
+        if limits:
+            self.set_limits(**limits)  # checks them all before it writes anything
+        _copy_model_values(edited, original)
+        self._data = original.createData()
+        self._version = next(_ROBOT_VERSIONS)
+        self.world.mark_changed()  # collision answers depend on the kinematics
+
+    @contextlib.contextmanager
+    def edit_collision_model(self) -> Iterator[pin.GeometryModel]:
+        """Edit the robot's collision geometry and pairs; its world gets a new version.
+
+        Example::
+
+            with robot.edit_collision_model() as geom:
+                gid = geom.getGeometryId("panda_link7_0")
+                geom.geometryObjects[gid].placement = pin.SE3(...)
+                geom.removeCollisionPair(pin.CollisionPair(a, b))
+
+        The block receives a copy of the collision model. When it ends without an exception,
+        the edits are checked and written into the robot's model and its world gets a new
+        :attr:`~taskspace.model.World.version`, which every collision checker,
+        configuration space, planner, state and collision feature follows. An exception in
+        the block leaves the robot unchanged.
+
+        Editable: each robot geometry's ``placement``, ``geometry`` (a new coal shape),
+        ``disableCollision``, ``meshScale``, ``meshColor``, ``meshPath``, ``meshMaterial``,
+        ``meshTexturePath``, ``overrideMaterial``, and the collision pairs (any, obstacle
+        pairs included).
+
+        Raises:
+            InvalidInputError: geometries added, removed, renamed or moved to another joint or
+                frame, or an obstacle changed (use :meth:`add_obstacle` and
+                :meth:`remove_obstacle`). The robot is then unchanged.
+        """
+        edited = self._collision_model.copy()
+        yield edited
+        self._adopt_collision_model(edited)
+
+    def _adopt_collision_model(self, edited: Any) -> None:
+        """Check an edited copy of the collision model and write it into ours."""
+        if not isinstance(edited, pin.GeometryModel):
+            raise InvalidInputError(f"edit_collision_model: the model was replaced by {edited!r}")
+        original = self._collision_model
+        objs, new = original.geometryObjects, edited.geometryObjects
+        problem = ""
+        if edited.ngeoms != original.ngeoms:
+            problem = f"{original.ngeoms} geometries became {edited.ngeoms}"
+        else:
+            for i in range(original.ngeoms):
+                a, b = objs[i], new[i]
+                if (a.name, a.parentJoint, a.parentFrame) != (b.name, b.parentJoint, b.parentFrame):
+                    problem = f"geometry {i} '{a.name}' was renamed or moved to another joint"
+                    break
+                if i >= self._robot_geometry_count and a != b:
+                    problem = f"obstacle '{a.name}' changed (remove it and add the new one)"
+                    break
+        if not problem:
+            candidate = original.copy()
+            _copy_geometry_values(edited, candidate, self._robot_geometry_count)
+            if candidate != edited:
+                problem = "fields other than the editable ones changed"
+        if problem:
+            raise InvalidInputError(
+                f"robot '{self.name}': edit_collision_model: {problem}; the robot is unchanged"
+            )
+        _copy_geometry_values(edited, original, self._robot_geometry_count)
+        self._geometry_edits += 1
+        self._collision_data = original.createData()
+        self.world.mark_changed()
 
     def check_version(self, built_version: int, owner: str) -> None:
         """Raise :class:`StaleModelError` unless ``built_version`` is the current version.
-
-        Also raises when ``robot.model``'s limit arrays were edited in place (they no longer
-        equal the robot's): a change that no version records.
 
         Args:
             built_version: the :attr:`version` an object recorded when it was built.
             owner: what the object is, for the message (``"JointPositionLimits"``...).
         """
-        model = self.model
-        edited = [
-            name
-            for name, ours, theirs in (
-                ("lowerPositionLimit", self._lower, model.lowerPositionLimit),
-                ("upperPositionLimit", self._upper, model.upperPositionLimit),
-            )
-            if not np.array_equal(ours, theirs)
-        ]
-        if edited:
-            raise StaleModelError(
-                f"robot '{self.name}': robot.model.{edited[0]} was edited in place, which no "
-                "object built from the robot can see; change limits with Robot.set_limits",
-                built_version,
-                self._version,
-            )
         if built_version != self._version:
             raise StaleModelError(
                 f"{owner} was built for version {built_version} of robot '{self.name}', whose "
-                f"limits have changed since (Robot.set_limits, now version {self._version}); "
+                "model has changed since (Robot.set_limits or Robot.edit_model, now version "
+                f"{self._version}); "
                 f"build a new {owner}",
                 built_version,
                 self._version,
@@ -897,7 +1091,7 @@ class Robot:
             InvalidInputError: NaN, ``lower > upper``, negative velocity or effort limits, a
                 limited floating base or an actuated one.
         """
-        model = self.model
+        model = self._model
         new_lower = self._lower if lower is None else self._limit_array(lower, self.nq, "lower")
         new_upper = self._upper if upper is None else self._limit_array(upper, self.nq, "upper")
         bad = np.flatnonzero(new_lower > new_upper)
@@ -986,7 +1180,7 @@ class Robot:
     @property
     def mass(self) -> float:
         """Total mass [kg]."""
-        return float(pin.computeTotalMass(self.model))
+        return float(pin.computeTotalMass(self._model))
 
     # ------------------------------------------------------------------ configurations
     def check_configuration(self, q: Any, name: str = "q") -> FloatArray:
@@ -1007,7 +1201,7 @@ class Robot:
         else:
             arr = as_vector(q, self._nq, name)
             arr = arr.copy() if arr is q else arr
-        if not self._normalized_blocks or pin.isNormalized(self.model, arr, QUATERNION_TOLERANCE):
+        if not self._normalized_blocks or pin.isNormalized(self._model, arr, QUATERNION_TOLERANCE):
             return arr
         for idx, size, joint in self._normalized_blocks:
             block = arr[idx : idx + size]
@@ -1054,10 +1248,10 @@ class Robot:
         return arr
 
     def _joint_name_at_q(self, idx_q: int) -> str:
-        for jid in range(1, self.model.njoints):
-            joint = self.model.joints[jid]
+        for jid in range(1, self._model.njoints):
+            joint = self._model.joints[jid]
             if joint.idx_q <= idx_q < joint.idx_q + joint.nq:
-                return str(self.model.names[jid])
+                return str(self._model.names[jid])
         return f"q[{idx_q}]"
 
     def normalize(self, q: Any) -> FloatArray:
@@ -1066,17 +1260,17 @@ class Robot:
         Raises:
             InvalidInputError: a block is zero (no direction to normalize to).
         """
-        arr = as_vector(q, self.model.nq, "q")
+        arr = as_vector(q, self._model.nq, "q")
         for idx, size, joint in self._normalized_blocks:
             if not np.linalg.norm(arr[idx : idx + size]) > 1e-12:
                 raise InvalidInputError(
                     f"q[{idx}:{idx + size}] of joint '{joint}' is zero and cannot be normalized"
                 )
-        return np.asarray(pin.normalize(self.model, arr))
+        return np.asarray(pin.normalize(self._model, arr))
 
     def neutral(self) -> FloatArray:
         """The neutral configuration (``pin.neutral``: zero angles, identity rotations)."""
-        return np.asarray(pin.neutral(self.model))
+        return np.asarray(pin.neutral(self._model))
 
     def random_configuration(
         self, rng: np.random.Generator, *, base_box: float = 1.0
@@ -1093,7 +1287,7 @@ class Robot:
             rng: random generator.
             base_box: half side of the box of unbounded translations [m].
         """
-        q = np.asarray(pin.neutral(self.model)).copy()
+        q = np.asarray(pin.neutral(self._model)).copy()
         lo = self._lower
         hi = self._upper
         idx = self._limited_q
@@ -1129,7 +1323,7 @@ class Robot:
         b = self.check_configuration(q1, "q1")
         if not (isinstance(t, (int, float, np.floating, np.integer)) and math.isfinite(t)):
             raise InvalidInputError(f"t must be a finite number, got {t!r}")
-        return np.asarray(pin.interpolate(self.model, a, b, float(t)))
+        return np.asarray(pin.interpolate(self._model, a, b, float(t)))
 
     def distance(self, q0: Any, q1: Any) -> float:
         """Length of the tangent vector from ``q0`` to ``q1``: ``||q1 (-) q0||`` [rad and m].
@@ -1143,13 +1337,13 @@ class Robot:
         """Configuration reached from ``q`` moving with velocity ``v`` for ``dt`` [s]."""
         qa = self.check_configuration(q)
         va = self.check_velocity(v)
-        return np.asarray(pin.integrate(self.model, qa, va * dt))
+        return np.asarray(pin.integrate(self._model, qa, va * dt))
 
     def difference(self, q0: Any, q1: Any) -> FloatArray:
         """Tangent vector ``v`` such that ``integrate(q0, v) = q1``."""
         a = self.check_configuration(q0, "q0")
         b = self.check_configuration(q1, "q1")
-        return np.asarray(pin.difference(self.model, a, b))
+        return np.asarray(pin.difference(self._model, a, b))
 
     def state(self, q: Any = None, v: Any = None) -> State:
         """A :class:`~taskspace.model.state.State` at ``q`` (default posture if omitted)."""
@@ -1163,8 +1357,8 @@ class Robot:
         fid = self.frame_id(frame)
         qa = self.check_configuration(q)
         with _DATA_LOCK:
-            pin.framesForwardKinematics(self.model, self.data, qa)
-            return self.data.oMf[fid].copy()
+            pin.framesForwardKinematics(self._model, self._data, qa)
+            return self._data.oMf[fid].copy()
 
     # ------------------------------------------------------------------ world and collisions
     @property
@@ -1177,11 +1371,11 @@ class Robot:
         self.world.add(obstacle)
         geom = pin.GeometryObject(obstacle.name, 0, 0, obstacle.placement, obstacle.geometry)
         geom.meshColor = np.asarray(obstacle.color, dtype=float)
-        gid = self.collision_model.addGeometryObject(geom)
+        gid = self._collision_model.addGeometryObject(geom)
         for rid in range(self._robot_geometry_count):
-            if self.collision_model.geometryObjects[rid].parentJoint != 0:
-                self.collision_model.addCollisionPair(pin.CollisionPair(rid, gid))
-        self.collision_data = self.collision_model.createData()
+            if self._collision_model.geometryObjects[rid].parentJoint != 0:
+                self._collision_model.addCollisionPair(pin.CollisionPair(rid, gid))
+        self._collision_data = self._collision_model.createData()
 
     def add_obstacles(self, obstacles: Iterable[Obstacle]) -> None:
         """Add several obstacles."""
@@ -1191,23 +1385,23 @@ class Robot:
     def remove_obstacle(self, name: str) -> Obstacle:
         """Remove the obstacle ``name`` (raises UnknownNameError listing the obstacles)."""
         obstacle = self.world.remove(name)
-        self.collision_model.removeGeometryObject(name)
-        self.collision_data = self.collision_model.createData()
+        self._collision_model.removeGeometryObject(name)
+        self._collision_data = self._collision_model.createData()
         return obstacle
 
     def clear_obstacles(self) -> None:
         """Remove every obstacle."""
         for obstacle in list(self.world):
-            self.collision_model.removeGeometryObject(obstacle.name)
+            self._collision_model.removeGeometryObject(obstacle.name)
             self.world.remove(obstacle.name)
-        self.collision_data = self.collision_model.createData()
+        self._collision_data = self._collision_model.createData()
 
     def disable_collision_pairs(self, pairs: Iterable[tuple[str, str]]) -> None:
         """Stop checking pairs of robot geometries (names as in :attr:`collision_pairs`).
 
         The world gets a new :attr:`~taskspace.model.World.version`, so every collision
         checker, configuration space and planner built before follows the change. Change
-        pairs this way: edits of ``robot.collision_model`` in place (Pinocchio's
+        pairs this way: edits of ``robot._collision_model`` in place (Pinocchio's
         ``removeCollisionPair``...) carry no version, and objects built before keep their
         copies.
 
@@ -1224,7 +1418,7 @@ class Robot:
         self._edit_collision_pairs(pairs, enable=True)
 
     def _edit_collision_pairs(self, pairs: Iterable[tuple[str, str]], *, enable: bool) -> None:
-        objs = self.collision_model.geometryObjects
+        objs = self._collision_model.geometryObjects
         names = {objs[i].name: i for i in range(self._robot_geometry_count)}
         if isinstance(pairs, (str, bytes)) or not isinstance(pairs, Iterable):
             raise InvalidInputError(
@@ -1248,21 +1442,21 @@ class Robot:
             if ids[0] == ids[1]:
                 raise InvalidInputError(f"a geometry cannot be paired with itself: {pair!r}")
             resolved.append(pin.CollisionPair(min(ids), max(ids)))
-        model = self.collision_model
+        model = self._collision_model
         for cp in resolved:
             if enable and not model.existCollisionPair(cp):
                 model.addCollisionPair(cp)
             elif not enable and model.existCollisionPair(cp):
                 model.removeCollisionPair(cp)
-        self.collision_data = model.createData()
+        self._collision_data = model.createData()
         self.world.mark_changed()
 
     @property
     def collision_pairs(self) -> list[tuple[str, str]]:
         """Checked collision pairs as (geometry name, geometry name)."""
-        objs = self.collision_model.geometryObjects
+        objs = self._collision_model.geometryObjects
         return [
-            (objs[p.first].name, objs[p.second].name) for p in self.collision_model.collisionPairs
+            (objs[p.first].name, objs[p.second].name) for p in self._collision_model.collisionPairs
         ]
 
     def _queried_collision_data(self) -> Any:
@@ -1272,7 +1466,7 @@ class Robot:
         same pair at another configuration (see ``taskspace.model.collision_requests``); done
         here rather than at each world change so that adding obstacles stays cheap.
         """
-        data = self.collision_data
+        data = self._collision_data
         if self._guess_reset is not data:
             self._guess_reset = without_cached_guess(data)
         return data
@@ -1283,7 +1477,7 @@ class Robot:
         with _DATA_LOCK:
             data = self._queried_collision_data()
             return not pin.computeCollisions(
-                self.model, self.data, self.collision_model, data, qa, True
+                self._model, self._data, self._collision_model, data, qa, True
             )
 
     def colliding_pairs(self, q: Any) -> list[tuple[str, str]]:
@@ -1291,17 +1485,17 @@ class Robot:
         qa = self.check_configuration(q)
         with _DATA_LOCK:  # another thread's query would overwrite the results being read
             data = self._queried_collision_data()
-            pin.computeCollisions(self.model, self.data, self.collision_model, data, qa, False)
+            pin.computeCollisions(self._model, self._data, self._collision_model, data, qa, False)
             hits = [k for k, r in enumerate(data.collisionResults) if r.isCollision()]
-        objs = self.collision_model.geometryObjects
-        pairs = self.collision_model.collisionPairs
+        objs = self._collision_model.geometryObjects
+        pairs = self._collision_model.collisionPairs
         return [(objs[pairs[k].first].name, objs[pairs[k].second].name) for k in hits]
 
     def __repr__(self) -> str:
         return (
             f"Robot('{self.name}', nq={self.nq}, nv={self.nv}, floating={self.is_floating}, "
-            f"geometries={self.collision_model.ngeoms}, "
-            f"pairs={len(self.collision_model.collisionPairs)}, obstacles={len(self.world)})"
+            f"geometries={self._collision_model.ngeoms}, "
+            f"pairs={len(self._collision_model.collisionPairs)}, obstacles={len(self.world)})"
         )
 
 
@@ -1374,6 +1568,57 @@ def _posture_from_spec(model: pin.Model, spec: RobotSpec, q: FloatArray) -> Floa
         q[:3] = np.asarray(posture["base"], dtype=float)
     check_finite(q, "default posture")
     return q
+
+
+def _load_reference_configurations(model: pin.Model, srdf: Path) -> None:
+    """Read the SRDF's reference configurations (``group_state``) into ``model``.
+
+    As Pinocchio reads them, with a free-flyer root entry (7 values) adapted to the model's
+    root. Descriptions of legged robots give their ``root_joint`` seven values (position and unit
+    quaternion). A robot loaded with ``base="fixed"`` has no such joint and one loaded with
+    ``base="planar"`` has a 4-coordinate one, and Pinocchio prints "Could not read joint
+    config" on stderr for such an entry. The entry is taken out before Pinocchio reads the
+    file; on a planar root it becomes ``(x, y, cos yaw, sin yaw)`` (the yaw of the quaternion);
+    on a fixed base it is dropped (the base pose is not part of the configuration).
+    """
+    import xml.etree.ElementTree as ET
+
+    tree = ET.parse(srdf)
+    roots: dict[str, list[float]] = {}  # group_state name -> the root entry's seven values
+    for state in tree.getroot().iter("group_state"):
+        for joint in list(state.findall("joint")):
+            name = joint.get("name", "")
+            values = (joint.get("value") or "").split()
+            if len(values) != 7:
+                continue
+            jid = model.getJointId(name) if model.existJointName(name) else None
+            if jid is not None and model.joints[jid].nq == 7:
+                continue  # a free flyer: Pinocchio reads it
+            if jid is not None and model.joints[jid].shortname() != "JointModelPlanar":
+                continue  # another joint: Pinocchio reports the mismatch as before
+            if jid is None and model.existFrame(name):
+                continue
+            state.remove(joint)
+            if jid is not None:
+                roots[state.get("name", "")] = [float(v) for v in values]
+    pin.loadReferenceConfigurationsFromXML(model, ET.tostring(tree.getroot(), "unicode"), False)
+    for state_name, (x, y, _, qx, qy, qz, qw) in roots.items():
+        if state_name not in model.referenceConfigurations:
+            continue
+        q = np.asarray(model.referenceConfigurations[state_name]).copy()
+        norm = math.sqrt(qx * qx + qy * qy + qz * qz + qw * qw)
+        if not norm > 0.0:
+            raise ModelLoadError(
+                f"SRDF {srdf}: group_state '{state_name}' gives the root joint a zero quaternion"
+            )
+        qx, qy, qz, qw = qx / norm, qy / norm, qz / norm, qw / norm
+        yaw = math.atan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))
+        for jid in range(1, model.njoints):
+            if model.joints[jid].shortname() == "JointModelPlanar":
+                i = model.joints[jid].idx_q
+                q[i : i + 4] = (x, y, math.cos(yaw), math.sin(yaw))
+                break
+        model.referenceConfigurations[state_name] = q
 
 
 def _drop_orphan_geometries(
@@ -1449,7 +1694,7 @@ def prune_collision_pairs(
         The disabled pairs by rule.
     """
     options = options or CollisionPruningOptions()
-    model, collision = robot.model, robot.collision_model
+    model, collision = robot._model, robot._collision_model
     data = model.createData()
     geom_data = without_cached_guess(collision.createData())
     n_robot = robot.robot_geometry_count
@@ -1490,7 +1735,8 @@ def prune_collision_pairs(
         always = candidates
     for first, second in default + always:
         collision.removeCollisionPair(pin.CollisionPair(first, second))
-    robot.collision_data = collision.createData()
+    robot._collision_data = collision.createData()
+    robot.world.mark_changed()  # the pairs changed (also what robot.collision_model hands out)
     result = PrunedCollisionPairs(
         adjacent=tuple(adjacent),
         default_posture=tuple(_pair_names(collision, a, b) for a, b in default),
@@ -1550,12 +1796,72 @@ def _convexify(geometry_model: pin.GeometryModel) -> None:
             obj.geometry = geom.convex
 
 
+_EDITABLE_MODEL_FIELDS = (
+    "jointPlacements",
+    "inertias",
+    "armature",
+    "damping",
+    "friction",
+    "rotorInertia",
+    "rotorGearRatio",
+    "gravity",
+    "lowerPositionLimit",
+    "upperPositionLimit",
+    "velocityLimit",
+    "effortLimit",
+)
+"""The ``pin.Model`` fields :meth:`Robot.edit_model` accepts edits of (with the frames')."""
+
+_EDITABLE_GEOMETRY_FIELDS = (
+    "placement",
+    "geometry",
+    "disableCollision",
+    "meshScale",
+    "meshColor",
+    "meshPath",
+    "meshMaterial",
+    "meshTexturePath",
+    "overrideMaterial",
+)
+
+
+def _copy_model_values(source: pin.Model, target: pin.Model) -> None:
+    """Write the editable values of ``source`` into ``target`` (same structure assumed)."""
+    for field in _EDITABLE_MODEL_FIELDS[2:]:
+        setattr(target, field, getattr(source, field))
+    if source.njoints == target.njoints:
+        for i in range(target.njoints):
+            target.jointPlacements[i] = source.jointPlacements[i]
+            target.inertias[i] = source.inertias[i]
+    if source.nframes == target.nframes:
+        for i in range(target.nframes):
+            frame, new = target.frames[i], source.frames[i]
+            frame.placement = new.placement
+            frame.inertia = new.inertia
+
+
+def _copy_geometry_values(
+    source: pin.GeometryModel, target: pin.GeometryModel, robot_geometries: int
+) -> None:
+    """Write ``source``'s collision pairs and robot geometries' editable values into ``target``.
+
+    Same geometries assumed (checked by the caller).
+    """
+    for i in range(robot_geometries):
+        obj, new = target.geometryObjects[i], source.geometryObjects[i]
+        for field in _EDITABLE_GEOMETRY_FIELDS:
+            setattr(obj, field, getattr(new, field))
+    target.removeAllCollisionPairs()
+    for pair in source.collisionPairs:
+        target.addCollisionPair(pin.CollisionPair(pair.first, pair.second))
+
+
 def configuration_from_joint_values(robot: Robot, values: dict[str, float]) -> FloatArray:
     """Default posture with the named 1-DoF joints set to ``values`` [rad or m]."""
     q = robot.q_default.copy()
     for name, value in values.items():
         jid = robot.joint_id(name)
-        joint = robot.model.joints[jid]
+        joint = robot._model.joints[jid]
         if joint.nq != 1:
             raise ShapeError(f"joint '{name}' value", (joint.nq,), (1,))
         q[joint.idx_q] = float(value)

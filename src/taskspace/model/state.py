@@ -83,18 +83,18 @@ class State:
 
     def __init__(self, robot: Robot, q: Any, v: Any = None) -> None:
         self._robot = robot
-        self._model = robot.model
-        self._nframes = int(robot.model.nframes)
-        self._njoints = int(robot.model.njoints)
+        self._model = robot._model
+        self._nframes = int(robot._model.nframes)
+        self._njoints = int(robot._model.njoints)
         self._com: FloatArray | None = None
         self._com_jacobian: FloatArray | None = None
         self._com_drift: FloatArray | None = None
-        self._data = robot.model.createData()
+        self._data = robot._model.createData()
         # References into ``data`` (Pinocchio returns views that follow every update); taking
         # them once saves building a new Python object at each access.
         self._com_ref: FloatArray = self._data.com[0]
         self._placements: dict[int, pin.SE3] = {}
-        self._collision_data = robot.collision_model.createData()
+        self._collision_data = robot._collision_model.createData()
         self._guess_reset: Any = None  # the data whose cached GJK guess is off (lazily)
         self._collision_version = robot.world.version
         self._distance_handles: tuple[Any, list[Any]] | None = None
@@ -117,7 +117,7 @@ class State:
     )
 
     def _set_collision_data(self, value: Any) -> None:
-        geom = self._robot.collision_model
+        geom = self._robot._collision_model
         if (
             not isinstance(value, pin.GeometryData)
             or len(value.oMg) != geom.ngeoms
@@ -360,7 +360,7 @@ class State:
         if self._distances_done:
             return
         robot = self._robot
-        geom = robot.collision_model
+        geom = robot._collision_model
         version = robot.world.version
         if (
             version != self._collision_version

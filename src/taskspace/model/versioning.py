@@ -1,15 +1,16 @@
 """How objects built from a robot follow its model version (:attr:`Robot.version`).
 
-A robot's limits change only through :meth:`Robot.set_limits`, which gives the robot a new
-version, never reused. An object that copies anything derived from the limits (a constraint's
-box, a planning space's bounds, an optimization problem's limit rows, a compiled kernel's
-copy) holds a :class:`ModelFollower` and calls :meth:`ModelFollower.sync` before it uses its
-copy. While the robot keeps the version the copy was made for, ``sync`` costs one integer
-comparison; when it differs, ``sync`` either re-derives the copy (the owner gave a
-``derive`` function) or raises :class:`~taskspace.errors.StaleModelError` naming the owner
-(no ``derive``: objects whose shape depends on the limits, such as a path problem's rows).
-Never a count, a hash or a comparison of the arrays: the version is the only signal, so a
-change that keeps sizes and values elsewhere (narrowing one joint) is seen as well.
+A robot's limits change only through :meth:`Robot.set_limits` (its other model values through
+:meth:`Robot.edit_model`), which gives the robot a new version, never reused. An object that
+copies anything derived from the limits (a constraint's box, a planning space's bounds, an
+optimization problem's limit rows, a compiled kernel's copy) holds a :class:`ModelFollower` and
+calls :meth:`ModelFollower.sync` before it uses its copy. While the robot keeps the version the
+copy was made for, ``sync`` costs one integer comparison; when it differs, ``sync`` either
+re-derives the copy (the owner gave a ``derive`` function) or raises
+:class:`~taskspace.errors.StaleModelError` naming the owner (no ``derive``: objects whose shape
+depends on the limits, such as a path problem's rows). Never a count, a hash or a comparison of
+the arrays: the version is the only signal, so a change that keeps sizes and values elsewhere
+(narrowing one joint) is seen as well.
 
 Example::
 
@@ -90,9 +91,7 @@ class ModelFollower:
             current (one integer comparison).
 
         Raises:
-            StaleModelError: the version changed and the owner cannot re-derive, or
-                ``robot.model``'s limit arrays were edited in place (no version records
-                that; use :meth:`Robot.set_limits`).
+            StaleModelError: the version changed and the owner cannot re-derive.
             TaskspaceError: ``derive`` refused the new limits (e.g. a margin larger than a
                 new joint range); the owner stays stale and the next call tries again.
         """
@@ -103,13 +102,11 @@ class ModelFollower:
     def _renew(self) -> bool:
         robot = self.robot
         version = robot.version
-        # in-place edits of robot.model (a misuse no version records) are refused here too
-        robot.check_version(version, self.owner)
         if self._derive is None:
             raise StaleModelError(
                 f"{self.owner} was built for version {self.version} of robot '{robot.name}', "
-                f"whose limits have changed since (Robot.set_limits, now version {version}); "
-                + (self._what_to_do or f"build a new {self.owner}"),
+                "whose model has changed since (Robot.set_limits or Robot.edit_model, now "
+                f"version {version}); " + (self._what_to_do or f"build a new {self.owner}"),
                 self.version,
                 version,
             )

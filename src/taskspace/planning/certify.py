@@ -158,8 +158,8 @@ def motion_bound(robot: Robot, path: Any = None) -> MotionBound:
         InvalidInputError: a joint type whose motion cannot be bounded (composite, mimic),
             or a prismatic joint without finite limits and no ``path``.
     """
-    model = robot.model
-    gm = robot.collision_model
+    model = robot._model
+    gm = robot._collision_model
     extent = np.zeros(model.njoints)  # how far a prismatic joint can displace its child
     for j in range(1, model.njoints):
         joint = model.joints[j]
@@ -257,7 +257,7 @@ def motion_bounds(robot: Robot) -> FloatArray:
     Raises:
         InvalidInputError: see :func:`motion_bound`.
     """
-    return motion_bound(robot).per_coordinate(robot.model.nv)
+    return motion_bound(robot).per_coordinate(robot._model.nv)
 
 
 def certify_path(
@@ -290,7 +290,7 @@ def certify_path(
         raise InvalidInputError(f"tolerance must be a distance > 0 [m], got {tolerance!r}")
     check_positive(tolerance, "tolerance")
     max_queries = check_count(max_queries, "max_queries", minimum=1)
-    model, gm = robot.model, robot.collision_model
+    model, gm = robot._model, robot._collision_model
     normalized = np.array([pin.normalize(model, q) for q in arr])
     if np.max(np.abs(normalized - arr)) > 1e-6:
         raise InvalidInputError(

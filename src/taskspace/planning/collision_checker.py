@@ -170,7 +170,7 @@ class CollisionChecker:
     def update_world(self) -> None:
         """Rebuild the internal geometry copies from ``robot.collision_model``."""
         robot = self.robot
-        model, geom = robot.model, robot.collision_model
+        model, geom = robot._model, robot._collision_model
         if self.options.broadphase:
             pool = pin.TreeBroadPhaseManagerPool_DynamicAABBTreeCollisionManager
             self._pool = pool(model, geom, 1)
@@ -180,8 +180,6 @@ class CollisionChecker:
         self._geom_data = geom.createData()
         self._guess_off = False  # see _no_cached_guess (done at the first Python-side query)
         self._ngeoms = geom.ngeoms
-        # the exact pair set (Pinocchio's pair index of every geometry pair, -1 if unchecked)
-        self._pair_mapping = np.array(geom.collisionPairMapping, copy=True)
         self._kernel = None
         self._kernel_checked = False
         self._world = robot.world
@@ -232,22 +230,19 @@ class CollisionChecker:
             module = planning_kernel()
             if module is None:
                 return None
-            model = self.robot.model.copy()
-            geom = self.robot.collision_model.copy()
+            model = self.robot._model.copy()
+            geom = self.robot._collision_model.copy()
             self._kernel = module.CollisionKernel(
                 model, model.createData(), geom, geom.createData(), NATIVE_PAIR_CACHE
             )
         return self._kernel
 
     def sync_for_plan(self) -> None:
-        """Rebuild the copies if the world changed or pairs were edited in place.
+        """Rebuild the copies if the robot's world or collision model changed (once per plan).
 
-        The exact pair-set comparison (8-36 us) is made once per plan, not at every query:
-        pairs edited on ``robot.collision_model`` in place change no world version.
+        Pair and geometry edits go through the robot (``edit_collision_model``, which gives
+        the world a new version), so the version and identity checks of ``_sync`` see them.
         """
-        geom = self.robot.collision_model
-        if not np.array_equal(geom.collisionPairMapping, self._pair_mapping):
-            self.update_world()
         self._sync()
 
     def sphere_model(self) -> Any:
@@ -262,14 +257,20 @@ class CollisionChecker:
         """
         from taskspace.planning.sphere_model import sphere_model
 
-        geom = self.robot.collision_model
+        geom = self.robot._collision_model
         objs = geom.geometryObjects
         moving = tuple(i for i, o in enumerate(objs) if o.parentJoint != 0)
         # what the spheres depend on: the moving objects, their geometry and placement
         key = tuple((i, objs[i].name, objs[i].parentJoint, objs[i].placement) for i in moving)
+        edits = self.robot._geometry_edits  # shapes replaced by Robot.edit_collision_model
         cached = _SPHERE_CACHE.get(self.robot)
-        if cached is None or cached[0] is not geom or not _same_key(cached[1], key):
-            cached = (geom, key, sphere_model(geom, list(moving)))
+        if (
+            cached is None
+            or cached[0] is not geom
+            or cached[3] != edits
+            or not _same_key(cached[1], key)
+        ):
+            cached = (geom, key, sphere_model(geom, list(moving)), edits)
             _SPHERE_CACHE[self.robot] = cached
         return cached[2]
 
@@ -312,7 +313,7 @@ class CollisionChecker:
         """
         robot = self.robot
         world = robot.world
-        geom = robot.collision_model
+        geom = robot._collision_model
         if (
             world.version != self._world_version
             or world is not self._world
@@ -326,7 +327,7 @@ class CollisionChecker:
     def geometry(self) -> str:
         """Which robot geometry is checked: ``"mesh"``, ``"convex hull"`` or ``"mixed"``."""
         kinds = set()
-        objs = self.robot.collision_model.geometryObjects
+        objs = self.robot._collision_model.geometryObjects
         for i in range(self.robot.robot_geometry_count):
             name = type(objs[i].geometry).__name__
             if name.startswith("BVHModel"):
@@ -340,7 +341,7 @@ class CollisionChecker:
     @property
     def pair_count(self) -> int:
         """Number of checked collision pairs (self pairs left by the SRDF plus obstacle pairs)."""
-        return len(self.robot.collision_model.collisionPairs)
+        return len(self.robot._collision_model.collisionPairs)
 
     # ------------------------------------------------------------------ queries
     def _batch(self, configurations: FloatArray, stop_in_batch: bool) -> BoolArray:
@@ -449,10 +450,10 @@ class CollisionChecker:
         self._sync()
         qa = self._as_rows(q)[0]
         robot = self.robot
-        geom = robot.collision_model
+        geom = robot._collision_model
         if not self._guess_off:
             self._no_cached_guess()
-        pin.computeCollisions(robot.model, self._data, geom, self._geom_data, qa, False)
+        pin.computeCollisions(robot._model, self._data, geom, self._geom_data, qa, False)
         objs = geom.geometryObjects
         return [
             (objs[p.first].name, objs[p.second].name)
@@ -479,12 +480,12 @@ class CollisionChecker:
         self._sync()
         qa = self._as_rows(q)[0]
         robot = self.robot
-        geom = robot.collision_model
+        geom = robot._collision_model
         if len(geom.collisionPairs) == 0:
             raise PlanningError(f"robot '{robot.name}' has no collision pair to measure")
         if not self._guess_off:
             self._no_cached_guess()
-        k = int(pin.computeDistances(robot.model, self._data, geom, self._geom_data, qa))
+        k = int(pin.computeDistances(robot._model, self._data, geom, self._geom_data, qa))
         pair = geom.collisionPairs[k]
         objs = geom.geometryObjects
         dist = float(self._geom_data.distanceResults[k].min_distance)

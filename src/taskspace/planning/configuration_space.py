@@ -289,7 +289,7 @@ class ConfigurationSpace:
         space._follower = None
         space.locked = None
         if locked_joints is not None:
-            space.locked = LockedJoints(robot.model, locked_joints)
+            space.locked = LockedJoints(robot._model, locked_joints)
             checker = LockedJointChecker(checker, space.locked)  # type: ignore[arg-type]
         space.checker = checker
         space.edge = edge or EdgeCheckOptions()
@@ -322,7 +322,7 @@ class ConfigurationSpace:
         lo, hi = robot.lower_limits, robot.upper_limits
         if manifold is not None:
             lo, hi = manifold.lower, manifold.upper
-        names = [str(robot.model.names[jid]) for jid in range(1, robot.model.njoints)]
+        names = [str(robot._model.names[jid]) for jid in range(1, robot._model.njoints)]
         self._set_bounds(lo, hi, manifold)
         self.names = names if len(names) == lo.size else [f"q[{i}]" for i in range(lo.size)]
 
@@ -330,7 +330,7 @@ class ConfigurationSpace:
         """:meth:`_derive_from_robot` for the free joints (the reduced Pinocchio model)."""
         locked = self.locked
         assert locked is not None
-        model = locked.reduced_model(robot.model)
+        model = locked.reduced_model(robot._model)
         self._reduced_model = model
         if weights is not None:
             w = np.asarray(weights, dtype=np.float64)

@@ -143,7 +143,7 @@ class JointManifold:
         base_upper: Any = None,
     ) -> None:
         robot = model if isinstance(model, Robot) else None
-        model = model.model if isinstance(model, Robot) else model
+        model = model._model if isinstance(model, Robot) else model
         self.model = model
         self.nq, self.nv = int(model.nq), int(model.nv)
         blocks = []

@@ -274,23 +274,17 @@ class LockedJointChecker:
         if not base.options.broadphase or self.locked.free_q.size != self.locked.free_v.size:
             return None
         # what the kernel's copies were made from: the checker's world (rebuilt by
-        # sync_for_plan on any change: a new pair-mapping array) and the robot's limits
-        key = (base._world_version, base._geometry_model, base._pair_mapping, robot._version)
+        # sync_for_plan on any change: a new world version) and the robot's model and limits
+        key = (base._world_version, base._geometry_model, robot._version)
         old = self._kernel_key
-        if (
-            self._kernel is not None
-            and key[0] == old[0]
-            and key[1] is old[1]
-            and key[2] is old[2]
-            and key[3] == old[3]
-        ):
+        if self._kernel is not None and key[0] == old[0] and key[1] is old[1] and key[2] == old[2]:
             return self._kernel
         from taskspace._native import planning_kernel
 
         module = planning_kernel()
         if module is None:
             return None
-        model, geometry = self.locked.reduced_models(robot.model, robot.collision_model)
+        model, geometry = self.locked.reduced_models(robot._model, robot._collision_model)
         if model.nq != model.nv:  # pragma: no cover - free_q and free_v sizes agree
             return None
         self._kernel = module.CollisionKernel(

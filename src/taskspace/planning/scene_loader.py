@@ -174,7 +174,7 @@ def _to_configuration(
         if name not in known:
             ignored.add(name)
             continue
-        joint = robot.model.joints[robot.joint_id(name)]
+        joint = robot._model.joints[robot.joint_id(name)]
         if joint.nq != 1:
             raise InvalidInputError(f"{where}: joint '{name}' is not a 1-DoF joint")
         try:
@@ -227,7 +227,7 @@ def load_moveit_request(robot: Robot, path: str | Path) -> PlanningRequest:
     goal_from = _to_configuration(robot, goal_names, goal_values, ignored, goal_at)
     for name in goal_names:
         if name in set(robot.joint_names):
-            idx = robot.model.joints[robot.joint_id(name)].idx_q
+            idx = robot._model.joints[robot.joint_id(name)].idx_q
             goal[idx] = goal_from[idx]
     return PlanningRequest(
         start=start,

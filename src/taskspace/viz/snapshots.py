@@ -87,7 +87,16 @@ _PAUSE_JS = """(t) => {
 
 
 class SnapshotError(TaskspaceError):
-    """The browser could not start, or the scene did not become ready in time."""
+    """The browser could not start, the scene did not settle in time, or the page had errors.
+
+    Attributes:
+        page_errors: the page's JavaScript errors that no allow-list entry matched (empty
+            for the other causes).
+    """
+
+    def __init__(self, message: str, page_errors: Sequence[str] = ()) -> None:
+        super().__init__(message)
+        self.page_errors = list(page_errors)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -102,6 +111,11 @@ class SnapshotOptions:
             not need the network).
         animation_time: pause a meshcat animation at this time [s] before the screenshot
             (``None`` leaves it playing, and the scene never becomes still).
+        allowed_page_errors: fragments of JavaScript error messages that are known to be
+            harmless: a page error containing one of them is kept in
+            :attr:`SnapshotResult.page_errors` without failing the snapshot. Any other page
+            error makes :func:`render_html` raise :class:`SnapshotError` (a page with errors
+            may show a scene that is wrong or incomplete).
     """
 
     timeout: float = 60.0
@@ -109,8 +123,15 @@ class SnapshotOptions:
     stable_captures: int = 2
     offline: bool = True
     animation_time: float | None = 0.0
+    allowed_page_errors: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
+        allowed = self.allowed_page_errors
+        if not isinstance(allowed, tuple) or not all(isinstance(a, str) and a for a in allowed):
+            raise InvalidInputError(
+                "allowed_page_errors must be a tuple of non-empty message fragments (str), "
+                f"got {allowed!r}"
+            )
         # NaN timeouts failed at once, inf ones made playwright raise, negative polls a bare
         # playwright error; a snapshot needs a finite wait
         check_positive(self.timeout, "timeout")
@@ -134,7 +155,8 @@ class SnapshotResult:
         token: the readiness token read from the page (``None`` if never seen).
         captures: number of screenshots taken until the scene was still.
         blocked_requests: URLs aborted by the offline routing.
-        page_errors: JavaScript errors (uncaught, console errors, failed commands).
+        page_errors: JavaScript errors (uncaught, console errors, failed commands) that
+            ``SnapshotOptions.allowed_page_errors`` allowed (any other one raises).
         seconds: wall time of the rendering [s].
     """
 
@@ -316,7 +338,9 @@ def render_html(
         options: timeouts and network policy.
 
     Raises:
-        SnapshotError: Chromium missing or failing, or the scene not ready within the timeout.
+        SnapshotError: Chromium missing or failing, the scene not ready within the timeout,
+            or JavaScript errors on the page that ``options.allowed_page_errors`` does not
+            allow (the error's ``page_errors`` lists them).
     """
     opts = options if options is not None else SnapshotOptions()
     if not isinstance(opts, SnapshotOptions):
@@ -337,8 +361,21 @@ def render_html(
         if future.cancel() and temporary is not None:
             temporary.unlink(missing_ok=True)  # never started: nobody else deletes it
         raise
+    allowed = opts.allowed_page_errors
+    refused = [e for e in result.page_errors if not any(a in e for a in allowed)]
     for message in result.page_errors:
-        logger.warning("snapshot page: %s", message)
+        if message not in refused:
+            logger.info("snapshot page (allowed): %s", message)
+    if refused:
+        shown = "; ".join(refused[:5]) + (
+            f"; ... ({len(refused)} in all)" if len(refused) > 5 else ""
+        )
+        raise SnapshotError(
+            f"the snapshot page had {len(refused)} JavaScript error(s): {shown} (the image may "
+            "be wrong or incomplete; allow known harmless ones with "
+            "SnapshotOptions(allowed_page_errors=(...)))",
+            refused,
+        )
     return result
 
 

@@ -261,7 +261,7 @@ class Viewer:
         if (
             robot is not None
             and geometry == "visual"
-            and robot.visual_model.ngeoms == 0
+            and robot._visual_model.ngeoms == 0
             and robot.robot_geometry_count > 0
         ):
             # simple_humanoid of example-robot-data: the viewer showed an empty scene
@@ -299,7 +299,7 @@ class Viewer:
     def geometry_model(self) -> pin.GeometryModel:
         """The displayed geometry model (robot geometries only)."""
         robot = self._require_robot()
-        return robot.visual_model if self.geometry == "visual" else robot.collision_model
+        return robot._visual_model if self.geometry == "visual" else robot._collision_model
 
     def _require_robot(self) -> Robot:
         if self.robot is None:
@@ -331,11 +331,11 @@ class Viewer:
 
     def _placements(self, q: FloatArray) -> list[pin.SE3]:
         robot = self._require_robot()
-        data = robot.model.createData()
+        data = robot._model.createData()
         gmodel = self.geometry_model
         gdata = gmodel.createData()
-        pin.forwardKinematics(robot.model, data, q)
-        pin.updateGeometryPlacements(robot.model, data, gmodel, gdata)
+        pin.forwardKinematics(robot._model, data, q)
+        pin.updateGeometryPlacements(robot._model, data, gmodel, gdata)
         return [gdata.oMg[k].copy() for k in range(len(self._geom_paths))]
 
     def display(self, q: Any) -> None:
@@ -480,10 +480,10 @@ class Viewer:
         qs = as_matrix(configurations, (None, robot.nq), "configurations")
         frame_name = frame if frame is not None else robot.end_effectors[0]
         fid = robot.frame_id(frame_name)
-        data = robot.model.createData()
+        data = robot._model.createData()
         points = np.empty((qs.shape[0], 3))
         for i, q in enumerate(qs):
-            pin.framesForwardKinematics(robot.model, data, q)
+            pin.framesForwardKinematics(robot._model, data, q)
             points[i] = data.oMf[fid].translation
         self.add_path(name, points, color, radius)
         return points
@@ -637,7 +637,7 @@ class Viewer:
 
         robot = self._require_robot()
         qa = self.q if q is None else robot.check_configuration(q)
-        com = np.asarray(pin.centerOfMass(robot.model, robot.model.createData(), qa), dtype=float)
+        com = np.asarray(pin.centerOfMass(robot._model, robot._model.createData(), qa), dtype=float)
         node = self._marker(name)
         material = phong(color, on_top=on_top)
         _check_extent(check_positive(radius, "radius"), "radius")
@@ -734,7 +734,7 @@ class Viewer:
             i = min(math.floor(s), qs.shape[0] - 2) if qs.shape[0] > 1 else 0
             alpha = s - i
             if qs.shape[0] > 1:
-                q = pin.interpolate(robot.model, qs[i], qs[i + 1], alpha)
+                q = pin.interpolate(robot._model, qs[i], qs[i + 1], alpha)
             else:
                 q = qs[0]
             with animation.at_frame(self.vis, frame) as anim_frame:

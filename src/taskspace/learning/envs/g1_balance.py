@@ -92,7 +92,7 @@ class G1BalanceEnv(gym.Env[np.ndarray, np.ndarray]):
         self.controller = InverseDynamicsQP(robot, [self.com_task, posture], contacts)
         self.action_space = spaces.Box(-1.0, 1.0, (3,), np.float32)
         self.observation_space = spaces.Box(-np.inf, np.inf, (6,), np.float32)
-        self._data = robot.model.createData()
+        self._data = robot._model.createData()
         self.q = robot.q_default.copy()
         self.v = np.zeros(robot.nv)
         self._follower = ModelFollower(robot, "G1BalanceEnv", self._read_limits)
@@ -118,7 +118,7 @@ class G1BalanceEnv(gym.Env[np.ndarray, np.ndarray]):
             )
 
     def _com(self) -> tuple[np.ndarray, np.ndarray]:
-        c = pin.centerOfMass(self.robot.model, self._data, self.q, self.v)
+        c = pin.centerOfMass(self.robot._model, self._data, self.q, self.v)
         return np.array(c), np.array(self._data.vcom[0])
 
     def _obs(self) -> np.ndarray:

@@ -190,7 +190,7 @@ class PandaReachVectorEnv(RobotVectorEnv):
                 "PandaReachVectorEnv needs the registry's 'panda' robot (7 joints)"
             )
         self.checker = CollisionChecker(self.robot)
-        self.tcp_position = BatchedFramePosition(self.robot.model, "panda_hand_tcp")
+        self.tcp_position = BatchedFramePosition(self.robot._model, "panda_hand_tcp")
         self.tolerance = float(tolerance)
         self._read_limits()
         self.q = np.tile(self.robot.q_default, (self.num_envs, 1))

@@ -144,7 +144,7 @@ class RobotEnv(gym.Env[np.ndarray, Any]):
     def __init__(self, robot_name: str, dt: float, substeps: int, render_mode: str | None) -> None:
         self.render_mode = check_render_mode(render_mode, RENDER_MODES)
         self.robot = Robot.load(robot_name)
-        self.model = self.robot.model
+        self.model = self.robot._model
         self.data = self.model.createData()
         self.dt = float(dt)
         self.substeps = int(substeps)
