@@ -11,6 +11,7 @@
 // difference/dDifference); nothing of Pinocchio is re-implemented here.
 
 #include <boost/python.hpp>
+#include <structmember.h>  // T_OBJECT_EX, READONLY (arm_advance)
 #include <eigenpy/eigenpy.hpp>
 
 #if __has_include(<pinocchio/multibody/data.hpp>)  // Pinocchio 3
@@ -336,6 +337,7 @@ class WeightedIKKernel {
   void arm(bp::object model_obj, bp::list tasks, bp::list hard_boxes, bp::list soft_boxes,
            double damping, int max_iter) {
     armed_ = false;
+    fa_armed_ = false;  // arm_advance again
     const Model& model = bp::extract<const Model&>(model_obj);
     if (model.nv != nv_ || model.nq != nq_) raise_invalid("model size mismatch");
     const long nt = bp::len(tasks);
@@ -361,12 +363,274 @@ class WeightedIKKernel {
 
   void disarm() {
     armed_ = false;
+    fa_armed_ = false;
     armed_tasks_.clear();
     armed_model_obj_ = bp::object();
     armed_model_ = nullptr;
   }
 
   bp::tuple step(Data& data, const Eigen::Ref<const VectorXd>& q, double dt) {
+    const Stepped s = step_arrays(data, q, dt);
+    const Outcome& o = s.outcome;
+    if (o.status == kMaxIterations)
+      return bp::make_tuple(o.status, o.iterations, o.objective, o.t_build, o.t_qp, bp::object(),
+                            bp::object(), bp::object());
+    return bp::make_tuple(o.status, o.iterations, o.objective, o.t_build, o.t_qp, s.dq, s.q,
+                          s.v);
+  }
+
+  // DifferentialIK.advance's whole armed step as one C function (METH_FASTCALL, no Boost.Python
+  // dispatch): ``advance(state, dt)`` takes the lock, checks the gate, runs step() on the
+  // state's data and q, records the new q (v) in the state as State._adopt(q, v, True) does and
+  // returns a new IKStepResult; None (nothing done, lock released) when the lock is busy or
+  // the gate does not hold; False at kMaxIterations (data untouched). Called after arm() (whose
+  // boxes are those of ``dt``) with:
+  //   gate:   (dt, robot, robot's version, the tasks.ASSIGNMENTS list, its armed value, the
+  //            solver's lock)
+  //   state:  (State, its member descriptors _robot, _data, _q, _v, _has_velocity, _a0,
+  //            (set None...), (dicts cleared...), (set False...))
+  //   result: (IKStepResult, its member descriptors success, status, dq, _velocity, _dt, _qp,
+  //            culprits, build_time, solve_time, IKStatus.SOLVED, QPStatus.UNCONSTRAINED,
+  //            QPStatus.SOLVED, backend name)
+  // A slot is written at the offset its member descriptor gives (checked here: an object
+  // slot of that class, writable). The function keeps the kernel alive.
+  static bp::object arm_advance(bp::object self, bp::tuple gate, bp::tuple state,
+                                bp::tuple result) {
+    WeightedIKKernel& k = bp::extract<WeightedIKKernel&>(self);
+    k.fa_armed_ = false;
+    if (!k.armed_) raise_invalid("arm_advance: the kernel is not armed (arm first)");
+    if (bp::len(gate) != 6 || bp::len(state) != 10 || bp::len(result) != 14)
+      raise_invalid("arm_advance: (6 gate, 10 state, 14 result) items expected");
+    k.fa_dt_ = bp::extract<double>(gate[0]);
+    k.fa_robot_ = gate[1];
+    k.fa_version_ = gate[2];
+    k.fa_assignments_ = gate[3];
+    if (!PyList_Check(k.fa_assignments_.ptr()) || PyList_GET_SIZE(k.fa_assignments_.ptr()) < 1)
+      raise_invalid("arm_advance: ASSIGNMENTS must be a non-empty list");
+    k.fa_assigned_ = gate[4];
+    k.fa_acquire_ = gate[5].attr("acquire");
+    k.fa_release_ = gate[5].attr("release");
+    bp::object st = state[0];
+    if (!PyType_Check(st.ptr())) raise_invalid("arm_advance: State must be a class");
+    k.fa_state_type_ = st;
+    const auto offsets = [](bp::object cls, bp::object descriptors) {
+      std::vector<Py_ssize_t> out;
+      for (long i = 0; i < bp::len(descriptors); ++i) out.push_back(slot_offset(cls, descriptors[i]));
+      return out;
+    };
+    k.st_robot_ = slot_offset(st, state[1]);
+    k.st_data_ = slot_offset(st, state[2]);
+    k.st_q_ = slot_offset(st, state[3]);
+    k.st_v_ = slot_offset(st, state[4]);
+    k.st_has_v_ = slot_offset(st, state[5]);
+    k.st_a0_ = slot_offset(st, state[6]);
+    k.st_none_ = offsets(st, state[7]);
+    k.st_clear_ = offsets(st, state[8]);
+    k.st_false_ = offsets(st, state[9]);
+    bp::object rt = result[0];
+    if (!PyType_Check(rt.ptr())) raise_invalid("arm_advance: IKStepResult must be a class");
+    k.fa_result_type_ = rt;
+    for (int i = 0; i < 9; ++i) k.rs_[i] = slot_offset(rt, result[1 + i]);
+    k.fa_ik_solved_ = result[10];
+    k.fa_unconstrained_ = result[11];
+    k.fa_solved_ = result[12];
+    k.fa_backend_ = result[13];
+    if (!k.version_name_)
+      k.version_name_ = bp::object(bp::handle<>(PyUnicode_InternFromString("_version")));
+    k.fa_data_obj_ = bp::object();
+    k.fa_data_ = nullptr;
+    k.fa_armed_ = true;
+    static PyMethodDef def = {
+        "advance", reinterpret_cast<PyCFunction>(reinterpret_cast<void (*)(void)>(&call_advance)),
+        METH_FASTCALL, "advance(state, dt): the armed step (see WeightedIKKernel.arm_advance)"};
+    PyObject* cap = PyCapsule_New(&k, kCapsule, &release_capsule);
+    if (!cap) bp::throw_error_already_set();
+    Py_INCREF(self.ptr());  // the capsule's context: keeps the kernel alive
+    if (PyCapsule_SetContext(cap, self.ptr()) != 0) {
+      Py_DECREF(self.ptr());
+      Py_DECREF(cap);
+      bp::throw_error_already_set();
+    }
+    PyObject* fn = PyCFunction_New(&def, cap);
+    Py_DECREF(cap);
+    if (!fn) bp::throw_error_already_set();
+    return bp::object(bp::handle<>(fn));
+  }
+
+ private:
+  static constexpr const char* kCapsule = "taskspace._ik_kernel.armed_advance";
+
+  static void release_capsule(PyObject* cap) {
+    Py_XDECREF(static_cast<PyObject*>(PyCapsule_GetContext(cap)));
+  }
+
+  // The offset of the object slot that member descriptor `d` of class `cls` (or a base)
+  // reads and writes.
+  static Py_ssize_t slot_offset(bp::object cls, bp::object d) {
+    PyObject* p = d.ptr();
+    if (Py_TYPE(p) != &PyMemberDescr_Type)
+      raise_invalid("arm_advance: a slot's member descriptor expected");
+    const PyMemberDef* m = reinterpret_cast<PyMemberDescrObject*>(p)->d_member;
+    PyTypeObject* owner = reinterpret_cast<PyDescrObject*>(p)->d_type;
+    if (m->type != T_OBJECT_EX || (m->flags & READONLY) ||
+        !PyType_IsSubtype(reinterpret_cast<PyTypeObject*>(cls.ptr()), owner))
+      raise_invalid("arm_advance: a writable object slot of the class expected");
+    return m->offset;
+  }
+
+  static PyObject*& slot(PyObject* o, Py_ssize_t offset) {
+    return *reinterpret_cast<PyObject**>(reinterpret_cast<char*>(o) + offset);
+  }
+
+  // o.<slot> = v (a new reference taken)
+  static void set_slot(PyObject* o, Py_ssize_t offset, PyObject* v) {
+    PyObject*& s = slot(o, offset);
+    PyObject* old = s;
+    Py_INCREF(v);
+    s = v;
+    Py_XDECREF(old);
+  }
+
+  static PyObject* call_advance(PyObject* cap, PyObject* const* args, Py_ssize_t nargs) {
+    auto* k = static_cast<WeightedIKKernel*>(PyCapsule_GetPointer(cap, kCapsule));
+    if (!k) return nullptr;
+    if (nargs != 2) {
+      PyErr_SetString(PyExc_TypeError, "advance(state, dt) takes 2 arguments");
+      return nullptr;
+    }
+    PyObject* got = PyObject_CallOneArg(k->fa_acquire_.ptr(), Py_False);
+    if (!got) return nullptr;
+    const bool locked = got == Py_True;
+    Py_DECREF(got);
+    if (!locked) Py_RETURN_NONE;  // another thread holds the solver: the caller waits for it
+    PyObject* out = nullptr;
+    try {
+      out = k->advance_locked(args[0], args[1]);
+    } catch (...) {
+      bp::handle_exception();
+      out = nullptr;
+    }
+    PyObject *et, *ev, *tb;
+    PyErr_Fetch(&et, &ev, &tb);  // the step's error (if any) survives the release
+    PyObject* r = PyObject_CallNoArgs(k->fa_release_.ptr());
+    if (!r) {
+      Py_XDECREF(et);
+      Py_XDECREF(ev);
+      Py_XDECREF(tb);
+      Py_XDECREF(out);
+      return nullptr;
+    }
+    Py_DECREF(r);
+    PyErr_Restore(et, ev, tb);
+    return out;
+  }
+
+  // call_advance() with the lock held.
+  PyObject* advance_locked(PyObject* state, PyObject* dt_obj) {
+    const auto t0 = std::chrono::steady_clock::now();
+    // the gate: what the kept boxes, tasks and kinematics depend on
+    if (!fa_armed_ || !armed_ || !PyFloat_CheckExact(dt_obj) ||
+        PyFloat_AS_DOUBLE(dt_obj) != fa_dt_ ||
+        Py_TYPE(state) != reinterpret_cast<PyTypeObject*>(fa_state_type_.ptr()) ||
+        slot(state, st_robot_) != fa_robot_.ptr())
+      Py_RETURN_NONE;
+    const int same = PyObject_RichCompareBool(PyList_GET_ITEM(fa_assignments_.ptr(), 0),
+                                              fa_assigned_.ptr(), Py_EQ);
+    if (same < 0) return nullptr;
+    if (!same) Py_RETURN_NONE;
+    PyObject* version = PyObject_GetAttr(fa_robot_.ptr(), version_name_.ptr());
+    if (!version) return nullptr;
+    const int current = PyObject_RichCompareBool(version, fa_version_.ptr(), Py_EQ);
+    Py_DECREF(version);
+    if (current < 0) return nullptr;
+    if (!current) Py_RETURN_NONE;
+    // the state's data (made for this robot's model: checked by the state's robot) and q
+    PyObject* data_obj = slot(state, st_data_);
+    PyObject* q_obj = slot(state, st_q_);
+    PyObject* has_v = slot(state, st_has_v_);
+    if (!data_obj || !q_obj || !has_v || !PyArray_Check(q_obj)) Py_RETURN_NONE;
+    PyArrayObject* qa = reinterpret_cast<PyArrayObject*>(q_obj);
+    if (PyArray_TYPE(qa) != NPY_DOUBLE || PyArray_NDIM(qa) != 1 || PyArray_DIM(qa, 0) != nq_ ||
+        !PyArray_IS_C_CONTIGUOUS(qa) || !PyArray_ISALIGNED(qa))
+      Py_RETURN_NONE;
+    if (data_obj != fa_data_obj_.ptr()) {
+      bp::extract<Data&> get(data_obj);
+      if (!get.check()) Py_RETURN_NONE;
+      fa_data_ = &get();
+      fa_data_obj_ = bp::object(bp::handle<>(bp::borrowed(data_obj)));  // kept: its address
+    }
+    const bool with_velocity = has_v == Py_True;
+    const double dt = PyFloat_AS_DOUBLE(dt_obj);
+    const Eigen::Map<const VectorXd> q(static_cast<const double*>(PyArray_DATA(qa)), nq_);
+    const Stepped s = step_arrays(*fa_data_, q, with_velocity ? dt : 0.0);
+    const Outcome& o = s.outcome;
+    if (o.status == kMaxIterations) Py_RETURN_FALSE;
+    // State._adopt(q, v, True)
+    set_slot(state, st_q_, s.q.ptr());
+    if (with_velocity) {
+      set_slot(state, st_v_, s.v.ptr());
+    } else {
+      PyObject* a0 = slot(state, st_a0_);
+      if (!a0) raise_invalid("advance: the state has no zero velocity");
+      set_slot(state, st_v_, a0);
+      set_slot(state, st_has_v_, Py_False);
+    }
+    for (const Py_ssize_t off : st_clear_) {
+      PyObject* d = slot(state, off);
+      if (d && PyDict_CheckExact(d)) {
+        if (PyDict_GET_SIZE(d)) PyDict_Clear(d);
+      } else {
+        set_slot(state, off, bp::dict().ptr());
+      }
+    }
+    for (const Py_ssize_t off : st_none_) set_slot(state, off, Py_None);
+    for (const Py_ssize_t off : st_false_) set_slot(state, off, Py_False);
+    // IKStepResult(True, SOLVED, dq, None, qp, [], build_time, qp_time, dt=dt), its fields
+    PyTypeObject* rt = reinterpret_cast<PyTypeObject*>(fa_result_type_.ptr());
+    bp::handle<> res(rt->tp_alloc(rt, 0));
+    const double elapsed =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    bp::handle<> qp(PyTuple_New(7));
+    bp::handle<> objective(PyFloat_FromDouble(o.objective));
+    bp::handle<> iterations(PyLong_FromLong(o.iterations));
+    bp::handle<> qp_elapsed(PyFloat_FromDouble(elapsed));
+    bp::handle<> build_time(PyFloat_FromDouble(o.t_build));
+    bp::handle<> qp_time(PyFloat_FromDouble(o.t_qp));
+    bp::handle<> culprits(PyList_New(0));
+    PyObject* status = (o.status == kUnconstrained ? fa_unconstrained_ : fa_solved_).ptr();
+    PyObject* items[7] = {Py_True, status, s.dq.ptr(), objective.get(), iterations.get(),
+                          qp_elapsed.get(), fa_backend_.ptr()};
+    for (int i = 0; i < 7; ++i) {
+      Py_INCREF(items[i]);
+      PyTuple_SET_ITEM(qp.get(), i, items[i]);
+    }
+    PyObject* r = res.get();
+    set_slot(r, rs_[0], Py_True);                // success
+    set_slot(r, rs_[1], fa_ik_solved_.ptr());    // status
+    set_slot(r, rs_[2], s.dq.ptr());             // dq
+    set_slot(r, rs_[3], Py_None);                // _velocity (dq / dt on first access)
+    set_slot(r, rs_[4], dt_obj);                 // _dt
+    set_slot(r, rs_[5], qp.get());               // _qp (the QPResult made on first access)
+    set_slot(r, rs_[6], culprits.get());         // culprits
+    set_slot(r, rs_[7], build_time.get());       // build_time
+    set_slot(r, rs_[8], qp_time.get());          // solve_time
+    return res.release();
+  }
+
+ private:
+  struct Outcome {
+    int status, iterations;
+    double objective, t_build, t_qp, t_rows;
+  };
+
+  // step() without its Python tuple: the outcome, the new dq and the new read-only views of q
+  // and v (None without velocity); the arrays are None at kMaxIterations (data untouched).
+  struct Stepped {
+    Outcome outcome;
+    bp::object dq, q, v;
+  };
+
+  Stepped step_arrays(Data& data, const Eigen::Ref<const VectorXd>& q, double dt) {
     if (!armed_) raise_invalid("step: the kernel is not armed (arm first)");
     const Model& model = *armed_model_;
     if (q.size() != nq_) raise_invalid("vector size mismatch");
@@ -393,9 +657,7 @@ class WeightedIKKernel {
     Eigen::Map<VectorXd> dq_map(static_cast<double*>(PyArray_DATA(reinterpret_cast<PyArrayObject*>(dq))), nv_);
     const Outcome o = solve_from(t0, model, data, q, targets, armed_damping_, dq_map,
                                  armed_max_iter_, bp::object(), bp::object());
-    if (o.status == kMaxIterations)
-      return bp::make_tuple(o.status, o.iterations, o.objective, o.t_build, o.t_qp, bp::object(),
-                            bp::object(), bp::object());
+    if (o.status == kMaxIterations) return {o, bp::object(), bp::object(), bp::object()};
     PyObject* qn = new_vector(nq_);
     bp::handle<> qn_own(qn);
     Eigen::Map<VectorXd> q_next(static_cast<double*>(PyArray_DATA(reinterpret_cast<PyArrayObject*>(qn))), nq_);
@@ -413,15 +675,8 @@ class WeightedIKKernel {
       pinocchio::computeJointJacobians(model, data, q_next);
     }
     pinocchio::updateFramePlacements(model, data);
-    return bp::make_tuple(o.status, o.iterations, o.objective, o.t_build, o.t_qp, dq_obj,
-                          locked_view(qn), v_obj);
+    return {o, dq_obj, locked_view(qn), v_obj};
   }
-
- private:
-  struct Outcome {
-    int status, iterations;
-    double objective, t_build, t_qp, t_rows;
-  };
 
   static PyObject* new_vector(int n) {
     npy_intp dims[1] = {n};
@@ -1313,6 +1568,16 @@ class WeightedIKKernel {
   const Model* armed_model_ = nullptr;
   double armed_damping_ = 0.0;
   int armed_max_iter_ = 0;
+  // arm_advance() / call_advance(): the gate, the state's and the result's slots
+  bool fa_armed_ = false;
+  double fa_dt_ = 0.0;
+  bp::object fa_robot_, fa_version_, fa_assignments_, fa_assigned_, fa_acquire_, fa_release_;
+  bp::object fa_state_type_, fa_result_type_, fa_ik_solved_, fa_unconstrained_, fa_solved_;
+  bp::object fa_backend_, version_name_, fa_data_obj_;
+  Data* fa_data_ = nullptr;
+  Py_ssize_t st_robot_ = 0, st_data_ = 0, st_q_ = 0, st_v_ = 0, st_has_v_ = 0, st_a0_ = 0;
+  std::vector<Py_ssize_t> st_none_, st_clear_, st_false_;
+  Py_ssize_t rs_[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
 };
 
 // Objects allocated by Pinocchio's library and freed here (a Data, the vector of neutral):
@@ -1365,5 +1630,8 @@ BOOST_PYTHON_MODULE(_ik_kernel) {
       // robot's version bound once (arm), the call passes the state's data, q and dt
       .def("arm", &WeightedIKKernel::arm)
       .def("disarm", &WeightedIKKernel::disarm)
-      .def("step", &WeightedIKKernel::step);
+      .def("step", &WeightedIKKernel::step)
+      // the whole armed DifferentialIK.advance as one C function (lock, gate, step, State
+      // update, result)
+      .def("arm_advance", &WeightedIKKernel::arm_advance);
 }
