@@ -386,6 +386,44 @@ def test_armed_advance_results_are_kept_and_lazy_fields_equal_eager_ones(
     assert made and made[-1].taken == 8
 
 
+def test_armed_advance_reuses_only_arrays_nobody_sees(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The C advance reuses the arrays of a step two calls ago only when nobody holds them: a
+    slice of an old q, an old dq held by a weak reference only, keep their values."""
+    import weakref
+
+    made = _count_fast(monkeypatch)
+    robot = load_robot("panda")
+    rng = np.random.default_rng(9)
+    moving, tasks = _random_stack(robot, rng)
+    ik = DifferentialIK(robot, tasks, [JointPositionLimits(robot), JointVelocityLimits(robot)])
+    state = robot.state(_random_q(robot, rng), 0.1 * np.ones(robot.nv))
+    ik.advance(state, DT)
+    ids = set()
+    for _ in range(6):  # results dropped at once: their arrays are reused
+        _moving_targets(moving, rng)
+        ids.add(id(ik.advance(state, DT).dq))
+    assert len(ids) <= 3  # (the addresses of a new array could repeat too; see below)
+    _moving_targets(moving, rng)
+    result = ik.advance(state, DT)
+    dq, q_slice, v_slice = result.dq.copy(), state.q[2:5], state.v[1:4]
+    q_values, v_values = q_slice.copy(), v_slice.copy()
+    weak = weakref.ref(result.dq)
+    del result
+    for _ in range(6):
+        _moving_targets(moving, rng)
+        before = robot.state(state.q, state.v)
+        x = _reference(ik, before, DT)
+        np.testing.assert_allclose(ik.advance(state, DT).dq, x, atol=1e-8, rtol=0)
+        np.testing.assert_allclose(state.v, x / DT, atol=1e-14, rtol=0)
+        kept = weak()  # never reused: alive with its values, or let go
+        if kept is not None:
+            np.testing.assert_array_equal(kept, dq)
+        del kept
+    np.testing.assert_array_equal(q_slice, q_values)
+    np.testing.assert_array_equal(v_slice, v_values)
+    assert made and made[-1].taken == 13
+
+
 def test_armed_advance_gate_and_lock(monkeypatch: pytest.MonkeyPatch) -> None:
     """The C advance does nothing (None) when the solver's lock is held or a key differs."""
     robot = load_robot("panda")

@@ -97,6 +97,7 @@ struct Damper {
 constexpr int kUnconstrained = 0;
 constexpr int kSolved = 1;
 constexpr int kMaxIterations = 2;
+constexpr int kBusy = -1;  // WeightedIKKernel::call_advance: another thread holds the solver
 
 class HierarchicalIKKernel;  // hier_kernel.hpp: reuses this kernel's rows and boxes
 class GeneralIKStep;  // general_step.hpp: this kernel's QP with equality and inequality rows
@@ -380,9 +381,10 @@ class WeightedIKKernel {
   }
 
   // DifferentialIK.advance's whole armed step as one C function (METH_FASTCALL, no Boost.Python
-  // dispatch): ``advance(state, dt)`` takes the lock, checks the gate, runs step() on the
+  // dispatch): ``advance(state, dt)`` checks the gate and that the solver's lock is free (see
+  // call_advance), runs step() on the
   // state's data and q, records the new q (v) in the state as State._adopt(q, v, True) does and
-  // returns a new IKStepResult; None (nothing done, lock released) when the lock is busy or
+  // returns a new IKStepResult; None (nothing done) when the lock is held or
   // the gate does not hold; False at kMaxIterations (data untouched). Called after arm() (whose
   // boxes are those of ``dt``) with:
   //   gate:   (dt, robot, robot's version, the tasks.ASSIGNMENTS list, its armed value, the
@@ -408,8 +410,7 @@ class WeightedIKKernel {
     if (!PyList_Check(k.fa_assignments_.ptr()) || PyList_GET_SIZE(k.fa_assignments_.ptr()) < 1)
       raise_invalid("arm_advance: ASSIGNMENTS must be a non-empty list");
     k.fa_assigned_ = gate[4];
-    k.fa_acquire_ = gate[5].attr("acquire");
-    k.fa_release_ = gate[5].attr("release");
+    k.fa_locked_ = gate[5].attr("locked");
     bp::object st = state[0];
     if (!PyType_Check(st.ptr())) raise_invalid("arm_advance: State must be a class");
     k.fa_state_type_ = st;
@@ -424,9 +425,11 @@ class WeightedIKKernel {
     k.st_v_ = slot_offset(st, state[4]);
     k.st_has_v_ = slot_offset(st, state[5]);
     k.st_a0_ = slot_offset(st, state[6]);
-    k.st_none_ = offsets(st, state[7]);
-    k.st_clear_ = offsets(st, state[8]);
-    k.st_false_ = offsets(st, state[9]);
+    // (assigned only when they change: a step of another thread may be iterating over them)
+    for (auto [kept, i] : {std::pair{&k.st_none_, 7}, {&k.st_clear_, 8}, {&k.st_false_, 9}}) {
+      std::vector<Py_ssize_t> now = offsets(st, state[i]);
+      if (now != *kept) *kept = std::move(now);
+    }
     bp::object rt = result[0];
     if (!PyType_Check(rt.ptr())) raise_invalid("arm_advance: IKStepResult must be a class");
     k.fa_result_type_ = rt;
@@ -491,6 +494,12 @@ class WeightedIKKernel {
     Py_XDECREF(old);
   }
 
+  // The solver's lock is not taken: it is checked free (lock.locked()) right before the
+  // kernel's workspaces are used (step_arrays), and from that check until the step is written
+  // into new arrays no Python code runs and the GIL is held, so no other thread can run, let
+  // alone hold the lock or use the kernel (a thread that holds the lock, or waits for it,
+  // resumes only when this one runs Python code again: after the step). What follows (the
+  // state's slots, the result) touches only this thread's state and new objects.
   static PyObject* call_advance(PyObject* cap, PyObject* const* args, Py_ssize_t nargs) {
     auto* k = static_cast<WeightedIKKernel*>(PyCapsule_GetPointer(cap, kCapsule));
     if (!k) return nullptr;
@@ -498,35 +507,16 @@ class WeightedIKKernel {
       PyErr_SetString(PyExc_TypeError, "advance(state, dt) takes 2 arguments");
       return nullptr;
     }
-    PyObject* got = PyObject_CallOneArg(k->fa_acquire_.ptr(), Py_False);
-    if (!got) return nullptr;
-    const bool locked = got == Py_True;
-    Py_DECREF(got);
-    if (!locked) Py_RETURN_NONE;  // another thread holds the solver: the caller waits for it
-    PyObject* out = nullptr;
     try {
-      out = k->advance_locked(args[0], args[1]);
+      return k->advance_unlocked(args[0], args[1]);
     } catch (...) {
       bp::handle_exception();
-      out = nullptr;
-    }
-    PyObject *et, *ev, *tb;
-    PyErr_Fetch(&et, &ev, &tb);  // the step's error (if any) survives the release
-    PyObject* r = PyObject_CallNoArgs(k->fa_release_.ptr());
-    if (!r) {
-      Py_XDECREF(et);
-      Py_XDECREF(ev);
-      Py_XDECREF(tb);
-      Py_XDECREF(out);
       return nullptr;
     }
-    Py_DECREF(r);
-    PyErr_Restore(et, ev, tb);
-    return out;
   }
 
-  // call_advance() with the lock held.
-  PyObject* advance_locked(PyObject* state, PyObject* dt_obj) {
+  // call_advance()'s work.
+  PyObject* advance_unlocked(PyObject* state, PyObject* dt_obj) {
     const auto t0 = std::chrono::steady_clock::now();
     // the gate: what the kept boxes, tasks and kinematics depend on
     if (!fa_armed_ || !armed_ || !PyFloat_CheckExact(dt_obj) ||
@@ -562,8 +552,9 @@ class WeightedIKKernel {
     const bool with_velocity = has_v == Py_True;
     const double dt = PyFloat_AS_DOUBLE(dt_obj);
     const Eigen::Map<const VectorXd> q(static_cast<const double*>(PyArray_DATA(qa)), nq_);
-    const Stepped s = step_arrays(*fa_data_, q, with_velocity ? dt : 0.0);
+    const Stepped s = step_arrays(*fa_data_, q, with_velocity ? dt : 0.0, fa_locked_.ptr());
     const Outcome& o = s.outcome;
+    if (o.status == kBusy) Py_RETURN_NONE;  // the caller waits for the lock
     if (o.status == kMaxIterations) Py_RETURN_FALSE;
     // State._adopt(q, v, True)
     set_slot(state, st_q_, s.q.ptr());
@@ -628,9 +619,15 @@ class WeightedIKKernel {
   struct Stepped {
     Outcome outcome;
     bp::object dq, q, v;
+    bp::object dropped[5];  // arrays no longer kept for reuse: released after the step
   };
 
-  Stepped step_arrays(Data& data, const Eigen::Ref<const VectorXd>& q, double dt) {
+  // `locked` (call_advance: the solver's lock.locked): checked after the targets are read, the
+  // last point before the kernel's workspaces are used where Python code may run (a task's
+  // attribute, a collection at the allocation of the list); when it says the lock is held,
+  // nothing more is done (status kBusy).
+  Stepped step_arrays(Data& data, const Eigen::Ref<const VectorXd>& q, double dt,
+                      PyObject* locked = nullptr) {
     if (!armed_) raise_invalid("step: the kernel is not armed (arm first)");
     const Model& model = *armed_model_;
     if (q.size() != nq_) raise_invalid("vector size mismatch");
@@ -649,33 +646,87 @@ class WeightedIKKernel {
       if (!t) bp::throw_error_already_set();
       PyList_SET_ITEM(targets.ptr(), k, t);
     }
+    if (locked) {
+      PyObject* held = PyObject_CallNoArgs(locked);
+      if (!held) bp::throw_error_already_set();
+      const bool busy = held != Py_False;
+      Py_DECREF(held);
+      if (busy) return {{kBusy, 0, 0.0, 0.0, 0.0, 0.0}, bp::object(), bp::object(), bp::object()};
+    }
+    // from here to the return no Python code runs (no GC-tracked allocation, no attribute
+    // lookup), so no other thread does
     const auto t0 = std::chrono::steady_clock::now();
     position_box(q);
     combine_armed();
-    PyObject* dq = new_vector(nv_);
-    bp::object dq_obj{bp::handle<>(dq)};
-    Eigen::Map<VectorXd> dq_map(static_cast<double*>(PyArray_DATA(reinterpret_cast<PyArrayObject*>(dq))), nv_);
-    const Outcome o = solve_from(t0, model, data, q, targets, armed_damping_, dq_map,
-                                 armed_max_iter_, bp::object(), bp::object());
-    if (o.status == kMaxIterations) return {o, bp::object(), bp::object(), bp::object()};
-    PyObject* qn = new_vector(nq_);
-    bp::handle<> qn_own(qn);
-    Eigen::Map<VectorXd> q_next(static_cast<double*>(PyArray_DATA(reinterpret_cast<PyArrayObject*>(qn))), nq_);
+    Recycled& old = recycled_[recycle_next_];
+    recycle_next_ ^= 1;
+    Stepped out;
+    double* dq_data = nullptr;
+    bp::object dq_obj = fresh_vector(old.dq, nv_, &dq_data, out.dropped[0]);
+    Eigen::Map<VectorXd> dq_map(dq_data, nv_);
+    out.outcome = solve_from(t0, model, data, q, targets, armed_damping_, dq_map,
+                             armed_max_iter_, bp::object(), bp::object());
+    if (out.outcome.status == kMaxIterations) return out;
+    double* q_data = nullptr;
+    bp::object q_obj = fresh_locked(old.q_view, old.q_base, nq_, &q_data, out.dropped + 1);
+    Eigen::Map<VectorXd> q_next(q_data, nq_);
     pinocchio::integrate(model, q, x_, q_next);
     bp::object v_obj;
     if (with_velocity) {
-      PyObject* vn = new_vector(nv_);
-      bp::handle<> vn_own(vn);
-      Eigen::Map<VectorXd> v_next(static_cast<double*>(PyArray_DATA(reinterpret_cast<PyArrayObject*>(vn))), nv_);
+      double* v_data = nullptr;
+      v_obj = fresh_locked(old.v_view, old.v_base, nv_, &v_data, out.dropped + 3);
+      Eigen::Map<VectorXd> v_next(v_data, nv_);
       v_next = x_ / dt;
       pinocchio::forwardKinematics(model, data, q_next, v_next, a0_);
       pinocchio::computeJointJacobians(model, data);
-      v_obj = locked_view(vn);
     } else {
       pinocchio::computeJointJacobians(model, data, q_next);
     }
     pinocchio::updateFramePlacements(model, data);
-    return {o, dq_obj, locked_view(qn), v_obj};
+    out.dq = dq_obj;
+    out.q = q_obj;
+    out.v = v_obj;
+    return out;
+  }
+
+  // The arrays of the step two calls ago, kept here: when nobody else holds one any more (its
+  // only reference is this one, and no weak reference), the next step reuses it rather than
+  // making a new one (as CPython's zip() reuses its result tuple). Nobody can see the reuse:
+  // a result, q or v that anyone keeps (or any view of it) is never written again.
+  struct Recycled {
+    bp::object dq, q_view, q_base, v_view, v_base;
+  };
+
+  static bool unshared(const bp::object& a, Py_ssize_t references) {
+    PyObject* p = a.ptr();
+    return p != Py_None && Py_REFCNT(p) == references &&
+           reinterpret_cast<PyArrayObject_fields*>(p)->weakreflist == nullptr;
+  }
+
+  // A new writable vector of size n (or `kept`, unshared), kept for a later reuse; the array
+  // it replaces goes to `dropped` (released by the caller after the step: its last release
+  // could run Python code, a weak reference's callback).
+  static bp::object fresh_vector(bp::object& kept, int n, double** data, bp::object& dropped) {
+    if (!unshared(kept, 1)) {
+      dropped = kept;
+      kept = bp::object(bp::handle<>(new_vector(n)));
+    }
+    *data = static_cast<double*>(PyArray_DATA(reinterpret_cast<PyArrayObject*>(kept.ptr())));
+    return kept;
+  }
+
+  // A new read-only view of a new locked vector of size n (locked_view), or `view` and its
+  // `base` when both are unshared (the base is held by the view and here); kept for reuse.
+  static bp::object fresh_locked(bp::object& view, bp::object& base, int n, double** data,
+                                 bp::object* dropped) {
+    if (!unshared(view, 1) || !unshared(base, 2)) {
+      dropped[0] = view;
+      dropped[1] = base;
+      base = bp::object(bp::handle<>(new_vector(n)));
+      view = locked_view(base.ptr());
+    }
+    *data = static_cast<double*>(PyArray_DATA(reinterpret_cast<PyArrayObject*>(base.ptr())));
+    return view;
   }
 
   static PyObject* new_vector(int n) {
@@ -1571,13 +1622,15 @@ class WeightedIKKernel {
   // arm_advance() / call_advance(): the gate, the state's and the result's slots
   bool fa_armed_ = false;
   double fa_dt_ = 0.0;
-  bp::object fa_robot_, fa_version_, fa_assignments_, fa_assigned_, fa_acquire_, fa_release_;
+  bp::object fa_robot_, fa_version_, fa_assignments_, fa_assigned_, fa_locked_;
   bp::object fa_state_type_, fa_result_type_, fa_ik_solved_, fa_unconstrained_, fa_solved_;
   bp::object fa_backend_, version_name_, fa_data_obj_;
   Data* fa_data_ = nullptr;
   Py_ssize_t st_robot_ = 0, st_data_ = 0, st_q_ = 0, st_v_ = 0, st_has_v_ = 0, st_a0_ = 0;
   std::vector<Py_ssize_t> st_none_, st_clear_, st_false_;
   Py_ssize_t rs_[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
+  Recycled recycled_[2];  // step_arrays(): the arrays of the last two steps
+  int recycle_next_ = 0;
 };
 
 // Objects allocated by Pinocchio's library and freed here (a Data, the vector of neutral):

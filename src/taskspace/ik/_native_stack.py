@@ -509,12 +509,15 @@ class NativeWeightedStack:
     ) -> Callable[..., Any] | None:
         """After :meth:`arm`: the whole armed ``DifferentialIK.advance`` as one C function.
 
-        ``advance(state, dt)`` takes the solver's lock (without waiting), checks ``gate``,
-        runs the armed step on the state's data and ``q``, records the new ``q`` (and ``v``)
-        in the state as :meth:`State._adopt` does (:data:`~taskspace.model.state.ADOPT_RESETS`)
-        and returns a new result; ``None`` (nothing done) when the lock is busy or the gate
-        does not hold, ``False`` when the active set did not settle (the state has not
-        moved). ``gate``: ``(dt, robot, robot's version, tasks.ASSIGNMENTS, its value, lock)``;
+        ``advance(state, dt)`` checks ``gate``, runs the armed step on the state's data and
+        ``q``, records the new ``q`` (and ``v``) in the state as :meth:`State._adopt` does
+        (:data:`~taskspace.model.state.ADOPT_RESETS`) and returns a new result; ``None``
+        (nothing done) when the gate does not hold or the solver's lock is held, ``False`` when
+        the active set did not settle (the state has not moved). The lock is not taken: the
+        function checks it is free right before it uses the kernel's workspaces and runs no
+        Python code from there until the step is written (so no other thread runs).
+
+        ``gate``: ``(dt, robot, robot's version, tasks.ASSIGNMENTS, its value, lock)``;
         ``result``: the result class, its slots' member descriptors ``success, status, dq,
         _velocity, _dt, _qp, culprits, build_time, solve_time`` and the constants
         ``IKStatus.SOLVED, QPStatus.UNCONSTRAINED, QPStatus.SOLVED, "native"``. ``None``: a

@@ -268,7 +268,9 @@ class DifferentialIK:
     Thread safety: :meth:`solve`, :meth:`step` and :meth:`build` may be called from several
     threads on one solver: they hold the solver's lock while they use its workspaces (the
     stacked task matrix, the QP workspace, the compiled kernel), so the calls run one at a
-    time and each gives the result it would give alone (up to the QP warm start). Each
+    time and each gives the result it would give alone (up to the QP warm start); the armed
+    compiled ``advance`` does not take the lock but checks that it is free and then holds the
+    GIL until its step is computed (it waits on the lock otherwise). Each
     thread needs its own :class:`~taskspace.model.State`, and the tasks' targets, weights and
     gains must not be changed while another thread steps. For parallel speed, give each
     thread its own solver.
@@ -332,8 +334,8 @@ class DifferentialIK:
         self._lean_version = -1
         self._lean_boxes: tuple[list[Any], list[Any]] | None = None
         self._lean_step: Any = None  # the kernel's armed step (NativeWeightedStack.arm)
-        # the whole armed advance in C (NativeWeightedStack.arm_advance): lock, gate, step,
-        # state, result; None when not armed
+        # the whole armed advance in C (NativeWeightedStack.arm_advance): gate, lock check,
+        # step, state, result; None when not armed
         self._lean_fast: Any = None
 
     @property
@@ -437,7 +439,7 @@ class DifferentialIK:
             except (TypeError, ValueError, RuntimeError):
                 self._native.require_targets()  # type: ignore[union-attr]
                 raise
-            if result:  # else None: the gate or the lock said no; False: see below
+            if result:  # else None: the gate failed or the lock is held; False: see below
                 return result  # type: ignore[no-any-return]
             if result is False:  # the active set did not settle (not moved): the Python path
                 self._acquire()
