@@ -507,6 +507,9 @@ class WeightedIKKernel {
       PyErr_SetString(PyExc_TypeError, "advance(state, dt) takes 2 arguments");
       return nullptr;
     }
+#ifdef Py_GIL_DISABLED
+    Py_RETURN_NONE;  // without a GIL other threads do run: the caller's path, with the lock
+#endif
     try {
       return k->advance_unlocked(args[0], args[1]);
     } catch (...) {
@@ -698,6 +701,9 @@ class WeightedIKKernel {
   };
 
   static bool unshared(const bp::object& a, Py_ssize_t references) {
+#ifdef Py_GIL_DISABLED
+    return false;  // another thread may take a reference at any time: never reused
+#endif
     PyObject* p = a.ptr();
     return p != Py_None && Py_REFCNT(p) == references &&
            reinterpret_cast<PyArrayObject_fields*>(p)->weakreflist == nullptr;
