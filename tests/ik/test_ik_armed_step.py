@@ -10,6 +10,8 @@ Python path builds at the state before each step, that QP's KKT residuals at the
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pinocchio as pin
 import pytest
@@ -110,8 +112,11 @@ def _moving_targets(tasks: list[Task], rng: np.random.Generator) -> None:
 
 
 @pytest.mark.parametrize("name", ["panda", "g1"])
-def test_armed_steps_match_quadprog_kkt_and_pinocchio(name: str) -> None:
+def test_armed_steps_match_quadprog_kkt_and_pinocchio(
+    name: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
     """Random stacks, states (with and without velocity) and boxes (hard and soft)."""
+    made = _count_fast(monkeypatch)
     robot = load_robot(name)
     rng = np.random.default_rng(11)
     armed = constrained = 0
@@ -150,6 +155,7 @@ def test_armed_steps_match_quadprog_kkt_and_pinocchio(name: str) -> None:
                     a.setflags(write=True)
             assert result.dq.flags.writeable and not np.shares_memory(result.dq, state.q)
     assert armed == 4 * 5  # every step after the first ran the armed kernel step
+    assert sum(c.taken for c in made) == 4 * 5  # as one C call (arm_advance)
     assert constrained > 0
 
 
@@ -198,3 +204,276 @@ def test_disarmed_kernel_refuses_the_armed_step() -> None:
     kernel.disarm()
     with pytest.raises(InvalidInputError):
         kernel.step(state._data, state._q, 0.0)
+
+
+# ---------------------------------------------------------------- the armed advance in one C call
+# (NativeWeightedStack.arm_advance: lock, gate, step, the state's new q and v, the result)
+
+
+class _Counted:
+    """Wraps the armed C advance and counts the steps it took (a result, not None/False)."""
+
+    def __init__(self, fast: object) -> None:
+        self.fast = fast
+        self.taken = 0
+
+    def __call__(self, state: State, dt: float) -> object:
+        out = self.fast(state, dt)  # type: ignore[operator]
+        self.taken += bool(out)
+        return out
+
+
+def _count_fast(monkeypatch: pytest.MonkeyPatch) -> list[_Counted]:
+    """Every armed C advance made from now on, wrapped (see :class:`_Counted`)."""
+    from taskspace.ik._native_stack import NativeWeightedStack
+
+    made: list[_Counted] = []
+    original = NativeWeightedStack.arm_advance
+
+    def arm_advance(self: NativeWeightedStack, *args: object) -> object:
+        fast = original(self, *args)  # type: ignore[arg-type]
+        if fast is None:
+            return None
+        made.append(_Counted(fast))
+        return made[-1]
+
+    monkeypatch.setattr(NativeWeightedStack, "arm_advance", arm_advance)
+    return made
+
+
+def _snapshot(result: object) -> dict[str, object]:
+    """The values of every field of a result, copied (read through the public API)."""
+    qp = result.qp  # type: ignore[attr-defined]
+    return {
+        "success": result.success,  # type: ignore[attr-defined]
+        "status": result.status,  # type: ignore[attr-defined]
+        "dq": np.array(result.dq),  # type: ignore[attr-defined]
+        "velocity": np.array(result.velocity),  # type: ignore[attr-defined]
+        "culprits": list(result.culprits),  # type: ignore[attr-defined]
+        "build_time": result.build_time,  # type: ignore[attr-defined]
+        "solve_time": result.solve_time,  # type: ignore[attr-defined]
+        "qp": (qp.success, qp.status, np.array(qp.x), qp.objective, qp.iterations, qp.backend),
+    }
+
+
+def _assert_same(a: dict[str, object], b: dict[str, object]) -> None:
+    for key in a:
+        if key in ("dq", "velocity"):
+            np.testing.assert_array_equal(a[key], b[key])  # type: ignore[arg-type]
+        elif key == "qp":
+            for x, y in zip(a[key], b[key]):  # type: ignore[call-overload]
+                if isinstance(x, np.ndarray):
+                    np.testing.assert_array_equal(x, y)
+                else:
+                    assert x == y, (key, x, y)
+        else:
+            assert a[key] == b[key], (key, a[key], b[key])
+
+
+def test_adopt_resets_lists_what_adopt_does() -> None:
+    """ADOPT_RESETS (what the C advance does to a state) equals what State._adopt does."""
+    from taskspace.model.state import ADOPT_RESETS
+
+    robot = load_robot("panda")
+    state = robot.state(robot.q_default)
+    marks = {name: {"mark": name} for name in State.__slots__}
+    for name, mark in marks.items():
+        setattr(state, name, mark)
+    q = np.zeros(robot.nq)
+    state._adopt(q, None, True)
+    changed = {n for n in State.__slots__ if getattr(state, n) is not marks[n] or not marks[n]}
+    none, cleared, false = ADOPT_RESETS
+    assert changed == {"_q", "_v", "_has_velocity", *none, *cleared, *false}
+    assert all(getattr(state, n) is None for n in none)
+    assert all(getattr(state, n) is marks[n] and not marks[n] for n in cleared)  # emptied
+    assert all(getattr(state, n) is False for n in false)
+
+
+@pytest.mark.parametrize("velocity", [False, True])
+def test_armed_advance_leaves_the_state_as_update_does(
+    velocity: bool, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Every slot of a state moved by the C advance equals that of a state updated by Python."""
+    made = _count_fast(monkeypatch)
+    robot = load_robot("panda")
+    rng = np.random.default_rng(3)
+    _, tasks = _random_stack(robot, rng)
+    ik = DifferentialIK(robot, tasks, [JointPositionLimits(robot), JointVelocityLimits(robot)])
+    q = _random_q(robot, rng)
+    state = robot.state(q, 0.1 * np.ones(robot.nv)) if velocity else robot.state(q)
+    ik.advance(state, DT)  # arms
+    tcp = robot.frame_id("panda_hand_tcp")
+    for _ in range(3):
+        # fill the caches the step must mark stale
+        for s in (state, ref := robot.state(state.q, state.v if velocity else None)):
+            s.com(), s.com_jacobian()
+            s.compute_distances()
+            if velocity:
+                s.com_drift()
+            s.frame_jacobian(tcp), s.frame_jacobian_local(tcp)
+        result = ik.advance(state, DT)
+        ref.update(
+            pin.integrate(robot.model, ref.q, result.dq), result.dq / DT if velocity else None
+        )
+        for name in State.__slots__:
+            a, b = getattr(state, name), getattr(ref, name)
+            if isinstance(a, np.ndarray):
+                np.testing.assert_allclose(a, b, atol=1e-14, rtol=0, err_msg=name)
+                assert a.flags.writeable == b.flags.writeable, name
+            elif isinstance(a, dict):
+                assert a.keys() == b.keys(), name
+            elif a is None or isinstance(a, (bool, int, float)):
+                assert a == b, (name, a, b)
+        assert state._v is state._a0 or velocity
+        _assert_kinematics(robot, state)
+        np.testing.assert_allclose(state.com(), ref.com(), atol=1e-14, rtol=0)
+        np.testing.assert_allclose(
+            [r.min_distance for r in state.distance_results()],
+            [r.min_distance for r in ref.distance_results()],
+            atol=1e-12,
+            rtol=0,
+        )
+    assert made and made[-1].taken == 3
+
+
+def test_armed_advance_results_are_kept_and_lazy_fields_equal_eager_ones(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Each result is its own: its fields (and the lazy velocity and qp, read now or later)
+    never change after later steps; culprits is a new list; qp equals the eager QPResult."""
+    made = _count_fast(monkeypatch)
+    robot = load_robot("panda")
+    rng = np.random.default_rng(8)
+    moving, tasks = _random_stack(robot, rng)
+    ik = DifferentialIK(robot, tasks, [JointPositionLimits(robot), JointVelocityLimits(robot)])
+    state = robot.state(_random_q(robot, rng))
+    ik.advance(state, DT)
+    kept, read_late = [], []
+    for k in range(8):
+        _moving_targets(moving, rng)
+        before = robot.state(state.q)
+        x = _reference(ik, before, DT)
+        result = ik.advance(state, DT)
+        np.testing.assert_allclose(result.dq, x, atol=1e-8, rtol=0)
+        assert result.native_declined == ""
+        if k % 2:  # read now: equals the eager computation
+            np.testing.assert_array_equal(result.velocity, result.dq / DT)
+            qp = result.qp
+            assert qp.success and qp.backend == "native" and qp.x is result.dq
+            assert qp.status.name in ("SOLVED", "UNCONSTRAINED") and qp.iterations >= 0
+            p, dq = ik.build(before, DT), result.dq
+            assert np.isclose(qp.objective, 0.5 * dq @ p.H @ dq + p.g @ dq, rtol=1e-9, atol=1e-14)
+            assert result.build_time >= 0 and result.solve_time >= 0 and qp.solve_time >= 0
+            kept.append((result, _snapshot(result)))
+        else:  # read only after later steps
+            read_late.append((result, np.array(result.dq), x))
+        assert result.culprits == [] and result.success and result.status.name == "SOLVED"
+    results = [r for r, _ in kept] + [r for r, _, _ in read_late]
+    assert len({id(r.culprits) for r in results}) == len(results)  # a new list each
+    kept[0][0].culprits.append("mine")  # changes that result only
+    assert all(r.culprits == [] for r in results[1:])
+    kept[0][0].culprits.clear()
+    for result, snap in kept:
+        _assert_same(_snapshot(result), snap)
+    for result, dq, x in read_late:
+        np.testing.assert_array_equal(result.dq, dq)
+        np.testing.assert_array_equal(result.velocity, dq / DT)
+        assert result.qp.x is result.dq
+        np.testing.assert_allclose(result.qp.x, x, atol=1e-8, rtol=0)
+    for a in results:
+        assert not np.shares_memory(a.dq, state.q)
+        assert sum(np.shares_memory(a.dq, b.dq) for b in results) == 1
+    assert made and made[-1].taken == 8
+
+
+def test_armed_advance_reuses_only_arrays_nobody_sees(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The C advance reuses the arrays of a step two calls ago only when nobody holds them: a
+    slice of an old q, an old dq held by a weak reference only, keep their values."""
+    import weakref
+
+    made = _count_fast(monkeypatch)
+    robot = load_robot("panda")
+    rng = np.random.default_rng(9)
+    moving, tasks = _random_stack(robot, rng)
+    ik = DifferentialIK(robot, tasks, [JointPositionLimits(robot), JointVelocityLimits(robot)])
+    state = robot.state(_random_q(robot, rng), 0.1 * np.ones(robot.nv))
+    ik.advance(state, DT)
+    ids = set()
+    for _ in range(6):  # results dropped at once: their arrays are reused
+        _moving_targets(moving, rng)
+        ids.add(id(ik.advance(state, DT).dq))
+    assert len(ids) <= 3  # (the addresses of a new array could repeat too; see below)
+    _moving_targets(moving, rng)
+    result = ik.advance(state, DT)
+    dq, q_slice, v_slice = result.dq.copy(), state.q[2:5], state.v[1:4]
+    q_values, v_values = q_slice.copy(), v_slice.copy()
+    weak = weakref.ref(result.dq)
+    del result
+    for _ in range(6):
+        _moving_targets(moving, rng)
+        before = robot.state(state.q, state.v)
+        x = _reference(ik, before, DT)
+        np.testing.assert_allclose(ik.advance(state, DT).dq, x, atol=1e-8, rtol=0)
+        np.testing.assert_allclose(state.v, x / DT, atol=1e-14, rtol=0)
+        kept = weak()  # never reused: alive with its values, or let go
+        if kept is not None:
+            np.testing.assert_array_equal(kept, dq)
+        del kept
+    np.testing.assert_array_equal(q_slice, q_values)
+    np.testing.assert_array_equal(v_slice, v_values)
+    assert made and made[-1].taken == 13
+
+
+def test_armed_advance_gate_and_lock(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The C advance does nothing (None) when the solver's lock is held or a key differs."""
+    robot = load_robot("panda")
+    rng = np.random.default_rng(4)
+    moving, tasks = _random_stack(robot, rng)
+    ik = DifferentialIK(robot, tasks, [JointPositionLimits(robot), JointVelocityLimits(robot)])
+    state = robot.state(_random_q(robot, rng))
+    ik.advance(state, DT)
+    fast = ik._lean_fast
+    assert fast is not None
+    q = state.q
+
+    class MyState(State):
+        __slots__ = ()
+
+    other = robot.state(state.q)
+    mine = MyState(robot, state.q)
+    with ik._lock:  # another thread's step: nothing done, the caller waits on the lock
+        assert fast(state, DT) is None
+    assert fast(state, 0.02) is None  # another dt
+    assert fast(state, np.float64(DT)) is None  # not a float: the checked path
+    assert fast(mine, DT) is None  # a subclass of State
+    assert fast(load_robot("ur5").state(load_robot("ur5").q_default), DT) is None
+    assert state.q is q and not ik._lock.locked()
+    assert fast(other, DT)  # a state of this robot: taken
+    moving[0].weight = 2.0  # an assignment
+    assert fast(state, DT) is None
+    ik.advance(state, DT)  # re-arms
+    assert ik._lean_fast(state, DT)
+    with pytest.raises(TypeError):
+        fast(state)
+    assert not ik._lock.locked()
+
+
+def test_armed_advance_error_releases_the_lock() -> None:
+    """A target the kernel cannot read: the error names the task, the lock is free, the state
+    has not moved, and the next step works."""
+    robot = load_robot("panda")
+    rng = np.random.default_rng(6)
+    moving, tasks = _random_stack(robot, rng)
+    ik = DifferentialIK(robot, tasks, [JointPositionLimits(robot), JointVelocityLimits(robot)])
+    state = robot.state(_random_q(robot, rng))
+    ik.advance(state, DT)
+    assert ik._lean_fast is not None
+    q = state.q
+    target = moving[0].target
+    object.__setattr__(moving[0], "_target", None)
+    with pytest.raises(InvalidInputError, match=re.escape(moving[0].name)):
+        ik.advance(state, DT)
+    assert not ik._lock.locked() and state.q is q
+    object.__setattr__(moving[0], "_target", target)
+    x = _reference(ik, robot.state(state.q), DT)
+    np.testing.assert_allclose(ik.advance(state, DT).dq, x, atol=1e-8, rtol=0)

@@ -11,6 +11,7 @@
 // difference/dDifference); nothing of Pinocchio is re-implemented here.
 
 #include <boost/python.hpp>
+#include <structmember.h>  // T_OBJECT_EX, READONLY (arm_advance)
 #include <eigenpy/eigenpy.hpp>
 #ifdef TASKSPACE_IK_PROXSUITE  // the general step's proxsuite engine (general_step.hpp)
 #include <proxsuite/proxqp/dense/dense.hpp>
@@ -101,6 +102,7 @@ struct Damper {
 constexpr int kUnconstrained = 0;
 constexpr int kSolved = 1;
 constexpr int kMaxIterations = 2;
+constexpr int kBusy = -1;  // WeightedIKKernel::call_advance: another thread holds the solver
 
 class HierarchicalIKKernel;  // hier_kernel.hpp: reuses this kernel's rows and boxes
 class GeneralIKStep;  // general_step.hpp: this kernel's QP with equality and inequality rows
@@ -341,6 +343,7 @@ class WeightedIKKernel {
   void arm(bp::object model_obj, bp::list tasks, bp::list hard_boxes, bp::list soft_boxes,
            double damping, int max_iter) {
     armed_ = false;
+    fa_armed_ = false;  // arm_advance again
     const Model& model = bp::extract<const Model&>(model_obj);
     if (model.nv != nv_ || model.nq != nq_) raise_invalid("model size mismatch");
     const long nt = bp::len(tasks);
@@ -366,12 +369,273 @@ class WeightedIKKernel {
 
   void disarm() {
     armed_ = false;
+    fa_armed_ = false;
     armed_tasks_.clear();
     armed_model_obj_ = bp::object();
     armed_model_ = nullptr;
   }
 
   bp::tuple step(Data& data, const Eigen::Ref<const VectorXd>& q, double dt) {
+    const Stepped s = step_arrays(data, q, dt);
+    const Outcome& o = s.outcome;
+    if (o.status == kMaxIterations)
+      return bp::make_tuple(o.status, o.iterations, o.objective, o.t_build, o.t_qp, bp::object(),
+                            bp::object(), bp::object());
+    return bp::make_tuple(o.status, o.iterations, o.objective, o.t_build, o.t_qp, s.dq, s.q,
+                          s.v);
+  }
+
+  // DifferentialIK.advance's whole armed step as one C function (METH_FASTCALL, no Boost.Python
+  // dispatch): ``advance(state, dt)`` checks the gate and that the solver's lock is free (see
+  // call_advance), runs step() on the
+  // state's data and q, records the new q (v) in the state as State._adopt(q, v, True) does and
+  // returns a new IKStepResult; None (nothing done) when the lock is held or
+  // the gate does not hold; False at kMaxIterations (data untouched). Called after arm() (whose
+  // boxes are those of ``dt``) with:
+  //   gate:   (dt, robot, robot's version, the tasks.ASSIGNMENTS list, its armed value, the
+  //            solver's lock)
+  //   state:  (State, its member descriptors _robot, _data, _q, _v, _has_velocity, _a0,
+  //            (set None...), (dicts cleared...), (set False...))
+  //   result: (IKStepResult, its member descriptors success, status, dq, _velocity, _dt, _qp,
+  //            culprits, build_time, solve_time, IKStatus.SOLVED, QPStatus.UNCONSTRAINED,
+  //            QPStatus.SOLVED, backend name)
+  // A slot is written at the offset its member descriptor gives (checked here: an object
+  // slot of that class, writable). The function keeps the kernel alive.
+  static bp::object arm_advance(bp::object self, bp::tuple gate, bp::tuple state,
+                                bp::tuple result) {
+    WeightedIKKernel& k = bp::extract<WeightedIKKernel&>(self);
+    k.fa_armed_ = false;
+    if (!k.armed_) raise_invalid("arm_advance: the kernel is not armed (arm first)");
+    if (bp::len(gate) != 6 || bp::len(state) != 10 || bp::len(result) != 14)
+      raise_invalid("arm_advance: (6 gate, 10 state, 14 result) items expected");
+    k.fa_dt_ = bp::extract<double>(gate[0]);
+    k.fa_robot_ = gate[1];
+    k.fa_version_ = gate[2];
+    k.fa_assignments_ = gate[3];
+    if (!PyList_Check(k.fa_assignments_.ptr()) || PyList_GET_SIZE(k.fa_assignments_.ptr()) < 1)
+      raise_invalid("arm_advance: ASSIGNMENTS must be a non-empty list");
+    k.fa_assigned_ = gate[4];
+    k.fa_locked_ = gate[5].attr("locked");
+    bp::object st = state[0];
+    if (!PyType_Check(st.ptr())) raise_invalid("arm_advance: State must be a class");
+    k.fa_state_type_ = st;
+    const auto offsets = [](bp::object cls, bp::object descriptors) {
+      std::vector<Py_ssize_t> out;
+      for (long i = 0; i < bp::len(descriptors); ++i) out.push_back(slot_offset(cls, descriptors[i]));
+      return out;
+    };
+    k.st_robot_ = slot_offset(st, state[1]);
+    k.st_data_ = slot_offset(st, state[2]);
+    k.st_q_ = slot_offset(st, state[3]);
+    k.st_v_ = slot_offset(st, state[4]);
+    k.st_has_v_ = slot_offset(st, state[5]);
+    k.st_a0_ = slot_offset(st, state[6]);
+    // (assigned only when they change: a step of another thread may be iterating over them)
+    for (auto [kept, i] : {std::pair{&k.st_none_, 7}, {&k.st_clear_, 8}, {&k.st_false_, 9}}) {
+      std::vector<Py_ssize_t> now = offsets(st, state[i]);
+      if (now != *kept) *kept = std::move(now);
+    }
+    bp::object rt = result[0];
+    if (!PyType_Check(rt.ptr())) raise_invalid("arm_advance: IKStepResult must be a class");
+    k.fa_result_type_ = rt;
+    for (int i = 0; i < 9; ++i) k.rs_[i] = slot_offset(rt, result[1 + i]);
+    k.fa_ik_solved_ = result[10];
+    k.fa_unconstrained_ = result[11];
+    k.fa_solved_ = result[12];
+    k.fa_backend_ = result[13];
+    if (!k.version_name_)
+      k.version_name_ = bp::object(bp::handle<>(PyUnicode_InternFromString("_version")));
+    k.fa_data_obj_ = bp::object();
+    k.fa_data_ = nullptr;
+    k.fa_armed_ = true;
+    static PyMethodDef def = {
+        "advance", reinterpret_cast<PyCFunction>(reinterpret_cast<void (*)(void)>(&call_advance)),
+        METH_FASTCALL, "advance(state, dt): the armed step (see WeightedIKKernel.arm_advance)"};
+    PyObject* cap = PyCapsule_New(&k, kCapsule, &release_capsule);
+    if (!cap) bp::throw_error_already_set();
+    Py_INCREF(self.ptr());  // the capsule's context: keeps the kernel alive
+    if (PyCapsule_SetContext(cap, self.ptr()) != 0) {
+      Py_DECREF(self.ptr());
+      Py_DECREF(cap);
+      bp::throw_error_already_set();
+    }
+    PyObject* fn = PyCFunction_New(&def, cap);
+    Py_DECREF(cap);
+    if (!fn) bp::throw_error_already_set();
+    return bp::object(bp::handle<>(fn));
+  }
+
+ private:
+  static constexpr const char* kCapsule = "taskspace._ik_kernel.armed_advance";
+
+  static void release_capsule(PyObject* cap) {
+    Py_XDECREF(static_cast<PyObject*>(PyCapsule_GetContext(cap)));
+  }
+
+  // The offset of the object slot that member descriptor `d` of class `cls` (or a base)
+  // reads and writes.
+  static Py_ssize_t slot_offset(bp::object cls, bp::object d) {
+    PyObject* p = d.ptr();
+    if (Py_TYPE(p) != &PyMemberDescr_Type)
+      raise_invalid("arm_advance: a slot's member descriptor expected");
+    const PyMemberDef* m = reinterpret_cast<PyMemberDescrObject*>(p)->d_member;
+    PyTypeObject* owner = reinterpret_cast<PyDescrObject*>(p)->d_type;
+    if (m->type != T_OBJECT_EX || (m->flags & READONLY) ||
+        !PyType_IsSubtype(reinterpret_cast<PyTypeObject*>(cls.ptr()), owner))
+      raise_invalid("arm_advance: a writable object slot of the class expected");
+    return m->offset;
+  }
+
+  static PyObject*& slot(PyObject* o, Py_ssize_t offset) {
+    return *reinterpret_cast<PyObject**>(reinterpret_cast<char*>(o) + offset);
+  }
+
+  // o.<slot> = v (a new reference taken)
+  static void set_slot(PyObject* o, Py_ssize_t offset, PyObject* v) {
+    PyObject*& s = slot(o, offset);
+    PyObject* old = s;
+    Py_INCREF(v);
+    s = v;
+    Py_XDECREF(old);
+  }
+
+  // The solver's lock is not taken: it is checked free (lock.locked()) right before the
+  // kernel's workspaces are used (step_arrays), and from that check until the step is written
+  // into new arrays no Python code runs and the GIL is held, so no other thread can run, let
+  // alone hold the lock or use the kernel (a thread that holds the lock, or waits for it,
+  // resumes only when this one runs Python code again: after the step). What follows (the
+  // state's slots, the result) touches only this thread's state and new objects.
+  static PyObject* call_advance(PyObject* cap, PyObject* const* args, Py_ssize_t nargs) {
+    auto* k = static_cast<WeightedIKKernel*>(PyCapsule_GetPointer(cap, kCapsule));
+    if (!k) return nullptr;
+    if (nargs != 2) {
+      PyErr_SetString(PyExc_TypeError, "advance(state, dt) takes 2 arguments");
+      return nullptr;
+    }
+#ifdef Py_GIL_DISABLED
+    Py_RETURN_NONE;  // without a GIL other threads do run: the caller's path, with the lock
+#endif
+    try {
+      return k->advance_unlocked(args[0], args[1]);
+    } catch (...) {
+      bp::handle_exception();
+      return nullptr;
+    }
+  }
+
+  // call_advance()'s work.
+  PyObject* advance_unlocked(PyObject* state, PyObject* dt_obj) {
+    const auto t0 = std::chrono::steady_clock::now();
+    // the gate: what the kept boxes, tasks and kinematics depend on
+    if (!fa_armed_ || !armed_ || !PyFloat_CheckExact(dt_obj) ||
+        PyFloat_AS_DOUBLE(dt_obj) != fa_dt_ ||
+        Py_TYPE(state) != reinterpret_cast<PyTypeObject*>(fa_state_type_.ptr()) ||
+        slot(state, st_robot_) != fa_robot_.ptr())
+      Py_RETURN_NONE;
+    const int same = PyObject_RichCompareBool(PyList_GET_ITEM(fa_assignments_.ptr(), 0),
+                                              fa_assigned_.ptr(), Py_EQ);
+    if (same < 0) return nullptr;
+    if (!same) Py_RETURN_NONE;
+    PyObject* version = PyObject_GetAttr(fa_robot_.ptr(), version_name_.ptr());
+    if (!version) return nullptr;
+    const int current = PyObject_RichCompareBool(version, fa_version_.ptr(), Py_EQ);
+    Py_DECREF(version);
+    if (current < 0) return nullptr;
+    if (!current) Py_RETURN_NONE;
+    // the state's data (made for this robot's model: checked by the state's robot) and q
+    PyObject* data_obj = slot(state, st_data_);
+    PyObject* q_obj = slot(state, st_q_);
+    PyObject* has_v = slot(state, st_has_v_);
+    if (!data_obj || !q_obj || !has_v || !PyArray_Check(q_obj)) Py_RETURN_NONE;
+    PyArrayObject* qa = reinterpret_cast<PyArrayObject*>(q_obj);
+    if (PyArray_TYPE(qa) != NPY_DOUBLE || PyArray_NDIM(qa) != 1 || PyArray_DIM(qa, 0) != nq_ ||
+        !PyArray_IS_C_CONTIGUOUS(qa) || !PyArray_ISALIGNED(qa))
+      Py_RETURN_NONE;
+    if (data_obj != fa_data_obj_.ptr()) {
+      bp::extract<Data&> get(data_obj);
+      if (!get.check()) Py_RETURN_NONE;
+      fa_data_ = &get();
+      fa_data_obj_ = bp::object(bp::handle<>(bp::borrowed(data_obj)));  // kept: its address
+    }
+    const bool with_velocity = has_v == Py_True;
+    const double dt = PyFloat_AS_DOUBLE(dt_obj);
+    const Eigen::Map<const VectorXd> q(static_cast<const double*>(PyArray_DATA(qa)), nq_);
+    const Stepped s = step_arrays(*fa_data_, q, with_velocity ? dt : 0.0, fa_locked_.ptr());
+    const Outcome& o = s.outcome;
+    if (o.status == kBusy) Py_RETURN_NONE;  // the caller waits for the lock
+    if (o.status == kMaxIterations) Py_RETURN_FALSE;
+    // State._adopt(q, v, True)
+    set_slot(state, st_q_, s.q.ptr());
+    if (with_velocity) {
+      set_slot(state, st_v_, s.v.ptr());
+    } else {
+      PyObject* a0 = slot(state, st_a0_);
+      if (!a0) raise_invalid("advance: the state has no zero velocity");
+      set_slot(state, st_v_, a0);
+      set_slot(state, st_has_v_, Py_False);
+    }
+    for (const Py_ssize_t off : st_clear_) {
+      PyObject* d = slot(state, off);
+      if (d && PyDict_CheckExact(d)) {
+        if (PyDict_GET_SIZE(d)) PyDict_Clear(d);
+      } else {
+        set_slot(state, off, bp::dict().ptr());
+      }
+    }
+    for (const Py_ssize_t off : st_none_) set_slot(state, off, Py_None);
+    for (const Py_ssize_t off : st_false_) set_slot(state, off, Py_False);
+    // IKStepResult(True, SOLVED, dq, None, qp, [], build_time, qp_time, dt=dt), its fields
+    PyTypeObject* rt = reinterpret_cast<PyTypeObject*>(fa_result_type_.ptr());
+    bp::handle<> res(rt->tp_alloc(rt, 0));
+    const double elapsed =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    bp::handle<> qp(PyTuple_New(7));
+    bp::handle<> objective(PyFloat_FromDouble(o.objective));
+    bp::handle<> iterations(PyLong_FromLong(o.iterations));
+    bp::handle<> qp_elapsed(PyFloat_FromDouble(elapsed));
+    bp::handle<> build_time(PyFloat_FromDouble(o.t_build));
+    bp::handle<> qp_time(PyFloat_FromDouble(o.t_qp));
+    bp::handle<> culprits(PyList_New(0));
+    PyObject* status = (o.status == kUnconstrained ? fa_unconstrained_ : fa_solved_).ptr();
+    PyObject* items[7] = {Py_True, status, s.dq.ptr(), objective.get(), iterations.get(),
+                          qp_elapsed.get(), fa_backend_.ptr()};
+    for (int i = 0; i < 7; ++i) {
+      Py_INCREF(items[i]);
+      PyTuple_SET_ITEM(qp.get(), i, items[i]);
+    }
+    PyObject* r = res.get();
+    set_slot(r, rs_[0], Py_True);                // success
+    set_slot(r, rs_[1], fa_ik_solved_.ptr());    // status
+    set_slot(r, rs_[2], s.dq.ptr());             // dq
+    set_slot(r, rs_[3], Py_None);                // _velocity (dq / dt on first access)
+    set_slot(r, rs_[4], dt_obj);                 // _dt
+    set_slot(r, rs_[5], qp.get());               // _qp (the QPResult made on first access)
+    set_slot(r, rs_[6], culprits.get());         // culprits
+    set_slot(r, rs_[7], build_time.get());       // build_time
+    set_slot(r, rs_[8], qp_time.get());          // solve_time
+    return res.release();
+  }
+
+ private:
+  struct Outcome {
+    int status, iterations;
+    double objective, t_build, t_qp, t_rows;
+  };
+
+  // step() without its Python tuple: the outcome, the new dq and the new read-only views of q
+  // and v (None without velocity); the arrays are None at kMaxIterations (data untouched).
+  struct Stepped {
+    Outcome outcome;
+    bp::object dq, q, v;
+    bp::object dropped[5];  // arrays no longer kept for reuse: released after the step
+  };
+
+  // `locked` (call_advance: the solver's lock.locked): checked after the targets are read, the
+  // last point before the kernel's workspaces are used where Python code may run (a task's
+  // attribute, a collection at the allocation of the list); when it says the lock is held,
+  // nothing more is done (status kBusy).
+  Stepped step_arrays(Data& data, const Eigen::Ref<const VectorXd>& q, double dt,
+                      PyObject* locked = nullptr) {
     if (!armed_) raise_invalid("step: the kernel is not armed (arm first)");
     const Model& model = *armed_model_;
     if (q.size() != nq_) raise_invalid("vector size mismatch");
@@ -390,43 +654,91 @@ class WeightedIKKernel {
       if (!t) bp::throw_error_already_set();
       PyList_SET_ITEM(targets.ptr(), k, t);
     }
+    if (locked) {
+      PyObject* held = PyObject_CallNoArgs(locked);
+      if (!held) bp::throw_error_already_set();
+      const bool busy = held != Py_False;
+      Py_DECREF(held);
+      if (busy) return {{kBusy, 0, 0.0, 0.0, 0.0, 0.0}, bp::object(), bp::object(), bp::object()};
+    }
+    // from here to the return no Python code runs (no GC-tracked allocation, no attribute
+    // lookup), so no other thread does
     const auto t0 = std::chrono::steady_clock::now();
     position_box(q);
     combine_armed();
-    PyObject* dq = new_vector(nv_);
-    bp::object dq_obj{bp::handle<>(dq)};
-    Eigen::Map<VectorXd> dq_map(static_cast<double*>(PyArray_DATA(reinterpret_cast<PyArrayObject*>(dq))), nv_);
-    const Outcome o = solve_from(t0, model, data, q, targets, armed_damping_, dq_map,
-                                 armed_max_iter_, bp::object(), bp::object());
-    if (o.status == kMaxIterations)
-      return bp::make_tuple(o.status, o.iterations, o.objective, o.t_build, o.t_qp, bp::object(),
-                            bp::object(), bp::object());
-    PyObject* qn = new_vector(nq_);
-    bp::handle<> qn_own(qn);
-    Eigen::Map<VectorXd> q_next(static_cast<double*>(PyArray_DATA(reinterpret_cast<PyArrayObject*>(qn))), nq_);
+    Recycled& old = recycled_[recycle_next_];
+    recycle_next_ ^= 1;
+    Stepped out;
+    double* dq_data = nullptr;
+    bp::object dq_obj = fresh_vector(old.dq, nv_, &dq_data, out.dropped[0]);
+    Eigen::Map<VectorXd> dq_map(dq_data, nv_);
+    out.outcome = solve_from(t0, model, data, q, targets, armed_damping_, dq_map,
+                             armed_max_iter_, bp::object(), bp::object());
+    if (out.outcome.status == kMaxIterations) return out;
+    double* q_data = nullptr;
+    bp::object q_obj = fresh_locked(old.q_view, old.q_base, nq_, &q_data, out.dropped + 1);
+    Eigen::Map<VectorXd> q_next(q_data, nq_);
     pinocchio::integrate(model, q, x_, q_next);
     bp::object v_obj;
     if (with_velocity) {
-      PyObject* vn = new_vector(nv_);
-      bp::handle<> vn_own(vn);
-      Eigen::Map<VectorXd> v_next(static_cast<double*>(PyArray_DATA(reinterpret_cast<PyArrayObject*>(vn))), nv_);
+      double* v_data = nullptr;
+      v_obj = fresh_locked(old.v_view, old.v_base, nv_, &v_data, out.dropped + 3);
+      Eigen::Map<VectorXd> v_next(v_data, nv_);
       v_next = x_ / dt;
       pinocchio::forwardKinematics(model, data, q_next, v_next, a0_);
       pinocchio::computeJointJacobians(model, data);
-      v_obj = locked_view(vn);
     } else {
       pinocchio::computeJointJacobians(model, data, q_next);
     }
     pinocchio::updateFramePlacements(model, data);
-    return bp::make_tuple(o.status, o.iterations, o.objective, o.t_build, o.t_qp, dq_obj,
-                          locked_view(qn), v_obj);
+    out.dq = dq_obj;
+    out.q = q_obj;
+    out.v = v_obj;
+    return out;
   }
 
- private:
-  struct Outcome {
-    int status, iterations;
-    double objective, t_build, t_qp, t_rows;
+  // The arrays of the step two calls ago, kept here: when nobody else holds one any more (its
+  // only reference is this one, and no weak reference), the next step reuses it rather than
+  // making a new one (as CPython's zip() reuses its result tuple). Nobody can see the reuse:
+  // a result, q or v that anyone keeps (or any view of it) is never written again.
+  struct Recycled {
+    bp::object dq, q_view, q_base, v_view, v_base;
   };
+
+  static bool unshared(const bp::object& a, Py_ssize_t references) {
+#ifdef Py_GIL_DISABLED
+    return false;  // another thread may take a reference at any time: never reused
+#endif
+    PyObject* p = a.ptr();
+    return p != Py_None && Py_REFCNT(p) == references &&
+           reinterpret_cast<PyArrayObject_fields*>(p)->weakreflist == nullptr;
+  }
+
+  // A new writable vector of size n (or `kept`, unshared), kept for a later reuse; the array
+  // it replaces goes to `dropped` (released by the caller after the step: its last release
+  // could run Python code, a weak reference's callback).
+  static bp::object fresh_vector(bp::object& kept, int n, double** data, bp::object& dropped) {
+    if (!unshared(kept, 1)) {
+      dropped = kept;
+      kept = bp::object(bp::handle<>(new_vector(n)));
+    }
+    *data = static_cast<double*>(PyArray_DATA(reinterpret_cast<PyArrayObject*>(kept.ptr())));
+    return kept;
+  }
+
+  // A new read-only view of a new locked vector of size n (locked_view), or `view` and its
+  // `base` when both are unshared (the base is held by the view and here); kept for reuse.
+  static bp::object fresh_locked(bp::object& view, bp::object& base, int n, double** data,
+                                 bp::object* dropped) {
+    if (!unshared(view, 1) || !unshared(base, 2)) {
+      dropped[0] = view;
+      dropped[1] = base;
+      base = bp::object(bp::handle<>(new_vector(n)));
+      view = locked_view(base.ptr());
+    }
+    *data = static_cast<double*>(PyArray_DATA(reinterpret_cast<PyArrayObject*>(base.ptr())));
+    return view;
+  }
 
   static PyObject* new_vector(int n) {
     npy_intp dims[1] = {n};
@@ -1319,6 +1631,18 @@ class WeightedIKKernel {
   const Model* armed_model_ = nullptr;
   double armed_damping_ = 0.0;
   int armed_max_iter_ = 0;
+  // arm_advance() / call_advance(): the gate, the state's and the result's slots
+  bool fa_armed_ = false;
+  double fa_dt_ = 0.0;
+  bp::object fa_robot_, fa_version_, fa_assignments_, fa_assigned_, fa_locked_;
+  bp::object fa_state_type_, fa_result_type_, fa_ik_solved_, fa_unconstrained_, fa_solved_;
+  bp::object fa_backend_, version_name_, fa_data_obj_;
+  Data* fa_data_ = nullptr;
+  Py_ssize_t st_robot_ = 0, st_data_ = 0, st_q_ = 0, st_v_ = 0, st_has_v_ = 0, st_a0_ = 0;
+  std::vector<Py_ssize_t> st_none_, st_clear_, st_false_;
+  Py_ssize_t rs_[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
+  Recycled recycled_[2];  // step_arrays(): the arrays of the last two steps
+  int recycle_next_ = 0;
 };
 
 // Objects allocated by Pinocchio's library and freed here (a Data, the vector of neutral):
@@ -1371,5 +1695,8 @@ BOOST_PYTHON_MODULE(_ik_kernel) {
       // robot's version bound once (arm), the call passes the state's data, q and dt
       .def("arm", &WeightedIKKernel::arm)
       .def("disarm", &WeightedIKKernel::disarm)
-      .def("step", &WeightedIKKernel::step);
+      .def("step", &WeightedIKKernel::step)
+      // the whole armed DifferentialIK.advance as one C function (lock, gate, step, State
+      // update, result)
+      .def("arm_advance", &WeightedIKKernel::arm_advance);
 }

@@ -44,7 +44,7 @@ from taskspace.features.compiled import (
 )
 from taskspace.model.collision_requests import without_cached_guess
 from taskspace.model.robot import Robot
-from taskspace.model.state import State
+from taskspace.model.state import ADOPT_RESETS, State
 from taskspace.model.versioning import ModelFollower
 from taskspace.qp.kkt import KKTResiduals
 from taskspace.qp.rows import InequalityStack, TaskRowStack
@@ -568,6 +568,40 @@ class NativeWeightedStack:
         kernel.arm(self.model, list(self.tasks), hard, soft, damping, MAX_ACTIVE_SET_ITERATIONS)
         step: Callable[..., Any] = kernel.step
         return step
+
+    def arm_advance(
+        self, gate: tuple[Any, ...], result: tuple[Any, ...]
+    ) -> Callable[..., Any] | None:
+        """After :meth:`arm`: the whole armed ``DifferentialIK.advance`` as one C function.
+
+        ``advance(state, dt)`` checks ``gate``, runs the armed step on the state's data and
+        ``q``, records the new ``q`` (and ``v``) in the state as :meth:`State._adopt` does
+        (:data:`~taskspace.model.state.ADOPT_RESETS`) and returns a new result; ``None``
+        (nothing done) when the gate does not hold or the solver's lock is held, ``False`` when
+        the active set did not settle (the state has not moved). The lock is not taken: the
+        function checks it is free right before it uses the kernel's workspaces and runs no
+        Python code from there until the step is written (so no other thread runs).
+
+        ``gate``: ``(dt, robot, robot's version, tasks.ASSIGNMENTS, its value, lock)``;
+        ``result``: the result class, its slots' member descriptors ``success, status, dq,
+        _velocity, _dt, _qp, culprits, build_time, solve_time`` and the constants
+        ``IKStatus.SOLVED, QPStatus.UNCONSTRAINED, QPStatus.SOLVED, "native"``. ``None``: a
+        kernel built before ``arm_advance`` existed.
+        """
+        kernel = self.kernel
+        if not hasattr(kernel, "arm_advance"):
+            return None
+        slots = State.__dict__
+        none, cleared, false = ADOPT_RESETS
+        state = (
+            State,
+            *(slots[name] for name in ("_robot", "_data", "_q", "_v", "_has_velocity", "_a0")),
+            tuple(slots[name] for name in none),
+            tuple(slots[name] for name in cleared),
+            tuple(slots[name] for name in false),
+        )
+        advance: Callable[..., Any] = kernel.arm_advance(gate, state, result)
+        return advance
 
     def require_targets(self) -> None:
         """Raise, naming it, when a task has no target (after the kernel refused its call)."""

@@ -170,6 +170,31 @@ class IKStepResult:
         )
 
 
+# what the compiled armed advance fills (NativeWeightedStack.arm_advance): the class, its
+# slots' member descriptors and the constants of a solved step
+_RESULT_SLOTS = (
+    IKStepResult,
+    *(
+        IKStepResult.__dict__[name]
+        for name in (
+            "success",
+            "status",
+            "dq",
+            "_velocity",
+            "_dt",
+            "_qp",
+            "culprits",
+            "build_time",
+            "solve_time",
+        )
+    ),
+    _IK_SOLVED,
+    _UNCONSTRAINED,
+    _SOLVED,
+    "native",
+)
+
+
 @dataclass(frozen=True, kw_only=True)
 class DifferentialIKOptions:
     """Settings of :class:`DifferentialIK`.
@@ -265,7 +290,9 @@ class DifferentialIK:
     Thread safety: :meth:`solve`, :meth:`step` and :meth:`build` may be called from several
     threads on one solver: they hold the solver's lock while they use its workspaces (the
     stacked task matrix, the QP workspace, the compiled kernel), so the calls run one at a
-    time and each gives the result it would give alone (up to the QP warm start). Each
+    time and each gives the result it would give alone (up to the QP warm start); the armed
+    compiled ``advance`` does not take the lock but checks that it is free and then holds the
+    GIL until its step is computed (it waits on the lock otherwise). Each
     thread needs its own :class:`~taskspace.model.State`, and the tasks' targets, weights and
     gains must not be changed while another thread steps. For parallel speed, give each
     thread its own solver.
@@ -329,6 +356,9 @@ class DifferentialIK:
         self._lean_version = -1
         self._lean_boxes: tuple[list[Any], list[Any]] | None = None
         self._lean_step: Any = None  # the kernel's armed step (NativeWeightedStack.arm)
+        # the whole armed advance in C (NativeWeightedStack.arm_advance): gate, lock check,
+        # step, state, result; None when not armed
+        self._lean_fast: Any = None
 
     @property
     def options(self) -> DifferentialIKOptions:
@@ -425,6 +455,21 @@ class DifferentialIK:
             state: current state, moved to the new configuration.
             dt: time step [s].
         """
+        fast = self._lean_fast
+        if fast is not None:  # the armed step in one C call (see NativeWeightedStack.arm_advance)
+            try:
+                result = fast(state, dt)
+            except (TypeError, ValueError, RuntimeError):
+                self._native.require_targets()  # type: ignore[union-attr]
+                raise
+            if result:  # else None: the gate failed or the lock is held; False: see below
+                return result  # type: ignore[no-any-return]
+            if result is False:  # the active set did not settle (not moved): the Python path
+                self._acquire()
+                try:
+                    return self._advance(state, dt)
+                finally:
+                    self._release()
         self._acquire()
         try:
             # the lean path: one kernel call, everything that depends only on the stack, the
@@ -452,7 +497,7 @@ class DifferentialIK:
                         raise
                     if dq is not None:  # the data hold the kinematics of q (a locked view)
                         state._adopt(q, v, True)
-                        result: IKStepResult = _new(IKStepResult)  # as below
+                        result = _new(IKStepResult)  # as below
                         result.success = True
                         result.status = _IK_SOLVED
                         result.dq = dq
@@ -542,6 +587,7 @@ class DifferentialIK:
         if dt.__class__ is not float or not 0.0 < dt < _INF:  # NaN fails the comparison
             dt = check_positive(dt, "dt")
         self._lean_dt = _NAN
+        self._lean_fast = None
         result = None
         if self._native is not None or (not self._native_checked and self.native):
             fused = self._fused
@@ -583,6 +629,18 @@ class DifferentialIK:
         self._lean_assignments = native._assignments
         self._lean_version = self.robot._version
         self._lean_dt = dt
+        if self._lean_step is not None:
+            self._lean_fast = native.arm_advance(
+                (
+                    dt,
+                    self.robot,
+                    self._lean_version,
+                    _ASSIGNMENTS,
+                    self._lean_assignments,
+                    self._lock,
+                ),
+                _RESULT_SLOTS,
+            )
 
     def _solve_python(self, state: State, dt: float) -> IKStepResult:
         """:meth:`solve` by the Python path (the caller holds the lock)."""

@@ -27,6 +27,17 @@ LOCAL = pin.ReferenceFrame.LOCAL
 WORLD = pin.ReferenceFrame.WORLD
 
 
+ADOPT_RESETS = (
+    ("_com", "_com_jacobian", "_com_drift"),
+    ("_cache_lwa", "_cache_local"),
+    ("_distances_done",),
+)
+"""What :meth:`State._adopt` does besides recording ``q``, ``v`` and the velocity flag: the
+slots it sets to None, the dicts it empties, the slots it sets to False. A compiled kernel that
+records a configuration itself (``DifferentialIK.advance``'s armed step, through the slots'
+member descriptors) does the same from this list: keep both in step (a test compares them)."""
+
+
 class State:
     """Configuration ``q``, velocity ``v`` and their kinematics, computed in one pass.
 
@@ -181,6 +192,7 @@ class State:
         read-only for good (the buffer is locked and only a view of it is kept; numpy refuses
         to make a view of a locked buffer writable). ``v`` None: no velocity (zero).
         ``locked``: ``q`` and ``v`` are already such views (a compiled kernel made them so).
+        The compiled armed step does what this does from :data:`ADOPT_RESETS`.
         """
         if locked:
             self._q = q
