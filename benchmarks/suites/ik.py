@@ -116,28 +116,31 @@ def _loop(  # type: ignore[type-arg]
     """``steps`` steps; timed: ``state.update(q); solve; q (+) dq``, or ``advance(state, DT)``.
 
     ``advance`` (``DifferentialIK.advance``) does the same work in one call: solve, integrate,
-    and the kinematics of the new configuration (the state moves).
+    and the kinematics of the new configuration (the state moves). Between timed steps only
+    the targets move, as in the peers' loops; the checks (KKT residuals, limits, tracking)
+    run after the loop on the recorded steps, each at the configuration and targets it was
+    solved with (a Python QP build between steps evicts the caches the next timed step uses).
     """
     state = robot.state(robot.q_default)
     before = robot.state(robot.q_default)  # the state a step was solved at (KKT check)
     q = robot.q_default.copy()
     times = np.empty(steps)
-    failed = 0
-    lo, hi = robot.lower_limits, robot.upper_limits
-    worst_violation = 0.0
-    native = 0
-    kkt = {"primal": 0.0, "dual": 0.0, "complementarity": 0.0, "not_computed": 0}
-    for k in range(steps):
+    record: list[tuple[np.ndarray, np.ndarray, Any]] = []  # (q solved at, q after, result)
+
+    def set_targets(k: int) -> None:
         off = hand_offset(k)
         for task, T0 in moving:
             T = T0.copy()
             T.translation = T0.translation + off
             task.set_target(T)
+
+    for k in range(steps):
+        set_targets(k)
+        q_at = q
         if advance is not None:
             t0 = time.perf_counter()
             result = advance(state, DT)
             times[k] = time.perf_counter() - t0
-            before.update(q)  # outside the timed part
             q = state.q
         else:
             t0 = time.perf_counter()
@@ -145,10 +148,19 @@ def _loop(  # type: ignore[type-arg]
             result = solve(state, DT)
             q = pin.integrate(robot.model, q, result.dq)
             times[k] = time.perf_counter() - t0
-            before = state
+        record.append((q_at, q, result))
+    failed = 0
+    lo, hi = robot.lower_limits, robot.upper_limits
+    worst_violation = 0.0
+    native = 0
+    kkt = {"primal": 0.0, "dual": 0.0, "complementarity": 0.0, "not_computed": 0}
+    idx = robot.limited_joints_q
+    for k, (q_at, q_after, result) in enumerate(record):  # the checks, after the timed loop
+        set_targets(k)
+        before.update(q_at)
         failed += not result.success
         native += bool(getattr(result, "native", False))
-        for qp in _qp_results(result):  # outside the timed part
+        for qp in _qp_results(result):
             if not np.isfinite(qp.kkt.primal) and kernel_qp is not None and qp.backend == "native":
                 # the compiled kernel returns no multipliers: residuals of its step on the QP
                 # the Python path builds for the same state (box-only, multipliers recovered)
@@ -158,11 +170,11 @@ def _loop(  # type: ignore[type-arg]
                 continue
             for key in ("primal", "dual", "complementarity"):
                 kkt[key] = max(kkt[key], float(getattr(qp.kkt, key)))
-        idx = robot.limited_joints_q
         worst_violation = max(
-            worst_violation, float(np.maximum(lo[idx] - q[idx], q[idx] - hi[idx]).max())
+            worst_violation,
+            float(np.maximum(lo[idx] - q_after[idx], q_after[idx] - hi[idx]).max()),
         )
-    # at the state the last step was solved at (as before advance existed)
+    # at the state the last step was solved at, with its targets (as before advance existed)
     tracking = float(np.linalg.norm(moving[0][0].error(before)[:3]))
     return {
         "times": times,
