@@ -85,6 +85,15 @@ def hand_offset(k: int) -> np.ndarray:
     )
 
 
+def move_targets(moving: list[tuple[Task, pin.SE3]], k: int) -> None:
+    """Set each moving task's target to its initial one shifted by :func:`hand_offset` ``(k)``."""
+    off = hand_offset(k)
+    for task, T0 in moving:
+        T = T0.copy()
+        T.translation = T0.translation + off
+        task.set_target(T)
+
+
 def g1_tasks(robot: Robot) -> tuple[dict[str, list[Task]], list[tuple[Task, pin.SE3]]]:
     """Tasks of the G1 scene grouped by role, and the moving ones with their initial target."""
     s = robot.state(robot.q_default)
@@ -127,15 +136,8 @@ def _loop(  # type: ignore[type-arg]
     times = np.empty(steps)
     record: list[tuple[np.ndarray, np.ndarray, Any]] = []  # (q solved at, q after, result)
 
-    def set_targets(k: int) -> None:
-        off = hand_offset(k)
-        for task, T0 in moving:
-            T = T0.copy()
-            T.translation = T0.translation + off
-            task.set_target(T)
-
     for k in range(steps):
-        set_targets(k)
+        move_targets(moving, k)
         q_at = q
         if advance is not None:
             t0 = time.perf_counter()
@@ -156,7 +158,7 @@ def _loop(  # type: ignore[type-arg]
     kkt = {"primal": 0.0, "dual": 0.0, "complementarity": 0.0, "not_computed": 0}
     idx = robot.limited_joints_q
     for k, (q_at, q_after, result) in enumerate(record):  # the checks, after the timed loop
-        set_targets(k)
+        move_targets(moving, k)
         before.update(q_at)
         failed += not result.success
         native += bool(getattr(result, "native", False))

@@ -289,11 +289,7 @@ def _general_g1() -> tuple[Robot, Any, list[Any], list[Any], list[Any], Any, flo
     constraints = [JointPositionLimits(robot), JointVelocityLimits(robot), support]
 
     def target(k: int) -> None:
-        off = ik_suite.hand_offset(k)
-        for task, T0 in moving:
-            T = T0.copy()
-            T.translation = T0.translation + off
-            task.set_target(T)
+        ik_suite.move_targets(moving, k)
 
     return robot, state, tasks, constraints, groups["feet"], target, ik_suite.DT
 
@@ -349,11 +345,7 @@ def _general_g1_rows() -> tuple[Robot, Any, list[Any], list[Any], list[Any], Any
     constraints = [JointPositionLimits(robot), JointVelocityLimits(robot), rows]
 
     def target(k: int) -> None:
-        off = ik_suite.hand_offset(k)
-        for task, T0 in moving:
-            T = T0.copy()
-            T.translation = T0.translation + off
-            task.set_target(T)
+        ik_suite.move_targets(moving, k)
 
     return robot, state, tasks, constraints, [], target, ik_suite.DT
 
