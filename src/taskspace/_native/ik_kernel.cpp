@@ -153,6 +153,7 @@ class WeightedIKKernel {
     }
     const int dim = r.empty() ? nv_ : static_cast<int>(r.size());
     posture_.push_back({kPosture, -1, static_cast<int>(posture_.size()), dim, r});
+    st_model_ = nullptr;
     return -1;
   }
 
@@ -292,6 +293,14 @@ class WeightedIKKernel {
   // QP with the damper rows and the box; and the multipliers (z of the rows, z_box).
   bp::tuple residuals() const {
     return bp::make_tuple(res_[0], res_[1], res_[2], res_[3], res_[4], res_[5], res_[6]);
+  }
+  // The structured factorization of the box-only step (no dampers): (used, low-rank rows,
+  // solves it ended unconstrained, solves whose minimizer was outside the box (then
+  // box_qp), solves that fell back to the dense factorization). `used` is known after the
+  // first solve with a model.
+  bp::tuple structured_counts() const {
+    return bp::make_tuple(st_model_ != nullptr && st_use_, st_r_, st_count_[0], st_count_[1],
+                          st_count_[2]);
   }
   bp::tuple multipliers() const {
     const VectorXd z = z_.head(m_in_);
@@ -775,14 +784,50 @@ class WeightedIKKernel {
                      bp::object gdata_obj) {
     // H = M^T M + mu I (lower triangle), g = -M^T r: one symmetric rank update of the stacked
     // rows (zero outside each task's support columns)
-    H_.setZero();
-    g_.setZero();
-    fill_rows(model, data, targets);
-    const auto t1 = std::chrono::steady_clock::now();
-    add_gram();  // and g = -M^T r
-    H_.diagonal().array() += damping;
-    add_posture_terms(model, q, targets);
-    H_.triangularView<Eigen::StrictlyUpper>() = H_.transpose();
+    if (dampers_.empty() && st_model_ != &model) plan_structure(model);
+    std::chrono::steady_clock::time_point t1;
+    if (dampers_.empty() && st_use_) {
+      // the structured path (plan_structure): H0 packed, the unconstrained minimizer by its
+      // factor and the low-rank correction; the dense H only when it is outside the box
+      g_.setZero();
+      st_P_.setZero();
+      st_D_.setZero();
+      fill_rows(model, data, targets);
+      t1 = std::chrono::steady_clock::now();
+      gram_struct();  // and g = -M^T r
+      st_D_.array() += damping;
+      posture_terms<true>(model, q, targets);
+      m_in_ = 0;
+      const bool have_min = struct_minimizer();
+      if (have_min && inside(st_x_, lb_, ub_)) {
+        ++st_count_[0];
+        warm_ = false;
+        x_ = st_x_;
+        grad_.setZero();
+        std::fill(state_.begin(), state_.end(), 0);
+        const auto t2 = std::chrono::steady_clock::now();
+        const double objective = 0.5 * g_.dot(x_);  // H x = -g
+        out = x_;
+        const auto t3 = std::chrono::steady_clock::now();
+        const auto sec = [](auto a, auto b) { return std::chrono::duration<double>(b - a).count(); };
+        return {kUnconstrained, 0, objective, sec(t0, t2), sec(t2, t3), sec(t0, t1)};
+      }
+      ++st_count_[have_min ? 1 : 2];
+      struct_to_dense();
+      if (have_min && !warm_) {  // box_qp starts from this (infeasible) unconstrained minimizer
+        x_ = st_x_;
+        have_min_ = true;
+      }
+    } else {
+      H_.setZero();
+      g_.setZero();
+      fill_rows(model, data, targets);
+      t1 = std::chrono::steady_clock::now();
+      add_gram();  // and g = -M^T r
+      H_.diagonal().array() += damping;
+      add_posture_terms(model, q, targets);
+      H_.triangularView<Eigen::StrictlyUpper>() = H_.transpose();
+    }
     m_in_ = 0;
     if (!dampers_.empty()) {
       if (!geom_set_) raise_invalid("dampers without a collision model");
@@ -868,6 +913,7 @@ class WeightedIKKernel {
   }
 
   int add(Item item) {
+    st_model_ = nullptr;  // the structured factorization is planned again
     items_.push_back(item);
     m_ += item.dim;
     M_.setZero(m_, nv_);
@@ -888,7 +934,7 @@ class WeightedIKKernel {
       else gram_task<-1>(it);
     }
   }
-  template <int D>
+  template <int D, bool WithG = true>
   void gram_task(const Item& it) {
     const long ld = M_.rows(), ldh = H_.rows();
     const int d = D > 0 ? D : it.dim;
@@ -900,9 +946,11 @@ class WeightedIKKernel {
     for (int b = 0; b < ns; ++b) {
       const int cb = S[b];
       const double* mb = M + cb * ld;
-      double s = 0.0;
-      for (int k = 0; k < d; ++k) s += mb[k] * r[k];
-      g_[cb] -= s;
+      if (WithG) {
+        double s = 0.0;
+        for (int k = 0; k < d; ++k) s += mb[k] * r[k];
+        g_[cb] -= s;
+      }
       double* hb = H + cb * ldh;
       for (int a = b; a < ns; ++a) {  // support columns ascending: (a >= b) is lower
         const double* ma = M + S[a] * ld;
@@ -979,6 +1027,298 @@ class WeightedIKKernel {
       }
     }
     r_ = c_.cwiseProduct(e_);
+  }
+
+  // ---- The structured factorization of the box-only step (no dampers) ----
+  //
+  // A frame task's rows are nonzero only on the dofs of its frame's support joints: a chain
+  // of dofs from the root. Their Gram blocks, the damping and the posture blocks (one per
+  // joint) make H0 with the kinematic tree's branch-induced sparsity: H0(i, j) != 0 only when
+  // dof i is an ancestor of dof j or j of i (the arms and legs of a humanoid are coupled only
+  // through the base and the waist). Factored from the leaves up, H0 = L^T L has no fill in
+  // (Featherstone's LTL factorization): row k of L is nonzero only on k's ancestors. Each dof
+  // k keeps its row in packed form: st_dep_[k] values at st_off_[k], on its ancestors in
+  // ascending order (st_anc_), and the diagonal in st_D_.
+  // Tasks whose rows are not on one chain (the CoM: every column) are the low-rank part
+  // U U^T of H = H0 + U U^T (U = their weighted rows transposed, r columns), handled by the
+  // Woodbury identity for the unconstrained minimizer: with Y = L^-T U, y0 = L^-T (-g),
+  //   x = L^-1 (y0 - Y (I + Y^T Y)^-1 Y^T y0).
+  // The minimizer is accepted only when its residual |H x + g| is at the level of a
+  // Cholesky solve's; otherwise, and when it lies outside the box (bounds active), the dense
+  // H is assembled and box_qp runs as before (from this minimizer when it holds).
+
+  // Plan it for this model and these tasks: the dof tree, the packed layout, which tasks
+  // are chains; st_use_ when every piece fits and the estimated work is below the dense.
+  void plan_structure(const Model& model) {
+    st_model_ = &model;
+    st_use_ = false;
+    const int n = nv_;
+    if (model.nv != n) return;
+    std::vector<int> parent(n, -2);
+    for (int j = 1; j < model.njoints; ++j) {
+      const int iv = model.idx_vs[j], nvj = model.nvs[j];
+      if (nvj == 0) continue;
+      int pj = model.parents[j];
+      while (pj > 0 && model.nvs[pj] == 0) pj = model.parents[pj];
+      for (int i = 0; i < nvj; ++i) {
+        if (iv + i < 0 || iv + i >= n || parent[iv + i] != -2) return;  // dofs shared (mimic)
+        parent[iv + i] = i > 0 ? iv + i - 1 : (pj > 0 ? model.idx_vs[pj] + model.nvs[pj] - 1 : -1);
+      }
+    }
+    st_off_.assign(n, 0);
+    st_dep_.assign(n, 0);
+    st_anc_.clear();
+    for (int k = 0; k < n; ++k) {
+      const int p = parent[k];
+      if (p == -2 || p >= k) return;  // a dof no joint moves, or a parent after its child
+      st_off_[k] = static_cast<int>(st_anc_.size());
+      if (p >= 0) {
+        st_dep_[k] = st_dep_[p] + 1;
+        for (int a = 0; a < st_dep_[p]; ++a) st_anc_.push_back(st_anc_[st_off_[p] + a]);
+        st_anc_.push_back(p);
+      }
+    }
+    st_chain_.assign(items_.size(), 0);
+    st_r_ = 0;
+    for (std::size_t t = 0; t < items_.size(); ++t) {
+      const std::vector<int>& S = items_[t].rows;
+      bool chain = !S.empty() && static_cast<int>(S.size()) == st_dep_[S.back()] + 1;
+      for (std::size_t a = 0; chain && a + 1 < S.size(); ++a)
+        chain = S[a] == st_anc_[st_off_[S.back()] + static_cast<int>(a)];
+      st_chain_[t] = chain;
+      if (!chain) st_r_ += items_[t].dim;
+    }
+    // work estimates (multiply-adds): dense Cholesky, solve and the low-rank tasks' Gram;
+    // the packed factor, the solves (r + 2 vectors) and the residual
+    double nnz = 0.0, fact = 0.0;
+    for (int k = 0; k < n; ++k) {
+      nnz += st_dep_[k];
+      fact += 0.5 * st_dep_[k] * st_dep_[k];
+    }
+    const double dn = n, r = st_r_;
+    const double dense = dn * dn * dn / 6.0 + dn * dn + 0.5 * r * dn * dn;
+    const double packed = fact + (r + 4.0) * nnz + 2.0 * r * dn;
+    if (st_r_ > 6 || packed > 0.7 * dense) return;
+    st_P_.setZero(static_cast<long>(st_anc_.size()));
+    st_D_.setZero(n);
+    st_x_.setZero(n);
+    st_hx_.setZero(n);
+    st_U_.setZero(n, std::max(st_r_, 1));
+    st_B_.setZero(n, 1 + st_r_);
+    st_use_ = true;
+  }
+
+  // H0 (packed: the chain tasks' Gram) and g = -M^T r of every task.
+  void gram_struct() {
+    int u = 0;  // the low-rank tasks' rows, as columns of st_U_
+    for (std::size_t t = 0; t < items_.size(); ++t) {
+      const Item& it = items_[t];
+      if (st_chain_[t]) {
+        if (it.dim == 6) gram_chain<6>(it);
+        else if (it.dim == 3) gram_chain<3>(it);
+        else gram_chain<-1>(it);
+        continue;
+      }
+      const long ld = M_.rows();
+      const double* r = r_.data() + it.row;
+      for (const int c : it.rows) {
+        const double* mc = M_.data() + it.row + c * ld;
+        double s = 0.0;
+        for (int k = 0; k < it.dim; ++k) {
+          s += mc[k] * r[k];
+          st_U_(c, u + k) = mc[k];
+        }
+        g_[c] -= s;
+      }
+      u += it.dim;
+    }
+  }
+  // One chain task (support S = the ancestors of S.back() and itself, ascending): row S[a]
+  // of H0 gets (M_S^T M_S)(a, b) at packed position b < a, its diagonal at a.
+  template <int D>
+  void gram_chain(const Item& it) {
+    const long ld = M_.rows();
+    const int d = D > 0 ? D : it.dim;
+    const int ns = static_cast<int>(it.rows.size());
+    const int* S = it.rows.data();
+    const double* M = M_.data() + it.row;
+    const double* r = r_.data() + it.row;
+    using Col = Eigen::Map<const Eigen::Matrix<double, D, 1>>;  // D > 0: vectorized dots
+    const auto dot = [d](const double* a, const double* b) {
+      if constexpr (D > 0) {
+        return Col(a).dot(Col(b));
+      } else {
+        double h = 0.0;
+        for (int k = 0; k < d; ++k) h += a[k] * b[k];
+        return h;
+      }
+    };
+    for (int a = 0; a < ns; ++a) {
+      const int ca = S[a];
+      const double* ma = M + ca * ld;
+      g_[ca] -= dot(ma, r);
+      st_D_[ca] += dot(ma, ma);
+      double* pa = st_P_.data() + st_off_[ca];
+      for (int b = 0; b < a; ++b) pa[b] += dot(ma, M + S[b] * ld);
+    }
+  }
+
+  // The unconstrained minimizer of 1/2 x^T (H0 + U U^T) x + g^T x into st_x_, by the packed
+  // LTL factor of H0 and the Woodbury identity. False when H0 is not numerically positive
+  // definite or the residual is above a Cholesky solve's level (the caller goes dense).
+  bool struct_minimizer() {
+    const int n = nv_, r = st_r_;
+    st_LP_ = st_P_;
+    st_LD_ = st_D_;
+    double* P = st_LP_.data();
+    double* Dg = st_LD_.data();
+    const int* off = st_off_.data();
+    const int* dep = st_dep_.data();
+    const int* anc = st_anc_.data();
+    for (int k = n - 1; k >= 0; --k) {  // leaves first: H0 = L^T L without fill in
+      const double dk2 = Dg[k];
+      if (!(dk2 > 0.0) || !std::isfinite(dk2)) return false;
+      const double lkk = std::sqrt(dk2), inv = 1.0 / lkk;
+      Dg[k] = lkk;
+      double* __restrict l = P + off[k];
+      const int* ak = anc + off[k];
+      const int dk = dep[k];
+      for (int p = 0; p < dk; ++p) l[p] *= inv;
+      for (int p = 0; p < dk; ++p) {  // the Schur complement on k's ancestors (a chain)
+        const int i = ak[p];
+        const double lp = l[p];
+        Dg[i] -= lp * lp;
+        double* __restrict li = P + off[i];  // i's ancestors: ak[0 .. p-1]
+        for (int q = 0; q < p; ++q) li[q] -= lp * l[q];
+      }
+    }
+    switch (r) {
+      case 0: return minimizer_from_factor<1>();
+      case 3: return minimizer_from_factor<4>();  // one CoM task
+      default: return minimizer_from_factor<-1>();
+    }
+  }
+  // struct_minimizer() after the factorization, with NC = 1 + r columns (fixed at compile
+  // time when > 0): [y0 Y] = L^-T [-g U], the capacitance (I + Y^T Y), x, the residual.
+  template <int NC>
+  bool minimizer_from_factor() {
+    const int n = nv_, nc = NC > 0 ? NC : static_cast<int>(st_B_.cols()), r = nc - 1;
+    const double* P = st_LP_.data();
+    const double* Dg = st_LD_.data();
+    const int* off = st_off_.data();
+    const int* dep = st_dep_.data();
+    const int* anc = st_anc_.data();
+    double* B = st_B_.data();
+    const double* U = st_U_.data();
+    const int ldu = static_cast<int>(st_U_.cols());
+    for (int k = 0; k < n; ++k) {
+      B[k * nc] = -g_[k];
+      for (int j = 0; j < r; ++j) B[k * nc + 1 + j] = U[k * ldu + j];
+    }
+    // L^T Y = B, leaves first: row k final, then scattered to its ancestors
+    using Row = Eigen::Matrix<double, NC, 1>;
+    for (int k = n - 1; k >= 0; --k) {
+      double* __restrict bk = B + k * nc;
+      const double inv = 1.0 / Dg[k];
+      const double* l = P + off[k];
+      const int* ak = anc + off[k];
+      if constexpr (NC > 0) {
+        Eigen::Map<Row> bkm(bk);
+        const Row yk = bkm * inv;
+        bkm = yk;
+        for (int p = 0; p < dep[k]; ++p) Eigen::Map<Row>(B + ak[p] * nc) -= l[p] * yk;
+      } else {
+        for (int c = 0; c < nc; ++c) bk[c] *= inv;
+        for (int p = 0; p < dep[k]; ++p) {
+          double* __restrict bi = B + ak[p] * nc;
+          for (int c = 0; c < nc; ++c) bi[c] -= l[p] * bk[c];
+        }
+      }
+    }
+    // z = y0 - Y (I + Y^T Y)^-1 Y^T y0 (r <= 6: small fixed-capacity matrices)
+    auto& z = st_hx_;
+    for (int k = 0; k < n; ++k) z[k] = B[k * nc];
+    if (r > 0) {
+      Small S = Small::Identity(r, r);
+      SmallVec t = SmallVec::Zero(r);
+      for (int k = 0; k < n; ++k) {
+        const double* bk = B + k * nc + 1;
+        for (int i = 0; i < r; ++i) {
+          t[i] += bk[i] * z[k];
+          for (int j = 0; j <= i; ++j) S(i, j) += bk[i] * bk[j];
+        }
+      }
+      if (Eigen::internal::llt_inplace<double, Eigen::Lower>::unblocked(S) != -1) return false;
+      S.triangularView<Eigen::Lower>().solveInPlace(t);
+      S.triangularView<Eigen::Lower>().transpose().solveInPlace(t);
+      for (int k = 0; k < n; ++k) {
+        const double* bk = B + k * nc + 1;
+        double s = 0.0;
+        for (int i = 0; i < r; ++i) s += bk[i] * t[i];
+        z[k] -= s;
+      }
+    }
+    // x = L^-1 z (root first)
+    double* x = st_x_.data();
+    for (int k = 0; k < n; ++k) {
+      const double* l = P + off[k];
+      const int* ak = anc + off[k];
+      double s = z[k];
+      for (int p = 0; p < dep[k]; ++p) s -= l[p] * x[ak[p]];
+      x[k] = s / Dg[k];
+    }
+    if (!st_x_.allFinite()) return false;
+    // residual H x + g, with H0 from the packed rows before the factorization
+    double* hx = st_hx_.data();
+    for (int k = 0; k < n; ++k) hx[k] = g_[k];
+    const double* P0 = st_P_.data();
+    SmallVec ux = SmallVec::Zero(std::max(r, 1));
+    for (int k = 0; k < n; ++k)
+      for (int j = 0; j < r; ++j) ux[j] += U[k * ldu + j] * x[k];
+    double hmax = 0.0, gmax = 0.0, xmax = 0.0, res = 0.0;
+    for (int k = n - 1; k >= 0; --k) {  // hx[k] complete once its descendants are done
+      const double* pk = P0 + off[k];
+      const int* ak = anc + off[k];
+      const double xk = x[k];
+      double s = st_D_[k] * xk, u2 = 0.0;
+      for (int p = 0; p < dep[k]; ++p) {
+        s += pk[p] * x[ak[p]];
+        hx[ak[p]] += pk[p] * xk;
+      }
+      for (int j = 0; j < r; ++j) {
+        s += U[k * ldu + j] * ux[j];
+        u2 += U[k * ldu + j] * U[k * ldu + j];
+      }
+      hx[k] += s;
+      res = std::max(res, std::abs(hx[k]));
+      hmax = std::max(hmax, st_D_[k] + u2);
+      gmax = std::max(gmax, std::abs(g_[k]));
+      xmax = std::max(xmax, std::abs(xk));
+    }
+    return res <= 1e-11 * (1.0 + gmax + hmax * xmax);
+  }
+  // The dense H_ (both triangles) from the packed H0 and the low-rank tasks' Gram.
+  void struct_to_dense() {
+    H_.setZero();
+    for (int k = 0; k < nv_; ++k) {
+      H_(k, k) = st_D_[k];
+      const double* pk = st_P_.data() + st_off_[k];
+      const int* ak = st_anc_.data() + st_off_[k];
+      for (int p = 0; p < st_dep_[k]; ++p) H_(k, ak[p]) = pk[p];  // ak[p] < k: lower
+    }
+    for (std::size_t t = 0; t < items_.size(); ++t) {
+      if (st_chain_[t]) continue;
+      if (items_[t].dim == 3) gram_task<3, false>(items_[t]);
+      else gram_task<-1, false>(items_[t]);
+    }
+    H_.triangularView<Eigen::StrictlyUpper>() = H_.transpose();
+  }
+  // x inside [lb - tol, ub + tol] (box_qp's test of its unconstrained minimizer)
+  static bool inside(const VectorXd& x, const VectorXd& lb, const VectorXd& ub) {
+    const double tol = 1e-10;
+    for (long i = 0; i < x.size(); ++i)
+      if (x[i] < lb[i] - tol || x[i] > ub[i] + tol) return false;
+    return true;
   }
 
   // Intersection of the boxes (lb, ub) of the constraints; where the physical (hard) boxes
@@ -1063,9 +1403,21 @@ class WeightedIKKernel {
   }
 
   // Posture tasks: residual difference(q*, q), Jacobian dDifference (block diagonal per
-  // joint), added as  H += Jd^T W Jd,  g += Jd^T W gain e  joint by joint.
+  // joint), added as  H += Jd^T W Jd,  g += Jd^T W gain e  joint by joint: into H_ (lower
+  // triangle), or with Packed into the packed rows of the structured factorization (st_P_,
+  // st_D_; a joint's block lies on its dofs' ancestor chains). A vector-space joint's block
+  // is the identity (consecutive ones are added as one range); pinocchio's per-joint
+  // dDifference step (its own visitor, the one pinocchio::dDifference runs for every joint)
+  // is called only for the Lie-group joints (a free flyer).
   void add_posture_terms(const Model& model, const Eigen::Ref<const VectorXd>& q,
                          bp::list& targets) {
+    posture_terms<false>(model, q, targets);
+  }
+  template <bool Packed>
+  void posture_terms(const Model& model, const Eigen::Ref<const VectorXd>& q,
+                     bp::list& targets) {
+    using ConstRef = Eigen::Ref<const VectorXd>;
+    using Step = pinocchio::dDifferenceStep<pinocchio::LieGroupMap, ConstRef, ConstRef, MatrixXd>;
     for (std::size_t k = 0; k < posture_.size(); ++k) {
       bp::object target = targets[items_.size() + k];
       bp::extract<Eigen::Ref<const VectorXd>> get(target);  // (holds a converted copy)
@@ -1075,25 +1427,45 @@ class WeightedIKKernel {
       pinocchio::difference(model, qt, q, diff_);
       const VectorXd& w = pw_[k];
       const VectorXd& c = pc_[k];  // -gain * weight
-      bool jd_done = false;
+      int run0 = 0, run1 = 0;  // the current range of vector-space dofs [run0, run1)
+      const auto flush = [&]() {
+        const int len = run1 - run0;
+        if (len <= 0) return;
+        if (Packed) st_D_.segment(run0, len) += w.segment(run0, len);
+        else H_.diagonal().segment(run0, len) += w.segment(run0, len);
+        g_.segment(run0, len) -= c.segment(run0, len).cwiseProduct(diff_.segment(run0, len));
+        run0 = run1 = 0;
+      };
       for (pinocchio::JointIndex j = 1; j < static_cast<pinocchio::JointIndex>(model.njoints); ++j) {
         const int iv = model.idx_vs[j], nvj = model.nvs[j];
         if (nvj == 0) continue;
         if (model.nqs[j] == nvj) {  // vector-space joint: Jd block = identity
-          H_.diagonal().segment(iv, nvj) += w.segment(iv, nvj);
-          g_.segment(iv, nvj) -= c.segment(iv, nvj).cwiseProduct(diff_.segment(iv, nvj));
+          if (run1 != iv) {
+            flush();
+            run0 = iv;
+          }
+          run1 = iv + nvj;
           continue;
         }
-        if (!jd_done) {  // one dDifference for every Lie-group joint of this task
-          pinocchio::dDifference(model, qt, q, Jdiff_, pinocchio::ARG1);
-          jd_done = true;
-        }
+        flush();
+        Step::run(model.joints[j], typename Step::ArgsType(qt, q, Jdiff_, pinocchio::ARG1));
         const auto B = Jdiff_.block(iv, iv, nvj, nvj);
         const auto wj = w.segment(iv, nvj).asDiagonal();
-        H_.block(iv, iv, nvj, nvj).noalias() += B.transpose() * (wj * B);
         g_.segment(iv, nvj).noalias() -=
             B.transpose() * c.segment(iv, nvj).cwiseProduct(diff_.segment(iv, nvj));
+        if (!Packed) {
+          H_.block(iv, iv, nvj, nvj).noalias() += B.transpose() * (wj * B);
+          continue;
+        }
+        Hb_.noalias() = B.transpose() * (wj * B);
+        const int d0 = st_dep_[iv];  // dof iv+a's ancestors: iv's, then iv .. iv+a-1
+        for (int a = 0; a < nvj; ++a) {
+          st_D_[iv + a] += Hb_(a, a);
+          double* row = st_P_.data() + st_off_[iv + a] + d0;
+          for (int b = 0; b < a; ++b) row[b] += Hb_(a, b);
+        }
       }
+      flush();
     }
   }
 
@@ -1452,7 +1824,9 @@ class WeightedIKKernel {
     const int n = nv_;
     const double tol = 1e-10;
     const bool warm = warm_ && x_.allFinite();
+    const bool have_min = have_min_ && !warm;  // x_: the unconstrained minimizer (structured)
     warm_ = false;
+    have_min_ = false;
     if (warm) {
       for (int i = 0; i < n; ++i) {
         if (ub[i] <= lb[i]) {
@@ -1466,10 +1840,12 @@ class WeightedIKKernel {
         }
       }
     } else {
-      L_ = H_;
-      if (!cholesky(L_)) raise_not_positive_definite();
-      x_ = -g_;
-      cholesky_solve(L_, x_);
+      if (!have_min) {
+        L_ = H_;
+        if (!cholesky(L_)) raise_not_positive_definite();
+        x_ = -g_;
+        cholesky_solve(L_, x_);
+      }
       bool feasible = true;
       for (int i = 0; i < n; ++i) {
         if (x_[i] < lb[i] - tol || x_[i] > ub[i] + tol) {
@@ -1643,6 +2019,17 @@ class WeightedIKKernel {
   Py_ssize_t rs_[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
   Recycled recycled_[2];  // step_arrays(): the arrays of the last two steps
   int recycle_next_ = 0;
+  // the structured factorization of the box-only step (plan_structure)
+  const Model* st_model_ = nullptr;  // planned for this model (nullptr: plan again)
+  bool st_use_ = false, have_min_ = false;
+  int st_r_ = 0;
+  std::vector<int> st_off_, st_dep_, st_anc_, st_chain_;
+  VectorXd st_P_, st_D_, st_LP_, st_LD_, st_x_, st_hx_;
+  RowMatrixXd st_U_, st_B_;
+  MatrixXd Hb_;  // a Lie-group joint's posture block
+  using Small = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, 6, 6>;
+  using SmallVec = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, 6, 1>;
+  long st_count_[3] = {0, 0, 0};  // unconstrained by it, then box_qp, dense fallbacks
 };
 
 // Objects allocated by Pinocchio's library and freed here (a Data, the vector of neutral):
@@ -1684,6 +2071,7 @@ BOOST_PYTHON_MODULE(_ik_kernel) {
       .def("damper_rows", &WeightedIKKernel::damper_rows)
       .def("residuals", &WeightedIKKernel::residuals)
       .def("multipliers", &WeightedIKKernel::multipliers)
+      .def("structured_counts", &WeightedIKKernel::structured_counts)
       .def("solve", &WeightedIKKernel::solve_boxes)
       .def("solve", &WeightedIKKernel::solve)
       // the 9-argument solve under its own name: one signature, no overload dispatch (a
