@@ -28,6 +28,33 @@ def load_robot(name: str, convex: bool = False) -> Robot:
     return _CACHE[key]
 
 
+@pytest.hookimpl(trylast=True)
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    """``--dist loadgroup``: give each ``xdist_group`` test its ``@<group>`` suffix.
+
+    pytest-xdist (3.8) tells its scheduler a test's group by appending ``@<group>`` to the node
+    id it reports, but it writes ``item._nodeid``, which pytest 9.2 no longer reads (node ids
+    are ``item._id``, a structured ``NodeId``): the groups were silently ignored, so the Ray
+    tests ran on both workers at once and a worker could wait in the docs build's lock while
+    the other built it (pytest-xdist issue 1386). The suffix is added here, in the same way,
+    when xdist did not add it.
+    """
+    if not getattr(config.option, "loadgroup", False):  # set in xdist workers
+        return
+    for item in items:
+        groups = {
+            str(mark.args[0] if mark.args else mark.kwargs.get("name", "default"))
+            for mark in item.iter_markers("xdist_group")
+        }
+        suffix = "@" + "_".join(sorted(groups))
+        if not groups or item.nodeid.endswith(suffix):
+            continue
+        if hasattr(item, "_id"):  # pytest >= 9.2
+            item._id = type(item._id).parse(item.nodeid + suffix)
+        else:
+            item._nodeid = item.nodeid + suffix
+
+
 @pytest.fixture(scope="session")
 def robot_loader() -> Callable[..., Robot]:
     return load_robot
