@@ -110,7 +110,10 @@ if grep -q "not in use" "$work/info.txt"; then
     exit 1
 fi
 # The examples come with the wheel: `taskspace demo` runs them from the installed copy.
-"$work/venv/bin/taskspace" demo list | grep -q "^ *main" || { echo "wheel-smoke: no demos" >&2; exit 1; }
+# (into a file first: `| grep -q` closed the pipe at the first line and the listing failed
+# with "Broken pipe" whenever it was still writing, a race that failed a smoke run)
+"$work/venv/bin/taskspace" demo list >"$work/demos.txt"
+grep -q "^ *main" "$work/demos.txt" || { echo "wheel-smoke: no demos" >&2; exit 1; }
 MPLBACKEND=Agg "$work/venv/bin/taskspace" demo bug_paths --no-viewer --png bug_paths.png
 test -s bug_paths.png || { echo "wheel-smoke: demo wrote no picture" >&2; exit 1; }
 TASKSPACE_REQUIRE_NATIVE=1 OPENBLAS_NUM_THREADS=1 "$work/venv/bin/python" -m pytest -q \
