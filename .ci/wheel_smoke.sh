@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # The installed package, not the checkout (make wheel-smoke, part of make test):
-#   1. `pip wheel` builds taskspace (kernels compiled by CMakeLists.txt) with the build venv;
+#   1. `pip wheel` builds taskspace (kernels built by CMakeLists.txt) with the build venv, in a
+#      build directory of its own that starts with the editable build's object files (below);
 #   2. a fresh virtual environment installs the wheel, constrained to the pin, coal, eigenpy,
 #      Boost and NumPy versions of the build venv (the kernels refuse other versions);
 #   3. from a temporary directory outside the checkout: `taskspace info` must report both
@@ -18,9 +19,35 @@ trap 'rm -rf "$work"' EXIT
 t0=$(date +%s)
 
 echo "wheel-smoke: building the wheel"
-# Portable code whatever NATIVE_ARCH says; build/wheel-<tag> keeps the objects for the next run.
+# Portable code whatever NATIVE_ARCH says, in a build directory of its own ($work/build:
+# configured, linked and installed by CMake for this wheel). The editable build (build/<tag>)
+# made with make's default NATIVE_ARCH=0 ran the same compile commands on the same sources:
+# its object files are copied in with ninja's records of them (.ninja_log: a hash of the
+# command that made each object; .ninja_deps: every header it read). Ninja then recompiles
+# exactly the objects whose command, source or headers differ (all of them when the flags
+# differ, as with NATIVE_ARCH=1), as for any incremental build; the rest are not compiled twice.
+tag=$("$build_py" -c 'import sys, sysconfig
+v = "%d%d" % sys.version_info[:2]
+print(f"cp{v}-cp{v}-" + sysconfig.get_platform().replace("-", "_").replace(".", "_"))')
+seed="build/$tag"
+objects=()
+if [ -f "$seed/.ninja_log" ] && [ -f "$seed/.ninja_deps" ]; then
+    mkdir "$work/build"
+    # under the lock of the editable rebuild on import, so that no object is copied half-written
+    lock=()
+    command -v flock >/dev/null 2>&1 && lock=(flock "$seed/editable_rebuild.lock")
+    "${lock[@]}" bash -c 'cd "$1" && cp -p .ninja_log .ninja_deps "$2/" &&
+        find CMakeFiles -name "*.o" -exec cp -p --parents -t "$2/" {} +' _ "$seed" "$work/build"
+    mapfile -t objects < <(cd "$work/build" && find CMakeFiles -name "*.o" | sort)
+fi
 "$build_py" -m pip wheel --quiet --no-build-isolation --no-deps --wheel-dir "$work/dist" \
-    -Ccmake.define.TASKSPACE_NATIVE_ARCH=OFF -Cbuild-dir="build/wheel-{wheel_tag}" "$checkout"
+    -Ccmake.define.TASKSPACE_NATIVE_ARCH=OFF -Cbuild-dir="$work/build" "$checkout"
+reused=0
+for o in "${objects[@]}"; do  # a recompiled object has a new time stamp
+    [ "$(stat -c %y "$seed/$o")" = "$(stat -c %y "$work/build/$o")" ] && reused=$((reused + 1))
+done
+echo "wheel-smoke: wheel built in $(($(date +%s) - t0)) s; $reused of ${#objects[@]} object files" \
+    "taken from $seed (same compile commands)"
 wheel=$(ls "$work"/dist/taskspace-*.whl)
 "$build_py" - "$wheel" <<'EOF'
 import sys, zipfile
@@ -83,7 +110,10 @@ if grep -q "not in use" "$work/info.txt"; then
     exit 1
 fi
 # The examples come with the wheel: `taskspace demo` runs them from the installed copy.
-"$work/venv/bin/taskspace" demo list | grep -q "^ *main" || { echo "wheel-smoke: no demos" >&2; exit 1; }
+# (into a file first: `| grep -q` closed the pipe at the first line and the listing failed
+# with "Broken pipe" whenever it was still writing, a race that failed a smoke run)
+"$work/venv/bin/taskspace" demo list >"$work/demos.txt"
+grep -q "^ *main" "$work/demos.txt" || { echo "wheel-smoke: no demos" >&2; exit 1; }
 MPLBACKEND=Agg "$work/venv/bin/taskspace" demo bug_paths --no-viewer --png bug_paths.png
 test -s bug_paths.png || { echo "wheel-smoke: demo wrote no picture" >&2; exit 1; }
 TASKSPACE_REQUIRE_NATIVE=1 OPENBLAS_NUM_THREADS=1 "$work/venv/bin/python" -m pytest -q \
