@@ -58,6 +58,7 @@ import math
 import os
 import threading
 import warnings
+import weakref
 from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -239,6 +240,8 @@ class Robot:
         self._collision_data = collision_model.createData()
         self._guess_reset: Any = None  # the collision data whose cached GJK guess is off
         self._version = next(_ROBOT_VERSIONS)
+        # every live State of this robot (edit_model re-evaluates them at the new values)
+        self._states: weakref.WeakSet[Any] = weakref.WeakSet()
         self._setup_joint_structure()
         self._setup_actuation_limits(passive_joints)
         if default_configuration is None:
@@ -932,8 +935,10 @@ class Robot:
         :attr:`version` and its world a new :attr:`~taskspace.model.World.version`, so every
         object built from the robot (states, constraints, IK and inverse-dynamics solvers,
         their compiled kernels, collision checkers, configuration spaces, planners) computes
-        with the new values or raises :class:`StaleModelError`. An exception in the block
-        leaves the robot unchanged. Call ``state.update(...)`` on states evaluated before.
+        with the new values or raises :class:`StaleModelError`. Every live
+        :class:`~taskspace.model.State` of the robot is re-evaluated at its configuration
+        and velocity with the new values (its kinematics never predate the edit). An
+        exception in the block leaves the robot unchanged.
 
         Editable: ``jointPlacements``, ``inertias``, each frame's ``placement`` and
         ``inertia``, ``armature``, ``damping``, ``friction``, ``rotorInertia``,
@@ -980,6 +985,8 @@ class Robot:
         self._data = original.createData()
         self._version = next(_ROBOT_VERSIONS)
         self.world.mark_changed()  # collision answers depend on the kinematics
+        for state in list(self._states):  # kinematics of the old values: re-evaluated
+            state._refresh()
 
     @contextlib.contextmanager
     def edit_collision_model(self) -> Iterator[pin.GeometryModel]:

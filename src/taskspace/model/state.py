@@ -69,6 +69,7 @@ class State:
     """
 
     __slots__ = (
+        "__weakref__",
         "_a0",
         "_cache_local",
         "_cache_lwa",
@@ -113,6 +114,7 @@ class State:
         self._cache_lwa: dict[int, FloatArray] = {}
         self._cache_local: dict[int, FloatArray] = {}
         self.update(q, v)
+        robot._states.add(self)  # re-evaluated by Robot.edit_model
 
     # Read-only attributes: C-level getters (``attrgetter``), as fast as they come.
     robot = property(
@@ -178,6 +180,14 @@ class State:
             _compute_joint_jacobians(model, data)
         _update_frame_placements(model, data)
         self._adopt(q, v)
+
+    def _refresh(self) -> None:
+        """Recompute the kinematics of the current ``q`` and ``v`` (the model's values changed).
+
+        Called by :meth:`Robot.edit_model` on every live state of the robot: a state never
+        holds kinematics of values the model no longer has.
+        """
+        self.update(self._q, self._v if self._has_velocity else None, validate=False)
 
     def _adopt(self, q: FloatArray, v: FloatArray | None, locked: bool = False) -> None:
         """Make ``q`` and ``v`` the state's, the kinematics of ``data`` being already theirs.
