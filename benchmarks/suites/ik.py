@@ -427,11 +427,12 @@ class JointHalfSpaces(Constraint):
         return InequalityRows(self.A, self._lower, self.b - self.A @ state.q)
 
 
-def run_panda_general(steps: int, native: bool = True) -> dict[str, Any]:
-    """Panda: tcp position (the ``panda`` offsets), tcp orientation held by an equality task,
-    posture (1e-3), limits and two joint-space half-spaces; timed: ``advance(state, DT)``."""
-    robot = Robot.load("panda")
-    state = robot.state(robot.q_default)
+def panda_general_scene(
+    robot: Robot, state: Any
+) -> tuple[Task, np.ndarray, Task, Task, list[Any], np.ndarray]:
+    """The ``panda equality + rows`` scene at ``state``: the tcp position task and its initial
+    target, the tcp orientation (an equality task), the posture, the constraints (limits and
+    the two half-spaces ``GENERAL_A q <= b``) and ``b``."""
     tcp = "panda_hand_tcp"
     position = Task(F.Position(robot, tcp), name="tcp")
     p0 = position.feature.value(state).copy()
@@ -439,14 +440,24 @@ def run_panda_general(steps: int, native: bool = True) -> dict[str, Any]:
     orientation.set_target_from_state(state)
     posture = Task(F.JointConfiguration(robot), robot.q_default, weight=1e-3, name="posture")
     b = GENERAL_A @ robot.q_default + GENERAL_MARGIN
+    constraints = [
+        JointPositionLimits(robot),
+        JointVelocityLimits(robot),
+        JointHalfSpaces(robot, GENERAL_A, b),
+    ]
+    return position, p0, orientation, posture, constraints, b
+
+
+def run_panda_general(steps: int, native: bool = True) -> dict[str, Any]:
+    """Panda: tcp position (the ``panda`` offsets), tcp orientation held by an equality task,
+    posture (1e-3), limits and two joint-space half-spaces; timed: ``advance(state, DT)``."""
+    robot = Robot.load("panda")
+    state = robot.state(robot.q_default)
+    position, p0, orientation, posture, constraints, b = panda_general_scene(robot, state)
     ik = DifferentialIK(
         robot,
         [position, posture],
-        [
-            JointPositionLimits(robot),
-            JointVelocityLimits(robot),
-            JointHalfSpaces(robot, GENERAL_A, b),
-        ],
+        constraints,
         equality_tasks=[orientation],
         options=DifferentialIKOptions(native=native),
     )

@@ -251,18 +251,7 @@ def _general_panda() -> tuple[Robot, Any, list[Any], list[Any], list[Any], Any, 
     """The ``ik`` suite's ``panda equality + rows`` scene."""
     robot = Robot.load("panda")
     state = robot.state(robot.q_default)
-    tcp = "panda_hand_tcp"
-    position = Task(F.Position(robot, tcp), name="tcp")
-    p0 = position.feature.value(state).copy()
-    orientation = Task(F.Orientation(robot, tcp), name="orientation")
-    orientation.set_target_from_state(state)
-    posture = Task(F.JointConfiguration(robot), robot.q_default, weight=1e-3, name="posture")
-    b = ik_suite.GENERAL_A @ robot.q_default + ik_suite.GENERAL_MARGIN
-    constraints = [
-        JointPositionLimits(robot),
-        JointVelocityLimits(robot),
-        ik_suite.JointHalfSpaces(robot, ik_suite.GENERAL_A, b),
-    ]
+    position, p0, orientation, posture, constraints, _ = ik_suite.panda_general_scene(robot, state)
 
     def target(k: int) -> None:
         position.set_target(p0 + ik_suite.hand_offset(k))
