@@ -63,9 +63,12 @@ chromium:
 demo: $(STAMP) native chromium
 	$(VENV)/bin/taskspace demo main --html $(OUT)/demo.html --png $(OUT)/demo.png
 
+# The project's layering rules (DESIGN.md) live beside the checkout in shared/tools.
+LAYERS_CHECK := $(wildcard ../shared/tools/check_layers.py)
 lint: $(STAMP)
 	$(VENV)/bin/ruff check .
 	$(VENV)/bin/ruff format --check .
+	$(if $(LAYERS_CHECK),$(PY) $(LAYERS_CHECK),@echo "layering check skipped: ../shared/tools/check_layers.py not found")
 
 typecheck: $(STAMP)
 	$(VENV)/bin/mypy
