@@ -1857,7 +1857,7 @@ class RRTConnect {
   }
 
   // a + t b for t in [t0, t1] certified free (CollisionKernel::certify_edge; s_min: the
-  // resolution's kMinStepFraction in the metric); a stopped plan counts as blocked.
+  // resolution's g_min_step_fraction in the metric); a stopped plan counts as blocked.
   bool edge_certified(const double* a, const double* b, double t0, double t1) {
     double norm2 = 0.0;
     for (int k = 0; k < d_; ++k) norm2 += b[k] * b[k];

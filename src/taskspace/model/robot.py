@@ -858,15 +858,14 @@ class Robot:
     def model(self) -> pin.Model:
         """A read-only copy of the robot's ``pin.Model``.
 
-        The robot makes the copy after each change (:meth:`set_limits`, :meth:`edit_model`;
-        5-20 us, Panda to Talos) and hands out the same object until the next one (an
-        integer comparison), so ``pin.integrate(robot.model, q, dq)`` in a loop costs what it
-        did. Do not edit it: an edit changes nothing of the robot or of the objects built
-        from it (use :meth:`edit_model` or :meth:`set_limits`), and later reads of
-        ``robot.model`` would show it until the robot changes; ``robot.model.copy()`` gives a
-        model of your own. Views into the copy (``model.lowerPositionLimit``,
-        ``referenceConfigurations[...]``) are valid while you hold it (``model =
-        robot.model``).
+        The robot makes the copy after each change (:meth:`set_limits`, :meth:`edit_model`)
+        and hands out the same object until the next one (an integer comparison), so
+        ``pin.integrate(robot.model, q, dq)`` in a loop costs what it did. Do not edit it:
+        an edit changes nothing of the robot or of the objects built from it (use
+        :meth:`edit_model` or :meth:`set_limits`), and later reads of ``robot.model`` would
+        show it until the robot changes; ``robot.model.copy()`` gives a model of your own.
+        Views into the copy (``model.lowerPositionLimit``, ``referenceConfigurations[...]``)
+        are valid while you hold it (``model = robot.model``).
         """
         copy = self._model_copy
         if copy is None or self._model_copy_version != self._version:

@@ -219,7 +219,7 @@ class CollisionChecker:
         the current world; the compiled planner does so at every plan). ``None`` when the
         kernel is not built or the broad phase is disabled in the options.
         """
-        self.sync_for_plan()
+        self._sync()
         if self.robot.nq != self.robot.nv:  # the compiled checker takes plain vectors only
             self._kernel_checked = True
             return None
@@ -236,14 +236,6 @@ class CollisionChecker:
                 model, model.createData(), geom, geom.createData(), NATIVE_PAIR_CACHE
             )
         return self._kernel
-
-    def sync_for_plan(self) -> None:
-        """Rebuild the copies if the robot's world or collision model changed (once per plan).
-
-        Pair and geometry edits go through the robot (``edit_collision_model``, which gives
-        the world a new version), so the version and identity checks of ``_sync`` see them.
-        """
-        self._sync()
 
     def sphere_model(self) -> Any:
         """The conservative spheres of the robot's moving geometry objects (cached).

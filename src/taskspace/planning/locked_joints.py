@@ -269,12 +269,12 @@ class LockedJointChecker:
         not plain vectors (``nq != nv``: a free floating base or continuous joint).
         """
         base = self.checker
-        base.sync_for_plan()
+        base._sync()
         robot = base.robot
         if not base.options.broadphase or self.locked.free_q.size != self.locked.free_v.size:
             return None
         # what the kernel's copies were made from: the checker's world (rebuilt by
-        # sync_for_plan on any change: a new world version) and the robot's model and limits
+        # _sync on any change: a new world version) and the robot's model and limits
         key = (base._world_version, base._geometry_model, robot._version)
         old = self._kernel_key
         if self._kernel is not None and key[0] == old[0] and key[1] is old[1] and key[2] == old[2]:

@@ -80,7 +80,7 @@ obstacles, and to the spheres of the self pairs), and a per-link bound on how fa
 moves per radian of each upstream joint (its distance to the joint's axis, bounded over every
 configuration from the joint placements) turns it into an interval of the edge that is free
 for the spheres (conservative advancement). Each edge is covered by such intervals (its end
-point first, then the midpoints of the gaps); an edge whose intervals shrink below 1/16 of the
+point first, then the midpoints of the gaps); an edge whose intervals shrink below 1e-3 of the
 resolution is refused (conservative). The edges are then free everywhere, not only at their
 points: no lazy fine pass, and with the sphere model's volume certificate a returned path is
 free for the meshes everywhere along it (``log["path_certified"]`` is 1; 0 after a fallback to
