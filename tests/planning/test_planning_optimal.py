@@ -75,14 +75,15 @@ def test_converges_toward_the_shortest_path_around_a_square(name: str, n: int) -
 
 def test_lazy_prm_star_returns_the_eager_roadmap_path() -> None:
     """Lazy checking changes which edges are checked, not the answer (same samples: no
-    expansion walks, which only the eager PRM* makes)."""
+    expansion walks, whose sources differ between eager and lazy checking)."""
     eager, roadmap = prm_star(
         square_world(), START_2D, GOAL_2D,
         PRMStarOptions(max_iterations=300, time_limit_s=None, expand_fraction=0.0),
     )  # fmt: skip
     lazy, lazy_roadmap = lazy_prm_star(
-        square_world(), START_2D, GOAL_2D, PRMStarOptions(max_iterations=300, time_limit_s=None)
-    )
+        square_world(), START_2D, GOAL_2D,
+        PRMStarOptions(max_iterations=300, time_limit_s=None, expand_fraction=0.0),
+    )  # fmt: skip
     np.testing.assert_array_equal(eager.path, lazy.path)
     assert lazy.edge_checks < eager.edge_checks / 10
     assert np.count_nonzero(lazy_roadmap.status == 0) > 0  # most edges never checked
@@ -100,7 +101,9 @@ def test_prm_star_uses_k_log_n_neighbours() -> None:
         return ~((np.abs(Q[:, 0] - 0.5) < 0.02) & (np.abs(Q[:, 1] - 0.5) < 0.02))
 
     space = ConfigurationSpace([0, 0], [1, 1], FunctionChecker(free))
-    opts = PRMStarOptions(max_iterations=64, batch_size=64, time_limit_s=None)
+    opts = PRMStarOptions(
+        max_iterations=64, batch_size=64, time_limit_s=None, expand_fraction=0.0
+    )  # uniform samples only (no expansion walks)
     _, lazy = lazy_prm_star(space, [0.1, 0.1], [0.9, 0.9], opts)
     n = lazy.roadmap.size
     assert n == 66

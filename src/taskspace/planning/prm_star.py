@@ -83,9 +83,9 @@ class PRMStarOptions:
         certify_retries: re-plans (next seeds) after an uncertified path.
         certify_tolerance: the least robot-obstacle (and self) distance [m] along the path
             counted as free by the certification.
-        expand_fraction: PRM* (not Lazy PRM*): the fraction of each batch's samples spent
-            on the *expansion step* of Kavraki, Svestka, Latombe and Overmars (1996), as
-            OMPL's PRM and PRMstar do (a third of their time): random-bounce walks of up to
+        expand_fraction: the fraction of each batch's samples spent on the *expansion
+            step* of Kavraki, Svestka, Latombe and Overmars (1996), as OMPL's PRM and PRMstar
+            do (a third of their time; OMPL's LazyPRMstar has none): random-bounce walks of up to
             5 steps from roadmap nodes drawn with probability proportional to their failed
             connection ratio (typically the start and the goal in a tight spot, which
             uniform samples rarely reach), each step moving towards a uniform sample until
@@ -93,7 +93,10 @@ class PRMStarOptions:
             to the node by those checked segments and its end is connected to its ``k_n``
             nearest nodes as any new node. Only until a first path is found: then every
             sample is uniform again, as PRM*'s convergence analysis assumes (the extra nodes
-            only add edges). 0 disables it.
+            only add edges). Lazy PRM* draws the nodes from the failure ratio of the edges
+            it has checked (those of candidate shortest paths; unchecked edges do not count)
+            and checks the walks' lines as PRM* does, so the walks' chain edges are known
+            free. No walk is made while no node has a failed connection. 0 disables it.
     """
 
     batch_size: int = 64
@@ -341,9 +344,15 @@ def _plan(
         # Grow: a batch of free samples (and a goal sample from a region), and the
         # expansion's random-bounce walks.
         m = min(batch, cap - samples)
-        expanding = not (lazy or best_ids or budget.out_of_time())  # until a first path
+        expanding = not (best_ids or budget.out_of_time())  # until a first path
+        if expanding and lazy:
+            # Lazy PRM*: the failure statistics of the edges checked so far (those of the
+            # candidate paths); a node none of whose edges was checked has weight 0.
+            attempts, successes = _lazy_counts(graph)
         walks = math.ceil(expand * m / BOUNCE_STEPS) if expanding else 0
         walks = min(walks, m // BOUNCE_STEPS)
+        if walks and not _has_failures(attempts, successes, graph.n):
+            walks = 0  # no node failed to connect yet: every sample uniform
         m_uniform = m - walks * BOUNCE_STEPS
         fresh = sample_free(space, m_uniform, rng, max_draws=1000 * max(1, m_uniform))
         samples += m
@@ -403,6 +412,22 @@ def _plan(
         },
     )
     return result, graph, (version, model_version)
+
+
+def _lazy_counts(graph: _Graph) -> tuple[FloatArray, FloatArray]:
+    """Per node: its checked edges (free or colliding) and its free ones (Lazy PRM*)."""
+    pairs, _, status = graph.edges()
+    n = 2 * graph.n
+    checked = pairs[status != 0].ravel()
+    free = pairs[status > 0].ravel()
+    attempts = np.bincount(checked, minlength=n).astype(np.float64)
+    successes = np.bincount(free, minlength=n).astype(np.float64)
+    return attempts, successes
+
+
+def _has_failures(attempts: FloatArray, successes: FloatArray, n: int) -> bool:
+    """Whether some node has a failed connection (a walk can start)."""
+    return bool(np.any(attempts[:n] > successes[:n]))
 
 
 def _fit(counts: FloatArray, n: int) -> FloatArray:
