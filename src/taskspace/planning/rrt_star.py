@@ -306,10 +306,10 @@ def _plan(
             status = PlannerStatus.TIME_LIMIT
             done = True
     while not done and it < iterations:
-        it += 1
-        if time.perf_counter() > deadline:
+        if time.perf_counter() > deadline:  # (also right after RRT-Connect's first path)
             status = PlannerStatus.TIME_LIMIT
             break
+        it += 1
         _, c_best = best_goal()
         target = None
         if not math.isfinite(c_best) and rng.random() < opts.goal_bias:
@@ -502,7 +502,9 @@ def _seed_with_rrt_connect(
 ) -> tuple[int, int]:
     """RRT-Connect's path from the root to ``q_goal`` as a branch of ``tree``.
 
-    ``limit`` is the time left [s] (``math.inf``: none).
+    ``limit`` is the time left [s] (``math.inf``: none): RRT-Connect gets exactly that
+    budget, and is not called when it is not positive (RRT-Connect's own overrun, one of
+    its iterations in Python or a few checks in the compiled kernel, is the only one).
 
     Returns the iterations RRT-Connect used and the tree node of ``q_goal`` (-1 when
     RRT-Connect found no path within the limits). Every edge of RRT-Connect's path is free
@@ -510,7 +512,7 @@ def _seed_with_rrt_connect(
     """
     from taskspace.planning.rrt_connect import RRTConnectOptions, rrt_connect
 
-    if iterations <= 0:
+    if iterations <= 0 or limit <= 0.0:  # no time left: not even its endpoint checks
         return 0, -1
     result = rrt_connect(
         space,
@@ -518,7 +520,7 @@ def _seed_with_rrt_connect(
         q_goal,
         RRTConnectOptions(
             max_iterations=iterations if iterations < 2**62 else None,
-            time_limit_s=max(0.0, limit) if math.isfinite(limit) else None,
+            time_limit_s=limit if math.isfinite(limit) else None,
             seed=int(rng.integers(2**31)),
         ),
     )
