@@ -411,10 +411,15 @@ def lazy_prm(
             a start inside it is a one-point path). The path ends at one of the goals.
         options: ``max_iterations`` (samples in all rounds, ``None``: no cap),
             ``batch_size`` (nodes added per round), ``k_neighbors``, ``sigma``, ``seed``,
-            ``time_limit_s``. Left out: no sample cap and a 1 s time limit.
+            ``time_limit_s`` (``None``: no time limit, as for every planner of
+            :mod:`taskspace.planning.limits`). Left out: no sample cap and a 1 s time limit.
         time_limit_s: wall-clock budget [s] (``None`` or ``math.inf``: none, then
-            ``max_iterations`` must be an integer); left out: ``options.time_limit_s`` when
-            it is set, else 1 s. Given both, they must agree.
+            ``max_iterations`` must be an integer); left out: ``options.time_limit_s``, or
+            1 s when ``options`` is left out too. Given both, they must agree. Changed: with
+            ``options`` given, ``options.time_limit_s=None`` meant 1 s; it now means no
+            time limit (a ``DeprecationWarning`` says so; with no sample cap either, the
+            old 1 s is kept, with a ``DeprecationWarning``, until it is refused as for the
+            other planners).
         max_rounds: deprecated (``DeprecationWarning``): a cap of ``max_rounds`` growth
             rounds, i.e. ``max_rounds * batch_size`` samples (``None``: none).
         endpoint_fraction: fraction of each round's nodes drawn near start and goals.
@@ -432,7 +437,8 @@ def lazy_prm(
             (``max_iterations`` and ``time_limit_s`` both ``None``), bad options.
     """
     opts = options or PRMOptions(max_iterations=None)
-    time_limit_s = _time_limit(time_limit_s, options, 1.0, "lazy_prm")
+    unset = time_limit_s is _FROM_OPTIONS and options is not None and opts.time_limit_s is None
+    time_limit_s = _time_limit(time_limit_s, options, None if options else 1.0, "lazy_prm")
     if opts.n_samples is not None:  # deprecated: nodes per round, rounds capped by max_rounds
         batch = check_count(opts.n_samples, "n_samples", minimum=1)
         rounds_cap = _ROUNDS
@@ -452,6 +458,25 @@ def lazy_prm(
         names = ("max_rounds", "time_limit_s")
     if rounds_cap is not None or max_rounds is not _UNSET:
         cap_in = rounds_cap
+    if unset and cap_in is None:
+        # PRMOptions.time_limit_s=None meant 1 s here; with no sample cap either, it would
+        # now be refused (no limit at all) as by every planner: keep the 1 s, warn.
+        warnings.warn(
+            "lazy_prm: PRMOptions(time_limit_s=None) with no sample cap ran for 1 s; "
+            "time_limit_s=None means no time limit for every planner, so this will be "
+            "refused like theirs: give time_limit_s (e.g. 1.0) or max_iterations",
+            DeprecationWarning,
+            stacklevel=2,
+        )
+        time_limit_s = 1.0
+    elif unset:
+        warnings.warn(
+            "lazy_prm: PRMOptions(time_limit_s=None) now means no time limit, as for every "
+            "planner (it meant 1 s): the run is capped by max_iterations samples only; give "
+            "time_limit_s=1.0 for the old limit (math.inf: none, without this warning)",
+            DeprecationWarning,
+            stacklevel=2,
+        )
     minimum = 1 if names[0] == "max_rounds" else 0
     cap, limit = check_limits(cap_in, time_limit_s, names=names, minimum=minimum)
     if names[0] == "max_rounds" or opts.n_samples is not None:

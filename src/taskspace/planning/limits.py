@@ -8,7 +8,13 @@ Every planner's ``Options`` has ``max_iterations`` and ``time_limit_s``:
   :func:`~taskspace.planning.prm`, :func:`~taskspace.planning.build_lazy_prm`) has
   ``max_iterations`` nodes, so it needs an integer;
 * ``time_limit_s``: a wall-clock budget [s], ``None`` or ``math.inf`` for none (then the
-  iteration cap must be an integer); NaN, negative numbers and bools are refused.
+  iteration cap must be an integer); NaN, negative numbers and bools are refused. ``None``
+  means "no time limit" for every planner: :func:`~taskspace.planning.lazy_prm` given
+  ``PRMOptions(time_limit_s=None)`` ran for 1 s, and now has no time limit (a
+  ``DeprecationWarning`` says so; with ``max_iterations=None`` too it keeps the 1 s, warned,
+  rather than being refused). The defaults differ by planner (1 s for most, 5 s for RRT,
+  none for PRM, whose roadmap size is its cap); :func:`~taskspace.planning.lazy_prm` without
+  options has no sample cap and 1 s.
 
 Deprecated names (still accepted, with a ``DeprecationWarning``): ``PRMOptions.n_samples``
 (``max_iterations`` for PRM; the samples per growth round, now ``PRMOptions.batch_size``,
