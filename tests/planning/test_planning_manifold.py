@@ -233,8 +233,8 @@ def test_what_the_manifold_space_refuses(tiago_mobile: Robot) -> None:
     q = tiago_mobile.q_default.copy()
     with pytest.raises(InvalidInputError, match="joint manifold"):
         build_prm(space, PRMOptions(sampler="gaussian"))  # uniform sampling only
-    with pytest.raises(InvalidInputError, match="joint-manifold space"):
-        bit_star(space, q, q, objective=PathLength())
+    with pytest.raises(InvalidInputError, match="joint-manifold space"):  # weights: nv
+        bit_star(space, q, q, objective=PathLength(np.ones(q.size)))
     bad = q.copy()
     bad[2:4] = [0.5, 0.5]  # cos, sin of the base angle not of unit norm
     with pytest.raises(PlanningError, match="unit norm"):

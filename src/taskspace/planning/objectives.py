@@ -20,6 +20,18 @@ admissible lower bound ``c_hat(a, b) <= c(a, b)`` of the cost of *any* path from
 * :class:`WeightedSum`: ``c = sum_k lambda_k c_k`` (``lambda_k > 0``), ``c_hat = sum_k lambda_k
   c_hat_k`` (OMPL's ``MultiOptimizationObjective``).
 
+On a joint-manifold space (continuous joints, planar or floating bases: the space's
+:class:`~taskspace.planning.joint_manifold.JointManifold`) the planners take every objective
+through :meth:`OptimizationObjective.on_manifold`, which evaluates it along the space's
+edges, the geodesics ``q(t) = q0 (+) t (q1 (-) q0)``: :class:`PathLength` is
+``|W (q1 (-) q0)|`` with ``W`` over the ``nv`` velocity coordinates (unit weights by default;
+``objective=None`` is the space's own metric), :class:`Clearance` integrates over the
+geodesic's points with ``ds`` in the space's metric, :class:`MechanicalWork` sums
+``|tau_g(m_k) . (p_{k+1} (-) p_k)|`` over points and midpoints of the geodesic (Pinocchio's
+``interpolate`` and ``difference`` on the robot's model, ``nq != nv`` allowed), and
+:class:`WeightedSum` combines its terms' manifold forms. An objective of another class is
+refused there unless it overrides :meth:`~OptimizationObjective.on_manifold`.
+
 Thread safety: the objectives keep only the data given at construction; :class:`MechanicalWork`
 evaluates each gravity torque in one Pinocchio call on its own data, whose result is copied out
 (the bindings hold the GIL during the call). They may therefore be shared by threads, as far as the
@@ -34,6 +46,7 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 import pinocchio as pin
 
 from taskspace._validation import as_vector, check_positive
@@ -70,6 +83,23 @@ class OptimizationObjective(abc.ABC):
     def bound_is_exact(self) -> bool:
         """True when ``cost_lower_bounds`` equals ``motion_costs`` (a metric length)."""
         return False
+
+    def on_manifold(self, manifold: Any) -> OptimizationObjective:
+        """This objective along the geodesics of a joint manifold (see the module).
+
+        The default refuses: a cost written for straight lines in coordinates would be taken
+        along the wrong path (and in meaningless coordinates: cos and sin of an angle, a
+        quaternion). Subclasses that can evaluate themselves on the manifold override it.
+
+        Raises:
+            InvalidInputError: always, naming the class.
+        """
+        raise InvalidInputError(
+            f"{type(self).__name__} is evaluated on straight lines in coordinates; on a "
+            "joint-manifold space (continuous joints, planar or floating bases) use PathLength, "
+            "Clearance, MechanicalWork, WeightedSum of them, objective=None (the space's "
+            "metric), or override on_manifold"
+        )
 
     def motion_cost(self, q0: FloatArray, q1: FloatArray) -> float:
         """Cost of one straight motion ``q0 -> q1``."""
@@ -131,6 +161,27 @@ class PathLength(OptimizationObjective):
         """True."""
         return True
 
+    def on_manifold(self, manifold: Any) -> OptimizationObjective:
+        """``|W (q1 (-) q0)|``: the weights are over the ``nv`` velocity coordinates.
+
+        Raises:
+            InvalidInputError: weights whose size is not the manifold's ``nv``.
+        """
+        weights = self.weights
+        nv = int(manifold.nv)
+        if weights is not None and weights.size != nv:
+            raise InvalidInputError(
+                f"PathLength on a joint-manifold space: {weights.size} weights, the manifold "
+                f"has {nv} velocity coordinates (weights are per velocity coordinate there)"
+            )
+        w = np.ones(nv) if weights is None else weights
+
+        def distances(a: FloatArray, b: FloatArray) -> FloatArray:
+            diff = manifold.difference(a, b) * w
+            return np.sqrt(np.einsum("ij,ij->i", diff, diff))
+
+        return MetricLength(distances)
+
 
 class MetricLength(OptimizationObjective):
     """Path length in a given metric: ``c(a, b) = distances(a, b)`` (e.g. a joint manifold's).
@@ -157,6 +208,10 @@ class MetricLength(OptimizationObjective):
     def bound_is_exact(self) -> bool:
         """True."""
         return True
+
+    def on_manifold(self, manifold: Any) -> OptimizationObjective:
+        """Itself (its ``distances`` are given)."""
+        return self
 
 
 class Clearance(OptimizationObjective):
@@ -190,6 +245,38 @@ class Clearance(OptimizationObjective):
         if not (isinstance(max_clearance, (int, float)) and max_clearance > 0):
             raise InvalidInputError(f"max_clearance must be > 0 [m], got {max_clearance!r}")
         self.max_clearance = float(max_clearance)
+        self._manifold: Any = None
+
+    def on_manifold(self, manifold: Any) -> OptimizationObjective:
+        """The integral along the manifold's geodesics, ``ds`` in its metric (a copy)."""
+        bound = Clearance(
+            self.clearance,
+            epsilon=self.epsilon,
+            resolution=self.resolution,
+            max_clearance=self.max_clearance,
+        )
+        bound._manifold = manifold
+        return bound
+
+    def _segments(self, a: FloatArray, b: FloatArray) -> tuple[Any, ...]:
+        """Lengths, piece counts, points (all segments), their owner and index ``k``."""
+        m = self._manifold
+        lengths = np.linalg.norm(b - a, axis=1) if m is None else m.distances(a, b)
+        counts = np.maximum(1, np.ceil(lengths / self.resolution - 1e-12).astype(np.int64))
+        owner = np.repeat(np.arange(a.shape[0]), counts + 1)
+        starts = np.concatenate([[0], np.cumsum(counts + 1)[:-1]])
+        k = np.arange(owner.size) - starts[owner]
+        if m is None:
+            t = (k / counts[owner])[:, None]
+            points = a[owner] + t * (b[owner] - a[owner])
+        else:  # the geodesic's points (pinocchio.interpolate), segment by segment
+            points = np.vstack(
+                [
+                    m.interpolate(a[i], b[i], np.arange(n + 1) / n)
+                    for i, n in enumerate(counts.tolist())
+                ]
+            )
+        return lengths, counts, points, owner, k
 
     def _integrand(self, points: FloatArray) -> FloatArray:
         d = np.asarray(self.clearance(points), dtype=np.float64).reshape(points.shape[0])
@@ -200,24 +287,19 @@ class Clearance(OptimizationObjective):
     def motion_costs(self, q0: FloatArray, q1: FloatArray) -> FloatArray:
         """Trapezoidal ``sum_k (L / n) (f(p_k) + f(p_{k+1})) / 2`` on each segment."""
         a, b = _pairs(q0, q1)
-        lengths = np.linalg.norm(b - a, axis=1)
-        counts = np.maximum(1, np.ceil(lengths / self.resolution - 1e-12).astype(np.int64))
         # All points of all segments in one clearance call.
-        owner = np.repeat(np.arange(a.shape[0]), counts + 1)
-        starts = np.concatenate([[0], np.cumsum(counts + 1)[:-1]])
-        k = np.arange(owner.size) - starts[owner]
-        t = (k / counts[owner])[:, None]
-        f = self._integrand(a[owner] + t * (b[owner] - a[owner]))
+        lengths, counts, points, owner, k = self._segments(a, b)
+        f = self._integrand(points)
         weight = np.where((k == 0) | (k == counts[owner]), 0.5, 1.0)
         sums = np.bincount(owner, weights=weight * f, minlength=a.shape[0])
         return np.asarray(sums * lengths / counts, dtype=np.float64)
 
     def cost_lower_bounds(self, q0: FloatArray, q1: FloatArray) -> FloatArray:
-        """``|q1 - q0| / (epsilon + d_max)``."""
+        """``L / (epsilon + d_max)``, ``L = |q1 - q0|`` (on a manifold: its metric distance)."""
         a, b = _pairs(q0, q1)
-        return np.asarray(
-            np.linalg.norm(b - a, axis=1) / (self.epsilon + self.max_clearance), dtype=np.float64
-        )
+        m = self._manifold
+        lengths = np.linalg.norm(b - a, axis=1) if m is None else m.distances(a, b)
+        return np.asarray(lengths / (self.epsilon + self.max_clearance), dtype=np.float64)
 
 
 class MechanicalWork(OptimizationObjective):
@@ -232,15 +314,22 @@ class MechanicalWork(OptimizationObjective):
     piece per segment, ``|tau_g((a + b) / 2) . (b - a)|``. The cost is symmetric and ``>= 0``;
     its lower bound is 0 (moving where gravity does no work is free).
 
+    On a model with continuous joints, a planar or a floating base (``nq != nv``) the
+    segment is the geodesic ``q(t) = a (+) t (b (-) a)`` (``pinocchio.interpolate``), the
+    pieces' ends ``p_k = q(k / n)``, midpoints ``m_k = q((k + 1/2) / n)`` and displacements
+    ``p_{k+1} (-) p_k`` (``pinocchio.difference``, size ``nv``; ``tau_g`` is the generalized
+    gravity force of the same velocity coordinates), ``n`` from the length of ``b (-) a``.
+    For a floating base the work of the base's coordinates is the work against gravity of
+    moving the whole robot.
+
     Args:
-        robot: the robot (a Euclidean configuration space: ``nq == nv``, revolute and
-            prismatic joints), or its ``pinocchio.Model``.
+        robot: the robot, or its ``pinocchio.Model`` (any joint types Pinocchio
+            interpolates; the configurations are the model's, size ``nq``).
         resolution: largest length of the pieces of a segment [rad or m] (``inf``: one
             piece).
 
     Raises:
-        InvalidInputError: a robot whose configurations are not Euclidean (floating base,
-            continuous joints), or a bad resolution.
+        InvalidInputError: not a robot or model, or a bad resolution.
     """
 
     def __init__(self, robot: Any, *, resolution: float = 0.05) -> None:
@@ -248,12 +337,6 @@ class MechanicalWork(OptimizationObjective):
         if not isinstance(model, pin.Model):
             raise InvalidInputError(
                 f"MechanicalWork needs a Robot or a pinocchio.Model, got {type(robot).__name__}"
-            )
-        if model.nq != model.nv:
-            raise InvalidInputError(
-                f"MechanicalWork needs a Euclidean configuration space (nq == nv); this model "
-                f"has nq {model.nq}, nv {model.nv} (floating base or continuous joints): lock "
-                "those joints (pinocchio.buildReducedModel)"
             )
         if isinstance(resolution, (bool, np.bool_)):
             raise InvalidInputError(f"resolution must be > 0 [rad or m], got {resolution!r}")
@@ -263,6 +346,22 @@ class MechanicalWork(OptimizationObjective):
         self.model = model
         self._data = model.createData()
         self._gravity = pin.computeGeneralizedGravity
+        # nq == nv: every joint's configuration is a vector interpolated linearly
+        self._euclidean = model.nq == model.nv
+
+    def on_manifold(self, manifold: Any) -> OptimizationObjective:
+        """Itself: it follows its model's geodesics (sizes checked against the manifold).
+
+        Raises:
+            InvalidInputError: a manifold of another size than the model.
+        """
+        if (int(manifold.nq), int(manifold.nv)) != (self.model.nq, self.model.nv):
+            raise InvalidInputError(
+                f"MechanicalWork: the space's manifold has nq {manifold.nq}, nv {manifold.nv}; "
+                f"the model nq {self.model.nq}, nv {self.model.nv} (a locked-joint space "
+                "plans a reduced model: give MechanicalWork that model)"
+            )
+        return self
 
     def torques(self, q: FloatArray) -> FloatArray:
         """Gravity torques ``tau_g(q_i)`` of each row [N m or N], shape (n, nv)."""
@@ -276,11 +375,10 @@ class MechanicalWork(OptimizationObjective):
             raise InvalidInputError(
                 f"MechanicalWork: configurations must have size {self.model.nq}, got {a.shape[1]}"
             )
+        if not self._euclidean:
+            return self._manifold_costs(a, b)
         lengths = np.linalg.norm(b - a, axis=1)
-        if self.resolution == math.inf:
-            counts = np.ones(a.shape[0], dtype=np.int64)
-        else:
-            counts = np.maximum(1, np.ceil(lengths / self.resolution - 1e-12).astype(np.int64))
+        counts = self._counts(lengths)
         owner = np.repeat(np.arange(a.shape[0]), counts)
         starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
         k = np.arange(owner.size) - starts[owner]
@@ -289,6 +387,26 @@ class MechanicalWork(OptimizationObjective):
         tau = self.torques(a[owner] + t * (b - a)[owner])
         work = np.abs(np.einsum("ij,ij->i", tau, step))
         return np.asarray(np.bincount(owner, weights=work, minlength=a.shape[0]), dtype=np.float64)
+
+    def _counts(self, lengths: FloatArray) -> npt.NDArray[np.int64]:
+        if self.resolution == math.inf:
+            return np.ones(lengths.shape[0], dtype=np.int64)
+        return np.maximum(1, np.ceil(lengths / self.resolution - 1e-12).astype(np.int64))
+
+    def _manifold_costs(self, a: FloatArray, b: FloatArray) -> FloatArray:
+        """The work along the model's geodesics (Pinocchio's interpolate and difference)."""
+        model = self.model
+        lengths = np.array(
+            [float(np.linalg.norm(pin.difference(model, x, y))) for x, y in zip(a, b)]
+        )
+        out = np.empty(a.shape[0])
+        for i, n in enumerate(self._counts(lengths).tolist()):
+            ends = [pin.interpolate(model, a[i], b[i], k / n) for k in range(n + 1)]
+            mids = [pin.interpolate(model, a[i], b[i], (k + 0.5) / n) for k in range(n)]
+            steps = np.array([pin.difference(model, ends[k], ends[k + 1]) for k in range(n)])
+            tau = self.torques(np.asarray(mids))
+            out[i] = float(np.abs(np.einsum("ij,ij->i", tau, steps)).sum())
+        return out
 
 
 class WeightedSum(OptimizationObjective):
@@ -322,26 +440,28 @@ class WeightedSum(OptimizationObjective):
         """Weighted sum of the terms' bounds."""
         return np.asarray(sum(w * obj.cost_lower_bounds(q0, q1) for w, obj in self.terms))
 
+    def on_manifold(self, manifold: Any) -> OptimizationObjective:
+        """The weighted sum of the terms' manifold forms."""
+        return WeightedSum([(w, obj.on_manifold(manifold)) for w, obj in self.terms])
+
 
 def space_objective(space: Any, objective: Any) -> OptimizationObjective:
-    """The objective of a planner on ``space`` (a metric length on a joint manifold).
+    """The objective of a planner on ``space``.
 
-    :func:`check_objective` for a Euclidean space; on a joint manifold, the path length in
-    the space's metric (:class:`MetricLength`).
+    :func:`check_objective` for a Euclidean space; on a joint manifold, ``None`` is the path
+    length in the space's metric (:class:`MetricLength`) and an objective is taken through
+    :meth:`OptimizationObjective.on_manifold` (along the space's geodesics).
 
     Raises:
-        InvalidInputError: an objective on a joint-manifold space (its costs would be taken
-            in coordinates, not on the manifold), or not an objective.
+        InvalidInputError: not an objective, or one that cannot be evaluated on the
+            manifold (see :meth:`OptimizationObjective.on_manifold`).
     """
     manifold = getattr(space, "manifold", None)
     if manifold is None:
         return check_objective(objective)
-    if objective is not None:
-        raise InvalidInputError(
-            "on a joint-manifold space the optimal planners minimize the path length in the "
-            "space's metric (its weights); pass objective=None (or plan in a Euclidean space)"
-        )
-    return MetricLength(manifold.distances)
+    if objective is None:
+        return MetricLength(manifold.distances)
+    return check_objective(objective).on_manifold(manifold)
 
 
 def optimum_lower_bound(
