@@ -163,8 +163,10 @@ def bit_star(
             or a :class:`~taskspace.planning.GoalRegion` (one goal sample per batch; the
             heuristic to the goal is then 0).
         options: settings (batch size, ``gamma_factor``, limits).
-        objective: path cost (default: Euclidean :class:`~taskspace.planning.PathLength`);
-            its lower bounds are BIT*'s heuristics.
+        objective: path cost (default: Euclidean :class:`~taskspace.planning.PathLength`;
+            on a joint-manifold space the length in its metric, and any objective is taken
+            along its geodesics, see :mod:`~taskspace.planning.objectives`); its lower
+            bounds are BIT*'s heuristics.
         rng: random generator (default: ``np.random.default_rng(options.seed)``).
 
     Returns:

@@ -532,8 +532,10 @@ def prm_star(
             :class:`~taskspace.planning.GoalRegion` (one goal sample per batch; every node
             inside it is a goal).
         options: settings (batch size, ``gamma_factor``, limits).
-        objective: path cost (default: Euclidean :class:`~taskspace.planning.PathLength`);
-            its motion costs are the edge weights.
+        objective: path cost (default: Euclidean :class:`~taskspace.planning.PathLength`;
+            on a joint-manifold space the length in its metric, and any objective is taken
+            along its geodesics, see :mod:`~taskspace.planning.objectives`); its motion
+            costs are the edge weights.
         rng: random generator (default: ``np.random.default_rng(options.seed)``).
 
     Returns:

@@ -188,8 +188,10 @@ def rrt_star(
             cheaper to reach), or a :class:`GoalRegion` (sampled for the goal bias; every
             tree node inside it ends a candidate path).
         options: planner settings.
-        objective: path cost (default: Euclidean :class:`~taskspace.planning.PathLength`);
-            nearest neighbours stay Euclidean, parents and rewiring use its motion costs.
+        objective: path cost (default: Euclidean :class:`~taskspace.planning.PathLength`;
+            on a joint-manifold space the length in its metric, and any objective is taken
+            along its geodesics, see :mod:`~taskspace.planning.objectives`); nearest
+            neighbours stay in the space's metric, parents and rewiring use its motion costs.
         rng: random generator (default: ``np.random.default_rng(options.seed)``).
 
     Returns:
