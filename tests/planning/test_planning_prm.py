@@ -114,8 +114,9 @@ def test_single_query_lazy_prm_grows_until_connected() -> None:
     space = wall_space(resolution=0.05)
     # 20 nodes rarely connect start and goal through the gap: the roadmap must grow.
     res, lazy = lazy_prm(
-        space, START, GOAL, PRMOptions(batch_size=20, max_iterations=2000, k_neighbors=6, seed=0)
-    )
+        space, START, GOAL,
+        PRMOptions(batch_size=20, max_iterations=2000, k_neighbors=6, seed=0, time_limit_s=1.0),
+    )  # fmt: skip
     assert res.success and res.log["growth_rounds"] >= 1
     assert lazy.roadmap.size == 20 * res.log["growth_rounds"]
     assert wall_space(resolution=0.005).path_valid(res.path)
