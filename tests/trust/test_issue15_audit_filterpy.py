@@ -162,8 +162,10 @@ FILTERPY_CHILD = MODELS + textwrap.dedent(
             kf.update(zz, R=R)
         rows.append(list(np.ravel(kf.x)) + list(np.ravel(kf.P)))
     out["kf"] = rows
-    out["noise"] = [Q_discrete_white_noise(dim=d, dt=t, var=v, block_size=b, order_by_dim=o).tolist()
-                    for d, t, v, b, o in S["noise"]]
+    out["noise"] = [
+        Q_discrete_white_noise(dim=d, dt=t, var=v, block_size=b, order_by_dim=o).tolist()
+        for d, t, v, b, o in S["noise"]
+    ]
 
     def resid_rb(a, b):
         y = np.asarray(a, float) - b
@@ -231,7 +233,7 @@ def scenario_and_filterpy() -> tuple[dict[str, object], dict[str, list[list[floa
 
 
 _models: dict[str, object] = {}
-exec(MODELS, _models)  # noqa: S102 - the same model text filterpy's child runs
+exec(MODELS, _models)  # the same model text filterpy's child runs
 
 
 def _ours_kf(steps: list[dict[str, object]]) -> np.ndarray:
