@@ -121,3 +121,33 @@ def test_failed_editable_rebuild_falls_back_to_python(
     pin.framesForwardKinematics(robot.model, data, state.q)
     reached = data.oMf[robot.model.getFrameId("tool0")].translation
     np.testing.assert_allclose(reached, target, atol=1e-4)
+
+
+def test_space_is_valid_refuses_what_it_used_to_truncate() -> None:
+    """``ConfigurationSpace.is_valid`` dropped imaginary parts, parsed text, and raised a bare
+    ``IndexError`` on ``None`` or a scalar; answers on real vectors are Pinocchio's."""
+    robot = _load("bravo7_no_ee")  # with a continuous (RUBZ) joint
+    space = ConfigurationSpace.from_robot(robot)
+    model, geom = robot.model, robot.collision_model
+    data, gdata = model.createData(), geom.createData()
+    rng = np.random.default_rng(3)
+    answers = set()
+    for _ in range(40):
+        q = robot.random_configuration(rng)
+        free = not pin.computeCollisions(model, data, geom, gdata, q, True)
+        answers.add(free)
+        assert space.is_valid(q) is free
+        assert space.is_valid(list(q)) is free  # a list is converted, not refused
+    assert answers == {True, False}  # both answers were checked
+    q = robot.q_default
+    assert space.is_valid(np.r_[q[:-1], np.nan]) is False
+    for bad, match in [
+        (q + 1j, "complex"),
+        (q.astype(str), "text"),
+        (None, "None"),
+    ]:
+        with pytest.raises(InvalidInputError, match=match):
+            space.is_valid(bad)  # type: ignore[arg-type]
+    for bad in (0.5, q[:-1], q[None, :]):
+        with pytest.raises(InvalidInputError, match=r"shape|q"):
+            space.is_valid(bad)  # type: ignore[arg-type]
