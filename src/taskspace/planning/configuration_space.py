@@ -32,8 +32,8 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
-from taskspace._validation import as_vector, check_positive
-from taskspace.errors import InvalidInputError, PlanningError
+from taskspace._validation import as_float_array, as_vector, check_positive
+from taskspace.errors import InvalidInputError, PlanningError, ShapeError
 from taskspace.model.robot import Robot
 from taskspace.model.versioning import ModelFollower
 from taskspace.planning.collision_checker import (
@@ -566,8 +566,20 @@ class ConfigurationSpace:
         return self.checker.first_invalid(configurations)
 
     def is_valid(self, q: FloatArray) -> bool:
-        """``q in Q_free`` (one checker call)."""
-        return self.checker.first_invalid(np.asarray(q, dtype=float)[None, :]) < 0
+        """``q in Q_free`` (one checker call; the bounds are :meth:`within_bounds`).
+
+        NaN entries give ``False``.
+
+        Raises:
+            InvalidInputError: ``q`` is not real numbers (complex values were truncated, text
+                parsed, ``None`` or a scalar gave an ``IndexError``).
+            ShapeError: ``q`` is not a vector of size :attr:`dim`.
+        """
+        if not (q.__class__ is np.ndarray and q.dtype == np.float64 and q.ndim == 1):
+            q = as_float_array(q, "q")
+        if q.shape != self._lower.shape:
+            raise ShapeError("q", self._lower.shape, tuple(q.shape))
+        return self.checker.first_invalid(q[None, :]) < 0
 
     def check_endpoint(self, q: Any, name: str) -> FloatArray:
         """Validate a start or goal configuration.

@@ -238,6 +238,15 @@ class JointManifold:
                         "limits (Robot.set_limits, or model.lowerPositionLimit / "
                         "upperPositionLimit of a bare model) to plan with it"
                     )
+                if not np.all(upper[sl] > lower[sl]):
+                    # URDF's default range [0, 0] ("no limit" for the robot: its random
+                    # configurations cover the circle) has no box to sample for the planner
+                    raise InvalidInputError(
+                        f"joint '{b.name}' has no position range (lower = {lower[sl].tolist()}, "
+                        f"upper = {upper[sl].tolist()}: a description without limits; the "
+                        "robot treats it as unbounded); give it limits (Robot.set_limits) or "
+                        "lock it (locked_joints=...) to plan with it"
+                    )
         lower.flags.writeable = False
         upper.flags.writeable = False
         self._lower, self._upper = lower, upper
