@@ -1,7 +1,7 @@
 """Issue #15 item 8 checked against filterpy itself (audit of stop 23).
 
-filterpy runs in its own peer environment (``.venv-peers/filterpy``, see benchmarks/peers/):
-a child process runs the same scenarios with filterpy and prints its beliefs as JSON; ours run
+filterpy (a test dependency; else the benchmarks' peer environment ``.venv-peers/filterpy``)
+runs the same scenarios in a child process and prints its beliefs as JSON; ours run
 here and must agree to round-off. The scenarios use what a filterpy user writes:
 
 * ``KalmanFilter``: scalar measurements in every form filterpy takes (float, 1-list, 0-d and
@@ -17,14 +17,16 @@ here and must agree to round-off. The scenarios use what a filterpy user writes:
   ``residual_x``, ``mean_x``, ``residual``, ``mean_z`` built by ``angle_residual`` and
   ``angle_mean``); Merwe sigma points with ours' default ``alpha=1, beta=2, kappa=0``.
 
-The test is skipped when the peer environment is absent (it is not a dependency).
+The test is skipped when filterpy is absent from both.
 """
 
 from __future__ import annotations
 
+import importlib.util
 import json
 import math
 import subprocess
+import sys
 import textwrap
 from pathlib import Path
 
@@ -41,13 +43,12 @@ from taskspace.estimation import (
 )
 
 ROOT = Path(__file__).resolve().parents[2]
-PEER = ROOT / ".venv-peers" / "filterpy" / "bin" / "python"
-for parent in Path(__file__).resolve().parents:  # worktrees: the peers live in the main checkout
-    if (parent / "main" / ".venv-peers" / "filterpy" / "bin" / "python").exists():
-        PEER = parent / "main" / ".venv-peers" / "filterpy" / "bin" / "python"
-        break
+if importlib.util.find_spec("filterpy") is not None:  # a test dependency (pyproject's test extra)
+    PEER = Path(sys.executable)
+else:  # or the benchmarks' peer environment (make bench-peers)
+    PEER = ROOT / ".venv-peers" / "filterpy" / "bin" / "python"
 
-pytestmark = pytest.mark.skipif(not PEER.exists(), reason=f"filterpy peer not installed ({PEER})")
+pytestmark = pytest.mark.skipif(not PEER.exists(), reason=f"filterpy not installed ({PEER})")
 
 DT = 0.1
 LANDMARK = (5.0, 0.0)
