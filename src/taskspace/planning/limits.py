@@ -31,6 +31,7 @@ checked to its end is not kept) and the result says ``TIME_LIMIT``.
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable, Sequence
 from typing import Any
@@ -127,6 +128,10 @@ class Budget:
             checked when ``bad >= 0`` or ``stop == len(points)``, otherwise the time ran out
             (``stopped_by = "time"``) and rows ``stop:`` were not checked.
         """
+        if self.deadline == math.inf:  # no time limit: one call for all the rows
+            total = bounds[-1] if len(bounds) else 0
+            bad = check(points[:total]) if total else -1
+            return (bad, bad) if bad >= 0 else (-1, total)
         lo = 0
         for hi in bounds:
             if hi <= lo:
