@@ -47,13 +47,14 @@ rrt_connect_module = importlib.import_module("taskspace.planning.rrt_connect")  
 COST_S = 1e-4  # simulated seconds per checked configuration
 D = 4
 RESOLUTION = 0.02
+MAX_ROWS = 32  # EdgeCheckOptions.max_batch; a step of 0.5 has 26 points at the resolution
 
 
 def _wall_free(q: np.ndarray) -> np.ndarray:
     """[-1, 1]^4 with a wall 0.06 thick at x0 = 0 and a hole of radius 0.5 through it
     around q[1:] = (-0.5, 0, ...).
 
-    Thinner than the coarse resolution (0.15): the coarse pass misses it, so candidate paths
+    Thinner than the default coarse resolution (0.15): the coarse pass misses it, so candidate paths
     are rejected by the lazy fine pass and the fine passes are many.
     """
     in_wall = np.abs(q[:, 0]) < 0.03
@@ -111,8 +112,11 @@ class _Recorder:
         during = [(t, n) for t, n in calls if t >= t0]
         late = [(round(t - deadline, 4), n) for t, n in during if t > deadline]
         assert late == []
+        # every query is one step, one edge's fine points or one batch of an edge: at most
+        # MAX_ROWS rows (a whole CONNECT line or fine pass in one call is more)
+        assert max(n for _, n in calls[skip:]) <= MAX_ROWS
         if not tail:  # (the clock's last reading is the planner's end)
-            assert self.clock <= deadline + max(n for _, n in during) * COST_S + 1e-9
+            assert self.clock <= deadline + MAX_ROWS * COST_S + 1e-9
 
 
 def _free_at_resolution(free: Callable[[np.ndarray], np.ndarray], path: np.ndarray) -> bool:
@@ -153,14 +157,23 @@ def test_rrt_connect_python_overruns_by_one_step(monkeypatch: pytest.MonkeyPatch
     for name in seen:
         _spy(monkeypatch, name, seen)
     statuses = set()
-    for seed in range(4):
+    for seed in range(6):
         for limit in (0.003, 0.006, 0.01, 0.015, 0.02, 0.03, 0.05):
             rec = _Recorder(_wall_free, D)
             monkeypatch.setattr(time, "perf_counter", rec.read)
             start, goal = np.zeros(D), np.zeros(D)
             start[0], goal[0] = -0.9, 0.9
             start[1], goal[1] = 0.6, 0.6  # the straight line hits the wall
-            opts = RRTConnectOptions(time_limit_s=limit, max_iterations=None, seed=seed)
+            # lazy (default resolutions: many fine passes) or eager with short steps (every
+            # step's 13 points checked at once: long CONNECT lines)
+            eager = seed % 2 == 1
+            opts = RRTConnectOptions(
+                time_limit_s=limit,
+                max_iterations=None,
+                seed=seed,
+                step_size=0.25 if eager else 0.5,
+                coarse_resolution=None if eager else 0.15,
+            )
             res = rrt_connect(rec.space, start, goal, opts)
             monkeypatch.undo()
             for name in seen:  # (undo removed the spies too)
