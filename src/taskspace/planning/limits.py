@@ -22,11 +22,19 @@ found (the anytime planners return ``SOLVED`` with the best path found), and eve
 ``log`` holds ``stopped_by`` (``"time"``, ``"iterations"``, ``"first solution"``,
 ``"optimal"``, ``"no path"``) and the cost over time, ``costs`` and ``cost_times`` [s]: one
 entry for the planners that return their first path (:func:`limit_log`), every improvement for
-the anytime ones. Every planner reads the clock before every edge check (a line of
-several steps, RRT-Connect's CONNECT or a lazy pass over a candidate path, is checked step
-by step, edge by edge, with :meth:`Budget.first_invalid`), so it overruns the time limit by
-one edge check at most; work cut short by the deadline is dropped (a step or a shortcut not
-checked to its end is not kept) and the result says ``TIME_LIMIT``.
+the anytime ones.
+
+Overrun: RRT, the Python RRT-Connect, RRT*, BIT*, the kinodynamic RRT, and the path
+post-processors :func:`~taskspace.planning.shortcut_path` and
+:func:`~taskspace.planning.smooth_bspline` read the clock before every edge check, so they
+overrun the time limit by one edge check at most (the compiled RRT-Connect reads it every 16
+checks). A line of several steps (RRT-Connect's CONNECT) is checked step by step and a lazy
+fine pass over a candidate path edge by edge (:meth:`Budget.first_invalid`); a long straight
+edge (a start-goal line, a shortcut) batch by batch (:meth:`Budget.motion_valid`). Work cut
+short by the deadline is not kept unless it was checked to its end (RRT-Connect keeps the
+steps of a line checked free as nodes; a shortcut or smoothing move not checked in full is
+dropped), and the result says ``TIME_LIMIT``. Certified planning reads it before each
+distance query of the certification (:func:`~taskspace.planning.certify.certify_planned`).
 """
 
 from __future__ import annotations
