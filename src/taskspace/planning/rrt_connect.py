@@ -386,10 +386,9 @@ def _grow(
     """
     q0 = tree.nn.points[i_near].copy()
     t, steps, ends, n_segments = lines.plan(dist, max_steps, end_known_valid)
-    if steps is None:
-        bounds: list[int] = [t.size]
-    else:
-        bounds = [*(np.flatnonzero(np.diff(steps)) + 1).tolist(), t.size]
+    # one group per step: the full steps have lines.full_u.size points each, the last step
+    # as many or fewer
+    bounds = [*range(lines.full_u.size, t.size, lines.full_u.size), t.size]
     bad, stop = budget.first_invalid(space.first_invalid, space.interpolate(q0, target, t), bounds)
     late = bad < 0 and stop < t.size
     if bad < 0 and not late:
