@@ -58,6 +58,8 @@ class PathCertificate:
         failed_segment: index of the first segment not certified (-1 when certified).
         failed_t: where along it the advancement stopped (``t`` in [0, 1]).
         distance_queries: distance evaluations made.
+        timed_out: the advancement stopped at ``deadline`` (not certified, nothing found
+            against the path).
     """
 
     certified: bool
@@ -65,6 +67,7 @@ class PathCertificate:
     failed_segment: int
     failed_t: float
     distance_queries: int
+    timed_out: bool = False
 
 
 _REVOLUTE = ("JointModelRX", "JointModelRY", "JointModelRZ", "JointModelRevoluteUnaligned",
@@ -266,6 +269,7 @@ def certify_path(
     *,
     tolerance: float = 1e-4,
     max_queries: int = 100_000,
+    deadline: float = math.inf,
 ) -> PathCertificate:
     """Prove each segment of ``path`` collision-free by conservative advancement.
 
@@ -280,6 +284,9 @@ def certify_path(
         path: waypoints ``(m, nq)``.
         tolerance: the least distance [m] still counted as free.
         max_queries: a cap on distance evaluations over the whole path.
+        deadline: a ``time.perf_counter()`` value [s]: the clock is read before each
+            distance evaluation and none starts after it (then ``timed_out``, not
+            certified); ``math.inf`` (default): no deadline.
     """
     arr = as_float_array(path, "path")
     if arr.ndim != 2 or arr.shape[1] != robot.nq or arr.shape[0] == 0:
@@ -327,7 +334,10 @@ def certify_path(
 
     queries = 0
     least = math.inf
+    timed = math.isfinite(deadline)
     if rigid.any():
+        if timed and time.perf_counter() > deadline:
+            return PathCertificate(False, least, 0, 0.0, queries, timed_out=True)
         pin.computeDistances(model, data, gm, gd, arr[0])
         queries += 1
         least = float(np.array([r.min_distance for r in gd.distanceResults])[rigid].min())
@@ -341,6 +351,8 @@ def certify_path(
         moving = active & (rates > 0.0)
         t = 0.0
         while True:
+            if timed and time.perf_counter() > deadline:
+                return PathCertificate(False, least, s, t, queries, timed_out=True)
             pin.computeDistances(model, data, gm, gd, pin.integrate(model, q0, t * delta))
             queries += 1
             d = np.array([r.min_distance for r in gd.distanceResults])
@@ -377,7 +389,10 @@ def certify_planned(
         The first certified result (``log["certified"] = 1.0``, ``log["min_distance"]``,
         ``log["certify_attempts"]``); when none could be certified, the last path with
         ``success=False``, status ``UNCERTIFIED`` and ``log["uncertified_segment"]`` /
-        ``log["uncertified_t"]`` (where along it the proof stopped).
+        ``log["uncertified_t"]`` (where along it the proof stopped). The certification
+        reads the clock before each distance evaluation: when the time runs out in it, the
+        result has ``success=False``, status ``TIME_LIMIT`` and ``log["stopped_by"]`` is
+        ``"time"`` (the path is not certified, nothing was found against it).
 
     Raises:
         InvalidInputError: the space has no robot to certify against.
@@ -408,7 +423,7 @@ def certify_planned(
         if not result.success:
             return result
         path = result.path if locked is None else locked.lift(result.path)
-        cert = certify_path(checker.robot, path, tolerance=tolerance)
+        cert = certify_path(checker.robot, path, tolerance=tolerance, deadline=t0 + time_limit_s)
         result.log["min_distance"] = cert.min_distance
         if cert.certified:
             result.log["certified"] = 1.0
@@ -417,6 +432,12 @@ def certify_planned(
         result.log["certified"] = 0.0
         result.log["uncertified_segment"] = float(cert.failed_segment)
         result.log["uncertified_t"] = cert.failed_t
+        if cert.timed_out:
+            result.success = False
+            result.status = PlannerStatus.TIME_LIMIT
+            result.log["stopped_by"] = "time"
+            result.time_s = time.perf_counter() - t0
+            return result
         if time.perf_counter() - t0 >= time_limit_s:
             break
     result.success = False

@@ -81,7 +81,8 @@ class KinodynamicRRTOptions:
         rotation_weight: length scale [m] of the heading in the SE(2) metric.
         n_control_samples: random controls tried per extension (``"controls"``).
         time_limit_s: wall-clock budget [s] (``None`` or ``math.inf`` = no limit; NaN is
-            refused).
+            refused); the clock is read before every motion's check (the extension, the
+            curve to the goal), so the overrun is one motion's check at most.
         seed: random seed (an integer >= 0) used when no ``rng`` is passed.
     """
 
@@ -319,6 +320,9 @@ def kinodynamic_rrt(
                 break
             continue
         if float(metric(q_new, q_goal)[0]) <= opts.connect_distance:
+            if time.perf_counter() - t_start > time_limit:  # before the goal curve's check
+                status = RRTStatus.TIME_LIMIT  # (the new node stays: its edge was checked)
+                break
             ts = time.perf_counter()
             to_goal = curve(q_new, q_goal)
             poses = to_goal.sample(opts.collision_step)

@@ -28,16 +28,30 @@ found (the anytime planners return ``SOLVED`` with the best path found), and eve
 ``log`` holds ``stopped_by`` (``"time"``, ``"iterations"``, ``"first solution"``,
 ``"optimal"``, ``"no path"``) and the cost over time, ``costs`` and ``cost_times`` [s]: one
 entry for the planners that return their first path (:func:`limit_log`), every improvement for
-the anytime ones. The anytime planners read the clock before every edge check, so they
-overrun the time limit by one edge check at most.
+the anytime ones.
+
+Overrun: RRT, the Python RRT-Connect, RRT*, BIT*, the kinodynamic RRT, and the path
+post-processors :func:`~taskspace.planning.shortcut_path` and
+:func:`~taskspace.planning.smooth_bspline` read the clock before every edge check, so they
+overrun the time limit by one edge check at most (the compiled RRT-Connect reads it every 16
+checks). A line of several steps (RRT-Connect's CONNECT) is checked step by step and a lazy
+fine pass over a candidate path edge by edge (:meth:`Budget.first_invalid`); a long straight
+edge (a start-goal line, a shortcut) batch by batch (:meth:`Budget.motion_valid`). Work cut
+short by the deadline is not kept unless it was checked to its end (RRT-Connect keeps the
+steps of a line checked free as nodes; a shortcut or smoothing move not checked in full is
+dropped), and the result says ``TIME_LIMIT``. Certified planning reads it before each
+distance query of the certification (:func:`~taskspace.planning.certify.certify_planned`).
 """
 
 from __future__ import annotations
 
+import math
 import time
+from collections.abc import Callable, Sequence
 from typing import Any
 
 from taskspace._validation import MAX_INT64, check_limits
+from taskspace.planning.configuration_space import bisection_order
 from taskspace.planning.planner_result import PlannerStatus
 
 _STOPPED_BY = {
@@ -111,6 +125,71 @@ class Budget:
             self.stopped_by = "iterations"
             return True
         return self.out_of_time()
+
+    def first_invalid(
+        self, check: Callable[[Any], int], points: Any, bounds: Sequence[int]
+    ) -> tuple[int, int]:
+        """Check rows of ``points`` in order, group by group, reading the clock before each.
+
+        The groups are ``points[bounds[k - 1]:bounds[k]]`` (``bounds`` increasing, its last
+        entry ``len(points)``; the first group starts at row 0); each group (one edge or one
+        step of a line) is one ``check`` call (a checker's ``first_invalid``). No group starts
+        after the deadline, so the overrun is one group at most.
+
+        Returns:
+            ``(bad, stop)``: ``bad`` the first invalid row (-1: none among the rows checked)
+            and ``stop`` the number of rows checked and free before it; the rows were all
+            checked when ``bad >= 0`` or ``stop == len(points)``, otherwise the time ran out
+            (``stopped_by = "time"``) and rows ``stop:`` were not checked.
+        """
+        if self.deadline == math.inf:  # no time limit: one call for all the rows
+            total = bounds[-1] if len(bounds) else 0
+            bad = check(points[:total]) if total else -1
+            return (bad, bad) if bad >= 0 else (-1, total)
+        lo = 0
+        for hi in bounds:
+            if hi <= lo:
+                continue
+            if self.out_of_time():
+                return -1, lo
+            bad = check(points[lo:hi])
+            if bad >= 0:
+                return lo + bad, lo + bad
+            lo = hi
+        return -1, lo
+
+    def motion_valid(self, space: Any, q0: Any, q1: Any, *, check_end: bool = False) -> bool | None:
+        """``space.motion_valid(q0, q1)`` with the clock read before each checker call.
+
+        The same points in the same order and batches (bisection order, batches growing
+        1, 4, 16, ... up to ``space.edge.max_batch``); a long edge (a straight start-goal line,
+        a shortcut) costs many batches, so the overrun is one batch, not one edge.
+
+        Returns:
+            True (free), False (a point collides) or ``None``: the deadline passed before
+            the edge was checked to its end (``stopped_by = "time"``; not known free).
+        """
+        space.edge_checks += 1
+        n = space.segments(q0, q1)
+        if check_end:
+            if self.out_of_time():
+                return None
+            if space.checker.first_invalid(q1[None, :]) >= 0:
+                return False
+        order = bisection_order(n)
+        if order.size == 0:
+            return True
+        points = space.interpolate(q0, q1, order / n)
+        bounds, size, cap = [], 1, space.edge.max_batch
+        stop = 0
+        while stop < order.size:
+            stop = min(order.size, stop + size)
+            bounds.append(stop)
+            size = min(cap, size * 4)
+        bad, checked = self.first_invalid(space.checker.first_invalid, points, bounds)
+        if bad >= 0:
+            return False
+        return True if checked == order.size else None
 
     def elapsed(self) -> float:
         """Seconds since ``t0``."""

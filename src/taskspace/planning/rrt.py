@@ -36,7 +36,7 @@ from taskspace._validation import check_positive, check_seed
 from taskspace.errors import InvalidInputError
 from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray
 from taskspace.planning.goals import REGION_FIRST_ATTEMPTS, goal_states, region_samples
-from taskspace.planning.limits import limit_log, planner_limits
+from taskspace.planning.limits import Budget, limit_log, planner_limits
 from taskspace.planning.planner_result import PlannerResult, PlannerStatus
 from taskspace.planning.rrt_connect import _GrowingTree, _steer
 
@@ -109,7 +109,8 @@ def rrt(
     checks0, edges0 = space.checks, space.edge_checks
     t0 = time.perf_counter()
     q_start = space.check_endpoint(start, "start")
-    deadline = t0 + time_limit
+    budget = Budget(max_iterations, time_limit, t0)
+    deadline = budget.deadline
     goals: list[FloatArray] = []
     region = None
     if goal is not None:
@@ -124,7 +125,7 @@ def rrt(
     if region is not None and region.contains(q_start):
         path, status, max_iterations = q_start[None, :].copy(), PlannerStatus.SOLVED, 0
     for iterations in range(1, max_iterations + 1):
-        if time.perf_counter() > deadline:
+        if budget.out_of_time():
             status = PlannerStatus.TIME_LIMIT
             break
         if region is not None and iterations % _REGION_EVERY == 0 and len(goals) < 32:
@@ -145,14 +146,21 @@ def rrt(
                 if dist <= alpha
                 else space.interpolate(q_near, q_target, alpha / dist)[0]
             )
-        if not space.motion_valid(q_near, q_new, check_end=True):
+        free = budget.motion_valid(space, q_near, q_new, check_end=True)
+        if free is None:  # the deadline passed during the edge: no node
+            status = PlannerStatus.TIME_LIMIT
+            break
+        if not free:
             continue
         i_new = tree.add(q_new, i_near)
         if region is not None and region.contains(q_new):
             path = tree.freeze().path_to(i_new)  # inside the region: a goal configuration
             status = PlannerStatus.SOLVED
             break
-        i_goal = _reach_goal(space, tree, i_new, goals, alpha)
+        i_goal = _reach_goal(space, tree, i_new, goals, alpha, budget)
+        if i_goal == _LATE:  # the new node stays, the goal edge is not known free
+            status = PlannerStatus.TIME_LIMIT
+            break
         if i_goal >= 0:
             path = tree.freeze().path_to(i_goal)
             status = PlannerStatus.SOLVED
@@ -183,12 +191,23 @@ _REGION_EVERY = 64
 """A goal region is sampled again every this many iterations (up to 32 goal states)."""
 
 
+_LATE = -2
+""":func:`_reach_goal`'s answer when the deadline passed before a goal edge was checked."""
+
+
 def _reach_goal(
-    space: ConfigurationSpace, tree: _GrowingTree, i_new: int, goals: list[FloatArray], alpha: float
+    space: ConfigurationSpace,
+    tree: _GrowingTree,
+    i_new: int,
+    goals: list[FloatArray],
+    alpha: float,
+    budget: Budget,
 ) -> int:
     """The tree node of a goal within ``alpha`` of node ``i_new`` joined to it free, or -1.
 
-    Goals are tried nearest first; a goal at ``q_new`` itself is ``i_new``.
+    Goals are tried nearest first; a goal at ``q_new`` itself is ``i_new``. The clock is read
+    before each checker call (:meth:`Budget.motion_valid`): :data:`_LATE` when the deadline
+    passed before a goal edge was checked to its end.
     """
     if not goals:
         return -1
@@ -200,6 +219,9 @@ def _reach_goal(
     for g in np.argsort(gaps, kind="stable").tolist():
         if gaps[g] > alpha:
             break
-        if space.motion_valid(q_new, goals[g]):
+        free = budget.motion_valid(space, q_new, goals[g])
+        if free is None:
+            return _LATE
+        if free:
             return i_new if gaps[g] == 0.0 else tree.add(goals[g], i_new)
     return -1

@@ -116,7 +116,7 @@ from taskspace.planning.configuration_space import (
     path_length,
 )
 from taskspace.planning.goals import REGION_FIRST_ATTEMPTS, goal_states, is_goal_set, region_samples
-from taskspace.planning.limits import limit_log, planner_limits
+from taskspace.planning.limits import Budget, limit_log, planner_limits
 from taskspace.planning.locked_joints import LockedJointChecker
 from taskspace.planning.nearest import GrowingNearest
 from taskspace.planning.planner_result import PlannerResult, PlannerStatus, Tree
@@ -373,25 +373,35 @@ def _grow(
     dist: float,
     max_steps: int,
     end_known_valid: bool,
-) -> tuple[int, bool]:
-    """Steps from node ``i_near`` towards ``target``; returns (last node added, target reached).
+    budget: Budget,
+) -> tuple[int, bool, bool]:
+    """Steps from node ``i_near`` towards ``target``.
 
-    The last node is ``i_near`` when the first step is blocked.
+    The steps are checked one after the other (one checker call each, the clock read before
+    each: :meth:`Budget.first_invalid`); every step checked free becomes a node.
+
+    Returns:
+        ``(last node added, target reached, out of time)``; the last node is ``i_near`` when
+        the first step is blocked (or the time ran out before it).
     """
     q0 = tree.nn.points[i_near].copy()
     t, steps, ends, n_segments = lines.plan(dist, max_steps, end_known_valid)
-    bad = space.first_invalid(space.interpolate(q0, target, t)) if t.size else -1
-    if bad < 0:
+    # one group per step: the full steps have lines.full_u.size points each, the last step
+    # as many or fewer
+    bounds = [*range(lines.full_u.size, t.size, lines.full_u.size), t.size]
+    bad, stop = budget.first_invalid(space.first_invalid, space.interpolate(q0, target, t), bounds)
+    late = bad < 0 and stop < t.size
+    if bad < 0 and not late:
         n_ok = len(ends)
-    else:
-        n_ok = 0 if steps is None else int(steps[bad])
+    else:  # the step of the first point invalid or not checked, and those after it, are out
+        n_ok = 0 if steps is None else int(steps[stop])
     parent = i_near
     lazy = lines.lazy
     for k in range(n_ok):
         q = target.copy() if ends[k] == 1.0 else space.interpolate(q0, target, ends[k])[0]
         parent = tree.add(q, parent, n_segments[k], lazy)
-    reached = bad < 0 and ends[-1] == 1.0
-    return parent, reached
+    reached = n_ok == len(ends) and ends[-1] == 1.0
+    return parent, reached, late
 
 
 def _extend(
@@ -400,12 +410,14 @@ def _extend(
     lines: _LinePlanner,
     q_rand: FloatArray,
     partial: bool,
+    budget: Budget,
 ) -> int:
     """EXTEND(T, q_rand): one step of length <= alpha from the nearest node; new node or -1.
 
     Default: the step's end point is checked first, then its coarse interior (OMPL's order);
     with ``partial`` the coarse points are checked in order along the step and the last free
-    one becomes the new node.
+    one becomes the new node. The clock is read before the step's check: :data:`_LATE` when
+    the deadline has passed (nothing checked, no node).
     """
     i_near, dist = tree.nn.nearest(q_rand)
     if dist == 0.0:
@@ -418,6 +430,8 @@ def _extend(
     if partial:
         u, grid = lines.sequence(n_seg)
         points = space.interpolate(q_near, q_rand, u * step)
+        if budget.out_of_time():
+            return _LATE
         bad = space.checker.first_invalid(points)
         if bad == 0:
             return -1
@@ -425,6 +439,8 @@ def _extend(
             return tree.add(points[bad - 1].copy(), i_near, int(grid[bad - 1]), lines.lazy)
     else:
         points = space.interpolate(q_near, q_rand, lines.pattern(n_seg) * step)
+        if budget.out_of_time():
+            return _LATE
         if space.checker.first_invalid(points) >= 0:
             return -1
     q_new = points[0 if not partial else -1].copy() if dist > alpha else q_rand.copy()
@@ -432,16 +448,24 @@ def _extend(
 
 
 def _verify(
-    space: ConfigurationSpace, trees: list[tuple[_GrowingTree, int]], stride: int
-) -> tuple[bool, int]:
+    space: ConfigurationSpace,
+    trees: list[tuple[_GrowingTree, int]],
+    stride: int,
+    budget: Budget,
+) -> tuple[bool, int, bool]:
     """Check the pending fine points of the edges on the root paths of the given leaves.
 
     Edges are checked tree after tree, from the root outwards: edges near the roots (the tight
     start and goal regions of manipulation problems) are where the coarse pass misses thin
     obstacles most often, and once verified they serve every later candidate path.
 
-    Returns ``(all free, nodes removed)``; on a collision the child of the first colliding
-    edge and its subtree are removed from its tree, the edges checked before it are marked.
+    Each edge's fine points are one checker call, the clock read before each
+    (:meth:`Budget.first_invalid`).
+
+    Returns ``(all free, nodes removed, out of time)``; on a collision the child of the first
+    colliding edge and its subtree are removed from its tree, the edges checked before it are
+    marked; when the time runs out, the edges checked in full are marked (the others stay
+    pending) and ``all free`` is False.
     """
     edges: list[tuple[_GrowingTree, int]] = []
     chunks: list[FloatArray] = []
@@ -461,19 +485,28 @@ def _verify(
                 owner.append(0)
             edges.append((tree, i))
     if not edges:
-        return True, 0
-    counts = np.asarray(owner)
-    bad = space.first_invalid(np.vstack(chunks)) if chunks else -1
-    if bad < 0:
+        return True, 0, False
+    cum = np.cumsum(np.asarray(owner))
+    total = int(cum[-1])
+    bad, stop = (
+        budget.first_invalid(space.first_invalid, np.vstack(chunks), cum.tolist())
+        if chunks
+        else (-1, 0)
+    )
+    if bad < 0 and stop == total:
         for tree, i in edges:
             tree.pending[i] = False
-        return True, 0
-    cum = np.cumsum(counts)
-    failing = int(np.searchsorted(cum, bad, side="right"))
+        return True, 0, False
+    # the edges before the one that holds row `stop` (invalid or not checked) are free
+    failing = int(np.searchsorted(cum, stop, side="right"))
+    if bad < 0:  # out of time: only the edges checked in full are marked
+        for tree, i in edges[:failing]:
+            tree.pending[i] = False
+        return False, 0, True
     for tree, i in edges[:failing]:
         tree.pending[i] = False
     tree, i = edges[failing]
-    return False, tree.remove_subtree(i)
+    return False, tree.remove_subtree(i), False
 
 
 def _native_kernel(space: ConfigurationSpace, opts: RRTConnectOptions) -> Any:
@@ -777,7 +810,8 @@ def _plan(
         return retry
     q_start = space.check_endpoint(start, "start")
     rng = rng if rng is not None else np.random.default_rng(seed)
-    deadline = t0 + time_limit
+    budget = Budget(max_iterations, time_limit, t0)
+    deadline = budget.deadline
     region = None
     if goal_set:
         goals, region = goal_states(space, goal)
@@ -796,7 +830,15 @@ def _plan(
     for q_goal in goals[1:]:
         tree_goal.add(q_goal, -1)
     order = np.argsort(space.distances(np.asarray(goals), q_start)).tolist() if goals else []
-    direct = next((g for g in order if space.motion_valid(q_start, goals[g])), -1)
+    direct = late = -1
+    for g in order:  # the straight lines to the goals, nearest first
+        free = budget.motion_valid(space, q_start, goals[g])
+        if free is None:
+            late = 1
+            break
+        if free:
+            direct = g
+            break
     if region is not None and region.contains(q_start):
         path = q_start[None, :].copy()
         status = PlannerStatus.SOLVED
@@ -805,6 +847,8 @@ def _plan(
     elif direct >= 0:
         path = np.stack([q_start, goals[direct]])
         status = PlannerStatus.SOLVED
+    elif late >= 0:
+        status = PlannerStatus.TIME_LIMIT
     else:
         tree_a, tree_b = tree_start, tree_goal
         block = 256
@@ -812,7 +856,7 @@ def _plan(
         trapped = opts.trapped_priority
         samples = space.sample_uniform(rng, block)
         for iterations in range(1, max_iterations + 1):
-            if time.perf_counter() > deadline:
+            if budget.out_of_time():
                 status = PlannerStatus.TIME_LIMIT
                 break
             j = (iterations - 1) % block
@@ -837,23 +881,34 @@ def _plan(
                     far = space.sample_uniform(rng)
                     gap_r = space.distance(node, far)
                     q_rand = space.interpolate(node, far, min(1.0, opts.local_sigma / gap_r))[0]
-            a_new = _extend(space, tree_a, lines, q_rand, opts.partial_extend)
+            a_new = _extend(space, tree_a, lines, q_rand, opts.partial_extend, budget)
+            if a_new == _LATE:
+                status = PlannerStatus.TIME_LIMIT
+                break
             if a_new >= 0:
                 # CONNECT(T_b, q_new): the whole line of steps in one checker call.
                 q_new = tree_a.nn.points[a_new]
                 j_near, gap = tree_b.nn.nearest(q_new)
                 if gap == 0.0:
-                    b_new, reached = j_near, True
+                    b_new, reached, late_b = j_near, True, False
                 else:
                     space.edge_checks += 1
-                    b_new, reached = _grow(space, tree_b, lines, j_near, q_new, gap, 1 << 30, True)
+                    b_new, reached, late_b = _grow(
+                        space, tree_b, lines, j_near, q_new, gap, 1 << 30, True, budget
+                    )
+                if late_b:
+                    status = PlannerStatus.TIME_LIMIT
+                    break
                 if reached:
                     ok = True
                     if lines.lazy:
                         leaves = [(tree_a, a_new), (tree_b, b_new)]
                         if tree_a is tree_start:
                             leaves.reverse()  # goal tree first
-                        ok, lost = _verify(space, leaves, lines.stride)
+                        ok, lost, late_v = _verify(space, leaves, lines.stride, budget)
+                        if late_v:
+                            status = PlannerStatus.TIME_LIMIT
+                            break
                         rejections += not ok
                         removed += lost
                     if ok:
@@ -900,3 +955,6 @@ def _plan(
 
 _REGION_EVERY = 64
 """A goal region is sampled again every this many iterations (up to 32 goal states)."""
+
+_LATE = -2
+""":func:`_extend`'s answer when the deadline passed before its check."""

@@ -12,6 +12,11 @@ Two passes, both using the straight-line local planner (slide 3:32):
    the points ``k / n`` is a new segment whose own points ``k / n'`` were not checked, and
    the result must be free at the resolution ``delta`` segment by segment.
 
+Time limit: both passes read the clock before every checker call
+(:meth:`~taskspace.planning.limits.Budget.motion_valid`), so they stop one batch of an edge's
+points past the limit at most. A greedy pass cut short keeps the jumps it has proven and the
+rest of the path as it was; a random shortcut whose segments were not all checked is dropped.
+
 On a joint-manifold space (continuous joints, planar or floating bases) the segments are the
 space's geodesics (``pinocchio.interpolate``), arc lengths are measured in its metric
 ``|W (q1 (-) q0)|`` and the cut points lie on the geodesics.
@@ -31,6 +36,7 @@ import numpy as np
 from taskspace._validation import as_matrix, check_count, check_seed, check_time_limit
 from taskspace.errors import InvalidInputError, PlanningError
 from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray
+from taskspace.planning.limits import Budget
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -39,8 +45,9 @@ class ShortcutOptions:
 
     Attributes:
         max_iterations: random shortcut attempts (an integer >= 0).
-        time_limit_s: wall-clock budget [s] of the random shortcuts (``None`` or
-            ``math.inf`` = no limit; NaN is refused).
+        time_limit_s: wall-clock budget [s] of the shortening (the greedy pass and the
+            random shortcuts; the check of the input path is not counted), kept to one batch
+            of an edge's points (``None`` or ``math.inf`` = no limit; NaN is refused).
         greedy: run the greedy vertex-reduction pass first.
         seed: random seed (an integer >= 0) used when no ``rng`` is passed.
     """
@@ -168,22 +175,32 @@ def shortcut_path(
     t0 = time.perf_counter()
     checks0 = space.checks
     _check_input(space, arr)
-    deadline = time.perf_counter() + time_limit
+    budget = Budget(max_iterations, time_limit, time.perf_counter())
     before = space.path_length(arr)
     accepted = 0
     if opts.greedy and arr.shape[0] > 2:
         keep = [0]
         i = 0
-        while i < arr.shape[0] - 1:
-            j = arr.shape[0] - 1
-            while j > i + 1 and not space.motion_valid(arr[i], arr[j]):
+        m = arr.shape[0]
+        while i < m - 1:
+            j = m - 1
+            while j > i + 1:
+                free = budget.motion_valid(space, arr[i], arr[j])
+                if free is None:  # out of time: the rest of the path as it was
+                    j = -1
+                    break
+                if free:
+                    break
                 j -= 1
+            if j < 0:
+                keep.extend(range(i + 1, m))
+                break
             accepted += j > i + 1
             keep.append(j)
             i = j
         arr = arr[keep]
     for _ in range(max_iterations):
-        if arr.shape[0] < 2 or time.perf_counter() > deadline:
+        if arr.shape[0] < 2 or budget.out_of_time():
             break
         cumulative = np.concatenate([[0.0], np.cumsum(space.distances(arr[:-1], arr[1:]))])
         total = float(cumulative[-1])
@@ -200,11 +217,14 @@ def shortcut_path(
         # The pieces q_i1 -> p1 and p2 -> q_(i2+1) lie on free edges but are new segments whose
         # own points (k / n of each piece) were never checked: check them too, so that every
         # segment of the result is free at the resolution delta.
-        if not (
-            space.motion_valid(p1, p2)
-            and space.motion_valid(arr[i1], p1)
-            and space.motion_valid(p2, arr[i2 + 1])
-        ):
+        free = budget.motion_valid(space, p1, p2)
+        if free:
+            free = budget.motion_valid(space, arr[i1], p1)
+        if free:
+            free = budget.motion_valid(space, p2, arr[i2 + 1])
+        if free is None:
+            break  # out of time: the shortcut is dropped
+        if not free:
             continue
         arr = np.vstack([arr[: i1 + 1], p1, p2, arr[i2 + 1 :]])
         accepted += 1

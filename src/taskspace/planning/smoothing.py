@@ -14,6 +14,12 @@ checks its edges; ``q_i'`` lies in the triangle ``q_{i-1} q_i q_{i+1}``, so the 
 gets longer. The input is checked first and a colliding input is refused, and the whole result
 is checked again before it is returned.
 
+Time limit: the passes read the clock before every checker call
+(:meth:`~taskspace.planning.limits.Budget.motion_valid`), so they stop one batch of an edge's
+points past the limit at most; a move whose segments were not both checked is dropped. The
+checks of the input and of the result are not counted (as :func:`shortcut_path`'s input
+check): they run in full whatever the limit.
+
 On a joint-manifold space (continuous joints, planar or floating bases) the same corner cut
 is taken in the tangent space at ``q_i``:
 ``q_i' = q_i (+) ((q_{i-1} (-) q_i) + (q_{i+1} (-) q_i)) / 4`` (Pinocchio's ``difference`` and
@@ -36,7 +42,7 @@ import numpy as np
 from taskspace._validation import as_matrix, check_positive
 from taskspace.errors import InvalidInputError, PlanningError
 from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray
-from taskspace.planning.limits import planner_limits
+from taskspace.planning.limits import Budget, planner_limits
 from taskspace.planning.rrt_star import interpolate
 from taskspace.planning.shortcut import _check_input
 
@@ -51,7 +57,9 @@ class SmoothingOptions:
             length).
         max_iterations: smoothing passes (an integer >= 0, or ``None`` with a finite time
             limit; see :mod:`taskspace.planning.limits`).
-        time_limit_s: wall-clock budget [s] (``None`` or ``math.inf`` = none; NaN refused).
+        time_limit_s: wall-clock budget [s] of the passes (not counting the checks of the
+            input and of the result), kept to one batch of an edge's points (``None`` or
+            ``math.inf`` = none; NaN refused).
         min_change: stop when a pass shortens the path by less than this fraction.
     """
 
@@ -114,13 +122,14 @@ def smooth_bspline(
     if not 0.0 <= opts.min_change < 1.0:
         raise InvalidInputError(f"min_change must be in [0, 1), got {opts.min_change}")
     t0 = time.perf_counter()
-    deadline = t0 + limit
     checks0 = space.checks
     _check_input(space, arr, "smooth_bspline")
+    budget = Budget(passes_cap, limit, time.perf_counter())
     before = space.path_length(arr)
     current = arr.copy()
     moved = rejected = passes = 0
-    while passes < passes_cap and current.shape[0] > 2 and time.perf_counter() <= deadline:
+    late = False
+    while passes < passes_cap and current.shape[0] > 2 and not late and not budget.out_of_time():
         passes += 1
         length0 = space.path_length(current)
         current = (
@@ -130,7 +139,7 @@ def smooth_bspline(
         )
         for parity in (1, 2):
             for i in range(parity, current.shape[0] - 1, 2):
-                if time.perf_counter() > deadline:
+                if late:
                     break
                 a, b, c = current[i - 1], current[i], current[i + 1]
                 if space.manifold is None:
@@ -145,12 +154,14 @@ def smooth_bspline(
                 ) > space.distance(a, b) + space.distance(b, c):
                     rejected += 1  # the manifold's metric need not shrink the corner
                     continue
-                if (
-                    space.outside_limits(q).size == 0
-                    and space.is_valid(q)
-                    and space.motion_valid(a, q)
-                    and space.motion_valid(q, c)
-                ):
+                free: bool | None = space.outside_limits(q).size == 0
+                if free:  # the new point, then its two segments, the clock read before each
+                    free = budget.motion_valid(space, a, q, check_end=True)
+                if free:
+                    free = budget.motion_valid(space, q, c)
+                if free is None:
+                    late = True  # out of time: the move is dropped
+                elif free:
                     current[i] = q
                     moved += 1
                 else:
