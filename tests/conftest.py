@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import os
+import signal
+import threading
 from collections.abc import Callable
 
 import numpy as np
@@ -12,6 +14,20 @@ from hypothesis import settings
 from taskspace.model import Robot
 
 os.environ.setdefault("MPLBACKEND", "Agg")
+
+# Ctrl-C as in a terminal, however pytest was started. A command started in the background
+# by a shell without job control (`make test > log &` in a script, `nohup ... &`) inherits
+# SIGINT *ignored*; Python then installs no KeyboardInterrupt handler, and neither do the
+# xdist workers nor the subprocesses that the tests start. Six Ctrl-C tests (a snapshot, a
+# batch run, a compiled plan, a planning batch, a simulation, a rollout) then failed: "DID
+# NOT RAISE KeyboardInterrupt" after 50 snapshots (~100-150 s under load), subprocesses that
+# never stop (30 or 60 s timeouts). Python's own handler again; the subprocesses get the
+# default action (an exec resets a handled signal, while an ignored one stays ignored).
+if (
+    threading.current_thread() is threading.main_thread()
+    and signal.getsignal(signal.SIGINT) is signal.SIG_IGN
+):
+    signal.signal(signal.SIGINT, signal.default_int_handler)
 
 # Property tests draw the same examples on every run: CI must not depend on luck.
 settings.register_profile("taskspace", derandomize=True, deadline=None, print_blob=True)
