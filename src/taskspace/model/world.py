@@ -78,8 +78,10 @@ class Obstacle:
 
     Its fields cannot be reassigned: to move an obstacle, remove it and add a new one
     (``robot.clear_obstacles()`` / ``robot.add_obstacle(...)``), which changes the world's
-    :attr:`World.version`. Do not modify ``placement`` or ``geometry`` in place either: the
-    robot's collision model and the checkers built from it hold their own copies.
+    :attr:`World.version`. :meth:`Robot.add_obstacle <taskspace.model.Robot.add_obstacle>`
+    puts a clone of ``geometry`` (and a copy of ``placement``) into the robot's collision
+    model, so modifying them in place afterwards does not change the robot's collision
+    answers; it changes this object only (and what it is later passed to), so do not.
 
     Attributes:
         name: unique name.
