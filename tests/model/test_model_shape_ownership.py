@@ -257,12 +257,18 @@ def test_the_next_copy_shows_the_robot_shapes_again() -> None:
         assert (
             second.geometryObjects[k].geometry == robot._collision_model.geometryObjects[k].geometry
         )
-    # a kept mesh clone is handed out again only while it equals the robot's shape
-    third_stamp_change = robot.collision_pairs[0]
-    robot.disable_collision_pairs([third_stamp_change])
+    # the kept mesh clone is handed out again (no new clone) while it equals the robot's
+    held = second.geometryObjects[gid].geometry
+    robot.disable_collision_pairs([robot.collision_pairs[0]])
     third = robot.collision_model
-    kept = third.geometryObjects[gid].geometry
-    assert kept == robot._collision_model.geometryObjects[gid].geometry
+    assert third is not second
+    assert (
+        third.geometryObjects[gid].geometry == robot._collision_model.geometryObjects[gid].geometry
+    )
+    _grow_mesh(held)  # modified after it was handed out again: the next copy clones anew
+    robot.disable_collision_pairs([robot.collision_pairs[0]])
+    fourth = robot.collision_model
+    assert np.array_equal(fourth.geometryObjects[gid].geometry.vertices(), mesh_before)
 
 
 def test_an_obstacle_shape_modified_in_place_after_add_obstacle_does_not_reach_the_robot(
