@@ -1,0 +1,192 @@
+"""Objects built from a robot follow ``Robot.edit_model`` and ``Robot.edit_collision_model``.
+
+Issue #15 item 1. The derived objects not covered by ``test_model_ownership.py``: a
+``State``'s collision distances and the ``CollisionDistance`` feature (after an obstacle or a
+shape change without ``state.update``), the locked-joint checker and its compiled kernel,
+and PRM / Lazy PRM roadmaps (refused after either edit).
+
+References: Pinocchio's ``computeDistances`` / ``computeCollisions`` on copies of the models
+edited here by hand, with full configurations assembled here from the joint slices.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import coal
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from taskspace.errors import PlanningError, StaleModelError
+from taskspace.features import CollisionDistance
+from taskspace.model import Obstacle, Robot
+from taskspace.planning import ConfigurationSpace
+from taskspace.planning.lazy_prm import lazy_prm, lazy_prm_query
+from taskspace.planning.prm import PRMOptions, build_prm, prm_query
+
+RAISE = 0.4  # [m] the model edit: the panda's first joint raised by this much
+LOCKED = {"panda_joint2": 0.9, "panda_joint7": -1.2}
+HAND = "panda_hand_0"
+
+
+_LOADED: dict[bool, Robot] = {}
+
+
+def _panda(convex: bool = False) -> Robot:
+    """A panda of its own (these tests edit it), made from the models of one loaded panda."""
+    if convex not in _LOADED:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            _LOADED[convex] = Robot.load("panda", convex_collision=convex)
+    base = _LOADED[convex]
+    return Robot(
+        base.model,
+        base.collision_model,
+        base.visual_model,
+        name="panda",
+        default_configuration=base.q_default,
+    )
+
+
+def _raise(model: pin.Model) -> None:
+    placement = pin.SE3(model.jointPlacements[1])
+    placement.translation = placement.translation + np.array([0.0, 0.0, RAISE])
+    model.jointPlacements[1] = placement
+
+
+def _distances(model: pin.Model, geom: pin.GeometryModel, q: np.ndarray) -> np.ndarray:
+    data, gdata = model.createData(), geom.createData()
+    pin.computeDistances(model, data, geom, gdata, q)
+    return np.array([r.min_distance for r in gdata.distanceResults])
+
+
+def _collides(model: pin.Model, geom: pin.GeometryModel, q: np.ndarray) -> bool:
+    return bool(pin.computeCollisions(model, model.createData(), geom, geom.createData(), q, True))
+
+
+def _assemble(model: pin.Model, free: np.ndarray) -> np.ndarray:
+    """The full configuration from the free coordinates and LOCKED (reference)."""
+    q = np.empty(model.nq)
+    it = iter(free.tolist())
+    for j in range(1, model.njoints):
+        joint = model.joints[j]
+        name = str(model.names[j])
+        q[joint.idx_q] = LOCKED[name] if name in LOCKED else next(it)
+    return q
+
+
+# ---------------------------------------------------------------------- state and feature
+def test_state_distances_follow_the_world_without_an_update() -> None:
+    robot = _panda(convex=True)
+    q = robot.q_default.copy()
+    state = robot.state(q)
+    before = [r.min_distance for r in state.distance_results()]
+    assert np.allclose(before, _distances(robot.model, robot.collision_model, q))
+    # an obstacle: more pairs, the state is not updated
+    robot.add_obstacle(Obstacle.sphere("ball", 0.05, [0.45, 0.0, 0.6]))
+    now = [r.min_distance for r in state.distance_results()]
+    assert len(now) == len(robot.collision_pairs) > len(before)
+    assert np.allclose(now, _distances(robot.model, robot.collision_model, q), rtol=0, atol=1e-9)
+    # a shape grown through the sanctioned route
+    reference = robot.collision_model.copy()
+    gid = reference.getGeometryId(HAND)
+    reference.geometryObjects[gid].geometry = coal.Sphere(0.25)
+    with robot.edit_collision_model() as geom:
+        geom.geometryObjects[gid].geometry = coal.Sphere(0.25)
+    expected = _distances(robot.model, reference, q)
+    assert not np.allclose(expected, now)
+    got = [r.min_distance for r in state.distance_results()]
+    assert np.allclose(got, expected, rtol=0, atol=1e-9)
+
+
+def test_collision_distance_feature_follows_the_world_without_an_update() -> None:
+    robot = _panda(convex=True)
+    robot.add_obstacle(Obstacle.sphere("ball", 0.05, [0.45, 0.0, 0.6]))
+    q = robot.q_default.copy()
+    feature = CollisionDistance(robot, [(HAND, "ball")])
+    state = robot.state(q)
+    first = float(feature.value(state)[0])
+    # another obstacle first in the pair order shifts the indices; then the hand grows
+    robot.add_obstacle(Obstacle.box("shelf", [0.2, 0.2, 0.02], [0.0, 0.5, 0.3]))
+    with robot.edit_collision_model() as geom:
+        geom.geometryObjects[geom.getGeometryId(HAND)].geometry = coal.Sphere(0.15)
+    reference = robot.collision_model.copy()
+    k = robot.collision_pairs.index((HAND, "ball"))
+    expected = _distances(robot.model, reference, q)[k]
+    assert abs(expected - first) > 0.01
+    assert float(feature.value(state)[0]) == pytest.approx(expected, abs=1e-9)
+
+
+# ---------------------------------------------------------------------- locked-joint checker
+@pytest.fixture()
+def panda_table() -> Robot:
+    robot = _panda()
+    robot.add_obstacle(Obstacle.box("block", [0.3, 0.6, 0.3], [0.55, 0.0, 0.35]))
+    robot.add_obstacle(Obstacle.box("plate", [1.2, 1.2, 0.05], [0.0, 0.0, 1.35]))
+    return robot
+
+
+@pytest.mark.parametrize("native", [False, True])
+def test_locked_joint_checker_follows_edit_model_and_edit_collision_model(
+    panda_table: Robot, native: bool
+) -> None:
+    robot = panda_table
+    space = ConfigurationSpace.from_robot(robot, locked_joints=LOCKED)
+    free = space.sample_uniform(np.random.default_rng(5), 200)
+
+    def answers() -> np.ndarray:
+        if native:
+            kernel = space.checker.native_kernel()
+            if kernel is None:
+                pytest.skip("compiled planning kernel not built")
+            return np.asarray(kernel.collisions(free)) == 0
+        return np.asarray(space.checker.are_valid(free))
+
+    def reference(model: pin.Model, geom: pin.GeometryModel) -> np.ndarray:
+        return np.array([not _collides(model, geom, _assemble(model, f)) for f in free])
+
+    before = reference(robot.model, robot.collision_model)
+    np.testing.assert_array_equal(answers(), before)
+
+    model = robot.model.copy()  # the hand-edited reference
+    _raise(model)
+    with robot.edit_model() as m:
+        _raise(m)
+    raised = reference(model, robot.collision_model)
+    assert np.any(raised != before)
+    np.testing.assert_array_equal(answers(), raised)
+
+    geom = robot.collision_model.copy()
+    gid = geom.getGeometryId(HAND)
+    geom.geometryObjects[gid].geometry = coal.Sphere(0.3)
+    with robot.edit_collision_model() as g:
+        g.geometryObjects[gid].geometry = coal.Sphere(0.3)
+    grown = reference(model, geom)
+    assert np.any(grown != raised)
+    np.testing.assert_array_equal(answers(), grown)
+
+
+# ---------------------------------------------------------------------- roadmaps
+@pytest.mark.parametrize("edit", ["model", "collision_model"])
+def test_roadmaps_are_refused_after_an_edit(edit: str) -> None:
+    robot = _panda()
+    space = ConfigurationSpace.from_robot(robot)
+    options = PRMOptions(max_iterations=30, k_neighbors=5, seed=3)
+    roadmap = build_prm(space, options)
+    _, lazy = lazy_prm(space, robot.q_default, robot.q_default, options)
+    start, goal = roadmap.nodes[0], roadmap.nodes[1]
+    prm_query(space, roadmap, start, goal, options)
+    lazy_prm_query(space, lazy, start, goal, options)
+    if edit == "model":
+        with robot.edit_model() as m:
+            _raise(m)
+        error: type[Exception] = StaleModelError
+    else:
+        with robot.edit_collision_model() as g:
+            g.geometryObjects[g.getGeometryId(HAND)].geometry = coal.Sphere(0.3)
+        error = PlanningError
+    with pytest.raises(error, match="roadmap was built for"):
+        prm_query(space, roadmap, start, goal, options)
+    with pytest.raises(error, match="roadmap was built for"):
+        lazy_prm_query(space, lazy, start, goal, options)
