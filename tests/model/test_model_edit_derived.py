@@ -190,3 +190,62 @@ def test_roadmaps_are_refused_after_an_edit(edit: str) -> None:
         prm_query(space, roadmap, start, goal, options)
     with pytest.raises(error, match="roadmap was built for"):
         lazy_prm_query(space, lazy, start, goal, options)
+
+
+# ---------------------------------------------------------------------- public attributes
+def test_derived_objects_hand_out_the_robots_copies_not_its_objects() -> None:
+    from taskspace.dynamics.forward_dynamics import ForwardDynamics
+    from taskspace.planning.joint_manifold import JointManifold
+    from taskspace.viz.viewer import Viewer
+
+    robot = _panda(convex=True)
+    q = robot.q_default.copy()
+    reference_model = robot.model.copy()  # untouched
+    reference_geom = robot.collision_model.copy()
+    for obj in reference_geom.geometryObjects:  # pin's copy shares the shapes: clone them
+        obj.geometry = obj.geometry.clone()
+    frame = reference_model.getFrameId("panda_hand_tcp")
+    version, world_version = robot.version, robot.world.version
+    models = [ForwardDynamics(robot).model, JointManifold(robot).model]
+    for model in models:
+        _raise(model)  # an edit of what the object hands out
+    viewer = Viewer(robot, q, geometry="collision")
+    hand = viewer.geometry_model.geometryObjects[reference_geom.getGeometryId(HAND)]
+    hand.geometry.points()[:] *= 5.0
+    viewer.geometry_model.removeAllCollisionPairs()
+
+    data = robot._model.createData()
+    pin.framesForwardKinematics(robot._model, data, q)
+    ref_data = reference_model.createData()
+    pin.framesForwardKinematics(reference_model, ref_data, q)
+    assert data.oMf[frame].isApprox(ref_data.oMf[frame], 1e-14)
+    assert np.allclose(
+        _distances(robot._model, robot._collision_model, q),
+        _distances(reference_model, reference_geom, q),
+        rtol=0,
+        atol=1e-12,
+    )
+    assert (robot.version, robot.world.version) == (version, world_version)
+
+
+def test_pendulum_env_steps_with_the_edited_model() -> None:
+    from taskspace.learning.envs import PendulumEnv
+
+    env = PendulumEnv(max_torque=5.0, substeps=5)
+    env.reset(seed=0)
+    reference = env.robot.model.copy()  # the hand edit: a 3x heavier pendulum
+    jid = reference.njoints - 1
+    inertia = reference.inertias[jid]
+    heavier = pin.Inertia(3.0 * inertia.mass, inertia.lever, 3.0 * inertia.inertia)
+    reference.inertias[jid] = heavier
+    with env.robot.edit_model() as model:
+        model.inertias[jid] = heavier
+    env.state = np.array([1.0, 0.0])
+    q, v, h = np.array([1.0]), np.zeros(1), env.dt / 5
+    data = reference.createData()
+    for tau in (2.0, -1.0, 0.5):
+        env.step(np.array([tau], dtype=np.float32))
+        for _ in range(5):
+            v = np.clip(v + h * pin.aba(reference, data, q, v, np.array([tau])), -8.0, 8.0)
+            q = q + h * v
+        assert env.state == pytest.approx([q[0], v[0]], abs=1e-9)

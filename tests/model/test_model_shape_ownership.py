@@ -170,8 +170,10 @@ def _checkers(robot: Robot) -> list[CollisionChecker]:
 
 @pytest.fixture(scope="module")
 def reference() -> Robot:
-    """The untouched reference: loaded the same way, obstacles made afresh."""
-    robot = _panda()
+    """The untouched reference: loaded the same way (its own objects), obstacles made afresh."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        robot = Robot.load("panda", geometry=True, convex_collision=True)
     _with_obstacles(robot)
     return robot
 
