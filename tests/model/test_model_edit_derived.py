@@ -249,3 +249,52 @@ def test_pendulum_env_steps_with_the_edited_model() -> None:
             v = np.clip(v + h * pin.aba(reference, data, q, v, np.array([tau])), -8.0, 8.0)
             q = q + h * v
         assert env.state == pytest.approx([q[0], v[0]], abs=1e-9)
+
+
+# ---------------------------------------------------------------------- compiled dampers
+def test_compiled_collision_dampers_follow_both_edits() -> None:
+    from taskspace import features as F
+    from taskspace._native import ik_kernel
+    from taskspace.constraints import CollisionAvoidance
+    from taskspace.ik import DifferentialIK, DifferentialIKOptions
+    from taskspace.tasks import Task
+
+    if ik_kernel() is None:
+        pytest.skip("compiled IK kernel not built")
+    influence = 0.12
+    robot = _panda(convex=True)
+    tcp = robot.frame_id("panda_hand_tcp")
+    state = robot.state(robot.q_default)
+    target = state.frame_placement(tcp).copy()
+    robot.add_obstacle(
+        Obstacle.sphere("ball", 0.07, target.translation + np.array([0.0, 0.22, -0.03]))
+    )
+    pose = Task(F.FramePose(robot, "panda_hand_tcp"), target, weight=1.0, gain=0.5)
+    avoid = CollisionAvoidance(robot, safety_distance=0.02, influence_distance=influence)
+    ik = DifferentialIK(robot, [pose], [avoid], options=DifferentialIKOptions(native=True))
+
+    seen: list[np.ndarray] = []
+
+    def check(model: pin.Model, geom: pin.GeometryModel) -> None:
+        state.update(robot.q_default)
+        result = ik.solve(state, 0.01)
+        assert result.success and result.qp.backend == "native"
+        _, _, _, pairs, dists = ik._native.damper_rows()
+        d = _distances(model, geom, robot.q_default)
+        expected = [k for k in range(len(d)) if d[k] < influence]
+        assert list(pairs) == expected
+        np.testing.assert_allclose(dists, d[expected], rtol=0, atol=1e-9)
+        assert all(not np.allclose(d, other) for other in seen)  # each edit changes them
+        seen.append(d)
+
+    model, geom = robot.model.copy(), robot.collision_model.copy()
+    check(model, geom)
+    gid = geom.getGeometryId(HAND)
+    geom.geometryObjects[gid].geometry = coal.Sphere(0.09)
+    with robot.edit_collision_model() as g:
+        g.geometryObjects[gid].geometry = coal.Sphere(0.09)
+    check(model, geom)
+    _raise(model)
+    with robot.edit_model() as m:
+        _raise(m)
+    check(model, geom)
