@@ -385,7 +385,7 @@ class State:
         world's version is compared first.
         """
         robot = self._robot
-        version = robot.world.version
+        version = robot.world._version  # the property costs more than the check itself
         if self._distances_done and version == self._collision_version:
             return
         geom = robot._collision_model
