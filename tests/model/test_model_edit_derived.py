@@ -298,3 +298,33 @@ def test_compiled_collision_dampers_follow_both_edits() -> None:
     with robot.edit_model() as m:
         _raise(m)
     check(model, geom)
+
+
+# ---------------------------------------------------------------------- the robot's world
+def test_the_robots_world_changes_only_through_the_robot() -> None:
+    from taskspace.errors import InvalidInputError
+    from taskspace.model import World
+    from taskspace.planning.collision_checker import CollisionChecker
+
+    robot = _panda()
+    q = robot.q_default.copy()
+    untouched_model, untouched_geom = robot.model.copy(), robot.collision_model.copy()
+    assert not _collides(untouched_model, untouched_geom, q)
+    checker = CollisionChecker(robot)
+    # a 3 m sphere around the base engulfs the arm: every configuration collides
+    robot.world.add(Obstacle.sphere("engulf", 3.0, [0.0, 0.0, 0.0]))
+    assert robot.collision_model.getGeometryId("engulf") < robot.collision_model.ngeoms
+    assert not robot.is_collision_free(q) and not checker.is_valid(q)
+    assert _collides(robot.model, robot.collision_model, q)
+    robot.world.remove("engulf")
+    assert robot.is_collision_free(q) and checker.is_valid(q)
+    robot.world.add(Obstacle.sphere("engulf", 3.0, [0.0, 0.0, 0.0]))
+    robot.world.clear()
+    assert len(robot.world) == 0 and robot.collision_model.ngeoms == untouched_geom.ngeoms
+    assert robot.is_collision_free(q) and checker.is_valid(q)
+    with pytest.raises(AttributeError):
+        robot.world = World([Obstacle.sphere("engulf", 3.0, [0.0, 0.0, 0.0])])  # type: ignore[misc]
+    with pytest.raises(InvalidInputError, match="already exists"):
+        robot.add_obstacle(Obstacle.sphere("a", 0.1, [2.0, 0.0, 0.0]))
+        robot.world.add(Obstacle.sphere("a", 0.1, [2.0, 0.0, 0.0]))
+    assert robot.collision_model.ngeoms == untouched_geom.ngeoms + 1

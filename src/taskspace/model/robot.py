@@ -228,7 +228,8 @@ class Robot:
         self._visual_copy: pin.GeometryModel | None = None
         self._geometry_edits = 0  # edit_collision_model calls (caches of shapes follow it)
         self.srdf_path = srdf_path
-        self.world = World()
+        self._world = World()
+        self._world._owner = self  # its add/remove/clear go through this robot
         self.pruned_collision_pairs = PrunedCollisionPairs()
         self._robot_geometry_count = collision_model.ngeoms
         self._frame_ids = {f.name: i for i, f in enumerate(model.frames)}
@@ -1409,9 +1410,19 @@ class Robot:
         """Number of robot geometries (the first entries of ``collision_model``)."""
         return self._robot_geometry_count
 
+    @property
+    def world(self) -> World:
+        """The robot's obstacles (also in ``collision_model``); a read-only attribute.
+
+        Its ``add``, ``remove`` and ``clear`` are :meth:`add_obstacle`,
+        :meth:`remove_obstacle` and :meth:`clear_obstacles`: the robot's collision model
+        always holds exactly the world's obstacles.
+        """
+        return self._world
+
     def add_obstacle(self, obstacle: Obstacle) -> None:
         """Add a fixed obstacle; it is checked against every robot geometry."""
-        self.world.add(obstacle)
+        self._world._add(obstacle)
         # a clone: the obstacle's own shape modified in place cannot reach the robot
         shape = obstacle.geometry.clone()
         geom = pin.GeometryObject(obstacle.name, 0, 0, obstacle.placement, shape)
@@ -1429,7 +1440,7 @@ class Robot:
 
     def remove_obstacle(self, name: str) -> Obstacle:
         """Remove the obstacle ``name`` (raises UnknownNameError listing the obstacles)."""
-        obstacle = self.world.remove(name)
+        obstacle = self._world._remove(name)
         self._collision_model.removeGeometryObject(name)
         self._collision_data = self._collision_model.createData()
         return obstacle
@@ -1438,7 +1449,7 @@ class Robot:
         """Remove every obstacle."""
         for obstacle in list(self.world):
             self._collision_model.removeGeometryObject(obstacle.name)
-            self.world.remove(obstacle.name)
+            self._world._remove(obstacle.name)
         self._collision_data = self._collision_model.createData()
 
     def disable_collision_pairs(self, pairs: Iterable[tuple[str, str]]) -> None:

@@ -153,8 +153,10 @@ class World:
     def __init__(self, obstacles: Sequence[Obstacle] = ()) -> None:
         self._obstacles: dict[str, Obstacle] = {}
         self._version = next(_VERSIONS)
+        # the robot whose collision model holds these obstacles (robot.world), if any
+        self._owner: Any = None
         for obstacle in obstacles:
-            self.add(obstacle)
+            self._add(obstacle)
 
     @property
     def version(self) -> int:
@@ -166,7 +168,17 @@ class World:
         self._version = next(_VERSIONS)
 
     def add(self, obstacle: Obstacle) -> None:
-        """Add an obstacle; its name must be new."""
+        """Add an obstacle; its name must be new.
+
+        On a robot's world (``robot.world``) this is ``robot.add_obstacle(obstacle)``: the
+        robot's collision model gets it too.
+        """
+        if self._owner is not None:
+            self._owner.add_obstacle(obstacle)
+            return
+        self._add(obstacle)
+
+    def _add(self, obstacle: Obstacle) -> None:
         if not isinstance(obstacle, Obstacle):
             raise InvalidInputError(
                 f"expected an Obstacle (Obstacle.box, .sphere, .cylinder, .mesh), got "
@@ -181,7 +193,12 @@ class World:
         self._version = next(_VERSIONS)
 
     def remove(self, name: str) -> Obstacle:
-        """Remove and return the obstacle called ``name``."""
+        """Remove and return the obstacle called ``name`` (on a robot's world: through it)."""
+        if self._owner is not None:
+            return self._owner.remove_obstacle(name)  # type: ignore[no-any-return]
+        return self._remove(name)
+
+    def _remove(self, name: str) -> Obstacle:
         if name not in self._obstacles:
             raise UnknownNameError("obstacle", name, self._obstacles)
         obstacle = self._obstacles.pop(name)
@@ -189,7 +206,10 @@ class World:
         return obstacle
 
     def clear(self) -> None:
-        """Remove every obstacle."""
+        """Remove every obstacle (on a robot's world: through it)."""
+        if self._owner is not None:
+            self._owner.clear_obstacles()
+            return
         self._obstacles.clear()
         self._version = next(_VERSIONS)
 
