@@ -180,7 +180,6 @@ class Robot:
     Attributes:
         name: robot name.
         end_effectors: names of the end-effector frames.
-        world: the obstacles (also present in ``collision_model``).
         passive_joints: names of the unactuated joints (effort limit 0).
         pruned_collision_pairs: collision pairs disabled on load and why.
         massless_joints: joints that move no mass and were given an armature (see the
