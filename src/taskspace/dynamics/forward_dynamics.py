@@ -80,7 +80,7 @@ class ForwardDynamics:
 
     def __init__(self, robot: Robot, friction: JointFriction | None = None) -> None:
         self.robot = robot
-        self.model = robot._model
+        self._model = robot._model  # the robot's own: never handed out (see ``model``)
         self.data = robot._model.createData()
         self._owner = threading.get_ident()
         self._local = threading.local()
@@ -97,13 +97,18 @@ class ForwardDynamics:
         self._has_coulomb = bool(np.any(self._coulomb))
 
     @property
+    def model(self) -> pin.Model:
+        """``robot.model``: the robot's read-only copy (edit through :meth:`Robot.edit_model`)."""
+        return self.robot.model
+
+    @property
     def has_friction(self) -> bool:
         """Whether any friction coefficient is non-zero."""
         return self._has_friction
 
     def friction_torque(self, v: FloatArray) -> FloatArray:
         """``-damping v - coulomb tanh(v / smoothing)`` (zero on a floating base) [N m]."""
-        out = np.zeros(self.model.nv)
+        out = np.zeros(self._model.nv)
         vj = v[self._start :]
         f = -self._damping * vj
         if self._has_coulomb:
@@ -122,13 +127,13 @@ class ForwardDynamics:
         if self._has_friction:
             tau = tau + self.friction_torque(v)
         data = self.data if threading.get_ident() == self._owner else self._thread_data()
-        return np.asarray(pin.aba(self.model, data, q, v, tau))
+        return np.asarray(pin.aba(self._model, data, q, v, tau))
 
     def _thread_data(self) -> Any:
         """The calling thread's ``pin.Data`` (made on its first call)."""
         data = self._local.__dict__.get("data")
         if data is None:
-            data = self._local.data = self.model.createData()
+            data = self._local.data = self._model.createData()
         return data
 
 

@@ -78,7 +78,7 @@ def semi_implicit_euler_step(
     """
     a = dynamics.acceleration(q, v, _torque(tau, t, q, v))
     v_next = v + dt * a
-    q_next = pin.integrate(dynamics.model, q, dt * v_next)
+    q_next = pin.integrate(dynamics._model, q, dt * v_next)
     return IntegratorStep(np.asarray(q_next), v_next, a)
 
 
@@ -104,7 +104,7 @@ def rk4_step(
         tau: torques (nv) [N m] held over the step, or ``tau(t, q, v)`` evaluated per stage.
         t: time at the start of the step [s].
     """
-    model = dynamics.model
+    model = dynamics._model
     acc = dynamics.acceleration
     h = 0.5 * dt
     a1 = acc(q, v, _torque(tau, t, q, v))

@@ -128,7 +128,7 @@ class CollisionDistance(Feature):
         self._world_version = robot.world.version
 
     def _results(self, state: State) -> list[Any]:
-        if self.robot.world.version != self._world_version:
+        if self.robot._world._version != self._world_version:
             self._follow_world()
         results = state.distance_results()
         return [results[k] for k in self._pairs]

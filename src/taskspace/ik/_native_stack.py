@@ -640,7 +640,7 @@ class NativeWeightedStack:
     def _sync_rows(self) -> None:
         """Send the rows' declarations again when they or the obstacle world changed."""
         robot = self.robot
-        version = robot.world.version
+        version = robot._world._version  # per step: the attributes, not the properties
         if version == self._world_version:
             for declare, before in zip(self._declare, self._declared):
                 if declare() is not before:

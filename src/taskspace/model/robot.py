@@ -180,7 +180,6 @@ class Robot:
     Attributes:
         name: robot name.
         end_effectors: names of the end-effector frames.
-        world: the obstacles (also present in ``collision_model``).
         passive_joints: names of the unactuated joints (effort limit 0).
         pruned_collision_pairs: collision pairs disabled on load and why.
         massless_joints: joints that move no mass and were given an armature (see the
@@ -216,15 +215,20 @@ class Robot:
         self._model = model.copy()
         self._visual_model = visual_model.copy()
         self._collision_model = collision_model.copy()
+        _clone_shapes(self._collision_model)  # pin's copy shares the coal shapes
         model, collision_model = self._model, self._collision_model
         self._model_copy: pin.Model | None = None  # what the public accessors hand out
         self._model_copy_version = 0
         self._collision_copy: pin.GeometryModel | None = None
         self._collision_copy_stamp = (0, 0)
+        # clones of the costly shapes (meshes...) kept for the next copies, by geometry name
+        self._shape_clones: dict[str, Any] = {}
+        self._model_armature = np.asarray(model.armature, dtype=float).copy()  # before the rule
         self._visual_copy: pin.GeometryModel | None = None
         self._geometry_edits = 0  # edit_collision_model calls (caches of shapes follow it)
         self.srdf_path = srdf_path
-        self.world = World()
+        self._world = World()
+        self._world._owner = self  # its add/remove/clear go through this robot
         self.pruned_collision_pairs = PrunedCollisionPairs()
         self._robot_geometry_count = collision_model.ngeoms
         self._frame_ids = {f.name: i for i, f in enumerate(model.frames)}
@@ -761,9 +765,15 @@ class Robot:
         self._effort_limits.flags.writeable = False
         self._velocity_limits.flags.writeable = False
 
-    def _setup_massless_joints(self) -> None:
-        """Give joints that move no mass a small armature (see the module docstring)."""
+    def _setup_massless_joints(self, stacklevel: int = 3) -> None:
+        """Give joints that move no mass a small armature (see the module docstring).
+
+        Starts from the model's own armature (``_model_armature``: what the description or
+        the last :meth:`edit_model` gave, without what this rule added), so the rule gives
+        the same robot on load and after an edit.
+        """
         model = self._model
+        model.armature = self._model_armature.copy()
         M = pin.crba(model, model.createData(), self._q_default)
         diagonal = np.diag(M).copy()
         scale = float(np.max(diagonal)) if diagonal.size else 0.0
@@ -784,7 +794,7 @@ class Robot:
                 f"matrix: forward dynamics would be undefined); they get a rotor inertia "
                 f"(armature) of {added:.3g} kg m^2 (1 % of the smallest other diagonal entry)",
                 ModelWarning,
-                stacklevel=3,
+                stacklevel=stacklevel,
             )
         self.massless_joints = tuple(names)
 
@@ -880,14 +890,20 @@ class Robot:
         Handed out as :attr:`model` is: a new copy after each change of the robot's world
         (obstacles, collision pairs, :meth:`edit_collision_model`, :meth:`edit_model`), the
         same object in between. Do not edit it (an edit changes nothing of the robot: use
-        :meth:`edit_collision_model`, the obstacle and collision-pair methods). The copies
-        share the coal shapes with the robot: never modify a shape in place (assign a new one
-        in :meth:`edit_collision_model`).
+        :meth:`edit_collision_model`, the obstacle and collision-pair methods). Its coal shapes
+        are clones of the robot's, so a shape modified in place (``geometry.halfSide[:] = ...``,
+        ``geometry.radius = ...``, a mesh's ``vertices()``) does not reach the robot either.
+        Clones of meshes (BVH models, convex polytopes, height fields, octrees) are made once
+        and given to the later copies while they equal the robot's shape (coal's ``==``), so
+        such a renewal costs a comparison of the meshes instead of their clone (G1: about
+        15 ms instead of 82 ms; primitives are cloned each time, microseconds).
         """
         copy = self._collision_copy
         stamp = (self.world.version, self._geometry_edits)
         if copy is None or self._collision_copy_stamp != stamp:
-            copy = self._collision_copy = self._collision_model.copy()
+            copy = self._collision_model.copy()
+            self._shape_clones = _clone_shapes(copy, self._shape_clones)
+            self._collision_copy = copy
             self._collision_copy_stamp = stamp
         return copy
 
@@ -945,6 +961,13 @@ class Robot:
         ``upperPositionLimit``, ``velocityLimit``, ``effortLimit`` (checked as
         :meth:`set_limits` checks them).
 
+        The rule for joints that move no mass (module docstring) runs again on the edited
+        values, so the robot is the one a model with these values loads as: a joint made
+        massless (its bodies' inertias zero, or its armature set to 0) gets the rule's
+        armature and is listed in :attr:`massless_joints`; an armature the rule added goes
+        back to the model's own value when the joint moves mass again (unless the edit set
+        that entry).
+
         Raises:
             InvalidInputError: anything else changed (joints, frames, names, parents, sizes,
                 other fields: build a new :class:`Robot`), or limits :meth:`set_limits`
@@ -980,7 +1003,15 @@ class Robot:
                 limits[key] = value
         if limits:
             self.set_limits(**limits)  # checks them all before it writes anything
+        # the massless-joint rule runs again from the model's own armature: an entry the
+        # rule added and the edit left alone is the model's value again (as on load)
+        current = np.asarray(original.armature, dtype=float)
+        requested = np.asarray(edited.armature, dtype=float)
+        added_by_rule = current != self._model_armature
+        untouched = requested == current
         _copy_model_values(edited, original)
+        self._model_armature = np.where(added_by_rule & untouched, self._model_armature, requested)
+        self._setup_massless_joints(stacklevel=5)
         self._data = original.createData()
         self._version = next(_ROBOT_VERSIONS)
         self.world.mark_changed()  # collision answers depend on the kinematics
@@ -1004,6 +1035,11 @@ class Robot:
         configuration space, planner, state and collision feature follows. An exception in
         the block leaves the robot unchanged.
 
+        The block's copy holds clones of the robot's shapes: a shape may be modified in place
+        in the block (``geom.geometryObjects[i].geometry.radius = ...``) or replaced; what
+        is written into the robot is a clone of each changed shape, so the shapes the block
+        saw stay the caller's.
+
         Editable: each robot geometry's ``placement``, ``geometry`` (a new coal shape),
         ``disableCollision``, ``meshScale``, ``meshColor``, ``meshPath``, ``meshMaterial``,
         ``meshTexturePath``, ``overrideMaterial``, and the collision pairs (any, obstacle
@@ -1015,6 +1051,7 @@ class Robot:
                 :meth:`remove_obstacle`). The robot is then unchanged.
         """
         edited = self._collision_model.copy()
+        _clone_shapes(edited)  # shapes modified in place in the block stay out of the robot
         yield edited
         self._adopt_collision_model(edited)
 
@@ -1372,10 +1409,22 @@ class Robot:
         """Number of robot geometries (the first entries of ``collision_model``)."""
         return self._robot_geometry_count
 
+    @property
+    def world(self) -> World:
+        """The robot's obstacles (also in ``collision_model``); a read-only attribute.
+
+        Its ``add``, ``remove`` and ``clear`` are :meth:`add_obstacle`,
+        :meth:`remove_obstacle` and :meth:`clear_obstacles`: the robot's collision model
+        always holds exactly the world's obstacles.
+        """
+        return self._world
+
     def add_obstacle(self, obstacle: Obstacle) -> None:
         """Add a fixed obstacle; it is checked against every robot geometry."""
-        self.world.add(obstacle)
-        geom = pin.GeometryObject(obstacle.name, 0, 0, obstacle.placement, obstacle.geometry)
+        self._world._add(obstacle)
+        # a clone: the obstacle's own shape modified in place cannot reach the robot
+        shape = obstacle.geometry.clone()
+        geom = pin.GeometryObject(obstacle.name, 0, 0, obstacle.placement, shape)
         geom.meshColor = np.asarray(obstacle.color, dtype=float)
         gid = self._collision_model.addGeometryObject(geom)
         for rid in range(self._robot_geometry_count):
@@ -1390,7 +1439,7 @@ class Robot:
 
     def remove_obstacle(self, name: str) -> Obstacle:
         """Remove the obstacle ``name`` (raises UnknownNameError listing the obstacles)."""
-        obstacle = self.world.remove(name)
+        obstacle = self._world._remove(name)
         self._collision_model.removeGeometryObject(name)
         self._collision_data = self._collision_model.createData()
         return obstacle
@@ -1399,7 +1448,7 @@ class Robot:
         """Remove every obstacle."""
         for obstacle in list(self.world):
             self._collision_model.removeGeometryObject(obstacle.name)
-            self.world.remove(obstacle.name)
+            self._world._remove(obstacle.name)
         self._collision_data = self._collision_model.createData()
 
     def disable_collision_pairs(self, pairs: Iterable[tuple[str, str]]) -> None:
@@ -1856,10 +1905,57 @@ def _copy_geometry_values(
     for i in range(robot_geometries):
         obj, new = target.geometryObjects[i], source.geometryObjects[i]
         for field in _EDITABLE_GEOMETRY_FIELDS:
-            setattr(obj, field, getattr(new, field))
+            if field != "geometry":
+                setattr(obj, field, getattr(new, field))
+        if not _same_shape(obj.geometry, new.geometry):
+            obj.geometry = new.geometry.clone()  # the caller's shape stays the caller's
     target.removeAllCollisionPairs()
     for pair in source.collisionPairs:
         target.addCollisionPair(pin.CollisionPair(pair.first, pair.second))
+
+
+_COSTLY_SHAPES = (
+    coal.BVHModelBase,
+    coal.ConvexBase,
+    coal.HeightFieldOBBRSS,
+    coal.HeightFieldAABB,
+    coal.OcTree,
+)
+"""Shapes whose clone costs more than a comparison (meshes: G1's clones 82 ms, ``==`` 15 ms).
+
+Every coal shape can be modified in place from Python (``Box.halfSide[:]``, ``Sphere.radius``,
+``BVHModel.vertices()[...]``, ``Convex.points()[...]``, ``HeightField.updateHeights``,
+``OcTree.setOccupancyThres``, ``loadFromBinary`` on any shape...), and ``GeometryModel.copy()``
+shares them: whatever the robot hands out holds clones instead (:func:`_clone_shapes`).
+"""
+
+
+def _same_shape(a: Any, b: Any) -> bool:
+    """The same coal shape by content (coal's ``==``; shapes of other types differ)."""
+    return type(a) is type(b) and bool(a == b)
+
+
+def _clone_shapes(
+    geometry_model: pin.GeometryModel, kept: dict[str, Any] | None = None
+) -> dict[str, Any]:
+    """Give every geometry object of ``geometry_model`` a clone of its shape, in place.
+
+    With ``kept`` (the clones of :data:`_COSTLY_SHAPES` returned by the previous call, by
+    geometry name), a kept clone that still equals the shape by content is used again
+    instead of a new clone. Returns the clones of costly shapes now in ``geometry_model``.
+    """
+    clones: dict[str, Any] = {}
+    for obj in geometry_model.geometryObjects:
+        shape = obj.geometry
+        if kept is not None and isinstance(shape, _COSTLY_SHAPES):
+            clone = kept.get(obj.name)
+            if clone is None or not _same_shape(clone, shape):
+                clone = shape.clone()
+            clones[obj.name] = clone
+        else:
+            clone = shape.clone()
+        obj.geometry = clone
+    return clones
 
 
 def configuration_from_joint_values(robot: Robot, values: dict[str, float]) -> FloatArray:

@@ -378,12 +378,17 @@ class State:
 
     # ------------------------------------------------------------------ collisions
     def compute_distances(self) -> None:
-        """Run coal distance queries for every collision pair (once per update)."""
-        if self._distances_done:
-            return
+        """Run coal distance queries for every collision pair (once per update and world).
+
+        Also after a change of the robot's world (obstacles, collision pairs,
+        :meth:`Robot.edit_collision_model`) since the last queries, without an update: the
+        world's version is compared first.
+        """
         robot = self._robot
+        version = robot.world._version  # the property costs more than the check itself
+        if self._distances_done and version == self._collision_version:
+            return
         geom = robot._collision_model
-        version = robot.world.version
         if (
             version != self._collision_version
             or len(self._collision_data.oMg) != geom.ngeoms

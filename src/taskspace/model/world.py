@@ -78,8 +78,10 @@ class Obstacle:
 
     Its fields cannot be reassigned: to move an obstacle, remove it and add a new one
     (``robot.clear_obstacles()`` / ``robot.add_obstacle(...)``), which changes the world's
-    :attr:`World.version`. Do not modify ``placement`` or ``geometry`` in place either: the
-    robot's collision model and the checkers built from it hold their own copies.
+    :attr:`World.version`. :meth:`Robot.add_obstacle <taskspace.model.Robot.add_obstacle>`
+    puts a clone of ``geometry`` (and a copy of ``placement``) into the robot's collision
+    model, so modifying them in place afterwards does not change the robot's collision
+    answers; it changes this object only (and what it is later passed to), so do not.
 
     Attributes:
         name: unique name.
@@ -151,8 +153,10 @@ class World:
     def __init__(self, obstacles: Sequence[Obstacle] = ()) -> None:
         self._obstacles: dict[str, Obstacle] = {}
         self._version = next(_VERSIONS)
+        # the robot whose collision model holds these obstacles (robot.world), if any
+        self._owner: Any = None
         for obstacle in obstacles:
-            self.add(obstacle)
+            self._add(obstacle)
 
     @property
     def version(self) -> int:
@@ -164,7 +168,17 @@ class World:
         self._version = next(_VERSIONS)
 
     def add(self, obstacle: Obstacle) -> None:
-        """Add an obstacle; its name must be new."""
+        """Add an obstacle; its name must be new.
+
+        On a robot's world (``robot.world``) this is ``robot.add_obstacle(obstacle)``: the
+        robot's collision model gets it too.
+        """
+        if self._owner is not None:
+            self._owner.add_obstacle(obstacle)
+            return
+        self._add(obstacle)
+
+    def _add(self, obstacle: Obstacle) -> None:
         if not isinstance(obstacle, Obstacle):
             raise InvalidInputError(
                 f"expected an Obstacle (Obstacle.box, .sphere, .cylinder, .mesh), got "
@@ -179,7 +193,12 @@ class World:
         self._version = next(_VERSIONS)
 
     def remove(self, name: str) -> Obstacle:
-        """Remove and return the obstacle called ``name``."""
+        """Remove and return the obstacle called ``name`` (on a robot's world: through it)."""
+        if self._owner is not None:
+            return self._owner.remove_obstacle(name)  # type: ignore[no-any-return]
+        return self._remove(name)
+
+    def _remove(self, name: str) -> Obstacle:
         if name not in self._obstacles:
             raise UnknownNameError("obstacle", name, self._obstacles)
         obstacle = self._obstacles.pop(name)
@@ -187,7 +206,10 @@ class World:
         return obstacle
 
     def clear(self) -> None:
-        """Remove every obstacle."""
+        """Remove every obstacle (on a robot's world: through it)."""
+        if self._owner is not None:
+            self._owner.clear_obstacles()
+            return
         self._obstacles.clear()
         self._version = next(_VERSIONS)
 

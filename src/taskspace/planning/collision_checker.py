@@ -304,10 +304,10 @@ class CollisionChecker:
         collision model.
         """
         robot = self.robot
-        world = robot.world
+        world = robot._world  # per query: the attributes, not the properties
         geom = robot._collision_model
         if (
-            world.version != self._world_version
+            world._version != self._world_version
             or world is not self._world
             or geom is not self._geometry_model
             or geom.ngeoms != self._ngeoms

@@ -472,7 +472,7 @@ class ConfigurationSpace:
         """``q (+) step`` (``q + step`` in the box, Pinocchio's ``integrate`` on a manifold)."""
         if self._manifold is None:
             return np.asarray(q + step, dtype=np.float64)
-        return np.asarray(pin.integrate(self._manifold.model, q, step), dtype=np.float64)
+        return np.asarray(pin.integrate(self._manifold._model, q, step), dtype=np.float64)
 
     def interpolate(self, q0: FloatArray, q1: FloatArray, t: Any) -> FloatArray:
         """Points of the local path ``q0 -> q1`` at fractions ``t`` (shape (len(t), d)).

@@ -144,7 +144,8 @@ class JointManifold:
     ) -> None:
         robot = model if isinstance(model, Robot) else None
         model = model._model if isinstance(model, Robot) else model
-        self.model = model
+        self._model = model  # a robot's own model: never handed out (see ``model``)
+        self._robot = robot
         self.nq, self.nv = int(model.nq), int(model.nv)
         blocks = []
         for j in range(1, model.njoints):
@@ -216,7 +217,7 @@ class JointManifold:
 
     def _derive(self) -> None:
         """The sampling box from the model's current limits (again after set_limits)."""
-        model = self.model
+        model = self._model
         model_lower = np.array(model.lowerPositionLimit, dtype=np.float64)
         model_upper = np.array(model.upperPositionLimit, dtype=np.float64)
         lower, upper = model_lower.copy(), model_upper.copy()
@@ -259,7 +260,7 @@ class JointManifold:
             return
         assert self._snapshot is not None
         lo, hi = self._snapshot
-        model = self.model
+        model = self._model
         if not (
             np.array_equal(lo, model.lowerPositionLimit)
             and np.array_equal(hi, model.upperPositionLimit)
@@ -286,6 +287,14 @@ class JointManifold:
         """Upper corner of the sampling box (size nq, read-only) [rad or m]."""
         self._sync()
         return self._upper
+
+    @property
+    def model(self) -> pin.Model:
+        """The Pinocchio model: ``robot.model`` (the robot's read-only copy) for a robot.
+
+        Edit a robot through :meth:`Robot.edit_model`; the manifold follows its version.
+        """
+        return self._model if self._robot is None else self._robot.model
 
     @property
     def model_version(self) -> int | None:
@@ -339,7 +348,7 @@ class JointManifold:
         ts = np.atleast_1d(np.asarray(t, dtype=np.float64))
         if self.is_euclidean:
             return np.asarray(q0 + ts[:, None] * (q1 - q0), dtype=np.float64)
-        model = self.model
+        model = self._model
         out = np.empty((ts.size, self.nq))
         for k, tk in enumerate(ts.tolist()):
             out[k] = pin.interpolate(model, q0, q1, tk)

@@ -172,8 +172,9 @@ def check_roadmap_world(space: ConfigurationSpace, roadmap: Roadmap) -> None:
 
     Raises:
         StaleModelError: ``roadmap.model_version`` differs from ``space.model_version``
-            (:meth:`Robot.set_limits` was called since the roadmap was built): its nodes and
-            edges may be outside the new limits; build a new roadmap.
+            (:meth:`Robot.set_limits` or :meth:`Robot.edit_model` was called since the
+            roadmap was built): its nodes and edges may be outside the new limits or collide;
+            build a new roadmap.
         PlanningError: ``roadmap.world_version`` differs from ``space.world_version`` (an
             obstacle was added, removed or moved, or the collision pairs changed since the
             roadmap was built): its edges may now collide; build a new roadmap.
@@ -182,7 +183,8 @@ def check_roadmap_world(space: ConfigurationSpace, roadmap: Roadmap) -> None:
     if roadmap.model_version != model_now:
         raise StaleModelError(
             f"the roadmap was built for version {roadmap.model_version} of the robot's limits "
-            f"but the space is now at version {model_now} (Robot.set_limits): its nodes may "
+            f"but the space is now at version {model_now} (Robot.set_limits or "
+            "Robot.edit_model): its nodes may "
             "be outside the new limits; build a new roadmap (build_prm / build_lazy_prm / "
             "prm_star) for the current limits",
             -1 if roadmap.model_version is None else roadmap.model_version,

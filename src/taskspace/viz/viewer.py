@@ -297,7 +297,15 @@ class Viewer:
     # ------------------------------------------------------------------ robot
     @property
     def geometry_model(self) -> pin.GeometryModel:
-        """The displayed geometry model (robot geometries only)."""
+        """The displayed geometry model: ``robot.visual_model`` or ``robot.collision_model``.
+
+        The robot's read-only copy (edit the robot through
+        :meth:`~taskspace.model.Robot.edit_collision_model`).
+        """
+        robot = self._require_robot()
+        return robot.visual_model if self.geometry == "visual" else robot.collision_model
+
+    def _geometry_model(self) -> pin.GeometryModel:
         robot = self._require_robot()
         return robot._visual_model if self.geometry == "visual" else robot._collision_model
 
@@ -308,7 +316,7 @@ class Viewer:
 
     def _robot_geometries(self) -> list[pin.GeometryObject]:
         robot = self._require_robot()
-        objs = list(self.geometry_model.geometryObjects)
+        objs = list(self._geometry_model().geometryObjects)
         if self.geometry == "collision":
             objs = objs[: robot.robot_geometry_count]
         return objs
@@ -332,7 +340,7 @@ class Viewer:
     def _placements(self, q: FloatArray) -> list[pin.SE3]:
         robot = self._require_robot()
         data = robot._model.createData()
-        gmodel = self.geometry_model
+        gmodel = self._geometry_model()
         gdata = gmodel.createData()
         pin.forwardKinematics(robot._model, data, q)
         pin.updateGeometryPlacements(robot._model, data, gmodel, gdata)

@@ -39,6 +39,7 @@ from taskspace.learning.envs.robot_env import (
     one_thread_at_a_time,
     snap_roundoff,
 )
+from taskspace.model.versioning import ModelFollower
 from taskspace.optimal_control.problems import cartpole_acceleration
 
 THETA_LIMIT = 12 * 2 * np.pi / 360
@@ -159,8 +160,13 @@ class CartPoleEnv(RobotEnv):
         self.action_space, self.observation_space = _spaces()
         self.q = np.zeros(2)
         self.v = np.zeros(2)
-        self.dynamics = CartPoleDynamics.from_model(self.model, self.data)
-        """Closed-form ABA of the model (``None``: stepped with ``pin.aba``)."""
+        self.dynamics: CartPoleDynamics | None = None
+        """Closed-form ABA of the model (``None``: stepped with ``pin.aba``); derived again
+        after ``robot.edit_model`` (the robot's version)."""
+        self._dynamics_follower = ModelFollower(self.robot, "CartPoleEnv", self._derive_dynamics)
+
+    def _derive_dynamics(self) -> None:
+        self.dynamics = CartPoleDynamics.from_model(self._model, self.data)
 
     def _obs(self) -> np.ndarray:
         return np.array([self.q[0], self.v[0], self.q[1], self.v[1]], dtype=np.float32)
@@ -188,6 +194,7 @@ class CartPoleEnv(RobotEnv):
         if not valid:
             raise InvalidInputError(f"action must be 0 or 1, got {action!r}")
         force = self.force if int(action) == 1 else -self.force
+        self._dynamics_follower.sync()  # one comparison unless the robot was edited
         if self.dynamics is not None:
             q, v = self.dynamics.integrate(
                 self.q.tolist(), self.v.tolist(), force, self.dt / self.substeps, self.substeps

@@ -36,6 +36,7 @@ from taskspace.learning.envs.robot_env import (
     one_thread_at_a_time,
     snap_roundoff,
 )
+from taskspace.model.versioning import ModelFollower
 
 _PI = math.pi
 _TWO_PI = 2.0 * math.pi
@@ -139,8 +140,13 @@ class PendulumEnv(RobotEnv):
         high = np.array([1.0, 1.0, self.max_speed], dtype=np.float32)
         self.observation_space = spaces.Box(-high, high, dtype=np.float32)
         self.state = np.zeros(2)
-        self.dynamics = RevoluteJointDynamics.from_model(self.model, self.data)
-        """Closed-form ABA of the model (``None``: stepped with ``pin.aba``)."""
+        self.dynamics: RevoluteJointDynamics | None = None
+        """Closed-form ABA of the model (``None``: stepped with ``pin.aba``); derived again
+        after ``robot.edit_model`` (the robot's version)."""
+        self._dynamics_follower = ModelFollower(self.robot, "PendulumEnv", self._derive_dynamics)
+
+    def _derive_dynamics(self) -> None:
+        self.dynamics = RevoluteJointDynamics.from_model(self._model, self.data)
 
     @property
     def q(self) -> np.ndarray:
@@ -171,6 +177,7 @@ class PendulumEnv(RobotEnv):
         th, w = self.state.tolist()
         d = (th - _PI + _PI) % _TWO_PI - _PI  # wrap(th - pi)
         reward = -(d * d + 0.1 * w * w + 0.001 * u * u)
+        self._dynamics_follower.sync()  # one comparison unless the robot was edited
         if self.dynamics is not None:
             th, w = self.dynamics.integrate(
                 th, w, u, self.dt / self.substeps, self.substeps, self.max_speed

@@ -144,12 +144,17 @@ class RobotEnv(gym.Env[np.ndarray, Any]):
     def __init__(self, robot_name: str, dt: float, substeps: int, render_mode: str | None) -> None:
         self.render_mode = check_render_mode(render_mode, RENDER_MODES)
         self.robot = Robot.load(robot_name)
-        self.model = self.robot._model
-        self.data = self.model.createData()
+        self._model = self.robot._model  # the robot's own: never handed out (see ``model``)
+        self.data = self._model.createData()
         self.dt = float(dt)
         self.substeps = int(substeps)
         self._figure: Any = None
         self._window: Any = None
+
+    @property
+    def model(self) -> pin.Model:
+        """``robot.model``: the robot's read-only copy (edit it with ``robot.edit_model()``)."""
+        return self.robot.model
 
     def _integrate(
         self, q: np.ndarray, v: np.ndarray, tau: np.ndarray, max_speed: float = np.inf
@@ -157,7 +162,7 @@ class RobotEnv(gym.Env[np.ndarray, Any]):
         """``substeps`` steps ``v += h ABA(q, v, tau)`` (clipped to ``max_speed``), ``q += h v``."""
         h = self.dt / self.substeps
         for _ in range(self.substeps):
-            a = pin.aba(self.model, self.data, q, v, tau)
+            a = pin.aba(self._model, self.data, q, v, tau)
             v = v + h * a
             if max_speed < np.inf:
                 v = np.minimum(np.maximum(v, -max_speed), max_speed)  # np.clip: 10x slower
