@@ -379,6 +379,43 @@ def test_pruning_also_applies_with_an_srdf(tiny_urdf, tmp_path) -> None:  # type
     assert ("l1_0", "l3_0") not in robot.collision_pairs
 
 
+def _reference_self_collision_rate(robot: Robot, samples: int, seed: int) -> float:
+    """The same random configurations as the load-time estimate, counted by Pinocchio."""
+    model, geometry = robot.model, robot.collision_model  # the pruned pairs, no obstacles
+    data, gdata = model.createData(), geometry.createData()
+    rng = np.random.default_rng(seed + 1)
+    hits = 0
+    for _ in range(samples):
+        q = robot.random_configuration(rng)
+        hits += bool(pin.computeCollisions(model, data, geometry, gdata, q, True))
+    return hits / samples
+
+
+@pytest.mark.parametrize(("name", "warned"), [("icub_reduced", True), ("talos", False)])
+def test_self_collision_rate_after_pruning_is_measured_and_warned(name: str, warned: bool) -> None:
+    """icub's pairs each collide in < 95 % of random configurations, the robot in all of them."""
+    import warnings
+
+    from taskspace.errors import ModelWarning
+    from taskspace.model import CollisionPruningOptions
+
+    with warnings.catch_warnings(record=True) as record:
+        warnings.simplefilter("always")
+        robot = Robot.load(name)
+    said = [str(w.message) for w in record if issubclass(w.category, ModelWarning)]
+    flagged = [m for m in said if "in self-collision after pruning" in m]
+    pruned = robot.pruned_collision_pairs
+    options = CollisionPruningOptions()
+    assert pruned.rate_samples == 20
+    reference = _reference_self_collision_rate(robot, pruned.rate_samples, options.seed)
+    assert pruned.self_collision_rate == reference
+    assert bool(flagged) == warned
+    if warned:
+        assert reference >= options.fraction and "most often in contact" in flagged[0]
+    else:
+        assert 0.0 < reference < options.fraction
+
+
 def test_missing_effort_is_unlimited_with_a_warning(tiny_urdf) -> None:  # type: ignore[no-untyped-def]
     from taskspace.errors import ModelWarning
 

@@ -18,7 +18,11 @@ Models are checked on load (:func:`prune_collision_pairs`, :class:`CollisionPrun
   is given;
 
 each disabled pair of the last two rules is reported with a :class:`ModelWarning` and listed in
-:attr:`Robot.pruned_collision_pairs`.
+:attr:`Robot.pruned_collision_pairs`. The pairs left are then tried on 20 random configurations:
+when at least ``fraction`` of them are still in self-collision (no single pair is, but the robot
+is: icub, romeo, centauro), a :class:`ModelWarning` names the pairs most often in contact, since
+sampling planners would find almost no free space
+(:attr:`PrunedCollisionPairs.self_collision_rate`).
 
 Missing limits: an effort limit of 0 in the description (URDF ``effort="0"``, or none) is read
 as *unknown* and the joint is treated as actuated without limit (``inf``), with a
@@ -153,6 +157,11 @@ class PrunedCollisionPairs:
         always: in collision in at least ``fraction`` of ``samples`` random configurations.
         samples: number of random configurations of the last rule.
         fraction: its threshold.
+        self_collision_rate: after pruning, the fraction of ``rate_samples`` random
+            configurations within the joint limits that are still in self-collision (NaN
+            when not estimated). Near 1 the sampling planners find almost no free space;
+            a :class:`ModelWarning` says so on load.
+        rate_samples: number of random configurations of that estimate.
     """
 
     adjacent: tuple[tuple[str, str], ...] = ()
@@ -160,6 +169,8 @@ class PrunedCollisionPairs:
     always: tuple[tuple[str, str], ...] = ()
     samples: int = 0
     fraction: float = 1.0
+    self_collision_rate: float = math.nan
+    rate_samples: int = 0
 
 
 class Robot:
@@ -1788,6 +1799,9 @@ def prune_collision_pairs(
                     survivors.append(c)
             candidates = survivors
         always = candidates
+    kept = [c for c in remaining if c not in set(always)]  # (before the pairs are removed)
+    rate_samples = min(_RATE_SAMPLES, options.samples) if kept else 0
+    rate, common = _self_collision_rate(robot, geom_data, kept, index, rate_samples, options.seed)
     for first, second in default + always:
         collision.removeCollisionPair(pin.CollisionPair(first, second))
     robot._collision_data = collision.createData()
@@ -1798,6 +1812,8 @@ def prune_collision_pairs(
         always=tuple(_pair_names(collision, a, b) for a, b in always),
         samples=options.samples,
         fraction=options.fraction,
+        self_collision_rate=rate,
+        rate_samples=rate_samples,
     )
     robot.pruned_collision_pairs = result
     if adjacent:
@@ -1822,7 +1838,65 @@ def prune_collision_pairs(
             ModelWarning,
             stacklevel=3,
         )
+    if rate_samples and rate >= options.fraction:
+        names = [_pair_names(collision, a, b) for a, b in common]
+        warnings.warn(
+            f"robot '{robot.name}': {rate:.0%} of {rate_samples} random configurations within "
+            "the joint limits are in self-collision after pruning (no single pair reaches "
+            f"{options.fraction:.0%}; most often in contact: {names}): sampling planners will "
+            "find little free space. Check the collision geometry, disable pairs that cannot "
+            "touch (an SRDF, or Robot.edit_collision_model), or narrow the joint limits "
+            "(Robot.set_limits)",
+            ModelWarning,
+            stacklevel=3,
+        )
     return result
+
+
+# Random configurations of the self-collision estimate of prune_collision_pairs.
+_RATE_SAMPLES = 20
+
+
+def _self_collision_rate(
+    robot: Robot,
+    geom_data: pin.GeometryData,
+    pairs: list[tuple[int, int]],
+    index: dict[tuple[int, int], int],
+    samples: int,
+    seed: int,
+) -> tuple[float, list[tuple[int, int]]]:
+    """Fraction of ``samples`` random configurations with a pair of ``pairs`` in collision.
+
+    Configurations from :meth:`Robot.random_configuration` with a generator of its own
+    (``seed + 1``: other samples than the "always" rule's). Each configuration stops at its
+    first colliding pair, so a robot that is mostly free costs ``samples`` full checks and a
+    robot that mostly collides much less. Returns the rate (NaN for no samples) and, when
+    every sample collides, the (at most five) pairs in collision most often over them.
+    """
+    if samples <= 0:
+        return math.nan, []
+    model, collision = robot._model, robot._collision_model
+    data = model.createData()
+    rng = np.random.default_rng(seed + 1)
+    configurations = [robot.random_configuration(rng) for _ in range(samples)]
+    hit = 0
+    order = list(pairs)
+    for q in configurations:
+        pin.updateGeometryPlacements(model, data, collision, geom_data, q)
+        for k, pair in enumerate(order):
+            if pin.computeCollision(collision, geom_data, index[pair]):
+                hit += 1
+                order.insert(0, order.pop(k))  # the last colliding pair first (cheap when bad)
+                break
+    rate = hit / samples
+    if hit < samples:
+        return rate, []
+    counts = np.zeros(len(pairs))
+    for q in configurations:
+        pin.updateGeometryPlacements(model, data, collision, geom_data, q)
+        counts += [bool(pin.computeCollision(collision, geom_data, index[c])) for c in pairs]
+    top = np.argsort(-counts, kind="stable")[:5]
+    return rate, [pairs[int(k)] for k in top]
 
 
 def _convexify(geometry_model: pin.GeometryModel) -> None:
