@@ -28,6 +28,7 @@ call apart from the configuration space (one space per thread) they are given; a
 
 from __future__ import annotations
 
+import itertools
 import time
 from dataclasses import dataclass
 
@@ -123,11 +124,7 @@ def smooth_bspline(
     while passes < passes_cap and current.shape[0] > 2 and time.perf_counter() <= deadline:
         passes += 1
         length0 = space.path_length(current)
-        current = (
-            interpolate(current, step)
-            if space.manifold is None
-            else space.interpolate_path(current, step)
-        )
+        current = _densify(space, current, step)
         for parity in (1, 2):
             for i in range(parity, current.shape[0] - 1, 2):
                 if time.perf_counter() > deadline:
@@ -157,7 +154,7 @@ def smooth_bspline(
                     rejected += 1
         if length0 - space.path_length(current) <= opts.min_change * length0:
             break
-    if not space.path_valid(current):  # every move was checked; this is the final guard
+    if not space.path_valid(current):  # every piece and move was checked; the final guard
         raise PlanningError(
             "smooth_bspline produced a path that is not free at the space's resolution; this "
             "is a bug, please report it (the input path was free)"
@@ -172,3 +169,25 @@ def smooth_bspline(
         collision_checks=space.checks - checks0,
         time_s=time.perf_counter() - t0,
     )
+
+
+def _densify(space: ConfigurationSpace, path: FloatArray, step: float) -> FloatArray:
+    """``path`` with points inserted every ``step`` at most, on segments whose pieces are free.
+
+    A segment free at the space's resolution need not have free pieces: the new waypoints and
+    the pieces' own points (``k / n`` of each piece) are not the points the segment's check
+    visited (a thin obstacle between two of them). A segment with a colliding new waypoint or
+    piece is kept whole.
+    """
+    out = [path[:1]]
+    for a, b in itertools.pairwise(path):
+        pair = np.stack([a, b])
+        seg = (
+            interpolate(pair, step)
+            if space.manifold is None
+            else space.interpolate_path(pair, step)
+        )
+        if seg.shape[0] > 2 and not space.path_valid(seg):  # new waypoints and pieces
+            seg = pair
+        out.append(seg[1:])
+    return np.vstack(out)
