@@ -367,7 +367,7 @@ def plot(db: sqlite3.Connection, out: Path) -> list[Path]:
             (scenario,),
         ).fetchall()
         planners = list(dict.fromkeys(r[1] for r in rows))
-        fig, axes = plt.subplots(1, 4, figsize=(18, 4))
+        fig, axes = plt.subplots(1, 4, figsize=(20, 4.8))
         success = [np.mean([r[2] for r in rows if r[1] == pl]) for pl in planners]
         axes[0].bar(planners, success)
         axes[0].set_ylim(0, 1.05)
@@ -398,12 +398,18 @@ def plot(db: sqlite3.Connection, out: Path) -> list[Path]:
             scale = rows[0][5] or 1.0
             with warnings.catch_warnings():  # all-NaN columns: no solution yet at that time
                 warnings.simplefilter("ignore", RuntimeWarning)
-                axes[3].plot(grid, np.nanmedian(np.array(curves), axis=0) / scale, label=pl)
+                median = np.nanmedian(np.array(curves), axis=0) / scale
+                style = "--" if pl.startswith("ompl") else "-"  # 17 curves, 10 colours
+                axes[3].plot(grid, median, style, label=pl)
         axes[3].set_title("median best cost" + (" / optimum" if known else "") + " over time")
         axes[3].set_xlabel("t [s]")
-        axes[3].legend(fontsize=7)
+        axes[3].legend(
+            fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0)
+        )  # not on the curves
         for ax in axes[:3]:
-            ax.tick_params(axis="x", labelrotation=45, labelsize=7)
+            ax.tick_params(axis="x", labelrotation=60, labelsize=7)
+            for label in ax.get_xticklabels():
+                label.set_horizontalalignment("right")  # the label ends under its bar or box
         fig.suptitle(scenario)
         fig.tight_layout()
         path = out / f"{scenario}.png"

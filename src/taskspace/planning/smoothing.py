@@ -34,6 +34,7 @@ call apart from the configuration space (one space per thread) they are given; a
 
 from __future__ import annotations
 
+import itertools
 import time
 from dataclasses import dataclass
 
@@ -126,17 +127,50 @@ def smooth_bspline(
     _check_input(space, arr, "smooth_bspline")
     budget = Budget(passes_cap, limit, time.perf_counter())
     before = space.path_length(arr)
+    # Densified pieces are taken unchecked first (the final guard checks the whole path);
+    # a thin obstacle between the resolution's samples of an input segment can put a new
+    # waypoint or piece in collision: then the passes run again with every piece checked.
+    current, moved, rejected, passes = _passes(
+        space, arr, step, passes_cap, deadline, opts.min_change, checked=False
+    )
+    if not space.path_valid(current):
+        current, moved, rejected, passes = _passes(
+            space, arr, step, passes_cap, deadline, opts.min_change, checked=True
+        )
+        if not space.path_valid(current):  # every piece and move was checked: the guard
+            raise PlanningError(
+                "smooth_bspline produced a path that is not free at the space's resolution; "
+                "this is a bug, please report it (the input path was free)"
+            )
+    return SmoothingResult(
+        path=current,
+        length_before=before,
+        length_after=space.path_length(current),
+        passes=passes,
+        moved=moved,
+        rejected=rejected,
+        collision_checks=space.checks - checks0,
+        time_s=time.perf_counter() - t0,
+    )
+
+
+def _passes(
+    space: ConfigurationSpace,
+    arr: FloatArray,
+    step: float,
+    passes_cap: int | float,
+    deadline: float,
+    min_change: float,
+    checked: bool,
+) -> tuple[FloatArray, int, int, int]:
+    """The smoothing passes from ``arr``: (path, moved, rejected, passes)."""
     current = arr.copy()
     moved = rejected = passes = 0
     late = False
     while passes < passes_cap and current.shape[0] > 2 and not late and not budget.out_of_time():
         passes += 1
         length0 = space.path_length(current)
-        current = (
-            interpolate(current, step)
-            if space.manifold is None
-            else space.interpolate_path(current, step)
-        )
+        current = _densify(space, current, step, checked)
         for parity in (1, 2):
             for i in range(parity, current.shape[0] - 1, 2):
                 if late:
@@ -166,20 +200,34 @@ def smooth_bspline(
                     moved += 1
                 else:
                     rejected += 1
-        if length0 - space.path_length(current) <= opts.min_change * length0:
+        if length0 - space.path_length(current) <= min_change * length0:
             break
-    if not space.path_valid(current):  # every move was checked; this is the final guard
-        raise PlanningError(
-            "smooth_bspline produced a path that is not free at the space's resolution; this "
-            "is a bug, please report it (the input path was free)"
+    return current, moved, rejected, passes
+
+
+def _densify(space: ConfigurationSpace, path: FloatArray, step: float, checked: bool) -> FloatArray:
+    """``path`` with points inserted every ``step`` at most (``checked``: where they are free).
+
+    A segment free at the space's resolution need not have free pieces: the new waypoints and
+    the pieces' own points (``k / n`` of each piece) are not the points the segment's check
+    visited (a thin obstacle between two of them). With ``checked``, a segment with a colliding
+    new waypoint or piece is kept whole.
+    """
+    if not checked:
+        return (
+            interpolate(path, step)
+            if space.manifold is None
+            else space.interpolate_path(path, step)
         )
-    return SmoothingResult(
-        path=current,
-        length_before=before,
-        length_after=space.path_length(current),
-        passes=passes,
-        moved=moved,
-        rejected=rejected,
-        collision_checks=space.checks - checks0,
-        time_s=time.perf_counter() - t0,
-    )
+    out = [path[:1]]
+    for a, b in itertools.pairwise(path):
+        pair = np.stack([a, b])
+        seg = (
+            interpolate(pair, step)
+            if space.manifold is None
+            else space.interpolate_path(pair, step)
+        )
+        if seg.shape[0] > 2 and not space.path_valid(seg):
+            seg = pair
+        out.append(seg[1:])
+    return np.vstack(out)
