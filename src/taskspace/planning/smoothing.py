@@ -131,11 +131,11 @@ def smooth_bspline(
     # a thin obstacle between the resolution's samples of an input segment can put a new
     # waypoint or piece in collision: then the passes run again with every piece checked.
     current, moved, rejected, passes = _passes(
-        space, arr, step, passes_cap, deadline, opts.min_change, checked=False
+        space, arr, step, passes_cap, budget, opts.min_change, checked=False
     )
     if not space.path_valid(current):
         current, moved, rejected, passes = _passes(
-            space, arr, step, passes_cap, deadline, opts.min_change, checked=True
+            space, arr, step, passes_cap, budget, opts.min_change, checked=True
         )
         if not space.path_valid(current):  # every piece and move was checked: the guard
             raise PlanningError(
@@ -159,11 +159,14 @@ def _passes(
     arr: FloatArray,
     step: float,
     passes_cap: int | float,
-    deadline: float,
+    budget: Budget,
     min_change: float,
     checked: bool,
 ) -> tuple[FloatArray, int, int, int]:
-    """The smoothing passes from ``arr``: (path, moved, rejected, passes)."""
+    """The smoothing passes from ``arr``: (path, moved, rejected, passes).
+
+    ``budget`` holds the time limit of the whole call (both runs of the passes share it).
+    """
     current = arr.copy()
     moved = rejected = passes = 0
     late = False
