@@ -17,13 +17,22 @@
 //     default callback stopping at the first colliding pair (the Python checker's structure);
 //  1. the same with an update that skips what does not change between configurations (the
 //     universe manager: obstacles and fixed base; the inflation pass over all pairs);
-//  2. (default) a list of pairs grouped by moving object: the boxes of the moving objects are
-//     updated, a group's static partners are skipped at once when the object's box misses the
-//     union of their boxes, the others are tested pair by pair; a pair whose boxes overlap
-//     goes through coal's separating-axis test of the two oriented boxes (each object's local
-//     AABB, inflated, at its placement: coal::obbDisjoint, as coal's OBB::overlap) before the
-//     narrow phase: about 2-3 narrow-phase calls of 0.4 us per configuration had overlapping
-//     world boxes, most of them are disjoint oriented boxes.
+//  2. (default) a list of pairs grouped by moving object (collides_pairs). Only the joint
+//     placements are computed for every configuration (the kernel's loop, as the sphere
+//     checkers); then, each test conservative: per link (moving joint) a bounding sphere of
+//     its objects' box spheres against the boxes of the static partners (bit masks, two boxes
+//     per vector operation); per object the bounding sphere of its inflated oriented box
+//     against a static partner's box or a moving partner's sphere; only an object that a
+//     remaining pair needs is placed (its geometry placement as Pinocchio's
+//     updateGeometryPlacements computes it, coal's AABB, inflated), then the world boxes, the
+//     two oriented boxes (each object's local AABB, inflated, at its placement:
+//     coal::obbDisjoint, as coal's OBB::overlap) and the narrow phase. A pair is skipped only
+//     when bounding volumes of the inflated objects are disjoint, so the answers are those of
+//     the narrow phase on every pair that may touch (tests: Pinocchio's computeCollisions on
+//     every pair). Before 2026-11-27 every object was placed and boxed for every
+//     configuration (Pinocchio's updateGeometryPlacements, static objects included); the
+//     answers and planned paths are the same (H2-meshfast, 107 problems, 28,000
+//     configurations).
 // In every mode the last colliding pair is tested first. Measured on the MotionBenchMaker
 // Panda problems inside RRT-Connect (planner included, 2-core machine): 6.3 us per check with
 // dynamic AABB trees per joint, 3.6 us with mode 1 on them, 2.4 us with mode 1 on coal's
@@ -353,6 +362,21 @@ class CollisionKernel {
       g.end = group_pairs_.size();
       groups_.push_back(g);
     }
+    // Bounding spheres of the oriented boxes (collides_pairs' first test): the box's centre in
+    // the frame of the object's joint, the half diagonal of the inflated box as the radius
+    // (with 1e-9 m against rounding).
+    box_joint_center_.resize(ng);
+    box_world_center_.resize(ng);
+    box_radius_.assign(ng, std::numeric_limits<double>::infinity());
+    placed_.assign(ng, 0u);
+    for (std::size_t i = 0; i < ng; ++i) {
+      const auto& obj = geom_.geometryObjects[i];
+      box_joint_center_[i] = obj.placement.rotation() * local_center_[i] + obj.placement.translation();
+      box_world_center_[i] = centers_[i];
+      if (obb_ok_[i]) box_radius_[i] = half_[i].norm() * (1.0 + 1e-12) + 1e-9;
+    }
+    setup_mesh_links();
+    setup_kinematics();
     set_cache_size(cache_size);
   }
 
@@ -407,8 +431,11 @@ class CollisionKernel {
   bool collides(const Eigen::MatrixBase<Vec>& q, int checker = kMesh) {
     if (checker != kMesh) return collides_spheres(q, checker);
     ++checks_;
+    if (mode_ == kPairs) {  // joint placements only: collides_pairs places what it tests
+      kinematics(q);
+      return collides_pairs();
+    }
     pinocchio::updateGeometryPlacements(model_, data_, geom_, gdata_, q);
-    if (mode_ == kPairs) return collides_pairs();
     for (std::size_t k = 0; k < cache_.size(); ++k) {
       const pinocchio::PairIndex p = cache_[k];
       if (pinocchio::computeCollision(geom_, gdata_, p)) {
@@ -1471,38 +1498,86 @@ class CollisionKernel {
   std::vector<Primitive> prim_;
 
  public:
-  // Broad phase over the list of active collision pairs: coal's AABB of each moving object
-  // (CollisionObject::computeAABB, inflated as Pinocchio's managers do), an overlap test per
-  // pair, Pinocchio's computeCollision (coal's narrow phase) for the overlapping ones. The
-  // static objects' boxes are computed once. Placements are up to date (collides).
+  // Broad phase over the list of active collision pairs, from the joint placements (collides:
+  // kinematics). Per moving object the bounding sphere of its inflated oriented box (centre
+  // from the joint placement: no geometry placement) is tested first, against the union box
+  // of its group's static partners, each static partner's box, or a moving partner's sphere;
+  // only an object whose sphere touches something is placed (place_box: Pinocchio's
+  // geometry placement, coal's AABB of CollisionObject::computeAABB, inflated as Pinocchio's
+  // managers do), then the tests of before: world boxes overlap, oriented boxes not
+  // separated, Pinocchio's computeCollision (coal's narrow phase). Each test is conservative
+  // (a pair is skipped only when bounding volumes of the inflated objects are disjoint), so
+  // the answer is the narrow phase's on the pairs that may touch, as with every object placed.
+  // The static objects' placements and boxes are computed once (constructor).
   bool collides_pairs() {
+    if (++mesh_stamp_ == 0) {  // wrapped: invalidate every stamp
+      std::fill(placed_.begin(), placed_.end(), 0u);
+      mesh_stamp_ = 1;
+    }
     for (std::size_t i : moving_) {
-      coal::CollisionObject& obj = *objects_[i];
-      obj.setTransform(pinocchio::toCoalTransform3s(gdata_.oMg[i]));
-      obj.computeAABB();
-      boxes_[i] = obj.getAABB();
-      boxes_[i].expand(inflation_[i]);
-      centers_[i].noalias() = gdata_.oMg[i].rotation() * local_center_[i];
-      centers_[i] += gdata_.oMg[i].translation();
+      const auto& M = data_.oMi[geom_.geometryObjects[i].parentJoint];
+      box_world_center_[i].noalias() = M.rotation() * box_joint_center_[i];
+      box_world_center_[i] += M.translation();
     }
     for (std::size_t k = 0; k < cache_.size(); ++k) {
       const pinocchio::PairIndex p = cache_[k];
       const auto& pair = geom_.collisionPairs[p];
-      if (boxes_[pair.first].overlap(boxes_[pair.second]) &&
-          !separated(pair.first, pair.second) && pinocchio::computeCollision(geom_, gdata_, p)) {
+      if (mesh_pair_hits(pair.first, pair.second, p)) {
         std::rotate(cache_.begin(), cache_.begin() + k, cache_.begin() + k + 1);
         return true;
       }
     }
-    for (const Group& g : groups_) {
-      const coal::AABB& box = boxes_[g.object];
-      // every static partner of the group lies in g.partners_box: one test may skip them all
-      const bool near_static = box.overlap(g.partners_box);
-      for (std::size_t j = g.begin; j < g.end; ++j) {
+    // the links' spheres against the static partners' boxes (bits)
+    const std::size_t ns = mesh_static_box_[0].size();
+    for (MeshLink& l : mesh_links_) {
+      const auto& M = data_.oMi[l.joint];
+      const coal::Vec3s c = M.rotation() * l.center + M.translation();
+      l.mask = box_mask(mesh_static_box_, c, l.radius * l.radius, ns);
+    }
+    for (std::size_t gi = 0; gi < groups_.size(); ++gi) {
+      const Group& g = groups_[gi];
+      const std::size_t i = g.object;
+      if (geom_.geometryObjects[i].parentJoint == 0) {  // two static objects: boxes as built
+        for (std::size_t j = g.begin; j < g.end; ++j) {
+          const GroupPair& gp = group_pairs_[j];
+          if (!boxes_[i].overlap(boxes_[gp.partner])) continue;
+          if (separated(i, gp.partner)) continue;
+          if (pinocchio::computeCollision(geom_, gdata_, gp.pair)) {
+            remember(gp.pair);
+            return true;
+          }
+        }
+        continue;
+      }
+      const MeshGroup& mg = mesh_groups_[gi];
+      const coal::Vec3s& c = box_world_center_[i];
+      const double r = box_radius_[i];
+      // static partners whose box the link's sphere touches (set bits only)
+      std::uint64_t m = mesh_links_[mesh_link_of_[i]].mask & mg.bits;
+      while (m != 0) {
+        const int bit = __builtin_ctzll(m);
+        m &= m - 1;
+        const GroupPair& gp = group_pairs_[mg.by_bit[bit]];
+        if (!sphere_touches_box(c, r, boxes_[gp.partner])) continue;
+        place_box(i);
+        if (!boxes_[i].overlap(boxes_[gp.partner]) || separated(i, gp.partner)) continue;
+        if (pinocchio::computeCollision(geom_, gdata_, gp.pair)) {
+          remember(gp.pair);
+          return true;
+        }
+      }
+      for (std::size_t j : mg.others) {  // moving partners, static partners beyond 64 bits
         const GroupPair& gp = group_pairs_[j];
-        if (gp.partner_static && !near_static) continue;
-        if (!box.overlap(boxes_[gp.partner])) continue;
-        if (separated(g.object, gp.partner)) continue;
+        const std::size_t b = gp.partner;
+        if (gp.partner_static) {
+          if (!sphere_touches_box(c, r, boxes_[b])) continue;
+        } else {
+          const double reach = r + box_radius_[b];
+          if ((c - box_world_center_[b]).squaredNorm() > reach * reach) continue;
+          place_box(b);
+        }
+        place_box(i);
+        if (!boxes_[i].overlap(boxes_[b]) || separated(i, b)) continue;
         if (pinocchio::computeCollision(geom_, gdata_, gp.pair)) {
           remember(gp.pair);
           return true;
@@ -1512,6 +1587,165 @@ class CollisionKernel {
     return false;
   }
 
+ private:
+  // Pair p of objects a and b (collides_pairs' cached pairs): the tests of collides_pairs.
+  bool mesh_pair_hits(std::size_t a, std::size_t b, pinocchio::PairIndex p) {
+    const bool a_moves = geom_.geometryObjects[a].parentJoint != 0;
+    const bool b_moves = geom_.geometryObjects[b].parentJoint != 0;
+    if (a_moves && b_moves) {
+      const double reach = box_radius_[a] + box_radius_[b];
+      if ((box_world_center_[a] - box_world_center_[b]).squaredNorm() > reach * reach)
+        return false;
+    } else if (a_moves && !sphere_touches_box(box_world_center_[a], box_radius_[a], boxes_[b])) {
+      return false;
+    } else if (b_moves && !sphere_touches_box(box_world_center_[b], box_radius_[b], boxes_[a])) {
+      return false;
+    }
+    if (a_moves) place_box(a);
+    if (b_moves) place_box(b);
+    return boxes_[a].overlap(boxes_[b]) && !separated(a, b) &&
+           pinocchio::computeCollision(geom_, gdata_, p);
+  }
+
+  // Moving object i placed for this check (once): its geometry placement as Pinocchio's
+  // updateGeometryPlacements computes it, coal's AABB (inflated) and its oriented box's centre.
+  void place_box(std::size_t i) {
+    if (placed_[i] == mesh_stamp_) return;
+    placed_[i] = mesh_stamp_;
+    const auto& obj = geom_.geometryObjects[i];
+    gdata_.oMg[i] = data_.oMi[obj.parentJoint] * obj.placement;
+    coal::CollisionObject& co = *objects_[i];
+    co.setTransform(pinocchio::toCoalTransform3s(gdata_.oMg[i]));
+    co.computeAABB();
+    boxes_[i] = co.getAABB();
+    boxes_[i].expand(inflation_[i]);
+    centers_[i].noalias() = gdata_.oMg[i].rotation() * local_center_[i];
+    centers_[i] += gdata_.oMg[i].translation();
+  }
+
+  // The sphere (c, r) may touch the box: false only when the distance from c to the box is
+  // above r (NaN or an infinite radius: true).
+  __attribute__((always_inline)) static bool sphere_touches_box(const coal::Vec3s& c, double r,
+                                                                 const coal::AABB& box) {
+    const coal::Vec3s d = (box.min_ - c).cwiseMax(c - box.max_).cwiseMax(0.0);
+    return !(d.squaredNorm() > r * r);
+  }
+
+  // Link level of collides_pairs: per moving joint a bounding sphere of its objects' spheres
+  // and the static partners (at most 64, one bit each) whose boxes it touches; per group
+  // its static partners by bit and its other pairs.
+  void setup_mesh_links() {
+    const std::size_t ng = geom_.geometryObjects.size();
+    mesh_link_of_.assign(ng, -1);
+    mesh_links_.clear();
+    for (std::size_t i : moving_) {
+      const int j = static_cast<int>(geom_.geometryObjects[i].parentJoint);
+      auto it = std::find_if(mesh_links_.begin(), mesh_links_.end(),
+                             [j](const MeshLink& l) { return l.joint == j; });
+      if (it == mesh_links_.end()) {
+        mesh_links_.push_back(MeshLink{j, {}, coal::Vec3s::Zero(), 0.0, 0});
+        it = mesh_links_.end() - 1;
+      }
+      it->objects.push_back(i);
+      mesh_link_of_[i] = static_cast<int>(it - mesh_links_.begin());
+    }
+    for (MeshLink& l : mesh_links_) {
+      coal::Vec3s lo = coal::Vec3s::Constant(std::numeric_limits<double>::infinity());
+      coal::Vec3s hi = -lo;
+      for (std::size_t i : l.objects) {
+        lo = lo.cwiseMin(box_joint_center_[i] - coal::Vec3s::Constant(box_radius_[i]));
+        hi = hi.cwiseMax(box_joint_center_[i] + coal::Vec3s::Constant(box_radius_[i]));
+      }
+      l.center = 0.5 * (lo + hi);
+      l.radius = 0.0;
+      for (std::size_t i : l.objects)
+        l.radius = std::max(l.radius, (box_joint_center_[i] - l.center).norm() + box_radius_[i]);
+      l.radius = l.radius * (1.0 + 1e-12) + 1e-9;
+      if (!l.center.allFinite() || !std::isfinite(l.radius)) {  // an object without a box
+        l.center.setZero();
+        l.radius = std::numeric_limits<double>::infinity();
+      }
+    }
+    std::vector<int> bit_of(ng, -1);
+    for (int a = 0; a < 6; ++a) mesh_static_box_[a].clear();
+    for (const GroupPair& gp : group_pairs_) {
+      if (!gp.partner_static || bit_of[gp.partner] >= 0) continue;
+      const int bit = static_cast<int>(mesh_static_box_[0].size());
+      if (bit >= 64) break;  // more: the partners without a bit are always tested
+      bit_of[gp.partner] = bit;
+      for (int a = 0; a < 3; ++a) {
+        mesh_static_box_[a].push_back(boxes_[gp.partner].min_[a]);
+        mesh_static_box_[3 + a].push_back(boxes_[gp.partner].max_[a]);
+      }
+    }
+    // whole blocks of kBoxLanes (at most 64 bits): padding boxes at +inf never touch
+    while (mesh_static_box_[0].size() % kMeshLanes != 0)
+      for (int a = 0; a < 6; ++a)
+        mesh_static_box_[a].push_back(std::numeric_limits<double>::infinity());
+    mesh_groups_.assign(groups_.size(), MeshGroup{});
+    for (std::size_t gi = 0; gi < groups_.size(); ++gi) {
+      MeshGroup& mg = mesh_groups_[gi];
+      mg.by_bit.assign(64, 0);
+      for (std::size_t j = groups_[gi].begin; j < groups_[gi].end; ++j) {
+        const GroupPair& gp = group_pairs_[j];
+        const int bit = gp.partner_static ? bit_of[gp.partner] : -1;
+        if (bit >= 0 && !((mg.bits >> bit) & 1u)) {
+          mg.bits |= std::uint64_t{1} << bit;
+          mg.by_bit[bit] = j;
+        } else {
+          mg.others.push_back(j);
+        }
+      }
+    }
+  }
+
+  // Bit o set when the sphere (c, sqrt(r2)) may touch box o of boxes (ns boxes, a multiple of
+  // kMeshLanes; NaN: set), kMeshLanes boxes at a time in vector operations.
+  static constexpr int kMeshLanes = 2;
+  typedef double MeshLanes __attribute__((vector_size(kMeshLanes * sizeof(double))));
+  static std::uint64_t box_mask(const std::vector<double> (&boxes)[6], const coal::Vec3s& c,
+                                double r2, std::size_t ns) {
+    std::uint64_t mask = 0;
+    const MeshLanes zero = {};
+    for (std::size_t o = 0; o < ns; o += kMeshLanes) {
+      MeshLanes d2 = zero;
+      for (int a = 0; a < 3; ++a) {
+        MeshLanes lo, hi;
+        std::memcpy(&lo, boxes[a].data() + o, sizeof(lo));
+        std::memcpy(&hi, boxes[3 + a].data() + o, sizeof(hi));
+        const MeshLanes below = lo - c[a], above = c[a] - hi;
+        MeshLanes d = below > above ? below : above;
+        d = d > zero ? d : zero;
+        d2 += d * d;
+      }
+      for (int k = 0; k < kMeshLanes; ++k)
+        mask |= static_cast<std::uint64_t>(!(d2[k] > r2)) << (o + k);
+    }
+    return mask;
+  }
+
+  struct MeshLink {
+    int joint;
+    std::vector<std::size_t> objects;
+    coal::Vec3s center;  // bounding sphere of the objects' box spheres, joint frame
+    double radius;
+    std::uint64_t mask;  // static partners (bits) whose box the sphere may touch
+  };
+  struct MeshGroup {
+    std::uint64_t bits = 0;           // bits of its static partners
+    std::vector<std::size_t> by_bit;  // group pair (index into group_pairs_) of each bit
+    std::vector<std::size_t> others;  // its other pairs
+  };
+  std::vector<MeshLink> mesh_links_;
+  std::vector<int> mesh_link_of_;
+  std::vector<MeshGroup> mesh_groups_;
+  std::vector<double> mesh_static_box_[6];  // min x, y, z, max x, y, z of the static partners
+  std::vector<coal::Vec3s> box_joint_center_, box_world_center_;  // oriented box's centre
+  std::vector<double> box_radius_;  // bounding sphere of the inflated oriented box (inf: none)
+  std::vector<unsigned> placed_;    // place_box's stamp per object
+  unsigned mesh_stamp_ = 0;
+
+ public:
   // True if the oriented boxes of objects a and b (their local AABBs, inflated, at their
   // placements) are disjoint (coal::obbDisjoint, separating-axis test): the objects, which
   // lie inside, cannot touch. False when either box is not finite.
