@@ -193,6 +193,7 @@ METHODS = (
     "rrt_connect_spheres",
     "rrt_connect_spheres_only",
     "rrt_connect_spheres_only_validator_spheres",
+    "rrt_connect_spheres_only_validator_spheres_no_filter",
     "rrt_connect_clearance",
     "rrt_connect_python",
     "rrt_connect_classic",
@@ -204,6 +205,7 @@ OURS_RRT = (
     "taskspace rrt_connect_spheres",
     "taskspace rrt_connect_spheres_only",
     "taskspace rrt_connect_spheres_only_validator_spheres",
+    "taskspace rrt_connect_spheres_only_validator_spheres_no_filter",
     "taskspace rrt_connect_clearance",
     "taskspace rrt_connect_python",
     "taskspace rrt_connect_classic",
@@ -302,12 +304,13 @@ def _plan_problem(item: tuple[Any, ...], rng: np.random.Generator, robot: Any) -
         return out
     per = out["samples"]
     assert isinstance(space.checker, CollisionChecker)
-    space.checker.sphere_kernel()  # the sphere model is built before timing (once per robot)
+    kernel = space.checker.sphere_kernel()  # the sphere model: built before timing (once)
     for method, coarse, local, native, checker in (
         ("rrt_connect", 0.15, 0.5, True, "mesh"),
         ("rrt_connect_spheres", 0.15, 0.5, True, "spheres"),
         ("rrt_connect_spheres_only", 0.15, 0.5, True, "spheres_only"),
         ("rrt_connect_spheres_only_validator_spheres", 0.15, 0.5, True, "spheres_only"),
+        ("rrt_connect_spheres_only_validator_spheres_no_filter", 0.15, 0.5, True, "spheres_only"),
         ("rrt_connect_clearance", 0.15, 0.5, True, "clearance"),
         ("rrt_connect_python", 0.15, 0.5, False, "mesh"),
         ("rrt_connect_classic", None, 0.0, True, "mesh"),
@@ -322,10 +325,21 @@ def _plan_problem(item: tuple[Any, ...], rng: np.random.Generator, robot: Any) -
             native=native,
             checker=checker,
             validator=(
-                "spheres" if method.endswith(("_validator_spheres", "_clearance")) else "mesh"
+                "spheres"
+                if method.endswith(("_validator_spheres", "_no_filter", "_clearance"))
+                else "mesh"
             ),
         )
-        res = rrt_connect(space, req.start, req.goal, opts)
+        # the batched sphere checks without the single-precision filter (the path before it)
+        no_filter = method.endswith("_no_filter") and hasattr(kernel, "set_sphere_filter")
+        if no_filter:
+            mode = kernel.sphere_filter_mode
+            kernel.set_sphere_filter(0)
+        try:
+            res = rrt_connect(space, req.start, req.goal, opts)
+        finally:
+            if no_filter:
+                kernel.set_sphere_filter(mode)
         row = {
             "time": res.time_s,
             "ok": float(res.success and res.time_s <= TIME_LIMIT),

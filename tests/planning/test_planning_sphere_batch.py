@@ -42,6 +42,9 @@ pytestmark = [
 ]
 
 MESH, SPHERES, SPHERES_ONLY = 0, 1, 2
+# filter modes (CollisionKernel.set_sphere_filter): off (double only), filter then double on
+# the lanes it cannot clear, and (default) "spheres only" trusting its sphere overlaps
+OFF, CONFIRMED, TRUSTED = 0, 1, 2
 PROBLEM = {"bookshelf_tall": 1, "box": 3, "cage": 1, "table_pick": 3}
 
 
@@ -55,6 +58,7 @@ def _space(robot: Any, scenario: str) -> tuple[Any, Any, Any]:
     space = ConfigurationSpace.from_robot(robot, edge=EdgeCheckOptions(resolution=0.03))
     kernel = space.checker.sphere_kernel()
     assert kernel.sphere_filter()  # set up, and on by default
+    assert kernel.sphere_filter_mode == TRUSTED
     return req, space, kernel
 
 
@@ -148,7 +152,7 @@ def _near_configurations(robot: Any, rng: Any, n: int) -> np.ndarray:
 def _first_sphere_contacts(kernel: Any, qs: np.ndarray, rng: Any, count: int) -> np.ndarray:
     """Configurations bisected (kernel, filter off, double precision) to within 1e-12 of the
     first sphere contact on segments free -> colliding: the colliding ends."""
-    kernel.set_sphere_filter(False)
+    kernel.set_sphere_filter(OFF)
     try:
         flags = kernel.collisions_with(qs, SPHERES_ONLY).astype(bool)
         free, hit = qs[~flags], qs[flags]
@@ -165,7 +169,7 @@ def _first_sphere_contacts(kernel: Any, qs: np.ndarray, rng: Any, count: int) ->
             out.append(a + hi * (b - a))
         return np.array(out)
     finally:
-        kernel.set_sphere_filter(True)
+        kernel.set_sphere_filter(TRUSTED)
 
 
 @pytest.mark.parametrize("scenario", ["bookshelf_tall", "table_pick", "cage"])
@@ -220,19 +224,28 @@ def test_first_contacts_are_never_cleared(robot: Any, scenario: str) -> None:
 
 @pytest.mark.parametrize("scenario", ["bookshelf_tall", "box", "table_pick"])
 def test_filter_on_gives_the_double_path_answers(robot: Any, scenario: str) -> None:
-    """collisions_with (checkers 1 and 2) and first_invalid_on_edge (the first colliding index in
-    bisection order, early exit) with the filter equal the double path's, and the edge's index
-    is the first in bisection order that Pinocchio's meshes find colliding (checker 1)."""
-    _, _, kernel = _space(robot, scenario)
+    """collisions_with and first_invalid_on_edge (the first colliding index in bisection order,
+    early exit) with the filter: the double path's answers for "spheres" (also the first index
+    that Pinocchio's meshes find colliding) and, confirmed, for "spheres only"; trusted, "spheres
+    only" differs only where it says colliding within twice the filter's margin of touching."""
+    _, space, kernel = _space(robot, scenario)
     mesh = _mesh_reference(robot)
+    ref = SphereReference(robot, space.checker.sphere_model())
+    eps = kernel.sphere_filter_eps()
     rng = np.random.default_rng(8)
     qs = _near_configurations(robot, rng, 300)
-    for checker in (SPHERES, SPHERES_ONLY):
-        kernel.set_sphere_filter(False)
-        off = kernel.collisions_with(qs, checker)
-        kernel.set_sphere_filter(True)
-        on = kernel.collisions_with(qs, checker)
-        np.testing.assert_array_equal(on, off)
+    contacts = _first_sphere_contacts(kernel, qs, rng, 20)
+    allq = np.vstack([qs, contacts])
+    flags = {}
+    for mode in (OFF, CONFIRMED, TRUSTED):
+        kernel.set_sphere_filter(mode)
+        flags[mode] = [kernel.collisions_with(allq, c) for c in (SPHERES, SPHERES_ONLY)]
+    np.testing.assert_array_equal(flags[CONFIRMED], flags[OFF])
+    np.testing.assert_array_equal(flags[TRUSTED][0], flags[OFF][0])
+    only, exact = flags[TRUSTED][1], flags[OFF][1]
+    assert np.all(only >= exact)
+    for q in allq[only != exact]:
+        assert ref.clearance(q)[0] <= 2.0 * eps
     n = 13
     order = bisection_order(n)
     found = 0
@@ -240,30 +253,44 @@ def test_filter_on_gives_the_double_path_answers(robot: Any, scenario: str) -> N
         a = qs[k]
         b = a + rng.standard_normal(robot.nq) * 0.4
         got = {}
-        for filt in (False, True):
-            kernel.set_sphere_filter(filt)
-            got[filt] = [kernel.first_invalid_on_edge(a, b, n, c) for c in (SPHERES, SPHERES_ONLY)]
-        assert got[True] == got[False]
+        for mode in (OFF, CONFIRMED, TRUSTED):
+            kernel.set_sphere_filter(mode)
+            got[mode] = [kernel.first_invalid_on_edge(a, b, n, c) for c in (SPHERES, SPHERES_ONLY)]
+        assert got[CONFIRMED] == got[OFF]
+        assert got[TRUSTED][0] == got[OFF][0]
+        if got[TRUSTED][1] != got[OFF][1]:  # an earlier index, within the margin
+            j = got[TRUSTED][1]
+            assert got[OFF][1] == -1 or order.index(j) < order.index(got[OFF][1])
+            assert ref.clearance(a + j / n * (b - a))[0] <= 2.0 * eps
         expect = next((j for j in order if mesh(a + j / n * (b - a))), -1)
-        assert got[True][0] == expect
+        assert got[TRUSTED][0] == expect
         found += expect >= 0
     assert 0 < found < 30
 
 
 def test_planner_paths_equal_with_and_without_the_filter(robot: Any) -> None:
-    """The planner with the filter: the same paths and check counts as without (the same
-    answers), with fewer double-precision sphere tests (the filter is used)."""
+    """The planner with the filter: the same paths and check counts as without where the answers
+    are the same ("spheres"; "spheres only" confirmed), with fewer double-precision sphere tests
+    (the filter is used); trusted, "spheres only" plans paths that the meshes find free."""
+    mesh = _mesh_reference(robot)
     for scenario in ("bookshelf_tall", "table_pick"):
         req, space, kernel = _space(robot, scenario)
-        out = {}
-        for filt in (False, True):
-            kernel.set_sphere_filter(filt)
-            kernel.reset_sphere_stats()
-            opts = RRTConnectOptions(seed=2, checker="spheres_only", validator="spheres")
-            res = rrt_connect(space, req.start, req.goal, opts)
-            assert res.success
-            out[filt] = (np.array(res.path), res.collision_checks, sum(kernel.sphere_stats()))
-        kernel.set_sphere_filter(True)
-        np.testing.assert_array_equal(out[True][0], out[False][0])
-        assert out[True][1] == out[False][1]
-        assert out[True][2] < out[False][2]
+        for checker, mode in (("spheres", TRUSTED), ("spheres_only", CONFIRMED)):
+            out = {}
+            for m in (OFF, mode):
+                kernel.set_sphere_filter(m)
+                kernel.reset_sphere_stats()
+                opts = RRTConnectOptions(seed=2, checker=checker, validator="spheres")
+                res = rrt_connect(space, req.start, req.goal, opts)
+                assert res.success
+                out[m] = (np.array(res.path), res.collision_checks, sum(kernel.sphere_stats()))
+            np.testing.assert_array_equal(out[mode][0], out[OFF][0])
+            assert out[mode][1] == out[OFF][1]
+            assert out[mode][2] < out[OFF][2]
+        kernel.set_sphere_filter(TRUSTED)
+        opts = RRTConnectOptions(seed=3, checker="spheres_only", validator="spheres")
+        res = rrt_connect(space, req.start, req.goal, opts)
+        assert res.success
+        for a, b in zip(res.path[:-1], res.path[1:], strict=True):
+            n = max(1, int(np.ceil(np.abs(b - a).max() / 0.01)))
+            assert not any(mesh(a + t * (b - a)) for t in np.linspace(0.0, 1.0, n + 1))

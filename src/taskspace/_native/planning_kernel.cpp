@@ -674,14 +674,20 @@ class CollisionKernel {
     return 0;
   }
 
-  // The batched sphere checks use the single-precision filter (default) or test every lane
-  // in double (off: the path before the filter, for comparisons). Initially off when the
-  // environment variable TASKSPACE_SPHERE_FILTER is "0".
-  void set_sphere_filter(bool on) {
+  // The batched sphere checks: mode 0 tests every lane in double (the path before the
+  // filter, for comparisons); 1 the single-precision filter, then the double test on the lanes
+  // it cannot clear (the double path's answers); 2 (default) as 1, but for "spheres only" a
+  // lane whose spheres the filter finds overlapping a primitive or a self pair's spheres is
+  // colliding without the double test (conservative: it differs from the double test only
+  // within eps of touching, where it says colliding). The initial mode is the environment
+  // variable TASKSPACE_SPHERE_FILTER (0, 1 or 2) when set.
+  void set_sphere_filter(int mode) {
+    if (mode < 0 || mode > 2) raise_invalid("sphere filter mode must be 0, 1 or 2");
     const auto lock = lock_with_gil(mutex_);
-    filter_on_ = on;
+    filter_mode_ = mode;
   }
-  bool sphere_filter() const { return filter_on_ && filter_.ready(); }
+  int sphere_filter_mode() const { return filter_mode_; }
+  bool sphere_filter() const { return filter_mode_ > 0 && filter_.ready(); }
   double sphere_filter_eps() const { return filter_.eps(); }
   int sphere_filter_units() const { return filter_.units(); }
 
@@ -805,6 +811,10 @@ class CollisionKernel {
   // inflation. Used for the sphere checkers on models with the loop kinematics (fast_fk_):
   // edges (first_collision: rrt_connect's EXTEND, CONNECT and straight lines,
   // first_invalid_on_edge) and collisions_with.
+  // Then (set_sphere_filter, default mode 2) the single-precision filter of sphere_batch.hpp
+  // tests the 4 lanes at once (sphere centres from the lanes' placements, no load_lane) and
+  // only the lanes it cannot clear go through load_lane and the double test, in order: see
+  // first_collision and sphere_batch.hpp (the rounding bound, the hierarchy).
   static constexpr int kBatch = 4;
   typedef double Batch __attribute__((vector_size(kBatch * sizeof(double))));
   struct BatchPose {
@@ -936,6 +946,7 @@ class CollisionKernel {
     edge_buf_.resize(static_cast<std::size_t>(kBatch) * n);
     const double* lanes[kBatch];
     const bool filter = sphere_filter();
+    const bool trust = filter && filter_mode_ == 2 && checker == kSpheresOnly;
     for (int s = 0; s < count; s += kBatch) {
       const int m = std::min(kBatch, count - s);
       for (int l = 0; l < kBatch; ++l) {
@@ -965,6 +976,7 @@ class CollisionKernel {
         if ((maybe >> first) & 1u) {
           if (stop()) return s + first;
           ++checks_;
+          if (trust && ((filter_.sure() >> first) & 1u)) return s + first;
           load_lane(first);
           if (spheres_placed(checker)) return s + first;
           decided |= 1u << first;
@@ -975,6 +987,7 @@ class CollisionKernel {
           if (stop()) return s + l;
           ++checks_;
           if (!((maybe >> l) & 1u)) continue;
+          if (trust && ((filter_.sure() >> l) & 1u)) return s + l;
           load_lane(l);
           if (spheres_placed(checker)) return s + l;
         }
@@ -988,6 +1001,7 @@ class CollisionKernel {
   void flags_batched(const Eigen::Ref<const RowMatrixXd>& qs, int checker, Eigen::VectorXi& out) {
     const double* lanes[kBatch];
     const bool filter = sphere_filter();
+    const bool trust = filter && filter_mode_ == 2 && checker == kSpheresOnly;
     for (Eigen::Index s = 0; s < qs.rows(); s += kBatch) {
       const int m = static_cast<int>(std::min<Eigen::Index>(kBatch, qs.rows() - s));
       for (int l = 0; l < kBatch; ++l) lanes[l] = qs.row(s + std::min(l, m - 1)).data();
@@ -1001,6 +1015,10 @@ class CollisionKernel {
         ++checks_;
         out[s + l] = 0;
         if (!((maybe >> l) & 1u)) continue;
+        if (trust && ((filter_.sure() >> l) & 1u)) {
+          out[s + l] = 1;
+          continue;
+        }
         load_lane(l);
         out[s + l] = spheres_placed(checker) ? 1 : 0;
       }
@@ -1592,8 +1610,12 @@ class CollisionKernel {
   VectorXd edge_x_;                       // first_collision: one configuration
   bool fast_fk_ = false;
   taskspace_sphere_batch::SphereFilter filter_;  // single-precision filter (setup_filter)
-  bool filter_on_ = !(std::getenv("TASKSPACE_SPHERE_FILTER") &&
-                      std::string(std::getenv("TASKSPACE_SPHERE_FILTER")) == "0");
+  int filter_mode_ = initial_filter_mode();
+  static int initial_filter_mode() {
+    const char* v = std::getenv("TASKSPACE_SPHERE_FILTER");
+    if (v && (v[0] == '0' || v[0] == '1' || v[0] == '2') && v[1] == 0) return v[0] - '0';
+    return 2;
+  }
   struct SphereGroup {  // a group's pairs for the sphere checker
     std::uint64_t bits = 0;            // bits of its static partners
     std::vector<std::size_t> by_bit;   // group pair (index into group_pairs_) of each bit
@@ -2476,8 +2498,9 @@ BOOST_PYTHON_MODULE(_planning_kernel) {
       .add_property("certified_margin", &CollisionKernel::certified_margin)
       .add_property("sphere_count", &CollisionKernel::sphere_count)
       .def("sphere_stats", &CollisionKernel::sphere_stats)
-      .def("set_sphere_filter", &CollisionKernel::set_sphere_filter, bp::args("self", "on"))
+      .def("set_sphere_filter", &CollisionKernel::set_sphere_filter, bp::args("self", "mode"))
       .def("sphere_filter", &CollisionKernel::sphere_filter)
+      .add_property("sphere_filter_mode", &CollisionKernel::sphere_filter_mode)
       .def("sphere_filter_eps", &CollisionKernel::sphere_filter_eps)
       .def("sphere_filter_units", &CollisionKernel::sphere_filter_units)
       .def("sphere_filter_flags", &CollisionKernel::sphere_filter_flags, bp::args("self", "qs"))

@@ -237,6 +237,7 @@ class SphereFilter {
   // Lanes (bits) of `active` that may collide; stops when `stop_lane` is among them.
   unsigned run(unsigned active, int stop_lane) {
     unsigned maybe = 0;
+    sure_ = 0;
     const unsigned stop_bit = 1u << stop_lane;
     const int ns = static_cast<int>(static_units_.size());
     const int nu = ns + static_cast<int>(self_units_.size());
@@ -259,6 +260,10 @@ class SphereFilter {
   }
 
   int units() const { return static_cast<int>(static_units_.size() + self_units_.size()); }
+  // Lanes of the last run's mask found by a sphere test on a primitive or a self pair (not by
+  // the box of another shape): their spheres overlap within eps_ (float), so the double test
+  // finds them colliding unless they are within eps_ of touching.
+  unsigned sure() const { return sure_; }
 
  private:
   struct V3 {
@@ -392,6 +397,7 @@ class SphereFilter {
         for (int s = ob.begin; s < ob.end && m; ++s) {
           const unsigned h = m & prim_hits(o, sph_world_[s], sph_[s].r + rs);
           hit |= h;
+          if (o.type != 0) sure_ |= h;
           m &= ~h;
         }
         if (hit == active) break;
@@ -415,6 +421,7 @@ class SphereFilter {
           const unsigned h =
               m & ball_hits(sph_world_[s], sph_world_[t], sph_[s].r + sph_[t].r + it.margin);
           hit |= h;
+          sure_ |= h;
           m &= ~h;
         }
       }
@@ -433,7 +440,7 @@ class SphereFilter {
   std::vector<SelfUnit> self_units_;
   std::vector<unsigned> obj_stamp_;
   std::vector<V3> obj_world_, sph_world_;
-  unsigned stamp_ = 0;
+  unsigned stamp_ = 0, sure_ = 0;
   int last_unit_ = -1;
 };
 
