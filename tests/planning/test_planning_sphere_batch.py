@@ -294,3 +294,45 @@ def test_planner_paths_equal_with_and_without_the_filter(robot: Any) -> None:
         for a, b in zip(res.path[:-1], res.path[1:], strict=True):
             n = max(1, int(np.ceil(np.abs(b - a).max() / 0.01)))
             assert not any(mesh(a + t * (b - a)) for t in np.linspace(0.0, 1.0, n + 1))
+
+
+def test_sse2_and_avx2_kinematics_agree(robot: Any) -> None:
+    """The batched kinematics compiled for SSE2 and for AVX2 (chosen at run time; set_simd(1)
+    forces SSE2, as TASKSPACE_SIMD=sse2) give the same answers, bit for bit: on configurations
+    bisected to the last representable step before sphere contact (a rounding difference in
+    the placements would flip some), on random ones and on edges, with and without the filter."""
+    _, _, kernel = _space(robot, "table_pick")
+    avx2 = kernel.simd == 2  # this processor has AVX2 (else both runs use SSE2)
+    rng = np.random.default_rng(12)
+    qs = _near_configurations(robot, rng, 200)
+    kernel.set_sphere_filter(OFF)
+    flags = kernel.collisions_with(qs, SPHERES_ONLY).astype(bool)
+    free, hit = qs[~flags], qs[flags]
+    edge = []
+    for k in range(20):
+        a, b = free[k], hit[k]
+        lo, hi = 0.0, 1.0
+        while np.nextafter(lo, 1.0) < hi and (mid := 0.5 * (lo + hi)) not in (lo, hi):
+            if kernel.collisions_with((a + mid * (b - a))[None], SPHERES_ONLY)[0]:
+                hi = mid
+            else:
+                lo = mid
+        edge += [a + lo * (b - a), a + hi * (b - a)]
+    allq = np.vstack([qs, np.array(edge)])
+    out = {}
+    for level in (1, 2):
+        kernel.set_simd(level)
+        assert kernel.simd == (2 if level == 2 and avx2 else 1)
+        row = []
+        for mode in (OFF, TRUSTED):
+            kernel.set_sphere_filter(mode)
+            row += [kernel.collisions_with(allq, c) for c in (SPHERES, SPHERES_ONLY)]
+            row.append([kernel.first_invalid_on_edge(qs[k], qs[k + 1], 15, 2) for k in range(40)])
+        row.append(kernel.sphere_filter_flags(allq))
+        out[level] = row
+    kernel.set_simd(2)
+    kernel.set_sphere_filter(TRUSTED)
+    for x, y in zip(out[1], out[2], strict=True):
+        np.testing.assert_array_equal(x, y)
+    boundary = out[1][1][len(qs) :]  # the double test at the two sides of each contact
+    assert boundary[0::2].sum() == 0 and boundary[1::2].all()

@@ -816,7 +816,9 @@ class CollisionKernel {
   // only the lanes it cannot clear go through load_lane and the double test, in order: see
   // first_collision and sphere_batch.hpp (the rounding bound, the hierarchy).
   static constexpr int kBatch = 4;
-  typedef double Batch __attribute__((vector_size(kBatch * sizeof(double))));
+  // 16-byte alignment (not the vector's 32): the AVX2 kinematics then load unaligned, since
+  // the vectors holding BatchPose (batch_pose_) guarantee 16 bytes only (seen: vmovapd faults)
+  typedef double Batch __attribute__((vector_size(kBatch * sizeof(double)), aligned(16)));
   struct BatchPose {
     Batch R[9];  // R[r + 3 * c]
     Batch t[3];
@@ -827,7 +829,8 @@ class CollisionKernel {
   // |r| <= pi/4 (pi/2 in two parts, fdlibm's: j pi/2 is exact for |j| < 2^20), then Cephes'
   // polynomials of sin and cos on [-pi/4, pi/4] (sin.c: relative error about 1e-16) and the
   // quadrant j mod 4. Lanes beyond |x| < 1e5 (or not finite) take std::sin / std::cos.
-  static void batch_sincos(const Batch& x, Batch& s, Batch& c) {
+  __attribute__((always_inline)) static inline void batch_sincos(const Batch& x, Batch& s,
+                                                                 Batch& c) {
     constexpr double kTwoOverPi = 6.36619772367581382433e-01;
     constexpr double kPio2Hi = 1.57079632673412561417e+00;  // first 33 bits of pi/2
     constexpr double kPio2Lo = 6.07710050650619224932e-11;  // pi/2 - kPio2Hi
@@ -876,7 +879,54 @@ class CollisionKernel {
   }
 
   // Joint placements of kBatch configurations (lane l: the nq coordinates at q[l]).
+  // Compiled twice: for SSE2 (the portable baseline) and for AVX2 (one register per Batch of
+  // 4 doubles instead of two), chosen at run time (simd_: __builtin_cpu_supports, the
+  // environment variable TASKSPACE_SIMD=sse2 or set_simd force SSE2). Both run the same
+  // IEEE operations in the same order (no FMA: the target is "avx2" alone, and ISO C++
+  // does not contract a * b + c), so their placements are bit-identical (tested).
   void kinematics_batch(const double* const* q) {
+#if defined(__x86_64__) && defined(__GNUC__)
+    if (simd_ == 2) {
+      kinematics_batch_avx2(q);
+      return;
+    }
+#endif
+    kinematics_batch_body(q);
+  }
+#if defined(__x86_64__) && defined(__GNUC__)
+  __attribute__((target("avx2"))) void kinematics_batch_avx2(const double* const* q) {
+    kinematics_batch_body(q);
+  }
+#endif
+  // 2: AVX2 (when the processor has it), 1: SSE2.
+  static int initial_simd() {
+#if defined(__x86_64__) && defined(__GNUC__)
+    const char* v = std::getenv("TASKSPACE_SIMD");
+    if (v && std::string(v) == "sse2") return 1;
+    __builtin_cpu_init();
+    return __builtin_cpu_supports("avx2") ? 2 : 1;
+#else
+    return 1;
+#endif
+  }
+  void set_simd(int level) {
+    if (level < 1 || level > 2) raise_invalid("simd level must be 1 (SSE2) or 2 (AVX2)");
+    const auto lock = lock_with_gil(mutex_);
+    simd_ = level == 2 && initial_simd_level() == 2 ? 2 : 1;
+  }
+  static int initial_simd_level() {
+    static const int level = [] {
+#if defined(__x86_64__) && defined(__GNUC__)
+      __builtin_cpu_init();
+      return __builtin_cpu_supports("avx2") ? 2 : 1;
+#else
+      return 1;
+#endif
+    }();
+    return level;
+  }
+  int simd() const { return simd_; }
+  __attribute__((always_inline)) inline void kinematics_batch_body(const double* const* q) {
     const std::size_t nj = fk_.size() + 1;
     batch_pose_.resize(nj);
     const auto& O = data_.oMi[0];
@@ -1611,6 +1661,7 @@ class CollisionKernel {
   bool fast_fk_ = false;
   taskspace_sphere_batch::SphereFilter filter_;  // single-precision filter (setup_filter)
   int filter_mode_ = initial_filter_mode();
+  int simd_ = initial_simd();
   static int initial_filter_mode() {
     const char* v = std::getenv("TASKSPACE_SPHERE_FILTER");
     if (v && (v[0] == '0' || v[0] == '1' || v[0] == '2') && v[1] == 0) return v[0] - '0';
@@ -2501,6 +2552,8 @@ BOOST_PYTHON_MODULE(_planning_kernel) {
       .def("set_sphere_filter", &CollisionKernel::set_sphere_filter, bp::args("self", "mode"))
       .def("sphere_filter", &CollisionKernel::sphere_filter)
       .add_property("sphere_filter_mode", &CollisionKernel::sphere_filter_mode)
+      .def("set_simd", &CollisionKernel::set_simd, bp::args("self", "level"))
+      .add_property("simd", &CollisionKernel::simd)
       .def("sphere_filter_eps", &CollisionKernel::sphere_filter_eps)
       .def("sphere_filter_units", &CollisionKernel::sphere_filter_units)
       .def("sphere_filter_flags", &CollisionKernel::sphere_filter_flags, bp::args("self", "qs"))

@@ -67,7 +67,7 @@ namespace taskspace_sphere_batch {
 constexpr int kLanes = 4;
 typedef float F4 __attribute__((vector_size(kLanes * sizeof(float))));
 typedef int I4 __attribute__((vector_size(kLanes * sizeof(int))));
-typedef double D4 __attribute__((vector_size(kLanes * sizeof(double))));
+typedef double D4 __attribute__((vector_size(kLanes * sizeof(double)), aligned(16)));
 
 inline unsigned lanes_of(I4 m) {
 #ifdef TASKSPACE_SPHERE_BATCH_SSE
@@ -172,15 +172,18 @@ class SphereFilter {
     for (const auto& o : in.obstacles) {
       ObsF f;
       f.type = o.type;
-      for (int k = 0; k < 9; ++k) f.R[k] = static_cast<float>(o.R[k]);
+      // (every value broadcast to the lanes once here, not at each test)
+      for (int k = 0; k < 9; ++k) f.R[k] = splat(static_cast<float>(o.R[k]));
       for (int a = 0; a < 3; ++a) {
-        f.t[a] = static_cast<float>(o.t[a]);
-        f.half[a] = static_cast<float>(o.half[a]);
-        f.lo[a] = static_cast<float>(o.lo[a]);
-        f.hi[a] = static_cast<float>(o.hi[a]);
+        f.t[a] = splat(static_cast<float>(o.t[a]));
+        f.half[a] = splat(static_cast<float>(o.half[a]));
+        f.lo[a] = splat(static_cast<float>(o.lo[a]));
+        f.hi[a] = splat(static_cast<float>(o.hi[a]));
       }
       f.radius = static_cast<float>(o.radius);
       f.half_length = static_cast<float>(o.half_length);
+      f.radius4 = splat(f.radius);
+      f.half_length4 = splat(f.half_length);
       f.swept = static_cast<float>(o.swept);
       obs_.push_back(f);
     }
@@ -291,7 +294,8 @@ class SphereFilter {
   };
   struct ObsF {
     int type;
-    float R[9], t[3], half[3], lo[3], hi[3];
+    F4 R[9], t[3], half[3], lo[3], hi[3];
+    F4 radius4, half_length4;
     float radius, half_length, swept;
   };
   struct Item {
@@ -361,11 +365,11 @@ class SphereFilter {
       return lanes_of(ex * ex + ey * ey + ez * ez <= splat(r * r));
     }
     if (o.type == 3) {
-      const F4 dr = vmax(vsqrt(lx * lx + ly * ly) - o.radius, zero);
-      const F4 dh = vmax(vabs(lz) - o.half_length, zero);
+      const F4 dr = vmax(vsqrt(lx * lx + ly * ly) - o.radius4, zero);
+      const F4 dh = vmax(vabs(lz) - o.half_length4, zero);
       return lanes_of(dr * dr + dh * dh <= splat(r * r));
     }
-    const F4 z = vmin(vmax(lz, splat(-o.half_length)), splat(o.half_length));
+    const F4 z = vmin(vmax(lz, -o.half_length4), o.half_length4);
     const F4 ez = lz - z;
     const float rr = r + o.radius;
     return lanes_of(lx * lx + ly * ly + ez * ez <= splat(rr * rr));
