@@ -679,8 +679,9 @@ class CollisionKernel {
   // it cannot clear (the double path's answers); 2 (default) as 1, but for "spheres only" a
   // lane whose spheres the filter finds overlapping a primitive or a self pair's spheres is
   // colliding without the double test (conservative: it differs from the double test only
-  // within eps of touching, where it says colliding). The initial mode is the environment
-  // variable TASKSPACE_SPHERE_FILTER (0, 1 or 2) when set.
+  // within eps of touching, where it says colliding) in edge checks (first_collision: the
+  // planner, first_invalid_on_edge); collisions_with keeps the double test's answers. The
+  // initial mode is the environment variable TASKSPACE_SPHERE_FILTER (0, 1 or 2) when set.
   void set_sphere_filter(int mode) {
     if (mode < 0 || mode > 2) raise_invalid("sphere filter mode must be 0, 1 or 2");
     const auto lock = lock_with_gil(mutex_);
@@ -1050,8 +1051,7 @@ class CollisionKernel {
   // Collision flags of rows [begin, end) of qs into out (batched sphere checks).
   void flags_batched(const Eigen::Ref<const RowMatrixXd>& qs, int checker, Eigen::VectorXi& out) {
     const double* lanes[kBatch];
-    const bool filter = sphere_filter();
-    const bool trust = filter && filter_mode_ == 2 && checker == kSpheresOnly;
+    const bool filter = sphere_filter();  // (the double test's answers: no trusted lanes)
     for (Eigen::Index s = 0; s < qs.rows(); s += kBatch) {
       const int m = static_cast<int>(std::min<Eigen::Index>(kBatch, qs.rows() - s));
       for (int l = 0; l < kBatch; ++l) lanes[l] = qs.row(s + std::min(l, m - 1)).data();
@@ -1065,10 +1065,6 @@ class CollisionKernel {
         ++checks_;
         out[s + l] = 0;
         if (!((maybe >> l) & 1u)) continue;
-        if (trust && ((filter_.sure() >> l) & 1u)) {
-          out[s + l] = 1;
-          continue;
-        }
         load_lane(l);
         out[s + l] = spheres_placed(checker) ? 1 : 0;
       }
