@@ -214,6 +214,25 @@ class SphereFilter {
         unit->margin = std::max(unit->margin, static_cast<float>(p.margin) + e);
       }
     }
+    // per link and obstacle its static unit; obstacle boxes in blocks of 4 (at most 64)
+    by_link_ = obs_.size() <= 64;
+    unit_of_.assign(links_.size() * obs_.size(), -1);
+    for (int a = 0; a < 3; ++a) {
+      blo_[a].assign((obs_.size() + 3) / 4, splat(std::numeric_limits<float>::infinity()));
+      bhi_[a].assign((obs_.size() + 3) / 4, splat(-std::numeric_limits<float>::infinity()));
+    }
+    binfl_.assign((obs_.size() + 3) / 4, F4{});
+    for (std::size_t k = 0; k < static_units_.size(); ++k) {
+      const StaticUnit& u = static_units_[k];
+      unit_of_[u.link * obs_.size() + u.obstacle] = static_cast<int>(k);
+      const std::size_t b = u.obstacle / 4, lane = u.obstacle % 4;
+      for (int a = 0; a < 3; ++a) {
+        blo_[a][b][lane] = obs_[u.obstacle].lo[a][0];
+        bhi_[a][b][lane] = obs_[u.obstacle].hi[a][0];
+      }
+      const float infl = u.margin + obs_[u.obstacle].swept;
+      if (infl > binfl_[b][lane]) binfl_[b][lane] = infl;
+    }
     obj_stamp_.assign(objects_.size(), 0u);
     obj_world_.assign(objects_.size(), V3{});
     sph_world_.assign(sph_.size(), V3{});
@@ -248,7 +267,35 @@ class SphereFilter {
       maybe |= unit_hits(last_unit_, active);
       if (maybe & stop_bit) return maybe;
     }
-    for (int k = 0; k < nu; ++k) {
+    if (by_link_) {
+      // static units: per link and active lane, the obstacles whose (inflated) box its
+      // bounding sphere touches, 4 obstacles per vector operation; then the units of those
+      for (std::size_t li = 0; li < links_.size(); ++li) {
+        const unsigned act = active & ~maybe;
+        std::uint64_t lane_bits[kLanes] = {0, 0, 0, 0};
+        std::uint64_t any = 0;
+        for (int l = 0; l < kLanes; ++l)
+          if ((act >> l) & 1u) any |= lane_bits[l] = link_obstacles(li, l);
+        while (any) {
+          const int ob = __builtin_ctzll(any);
+          any &= any - 1;
+          const int k = unit_of_[li * obs_.size() + ob];
+          if (k < 0 || k == last_unit_) continue;
+          unsigned near = 0;
+          for (int l = 0; l < kLanes; ++l)
+            near |= static_cast<unsigned>((lane_bits[l] >> ob) & 1u) << l;
+          const unsigned h = static_leaves(k, near & active & ~maybe);
+          if (!h) continue;
+          maybe |= h;
+          if (maybe & stop_bit) {
+            last_unit_ = k;
+            return maybe;
+          }
+          if (maybe == active) return maybe;
+        }
+      }
+    }
+    for (int k = by_link_ ? ns : 0; k < nu; ++k) {
       if (k == last_unit_) continue;
       const unsigned h = unit_hits(k, active & ~maybe);
       if (!h) continue;
@@ -380,6 +427,49 @@ class SphereFilter {
     return lanes_of(dx * dx + dy * dy + dz * dz <= splat(r * r));
   }
 
+  // The object and sphere levels of static unit k for the lanes `near` (the link level passed).
+  unsigned static_leaves(int k, unsigned near) {
+    if (!near) return 0;
+    const StaticUnit& u = static_units_[k];
+    const ObsF& o = obs_[u.obstacle];
+    unsigned hit = 0;
+    for (const Item& it : u.items) {
+      place_object(it.a);
+      const ObjectF& ob = objects_[it.a];
+      const float rs = it.margin + o.swept;
+      unsigned m = near & ~hit & box_hits(o, obj_world_[it.a], ob.radius + rs);
+      if (!m) continue;
+      if (o.type != 0) m &= prim_hits(o, obj_world_[it.a], ob.radius + rs);
+      for (int s = ob.begin; s < ob.end && m; ++s) {
+        const unsigned h = m & prim_hits(o, sph_world_[s], sph_[s].r + rs);
+        hit |= h;
+        if (o.type != 0) sure_ |= h;
+        m &= ~h;
+      }
+      if (hit == near) break;
+    }
+    return hit;
+  }
+
+  // Bit b set when link li's bounding sphere in lane l touches obstacle b's box, inflated by
+  // the largest margin of its units and its swept radius (bits of obstacles without a unit of
+  // the link are ignored by the caller).
+  std::uint64_t link_obstacles(std::size_t li, int l) const {
+    const LinkF& L = links_[li];
+    const F4 cx = splat(L.world.x[l]), cy = splat(L.world.y[l]), cz = splat(L.world.z[l]);
+    const F4 zero = {};
+    std::uint64_t bits = 0;
+    for (std::size_t b = 0; b < blo_[0].size(); ++b) {
+      const F4 dx = vmax(vmax(blo_[0][b] - cx, cx - bhi_[0][b]), zero);
+      const F4 dy = vmax(vmax(blo_[1][b] - cy, cy - bhi_[1][b]), zero);
+      const F4 dz = vmax(vmax(blo_[2][b] - cz, cz - bhi_[2][b]), zero);
+      const F4 rr = L.radius + binfl_[b];
+      const unsigned m = lanes_of(dx * dx + dy * dy + dz * dz <= rr * rr);
+      bits |= static_cast<std::uint64_t>(m) << (4 * b);
+    }
+    return bits;
+  }
+
   unsigned unit_hits(int k, unsigned active) {
     if (!active) return 0;
     const int ns = static_cast<int>(static_units_.size());
@@ -390,23 +480,7 @@ class SphereFilter {
       const LinkF& l = links_[u.link];
       // (the boxes with the swept radius too: whether coal's box includes it or not)
       const unsigned near = box_hits(o, l.world, l.radius + u.margin + o.swept) & active;
-      if (!near) return 0;
-      for (const Item& it : u.items) {
-        place_object(it.a);
-        const ObjectF& ob = objects_[it.a];
-        const float rs = it.margin + o.swept;
-        unsigned m = near & ~hit & box_hits(o, obj_world_[it.a], ob.radius + rs);
-        if (!m) continue;
-        if (o.type != 0) m &= prim_hits(o, obj_world_[it.a], ob.radius + rs);
-        for (int s = ob.begin; s < ob.end && m; ++s) {
-          const unsigned h = m & prim_hits(o, sph_world_[s], sph_[s].r + rs);
-          hit |= h;
-          if (o.type != 0) sure_ |= h;
-          m &= ~h;
-        }
-        if (hit == active) break;
-      }
-      return hit;
+      return static_leaves(k, near);
     }
     const SelfUnit& u = self_units_[k - ns];
     const LinkF& la = links_[u.la];
@@ -444,6 +518,9 @@ class SphereFilter {
   std::vector<SelfUnit> self_units_;
   std::vector<unsigned> obj_stamp_;
   std::vector<V3> obj_world_, sph_world_;
+  bool by_link_ = false;
+  std::vector<int> unit_of_;             // static unit of (link, obstacle), or -1
+  std::vector<F4> blo_[3], bhi_[3], binfl_;  // obstacle boxes, 4 per block (link_obstacles)
   unsigned stamp_ = 0, sure_ = 0;
   int last_unit_ = -1;
 };
