@@ -156,13 +156,14 @@ Measurements formerly kept in ``taskspace.planning.rrt_connect``'s docstring (ol
     spheres, objects', spheres against the primitives and self pairs, radii inflated by a
     derived rounding bound, 23-31 um here), the double test only on the lanes it cannot
     clear ("spheres only" edges trust its sphere overlaps); the batched kinematics compiled
-    for SSE2 and AVX2, chosen at run time. ``"spheres_only"`` with ``validator="spheres"``,
+    for SSE2 and AVX2, chosen at run time (an earlier build, SSE2 forced: 0.346-0.363 ms
+    against 0.314-0.332 with AVX2). ``"spheres_only"`` with ``validator="spheres"``,
     medians over the 313 problems (measure_min.py, two rounds alternating with main, load
-    4-8): 0.314-0.332 ms against 0.449-0.469 (SSE2 forced: 0.346-0.363), all solved, the same
-    median checks (475); phases: growth 160-161 us (222-229), fine pass 96-97 (155-159),
-    Python and call 34-41. Instructions inside ``rrt_connect`` on 14 problems (callgrind):
-    111.1 M -> 96.8 M (SSE2 106.3 M), the filter itself 47.5 M of them: 0.1 ms needs it cheaper
-    (obstacles as lanes at the link level, 8 lanes with AVX2) and fewer Python microseconds.
+    3-4): 0.280-0.288 ms against 0.444-0.452, all solved, the same median checks (475);
+    phases: growth 140 us (220-222), fine pass 78-79 (154-156), Python and call 35-38.
+    Instructions inside ``rrt_connect`` on 14 problems (callgrind, 7,986 checks): 111.1 M ->
+    84.8 M, the filter 40.9 M of them: 0.1 ms needs the filter cheaper (8 lanes with AVX2 and
+    fuller batches, the self pairs), fewer checks and fewer Python microseconds.
 
     Measured for the Python path (same problems, same checker, 2-core machine; see
     ``benchmarks/suites/planning.py``):

@@ -17,7 +17,7 @@
 //     world boxes (the kernel's boxes_, inflated as Pinocchio's managers do), 4 obstacles per
 //     vector operation (link_obstacles); then the (link, obstacle) units of the touched
 //     obstacles only (a batch often has 1-2 active lanes: testing every unit for 4 lanes cost
-//     about 20 % more time in the planner);
+//     10-20 % more kernel time in the planner);
 //  2. per moving object of the unit: its bounding sphere against the box and against the
 //     primitive (box, ball, cylinder, capsule: exact point distance in the obstacle's frame);
 //  3. per sphere of the object: against the primitive (or the box for other shapes: the
