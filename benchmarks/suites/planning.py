@@ -150,6 +150,21 @@ Measurements formerly kept in ``taskspace.planning.rrt_connect``'s docstring (ol
     as the coarse points and the fine pass check: fewer checks needs tighter, configuration-
     dependent bounds; cheaper checks need float lanes.
 
+    Single-precision sphere filter (2026-11-27, branch simd; ``sphere_batch.hpp``, default;
+    row ``rrt_connect_spheres_only_validator_spheres_no_filter``: the batched double path
+    before it): the 4 configurations of a batch tested at once in float (links' bounding
+    spheres, objects', spheres against the primitives and self pairs, radii inflated by a
+    derived rounding bound, 23-31 um here), the double test only on the lanes it cannot
+    clear ("spheres only" edges trust its sphere overlaps); the batched kinematics compiled
+    for SSE2 and AVX2, chosen at run time (an earlier build, SSE2 forced: 0.346-0.363 ms
+    against 0.314-0.332 with AVX2). ``"spheres_only"`` with ``validator="spheres"``,
+    medians over the 313 problems (measure_min.py, two rounds alternating with main, load
+    3-4): 0.280-0.288 ms against 0.444-0.452, all solved, the same median checks (475);
+    phases: growth 140 us (220-222), fine pass 78-79 (154-156), Python and call 35-38.
+    Instructions inside ``rrt_connect`` on 14 problems (callgrind, 7,986 checks): 111.1 M ->
+    84.8 M, the filter 40.9 M of them: 0.1 ms needs the filter cheaper (8 lanes with AVX2 and
+    fuller batches, the self pairs), fewer checks and fewer Python microseconds.
+
     Measured for the Python path (same problems, same checker, 2-core machine; see
     ``benchmarks/suites/planning.py``):
     the lazy coarse-to-fine checks need about 35 % fewer collision checks than checking every
@@ -193,6 +208,7 @@ METHODS = (
     "rrt_connect_spheres",
     "rrt_connect_spheres_only",
     "rrt_connect_spheres_only_validator_spheres",
+    "rrt_connect_spheres_only_validator_spheres_no_filter",
     "rrt_connect_clearance",
     "rrt_connect_python",
     "rrt_connect_classic",
@@ -204,6 +220,7 @@ OURS_RRT = (
     "taskspace rrt_connect_spheres",
     "taskspace rrt_connect_spheres_only",
     "taskspace rrt_connect_spheres_only_validator_spheres",
+    "taskspace rrt_connect_spheres_only_validator_spheres_no_filter",
     "taskspace rrt_connect_clearance",
     "taskspace rrt_connect_python",
     "taskspace rrt_connect_classic",
@@ -302,12 +319,13 @@ def _plan_problem(item: tuple[Any, ...], rng: np.random.Generator, robot: Any) -
         return out
     per = out["samples"]
     assert isinstance(space.checker, CollisionChecker)
-    space.checker.sphere_kernel()  # the sphere model is built before timing (once per robot)
+    kernel = space.checker.sphere_kernel()  # the sphere model: built before timing (once)
     for method, coarse, local, native, checker in (
         ("rrt_connect", 0.15, 0.5, True, "mesh"),
         ("rrt_connect_spheres", 0.15, 0.5, True, "spheres"),
         ("rrt_connect_spheres_only", 0.15, 0.5, True, "spheres_only"),
         ("rrt_connect_spheres_only_validator_spheres", 0.15, 0.5, True, "spheres_only"),
+        ("rrt_connect_spheres_only_validator_spheres_no_filter", 0.15, 0.5, True, "spheres_only"),
         ("rrt_connect_clearance", 0.15, 0.5, True, "clearance"),
         ("rrt_connect_python", 0.15, 0.5, False, "mesh"),
         ("rrt_connect_classic", None, 0.0, True, "mesh"),
@@ -322,10 +340,21 @@ def _plan_problem(item: tuple[Any, ...], rng: np.random.Generator, robot: Any) -
             native=native,
             checker=checker,
             validator=(
-                "spheres" if method.endswith(("_validator_spheres", "_clearance")) else "mesh"
+                "spheres"
+                if method.endswith(("_validator_spheres", "_no_filter", "_clearance"))
+                else "mesh"
             ),
         )
-        res = rrt_connect(space, req.start, req.goal, opts)
+        # the batched sphere checks without the single-precision filter (the path before it)
+        no_filter = method.endswith("_no_filter") and hasattr(kernel, "set_sphere_filter")
+        if no_filter:
+            mode = kernel.sphere_filter_mode
+            kernel.set_sphere_filter(0)
+        try:
+            res = rrt_connect(space, req.start, req.goal, opts)
+        finally:
+            if no_filter:
+                kernel.set_sphere_filter(mode)
         row = {
             "time": res.time_s,
             "ok": float(res.success and res.time_s <= TIME_LIMIT),

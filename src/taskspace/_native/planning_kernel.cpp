@@ -142,6 +142,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
 #include <cstring>
 #include <limits>
 #include <memory>
@@ -150,6 +151,8 @@
 #include <stdexcept>
 #include <string>
 #include <vector>
+
+#include "sphere_batch.hpp"
 
 namespace bp = boost::python;
 using pinocchio::Data;
@@ -617,8 +620,122 @@ class CollisionKernel {
     }
     setup_kinematics();
     setup_motion_bounds();
+    setup_filter();
     has_spheres_ = true;
     certified_margin_ = certified_margin;
+  }
+
+  // The single-precision sphere filter of the batched checks (sphere_batch.hpp): the same
+  // pairs, margins, spheres and bounding spheres as spheres_placed. Not set up (the batched
+  // checks then test every lane in double) without the loop kinematics or with a pair of two
+  // static objects (checked exactly by spheres_placed).
+  void setup_filter() {
+    namespace sb = taskspace_sphere_batch;
+    filter_ = sb::SphereFilter{};
+    if (!fast_fk_) return;
+    for (const Group& g : groups_)
+      if (geom_.geometryObjects[g.object].parentJoint == 0) return;
+    sb::Input in;
+    double scale = 1.0, reach = 0.0, far = 0.0;
+    for (const FkJoint& f : fk_) reach += f.t0.norm();
+    for (const Link& l : links_) {
+      in.links.push_back({l.joint, {l.center[0], l.center[1], l.center[2]}, l.radius});
+      far = std::max(far, l.center.norm() + l.radius);
+    }
+    std::vector<int> obj(geom_.geometryObjects.size(), -1), obs(obj.size(), -1);
+    for (std::size_t i : moving_) {
+      sb::Input::Object o;
+      o.geometry = static_cast<int>(i);
+      o.link = link_of_[i];
+      for (int a = 0; a < 3; ++a) o.center[a] = bound_local_[i][a];
+      o.radius = bound_r_[i];
+      for (int k = sph_begin_[i]; k < sph_begin_[i + 1]; ++k) {
+        for (int a = 0; a < 3; ++a) o.sph.push_back(sph_local_[k][a]);
+        o.sph.push_back(sph_r_[k]);
+        far = std::max(far, sph_local_[k].norm() + sph_r_[k]);
+      }
+      obj[i] = static_cast<int>(in.objects.size());
+      in.objects.push_back(std::move(o));
+    }
+    scale = std::max(scale, reach + far);
+    for (std::size_t j = 0; j < group_pairs_.size(); ++j) {
+      const GroupPair& gp = group_pairs_[j];
+      const std::size_t a = groups_[group_of_pair(j)].object;
+      int b = -1;
+      if (gp.partner_static) {
+        if (obs[gp.partner] < 0) {
+          const Primitive& P = prim_[gp.partner];
+          sb::Obstacle o;
+          o.type = P.type;  // kGeneric 0, kBox 1, kBall 2, kCylinder 3, kCapsule 4
+          for (int r = 0; r < 3; ++r)
+            for (int c = 0; c < 3; ++c) o.R[r + 3 * c] = P.R(r, c);
+          for (int a3 = 0; a3 < 3; ++a3) {
+            o.t[a3] = P.t[a3];
+            o.half[a3] = P.half[a3];
+            o.lo[a3] = boxes_[gp.partner].min_[a3];
+            o.hi[a3] = boxes_[gp.partner].max_[a3];
+            scale = std::max({scale, std::abs(o.lo[a3]), std::abs(o.hi[a3]),
+                              std::abs(P.t[a3]) + P.half[a3]});
+          }
+          o.radius = P.radius;
+          o.half_length = P.half_length;
+          o.swept = P.swept;
+          scale = std::max(scale, P.t.norm() + P.radius + P.half_length + P.swept);
+          obs[gp.partner] = static_cast<int>(in.obstacles.size());
+          in.obstacles.push_back(o);
+        }
+        b = obs[gp.partner];
+      } else {
+        b = obj[gp.partner];
+      }
+      in.pairs.push_back({obj[a], b, gp.partner_static, pair_margin_[j]});
+    }
+    if (!std::isfinite(scale)) return;
+    in.scale = scale;
+    filter_.setup(in);
+  }
+
+  std::size_t group_of_pair(std::size_t j) const {
+    for (std::size_t g = 0; g < groups_.size(); ++g)
+      if (j >= groups_[g].begin && j < groups_[g].end) return g;
+    return 0;
+  }
+
+  // The batched sphere checks: mode 0 tests every lane in double (the path before the
+  // filter, for comparisons); 1 the single-precision filter, then the double test on the lanes
+  // it cannot clear (the double path's answers); 2 (default) as 1, but for "spheres only" a
+  // lane whose spheres the filter finds overlapping a primitive or a self pair's spheres is
+  // colliding without the double test (conservative: it differs from the double test only
+  // within eps of touching, where it says colliding) in edge checks (first_collision: the
+  // planner, first_invalid_on_edge); collisions_with keeps the double test's answers. The
+  // initial mode is the environment variable TASKSPACE_SPHERE_FILTER (0, 1 or 2) when set.
+  void set_sphere_filter(int mode) {
+    if (mode < 0 || mode > 2) raise_invalid("sphere filter mode must be 0, 1 or 2");
+    const auto lock = lock_with_gil(mutex_);
+    filter_mode_ = mode;
+  }
+  int sphere_filter_mode() const { return filter_mode_; }
+  bool sphere_filter() const { return filter_mode_ > 0 && filter_.ready(); }
+  double sphere_filter_eps() const { return filter_.eps(); }
+  int sphere_filter_units() const { return filter_.units(); }
+
+  // The filter's raw answer for up to kBatch rows: flags 1 where it finds that the row may
+  // collide (a row outside is free for the double-precision sphere test), no early exit. Tests.
+  Eigen::VectorXi sphere_filter_flags(const Eigen::Ref<const RowMatrixXd>& qs) {
+    check_cols(qs);
+    if (!has_spheres_ || !filter_.ready()) raise_invalid("the sphere filter is not set up");
+    const auto lock = lock_with_gil(mutex_);
+    Eigen::VectorXi out(qs.rows());
+    const double* lanes[kBatch];
+    for (Eigen::Index s = 0; s < qs.rows(); s += kBatch) {
+      const int m = static_cast<int>(std::min<Eigen::Index>(kBatch, qs.rows() - s));
+      for (int l = 0; l < kBatch; ++l) lanes[l] = qs.row(s + std::min(l, m - 1)).data();
+      kinematics_batch(lanes);
+      filter_.load(batch_pose_);
+      const unsigned maybe = filter_.run((1u << m) - 1u, kBatch);
+      for (int l = 0; l < m; ++l) out[s + l] = (maybe >> l) & 1u;
+    }
+    return out;
   }
 
   // Joint placements data_.oMi for q: a loop over the joints for models whose joints are
@@ -722,8 +839,14 @@ class CollisionKernel {
   // inflation. Used for the sphere checkers on models with the loop kinematics (fast_fk_):
   // edges (first_collision: rrt_connect's EXTEND, CONNECT and straight lines,
   // first_invalid_on_edge) and collisions_with.
+  // Then (set_sphere_filter, default mode 2) the single-precision filter of sphere_batch.hpp
+  // tests the 4 lanes at once (sphere centres from the lanes' placements, no load_lane) and
+  // only the lanes it cannot clear go through load_lane and the double test, in order: see
+  // first_collision and sphere_batch.hpp (the rounding bound, the hierarchy).
   static constexpr int kBatch = 4;
-  typedef double Batch __attribute__((vector_size(kBatch * sizeof(double))));
+  // 16-byte alignment (not the vector's 32): the AVX2 kinematics then load unaligned, since
+  // the vectors holding BatchPose (batch_pose_) guarantee 16 bytes only (seen: vmovapd faults)
+  typedef double Batch __attribute__((vector_size(kBatch * sizeof(double)), aligned(16)));
   struct BatchPose {
     Batch R[9];  // R[r + 3 * c]
     Batch t[3];
@@ -734,7 +857,8 @@ class CollisionKernel {
   // |r| <= pi/4 (pi/2 in two parts, fdlibm's: j pi/2 is exact for |j| < 2^20), then Cephes'
   // polynomials of sin and cos on [-pi/4, pi/4] (sin.c: relative error about 1e-16) and the
   // quadrant j mod 4. Lanes beyond |x| < 1e5 (or not finite) take std::sin / std::cos.
-  static void batch_sincos(const Batch& x, Batch& s, Batch& c) {
+  __attribute__((always_inline)) static inline void batch_sincos(const Batch& x, Batch& s,
+                                                                 Batch& c) {
     constexpr double kTwoOverPi = 6.36619772367581382433e-01;
     constexpr double kPio2Hi = 1.57079632673412561417e+00;  // first 33 bits of pi/2
     constexpr double kPio2Lo = 6.07710050650619224932e-11;  // pi/2 - kPio2Hi
@@ -783,7 +907,54 @@ class CollisionKernel {
   }
 
   // Joint placements of kBatch configurations (lane l: the nq coordinates at q[l]).
+  // Compiled twice: for SSE2 (the portable baseline) and for AVX2 (one register per Batch of
+  // 4 doubles instead of two), chosen at run time (simd_: __builtin_cpu_supports, the
+  // environment variable TASKSPACE_SIMD=sse2 or set_simd force SSE2). Both run the same
+  // IEEE operations in the same order (no FMA: the target is "avx2" alone, and ISO C++
+  // does not contract a * b + c), so their placements are bit-identical (tested).
   void kinematics_batch(const double* const* q) {
+#if defined(__x86_64__) && defined(__GNUC__)
+    if (simd_ == 2) {
+      kinematics_batch_avx2(q);
+      return;
+    }
+#endif
+    kinematics_batch_body(q);
+  }
+#if defined(__x86_64__) && defined(__GNUC__)
+  __attribute__((target("avx2"))) void kinematics_batch_avx2(const double* const* q) {
+    kinematics_batch_body(q);
+  }
+#endif
+  // 2: AVX2 (when the processor has it), 1: SSE2.
+  static int initial_simd() {
+#if defined(__x86_64__) && defined(__GNUC__)
+    const char* v = std::getenv("TASKSPACE_SIMD");
+    if (v && std::string(v) == "sse2") return 1;
+    __builtin_cpu_init();
+    return __builtin_cpu_supports("avx2") ? 2 : 1;
+#else
+    return 1;
+#endif
+  }
+  void set_simd(int level) {
+    if (level < 1 || level > 2) raise_invalid("simd level must be 1 (SSE2) or 2 (AVX2)");
+    const auto lock = lock_with_gil(mutex_);
+    simd_ = level == 2 && initial_simd_level() == 2 ? 2 : 1;
+  }
+  static int initial_simd_level() {
+    static const int level = [] {
+#if defined(__x86_64__) && defined(__GNUC__)
+      __builtin_cpu_init();
+      return __builtin_cpu_supports("avx2") ? 2 : 1;
+#else
+      return 1;
+#endif
+    }();
+    return level;
+  }
+  int simd() const { return simd_; }
+  __attribute__((always_inline)) inline void kinematics_batch_body(const double* const* q) {
     const std::size_t nj = fk_.size() + 1;
     batch_pose_.resize(nj);
     const auto& O = data_.oMi[0];
@@ -852,6 +1023,8 @@ class CollisionKernel {
     }
     edge_buf_.resize(static_cast<std::size_t>(kBatch) * n);
     const double* lanes[kBatch];
+    const bool filter = sphere_filter();
+    const bool trust = filter && filter_mode_ == 2 && checker == kSpheresOnly;
     for (int s = 0; s < count; s += kBatch) {
       const int m = std::min(kBatch, count - s);
       for (int l = 0; l < kBatch; ++l) {
@@ -861,11 +1034,42 @@ class CollisionKernel {
         lanes[l] = x;
       }
       kinematics_batch(lanes);
-      for (int l = 0; l < m; ++l) {
-        if (stop()) return s + l;
-        ++checks_;
-        load_lane(l);
-        if (spheres_placed(checker)) return s + l;
+      if (!filter) {
+        for (int l = 0; l < m; ++l) {
+          if (stop()) return s + l;
+          ++checks_;
+          load_lane(l);
+          if (spheres_placed(checker)) return s + l;
+        }
+        continue;
+      }
+      // the filter, stopping when the first lane not yet decided may collide: that lane is
+      // checked exactly (colliding: done; free: the filter again on the later lanes); lanes
+      // the filter clears are free, the others are checked exactly, in order
+      filter_.load(batch_pose_);
+      const unsigned all = (1u << m) - 1u;
+      unsigned decided = 0;
+      for (int first = 0; first < m;) {
+        const unsigned maybe = filter_.run(all & ~decided, first);
+        if ((maybe >> first) & 1u) {
+          if (stop()) return s + first;
+          ++checks_;
+          if (trust && ((filter_.sure() >> first) & 1u)) return s + first;
+          load_lane(first);
+          if (spheres_placed(checker)) return s + first;
+          decided |= 1u << first;
+          ++first;
+          continue;
+        }
+        for (int l = first; l < m; ++l) {
+          if (stop()) return s + l;
+          ++checks_;
+          if (!((maybe >> l) & 1u)) continue;
+          if (trust && ((filter_.sure() >> l) & 1u)) return s + l;
+          load_lane(l);
+          if (spheres_placed(checker)) return s + l;
+        }
+        break;
       }
     }
     return -1;
@@ -874,12 +1078,20 @@ class CollisionKernel {
   // Collision flags of rows [begin, end) of qs into out (batched sphere checks).
   void flags_batched(const Eigen::Ref<const RowMatrixXd>& qs, int checker, Eigen::VectorXi& out) {
     const double* lanes[kBatch];
+    const bool filter = sphere_filter();  // (the double test's answers: no trusted lanes)
     for (Eigen::Index s = 0; s < qs.rows(); s += kBatch) {
       const int m = static_cast<int>(std::min<Eigen::Index>(kBatch, qs.rows() - s));
       for (int l = 0; l < kBatch; ++l) lanes[l] = qs.row(s + std::min(l, m - 1)).data();
       kinematics_batch(lanes);
+      unsigned maybe = (1u << m) - 1u;  // without the filter: every lane in double
+      if (filter) {
+        filter_.load(batch_pose_);
+        maybe = filter_.run(maybe, kBatch);
+      }
       for (int l = 0; l < m; ++l) {
         ++checks_;
+        out[s + l] = 0;
+        if (!((maybe >> l) & 1u)) continue;
         load_lane(l);
         out[s + l] = spheres_placed(checker) ? 1 : 0;
       }
@@ -1470,6 +1682,14 @@ class CollisionKernel {
   std::vector<double> edge_buf_;          // first_collision: the batch's configurations
   VectorXd edge_x_;                       // first_collision: one configuration
   bool fast_fk_ = false;
+  taskspace_sphere_batch::SphereFilter filter_;  // single-precision filter (setup_filter)
+  int filter_mode_ = initial_filter_mode();
+  int simd_ = initial_simd();
+  static int initial_filter_mode() {
+    const char* v = std::getenv("TASKSPACE_SPHERE_FILTER");
+    if (v && (v[0] == '0' || v[0] == '1' || v[0] == '2') && v[1] == 0) return v[0] - '0';
+    return 2;
+  }
   struct SphereGroup {  // a group's pairs for the sphere checker
     std::uint64_t bits = 0;            // bits of its static partners
     std::vector<std::size_t> by_bit;   // group pair (index into group_pairs_) of each bit
@@ -2559,6 +2779,14 @@ BOOST_PYTHON_MODULE(_planning_kernel) {
       .add_property("certified_margin", &CollisionKernel::certified_margin)
       .add_property("sphere_count", &CollisionKernel::sphere_count)
       .def("sphere_stats", &CollisionKernel::sphere_stats)
+      .def("set_sphere_filter", &CollisionKernel::set_sphere_filter, bp::args("self", "mode"))
+      .def("sphere_filter", &CollisionKernel::sphere_filter)
+      .add_property("sphere_filter_mode", &CollisionKernel::sphere_filter_mode)
+      .def("set_simd", &CollisionKernel::set_simd, bp::args("self", "level"))
+      .add_property("simd", &CollisionKernel::simd)
+      .def("sphere_filter_eps", &CollisionKernel::sphere_filter_eps)
+      .def("sphere_filter_units", &CollisionKernel::sphere_filter_units)
+      .def("sphere_filter_flags", &CollisionKernel::sphere_filter_flags, bp::args("self", "qs"))
       .def("reset_sphere_stats", &CollisionKernel::reset_sphere_stats)
       .def("collisions_with", &CollisionKernel::collisions_with,
            bp::args("self", "configurations", "checker"))

@@ -1,0 +1,531 @@
+// Single-precision sphere filter for batches of configurations (#22 item 4; VAMP-style:
+// Thomason, Kingston and Kavraki, ICRA 2024). Included by planning_kernel.cpp.
+//
+// What it answers. For kLanes configurations whose joint placements come from the kernel's
+// batched kinematics (CollisionKernel::kinematics_batch, structure of arrays: one lane per
+// configuration), a bit mask of the lanes that MAY collide for the robot's spheres (the
+// kernel's sphere checkers). A lane outside the mask is certainly free for the double-precision
+// sphere test of the kernel (spheres_placed): every test below is that test's, on the same
+// pairs, with the same margins, in single precision with every radius inflated by eps_ (the
+// bound on the rounding error below). The kernel then runs its exact double-precision check
+// (spheres_placed, with coal's narrow phase for the "spheres" checker) on the lanes in the
+// mask only, in the order of the edge, so the answers are the scalar path's answers exactly;
+// the filter only decides which configurations need that check.
+//
+// Hierarchy, every level lane-wise (4 configurations in one SSE register; no branch per lane):
+//  1. per link and active lane: the link's bounding sphere against the static obstacles'
+//     world boxes (the kernel's boxes_, inflated as Pinocchio's managers do), 4 obstacles per
+//     vector operation (link_obstacles); then the (link, obstacle) units of the touched
+//     obstacles only (a batch often has 1-2 active lanes: testing every unit for 4 lanes cost
+//     10-20 % more kernel time in the planner);
+//  2. per moving object of the unit: its bounding sphere against the box and against the
+//     primitive (box, ball, cylinder, capsule: exact point distance in the obstacle's frame);
+//  3. per sphere of the object: against the primitive (or the box for other shapes: the
+//     kernel then asks coal);
+//  self pairs: per (link, link) unit the two links' bounding spheres, per object pair the
+//  objects' bounding spheres, then sphere against sphere.
+// The unit that last made the first lane "maybe" is tested first (as the kernel's pair cache).
+// run() stops as soon as the lane given as `stop_lane` is in the mask (an edge needs its first
+// colliding configuration only: the kernel checks that lane exactly, returns when it collides,
+// else runs the filter again on the remaining lanes).
+//
+// Rounding error bound (eps_). u = 2^-24 (float's unit roundoff); S >= 1 m bounds the absolute
+// value of every coordinate, radius and half-size involved (setup: the obstacles' translations
+// and extents, the links' reach from the joint placements plus their spheres). Higham's
+// gamma_n = n u / (1 - n u) < 1.01 n u for n u < 0.01.
+//  - Link pose: the double placements rounded to float: rotation entries within u (|R_ij| <= 1),
+//    translation within u S.
+//  - Sphere centre c = R p + t in float (p rounded: within u S): |c_float - c| <= |dR p| +
+//    |R dp| + gamma_3 (|R||p| + |t|) per coordinate <= 3 u S + u S + 3.03 u (2 S) < 11 u S.
+//    The double centre of the kernel carries its own error of about 1e-16 S: negligible here,
+//    accounted in the slack below.
+//  - Obstacle frame l = R_o^T (c - t_o) (R_o, t_o rounded likewise): the difference c - t_o
+//    within 11 u S + u S + u 2 S = 14 u S per coordinate, then the rotation adds
+//    gamma_3 (3 * 2 S) + 3 u (2 S) < 25 u S: |l_float - l| < 3 * 14 u S + 25 u S = 67 u S per
+//    coordinate (worst case over the three terms of each row).
+//  - Distance to the primitive: each of (|l_a| - h_a)+ moves by at most 67 u S + 2 u S (h_a
+//    rounded, the subtraction rounded), the norm of three such terms by sqrt(3) times that:
+//    < 120 u S; the squared sums and the compared square (r + eps)^2 add gamma_4 relative error
+//    on both sides of d^2 <= R^2, i.e. at most 2.1 u R < 5 u S on the distance.
+//  - Sphere-sphere and sphere-to-box (world frame) tests take the shorter chain (no rotation).
+// Total < 130 u S; eps_ = 256 u S (S = 4 m: 61 micrometres; twice the bound). Over it, a lane
+// the double test finds colliding (distance <= r) has float distance < r + eps_: never "free".
+// tests/planning/test_planning_sphere_batch.py checks it on configurations bisected to within
+// 1e-9 of first contact (without the inflation those fail).
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <vector>
+
+#if defined(__SSE__) || defined(__x86_64__)
+#include <xmmintrin.h>
+#define TASKSPACE_SPHERE_BATCH_SSE 1
+#endif
+
+namespace taskspace_sphere_batch {
+
+constexpr int kLanes = 4;
+typedef float F4 __attribute__((vector_size(kLanes * sizeof(float))));
+typedef int I4 __attribute__((vector_size(kLanes * sizeof(int))));
+typedef double D4 __attribute__((vector_size(kLanes * sizeof(double)), aligned(16)));
+
+inline unsigned lanes_of(I4 m) {
+#ifdef TASKSPACE_SPHERE_BATCH_SSE
+  __m128 v;
+  __builtin_memcpy(&v, &m, sizeof v);
+  return static_cast<unsigned>(_mm_movemask_ps(v));
+#else
+  unsigned b = 0;
+  for (int l = 0; l < kLanes; ++l) b |= (m[l] != 0 ? 1u : 0u) << l;
+  return b;
+#endif
+}
+inline F4 splat(float x) { return F4{x, x, x, x}; }
+inline F4 vmax(F4 a, F4 b) { return a > b ? a : b; }
+inline F4 vmin(F4 a, F4 b) { return a < b ? a : b; }
+inline F4 vabs(F4 a) { return vmax(a, -a); }
+inline F4 vsqrt(F4 x) {
+#ifdef TASKSPACE_SPHERE_BATCH_SSE
+  __m128 v;
+  __builtin_memcpy(&v, &x, sizeof v);
+  v = _mm_sqrt_ps(v);
+  F4 r;
+  __builtin_memcpy(&r, &v, sizeof r);
+  return r;
+#else
+  F4 r;
+  for (int l = 0; l < kLanes; ++l) r[l] = std::sqrt(x[l]);
+  return r;
+#endif
+}
+inline F4 to_float(const D4& d) { return __builtin_convertvector(d, F4); }
+
+// Static obstacle (a static partner of a moving object), as the kernel describes it.
+struct Obstacle {
+  int type = 0;  // 0 other shape (its box only), 1 box, 2 ball, 3 cylinder, 4 capsule
+  double R[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};  // rotation, R[r + 3 c]
+  double t[3] = {0, 0, 0};
+  double half[3] = {0, 0, 0};
+  double radius = 0.0, half_length = 0.0, swept = 0.0;
+  double lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};  // world box (the kernel's boxes_)
+};
+
+// Set-up input: per moving object its link (index into links), its bounding sphere and its
+// spheres (joint frame); per link its joint and bounding sphere; the pairs (moving object a,
+// partner b, margin, b static?).
+struct Input {
+  struct Link {
+    int joint;
+    double center[3];
+    double radius;
+  };
+  struct Object {
+    int geometry;
+    int link;
+    double center[3];
+    double radius;
+    std::vector<double> sph;  // x, y, z, r per sphere
+  };
+  struct Pair {
+    int a, b;  // indices into objects (a) and objects or obstacles (b)
+    bool b_static;
+    double margin;
+  };
+  std::vector<Link> links;
+  std::vector<Object> objects;
+  std::vector<Obstacle> obstacles;
+  std::vector<Pair> pairs;
+  double scale = 1.0;  // S of the error bound (>= 1 m)
+};
+
+class SphereFilter {
+ public:
+  bool ready() const { return ready_; }
+  double eps() const { return eps_; }
+
+  void setup(const Input& in) {
+    ready_ = false;
+    links_.clear();
+    objects_.clear();
+    obs_.clear();
+    sph_.clear();
+    static_units_.clear();
+    self_units_.clear();
+    last_unit_ = -1;
+    const double u = std::ldexp(1.0, -24);
+    eps_ = 256.0 * u * std::max(1.0, in.scale);
+    for (const auto& l : in.links)
+      links_.push_back(LinkF{l.joint, f3(l.center), static_cast<float>(l.radius), {}, {}, {}});
+    for (const auto& o : in.objects) {
+      ObjectF of;
+      of.link = o.link;
+      of.center = f3(o.center);
+      of.radius = static_cast<float>(o.radius);
+      of.begin = static_cast<int>(sph_.size());
+      for (std::size_t k = 0; k + 3 < o.sph.size(); k += 4)
+        sph_.push_back(SphF{{static_cast<float>(o.sph[k]), static_cast<float>(o.sph[k + 1]),
+                             static_cast<float>(o.sph[k + 2])},
+                            static_cast<float>(o.sph[k + 3])});
+      of.end = static_cast<int>(sph_.size());
+      objects_.push_back(of);
+    }
+    for (const auto& o : in.obstacles) {
+      ObsF f;
+      f.type = o.type;
+      // (every value broadcast to the lanes once here, not at each test)
+      for (int k = 0; k < 9; ++k) f.R[k] = splat(static_cast<float>(o.R[k]));
+      for (int a = 0; a < 3; ++a) {
+        f.t[a] = splat(static_cast<float>(o.t[a]));
+        f.half[a] = splat(static_cast<float>(o.half[a]));
+        f.lo[a] = splat(static_cast<float>(o.lo[a]));
+        f.hi[a] = splat(static_cast<float>(o.hi[a]));
+      }
+      f.radius = static_cast<float>(o.radius);
+      f.half_length = static_cast<float>(o.half_length);
+      f.radius4 = splat(f.radius);
+      f.half_length4 = splat(f.half_length);
+      f.swept = static_cast<float>(o.swept);
+      obs_.push_back(f);
+    }
+    const float e = static_cast<float>(eps_);
+    // units: (link, obstacle) and (link, link), each with its object pairs
+    for (const auto& p : in.pairs) {
+      const int la = objects_[p.a].link;
+      if (p.b_static) {
+        StaticUnit* unit = nullptr;
+        for (auto& s : static_units_)
+          if (s.link == la && s.obstacle == p.b) unit = &s;
+        if (!unit) {
+          static_units_.push_back(StaticUnit{la, p.b, 0.0f, {}});
+          unit = &static_units_.back();
+        }
+        unit->items.push_back(Item{p.a, -1, static_cast<float>(p.margin) + e});
+        unit->margin = std::max(unit->margin, static_cast<float>(p.margin) + e);
+      } else {
+        const int l0 = std::min(la, objects_[p.b].link), l1 = std::max(la, objects_[p.b].link);
+        SelfUnit* unit = nullptr;
+        for (auto& s : self_units_)
+          if (s.la == l0 && s.lb == l1) unit = &s;
+        if (!unit) {
+          self_units_.push_back(SelfUnit{l0, l1, 0.0f, {}});
+          unit = &self_units_.back();
+        }
+        unit->items.push_back(Item{p.a, p.b, static_cast<float>(p.margin) + e});
+        unit->margin = std::max(unit->margin, static_cast<float>(p.margin) + e);
+      }
+    }
+    // per link and obstacle its static unit; obstacle boxes in blocks of 4 (at most 64)
+    by_link_ = obs_.size() <= 64;
+    unit_of_.assign(links_.size() * obs_.size(), -1);
+    for (int a = 0; a < 3; ++a) {
+      blo_[a].assign((obs_.size() + 3) / 4, splat(std::numeric_limits<float>::infinity()));
+      bhi_[a].assign((obs_.size() + 3) / 4, splat(-std::numeric_limits<float>::infinity()));
+    }
+    binfl_.assign((obs_.size() + 3) / 4, F4{});
+    for (std::size_t k = 0; k < static_units_.size(); ++k) {
+      const StaticUnit& u = static_units_[k];
+      unit_of_[u.link * obs_.size() + u.obstacle] = static_cast<int>(k);
+      const std::size_t b = u.obstacle / 4, lane = u.obstacle % 4;
+      for (int a = 0; a < 3; ++a) {
+        blo_[a][b][lane] = obs_[u.obstacle].lo[a][0];
+        bhi_[a][b][lane] = obs_[u.obstacle].hi[a][0];
+      }
+      const float infl = u.margin + obs_[u.obstacle].swept;
+      if (infl > binfl_[b][lane]) binfl_[b][lane] = infl;
+    }
+    obj_stamp_.assign(objects_.size(), 0u);
+    obj_world_.assign(objects_.size(), V3{});
+    sph_world_.assign(sph_.size(), V3{});
+    ready_ = true;
+  }
+
+  // The link placements of the batch (Pose: R[9] (R[r + 3 c]) and t[3] of D4 lanes, indexed
+  // by joint), as floats, and the links' bounding sphere centres.
+  template <typename Pose>
+  void load(const std::vector<Pose>& poses) {
+    ++stamp_;
+    if (stamp_ == 0) {
+      std::fill(obj_stamp_.begin(), obj_stamp_.end(), 0u);
+      stamp_ = 1;
+    }
+    for (LinkF& l : links_) {
+      const Pose& P = poses[l.joint];
+      for (int k = 0; k < 9; ++k) l.R[k] = to_float(P.R[k]);
+      for (int a = 0; a < 3; ++a) l.t[a] = to_float(P.t[a]);
+      l.world = place(l, l.center);
+    }
+  }
+
+  // Lanes (bits) of `active` that may collide; stops when `stop_lane` is among them.
+  unsigned run(unsigned active, int stop_lane) {
+    unsigned maybe = 0;
+    sure_ = 0;
+    const unsigned stop_bit = 1u << stop_lane;
+    const int ns = static_cast<int>(static_units_.size());
+    const int nu = ns + static_cast<int>(self_units_.size());
+    if (last_unit_ >= 0 && last_unit_ < nu) {
+      maybe |= unit_hits(last_unit_, active);
+      if (maybe & stop_bit) return maybe;
+    }
+    if (by_link_) {
+      // static units: per link and active lane, the obstacles whose (inflated) box its
+      // bounding sphere touches, 4 obstacles per vector operation; then the units of those
+      for (std::size_t li = 0; li < links_.size(); ++li) {
+        const unsigned act = active & ~maybe;
+        std::uint64_t lane_bits[kLanes] = {0, 0, 0, 0};
+        std::uint64_t any = 0;
+        for (int l = 0; l < kLanes; ++l)
+          if ((act >> l) & 1u) any |= lane_bits[l] = link_obstacles(li, l);
+        while (any) {
+          const int ob = __builtin_ctzll(any);
+          any &= any - 1;
+          const int k = unit_of_[li * obs_.size() + ob];
+          if (k < 0 || k == last_unit_) continue;
+          unsigned near = 0;
+          for (int l = 0; l < kLanes; ++l)
+            near |= static_cast<unsigned>((lane_bits[l] >> ob) & 1u) << l;
+          const unsigned h = static_leaves(k, near & active & ~maybe);
+          if (!h) continue;
+          maybe |= h;
+          if (maybe & stop_bit) {
+            last_unit_ = k;
+            return maybe;
+          }
+          if (maybe == active) return maybe;
+        }
+      }
+    }
+    for (int k = by_link_ ? ns : 0; k < nu; ++k) {
+      if (k == last_unit_) continue;
+      const unsigned h = unit_hits(k, active & ~maybe);
+      if (!h) continue;
+      maybe |= h;
+      if (maybe & stop_bit) {
+        last_unit_ = k;
+        return maybe;
+      }
+      if (maybe == active) return maybe;
+    }
+    return maybe;
+  }
+
+  int units() const { return static_cast<int>(static_units_.size() + self_units_.size()); }
+  // Lanes of the last run's mask found by a sphere test on a primitive or a self pair (not by
+  // the box of another shape): their spheres overlap within eps_ (float), so the double test
+  // finds them colliding unless they are within eps_ of touching.
+  unsigned sure() const { return sure_; }
+
+ private:
+  struct V3 {
+    F4 x, y, z;
+  };
+  struct F3 {
+    float v[3];
+  };
+  struct LinkF {
+    int joint;
+    F3 center;
+    float radius;
+    F4 R[9], t[3];
+    V3 world;
+  };
+  struct ObjectF {
+    int link;
+    F3 center;
+    float radius;
+    int begin, end;
+  };
+  struct SphF {
+    float p[3];
+    float r;
+  };
+  struct ObsF {
+    int type;
+    F4 R[9], t[3], half[3], lo[3], hi[3];
+    F4 radius4, half_length4;
+    float radius, half_length, swept;
+  };
+  struct Item {
+    int a, b;      // object, partner object (self pairs) or -1
+    float margin;  // the pair's margin + eps
+  };
+  struct StaticUnit {
+    int link, obstacle;
+    float margin;  // largest item margin (with eps)
+    std::vector<Item> items;
+  };
+  struct SelfUnit {
+    int la, lb;
+    float margin;
+    std::vector<Item> items;
+  };
+
+  static F3 f3(const double* d) {
+    return F3{{static_cast<float>(d[0]), static_cast<float>(d[1]), static_cast<float>(d[2])}};
+  }
+
+  static V3 place(const LinkF& l, const float* p) {
+    V3 c;
+    c.x = l.R[0] * p[0] + l.R[3] * p[1] + l.R[6] * p[2] + l.t[0];
+    c.y = l.R[1] * p[0] + l.R[4] * p[1] + l.R[7] * p[2] + l.t[1];
+    c.z = l.R[2] * p[0] + l.R[5] * p[1] + l.R[8] * p[2] + l.t[2];
+    return c;
+  }
+  static V3 place(const LinkF& l, const F3& p) { return place(l, p.v); }
+
+  // Object o's bounding centre and sphere centres (once per load).
+  void place_object(int o) {
+    if (obj_stamp_[o] == stamp_) return;
+    obj_stamp_[o] = stamp_;
+    const ObjectF& ob = objects_[o];
+    const LinkF& l = links_[ob.link];
+    obj_world_[o] = place(l, ob.center);
+    for (int s = ob.begin; s < ob.end; ++s) sph_world_[s] = place(l, sph_[s].p);
+  }
+
+  // Lanes where the sphere (c, r) touches obstacle o's world box.
+  static unsigned box_hits(const ObsF& o, const V3& c, float r) {
+    const F4 zero = {};
+    const F4 dx = vmax(vmax(o.lo[0] - c.x, c.x - o.hi[0]), zero);
+    const F4 dy = vmax(vmax(o.lo[1] - c.y, c.y - o.hi[1]), zero);
+    const F4 dz = vmax(vmax(o.lo[2] - c.z, c.z - o.hi[2]), zero);
+    return lanes_of(dx * dx + dy * dy + dz * dz <= splat(r * r));
+  }
+
+  // Lanes where the sphere (c, r) touches the primitive (r includes margin, swept, eps);
+  // other shapes: their box.
+  static unsigned prim_hits(const ObsF& o, const V3& c, float r) {
+    if (o.type == 0) return box_hits(o, c, r);
+    const F4 dx = c.x - o.t[0], dy = c.y - o.t[1], dz = c.z - o.t[2];
+    if (o.type == 2) {
+      const float rr = r + o.radius;
+      return lanes_of(dx * dx + dy * dy + dz * dz <= splat(rr * rr));
+    }
+    const F4 lx = o.R[0] * dx + o.R[1] * dy + o.R[2] * dz;  // R^T (c - t)
+    const F4 ly = o.R[3] * dx + o.R[4] * dy + o.R[5] * dz;
+    const F4 lz = o.R[6] * dx + o.R[7] * dy + o.R[8] * dz;
+    const F4 zero = {};
+    if (o.type == 1) {
+      const F4 ex = vmax(vabs(lx) - o.half[0], zero);
+      const F4 ey = vmax(vabs(ly) - o.half[1], zero);
+      const F4 ez = vmax(vabs(lz) - o.half[2], zero);
+      return lanes_of(ex * ex + ey * ey + ez * ez <= splat(r * r));
+    }
+    if (o.type == 3) {
+      const F4 dr = vmax(vsqrt(lx * lx + ly * ly) - o.radius4, zero);
+      const F4 dh = vmax(vabs(lz) - o.half_length4, zero);
+      return lanes_of(dr * dr + dh * dh <= splat(r * r));
+    }
+    const F4 z = vmin(vmax(lz, -o.half_length4), o.half_length4);
+    const F4 ez = lz - z;
+    const float rr = r + o.radius;
+    return lanes_of(lx * lx + ly * ly + ez * ez <= splat(rr * rr));
+  }
+
+  static unsigned ball_hits(const V3& a, const V3& b, float r) {
+    const F4 dx = a.x - b.x, dy = a.y - b.y, dz = a.z - b.z;
+    return lanes_of(dx * dx + dy * dy + dz * dz <= splat(r * r));
+  }
+
+  // The object and sphere levels of static unit k for the lanes `near` (the link level passed).
+  unsigned static_leaves(int k, unsigned near) {
+    if (!near) return 0;
+    const StaticUnit& u = static_units_[k];
+    const ObsF& o = obs_[u.obstacle];
+    unsigned hit = 0;
+    for (const Item& it : u.items) {
+      place_object(it.a);
+      const ObjectF& ob = objects_[it.a];
+      const float rs = it.margin + o.swept;
+      unsigned m = near & ~hit & box_hits(o, obj_world_[it.a], ob.radius + rs);
+      if (!m) continue;
+      if (o.type != 0) m &= prim_hits(o, obj_world_[it.a], ob.radius + rs);
+      for (int s = ob.begin; s < ob.end && m; ++s) {
+        const unsigned h = m & prim_hits(o, sph_world_[s], sph_[s].r + rs);
+        hit |= h;
+        if (o.type != 0) sure_ |= h;
+        m &= ~h;
+      }
+      if (hit == near) break;
+    }
+    return hit;
+  }
+
+  // Bit b set when link li's bounding sphere in lane l touches obstacle b's box, inflated by
+  // the largest margin of its units and its swept radius (bits of obstacles without a unit of
+  // the link are ignored by the caller).
+  std::uint64_t link_obstacles(std::size_t li, int l) const {
+    const LinkF& L = links_[li];
+    const F4 cx = splat(L.world.x[l]), cy = splat(L.world.y[l]), cz = splat(L.world.z[l]);
+    const F4 zero = {};
+    std::uint64_t bits = 0;
+    for (std::size_t b = 0; b < blo_[0].size(); ++b) {
+      const F4 dx = vmax(vmax(blo_[0][b] - cx, cx - bhi_[0][b]), zero);
+      const F4 dy = vmax(vmax(blo_[1][b] - cy, cy - bhi_[1][b]), zero);
+      const F4 dz = vmax(vmax(blo_[2][b] - cz, cz - bhi_[2][b]), zero);
+      const F4 rr = L.radius + binfl_[b];
+      const unsigned m = lanes_of(dx * dx + dy * dy + dz * dz <= rr * rr);
+      bits |= static_cast<std::uint64_t>(m) << (4 * b);
+    }
+    return bits;
+  }
+
+  unsigned unit_hits(int k, unsigned active) {
+    if (!active) return 0;
+    const int ns = static_cast<int>(static_units_.size());
+    unsigned hit = 0;
+    if (k < ns) {
+      const StaticUnit& u = static_units_[k];
+      const ObsF& o = obs_[u.obstacle];
+      const LinkF& l = links_[u.link];
+      // (the boxes with the swept radius too: whether coal's box includes it or not)
+      const unsigned near = box_hits(o, l.world, l.radius + u.margin + o.swept) & active;
+      return static_leaves(k, near);
+    }
+    const SelfUnit& u = self_units_[k - ns];
+    const LinkF& la = links_[u.la];
+    const LinkF& lb = links_[u.lb];
+    const unsigned near = ball_hits(la.world, lb.world, la.radius + lb.radius + u.margin) & active;
+    if (!near) return 0;
+    for (const Item& it : u.items) {
+      place_object(it.a);
+      place_object(it.b);
+      const ObjectF& oa = objects_[it.a];
+      const ObjectF& ob = objects_[it.b];
+      unsigned m = near & ~hit &
+                   ball_hits(obj_world_[it.a], obj_world_[it.b], oa.radius + ob.radius + it.margin);
+      for (int s = oa.begin; s < oa.end && m; ++s) {
+        for (int t = ob.begin; t < ob.end && m; ++t) {
+          const unsigned h =
+              m & ball_hits(sph_world_[s], sph_world_[t], sph_[s].r + sph_[t].r + it.margin);
+          hit |= h;
+          sure_ |= h;
+          m &= ~h;
+        }
+      }
+      if (hit == active) break;
+    }
+    return hit;
+  }
+
+  bool ready_ = false;
+  double eps_ = 0.0;
+  std::vector<LinkF> links_;
+  std::vector<ObjectF> objects_;
+  std::vector<SphF> sph_;
+  std::vector<ObsF> obs_;
+  std::vector<StaticUnit> static_units_;
+  std::vector<SelfUnit> self_units_;
+  std::vector<unsigned> obj_stamp_;
+  std::vector<V3> obj_world_, sph_world_;
+  bool by_link_ = false;
+  std::vector<int> unit_of_;             // static unit of (link, obstacle), or -1
+  std::vector<F4> blo_[3], bhi_[3], binfl_;  // obstacle boxes, 4 per block (link_obstacles)
+  unsigned stamp_ = 0, sure_ = 0;
+  int last_unit_ = -1;
+};
+
+}  // namespace taskspace_sphere_batch

@@ -1,0 +1,335 @@
+"""The single-precision sphere filter of the batched sphere checks (sphere_batch.hpp, #22 item 4).
+
+The kernel's batched checks (edges, ``collisions_with``) run a float filter on 4 configurations
+at once and the double-precision sphere test (and coal's narrow phase for "spheres") only on
+the configurations it cannot clear. References, independent of the filter's code:
+
+* the double-precision sphere test recomputed here: sphere centres from Pinocchio's forward
+  kinematics, analytic distances to the obstacles' boxes and cylinders, coal's distance to the
+  robot base's convex hull, sphere-sphere distances for the self pairs;
+* Pinocchio's ``computeCollisions`` on the meshes (never "free" where the meshes collide);
+* the kernel's double-precision path with the filter off (the path before the filter, itself
+  tested against Pinocchio in test_planning_sphere_checker.py): the same answers, the same
+  first colliding index of an edge, the same planned paths.
+
+Configurations bisected to within 1e-12 of first sphere contact (penetration ~1e-12 m, far
+below float's rounding of the centres, ~1e-7 m) fail without the filter's inflation.
+"""
+
+from __future__ import annotations
+
+import warnings
+from typing import Any
+
+import coal
+import numpy as np
+import pinocchio as pin
+import pytest
+from _mbm import ROOT, SKIP_REASON
+
+from taskspace._native import planning_kernel
+from taskspace.planning.configuration_space import (
+    ConfigurationSpace,
+    EdgeCheckOptions,
+    bisection_order,
+)
+from taskspace.planning.rrt_connect import RRTConnectOptions, rrt_connect
+from taskspace.planning.scene_loader import motionbenchmaker_panda, motionbenchmaker_problems
+
+pytestmark = [
+    pytest.mark.skipif(ROOT is None, reason=SKIP_REASON),
+    pytest.mark.skipif(planning_kernel() is None, reason="compiled planning kernel not built"),
+]
+
+MESH, SPHERES, SPHERES_ONLY = 0, 1, 2
+# filter modes (CollisionKernel.set_sphere_filter): off (double only), filter then double on
+# the lanes it cannot clear, and (default) "spheres only" trusting its sphere overlaps
+OFF, CONFIRMED, TRUSTED = 0, 1, 2
+PROBLEM = {"bookshelf_tall": 1, "box": 3, "cage": 1, "table_pick": 3}
+
+
+@pytest.fixture(scope="module")
+def robot() -> Any:
+    return motionbenchmaker_panda()
+
+
+def _space(robot: Any, scenario: str) -> tuple[Any, Any, Any]:
+    req = motionbenchmaker_problems(ROOT, scenario, [PROBLEM[scenario]])[0].apply(robot)
+    space = ConfigurationSpace.from_robot(robot, edge=EdgeCheckOptions(resolution=0.03))
+    kernel = space.checker.sphere_kernel()
+    assert kernel.sphere_filter()  # set up, and on by default
+    assert kernel.sphere_filter_mode == TRUSTED
+    return req, space, kernel
+
+
+class SphereReference:
+    """The double-precision sphere test from Pinocchio's kinematics (see the module doc)."""
+
+    def __init__(self, robot: Any, spheres: Any) -> None:
+        self.model, geom = robot.model, robot.collision_model
+        self.data = self.model.createData()
+        gdata = geom.createData()
+        pin.updateGeometryPlacements(self.model, self.data, geom, gdata, pin.neutral(self.model))
+        self.spheres = spheres
+        static = {g for g, o in enumerate(geom.geometryObjects) if o.parentJoint == 0}
+        self.static_pairs: list[tuple[np.ndarray, Any, Any, bool]] = []
+        self.self_pairs: list[tuple[np.ndarray, np.ndarray]] = []
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", DeprecationWarning)
+            margins = [r.security_margin for r in gdata.collisionRequests]
+        for k, p in enumerate(geom.collisionPairs):
+            if not gdata.activeCollisionPairs[k]:
+                continue
+            assert margins[k] <= 0.0  # these scenes: no margin to add
+            g1, g2 = p.first, p.second
+            if g1 in static and g2 in static:
+                continue
+            if g1 in static or g2 in static:
+                o, m = (g1, g2) if g1 in static else (g2, g1)
+                shape = geom.geometryObjects[o].geometry
+                assert shape.getSweptSphereRadius() == 0.0
+                placement = pin.SE3(gdata.oMg[o])
+                generic = not isinstance(shape, coal.Box | coal.Cylinder | coal.Sphere)
+                self.static_pairs.append((spheres.geometries == m, shape, placement, generic))
+            else:
+                self.self_pairs.append((spheres.geometries == g1, spheres.geometries == g2))
+
+    def clearance(self, q: np.ndarray) -> tuple[float, float]:
+        """The smallest sphere clearance [m] to the primitives and self pairs, and to the other
+        shapes (coal's distance to the base's hull)."""
+        pin.forwardKinematics(self.model, self.data, q)
+        c = self.spheres.world_centers(self.data)
+        r = self.spheres.radii
+        prim, other = np.inf, np.inf
+        for sel, shape, placement, generic in self.static_pairs:
+            cs, rs = c[sel], r[sel]
+            local = (cs - placement.translation) @ placement.rotation
+            if isinstance(shape, coal.Box):
+                d = np.linalg.norm(np.maximum(np.abs(local) - shape.halfSide, 0.0), axis=1)
+            elif isinstance(shape, coal.Cylinder):
+                dr = np.maximum(np.hypot(local[:, 0], local[:, 1]) - shape.radius, 0.0)
+                dz = np.maximum(np.abs(local[:, 2]) - shape.halfLength, 0.0)
+                d = np.hypot(dr, dz)
+            elif isinstance(shape, coal.Sphere):
+                d = np.maximum(np.linalg.norm(local, axis=1) - shape.radius, 0.0)
+            else:
+                tf = coal.Transform3s(placement.rotation, placement.translation)
+                d = np.empty(len(cs))
+                for i, (ci, ri) in enumerate(zip(cs, rs, strict=True)):
+                    res = coal.DistanceResult()
+                    at = coal.Transform3s(np.eye(3), ci)
+                    coal.distance(coal.Sphere(ri), at, shape, tf, coal.DistanceRequest(), res)
+                    d[i] = res.min_distance + ri
+            value = float(np.min(d - rs))
+            if generic:
+                other = min(other, value)
+            else:
+                prim = min(prim, value)
+        for s1, s2 in self.self_pairs:
+            gap = np.linalg.norm(c[s1][:, None] - c[s2][None], axis=2)
+            prim = min(prim, float(np.min(gap - r[s1][:, None] - r[s2][None])))
+        return prim, other
+
+
+def _mesh_reference(robot: Any) -> Any:
+    model, geom = robot.model, robot.collision_model
+    data, gdata = model.createData(), geom.createData()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)
+        for request in gdata.collisionRequests:
+            request.enable_cached_gjk_guess = False
+            request.gjk_initial_guess = coal.GJKInitialGuess.DefaultGuess
+            request.enable_contact = True
+    return lambda q: bool(pin.computeCollisions(model, data, geom, gdata, q, True))
+
+
+def _near_configurations(robot: Any, rng: Any, n: int) -> np.ndarray:
+    lo, hi = robot.model.lowerPositionLimit, robot.model.upperPositionLimit
+    base = rng.uniform(lo, hi, (n, robot.nq))
+    return np.clip(base, lo, hi)
+
+
+def _first_sphere_contacts(kernel: Any, qs: np.ndarray, rng: Any, count: int) -> np.ndarray:
+    """Configurations bisected (kernel, filter off, double precision) to within 1e-12 of the
+    first sphere contact on segments free -> colliding: the colliding ends."""
+    kernel.set_sphere_filter(OFF)
+    try:
+        flags = kernel.collisions_with(qs, SPHERES_ONLY).astype(bool)
+        free, hit = qs[~flags], qs[flags]
+        out = []
+        for k in range(count):
+            a, b = free[k % len(free)], hit[rng.integers(len(hit))]
+            lo, hi = 0.0, 1.0
+            while hi - lo > 1e-12:
+                mid = 0.5 * (lo + hi)
+                if kernel.collisions_with((a + mid * (b - a))[None], SPHERES_ONLY)[0]:
+                    hi = mid
+                else:
+                    lo = mid
+            out.append(a + hi * (b - a))
+        return np.array(out)
+    finally:
+        kernel.set_sphere_filter(TRUSTED)
+
+
+@pytest.mark.parametrize("scenario", ["bookshelf_tall", "table_pick", "cage"])
+def test_filter_against_the_double_sphere_test_and_the_meshes(robot: Any, scenario: str) -> None:
+    """Random configurations and configurations around first contact: where the filter clears
+    a configuration, every sphere clearance of the reference is positive and the meshes are
+    free; where it flags one, some clearance is within twice its stated margin (or the sphere
+    is near the base hull's box, which the filter tests instead of the hull)."""
+    _, space, kernel = _space(robot, scenario)
+    ref = SphereReference(robot, space.checker.sphere_model())
+    mesh = _mesh_reference(robot)
+    eps = kernel.sphere_filter_eps()
+    assert 1e-6 < eps < 1e-4
+    rng = np.random.default_rng(3)
+    qs = _near_configurations(robot, rng, 160)
+    contacts = _first_sphere_contacts(kernel, qs, rng, 12)
+    shifted = (
+        contacts + rng.standard_normal(contacts.shape) * np.repeat([1e-6, 1e-5, 1e-4], 4)[:, None]
+    )
+    allq = np.vstack([qs, contacts, shifted])
+    flags = kernel.sphere_filter_flags(allq).astype(bool)
+    both = 0
+    for q, flag in zip(allq, flags, strict=True):
+        prim, other = ref.clearance(q)
+        if not flag:
+            assert prim > 0.0 and other > 0.0, (prim, other)
+            assert not mesh(q)
+        elif prim > 2.0 * eps:
+            assert other < 0.15, (prim, other)  # the hull's box, not the hull
+        both += bool(flag)
+    assert 0 < both < len(allq)
+
+
+@pytest.mark.parametrize("scenario", ["box", "cage"])
+def test_first_contacts_are_never_cleared(robot: Any, scenario: str) -> None:
+    """Configurations whose spheres overlap by about 1e-12 m (double precision): the filter
+    flags every one (float's rounding alone, about 1e-7 m, would clear about half)."""
+    _, space, kernel = _space(robot, scenario)
+    ref = SphereReference(robot, space.checker.sphere_model())
+    rng = np.random.default_rng(5)
+    qs = _near_configurations(robot, rng, 120)
+    contacts = _first_sphere_contacts(kernel, qs, rng, 40)
+    prim = np.array([ref.clearance(q) for q in contacts])
+    depth = prim.min(axis=1)
+    # at contact (both tests agree): the kernel counts a sphere within GJK's tolerance (1e-6 m)
+    # of the base hull as touching it; the others touch a box, cylinder or sphere
+    assert np.all(depth <= 1e-6 + 1e-9) and np.all(depth > -1e-6)
+    assert np.sum(np.abs(prim[:, 0]) < 1e-9) >= 30
+    assert kernel.sphere_filter_flags(contacts).all()
+    assert kernel.collisions_with(contacts, SPHERES_ONLY).all()
+
+
+@pytest.mark.parametrize("scenario", ["bookshelf_tall", "box", "table_pick"])
+def test_filter_on_gives_the_double_path_answers(robot: Any, scenario: str) -> None:
+    """collisions_with and first_invalid_on_edge (the first colliding index in bisection order,
+    early exit) with the filter: the double path's answers for "spheres" (also the first index
+    that Pinocchio's meshes find colliding), for collisions_with and, confirmed, for edges;
+    trusted, an edge's "spheres only" index differs only where it is colliding within twice
+    the filter's margin of touching (an earlier index in bisection order)."""
+    _, space, kernel = _space(robot, scenario)
+    mesh = _mesh_reference(robot)
+    ref = SphereReference(robot, space.checker.sphere_model())
+    eps = kernel.sphere_filter_eps()
+    rng = np.random.default_rng(8)
+    qs = _near_configurations(robot, rng, 300)
+    contacts = _first_sphere_contacts(kernel, qs, rng, 20)
+    allq = np.vstack([qs, contacts])
+    flags = {}
+    for mode in (OFF, CONFIRMED, TRUSTED):
+        kernel.set_sphere_filter(mode)
+        flags[mode] = [kernel.collisions_with(allq, c) for c in (SPHERES, SPHERES_ONLY)]
+    np.testing.assert_array_equal(flags[CONFIRMED], flags[OFF])
+    np.testing.assert_array_equal(flags[TRUSTED], flags[OFF])  # queries: the double answers
+    n = 13
+    order = bisection_order(n)
+    found = 0
+    for k in range(30):
+        a = qs[k]
+        b = a + rng.standard_normal(robot.nq) * 0.4
+        got = {}
+        for mode in (OFF, CONFIRMED, TRUSTED):
+            kernel.set_sphere_filter(mode)
+            got[mode] = [kernel.first_invalid_on_edge(a, b, n, c) for c in (SPHERES, SPHERES_ONLY)]
+        assert got[CONFIRMED] == got[OFF]
+        assert got[TRUSTED][0] == got[OFF][0]
+        if got[TRUSTED][1] != got[OFF][1]:  # an earlier index, within the margin
+            j = got[TRUSTED][1]
+            assert got[OFF][1] == -1 or order.index(j) < order.index(got[OFF][1])
+            assert ref.clearance(a + j / n * (b - a))[0] <= 2.0 * eps
+        expect = next((j for j in order if mesh(a + j / n * (b - a))), -1)
+        assert got[TRUSTED][0] == expect
+        found += expect >= 0
+    assert 0 < found < 30
+
+
+def test_planner_paths_equal_with_and_without_the_filter(robot: Any) -> None:
+    """The planner with the filter: the same paths and check counts as without where the answers
+    are the same ("spheres"; "spheres only" confirmed), with fewer double-precision sphere tests
+    (the filter is used); trusted, "spheres only" plans paths that the meshes find free."""
+    mesh = _mesh_reference(robot)
+    for scenario in ("bookshelf_tall", "table_pick"):
+        req, space, kernel = _space(robot, scenario)
+        for checker, mode in (("spheres", TRUSTED), ("spheres_only", CONFIRMED)):
+            out = {}
+            for m in (OFF, mode):
+                kernel.set_sphere_filter(m)
+                kernel.reset_sphere_stats()
+                opts = RRTConnectOptions(seed=2, checker=checker, validator="spheres")
+                res = rrt_connect(space, req.start, req.goal, opts)
+                assert res.success
+                out[m] = (np.array(res.path), res.collision_checks, sum(kernel.sphere_stats()))
+            np.testing.assert_array_equal(out[mode][0], out[OFF][0])
+            assert out[mode][1] == out[OFF][1]
+            assert out[mode][2] < out[OFF][2]
+        kernel.set_sphere_filter(TRUSTED)
+        opts = RRTConnectOptions(seed=3, checker="spheres_only", validator="spheres")
+        res = rrt_connect(space, req.start, req.goal, opts)
+        assert res.success
+        for a, b in zip(res.path[:-1], res.path[1:], strict=True):
+            n = max(1, int(np.ceil(np.abs(b - a).max() / 0.01)))
+            assert not any(mesh(a + t * (b - a)) for t in np.linspace(0.0, 1.0, n + 1))
+
+
+def test_sse2_and_avx2_kinematics_agree(robot: Any) -> None:
+    """The batched kinematics compiled for SSE2 and for AVX2 (chosen at run time; set_simd(1)
+    forces SSE2, as TASKSPACE_SIMD=sse2) give the same answers, bit for bit: on configurations
+    bisected to the last representable step before sphere contact (a rounding difference in
+    the placements would flip some), on random ones and on edges, with and without the filter."""
+    _, _, kernel = _space(robot, "table_pick")
+    avx2 = kernel.simd == 2  # this processor has AVX2 (else both runs use SSE2)
+    rng = np.random.default_rng(12)
+    qs = _near_configurations(robot, rng, 200)
+    kernel.set_sphere_filter(OFF)
+    flags = kernel.collisions_with(qs, SPHERES_ONLY).astype(bool)
+    free, hit = qs[~flags], qs[flags]
+    edge = []
+    for k in range(20):
+        a, b = free[k], hit[k]
+        lo, hi = 0.0, 1.0
+        while np.nextafter(lo, 1.0) < hi and (mid := 0.5 * (lo + hi)) not in (lo, hi):
+            if kernel.collisions_with((a + mid * (b - a))[None], SPHERES_ONLY)[0]:
+                hi = mid
+            else:
+                lo = mid
+        edge += [a + lo * (b - a), a + hi * (b - a)]
+    allq = np.vstack([qs, np.array(edge)])
+    out = {}
+    for level in (1, 2):
+        kernel.set_simd(level)
+        assert kernel.simd == (2 if level == 2 and avx2 else 1)
+        row = []
+        for mode in (OFF, TRUSTED):
+            kernel.set_sphere_filter(mode)
+            row += [kernel.collisions_with(allq, c) for c in (SPHERES, SPHERES_ONLY)]
+            row.append([kernel.first_invalid_on_edge(qs[k], qs[k + 1], 15, 2) for k in range(40)])
+        row.append(kernel.sphere_filter_flags(allq))
+        out[level] = row
+    kernel.set_simd(2)
+    kernel.set_sphere_filter(TRUSTED)
+    for x, y in zip(out[1], out[2], strict=True):
+        np.testing.assert_array_equal(x, y)
+    boundary = out[1][1][len(qs) :]  # the double test at the two sides of each contact
+    assert boundary[0::2].sum() == 0 and boundary[1::2].all()
