@@ -52,7 +52,7 @@ from taskspace.planning.configuration_space import (
     nested_orders,
 )
 from taskspace.planning.goals import REGION_FIRST_ATTEMPTS, goal_states, region_samples
-from taskspace.planning.limits import limit_log
+from taskspace.planning.limits import limit_log, result_length
 from taskspace.planning.planner_result import PlannerResult, PlannerStatus
 from taskspace.planning.prm import (
     PRMOptions,
@@ -303,7 +303,7 @@ def lazy_prm_query(
     lazy.status[:] = status[:m]  # roadmap edge states are kept for later queries
     success = status_out is PlannerStatus.SOLVED
     path = points[ids] if success else np.empty((0, space.dim))
-    length = space.path_length(path) if success else math.inf
+    length = result_length(space, path, success)
     dt = time.perf_counter() - t0
     return PlannerResult(
         success=success,

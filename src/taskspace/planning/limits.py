@@ -79,6 +79,16 @@ def limit_log(status: PlannerStatus, cost: float, time_s: float) -> dict[str, An
     }
 
 
+def result_length(space: Any, path: Any, success: bool) -> float:
+    """The ``path_length`` a planner reports: ``space.path_length(path)``, ``inf`` on failure.
+
+    The one place every planner's result takes its length from, so that it is in the space's
+    metric (weighted, Pinocchio's ``difference`` on a joint manifold) and never the Euclidean
+    length of the raw coordinates (quaternion components of a floating base).
+    """
+    return float(space.path_length(path)) if success else math.inf
+
+
 def planner_limits(max_iterations: Any, time_limit_s: Any) -> tuple[int, float]:
     """Validate the limits of a planner (see the module docstring).
 

@@ -42,7 +42,7 @@ from taskspace.errors import InvalidInputError, PlanningError, StaleModelError
 from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray
 from taskspace.planning.goals import REGION_FIRST_ATTEMPTS, goal_states, region_samples
 from taskspace.planning.graph_search import astar, dijkstra
-from taskspace.planning.limits import limit_log
+from taskspace.planning.limits import limit_log, result_length
 from taskspace.planning.planner_result import PlannerResult, PlannerStatus
 from taskspace.planning.sampling import Sampler, sample_free
 
@@ -445,7 +445,7 @@ def prm_query(
     success = bool(ids)
     path = _assemble(roadmap, ids, q_start, q_goals) if success else np.empty((0, space.dim))
     dt = time.perf_counter() - t0
-    length = space.path_length(path) if success else math.inf
+    length = result_length(space, path, success)
     return PlannerResult(
         success=success,
         status=PlannerStatus.SOLVED if success else PlannerStatus.NO_PATH,

@@ -44,10 +44,10 @@ from scipy.spatial import cKDTree
 from taskspace._validation import check_count, check_positive, check_seed
 from taskspace.errors import InvalidInputError
 from taskspace.planning.certify import certify_planned
-from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray, path_length
+from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray
 from taskspace.planning.goals import goal_states
 from taskspace.planning.lazy_prm import LazyRoadmap, _check_edges
-from taskspace.planning.limits import Budget, planner_limits
+from taskspace.planning.limits import Budget, planner_limits, result_length
 from taskspace.planning.objectives import (
     OptimizationObjective,
     optimum_lower_bound,
@@ -394,7 +394,7 @@ def _plan(
         success=success,
         status=PlannerStatus.SOLVED if success else limit_status,
         path=path,
-        path_length=path_length(path) if success else math.inf,
+        path_length=result_length(space, path, success),
         iterations=samples,
         collision_checks=space.checks - checks0,
         edge_checks=space.edge_checks - edges0,

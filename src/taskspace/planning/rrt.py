@@ -25,7 +25,6 @@ apart from the configuration space (one space per thread) and generator they are
 from __future__ import annotations
 
 import logging
-import math
 import time
 from dataclasses import dataclass
 from typing import Any
@@ -36,7 +35,7 @@ from taskspace._validation import check_positive, check_seed
 from taskspace.errors import InvalidInputError
 from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray
 from taskspace.planning.goals import REGION_FIRST_ATTEMPTS, goal_states, region_samples
-from taskspace.planning.limits import Budget, limit_log, planner_limits
+from taskspace.planning.limits import Budget, limit_log, planner_limits, result_length
 from taskspace.planning.planner_result import PlannerResult, PlannerStatus
 from taskspace.planning.rrt_connect import _GrowingTree, _steer
 
@@ -174,7 +173,7 @@ def rrt(
         success=success,
         status=status,
         path=path,
-        path_length=space.path_length(path) if success else math.inf,
+        path_length=result_length(space, path, success),
         iterations=iterations,
         collision_checks=space.checks - checks0,
         edge_checks=space.edge_checks - edges0,
@@ -182,7 +181,7 @@ def rrt(
         trees=[tree.freeze()],
         log={
             "goal_states": float(len(goals)),
-            **limit_log(status, space.path_length(path) if success else math.inf, dt),
+            **limit_log(status, result_length(space, path, success), dt),
         },
     )
 
