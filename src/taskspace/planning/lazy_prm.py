@@ -39,6 +39,7 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
 from taskspace._validation import (
+    MAX_INT64,
     check_count,
     check_limits,
     check_positive,
@@ -52,7 +53,13 @@ from taskspace.planning.configuration_space import (
     nested_orders,
 )
 from taskspace.planning.goals import REGION_FIRST_ATTEMPTS, goal_states, region_samples
-from taskspace.planning.limits import limit_log, result_length
+from taskspace.planning.limits import (
+    Budget,
+    edge_case,
+    edge_case_result,
+    limit_log,
+    result_length,
+)
 from taskspace.planning.planner_result import PlannerResult, PlannerStatus
 from taskspace.planning.prm import (
     PRMOptions,
@@ -492,6 +499,13 @@ def lazy_prm(
     goals, region = goal_states(space, goal)
     if region is not None:
         goals = region_samples(space, region, rng, REGION_FIRST_ATTEMPTS, deadline)
+    budget = Budget(MAX_INT64 if cap is None else cap, limit, t0)
+    found = edge_case(space, q_start, goals, region, budget)
+    if found is not None:
+        empty = LazyRoadmap(roadmap=Roadmap(nodes=np.empty((0, space.dim)), adjacency=[]))
+        early = edge_case_result(space, found, budget, (checks0, edges0), goal_count=len(goals))
+        early.log["growth_rounds"] = 0.0
+        return early, empty
     query_opts = PRMOptions(
         max_iterations=1, k_neighbors=opts.k_neighbors, seed=check_seed(opts.seed)
     )
@@ -505,7 +519,7 @@ def lazy_prm(
             if result is not None:
                 result.status = PlannerStatus.ITERATION_LIMIT
             break
-        if rounds and time.perf_counter() > deadline:  # (the first round always runs)
+        if rounds and time.perf_counter() > deadline:  # (edge_case read it before the first)
             if result is not None:
                 result.status = PlannerStatus.TIME_LIMIT
             break

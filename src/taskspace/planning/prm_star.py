@@ -47,7 +47,7 @@ from taskspace.planning.certify import certify_planned
 from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray
 from taskspace.planning.goals import goal_states
 from taskspace.planning.lazy_prm import LazyRoadmap, _check_edges
-from taskspace.planning.limits import Budget, planner_limits, result_length
+from taskspace.planning.limits import Budget, edge_case, planner_limits, result_length
 from taskspace.planning.objectives import (
     OptimizationObjective,
     optimum_lower_bound,
@@ -247,7 +247,16 @@ def _plan(
     best_cost = math.inf
     cost_times: list[float] = []
     costs: list[float] = []
-    while True:
+    # the limits' edge cases (PRM*'s first round, with no sample, is the straight lines)
+    found = edge_case(space, q_start, goals, region, budget, lines=False)
+    if found is not None and found[1] is PlannerStatus.SOLVED:
+        same = [i for i, g in enumerate(goals) if np.array_equal(g, q_start)]
+        best_ids = [0] if found[0].shape[0] == 1 else [0, int(goal_ids[same[0]])]
+        best_cost = float(cost_of.path_cost(found[0]))
+        cost_times.append(budget.elapsed())
+        costs.append(best_cost)
+        budget.stopped_by = "first solution"
+    while found is None:
         # Connect the new nodes to their k_n nearest nodes.
         n = graph.n
         nodes = graph.nodes[:n]

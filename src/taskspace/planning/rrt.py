@@ -35,7 +35,14 @@ from taskspace._validation import check_positive, check_seed
 from taskspace.errors import InvalidInputError
 from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray
 from taskspace.planning.goals import REGION_FIRST_ATTEMPTS, goal_states, region_samples
-from taskspace.planning.limits import Budget, limit_log, planner_limits, result_length
+from taskspace.planning.limits import (
+    Budget,
+    edge_case,
+    edge_case_result,
+    limit_log,
+    planner_limits,
+    result_length,
+)
 from taskspace.planning.planner_result import PlannerResult, PlannerStatus
 from taskspace.planning.rrt_connect import _GrowingTree, _steer
 
@@ -116,6 +123,9 @@ def rrt(
         goals, region = goal_states(space, goal)
         if region is not None:
             goals = region_samples(space, region, rng, REGION_FIRST_ATTEMPTS, deadline)
+    found = edge_case(space, q_start, goals, region, budget) if goal is not None else None
+    if found is not None:
+        return edge_case_result(space, found, budget, (checks0, edges0), goal_count=len(goals))
     euclidean = space.is_euclidean
     tree = _GrowingTree(q_start, None if euclidean else space.distances)
     status = PlannerStatus.ITERATION_LIMIT
