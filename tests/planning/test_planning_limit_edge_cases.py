@@ -54,10 +54,23 @@ PLANNERS: dict[str, tuple[type, Callable[..., Any]]] = {
     "lazy_prm": (PRMOptions, lazy_prm),
 }
 
-CASES = {  # start, goal
+
+class _Disk:
+    """A goal region: the disk of radius 0.05 around (0.1, 0.1) (it holds the start)."""
+
+    def contains(self, q: np.ndarray) -> bool:
+        return bool(np.linalg.norm(np.asarray(q) - [0.1, 0.1]) <= 0.05)
+
+    def sample(self, rng: np.random.Generator) -> np.ndarray:
+        r, a = 0.05 * math.sqrt(rng.random()), 2 * math.pi * rng.random()
+        return np.array([0.1 + r * math.cos(a), 0.1 + r * math.sin(a)])
+
+
+CASES: dict[str, tuple[list[float], Any]] = {  # start, goal
     "free": ([0.1, 0.9], [0.9, 0.9]),
     "blocked": ([0.1, 0.1], [0.9, 0.1]),
     "same": ([0.1, 0.1], [0.1, 0.1]),
+    "in_region": ([0.1, 0.1], None),  # the start inside the goal region
 }
 
 LIMITS = {  # (max_iterations, time_limit_s)
@@ -73,7 +86,7 @@ def _wall(q: np.ndarray) -> np.ndarray:
 
 def _expected(case: str, limits: str) -> PlannerStatus:
     """The rule, written out: trivial answer, then the clock, then the straight line."""
-    if case == "same":
+    if case in ("same", "in_region"):
         return PlannerStatus.SOLVED
     if LIMITS[limits][1] == 0.0:
         return PlannerStatus.TIME_LIMIT
@@ -103,7 +116,8 @@ def test_one_rule_for_zero_limits(name: str, case: str, limits: str) -> None:
     space = ConfigurationSpace(
         np.zeros(2), np.ones(2), FunctionChecker(_wall), edge=EdgeCheckOptions(resolution=RES)
     )
-    start, goal = (np.array(v) for v in CASES[case])
+    start = np.array(CASES[case][0])
+    goal: Any = _Disk() if case == "in_region" else np.array(CASES[case][1])
     cap, limit = LIMITS[limits]
     cls, plan = PLANNERS[name]
     with warnings.catch_warnings():
@@ -113,7 +127,10 @@ def test_one_rule_for_zero_limits(name: str, case: str, limits: str) -> None:
     assert result.status is expected, (name, case, limits, result.status)
     assert result.success == (expected is PlannerStatus.SOLVED)
     assert result.iterations == 0
-    if result.success:  # the straight line (a zero-length one for "same")
+    if case == "in_region":  # a one-point path
+        np.testing.assert_array_equal(result.path, start[None, :])
+        assert result.path_length == 0.0
+    elif result.success:  # the straight line (a zero-length one for "same")
         np.testing.assert_array_equal(result.path, np.stack([start, goal]))
         assert result.path_length == pytest.approx(float(np.linalg.norm(goal - start)))
         if result.cost is not None:
@@ -121,8 +138,12 @@ def test_one_rule_for_zero_limits(name: str, case: str, limits: str) -> None:
     else:
         assert result.path.shape == (0, 2) and math.isinf(result.path_length)
     # nothing but the endpoints (and the line when the clock allows it) was checked
-    line = math.ceil(float(np.linalg.norm(goal - start)) / RES) + 1
-    allowed = 2 if expected is PlannerStatus.TIME_LIMIT or case == "same" else 2 + line
+    if case == "in_region":  # and the region's first samples (20 at most) for some planners
+        allowed = 2 + 20
+    elif expected is PlannerStatus.TIME_LIMIT or case == "same":
+        allowed = 2
+    else:
+        allowed = 2 + math.ceil(float(np.linalg.norm(goal - start)) / RES) + 1
     assert result.collision_checks <= allowed
     stopped_by = {
         PlannerStatus.SOLVED: ("first solution", "optimal"),  # the line is the optimum

@@ -29,6 +29,7 @@ import taskspace
 from taskspace.errors import InvalidInputError
 from taskspace.planning.collision_checker import FunctionChecker
 from taskspace.planning.configuration_space import ConfigurationSpace, EdgeCheckOptions
+from taskspace.planning.lazy_prm import build_lazy_prm
 from taskspace.planning.prm import PRMOptions, build_prm, prm, prm_query
 
 COST_S = 1e-4  # simulated seconds per configuration checked
@@ -193,5 +194,7 @@ def test_an_empty_roadmap_and_a_refused_size() -> None:
     assert empty.size == 0 and not empty.timed_out
     with pytest.raises(InvalidInputError, match="GiB"):
         build_prm(space, PRMOptions(max_iterations=10**11))
+    with pytest.raises(InvalidInputError, match="GiB"):  # it drew them all at once too
+        build_lazy_prm(space, PRMOptions(max_iterations=10**11))
     result, _ = prm(space, [0.1, 0.9], [0.9, 0.9], PRMOptions(max_iterations=0))
     assert result.success and result.path.shape == (2, 2)  # the straight line, no sample

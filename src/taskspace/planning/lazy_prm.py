@@ -66,6 +66,7 @@ from taskspace.planning.prm import (
     Roadmap,
     _candidate_pairs,
     _nearest,
+    check_roadmap_memory,
     check_roadmap_world,
 )
 from taskspace.planning.sampling import sample_free
@@ -104,10 +105,16 @@ def build_lazy_prm(
     *,
     rng: np.random.Generator | None = None,
 ) -> LazyRoadmap:
-    """Sample free nodes and connect k nearest neighbours without checking the edges."""
+    """Sample free nodes and connect k nearest neighbours without checking the edges.
+
+    Raises:
+        InvalidInputError: invalid options, or a roadmap too large for the machine's memory
+            (:func:`~taskspace.planning.prm.check_roadmap_memory`, before allocating).
+    """
     opts = options or PRMOptions()
     n_samples = opts.roadmap_size()
-    check_count(opts.k_neighbors, "k_neighbors", minimum=1)
+    k = check_count(opts.k_neighbors, "k_neighbors", minimum=1)
+    check_roadmap_memory(n_samples, space.dim, k)
     rng = rng if rng is not None else np.random.default_rng(check_seed(opts.seed))
     t0 = time.perf_counter()
     checks0 = space.checks

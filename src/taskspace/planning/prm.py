@@ -58,7 +58,8 @@ class PRMOptions:
         max_iterations: samples (one iteration = one free sample, as for every planner of
             :mod:`taskspace.planning.limits`): the roadmap's nodes ``n`` for
             :func:`build_prm`, :func:`prm` and :func:`~taskspace.planning.build_lazy_prm`
-            (an integer >= 1); for :func:`~taskspace.planning.lazy_prm`, the samples of all
+            (an integer >= 0; 0: an empty roadmap, only the straight line is checked); for
+            :func:`~taskspace.planning.lazy_prm`, the samples of all
             its growth rounds (``None``: no cap, then the time limit must be finite).
         k_neighbors: neighbours ``k`` tried per node (slide 3:31).
         sampler: ``"uniform"``, ``"gaussian"`` or ``"bridge"`` (slide 3:35).
@@ -66,8 +67,9 @@ class PRMOptions:
         search: ``"dijkstra"`` or ``"astar"`` for queries.
         seed: random seed used when no ``rng`` is passed.
         time_limit_s: wall-clock budget [s] (``None`` or ``math.inf``: none; NaN refused).
-            :func:`build_prm` leaves out the edges not tried in time, and :func:`prm` then
-            reports ``TIME_LIMIT`` when no path is found.
+            :func:`build_prm` stops sampling and connecting at it (:attr:`Roadmap.timed_out`),
+            :func:`prm_query` stops its edge checks at it, and :func:`prm` (one deadline for
+            both) then reports ``TIME_LIMIT`` when no path is found.
         batch_size: samples added per growth round of :func:`~taskspace.planning.lazy_prm`.
         n_samples: deprecated name (a ``DeprecationWarning``): for :func:`build_prm`,
             :func:`prm` and :func:`~taskspace.planning.build_lazy_prm` it is
@@ -107,7 +109,7 @@ class PRMOptions:
         if n is None:
             raise InvalidInputError(
                 "max_iterations=None: a roadmap built at once (build_prm, prm, build_lazy_prm) "
-                "needs its number of samples; give max_iterations an integer >= 1"
+                "needs its number of samples; give max_iterations an integer >= 0"
             )
         return check_count(n, "max_iterations", minimum=0)
 
@@ -713,12 +715,13 @@ def prm(
         goal: one goal configuration, several (k, d) or a goal region (see
             :func:`prm_query`).
         options: settings; ``max_iterations`` is the roadmap's size (the cap),
-            ``time_limit_s`` the budget of the edge checks.
+            ``time_limit_s`` the budget of the construction and the query together.
         rng: random generator (default: ``np.random.default_rng(options.seed)``).
 
     Returns:
         ``(result, roadmap)``; reuse the roadmap with :func:`prm_query`. Without a path the
-        status is ``TIME_LIMIT`` when edges were left untried, else ``ITERATION_LIMIT`` (the
+        status is ``TIME_LIMIT`` when the deadline cut the construction or the query, else
+        ``ITERATION_LIMIT`` (the
         roadmap of ``max_iterations`` samples does not connect start and goal). ``log`` has
         ``stopped_by`` and the cost (path length) over time (``costs``, ``cost_times``), as
         every planner (:mod:`taskspace.planning.limits`).
