@@ -153,34 +153,43 @@ def test_query_reads_the_clock_while_attaching(monkeypatch: pytest.MonkeyPatch) 
 
 
 def test_rounds_connect_every_node_to_its_k_nearest() -> None:
-    """Enumeration: with 1300 nodes (rounds of 500, 500, 300) every new node's k nearest among
-    the nodes of its round's end are tried and joined exactly when the segment is free
-    (at the space's resolution, the points ``i / n``); the first round is slide 3:31's k-NN
-    graph."""
+    """Enumeration: with 1300 nodes and a time limit (rounds of 500, 500, 300) every new
+    node's k nearest among the nodes so far are tried and joined exactly when the segment is
+    free (at the space's resolution, the points ``i / n``); without a time limit, the k-NN
+    graph of all the nodes (slide 3:31)."""
     space = ConfigurationSpace(
         np.zeros(2), np.ones(2), FunctionChecker(_wall), edge=EdgeCheckOptions(resolution=RES)
     )
     k = 6
-    roadmap = build_prm(space, PRMOptions(max_iterations=1300, k_neighbors=k, seed=5))
+    opts = PRMOptions(max_iterations=1300, k_neighbors=k, seed=5, time_limit_s=1e6)
+    roadmap = build_prm(space, opts)  # a time limit: rounds
+    whole = build_prm(space, PRMOptions(max_iterations=1300, k_neighbors=k, seed=5))
+    assert roadmap.size == whole.size == 1300 and not roadmap.timed_out
     nodes = roadmap.nodes
-    assert roadmap.size == 1300 and not roadmap.timed_out
-    edges = {(int(i), int(j)) for i, j in roadmap.edges}
 
     def free(i: int, j: int) -> bool:
         n = max(1, math.ceil(np.linalg.norm(nodes[j] - nodes[i]) / RES - 1e-12))
         t = (np.arange(n + 1) / n)[:, None]  # the space's resolution: its points
         return bool(_wall(nodes[i] + t * (nodes[j] - nodes[i])).all())
 
-    expected: set[tuple[int, int]] = set()
-    for lo, hi in [(0, 500), (500, 1000), (1000, 1300)]:
-        d = np.linalg.norm(nodes[:hi, None, :] - nodes[None, :hi, :], axis=2)
-        np.fill_diagonal(d, np.inf)
-        rows = range(hi) if lo == 0 else range(lo, hi)
-        for i in rows:  # the first round: every node's k nearest, in both directions
-            for j in np.argsort(d[i], kind="stable")[:k].tolist():
-                expected.add((min(i, j), max(i, j)))
-    joined = {e for e in expected if free(*e)}
-    assert edges == joined
+    def knn_pairs(rounds: list[tuple[int, int]]) -> set[tuple[int, int]]:
+        out: set[tuple[int, int]] = set()
+        for lo, hi in rounds:
+            d = np.linalg.norm(nodes[:hi, None, :] - nodes[None, :hi, :], axis=2)
+            np.fill_diagonal(d, np.inf)
+            for i in range(lo, hi):  # every new node's k nearest among the nodes so far
+                for j in np.argsort(d[i], kind="stable")[:k].tolist():
+                    out.add((min(i, j), max(i, j)))
+        return out
+
+    rounds = knn_pairs([(0, 500), (500, 1000), (1000, 1300)])
+    assert {(int(i), int(j)) for i, j in roadmap.edges} == {e for e in rounds if free(*e)}
+    # without a time limit: one round, the k-NN graph of all the nodes
+    nodes = whole.nodes
+    one = knn_pairs([(0, 1300)])
+    assert {(int(i), int(j)) for i, j in whole.edges} == {e for e in one if free(*e)}
+    nodes = roadmap.nodes
+    edges = {(int(i), int(j)) for i, j in roadmap.edges}
     costs = {(i, j): c for i, nb in enumerate(roadmap.adjacency) for j, c in nb}
     for i, j in itertools.islice(edges, 200):
         assert costs[(i, j)] == pytest.approx(float(np.linalg.norm(nodes[i] - nodes[j])))

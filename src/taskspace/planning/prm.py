@@ -387,13 +387,13 @@ def build_prm(
 ) -> Roadmap:
     """Build a probabilistic roadmap (slide 3:31).
 
-    In rounds: the first draws ``min(n, 500)`` free samples and connects each to its ``k``
-    nearest (the roadmap of slide 3:31 when ``n <= 500``); each later round doubles the
-    roadmap, every new node connected to its ``k`` nearest among all nodes. With a time
-    limit the clock is read before every batch of 256 candidates and every edge check: a
-    round whose sampling the deadline cuts is dropped, a round whose edges it cuts keeps the
-    edges tried (:attr:`Roadmap.timed_out`). Without one, a size whose roadmap cannot fit in
-    memory is refused before anything is allocated.
+    Without a time limit: ``n`` free samples, each connected to its ``k`` nearest (slide
+    3:31); a size whose roadmap cannot fit in memory is refused before anything is
+    allocated. With a time limit, in rounds: the first draws ``min(n, 500)`` free samples and
+    connects them so, each later round doubles the roadmap, every new node connected to its
+    ``k`` nearest among all nodes; the clock is read before every batch of 256 candidates and
+    every edge check: a round whose sampling the deadline cuts is dropped, a round whose
+    edges it cuts keeps the edges tried (:attr:`Roadmap.timed_out`).
 
     Args:
         space: configuration space with checker and straight-line local planner.
@@ -429,9 +429,12 @@ def _build(
     adjacency: list[list[tuple[int, float]]] = []
     tried = 0
     timed_out = False
+    # without a time limit, one round: slide 3:31's k-NN graph of all the nodes (rounds
+    # try about 20 % more edges for the same nodes: their first nodes' neighbours are far)
+    first = n_samples if math.isinf(deadline) else _FIRST_ROUND
     while nodes.shape[0] < n_samples:
         have = nodes.shape[0]
-        want = min(n_samples, max(_FIRST_ROUND, 2 * have)) - have
+        want = min(n_samples, max(first, 2 * have)) - have
         fresh, late = _sample_round(space, want, rng, opts, deadline)
         if late:
             timed_out = True
