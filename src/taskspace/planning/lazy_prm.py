@@ -99,6 +99,16 @@ class LazyRoadmap:
         }
 
 
+def _empty_roadmap(space: ConfigurationSpace) -> Roadmap:
+    """A roadmap without nodes, of the space's current world and limits (queries accept it)."""
+    return Roadmap(
+        nodes=np.empty((0, space.dim)),
+        adjacency=[],
+        world_version=space.world_version,
+        model_version=space.model_version,
+    )
+
+
 def build_lazy_prm(
     space: ConfigurationSpace,
     options: PRMOptions | None = None,
@@ -509,7 +519,7 @@ def lazy_prm(
     budget = Budget(MAX_INT64 if cap is None else cap, limit, t0)
     found = edge_case(space, q_start, goals, region, budget)
     if found is not None:
-        empty = LazyRoadmap(roadmap=Roadmap(nodes=np.empty((0, space.dim)), adjacency=[]))
+        empty = LazyRoadmap(roadmap=_empty_roadmap(space))
         early = edge_case_result(space, found, budget, (checks0, edges0), goal_count=len(goals))
         early.log["growth_rounds"] = 0.0
         return early, empty
@@ -558,7 +568,7 @@ def lazy_prm(
         uniform = sample_free(space, max(0, m - n_end - min(n_end, per_goal * len(goals))), rng)
         fresh = np.vstack([*near, uniform]) if near_count or uniform.size else uniform
         if lazy is None:
-            base = Roadmap(nodes=np.empty((0, space.dim)), adjacency=[])
+            base = _empty_roadmap(space)
             lazy = LazyRoadmap(roadmap=base)
         lazy = grow_lazy_prm(space, lazy, fresh, opts.k_neighbors)
         if not goals:  # a region none of whose samples was valid yet
@@ -568,7 +578,7 @@ def lazy_prm(
             space, lazy, q_start, np.asarray(goals), query_opts, time_limit_s=remaining
         )
     if lazy is None:  # no round ran (no samples allowed, or no time)
-        lazy = LazyRoadmap(roadmap=Roadmap(nodes=np.empty((0, space.dim)), adjacency=[]))
+        lazy = LazyRoadmap(roadmap=_empty_roadmap(space))
     if result is None:  # no query ran
         result = PlannerResult(
             success=False,
