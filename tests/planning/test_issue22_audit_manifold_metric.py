@@ -6,9 +6,8 @@ manifold tests compared ``difference`` and ``interpolate`` with Pinocchio's but 
 weights: dropping them from ``JointManifold.distances`` passed every manifold, objective and
 audit test. Reference here: ``pinocchio.difference`` on the robot's own model times the
 weights; the path length a planner reports should be the sum of those along its path —
-``rrt``, ``prm`` and ``lazy_prm`` report it, ``rrt_connect`` (Python path), ``rrt_star``,
-``bit_star`` and ``prm_star`` report the Euclidean length of the raw coordinates (strict
-xfail: the marks go when they are fixed).
+every planner reports it (``rrt_connect`` (Python path), ``rrt_star``, ``bit_star`` and
+``prm_star`` reported the Euclidean length of the raw coordinates until stop 23).
 """
 
 from __future__ import annotations
@@ -69,14 +68,6 @@ def test_distances_are_the_weighted_pinocchio_difference(name: str, solo: Robot)
     )
 
 
-_NOT_YET = pytest.mark.xfail(
-    strict=True,
-    reason="reports the Euclidean length of the raw coordinates (quaternion components) as "
-    "path_length on a joint-manifold space (configuration_space.path_length instead of "
-    "space.path_length); rrt, prm and lazy_prm use the space's metric (audit, stop 23)",
-)
-
-
 def _plan(name: str, space: ConfigurationSpace, start: np.ndarray, goal: np.ndarray):  # type: ignore[no-untyped-def]
     if name == "rrt_connect":
         return rrt_connect(space, start, goal, RRTConnectOptions(time_limit_s=5.0, seed=0))
@@ -94,16 +85,7 @@ def _plan(name: str, space: ConfigurationSpace, start: np.ndarray, goal: np.ndar
 
 
 @pytest.mark.parametrize(
-    "name",
-    [
-        "rrt",
-        "prm",
-        "lazy_prm",
-        pytest.param("rrt_connect", marks=_NOT_YET),
-        pytest.param("rrt_star", marks=_NOT_YET),
-        pytest.param("bit_star", marks=_NOT_YET),
-        pytest.param("prm_star", marks=_NOT_YET),
-    ],
+    "name", ["rrt", "prm", "lazy_prm", "rrt_connect", "rrt_star", "bit_star", "prm_star"]
 )
 def test_a_planned_floating_path_is_measured_in_the_weighted_metric(name: str, solo: Robot) -> None:
     model = solo.model

@@ -44,9 +44,15 @@ import numpy.typing as npt
 
 from taskspace._validation import check_count, check_positive, check_seed
 from taskspace.planning.certify import plan_certified
-from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray, path_length
+from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray
 from taskspace.planning.goals import goal_states
-from taskspace.planning.limits import Budget, planner_limits
+from taskspace.planning.limits import (
+    Budget,
+    edge_case,
+    edge_case_result,
+    planner_limits,
+    result_length,
+)
 from taskspace.planning.objectives import (
     OptimizationObjective,
     optimum_lower_bound,
@@ -203,6 +209,11 @@ def _plan(
     checks0, edges0 = space.checks, space.edge_checks
     q_start = space.check_endpoint(start, "start")
     goals, region = goal_states(space, goal)
+    found = edge_case(space, q_start, goals, region, budget)
+    if found is not None:
+        return edge_case_result(
+            space, found, budget, (checks0, edges0), cost_of, goal_count=len(goals)
+        )
     d = space.dim
     k_factor = opts.gamma_factor * math.e * (1 + 1 / space.tangent_dim)
     goal_q = list(goals)
@@ -457,7 +468,7 @@ def _plan(
         success=success,
         status=PlannerStatus.SOLVED if success else limit_status,
         path=path,
-        path_length=path_length(path) if success else math.inf,
+        path_length=result_length(space, path, success),
         iterations=samples,
         collision_checks=space.checks - checks0,
         edge_checks=space.edge_checks - edges0,

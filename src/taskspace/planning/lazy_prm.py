@@ -39,6 +39,7 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
 from taskspace._validation import (
+    MAX_INT64,
     check_count,
     check_limits,
     check_positive,
@@ -52,13 +53,20 @@ from taskspace.planning.configuration_space import (
     nested_orders,
 )
 from taskspace.planning.goals import REGION_FIRST_ATTEMPTS, goal_states, region_samples
-from taskspace.planning.limits import limit_log
+from taskspace.planning.limits import (
+    Budget,
+    edge_case,
+    edge_case_result,
+    limit_log,
+    result_length,
+)
 from taskspace.planning.planner_result import PlannerResult, PlannerStatus
 from taskspace.planning.prm import (
     PRMOptions,
     Roadmap,
     _candidate_pairs,
     _nearest,
+    check_roadmap_memory,
     check_roadmap_world,
 )
 from taskspace.planning.sampling import sample_free
@@ -91,16 +99,32 @@ class LazyRoadmap:
         }
 
 
+def _empty_roadmap(space: ConfigurationSpace) -> Roadmap:
+    """A roadmap without nodes, of the space's current world and limits (queries accept it)."""
+    return Roadmap(
+        nodes=np.empty((0, space.dim)),
+        adjacency=[],
+        world_version=space.world_version,
+        model_version=space.model_version,
+    )
+
+
 def build_lazy_prm(
     space: ConfigurationSpace,
     options: PRMOptions | None = None,
     *,
     rng: np.random.Generator | None = None,
 ) -> LazyRoadmap:
-    """Sample free nodes and connect k nearest neighbours without checking the edges."""
+    """Sample free nodes and connect k nearest neighbours without checking the edges.
+
+    Raises:
+        InvalidInputError: invalid options, or a roadmap too large for the machine's memory
+            (:func:`~taskspace.planning.prm.check_roadmap_memory`, before allocating).
+    """
     opts = options or PRMOptions()
     n_samples = opts.roadmap_size()
-    check_count(opts.k_neighbors, "k_neighbors", minimum=1)
+    k = check_count(opts.k_neighbors, "k_neighbors", minimum=1)
+    check_roadmap_memory(n_samples, space.dim, k)
     rng = rng if rng is not None else np.random.default_rng(check_seed(opts.seed))
     t0 = time.perf_counter()
     checks0 = space.checks
@@ -303,7 +327,7 @@ def lazy_prm_query(
     lazy.status[:] = status[:m]  # roadmap edge states are kept for later queries
     success = status_out is PlannerStatus.SOLVED
     path = points[ids] if success else np.empty((0, space.dim))
-    length = space.path_length(path) if success else math.inf
+    length = result_length(space, path, success)
     dt = time.perf_counter() - t0
     return PlannerResult(
         success=success,
@@ -492,6 +516,13 @@ def lazy_prm(
     goals, region = goal_states(space, goal)
     if region is not None:
         goals = region_samples(space, region, rng, REGION_FIRST_ATTEMPTS, deadline)
+    budget = Budget(MAX_INT64 if cap is None else cap, limit, t0)
+    found = edge_case(space, q_start, goals, region, budget)
+    if found is not None:
+        empty = LazyRoadmap(roadmap=_empty_roadmap(space))
+        early = edge_case_result(space, found, budget, (checks0, edges0), goal_count=len(goals))
+        early.log["growth_rounds"] = 0.0
+        return early, empty
     query_opts = PRMOptions(
         max_iterations=1, k_neighbors=opts.k_neighbors, seed=check_seed(opts.seed)
     )
@@ -505,7 +536,7 @@ def lazy_prm(
             if result is not None:
                 result.status = PlannerStatus.ITERATION_LIMIT
             break
-        if rounds and time.perf_counter() > deadline:  # (the first round always runs)
+        if rounds and time.perf_counter() > deadline:  # (edge_case read it before the first)
             if result is not None:
                 result.status = PlannerStatus.TIME_LIMIT
             break
@@ -537,7 +568,7 @@ def lazy_prm(
         uniform = sample_free(space, max(0, m - n_end - min(n_end, per_goal * len(goals))), rng)
         fresh = np.vstack([*near, uniform]) if near_count or uniform.size else uniform
         if lazy is None:
-            base = Roadmap(nodes=np.empty((0, space.dim)), adjacency=[])
+            base = _empty_roadmap(space)
             lazy = LazyRoadmap(roadmap=base)
         lazy = grow_lazy_prm(space, lazy, fresh, opts.k_neighbors)
         if not goals:  # a region none of whose samples was valid yet
@@ -547,7 +578,7 @@ def lazy_prm(
             space, lazy, q_start, np.asarray(goals), query_opts, time_limit_s=remaining
         )
     if lazy is None:  # no round ran (no samples allowed, or no time)
-        lazy = LazyRoadmap(roadmap=Roadmap(nodes=np.empty((0, space.dim)), adjacency=[]))
+        lazy = LazyRoadmap(roadmap=_empty_roadmap(space))
     if result is None:  # no query ran
         result = PlannerResult(
             success=False,

@@ -22,6 +22,23 @@ for Lazy PRM) and :func:`~taskspace.planning.lazy_prm`'s keyword ``max_rounds`` 
 a cap of ``max_rounds * batch_size`` samples). Lazy PRM also takes ``time_limit_s`` as a
 keyword (given twice, they must agree).
 
+Edge cases: one rule for every planner (:func:`edge_case`), in this order:
+
+1. the options and the endpoints are validated (bad ones raise, whatever the limits);
+2. trivial answers need no limit: a start equal to a goal (path ``[start, goal]``) or inside
+   a goal region (path ``[start]``) is ``SOLVED`` even with ``max_iterations=0`` or
+   ``time_limit_s=0``;
+3. the clock is read next: a deadline already passed (``time_limit_s=0``) stops the planner
+   before any check, ``TIME_LIMIT`` (also with ``max_iterations=0``: the clock comes first);
+4. ``max_iterations=0`` allows no sample: the planner checks the straight line from the start
+   to each goal (nearest first, under the clock) and returns the first free one (``SOLVED``,
+   the anytime planners too), else ``ITERATION_LIMIT`` (``TIME_LIMIT`` if the clock cut a
+   line). PRM builds an empty roadmap and its query checks the lines; PRM*'s first round
+   connects start and goals without a sample.
+
+With samples allowed, checking the straight line before the first sample is each planner's
+own choice (RRT-Connect and PRM's query do). The compiled RRT-Connect follows the same rule.
+
 A planner stops at whichever limit comes first. Its result says which one: status
 :attr:`~taskspace.planning.PlannerStatus.TIME_LIMIT` or ``ITERATION_LIMIT`` when no path was
 found (the anytime planners return ``SOLVED`` with the best path found), and every planner's
@@ -50,9 +67,11 @@ import time
 from collections.abc import Callable, Sequence
 from typing import Any
 
+import numpy as np
+
 from taskspace._validation import MAX_INT64, check_limits
-from taskspace.planning.configuration_space import bisection_order
-from taskspace.planning.planner_result import PlannerStatus
+from taskspace.planning.configuration_space import FloatArray, bisection_order
+from taskspace.planning.planner_result import PlannerResult, PlannerStatus
 
 _STOPPED_BY = {
     PlannerStatus.SOLVED: "first solution",
@@ -77,6 +96,102 @@ def limit_log(status: PlannerStatus, cost: float, time_s: float) -> dict[str, An
         "costs": [float(cost)] if solved else [],
         "cost_times": [float(time_s)] if solved else [],
     }
+
+
+def edge_case(
+    space: Any,
+    q_start: FloatArray,
+    goals: Sequence[FloatArray],
+    region: Any,
+    budget: Budget,
+    *,
+    lines: bool = True,
+) -> tuple[FloatArray, PlannerStatus] | None:
+    """The edge cases of the limits, decided before a planner's search (module docstring).
+
+    In this order: a start inside the goal region (path ``[start]``) or equal to a goal
+    (``[start, goal]``) is ``SOLVED`` whatever the limits; a deadline already passed is
+    ``TIME_LIMIT``; with ``max_iterations=0`` the straight lines to the goals, nearest
+    first and under the clock, give ``SOLVED`` (the first free one), ``TIME_LIMIT`` (cut)
+    or ``ITERATION_LIMIT`` (``lines=False``: a planner that checks them itself, as PRM*'s
+    first round does without a sample).
+
+    Returns:
+        ``(path, status)`` when these decide the result, else ``None`` (plan).
+    """
+    empty = np.empty((0, space.dim))
+    if region is not None and region.contains(q_start):
+        return q_start[None, :].copy(), PlannerStatus.SOLVED
+    for q_goal in goals:
+        if np.array_equal(q_goal, q_start):
+            return np.stack([q_start, q_goal]), PlannerStatus.SOLVED
+    if budget.out_of_time():
+        return empty, PlannerStatus.TIME_LIMIT
+    if budget.cap > 0 or not lines:
+        return None
+    order = np.argsort(space.distances(np.asarray(goals), q_start)).tolist() if goals else []
+    for g in order:
+        free = budget.motion_valid(space, q_start, goals[g])
+        if free is None:
+            return empty, PlannerStatus.TIME_LIMIT
+        if free:
+            return np.stack([q_start, goals[g]]), PlannerStatus.SOLVED
+    budget.stopped_by = "iterations"
+    return empty, PlannerStatus.ITERATION_LIMIT
+
+
+def edge_case_result(
+    space: Any,
+    found: tuple[FloatArray, PlannerStatus],
+    budget: Budget,
+    counts: tuple[int, int],
+    objective: Any = None,
+    goal_count: int = 1,
+) -> PlannerResult:
+    """The result of a planner stopped by :func:`edge_case` (no iteration ran).
+
+    Args:
+        space: the planner's space.
+        found: :func:`edge_case`'s answer.
+        budget: the planner's budget (its start time).
+        counts: ``space.checks`` and ``space.edge_checks`` at the planner's start.
+        objective: the optimal planners' objective (``cost`` is its cost of the path);
+            ``None`` for the planners without one (``cost`` is ``None``).
+        goal_count: goal configurations (``log["goal_states"]``).
+    """
+    path, status = found
+    success = status is PlannerStatus.SOLVED
+    length = result_length(space, path, success)
+    cost = None
+    if objective is not None:
+        cost = float(objective.path_cost(path)) if success else math.inf
+    dt = budget.elapsed()
+    return PlannerResult(
+        success=success,
+        status=status,
+        path=path,
+        path_length=length,
+        iterations=0,
+        collision_checks=space.checks - counts[0],
+        edge_checks=space.edge_checks - counts[1],
+        time_s=dt,
+        cost=cost,
+        log={
+            "edge_case": 1.0,
+            "goal_states": float(goal_count),
+            **limit_log(status, length if cost is None else cost, dt),
+        },
+    )
+
+
+def result_length(space: Any, path: Any, success: bool) -> float:
+    """The ``path_length`` a planner reports: ``space.path_length(path)``, ``inf`` on failure.
+
+    The one place every planner's result takes its length from, so that it is in the space's
+    metric (weighted, Pinocchio's ``difference`` on a joint manifold) and never the Euclidean
+    length of the raw coordinates (quaternion components of a floating base).
+    """
+    return float(space.path_length(path)) if success else math.inf
 
 
 def planner_limits(max_iterations: Any, time_limit_s: Any) -> tuple[int, float]:

@@ -70,7 +70,8 @@ class PlannerResult:
         success: a path was found.
         status: why the planner stopped.
         path: waypoints from start to goal, shape (m, d); shape (0, d) on failure.
-        path_length: Euclidean length of ``path`` [rad or m] (``inf`` on failure).
+        path_length: length of ``path`` in the space's metric, ``space.path_length(path)``
+            [rad or m] (``inf`` on failure).
         iterations: samples drawn (RRT iterations, PRM samples).
         collision_checks: configurations evaluated by the validity checker.
         edge_checks: local-planner (straight-line) queries.

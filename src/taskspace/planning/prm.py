@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import logging
 import math
+import os
 import time
 import warnings
 from collections.abc import Iterable
@@ -37,14 +38,14 @@ import numpy as np
 import numpy.typing as npt
 from scipy.spatial import cKDTree
 
-from taskspace._validation import check_count, check_seed, check_time_limit
+from taskspace._validation import MAX_INT64, check_count, check_seed, check_time_limit
 from taskspace.errors import InvalidInputError, PlanningError, StaleModelError
 from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray
 from taskspace.planning.goals import REGION_FIRST_ATTEMPTS, goal_states, region_samples
 from taskspace.planning.graph_search import astar, dijkstra
-from taskspace.planning.limits import limit_log
+from taskspace.planning.limits import Budget, limit_log, result_length
 from taskspace.planning.planner_result import PlannerResult, PlannerStatus
-from taskspace.planning.sampling import Sampler, sample_free
+from taskspace.planning.sampling import Sampler, _candidates, sample_free
 
 logger = logging.getLogger(__name__)
 
@@ -57,7 +58,8 @@ class PRMOptions:
         max_iterations: samples (one iteration = one free sample, as for every planner of
             :mod:`taskspace.planning.limits`): the roadmap's nodes ``n`` for
             :func:`build_prm`, :func:`prm` and :func:`~taskspace.planning.build_lazy_prm`
-            (an integer >= 1); for :func:`~taskspace.planning.lazy_prm`, the samples of all
+            (an integer >= 0; 0: an empty roadmap, only the straight line is checked); for
+            :func:`~taskspace.planning.lazy_prm`, the samples of all
             its growth rounds (``None``: no cap, then the time limit must be finite).
         k_neighbors: neighbours ``k`` tried per node (slide 3:31).
         sampler: ``"uniform"``, ``"gaussian"`` or ``"bridge"`` (slide 3:35).
@@ -65,8 +67,9 @@ class PRMOptions:
         search: ``"dijkstra"`` or ``"astar"`` for queries.
         seed: random seed used when no ``rng`` is passed.
         time_limit_s: wall-clock budget [s] (``None`` or ``math.inf``: none; NaN refused).
-            :func:`build_prm` leaves out the edges not tried in time, and :func:`prm` then
-            reports ``TIME_LIMIT`` when no path is found.
+            :func:`build_prm` stops sampling and connecting at it (:attr:`Roadmap.timed_out`),
+            :func:`prm_query` stops its edge checks at it, and :func:`prm` (one deadline for
+            both) then reports ``TIME_LIMIT`` when no path is found.
         batch_size: samples added per growth round of :func:`~taskspace.planning.lazy_prm`.
         n_samples: deprecated name (a ``DeprecationWarning``): for :func:`build_prm`,
             :func:`prm` and :func:`~taskspace.planning.build_lazy_prm` it is
@@ -96,16 +99,19 @@ class PRMOptions:
     def roadmap_size(self) -> int:
         """The nodes of a roadmap built at once (``n_samples`` if given, else ``max_iterations``).
 
+        ``0`` is an empty roadmap (:func:`prm` then only checks the straight line, see
+        :mod:`taskspace.planning.limits`).
+
         Raises:
-            InvalidInputError: not an integer >= 1 (a roadmap built at once needs its size).
+            InvalidInputError: not an integer >= 0 (a roadmap built at once needs its size).
         """
         n = self.n_samples if self.n_samples is not None else self.max_iterations
         if n is None:
             raise InvalidInputError(
                 "max_iterations=None: a roadmap built at once (build_prm, prm, build_lazy_prm) "
-                "needs its number of samples; give max_iterations an integer >= 1"
+                "needs its number of samples; give max_iterations an integer >= 0"
             )
-        return check_count(n, "max_iterations", minimum=1)
+        return check_count(n, "max_iterations", minimum=0)
 
 
 @dataclass
@@ -125,6 +131,9 @@ class Roadmap:
             nodes were sampled in (``None``: a space not built on a robot); queries refuse a
             roadmap whose version differs (after :meth:`Robot.set_limits` its nodes may be
             outside the new limits).
+        timed_out: the time limit stopped the construction before all ``max_iterations``
+            samples were drawn and connected (the nodes are those connected in time; the edges
+            of the last round not tried in time are missing).
     """
 
     nodes: FloatArray
@@ -134,6 +143,7 @@ class Roadmap:
     edges_tried: int = 0
     world_version: int | None = None
     model_version: int | None = None
+    timed_out: bool = False
     _tree: Any = field(default=None, repr=False)
 
     @property
@@ -252,21 +262,121 @@ def connect_roadmap(
     Returns:
         ``(adjacency, edges_tried)``.
     """
-    n = nodes.shape[0]
-    adjacency: list[list[tuple[int, float]]] = [[] for _ in range(n)]
+    adjacency: list[list[tuple[int, float]]] = [[] for _ in range(nodes.shape[0])]
     pairs = _candidate_pairs(nodes, k, space)
+    tried, _ = _connect_pairs(space, nodes, pairs, adjacency, check_edges, deadline)
+    return adjacency, tried
+
+
+def _connect_pairs(
+    space: ConfigurationSpace,
+    nodes: FloatArray,
+    pairs: npt.NDArray[np.int64],
+    adjacency: list[list[tuple[int, float]]],
+    check_edges: bool,
+    deadline: float,
+) -> tuple[int, bool]:
+    """Add the free ``pairs`` to ``adjacency``, the clock read before each edge check.
+
+    Returns:
+        ``(edges_tried, complete)``: ``complete`` is False when the deadline stopped it.
+    """
     costs = space.distances(nodes[pairs[:, 1]], nodes[pairs[:, 0]])
     tried = 0
     for (i, j), c in zip(pairs.tolist(), costs.tolist()):
         if check_edges and time.perf_counter() > deadline:
             logger.debug("PRM: time limit after %d of %d edges", tried, pairs.shape[0])
-            break
+            return tried, False
         tried += 1
         if check_edges and not space.motion_valid(nodes[i], nodes[j]):
             continue
         adjacency[i].append((j, c))
         adjacency[j].append((i, c))
-    return adjacency, tried
+    return tried, True
+
+
+_FIRST_ROUND = 500
+"""Samples of :func:`build_prm`'s first round; each later round doubles the roadmap."""
+_SAMPLE_BATCH = 256
+"""Candidates drawn per checker call (as :func:`~taskspace.planning.sample_free`)."""
+_BYTES_PER_NODE = 256
+"""Memory of a roadmap node beyond its coordinates [bytes] (lists, indices)."""
+_BYTES_PER_NEIGHBOUR = 256
+"""Memory of one candidate neighbour of a node [bytes] (two adjacency tuples, the pair)."""
+
+
+def _physical_memory() -> int:
+    """Bytes of RAM of the machine (``2**40`` when the system does not say)."""
+    try:
+        return int(os.sysconf("SC_PHYS_PAGES")) * int(os.sysconf("SC_PAGE_SIZE"))
+    except (AttributeError, ValueError, OSError):  # pragma: no cover - not POSIX
+        return 1 << 40
+
+
+def check_roadmap_memory(n: int, dim: int, k: int) -> None:
+    """Refuse a roadmap of ``n`` nodes that cannot fit in the machine's memory.
+
+    Called before anything is allocated when no time limit bounds the construction (with
+    one, the rounds stop at the deadline and allocate what was sampled in time).
+
+    Raises:
+        InvalidInputError: the estimate (coordinates, ``k`` neighbours per node) exceeds the
+            machine's physical memory.
+    """
+    need = n * (8 * dim + _BYTES_PER_NODE + _BYTES_PER_NEIGHBOUR * k)
+    total = _physical_memory()
+    if need > total:
+        raise InvalidInputError(
+            f"max_iterations={n}: a roadmap of {n} nodes with k_neighbors={k} needs about "
+            f"{need / 2**30:.3g} GiB, more than this machine's {total / 2**30:.3g} GiB; give "
+            "a smaller max_iterations or a time_limit_s (the roadmap then grows until it)"
+        )
+
+
+def _sample_round(
+    space: ConfigurationSpace, n: int, rng: np.random.Generator, opts: PRMOptions, deadline: float
+) -> tuple[FloatArray, bool]:
+    """``n`` free samples drawn as :func:`~taskspace.planning.sample_free` draws them.
+
+    Batches of 256 candidates, at most ``1000 n`` draws (fewer samples are returned then),
+    the clock read before each batch when ``deadline`` is finite.
+
+    Returns:
+        ``(samples, late)``: ``late`` when the deadline passed before ``n`` were drawn.
+    """
+    out: list[FloatArray] = []
+    have = draws = 0
+    timed = not math.isinf(deadline)
+    while have < n and draws < 1000 * max(n, 1):
+        if timed and time.perf_counter() > deadline:
+            return np.empty((0, space.dim)), True
+        got = _candidates(space, opts.sampler, _SAMPLE_BATCH, opts.sigma, rng)
+        draws += _SAMPLE_BATCH
+        out.append(got)
+        have += got.shape[0]
+    if not out:
+        return np.empty((0, space.dim)), False
+    return np.vstack(out)[:n], False
+
+
+def _new_pairs(
+    space: ConfigurationSpace, nodes: FloatArray, first_new: int, k: int
+) -> npt.NDArray[np.int64]:
+    """Pairs (i, j), i < j, of every new node (index >= ``first_new``) and its k nearest."""
+    if first_new == 0:
+        return _candidate_pairs(nodes, k, space)
+    n = nodes.shape[0]
+    kk = min(k + 1, n)
+    fresh = nodes[first_new:]
+    if space.is_euclidean:
+        _, idx = cKDTree(nodes).query(fresh, k=kk)
+    else:
+        idx = np.array([_nearest(space, nodes, q, kk)[1] for q in fresh])
+    idx = np.asarray(idx, dtype=np.int64).reshape(fresh.shape[0], kk)
+    rows = np.repeat(np.arange(first_new, n), kk)
+    pairs = np.stack([rows, idx.ravel()], axis=1)
+    pairs = pairs[pairs[:, 0] != pairs[:, 1]]  # the node itself
+    return np.unique(np.sort(pairs, axis=1), axis=0)
 
 
 def build_prm(
@@ -277,22 +387,70 @@ def build_prm(
 ) -> Roadmap:
     """Build a probabilistic roadmap (slide 3:31).
 
+    Without a time limit: ``n`` free samples, each connected to its ``k`` nearest (slide
+    3:31); a size whose roadmap cannot fit in memory is refused before anything is
+    allocated. With a time limit, in rounds: the first draws ``min(n, 500)`` free samples and
+    connects them so, each later round doubles the roadmap, every new node connected to its
+    ``k`` nearest among all nodes; the clock is read before every batch of 256 candidates and
+    every edge check: a round whose sampling the deadline cuts is dropped, a round whose
+    edges it cuts keeps the edges tried (:attr:`Roadmap.timed_out`).
+
     Args:
         space: configuration space with checker and straight-line local planner.
-        options: settings (``n``, ``k``, sampler).
+        options: settings (``n = max_iterations``, ``k``, sampler, ``time_limit_s``).
         rng: random generator (default: ``np.random.default_rng(options.seed)``).
+
+    Raises:
+        InvalidInputError: invalid options, or a roadmap too large for memory (no time limit).
     """
     opts = options or PRMOptions()
-    n_samples = opts.roadmap_size()
-    check_count(opts.k_neighbors, "k_neighbors", minimum=1)
     rng = rng if rng is not None else np.random.default_rng(check_seed(opts.seed))
     t0 = time.perf_counter()
-    deadline = t0 + check_time_limit(opts.time_limit_s)
+    return _build(space, opts, rng, t0 + check_time_limit(opts.time_limit_s), t0)
+
+
+def _build(
+    space: ConfigurationSpace,
+    opts: PRMOptions,
+    rng: np.random.Generator,
+    deadline: float,
+    t0: float,
+) -> Roadmap:
+    """:func:`build_prm` with a deadline (``time.perf_counter()`` value [s])."""
+    n_samples = opts.roadmap_size()
+    k = check_count(opts.k_neighbors, "k_neighbors", minimum=1)
+    sample_free(space, 0, rng, strategy=opts.sampler, sigma=opts.sigma)  # validates, draws none
+    if math.isinf(deadline):
+        check_roadmap_memory(n_samples, space.dim, k)
     checks0 = space.checks
     version = space.world_version
     model_version = space.model_version
-    nodes = sample_free(space, n_samples, rng, strategy=opts.sampler, sigma=opts.sigma)
-    adjacency, tried = connect_roadmap(space, nodes, opts.k_neighbors, deadline=deadline)
+    nodes: FloatArray = np.empty((0, space.dim))
+    adjacency: list[list[tuple[int, float]]] = []
+    tried = 0
+    timed_out = False
+    # without a time limit, one round: slide 3:31's k-NN graph of all the nodes (rounds
+    # try about 20 % more edges for the same nodes: their first nodes' neighbours are far)
+    first = n_samples if math.isinf(deadline) else _FIRST_ROUND
+    while nodes.shape[0] < n_samples:
+        have = nodes.shape[0]
+        want = min(n_samples, max(first, 2 * have)) - have
+        fresh, late = _sample_round(space, want, rng, opts, deadline)
+        if late:
+            timed_out = True
+            break
+        if fresh.shape[0] == 0:  # no free sample in 1000 * want draws
+            break
+        nodes = np.vstack([nodes, fresh]) if have else fresh
+        adjacency.extend([] for _ in range(fresh.shape[0]))
+        pairs = _new_pairs(space, nodes, have, k)
+        done, complete = _connect_pairs(space, nodes, pairs, adjacency, True, deadline)
+        tried += done
+        if not complete:
+            timed_out = True
+            break
+        if fresh.shape[0] < want:  # the draw limit was hit
+            break
     roadmap = Roadmap(
         nodes=nodes,
         adjacency=adjacency,
@@ -301,25 +459,49 @@ def build_prm(
         edges_tried=tried,
         world_version=version,
         model_version=model_version,
+        timed_out=timed_out,
     )
     logger.debug("PRM: %d nodes, %d edges", roadmap.size, roadmap.edges.shape[0])
     return roadmap
 
 
 def _attach(
-    space: ConfigurationSpace, roadmap: Roadmap, q: FloatArray, k: int, check_edges: bool
-) -> list[tuple[int, float]]:
-    """Edges (node, cost) from ``q`` to its k nearest roadmap nodes that pass the local planner."""
+    space: ConfigurationSpace,
+    roadmap: Roadmap,
+    q: FloatArray,
+    k: int,
+    check_edges: bool,
+    budget: Budget | None = None,
+) -> tuple[list[tuple[int, float]], bool]:
+    """Edges (node, cost) from ``q`` to its k nearest roadmap nodes that pass the local planner.
+
+    With a ``budget`` the clock is read before each batch of each edge's checks.
+
+    Returns:
+        ``(edges, late)``: ``late`` when the deadline stopped it (the edges checked free
+        before are returned).
+    """
     kk = min(k, roadmap.size)
+    if kk == 0:
+        return [], False
     if space.is_euclidean:
         dist, idx = roadmap.kdtree.query(q, k=kk)
     else:
         dist, idx = _nearest(space, roadmap.nodes, q, kk)
-    out = []
+    out: list[tuple[int, float]] = []
     for d, j in zip(np.atleast_1d(dist).tolist(), np.atleast_1d(idx).tolist()):
-        if not check_edges or space.motion_valid(q, roadmap.nodes[j]):
-            out.append((int(j), float(d)))
-    return out
+        if check_edges:
+            free = (
+                space.motion_valid(q, roadmap.nodes[j])
+                if budget is None
+                else budget.motion_valid(space, q, roadmap.nodes[j])
+            )
+            if free is None:
+                return out, True
+            if not free:
+                continue
+        out.append((int(j), float(d)))
+    return out, False
 
 
 def query_graph(
@@ -409,11 +591,14 @@ def prm_query(
             its valid samples among 20 are the goal states; a start inside it is a
             one-point path). Each goal is joined to its k nearest roadmap nodes; the path
             ends at the goal of the shortest roadmap path.
-        options: ``k_neighbors`` and ``search`` are used (and ``seed`` for a region).
+        options: ``k_neighbors``, ``search`` and ``time_limit_s`` (the query's budget: the
+            clock is read before each batch of each edge check) are used (and ``seed`` for a
+            region).
         rng: random generator of a region's samples (default: from ``options.seed``).
 
     Returns:
-        A :class:`PlannerResult` (``NO_PATH`` when start and goal are not connected);
+        A :class:`PlannerResult` (``NO_PATH`` when start and goal are not connected,
+        ``TIME_LIMIT`` when the deadline stopped the edge checks before a path was found);
         ``log["goal_states"]`` counts the goal configurations.
 
     Raises:
@@ -422,33 +607,81 @@ def prm_query(
     """
     opts = options or PRMOptions()
     t0 = time.perf_counter()
+    deadline = t0 + check_time_limit(opts.time_limit_s)
+    return _query(space, roadmap, start, goal, opts, rng, deadline, t0)
+
+
+def _query(
+    space: ConfigurationSpace,
+    roadmap: Roadmap,
+    start: Any,
+    goal: Any,
+    opts: PRMOptions,
+    rng: np.random.Generator | None,
+    deadline: float,
+    t0: float,
+) -> PlannerResult:
+    """:func:`prm_query` with a deadline (``time.perf_counter()`` value [s]).
+
+    The limit convention's order (:mod:`taskspace.planning.limits`): a start equal to a goal
+    or inside the goal region first, then the clock, then the straight lines, then the
+    roadmap.
+    """
     checks0, edges0 = space.checks, space.edge_checks
     check_roadmap_world(space, roadmap)
     q_start = space.check_endpoint(start, "start")
     goals, region = goal_states(space, goal)
     if region is not None:
         rng = rng if rng is not None else np.random.default_rng(check_seed(opts.seed))
-        goals = region_samples(space, region, rng, REGION_FIRST_ATTEMPTS)
+        goals = region_samples(space, region, rng, REGION_FIRST_ATTEMPTS, deadline)
     q_goals = np.asarray(goals, dtype=np.float64).reshape(-1, space.dim)
+    budget = Budget(MAX_INT64, math.inf, t0)
+    budget.deadline = deadline
     ids: list[int] = []
     cost = math.inf
+    late = False
+    same = [i for i, g in enumerate(goals) if np.array_equal(g, q_start)]
     if region is not None and region.contains(q_start):
         ids, cost = [-1], 0.0
+    elif same:
+        ids, cost = [-1, -2 - same[0]], 0.0
+    elif goals and budget.out_of_time():
+        late = True
     elif goals:
-        start_edges = _attach(space, roadmap, q_start, opts.k_neighbors, True)
-        goal_edges = [_attach(space, roadmap, g, opts.k_neighbors, True) for g in goals]
-        direct = [space.distance(q_start, g) if space.motion_valid(q_start, g) else None
-                  for g in goals]  # fmt: skip
-        ids, cost = query_graph(
-            roadmap, start_edges, goal_edges, direct, q_goals, opts.search, space=space
-        )
+        direct: list[float | None] = []
+        for g in goals:  # the straight lines first (the limit convention)
+            free = budget.motion_valid(space, q_start, g)
+            late = free is None
+            if late:
+                break
+            direct.append(space.distance(q_start, g) if free else None)
+        start_edges: list[tuple[int, float]] = []
+        goal_edges: list[list[tuple[int, float]]] = []
+        if not late:
+            start_edges, late = _attach(space, roadmap, q_start, opts.k_neighbors, True, budget)
+        for g in goals:
+            if late:
+                break
+            edges, late = _attach(space, roadmap, g, opts.k_neighbors, True, budget)
+            goal_edges.append(edges)
+        if not late:
+            ids, cost = query_graph(
+                roadmap, start_edges, goal_edges, direct, q_goals, opts.search, space=space
+            )
     success = bool(ids)
     path = _assemble(roadmap, ids, q_start, q_goals) if success else np.empty((0, space.dim))
     dt = time.perf_counter() - t0
-    length = space.path_length(path) if success else math.inf
+    length = result_length(space, path, success)
+    status = (
+        PlannerStatus.SOLVED
+        if success
+        else PlannerStatus.TIME_LIMIT
+        if late
+        else PlannerStatus.NO_PATH
+    )
     return PlannerResult(
         success=success,
-        status=PlannerStatus.SOLVED if success else PlannerStatus.NO_PATH,
+        status=status,
         path=path,
         path_length=length,
         iterations=roadmap.size,
@@ -459,7 +692,7 @@ def prm_query(
             "graph_cost": cost,
             "roadmap_nodes": float(roadmap.size),
             "goal_states": float(len(goals)),
-            **limit_log(PlannerStatus.SOLVED if success else PlannerStatus.NO_PATH, length, dt),
+            **limit_log(status, length, dt),
         },
     )
 
@@ -485,12 +718,13 @@ def prm(
         goal: one goal configuration, several (k, d) or a goal region (see
             :func:`prm_query`).
         options: settings; ``max_iterations`` is the roadmap's size (the cap),
-            ``time_limit_s`` the budget of the edge checks.
+            ``time_limit_s`` the budget of the construction and the query together.
         rng: random generator (default: ``np.random.default_rng(options.seed)``).
 
     Returns:
         ``(result, roadmap)``; reuse the roadmap with :func:`prm_query`. Without a path the
-        status is ``TIME_LIMIT`` when edges were left untried, else ``ITERATION_LIMIT`` (the
+        status is ``TIME_LIMIT`` when the deadline cut the construction or the query, else
+        ``ITERATION_LIMIT`` (the
         roadmap of ``max_iterations`` samples does not connect start and goal). ``log`` has
         ``stopped_by`` and the cost (path length) over time (``costs``, ``cost_times``), as
         every planner (:mod:`taskspace.planning.limits`).
@@ -500,14 +734,15 @@ def prm(
     goal_states(space, goal)  # refuse a bad goal before building
     checks0, edges0 = space.checks, space.edge_checks
     rng = rng if rng is not None else np.random.default_rng(check_seed(opts.seed))
-    roadmap = build_prm(space, opts, rng=rng)
-    result = prm_query(space, roadmap, start, goal, opts, rng=rng)
-    if not result.success:
-        pairs = _candidate_pairs(roadmap.nodes, opts.k_neighbors, space).shape[0]
-        # every edge tried: the roadmap of max_iterations samples does not connect them
-        timed_out = roadmap.edges_tried < pairs
+    t0 = time.perf_counter()
+    deadline = t0 + check_time_limit(opts.time_limit_s)
+    roadmap = _build(space, opts, rng, deadline, t0)
+    result = _query(space, roadmap, start, goal, opts, rng, deadline, t0)
+    if not result.success and result.status is PlannerStatus.NO_PATH:
+        # every sample drawn and edge tried: the roadmap of max_iterations samples does not
+        # connect them (unless the deadline cut the construction)
+        timed_out = roadmap.timed_out
         result.status = PlannerStatus.TIME_LIMIT if timed_out else PlannerStatus.ITERATION_LIMIT
-    result.time_s += roadmap.build_time_s
     result.collision_checks = space.checks - checks0
     result.edge_checks = space.edge_checks - edges0
     result.log.update(limit_log(result.status, result.path_length, result.time_s))

@@ -44,10 +44,10 @@ from scipy.spatial import cKDTree
 from taskspace._validation import check_count, check_positive, check_seed
 from taskspace.errors import InvalidInputError
 from taskspace.planning.certify import certify_planned
-from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray, path_length
+from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray
 from taskspace.planning.goals import goal_states
 from taskspace.planning.lazy_prm import LazyRoadmap, _check_edges
-from taskspace.planning.limits import Budget, planner_limits
+from taskspace.planning.limits import Budget, edge_case, planner_limits, result_length
 from taskspace.planning.objectives import (
     OptimizationObjective,
     optimum_lower_bound,
@@ -247,7 +247,16 @@ def _plan(
     best_cost = math.inf
     cost_times: list[float] = []
     costs: list[float] = []
-    while True:
+    # the limits' edge cases (PRM*'s first round, with no sample, is the straight lines)
+    found = edge_case(space, q_start, goals, region, budget, lines=False)
+    if found is not None and found[1] is PlannerStatus.SOLVED:
+        same = [i for i, g in enumerate(goals) if np.array_equal(g, q_start)]
+        best_ids = [0] if found[0].shape[0] == 1 else [0, int(goal_ids[same[0]])]
+        best_cost = float(cost_of.path_cost(found[0]))
+        cost_times.append(budget.elapsed())
+        costs.append(best_cost)
+        budget.stopped_by = "first solution"
+    while found is None:
         # Connect the new nodes to their k_n nearest nodes.
         n = graph.n
         nodes = graph.nodes[:n]
@@ -394,7 +403,7 @@ def _plan(
         success=success,
         status=PlannerStatus.SOLVED if success else limit_status,
         path=path,
-        path_length=path_length(path) if success else math.inf,
+        path_length=result_length(space, path, success),
         iterations=samples,
         collision_checks=space.checks - checks0,
         edge_checks=space.edge_checks - edges0,

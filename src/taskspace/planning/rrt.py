@@ -25,7 +25,6 @@ apart from the configuration space (one space per thread) and generator they are
 from __future__ import annotations
 
 import logging
-import math
 import time
 from dataclasses import dataclass
 from typing import Any
@@ -36,7 +35,14 @@ from taskspace._validation import check_positive, check_seed
 from taskspace.errors import InvalidInputError
 from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray
 from taskspace.planning.goals import REGION_FIRST_ATTEMPTS, goal_states, region_samples
-from taskspace.planning.limits import Budget, limit_log, planner_limits
+from taskspace.planning.limits import (
+    Budget,
+    edge_case,
+    edge_case_result,
+    limit_log,
+    planner_limits,
+    result_length,
+)
 from taskspace.planning.planner_result import PlannerResult, PlannerStatus
 from taskspace.planning.rrt_connect import _GrowingTree, _steer
 
@@ -117,6 +123,9 @@ def rrt(
         goals, region = goal_states(space, goal)
         if region is not None:
             goals = region_samples(space, region, rng, REGION_FIRST_ATTEMPTS, deadline)
+    found = edge_case(space, q_start, goals, region, budget) if goal is not None else None
+    if found is not None:
+        return edge_case_result(space, found, budget, (checks0, edges0), goal_count=len(goals))
     euclidean = space.is_euclidean
     tree = _GrowingTree(q_start, None if euclidean else space.distances)
     status = PlannerStatus.ITERATION_LIMIT
@@ -174,7 +183,7 @@ def rrt(
         success=success,
         status=status,
         path=path,
-        path_length=space.path_length(path) if success else math.inf,
+        path_length=result_length(space, path, success),
         iterations=iterations,
         collision_checks=space.checks - checks0,
         edge_checks=space.edge_checks - edges0,
@@ -182,7 +191,7 @@ def rrt(
         trees=[tree.freeze()],
         log={
             "goal_states": float(len(goals)),
-            **limit_log(status, space.path_length(path) if success else math.inf, dt),
+            **limit_log(status, result_length(space, path, success), dt),
         },
     )
 

@@ -113,10 +113,9 @@ from taskspace.planning.configuration_space import (
     FloatArray,
     IntArray,
     nested_orders,
-    path_length,
 )
 from taskspace.planning.goals import REGION_FIRST_ATTEMPTS, goal_states, is_goal_set, region_samples
-from taskspace.planning.limits import Budget, limit_log, planner_limits
+from taskspace.planning.limits import Budget, limit_log, planner_limits, result_length
 from taskspace.planning.locked_joints import LockedJointChecker
 from taskspace.planning.nearest import GrowingNearest
 from taskspace.planning.planner_result import PlannerResult, PlannerStatus, Tree
@@ -935,7 +934,7 @@ def _plan(
         success=success,
         status=status,
         path=path,
-        path_length=path_length(path) if success else math.inf,
+        path_length=result_length(space, path, success),
         iterations=iterations,
         collision_checks=space.checks - checks0,
         edge_checks=space.edge_checks - edges0,
@@ -948,7 +947,7 @@ def _plan(
             "nodes_removed": float(removed),
             "trapped_turns": float(turns),
             "goal_states": float(len(goals)),
-            **limit_log(status, path_length(path) if success else math.inf, dt),
+            **limit_log(status, result_length(space, path, success), dt),
         },
     )
 

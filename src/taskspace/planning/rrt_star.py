@@ -31,10 +31,16 @@ import numpy as np
 from taskspace._validation import check_positive, check_seed
 from taskspace.errors import InvalidInputError
 from taskspace.planning.certify import plan_certified
-from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray, path_length
+from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray
 from taskspace.planning.goals import GoalRegion as GoalRegion  # re-exported (moved to goals)
 from taskspace.planning.goals import goal_states
-from taskspace.planning.limits import planner_limits
+from taskspace.planning.limits import (
+    Budget,
+    edge_case,
+    edge_case_result,
+    planner_limits,
+    result_length,
+)
 from taskspace.planning.objectives import (
     OptimizationObjective,
     optimum_lower_bound,
@@ -251,6 +257,12 @@ def _plan(
     checks0, edges0 = space.checks, space.edge_checks
     t0 = time.perf_counter()
     deadline = t0 + limit
+    budget = Budget(iterations, limit, t0)
+    found = edge_case(space, q_start, goals, region, budget)
+    if found is not None:
+        return edge_case_result(
+            space, found, budget, (checks0, edges0), cost_of, goal_count=len(goals)
+        )
 
     tree = _RRTStarTree(q_start)
     goal_nodes: dict[int, int] = {}  # goal state index -> its tree node
@@ -459,7 +471,7 @@ def _plan(
         success=success,
         status=PlannerStatus.SOLVED if success else status,
         path=path,
-        path_length=path_length(path) if success else math.inf,
+        path_length=result_length(space, path, success),
         cost=float(tree.cost[goal_node]) if success else math.inf,
         iterations=it,
         collision_checks=space.checks - checks0,
