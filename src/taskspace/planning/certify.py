@@ -451,7 +451,8 @@ def plan_certified(space: Any, options: Any, run: Callable[[Any], Any]) -> Any:
 
     Attempt ``k`` runs ``run(options)`` with ``seed + k`` and the time left as its limit;
     ``options`` has ``seed``, ``max_iterations``, ``time_limit_s``, ``certify_retries`` and
-    ``certify_tolerance`` (RRT-Connect, RRT*, BIT*).
+    ``certify_tolerance`` (RRT, RRT-Connect, RRT*, BIT*; PRM, Lazy PRM and PRM* call
+    :func:`certify_planned` with their own re-plan).
     """
     from taskspace._validation import check_seed
     from taskspace.planning.limits import planner_limits

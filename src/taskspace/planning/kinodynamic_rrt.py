@@ -84,6 +84,15 @@ class KinodynamicRRTOptions:
             refused); the clock is read before every motion's check (the extension, the
             curve to the goal), so the overrun is one motion's check at most.
         seed: random seed (an integer >= 0) used when no ``rng`` is passed.
+        certify: must stay ``False``: ``True`` is refused (``InvalidInputError``). The
+            other planners' certification (:func:`~taskspace.planning.certify_path`) proves
+            straight joint-space segments free on a Pinocchio/coal robot by conservative
+            advancement; a car path is a chain of arcs (exact Reeds-Shepp/Dubins curves, or
+            constant-control arcs), not straight segments between its samples, and its
+            footprint and obstacles are 2-D polygons of a
+            :class:`~taskspace.planning.PolygonWorld`, which has no distance query to
+            advance on. The footprint is checked every ``collision_step`` along the arcs;
+            make that step finer than the thinnest obstacle for a denser check.
     """
 
     steering: Literal["reeds_shepp", "dubins", "controls"] = "reeds_shepp"
@@ -99,6 +108,7 @@ class KinodynamicRRTOptions:
     n_control_samples: int = 10
     time_limit_s: float | None = None
     seed: int = 0
+    certify: bool = False
 
 
 class RRTStatus(enum.Enum):
@@ -154,6 +164,14 @@ class KinodynamicRRTResult:
 
 
 def _validate(opts: KinodynamicRRTOptions) -> None:
+    if opts.certify is not False:
+        raise InvalidInputError(
+            "kinodynamic_rrt cannot certify its paths (certify=True): certify_path proves "
+            "straight joint-space segments free on a Pinocchio/coal robot, while a car path "
+            "is a chain of arcs whose footprint is checked against a PolygonWorld (no "
+            "distance query to advance on); use certify=False and a collision_step finer "
+            f"than the thinnest obstacle (now {opts.collision_step!r} m)"
+        )
     if opts.steering not in _STEERINGS:
         raise UnknownNameError("steering", str(opts.steering), _STEERINGS)
     if not 0.0 <= opts.goal_bias <= 1.0:
@@ -195,6 +213,9 @@ def kinodynamic_rrt(
     Raises:
         PlanningError: if the world has no bounds, or start/goal is out of bounds or in
             collision.
+        InvalidInputError: bad options; ``certify=True`` (see
+            :class:`KinodynamicRRTOptions`: a car path of arcs in a polygon world cannot be
+            certified).
     """
     t_start = time.perf_counter()
     opts = options or KinodynamicRRTOptions()

@@ -47,6 +47,7 @@ from taskspace._validation import (
     check_time_limit,
 )
 from taskspace.errors import InvalidInputError
+from taskspace.planning.certify import certify_planned
 from taskspace.planning.configuration_space import (
     ConfigurationSpace,
     FloatArray,
@@ -249,13 +250,43 @@ def lazy_prm_query(
     Raises:
         PlanningError: start or goal outside the bounds or in collision; the roadmap was
             built for another version of the obstacle world (its edge states are stale).
-        InvalidInputError: a NaN or negative time limit, a bad resolution.
+        InvalidInputError: a NaN or negative time limit, a bad resolution; ``certify`` on a
+            space without a robot.
+
+    Certified paths: with ``options.certify`` the path is proven free between its checked
+    points (:func:`~taskspace.planning.certify.certify_planned`, within the time limit):
+    ``log`` has ``certified``, ``min_distance`` [m] and ``certify_attempts``; a path that
+    cannot be certified gives ``success=False``, status ``UNCERTIFIED`` and the failing
+    segment in ``log`` (no re-plan; its edges keep the state the resolution check gave).
     """
     opts = options or PRMOptions()
-    t0 = time.perf_counter()
     time_limit_s = _time_limit(time_limit_s, options, None, "lazy_prm_query")
-    deadline = t0 + check_time_limit(time_limit_s)
+    limit = check_time_limit(time_limit_s)
     check_positive(coarse_resolution, "coarse_resolution")
+
+    def plan(attempt: int, left: float) -> PlannerResult:
+        return _query(space, lazy, start, goal, opts, left, coarse_resolution, rng)
+
+    if not opts.certify:
+        return plan(0, limit)
+    return certify_planned(
+        space, plan, time_limit_s=limit, retries=0, tolerance=opts.certify_tolerance
+    )
+
+
+def _query(
+    space: ConfigurationSpace,
+    lazy: LazyRoadmap,
+    start: Any,
+    goal: Any,
+    opts: PRMOptions,
+    time_limit: float,
+    coarse_resolution: float,
+    rng: np.random.Generator | None,
+) -> PlannerResult:
+    """:func:`lazy_prm_query` without certification, under ``time_limit`` [s]."""
+    t0 = time.perf_counter()
+    deadline = t0 + time_limit
     checks0, edges0 = space.checks, space.edge_checks
     check_roadmap_world(space, lazy.roadmap)
     q_start = space.check_endpoint(start, "start")
@@ -458,7 +489,16 @@ def lazy_prm(
     Raises:
         PlanningError: start or goal outside the bounds or in collision.
         InvalidInputError: a NaN or negative time limit, no limit at all
-            (``max_iterations`` and ``time_limit_s`` both ``None``), bad options.
+            (``max_iterations`` and ``time_limit_s`` both ``None``), bad options;
+            ``certify`` on a space without a robot.
+
+    Certified paths: with ``options.certify`` the path is proven free between its checked
+    points by :func:`~taskspace.planning.certify_path` (``log``: ``certified``,
+    ``min_distance`` [m], ``certify_attempts``); an uncertified path is re-planned from a new
+    roadmap (seeds ``seed + 1``, ... or the next draws of ``rng``; ``certify_retries``
+    times, within the time limit, which covers the certification) and, if none can be
+    certified, the result has ``success=False``, status ``UNCERTIFIED`` and the failing
+    segment in ``log``; the lazy roadmap returned is the last one grown.
     """
     opts = options or PRMOptions(max_iterations=None)
     unset = time_limit_s is _FROM_OPTIONS and options is not None and opts.time_limit_s is None
@@ -508,7 +548,41 @@ def lazy_prm(
     if not 0.0 <= endpoint_fraction <= 1.0:
         raise InvalidInputError(f"endpoint_fraction must be in [0, 1], got {endpoint_fraction}")
     check_count(opts.k_neighbors, "k_neighbors", minimum=1)
-    rng = rng if rng is not None else np.random.default_rng(check_seed(opts.seed))
+    seed = check_seed(opts.seed)
+    made: list[LazyRoadmap] = []
+
+    def plan(attempt: int, left: float) -> PlannerResult:
+        generator = rng if rng is not None else np.random.default_rng(seed + attempt)
+        result, lazy = _grow(
+            space, start, goal, opts, cap, batch, left, endpoint_fraction, generator
+        )
+        made.append(lazy)
+        return result
+
+    if not opts.certify:
+        return plan(0, limit), made[-1]
+    result = certify_planned(
+        space,
+        plan,
+        time_limit_s=limit,
+        retries=opts.certify_retries,
+        tolerance=opts.certify_tolerance,
+    )
+    return result, made[-1]
+
+
+def _grow(
+    space: ConfigurationSpace,
+    start: Any,
+    goal: Any,
+    opts: PRMOptions,
+    cap: int | None,
+    batch: int,
+    limit: float,
+    endpoint_fraction: float,
+    rng: np.random.Generator,
+) -> tuple[PlannerResult, LazyRoadmap]:
+    """:func:`lazy_prm` without certification: at most ``cap`` samples in ``limit`` [s]."""
     t0 = time.perf_counter()
     deadline = t0 + limit
     checks0, edges0 = space.checks, space.edge_checks

@@ -40,6 +40,7 @@ from scipy.spatial import cKDTree
 
 from taskspace._validation import MAX_INT64, check_count, check_seed, check_time_limit
 from taskspace.errors import InvalidInputError, PlanningError, StaleModelError
+from taskspace.planning.certify import certify_planned
 from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray
 from taskspace.planning.goals import REGION_FIRST_ATTEMPTS, goal_states, region_samples
 from taskspace.planning.graph_search import astar, dijkstra
@@ -75,6 +76,18 @@ class PRMOptions:
             :func:`prm` and :func:`~taskspace.planning.build_lazy_prm` it is
             ``max_iterations``; for :func:`~taskspace.planning.lazy_prm` it is
             ``batch_size`` (nodes per round, as before). ``None``: not given.
+        certify: :func:`prm`, :func:`prm_query`, :func:`~taskspace.planning.lazy_prm` and
+            :func:`~taskspace.planning.lazy_prm_query` prove the returned path free between
+            its checked points (:func:`~taskspace.planning.certify_path`, conservative
+            advancement on the robot's geometry; needs a space built on a robot) within
+            ``time_limit_s``; a path that cannot be certified gives ``success=False`` and
+            status ``UNCERTIFIED``. :func:`prm` and :func:`~taskspace.planning.lazy_prm`
+            first re-plan (a new roadmap, the next seeds) ``certify_retries`` times; the
+            queries do not (their roadmap is fixed: the same query gives the same path).
+        certify_retries: re-plans (next seeds) of :func:`prm` and
+            :func:`~taskspace.planning.lazy_prm` after an uncertified path.
+        certify_tolerance: the least robot-obstacle (and self) distance [m] along the path
+            counted as free by the certification.
     """
 
     max_iterations: int | None = 500
@@ -86,6 +99,9 @@ class PRMOptions:
     time_limit_s: float | None = None
     batch_size: int = 500
     n_samples: int | None = None
+    certify: bool = False
+    certify_retries: int = 2
+    certify_tolerance: float = 1e-4
 
     def __post_init__(self) -> None:
         if self.n_samples is not None:
@@ -604,11 +620,26 @@ def prm_query(
     Raises:
         PlanningError: start or goal outside the bounds or in collision; the roadmap was
             built for another version of the obstacle world.
+        InvalidInputError: ``certify`` on a space without a robot.
+
+    Certified paths: with ``options.certify`` the path is proven free between its checked
+    points (:func:`~taskspace.planning.certify.certify_planned`, within ``time_limit_s``):
+    ``log`` has ``certified``, ``min_distance`` [m] and ``certify_attempts``; a path that
+    cannot be certified gives ``success=False``, status ``UNCERTIFIED`` and the failing
+    segment in ``log`` (no re-plan: the roadmap is fixed).
     """
     opts = options or PRMOptions()
-    t0 = time.perf_counter()
-    deadline = t0 + check_time_limit(opts.time_limit_s)
-    return _query(space, roadmap, start, goal, opts, rng, deadline, t0)
+    limit = check_time_limit(opts.time_limit_s)
+
+    def plan(attempt: int, left: float) -> PlannerResult:
+        t0 = time.perf_counter()
+        return _query(space, roadmap, start, goal, opts, rng, t0 + left, t0)
+
+    if not opts.certify:
+        return plan(0, limit)
+    return certify_planned(
+        space, plan, time_limit_s=limit, retries=0, tolerance=opts.certify_tolerance
+    )
 
 
 def _query(
@@ -727,15 +758,58 @@ def prm(
         ``ITERATION_LIMIT`` (the
         roadmap of ``max_iterations`` samples does not connect start and goal). ``log`` has
         ``stopped_by`` and the cost (path length) over time (``costs``, ``cost_times``), as
-        every planner (:mod:`taskspace.planning.limits`).
+        every planner (:mod:`taskspace.planning.limits`). With ``options.certify``, ``log``
+        has ``certified``, ``min_distance`` [m] and ``certify_attempts``, and the roadmap is
+        the last one built.
+
+    Raises:
+        PlanningError: start or goal outside the bounds or in collision.
+        InvalidInputError: bad options; ``certify`` on a space without a robot.
+
+    Certified paths: with ``options.certify`` the path is proven free between its checked
+    points by :func:`~taskspace.planning.certify_path`; an uncertified path is re-planned
+    with a new roadmap (seeds ``seed + 1``, ... or the next draws of ``rng``;
+    ``certify_retries`` times, within ``time_limit_s``, which covers the certification) and,
+    if none can be certified, the result has ``success=False``, status ``UNCERTIFIED`` and
+    the failing segment in ``log``.
     """
     opts = options or PRMOptions()
     space.check_endpoint(start, "start")
     goal_states(space, goal)  # refuse a bad goal before building
+    limit = check_time_limit(opts.time_limit_s)
+    seed = check_seed(opts.seed)
+    made: list[Roadmap] = []
+
+    def plan(attempt: int, left: float) -> PlannerResult:
+        generator = rng if rng is not None else np.random.default_rng(seed + attempt)
+        result, roadmap = _prm(space, start, goal, opts, generator, left)
+        made.append(roadmap)
+        return result
+
+    if not opts.certify:
+        return plan(0, limit), made[-1]
+    result = certify_planned(
+        space,
+        plan,
+        time_limit_s=limit,
+        retries=opts.certify_retries,
+        tolerance=opts.certify_tolerance,
+    )
+    return result, made[-1]
+
+
+def _prm(
+    space: ConfigurationSpace,
+    start: Any,
+    goal: Any,
+    opts: PRMOptions,
+    rng: np.random.Generator,
+    time_limit: float,
+) -> tuple[PlannerResult, Roadmap]:
+    """:func:`prm` without certification, under ``time_limit`` [s]."""
     checks0, edges0 = space.checks, space.edge_checks
-    rng = rng if rng is not None else np.random.default_rng(check_seed(opts.seed))
     t0 = time.perf_counter()
-    deadline = t0 + check_time_limit(opts.time_limit_s)
+    deadline = t0 + time_limit
     roadmap = _build(space, opts, rng, deadline, t0)
     result = _query(space, roadmap, start, goal, opts, rng, deadline, t0)
     if not result.success and result.status is PlannerStatus.NO_PATH:

@@ -33,6 +33,7 @@ import numpy as np
 
 from taskspace._validation import check_positive, check_seed
 from taskspace.errors import InvalidInputError
+from taskspace.planning.certify import plan_certified
 from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray
 from taskspace.planning.goals import REGION_FIRST_ATTEMPTS, goal_states, region_samples
 from taskspace.planning.limits import (
@@ -61,6 +62,15 @@ class RRTOptions:
         time_limit_s: wall-clock budget [s] (``None`` or ``math.inf`` = no limit; NaN is
             refused).
         seed: random seed (an integer >= 0) used when no ``rng`` is passed.
+        certify: prove the returned path free between its checked points
+            (:func:`~taskspace.planning.certify_path`, conservative advancement on the robot's
+            geometry); an uncertified path is re-planned with the next seeds
+            (``certify_retries`` times, within the time limit), and if none can be certified
+            the result has ``success=False`` and status ``UNCERTIFIED``. Needs a space built
+            on a robot.
+        certify_retries: re-plans (next seeds) after an uncertified path.
+        certify_tolerance: the least robot-obstacle (and self) distance [m] along the path
+            counted as free by the certification.
     """
 
     step_size: float = 0.5
@@ -68,6 +78,9 @@ class RRTOptions:
     max_iterations: int | None = 10_000
     time_limit_s: float | None = 5.0
     seed: int = 0
+    certify: bool = False
+    certify_retries: int = 2
+    certify_tolerance: float = 1e-4
 
 
 def rrt(
@@ -100,13 +113,34 @@ def rrt(
 
     Returns:
         A :class:`PlannerResult` with the tree in ``trees[0]``; without goal ``success`` is
-        False and ``status`` is ``ITERATION_LIMIT`` (or ``TIME_LIMIT``).
+        False and ``status`` is ``ITERATION_LIMIT`` (or ``TIME_LIMIT``). With
+        ``options.certify``: ``log`` has ``certified``, ``min_distance`` [m] and
+        ``certify_attempts`` (:func:`~taskspace.planning.certify.certify_planned`).
 
     Raises:
         PlanningError: start or goal outside the bounds or in collision.
-        InvalidInputError: invalid options.
+        InvalidInputError: invalid options; ``certify`` on a space without a robot.
+
+    Certified paths: with ``options.certify`` the returned path is proven free between its
+    checked points by :func:`~taskspace.planning.certify_path`; an uncertified path is
+    re-planned with the next seeds (``certify_retries`` times, within the time limit, which
+    covers the certification) and, if none can be certified, the result has
+    ``success=False``, status ``UNCERTIFIED`` and the failing segment in ``log``.
     """
     opts = options or RRTOptions()
+    if not opts.certify:
+        return _plan(space, start, goal, opts, rng)
+    return plan_certified(space, opts, lambda o: _plan(space, start, goal, o, rng))
+
+
+def _plan(
+    space: ConfigurationSpace,
+    start: Any,
+    goal: Any,
+    opts: RRTOptions,
+    rng: np.random.Generator | None,
+) -> PlannerResult:
+    """:func:`rrt` without certification."""
     alpha = check_positive(opts.step_size, "step_size")
     if not 0.0 <= opts.goal_bias <= 1.0:
         raise InvalidInputError(f"goal_bias must be in [0, 1], got {opts.goal_bias}")
