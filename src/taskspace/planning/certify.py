@@ -34,7 +34,7 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 import numpy.typing as npt
@@ -364,6 +364,42 @@ def certify_path(
             step = float(np.min(d[moving] / rates[moving]))
             t = min(1.0, t + step)
     return PathCertificate(True, least, -1, 1.0, queries)
+
+
+_Made = TypeVar("_Made")
+
+
+def certify_keeping(
+    space: Any,
+    plan: Callable[[int, float], tuple[Any, _Made]],
+    options: Any,
+    *,
+    time_limit_s: float,
+) -> tuple[Any, _Made]:
+    """:func:`certify_planned` for planners that also return what they built (a roadmap).
+
+    ``plan(attempt, time_left)`` returns ``(result, product)``; the product of the last
+    attempt is returned with the result. Without ``options.certify`` one plan runs with
+    ``time_limit_s`` [s]; with it, ``options.certify_retries`` and ``options.certify_tolerance``
+    as in :func:`certify_planned`.
+    """
+    made: list[_Made] = []
+
+    def attempt(k: int, left: float) -> Any:
+        result, product = plan(k, left)
+        made.append(product)
+        return result
+
+    if not options.certify:
+        return attempt(0, time_limit_s), made[-1]
+    result = certify_planned(
+        space,
+        attempt,
+        time_limit_s=time_limit_s,
+        retries=options.certify_retries,
+        tolerance=options.certify_tolerance,
+    )
+    return result, made[-1]
 
 
 def certify_planned(

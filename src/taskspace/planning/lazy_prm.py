@@ -47,7 +47,7 @@ from taskspace._validation import (
     check_time_limit,
 )
 from taskspace.errors import InvalidInputError
-from taskspace.planning.certify import certify_planned
+from taskspace.planning.certify import certify_keeping, certify_planned
 from taskspace.planning.configuration_space import (
     ConfigurationSpace,
     FloatArray,
@@ -549,26 +549,12 @@ def lazy_prm(
         raise InvalidInputError(f"endpoint_fraction must be in [0, 1], got {endpoint_fraction}")
     check_count(opts.k_neighbors, "k_neighbors", minimum=1)
     seed = check_seed(opts.seed)
-    made: list[LazyRoadmap] = []
 
-    def plan(attempt: int, left: float) -> PlannerResult:
+    def plan(attempt: int, left: float) -> tuple[PlannerResult, LazyRoadmap]:
         generator = rng if rng is not None else np.random.default_rng(seed + attempt)
-        result, lazy = _grow(
-            space, start, goal, opts, cap, batch, left, endpoint_fraction, generator
-        )
-        made.append(lazy)
-        return result
+        return _grow(space, start, goal, opts, cap, batch, left, endpoint_fraction, generator)
 
-    if not opts.certify:
-        return plan(0, limit), made[-1]
-    result = certify_planned(
-        space,
-        plan,
-        time_limit_s=limit,
-        retries=opts.certify_retries,
-        tolerance=opts.certify_tolerance,
-    )
-    return result, made[-1]
+    return certify_keeping(space, plan, opts, time_limit_s=limit)
 
 
 def _grow(

@@ -40,7 +40,7 @@ from scipy.spatial import cKDTree
 
 from taskspace._validation import MAX_INT64, check_count, check_seed, check_time_limit
 from taskspace.errors import InvalidInputError, PlanningError, StaleModelError
-from taskspace.planning.certify import certify_planned
+from taskspace.planning.certify import certify_keeping, certify_planned
 from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray
 from taskspace.planning.goals import REGION_FIRST_ATTEMPTS, goal_states, region_samples
 from taskspace.planning.graph_search import astar, dijkstra
@@ -778,24 +778,12 @@ def prm(
     goal_states(space, goal)  # refuse a bad goal before building
     limit = check_time_limit(opts.time_limit_s)
     seed = check_seed(opts.seed)
-    made: list[Roadmap] = []
 
-    def plan(attempt: int, left: float) -> PlannerResult:
+    def plan(attempt: int, left: float) -> tuple[PlannerResult, Roadmap]:
         generator = rng if rng is not None else np.random.default_rng(seed + attempt)
-        result, roadmap = _prm(space, start, goal, opts, generator, left)
-        made.append(roadmap)
-        return result
+        return _prm(space, start, goal, opts, generator, left)
 
-    if not opts.certify:
-        return plan(0, limit), made[-1]
-    result = certify_planned(
-        space,
-        plan,
-        time_limit_s=limit,
-        retries=opts.certify_retries,
-        tolerance=opts.certify_tolerance,
-    )
-    return result, made[-1]
+    return certify_keeping(space, plan, opts, time_limit_s=limit)
 
 
 def _prm(

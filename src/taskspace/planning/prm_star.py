@@ -43,7 +43,7 @@ from scipy.spatial import cKDTree
 
 from taskspace._validation import check_count, check_positive, check_seed
 from taskspace.errors import InvalidInputError
-from taskspace.planning.certify import certify_planned
+from taskspace.planning.certify import certify_keeping
 from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray
 from taskspace.planning.goals import goal_states
 from taskspace.planning.lazy_prm import LazyRoadmap, _check_edges
@@ -599,9 +599,8 @@ def _certified(
 ) -> tuple[PlannerResult, Roadmap | LazyRoadmap]:
     """Plan once, or until a path is certified (``options.certify``, see PRMStarOptions)."""
     opts = options or PRMStarOptions()
-    made: list[Roadmap | LazyRoadmap] = []
 
-    def plan(attempt: int, left: float) -> PlannerResult:
+    def plan(attempt: int, left: float) -> tuple[PlannerResult, Roadmap | LazyRoadmap]:
         again = opts
         if attempt or math.isfinite(left):
             again = dataclasses.replace(
@@ -610,17 +609,9 @@ def _certified(
                 time_limit_s=left if math.isfinite(left) else None,
             )
         result, graph, versions = _plan(space, start, goal, again, objective, rng, lazy=lazy)
-        made.append(_lazy_roadmap(graph, versions) if lazy else _roadmap(graph, versions, False))
-        return result
+        made = _lazy_roadmap(graph, versions) if lazy else _roadmap(graph, versions, False)
+        return result, made
 
-    if not opts.certify:
-        return plan(0, math.inf), made[-1]
-    _, limit = planner_limits(opts.max_iterations, opts.time_limit_s)
-    result = certify_planned(
-        space,
-        plan,
-        time_limit_s=limit,
-        retries=opts.certify_retries,
-        tolerance=opts.certify_tolerance,
-    )
-    return result, made[-1]
+    # (without certification the plan reads its limits from opts: no outer limit)
+    limit = planner_limits(opts.max_iterations, opts.time_limit_s)[1] if opts.certify else math.inf
+    return certify_keeping(space, plan, opts, time_limit_s=limit)
