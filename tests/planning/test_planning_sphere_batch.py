@@ -333,3 +333,48 @@ def test_sse2_and_avx2_kinematics_agree(robot: Any) -> None:
         np.testing.assert_array_equal(x, y)
     boundary = out[1][1][len(qs) :]  # the double test at the two sides of each contact
     assert boundary[0::2].sum() == 0 and boundary[1::2].all()
+
+
+def test_fine_pass_checks_the_pending_edges_as_one_list(robot: Any) -> None:
+    """The fine pass checks the fine points of all pending edges of a candidate path as one
+    list (fuller batches); the first colliding point decides which edges are cleared and which
+    one is removed with its subtree, as when checking edge after edge. Against Pinocchio: every
+    returned path is free for the meshes at every point of the full resolution, its nodes and
+    coarse points clear for the double sphere test recomputed here, and no exact re-check
+    failed; the plans include lazy rejections (fine-pass collisions), so that an edge wrongly
+    cleared or kept would show."""
+    stride = 5  # coarse_resolution 0.15 / resolution 0.03
+    rejections = 0
+    assert ROOT is not None
+    # problems and seeds whose plans have lazy rejections (1 and 3)
+    for scenario, index, seed in (("box", 6, 2), ("bookshelf_thin", 8, 0)):
+        req = motionbenchmaker_problems(ROOT, scenario, [index])[0].apply(robot)
+        space = ConfigurationSpace.from_robot(robot, edge=EdgeCheckOptions(resolution=0.03))
+        checker: Any = space.checker
+        reference = SphereReference(robot, checker.sphere_model())
+        mesh = _mesh_reference(robot)  # with this scene's obstacles
+        opts = RRTConnectOptions(
+            seed=seed, checker="spheres_only", validator="spheres", fallback_iterations=None
+        )
+        res = rrt_connect(space, req.start, req.goal, opts)
+        assert res.success
+        assert res.log["sphere_recheck_failed"] == 0.0
+        rejections += int(res.log["lazy_rejections"])
+        last = len(res.path) - 2
+        for e, (a, b) in enumerate(zip(res.path[:-1], res.path[1:], strict=True)):
+            n = max(1, int(np.ceil(np.linalg.norm(b - a) / 0.03 - 1e-12)))
+            # the coarse points: multiples of the stride from the tree's parent, which is
+            # either end of the path's edge (a goal-tree edge runs backwards)
+            coarse = np.arange(n + 1) % stride == 0
+            coarse[-1] = True
+            clear = np.ones(n + 1, dtype=bool)
+            for k in range(n + 1):
+                q = a + (k / n) * (b - a)
+                assert not mesh(q)
+                # start and goal: checked on the meshes only (they may be nearer than the
+                # spheres' margin to an obstacle)
+                end = (e == 0 and k == 0) or (e == last and k == n)
+                if (coarse[k] or coarse[n - k]) and not end:
+                    clear[k] = min(reference.clearance(q)) > 0.0
+            assert clear[coarse].all() or clear[coarse[::-1]].all(), (scenario, e, n)
+    assert rejections > 0

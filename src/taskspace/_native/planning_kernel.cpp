@@ -1013,10 +1013,23 @@ class CollisionKernel {
   int first_collision(const double* a, const double* b, const double* t, int count, int checker,
                       Stop&& stop) {
     const int n = model_.nq;
+    return first_collision_at(
+        count, checker,
+        [a, b, t, n](int j, double* x) {
+          for (int k = 0; k < n; ++k) x[k] = a[k] + t[j] * b[k];
+        },
+        stop);
+  }
+
+  // The same for the points fill(j, x) (x: nq values) of any lines, e.g. the fine points of
+  // several edges in one list (RRTConnect::verify), so that the batches are full.
+  template <typename Fill, typename Stop>
+  int first_collision_at(int count, int checker, Fill&& fill, Stop&& stop) {
+    const int n = model_.nq;
     if (!batched(checker)) {
       edge_x_.resize(n);
       for (int j = 0; j < count; ++j) {
-        for (int k = 0; k < n; ++k) edge_x_[k] = a[k] + t[j] * b[k];
+        fill(j, edge_x_.data());
         if (stop() || collides(edge_x_, checker)) return j;
       }
       return -1;
@@ -1028,9 +1041,8 @@ class CollisionKernel {
     for (int s = 0; s < count; s += kBatch) {
       const int m = std::min(kBatch, count - s);
       for (int l = 0; l < kBatch; ++l) {
-        const double u = t[s + std::min(l, m - 1)];  // unused lanes repeat the last point
         double* x = edge_buf_.data() + static_cast<std::size_t>(l) * n;
-        for (int k = 0; k < n; ++k) x[k] = a[k] + u * b[k];
+        fill(s + std::min(l, m - 1), x);  // unused lanes repeat the last point
         lanes[l] = x;
       }
       kinematics_batch(lanes);
@@ -2392,33 +2404,55 @@ class RRTConnect {
   // Fine points of the pending edges on the root paths of the leaves (tree after tree, root
   // outwards). On a collision, the child of the colliding edge and its subtree are removed.
   bool verify(Tree& t1, int leaf1, Tree& t2, int leaf2) {
+    // The fine points of all pending edges go into one list, in the order of checking edge
+    // after edge (tree 1's root outwards, then tree 2's), so that the batches of the sphere
+    // checkers are full across edges; first_collision_at checks in the list's order and
+    // stops at the first collision, so the colliding point, the checks counted and the
+    // edges cleared are those of checking edge after edge.
     Tree* trees[2] = {&t1, &t2};
     int leaves[2] = {leaf1, leaf2};
+    vedges_.clear();
+    vlines_.clear();
+    vpts_.clear();
     for (int h = 0; h < 2; ++h) {
       Tree& t = *trees[h];
       std::vector<int> ids = t.path_indices(leaves[h]);
       for (auto it = ids.rbegin(); it != ids.rend(); ++it) {
         const int i = *it;
         if (!t.pending[i]) continue;
-        const int n = t.segments[i];
-        const auto p0 = Eigen::Map<const VectorXd>(t.node(t.parent[i]), d_);
-        const auto p1 = Eigen::Map<const VectorXd>(t.node(i), d_);
+        const double* p0 = t.node(t.parent[i]);
+        const double* p1 = t.node(i);
+        const std::size_t e = vedges_.size();
+        for (int k = 0; k < d_; ++k) vlines_.push_back(p0[k]);
+        for (int k = 0; k < d_; ++k) vlines_.push_back(p1[k] - p0[k]);
         // the validator (also with a sphere checker: the fine points of the path are then
         // checked once, here, and path_valid_exact checks the coarse ones)
-        const std::vector<double>& fine = lines_.orders(n).fine;
-        dir_ = p1 - p0;
-        bool stopped = false;
-        const int j = ck_.first_collision(p0.data(), dir_.data(), fine.data(),
-                                          static_cast<int>(fine.size()), validator_,
-                                          [this, &stopped] { return stopped = stop(); });
-        if (stopped) return false;  // the plan ends: nothing is removed
-        if (j >= 0) {
-          ++res.rejections;
-          res.removed += t.remove_subtree(i);
-          return false;
-        }
-        t.pending[i] = 0;
+        for (double u : lines_.orders(t.segments[i]).fine) vpts_.push_back({u, e});
+        vedges_.push_back({h, i, vpts_.size()});
       }
+    }
+    const int d = d_;
+    const double* lines = vlines_.data();
+    const auto* pts = vpts_.data();
+    bool stopped = false;
+    const int j = ck_.first_collision_at(
+        static_cast<int>(vpts_.size()), validator_,
+        [lines, pts, d](int q, double* x) {
+          const double* a = lines + 2 * d * pts[q].edge;
+          const double* b = a + d;
+          const double u = pts[q].t;
+          for (int k = 0; k < d; ++k) x[k] = a[k] + u * b[k];
+        },
+        [this, &stopped] { return stopped = stop(); });
+    for (const VerifyEdge& e : vedges_) {
+      Tree& t = *trees[e.tree];
+      if (j >= 0 && static_cast<std::size_t>(j) < e.end) {
+        if (stopped) return false;  // the plan ends: nothing is removed
+        ++res.rejections;
+        res.removed += t.remove_subtree(e.node);
+        return false;
+      }
+      t.pending[e.node] = 0;
     }
     return true;
   }
@@ -2623,6 +2657,17 @@ class RRTConnect {
   int d_;
   VectorXd a_, b_, x_, dir_;
   std::vector<double> ts_;  // fractions of the points of the line being checked
+  struct VerifyPoint {
+    double t;          // fraction on the edge
+    std::size_t edge;  // index in vedges_
+  };
+  struct VerifyEdge {
+    int tree, node;   // the edge parent(node) -> node of tree 0 (t1) or 1 (t2)
+    std::size_t end;  // end (exclusive) of its points in vpts_
+  };
+  std::vector<VerifyEdge> vedges_;  // verify: the pending edges, in checking order
+  std::vector<double> vlines_;      // verify: per edge its start p0 then p1 - p0
+  std::vector<VerifyPoint> vpts_;   // verify: the fine points of all pending edges
 };
 
 BOOST_PYTHON_MEMBER_FUNCTION_OVERLOADS(set_spheres_overloads, CollisionKernel::set_spheres, 4, 5)
