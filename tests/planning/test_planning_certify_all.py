@@ -159,11 +159,13 @@ def test_retries_replan_and_queries_do_not(disc) -> None:  # type: ignore[no-unt
         lazy_prm(space, a, b, opts, time_limit_s=math.inf)[0],
     ):
         assert not result.success and result.status is PlannerStatus.UNCERTIFIED
+        assert result.log["stopped_by"] == "uncertified"
         assert result.log["certify_attempts"] == 3.0 and result.log["certified"] == 0.0
         assert result.log["uncertified_segment"] == 0.0  # the line through the wall
     roadmap = build_prm(space, PRMOptions(max_iterations=20))
     query = prm_query(space, roadmap, a, b, opts)
     assert query.status is PlannerStatus.UNCERTIFIED and query.log["certify_attempts"] == 1.0
+    assert query.log["stopped_by"] == "uncertified"
     lazy = build_lazy_prm(space, PRMOptions(max_iterations=20))
     query = lazy_prm_query(space, lazy, a, b, opts)
     assert query.status is PlannerStatus.UNCERTIFIED and query.log["certify_attempts"] == 1.0

@@ -478,6 +478,7 @@ def certify_planned(
             break
     result.success = False
     result.status = PlannerStatus.UNCERTIFIED
+    result.log["stopped_by"] = "uncertified"
     result.time_s = time.perf_counter() - t0
     return result
 

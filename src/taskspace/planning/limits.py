@@ -43,9 +43,9 @@ A planner stops at whichever limit comes first. Its result says which one: statu
 :attr:`~taskspace.planning.PlannerStatus.TIME_LIMIT` or ``ITERATION_LIMIT`` when no path was
 found (the anytime planners return ``SOLVED`` with the best path found), and every planner's
 ``log`` holds ``stopped_by`` (``"time"``, ``"iterations"``, ``"first solution"``,
-``"optimal"``, ``"no path"``) and the cost over time, ``costs`` and ``cost_times`` [s]: one
-entry for the planners that return their first path (:func:`limit_log`), every improvement for
-the anytime ones.
+``"optimal"``, ``"no path"``, ``"uncertified"`` when ``certify=True`` found no certified path)
+and the cost over time, ``costs`` and ``cost_times`` [s]: one entry for the planners that
+return their first path (:func:`limit_log`), every improvement for the anytime ones.
 
 Overrun: RRT, the Python RRT-Connect, RRT*, BIT*, the kinodynamic RRT, and the path
 post-processors :func:`~taskspace.planning.shortcut_path` and
