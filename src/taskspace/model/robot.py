@@ -906,8 +906,8 @@ class Robot:
         ``geometry.radius = ...``, a mesh's ``vertices()``) does not reach the robot either.
         Clones of meshes (BVH models, convex polytopes, height fields, octrees) are made once
         and given to the later copies while they equal the robot's shape (coal's ``==``), so
-        such a renewal costs a comparison of the meshes instead of their clone (G1: about
-        15 ms instead of 82 ms; primitives are cloned each time, microseconds).
+        such a renewal costs a comparison of the meshes instead of their clone (primitives are
+        cloned each time).
         """
         copy = self._collision_copy
         stamp = (self.world.version, self._geometry_edits)
@@ -1995,7 +1995,7 @@ _COSTLY_SHAPES = (
     coal.HeightFieldAABB,
     coal.OcTree,
 )
-"""Shapes whose clone costs more than a comparison (meshes: G1's clones 82 ms, ``==`` 15 ms).
+"""Shapes whose clone costs more than a comparison with coal's ``==`` (meshes).
 
 Every coal shape can be modified in place from Python (``Box.halfSide[:]``, ``Sphere.radius``,
 ``BVHModel.vertices()[...]``, ``Convex.points()[...]``, ``HeightField.updateHeights``,
