@@ -659,23 +659,37 @@ class ConfigurationSpace:
         ``q0`` is assumed valid; ``q1`` is checked only if ``check_end``.
         """
         self.edge_checks += 1
-        n = self.segments(q0, q1)
-        order = bisection_order(n)
         if check_end:
             if self.checker.first_invalid(q1[None, :]) >= 0:
                 return False
-        if order.size == 0:
-            return True
-        points = self.interpolate(q0, q1, order / n)
-        start, size, cap = 0, 1, self.edge.max_batch
-        total = points.shape[0]
-        while start < total:
-            stop = min(total, start + size)
+        points, bounds = self.edge_points(q0, q1)
+        start = 0
+        for stop in bounds:
             if self.checker.first_invalid(points[start:stop]) >= 0:
                 return False
             start = stop
-            size = min(cap, size * 4)
         return True
+
+    def edge_points(self, q0: FloatArray, q1: FloatArray) -> tuple[FloatArray, list[int]]:
+        """The interior points :meth:`motion_valid` checks and its batches.
+
+        Returns:
+            The points ``q0 + (k / n)(q1 - q0)``, ``0 < k < n`` (on the manifold for joint
+            spaces), in bisection order, and the end row of each checker call: batches of
+            1, 4, 16, ... points up to ``edge.max_batch``.
+        """
+        n = self.segments(q0, q1)
+        order = bisection_order(n)
+        if order.size == 0:
+            return np.empty((0, self.dim)), []
+        points = self.interpolate(q0, q1, order / n)
+        bounds: list[int] = []
+        stop, size, cap = 0, 1, self.edge.max_batch
+        while stop < order.size:
+            stop = min(order.size, stop + size)
+            bounds.append(stop)
+            size = min(cap, size * 4)
+        return points, bounds
 
     def path_valid(self, path: FloatArray, *, resolution: float | None = None) -> bool:
         """Every waypoint and every edge of ``path`` (shape (m, d)) is in Q_free.

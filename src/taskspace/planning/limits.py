@@ -70,7 +70,7 @@ from typing import Any
 import numpy as np
 
 from taskspace._validation import MAX_INT64, check_limits
-from taskspace.planning.configuration_space import FloatArray, bisection_order
+from taskspace.planning.configuration_space import FloatArray
 from taskspace.planning.planner_result import PlannerResult, PlannerStatus
 
 _STOPPED_BY = {
@@ -285,26 +285,18 @@ class Budget:
             the edge was checked to its end (``stopped_by = "time"``; not known free).
         """
         space.edge_checks += 1
-        n = space.segments(q0, q1)
         if check_end:
             if self.out_of_time():
                 return None
             if space.checker.first_invalid(q1[None, :]) >= 0:
                 return False
-        order = bisection_order(n)
-        if order.size == 0:
+        points, bounds = space.edge_points(q0, q1)
+        if not bounds:
             return True
-        points = space.interpolate(q0, q1, order / n)
-        bounds, size, cap = [], 1, space.edge.max_batch
-        stop = 0
-        while stop < order.size:
-            stop = min(order.size, stop + size)
-            bounds.append(stop)
-            size = min(cap, size * 4)
         bad, checked = self.first_invalid(space.checker.first_invalid, points, bounds)
         if bad >= 0:
             return False
-        return True if checked == order.size else None
+        return True if checked == bounds[-1] else None
 
     def elapsed(self) -> float:
         """Seconds since ``t0``."""
