@@ -266,7 +266,12 @@ def robot_spec(name: str) -> RobotSpec:
 
 
 # ---------------------------------------------------------------------- summaries (CLI)
-def _cache_directory() -> Path:
+def cache_directory() -> Path:
+    """The cache directory of taskspace (robot listing, sphere models).
+
+    ``$TASKSPACE_CACHE_DIR`` when set, else ``$XDG_CACHE_HOME/taskspace`` (default
+    ``~/.cache/taskspace``).
+    """
     env = os.environ.get(CACHE_ENVIRONMENT_VARIABLE)
     if env:
         return Path(env)
@@ -346,7 +351,7 @@ def robot_summaries(
         progress: wraps the list of names read when the cache is cold (e.g. a progress bar).
     """
     key = _cache_key()
-    cache_file = _cache_directory() / f"robots-{key}.json"
+    cache_file = cache_directory() / f"robots-{key}.json"
     try:
         cached = json.loads(cache_file.read_text())
         if isinstance(cached, dict) and cached.get("key") == key:

@@ -241,8 +241,11 @@ class CollisionChecker:
         """The conservative spheres of the robot's moving geometry objects (cached).
 
         :func:`~taskspace.planning.sphere_model.sphere_model` with its default options on
-        every geometry object attached to a moving joint (built once per collision model,
-        about 0.5-1.3 s for the Panda's 204 spheres; obstacles added later do not change it).
+        every geometry object attached to a moving joint (built once per collision model;
+        obstacles added later do not change it). Fitting and proving the spheres of a robot
+        takes seconds; each geometry's result is kept in the on-disk cache
+        (:func:`~taskspace.planning.sphere_model.sphere_cache_directory`, keyed by the
+        geometry's content), so later processes load it.
 
         Raises:
             InvalidInputError: a moving geometry of a shape the sphere model does not handle.

@@ -69,10 +69,15 @@ included; :meth:`taskspace.planning.CollisionChecker.sphere_kernel` and
 
 from __future__ import annotations
 
+import hashlib
 import heapq
+import logging
 import math
+import os
+import threading
 from collections.abc import Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import coal
@@ -87,6 +92,8 @@ from taskspace.model.world import Obstacle
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
 BoolArray = npt.NDArray[np.bool_]
+
+logger = logging.getLogger(__name__)
 
 SUPPORTED_SHAPES = ("mesh (BVHModel)", "Convex", "Box", "Cylinder", "Capsule", "Sphere")
 """Geometry types :func:`sphere_model` approximates."""
@@ -427,13 +434,137 @@ def certify_cover(
     return out, grown
 
 
+SPHERE_CACHE_ENVIRONMENT_VARIABLE = "TASKSPACE_SPHERE_CACHE"
+"""Set to ``0`` to turn the on-disk sphere cache off (:func:`sphere_model`)."""
+
+_SOURCE_DIGEST = hashlib.sha256(Path(__file__).read_bytes()).hexdigest()
+
+
+def sphere_cache_directory() -> Path:
+    """Directory of the on-disk sphere cache: ``spheres/`` in taskspace's cache directory.
+
+    That is ``$TASKSPACE_CACHE_DIR`` when set, else ``$XDG_CACHE_HOME/taskspace`` (default
+    ``~/.cache/taskspace``), as for the robot listing.
+    """
+    from taskspace.model.registry import cache_directory
+
+    return cache_directory() / "spheres"
+
+
+def _geometry_key(geom: Any, tris: FloatArray, opts: SphereModelOptions) -> str:
+    """SHA-256 of everything one geometry's spheres are computed from."""
+    digest = hashlib.sha256()
+    digest.update(_SOURCE_DIGEST.encode())
+    settings = (
+        opts.spheres_per_geometry,
+        opts.surface_spacing,
+        opts.interior_spacing,
+        opts.certified_margin,
+    )
+    digest.update(repr((type(geom).__name__, settings, tris.shape)).encode())
+    if isinstance(geom, coal.Capsule):
+        digest.update(repr((float(geom.radius), float(geom.halfLength))).encode())
+    digest.update(np.ascontiguousarray(tris, dtype=np.float64).tobytes())
+    return digest.hexdigest()
+
+
+def _payload_digest(key: str, centers: FloatArray, radii: FloatArray) -> str:
+    digest = hashlib.sha256(key.encode())
+    digest.update(np.ascontiguousarray(centers, dtype=np.float64).tobytes())
+    digest.update(np.ascontiguousarray(radii, dtype=np.float64).tobytes())
+    return digest.hexdigest()
+
+
+def _read_cached(path: Path, key: str) -> tuple[FloatArray, FloatArray] | None:
+    """The cached spheres of ``key``, or ``None`` (absent, unreadable, or failing a check)."""
+    try:
+        with np.load(path, allow_pickle=False) as f:
+            stored_key, stored_digest = str(f["key"]), str(f["digest"])
+            centers = np.array(f["centers"], dtype=np.float64)
+            radii = np.array(f["radii"], dtype=np.float64)
+    except FileNotFoundError:
+        return None
+    except Exception as exc:  # any unreadable file: recomputed, and said
+        logger.warning("sphere cache entry %s unreadable (%s): recomputed", path, exc)
+        return None
+    ok = (
+        stored_key == key
+        and centers.ndim == 2
+        and centers.shape[1:] == (3,)
+        and radii.shape == (centers.shape[0],)
+        and centers.shape[0] >= 1
+        and bool(np.isfinite(centers).all() and np.isfinite(radii).all())
+        and bool((radii > 0.0).all())
+        and stored_digest == _payload_digest(key, centers, radii)
+    )
+    if not ok:
+        logger.warning("sphere cache entry %s fails its checks: recomputed", path)
+        return None
+    return centers, radii
+
+
+def _write_cached(path: Path, key: str, centers: FloatArray, radii: FloatArray) -> None:
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_name(f"{path.stem}.{os.getpid()}.{threading.get_ident()}.tmp.npz")
+        np.savez(
+            tmp,
+            key=np.array(key),
+            digest=np.array(_payload_digest(key, centers, radii)),
+            centers=centers,
+            radii=radii,
+        )
+        os.replace(tmp, path)
+    except OSError as exc:
+        logger.info("cannot write the sphere cache entry %s: %s", path, exc)
+
+
+def _geometry_spheres(
+    geom: Any, name: str, opts: SphereModelOptions, cache: bool
+) -> tuple[FloatArray, FloatArray]:
+    """Certified spheres of one non-sphere geometry in its own frame (steps 1-5), cached."""
+    h, g, eps = opts.surface_spacing, opts.interior_spacing, opts.certified_margin
+    tris = surface_triangles(geom, name)
+    use_cache = cache and os.environ.get(SPHERE_CACHE_ENVIRONMENT_VARIABLE, "1") != "0"
+    if use_cache:
+        key = _geometry_key(geom, tris, opts)
+        path = sphere_cache_directory() / f"{key[:40]}.npz"
+        hit = _read_cached(path, key)
+        if hit is not None:
+            return hit
+        logger.info("spheres of geometry %s: fitting and proving (cached in %s)", name, path)
+    pts = _triangle_samples(tris, h)
+    # the hull of the triangle corners is the hull of all the surface samples
+    pts = np.concatenate([pts, interior_samples(tris.reshape(-1, 3), g)])
+    c, r = fit_spheres(pts, opts.spheres_per_geometry, h / math.sqrt(3.0))
+    centers, radii = list(c), list(r)
+    if isinstance(geom, coal.Capsule):  # the end caps
+        for z in (-geom.halfLength, geom.halfLength):
+            centers.append(np.array([0.0, 0.0, float(z)]))
+            radii.append(float(geom.radius) + eps)
+    # the volume certificate (module docstring, step 5)
+    proved, _ = certify_cover(tris, np.asarray(centers), np.asarray(radii), eps)
+    out = (np.asarray(centers, dtype=np.float64).reshape(-1, 3), np.asarray(proved, dtype=float))
+    if use_cache:
+        _write_cached(path, key, *out)
+    return out
+
+
 def sphere_model(
     collision_model: pin.GeometryModel,
     geometries: list[int] | None = None,
     *,
     options: SphereModelOptions | None = None,
+    cache: bool = True,
 ) -> SphereModel:
     """Conservative spheres for geometry objects of ``collision_model`` (module docstring).
+
+    The spheres of each geometry (in its own frame, certificate included) are kept in an
+    on-disk cache (:func:`sphere_cache_directory`), keyed by a SHA-256 of what they are
+    computed from: the geometry's surface triangles (or primitive sizes), the options and the
+    source code of this module; an entry whose content fails its checksum is recomputed. A
+    robot's first plan with the sphere checkers then loads its spheres instead of fitting and
+    proving them again.
 
     Args:
         collision_model: the geometry model (e.g. ``robot.collision_model``).
@@ -441,6 +572,8 @@ def sphere_model(
             a :class:`~taskspace.model.robot.Robot`, pass
             ``range(robot.robot_geometry_count)`` to leave the obstacles out).
         options: :class:`SphereModelOptions`.
+        cache: read and write the on-disk cache (``False``: compute every geometry's
+            spheres, write nothing).
 
     Returns:
         The :class:`SphereModel`, spheres in the parent joint frames.
@@ -454,9 +587,8 @@ def sphere_model(
             f"spheres_per_geometry must be an integer >= 1, got {opts.spheres_per_geometry!r}"
         )
     h = check_positive(opts.surface_spacing, "surface_spacing")
-    g = check_positive(opts.interior_spacing, "interior_spacing")
+    check_positive(opts.interior_spacing, "interior_spacing")
     eps = check_positive(opts.certified_margin, "certified_margin")
-    rho = h / math.sqrt(3.0)
     objs = collision_model.geometryObjects
     indices = list(range(len(objs))) if geometries is None else [int(i) for i in geometries]
     centers, radii, joints, geoms, names = [], [], [], [], []
@@ -469,26 +601,10 @@ def sphere_model(
         geom = obj.geometry
         placement = obj.placement  # geometry frame in the parent joint frame
         swept = float(geom.getSweptSphereRadius()) if hasattr(geom, "getSweptSphereRadius") else 0.0
-        local_c: list[FloatArray] = []
-        local_r: list[float] = []
         if isinstance(geom, coal.Sphere):
-            local_c.append(np.zeros(3))
-            local_r.append(float(geom.radius) + eps)
+            local_c, local_r = np.zeros((1, 3)), np.array([float(geom.radius) + eps])
         else:
-            tris = surface_triangles(geom, obj.name)
-            pts = _triangle_samples(tris, h)
-            # the hull of the triangle corners is the hull of all the surface samples
-            pts = np.concatenate([pts, interior_samples(tris.reshape(-1, 3), g)])
-            c, r = fit_spheres(pts, opts.spheres_per_geometry, rho)
-            local_c += list(c)
-            local_r += list(r)
-            if isinstance(geom, coal.Capsule):  # the end caps
-                for z in (-geom.halfLength, geom.halfLength):
-                    local_c.append(np.array([0.0, 0.0, float(z)]))
-                    local_r.append(float(geom.radius) + eps)
-            # the volume certificate (module docstring, step 5)
-            proved, _ = certify_cover(tris, np.asarray(local_c), np.asarray(local_r), eps)
-            local_r = [float(r) for r in proved]
+            local_c, local_r = _geometry_spheres(geom, obj.name, opts, cache)
         for c_loc, r_loc in zip(local_c, local_r):
             centers.append(placement.rotation @ c_loc + placement.translation)
             radii.append(r_loc + swept)
@@ -501,7 +617,7 @@ def sphere_model(
         joints=np.asarray(joints, dtype=np.int64),
         geometries=np.asarray(geoms, dtype=np.int64),
         names=tuple(names),
-        covering_radius=rho,
+        covering_radius=h / math.sqrt(3.0),
         certified_margin=eps,
     )
 
