@@ -98,6 +98,7 @@ QUATERNION_TOLERANCE = 1e-6
 """Largest accepted deviation of a quaternion's (or unit complex's) norm from 1."""
 
 _ROBOT_VERSIONS = itertools.count(1)
+"""Source of robot model versions, shared by every robot (a version is never reused)."""
 
 _DATA_LOCK = threading.Lock()
 """Guards the robots' own ``data``/``collision_data`` (evaluate, then read the results).
@@ -106,7 +107,16 @@ One lock for all robots (a lock attribute would make robots impossible to deep-c
 held only by :meth:`Robot.frame_placement`, :meth:`Robot.is_collision_free` and
 :meth:`Robot.colliding_pairs`, never while calling other code.
 """
-"""Source of robot model versions, shared by every robot (a version is never reused)."""
+
+_MESHES = coal.CachedMeshLoader()
+"""The mesh files read by every load of this process, once per (file, scale): coal reloads a
+file whose modification time changed. One loader for the process: a loader created per load
+and passed to ``buildGeomFromUrdf`` is never freed, nor are its meshes (pin 4.1, coal 3.0.3),
+so every load kept all of its meshes. The robots of one process share these read-only
+meshes; nothing in taskspace modifies a loaded shape in place (the robot hands out clones;
+convex hulls are built on clones)."""
+_MESHES_LOCK = threading.Lock()
+"""Held while a URDF's geometry is read (the loader's cache is not thread-safe)."""
 
 _UNIT_COMPLEX_JOINTS = ("JointModelRUBX", "JointModelRUBY", "JointModelRUBZ")
 _LINEAR_JOINTS = (
@@ -436,15 +446,15 @@ class Robot:
                 else:
                     model = pin.buildModelFromUrdf(str(path), root_joint)
                 if geometry:
-                    # one mesh file is read once for both models and every link that shows it
-                    # (a quadruped's four legs): 1.5-3x faster loads of mesh-heavy robots
-                    meshes = coal.CachedMeshLoader()
-                    collision = pin.buildGeomFromUrdf(
-                        model, str(path), pin.COLLISION, dirs, mesh_loader=meshes
-                    )
-                    visual = pin.buildGeomFromUrdf(
-                        model, str(path), pin.VISUAL, dirs, mesh_loader=meshes
-                    )
+                    # one mesh file is read once per process for both models and every link
+                    # that shows it (a quadruped's four legs), see _MESHES
+                    with _MESHES_LOCK:
+                        collision = pin.buildGeomFromUrdf(
+                            model, str(path), pin.COLLISION, package_dirs=dirs, mesh_loader=_MESHES
+                        )
+                        visual = pin.buildGeomFromUrdf(
+                            model, str(path), pin.VISUAL, package_dirs=dirs, mesh_loader=_MESHES
+                        )
                 else:
                     collision, visual = pin.GeometryModel(), pin.GeometryModel()
         except Exception as exc:  # pinocchio raises ValueError/RuntimeError with C++ text
@@ -1909,8 +1919,8 @@ def _convexify(geometry_model: pin.GeometryModel) -> None:
     too many neighbours) keeps its mesh, with a :class:`ModelWarning` naming it.
     """
     for obj in geometry_model.geometryObjects:
-        geom = obj.geometry
-        if hasattr(geom, "buildConvexHull"):
+        if hasattr(obj.geometry, "buildConvexHull"):
+            geom = obj.geometry.clone()  # the loaded mesh is shared (_MESHES): not modified
             try:
                 geom.buildConvexHull(True, "Qt")
             except RuntimeError as exc:
