@@ -136,9 +136,20 @@ def talos_arm_torso() -> list[Problem]:
     return [Problem("talos_arm_torso", 0, space, TALOS_START, TALOS_GOAL)]
 
 
+_PANDA: list[Any] = []
+"""The Panda of the MotionBenchMaker problems, loaded once per process (see below)."""
+
+
 def motionbenchmaker_problem(scenario: str, index: int) -> Problem | None:
-    """Problem ``index`` of a MotionBenchMaker ``scenario`` (``None``: invalid start or goal)."""
-    robot = motionbenchmaker_panda()
+    """Problem ``index`` of a MotionBenchMaker ``scenario`` (``None``: invalid start or goal).
+
+    Every problem is built on one Panda whose obstacles it replaces (each ``Robot.load``
+    keeps about 70 MB for the life of the process: 350 robots would not fit in memory), so a
+    problem is valid until the next one is built; the arena runs them one at a time.
+    """
+    if not _PANDA:
+        _PANDA.append(motionbenchmaker_panda())
+    robot = _PANDA[0]
     problem = motionbenchmaker_problems(motionbenchmaker_dir(), scenario, [index])[0]
     req = problem.apply(robot)
     space = ConfigurationSpace.from_robot(robot, edge=EdgeCheckOptions(resolution=RESOLUTION))
@@ -150,15 +161,10 @@ def motionbenchmaker_problem(scenario: str, index: int) -> Problem | None:
     return Problem(f"mbm_{scenario}", index, space, req.start, req.goal)
 
 
-def motionbenchmaker(scenarios: list[str], count: int | None) -> list[Problem]:
-    """The valid ones of the first ``count`` (``None``: all) problems of each scenario."""
-    built = (spec.build() for spec in motionbenchmaker_specs(scenarios, count))
-    return [p for p in built if p is not None]
-
-
 @dataclass(frozen=True)
 class ProblemSpec:
-    """A problem of the arena, built when it is run (a MotionBenchMaker problem is a robot)."""
+    """A problem of the arena, built when it is run (one at a time: see
+    :func:`motionbenchmaker_problem`)."""
 
     scenario: str
     index: int
@@ -680,12 +686,6 @@ def problem_specs(quick: bool) -> list[ProblemSpec]:
         for p in square_2d() + panda_free() + talos_arm_torso()
     ]
     return fixed + motionbenchmaker_specs(scenarios, count)
-
-
-def _problems(quick: bool) -> list[Problem]:
-    """The arena's problems, built (all at once: for small runs; see :func:`problem_specs`)."""
-    built = (spec.build() for spec in problem_specs(quick))
-    return [p for p in built if p is not None]
 
 
 def settings(quick: bool) -> tuple[float, int]:

@@ -124,6 +124,12 @@ def test_the_full_arena_lists_every_motionbenchmaker_problem(monkeypatch) -> Non
     listed = {(p.scenario, p.index) for p in arena.problem_specs(quick=False)}
     assert {x for x in listed if x[0].startswith("mbm_")} == on_disk
     assert len(on_disk) == 350
+    # built one at a time on one Panda (a robot per problem kept ~70 MB each: 350 did not fit)
+    mbm = [p for p in arena.problem_specs(quick=False) if p.scenario.startswith("mbm_")]
+    for spec in mbm[:3]:
+        problem = spec.build()
+        assert problem is not None and problem.space.is_valid(problem.goal)
+        assert len(arena._PANDA) == 1 and problem.space.checker.robot is arena._PANDA[0]
     monkeypatch.setenv("TASKSPACE_ARENA_SCENARIOS", "box,kitchen")
     with pytest.raises(ValueError, match="unknown \\['kitchen'\\]; scenarios are: bookshelf"):
         arena.problem_specs(quick=False)
