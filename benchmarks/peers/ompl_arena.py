@@ -4,14 +4,23 @@ Runs in .venv-peers/ompl (see install.sh); taskspace and the arena's scenes are 
 the source tree, and the validity callback is the problem's own taskspace checker
 (``ConfigurationSpace.is_valid``, one configuration per call), at the same resolution
 (``setStateValidityCheckingResolution`` = ``delta / max extent``). Objective: path length.
-Prints one JSON line: {"runs": [{"planner", "scenario", "problem", "seed", "success",
-"time_s", "cost"}, ...]}.
+
+Output: JSON lines on stdout. First a header, ``{"ompl_version": "2.0.1", "planners": [...],
+"missing": ["LazyPRMstar"]}``: the planners of :data:`NAMES` this OMPL's bindings lack are
+listed, never dropped silently. Then, per problem (``k``, a position in the arena's problem
+list ``planner_arena.problem_specs``), one line ``{"run": {"planner", "scenario", "problem",
+"seed", "success", "time_s", "cost", "time_limit_s"}}`` per run and ``{"done": k}``.
+``--serve``: the problems to run are read from stdin, one JSON ``{"k": k}`` a line (the arena
+interleaves them with its own runs, so an interrupted arena has both sides of every problem
+it finished); otherwise every problem is run in order. ``--header``: the header only.
 """
 
 from __future__ import annotations
 
 import argparse
+import importlib.metadata
 import json
+import sys
 import time
 from typing import Any
 
@@ -24,10 +33,21 @@ from ompl import base as ob  # noqa: E402
 from ompl import geometric as og  # noqa: E402
 from ompl import util as ou  # noqa: E402
 
-from benchmarks.suites.planner_arena import Problem, _problems  # noqa: E402
+from benchmarks.suites.planner_arena import Problem, problem_specs  # noqa: E402
 
 NAMES = ("RRTstar", "InformedRRTstar", "PRMstar", "LazyPRMstar", "BITstar", "RRTConnect")
 PLANNERS = {f"ompl {n}": getattr(og, n) for n in NAMES if hasattr(og, n)}  # bindings vary
+MISSING = [n for n in NAMES if not hasattr(og, n)]
+
+
+def ompl_version() -> str:
+    """The OMPL bindings' version (the package's, else the module's, else "unknown")."""
+    try:
+        return importlib.metadata.version("ompl")
+    except importlib.metadata.PackageNotFoundError:
+        import ompl
+
+        return str(getattr(ompl, "__version__", "unknown"))
 
 
 def solve(p: Problem, planner_cls: Any, limit: float) -> tuple[bool, float, float]:
@@ -66,6 +86,34 @@ def solve(p: Problem, planner_cls: Any, limit: float) -> tuple[bool, float, floa
     return ok, dt, float(ss.getSolutionPath().length()) if ok else float("nan")
 
 
+def emit(obj: dict[str, Any]) -> None:
+    """One JSON line on stdout, flushed (the arena reads them as they come)."""
+    sys.stdout.write(json.dumps(obj) + "\n")
+    sys.stdout.flush()
+
+
+def run_problem(p: Problem, args: argparse.Namespace) -> None:
+    """Every planner (and the checkpoint runs) on one problem, a line per run.
+
+    ``seed`` labels the repetition (OMPL's generator is seeded once per process by OMPL).
+    """
+    jobs = [(cls, args.time, name) for name, cls in PLANNERS.items()]
+    if args.checkpoint is not None:
+        jobs += [
+            (PLANNERS[name], args.checkpoint, f"{name}@{args.checkpoint:g}s")
+            for name in ("ompl RRTstar", "ompl InformedRRTstar")
+            if name in PLANNERS
+        ]
+    for cls, limit, label in jobs:
+        for seed in range(args.seeds):
+            ok, dt, cost = solve(p, cls, limit)
+            emit(
+                {"run": {"planner": label, "scenario": p.scenario, "problem": p.index,
+                         "seed": seed, "success": ok, "time_s": dt,
+                         "cost": cost if ok else None, "time_limit_s": limit}}
+            )  # fmt: skip
+
+
 def main() -> None:
     parser = argparse.ArgumentParser()
     parser.add_argument("--quick", action="store_true")
@@ -75,25 +123,25 @@ def main() -> None:
         "--checkpoint", type=float, default=None,
         help="also run RRTstar and InformedRRTstar with this limit (runs named NAME@LIMITs)",
     )  # fmt: skip
+    parser.add_argument("--serve", action="store_true", help="problems from stdin")
+    parser.add_argument("--header", action="store_true", help="print the header and exit")
     args = parser.parse_args()
     ou.setLogLevel(ou.LOG_ERROR)
-    runs = []
-    for p in _problems(args.quick):
-        jobs = [(cls, args.time, name) for name, cls in PLANNERS.items()]
-        if args.checkpoint is not None:
-            jobs += [
-                (PLANNERS[name], args.checkpoint, f"{name}@{args.checkpoint:g}s")
-                for name in ("ompl RRTstar", "ompl InformedRRTstar")
-                if name in PLANNERS
-            ]
-        for cls, limit, label in jobs:
-            for seed in range(args.seeds):
-                ok, dt, cost = solve(p, cls, limit)
-                runs.append(
-                    {"planner": label, "scenario": p.scenario, "problem": p.index, "seed": seed,
-                     "success": ok, "time_s": dt, "cost": cost, "time_limit_s": limit}
-                )  # fmt: skip
-    print(json.dumps({"runs": runs}))
+    emit({"ompl_version": ompl_version(), "planners": list(PLANNERS), "missing": MISSING})
+    if args.header:
+        return
+    specs = problem_specs(args.quick)
+    if args.serve:
+        for line in sys.stdin:
+            if not line.strip():
+                continue
+            k = int(json.loads(line)["k"])
+            run_problem(specs[k].build(), args)
+            emit({"done": k})
+        return
+    for k, spec in enumerate(specs):
+        run_problem(spec.build(), args)
+        emit({"done": k})
 
 
 if __name__ == "__main__":

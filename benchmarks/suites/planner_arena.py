@@ -11,32 +11,47 @@ optimum where there is one) and the median cost over time. Scenarios: a 2-D squa
 right arm with the rest of the humanoid locked (9 of 39 coordinates, over a shelf), and
 MotionBenchMaker Panda problems (when the data set is present).
 
-Run: ``python -m benchmarks.run planner_arena [--quick]`` (table) or
-``python -m benchmarks.suites.planner_arena [--quick] [--out DIR]`` (table, database and
-figures). Environment: ``TASKSPACE_ARENA_DIR`` (output directory, default
-``benchmarks/results/planner_arena``), ``TASKSPACE_ARENA_TIME`` (time limit [s]),
-``TASKSPACE_ARENA_SEEDS`` (runs per planner and problem; 2 quick, 10 full),
-``TASKSPACE_ARENA_PROBLEMS`` (MotionBenchMaker problems per scenario; 2 quick, 5 full).
-The full arena (23 problems x 10 seeds, 1 s limit) takes about an hour (13.5 s of wall time
-per problem and seed in a reduced run, OMPL included).
+Run: ``python -m benchmarks.run planner_arena [--quick]`` (table; the database and figures
+go to the output directory too) or ``python -m benchmarks.suites.planner_arena [--quick]
+[--out DIR]``. Environment: ``TASKSPACE_ARENA_DIR`` (output directory, default
+``benchmarks/results/planner_arena``), ``TASKSPACE_ARENA_TIME`` (time limit [s]; 0.2 quick,
+1 full), ``TASKSPACE_ARENA_SEEDS`` (runs per planner and problem; 2 quick, 3 full),
+``TASKSPACE_ARENA_PROBLEMS`` (MotionBenchMaker problems per scenario, or ``all``; 2 quick,
+all full), ``TASKSPACE_ARENA_SCENARIOS`` (comma-separated MotionBenchMaker scenarios; quick:
+bookshelf_small and table_pick, full: all seven, 350 problems of which 313 are valid).
+
+A progress bar (stderr) counts the problems, with its estimate of the time left. OMPL runs as
+a server (``ompl_arena.py --serve``) fed one problem at a time after ours, and every problem's
+runs are committed to the database when it ends: Ctrl-C (or a failing peer, whose runs then
+stop) leaves a database of the problems finished, with both sides, table ``meta`` saying how
+far the arena got (``status``: running, complete or interrupted; ``problems_done`` of
+``problems_total``; the peer's note) and table ``planners`` listing every planner, OMPL's
+missing from its bindings as "not available in OMPL <version>"; the table and figures are
+then drawn from it.
 """
 
 from __future__ import annotations
 
 import argparse
 import datetime
+import functools
 import json
 import math
 import os
 import sqlite3
+import subprocess
+import sys
+import tempfile
+import time
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from benchmarks.common import ROOT, Row, Timing, run_peer
+from benchmarks.common import ROOT, Row, Timing, peer_python
 from taskspace.errors import PlanningError
 from taskspace.planning.bit_star import BITStarOptions, bit_star
 from taskspace.planning.collision_checker import FunctionChecker
@@ -46,6 +61,7 @@ from taskspace.planning.prm_star import PRMStarOptions, lazy_prm_star, prm_star
 from taskspace.planning.rrt_connect import RRTConnectOptions, rrt_connect
 from taskspace.planning.rrt_star import RRTStarOptions, rrt_star
 from taskspace.planning.scene_loader import (
+    MOTIONBENCHMAKER_SCENARIOS,
     motionbenchmaker_dir,
     motionbenchmaker_panda,
     motionbenchmaker_problems,
@@ -120,26 +136,67 @@ def talos_arm_torso() -> list[Problem]:
     return [Problem("talos_arm_torso", 0, space, TALOS_START, TALOS_GOAL)]
 
 
-def motionbenchmaker(scenarios: list[str], count: int) -> list[Problem]:
-    """The first ``count`` valid problems of each MotionBenchMaker scenario (optimum unknown)."""
-    root = motionbenchmaker_dir()
-    if not root.is_dir():
+_PANDA: list[Any] = []
+"""The Panda of the MotionBenchMaker problems, loaded once per process (see below)."""
+
+
+def motionbenchmaker_problem(scenario: str, index: int) -> Problem | None:
+    """Problem ``index`` of a MotionBenchMaker ``scenario`` (``None``: invalid start or goal).
+
+    Every problem is built on one Panda whose obstacles it replaces (each ``Robot.load``
+    keeps about 70 MB for the life of the process: 350 robots would not fit in memory), so a
+    problem is valid until the next one is built; the arena runs them one at a time.
+    """
+    if not _PANDA:
+        _PANDA.append(motionbenchmaker_panda())
+    robot = _PANDA[0]
+    problem = motionbenchmaker_problems(motionbenchmaker_dir(), scenario, [index])[0]
+    req = problem.apply(robot)
+    space = ConfigurationSpace.from_robot(robot, edge=EdgeCheckOptions(resolution=RESOLUTION))
+    try:
+        space.check_endpoint(req.start, "start")
+        space.check_endpoint(req.goal, "goal")
+    except PlanningError:
+        return None
+    return Problem(f"mbm_{scenario}", index, space, req.start, req.goal)
+
+
+@dataclass(frozen=True)
+class ProblemSpec:
+    """A problem of the arena, built when it is run (one at a time: see
+    :func:`motionbenchmaker_problem`)."""
+
+    scenario: str
+    index: int
+    make: Callable[[], Problem | None]
+
+    def build(self) -> Problem | None:
+        """The problem (``None``: not valid, skipped by both sides)."""
+        return self.make()
+
+
+def motionbenchmaker_specs(scenarios: list[str], count: int | None) -> list[ProblemSpec]:
+    """Problems ``1..count`` (``None``: every one found) of each scenario, unbuilt."""
+    try:
+        root = motionbenchmaker_dir()
+    except Exception:  # the data set is not on this machine
         return []
     out = []
     for scenario in scenarios:
-        for index in range(1, count + 1):
-            robot = motionbenchmaker_panda()
-            problem = motionbenchmaker_problems(root, scenario, [index])[0]
-            req = problem.apply(robot)
-            space = ConfigurationSpace.from_robot(
-                robot, edge=EdgeCheckOptions(resolution=RESOLUTION)
+        folder = next(
+            (d for d in (root / f"{scenario}_panda", root / scenario) if d.is_dir()), None
+        )
+        if folder is None:
+            continue
+        found = sorted(int(f.stem[5:]) for f in folder.glob("scene*.yaml"))
+        for index in found if count is None else [i for i in found if i <= count]:
+            out.append(
+                ProblemSpec(
+                    f"mbm_{scenario}",
+                    index,
+                    functools.partial(motionbenchmaker_problem, scenario, index),
+                )
             )
-            try:
-                space.check_endpoint(req.start, "start")
-                space.check_endpoint(req.goal, "goal")
-            except PlanningError:
-                continue
-            out.append(Problem(f"mbm_{scenario}", index, space, req.start, req.goal))
     return out
 
 
@@ -191,7 +248,17 @@ CREATE TABLE IF NOT EXISTS runs (
     path_length REAL, first_solution_s REAL, collision_checks INTEGER, optimum REAL
 );
 CREATE TABLE IF NOT EXISTS progress (run_id INTEGER, t_s REAL, cost REAL);
+CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT);
+CREATE TABLE IF NOT EXISTS planners (planner TEXT PRIMARY KEY, available INTEGER, note TEXT);
 """
+
+
+def set_meta(db: sqlite3.Connection, **values: Any) -> None:
+    """Rows of ``meta`` (how far the arena got, its settings, the peer's state)."""
+    db.executemany(
+        "INSERT OR REPLACE INTO meta (key, value) VALUES (?, ?)",
+        [(k, str(v)) for k, v in values.items()],
+    )
 
 
 def record(db: sqlite3.Connection, date: str, planner: str, p: Problem, seed: int,
@@ -215,41 +282,118 @@ def record(db: sqlite3.Connection, date: str, planner: str, p: Problem, seed: in
     )
 
 
-def record_peers(db: sqlite3.Connection, problems: list[Problem], quick: bool, limit: float,
-                 seeds: int) -> str:  # fmt: skip
-    """OMPL's planners on the same problems (``benchmarks/peers/ompl_arena.py``) into ``db``.
+def record_peer_run(db: sqlite3.Connection, date: str, r: dict[str, Any], optimum: float) -> None:
+    """One row of ``runs`` (and its final cost in ``progress``) from an OMPL peer run."""
+    ok = bool(r["success"])
+    cur = db.execute(
+        "INSERT INTO runs (date, planner, scenario, problem, seed, time_limit_s, success, "
+        "status, time_s, cost, path_length, first_solution_s, collision_checks, optimum) "
+        "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+        (date, r["planner"], r["scenario"], r["problem"], r["seed"], r["time_limit_s"],
+         int(ok), "solved" if ok else "not solved", r["time_s"], r["cost"] if ok else None,
+         r["cost"] if ok else None, None, None, None if math.isnan(optimum) else optimum),
+    )  # fmt: skip
+    if ok:
+        db.execute("INSERT INTO progress VALUES (?, ?, ?)", (cur.lastrowid, r["time_s"], r["cost"]))
 
-    Returns a note ("" when the peer ran).
+
+class PeerError(RuntimeError):
+    """The OMPL peer stopped or answered something else than its protocol."""
+
+
+class OmplPeer:
+    """``benchmarks/peers/ompl_arena.py --serve``: problems sent one at a time, runs read back.
+
+    The peer runs in its own session (a Ctrl-C of the arena does not reach it; the arena
+    closes it) with its stderr in a temporary file (its tail is the note of a failure).
     """
-    args = ["--time", str(limit), "--seeds", str(seeds)] + (["--quick"] if quick else [])
+
+    def __init__(self, cmd: list[str]) -> None:
+        env = dict(os.environ)
+        env.pop("PYTHONPATH", None)
+        self.errors = tempfile.TemporaryFile(mode="w+")
+        self.proc = subprocess.Popen(
+            cmd, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=self.errors,
+            text=True, env=env, start_new_session=True,
+        )  # fmt: skip
+        header = self._message()
+        if header is None or "ompl_version" not in header:
+            self.close()
+            raise PeerError(f"the OMPL peer did not start: {self.stderr_tail()}")
+        self.version = str(header["ompl_version"])
+        self.planners: list[str] = list(header["planners"])
+        self.missing: list[str] = list(header["missing"])
+
+    def _message(self) -> dict[str, Any] | None:
+        """The next JSON line of the peer (other lines skipped); ``None`` at its end."""
+        assert self.proc.stdout is not None
+        for line in self.proc.stdout:
+            if line.startswith("{"):
+                return dict(json.loads(line))
+        return None
+
+    def solve(self, k: int) -> Iterator[dict[str, Any]]:
+        """The peer's runs on problem ``k`` of :func:`problem_specs`, as they come.
+
+        Raises:
+            PeerError: the peer stopped before finishing the problem.
+        """
+        assert self.proc.stdin is not None
+        try:
+            self.proc.stdin.write(json.dumps({"k": k}) + "\n")
+            self.proc.stdin.flush()
+        except OSError as exc:
+            raise PeerError(f"the OMPL peer is gone ({exc}): {self.stderr_tail()}") from exc
+        while True:
+            msg = self._message()
+            if msg is None:
+                raise PeerError(f"the OMPL peer stopped in problem {k}: {self.stderr_tail()}")
+            if "done" in msg:
+                return
+            yield msg["run"]
+
+    def stderr_tail(self, chars: int = 300) -> str:
+        """The end of what the peer wrote to stderr."""
+        self.errors.seek(0)
+        return " ".join(self.errors.read()[-chars:].split()) or "(no message)"
+
+    def close(self) -> None:
+        """End the peer (stdin closed: it exits; killed after 10 s)."""
+        try:
+            if self.proc.stdin is not None:
+                self.proc.stdin.close()
+            self.proc.wait(timeout=10)
+        except (OSError, subprocess.TimeoutExpired):
+            self.proc.kill()
+            self.proc.wait()
+
+
+def start_peer(quick: bool, limit: float, seeds: int) -> tuple[OmplPeer | None, str]:
+    """The OMPL peer server, or ``None`` and the reason (not installed, failed to start)."""
+    exe = peer_python("ompl")
+    if exe is None:
+        return None, "OMPL peer not installed (.venv-peers/ompl, make bench-peers)"
+    args = ["--serve", "--time", str(limit), "--seeds", str(seeds)]
+    args += ["--quick"] if quick else []
     if limit > CHECKPOINT_S:
         args += ["--checkpoint", str(CHECKPOINT_S)]
     try:
-        out = run_peer("ompl", "ompl_arena.py", args)
-    except RuntimeError as exc:
-        return f"OMPL peer failed: {str(exc)[-300:]}"
-    if out is None:
-        return "OMPL peer not installed (.venv-peers/ompl, make bench-peers)"
-    optimum = {p.scenario: p.optimum for p in problems}
-    date = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
-    for r in out["runs"]:
-        opt = optimum.get(r["scenario"], math.nan)
-        ok = bool(r["success"])
-        cur = db.execute(
-            "INSERT INTO runs (date, planner, scenario, problem, seed, time_limit_s, success, "
-            "status, time_s, cost, path_length, first_solution_s, collision_checks, optimum) "
-            "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
-            (date, r["planner"], r["scenario"], r["problem"], r["seed"],
-             r.get("time_limit_s", limit), int(ok),
-             "solved" if ok else "not solved", r["time_s"], r["cost"] if ok else None,
-             r["cost"] if ok else None, None, None, None if math.isnan(opt) else opt),
-        )  # fmt: skip
-        if ok:
-            db.execute(
-                "INSERT INTO progress VALUES (?, ?, ?)", (cur.lastrowid, r["time_s"], r["cost"])
-            )
+        return OmplPeer([str(exe), str(ROOT / "benchmarks/peers/ompl_arena.py"), *args]), ""
+    except PeerError as exc:
+        return None, f"OMPL peer failed: {exc}"
+
+
+def record_planners(db: sqlite3.Connection, peer: OmplPeer | None) -> None:
+    """Table ``planners``: ours, OMPL's that ran and OMPL's missing from its bindings."""
+    rows = [(name, 1, "taskspace") for name in PLANNERS]
+    rows += [(checkpoint_name(name, CHECKPOINT_S), 1, "taskspace") for name in CHECKPOINT_PLANNERS]
+    if peer is not None:
+        rows += [(name, 1, f"OMPL {peer.version}") for name in peer.planners]
+        rows += [
+            (f"ompl {name}", 0, f"not available in OMPL {peer.version}") for name in peer.missing
+        ]
+    db.executemany("INSERT OR REPLACE INTO planners VALUES (?, ?, ?)", rows)
     db.commit()
-    return ""
 
 
 CHECKPOINT_S = 0.1
@@ -268,25 +412,98 @@ def checkpoint_name(planner: str, limit: float) -> str:
     return f"{planner}@{limit:g}s"
 
 
-def arena(problems: list[Problem], limit: float, seeds: int, db: sqlite3.Connection) -> None:
+def arena(
+    problems: Sequence[Problem | ProblemSpec],
+    limit: float,
+    seeds: int,
+    db: sqlite3.Connection,
+    *,
+    peer: OmplPeer | None = None,
+    progress: bool = False,
+) -> list[str]:
     """Every planner on every problem with ``seeds`` seeds; rows into ``db``.
 
     RRT* and informed RRT* also run with the :data:`CHECKPOINT_S` budget (rows named by
     :func:`checkpoint_name`) when ``limit`` is longer: their cost after 0.1 s and after
-    ``limit`` beside OMPL's (:func:`cost_rows`).
+    ``limit`` beside OMPL's (:func:`cost_rows`). With a ``peer`` (problems given as the
+    :func:`problem_specs` list, whose positions it knows), OMPL's runs of each problem follow
+    ours. Each problem's runs are committed when it ends and ``meta`` says how far the arena
+    got: a Ctrl-C stops it there (the problem under way is dropped), a peer failure stops the
+    peer's runs only, a planner raising leaves a row of status ``error``.
+
+    Returns:
+        Notes for the table (interrupted, peer failure, errors); empty when all went well.
     """
+    from tqdm import tqdm
+
     date = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
-    for p in problems:
-        for name, plan in PLANNERS.items():
-            for seed in range(seeds):
-                record(db, date, name, p, seed, limit, plan(p, limit, seed))
-        if limit > CHECKPOINT_S:
-            for name in CHECKPOINT_PLANNERS:
-                short = checkpoint_name(name, CHECKPOINT_S)
-                for seed in range(seeds):
-                    res = PLANNERS[name](p, CHECKPOINT_S, seed)
-                    record(db, date, short, p, seed, CHECKPOINT_S, res)
+    notes: list[str] = []
+    errors: list[str] = []
+    done = skipped = 0
+    set_meta(db, status="running", started=date, time_limit_s=limit, seeds=seeds,
+             problems_total=len(problems), problems_done=0)  # fmt: skip
     db.commit()
+    bar = tqdm(total=len(problems), desc="planner arena", unit="problem", disable=not progress,
+               file=sys.stderr, dynamic_ncols=True)  # fmt: skip
+    try:
+        for k, item in enumerate(problems):
+            p = item.build() if isinstance(item, ProblemSpec) else item
+            bar.set_postfix_str(f"{item.scenario} {item.index}")
+            if p is None:  # an invalid MotionBenchMaker problem: neither side runs it
+                skipped += 1
+                bar.update(1)
+                continue
+            jobs = [(name, name, limit) for name in PLANNERS]
+            if limit > CHECKPOINT_S:
+                jobs += [(checkpoint_name(n, CHECKPOINT_S), n, CHECKPOINT_S)
+                         for n in CHECKPOINT_PLANNERS]  # fmt: skip
+            raised: list[str] = []
+            for label, name, budget in jobs:
+                for seed in range(seeds):
+                    t0 = time.perf_counter()
+                    try:
+                        res = PLANNERS[name](p, budget, seed)
+                    except Exception as exc:  # a row says so; the arena goes on
+                        raised.append(f"{label} on {p.scenario} {p.index}: {exc!r}")
+                        db.execute(
+                            "INSERT INTO runs (date, planner, scenario, problem, seed, "
+                            "time_limit_s, success, status, time_s) "
+                            "VALUES (?, ?, ?, ?, ?, ?, 0, 'error', ?)",
+                            (date, label, p.scenario, p.index, seed, budget,
+                             time.perf_counter() - t0),
+                        )  # fmt: skip
+                        continue
+                    record(db, date, label, p, seed, budget, res)
+            if peer is not None:
+                try:
+                    for r in peer.solve(k):
+                        record_peer_run(db, date, r, p.optimum)
+                except PeerError as exc:
+                    notes.append(f"OMPL peer failed (its runs stop at problem {k}): {exc}")
+                    set_meta(db, peer=notes[-1])
+                    peer.close()
+                    peer = None
+            done += 1
+            errors += raised
+            set_meta(db, problems_done=done, problems_skipped=skipped)
+            db.commit()
+            bar.update(1)
+    except KeyboardInterrupt:
+        db.rollback()  # the problem under way: not all of its runs are in
+        notes.append(f"interrupted (Ctrl-C) after {done + skipped} of {len(problems)} problems")
+        set_meta(db, status="interrupted")
+    else:
+        set_meta(db, status="complete")
+    finally:
+        bar.close()
+        if peer is not None:
+            peer.close()
+    if errors:
+        notes.append(f"{len(errors)} runs raised (status 'error'), first: {errors[0]}")
+    set_meta(db, finished=datetime.datetime.now(datetime.timezone.utc).isoformat(
+        timespec="seconds"), notes=" | ".join(notes))  # fmt: skip
+    db.commit()
+    return notes
 
 
 def cost_rows(db: sqlite3.Connection) -> list[Row]:
@@ -443,37 +660,67 @@ def table(db: sqlite3.Connection) -> list[Row]:
     return rows
 
 
-def _problems(quick: bool) -> list[Problem]:
-    """The arena's problems (``TASKSPACE_ARENA_PROBLEMS``: MotionBenchMaker ones per scenario).
+def _same(p: Problem) -> Problem:
+    return p
 
-    The OMPL peer calls this too (same environment), so both sides plan the same problems.
+
+def problem_specs(quick: bool) -> list[ProblemSpec]:
+    """The arena's problems, unbuilt, in the order both sides run them.
+
+    ``TASKSPACE_ARENA_PROBLEMS``: MotionBenchMaker problems per scenario (an integer or
+    ``all``); ``TASKSPACE_ARENA_SCENARIOS``: their scenarios (comma-separated). The OMPL peer
+    calls this too (same environment), so both sides plan the same problems.
     """
-    scen = ["bookshelf_small", "table_pick"] if quick else ["bookshelf_small", "box", "cage",
-                                                            "table_pick"]  # fmt: skip
-    count = int(os.environ.get("TASKSPACE_ARENA_PROBLEMS", "2" if quick else "5"))
-    return square_2d() + panda_free() + talos_arm_torso() + motionbenchmaker(scen, count)
+    default = "bookshelf_small,table_pick" if quick else ",".join(MOTIONBENCHMAKER_SCENARIOS)
+    scenarios = [x for x in os.environ.get("TASKSPACE_ARENA_SCENARIOS", default).split(",") if x]
+    unknown = sorted(set(scenarios) - set(MOTIONBENCHMAKER_SCENARIOS))
+    if unknown:
+        raise ValueError(
+            f"TASKSPACE_ARENA_SCENARIOS: unknown {unknown}; scenarios are: "
+            f"{', '.join(MOTIONBENCHMAKER_SCENARIOS)}"
+        )
+    count_in = os.environ.get("TASKSPACE_ARENA_PROBLEMS", "2" if quick else "all")
+    count = None if count_in.strip().lower() == "all" else int(count_in)
+    fixed = [
+        ProblemSpec(p.scenario, p.index, functools.partial(_same, p))
+        for p in square_2d() + panda_free() + talos_arm_torso()
+    ]
+    return fixed + motionbenchmaker_specs(scenarios, count)
+
+
+def settings(quick: bool) -> tuple[float, int]:
+    """``(time limit [s], seeds)`` from ``TASKSPACE_ARENA_TIME`` and ``TASKSPACE_ARENA_SEEDS``."""
+    limit = float(os.environ.get("TASKSPACE_ARENA_TIME", "0.2" if quick else "1.0"))
+    seeds = int(os.environ.get("TASKSPACE_ARENA_SEEDS", "2" if quick else "3"))
+    return limit, seeds
 
 
 def run(quick: bool, out: Path | None = None) -> list[Row]:
     """Run the arena; the database and figures go to ``out`` (or ``TASKSPACE_ARENA_DIR``)."""
-    limit = float(os.environ.get("TASKSPACE_ARENA_TIME", "0.2" if quick else "1.0"))
-    seeds = int(os.environ.get("TASKSPACE_ARENA_SEEDS", "2" if quick else "10"))
+    limit, seeds = settings(quick)
     out = out or Path(
         os.environ.get("TASKSPACE_ARENA_DIR", ROOT / "benchmarks/results/planner_arena")
     )
     out.mkdir(parents=True, exist_ok=True)
     db = sqlite3.connect(out / "planner_arena.db")
     db.executescript(SCHEMA)
-    db.execute("DELETE FROM progress")  # the database holds the latest arena
-    db.execute("DELETE FROM runs")
-    problems = _problems(quick)
-    arena(problems, limit, seeds, db)
-    note = record_peers(db, problems, quick, limit, seeds)
+    for name in ("progress", "runs", "meta", "planners"):  # the database holds the latest arena
+        db.execute(f"DELETE FROM {name}")
+    specs = problem_specs(quick)
+    peer, note = start_peer(quick, limit, seeds)
+    if note:
+        set_meta(db, peer=note)
+    missing = [] if peer is None else [(name, peer.version) for name in peer.missing]
+    record_planners(db, peer)
+    notes = arena(specs, limit, seeds, db, peer=peer, progress=True)
     plot(db, out)
     rows = table(db) + cost_rows(db)
     db.close()
-    if note:
-        rows.append(Row(SUITE, "-", "ompl", None, note=note))
+    rows += [
+        Row(SUITE, "-", f"ompl {name}", None, note=f"not available in OMPL {version}")
+        for name, version in missing
+    ]
+    rows += [Row(SUITE, "-", "arena", None, note=n) for n in ([note] if note else []) + notes]
     return rows
 
 

@@ -144,31 +144,31 @@ def test_certified_paths_are_free_everywhere_or_refused(disc, name: str) -> None
 
 
 def test_queries_certify_some_paths(disc) -> None:  # type: ignore[no-untyped-def]
-    # The queries do not re-plan (fixed roadmaps): over both, some path is certified, so
-    # the free branch of _tally is exercised for them too (1 each for these seeds).
+    # The queries search their fixed roadmaps again without the failed segment: over both,
+    # some path is certified, so the free branch of _tally is exercised for them too.
     assert _tally(*disc, "prm_query")[1] + _tally(*disc, "lazy_prm_query")[1] > 0
 
 
-def test_retries_replan_and_queries_do_not(disc) -> None:  # type: ignore[no-untyped-def]
-    # PRM and Lazy PRM try the straight line first: each attempt returns it, uncertified.
+def test_retries_replan_without_the_failed_line(disc) -> None:  # type: ignore[no-untyped-def]
+    # PRM and Lazy PRM try the straight line first; it is not certified, and the re-plans
+    # (new roadmaps for prm/lazy_prm, the same for the queries) do not take it again
+    # (test_planning_certify_retries checks every failed segment, for PRM* too).
     _, space = disc
     a, b = np.array([-0.5, -0.5]), np.array([0.5, -0.5])  # the straight line is taken first
     opts = PRMOptions(max_iterations=20, certify=True, certify_retries=2)
+    roadmap = build_prm(space, PRMOptions(max_iterations=20))
+    lazy = build_lazy_prm(space, PRMOptions(max_iterations=20))
     for result in (
         prm(space, a, b, opts)[0],
         lazy_prm(space, a, b, opts, time_limit_s=math.inf)[0],
+        prm_query(space, roadmap, a, b, opts),
+        lazy_prm_query(space, lazy, a, b, opts),
     ):
-        assert not result.success and result.status is PlannerStatus.UNCERTIFIED
-        assert result.log["stopped_by"] == "uncertified"
-        assert result.log["certify_attempts"] == 3.0 and result.log["certified"] == 0.0
-        assert result.log["uncertified_segment"] == 0.0  # the line through the wall
-    roadmap = build_prm(space, PRMOptions(max_iterations=20))
-    query = prm_query(space, roadmap, a, b, opts)
-    assert query.status is PlannerStatus.UNCERTIFIED and query.log["certify_attempts"] == 1.0
-    assert query.log["stopped_by"] == "uncertified"
-    lazy = build_lazy_prm(space, PRMOptions(max_iterations=20))
-    query = lazy_prm_query(space, lazy, a, b, opts)
-    assert query.status is PlannerStatus.UNCERTIFIED and query.log["certify_attempts"] == 1.0
+        assert not result.success and result.log["certify_attempts"] > 1.0
+        if result.status is PlannerStatus.UNCERTIFIED:
+            assert result.log["stopped_by"] == "uncertified"
+            assert result.log["certified"] == 0.0
+            assert result.path.shape[0] > 2  # not the line through the wall
 
 
 @pytest.mark.parametrize("name", PLANNERS)

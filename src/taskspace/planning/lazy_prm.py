@@ -30,6 +30,7 @@ import logging
 import math
 import time
 import warnings
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -65,10 +66,13 @@ from taskspace.planning.planner_result import PlannerResult, PlannerStatus
 from taskspace.planning.prm import (
     PRMOptions,
     Roadmap,
+    Segment,
     _candidate_pairs,
     _nearest,
+    avoided_pairs,
     check_roadmap_memory,
     check_roadmap_world,
+    uncertified_segment,
 )
 from taskspace.planning.sampling import sample_free
 
@@ -188,6 +192,9 @@ def _check_edges(
     return free
 
 
+COARSE_RESOLUTION = 0.15
+"""Default first-pass resolution of :func:`lazy_prm_query` [rad or m]."""
+
 _FROM_OPTIONS: Any = object()
 """Default of the ``time_limit_s`` keywords: take ``PRMOptions.time_limit_s``."""
 
@@ -219,7 +226,7 @@ def lazy_prm_query(
     options: PRMOptions | None = None,
     *,
     time_limit_s: Any = _FROM_OPTIONS,
-    coarse_resolution: float = 0.15,
+    coarse_resolution: float = COARSE_RESOLUTION,
     rng: np.random.Generator | None = None,
 ) -> PlannerResult:
     """Answer a query on a lazy roadmap, checking only edges of candidate shortest paths.
@@ -255,22 +262,32 @@ def lazy_prm_query(
 
     Certified paths: with ``options.certify`` the path is proven free between its checked
     points (:func:`~taskspace.planning.certify.certify_planned`, within the time limit):
-    ``log`` has ``certified``, ``min_distance`` [m] and ``certify_attempts``; a path that
-    cannot be certified gives ``success=False``, status ``UNCERTIFIED`` and the failing
-    segment in ``log`` (no re-plan; its edges keep the state the resolution check gave).
+    ``log`` has ``certified``, ``min_distance`` [m] and ``certify_attempts``; an uncertified
+    path is searched again without the segment that failed (``certify_retries`` times; the
+    edges keep the state the resolution check gave) and, if none can be certified, the
+    result has ``success=False``, status ``UNCERTIFIED`` and the failing segment in ``log``.
     """
     opts = options or PRMOptions()
     time_limit_s = _time_limit(time_limit_s, options, None, "lazy_prm_query")
     limit = check_time_limit(time_limit_s)
     check_positive(coarse_resolution, "coarse_resolution")
+    avoid: list[Segment] = []
+    tried: list[PlannerResult] = []
 
     def plan(attempt: int, left: float) -> PlannerResult:
-        return _query(space, lazy, start, goal, opts, left, coarse_resolution, rng)
+        if tried:  # its log names the segment the certificate failed on
+            avoid.extend(uncertified_segment(tried[-1]))
+        tried.append(_query(space, lazy, start, goal, opts, left, coarse_resolution, rng, avoid))
+        return tried[-1]
 
     if not opts.certify:
         return plan(0, limit)
     return certify_planned(
-        space, plan, time_limit_s=limit, retries=0, tolerance=opts.certify_tolerance
+        space,
+        plan,
+        time_limit_s=limit,
+        retries=opts.certify_retries,
+        tolerance=opts.certify_tolerance,
     )
 
 
@@ -283,8 +300,12 @@ def _query(
     time_limit: float,
     coarse_resolution: float,
     rng: np.random.Generator | None,
+    avoid: Sequence[Segment] = (),
 ) -> PlannerResult:
-    """:func:`lazy_prm_query` without certification, under ``time_limit`` [s]."""
+    """:func:`lazy_prm_query` without certification, under ``time_limit`` [s].
+
+    The segments of ``avoid`` (those whose certificate failed) are not used.
+    """
     t0 = time.perf_counter()
     deadline = t0 + time_limit
     checks0, edges0 = space.checks, space.edge_checks
@@ -315,6 +336,10 @@ def _query(
     costs = np.concatenate([lazy.costs, space.distances(points[extra[:, 1]], points[extra[:, 0]])])
     status = np.concatenate([lazy.status, np.zeros(len(extra), dtype=np.int8)])
     index = {(int(a), int(b)): e for e, (a, b) in enumerate(pairs.tolist())}
+    usable = np.ones(len(pairs), dtype=bool)
+    for pair in avoided_pairs(points, avoid) if avoid else ():
+        if pair in index:
+            usable[index[pair]] = False
     m = len(lazy.costs)
     status_out = PlannerStatus.NO_PATH
     ids: list[int] = []
@@ -328,6 +353,8 @@ def _query(
             break
         rounds += 1
         keep = status >= 0
+        if avoid:
+            keep &= usable
         # Zero-length edges would vanish from the sparse matrix: give them a tiny cost.
         weights = np.maximum(costs[keep], 1e-12)
         graph = csr_matrix((weights, (pairs[keep, 0], pairs[keep, 1])), shape=(size, size))
@@ -498,7 +525,9 @@ def lazy_prm(
     roadmap (seeds ``seed + 1``, ... or the next draws of ``rng``; ``certify_retries``
     times, within the time limit, which covers the certification) and, if none can be
     certified, the result has ``success=False``, status ``UNCERTIFIED`` and the failing
-    segment in ``log``; the lazy roadmap returned is the last one grown.
+    segment in ``log``; the lazy roadmap returned is the last one grown. A re-plan does not
+    use the segments whose certificate failed (the straight line, a start or goal edge
+    would otherwise be passed and taken again).
     """
     opts = options or PRMOptions(max_iterations=None)
     unset = time_limit_s is _FROM_OPTIONS and options is not None and opts.time_limit_s is None
@@ -549,10 +578,18 @@ def lazy_prm(
         raise InvalidInputError(f"endpoint_fraction must be in [0, 1], got {endpoint_fraction}")
     check_count(opts.k_neighbors, "k_neighbors", minimum=1)
     seed = check_seed(opts.seed)
+    avoid: list[Segment] = []
+    tried: list[PlannerResult] = []
 
     def plan(attempt: int, left: float) -> tuple[PlannerResult, LazyRoadmap]:
+        if tried:  # its log names the segment the certificate failed on
+            avoid.extend(uncertified_segment(tried[-1]))
         generator = rng if rng is not None else np.random.default_rng(seed + attempt)
-        return _grow(space, start, goal, opts, cap, batch, left, endpoint_fraction, generator)
+        result, lazy = _grow(
+            space, start, goal, opts, cap, batch, left, endpoint_fraction, generator, avoid
+        )
+        tried.append(result)
+        return result, lazy
 
     return certify_keeping(space, plan, opts, time_limit_s=limit)
 
@@ -567,8 +604,12 @@ def _grow(
     limit: float,
     endpoint_fraction: float,
     rng: np.random.Generator,
+    avoid: Sequence[Segment] = (),
 ) -> tuple[PlannerResult, LazyRoadmap]:
-    """:func:`lazy_prm` without certification: at most ``cap`` samples in ``limit`` [s]."""
+    """:func:`lazy_prm` without certification: at most ``cap`` samples in ``limit`` [s].
+
+    The segments of ``avoid`` (those whose certificate failed) are not used.
+    """
     t0 = time.perf_counter()
     deadline = t0 + limit
     checks0, edges0 = space.checks, space.edge_checks
@@ -633,9 +674,17 @@ def _grow(
         lazy = grow_lazy_prm(space, lazy, fresh, opts.k_neighbors)
         if not goals:  # a region none of whose samples was valid yet
             continue
-        remaining = None if math.isinf(limit) else max(0.0, deadline - time.perf_counter())
-        result = lazy_prm_query(
-            space, lazy, q_start, np.asarray(goals), query_opts, time_limit_s=remaining
+        remaining = math.inf if math.isinf(limit) else max(0.0, deadline - time.perf_counter())
+        result = _query(
+            space,
+            lazy,
+            q_start,
+            np.asarray(goals),
+            query_opts,
+            remaining,
+            COARSE_RESOLUTION,
+            None,
+            avoid,
         )
     if lazy is None:  # no round ran (no samples allowed, or no time)
         lazy = LazyRoadmap(roadmap=_empty_roadmap(space))

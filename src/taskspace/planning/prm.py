@@ -30,7 +30,7 @@ import math
 import os
 import time
 import warnings
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
@@ -81,11 +81,13 @@ class PRMOptions:
             its checked points (:func:`~taskspace.planning.certify_path`, conservative
             advancement on the robot's geometry; needs a space built on a robot) within
             ``time_limit_s``; a path that cannot be certified gives ``success=False`` and
-            status ``UNCERTIFIED``. :func:`prm` and :func:`~taskspace.planning.lazy_prm`
-            first re-plan (a new roadmap, the next seeds) ``certify_retries`` times; the
-            queries do not (their roadmap is fixed: the same query gives the same path).
-        certify_retries: re-plans (next seeds) of :func:`prm` and
-            :func:`~taskspace.planning.lazy_prm` after an uncertified path.
+            status ``UNCERTIFIED``. They first plan again ``certify_retries`` times without
+            the segments whose certificate failed: :func:`prm` and
+            :func:`~taskspace.planning.lazy_prm` with a new roadmap (the next seeds), the
+            queries on the same roadmap.
+        certify_retries: re-plans after an uncertified path (:func:`prm`,
+            :func:`~taskspace.planning.lazy_prm`: the next seeds; the queries: the same
+            roadmap), each without the segments that failed before.
         certify_tolerance: the least robot-obstacle (and self) distance [m] along the path
             counted as free by the certification.
     """
@@ -239,6 +241,43 @@ def _nearest(
     d = space.distances(nodes, q)
     idx = np.argsort(d, kind="stable")[:k]
     return d[idx], idx.astype(np.int64)
+
+
+Segment = tuple[FloatArray, FloatArray]
+"""A straight segment ``(q_a, q_b)`` between two configurations (either direction)."""
+
+
+def uncertified_segment(result: PlannerResult) -> list[Segment]:
+    """The segment of ``result.path`` its certificate failed on (``[]`` when none did).
+
+    Read from ``log["uncertified_segment"]`` (:func:`~taskspace.planning.certify.certify_planned`):
+    a re-plan avoids it, since the edge check passed it and would pass it again.
+    """
+    if result.log.get("certified") != 0.0 or "uncertified_segment" not in result.log:
+        return []
+    s = int(result.log["uncertified_segment"])
+    if not 0 <= s < result.path.shape[0] - 1:
+        return []
+    return [(result.path[s].copy(), result.path[s + 1].copy())]
+
+
+def avoided_pairs(points: FloatArray, avoid: Sequence[Segment]) -> set[tuple[int, int]]:
+    """Index pairs ``(i, j)``, ``i < j``, of ``points`` joined by a segment of ``avoid``."""
+    out: set[tuple[int, int]] = set()
+    for a, b in avoid:
+        at_a = np.flatnonzero(np.all(points == a, axis=1)).tolist()
+        at_b = np.flatnonzero(np.all(points == b, axis=1)).tolist()
+        out.update((min(i, j), max(i, j)) for i in at_a for j in at_b if i != j)
+    return out
+
+
+def _avoids(avoid: Sequence[Segment], a: FloatArray, b: FloatArray) -> bool:
+    """Whether the segment ``a -> b`` is one of ``avoid`` (either direction)."""
+    return any(
+        (np.array_equal(a, p) and np.array_equal(b, q))
+        or (np.array_equal(a, q) and np.array_equal(b, p))
+        for p, q in avoid
+    )
 
 
 def _candidate_pairs(
@@ -488,10 +527,12 @@ def _attach(
     k: int,
     check_edges: bool,
     budget: Budget | None = None,
+    avoid: Sequence[Segment] = (),
 ) -> tuple[list[tuple[int, float]], bool]:
     """Edges (node, cost) from ``q`` to its k nearest roadmap nodes that pass the local planner.
 
-    With a ``budget`` the clock is read before each batch of each edge's checks.
+    With a ``budget`` the clock is read before each batch of each edge's checks; the
+    segments of ``avoid`` are left out unchecked.
 
     Returns:
         ``(edges, late)``: ``late`` when the deadline stopped it (the edges checked free
@@ -506,6 +547,8 @@ def _attach(
         dist, idx = _nearest(space, roadmap.nodes, q, kk)
     out: list[tuple[int, float]] = []
     for d, j in zip(np.atleast_1d(dist).tolist(), np.atleast_1d(idx).tolist()):
+        if avoid and _avoids(avoid, q, roadmap.nodes[j]):
+            continue
         if check_edges:
             free = (
                 space.motion_valid(q, roadmap.nodes[j])
@@ -624,21 +667,31 @@ def prm_query(
 
     Certified paths: with ``options.certify`` the path is proven free between its checked
     points (:func:`~taskspace.planning.certify.certify_planned`, within ``time_limit_s``):
-    ``log`` has ``certified``, ``min_distance`` [m] and ``certify_attempts``; a path that
-    cannot be certified gives ``success=False``, status ``UNCERTIFIED`` and the failing
-    segment in ``log`` (no re-plan: the roadmap is fixed).
+    ``log`` has ``certified``, ``min_distance`` [m] and ``certify_attempts``; an uncertified
+    path is searched again without the segment that failed (``certify_retries`` times; the
+    roadmap is left unchanged) and, if none can be certified, the result has
+    ``success=False``, status ``UNCERTIFIED`` and the failing segment in ``log``.
     """
     opts = options or PRMOptions()
     limit = check_time_limit(opts.time_limit_s)
+    avoid: list[Segment] = []
+    tried: list[PlannerResult] = []
 
     def plan(attempt: int, left: float) -> PlannerResult:
+        if tried:  # its log names the segment the certificate failed on
+            avoid.extend(uncertified_segment(tried[-1]))
         t0 = time.perf_counter()
-        return _query(space, roadmap, start, goal, opts, rng, t0 + left, t0)
+        tried.append(_query(space, roadmap, start, goal, opts, rng, t0 + left, t0, avoid))
+        return tried[-1]
 
     if not opts.certify:
         return plan(0, limit)
     return certify_planned(
-        space, plan, time_limit_s=limit, retries=0, tolerance=opts.certify_tolerance
+        space,
+        plan,
+        time_limit_s=limit,
+        retries=opts.certify_retries,
+        tolerance=opts.certify_tolerance,
     )
 
 
@@ -651,12 +704,13 @@ def _query(
     rng: np.random.Generator | None,
     deadline: float,
     t0: float,
+    avoid: Sequence[Segment] = (),
 ) -> PlannerResult:
     """:func:`prm_query` with a deadline (``time.perf_counter()`` value [s]).
 
     The limit convention's order (:mod:`taskspace.planning.limits`): a start equal to a goal
     or inside the goal region first, then the clock, then the straight lines, then the
-    roadmap.
+    roadmap. The segments of ``avoid`` (those whose certificate failed) are not used.
     """
     checks0, edges0 = space.checks, space.edge_checks
     check_roadmap_world(space, roadmap)
@@ -681,6 +735,9 @@ def _query(
     elif goals:
         direct: list[float | None] = []
         for g in goals:  # the straight lines first (the limit convention)
+            if avoid and _avoids(avoid, q_start, g):
+                direct.append(None)
+                continue
             free = budget.motion_valid(space, q_start, g)
             late = free is None
             if late:
@@ -689,15 +746,25 @@ def _query(
         start_edges: list[tuple[int, float]] = []
         goal_edges: list[list[tuple[int, float]]] = []
         if not late:
-            start_edges, late = _attach(space, roadmap, q_start, opts.k_neighbors, True, budget)
+            start_edges, late = _attach(
+                space, roadmap, q_start, opts.k_neighbors, True, budget, avoid
+            )
         for g in goals:
             if late:
                 break
-            edges, late = _attach(space, roadmap, g, opts.k_neighbors, True, budget)
+            edges, late = _attach(space, roadmap, g, opts.k_neighbors, True, budget, avoid)
             goal_edges.append(edges)
         if not late:
+            blocked = avoided_pairs(roadmap.nodes, avoid) if avoid else None
             ids, cost = query_graph(
-                roadmap, start_edges, goal_edges, direct, q_goals, opts.search, space=space
+                roadmap,
+                start_edges,
+                goal_edges,
+                direct,
+                q_goals,
+                opts.search,
+                blocked=blocked,
+                space=space,
             )
     success = bool(ids)
     path = _assemble(roadmap, ids, q_start, q_goals) if success else np.empty((0, space.dim))
@@ -769,19 +836,26 @@ def prm(
     Certified paths: with ``options.certify`` the path is proven free between its checked
     points by :func:`~taskspace.planning.certify_path`; an uncertified path is re-planned
     with a new roadmap (seeds ``seed + 1``, ... or the next draws of ``rng``;
-    ``certify_retries`` times, within ``time_limit_s``, which covers the certification) and,
-    if none can be certified, the result has ``success=False``, status ``UNCERTIFIED`` and
-    the failing segment in ``log``.
+    ``certify_retries`` times, within ``time_limit_s``, which covers the certification)
+    that does not use the segments whose certificate failed (the straight line, a start or
+    goal edge would otherwise be passed and taken again) and, if none can be certified, the
+    result has ``success=False``, status ``UNCERTIFIED`` and the failing segment in ``log``.
     """
     opts = options or PRMOptions()
     space.check_endpoint(start, "start")
     goal_states(space, goal)  # refuse a bad goal before building
     limit = check_time_limit(opts.time_limit_s)
     seed = check_seed(opts.seed)
+    avoid: list[Segment] = []
+    tried: list[PlannerResult] = []
 
     def plan(attempt: int, left: float) -> tuple[PlannerResult, Roadmap]:
+        if tried:  # its log names the segment the certificate failed on
+            avoid.extend(uncertified_segment(tried[-1]))
         generator = rng if rng is not None else np.random.default_rng(seed + attempt)
-        return _prm(space, start, goal, opts, generator, left)
+        result, roadmap = _prm(space, start, goal, opts, generator, left, avoid)
+        tried.append(result)
+        return result, roadmap
 
     return certify_keeping(space, plan, opts, time_limit_s=limit)
 
@@ -793,13 +867,14 @@ def _prm(
     opts: PRMOptions,
     rng: np.random.Generator,
     time_limit: float,
+    avoid: Sequence[Segment] = (),
 ) -> tuple[PlannerResult, Roadmap]:
-    """:func:`prm` without certification, under ``time_limit`` [s]."""
+    """:func:`prm` without certification, under ``time_limit`` [s], not using ``avoid``."""
     checks0, edges0 = space.checks, space.edge_checks
     t0 = time.perf_counter()
     deadline = t0 + time_limit
     roadmap = _build(space, opts, rng, deadline, t0)
-    result = _query(space, roadmap, start, goal, opts, rng, deadline, t0)
+    result = _query(space, roadmap, start, goal, opts, rng, deadline, t0, avoid)
     if not result.success and result.status is PlannerStatus.NO_PATH:
         # every sample drawn and edge tried: the roadmap of max_iterations samples does not
         # connect them (unless the deadline cut the construction)

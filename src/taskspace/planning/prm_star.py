@@ -32,6 +32,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -55,7 +56,7 @@ from taskspace.planning.objectives import (
     space_objective,
 )
 from taskspace.planning.planner_result import PlannerResult, PlannerStatus
-from taskspace.planning.prm import Roadmap
+from taskspace.planning.prm import Roadmap, Segment, avoided_pairs, uncertified_segment
 from taskspace.planning.sampling import sample_free
 
 
@@ -77,7 +78,9 @@ class PRMStarOptions:
         certify: prove the returned path free between its checked points
             (:func:`~taskspace.planning.certify_path`, conservative advancement on the robot's
             geometry); an uncertified path is re-planned (a new roadmap) with the next seeds
-            (``certify_retries`` times, within the time limit), and if none can be certified
+            (``certify_retries`` times, within the time limit) without the segments whose
+            certificate failed (the straight line would otherwise be passed and taken
+            again), and if none can be certified
             the result has ``success=False``, status ``UNCERTIFIED`` and the failing segment
             in ``log``. Needs a space built on a robot.
         certify_retries: re-plans (next seeds) after an uncertified path.
@@ -209,7 +212,9 @@ def _plan(
     objective: OptimizationObjective | None,
     rng: np.random.Generator | None,
     lazy: bool,
+    avoid: Sequence[Segment] = (),
 ) -> tuple[PlannerResult, _Graph, tuple[int | None, int | None]]:
+    """One PRM* or Lazy PRM* run; the edges along a segment of ``avoid`` are not used."""
     opts = options or PRMStarOptions()
     cap, limit = planner_limits(opts.max_iterations, opts.time_limit_s)
     batch = check_count(opts.batch_size, "batch_size", minimum=1)
@@ -317,9 +322,14 @@ def _plan(
         # Search (and, lazily, validate) the shortest path.
         pairs_all, cost_all, status = graph.edges()
         edge_index: _EdgeIndex | None = None
+        usable = np.ones(len(pairs_all), dtype=bool)
+        for i, j in avoided_pairs(nodes, avoid) if avoid else ():
+            usable &= (pairs_all[:, 0] != i) | (pairs_all[:, 1] != j)
         while True:
             rounds += 1
             keep = status >= 0
+            if avoid:
+                keep &= usable
             ids, total = _shortest(n, pairs_all[keep], cost_all[keep], goal_ids)
             if not ids or not lazy:
                 break
@@ -599,8 +609,12 @@ def _certified(
 ) -> tuple[PlannerResult, Roadmap | LazyRoadmap]:
     """Plan once, or until a path is certified (``options.certify``, see PRMStarOptions)."""
     opts = options or PRMStarOptions()
+    avoid: list[Segment] = []
+    tried: list[PlannerResult] = []
 
     def plan(attempt: int, left: float) -> tuple[PlannerResult, Roadmap | LazyRoadmap]:
+        if tried:  # its log names the segment the certificate failed on
+            avoid.extend(uncertified_segment(tried[-1]))
         again = opts
         if attempt or math.isfinite(left):
             again = dataclasses.replace(
@@ -608,8 +622,11 @@ def _certified(
                 seed=check_seed(opts.seed) + attempt,
                 time_limit_s=left if math.isfinite(left) else None,
             )
-        result, graph, versions = _plan(space, start, goal, again, objective, rng, lazy=lazy)
+        result, graph, versions = _plan(
+            space, start, goal, again, objective, rng, lazy=lazy, avoid=avoid
+        )
         made = _lazy_roadmap(graph, versions) if lazy else _roadmap(graph, versions, False)
+        tried.append(result)
         return result, made
 
     # (without certification the plan reads its limits from opts: no outer limit)
