@@ -26,9 +26,14 @@ Two times per plan: VAMP's own (``PlanningResult.nanoseconds``, what its paper a
 (``perf_counter`` around ``vamp.panda.rrtc``: the conversion of start and goal and the
 result's Python objects too). VAMP allocates its trees for ``max_samples`` configurations
 (and zeroes two arrays of that length) before its clock starts: with the helper's 1,000,000
-that is about 0.45 ms of wall time per call on this machine even for a straight-line plan;
-variant ``lean`` sets ``max_samples`` and ``max_iterations`` to 100,000 (``RRTCSettings``' own
-default, about 20 us), range 1.0.
+that is at least about 0.45 ms of wall time per call on this machine, even for a straight-line
+plan; variant ``lean`` sets ``max_samples`` and ``max_iterations`` to 100,000 (``RRTCSettings``'
+own default, about 20 us), range 1.0. A first call on a new environment also costs several
+times a repeated one in wall time (not in VAMP's clock): ``--repeats`` takes the minimum.
+The exact checks of the paths use taskspace's fingers (0.04 m; VAMP's are fixed at 0.065 m,
+as in the requests), its joint limits (narrower than VAMP's for joints 4 and 6) and exact
+cylinders (VAMP: capsules), so they measure the difference of the models, not only of VAMP's
+sphere cover.
 
 After timing, every returned path is checked by taskspace's exact checker (Pinocchio/coal,
 taskspace's Panda, fingers at 0.04 m) at 0.03 rad and against taskspace's joint limits:
