@@ -24,10 +24,13 @@ locked at 0.04 m, convex-hull collision geometry)? Then, with a 1 s limit:
   (200 nodes, k = 8, every edge checked).
 
 Peers in the same run, after ours: OMPL's RRTConnect calling OUR collision checker as its
-validity callback (same resolution; range = our step, and OMPL's default range), and
-pyroboplan's RRT-Connect with its own collision checking. Per scenario and over all
-scenarios ("all"): valid problems, solved within 1 s, median / p95 time, collision checks,
-path length (raw and, for taskspace RRT-Connect, after shortcutting), ratios to OMPL.
+validity callback (same resolution; range = our step, and OMPL's default range),
+pyroboplan's RRT-Connect with its own collision checking, and VAMP's RRT-Connect with its own
+sphere model and SIMD checks (its defaults: range 1.0, 32 points per rad; the wall time of the
+Python call and VAMP's own clock; its paths checked afterwards by our exact checker). Per
+scenario and over all scenarios ("all"): valid problems, solved within 1 s, median / p95 time,
+collision checks, path length (raw and, for taskspace RRT-Connect, after shortcutting), ratios
+to OMPL.
 
 Measurements formerly kept in ``taskspace.planning.rrt_connect``'s docstring (oldest first)::
 
@@ -227,6 +230,21 @@ OURS_RRT = (
 )
 OMPL_SAME = f"ompl RRTConnect range={STEP_SIZE:g} (our checker)"
 PYROBOPLAN = "pyroboplan RRTConnect (own checker)"
+# VAMP (benchmarks/peers/vamp_planning.py): its own sphere model and SIMD checks, range 1.0;
+# the wall time of the Python call, VAMP's own clock (its trees allocated before it starts),
+# and the wall time with trees for 100,000 samples instead of 1,000,000. Each the minimum of
+# VAMP_REPEATS runs of the same (deterministic) plan: a first call on a new environment costs
+# several times a repeated one in wall time (not in VAMP's clock)
+VAMP_REPEATS = 3
+VAMP_ROWS = (
+    ("default", "times", f"vamp RRTConnect range=1 (own spheres), wall min of {VAMP_REPEATS}"),
+    ("default", "vamp_times", "vamp RRTConnect range=1 (own spheres), VAMP's clock"),
+    (
+        "lean",
+        "times",
+        f"vamp RRTConnect range=1 max_samples=1e5 (own spheres), wall min of {VAMP_REPEATS}",
+    ),
+)
 
 
 def problem_indices(quick: bool) -> list[int]:
@@ -420,7 +438,7 @@ def _peer_samples(res: dict[str, Any]) -> list[dict[str, float]]:
 
 
 def _run_peers(scenario: str, quick: bool) -> tuple[dict[str, list[dict[str, float]]], list[str]]:
-    """OMPL (two range settings) and pyroboplan on one scenario, right after ours."""
+    """OMPL (two range settings), pyroboplan and VAMP on one scenario, right after ours."""
     common = ["--quick"] if quick else []
     common += ["--resolution", str(RESOLUTION), "--time", str(TIME_LIMIT), "--scenarios", scenario]
     if "TASKSPACE_PLANNING_PROBLEMS" in os.environ:
@@ -428,6 +446,11 @@ def _run_peers(scenario: str, quick: bool) -> tuple[dict[str, list[dict[str, flo
     peers = (
         ("ompl", "ompl_planning.py", [*common, "--range", str(STEP_SIZE)]),
         ("pyroboplan", "pyroboplan_planning.py", common),
+        (
+            "vamp",
+            "vamp_planning.py",
+            [*common, "--variants", "default,lean", "--repeats", str(VAMP_REPEATS)],
+        ),
     )
     samples: dict[str, list[dict[str, float]]] = {}
     notes: list[str] = []
@@ -444,6 +467,19 @@ def _run_peers(scenario: str, quick: bool) -> tuple[dict[str, list[dict[str, flo
             samples[OMPL_SAME] = _peer_samples(out["variants"]["same"][scenario])
             default = f"ompl RRTConnect default range={out['range_default']:.2f} (our checker)"
             samples[default] = _peer_samples(out["variants"]["default"][scenario])
+        elif peer == "vamp":
+            if "skipped" in out:
+                notes.append(f"vamp skipped: {out['skipped']}")
+                continue
+            for variant, key, label in VAMP_ROWS:
+                res = out["variants"][variant][scenario]
+                samples[label] = _peer_samples({**res, "times": res[key]})
+            res = out["variants"]["default"][scenario]
+            notes.append(
+                f"vamp {scenario}: {res['exact_collisions']} of {res['valid']} paths collide for "
+                f"taskspace's exact checker at {RESOLUTION} rad; endpoints VAMP finds in "
+                f"collision: {res['vamp_invalid_endpoints']}"
+            )
         else:
             samples[PYROBOPLAN] = _peer_samples(out["scenarios"][scenario])
     return samples, notes
