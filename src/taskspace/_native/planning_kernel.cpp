@@ -2268,7 +2268,12 @@ class RRTConnect {
   // The exact checker's verdict on the returned path (sphere checkers): every node and the
   // interior points of every edge at the full resolution (bisection order), as the edges
   // were checked; with fine_done (a lazy plan's path: verify checked the fine points of every
-  // edge with the exact checker), only the coarse points (multiples of the stride) are left.
+  // edge with the exact checker), only the coarse points are left. A tree edge's coarse points
+  // are the multiples of the stride counted from its parent: from the path's first point of
+  // the edge for the start tree, from its last for the goal tree (whose edges the path runs
+  // child to parent), so both are re-checked: k or n - k a multiple of the stride (counting
+  // from the first point only left the goal tree's coarse points of an edge with n not a
+  // multiple of the stride, e.g. every full step, unchecked by the exact checker).
   // False on the first collision.
   bool path_valid_exact(bool fine_done) {
     const std::size_t n_nodes = res.path.size() / d_;
@@ -2281,7 +2286,8 @@ class RRTConnect {
       const int n = lines_.segments((p1 - p0).norm());
       ts_.clear();
       for (int k : bisection_order(n)) {
-        if (fine_done && k % lines_.stride != 0) continue;  // checked exactly by verify
+        if (fine_done && k % lines_.stride != 0 && (n - k) % lines_.stride != 0)
+          continue;  // a fine point from either end: checked exactly by verify
         ts_.push_back(double(k) / n);
       }
       dir_ = p1 - p0;
