@@ -458,7 +458,7 @@ class Robot:
                 else:
                     collision, visual = pin.GeometryModel(), pin.GeometryModel()
         except Exception as exc:  # pinocchio raises ValueError/RuntimeError with C++ text
-            if "geometry_model" in str(exc):  # what pin says when a mesh file is not found
+            if "could not be found" in str(exc):  # what pin says when a mesh file is not found
                 raise ModelLoadError(
                     f"cannot load the geometry of URDF {path}: a mesh file could not be found "
                     f"(package:// paths are searched in {dirs}; pass package_dirs=[the "
