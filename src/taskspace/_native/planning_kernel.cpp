@@ -2700,7 +2700,8 @@ bp::tuple tree_tuple(const Tree& t) {
 // parents), exact_checks,
 // recheck_failed, path_length, fallback_iteration, phase times in us: (run, endpoints,
 // straight line, nearest, fine pass, re-check), path_certified (checker kClearance: every edge
-// of the returned path certified free by CollisionKernel::certify_edge, i.e. no fallback)).
+// of the returned path certified free by CollisionKernel::certify_edge, i.e. no fallback),
+// checks (the collision checks of this plan, as CollisionKernel.checks counts them)).
 // checker kClearance (3): "spheres_only" with whole edges certified by clearance instead of
 // points (no lazy fine pass; after a fallback the plan goes on with kSpheres' point checks).
 // The start and goal are validated first
@@ -2746,10 +2747,13 @@ bp::tuple rrt_connect(CollisionKernel& ck, const VectorXd& start, const VectorXd
   RRTConnect planner(ck, lower, upper, alpha, delta, std::max(delta, delta_c), local, sigma,
                      trapped, static_cast<std::uint64_t>(seed), checker, fallback_iterations,
                      validator);
+  long checks = 0;  // the checks of this plan (the kernel is locked: no other plan counts)
   {
     std::unique_lock<std::timed_mutex> lock = lock_with_gil(ck.mutex());
+    const long checks0 = ck.checks();
     GilRelease gil;
     planner.run(start, goal, max_iterations, time_limit, &gil);
+    checks = ck.checks() - checks0;
   }
   if (planner.interrupted) bp::throw_error_already_set();
   const Result& r = planner.res;
@@ -2759,7 +2763,7 @@ bp::tuple rrt_connect(CollisionKernel& ck, const VectorXd& start, const VectorXd
                         r.recheck_failed, r.path_length, r.fallback_iteration,
                         bp::make_tuple(1e6 * r.t_run, 1e6 * r.t_endpoints, 1e6 * r.t_line,
                                        1e6 * r.t_nearest, 1e6 * r.t_verify, 1e6 * r.t_recheck),
-                        r.path_certified);
+                        r.path_certified, checks);
 }
 
 // Benchmarks: the certified edges' min and max steps in units of the resolution (see

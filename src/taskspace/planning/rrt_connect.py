@@ -552,7 +552,7 @@ def _rrt_connect_native(
     delta_c: float,
     seed: int,
     t0: float,
-    checks0: int,
+    prior_checks: int,
 ) -> PlannerResult:
     """:func:`rrt_connect` by the compiled kernel (options already validated).
 
@@ -572,7 +572,8 @@ def _rrt_connect_native(
         delta_c: the coarse resolution [rad or m].
         seed: seed of the kernel's random generator (>= 0).
         t0: ``time.perf_counter()`` at the call of :func:`rrt_connect` [s].
-        checks0: ``space.checks`` at that call.
+        prior_checks: collision checks of this call before this plan (a first plan's, for
+            its re-plan), added to the result's.
     """
     module = _KERNEL_MODULE[0] if _KERNEL_MODULE else _kernel_module()
     remaining = -1.0  # the kernel's "no limit"
@@ -599,10 +600,12 @@ def _rrt_connect_native(
             settings.fallback,  # fallback_iterations
             settings.validator,  # validator
         )
-    finally:  # also after Ctrl-C: the checks the kernel made are counted
+    except BaseException:  # also after Ctrl-C: the checks the kernel made are counted
         space.checker.checks += int(kernel.checks - kernel_checks0)
+        raise
     (status_code, path, iterations, edges, rejections, removed, turns, start_tree, goal_tree,
-     exact_checks, recheck_failed, length, fallback, phases, certified) = out  # fmt: skip
+     exact_checks, recheck_failed, length, fallback, phases, certified, checks) = out  # fmt: skip
+    space.checker.checks += checks  # the plan's collision checks
     if status_code >= _START_INVALID:
         _raise_endpoint(space, q_start, q_goal, status_code)
     space.edge_checks += edges
@@ -628,7 +631,7 @@ def _rrt_connect_native(
         path if success else np.empty((0, space.dim)),  # path
         length if success else math.inf,  # path_length
         iterations,
-        space.checks - checks0,  # collision_checks
+        prior_checks + checks,  # collision_checks
         edges,  # edge_checks
         dt,  # time_s
         trees,
@@ -863,7 +866,6 @@ def _plan(
         )
     max_iterations, time_limit = settings.max_iterations, settings.time_limit
     seed = settings.seed
-    checks0, edges0 = space.checks, space.edge_checks
     goal_set = is_goal_set(goal)  # several goals or a region: the Python planner
     kernel = None if goal_set else _native_kernel(space, opts)
     if kernel is not None:  # the kernel checks the endpoints' bounds and collisions
@@ -873,8 +875,8 @@ def _plan(
         checker = settings.checker
         if checker and type(space.checker) is LockedJointChecker:
             checker = 0  # its kernel: exact checks ("mesh")
-        native = (q_start, q_goal, opts, settings, delta, delta_c, seed, t0, checks0)
-        result = _rrt_connect_native(space, kernel, checker, *native)
+        native = (q_start, q_goal, opts, settings, delta, delta_c, seed, t0)
+        result = _rrt_connect_native(space, kernel, checker, *native, 0)
         if not result.log["sphere_recheck_failed"]:
             return result
         # the exact checker refused the sphere checker's path: plan again with it
@@ -882,9 +884,11 @@ def _plan(
             "rrt_connect: path of the %s checker not exact-valid; mesh", CHECKERS[checker]
         )
         assert isinstance(space.checker, CollisionChecker)  # as _native_kernel requires
-        retry = _rrt_connect_native(space, space.checker.native_kernel(), 0, *native)
+        kernel = space.checker.native_kernel()
+        retry = _rrt_connect_native(space, kernel, 0, *native, result.collision_checks)
         retry.log["sphere_recheck_failed"] = 1.0
         return retry
+    checks0, edges0 = space.checks, space.edge_checks
     q_start = space.check_endpoint(start, "start")
     rng = rng if rng is not None else np.random.default_rng(seed)
     budget = Budget(max_iterations, time_limit, t0)
