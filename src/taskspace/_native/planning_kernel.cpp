@@ -2678,25 +2678,36 @@ class RRTConnect {
 
 BOOST_PYTHON_MEMBER_FUNCTION_OVERLOADS(set_spheres_overloads, CollisionKernel::set_spheres, 4, 5)
 
-MatrixXd rows_matrix(const std::vector<double>& flat, int d) {
-  const Eigen::Index n = static_cast<Eigen::Index>(flat.size()) / d;
-  MatrixXd out(n, d);
-  for (Eigen::Index i = 0; i < n; ++i)
-    for (int k = 0; k < d; ++k) out(i, k) = flat[i * d + k];
-  return out;
+// A new C-ordered float64 array of shape (rows, d) holding `flat` (row after row), always
+// 2-D (eigenpy turns a one-row matrix into a 1-D array: a one-node tree had shape (d,)).
+bp::object rows_array(const std::vector<double>& flat, int d) {
+  npy_intp dims[2] = {static_cast<npy_intp>(flat.size()) / d, d};
+  PyObject* a = eigenpy::call_PyArray_SimpleNew(2, dims, NPY_DOUBLE);
+  if (a == nullptr) bp::throw_error_already_set();
+  if (!flat.empty())
+    std::memcpy(PyArray_DATA(reinterpret_cast<PyArrayObject*>(a)), flat.data(),
+                sizeof(double) * static_cast<std::size_t>(dims[0]) * d);
+  return bp::object(bp::handle<>(a));
 }
 
+// (nodes (n, d) float64, parents (n,) int64) of a tree, as taskspace's Tree holds them.
 bp::tuple tree_tuple(const Tree& t) {
-  Eigen::VectorXi parents(t.size());
-  for (int i = 0; i < t.size(); ++i) parents[i] = t.parent[i];
-  return bp::make_tuple(rows_matrix(t.q, t.d), parents);
+  npy_intp n = t.size();
+  PyObject* a = eigenpy::call_PyArray_SimpleNew(1, &n, NPY_INT64);
+  if (a == nullptr) bp::throw_error_already_set();
+  bp::object parents{bp::handle<>(a)};
+  auto* out = static_cast<std::int64_t*>(PyArray_DATA(reinterpret_cast<PyArrayObject*>(a)));
+  for (npy_intp i = 0; i < n; ++i) out[i] = t.parent[i];
+  return bp::make_tuple(rows_array(t.q, t.d), parents);
 }
 
-// Plan with RRT-Connect; returns (status, path, iterations, edge_checks, rejections, removed,
-// trapped_turns, (start nodes, start parents), (goal nodes, goal parents), exact_checks,
+// Plan with RRT-Connect; returns (status, path (m, d), iterations, edge_checks, rejections,
+// removed, trapped_turns, (start nodes (n, d), start parents (n,) int64), (goal nodes, goal
+// parents), exact_checks,
 // recheck_failed, path_length, fallback_iteration, phase times in us: (run, endpoints,
 // straight line, nearest, fine pass, re-check), path_certified (checker kClearance: every edge
-// of the returned path certified free by CollisionKernel::certify_edge, i.e. no fallback)).
+// of the returned path certified free by CollisionKernel::certify_edge, i.e. no fallback),
+// checks (the collision checks of this plan, as CollisionKernel.checks counts them)).
 // checker kClearance (3): "spheres_only" with whole edges certified by clearance instead of
 // points (no lazy fine pass; after a fallback the plan goes on with kSpheres' point checks).
 // The start and goal are validated first
@@ -2742,20 +2753,23 @@ bp::tuple rrt_connect(CollisionKernel& ck, const VectorXd& start, const VectorXd
   RRTConnect planner(ck, lower, upper, alpha, delta, std::max(delta, delta_c), local, sigma,
                      trapped, static_cast<std::uint64_t>(seed), checker, fallback_iterations,
                      validator);
+  long checks = 0;  // the checks of this plan (the kernel is locked: no other plan counts)
   {
     std::unique_lock<std::timed_mutex> lock = lock_with_gil(ck.mutex());
+    const long checks0 = ck.checks();
     GilRelease gil;
     planner.run(start, goal, max_iterations, time_limit, &gil);
+    checks = ck.checks() - checks0;
   }
   if (planner.interrupted) bp::throw_error_already_set();
   const Result& r = planner.res;
-  return bp::make_tuple(r.status, rows_matrix(r.path, static_cast<int>(d)), r.iterations,
+  return bp::make_tuple(r.status, rows_array(r.path, static_cast<int>(d)), r.iterations,
                         r.edge_checks, r.rejections, r.removed, r.trapped_turns,
                         tree_tuple(*planner.start_), tree_tuple(*planner.goal_), r.exact_checks,
                         r.recheck_failed, r.path_length, r.fallback_iteration,
                         bp::make_tuple(1e6 * r.t_run, 1e6 * r.t_endpoints, 1e6 * r.t_line,
                                        1e6 * r.t_nearest, 1e6 * r.t_verify, 1e6 * r.t_recheck),
-                        r.path_certified);
+                        r.path_certified, checks);
 }
 
 // Benchmarks: the certified edges' min and max steps in units of the resolution (see

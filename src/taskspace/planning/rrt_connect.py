@@ -95,12 +95,12 @@ call apart from the configuration space (one space per thread) and generator the
 
 from __future__ import annotations
 
-import dataclasses
 import logging
 import math
+import operator
 import time
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -211,6 +211,9 @@ CHECKERS = ("mesh", "spheres", "spheres_only", "clearance")
 
 VALIDATORS = ("mesh", "spheres")
 """Values of :attr:`RRTConnectOptions.validator` (codes 0, 1 of the compiled kernel)."""
+
+_DEFAULT_OPTIONS = RRTConnectOptions()
+"""The options of :func:`rrt_connect` called without (immutable: one object for every call)."""
 
 
 class _GrowingTree:
@@ -529,10 +532,6 @@ def _native_kernel(space: ConfigurationSpace, opts: RRTConnectOptions) -> Any:
     return checker.native_kernel()
 
 
-# Phases timed by the kernel (log["kernel_<phase>_us"]): the whole call, the endpoint checks,
-# the straight start-goal line, the nearest-neighbour scans, the lazy fine pass and the
-# exact re-check of the returned path; the tree growth is the rest of "run".
-_PHASES = ("run", "endpoints", "line", "nearest", "fine_pass", "recheck")
 _NATIVE_STATUS = (PlannerStatus.SOLVED, PlannerStatus.TIME_LIMIT, PlannerStatus.ITERATION_LIMIT)
 _START_INVALID, _GOAL_INVALID = 3, 4  # the kernel's codes for an invalid start or goal
 _SEED_MASK = (1 << 64) - 1
@@ -544,14 +543,16 @@ _MAX_LINE_PIECES = float(1 << 30)
 def _rrt_connect_native(
     space: ConfigurationSpace,
     kernel: Any,
+    checker: int,
     q_start: FloatArray,
     q_goal: FloatArray,
     opts: RRTConnectOptions,
-    resolutions: tuple[float, float, float],
-    limits: tuple[int, float],
+    settings: _Settings,
+    delta: float,
+    delta_c: float,
     seed: int,
     t0: float,
-    checks0: int,
+    prior_checks: int,
 ) -> PlannerResult:
     """:func:`rrt_connect` by the compiled kernel (options already validated).
 
@@ -562,94 +563,115 @@ def _rrt_connect_native(
     Args:
         space: configuration space whose checker is a ``CollisionChecker``.
         kernel: that checker's compiled kernel.
+        checker: the kernel's collision checker (index in :data:`CHECKERS`).
         q_start: start as a float vector of size d (:meth:`ConfigurationSpace.endpoint_vector`).
         q_goal: goal, as ``q_start``.
         opts: planner settings.
-        resolutions: ``(alpha, delta, delta_c)`` [rad or m].
-        limits: validated ``(max_iterations, time limit [s])``, ``math.inf`` for none.
+        settings: ``opts`` validated (:func:`_settings`).
+        delta: the space's resolution [rad or m].
+        delta_c: the coarse resolution [rad or m].
         seed: seed of the kernel's random generator (>= 0).
         t0: ``time.perf_counter()`` at the call of :func:`rrt_connect` [s].
-        checks0: ``space.checks`` at that call.
+        prior_checks: collision checks of this call before this plan (a first plan's, for
+            its re-plan), added to the result's.
     """
-    from taskspace._native import planning_kernel
-
-    module = planning_kernel()
-    assert module is not None  # the kernel exists, so does its module
-    alpha, delta, delta_c = resolutions
+    module = _KERNEL_MODULE[0] if _KERNEL_MODULE else _kernel_module()
     remaining = -1.0  # the kernel's "no limit"
-    if limits[1] != math.inf:
-        remaining = max(0.0, limits[1] - (time.perf_counter() - t0))
+    if settings.time_limit != math.inf:
+        remaining = max(0.0, settings.time_limit - (time.perf_counter() - t0))
     kernel_checks0 = kernel.checks
-    fallback = opts.fallback_iterations
     try:
-        out = module.rrt_connect(
+        out = module.rrt_connect(  # positional arguments: 2.5 us less than keywords
             kernel,
             q_start,
             q_goal,
             space.lower,
             space.upper,
-            alpha,
+            settings.alpha,
             delta,
             delta_c,
             opts.local_sampling,
             opts.local_sigma,
             opts.trapped_priority,
-            limits[0],
+            settings.max_iterations,
             remaining,
             seed & _SEED_MASK,
-            CHECKERS.index(opts.checker),  # collision_checker (positional: 2.5 us less)
-            -1 if fallback is None else min(fallback, _LONG_MAX),  # fallback_iterations
-            VALIDATORS.index(opts.validator),  # validator
+            checker,  # collision_checker
+            settings.fallback,  # fallback_iterations
+            settings.validator,  # validator
         )
-    finally:  # also after Ctrl-C: the checks the kernel made are counted
+    except BaseException:  # also after Ctrl-C: the checks the kernel made are counted
         space.checker.checks += int(kernel.checks - kernel_checks0)
+        raise
     (status_code, path, iterations, edges, rejections, removed, turns, start_tree, goal_tree,
-     exact_checks, recheck_failed, length, fallback, phases, certified) = out  # fmt: skip
+     exact_checks, recheck_failed, length, fallback, phases, certified, checks) = out  # fmt: skip
+    space.checker.checks += checks  # the plan's collision checks
     if status_code >= _START_INVALID:
         _raise_endpoint(space, q_start, q_goal, status_code)
     space.edge_checks += edges
     status = _NATIVE_STATUS[status_code]
     success = status is PlannerStatus.SOLVED
-    trees = [Tree(nodes=start_tree[0], parents=start_tree[1].astype(np.int64))]
-    trees.append(Tree(nodes=goal_tree[0], parents=goal_tree[1].astype(np.int64)))
+    # the kernel's arrays: nodes (n, d) float64, parents (n,) int64
+    trees = [Tree(*start_tree), Tree(*goal_tree)]
     dt = time.perf_counter() - t0
-    logger.debug(
-        "rrt_connect (native) %s in %.3f s, %d iterations, %d+%d nodes, %d lazy rejections",
-        status.value,
-        dt,
+    if logger.isEnabledFor(logging.DEBUG):
+        logger.debug(
+            "rrt_connect (native) %s in %.3f s, %d iterations, %d+%d nodes, %d lazy rejections",
+            status.value,
+            dt,
+            iterations,
+            trees[0].size,
+            trees[1].size,
+            rejections,
+        )
+    t_run, t_endpoints, t_line, t_nearest, t_fine_pass, t_recheck = phases  # [us]
+    return PlannerResult(  # positional arguments: 0.7 us less than keywords
+        success,
+        status,
+        path if success else np.empty((0, space.dim)),  # path
+        length if success else math.inf,  # path_length
         iterations,
-        trees[0].size,
-        trees[1].size,
-        rejections,
-    )
-    return PlannerResult(
-        success=success,
-        status=status,
-        path=path if success else np.empty((0, space.dim)),
-        path_length=length if success else math.inf,
-        iterations=iterations,
-        collision_checks=space.checks - checks0,
-        edge_checks=edges,
-        time_s=dt,
-        trees=trees,
-        log={
-            "start_tree_nodes": float(trees[0].size),
-            "goal_tree_nodes": float(trees[1].size),
+        prior_checks + checks,  # collision_checks
+        edges,  # edge_checks
+        dt,  # time_s
+        trees,
+        {  # log
+            "start_tree_nodes": float(len(start_tree[1])),
+            "goal_tree_nodes": float(len(goal_tree[1])),
             "lazy_rejections": float(rejections),
             "nodes_removed": float(removed),
             "trapped_turns": float(turns),
             "native": 1.0,
-            "checker": float(CHECKERS.index(opts.checker)),
-            "validator": float(VALIDATORS.index(opts.validator) if opts.checker != "mesh" else 0),
+            "checker": float(checker),
+            "validator": float(settings.validator if checker else 0),
             "exact_recheck_checks": float(exact_checks),
             "sphere_recheck_failed": float(recheck_failed),
             "spheres_fallback": float(fallback >= 0),
             "spheres_fallback_iteration": float(fallback),
             "path_certified": float(certified and success),
             **limit_log(status, length, dt),
-            **{f"kernel_{name}_us": float(t) for name, t in zip(_PHASES, phases, strict=True)},
+            "kernel_run_us": t_run,
+            "kernel_endpoints_us": t_endpoints,
+            "kernel_line_us": t_line,
+            "kernel_nearest_us": t_nearest,
+            "kernel_fine_pass_us": t_fine_pass,
+            "kernel_recheck_us": t_recheck,
         },
     )
+
+
+_KERNEL_MODULE: list[Any] = []
+"""The compiled module of the planner, once :func:`_kernel_module` has loaded it."""
+
+
+def _kernel_module() -> Any:
+    """``taskspace._native.planning_kernel()``, kept in :data:`_KERNEL_MODULE`."""
+    from taskspace._native import planning_kernel
+
+    module = planning_kernel()
+    assert module is not None  # a kernel exists, so does its module
+    _KERNEL_MODULE.append(module)
+    return module
 
 
 def _raise_endpoint(space: ConfigurationSpace, q_start: Any, q_goal: Any, code: int) -> None:
@@ -724,20 +746,42 @@ def rrt_connect(
     (``certify_retries`` times, within the time limit) and, if none can be certified, the
     result has ``success=False``, status ``UNCERTIFIED`` and the failing segment in ``log``.
     """
-    opts = options or RRTConnectOptions()
+    t0 = time.perf_counter()  # time_s counts the whole call, the validation included
+    opts = options or _DEFAULT_OPTIONS
     if not opts.certify:
-        return _plan(space, start, goal, opts, rng)
-    return plan_certified(space, opts, lambda o: _plan(space, start, goal, o, rng))
+        return _plan(space, start, goal, opts, rng, t0)
+    return plan_certified(
+        space, opts, lambda o: _plan(space, start, goal, o, rng, time.perf_counter())
+    )
 
 
-def _plan(
-    space: ConfigurationSpace,
-    start: Any,
-    goal: Any,
-    opts: RRTConnectOptions,
-    rng: np.random.Generator | None,
-) -> PlannerResult:
-    """:func:`rrt_connect` without certification."""
+class _Settings(NamedTuple):
+    """The validated options of a plan (:func:`_settings`)."""
+
+    alpha: float
+    """``step_size`` [rad or m]."""
+    max_iterations: int
+    """The iteration cap (``2**63 - 1`` for none)."""
+    time_limit: float
+    """The time limit [s] (``math.inf`` for none)."""
+    seed: int
+    coarse: float | None
+    """``coarse_resolution`` [rad or m] (``None``: the space's resolution)."""
+    fallback: int
+    """The kernel's ``fallback_iterations`` (-1: never)."""
+    checker: int
+    """Index of ``checker`` in :data:`CHECKERS`."""
+    validator: int
+    """Index of ``validator`` in :data:`VALIDATORS`."""
+
+
+def _validate(opts: RRTConnectOptions) -> _Settings:
+    """Check every option of :func:`rrt_connect` that does not depend on the space.
+
+    Raises:
+        InvalidInputError: an invalid value (the message names the option).
+        UnknownNameError: an unknown ``checker`` or ``validator``.
+    """
     alpha = check_positive(opts.step_size, "step_size")
     if opts.checker not in CHECKERS:
         raise UnknownNameError("checker", str(opts.checker), CHECKERS)
@@ -750,63 +794,101 @@ def _plan(
     check_positive(opts.local_sigma, "local_sigma")
     if not 0.0 <= opts.trapped_priority <= 1.0:
         raise InvalidInputError(f"trapped_priority must be in [0, 1], got {opts.trapped_priority}")
+    fallback = -1
     if opts.fallback_iterations is not None:
-        check_count(opts.fallback_iterations, "fallback_iterations")
-    delta = space.edge.resolution
-    delta_c = delta
+        fallback = min(check_count(opts.fallback_iterations, "fallback_iterations"), _LONG_MAX)
+    coarse = None
     if opts.coarse_resolution is not None:
-        delta_c = max(delta, check_positive(opts.coarse_resolution, "coarse_resolution"))
-    width = space.upper - space.lower
-    diameter = math.sqrt(float(np.dot(width, width)))  # (np.linalg.norm: 3 us more)
+        coarse = check_positive(opts.coarse_resolution, "coarse_resolution")
+    return _Settings(
+        alpha,
+        max_iterations,
+        time_limit,
+        seed,
+        coarse,
+        fallback,
+        CHECKERS.index(opts.checker),
+        VALIDATORS.index(opts.validator),
+    )
+
+
+_SETTINGS: dict[int, tuple[RRTConnectOptions, tuple[Any, ...], _Settings]] = {}
+"""Validated options by ``id``: the object, its field values when validated, its settings."""
+
+_SETTINGS_SIZE = 64
+"""The cache is emptied when it holds this many options objects."""
+
+
+def _settings(opts: RRTConnectOptions) -> _Settings:
+    """:func:`_validate`, once per options object that is used again.
+
+    A plan is often repeated with the same options object. The cache keeps the object and its
+    field values alive and compares the values by identity: a field changed behind the frozen
+    dataclass (``object.__setattr__``), even to an equal value of another type (``True`` for
+    ``1``), is validated again. Equal options in different objects are validated once each;
+    subclasses at every call.
+    """
+    if type(opts) is not RRTConnectOptions:
+        return _validate(opts)
+    got = _SETTINGS.get(id(opts))
+    if got is not None and got[0] is opts:
+        values = opts.__dict__.values()
+        if len(values) == len(got[1]) and all(map(operator.is_, values, got[1])):
+            return got[2]
+    values_now = tuple(opts.__dict__.values())  # before the checks: what they saw, or older
+    settings = _validate(opts)
+    if len(_SETTINGS) >= _SETTINGS_SIZE:
+        _SETTINGS.clear()
+    _SETTINGS[id(opts)] = (opts, values_now, settings)
+    return settings
+
+
+def _plan(
+    space: ConfigurationSpace,
+    start: Any,
+    goal: Any,
+    opts: RRTConnectOptions,
+    rng: np.random.Generator | None,
+    t0: float,
+) -> PlannerResult:
+    """:func:`rrt_connect` without certification (``t0``: its ``time.perf_counter()`` [s])."""
+    settings = _settings(opts)
+    alpha = settings.alpha
+    delta = space.edge.resolution
+    delta_c = delta if settings.coarse is None else max(delta, settings.coarse)
+    # (math.dist of lists: 2 us less than numpy's norm of the difference)
+    diameter = math.dist(space.upper.tolist(), space.lower.tolist())
     if diameter / min(alpha, delta) > _MAX_LINE_PIECES or delta_c / delta > _MAX_LINE_PIECES:
         raise InvalidInputError(
             f"step_size={alpha:g} and the space's resolution {delta:g} are too small for bounds "
             f"of diameter {diameter:g}: a line would need more than 2^30 steps or checks; "
             "use larger values"
         )
-    checks0, edges0 = space.checks, space.edge_checks
-    t0 = time.perf_counter()
+    max_iterations, time_limit = settings.max_iterations, settings.time_limit
+    seed = settings.seed
     goal_set = is_goal_set(goal)  # several goals or a region: the Python planner
     kernel = None if goal_set else _native_kernel(space, opts)
     if kernel is not None:  # the kernel checks the endpoints' bounds and collisions
         q_start = space.endpoint_vector(start, "start")
         q_goal = space.endpoint_vector(goal, "goal")
         seed = seed if rng is None else int(rng.integers(1 << 63))
-        if opts.checker != "mesh" and type(space.checker) is LockedJointChecker:
-            opts = dataclasses.replace(opts, checker="mesh")  # its kernel: exact checks
-        result = _rrt_connect_native(
-            space,
-            kernel,
-            q_start,
-            q_goal,
-            opts,
-            (alpha, delta, delta_c),
-            (max_iterations, time_limit),
-            seed,
-            t0,
-            checks0,
-        )
-        if not result.log.get("sphere_recheck_failed"):
+        checker = settings.checker
+        if checker and type(space.checker) is LockedJointChecker:
+            checker = 0  # its kernel: exact checks ("mesh")
+        native = (q_start, q_goal, opts, settings, delta, delta_c, seed, t0)
+        result = _rrt_connect_native(space, kernel, checker, *native, 0)
+        if not result.log["sphere_recheck_failed"]:
             return result
         # the exact checker refused the sphere checker's path: plan again with it
-        logger.warning("rrt_connect: path of the %s checker not exact-valid; mesh", opts.checker)
-        again = dataclasses.replace(opts, checker="mesh")
+        logger.warning(
+            "rrt_connect: path of the %s checker not exact-valid; mesh", CHECKERS[checker]
+        )
         assert isinstance(space.checker, CollisionChecker)  # as _native_kernel requires
         kernel = space.checker.native_kernel()
-        retry = _rrt_connect_native(
-            space,
-            kernel,
-            q_start,
-            q_goal,
-            again,
-            (alpha, delta, delta_c),
-            (max_iterations, time_limit),
-            seed,
-            t0,
-            checks0,
-        )
+        retry = _rrt_connect_native(space, kernel, 0, *native, result.collision_checks)
         retry.log["sphere_recheck_failed"] = 1.0
         return retry
+    checks0, edges0 = space.checks, space.edge_checks
     q_start = space.check_endpoint(start, "start")
     rng = rng if rng is not None else np.random.default_rng(seed)
     budget = Budget(max_iterations, time_limit, t0)
