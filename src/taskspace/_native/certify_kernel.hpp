@@ -580,20 +580,31 @@ class PathCertifier {
       ++out.queries;
       return true;
     };
+    // W from the limits (computed once) unless a prismatic coordinate of the path leaves
+    // them or a limit is not finite (then from the limits and the path's range)
+    bool within = true;
+    for (int j = 1; j < static_cast<int>(model_.njoints) && within; ++j) {
+      if (!prismatic_[j]) continue;
+      const int iq = model_.joints[j].idx_q();
+      const double lo = model_.lowerPositionLimit[iq], hi = model_.upperPositionLimit[iq];
+      within = std::isfinite(lo) && std::isfinite(hi) && lo <= hi &&
+               path.col(iq).minCoeff() >= lo && path.col(iq).maxCoeff() <= hi;
+    }
     std::string message;
-    const std::vector<double> W = link_weights(path, message);
+    if (within && (W_limits_.empty() || W_factor_ != weight_factor_)) {
+      W_limits_ = link_weights(path.topRows(0), message);
+      W_factor_ = weight_factor_;
+    }
+    const std::vector<double> W = within ? W_limits_ : link_weights(path, message);
     if (!message.empty()) {
       out.error = true;
       out.message = message;
       return out;
     }
-    // rigid pairs at the first waypoint (> 0), constant pairs once (>= tolerance)
-    bool any_rigid = false, any_constant = false;
-    for (const Pair& pr : pairs_) {
-      any_rigid = any_rigid || pr.kind == kRigid;
-      any_constant = any_constant || pr.kind == kConstant;
-    }
-    if (any_rigid || any_constant) {
+    // rigid pairs (> 0) and constant pairs (>= tolerance): their distances do not depend
+    // on the configuration, so they are computed once per certifier (at the first waypoint
+    // of the first path, as Python does at every path's first waypoint)
+    if (!fixed_done_) {
       if (!may_query(0, 0.0)) return out;
       pinocchio::forwardKinematics(model_, data_, path.row(0).transpose());
       for (const Pair& pr : pairs_) {
@@ -601,13 +612,16 @@ class PathCertifier {
         ++out.evaluations;
         ++out.exact;
         const double d = exact_distance(obj_[pr.a], obj_[pr.b], obj_[pr.b].joint == 0);
-        out.least = std::min(out.least, d);
-        if (pr.kind == kRigid ? !(d > 0.0) : !(d >= tolerance)) {
-          out.segment = 0;
-          out.t = 0.0;
-          return out;
-        }
+        double& least = pr.kind == kRigid ? rigid_least_ : constant_least_;
+        least = std::min(least, d);
       }
+      fixed_done_ = true;
+    }
+    out.least = std::min({out.least, rigid_least_, constant_least_});
+    if (!(rigid_least_ > 0.0) || !(constant_least_ >= tolerance)) {
+      out.segment = 0;
+      out.t = 0.0;
+      return out;
     }
     // rates per class and segment, cumulated
     const std::size_t nc = nl_ + link_pairs_.size();
@@ -812,6 +826,11 @@ class PathCertifier {
   std::vector<std::vector<Term>> terms_;
   std::vector<double> sph_r_;
   double weight_factor_ = 1.0;
+  std::vector<double> W_limits_;  // W from the limits (link_weights without a path)
+  double W_factor_ = 1.0;
+  bool fixed_done_ = false;  // rigid_least_ and constant_least_ computed
+  double rigid_least_ = std::numeric_limits<double>::infinity();
+  double constant_least_ = std::numeric_limits<double>::infinity();
   std::vector<long> pair_evals_;
   std::vector<coal::Vec3s> sph_w_;  // world sphere centres (world_spheres)
   std::vector<long> sph_stamp_;

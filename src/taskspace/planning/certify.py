@@ -282,10 +282,10 @@ _NATIVE_NEAR = 0.005
 """[m] the compiled certifier takes a sphere lower bound from this distance on (else coal's)."""
 _NATIVE_FAR = 0.02
 """[m] the same for the bounding sphere of a robot geometry."""
-_NATIVE_CERTIFIERS: weakref.WeakKeyDictionary[Robot, tuple[tuple[Any, ...], Any]] = (
+_NATIVE_CERTIFIERS: weakref.WeakKeyDictionary[Robot, tuple[tuple[Any, ...], Any, Any]] = (
     weakref.WeakKeyDictionary()
 )
-"""Per robot: (what the certifier was built from, the compiled certifier)."""
+"""Per robot: (what the certifier was built from, the compiled certifier, its spheres)."""
 
 
 def native_certifier(robot: Robot, spheres: Any = None) -> Any:
@@ -293,12 +293,24 @@ def native_certifier(robot: Robot, spheres: Any = None) -> Any:
 
     ``None`` when the kernel is not built or a joint is not revolute or prismatic about x, y
     or z. ``spheres``: the robot's :class:`~taskspace.planning.sphere_model.SphereModel`
-    (used when it carries its volume certificate), or ``None`` (bounding spheres and coal's
-    distances only). Rebuilt when the robot's model, limits, world or geometry changed.
+    (used when it carries its volume certificate), a function returning it or ``None``
+    (called when the certifier is built), or ``None`` (the cached certifier as it is, else one
+    with bounding spheres and coal's distances only). Rebuilt when the robot's model, limits,
+    world or geometry changed, or for other spheres.
     """
+    model, gm = robot._model, robot._collision_model
+    world = robot._world
+    key = (model, gm, world, world._version, robot._version, robot._geometry_edits, gm.ngeoms)
+    cached = _NATIVE_CERTIFIERS.get(robot)
+    if cached is not None:
+        old, used = cached[0], cached[2]
+        same = all(a is b if i < 3 else a == b for i, (a, b) in enumerate(zip(old, key)))
+        if same and (
+            spheres is None or spheres is used or (callable(spheres) and used is not None)
+        ):
+            return cached[1]
     from taskspace._native import planning_kernel
 
-    model, gm = robot._model, robot._collision_model
     if model.nq != model.nv or any(
         model.joints[j].shortname() not in _NATIVE_JOINTS for j in range(1, model.njoints)
     ):
@@ -306,14 +318,8 @@ def native_certifier(robot: Robot, spheres: Any = None) -> Any:
     module = planning_kernel()
     if module is None or not hasattr(module, "PathCertifier"):
         return None
-    world = robot.world
-    key = (model, gm, world, world.version, robot.version, robot._geometry_edits, gm.ngeoms,
-           spheres)  # fmt: skip
-    cached = _NATIVE_CERTIFIERS.get(robot)
-    if cached is not None and len(cached[0]) == len(key):
-        old = cached[0]
-        if all(a is b if i in (0, 1, 2, 7) else a == b for i, (a, b) in enumerate(zip(old, key))):
-            return cached[1]
+    if callable(spheres):
+        spheres = spheres()
     if spheres is not None and spheres.certified_margin > 0.0:
         centers = np.ascontiguousarray(spheres.centers, dtype=np.float64)
         radii = np.asarray(spheres.radii, dtype=np.float64)
@@ -325,7 +331,7 @@ def native_certifier(robot: Robot, spheres: Any = None) -> Any:
     certifier = module.PathCertifier(
         model, gm, centers, radii, geometries, margin, robot.robot_geometry_count
     )
-    _NATIVE_CERTIFIERS[robot] = (key, certifier)
+    _NATIVE_CERTIFIERS[robot] = (key, certifier, spheres)
     return certifier
 
 
@@ -357,8 +363,8 @@ def certify_path(
             certified); ``math.inf`` (default): no deadline.
         native: use the compiled certifier when it serves the robot (:func:`native_certifier`;
             ``distance_queries`` then counts its evaluation points).
-        spheres: the robot's sphere model for the compiled certifier's lower bounds
-            (``None``: bounding spheres and coal's distances).
+        spheres: the robot's sphere model for the compiled certifier's lower bounds, or a
+            function returning it (see :func:`native_certifier`).
     """
     arr = as_float_array(path, "path")
     if arr.ndim != 2 or arr.shape[1] != robot.nq or arr.shape[0] == 0:
@@ -370,12 +376,7 @@ def certify_path(
     check_positive(tolerance, "tolerance")
     max_queries = check_count(max_queries, "max_queries", minimum=1)
     model, gm = robot._model, robot._collision_model
-    normalized = np.array([pin.normalize(model, q) for q in arr])
-    if np.max(np.abs(normalized - arr)) > 1e-6:
-        raise InvalidInputError(
-            "path has configurations whose quaternions or (cos, sin) pairs are not of unit "
-            "norm; normalize them (pinocchio.normalize) before certifying"
-        )
+    # (the compiled certifier's joints have no quaternion or (cos, sin) pair to normalize)
     compiled = native_certifier(robot, spheres) if native else None
     if compiled is not None:
         left = deadline - time.perf_counter() if math.isfinite(deadline) else math.inf
@@ -384,6 +385,12 @@ def certify_path(
         )
         return PathCertificate(
             bool(certified), float(least), int(segment), float(t), int(queries), bool(timed_out)
+        )
+    normalized = np.array([pin.normalize(model, q) for q in arr])
+    if np.max(np.abs(normalized - arr)) > 1e-6:
+        raise InvalidInputError(
+            "path has configurations whose quaternions or (cos, sin) pairs are not of unit "
+            "norm; normalize them (pinocchio.normalize) before certifying"
         )
     bound = motion_bound(robot, arr)
     data, gd = model.createData(), without_cached_guess(gm.createData())
@@ -545,7 +552,7 @@ def certify_planned(
             path,
             tolerance=tolerance,
             deadline=t0 + time_limit_s,
-            spheres=_built_spheres(checker),
+            spheres=lambda: _built_spheres(checker),
         )
         result.log["min_distance"] = cert.min_distance
         if cert.certified:
