@@ -6,8 +6,9 @@ independent of both advancements: Pinocchio/coal ``computeDistances`` at dense p
 segment. On each path the compiled answer must be the Python one where the dense check
 decides it (every segment clear by 1 cm: both certified; a first segment that enters an
 obstacle: both uncertified at that segment), and a certified path must be free at every
-dense point. A certifier whose motion bound is halved (``set_weight_factor(0.5)``, the
-mutant) certifies paths through thin walls here: the tests below would fail with it.
+dense point. A certifier whose motion bound is halved (``set_weight_factor(0.5)`` on the
+disc, 0.25 at a Panda fingertip) certifies paths through thin walls: these tests, and those
+of test_planning_certify_all, fail with W halved in the C++ source.
 """
 
 from __future__ import annotations
@@ -192,13 +193,15 @@ def _panda_through_a_plate() -> tuple[Robot, np.ndarray]:
     return robot, np.array([a, b])
 
 
-def test_paths_through_thin_walls_are_refused_and_a_halved_bound_would_certify_them(
+def test_paths_through_thin_walls_are_refused_and_a_weaker_bound_would_certify_them(
     tmp_path: Path,
 ) -> None:
     disc = _disc(tmp_path)
     disc_path = np.array([[-0.3, -0.3], [0.3, -0.3]])
     panda, panda_path = _panda_through_a_plate()
-    for robot, path in ((disc, disc_path), (panda, panda_path)):
+    # the disc's bound is tight along an axis: half of it certifies the wall; the Panda's
+    # global bound has slack at the fingertip: a quarter of it certifies the plate
+    for robot, path, factor in ((disc, disc_path, 0.5), (panda, panda_path, 0.25)):
         assert segment_least(robot, path[0], path[1]) < 0.0  # through the wall
         assert segment_least(robot, path[0], path[0]) > 0.05  # the ends are free
         assert segment_least(robot, path[1], path[1]) > 0.05
@@ -206,7 +209,7 @@ def test_paths_through_thin_walls_are_refused_and_a_halved_bound_would_certify_t
         assert not cert.certified and cert.failed_segment == 0
         assert not certify_path(robot, path, native=False).certified
         certifier = native_certifier(robot)
-        certifier.set_weight_factor(0.5)  # the mutant: half the motion bound
+        certifier.set_weight_factor(factor)  # the mutant: a fraction of the motion bound
         try:
             mutant = certify_path(robot, path)
         finally:

@@ -31,8 +31,13 @@
 //    when they reach `tolerance` and either cover the rest of the path or exceed `near`
 //    (the sphere bound) / `far` (the bounding sphere); otherwise the exact distance is
 //    taken, and an exact distance below `tolerance` stops the certification: that segment
-//    and t are reported (never "free" there). Pairs are processed in path order (a heap of
-//    their next evaluation positions), so the failure reported is the first along the path.
+//    and t are reported (never "free" there). Evaluation points are taken in path order
+//    (the least position where a budget runs out), so the failure reported is the first
+//    along the path; at each point every pair within `early` (a fraction) of its own step
+//    from running out is evaluated too, so that pairs share the kinematics.
+//    min_distance: the least exact distance evaluated, or (certified paths) the exact
+//    distance of the pair whose lower bound was least, where it was taken: a distance met
+//    on the path.
 //    Pairs of two static objects are checked once (>= tolerance); pairs of two robot
 //    geometries on one joint (rigid) once at the first waypoint (> 0), as in Python.
 //
@@ -143,30 +148,6 @@ class PathCertifier {
     for (std::size_t l = 0; l < nl_; ++l)
       for (int j = link_joint_[l]; j > 0; j = static_cast<int>(model_.parents[j]))
         ancestors_[l * nq + model_.joints[j].idx_v()] = 1;
-    // a ball per link over its objects' hull points (joint frame): the local rates
-    link_center_.assign(nl_, coal::Vec3s::Zero());
-    link_radius_.assign(nl_, 0.0);
-    for (std::size_t l = 0; l < nl_; ++l) {
-      coal::Vec3s lo = coal::Vec3s::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
-      for (const Object& o : obj_)
-        if (o.joint == link_joint_[l])
-          for (const coal::Vec3s& p : o.points.first) {
-            lo = lo.cwiseMin(p);
-            hi = hi.cwiseMax(p);
-          }
-      const coal::Vec3s c = 0.5 * (lo + hi);
-      double r = 0.0;
-      for (const Object& o : obj_)
-        if (o.joint == link_joint_[l])
-          for (const coal::Vec3s& p : o.points.first)
-            r = std::max(r, (p - c).norm() + o.points.second);
-      link_center_[l] = c;
-      link_radius_[l] = r * (1.0 + 1e-12) + 1e-12;
-      if (!c.allFinite() || !std::isfinite(link_radius_[l])) {
-        link_center_[l].setZero();
-        link_radius_[l] = std::numeric_limits<double>::infinity();
-      }
-    }
     // pairs (as Pinocchio's computeDistances: every pair without a disabled object)
     for (std::size_t p = 0; p < geom_.collisionPairs.size(); ++p) {
       const auto& cp = geom_.collisionPairs[p];
@@ -185,29 +166,6 @@ class PathCertifier {
         pr.rate_class = rate_class(obj_[a].joint, obj_[b].joint);
       }
       pairs_.push_back(pr);
-    }
-    // per rate class the (coordinate, joint, link) terms of its rate and, per term, the
-    // coordinates of the joints below it on the link's chain (the growth of the distance
-    // to the term's axis)
-    const std::size_t nc = nl_ + link_pairs_.size();
-    terms_.assign(nc, {});
-    auto add_chain = [&](std::vector<Term>& out, int l, int skip_above) {
-      // joints of link l's chain that are not ancestors of link skip_above (-1: none)
-      std::vector<int> chain;
-      for (int j = link_joint_[l]; j > 0; j = static_cast<int>(model_.parents[j])) chain.push_back(j);
-      for (std::size_t i = 0; i < chain.size(); ++i) {
-        const int j = chain[i];
-        const int k = model_.joints[j].idx_v();
-        if (skip_above >= 0 && ancestors_[skip_above * nq + k]) continue;
-        Term term{k, j, l, {}};
-        for (std::size_t h = 0; h < i; ++h) term.below.push_back(model_.joints[chain[h]].idx_v());
-        out.push_back(term);
-      }
-    };
-    for (std::size_t l = 0; l < nl_; ++l) add_chain(terms_[l], static_cast<int>(l), -1);
-    for (std::size_t c = 0; c < link_pairs_.size(); ++c) {
-      add_chain(terms_[nl_ + c], link_pairs_[c].first, link_pairs_[c].second);
-      add_chain(terms_[nl_ + c], link_pairs_[c].second, link_pairs_[c].first);
     }
   }
 
@@ -297,10 +255,6 @@ class PathCertifier {
     std::size_t a, b;  // a moves unless the pair is constant
     int kind;
     int rate_class;  // link index (static pairs) or nl + index of a link pair (self pairs)
-  };
-  struct Term {
-    int k, joint, link;
-    std::vector<int> below;
   };
   struct Outcome {
     bool certified = false, timed_out = false, interrupted = false, error = false;
@@ -658,55 +612,6 @@ class PathCertifier {
       const double tt = std::min(1.0, std::max(0.0, (target - C[k]) / r));
       return k + tt;
     };
-    // Local rates at the current evaluation point, within segment s: the distance of link
-    // l's points to axis k is at most A = |P_k (c - o_k)| + R (the link's ball) now and
-    // grows at most at g = sum over the joints j below k on l's chain of |dq_j| W[l][j], so
-    // the pair's distance falls at most at a + b tau after tau (a = sum |dq_k| min(W, A),
-    // b = sum |dq_k| g): it lasts tau = 2 d / (a + sqrt(a^2 + 2 b d)) or, past the segment's
-    // end, the rest of d on the global rates. The later of this and the global horizon.
-    std::vector<double> local_a(nc, 0.0), local_b(nc, 0.0);
-    std::vector<long> local_at(nc, -1);
-    auto local_rates = [&](std::size_t c, int s) {
-      if (local_at[c] == out.queries) return;
-      local_at[c] = out.queries;
-      double a = 0.0, b = 0.0;
-      for (const Term& tm : terms_[c]) {
-        const double dk = std::abs(path(s + 1, tm.k) - path(s, tm.k));
-        if (dk == 0.0) continue;
-        const int l = tm.link;
-        const double w = W[l * nq + tm.k];
-        double A = w;
-        if (!prismatic_[tm.joint]) {
-          const auto& Mj = data_.oMi[tm.joint];
-          const coal::Vec3s cw = data_.oMi[link_joint_[l]].act(link_center_[l]);
-          const coal::Vec3s e = Mj.rotation().col(axis_[tm.joint]);
-          coal::Vec3s r = cw - Mj.translation();
-          r -= r.dot(e) * e;
-          A = std::min(w, (r.norm() + link_radius_[l]) * (1.0 + 1e-12) * weight_factor_);
-        }
-        double g = 0.0;
-        for (int j : tm.below) g += std::abs(path(s + 1, j) - path(s, j)) * W[l * nq + j];
-        a += dk * A;
-        b += dk * g;
-      }
-      local_a[c] = a;
-      local_b[c] = b;
-    };
-    auto horizon = [&](std::size_t c, int s, double t, double d) {
-      const double g = expiry(c, s, t, d);
-      if (S == 0) return g;
-      local_rates(c, s);
-      const double a = local_a[c], b = local_b[c], rest = 1.0 - t;
-      const double used = a * rest + 0.5 * b * rest * rest;
-      double h;
-      if (used < d) {
-        h = s + 1 < S ? expiry(c, s + 1, 0.0, d - used) : std::numeric_limits<double>::infinity();
-      } else {
-        const double tau = 2.0 * d / (a + std::sqrt(a * a + 2.0 * b * d));
-        h = s + std::min(t + tau, 1.0);
-      }
-      return std::max(g, h);
-    };
     auto remaining = [&](std::size_t c, int s, double t) {
       if (S == 0) return 0.0;
       const double* C = cum.data() + c * (S + 1);
@@ -783,7 +688,7 @@ class PathCertifier {
           out.t = t;
           return out;
         }
-        const double next = horizon(pr.rate_class, s, t, d * (1.0 - 1e-12));
+        const double next = expiry(pr.rate_class, s, t, d * (1.0 - 1e-12));
         if (next < end) {
           const double stop = std::max(next, std::nextafter(u, end));
           live[kept] = p;
@@ -821,9 +726,7 @@ class PathCertifier {
   std::vector<Object> obj_;
   std::vector<Pair> pairs_;
   std::vector<std::pair<int, int>> link_pairs_;
-  std::vector<coal::Vec3s> sph_c_, link_center_;
-  std::vector<double> link_radius_;
-  std::vector<std::vector<Term>> terms_;
+  std::vector<coal::Vec3s> sph_c_;
   std::vector<double> sph_r_;
   double weight_factor_ = 1.0;
   std::vector<double> W_limits_;  // W from the limits (link_weights without a path)
