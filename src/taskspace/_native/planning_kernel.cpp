@@ -2809,6 +2809,9 @@ Eigen::VectorXi tree_nearest(const Eigen::Ref<const RowMatrixXd>& nodes,
 
 }  // namespace
 
+// Certified paths (certify_kernel.hpp): the class PathCertifier.
+#include "certify_kernel.hpp"
+
 // Dubins and Reeds-Shepp curves (curves.cpp): plain CPython functions added to this module.
 int taskspace_register_curves(PyObject* module);
 // Batched Ferrari-Canny epsilon (grasp_epsilon.cpp): plain CPython functions added to this module.
@@ -2866,6 +2869,7 @@ BOOST_PYTHON_MODULE(_planning_kernel) {
   bp::scope().attr("CHECKER_SPHERES") = kSpheres;
   bp::scope().attr("CHECKER_SPHERES_ONLY") = kSpheresOnly;
   bp::scope().attr("CHECKER_CLEARANCE") = kClearance;
+  register_path_certifier();
   bp::def("tree_nearest", &tree_nearest, bp::args("nodes", "removed", "queries"));
   bp::def("set_clearance_tuning", &set_clearance_tuning,
           bp::args("min_fraction", "max_fraction"));

@@ -22,9 +22,21 @@ possible, and the segment is free when ``t`` reaches 1. A distance below ``toler
 the advancement: the segment is then reported uncertified (touching, or closer than the
 tolerance), never "free".
 
+Compiled certifier: for robots of revolute and prismatic joints about x, y or z (the
+compiled kernel's robots), :func:`certify_path` runs the same advancement in C++
+(``taskspace/_native/certify_kernel.hpp``), pair by pair along the whole path: each pair is
+evaluated again only where the motion since its last evaluation could have used up its
+distance, with cheap lower bounds first (the bounding sphere of each robot geometry, then the
+robot's sphere model when it carries its volume certificate) and coal's distance where those
+do not prove enough. Same answer's meaning: a certified path is free everywhere and every
+distance evaluated is at least ``tolerance``; an uncertified one reports the first segment
+(and ``t``) where an exact distance fell below ``tolerance``. Other robots, or
+``native=False``, use the Python advancement below.
+
 Thread safety: :class:`MotionBound` and :class:`PathCertificate` are immutable values; the
 functions build their own Pinocchio data per call and may run from several threads (one robot may
-be shared as long as its model, limits and world are not changed meanwhile).
+be shared as long as its model, limits and world are not changed meanwhile; the compiled
+certifier of a robot serves one thread at a time).
 """
 
 from __future__ import annotations
@@ -32,6 +44,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
+import weakref
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, TypeVar
@@ -263,6 +276,65 @@ def motion_bounds(robot: Robot) -> FloatArray:
     return motion_bound(robot).per_coordinate(robot._model.nv)
 
 
+_NATIVE_JOINTS = ("JointModelRX", "JointModelRY", "JointModelRZ", "JointModelPX", "JointModelPY",
+                  "JointModelPZ")  # fmt: skip
+_NATIVE_NEAR = 0.005
+"""[m] the compiled certifier takes a sphere lower bound from this distance on (else coal's)."""
+_NATIVE_FAR = 0.02
+"""[m] the same for the bounding sphere of a robot geometry."""
+_NATIVE_CERTIFIERS: weakref.WeakKeyDictionary[Robot, tuple[tuple[Any, ...], Any, Any]] = (
+    weakref.WeakKeyDictionary()
+)
+"""Per robot: (what the certifier was built from, the compiled certifier, its spheres)."""
+
+
+def native_certifier(robot: Robot, spheres: Any = None) -> Any:
+    """The compiled certifier of ``robot`` (cached), or ``None`` when it cannot serve it.
+
+    ``None`` when the kernel is not built or a joint is not revolute or prismatic about x, y
+    or z. ``spheres``: the robot's :class:`~taskspace.planning.sphere_model.SphereModel`
+    (used when it carries its volume certificate), a function returning it or ``None``
+    (called when the certifier is built), or ``None`` (the cached certifier as it is, else one
+    with bounding spheres and coal's distances only). Rebuilt when the robot's model, limits,
+    world or geometry changed, or for other spheres.
+    """
+    model, gm = robot._model, robot._collision_model
+    world = robot._world
+    key = (model, gm, world, world._version, robot._version, robot._geometry_edits, gm.ngeoms)
+    cached = _NATIVE_CERTIFIERS.get(robot)
+    if cached is not None:
+        old, used = cached[0], cached[2]
+        same = all(a is b if i < 3 else a == b for i, (a, b) in enumerate(zip(old, key)))
+        if same and (
+            spheres is None or spheres is used or (callable(spheres) and used is not None)
+        ):
+            return cached[1]
+    from taskspace._native import planning_kernel
+
+    if model.nq != model.nv or any(
+        model.joints[j].shortname() not in _NATIVE_JOINTS for j in range(1, model.njoints)
+    ):
+        return None
+    module = planning_kernel()
+    if module is None or not hasattr(module, "PathCertifier"):
+        return None
+    if callable(spheres):
+        spheres = spheres()
+    if spheres is not None and spheres.certified_margin > 0.0:
+        centers = np.ascontiguousarray(spheres.centers, dtype=np.float64)
+        radii = np.asarray(spheres.radii, dtype=np.float64)
+        geometries = np.asarray(spheres.geometries, dtype=np.int32)
+        margin = float(spheres.certified_margin)
+    else:
+        centers, radii = np.zeros((0, 3)), np.zeros(0)
+        geometries, margin = np.zeros(0, np.int32), 0.0
+    certifier = module.PathCertifier(
+        model, gm, centers, radii, geometries, margin, robot.robot_geometry_count
+    )
+    _NATIVE_CERTIFIERS[robot] = (key, certifier, spheres)
+    return certifier
+
+
 def certify_path(
     robot: Robot,
     path: object,
@@ -270,6 +342,8 @@ def certify_path(
     tolerance: float = 1e-4,
     max_queries: int = 100_000,
     deadline: float = math.inf,
+    native: bool = True,
+    spheres: Any = None,
 ) -> PathCertificate:
     """Prove each segment of ``path`` collision-free by conservative advancement.
 
@@ -287,6 +361,10 @@ def certify_path(
         deadline: a ``time.perf_counter()`` value [s]: the clock is read before each
             distance evaluation and none starts after it (then ``timed_out``, not
             certified); ``math.inf`` (default): no deadline.
+        native: use the compiled certifier when it serves the robot (:func:`native_certifier`;
+            ``distance_queries`` then counts its evaluation points).
+        spheres: the robot's sphere model for the compiled certifier's lower bounds, or a
+            function returning it (see :func:`native_certifier`).
     """
     arr = as_float_array(path, "path")
     if arr.ndim != 2 or arr.shape[1] != robot.nq or arr.shape[0] == 0:
@@ -298,6 +376,16 @@ def certify_path(
     check_positive(tolerance, "tolerance")
     max_queries = check_count(max_queries, "max_queries", minimum=1)
     model, gm = robot._model, robot._collision_model
+    # (the compiled certifier's joints have no quaternion or (cos, sin) pair to normalize)
+    compiled = native_certifier(robot, spheres) if native else None
+    if compiled is not None:
+        left = deadline - time.perf_counter() if math.isfinite(deadline) else math.inf
+        certified, least, segment, t, queries, timed_out, _, _ = compiled.certify(
+            arr, float(tolerance), max_queries, left, _NATIVE_NEAR, _NATIVE_FAR
+        )
+        return PathCertificate(
+            bool(certified), float(least), int(segment), float(t), int(queries), bool(timed_out)
+        )
     normalized = np.array([pin.normalize(model, q) for q in arr])
     if np.max(np.abs(normalized - arr)) > 1e-6:
         raise InvalidInputError(
@@ -459,7 +547,13 @@ def certify_planned(
         if not result.success:
             return result
         path = result.path if locked is None else locked.lift(result.path)
-        cert = certify_path(checker.robot, path, tolerance=tolerance, deadline=t0 + time_limit_s)
+        cert = certify_path(
+            checker.robot,
+            path,
+            tolerance=tolerance,
+            deadline=t0 + time_limit_s,
+            spheres=lambda: _built_spheres(checker),
+        )
         result.log["min_distance"] = cert.min_distance
         if cert.certified:
             result.log["certified"] = 1.0
@@ -481,6 +575,13 @@ def certify_planned(
     result.log["stopped_by"] = "uncertified"
     result.time_s = time.perf_counter() - t0
     return result
+
+
+def _built_spheres(checker: Any) -> Any:
+    """The checker's sphere model if it was built already (building one takes about 1 s)."""
+    from taskspace.planning.collision_checker import _SPHERE_CACHE
+
+    return checker.sphere_model() if checker.robot in _SPHERE_CACHE else None
 
 
 def plan_certified(space: Any, options: Any, run: Callable[[Any], Any]) -> Any:
