@@ -14,12 +14,16 @@
 //
 // Hierarchy, every level lane-wise (4 configurations in one SSE register; no branch per lane):
 //  1. per link and active lane: the link's bounding sphere against the static obstacles'
-//     world boxes (the kernel's boxes_, inflated as Pinocchio's managers do), 4 obstacles per
-//     vector operation (link_obstacles); then the (link, obstacle) units of the touched
-//     obstacles only (a batch often has 1-2 active lanes: testing every unit for 4 lanes cost
-//     10-20 % more kernel time in the planner);
+//     world boxes (the kernel's boxes_, inflated as Pinocchio's managers do), 8 obstacles per
+//     vector operation (link_obstacles: one AVX register in the AVX2 build of run, chosen by
+//     the kernel at run time as for its kinematics; two SSE registers in the portable build;
+//     the same float operations, hence the same masks); then the (link, obstacle) units of
+//     the touched obstacles only (a batch often has 1-2 active lanes: testing every unit
+//     for 4 lanes cost 10-20 % more kernel time in the planner);
 //  2. per moving object of the unit: its bounding sphere against the box and against the
 //     primitive (box, ball, cylinder, capsule: exact point distance in the obstacle's frame);
+//     the object's sphere centres are computed only when its bounding sphere passes (once
+//     per load: most objects the link level reaches stop here);
 //  3. per sphere of the object: against the primitive (or the box for other shapes: the
 //     kernel then asks coal);
 //  self pairs: per (link, link) unit the two links' bounding spheres, per object pair the
@@ -72,6 +76,12 @@ typedef float F4 __attribute__((vector_size(kLanes * sizeof(float))));
 typedef int I4 __attribute__((vector_size(kLanes * sizeof(int))));
 typedef double D4 __attribute__((vector_size(kLanes * sizeof(double)), aligned(16)));
 
+// Eight floats (the obstacle blocks of the link level): one AVX register in the AVX2 build
+// of the filter, two SSE registers (the same operations per element) in the portable one.
+// 16-byte alignment: the vectors holding them guarantee 16 bytes only (unaligned loads).
+typedef float F8 __attribute__((vector_size(8 * sizeof(float)), aligned(16)));
+typedef int I8 __attribute__((vector_size(8 * sizeof(int)), aligned(16)));
+
 inline unsigned lanes_of(I4 m) {
 #ifdef TASKSPACE_SPHERE_BATCH_SSE
   __m128 v;
@@ -83,6 +93,18 @@ inline unsigned lanes_of(I4 m) {
   return b;
 #endif
 }
+// Bits of the 8 elements of m (lanes_of of each half; in the AVX2 build the compiler
+// extracts the upper half: the movemask intrinsic cannot be inlined into the portable
+// template both builds share).
+inline unsigned lanes_of8(const I8& m) {
+  I4 lo, hi;
+  __builtin_memcpy(&lo, &m, sizeof lo);
+  __builtin_memcpy(&hi, reinterpret_cast<const char*>(&m) + sizeof lo, sizeof hi);
+  return lanes_of(lo) | (lanes_of(hi) << 4);
+}
+#if defined(__x86_64__) && defined(__GNUC__)
+#define TASKSPACE_SPHERE_BATCH_AVX2 1
+#endif
 inline F4 splat(float x) { return F4{x, x, x, x}; }
 inline F4 vmax(F4 a, F4 b) { return a > b ? a : b; }
 inline F4 vmin(F4 a, F4 b) { return a < b ? a : b; }
@@ -217,26 +239,27 @@ class SphereFilter {
         unit->margin = std::max(unit->margin, static_cast<float>(p.margin) + e);
       }
     }
-    // per link and obstacle its static unit; obstacle boxes in blocks of 4 (at most 64)
+    // per link and obstacle its static unit; obstacle boxes in blocks of 8 (at most 64)
     by_link_ = obs_.size() <= 64;
     unit_of_.assign(links_.size() * obs_.size(), -1);
     for (int a = 0; a < 3; ++a) {
-      blo_[a].assign((obs_.size() + 3) / 4, splat(std::numeric_limits<float>::infinity()));
-      bhi_[a].assign((obs_.size() + 3) / 4, splat(-std::numeric_limits<float>::infinity()));
+      blo_[a].assign((obs_.size() + 7) / 8 * 8, std::numeric_limits<float>::infinity());
+      bhi_[a].assign((obs_.size() + 7) / 8 * 8, -std::numeric_limits<float>::infinity());
     }
-    binfl_.assign((obs_.size() + 3) / 4, F4{});
+    binfl_.assign((obs_.size() + 7) / 8 * 8, 0.0f);
     for (std::size_t k = 0; k < static_units_.size(); ++k) {
       const StaticUnit& u = static_units_[k];
       unit_of_[u.link * obs_.size() + u.obstacle] = static_cast<int>(k);
-      const std::size_t b = u.obstacle / 4, lane = u.obstacle % 4;
+      const std::size_t b = u.obstacle;
       for (int a = 0; a < 3; ++a) {
-        blo_[a][b][lane] = obs_[u.obstacle].lo[a][0];
-        bhi_[a][b][lane] = obs_[u.obstacle].hi[a][0];
+        blo_[a][b] = obs_[u.obstacle].lo[a][0];
+        bhi_[a][b] = obs_[u.obstacle].hi[a][0];
       }
       const float infl = u.margin + obs_[u.obstacle].swept;
-      if (infl > binfl_[b][lane]) binfl_[b][lane] = infl;
+      if (infl > binfl_[b]) binfl_[b] = infl;
     }
-    obj_stamp_.assign(objects_.size(), 0u);
+    bound_stamp_.assign(objects_.size(), 0u);
+    sph_stamp_.assign(objects_.size(), 0u);
     obj_world_.assign(objects_.size(), V3{});
     sph_world_.assign(sph_.size(), V3{});
     ready_ = true;
@@ -248,7 +271,8 @@ class SphereFilter {
   void load(const std::vector<Pose>& poses) {
     ++stamp_;
     if (stamp_ == 0) {
-      std::fill(obj_stamp_.begin(), obj_stamp_.end(), 0u);
+      std::fill(bound_stamp_.begin(), bound_stamp_.end(), 0u);
+      std::fill(sph_stamp_.begin(), sph_stamp_.end(), 0u);
       stamp_ = 1;
     }
     for (LinkF& l : links_) {
@@ -260,7 +284,24 @@ class SphereFilter {
   }
 
   // Lanes (bits) of `active` that may collide; stops when `stop_lane` is among them.
-  unsigned run(unsigned active, int stop_lane) {
+  // avx2: run the AVX2 build (the caller checked that the processor has it); both builds
+  // perform the same float operations in the same order (no FMA), so their masks are equal.
+  unsigned run(unsigned active, int stop_lane, bool avx2 = false) {
+#ifdef TASKSPACE_SPHERE_BATCH_AVX2
+    if (avx2) return run_avx2(active, stop_lane);
+#endif
+    (void)avx2;
+    return run_body<false>(active, stop_lane);
+  }
+
+ private:
+#ifdef TASKSPACE_SPHERE_BATCH_AVX2
+  __attribute__((target("avx2"))) unsigned run_avx2(unsigned active, int stop_lane) {
+    return run_body<true>(active, stop_lane);
+  }
+#endif
+  template <bool Avx2>
+  __attribute__((always_inline)) inline unsigned run_body(unsigned active, int stop_lane) {
     unsigned maybe = 0;
     sure_ = 0;
     const unsigned stop_bit = 1u << stop_lane;
@@ -278,7 +319,7 @@ class SphereFilter {
         std::uint64_t lane_bits[kLanes] = {0, 0, 0, 0};
         std::uint64_t any = 0;
         for (int l = 0; l < kLanes; ++l)
-          if ((act >> l) & 1u) any |= lane_bits[l] = link_obstacles(li, l);
+          if ((act >> l) & 1u) any |= lane_bits[l] = link_obstacles<Avx2>(li, l);
         while (any) {
           const int ob = __builtin_ctzll(any);
           any &= any - 1;
@@ -312,6 +353,7 @@ class SphereFilter {
     return maybe;
   }
 
+ public:
   int units() const { return static_cast<int>(static_units_.size() + self_units_.size()); }
   // Lanes of the last run's mask found by a sphere test on a primitive or a self pair (not by
   // the box of another shape): their spheres overlap within eps_ (float), so the double test
@@ -376,13 +418,19 @@ class SphereFilter {
   }
   static V3 place(const LinkF& l, const F3& p) { return place(l, p.v); }
 
-  // Object o's bounding centre and sphere centres (once per load).
-  void place_object(int o) {
-    if (obj_stamp_[o] == stamp_) return;
-    obj_stamp_[o] = stamp_;
+  // Object o's bounding centre (once per load).
+  void place_bound(int o) {
+    if (bound_stamp_[o] == stamp_) return;
+    bound_stamp_[o] = stamp_;
+    obj_world_[o] = place(links_[objects_[o].link], objects_[o].center);
+  }
+  // Object o's sphere centres (once per load), only for an object whose bounding sphere
+  // passed a test: most objects reached by the link level stop at their bounding sphere.
+  void place_spheres(int o) {
+    if (sph_stamp_[o] == stamp_) return;
+    sph_stamp_[o] = stamp_;
     const ObjectF& ob = objects_[o];
     const LinkF& l = links_[ob.link];
-    obj_world_[o] = place(l, ob.center);
     for (int s = ob.begin; s < ob.end; ++s) sph_world_[s] = place(l, sph_[s].p);
   }
 
@@ -437,12 +485,14 @@ class SphereFilter {
     const ObsF& o = obs_[u.obstacle];
     unsigned hit = 0;
     for (const Item& it : u.items) {
-      place_object(it.a);
+      place_bound(it.a);
       const ObjectF& ob = objects_[it.a];
       const float rs = it.margin + o.swept;
       unsigned m = near & ~hit & box_hits(o, obj_world_[it.a], ob.radius + rs);
       if (!m) continue;
       if (o.type != 0) m &= prim_hits(o, obj_world_[it.a], ob.radius + rs);
+      if (!m) continue;
+      place_spheres(it.a);
       for (int s = ob.begin; s < ob.end && m; ++s) {
         const unsigned h = m & prim_hits(o, sph_world_[s], sph_[s].r + rs);
         hit |= h;
@@ -457,18 +507,38 @@ class SphereFilter {
   // Bit b set when link li's bounding sphere in lane l touches obstacle b's box, inflated by
   // the largest margin of its units and its swept radius (bits of obstacles without a unit of
   // the link are ignored by the caller).
-  std::uint64_t link_obstacles(std::size_t li, int l) const {
+  // Block b of 8 floats of v (unaligned load).
+  __attribute__((always_inline)) static inline void load8(F8& x, const std::vector<float>& v,
+                                                          std::size_t b) {
+    __builtin_memcpy(&x, v.data() + 8 * b, sizeof x);
+  }
+  // 8 obstacles per vector operation.
+  template <bool Avx2>
+  __attribute__((always_inline)) inline std::uint64_t link_obstacles(std::size_t li,
+                                                                     int l) const {
     const LinkF& L = links_[li];
-    const F4 cx = splat(L.world.x[l]), cy = splat(L.world.y[l]), cz = splat(L.world.z[l]);
-    const F4 zero = {};
+    const F8 zero = {};
+    const F8 cx = zero + L.world.x[l], cy = zero + L.world.y[l], cz = zero + L.world.z[l];
     std::uint64_t bits = 0;
-    for (std::size_t b = 0; b < blo_[0].size(); ++b) {
-      const F4 dx = vmax(vmax(blo_[0][b] - cx, cx - bhi_[0][b]), zero);
-      const F4 dy = vmax(vmax(blo_[1][b] - cy, cy - bhi_[1][b]), zero);
-      const F4 dz = vmax(vmax(blo_[2][b] - cz, cz - bhi_[2][b]), zero);
-      const F4 rr = L.radius + binfl_[b];
-      const unsigned m = lanes_of(dx * dx + dy * dy + dz * dz <= rr * rr);
-      bits |= static_cast<std::uint64_t>(m) << (4 * b);
+    for (std::size_t b = 0; 8 * b < blo_[0].size(); ++b) {
+      F8 lo[3], hi[3], infl;
+      for (int a = 0; a < 3; ++a) {
+        load8(lo[a], blo_[a], b);
+        load8(hi[a], bhi_[a], b);
+      }
+      load8(infl, binfl_, b);
+      F8 dx = lo[0] - cx, ex = cx - hi[0];
+      F8 dy = lo[1] - cy, ey = cy - hi[1];
+      F8 dz = lo[2] - cz, ez = cz - hi[2];
+      dx = dx > ex ? dx : ex;
+      dy = dy > ey ? dy : ey;
+      dz = dz > ez ? dz : ez;
+      dx = dx > zero ? dx : zero;
+      dy = dy > zero ? dy : zero;
+      dz = dz > zero ? dz : zero;
+      const F8 rr = L.radius + infl;
+      const unsigned m = lanes_of8(dx * dx + dy * dy + dz * dz <= rr * rr);
+      bits |= static_cast<std::uint64_t>(m) << (8 * b);
     }
     return bits;
   }
@@ -491,12 +561,15 @@ class SphereFilter {
     const unsigned near = ball_hits(la.world, lb.world, la.radius + lb.radius + u.margin) & active;
     if (!near) return 0;
     for (const Item& it : u.items) {
-      place_object(it.a);
-      place_object(it.b);
+      place_bound(it.a);
+      place_bound(it.b);
       const ObjectF& oa = objects_[it.a];
       const ObjectF& ob = objects_[it.b];
       unsigned m = near & ~hit &
                    ball_hits(obj_world_[it.a], obj_world_[it.b], oa.radius + ob.radius + it.margin);
+      if (!m) continue;
+      place_spheres(it.a);
+      place_spheres(it.b);
       for (int s = oa.begin; s < oa.end && m; ++s) {
         for (int t = ob.begin; t < ob.end && m; ++t) {
           const unsigned h =
@@ -519,11 +592,12 @@ class SphereFilter {
   std::vector<ObsF> obs_;
   std::vector<StaticUnit> static_units_;
   std::vector<SelfUnit> self_units_;
-  std::vector<unsigned> obj_stamp_;
+  std::vector<unsigned> bound_stamp_, sph_stamp_;  // load of the last place_bound / place_spheres
   std::vector<V3> obj_world_, sph_world_;
   bool by_link_ = false;
   std::vector<int> unit_of_;             // static unit of (link, obstacle), or -1
-  std::vector<F4> blo_[3], bhi_[3], binfl_;  // obstacle boxes, 4 per block (link_obstacles)
+  // obstacle boxes and inflations, blocks of 8 (link_obstacles; padding: boxes never touched)
+  std::vector<float> blo_[3], bhi_[3], binfl_;
   unsigned stamp_ = 0, sure_ = 0;
   int last_unit_ = -1;
 };
