@@ -295,12 +295,11 @@ def test_planner_paths_equal_with_and_without_the_filter(robot: Any) -> None:
 
 @pytest.mark.parametrize("scenario", ["table_pick", "bookshelf_thin"])
 def test_sse2_and_avx2_kinematics_agree(robot: Any, scenario: str) -> None:
-    """The batched kinematics and the sphere filter compiled for SSE2 and for AVX2 (chosen at
-    run time; set_simd(1) forces SSE2, as TASKSPACE_SIMD=sse2) give the same answers, bit for
-    bit: on configurations bisected to the last representable step before sphere contact (a
-    rounding difference in the placements would flip some), on random ones and on edges, with
-    and without the filter; the filter's raw flags too (13 and 22 obstacles: two and three of
-    its blocks of 8 boxes)."""
+    """The batched kinematics compiled for SSE2 and for AVX2 (chosen at run time; set_simd(1)
+    forces SSE2, as TASKSPACE_SIMD=sse2) give the same answers, bit for bit: on configurations
+    bisected to the last representable step before sphere contact (a rounding difference in
+    the placements would flip some), on random ones and on edges, with and without the filter
+    (13 and 22 obstacles)."""
     _, _, kernel = _space(robot, scenario)
     avx2 = kernel.simd == 2  # this processor has AVX2 (else both runs use SSE2)
     rng = np.random.default_rng(12)

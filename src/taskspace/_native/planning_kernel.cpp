@@ -732,7 +732,7 @@ class CollisionKernel {
       for (int l = 0; l < kBatch; ++l) lanes[l] = qs.row(s + std::min(l, m - 1)).data();
       kinematics_batch(lanes);
       filter_.load(batch_pose_);
-      const unsigned maybe = filter_.run((1u << m) - 1u, kBatch, simd_ == 2);
+      const unsigned maybe = filter_.run((1u << m) - 1u, kBatch);
       for (int l = 0; l < m; ++l) out[s + l] = (maybe >> l) & 1u;
     }
     return out;
@@ -926,8 +926,7 @@ class CollisionKernel {
     kinematics_batch_body(q);
   }
 #endif
-  // 2: AVX2 (when the processor has it), 1: SSE2. The sphere filter (SphereFilter::run) is
-  // chosen likewise.
+  // 2: AVX2 (when the processor has it), 1: SSE2.
   static int initial_simd() {
 #if defined(__x86_64__) && defined(__GNUC__)
     const char* v = std::getenv("TASKSPACE_SIMD");
@@ -1063,7 +1062,7 @@ class CollisionKernel {
       const unsigned all = (1u << m) - 1u;
       unsigned decided = 0;
       for (int first = 0; first < m;) {
-        const unsigned maybe = filter_.run(all & ~decided, first, simd_ == 2);
+        const unsigned maybe = filter_.run(all & ~decided, first);
         if ((maybe >> first) & 1u) {
           if (stop()) return s + first;
           ++checks_;
@@ -1099,7 +1098,7 @@ class CollisionKernel {
       unsigned maybe = (1u << m) - 1u;  // without the filter: every lane in double
       if (filter) {
         filter_.load(batch_pose_);
-        maybe = filter_.run(maybe, kBatch, simd_ == 2);
+        maybe = filter_.run(maybe, kBatch);
       }
       for (int l = 0; l < m; ++l) {
         ++checks_;

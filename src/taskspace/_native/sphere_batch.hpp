@@ -14,12 +14,10 @@
 //
 // Hierarchy, every level lane-wise (4 configurations in one SSE register; no branch per lane):
 //  1. per link and active lane: the link's bounding sphere against the static obstacles'
-//     world boxes (the kernel's boxes_, inflated as Pinocchio's managers do), 8 obstacles per
-//     vector operation (link_obstacles: one AVX register in the AVX2 build of run, chosen by
-//     the kernel at run time as for its kinematics; two SSE registers in the portable build;
-//     the same float operations, hence the same masks); then the (link, obstacle) units of
-//     the touched obstacles only (a batch often has 1-2 active lanes: testing every unit
-//     for 4 lanes cost 10-20 % more kernel time in the planner);
+//     world boxes (the kernel's boxes_, inflated as Pinocchio's managers do), 4 obstacles per
+//     vector operation (link_obstacles); then the (link, obstacle) units of the touched
+//     obstacles only (a batch often has 1-2 active lanes: testing every unit for 4 lanes cost
+//     10-20 % more kernel time in the planner);
 //  2. per moving object of the unit: its bounding sphere against the box and against the
 //     primitive (box, ball, cylinder, capsule: exact point distance in the obstacle's frame);
 //     the object's sphere centres are computed only when its bounding sphere passes (once
@@ -76,12 +74,6 @@ typedef float F4 __attribute__((vector_size(kLanes * sizeof(float))));
 typedef int I4 __attribute__((vector_size(kLanes * sizeof(int))));
 typedef double D4 __attribute__((vector_size(kLanes * sizeof(double)), aligned(16)));
 
-// Eight floats (the obstacle blocks of the link level): one AVX register in the AVX2 build
-// of the filter, two SSE registers (the same operations per element) in the portable one.
-// 16-byte alignment: the vectors holding them guarantee 16 bytes only (unaligned loads).
-typedef float F8 __attribute__((vector_size(8 * sizeof(float)), aligned(16)));
-typedef int I8 __attribute__((vector_size(8 * sizeof(int)), aligned(16)));
-
 inline unsigned lanes_of(I4 m) {
 #ifdef TASKSPACE_SPHERE_BATCH_SSE
   __m128 v;
@@ -93,18 +85,6 @@ inline unsigned lanes_of(I4 m) {
   return b;
 #endif
 }
-// Bits of the 8 elements of m (lanes_of of each half; in the AVX2 build the compiler
-// extracts the upper half: the movemask intrinsic cannot be inlined into the portable
-// template both builds share).
-inline unsigned lanes_of8(const I8& m) {
-  I4 lo, hi;
-  __builtin_memcpy(&lo, &m, sizeof lo);
-  __builtin_memcpy(&hi, reinterpret_cast<const char*>(&m) + sizeof lo, sizeof hi);
-  return lanes_of(lo) | (lanes_of(hi) << 4);
-}
-#if defined(__x86_64__) && defined(__GNUC__)
-#define TASKSPACE_SPHERE_BATCH_AVX2 1
-#endif
 inline F4 splat(float x) { return F4{x, x, x, x}; }
 inline F4 vmax(F4 a, F4 b) { return a > b ? a : b; }
 inline F4 vmin(F4 a, F4 b) { return a < b ? a : b; }
@@ -239,24 +219,24 @@ class SphereFilter {
         unit->margin = std::max(unit->margin, static_cast<float>(p.margin) + e);
       }
     }
-    // per link and obstacle its static unit; obstacle boxes in blocks of 8 (at most 64)
+    // per link and obstacle its static unit; obstacle boxes in blocks of 4 (at most 64)
     by_link_ = obs_.size() <= 64;
     unit_of_.assign(links_.size() * obs_.size(), -1);
     for (int a = 0; a < 3; ++a) {
-      blo_[a].assign((obs_.size() + 7) / 8 * 8, std::numeric_limits<float>::infinity());
-      bhi_[a].assign((obs_.size() + 7) / 8 * 8, -std::numeric_limits<float>::infinity());
+      blo_[a].assign((obs_.size() + 3) / 4, splat(std::numeric_limits<float>::infinity()));
+      bhi_[a].assign((obs_.size() + 3) / 4, splat(-std::numeric_limits<float>::infinity()));
     }
-    binfl_.assign((obs_.size() + 7) / 8 * 8, 0.0f);
+    binfl_.assign((obs_.size() + 3) / 4, F4{});
     for (std::size_t k = 0; k < static_units_.size(); ++k) {
       const StaticUnit& u = static_units_[k];
       unit_of_[u.link * obs_.size() + u.obstacle] = static_cast<int>(k);
-      const std::size_t b = u.obstacle;
+      const std::size_t b = u.obstacle / 4, lane = u.obstacle % 4;
       for (int a = 0; a < 3; ++a) {
-        blo_[a][b] = obs_[u.obstacle].lo[a][0];
-        bhi_[a][b] = obs_[u.obstacle].hi[a][0];
+        blo_[a][b][lane] = obs_[u.obstacle].lo[a][0];
+        bhi_[a][b][lane] = obs_[u.obstacle].hi[a][0];
       }
       const float infl = u.margin + obs_[u.obstacle].swept;
-      if (infl > binfl_[b]) binfl_[b] = infl;
+      if (infl > binfl_[b][lane]) binfl_[b][lane] = infl;
     }
     bound_stamp_.assign(objects_.size(), 0u);
     sph_stamp_.assign(objects_.size(), 0u);
@@ -284,24 +264,7 @@ class SphereFilter {
   }
 
   // Lanes (bits) of `active` that may collide; stops when `stop_lane` is among them.
-  // avx2: run the AVX2 build (the caller checked that the processor has it); both builds
-  // perform the same float operations in the same order (no FMA), so their masks are equal.
-  unsigned run(unsigned active, int stop_lane, bool avx2 = false) {
-#ifdef TASKSPACE_SPHERE_BATCH_AVX2
-    if (avx2) return run_avx2(active, stop_lane);
-#endif
-    (void)avx2;
-    return run_body<false>(active, stop_lane);
-  }
-
- private:
-#ifdef TASKSPACE_SPHERE_BATCH_AVX2
-  __attribute__((target("avx2"))) unsigned run_avx2(unsigned active, int stop_lane) {
-    return run_body<true>(active, stop_lane);
-  }
-#endif
-  template <bool Avx2>
-  __attribute__((always_inline)) inline unsigned run_body(unsigned active, int stop_lane) {
+  unsigned run(unsigned active, int stop_lane) {
     unsigned maybe = 0;
     sure_ = 0;
     const unsigned stop_bit = 1u << stop_lane;
@@ -319,7 +282,7 @@ class SphereFilter {
         std::uint64_t lane_bits[kLanes] = {0, 0, 0, 0};
         std::uint64_t any = 0;
         for (int l = 0; l < kLanes; ++l)
-          if ((act >> l) & 1u) any |= lane_bits[l] = link_obstacles<Avx2>(li, l);
+          if ((act >> l) & 1u) any |= lane_bits[l] = link_obstacles(li, l);
         while (any) {
           const int ob = __builtin_ctzll(any);
           any &= any - 1;
@@ -353,7 +316,6 @@ class SphereFilter {
     return maybe;
   }
 
- public:
   int units() const { return static_cast<int>(static_units_.size() + self_units_.size()); }
   // Lanes of the last run's mask found by a sphere test on a primitive or a self pair (not by
   // the box of another shape): their spheres overlap within eps_ (float), so the double test
@@ -507,38 +469,18 @@ class SphereFilter {
   // Bit b set when link li's bounding sphere in lane l touches obstacle b's box, inflated by
   // the largest margin of its units and its swept radius (bits of obstacles without a unit of
   // the link are ignored by the caller).
-  // Block b of 8 floats of v (unaligned load).
-  __attribute__((always_inline)) static inline void load8(F8& x, const std::vector<float>& v,
-                                                          std::size_t b) {
-    __builtin_memcpy(&x, v.data() + 8 * b, sizeof x);
-  }
-  // 8 obstacles per vector operation.
-  template <bool Avx2>
-  __attribute__((always_inline)) inline std::uint64_t link_obstacles(std::size_t li,
-                                                                     int l) const {
+  std::uint64_t link_obstacles(std::size_t li, int l) const {
     const LinkF& L = links_[li];
-    const F8 zero = {};
-    const F8 cx = zero + L.world.x[l], cy = zero + L.world.y[l], cz = zero + L.world.z[l];
+    const F4 cx = splat(L.world.x[l]), cy = splat(L.world.y[l]), cz = splat(L.world.z[l]);
+    const F4 zero = {};
     std::uint64_t bits = 0;
-    for (std::size_t b = 0; 8 * b < blo_[0].size(); ++b) {
-      F8 lo[3], hi[3], infl;
-      for (int a = 0; a < 3; ++a) {
-        load8(lo[a], blo_[a], b);
-        load8(hi[a], bhi_[a], b);
-      }
-      load8(infl, binfl_, b);
-      F8 dx = lo[0] - cx, ex = cx - hi[0];
-      F8 dy = lo[1] - cy, ey = cy - hi[1];
-      F8 dz = lo[2] - cz, ez = cz - hi[2];
-      dx = dx > ex ? dx : ex;
-      dy = dy > ey ? dy : ey;
-      dz = dz > ez ? dz : ez;
-      dx = dx > zero ? dx : zero;
-      dy = dy > zero ? dy : zero;
-      dz = dz > zero ? dz : zero;
-      const F8 rr = L.radius + infl;
-      const unsigned m = lanes_of8(dx * dx + dy * dy + dz * dz <= rr * rr);
-      bits |= static_cast<std::uint64_t>(m) << (8 * b);
+    for (std::size_t b = 0; b < blo_[0].size(); ++b) {
+      const F4 dx = vmax(vmax(blo_[0][b] - cx, cx - bhi_[0][b]), zero);
+      const F4 dy = vmax(vmax(blo_[1][b] - cy, cy - bhi_[1][b]), zero);
+      const F4 dz = vmax(vmax(blo_[2][b] - cz, cz - bhi_[2][b]), zero);
+      const F4 rr = L.radius + binfl_[b];
+      const unsigned m = lanes_of(dx * dx + dy * dy + dz * dz <= rr * rr);
+      bits |= static_cast<std::uint64_t>(m) << (4 * b);
     }
     return bits;
   }
@@ -596,8 +538,7 @@ class SphereFilter {
   std::vector<V3> obj_world_, sph_world_;
   bool by_link_ = false;
   std::vector<int> unit_of_;             // static unit of (link, obstacle), or -1
-  // obstacle boxes and inflations, blocks of 8 (link_obstacles; padding: boxes never touched)
-  std::vector<float> blo_[3], bhi_[3], binfl_;
+  std::vector<F4> blo_[3], bhi_[3], binfl_;  // obstacle boxes, 4 per block (link_obstacles)
   unsigned stamp_ = 0, sure_ = 0;
   int last_unit_ = -1;
 };
