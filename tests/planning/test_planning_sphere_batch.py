@@ -45,7 +45,7 @@ MESH, SPHERES, SPHERES_ONLY = 0, 1, 2
 # filter modes (CollisionKernel.set_sphere_filter): off (double only), filter then double on
 # the lanes it cannot clear, and (default) "spheres only" trusting its sphere overlaps
 OFF, CONFIRMED, TRUSTED = 0, 1, 2
-PROBLEM = {"bookshelf_tall": 1, "box": 3, "cage": 1, "table_pick": 3}
+PROBLEM = {"bookshelf_tall": 1, "bookshelf_thin": 1, "box": 3, "cage": 1, "table_pick": 3}
 
 
 @pytest.fixture(scope="module")
@@ -293,12 +293,14 @@ def test_planner_paths_equal_with_and_without_the_filter(robot: Any) -> None:
             assert not any(mesh(a + t * (b - a)) for t in np.linspace(0.0, 1.0, n + 1))
 
 
-def test_sse2_and_avx2_kinematics_agree(robot: Any) -> None:
+@pytest.mark.parametrize("scenario", ["table_pick", "bookshelf_thin"])
+def test_sse2_and_avx2_kinematics_agree(robot: Any, scenario: str) -> None:
     """The batched kinematics compiled for SSE2 and for AVX2 (chosen at run time; set_simd(1)
     forces SSE2, as TASKSPACE_SIMD=sse2) give the same answers, bit for bit: on configurations
     bisected to the last representable step before sphere contact (a rounding difference in
-    the placements would flip some), on random ones and on edges, with and without the filter."""
-    _, _, kernel = _space(robot, "table_pick")
+    the placements would flip some), on random ones and on edges, with and without the filter
+    (13 and 22 obstacles)."""
+    _, _, kernel = _space(robot, scenario)
     avx2 = kernel.simd == 2  # this processor has AVX2 (else both runs use SSE2)
     rng = np.random.default_rng(12)
     qs = _near_configurations(robot, rng, 200)

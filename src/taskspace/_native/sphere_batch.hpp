@@ -20,6 +20,8 @@
 //     10-20 % more kernel time in the planner);
 //  2. per moving object of the unit: its bounding sphere against the box and against the
 //     primitive (box, ball, cylinder, capsule: exact point distance in the obstacle's frame);
+//     the object's sphere centres are computed only when its bounding sphere passes (once
+//     per load: most objects the link level reaches stop here);
 //  3. per sphere of the object: against the primitive (or the box for other shapes: the
 //     kernel then asks coal);
 //  self pairs: per (link, link) unit the two links' bounding spheres, per object pair the
@@ -236,7 +238,8 @@ class SphereFilter {
       const float infl = u.margin + obs_[u.obstacle].swept;
       if (infl > binfl_[b][lane]) binfl_[b][lane] = infl;
     }
-    obj_stamp_.assign(objects_.size(), 0u);
+    bound_stamp_.assign(objects_.size(), 0u);
+    sph_stamp_.assign(objects_.size(), 0u);
     obj_world_.assign(objects_.size(), V3{});
     sph_world_.assign(sph_.size(), V3{});
     ready_ = true;
@@ -248,7 +251,8 @@ class SphereFilter {
   void load(const std::vector<Pose>& poses) {
     ++stamp_;
     if (stamp_ == 0) {
-      std::fill(obj_stamp_.begin(), obj_stamp_.end(), 0u);
+      std::fill(bound_stamp_.begin(), bound_stamp_.end(), 0u);
+      std::fill(sph_stamp_.begin(), sph_stamp_.end(), 0u);
       stamp_ = 1;
     }
     for (LinkF& l : links_) {
@@ -376,13 +380,19 @@ class SphereFilter {
   }
   static V3 place(const LinkF& l, const F3& p) { return place(l, p.v); }
 
-  // Object o's bounding centre and sphere centres (once per load).
-  void place_object(int o) {
-    if (obj_stamp_[o] == stamp_) return;
-    obj_stamp_[o] = stamp_;
+  // Object o's bounding centre (once per load).
+  void place_bound(int o) {
+    if (bound_stamp_[o] == stamp_) return;
+    bound_stamp_[o] = stamp_;
+    obj_world_[o] = place(links_[objects_[o].link], objects_[o].center);
+  }
+  // Object o's sphere centres (once per load), only for an object whose bounding sphere
+  // passed a test: most objects reached by the link level stop at their bounding sphere.
+  void place_spheres(int o) {
+    if (sph_stamp_[o] == stamp_) return;
+    sph_stamp_[o] = stamp_;
     const ObjectF& ob = objects_[o];
     const LinkF& l = links_[ob.link];
-    obj_world_[o] = place(l, ob.center);
     for (int s = ob.begin; s < ob.end; ++s) sph_world_[s] = place(l, sph_[s].p);
   }
 
@@ -437,12 +447,14 @@ class SphereFilter {
     const ObsF& o = obs_[u.obstacle];
     unsigned hit = 0;
     for (const Item& it : u.items) {
-      place_object(it.a);
+      place_bound(it.a);
       const ObjectF& ob = objects_[it.a];
       const float rs = it.margin + o.swept;
       unsigned m = near & ~hit & box_hits(o, obj_world_[it.a], ob.radius + rs);
       if (!m) continue;
       if (o.type != 0) m &= prim_hits(o, obj_world_[it.a], ob.radius + rs);
+      if (!m) continue;
+      place_spheres(it.a);
       for (int s = ob.begin; s < ob.end && m; ++s) {
         const unsigned h = m & prim_hits(o, sph_world_[s], sph_[s].r + rs);
         hit |= h;
@@ -491,12 +503,15 @@ class SphereFilter {
     const unsigned near = ball_hits(la.world, lb.world, la.radius + lb.radius + u.margin) & active;
     if (!near) return 0;
     for (const Item& it : u.items) {
-      place_object(it.a);
-      place_object(it.b);
+      place_bound(it.a);
+      place_bound(it.b);
       const ObjectF& oa = objects_[it.a];
       const ObjectF& ob = objects_[it.b];
       unsigned m = near & ~hit &
                    ball_hits(obj_world_[it.a], obj_world_[it.b], oa.radius + ob.radius + it.margin);
+      if (!m) continue;
+      place_spheres(it.a);
+      place_spheres(it.b);
       for (int s = oa.begin; s < oa.end && m; ++s) {
         for (int t = ob.begin; t < ob.end && m; ++t) {
           const unsigned h =
@@ -519,7 +534,7 @@ class SphereFilter {
   std::vector<ObsF> obs_;
   std::vector<StaticUnit> static_units_;
   std::vector<SelfUnit> self_units_;
-  std::vector<unsigned> obj_stamp_;
+  std::vector<unsigned> bound_stamp_, sph_stamp_;  // load of the last place_bound / place_spheres
   std::vector<V3> obj_world_, sph_world_;
   bool by_link_ = false;
   std::vector<int> unit_of_;             // static unit of (link, obstacle), or -1
