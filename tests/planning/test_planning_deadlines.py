@@ -360,6 +360,11 @@ def test_certification_reads_the_clock_before_each_distance_query(
     certified); certify_planned then reports TIME_LIMIT, not a certified or uncertified path."""
     import pinocchio as pin
 
+    import taskspace.planning.certify as certify_module
+
+    # the Python certifier (its distance queries are Pinocchio calls this test can count; the
+    # compiled certifier's deadline is tested in test_planning_certify_native.py)
+    monkeypatch.setattr(certify_module, "native_certifier", lambda *args, **kwargs: None)
     robot = Robot.load("panda", convex_collision=True)
     robot.add_obstacle(Obstacle.box("block", [0.1, 0.4, 0.3], [0.45, 0.0, 0.35]))
     q0 = robot.q_default.copy()
