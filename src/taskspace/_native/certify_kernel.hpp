@@ -180,6 +180,21 @@ class PathCertifier {
     return out;
   }
   int pair_count() const { return static_cast<int>(pairs_.size()); }
+  int nq() const { return model_.nq; }
+
+  // certify() of the one segment q0 -> q1 for a compiled planner that has released the GIL
+  // (gil polls the signal handlers; interrupted: a handler raised): true when certified.
+  bool certify_released(const VectorXd& q0, const VectorXd& q1, double tolerance,
+                        double time_left, double near, double far, GilRelease& gil,
+                        bool& interrupted) {
+    std::unique_lock<std::timed_mutex> lock(mutex_);
+    RowMatrixXd path(2, model_.nq);
+    path.row(0) = q0.transpose();
+    path.row(1) = q1.transpose();
+    const Outcome out = run(path, tolerance, 100000, time_left, near, far, 0.5, gil);
+    interrupted = out.interrupted;
+    return out.certified;
+  }
 
   // (certified, min_distance, failed_segment, failed_t, distance_queries, timed_out,
   //  pair_evaluations, exact_distances): see the header comment. time_left [s]: the clock

@@ -119,8 +119,8 @@
 // on one kernel (a thread that finds it busy waits with the GIL released), so two threads may
 // share a kernel (one after the other) or plan at the same time on two kernels.
 
-// rrt_connect takes 17 arguments (Boost.Python's default limit is 15).
-#define BOOST_PYTHON_MAX_ARITY 17
+// rrt_connect takes 18 arguments (Boost.Python's default limit is 15).
+#define BOOST_PYTHON_MAX_ARITY 18
 #include <boost/python.hpp>
 #include <eigenpy/eigenpy.hpp>
 
@@ -2214,6 +2214,17 @@ struct Tree {
   }
 };
 
+// Failed regions (a retry after a failed certificate, taskspace.planning.certify.FailedRegions):
+// the certifier of certify_kernel.hpp, defined after this namespace; certify_segment (defined
+// there too) tells whether the segment q0 -> q1 is certified free (the caller has released the
+// GIL: gil polls the signal handlers; interrupted: a handler raised).
+class PathCertifier;
+bool certify_segment(PathCertifier& certifier, const VectorXd& q0, const VectorXd& q1,
+                     double tolerance, double time_left, double near, double far,
+                     GilRelease& gil, bool& interrupted);
+// The PathCertifier held by a Python object, of nq coordinates (else InvalidInputError).
+PathCertifier* path_certifier(const bp::object& certifier, long nq);
+
 struct Result {
   int status = kIterationLimit;
   long iterations = 0, edge_checks = 0, rejections = 0, removed = 0, trapped_turns = 0;
@@ -2222,6 +2233,7 @@ struct Result {
   std::vector<double> path;
   double path_length = std::numeric_limits<double>::infinity();  // sum of |q_{i+1} - q_i|
   long fallback_iteration = -1;  // iteration at which "spheres_only" became "spheres" (or -1)
+  long region_certifications = 0, region_rejections = 0;  // failed regions: edge parts certified, refused
   bool path_certified = false;   // kClearance: every edge of the path certified (no fallback)
   // Wall time of the phases [s] (for profiling; a few clock reads per iteration): the whole
   // run, the endpoint checks, the straight start-goal line, the nearest-neighbour scans,
@@ -2339,6 +2351,63 @@ class RRTConnect {
     return ck_.certify_edge(a, b, t0, t1, s_min, s_max, [this] { return stop(); });
   }
 
+  // Failed regions of earlier attempts' certificates (Python: certify.FailedRegions): balls of
+  // radius `radius` around the rows of `centers` (k x d); an edge whose part inside a ball is
+  // not certified free by `certifier` (tolerance, near, far: the Python caller's) is refused,
+  // so a re-plan never returns a motion through a region unless it is proven free there.
+  void set_regions(const Eigen::Ref<const RowMatrixXd>& centers, double radius,
+                   PathCertifier* certifier, double tolerance, double near, double far) {
+    regions_.assign(centers.data(), centers.data() + centers.size());
+    region_r2_ = radius * radius;
+    certifier_ = certifier;
+    region_tol_ = tolerance;
+    region_near_ = near;
+    region_far_ = far;
+  }
+
+  // The edge a + t b, t in [t0, t1], allowed by the failed regions: every part of it inside a
+  // ball (the exact chord of the segment with the ball) certified free. True at once without
+  // regions (the plans of certify=False and first attempts: one test per edge).
+  bool regions_allow(const double* a, const double* b, double t0, double t1) {
+    if (regions_.empty()) return true;
+    double bb = 0.0;
+    for (int k = 0; k < d_; ++k) bb += b[k] * b[k];
+    if (!(bb > 0.0)) return true;
+    for (std::size_t r = 0; r < regions_.size(); r += d_) {
+      const double* c = regions_.data() + r;
+      double tc = 0.0;  // the closest point of the line to c
+      for (int k = 0; k < d_; ++k) tc += (c[k] - a[k]) * b[k];
+      tc /= bb;
+      double e2 = 0.0;
+      for (int k = 0; k < d_; ++k) {
+        const double e = a[k] + tc * b[k] - c[k];
+        e2 += e * e;
+      }
+      if (!(e2 < region_r2_)) continue;
+      const double h = std::sqrt((region_r2_ - e2) / bb);
+      const double lo = std::max(t0, tc - h), hi = std::min(t1, tc + h);
+      if (!(lo <= hi)) continue;
+      VectorXd q0(d_), q1(d_);
+      for (int k = 0; k < d_; ++k) {
+        q0[k] = a[k] + lo * b[k];
+        q1[k] = a[k] + hi * b[k];
+      }
+      double left = std::numeric_limits<double>::infinity();
+      if (limited_) left = std::max(0.0, seconds(clock::now(), deadline_));
+      bool raised = false;
+      ++res.region_certifications;
+      const bool ok = gil_ != nullptr && certifier_ != nullptr &&
+                      certify_segment(*certifier_, q0, q1, region_tol_, left, region_near_,
+                                      region_far_, *gil_, raised);
+      if (raised) stopped_ = interrupted = true;
+      if (!ok) {
+        ++res.region_rejections;
+        return false;
+      }
+    }
+    return true;
+  }
+
   // EXTEND(T, target): new node index or -1.
   int extend(Tree& t, const double* target) {
     const auto t_n = clock::now();
@@ -2363,6 +2432,7 @@ class RRTConnect {
       for (double u : lines_.orders(n_seg).pattern) ts_.push_back(u * step);
       if (!points_free(a_.data(), b_.data())) return -1;
     }
+    if (!regions_.empty() && !regions_allow(a_.data(), b_.data(), 0.0, step)) return -1;
     if (dist > alpha) {
       x_ = a_ + step * b_;
       return t.add(x_.data(), i_near, n_seg, pend);
@@ -2397,6 +2467,9 @@ class RRTConnect {
           ts_.push_back((start + pattern[j] * len) / dist);
         if (!points_free(q0.data(), delta.data())) return {par, false};
       }
+      if (!regions_.empty() &&
+          !regions_allow(q0.data(), delta.data(), start / dist, (start + len) / dist))
+        return {par, false};
       if (final_step) {
         par = t.add(target, par, n, pend);
       } else {
@@ -2493,7 +2566,11 @@ class RRTConnect {
     }
     ++res.edge_checks;
     const auto t_l = clock::now();
-    const bool direct = motion_valid(qs, qg);
+    bool direct = motion_valid(qs, qg);
+    if (direct && !regions_.empty()) {
+      const VectorXd line = qg - qs;
+      direct = regions_allow(qs.data(), line.data(), 0.0, 1.0);
+    }
     res.t_line = seconds(t_l, clock::now());
     if (direct) {
       direct_ = true;
@@ -2653,6 +2730,9 @@ class RRTConnect {
   }
   GilRelease* gil_ = nullptr;
   bool limited_ = false, stopped_ = false, direct_ = false;
+  std::vector<double> regions_;  // failed regions: centres, row after row (set_regions)
+  double region_r2_ = 0.0, region_tol_ = 0.0, region_near_ = 0.0, region_far_ = 0.0;
+  PathCertifier* certifier_ = nullptr;
   unsigned ticks_ = 0;
   clock::time_point deadline_, next_poll_;
   CollisionKernel& ck_;
@@ -2707,7 +2787,10 @@ bp::tuple tree_tuple(const Tree& t) {
 // recheck_failed, path_length, fallback_iteration, phase times in us: (run, endpoints,
 // straight line, nearest, fine pass, re-check), path_certified (checker kClearance: every edge
 // of the returned path certified free by CollisionKernel::certify_edge, i.e. no fallback),
-// checks (the collision checks of this plan, as CollisionKernel.checks counts them)).
+// checks (the collision checks of this plan, as CollisionKernel.checks counts them),
+// (region_certifications, region_rejections): the edge parts inside failed regions certified
+// and refused). regions (None: none): (centers (k, d), radius, certifier, tolerance, near, far)
+// of the failed regions of earlier certificates (RRTConnect::set_regions).
 // checker kClearance (3): "spheres_only" with whole edges certified by clearance instead of
 // points (no lazy fine pass; after a fallback the plan goes on with kSpheres' point checks).
 // The start and goal are validated first
@@ -2724,7 +2807,8 @@ bp::tuple rrt_connect(CollisionKernel& ck, const VectorXd& start, const VectorXd
                       const VectorXd& lower, const VectorXd& upper, double alpha, double delta,
                       double delta_c, double local, double sigma, double trapped,
                       long max_iterations, double time_limit, unsigned long seed,
-                      int checker, long fallback_iterations, int validator) {
+                      int checker, long fallback_iterations, int validator,
+                      const bp::object& regions) {
   const long d = ck.nq();
   if (checker == kClearance) ck.require_motion_bounds();
   else ck.check_checker(checker);
@@ -2753,6 +2837,22 @@ bp::tuple rrt_connect(CollisionKernel& ck, const VectorXd& start, const VectorXd
   RRTConnect planner(ck, lower, upper, alpha, delta, std::max(delta, delta_c), local, sigma,
                      trapped, static_cast<std::uint64_t>(seed), checker, fallback_iterations,
                      validator);
+  if (!regions.is_none()) {  // (centers (k, d), radius, certifier, tolerance, near, far)
+    const bp::tuple r = bp::extract<bp::tuple>(regions);
+    if (bp::len(r) != 6)
+      raise_invalid("regions must be (centers, radius, certifier, tolerance, near, far)");
+    const RowMatrixXd centers = bp::extract<RowMatrixXd>(r[0]);
+    const double radius = bp::extract<double>(r[1]);
+    PathCertifier* certifier = path_certifier(r[2], d);
+    const double tol = bp::extract<double>(r[3]);
+    const double near = bp::extract<double>(r[4]), far = bp::extract<double>(r[5]);
+    if (centers.cols() != d || !centers.allFinite())
+      raise_invalid("region centers must be finite, of " + std::to_string(d) + " columns");
+    if (!(radius > 0.0) || !std::isfinite(radius) || !(tol > 0.0) || !std::isfinite(tol) ||
+        !(near >= 0.0) || !(far >= 0.0))
+      raise_invalid("region radius and tolerance must be finite and > 0, near and far >= 0");
+    planner.set_regions(centers, radius, certifier, tol, near, far);
+  }
   long checks = 0;  // the checks of this plan (the kernel is locked: no other plan counts)
   {
     std::unique_lock<std::timed_mutex> lock = lock_with_gil(ck.mutex());
@@ -2769,7 +2869,8 @@ bp::tuple rrt_connect(CollisionKernel& ck, const VectorXd& start, const VectorXd
                         r.recheck_failed, r.path_length, r.fallback_iteration,
                         bp::make_tuple(1e6 * r.t_run, 1e6 * r.t_endpoints, 1e6 * r.t_line,
                                        1e6 * r.t_nearest, 1e6 * r.t_verify, 1e6 * r.t_recheck),
-                        r.path_certified, checks);
+                        r.path_certified, checks,
+                        bp::make_tuple(r.region_certifications, r.region_rejections));
 }
 
 // Benchmarks: the certified edges' min and max steps in units of the resolution (see
@@ -2811,6 +2912,26 @@ Eigen::VectorXi tree_nearest(const Eigen::Ref<const RowMatrixXd>& nodes,
 
 // Certified paths (certify_kernel.hpp): the class PathCertifier.
 #include "certify_kernel.hpp"
+
+namespace {
+
+bool certify_segment(PathCertifier& certifier, const VectorXd& q0, const VectorXd& q1,
+                     double tolerance, double time_left, double near, double far,
+                     GilRelease& gil, bool& interrupted) {
+  return certifier.certify_released(q0, q1, tolerance, time_left, near, far, gil, interrupted);
+}
+
+PathCertifier* path_certifier(const bp::object& certifier, long nq) {
+  bp::extract<PathCertifier&> got(certifier);
+  if (!got.check()) raise_invalid("regions need a PathCertifier");
+  PathCertifier& c = got();
+  if (c.nq() != nq)
+    raise_invalid("the PathCertifier has nq = " + std::to_string(c.nq()) + ", the plan " +
+                  std::to_string(nq));
+  return &c;
+}
+
+}  // namespace
 
 // Dubins and Reeds-Shepp curves (curves.cpp): plain CPython functions added to this module.
 int taskspace_register_curves(PyObject* module);
@@ -2878,5 +2999,6 @@ BOOST_PYTHON_MODULE(_planning_kernel) {
            bp::arg("upper"), bp::arg("alpha"), bp::arg("delta"), bp::arg("delta_c"),
            bp::arg("local"), bp::arg("sigma"), bp::arg("trapped"), bp::arg("max_iterations"),
            bp::arg("time_limit"), bp::arg("seed"), bp::arg("collision_checker") = kMesh,
-           bp::arg("fallback_iterations") = -1L, bp::arg("validator") = kMesh));
+           bp::arg("fallback_iterations") = -1L, bp::arg("validator") = kMesh,
+           bp::arg("regions") = bp::object()));
 }

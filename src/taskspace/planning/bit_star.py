@@ -43,7 +43,7 @@ import numpy as np
 import numpy.typing as npt
 
 from taskspace._validation import check_count, check_positive, check_seed
-from taskspace.planning.certify import plan_certified
+from taskspace.planning.certify import FailedRegions, plan_certified
 from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray
 from taskspace.planning.goals import goal_states
 from taskspace.planning.limits import (
@@ -188,7 +188,7 @@ def bit_star(
     opts = options or BITStarOptions()
     if not opts.certify:
         return _plan(space, start, goal, opts, objective, rng)
-    return plan_certified(space, opts, lambda o: _plan(space, start, goal, o, objective, rng))
+    return plan_certified(space, opts, lambda o, r: _plan(space, start, goal, o, objective, rng, r))
 
 
 def _plan(
@@ -198,7 +198,13 @@ def _plan(
     opts: BITStarOptions,
     objective: OptimizationObjective | None,
     rng: np.random.Generator | None,
+    regions: FailedRegions | None = None,
 ) -> PlannerResult:
+    """:func:`bit_star` without certification.
+
+    ``regions``: the failed regions of earlier certificates (a certified re-plan): every edge
+    must be certified inside them (:class:`~taskspace.planning.certify.FailedRegions`).
+    """
     cap, limit = planner_limits(opts.max_iterations, opts.time_limit_s)
     batch = check_count(opts.batch_size, "batch_size", minimum=1)
     check_positive(opts.gamma_factor, "gamma_factor")
@@ -210,6 +216,8 @@ def _plan(
     q_start = space.check_endpoint(start, "start")
     goals, region = goal_states(space, goal)
     found = edge_case(space, q_start, goals, region, budget)
+    if found is not None and regions is not None:
+        found = regions.edge_case(found)
     if found is not None:
         return edge_case_result(
             space, found, budget, (checks0, edges0), cost_of, goal_count=len(goals)
@@ -418,7 +426,9 @@ def _plan(
             continue
         if budget.out_of_time():  # read before each edge check: the overrun is one edge
             break
-        if not space.motion_valid(S.q[v], S.q[x]):
+        if not space.motion_valid(S.q[v], S.q[x]) or (
+            regions is not None and not regions.allows(S.q[v], S.q[x])
+        ):
             failed.add((v, x))
             failed.add((x, v))
             continue

@@ -490,39 +490,148 @@ def certify_keeping(
     return result, made[-1]
 
 
-def certify_planned(
-    space: Any,
-    plan: Callable[[int, float], Any],
-    *,
-    time_limit_s: float,
-    retries: int,
-    tolerance: float = 1e-4,
-) -> Any:
-    """Plan, certify the path (:func:`certify_path`) and re-plan while it is not certified.
+_certify_segment = certify_path
+"""The certifier of :class:`FailedRegions` (a test that replaces :func:`certify_path` to see
+the certified paths does not see the parts of edges certified during a re-plan)."""
 
-    Args:
-        space: the planner's :class:`~taskspace.planning.ConfigurationSpace`; its checker
-            must be a :class:`~taskspace.planning.CollisionChecker` (a robot).
-        plan: ``plan(attempt, time_left_s) -> PlannerResult`` (attempt 0, 1, ...: the
-            planner with a different seed for each attempt).
-        time_limit_s: the whole budget [s] (``math.inf``: none).
-        retries: re-plans after an uncertified path (an integer >= 0).
-        tolerance: the least distance [m] still counted as free.
+_REGION_RESOLUTIONS = 4.0
+"""Radius of a failed region, in units of the space's edge resolution."""
 
-    Returns:
-        The first certified result (``log["certified"] = 1.0``, ``log["min_distance"]``,
-        ``log["certify_attempts"]``); when none could be certified, the last path with
-        ``success=False``, status ``UNCERTIFIED`` and ``log["uncertified_segment"]`` /
-        ``log["uncertified_t"]`` (where along it the proof stopped). The certification
-        reads the clock before each distance evaluation: when the time runs out in it, the
-        result has ``success=False``, status ``TIME_LIMIT`` and ``log["stopped_by"]`` is
-        ``"time"`` (the path is not certified, nothing was found against it).
+
+class FailedRegions:
+    """Where the certificates of earlier paths failed: a re-plan must prove its motions there.
+
+    A certificate that fails at ``q(t)`` of segment ``s`` met a configuration closer to contact
+    than the tolerance (or in contact) which the planner's edge check, a test of points at the
+    space's resolution ``delta``, let through; a re-plan with another seed would let it through
+    again: the same straight start-goal line, the same shortcut, or another edge across the
+    same thin spot. Each failure adds the ball of radius ``radius = 4 delta`` (in the space's
+    metric) around ``q(t)``. A re-plan accepts an edge only if its part inside every ball it
+    crosses is certified free (:func:`certify_path` on that part, within the plan's deadline);
+    edges that cross no ball are checked as before, at no extra cost. The balls are not
+    obstacles: a passage with a certifiable way through them stays open, and the returned
+    path is still certified whole (:func:`certify_planned`); the balls only keep the re-plan
+    from returning a motion already known to fail.
+
+    The part inside a ball: the exact chord in a box space; on a joint manifold, between the
+    points (at the resolution) nearer than ``radius``, widened by one point on each side.
+
+    Attributes:
+        centers: the configurations ``q(t)`` where certificates failed, ``(k, d)``.
+        radius: the balls' radius [rad or m].
+        failures: ``(attempt, segment, t)`` of each failed certificate.
+        certifications: edge parts certified during re-plans (inside a ball).
+        rejections: those that could not be certified (the edge was refused).
+    """
+
+    def __init__(self, space: Any, tolerance: float) -> None:
+        self.space = space
+        self.robot, self.locked, self._checker = _certified_robot(space)
+        self.tolerance = tolerance
+        self.deadline = math.inf
+        self.radius = _REGION_RESOLUTIONS * float(space.edge.resolution)
+        self.centers: FloatArray = np.empty((0, space.dim))
+        self.failures: list[tuple[int, int, float]] = []
+        self.certifications = 0
+        self.rejections = 0
+
+    def add(self, attempt: int, path: FloatArray, segment: int, t: float) -> None:
+        """Record the failure of ``path`` (the planner's coordinates) at ``segment``, ``t``."""
+        self.failures.append((attempt, segment, t))
+        if not 0 <= segment < path.shape[0] - 1:  # a one-point path (the start in a region)
+            q = path[min(max(segment, 0), path.shape[0] - 1)]
+        else:
+            q = self.space.interpolate(path[segment], path[segment + 1], t)[0]
+        self.centers = np.vstack([self.centers, q[None, :]])
+
+    def crossings(self, q0: FloatArray, q1: FloatArray) -> list[tuple[float, float]]:
+        """The intervals ``[t_in, t_out]`` of the edge ``q0 -> q1`` inside a ball."""
+        out: list[tuple[float, float]] = []
+        r2 = self.radius * self.radius
+        if self.space.is_euclidean:
+            b = q1 - q0
+            bb = float(b @ b)
+            if bb <= 0.0:
+                return out
+            tc = (self.centers - q0) @ b / bb  # closest points of the line
+            e2 = np.sum((q0 + tc[:, None] * b - self.centers) ** 2, axis=1)
+            for k in np.flatnonzero(e2 < r2):
+                h = math.sqrt((r2 - float(e2[k])) / bb)
+                lo, hi = max(0.0, float(tc[k]) - h), min(1.0, float(tc[k]) + h)
+                if lo <= hi:
+                    out.append((lo, hi))
+            return out
+        n = self.space.segments(q0, q1)
+        ts = np.arange(n + 1) / n
+        points = self.space.interpolate(q0, q1, ts)
+        for c in self.centers:
+            inside = np.flatnonzero(self.space.distances(points, c) < self.radius)
+            if inside.size:
+                out.append((float(ts[max(inside[0] - 1, 0)]), float(ts[min(inside[-1] + 1, n)])))
+        return out
+
+    def allows(self, q0: FloatArray, q1: FloatArray) -> bool:
+        """Whether the edge ``q0 -> q1`` is certified free inside every ball it crosses."""
+        for lo, hi in self.crossings(q0, q1):
+            part = self.space.interpolate(q0, q1, np.array([lo, hi]))
+            if self.locked is not None:
+                part = self.locked.lift(part)
+            self.certifications += 1
+            cert = _certify_segment(
+                self.robot,
+                part,
+                tolerance=self.tolerance,
+                deadline=self.deadline,
+                spheres=lambda: _built_spheres(self._checker),
+            )
+            if not cert.certified:
+                self.rejections += 1
+                return False
+        return True
+
+    def edge_case(self, found: tuple[FloatArray, Any]) -> tuple[FloatArray, Any]:
+        """:func:`~taskspace.planning.limits.edge_case`'s answer, its straight line allowed.
+
+        A straight start-goal line (``max_iterations=0``) that :meth:`allows` refuses is no
+        path: ``ITERATION_LIMIT``, as when no line is free.
+        """
+        from taskspace.planning.planner_result import PlannerStatus
+
+        path, status = found
+        if status is PlannerStatus.SOLVED and path.shape[0] == 2 and not self.allows(*path):
+            return np.empty((0, self.space.dim)), PlannerStatus.ITERATION_LIMIT
+        return found
+
+    def kernel_regions(self) -> tuple[Any, ...] | None:
+        """The compiled RRT-Connect's ``regions`` argument, or ``None`` if it cannot take them.
+
+        ``(centers, radius, certifier, tolerance, near, far)``: the compiled certifier
+        (:func:`native_certifier`) certifies the parts inside the balls in the kernel. ``None``
+        for a space of locked joints (its kernel plans the reduced model) or a robot the
+        compiled certifier does not serve: the Python planner then runs.
+        """
+        if self.locked is not None:
+            return None
+        certifier = native_certifier(self.robot, lambda: _built_spheres(self._checker))
+        if certifier is None:
+            return None
+        return (
+            np.ascontiguousarray(self.centers),
+            self.radius,
+            certifier,
+            float(self.tolerance),
+            _NATIVE_NEAR,
+            _NATIVE_FAR,
+        )
+
+
+def _certified_robot(space: Any) -> tuple[Robot, Any, Any]:
+    """``(robot, locked joints or None, checker)`` of a space certify=True can serve.
 
     Raises:
         InvalidInputError: the space has no robot to certify against.
     """
     from taskspace.planning.collision_checker import CollisionChecker
-    from taskspace.planning.planner_result import PlannerStatus
 
     checker = getattr(space, "checker", None)
     locked = getattr(space, "locked", None)
@@ -534,21 +643,72 @@ def certify_planned(
             f"the space's checker is a {type(checker).__name__}, which has no geometry to "
             "measure distances on; use certify=False"
         )
+    return checker.robot, locked, checker
+
+
+def certify_planned(
+    space: Any,
+    plan: Callable[[int, float], Any],
+    *,
+    time_limit_s: float,
+    retries: int,
+    tolerance: float = 1e-4,
+    regions: FailedRegions | None = None,
+) -> Any:
+    """Plan, certify the path (:func:`certify_path`) and re-plan while it is not certified.
+
+    Args:
+        space: the planner's :class:`~taskspace.planning.ConfigurationSpace`; its checker
+            must be a :class:`~taskspace.planning.CollisionChecker` (a robot).
+        plan: ``plan(attempt, time_left_s) -> PlannerResult`` (attempt 0, 1, ...: the
+            planner with a different seed for each attempt).
+        time_limit_s: the whole budget [s] (``math.inf``: none).
+        retries: re-plans after an uncertified path (an integer >= 0).
+        tolerance: the least distance [m] still counted as free.
+        regions: filled with each failure (:class:`FailedRegions`, read by the re-plans of
+            ``plan``), its deadline set to the budget's end.
+
+    Returns:
+        The first certified result (``log["certified"] = 1.0``, ``log["min_distance"]``,
+        ``log["certify_attempts"]``, and ``log["certify_failures"]``: ``(attempt, segment,
+        t)`` of every earlier path whose certificate failed; with ``regions``,
+        ``log["region_certifications"]`` and ``log["region_rejections"]``, the edge parts
+        the re-plans certified inside the failed regions and refused there); when none could
+        be certified, the last path with
+        ``success=False``, status ``UNCERTIFIED`` and ``log["uncertified_segment"]`` /
+        ``log["uncertified_t"]`` (where along it the proof stopped). The certification
+        reads the clock before each distance evaluation: when the time runs out in it, the
+        result has ``success=False``, status ``TIME_LIMIT`` and ``log["stopped_by"]`` is
+        ``"time"`` (the path is not certified, nothing was found against it).
+
+    Raises:
+        InvalidInputError: the space has no robot to certify against.
+    """
+    from taskspace.planning.planner_result import PlannerStatus
+
+    robot, locked, checker = _certified_robot(space)
     retries = check_count(retries, "certify_retries")
     if isinstance(tolerance, (bool, np.bool_)):
         raise InvalidInputError(f"certify_tolerance must be a distance > 0 [m], got {tolerance!r}")
     check_positive(tolerance, "certify_tolerance")
     t0 = time.perf_counter()
+    if regions is not None:
+        regions.deadline = t0 + time_limit_s
+    failures: list[tuple[int, int, float]] = []
     result: Any = None
     for attempt in range(retries + 1):
         left = max(0.0, time_limit_s - (time.perf_counter() - t0))
         result = plan(attempt, left)
         result.log["certify_attempts"] = float(attempt + 1)
+        result.log["certify_failures"] = list(failures)
+        if regions is not None:
+            result.log["region_certifications"] = float(regions.certifications)
+            result.log["region_rejections"] = float(regions.rejections)
         if not result.success:
             return result
         path = result.path if locked is None else locked.lift(result.path)
         cert = certify_path(
-            checker.robot,
+            robot,
             path,
             tolerance=tolerance,
             deadline=t0 + time_limit_s,
@@ -562,6 +722,11 @@ def certify_planned(
         result.log["certified"] = 0.0
         result.log["uncertified_segment"] = float(cert.failed_segment)
         result.log["uncertified_t"] = cert.failed_t
+        if not cert.timed_out:
+            failures.append((attempt, cert.failed_segment, cert.failed_t))
+            result.log["certify_failures"] = list(failures)
+            if regions is not None:
+                regions.add(attempt, result.path, cert.failed_segment, cert.failed_t)
         if cert.timed_out:
             result.success = False
             result.status = PlannerStatus.TIME_LIMIT
@@ -584,25 +749,30 @@ def _built_spheres(checker: Any) -> Any:
     return checker.sphere_model() if checker.robot in _SPHERE_CACHE else None
 
 
-def plan_certified(space: Any, options: Any, run: Callable[[Any], Any]) -> Any:
+def plan_certified(
+    space: Any, options: Any, run: Callable[[Any, FailedRegions | None], Any]
+) -> Any:
     """:func:`certify_planned` for a planner whose options carry the common fields.
 
-    Attempt ``k`` runs ``run(options)`` with ``seed + k`` and the time left as its limit;
+    Attempt ``k`` runs ``run(options, regions)`` with ``seed + k`` and the time left as its
+    limit; ``regions`` is ``None`` on the first attempt, then the :class:`FailedRegions` of
+    the earlier attempts, which the planner's edge checks must honour (``regions.allows``).
     ``options`` has ``seed``, ``max_iterations``, ``time_limit_s``, ``certify_retries`` and
     ``certify_tolerance`` (RRT, RRT-Connect, RRT*, BIT*; PRM, Lazy PRM and PRM* call
-    :func:`certify_planned` with their own re-plan).
+    :func:`certify_planned` with their own re-plan, which drops the failed edge).
     """
     from taskspace._validation import check_seed
     from taskspace.planning.limits import planner_limits
 
     _, limit = planner_limits(options.max_iterations, options.time_limit_s)
     seed = check_seed(options.seed)
+    regions = FailedRegions(space, options.certify_tolerance)
 
     def plan(attempt: int, left: float) -> Any:
         again = dataclasses.replace(
             options, seed=seed + attempt, time_limit_s=left if math.isfinite(left) else None
         )
-        return run(again)
+        return run(again, regions if regions.failures else None)
 
     return certify_planned(
         space,
@@ -610,4 +780,5 @@ def plan_certified(space: Any, options: Any, run: Callable[[Any], Any]) -> Any:
         time_limit_s=limit,
         retries=options.certify_retries,
         tolerance=options.certify_tolerance,
+        regions=regions,
     )

@@ -33,7 +33,7 @@ import numpy as np
 
 from taskspace._validation import check_positive, check_seed
 from taskspace.errors import InvalidInputError
-from taskspace.planning.certify import plan_certified
+from taskspace.planning.certify import FailedRegions, plan_certified
 from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray
 from taskspace.planning.goals import REGION_FIRST_ATTEMPTS, goal_states, region_samples
 from taskspace.planning.limits import (
@@ -130,7 +130,7 @@ def rrt(
     opts = options or RRTOptions()
     if not opts.certify:
         return _plan(space, start, goal, opts, rng)
-    return plan_certified(space, opts, lambda o: _plan(space, start, goal, o, rng))
+    return plan_certified(space, opts, lambda o, r: _plan(space, start, goal, o, rng, r))
 
 
 def _plan(
@@ -139,8 +139,14 @@ def _plan(
     goal: Any,
     opts: RRTOptions,
     rng: np.random.Generator | None,
+    regions: FailedRegions | None = None,
 ) -> PlannerResult:
-    """:func:`rrt` without certification."""
+    """:func:`rrt` without certification.
+
+    ``regions``: the failed regions of earlier certificates (a certified re-plan): every tree
+    edge, goal edge and straight line must be certified inside them
+    (:class:`~taskspace.planning.certify.FailedRegions`).
+    """
     alpha = check_positive(opts.step_size, "step_size")
     if not 0.0 <= opts.goal_bias <= 1.0:
         raise InvalidInputError(f"goal_bias must be in [0, 1], got {opts.goal_bias}")
@@ -158,6 +164,8 @@ def _plan(
         if region is not None:
             goals = region_samples(space, region, rng, REGION_FIRST_ATTEMPTS, deadline)
     found = edge_case(space, q_start, goals, region, budget) if goal is not None else None
+    if found is not None and regions is not None:
+        found = regions.edge_case(found)
     if found is not None:
         return edge_case_result(space, found, budget, (checks0, edges0), goal_count=len(goals))
     euclidean = space.is_euclidean
@@ -193,14 +201,14 @@ def _plan(
         if free is None:  # the deadline passed during the edge: no node
             status = PlannerStatus.TIME_LIMIT
             break
-        if not free:
+        if not free or (regions is not None and not regions.allows(q_near, q_new)):
             continue
         i_new = tree.add(q_new, i_near)
         if region is not None and region.contains(q_new):
             path = tree.freeze().path_to(i_new)  # inside the region: a goal configuration
             status = PlannerStatus.SOLVED
             break
-        i_goal = _reach_goal(space, tree, i_new, goals, alpha, budget)
+        i_goal = _reach_goal(space, tree, i_new, goals, alpha, budget, regions)
         if i_goal == _LATE:  # the new node stays, the goal edge is not known free
             status = PlannerStatus.TIME_LIMIT
             break
@@ -245,6 +253,7 @@ def _reach_goal(
     goals: list[FloatArray],
     alpha: float,
     budget: Budget,
+    regions: FailedRegions | None = None,
 ) -> int:
     """The tree node of a goal within ``alpha`` of node ``i_new`` joined to it free, or -1.
 
@@ -265,6 +274,8 @@ def _reach_goal(
         free = budget.motion_valid(space, q_new, goals[g])
         if free is None:
             return _LATE
+        if free and regions is not None:
+            free = regions.allows(q_new, goals[g])
         if free:
             return i_new if gaps[g] == 0.0 else tree.add(goals[g], i_new)
     return -1

@@ -106,7 +106,7 @@ import numpy as np
 
 from taskspace._validation import check_count, check_positive, check_seed
 from taskspace.errors import InvalidInputError, PlanningError, UnknownNameError
-from taskspace.planning.certify import plan_certified
+from taskspace.planning.certify import FailedRegions, plan_certified
 from taskspace.planning.collision_checker import CollisionChecker
 from taskspace.planning.configuration_space import (
     ConfigurationSpace,
@@ -376,11 +376,14 @@ def _grow(
     max_steps: int,
     end_known_valid: bool,
     budget: Budget,
+    regions: FailedRegions | None = None,
 ) -> tuple[int, bool, bool]:
     """Steps from node ``i_near`` towards ``target``.
 
     The steps are checked one after the other (one checker call each, the clock read before
-    each: :meth:`Budget.first_invalid`); every step checked free becomes a node.
+    each: :meth:`Budget.first_invalid`); every step checked free becomes a node. With
+    ``regions`` (a re-plan after failed certificates), the steps after the first one
+    :meth:`FailedRegions.allows` refuses are out too.
 
     Returns:
         ``(last node added, target reached, out of time)``; the last node is ``i_near`` when
@@ -399,9 +402,13 @@ def _grow(
         n_ok = 0 if steps is None else int(steps[stop])
     parent = i_near
     lazy = lines.lazy
+    q_prev = q0
     for k in range(n_ok):
         q = target.copy() if ends[k] == 1.0 else space.interpolate(q0, target, ends[k])[0]
+        if regions is not None and not regions.allows(q_prev, q):
+            return parent, False, late
         parent = tree.add(q, parent, n_segments[k], lazy)
+        q_prev = q
     reached = n_ok == len(ends) and ends[-1] == 1.0
     return parent, reached, late
 
@@ -413,13 +420,15 @@ def _extend(
     q_rand: FloatArray,
     partial: bool,
     budget: Budget,
+    regions: FailedRegions | None = None,
 ) -> int:
     """EXTEND(T, q_rand): one step of length <= alpha from the nearest node; new node or -1.
 
     Default: the step's end point is checked first, then its coarse interior (OMPL's order);
     with ``partial`` the coarse points are checked in order along the step and the last free
     one becomes the new node. The clock is read before the step's check: :data:`_LATE` when
-    the deadline has passed (nothing checked, no node).
+    the deadline has passed (nothing checked, no node). With ``regions``, a step
+    :meth:`FailedRegions.allows` refuses is blocked (-1).
     """
     i_near, dist = tree.nn.nearest(q_rand)
     if dist == 0.0:
@@ -438,7 +447,10 @@ def _extend(
         if bad == 0:
             return -1
         if bad > 0:
-            return tree.add(points[bad - 1].copy(), i_near, int(grid[bad - 1]), lines.lazy)
+            q_new = points[bad - 1].copy()
+            if regions is not None and not regions.allows(q_near, q_new):
+                return -1
+            return tree.add(q_new, i_near, int(grid[bad - 1]), lines.lazy)
     else:
         points = space.interpolate(q_near, q_rand, lines.pattern(n_seg) * step)
         if budget.out_of_time():
@@ -446,6 +458,8 @@ def _extend(
         if space.checker.first_invalid(points) >= 0:
             return -1
     q_new = points[0 if not partial else -1].copy() if dist > alpha else q_rand.copy()
+    if regions is not None and not regions.allows(q_near, q_new):
+        return -1
     return tree.add(q_new, i_near, n_seg, lines.lazy)
 
 
@@ -553,6 +567,8 @@ def _rrt_connect_native(
     seed: int,
     t0: float,
     prior_checks: int,
+    in_kernel: tuple[Any, ...] | None = None,
+    regions: FailedRegions | None = None,
 ) -> PlannerResult:
     """:func:`rrt_connect` by the compiled kernel (options already validated).
 
@@ -574,6 +590,9 @@ def _rrt_connect_native(
         t0: ``time.perf_counter()`` at the call of :func:`rrt_connect` [s].
         prior_checks: collision checks of this call before this plan (a first plan's, for
             its re-plan), added to the result's.
+        in_kernel: ``regions.kernel_regions()`` (``None``: no failed regions).
+        regions: the failed regions, whose counts of certified and refused edge parts the
+            kernel's are added to.
     """
     module = _KERNEL_MODULE[0] if _KERNEL_MODULE else _kernel_module()
     remaining = -1.0  # the kernel's "no limit"
@@ -599,13 +618,18 @@ def _rrt_connect_native(
             checker,  # collision_checker
             settings.fallback,  # fallback_iterations
             settings.validator,  # validator
+            in_kernel,  # regions
         )
     except BaseException:  # also after Ctrl-C: the checks the kernel made are counted
         space.checker.checks += int(kernel.checks - kernel_checks0)
         raise
     (status_code, path, iterations, edges, rejections, removed, turns, start_tree, goal_tree,
-     exact_checks, recheck_failed, length, fallback, phases, certified, checks) = out  # fmt: skip
+     exact_checks, recheck_failed, length, fallback, phases, certified, checks,
+     region_counts) = out  # fmt: skip
     space.checker.checks += checks  # the plan's collision checks
+    if regions is not None:
+        regions.certifications += region_counts[0]
+        regions.rejections += region_counts[1]
     if status_code >= _START_INVALID:
         _raise_endpoint(space, q_start, q_goal, status_code)
     space.edge_checks += edges
@@ -751,7 +775,7 @@ def rrt_connect(
     if not opts.certify:
         return _plan(space, start, goal, opts, rng, t0)
     return plan_certified(
-        space, opts, lambda o: _plan(space, start, goal, o, rng, time.perf_counter())
+        space, opts, lambda o, r: _plan(space, start, goal, o, rng, time.perf_counter(), r)
     )
 
 
@@ -850,8 +874,15 @@ def _plan(
     opts: RRTConnectOptions,
     rng: np.random.Generator | None,
     t0: float,
+    regions: FailedRegions | None = None,
 ) -> PlannerResult:
-    """:func:`rrt_connect` without certification (``t0``: its ``time.perf_counter()`` [s])."""
+    """:func:`rrt_connect` without certification (``t0``: its ``time.perf_counter()`` [s]).
+
+    ``regions``: the failed regions of earlier certificates (a certified re-plan): every edge
+    of the trees and the straight start-goal line must be certified inside them
+    (:class:`~taskspace.planning.certify.FailedRegions`); the compiled planner certifies in
+    the kernel when it can, else this module's planner runs.
+    """
     settings = _settings(opts)
     alpha = settings.alpha
     delta = space.edge.resolution
@@ -868,6 +899,11 @@ def _plan(
     seed = settings.seed
     goal_set = is_goal_set(goal)  # several goals or a region: the Python planner
     kernel = None if goal_set else _native_kernel(space, opts)
+    in_kernel = None  # the failed regions as the kernel takes them
+    if kernel is not None and regions is not None:
+        in_kernel = regions.kernel_regions()
+        if in_kernel is None:
+            kernel = None
     if kernel is not None:  # the kernel checks the endpoints' bounds and collisions
         q_start = space.endpoint_vector(start, "start")
         q_goal = space.endpoint_vector(goal, "goal")
@@ -876,7 +912,7 @@ def _plan(
         if checker and type(space.checker) is LockedJointChecker:
             checker = 0  # its kernel: exact checks ("mesh")
         native = (q_start, q_goal, opts, settings, delta, delta_c, seed, t0)
-        result = _rrt_connect_native(space, kernel, checker, *native, 0)
+        result = _rrt_connect_native(space, kernel, checker, *native, 0, in_kernel, regions)
         if not result.log["sphere_recheck_failed"]:
             return result
         # the exact checker refused the sphere checker's path: plan again with it
@@ -885,7 +921,9 @@ def _plan(
         )
         assert isinstance(space.checker, CollisionChecker)  # as _native_kernel requires
         kernel = space.checker.native_kernel()
-        retry = _rrt_connect_native(space, kernel, 0, *native, result.collision_checks)
+        retry = _rrt_connect_native(
+            space, kernel, 0, *native, result.collision_checks, in_kernel, regions
+        )
         retry.log["sphere_recheck_failed"] = 1.0
         return retry
     checks0, edges0 = space.checks, space.edge_checks
@@ -917,6 +955,8 @@ def _plan(
         if free is None:
             late = 1
             break
+        if free and regions is not None:
+            free = regions.allows(q_start, goals[g])
         if free:
             direct = g
             break
@@ -962,7 +1002,7 @@ def _plan(
                     far = space.sample_uniform(rng)
                     gap_r = space.distance(node, far)
                     q_rand = space.interpolate(node, far, min(1.0, opts.local_sigma / gap_r))[0]
-            a_new = _extend(space, tree_a, lines, q_rand, opts.partial_extend, budget)
+            a_new = _extend(space, tree_a, lines, q_rand, opts.partial_extend, budget, regions)
             if a_new == _LATE:
                 status = PlannerStatus.TIME_LIMIT
                 break
@@ -975,7 +1015,7 @@ def _plan(
                 else:
                     space.edge_checks += 1
                     b_new, reached, late_b = _grow(
-                        space, tree_b, lines, j_near, q_new, gap, 1 << 30, True, budget
+                        space, tree_b, lines, j_near, q_new, gap, 1 << 30, True, budget, regions
                     )
                 if late_b:
                     status = PlannerStatus.TIME_LIMIT

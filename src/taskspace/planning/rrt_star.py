@@ -30,7 +30,7 @@ import numpy as np
 
 from taskspace._validation import check_positive, check_seed
 from taskspace.errors import InvalidInputError
-from taskspace.planning.certify import plan_certified
+from taskspace.planning.certify import FailedRegions, plan_certified
 from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray
 from taskspace.planning.goals import GoalRegion as GoalRegion  # re-exported (moved to goals)
 from taskspace.planning.goals import goal_states
@@ -219,7 +219,7 @@ def rrt_star(
     opts = options or RRTStarOptions()
     if not opts.certify:
         return _plan(space, start, goal, opts, objective, rng)
-    return plan_certified(space, opts, lambda o: _plan(space, start, goal, o, objective, rng))
+    return plan_certified(space, opts, lambda o, r: _plan(space, start, goal, o, objective, rng, r))
 
 
 def _plan(
@@ -229,8 +229,18 @@ def _plan(
     opts: RRTStarOptions,
     objective: OptimizationObjective | None,
     rng: np.random.Generator | None,
+    regions: FailedRegions | None = None,
 ) -> PlannerResult:
-    """:func:`rrt_star` without certification."""
+    """:func:`rrt_star` without certification.
+
+    ``regions``: the failed regions of earlier certificates (a certified re-plan): every edge
+    (RRT-Connect's first path, parents, rewiring, goal edges, the straight line) must be
+    certified inside them (:class:`~taskspace.planning.certify.FailedRegions`).
+    """
+
+    def motion_valid(q0: FloatArray, q1: FloatArray) -> bool:
+        return space.motion_valid(q0, q1) and (regions is None or regions.allows(q0, q1))
+
     eta = check_positive(opts.step_size, "step_size")
     iterations, limit = planner_limits(opts.max_iterations, opts.time_limit_s)
     if not 0.0 <= opts.goal_bias <= 1.0:
@@ -259,6 +269,8 @@ def _plan(
     deadline = t0 + limit
     budget = Budget(iterations, limit, t0)
     found = edge_case(space, q_start, goals, region, budget)
+    if found is not None and regions is not None:
+        found = regions.edge_case(found)
     if found is not None:
         return edge_case_result(
             space, found, budget, (checks0, edges0), cost_of, goal_count=len(goals)
@@ -302,7 +314,14 @@ def _plan(
         aim = _first_goal(space, q_start, goals, region, rng)
     if aim >= 0:
         it, seeded = _seed_with_rrt_connect(
-            space, tree, goals[aim], cost_of, rng, iterations, deadline - time.perf_counter()
+            space,
+            tree,
+            goals[aim],
+            cost_of,
+            rng,
+            iterations,
+            deadline - time.perf_counter(),
+            regions,
         )
         if seeded >= 0:
             first_by = "rrt_connect"
@@ -358,7 +377,7 @@ def _plan(
                 continue
         if not space.is_valid(x_new) or time.perf_counter() > deadline:
             continue  # (out of time: the loop ends at its next clock reading)
-        if not space.motion_valid(nodes[near_i], x_new):
+        if not motion_valid(nodes[near_i], x_new):
             continue
         n = tree.n
         dist = space.distances(nodes, x_new)
@@ -393,7 +412,7 @@ def _plan(
             if time.perf_counter() > deadline:
                 late = True
                 break
-            if space.motion_valid(nodes[j], x_new):
+            if motion_valid(nodes[j], x_new):
                 best_parent, best_cost = int(j), c
                 break
         new = tree.add(x_new, best_parent, float(best_cost))
@@ -414,7 +433,7 @@ def _plan(
             if time.perf_counter() > deadline:
                 late = True
                 break
-            if space.motion_valid(x_new, tree.nodes[j]):
+            if motion_valid(x_new, tree.nodes[j]):
                 tree.reparent(j, new, float(c))
         # Connect to the goals.
         if region is not None and region.contains(x_new):
@@ -429,7 +448,7 @@ def _plan(
             if time.perf_counter() > deadline:
                 late = True
                 continue
-            if space.motion_valid(x_new, q_goal):
+            if motion_valid(x_new, q_goal):
                 if node < 0:
                     goal_nodes[g] = tree.add(q_goal, new, best_cost + to_goal)
                 else:
@@ -513,6 +532,7 @@ def _seed_with_rrt_connect(
     rng: np.random.Generator,
     iterations: int,
     limit: float,
+    regions: FailedRegions | None = None,
 ) -> tuple[int, int]:
     """RRT-Connect's path from the root to ``q_goal`` as a branch of ``tree``.
 
@@ -522,21 +542,20 @@ def _seed_with_rrt_connect(
 
     Returns the iterations RRT-Connect used and the tree node of ``q_goal`` (-1 when
     RRT-Connect found no path within the limits). Every edge of RRT-Connect's path is free
-    at the space's resolution, as RRT*'s own edges are.
+    at the space's resolution, as RRT*'s own edges are, and certified inside ``regions``.
     """
-    from taskspace.planning.rrt_connect import RRTConnectOptions, rrt_connect
+    from taskspace.planning.rrt_connect import RRTConnectOptions
+    from taskspace.planning.rrt_connect import _plan as rrt_connect_plan
 
     if iterations <= 0 or limit <= 0.0:  # no time left: not even its endpoint checks
         return 0, -1
-    result = rrt_connect(
-        space,
-        tree.nodes[0],
-        q_goal,
-        RRTConnectOptions(
-            max_iterations=iterations if iterations < 2**62 else None,
-            time_limit_s=limit if math.isfinite(limit) else None,
-            seed=int(rng.integers(2**31)),
-        ),
+    options = RRTConnectOptions(
+        max_iterations=iterations if iterations < 2**62 else None,
+        time_limit_s=limit if math.isfinite(limit) else None,
+        seed=int(rng.integers(2**31)),
+    )
+    result = rrt_connect_plan(
+        space, tree.nodes[0], q_goal, options, None, time.perf_counter(), regions
     )
     used = min(int(result.iterations), iterations)
     path = result.path
