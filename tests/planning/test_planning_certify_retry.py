@@ -48,7 +48,7 @@ def post(tmp_path_factory: pytest.TempPathFactory) -> tuple[Robot, Configuration
 
 
 def _plan(name: str, space: ConfigurationSpace, seed: int, certify: bool = True) -> Any:
-    common: dict[str, Any] = {"seed": seed, "certify": certify, "time_limit_s": 30.0}
+    common: dict[str, Any] = {"seed": seed, "certify": certify, "time_limit_s": None}
     if name == "rrt_connect":
         return rrt_connect(space, A, B, RRTConnectOptions(max_iterations=5000, **common))
     if name == "rrt_connect_spheres":
@@ -215,3 +215,35 @@ def test_regions_need_a_robot() -> None:
     space = ConfigurationSpace([-1.0, -1.0], [1.0, 1.0], lambda q: True)  # type: ignore[arg-type]
     with pytest.raises(InvalidInputError, match="certify=True needs a space built on a robot"):
         FailedRegions(space, 1e-4)
+
+
+@pytest.fixture(scope="module")
+def wall(tmp_path_factory: pytest.TempPathFactory) -> tuple[Robot, ConfigurationSpace]:
+    # The wall of test_planning_certify_all (0.01 m thick, 1 m long, for y < 0): every crossing
+    # between checked points is uncertifiable, not only the one near (0, -0.5).
+    path = Path(tmp_path_factory.mktemp("wall")) / "disc.urdf"
+    path.write_text(_URDF)
+    robot = Robot.from_urdf(path)
+    robot.add_obstacle(Obstacle.box("wall", [0.01, 1.0, 0.2], [0.0, -0.5, 0.0]))
+    return robot, ConfigurationSpace.from_robot(robot, edge=EdgeCheckOptions(resolution=0.08))
+
+
+@pytest.mark.parametrize("name", [*CROSSING, "rrt"])
+def test_a_thin_wall_crossed_elsewhere_grows_the_region(wall, name: str) -> None:  # type: ignore[no-untyped-def]
+    # RRT* and BIT* look for the shortest crossing: just outside the first ball. The balls
+    # grow with each failure (4, 8 delta), so the third attempt goes around the wall.
+    robot, space = wall
+    for seed in SEEDS:
+        result = _plan(name, space, seed)
+        assert result.success and result.log["certified"] == 1.0, (name, seed)
+        assert dense_least_distance(robot, result.path) > 0.0
+        assert len(result.log["certify_failures"]) == result.log["certify_attempts"] - 1
+
+
+def test_the_radius_doubles_after_each_failure(post) -> None:  # type: ignore[no-untyped-def]
+    _, space = post
+    regions = FailedRegions(space, 1e-4)
+    for k in range(3):
+        regions.add(k, np.stack([A, B]), 0, 0.5)
+        assert regions.radius == pytest.approx(4 * 0.08 * 2**k)
+    assert regions.centers.shape == (3, 2) and regions.failures[2] == (2, 0, 0.5)

@@ -505,10 +505,14 @@ class FailedRegions:
     than the tolerance (or in contact) which the planner's edge check, a test of points at the
     space's resolution ``delta``, let through; a re-plan with another seed would let it through
     again: the same straight start-goal line, the same shortcut, or another edge across the
-    same thin spot. Each failure adds the ball of radius ``radius = 4 delta`` (in the space's
-    metric) around ``q(t)``. A re-plan accepts an edge only if its part inside every ball it
-    crosses is certified free (:func:`certify_path` on that part, within the plan's deadline);
-    edges that cross no ball are checked as before, at no extra cost. The balls are not
+    same thin spot. Each failure adds a ball (in the space's metric) around ``q(t)``; all
+    balls have the radius ``radius = 4 delta 2^(k - 1)`` after ``k`` failures: a failure
+    again, after the first, says that the thin spot extends beyond the balls (a thin wall
+    crossed elsewhere, which an optimizing planner seeks out: the shortest crossing just
+    outside the ball), so the region where motions must be proven grows. A re-plan accepts
+    an edge only if its part inside every ball it crosses is certified free
+    (:func:`certify_path` on that part, within the plan's deadline); edges that cross no
+    ball are checked as before, at no extra cost. The balls are not
     obstacles: a passage with a certifiable way through them stays open, and the returned
     path is still certified whole (:func:`certify_planned`); the balls only keep the re-plan
     from returning a motion already known to fail.
@@ -518,7 +522,7 @@ class FailedRegions:
 
     Attributes:
         centers: the configurations ``q(t)`` where certificates failed, ``(k, d)``.
-        radius: the balls' radius [rad or m].
+        base_radius: the balls' radius after one failure [rad or m].
         failures: ``(attempt, segment, t)`` of each failed certificate.
         certifications: edge parts certified during re-plans (inside a ball).
         rejections: those that could not be certified (the edge was refused).
@@ -529,11 +533,16 @@ class FailedRegions:
         self.robot, self.locked, self._checker = _certified_robot(space)
         self.tolerance = tolerance
         self.deadline = math.inf
-        self.radius = _REGION_RESOLUTIONS * float(space.edge.resolution)
+        self.base_radius = _REGION_RESOLUTIONS * float(space.edge.resolution)
         self.centers: FloatArray = np.empty((0, space.dim))
         self.failures: list[tuple[int, int, float]] = []
         self.certifications = 0
         self.rejections = 0
+
+    @property
+    def radius(self) -> float:
+        """The balls' radius [rad or m]: ``base_radius`` doubled at each failure after the first."""
+        return float(self.base_radius * 2.0 ** max(0, len(self.failures) - 1))
 
     def add(self, attempt: int, path: FloatArray, segment: int, t: float) -> None:
         """Record the failure of ``path`` (the planner's coordinates) at ``segment``, ``t``."""

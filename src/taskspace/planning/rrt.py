@@ -68,7 +68,9 @@ class RRTOptions:
             (``certify_retries`` times, within the time limit), and if none can be certified
             the result has ``success=False`` and status ``UNCERTIFIED``. Needs a space built
             on a robot.
-        certify_retries: re-plans (next seeds) after an uncertified path.
+        certify_retries: re-plans (next seeds) after an uncertified path; a re-plan accepts a
+            motion near a spot where an earlier certificate failed only if it is certified
+            there (:class:`~taskspace.planning.certify.FailedRegions`).
         certify_tolerance: the least robot-obstacle (and self) distance [m] along the path
             counted as free by the certification.
     """

@@ -155,7 +155,9 @@ class RRTConnectOptions:
             ``partial_extend``, this module's Python implementation runs.
         certify: prove the returned path free between its checked points (see
             :func:`rrt_connect`); needs a space built on a robot.
-        certify_retries: re-plans (next seeds) after an uncertified path.
+        certify_retries: re-plans (next seeds) after an uncertified path; a re-plan accepts a
+            motion near a spot where an earlier certificate failed only if it is certified
+            there (:class:`~taskspace.planning.certify.FailedRegions`).
         certify_tolerance: the least robot-obstacle (and self) distance [m] along the path
             counted as free by the certification.
         checker: collision test of the compiled planner (see :data:`CHECKERS`): ``"mesh"``
@@ -767,8 +769,10 @@ def rrt_connect(
     Certified paths: with ``options.certify`` the returned path is proven free between its
     checked points by :func:`~taskspace.planning.certify_path` (conservative advancement on
     the robot's geometry); an uncertified path is re-planned with the next seeds
-    (``certify_retries`` times, within the time limit) and, if none can be certified, the
-    result has ``success=False``, status ``UNCERTIFIED`` and the failing segment in ``log``.
+    (``certify_retries`` times, within the time limit; the compiled planner certifies the
+    motions near the spots of earlier failures in the kernel) and, if none can be certified,
+    the result has ``success=False``, status ``UNCERTIFIED`` and the failing segments in
+    ``log`` (``certify_failures``).
     """
     t0 = time.perf_counter()  # time_s counts the whole call, the validation included
     opts = options or _DEFAULT_OPTIONS

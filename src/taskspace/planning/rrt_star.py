@@ -69,7 +69,9 @@ class RRTStarOptions:
             dimensions the ball of radius ``r_n <= eta`` is almost always empty.
         certify: prove the returned path free between its checked points (see
             :func:`rrt_star`); needs a space built on a robot.
-        certify_retries: re-plans (next seeds) after an uncertified path.
+        certify_retries: re-plans (next seeds) after an uncertified path; a re-plan accepts a
+            motion near a spot where an earlier certificate failed only if it is certified
+            there (:class:`~taskspace.planning.certify.FailedRegions`).
         certify_tolerance: the least robot-obstacle (and self) distance [m] along the path
             counted as free by the certification.
         first_solution: how the first path is found. ``"rrt_connect"`` (default, with one
@@ -544,7 +546,7 @@ def _seed_with_rrt_connect(
     RRT-Connect found no path within the limits). Every edge of RRT-Connect's path is free
     at the space's resolution, as RRT*'s own edges are, and certified inside ``regions``.
     """
-    from taskspace.planning.rrt_connect import RRTConnectOptions
+    from taskspace.planning.rrt_connect import RRTConnectOptions, rrt_connect
     from taskspace.planning.rrt_connect import _plan as rrt_connect_plan
 
     if iterations <= 0 or limit <= 0.0:  # no time left: not even its endpoint checks
@@ -554,9 +556,12 @@ def _seed_with_rrt_connect(
         time_limit_s=limit if math.isfinite(limit) else None,
         seed=int(rng.integers(2**31)),
     )
-    result = rrt_connect_plan(
-        space, tree.nodes[0], q_goal, options, None, time.perf_counter(), regions
-    )
+    if regions is None:
+        result = rrt_connect(space, tree.nodes[0], q_goal, options)
+    else:  # a certified re-plan: rrt_connect with the failed regions
+        result = rrt_connect_plan(
+            space, tree.nodes[0], q_goal, options, None, time.perf_counter(), regions
+        )
     used = min(int(result.iterations), iterations)
     path = result.path
     if not result.success or path.shape[0] < 2 or space.distance(path[-1], q_goal) > 1e-9:
