@@ -247,3 +247,23 @@ def test_the_radius_doubles_after_each_failure(post) -> None:  # type: ignore[no
         regions.add(k, np.stack([A, B]), 0, 0.5)
         assert regions.radius == pytest.approx(4 * 0.08 * 2**k)
     assert regions.centers.shape == (3, 2) and regions.failures[2] == (2, 0, 0.5)
+
+
+@pytest.mark.parametrize("name", ["rrt_connect", "bit_star"])
+def test_a_replan_without_a_path_leaves_the_result_uncertified(post, name: str) -> None:  # type: ignore[no-untyped-def]
+    # A tolerance of 5 m certifies nothing: the re-plans cannot pass the failed regions, and
+    # once the balls cover the start no path is left. The answer is the last path planned,
+    # UNCERTIFIED (not the re-plan's ITERATION_LIMIT), with the re-plan's status in the log.
+    _, space = post
+    common: dict[str, Any] = {"seed": 0, "certify": True, "certify_tolerance": 5.0}
+    if name == "rrt_connect":
+        result = rrt_connect(space, A, B, RRTConnectOptions(max_iterations=3000, **common))
+    else:
+        result = bit_star(space, A, B, BITStarOptions(max_iterations=200, **common))
+    assert not result.success and result.status is PlannerStatus.UNCERTIFIED
+    assert result.log["stopped_by"] == "uncertified" and result.log["certified"] == 0.0
+    assert result.path.shape[0] >= 2
+    attempts = result.log["certify_attempts"]
+    assert len(result.log["certify_failures"]) in (attempts, attempts - 1)
+    if len(result.log["certify_failures"]) < attempts:
+        assert result.log["replan_status"] == "iteration_limit"

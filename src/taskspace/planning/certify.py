@@ -683,7 +683,8 @@ def certify_planned(
         t)`` of every earlier path whose certificate failed; with ``regions``,
         ``log["region_certifications"]`` and ``log["region_rejections"]``, the edge parts
         the re-plans certified inside the failed regions and refused there); when none could
-        be certified, the last path with
+        be certified (with ``regions``: also when a re-plan found no path within its limits
+        other than time, ``log["replan_status"]`` its status), the last path with
         ``success=False``, status ``UNCERTIFIED`` and ``log["uncertified_segment"]`` /
         ``log["uncertified_t"]`` (where along it the proof stopped). The certification
         reads the clock before each distance evaluation: when the time runs out in it, the
@@ -705,6 +706,7 @@ def certify_planned(
         regions.deadline = t0 + time_limit_s
     failures: list[tuple[int, int, float]] = []
     result: Any = None
+    uncertified: Any = None  # the last planned path whose certificate failed
     for attempt in range(retries + 1):
         left = max(0.0, time_limit_s - (time.perf_counter() - t0))
         result = plan(attempt, left)
@@ -714,7 +716,16 @@ def certify_planned(
             result.log["region_certifications"] = float(regions.certifications)
             result.log["region_rejections"] = float(regions.rejections)
         if not result.success:
-            return result
+            if uncertified is None or regions is None or result.status is PlannerStatus.TIME_LIMIT:
+                return result
+            # no path that is certified inside the failed regions (or avoids them) within the
+            # limits: the uncertified path found before is the answer, UNCERTIFIED
+            uncertified.log.update(
+                {k: v for k, v in result.log.items() if k.startswith(("certify_", "region_"))}
+            )
+            uncertified.log["replan_status"] = result.status.value
+            result = uncertified
+            break
         path = result.path if locked is None else locked.lift(result.path)
         cert = certify_path(
             robot,
@@ -732,6 +743,7 @@ def certify_planned(
         result.log["uncertified_segment"] = float(cert.failed_segment)
         result.log["uncertified_t"] = cert.failed_t
         if not cert.timed_out:
+            uncertified = result
             failures.append((attempt, cert.failed_segment, cert.failed_t))
             result.log["certify_failures"] = list(failures)
             if regions is not None:
