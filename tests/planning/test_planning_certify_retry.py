@@ -267,3 +267,35 @@ def test_a_replan_without_a_path_leaves_the_result_uncertified(post, name: str) 
     assert len(result.log["certify_failures"]) in (attempts, attempts - 1)
     if len(result.log["certify_failures"]) < attempts:
         assert result.log["replan_status"] == "iteration_limit"
+
+
+def test_crossings_on_a_joint_manifold_cover_the_ball() -> None:
+    # Free-flyer, spherical, revolute, prismatic and continuous joints: the part inside a ball
+    # is taken at the resolution, widened by one point on each side, so it contains every
+    # point of the edge nearer than the radius (checked at 50 times the resolution).
+    from tests.planning.test_planning_certify_manifold import _chain_robot
+
+    space = ConfigurationSpace.from_robot(
+        _chain_robot(),
+        edge=EdgeCheckOptions(resolution=0.1),
+        base_lower=[-1.0, -1.0, -1.0],
+        base_upper=[1.0, 1.0, 1.0],
+    )
+    assert not space.is_euclidean
+    rng = np.random.default_rng(3)
+    regions = FailedRegions(space, 1e-4)
+    q0, q1 = space.sample_uniform(rng), space.sample_uniform(rng)
+    regions.add(0, np.stack([q0, q1]), 0, 0.4)
+    hits = 0
+    for _ in range(30):
+        a = space.interpolate(q0, space.sample_uniform(rng), 0.05)[0]
+        b = space.interpolate(q1, space.sample_uniform(rng), 0.05)[0]
+        got = regions.crossings(a, b)
+        t = np.linspace(0.0, 1.0, 50 * space.segments(a, b) + 1)
+        inside = t[space.distances(space.interpolate(a, b, t), regions.centers[0]) < regions.radius]
+        if inside.size == 0:
+            continue
+        hits += 1
+        ((lo, hi),) = got
+        assert lo <= inside[0] and inside[-1] <= hi
+    assert hits > 0
