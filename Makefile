@@ -18,7 +18,13 @@ endif
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
-	$(PY) -m pip install --quiet --upgrade pip
+
+# uv installs the packages (the same versions as pip resolves, in a fraction of the time: it
+# downloads in parallel and keeps a cache); pip only installs uv itself.
+UV := $(VENV)/bin/uv
+$(UV): | $(PY)
+	$(PY) -m pip install --quiet uv
+UV_PIP := $(UV) pip install --quiet --python $(PY)
 
 # Debian packages that the build needs, installed with apt when missing.
 APT_TOOLS := g++:g++ cmake:cmake
@@ -42,11 +48,11 @@ SKBUILD_ARGS := $(if $(filter 1 ON on yes,$(NATIVE_ARCH)),-Ccmake.define.TASKSPA
 BUILD_REQUIRES = $(shell $(PY) -c "exec('try: import tomllib\\nexcept ImportError: from pip._vendor import tomli as tomllib'); \
 	print(' '.join(repr(r) for r in tomllib.load(open('pyproject.toml', 'rb'))['build-system']['requires']))")
 
-$(STAMP): pyproject.toml CMakeLists.txt cmake/build_info.json.in | $(PY)
+$(STAMP): pyproject.toml CMakeLists.txt cmake/build_info.json.in | $(UV)
 	@$(MAKE) --no-print-directory apt-tools
 	rm -f src/taskspace/_native/*.so src/taskspace/_native/.built  # modules of the old build.py
-	$(PY) -m pip install --quiet $(BUILD_REQUIRES)
-	$(PY) -m pip install --quiet --no-build-isolation $(SKBUILD_ARGS) -e ".[test,native]"
+	$(UV_PIP) $(BUILD_REQUIRES)
+	$(UV_PIP) --no-build-isolation $(SKBUILD_ARGS) -e ".[test,native]"
 	touch $(STAMP)
 
 # Rebuilds the kernels whose sources changed and shows whether they load.
