@@ -658,9 +658,11 @@ class CollisionKernel {
       in.objects.push_back(std::move(o));
     }
     scale = std::max(scale, reach + far);
+    pair_object_.assign(group_pairs_.size(), 0);
     for (std::size_t j = 0; j < group_pairs_.size(); ++j) {
       const GroupPair& gp = group_pairs_[j];
       const std::size_t a = groups_[group_of_pair(j)].object;
+      pair_object_[j] = a;
       int b = -1;
       if (gp.partner_static) {
         if (obs[gp.partner] < 0) {
@@ -734,6 +736,30 @@ class CollisionKernel {
       filter_.load(batch_pose_);
       const unsigned maybe = filter_.run((1u << m) - 1u, kBatch);
       for (int l = 0; l < m; ++l) out[s + l] = (maybe >> l) & 1u;
+    }
+    return out;
+  }
+
+  // The pairs that spheres_lane tests for each row (the filter's walk, filter_.first_pair and
+  // next_pair, after a run on the row's batch with no early exit): out(r, p) counts the times
+  // collision pair p was given for row r (0 for every pair of a row the filter clears). Tests.
+  Eigen::MatrixXi sphere_filter_pairs(const Eigen::Ref<const RowMatrixXd>& qs) {
+    check_cols(qs);
+    if (!has_spheres_ || !filter_.ready()) raise_invalid("the sphere filter is not set up");
+    const auto lock = lock_with_gil(mutex_);
+    Eigen::MatrixXi out = Eigen::MatrixXi::Zero(qs.rows(), geom_.collisionPairs.size());
+    const double* lanes[kBatch];
+    for (Eigen::Index s = 0; s < qs.rows(); s += kBatch) {
+      const int m = static_cast<int>(std::min<Eigen::Index>(kBatch, qs.rows() - s));
+      for (int l = 0; l < kBatch; ++l) lanes[l] = qs.row(s + std::min(l, m - 1)).data();
+      kinematics_batch(lanes);
+      filter_.load(batch_pose_);
+      const unsigned maybe = filter_.run((1u << m) - 1u, kBatch);
+      for (int l = 0; l < m; ++l) {
+        if (!((maybe >> l) & 1u)) continue;
+        for (int j = filter_.first_pair(l); j >= 0; j = filter_.next_pair())
+          ++out(s + l, static_cast<Eigen::Index>(group_pairs_[j].pair));
+      }
     }
     return out;
   }
@@ -1067,8 +1093,7 @@ class CollisionKernel {
           if (stop()) return s + first;
           ++checks_;
           if (trust && ((filter_.sure() >> first) & 1u)) return s + first;
-          load_lane(first);
-          if (spheres_placed(checker)) return s + first;
+          if (spheres_lane(first, checker)) return s + first;
           decided |= 1u << first;
           ++first;
           continue;
@@ -1078,8 +1103,7 @@ class CollisionKernel {
           ++checks_;
           if (!((maybe >> l) & 1u)) continue;
           if (trust && ((filter_.sure() >> l) & 1u)) return s + l;
-          load_lane(l);
-          if (spheres_placed(checker)) return s + l;
+          if (spheres_lane(l, checker)) return s + l;
         }
         break;
       }
@@ -1104,6 +1128,10 @@ class CollisionKernel {
         ++checks_;
         out[s + l] = 0;
         if (!((maybe >> l) & 1u)) continue;
+        if (filter) {
+          out[s + l] = spheres_lane(l, checker) ? 1 : 0;
+          continue;
+        }
         load_lane(l);
         out[s + l] = spheres_placed(checker) ? 1 : 0;
       }
@@ -1137,14 +1165,47 @@ class CollisionKernel {
     return spheres_placed(checker);
   }
 
-  // The sphere check of the configuration whose joint placements are in data_.oMi
-  // (collides_spheres after the kinematics; the batched checks after load_lane).
-  bool spheres_placed(int checker) {
+  // A new configuration for leaves().
+  void next_stamp() {
     ++stamp_;
     if (stamp_ == 0) {  // wrapped: invalidate every stamp
       std::fill(stamp_of_.begin(), stamp_of_.end(), 0u);
       stamp_ = 1;
     }
+  }
+
+  // spheres_placed for lane l of the last filter run (in its mask): the pairs the filter
+  // cannot clear for that lane only (filter_.first_pair, next_pair), each with the double
+  // test of spheres_placed (sphere_pair_hits). Every other pair is free for that test (the
+  // filter's eps bound), so the answer is spheres_placed's; a pair that collides joins the
+  // pair cache as there (the cache orders spheres_placed's pairs, the filter its own).
+  bool spheres_lane(int l, int checker) {
+    load_lane(l);
+    next_stamp();
+    for (int j = filter_.first_pair(l); j >= 0; j = filter_.next_pair()) {
+      const GroupPair& gp = group_pairs_[j];
+      const std::size_t a = pair_object_[j];
+      place_bound(a);
+      if (!gp.partner_static) place_bound(gp.partner);
+      if (sphere_pair_hits(a, gp.partner, gp.pair, gp.partner_static, checker)) {
+        remember(gp.pair);
+        return true;
+      }
+    }
+    return false;
+  }
+
+  // Object i's bounding sphere centre, world frame (bound_world_).
+  void place_bound(std::size_t i) {
+    const auto& M = data_.oMi[geom_.geometryObjects[i].parentJoint];
+    bound_world_[i].noalias() = M.rotation() * bound_local_[i];
+    bound_world_[i] += M.translation();
+  }
+
+  // The sphere check of the configuration whose joint placements are in data_.oMi
+  // (collides_spheres after the kinematics; the batched checks after load_lane).
+  bool spheres_placed(int checker) {
+    next_stamp();
     // (static_box_ holds whole blocks of kBoxLanes boxes: the padding never touches)
     const std::size_t ns = static_box_[0].size();
     for (Link& l : links_) {  // the link's bounding sphere against every static box
@@ -1709,6 +1770,7 @@ class CollisionKernel {
   };
   std::vector<SphereGroup> sphere_groups_;
   std::vector<int> pair_bit_;        // per group pair: the static partner's bit (or -1)
+  std::vector<std::size_t> pair_object_;  // per group pair: its moving object (setup_filter)
   std::vector<double> pair_margin_;  // per group pair: its security margin (>= 0)
   bool has_spheres_ = false;
   double certified_margin_ = 0.0;
@@ -2976,6 +3038,7 @@ BOOST_PYTHON_MODULE(_planning_kernel) {
       .def("sphere_filter_eps", &CollisionKernel::sphere_filter_eps)
       .def("sphere_filter_units", &CollisionKernel::sphere_filter_units)
       .def("sphere_filter_flags", &CollisionKernel::sphere_filter_flags, bp::args("self", "qs"))
+      .def("sphere_filter_pairs", &CollisionKernel::sphere_filter_pairs, bp::args("self", "qs"))
       .def("reset_sphere_stats", &CollisionKernel::reset_sphere_stats)
       .def("collisions_with", &CollisionKernel::collisions_with,
            bp::args("self", "configurations", "checker"))

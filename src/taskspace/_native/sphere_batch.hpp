@@ -8,9 +8,12 @@
 // sphere test of the kernel (spheres_placed): every test below is that test's, on the same
 // pairs, with the same margins, in single precision with every radius inflated by eps_ (the
 // bound on the rounding error below). The kernel then runs its exact double-precision check
-// (spheres_placed, with coal's narrow phase for the "spheres" checker) on the lanes in the
-// mask only, in the order of the edge, so the answers are the scalar path's answers exactly;
-// the filter only decides which configurations need that check.
+// (spheres_placed's per-pair test, with coal's narrow phase for the "spheres" checker) on the
+// lanes in the mask only, in the order of the edge, and there only on the pairs the filter
+// cannot clear for that lane (first_pair, next_pair: the same bound holds pair by pair, each
+// pair's float tests being that pair's double tests inflated), so the answers are the scalar
+// path's answers exactly; the filter only decides which configurations and pairs need that
+// check.
 //
 // Hierarchy, every level lane-wise (4 configurations in one SSE register; no branch per lane):
 //  1. per link and active lane: the link's bounding sphere against the static obstacles'
@@ -194,7 +197,8 @@ class SphereFilter {
     }
     const float e = static_cast<float>(eps_);
     // units: (link, obstacle) and (link, link), each with its object pairs
-    for (const auto& p : in.pairs) {
+    for (int pair = 0; pair < static_cast<int>(in.pairs.size()); ++pair) {
+      const Input::Pair& p = in.pairs[pair];
       const int la = objects_[p.a].link;
       if (p.b_static) {
         StaticUnit* unit = nullptr;
@@ -204,7 +208,7 @@ class SphereFilter {
           static_units_.push_back(StaticUnit{la, p.b, 0.0f, {}});
           unit = &static_units_.back();
         }
-        unit->items.push_back(Item{p.a, -1, static_cast<float>(p.margin) + e});
+        unit->items.push_back(Item{p.a, -1, static_cast<float>(p.margin) + e, pair});
         unit->margin = std::max(unit->margin, static_cast<float>(p.margin) + e);
       } else {
         const int l0 = std::min(la, objects_[p.b].link), l1 = std::max(la, objects_[p.b].link);
@@ -215,7 +219,7 @@ class SphereFilter {
           self_units_.push_back(SelfUnit{l0, l1, 0.0f, {}});
           unit = &self_units_.back();
         }
-        unit->items.push_back(Item{p.a, p.b, static_cast<float>(p.margin) + e});
+        unit->items.push_back(Item{p.a, p.b, static_cast<float>(p.margin) + e, pair});
         unit->margin = std::max(unit->margin, static_cast<float>(p.margin) + e);
       }
     }
@@ -263,15 +267,18 @@ class SphereFilter {
     }
   }
 
-  // Lanes (bits) of `active` that may collide; stops when `stop_lane` is among them.
+  // Lanes (bits) of `active` that may collide; stops when `stop_lane` is among them. For each
+  // lane of the mask the run keeps where it entered the mask (first_pair, next_pair).
   unsigned run(unsigned active, int stop_lane) {
     unsigned maybe = 0;
     sure_ = 0;
     const unsigned stop_bit = 1u << stop_lane;
     const int ns = static_cast<int>(static_units_.size());
     const int nu = ns + static_cast<int>(self_units_.size());
-    if (last_unit_ >= 0 && last_unit_ < nu) {
-      maybe |= unit_hits(last_unit_, active);
+    first_unit_ = last_unit_ >= 0 && last_unit_ < nu ? last_unit_ : -1;
+    if (first_unit_ >= 0) {
+      maybe |= unit_hits(first_unit_, active);
+      enter(maybe, 0, 0, 0, first_unit_);
       if (maybe & stop_bit) return maybe;
     }
     if (by_link_) {
@@ -287,12 +294,13 @@ class SphereFilter {
           const int ob = __builtin_ctzll(any);
           any &= any - 1;
           const int k = unit_of_[li * obs_.size() + ob];
-          if (k < 0 || k == last_unit_) continue;
+          if (k < 0 || k == first_unit_) continue;
           unsigned near = 0;
           for (int l = 0; l < kLanes; ++l)
             near |= static_cast<unsigned>((lane_bits[l] >> ob) & 1u) << l;
           const unsigned h = static_leaves(k, near & active & ~maybe);
           if (!h) continue;
+          enter(h, 1, static_cast<int>(li), ob, k);
           maybe |= h;
           if (maybe & stop_bit) {
             last_unit_ = k;
@@ -303,9 +311,10 @@ class SphereFilter {
       }
     }
     for (int k = by_link_ ? ns : 0; k < nu; ++k) {
-      if (k == last_unit_) continue;
+      if (k == first_unit_) continue;
       const unsigned h = unit_hits(k, active & ~maybe);
       if (!h) continue;
+      enter(h, 2, 0, k, k);
       maybe |= h;
       if (maybe & stop_bit) {
         last_unit_ = k;
@@ -316,6 +325,72 @@ class SphereFilter {
     return maybe;
   }
 
+  // The pairs (indices into Input::pairs) that lane `lane` of the last run's mask may collide
+  // on: first_pair gives the pair that put the lane in the mask, each next_pair the next pair
+  // whose tests (as run's, in run's order, from that point on, for this lane alone) pass, -1
+  // when none is left. Every pair of the lane never given is free for the double test: the run
+  // or the walk cleared it with the tests of the header (the eps_ bound), as run clears a lane
+  // (tests: the double test of the given pairs only has the double test's answers). Valid
+  // until the next run or load; one lane at a time (the walk's state is the filter's).
+  int first_pair(int lane) {
+    walk_ = mark_[lane];
+    walk_lane_ = lane;
+    if (walk_.phase == 1) {  // the link's other obstacles after this one, as run
+      const std::uint64_t bits = link_obstacles(static_cast<std::size_t>(walk_.li), lane);
+      walk_.rest = walk_.pos >= 63 ? 0 : bits & (~std::uint64_t{0} << (walk_.pos + 1));
+    }
+    return items_of(walk_.unit)[walk_.item].pair;
+  }
+  int next_pair() {
+    const unsigned bit = 1u << walk_lane_;
+    const int ns = static_cast<int>(static_units_.size());
+    const int nu = ns + static_cast<int>(self_units_.size());
+    Walk& w = walk_;
+    for (;;) {
+      if (w.unit >= 0) {  // the rest of the unit's items
+        const std::vector<Item>& items = items_of(w.unit);
+        for (++w.item; w.item < static_cast<int>(items.size()); ++w.item) {
+          const Item& it = items[w.item];
+          const unsigned h = w.unit < ns
+                                 ? static_item(obs_[static_units_[w.unit].obstacle], it, bit)
+                                 : self_item(it, bit);
+          if (h) return it.pair;
+        }
+        w.unit = -1;
+      }
+      // the next unit whose link level passes for the lane
+      if (w.phase == 0) {  // after the run's first unit: the link walk from its start
+        w.phase = 1;
+        w.li = 0;
+        w.rest = by_link_ && !links_.empty() ? link_obstacles(0, walk_lane_) : 0;
+      }
+      if (w.phase == 1) {
+        while (by_link_ && w.unit < 0 && w.li < static_cast<int>(links_.size())) {
+          if (!w.rest) {
+            if (++w.li < static_cast<int>(links_.size()))
+              w.rest = link_obstacles(static_cast<std::size_t>(w.li), walk_lane_);
+            continue;
+          }
+          const int ob = __builtin_ctzll(w.rest);
+          w.rest &= w.rest - 1;
+          const int k = unit_of_[static_cast<std::size_t>(w.li) * obs_.size() + ob];
+          if (k < 0 || k == first_unit_) continue;
+          w.unit = k;
+          w.item = -1;
+        }
+        if (w.unit >= 0) continue;
+        w.phase = 2;
+        w.pos = by_link_ ? ns - 1 : -1;  // the unit loop of run, from its start
+      }
+      while (w.unit < 0 && ++w.pos < nu)
+        if (w.pos != first_unit_ && unit_near(w.pos, bit)) {
+          w.unit = w.pos;
+          w.item = -1;
+        }
+      if (w.unit < 0) return -1;
+    }
+  }
+
   int units() const { return static_cast<int>(static_units_.size() + self_units_.size()); }
   // Lanes of the last run's mask found by a sphere test on a primitive or a self pair (not by
   // the box of another shape): their spheres overlap within eps_ (float), so the double test
@@ -323,6 +398,26 @@ class SphereFilter {
   unsigned sure() const { return sure_; }
 
  private:
+  // Where a lane entered the mask (run) or where the walk of a lane is (next_pair): phase 0 the
+  // run's first unit, 1 the link walk (link li, obstacle bit pos; rest: the link's obstacle
+  // bits still to visit), 2 the unit loop (unit index pos); unit and item: the current unit
+  // (-1 between units) and item.
+  struct Walk {
+    int phase = 0, li = 0, pos = 0, unit = -1, item = 0;
+    std::uint64_t rest = 0;
+  };
+  // The lanes h entered the mask at unit k (item: item_at_ of the lane).
+  void enter(unsigned h, int phase, int li, int pos, int k) {
+    for (unsigned m = h; m; m &= m - 1) {
+      const int l = __builtin_ctz(m);
+      Walk& w = mark_[l];
+      w.phase = phase;
+      w.li = li;
+      w.pos = pos;
+      w.unit = k;
+      w.item = item_at_[l];
+    }
+  }
   struct V3 {
     F4 x, y, z;
   };
@@ -355,6 +450,7 @@ class SphereFilter {
   struct Item {
     int a, b;      // object, partner object (self pairs) or -1
     float margin;  // the pair's margin + eps
+    int pair;      // index into Input::pairs
   };
   struct StaticUnit {
     int link, obstacle;
@@ -440,29 +536,69 @@ class SphereFilter {
     return lanes_of(dx * dx + dy * dy + dz * dz <= splat(r * r));
   }
 
-  // The object and sphere levels of static unit k for the lanes `near` (the link level passed).
+  const std::vector<Item>& items_of(int k) const {
+    const int ns = static_cast<int>(static_units_.size());
+    return k < ns ? static_units_[k].items : self_units_[k - ns].items;
+  }
+
+  // Lanes of m where static item it (obstacle o) may touch: its object's bounding sphere against
+  // the box and the primitive, then its spheres against the primitive (or the box of another
+  // shape).
+  unsigned static_item(const ObsF& o, const Item& it, unsigned m) {
+    place_bound(it.a);
+    const ObjectF& ob = objects_[it.a];
+    const float rs = it.margin + o.swept;
+    m &= box_hits(o, obj_world_[it.a], ob.radius + rs);
+    if (!m) return 0;
+    if (o.type != 0) m &= prim_hits(o, obj_world_[it.a], ob.radius + rs);
+    if (!m) return 0;
+    place_spheres(it.a);
+    unsigned hit = 0;
+    for (int s = ob.begin; s < ob.end && m; ++s) {
+      const unsigned h = m & prim_hits(o, sph_world_[s], sph_[s].r + rs);
+      hit |= h;
+      m &= ~h;
+    }
+    return hit;
+  }
+
+  // Lanes of m where self item it may touch: the objects' bounding spheres, then sphere pairs.
+  unsigned self_item(const Item& it, unsigned m) {
+    place_bound(it.a);
+    place_bound(it.b);
+    const ObjectF& oa = objects_[it.a];
+    const ObjectF& ob = objects_[it.b];
+    m &= ball_hits(obj_world_[it.a], obj_world_[it.b], oa.radius + ob.radius + it.margin);
+    if (!m) return 0;
+    place_spheres(it.a);
+    place_spheres(it.b);
+    unsigned hit = 0;
+    for (int s = oa.begin; s < oa.end && m; ++s) {
+      for (int t = ob.begin; t < ob.end && m; ++t) {
+        const unsigned h =
+            m & ball_hits(sph_world_[s], sph_world_[t], sph_[s].r + sph_[t].r + it.margin);
+        hit |= h;
+        m &= ~h;
+      }
+    }
+    return hit;
+  }
+
+  // The object and sphere levels of static unit k for the lanes `near` (the link level passed);
+  // item_at_: the item where each lane hit.
   unsigned static_leaves(int k, unsigned near) {
     if (!near) return 0;
     const StaticUnit& u = static_units_[k];
     const ObsF& o = obs_[u.obstacle];
     unsigned hit = 0;
-    for (const Item& it : u.items) {
-      place_bound(it.a);
-      const ObjectF& ob = objects_[it.a];
-      const float rs = it.margin + o.swept;
-      unsigned m = near & ~hit & box_hits(o, obj_world_[it.a], ob.radius + rs);
-      if (!m) continue;
-      if (o.type != 0) m &= prim_hits(o, obj_world_[it.a], ob.radius + rs);
-      if (!m) continue;
-      place_spheres(it.a);
-      for (int s = ob.begin; s < ob.end && m; ++s) {
-        const unsigned h = m & prim_hits(o, sph_world_[s], sph_[s].r + rs);
-        hit |= h;
-        if (o.type != 0) sure_ |= h;
-        m &= ~h;
-      }
+    for (std::size_t i = 0; i < u.items.size(); ++i) {
+      const unsigned h = static_item(o, u.items[i], near & ~hit);
+      if (!h) continue;
+      hit |= h;
+      for (unsigned m = h; m; m &= m - 1) item_at_[__builtin_ctz(m)] = static_cast<int>(i);
       if (hit == near) break;
     }
+    if (o.type != 0) sure_ |= hit;
     return hit;
   }
 
@@ -485,44 +621,39 @@ class SphereFilter {
     return bits;
   }
 
-  unsigned unit_hits(int k, unsigned active) {
-    if (!active) return 0;
+  // Lanes of `active` where unit k's link level passes: the link's bounding sphere against the
+  // obstacle's box, or the two links' bounding spheres.
+  unsigned unit_near(int k, unsigned active) const {
     const int ns = static_cast<int>(static_units_.size());
-    unsigned hit = 0;
     if (k < ns) {
       const StaticUnit& u = static_units_[k];
       const ObsF& o = obs_[u.obstacle];
       const LinkF& l = links_[u.link];
       // (the boxes with the swept radius too: whether coal's box includes it or not)
-      const unsigned near = box_hits(o, l.world, l.radius + u.margin + o.swept) & active;
-      return static_leaves(k, near);
+      return box_hits(o, l.world, l.radius + u.margin + o.swept) & active;
     }
     const SelfUnit& u = self_units_[k - ns];
     const LinkF& la = links_[u.la];
     const LinkF& lb = links_[u.lb];
-    const unsigned near = ball_hits(la.world, lb.world, la.radius + lb.radius + u.margin) & active;
+    return ball_hits(la.world, lb.world, la.radius + lb.radius + u.margin) & active;
+  }
+
+  unsigned unit_hits(int k, unsigned active) {
+    if (!active) return 0;
+    const int ns = static_cast<int>(static_units_.size());
+    const unsigned near = unit_near(k, active);
+    if (k < ns) return static_leaves(k, near);
     if (!near) return 0;
-    for (const Item& it : u.items) {
-      place_bound(it.a);
-      place_bound(it.b);
-      const ObjectF& oa = objects_[it.a];
-      const ObjectF& ob = objects_[it.b];
-      unsigned m = near & ~hit &
-                   ball_hits(obj_world_[it.a], obj_world_[it.b], oa.radius + ob.radius + it.margin);
-      if (!m) continue;
-      place_spheres(it.a);
-      place_spheres(it.b);
-      for (int s = oa.begin; s < oa.end && m; ++s) {
-        for (int t = ob.begin; t < ob.end && m; ++t) {
-          const unsigned h =
-              m & ball_hits(sph_world_[s], sph_world_[t], sph_[s].r + sph_[t].r + it.margin);
-          hit |= h;
-          sure_ |= h;
-          m &= ~h;
-        }
-      }
+    const SelfUnit& u = self_units_[k - ns];
+    unsigned hit = 0;
+    for (std::size_t i = 0; i < u.items.size(); ++i) {
+      const unsigned h = self_item(u.items[i], near & ~hit);
+      if (!h) continue;
+      hit |= h;
+      for (unsigned m = h; m; m &= m - 1) item_at_[__builtin_ctz(m)] = static_cast<int>(i);
       if (hit == active) break;
     }
+    sure_ |= hit;
     return hit;
   }
 
@@ -541,6 +672,11 @@ class SphereFilter {
   std::vector<F4> blo_[3], bhi_[3], binfl_;  // obstacle boxes, 4 per block (link_obstacles)
   unsigned stamp_ = 0, sure_ = 0;
   int last_unit_ = -1;
+  int first_unit_ = -1;      // the unit run tested first (last_unit_ then)
+  int item_at_[kLanes] = {};  // static_leaves, unit_hits: the item where a lane hit
+  Walk mark_[kLanes];        // where each lane of the last run's mask entered it
+  Walk walk_;                // first_pair, next_pair
+  int walk_lane_ = 0;
 };
 
 }  // namespace taskspace_sphere_batch
