@@ -1442,21 +1442,26 @@ class Robot:
 
     def add_obstacle(self, obstacle: Obstacle) -> None:
         """Add a fixed obstacle; it is checked against every robot geometry."""
-        self._world._add(obstacle)
-        # a clone: the obstacle's own shape modified in place cannot reach the robot
-        shape = obstacle.geometry.clone()
-        geom = pin.GeometryObject(obstacle.name, 0, 0, obstacle.placement, shape)
-        geom.meshColor = np.asarray(obstacle.color, dtype=float)
-        gid = self._collision_model.addGeometryObject(geom)
-        for rid in range(self._robot_geometry_count):
-            if self._collision_model.geometryObjects[rid].parentJoint != 0:
-                self._collision_model.addCollisionPair(pin.CollisionPair(rid, gid))
-        self._collision_data = self._collision_model.createData()
+        self.add_obstacles((obstacle,))
 
     def add_obstacles(self, obstacles: Iterable[Obstacle]) -> None:
-        """Add several obstacles."""
-        for obstacle in obstacles:
-            self.add_obstacle(obstacle)
+        """Add several obstacles (in order; those before an invalid one stay added).
+
+        The collision data is made once for all of them, not once per obstacle.
+        """
+        try:
+            for obstacle in obstacles:
+                self._world._add(obstacle)
+                # a clone: the obstacle's own shape modified in place cannot reach the robot
+                shape = obstacle.geometry.clone()
+                geom = pin.GeometryObject(obstacle.name, 0, 0, obstacle.placement, shape)
+                geom.meshColor = np.asarray(obstacle.color, dtype=float)
+                gid = self._collision_model.addGeometryObject(geom)
+                for rid in range(self._robot_geometry_count):
+                    if self._collision_model.geometryObjects[rid].parentJoint != 0:
+                        self._collision_model.addCollisionPair(pin.CollisionPair(rid, gid))
+        finally:  # the data matches the model, also after an invalid obstacle
+            self._collision_data = self._collision_model.createData()
 
     def remove_obstacle(self, name: str) -> Obstacle:
         """Remove the obstacle ``name`` (raises UnknownNameError listing the obstacles)."""

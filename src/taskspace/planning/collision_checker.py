@@ -133,11 +133,12 @@ class CollisionChecker:
     """Exact self- and world-collision test of a :class:`~taskspace.model.Robot`.
 
     The checker keeps its own copies of the robot's models (a broad-phase pool, the compiled
-    checker) and records the :attr:`~taskspace.model.World.version` of the robot's world it
-    was built from; every query compares it with the current version (one integer
-    comparison) and rebuilds the copies when the world changed (obstacles added, removed,
-    cleared, or the robot's collision pairs changed through its methods), so it always
-    answers for the current world. :meth:`update_world` forces a rebuild. The checker keeps
+    checker; each built at the first query that uses it) and records the
+    :attr:`~taskspace.model.World.version` of the robot's world it was built from; every
+    query compares it with the current version (one integer comparison) and drops the
+    copies when the world changed (obstacles added, removed, cleared, or the robot's
+    collision pairs changed through its methods), so it always answers for the current
+    world. :meth:`update_world` forces a rebuild. The checker keeps
     its own Pinocchio data, so using it does not touch ``robot.data``.
 
     Thread safety: a checker is not thread-safe (its Pinocchio data, pool and compiled
@@ -159,6 +160,9 @@ class CollisionChecker:
         self._nq = robot.nq
         self._pool: Any = None
         self._geometry_pool: Any = None
+        self._model: Any = None
+        self._data: Any = None
+        self._geom_data: Any = None
         self._kernel: Any = None
         self._kernel_checked = False
         self._world: Any = None
@@ -168,17 +172,21 @@ class CollisionChecker:
 
     # ------------------------------------------------------------------ set-up
     def update_world(self) -> None:
-        """Rebuild the internal geometry copies from ``robot.collision_model``."""
+        """Follow ``robot.collision_model``: drop the copies made for the previous world.
+
+        Each copy is built again from the current models at the first query that needs it
+        (the compiled checker by :meth:`native_kernel`, Pinocchio's pool and data for the
+        Python-side queries by ``_no_cached_guess``), so that a scene change pays only for
+        what the next queries use.
+        """
         robot = self.robot
-        model, geom = robot._model, robot._collision_model
-        if self.options.broadphase:
-            pool = pin.TreeBroadPhaseManagerPool_DynamicAABBTreeCollisionManager
-            self._pool = pool(model, geom, 1)
-        else:
-            self._geometry_pool = pin.GeometryPool(model, geom, 1)
-        self._data = model.createData()
-        self._geom_data = geom.createData()
-        self._guess_off = False  # see _no_cached_guess (done at the first Python-side query)
+        geom = robot._collision_model
+        self._pool = None
+        self._geometry_pool = None
+        self._data = None
+        self._geom_data = None
+        self._guess_off = False  # the Python-side structures are not built yet
+        self._model = robot._model
         self._ngeoms = geom.ngeoms
         self._kernel = None
         self._kernel_checked = False
@@ -187,15 +195,24 @@ class CollisionChecker:
         self._geometry_model = geom
 
     def _no_cached_guess(self) -> None:
-        """Turn the cached GJK guess off in the data of the Python-side queries (once a world).
+        """Build the data of the Python-side queries, cached GJK guess off (once a world).
 
-        Pinocchio's default requests start each pair's narrow phase from its previous call,
-        which can report a real penetration free (see ``taskspace.model.collision_requests``).
-        Done at the first query that uses the pools or ``_geom_data`` rather than in
-        :meth:`update_world` (about 0.7 ms per data on the Panda with a shelf; the compiled
-        kernel, used by default, turns it off on its own copy).
+        The broad-phase pool (or the plain geometry pool without ``broadphase``), the model's
+        and the geometry model's data on the robot's current models. Pinocchio's default
+        requests start each pair's narrow phase from its previous call, which can report a
+        real penetration free (see ``taskspace.model.collision_requests``): turned off in
+        every geometry data. Done at the first query that uses the pools or ``_geom_data``
+        rather than in :meth:`update_world`: the compiled checker, used by default, works on
+        its own copies, and a scene change would pay for structures no query uses.
         """
-        pool = self._pool if self._pool is not None else self._geometry_pool
+        model, geom = self._model, self._geometry_model
+        if self.options.broadphase:
+            pool = pin.TreeBroadPhaseManagerPool_DynamicAABBTreeCollisionManager(model, geom, 1)
+            self._pool = pool
+        else:
+            pool = self._geometry_pool = pin.GeometryPool(model, geom, 1)
+        self._data = model.createData()
+        self._geom_data = geom.createData()
         for geometry_data in [*pool.getGeometryDatas(), self._geom_data]:
             without_cached_guess(geometry_data)
         self._guess_off = True
