@@ -11,7 +11,8 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 checkout=$(pwd)
-build_py="$1/bin/python"
+build_venv="$1"
+build_py="$build_venv/bin/python"
 shift
 python=${PYTHON:-python3}
 work=$(mktemp -d "${TMPDIR:-/tmp}/taskspace-wheel-smoke.XXXXXX")
@@ -63,10 +64,16 @@ EOF
 
 echo "wheel-smoke: installing $(basename "$wheel") into a fresh virtual environment"
 "$python" -m venv "$work/venv"
-"$work/venv/bin/python" -m pip install --quiet --upgrade pip
+# uv (installed into the build venv by make) when there: the same resolution as pip, faster
+if [ -x "$build_venv/bin/uv" ]; then
+    install=("$build_venv/bin/uv" pip install --quiet --python "$work/venv/bin/python")
+else
+    "$work/venv/bin/python" -m pip install --quiet --upgrade pip
+    install=("$work/venv/bin/python" -m pip install --quiet)
+fi
 # First the core dependencies only (no extras): every module but the viewer stack imports,
 # the algorithms run, and taskspace.viz says which extra to install.
-"$work/venv/bin/python" -m pip install --quiet -c "$work/constraints.txt" "$wheel"
+"${install[@]}" -c "$work/constraints.txt" "$wheel"
 (cd "$work" && "$work/venv/bin/python" - <<'EOF'
 import importlib, pkgutil
 import taskspace
@@ -92,7 +99,7 @@ else:
 print(f"wheel-smoke: core install: {len(names)} modules import, IK solves, viz asks for its extra")
 EOF
 )
-"$work/venv/bin/python" -m pip install --quiet -c "$work/constraints.txt" "$wheel[test]"
+"${install[@]}" -c "$work/constraints.txt" "$wheel[test]"
 
 mkdir "$work/run"
 cp -r tests README.md "$work/run/"
