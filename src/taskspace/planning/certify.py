@@ -683,8 +683,8 @@ def certify_planned(
         t)`` of every earlier path whose certificate failed; with ``regions``,
         ``log["region_certifications"]`` and ``log["region_rejections"]``, the edge parts
         the re-plans certified inside the failed regions and refused there); when none could
-        be certified (with ``regions``: also when a re-plan found no path within its limits
-        other than time, ``log["replan_status"]`` its status), the last path with
+        be certified (with ``regions``: also when a re-plan found no path within its limits,
+        the time limit included, ``log["replan_status"]`` its status), the last path with
         ``success=False``, status ``UNCERTIFIED`` and ``log["uncertified_segment"]`` /
         ``log["uncertified_t"]`` (where along it the proof stopped). The certification
         reads the clock before each distance evaluation: when the time runs out in it, the
@@ -716,10 +716,11 @@ def certify_planned(
             result.log["region_certifications"] = float(regions.certifications)
             result.log["region_rejections"] = float(regions.rejections)
         if not result.success:
-            if uncertified is None or regions is None or result.status is PlannerStatus.TIME_LIMIT:
+            if uncertified is None or regions is None:
                 return result
             # no path that is certified inside the failed regions (or avoids them) within the
-            # limits: the uncertified path found before is the answer, UNCERTIFIED
+            # limits, time included: the uncertified path found before is the answer,
+            # UNCERTIFIED (the re-plan's own status in log["replan_status"])
             uncertified.log.update(
                 {k: v for k, v in result.log.items() if k.startswith(("certify_", "region_"))}
             )
