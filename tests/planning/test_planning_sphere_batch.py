@@ -26,6 +26,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 from _mbm import ROOT, SKIP_REASON
+from _sphere_reference import PairClearances as SphereReference
 
 from taskspace._native import planning_kernel
 from taskspace.planning.configuration_space import (
@@ -60,75 +61,6 @@ def _space(robot: Any, scenario: str) -> tuple[Any, Any, Any]:
     assert kernel.sphere_filter()  # set up, and on by default
     assert kernel.sphere_filter_mode == TRUSTED
     return req, space, kernel
-
-
-class SphereReference:
-    """The double-precision sphere test from Pinocchio's kinematics (see the module doc)."""
-
-    def __init__(self, robot: Any, spheres: Any) -> None:
-        self.model, geom = robot.model, robot.collision_model
-        self.data = self.model.createData()
-        gdata = geom.createData()
-        pin.updateGeometryPlacements(self.model, self.data, geom, gdata, pin.neutral(self.model))
-        self.spheres = spheres
-        static = {g for g, o in enumerate(geom.geometryObjects) if o.parentJoint == 0}
-        self.static_pairs: list[tuple[np.ndarray, Any, Any, bool]] = []
-        self.self_pairs: list[tuple[np.ndarray, np.ndarray]] = []
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", DeprecationWarning)
-            margins = [r.security_margin for r in gdata.collisionRequests]
-        for k, p in enumerate(geom.collisionPairs):
-            if not gdata.activeCollisionPairs[k]:
-                continue
-            assert margins[k] <= 0.0  # these scenes: no margin to add
-            g1, g2 = p.first, p.second
-            if g1 in static and g2 in static:
-                continue
-            if g1 in static or g2 in static:
-                o, m = (g1, g2) if g1 in static else (g2, g1)
-                shape = geom.geometryObjects[o].geometry
-                assert shape.getSweptSphereRadius() == 0.0
-                placement = pin.SE3(gdata.oMg[o])
-                generic = not isinstance(shape, coal.Box | coal.Cylinder | coal.Sphere)
-                self.static_pairs.append((spheres.geometries == m, shape, placement, generic))
-            else:
-                self.self_pairs.append((spheres.geometries == g1, spheres.geometries == g2))
-
-    def clearance(self, q: np.ndarray) -> tuple[float, float]:
-        """The smallest sphere clearance [m] to the primitives and self pairs, and to the other
-        shapes (coal's distance to the base's hull)."""
-        pin.forwardKinematics(self.model, self.data, q)
-        c = self.spheres.world_centers(self.data)
-        r = self.spheres.radii
-        prim, other = np.inf, np.inf
-        for sel, shape, placement, generic in self.static_pairs:
-            cs, rs = c[sel], r[sel]
-            local = (cs - placement.translation) @ placement.rotation
-            if isinstance(shape, coal.Box):
-                d = np.linalg.norm(np.maximum(np.abs(local) - shape.halfSide, 0.0), axis=1)
-            elif isinstance(shape, coal.Cylinder):
-                dr = np.maximum(np.hypot(local[:, 0], local[:, 1]) - shape.radius, 0.0)
-                dz = np.maximum(np.abs(local[:, 2]) - shape.halfLength, 0.0)
-                d = np.hypot(dr, dz)
-            elif isinstance(shape, coal.Sphere):
-                d = np.maximum(np.linalg.norm(local, axis=1) - shape.radius, 0.0)
-            else:
-                tf = coal.Transform3s(placement.rotation, placement.translation)
-                d = np.empty(len(cs))
-                for i, (ci, ri) in enumerate(zip(cs, rs, strict=True)):
-                    res = coal.DistanceResult()
-                    at = coal.Transform3s(np.eye(3), ci)
-                    coal.distance(coal.Sphere(ri), at, shape, tf, coal.DistanceRequest(), res)
-                    d[i] = res.min_distance + ri
-            value = float(np.min(d - rs))
-            if generic:
-                other = min(other, value)
-            else:
-                prim = min(prim, value)
-        for s1, s2 in self.self_pairs:
-            gap = np.linalg.norm(c[s1][:, None] - c[s2][None], axis=2)
-            prim = min(prim, float(np.min(gap - r[s1][:, None] - r[s2][None])))
-        return prim, other
 
 
 def _mesh_reference(robot: Any) -> Any:
