@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+from _certify_spy import spy_certificates
 
 from taskspace.model import Obstacle, Robot
 from taskspace.planning import certify as certify_module
@@ -96,24 +97,10 @@ ALL = [
 ROADMAPS = ["prm", "prm_query", "lazy_prm", "lazy_prm_query", "prm_star", "lazy_prm_star"]
 
 
-def _spy(monkeypatch: pytest.MonkeyPatch) -> list[tuple[np.ndarray, Any]]:
-    """Record every certified path and its certificate."""
-    seen: list[tuple[np.ndarray, Any]] = []
-    real = certify_module.certify_path
-
-    def spy(robot: Any, path: Any, **kwargs: Any) -> Any:
-        cert = real(robot, path, **kwargs)
-        seen.append((np.array(path, dtype=float), cert))
-        return cert
-
-    monkeypatch.setattr(certify_module, "certify_path", spy)
-    return seen
-
-
 @pytest.mark.parametrize("name", ALL)
 def test_an_uncertified_result_says_so(disc, monkeypatch, name: str) -> None:  # type: ignore[no-untyped-def]
     robot, space = disc
-    seen = _spy(monkeypatch)
+    seen = spy_certificates(monkeypatch)
     uncertified = 0
     for seed in range(4):
         seen.clear()
@@ -157,7 +144,7 @@ def _same_segment(p: np.ndarray, q: np.ndarray, a: np.ndarray, b: np.ndarray) ->
 @pytest.mark.parametrize("name", ROADMAPS)
 def test_a_replan_avoids_the_segment_that_failed(disc, monkeypatch, name: str) -> None:  # type: ignore[no-untyped-def]
     robot, space = disc
-    seen = _spy(monkeypatch)
+    seen = spy_certificates(monkeypatch)
     replans = 0
     for seed in range(4):
         seen.clear()

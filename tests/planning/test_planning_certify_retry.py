@@ -20,10 +20,10 @@ from typing import Any
 
 import numpy as np
 import pytest
+from _certify_spy import spy_certificates
 
 from taskspace.errors import InvalidInputError
 from taskspace.model import Obstacle, Robot
-from taskspace.planning import certify as certify_module
 from taskspace.planning.bit_star import BITStarOptions, bit_star
 from taskspace.planning.certify import FailedRegions
 from taskspace.planning.configuration_space import ConfigurationSpace, EdgeCheckOptions
@@ -75,20 +75,6 @@ CROSSING = [*STRAIGHT, "bit_star"]
 through a sample near A)."""
 
 
-def _spy(monkeypatch: pytest.MonkeyPatch) -> list[tuple[np.ndarray, Any]]:
-    """Record every path certify_planned certifies, with its certificate."""
-    seen: list[tuple[np.ndarray, Any]] = []
-    real = certify_module.certify_path
-
-    def spy(robot: Any, path: Any, **kwargs: Any) -> Any:
-        cert = real(robot, path, **kwargs)
-        seen.append((np.array(path, dtype=float), cert))
-        return cert
-
-    monkeypatch.setattr(certify_module, "certify_path", spy)
-    return seen
-
-
 def test_the_straight_line_passes_the_edge_check_and_collides(post) -> None:  # type: ignore[no-untyped-def]
     robot, space = post
     assert space.motion_valid(A, B)  # its points straddle the post ...
@@ -103,7 +89,7 @@ def test_the_straight_line_passes_the_edge_check_and_collides(post) -> None:  # 
 @pytest.mark.parametrize("name", [*CROSSING, "rrt"])
 def test_a_replan_certifies_around_the_spot(post, monkeypatch, name: str) -> None:  # type: ignore[no-untyped-def]
     robot, space = post
-    seen = _spy(monkeypatch)
+    seen = spy_certificates(monkeypatch)
     for seed in SEEDS:
         seen.clear()
         result = _plan(name, space, seed)
@@ -159,7 +145,7 @@ def test_replans_never_return_a_motion_uncertified_inside_a_failed_region(
     # Every edge of every re-planned path that enters a failed region is certified there
     # (checked here by the certifier on the chord, and the whole path by the reference).
     robot, space = post
-    seen = _spy(monkeypatch)
+    seen = spy_certificates(monkeypatch)
     for name in ["rrt_connect", "rrt_connect_python"]:
         for seed in SEEDS:
             seen.clear()
