@@ -1,6 +1,6 @@
-"""The double-precision sphere test of the Panda's sphere model, recomputed in NumPy (a reference
-for the kernel's sphere checks: tests/planning/test_planning_sphere_batch.py and
-test_planning_sphere_pairs.py)."""
+"""References for the kernel's sphere checks (test_planning_sphere_batch.py,
+test_planning_sphere_pairs.py, test_planning_edge_certificates.py): the double-precision sphere
+test recomputed in NumPy, and Pinocchio's exact mesh test."""
 
 from __future__ import annotations
 
@@ -89,3 +89,20 @@ class PairClearances:
             else:
                 prim = min(prim, value)
         return prim, other
+
+
+def mesh_collides(robot: Any) -> Any:
+    """Pinocchio's exact test of every pair at q (no GJK warm start, EPA on), as a function."""
+    model, geom = robot.model, robot.collision_model
+    data, gdata = model.createData(), geom.createData()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)
+        for request in gdata.collisionRequests:
+            request.enable_cached_gjk_guess = False
+            request.gjk_initial_guess = coal.GJKInitialGuess.DefaultGuess
+            request.enable_contact = True
+
+    def collides(q: np.ndarray) -> bool:
+        return bool(pin.computeCollisions(model, data, geom, gdata, q, True))
+
+    return collides

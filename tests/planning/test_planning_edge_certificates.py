@@ -16,7 +16,6 @@ kernel's code:
 from __future__ import annotations
 
 import itertools
-import warnings
 from typing import Any
 
 import coal
@@ -24,6 +23,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 from _mbm import ROOT, SKIP_REASON
+from _sphere_reference import mesh_collides
 
 from taskspace._native import planning_kernel
 from taskspace.errors import InvalidInputError, UnknownNameError
@@ -49,23 +49,6 @@ def _space(robot: Any, scenario: str) -> tuple[Any, Any]:
     req = motionbenchmaker_problems(ROOT, scenario, [PROBLEM[scenario]])[0].apply(robot)
     space = ConfigurationSpace.from_robot(robot, edge=EdgeCheckOptions(resolution=0.03))
     return req, space
-
-
-def _mesh_collides(robot: Any) -> Any:
-    """Pinocchio's exact test of every pair (no warm start, EPA on: see the sphere tests)."""
-    model, geom = robot.model, robot.collision_model
-    data, gdata = model.createData(), geom.createData()
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", DeprecationWarning)
-        for request in gdata.collisionRequests:
-            request.enable_cached_gjk_guess = False
-            request.gjk_initial_guess = coal.GJKInitialGuess.DefaultGuess
-            request.enable_contact = True
-
-    def collides(q: np.ndarray) -> bool:
-        return bool(pin.computeCollisions(model, data, geom, gdata, q, True))
-
-    return collides
 
 
 def _centres(model: Any, data: Any, spheres: Any, q: np.ndarray) -> np.ndarray:
@@ -210,7 +193,7 @@ def test_certified_edges_are_free(robot: Any, scenario: str) -> None:
     _, space = _space(robot, scenario)
     kernel = space.checker.sphere_kernel()
     _, mb = kernel.motion_bounds()
-    collides = _mesh_collides(robot)
+    collides = mesh_collides(robot)
     rng = np.random.default_rng(11)
     certified = refused = meshed = 0
     while certified < 40 or refused < 20:
@@ -306,7 +289,7 @@ def test_planned_paths_are_certified(robot: Any, scenario: str) -> None:
     closer to the object than the spheres' margin; its edges are checked at points)."""
     req, space = _space(robot, scenario)
     kernel = space.checker.sphere_kernel()
-    collides = _mesh_collides(robot)
+    collides = mesh_collides(robot)
     n_certified = 0
     for seed in range(3):
         res = rrt_connect(

@@ -18,15 +18,13 @@ below float's rounding of the centres, ~1e-7 m) fail without the filter's inflat
 
 from __future__ import annotations
 
-import warnings
 from typing import Any
 
-import coal
 import numpy as np
-import pinocchio as pin
 import pytest
 from _mbm import ROOT, SKIP_REASON
 from _sphere_reference import PairClearances as SphereReference
+from _sphere_reference import mesh_collides
 
 from taskspace._native import planning_kernel
 from taskspace.planning.configuration_space import (
@@ -61,18 +59,6 @@ def _space(robot: Any, scenario: str) -> tuple[Any, Any, Any]:
     assert kernel.sphere_filter()  # set up, and on by default
     assert kernel.sphere_filter_mode == TRUSTED
     return req, space, kernel
-
-
-def _mesh_reference(robot: Any) -> Any:
-    model, geom = robot.model, robot.collision_model
-    data, gdata = model.createData(), geom.createData()
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", DeprecationWarning)
-        for request in gdata.collisionRequests:
-            request.enable_cached_gjk_guess = False
-            request.gjk_initial_guess = coal.GJKInitialGuess.DefaultGuess
-            request.enable_contact = True
-    return lambda q: bool(pin.computeCollisions(model, data, geom, gdata, q, True))
 
 
 def _near_configurations(robot: Any, rng: Any, n: int) -> np.ndarray:
@@ -112,7 +98,7 @@ def test_filter_against_the_double_sphere_test_and_the_meshes(robot: Any, scenar
     is near the base hull's box, which the filter tests instead of the hull)."""
     _, space, kernel = _space(robot, scenario)
     ref = SphereReference(robot, space.checker.sphere_model())
-    mesh = _mesh_reference(robot)
+    mesh = mesh_collides(robot)
     eps = kernel.sphere_filter_eps()
     assert 1e-6 < eps < 1e-4
     rng = np.random.default_rng(3)
@@ -162,7 +148,7 @@ def test_filter_on_gives_the_double_path_answers(robot: Any, scenario: str) -> N
     trusted, an edge's "spheres only" index differs only where it is colliding within twice
     the filter's margin of touching (an earlier index in bisection order)."""
     _, space, kernel = _space(robot, scenario)
-    mesh = _mesh_reference(robot)
+    mesh = mesh_collides(robot)
     ref = SphereReference(robot, space.checker.sphere_model())
     eps = kernel.sphere_filter_eps()
     rng = np.random.default_rng(8)
@@ -201,7 +187,7 @@ def test_planner_paths_equal_with_and_without_the_filter(robot: Any) -> None:
     """The planner with the filter: the same paths and check counts as without where the answers
     are the same ("spheres"; "spheres only" confirmed), with fewer double-precision sphere tests
     (the filter is used); trusted, "spheres only" plans paths that the meshes find free."""
-    mesh = _mesh_reference(robot)
+    mesh = mesh_collides(robot)
     for scenario in ("bookshelf_tall", "table_pick"):
         req, space, kernel = _space(robot, scenario)
         for checker, mode in (("spheres", TRUSTED), ("spheres_only", CONFIRMED)):
@@ -286,7 +272,7 @@ def test_fine_pass_checks_the_pending_edges_as_one_list(robot: Any) -> None:
         space = ConfigurationSpace.from_robot(robot, edge=EdgeCheckOptions(resolution=0.03))
         checker: Any = space.checker
         reference = SphereReference(robot, checker.sphere_model())
-        mesh = _mesh_reference(robot)  # with this scene's obstacles
+        mesh = mesh_collides(robot)  # with this scene's obstacles
         opts = RRTConnectOptions(
             seed=seed, checker="spheres_only", validator="spheres", fallback_iterations=None
         )

@@ -17,15 +17,12 @@ only if the walk gives every pair whose spheres touch. References, independent o
 
 from __future__ import annotations
 
-import warnings
 from typing import Any
 
-import coal
 import numpy as np
-import pinocchio as pin
 import pytest
 from _mbm import ROOT, SKIP_REASON
-from _sphere_reference import PairClearances
+from _sphere_reference import PairClearances, mesh_collides
 
 from taskspace._native import planning_kernel
 from taskspace.planning.configuration_space import ConfigurationSpace, EdgeCheckOptions
@@ -100,14 +97,7 @@ def test_answers_are_the_double_tests_and_the_meshes(robot: Any, scenario: str) 
     row by row (the spheres cover the meshes: certified)."""
     _, kernel = _kernel(robot, scenario)
     assert kernel.certified_margin > 0.0
-    model, geom = robot.model, robot.collision_model
-    data, gdata = model.createData(), geom.createData()
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", DeprecationWarning)
-        for request in gdata.collisionRequests:
-            request.enable_cached_gjk_guess = False
-            request.gjk_initial_guess = coal.GJKInitialGuess.DefaultGuess
-            request.enable_contact = True
+    collides = mesh_collides(robot)
     qs = _configurations(robot, 33, 120)
     out = {}
     for mode in (OFF, CONFIRMED):
@@ -117,7 +107,7 @@ def test_answers_are_the_double_tests_and_the_meshes(robot: Any, scenario: str) 
         finally:
             kernel.set_sphere_filter(2)
     np.testing.assert_array_equal(out[CONFIRMED], out[OFF])
-    mesh = np.array([pin.computeCollisions(model, data, geom, gdata, q, True) for q in qs])
+    mesh = np.array([collides(q) for q in qs])
     np.testing.assert_array_equal(out[CONFIRMED][0].astype(bool), mesh)
     # rows the spheres flag that the meshes find free: the narrow phase decided
     assert np.sum(out[CONFIRMED][1].astype(bool) & ~mesh) >= 10
