@@ -406,7 +406,6 @@ class GeneralIKStep {
   // minimizer, proxsuite's own point and multipliers are returned (the caller certifies
   // them). A warm run that does not solve is run once more from a fresh workspace.
   int solve_proxsuite(WeightedIKKernel& k, int meq, int md, int mc, int& iterations) {
-    namespace pq = proxsuite::proxqp;
     const int n = k.nv_, nin = md + mc, m = static_cast<int>(Ga_.rows());
     Aq_ = A_;
     Cq_.resize(nin, n);
@@ -433,8 +432,7 @@ class GeneralIKStep {
       last_fresh_ = fresh;
       if (fresh) {
         if (qps_.size() >= 16) qps_.clear();
-        auto qp = std::make_unique<pq::dense::QP<double>>(n, meq, nin, true);
-        auto& st = qp->settings;
+        taskspace_native::DenseQPSettings st;
         st.eps_abs = k.eps_abs_;
         st.eps_rel = k.eps_rel_;
         st.check_duality_gap = true;
@@ -443,27 +441,27 @@ class GeneralIKStep {
         st.default_rho = 1e-6;
         st.max_iter = 200;
         st.max_iter_in = 30;
-        st.verbose = false;
-        st.initial_guess = pq::InitialGuessStatus::NO_INITIAL_GUESS;
+        auto qp = std::make_unique<taskspace_native::DenseQP>(n, meq, nin, st);
         qp->init(k.H_, k.g_, Aq_, b_, Cq_, lq_, uq_, lbq_, ubq_);
         it = qps_.emplace(key, std::move(qp)).first;
         ++fresh_qps_;
       } else {
-        it->second->update(k.H_, k.g_, Aq_, b_, Cq_, lq_, uq_, lbq_, ubq_, false);
+        it->second->update(k.H_, k.g_, Aq_, b_, Cq_, lq_, uq_, lbq_, ubq_);
       }
-      pq::dense::QP<double>& qp = *it->second;
+      taskspace_native::DenseQP& qp = *it->second;
       qp.solve();
-      if (fresh) qp.settings.initial_guess = pq::InitialGuessStatus::WARM_START_WITH_PREVIOUS_RESULT;
-      const auto& r = qp.results;
-      iterations += static_cast<int>(r.info.iter);
-      if (r.info.status != pq::QPSolverOutput::PROXQP_SOLVED) {
-        const bool infeasible = r.info.status == pq::QPSolverOutput::PROXQP_PRIMAL_INFEASIBLE;
+      if (fresh) qp.warm_start_from_previous();
+      iterations += static_cast<int>(qp.iterations());
+      if (!qp.solved()) {
+        const bool infeasible = qp.primal_infeasible();
         qps_.erase(it);  // stale preconditioner or warm start: rebuilt
         if (!fresh) continue;
         return infeasible ? kInfeasible : kNotCertified;
       }
       // proxsuite's multipliers as the rows' (w >= 0 on a'x >= h: see the mapping in solve)
-      px_ = r.x;
+      px_ = qp.x();
+      const Eigen::VectorXd& ry = qp.y();
+      const Eigen::VectorXd& rz = qp.z();
       w_.resize(m);
       set_.clear();
       const double tight = 1e-6 * std::max(1.0, px_.cwiseAbs().maxCoeff());
@@ -471,10 +469,10 @@ class GeneralIKStep {
         const int i = index_[row];
         double zp = 0.0;
         switch (kind_[row]) {
-          case 0: zp = r.y[i]; break;
-          case 1: zp = r.z[nin + i]; break;
-          case 2: zp = r.z[i]; break;
-          default: zp = r.z[md + i]; break;
+          case 0: zp = ry[i]; break;
+          case 1: zp = rz[nin + i]; break;
+          case 2: zp = rz[i]; break;
+          default: zp = rz[md + i]; break;
         }
         if (kind_[row] == 0) {
           w_[row] = -zp;
@@ -498,7 +496,7 @@ class GeneralIKStep {
   // forget the workspace of the last proxsuite solve
   void drop_workspace() { qps_.erase(last_key_); }
 
-  std::map<long, std::unique_ptr<proxsuite::proxqp::dense::QP<double>>> qps_;
+  std::map<long, std::unique_ptr<taskspace_native::DenseQP>> qps_;
   long last_key_ = -1;
   MatrixXd Aq_, Cq_;
   VectorXd lq_, uq_, lbq_, ubq_, px_, wp_;

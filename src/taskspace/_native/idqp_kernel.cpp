@@ -21,7 +21,7 @@
 #include <boost/python.hpp>
 #include <eigenpy/eigenpy.hpp>
 
-#include <proxsuite/proxqp/dense/dense.hpp>
+#include "dense_qp.hpp"  // proxsuite's dense solver, compiled once (dense_qp.cpp)
 
 #if __has_include(<pinocchio/multibody/data.hpp>)  // Pinocchio 3
 #include <pinocchio/multibody/data.hpp>
@@ -843,11 +843,9 @@ class InverseDynamicsKernel {
   }
 
   int proxsuite_once(int& iterations, Residuals& res) {
-    namespace pq = proxsuite::proxqp;
     bool fresh = false;
     if (!qp_) {
-      qp_ = std::make_unique<pq::dense::QP<double>>(n_, n_eq_, n_in_, true);
-      auto& s = qp_->settings;
+      taskspace_native::DenseQPSettings s;
       s.eps_abs = eps_abs_;
       s.eps_rel = eps_rel_;
       s.check_duality_gap = true;
@@ -855,24 +853,23 @@ class InverseDynamicsKernel {
       s.eps_duality_gap_rel = eps_rel_;
       s.max_iter = max_iter_;
       s.max_iter_in = max_iter_in_;
-      s.verbose = false;
-      s.initial_guess = pq::InitialGuessStatus::NO_INITIAL_GUESS;
+      qp_ = std::make_unique<taskspace_native::DenseQP>(n_, n_eq_, n_in_, s);
       qp_->init(H_, g_, A_, b_, C_, l_, u_, lb_, ub_);
       fresh = true;
     } else {
-      qp_->update(H_, g_, A_, b_, C_, l_, u_, lb_, ub_, false);
+      qp_->update(H_, g_, A_, b_, C_, l_, u_, lb_, ub_);
     }
     qp_->solve();
-    if (fresh) qp_->settings.initial_guess = pq::InitialGuessStatus::WARM_START_WITH_PREVIOUS_RESULT;
-    const auto& r = qp_->results;
-    iterations = static_cast<int>(r.info.iter);
-    if (r.info.status != pq::QPSolverOutput::PROXQP_SOLVED) {
+    if (fresh) qp_->warm_start_from_previous();
+    iterations = static_cast<int>(qp_->iterations());
+    if (!qp_->solved()) {
       qp_.reset();  // stale preconditioner or warm start: rebuilt next time
       res = Residuals{};
       res.primal = res.dual = std::numeric_limits<double>::quiet_NaN();
       return kNotSolved;
     }
-    const VectorXd px = r.x, py = r.y, pz = r.z.head(n_in_), pzb = r.z.tail(n_);
+    const VectorXd px = qp_->x(), py = qp_->y(), pz = qp_->z().head(n_in_),
+                   pzb = qp_->z().tail(n_);
     if (refine(px, pz, pzb)) {
       res = kkt(x_, y_, z_, zbox_);
       if (res.within(eps_abs_, eps_rel_)) return kSolved;
@@ -999,7 +996,7 @@ class InverseDynamicsKernel {
   Eigen::Vector3d com_, com_acc_;
   Eigen::Matrix<double, 6, 6> Jlog_;
   Eigen::Matrix3d Jlog3_;
-  std::unique_ptr<proxsuite::proxqp::dense::QP<double>> qp_;
+  std::unique_ptr<taskspace_native::DenseQP> qp_;
 };
 
 }  // namespace
@@ -1007,7 +1004,7 @@ class InverseDynamicsKernel {
 BOOST_PYTHON_MODULE(_idqp_kernel) {
   eigenpy::enableEigenPy();
   bp::scope().attr("PINOCCHIO_VERSION") = std::string(PINOCCHIO_VERSION);
-  bp::scope().attr("PROXSUITE_VERSION") = std::string(PROXSUITE_VERSION);
+  bp::scope().attr("PROXSUITE_VERSION") = std::string(taskspace_native::dense_qp_proxsuite_version());
   bp::scope().attr("UNCONSTRAINED") = kUnconstrained;
   bp::scope().attr("SOLVED") = kSolved;
   bp::scope().attr("NOT_SOLVED") = kNotSolved;

@@ -14,7 +14,7 @@
 #include <structmember.h>  // T_OBJECT_EX, READONLY (arm_advance)
 #include <eigenpy/eigenpy.hpp>
 #ifdef TASKSPACE_IK_PROXSUITE  // the general step's proxsuite engine (general_step.hpp)
-#include <proxsuite/proxqp/dense/dense.hpp>
+#include "dense_qp.hpp"  // proxsuite's dense solver, compiled once (dense_qp.cpp)
 #endif
 
 #if __has_include(<pinocchio/multibody/data.hpp>)  // Pinocchio 3
