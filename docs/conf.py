@@ -6,7 +6,9 @@ Build (warnings are errors)::
 
 The gallery runs every script of ``examples/`` with ``TASKSPACE_FAST=1`` (short runs);
 ``TASKSPACE_DOCS_GALLERY=0`` skips running them (pages without outputs), and
-``TASKSPACE_DOCS_GALLERY=<regex>`` runs only the matching scripts.
+``TASKSPACE_DOCS_GALLERY=<regex>`` runs only the scripts whose path matches (every script still
+gets its page; ``tests/test_docs.py`` runs in this way only the examples whose figures it
+checks). The default runs them all.
 """
 
 from __future__ import annotations

@@ -5,6 +5,10 @@ relative to the caller's directory (the commands run here from a temporary direc
 relative paths, and nothing may land in the repository). Demos run with ``TASKSPACE_FAST=1``.
 Every demo prints the path of each file it writes; every demo that moves a robot writes its
 motion into ``--save`` as ``<stem>.html`` (a meshcat animation) and ``<stem>_robot.png``.
+
+:func:`test_every_demo_accepts_every_flag` is the test that runs every example of
+``examples/``; the docs build of ``tests/test_docs.py`` runs only the three whose gallery
+figures it checks.
 """
 
 from __future__ import annotations

@@ -1,8 +1,14 @@
 """The documentation builds with warnings as errors, with its API pages and its gallery.
 
 Runs ``python -m sphinx -W --keep-going -b html docs <tmp>`` (the same command as
-``make docs``, into a temporary directory). The gallery runs every example with
-``TASKSPACE_FAST=1`` and embeds the PNG files each one writes.
+``make docs``, into a temporary directory) with ``TASKSPACE_FAST=1``. Every example gets its
+gallery page, but this build runs only the examples of ``GALLERY_EXAMPLES``, the ones whose
+embedded figures :func:`test_gallery_pages_have_the_figures` checks (a matplotlib figure, a
+figure of an example in a subfolder, a meshcat snapshot rendered by headless Chromium): it
+narrows ``docs/conf.py``'s gallery with ``TASKSPACE_DOCS_GALLERY``. Every example, these
+three included, is run by ``tests/test_cli_demos.py::test_every_demo_accepts_every_flag``
+(with each flag, its outputs checked), so running the others here again would test nothing
+more. ``make docs`` runs them all.
 """
 
 from __future__ import annotations
@@ -26,6 +32,14 @@ except ImportError:  # pragma: no cover (Windows: no lock, one build per worker)
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
 TIMEOUT = 1200  # seconds for the whole build
+GALLERY_EXAMPLES = ("ik/panda_reach_obstacle", "control/cartpole_lqr", "demo_main")
+"""The examples the build of this test runs (paths in ``examples/``, without ``.py``)."""
+GALLERY_PATTERN = (
+    r"[/\\]("
+    + "|".join(r"[/\\]".join(map(re.escape, e.split("/"))) for e in GALLERY_EXAMPLES)
+    + r")\.py$"
+)
+"""sphinx-gallery's ``filename_pattern`` (searched in each script's path) for them."""
 
 pytest.importorskip("sphinx")
 pytest.importorskip("sphinx_gallery")
@@ -42,7 +56,13 @@ def _shared_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 def _build(out: Path) -> dict[str, object]:
-    env = dict(os.environ, TASKSPACE_FAST="1", MPLBACKEND="Agg", OPENBLAS_NUM_THREADS="1")
+    env = dict(
+        os.environ,
+        TASKSPACE_FAST="1",
+        MPLBACKEND="Agg",
+        OPENBLAS_NUM_THREADS="1",
+        TASKSPACE_DOCS_GALLERY=GALLERY_PATTERN,
+    )
     env.pop("DISPLAY", None)
     command = [sys.executable, "-m", "sphinx", "-W", "--keep-going", "-q", "-b", "html"]
     start = time.perf_counter()
@@ -130,8 +150,8 @@ def test_gallery_pages_have_the_figures(html: Path) -> None:
     )
     missing = [str(e) for e in examples if not (gallery / e).is_file()]
     assert not missing, f"gallery pages missing: {missing}"
-    # examples that save figures: their PNGs are embedded in the page
-    for example in ("ik/panda_reach_obstacle", "control/cartpole_lqr", "demo_main"):
+    # the examples this build runs: the PNGs they save are embedded in their pages
+    for example in GALLERY_EXAMPLES:
         page = (gallery / f"{example}.html").read_text(encoding="utf-8")
         assert "sphx-glr-single-img" in page or "sphx-glr-multi-img" in page, example
         assert ".png" in page, example
@@ -141,6 +161,29 @@ def test_gallery_pages_have_the_figures(html: Path) -> None:
 
 
 # ----------------------------------------------------------------------------- fast checks
+def test_gallery_pattern_selects_exactly_the_checked_examples() -> None:
+    """The pattern given to the build runs the examples of ``GALLERY_EXAMPLES``, no other."""
+    sys.path.insert(0, str(DOCS / "_ext"))
+    try:
+        import taskspace_gallery
+    finally:
+        sys.path.remove(str(DOCS / "_ext"))
+    # the paths sphinx-gallery searches: the scripts of the mirror of examples/
+    mirrored = [
+        taskspace_gallery.GALLERY_SRC / p.relative_to(ROOT / "examples")
+        for p in sorted((ROOT / "examples").rglob("*.py"))
+        if not p.name.startswith("_") and "__pycache__" not in p.parts
+    ]
+    selected = [
+        p.relative_to(taskspace_gallery.GALLERY_SRC).with_suffix("").as_posix()
+        for p in mirrored
+        if re.search(GALLERY_PATTERN, str(p))
+    ]
+    assert sorted(selected) == sorted(GALLERY_EXAMPLES)
+    assert re.search(GALLERY_PATTERN, str(DOCS / "x" / "ik" / "panda_reach_obstacle.py"))
+    assert not re.search(GALLERY_PATTERN, str(DOCS / "x" / "ik" / "not_panda_reach_obstacle.py"))
+
+
 SPHINX_ROLE_NOISE = ("Unknown interpreted text role", "No role entry", "Trying ")
 
 

@@ -329,6 +329,9 @@ class YamlLines:
         return f"{self.path}:{line}" if line is not None else str(self.path)
 
 
+_SAFE_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
+
+
 def read_yaml(path: str | Path, what: str = "YAML file") -> tuple[Any, YamlLines]:
     """Parse a YAML file (safe loader) and keep the line of every node.
 
@@ -350,9 +353,12 @@ def read_yaml(path: str | Path, what: str = "YAML file") -> tuple[Any, YamlLines
         text = p.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise ModelLoadError(f"cannot read {what} {p}: {exc}") from exc
+    # One parse: the nodes (their lines) and the data built from them, as yaml.safe_load
+    # builds it. libyaml's parser when PyYAML has it (the same nodes, ~3x faster).
+    loader = _SAFE_LOADER(text)
     try:
-        root = yaml.compose(text, Loader=yaml.SafeLoader)
-        data = yaml.safe_load(text)
+        root = loader.get_single_node()
+        data = loader.construct_document(root) if root is not None else None
     except yaml.MarkedYAMLError as exc:
         mark = exc.problem_mark or exc.context_mark
         place = f"{p}:{mark.line + 1}:{mark.column + 1}" if mark is not None else str(p)
@@ -360,6 +366,8 @@ def read_yaml(path: str | Path, what: str = "YAML file") -> tuple[Any, YamlLines
         raise ModelLoadError(f"{place}: malformed YAML in {what}: {problem}") from exc
     except yaml.YAMLError as exc:
         raise ModelLoadError(f"{p}: malformed YAML in {what}: {exc}") from exc
+    finally:
+        loader.dispose()
     return data, YamlLines(p, root)
 
 

@@ -8,6 +8,7 @@ import time
 import _batch_tasks as T
 import numpy as np
 import pytest
+from _local_ray import start_local_ray
 
 from taskspace.batch import BatchOptions, Executor
 
@@ -73,8 +74,6 @@ def test_ray_executor_outlives_a_ray_restart(local_ray: None) -> None:
     serial = Executor(BatchOptions(backend="serial", progress=False)).map(T.noisy, range(6))
     with Executor(_ray(chunk_size=2)) as ex:
         assert ex.map(T.noisy, range(6)).values == serial.values
-        context = ray.get_runtime_context()
-        env = context.runtime_env
         ray.shutdown()  # the executor's actors went with it
-        ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False, runtime_env=env)
+        start_local_ray()
         assert ex.map(T.noisy, range(6)).values == serial.values  # new actors

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 import yaml
 
+from taskspace._validation import read_yaml
 from taskspace.errors import ModelLoadError
 from taskspace.planning.scene_loader import (
     MOTIONBENCHMAKER_ENV,
@@ -38,6 +39,33 @@ def test_reads_every_scene_file() -> None:
             assert len(p.obstacles) == n_prims
             total += n_prims
     assert total > 3000
+
+
+def _marks(node: yaml.Node) -> list[tuple[str, str, int, int]]:
+    """Kind, tag, line and column of every node of a document, depth first."""
+    found = [(type(node).__name__, node.tag, node.start_mark.line, node.start_mark.column)]
+    if isinstance(node, yaml.MappingNode):
+        for key, value in node.value:
+            found += _marks(key) + _marks(value)
+    elif isinstance(node, yaml.SequenceNode):
+        for value in node.value:
+            found += _marks(value)
+    return found
+
+
+def test_read_yaml_gives_the_pure_python_parse() -> None:
+    """read_yaml (libyaml's parser when PyYAML has it) against PyYAML's pure-Python loader.
+
+    The same data and the same line of every node, on a scene and a request per scenario
+    (test_reads_every_scene_file's reference uses libyaml too, for speed).
+    """
+    for scenario in MOTIONBENCHMAKER_SCENARIOS:
+        folder = ROOT / f"{scenario}_panda"
+        for path in (folder / "scene0001.yaml", folder / "request0001.yaml"):
+            text = path.read_text()
+            data, lines = read_yaml(path)
+            assert data == yaml.load(text, Loader=yaml.SafeLoader), path
+            assert _marks(lines._root) == _marks(yaml.compose(text, Loader=yaml.SafeLoader))
 
 
 def test_box_pose_and_size_match_yaml() -> None:
