@@ -724,19 +724,10 @@ class CollisionKernel {
   // The filter's raw answer for up to kBatch rows: flags 1 where it finds that the row may
   // collide (a row outside is free for the double-precision sphere test), no early exit. Tests.
   Eigen::VectorXi sphere_filter_flags(const Eigen::Ref<const RowMatrixXd>& qs) {
-    check_cols(qs);
-    if (!has_spheres_ || !filter_.ready()) raise_invalid("the sphere filter is not set up");
-    const auto lock = lock_with_gil(mutex_);
     Eigen::VectorXi out(qs.rows());
-    const double* lanes[kBatch];
-    for (Eigen::Index s = 0; s < qs.rows(); s += kBatch) {
-      const int m = static_cast<int>(std::min<Eigen::Index>(kBatch, qs.rows() - s));
-      for (int l = 0; l < kBatch; ++l) lanes[l] = qs.row(s + std::min(l, m - 1)).data();
-      kinematics_batch(lanes);
-      filter_.load(batch_pose_);
-      const unsigned maybe = filter_.run((1u << m) - 1u, kBatch);
+    filter_batches(qs, [&](Eigen::Index s, int m, unsigned maybe) {
       for (int l = 0; l < m; ++l) out[s + l] = (maybe >> l) & 1u;
-    }
+    });
     return out;
   }
 
@@ -744,24 +735,33 @@ class CollisionKernel {
   // next_pair, after a run on the row's batch with no early exit): out(r, p) counts the times
   // collision pair p was given for row r (0 for every pair of a row the filter clears). Tests.
   Eigen::MatrixXi sphere_filter_pairs(const Eigen::Ref<const RowMatrixXd>& qs) {
+    Eigen::MatrixXi out = Eigen::MatrixXi::Zero(qs.rows(), geom_.collisionPairs.size());
+    filter_batches(qs, [&](Eigen::Index s, int m, unsigned maybe) {
+      for (int l = 0; l < m; ++l) {
+        if (!((maybe >> l) & 1u)) continue;
+        for (int j = filter_.first_pair(l); j >= 0; j = filter_.next_pair())
+          ++out(s + l, static_cast<Eigen::Index>(group_pairs_[j].pair));
+      }
+    });
+    return out;
+  }
+
+  // The test hooks' walk: the rows of qs in batches of kBatch (the last batch's missing lanes
+  // repeat its last row), each batch's kinematics and a filter run with no early exit, then
+  // per_batch(first row, rows in the batch, the filter's mask of rows that may collide).
+  template <class PerBatch>
+  void filter_batches(const Eigen::Ref<const RowMatrixXd>& qs, PerBatch&& per_batch) {
     check_cols(qs);
     if (!has_spheres_ || !filter_.ready()) raise_invalid("the sphere filter is not set up");
     const auto lock = lock_with_gil(mutex_);
-    Eigen::MatrixXi out = Eigen::MatrixXi::Zero(qs.rows(), geom_.collisionPairs.size());
     const double* lanes[kBatch];
     for (Eigen::Index s = 0; s < qs.rows(); s += kBatch) {
       const int m = static_cast<int>(std::min<Eigen::Index>(kBatch, qs.rows() - s));
       for (int l = 0; l < kBatch; ++l) lanes[l] = qs.row(s + std::min(l, m - 1)).data();
       kinematics_batch(lanes);
       filter_.load(batch_pose_);
-      const unsigned maybe = filter_.run((1u << m) - 1u, kBatch);
-      for (int l = 0; l < m; ++l) {
-        if (!((maybe >> l) & 1u)) continue;
-        for (int j = filter_.first_pair(l); j >= 0; j = filter_.next_pair())
-          ++out(s + l, static_cast<Eigen::Index>(group_pairs_[j].pair));
-      }
+      per_batch(s, m, filter_.run((1u << m) - 1u, kBatch));
     }
-    return out;
   }
 
   // Joint placements data_.oMi for q: a loop over the joints for models whose joints are
