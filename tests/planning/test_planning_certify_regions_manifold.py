@@ -19,7 +19,7 @@ import pytest
 
 from taskspace.errors import InvalidInputError
 from taskspace.model import Obstacle, Robot
-from taskspace.planning.certify import FailedRegions
+from taskspace.planning.certify import FailedRegions, certify_path
 from taskspace.planning.configuration_space import ConfigurationSpace, EdgeCheckOptions
 from taskspace.planning.planner_result import PlannerStatus
 from taskspace.planning.rrt_connect import RRTConnectOptions, rrt_connect
@@ -255,3 +255,16 @@ def test_non_finite_inputs_are_refused(planar, flyer, bad: float) -> None:  # ty
             regions.crossings(bad_q, q)
         near = space.interpolate(q, space.sample_uniform(np.random.default_rng(1)), 0.01)[0]
         assert regions.crossings(q, near) != []  # the finite edge is still answered
+
+
+@pytest.mark.parametrize("native", [True, False])
+def test_a_robot_without_collision_pairs_is_certified(native: bool) -> None:
+    # One body, no obstacle: nothing can collide. The Python certifier (native=False, a
+    # planar or floating base, which the compiled certifier does not serve, or a tree
+    # without compiled kernels) raised a TypeError here (an empty pair list made float
+    # arrays, which ``&`` refuses).
+    robot = _base_robot(pin.JointModelPlanar(), "lonely_disc")
+    assert len(robot.collision_model.collisionPairs) == 0
+    path = np.stack([_planar(-0.5, 0.0, 0.0), _planar(0.5, 0.2, 2.0)])
+    cert = certify_path(robot, path, native=native)
+    assert cert.certified and cert.min_distance == math.inf

@@ -396,11 +396,11 @@ def certify_path(
     data, gd = model.createData(), without_cached_guess(gm.createData())
     n_robot = robot.robot_geometry_count
     pairs = gm.collisionPairs
-    self_pair = np.array([p.first < n_robot and p.second < n_robot for p in pairs])
+    self_pair = np.array([p.first < n_robot and p.second < n_robot for p in pairs], dtype=bool)
     parent = [obj.parentJoint for obj in gm.geometryObjects]
     # Two geometries on one joint's body never move relative to each other: their distance
     # is checked once (> 0), not advanced on (tiago's finger links sit 2e-5 m apart).
-    rigid = self_pair & np.array([parent[p.first] == parent[p.second] for p in pairs])
+    rigid = self_pair & np.array([parent[p.first] == parent[p.second] for p in pairs], dtype=bool)
 
     def ancestors(joint: int) -> set[int]:
         out = set()
