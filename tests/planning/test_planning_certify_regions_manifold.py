@@ -168,6 +168,28 @@ def test_free_flyer_crossings_cover_every_point_inside_the_balls(flyer) -> None:
     assert _check_random_edges(space, regions, 2) > 10
 
 
+def test_free_flyer_edges_near_the_sphere_are_covered(flyer) -> None:  # type: ignore[no-untyped-def]
+    # Edges through a point just inside the ball (radius - 0.04 .. radius), in random
+    # directions: every point nearer than the radius (20 per step) is in an interval (2 of
+    # these 300 edges were not, before the samples were compared with radius + step / 2).
+    space = flyer
+    rng = np.random.default_rng(0)
+    regions = FailedRegions(space, 1e-4)
+    c = space.sample_uniform(rng)
+    regions.add(0, c[None, :], 0, 0.0)
+    r = regions.radius
+    for _ in range(300):
+        v = rng.standard_normal(6)
+        p = space.retract(c, v * rng.uniform(r - 0.04, r) / np.linalg.norm(v))
+        w = rng.standard_normal(6)
+        w *= 0.6 / np.linalg.norm(w)
+        a = space.retract(p, -w * rng.uniform(0.2, 1.0))
+        b = space.retract(p, w * rng.uniform(0.2, 1.0))
+        t = np.linspace(0.0, 1.0, 20 * space.segments(a, b) + 1)  # vectorized: 300 edges
+        ts = t[space.distances(space.interpolate(a, b, t), c) < r]
+        assert ts.size and _covered(ts, regions.crossings(a, b))
+
+
 def test_a_centre_stored_with_the_opposite_quaternion_sign_is_found(flyer) -> None:  # type: ignore[no-untyped-def]
     # q and -q are the same rotation; space.distance treats them as equal, so must crossings.
     space = flyer
