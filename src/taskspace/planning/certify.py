@@ -53,7 +53,7 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
-from taskspace._validation import as_float_array, check_count, check_positive
+from taskspace._validation import as_float_array, check_count, check_finite, check_positive
 from taskspace.errors import InvalidInputError
 from taskspace.model import Robot
 from taskspace.model.collision_requests import without_cached_guess
@@ -396,11 +396,11 @@ def certify_path(
     data, gd = model.createData(), without_cached_guess(gm.createData())
     n_robot = robot.robot_geometry_count
     pairs = gm.collisionPairs
-    self_pair = np.array([p.first < n_robot and p.second < n_robot for p in pairs])
+    self_pair = np.array([p.first < n_robot and p.second < n_robot for p in pairs], dtype=bool)
     parent = [obj.parentJoint for obj in gm.geometryObjects]
     # Two geometries on one joint's body never move relative to each other: their distance
     # is checked once (> 0), not advanced on (tiago's finger links sit 2e-5 m apart).
-    rigid = self_pair & np.array([parent[p.first] == parent[p.second] for p in pairs])
+    rigid = self_pair & np.array([parent[p.first] == parent[p.second] for p in pairs], dtype=bool)
 
     def ancestors(joint: int) -> set[int]:
         out = set()
@@ -518,7 +518,9 @@ class FailedRegions:
     from returning a motion already known to fail.
 
     The part inside a ball: the exact chord in a box space; on a joint manifold, between the
-    points (at the resolution) nearer than ``radius``, widened by one point on each side.
+    points (at the resolution) nearer than ``radius`` plus half a step, widened by one point
+    on each side (so it holds every point of the edge nearer than ``radius``, an edge that
+    grazes a ball between two of its points included).
 
     Attributes:
         centers: the configurations ``q(t)`` where certificates failed, ``(k, d)``.
@@ -545,7 +547,15 @@ class FailedRegions:
         return float(self.base_radius * 2.0 ** max(0, len(self.failures) - 1))
 
     def add(self, attempt: int, path: FloatArray, segment: int, t: float) -> None:
-        """Record the failure of ``path`` (the planner's coordinates) at ``segment``, ``t``."""
+        """Record the failure of ``path`` (the planner's coordinates) at ``segment``, ``t``.
+
+        Raises:
+            InvalidInputError: ``path`` or ``t`` is not finite (a NaN centre would be no
+                ball: every edge would pass it unproven).
+        """
+        check_finite(np.asarray(path, dtype=np.float64), "failed path")
+        if not math.isfinite(t):
+            raise InvalidInputError(f"the failed certificate's t must be finite, got {t!r}")
         self.failures.append((attempt, segment, t))
         if not 0 <= segment < path.shape[0] - 1:  # a one-point path (the start in a region)
             q = path[min(max(segment, 0), path.shape[0] - 1)]
@@ -554,7 +564,13 @@ class FailedRegions:
         self.centers = np.vstack([self.centers, q[None, :]])
 
     def crossings(self, q0: FloatArray, q1: FloatArray) -> list[tuple[float, float]]:
-        """The intervals ``[t_in, t_out]`` of the edge ``q0 -> q1`` inside a ball."""
+        """The intervals ``[t_in, t_out]`` of the edge ``q0 -> q1`` inside a ball.
+
+        Raises:
+            InvalidInputError: ``q0`` or ``q1`` is not finite (no ball would be found).
+        """
+        check_finite(q0, "edge start")
+        check_finite(q1, "edge end")
         out: list[tuple[float, float]] = []
         r2 = self.radius * self.radius
         if self.space.is_euclidean:
@@ -573,8 +589,12 @@ class FailedRegions:
         n = self.space.segments(q0, q1)
         ts = np.arange(n + 1) / n
         points = self.space.interpolate(q0, q1, ts)
+        # A point of the edge nearer than the radius is at most half a step from a sample,
+        # which is then nearer than radius + step / 2: an edge grazing a ball between two
+        # samples is caught too (with the radius alone, such a chord went unproven).
+        near = self.radius + 0.5 * self.space.distance(q0, q1) / n
         for c in self.centers:
-            inside = np.flatnonzero(self.space.distances(points, c) < self.radius)
+            inside = np.flatnonzero(self.space.distances(points, c) < near)
             if inside.size:
                 out.append((float(ts[max(inside[0] - 1, 0)]), float(ts[min(inside[-1] + 1, n)])))
         return out
