@@ -28,8 +28,8 @@ result's Python objects too). VAMP allocates its trees for ``max_samples`` confi
 (and zeroes two arrays of that length) before its clock starts: with the helper's 1,000,000
 that is at least about 0.45 ms of wall time per call on this machine, even for a straight-line
 plan; variant ``lean`` sets ``max_samples`` and ``max_iterations`` to 100,000 (``RRTCSettings``'
-own default, about 20 us), range 1.0. A first call on a new environment also costs several
-times a repeated one in wall time (not in VAMP's clock): ``--repeats`` takes the minimum
+own default, about 20 us), range 1.0. A first call on a new environment also costs more than
+a repeated one in wall time (not in VAMP's clock): ``--repeats`` takes the minimum
 (``times``) and ``first_times`` keeps the first call's wall time; the variants plan each
 problem in the order of ``--variants``, so only the first variant's first call is the first
 on that environment.
@@ -38,7 +38,9 @@ as in the requests), its joint limits (narrower than VAMP's for joints 4 and 6) 
 cylinders (VAMP: capsules), so they measure the difference of the models, not only of VAMP's
 sphere cover.
 
-After timing, every returned path is checked by taskspace's exact checker (Pinocchio/coal,
+After timing (the problems' validity is checked before the first VAMP call of a scenario and
+the paths after its last one, so that no taskspace allocation falls between two VAMP calls),
+every returned path is checked by taskspace's exact checker (Pinocchio/coal,
 taskspace's Panda, fingers at 0.04 m) at 0.03 rad and against taskspace's joint limits:
 ``exact_collisions`` counts the paths with a point in collision for that model.
 
@@ -198,7 +200,12 @@ def plan_scenario(
     }
     settings = {v: planner_settings(*r) for v, r in variants.items()}
     sampler = vamp.panda.halton()
-    for problem in motionbenchmaker_problems(root, scenario, indices):
+    problems = motionbenchmaker_problems(root, scenario, indices)
+    # taskspace's checks (the problems' validity before, the paths' exact checks after) stay
+    # out of the sequence of VAMP calls: their allocations between two calls would make the
+    # next call fault in fresh pages for its trees (about 290 minor faults, hundreds of us)
+    valid: list[tuple[Any, list[float], list[float]]] = []
+    for problem in problems:
         req = problem.apply(robot)
         space = ConfigurationSpace.from_robot(
             robot, edge=EdgeCheckOptions(resolution=args.resolution)
@@ -208,9 +215,10 @@ def plan_scenario(
             space.check_endpoint(req.goal, "goal")
         except PlanningError:
             continue
+        valid.append((problem, [float(x) for x in req.start], [float(x) for x in req.goal]))
+    paths: list[tuple[Any, str, np.ndarray]] = []  # solved paths, checked after timing
+    for problem, start, goal in valid:
         env = vamp_environment(problem.obstacles, scenario)
-        start = [float(x) for x in req.start]
-        goal = [float(x) for x in req.goal]
         endpoints_ok = vamp.panda.validate(start, env) and vamp.panda.validate(goal, env)
         for v in variants:
             best: tuple[float, Any] | None = None
@@ -237,10 +245,18 @@ def plan_scenario(
             row["iterations"].append(int(result.iterations))
             row["lengths"].append(float(result.path.cost()) if ok else None)
             if result.solved:
-                path = np.array(result.path.numpy(), dtype=float)[:, : space.dim]
-                collides, out = check_path(space, path, args.resolution)
-                row["exact_collisions"] += int(collides)
-                row["out_of_limits"] += int(out)
+                paths.append((problem, v, np.array(result.path.numpy(), dtype=float)))
+    applied = None
+    for problem, v, path in paths:
+        if problem is not applied:  # the paths of one problem are consecutive
+            problem.apply(robot)
+            space = ConfigurationSpace.from_robot(
+                robot, edge=EdgeCheckOptions(resolution=args.resolution)
+            )
+            applied = problem
+        collides, out = check_path(space, path[:, : space.dim], args.resolution)
+        rows[v]["exact_collisions"] += int(collides)
+        rows[v]["out_of_limits"] += int(out)
     return rows
 
 

@@ -250,7 +250,7 @@ PYROBOPLAN = "pyroboplan RRTConnect (own checker)"
 # the wall time of the Python call, VAMP's own clock (its trees allocated before it starts),
 # and the wall time with trees for 100,000 samples instead of 1,000,000. Each the minimum of
 # VAMP_REPEATS runs of the same (deterministic) plan: a first call on a new environment costs
-# several times a repeated one in wall time (not in VAMP's clock). The "first call" row is the
+# more than a repeated one in wall time (not in VAMP's clock). The "first call" row is the
 # wall time of the first of them with 100,000 samples, the first VAMP plan on each problem's
 # environment (variant "lean" plans before "default"): the peer of our first plan
 VAMP_REPEATS = 3
