@@ -217,6 +217,12 @@ def plan_scenario(
             continue
         valid.append((problem, [float(x) for x in req.start], [float(x) for x in req.goal]))
     paths: list[tuple[Any, str, np.ndarray]] = []  # solved paths, checked after timing
+    if valid:  # warm-up, not timed: the last problem's plan, twice per variant (the
+        # process's first calls map their tree memory, the second ones grow the heap for it)
+        warm = vamp_environment(valid[-1][0].obstacles, scenario)
+        for v in [*variants, *variants]:
+            sampler.reset()
+            vamp.panda.rrtc(valid[-1][1], valid[-1][2], warm, settings[v], sampler)
     for problem, start, goal in valid:
         env = vamp_environment(problem.obstacles, scenario)
         endpoints_ok = vamp.panda.validate(start, env) and vamp.panda.validate(goal, env)
