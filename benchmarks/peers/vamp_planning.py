@@ -203,7 +203,7 @@ def plan_scenario(
     problems = motionbenchmaker_problems(root, scenario, indices)
     # taskspace's checks (the problems' validity before, the paths' exact checks after) stay
     # out of the sequence of VAMP calls: their allocations between two calls would make the
-    # next call fault in fresh pages for its trees (about 290 minor faults, hundreds of us)
+    # next call fault in fresh pages for its trees (a first call's cost, not VAMP's)
     valid: list[tuple[Any, list[float], list[float]]] = []
     for problem in problems:
         req = problem.apply(robot)
