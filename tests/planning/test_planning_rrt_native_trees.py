@@ -1,7 +1,7 @@
 """The compiled RRT-Connect's trees hold checked motions only.
 
 Every tree edge (parent to child) was checked at its coarse points when it was added (EXTEND,
-or a step of CONNECT, whose steps the kernel checks as one list of points), so every node and
+or a step of CONNECT), so every node and
 every coarse point of every edge of the returned trees is free for the checker the plan used:
 "spheres_only" here (conservative: free for the meshes too), or, after a fallback, "spheres"
 (the meshes' answers). The reference is the kernel's own single-configuration check of those

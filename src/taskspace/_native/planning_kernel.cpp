@@ -2530,37 +2530,6 @@ class RRTConnect {
     VectorXd q0 = Eigen::Map<const VectorXd>(t.node(i_near), d_);
     VectorXd delta = Eigen::Map<const VectorXd>(target, d_) - q0;
     int par = i_near;
-    if (whole > 1 && !certifying() && regions_.empty()) {
-      // The points of every step in one list, step after step (each in its EXTEND order):
-      // first_collision checks in the list's order and stops at the first collision, so the
-      // steps added, the colliding point and the checks counted are those of checking step
-      // after step; the batches of the sphere checkers are full across steps.
-      ts_.clear();
-      step_end_.clear();
-      for (int s = 0; s < whole; ++s) {
-        const bool final_step = s == n_full;
-        const int n = final_step ? lines_.segments(last) : lines_.full_n;
-        const double start = s * alpha, len = final_step ? last : alpha;
-        const std::vector<double>& pattern = lines_.orders(n).pattern;
-        for (std::size_t j = final_step ? 1 : 0; j < pattern.size(); ++j)
-          ts_.push_back((start + pattern[j] * len) / dist);
-        step_end_.push_back(static_cast<int>(ts_.size()));
-      }
-      const int hit = ck_.first_collision(q0.data(), delta.data(), ts_.data(),
-                                          static_cast<int>(ts_.size()), checker_,
-                                          [this] { return stop(); });
-      const bool pend = lines_.lazy;
-      for (int s = 0; s < whole; ++s) {
-        if (hit >= 0 && hit < step_end_[s]) return {par, false};
-        if (s == n_full) {
-          par = t.add(target, par, lines_.segments(last), pend);
-        } else {
-          x_ = q0 + ((s + 1) * alpha / dist) * delta;
-          par = t.add(x_.data(), par, lines_.full_n, pend);
-        }
-      }
-      return {par, true};
-    }
     for (int s = 0; s < whole; ++s) {
       const bool final_step = s == n_full;
       const int n = final_step ? lines_.segments(last) : lines_.full_n;
@@ -2866,7 +2835,6 @@ class RRTConnect {
   int d_;
   VectorXd a_, b_, x_, dir_;
   std::vector<double> ts_;  // fractions of the points of the line being checked
-  std::vector<int> step_end_;  // connect: end of each step's points in ts_
   struct VerifyPoint {
     double t;          // fraction on the edge
     std::size_t edge;  // index in vedges_
