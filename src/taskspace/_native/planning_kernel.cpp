@@ -781,6 +781,11 @@ class CollisionKernel {
       f.idx_q = model_.joints[j].idx_q();
       f.R0 = model_.jointPlacements[j].rotation();
       f.t0 = model_.jointPlacements[j].translation();
+      for (int c = 0; c < 4; ++c)
+        for (int k = 0; k < 3; ++k) {
+          const double v = c < 3 ? f.R0(k, c) : f.t0[k];
+          if (v != 0.0) f.terms[c][f.n_terms[c]++] = FkJoint::Term{k, v, v == 1.0};
+        }
       if (type == "JointModelRX" || type == "JointModelRY" || type == "JointModelRZ") {
         f.kind = 0;
         f.axis = type.back() - 'X';
@@ -999,12 +1004,13 @@ class CollisionKernel {
       BatchPose& M = batch_pose_[k + 1];
       Batch v;
       for (int l = 0; l < kBatch; ++l) v[l] = q[l][f.idx_q];
-      // parent * jointPlacement (R0 and t0 are the same for every lane)
+      // parent * jointPlacement (R0 and t0 are the same for every lane): the sums of
+      // P.R[r + 3 k] * R0(k, c) over k in order, without the products with an entry 0 (a
+      // term +-0 leaves a sum unchanged but for the sign of a zero) or 1 (exact): joint
+      // placements are mostly axis permutations (the Panda's: 5 nonzero entries of 9)
       for (int c = 0; c < 3; ++c)
-        for (int r = 0; r < 3; ++r)
-          M.R[r + 3 * c] = P.R[r] * f.R0(0, c) + P.R[r + 3] * f.R0(1, c) + P.R[r + 6] * f.R0(2, c);
-      for (int r = 0; r < 3; ++r)
-        M.t[r] = P.R[r] * f.t0[0] + P.R[r + 3] * f.t0[1] + P.R[r + 6] * f.t0[2] + P.t[r];
+        for (int r = 0; r < 3; ++r) M.R[r + 3 * c] = column_term(P, f, c, r);
+      for (int r = 0; r < 3; ++r) M.t[r] = column_term(P, f, 3, r) + P.t[r];
       if (f.kind == 0) {  // revolute: columns b and d turn about the axis
         Batch c, s;
         batch_sincos(v, s, c);
@@ -1752,7 +1758,30 @@ class CollisionKernel {
     int parent = 0, idx_q = 0, kind = 0, axis = 2;  // kind 0 revolute, 1 prismatic
     coal::Matrix3s R0;
     coal::Vec3s t0;
+    // The nonzero terms of each column c of R0 (c = 0..2) and of t0 (c = 3), in row order:
+    // row k, value, exactly 1 (kinematics_batch skips the products with 0 and 1).
+    struct Term {
+      int k;
+      double v;
+      bool one;
+    };
+    int n_terms[4] = {0, 0, 0, 0};
+    Term terms[4][3];
   };
+  // Row r of P.R times column c of R0 (c = 3: t0), the terms of f.terms[c] in order.
+  __attribute__((always_inline)) static inline Batch column_term(const BatchPose& P,
+                                                                 const FkJoint& f, int c, int r) {
+    const int n = f.n_terms[c];
+    if (n == 0) return Batch{};
+    Batch acc = {};
+    for (int j = 0; j < n; ++j) {
+      const FkJoint::Term& t = f.terms[c][j];
+      const Batch x = t.one ? P.R[r + 3 * t.k] : P.R[r + 3 * t.k] * t.v;
+      acc = j == 0 ? x : acc + x;
+    }
+    return acc;
+  }
+
   std::vector<FkJoint> fk_;
   std::vector<double> fk_cos_, fk_sin_;
   std::vector<BatchPose> batch_pose_;     // kinematics_batch: joint placements, lanes
