@@ -154,6 +154,10 @@
 
 #include "sphere_batch.hpp"
 
+#if defined(__x86_64__) && defined(__GNUC__)
+#include <x86intrin.h>
+#endif
+
 namespace bp = boost::python;
 using pinocchio::Data;
 using pinocchio::GeometryData;
@@ -777,6 +781,11 @@ class CollisionKernel {
       f.idx_q = model_.joints[j].idx_q();
       f.R0 = model_.jointPlacements[j].rotation();
       f.t0 = model_.jointPlacements[j].translation();
+      for (int c = 0; c < 4; ++c)
+        for (int k = 0; k < 3; ++k) {
+          const double v = c < 3 ? f.R0(k, c) : f.t0[k];
+          if (v != 0.0) f.terms[c][f.n_terms[c]++] = FkJoint::Term{k, v, v == 1.0};
+        }
       if (type == "JointModelRX" || type == "JointModelRY" || type == "JointModelRZ") {
         f.kind = 0;
         f.axis = type.back() - 'X';
@@ -995,12 +1004,13 @@ class CollisionKernel {
       BatchPose& M = batch_pose_[k + 1];
       Batch v;
       for (int l = 0; l < kBatch; ++l) v[l] = q[l][f.idx_q];
-      // parent * jointPlacement (R0 and t0 are the same for every lane)
+      // parent * jointPlacement (R0 and t0 are the same for every lane): the sums of
+      // P.R[r + 3 k] * R0(k, c) over k in order, without the products with an entry 0 (a
+      // term +-0 leaves a sum unchanged but for the sign of a zero) or 1 (exact): joint
+      // placements are mostly axis permutations (the Panda's: 5 nonzero entries of 9)
       for (int c = 0; c < 3; ++c)
-        for (int r = 0; r < 3; ++r)
-          M.R[r + 3 * c] = P.R[r] * f.R0(0, c) + P.R[r + 3] * f.R0(1, c) + P.R[r + 6] * f.R0(2, c);
-      for (int r = 0; r < 3; ++r)
-        M.t[r] = P.R[r] * f.t0[0] + P.R[r + 3] * f.t0[1] + P.R[r + 6] * f.t0[2] + P.t[r];
+        for (int r = 0; r < 3; ++r) M.R[r + 3 * c] = column_term(P, f, c, r);
+      for (int r = 0; r < 3; ++r) M.t[r] = column_term(P, f, 3, r) + P.t[r];
       if (f.kind == 0) {  // revolute: columns b and d turn about the axis
         Batch c, s;
         batch_sincos(v, s, c);
@@ -1748,7 +1758,30 @@ class CollisionKernel {
     int parent = 0, idx_q = 0, kind = 0, axis = 2;  // kind 0 revolute, 1 prismatic
     coal::Matrix3s R0;
     coal::Vec3s t0;
+    // The nonzero terms of each column c of R0 (c = 0..2) and of t0 (c = 3), in row order:
+    // row k, value, exactly 1 (kinematics_batch skips the products with 0 and 1).
+    struct Term {
+      int k;
+      double v;
+      bool one;
+    };
+    int n_terms[4] = {0, 0, 0, 0};
+    Term terms[4][3];
   };
+  // Row r of P.R times column c of R0 (c = 3: t0), the terms of f.terms[c] in order.
+  __attribute__((always_inline)) static inline Batch column_term(const BatchPose& P,
+                                                                 const FkJoint& f, int c, int r) {
+    const int n = f.n_terms[c];
+    if (n == 0) return Batch{};
+    Batch acc = {};
+    for (int j = 0; j < n; ++j) {
+      const FkJoint::Term& t = f.terms[c][j];
+      const Batch x = t.one ? P.R[r + 3 * t.k] : P.R[r + 3 * t.k] * t.v;
+      acc = j == 0 ? x : acc + x;
+    }
+    return acc;
+  }
+
   std::vector<FkJoint> fk_;
   std::vector<double> fk_cos_, fk_sin_;
   std::vector<BatchPose> batch_pose_;     // kinematics_batch: joint placements, lanes
@@ -2302,7 +2335,21 @@ struct Result {
   // the lazy fine pass (verify) and the exact re-check of the returned path; the tree growth
   // (EXTEND and CONNECT checks, sampling) is the rest.
   double t_run = 0, t_endpoints = 0, t_line = 0, t_nearest = 0, t_verify = 0, t_recheck = 0;
+  // The nearest-neighbour scans and the fine pass, timed in ticks of phase_ticks (a few per
+  // iteration: a clock read each cost 2 % of a plan) and turned into seconds at the end in
+  // proportion to the whole run: tk_run the ticks of run() from its start.
+  std::uint64_t tk_nearest = 0, tk_verify = 0, tk_run = 0;
 };
+
+// A cheap monotonic tick counter for the phase times: the time-stamp counter on x86-64
+// (constant rate on the processors that run this), else the steady clock.
+inline std::uint64_t phase_ticks() {
+#if defined(__x86_64__) && defined(__GNUC__)
+  return __rdtsc();
+#else
+  return static_cast<std::uint64_t>(std::chrono::steady_clock::now().time_since_epoch().count());
+#endif
+}
 
 class RRTConnect {
  public:
@@ -2472,9 +2519,9 @@ class RRTConnect {
 
   // EXTEND(T, target): new node index or -1.
   int extend(Tree& t, const double* target) {
-    const auto t_n = clock::now();
+    const std::uint64_t t_n = phase_ticks();
     auto [i_near, dist] = t.nearest(target);
-    res.t_nearest += seconds(t_n, clock::now());
+    res.tk_nearest += phase_ticks() - t_n;
     if (dist == 0.0) return -1;
     ++res.edge_checks;
     const double alpha = lines_.alpha;
@@ -2603,6 +2650,18 @@ class RRTConnect {
   // about 292 years, is no limit) instead of overflowing.
   void run(const VectorXd& qs, const VectorXd& qg, long max_iterations, double time_limit,
            GilRelease* gil) {
+    const std::uint64_t tk0 = phase_ticks();
+    plan(qs, qg, max_iterations, time_limit, gil);
+    res.tk_run = phase_ticks() - tk0;
+    // the phases timed in ticks, in seconds: their share of the run's ticks times t_run
+    const double per_tick = res.tk_run > 0 ? res.t_run / static_cast<double>(res.tk_run) : 0.0;
+    res.t_nearest = per_tick * static_cast<double>(res.tk_nearest);
+    res.t_verify = per_tick * static_cast<double>(res.tk_verify);
+  }
+
+  // run() without the phases' conversion.
+  void plan(const VectorXd& qs, const VectorXd& qg, long max_iterations, double time_limit,
+            GilRelease* gil) {
     const auto t0 = clock::now();
     gil_ = gil;
     next_poll_ = t0 + kPollInterval;
@@ -2675,9 +2734,9 @@ class RRTConnect {
       const int a_new = extend(*ta, target.data());
       if (a_new >= 0) {
         const double* q_new = ta->node(a_new);
-        const auto t_n = clock::now();
+        const std::uint64_t t_n = phase_ticks();
         auto [j_near, gap] = tb->nearest(q_new);
-        res.t_nearest += seconds(t_n, clock::now());
+        res.tk_nearest += phase_ticks() - t_n;
         int b_new = j_near;
         bool reached = true;
         if (gap != 0.0) {
@@ -2687,9 +2746,9 @@ class RRTConnect {
         if (reached) {
           bool ok = true;
           if (lines_.lazy) {
-            const auto t_v = clock::now();
+            const std::uint64_t t_v = phase_ticks();
             ok = ta == goal_.get() ? verify(*ta, a_new, *tb, b_new) : verify(*tb, b_new, *ta, a_new);
-            res.t_verify += seconds(t_v, clock::now());
+            res.tk_verify += phase_ticks() - t_v;
           }
           if (ok) {
             std::vector<int> ia = ta->path_indices(a_new);  // a_new .. root

@@ -89,6 +89,12 @@ inline unsigned lanes_of(I4 m) {
 #endif
 }
 inline F4 splat(float x) { return F4{x, x, x, x}; }
+// kLaneMask[m]: all ones in the lanes of bit mask m
+constexpr I4 kLaneMask[16] = {
+    {0, 0, 0, 0},   {-1, 0, 0, 0},   {0, -1, 0, 0},   {-1, -1, 0, 0},
+    {0, 0, -1, 0},  {-1, 0, -1, 0},  {0, -1, -1, 0},  {-1, -1, -1, 0},
+    {0, 0, 0, -1},  {-1, 0, 0, -1},  {0, -1, 0, -1},  {-1, -1, 0, -1},
+    {0, 0, -1, -1}, {-1, 0, -1, -1}, {0, -1, -1, -1}, {-1, -1, -1, -1}};
 inline F4 vmax(F4 a, F4 b) { return a > b ? a : b; }
 inline F4 vmin(F4 a, F4 b) { return a < b ? a : b; }
 inline F4 vabs(F4 a) { return vmax(a, -a); }
@@ -286,18 +292,18 @@ class SphereFilter {
       // bounding sphere touches, 4 obstacles per vector operation; then the units of those
       for (std::size_t li = 0; li < links_.size(); ++li) {
         const unsigned act = active & ~maybe;
-        std::uint64_t lane_bits[kLanes] = {0, 0, 0, 0};
-        std::uint64_t any = 0;
-        for (int l = 0; l < kLanes; ++l)
-          if ((act >> l) & 1u) any |= lane_bits[l] = link_obstacles(li, l);
+        if (!act) continue;
+        // one lane: its obstacle bits; several: the obstacles the lanes' union sphere
+        // touches (a superset of every lane's), then lane-wise per such obstacle
+        const bool one = (act & (act - 1)) == 0;
+        std::uint64_t any =
+            one ? link_obstacles(li, __builtin_ctz(act)) : link_union_obstacles(li, act);
         while (any) {
           const int ob = __builtin_ctzll(any);
           any &= any - 1;
           const int k = unit_of_[li * obs_.size() + ob];
           if (k < 0 || k == first_unit_) continue;
-          unsigned near = 0;
-          for (int l = 0; l < kLanes; ++l)
-            near |= static_cast<unsigned>((lane_bits[l] >> ob) & 1u) << l;
+          const unsigned near = one ? act : link_obstacle_lanes(li, ob) & act;
           const unsigned h = static_leaves(k, near & active & ~maybe);
           if (!h) continue;
           enter(h, 1, static_cast<int>(li), ob, k);
@@ -573,11 +579,17 @@ class SphereFilter {
     place_spheres(it.a);
     place_spheres(it.b);
     unsigned hit = 0;
+    // A sphere s of a farther than r_s + R_b + margin + eps_ from b's bounding centre touches
+    // none of b's spheres (each within R_b - r_t of that centre, up to float rounding far
+    // below eps_): the lanes where it is are skipped before the pair tests (same answers).
+    const float reach_b = ob.radius + it.margin + static_cast<float>(eps_);
     for (int s = oa.begin; s < oa.end && m; ++s) {
-      for (int t = ob.begin; t < ob.end && m; ++t) {
+      unsigned ms = m & ball_hits(sph_world_[s], obj_world_[it.b], sph_[s].r + reach_b);
+      for (int t = ob.begin; t < ob.end && ms; ++t) {
         const unsigned h =
-            m & ball_hits(sph_world_[s], sph_world_[t], sph_[s].r + sph_[t].r + it.margin);
+            ms & ball_hits(sph_world_[s], sph_world_[t], sph_[s].r + sph_[t].r + it.margin);
         hit |= h;
+        ms &= ~h;
         m &= ~h;
       }
     }
@@ -619,6 +631,50 @@ class SphereFilter {
       bits |= static_cast<std::uint64_t>(m) << (4 * b);
     }
     return bits;
+  }
+
+  // Bits of the obstacles whose inflated box the union sphere of link li's bounding spheres
+  // in the lanes of `act` touches: centre c_u the centre of act's first lane, radius the
+  // link's radius + max over the lanes of |c_l - c_u| + eps_. Every bit link_obstacles(li, l)
+  // sets for a lane l of act is set here: |c_l - c_u| <= d_max, so the box within
+  // r + infl of c_l is within r + d_max + infl of c_u (triangle inequality), the float
+  // rounding of both tests (about 1e-6 m, see the header's bound) far below the eps_ added.
+  std::uint64_t link_union_obstacles(std::size_t li, unsigned act) const {
+    const LinkF& L = links_[li];
+    const int l0 = __builtin_ctz(act);
+    const float c[3] = {L.world.x[l0], L.world.y[l0], L.world.z[l0]};
+    const F4 ex = L.world.x - c[0], ey = L.world.y - c[1], ez = L.world.z - c[2];
+    // squared distances of the lanes' centres to lane l0's, 0 in the lanes outside act
+    F4 d2 = ex * ex + ey * ey + ez * ez;
+    d2 = kLaneMask[act & 15u] ? d2 : F4{};
+    const float m01 = std::max(d2[0], d2[1]), m23 = std::max(d2[2], d2[3]);
+    const float radius = L.radius + std::sqrt(std::max(m01, m23)) + static_cast<float>(eps_);
+    const F4 cx = splat(c[0]), cy = splat(c[1]), cz = splat(c[2]);
+    const F4 zero = {};
+    std::uint64_t bits = 0;
+    for (std::size_t b = 0; b < blo_[0].size(); ++b) {
+      const F4 dx = vmax(vmax(blo_[0][b] - cx, cx - bhi_[0][b]), zero);
+      const F4 dy = vmax(vmax(blo_[1][b] - cy, cy - bhi_[1][b]), zero);
+      const F4 dz = vmax(vmax(blo_[2][b] - cz, cz - bhi_[2][b]), zero);
+      const F4 rr = radius + binfl_[b];
+      const unsigned m = lanes_of(dx * dx + dy * dy + dz * dz <= rr * rr);
+      bits |= static_cast<std::uint64_t>(m) << (4 * b);
+    }
+    return bits;
+  }
+
+  // Lanes where link li's bounding sphere touches obstacle ob's inflated box: link_obstacles'
+  // test (the same operations on the same values, lane-wise over configurations instead of
+  // obstacles), so bit l here is bit ob of link_obstacles(li, l).
+  unsigned link_obstacle_lanes(std::size_t li, int ob) const {
+    const LinkF& L = links_[li];
+    const std::size_t b = static_cast<std::size_t>(ob) / 4, j = static_cast<std::size_t>(ob) % 4;
+    const F4 zero = {};
+    const F4 dx = vmax(vmax(splat(blo_[0][b][j]) - L.world.x, L.world.x - splat(bhi_[0][b][j])), zero);
+    const F4 dy = vmax(vmax(splat(blo_[1][b][j]) - L.world.y, L.world.y - splat(bhi_[1][b][j])), zero);
+    const F4 dz = vmax(vmax(splat(blo_[2][b][j]) - L.world.z, L.world.z - splat(bhi_[2][b][j])), zero);
+    const F4 rr = splat(L.radius + binfl_[b][j]);
+    return lanes_of(dx * dx + dy * dy + dz * dz <= rr * rr);
   }
 
   // Lanes of `active` where unit k's link level passes: the link's bounding sphere against the
