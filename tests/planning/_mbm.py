@@ -8,6 +8,10 @@ skipped when neither exists.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pinocchio as pin
 
 from taskspace.errors import ModelLoadError
 from taskspace.planning.scene_loader import motionbenchmaker_dir
@@ -27,3 +31,16 @@ def mbm_root() -> Path | None:
 
 ROOT = mbm_root()
 SKIP_REASON = "MotionBenchMaker files not present (set TASKSPACE_MOTIONBENCHMAKER_DIR)"
+
+
+def reference_free(robot: Any, path: np.ndarray, resolution: float) -> np.ndarray:
+    """Pinocchio's computeCollisions (narrow phase on every pair) at the points k / n of every
+    edge, n = ceil(|edge| / resolution): True where free."""
+    model, geom = robot.model, robot.collision_model
+    data, gdata = model.createData(), geom.createData()
+    out = []
+    for a, b in zip(path[:-1], path[1:]):  # noqa: RUF007
+        n = max(1, int(np.ceil(np.linalg.norm(b - a) / resolution - 1e-12)))
+        for t in np.arange(n + 1) / n:
+            out.append(not pin.computeCollisions(model, data, geom, gdata, a + t * (b - a), True))
+    return np.asarray(out)

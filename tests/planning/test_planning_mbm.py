@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import numpy as np
-import pinocchio as pin
 import pytest
 
 from taskspace.errors import PlanningError
@@ -14,23 +13,9 @@ from taskspace.planning.scene_loader import (
     motionbenchmaker_problems,
 )
 from taskspace.planning.shortcut import shortcut_path
-from tests.planning._mbm import ROOT, SKIP_REASON
+from tests.planning._mbm import ROOT, SKIP_REASON, reference_free
 
 pytestmark = pytest.mark.skipif(ROOT is None, reason=SKIP_REASON)
-
-
-def _reference_free(robot, path: np.ndarray, resolution: float) -> np.ndarray:  # type: ignore[no-untyped-def]
-    """Pinocchio's computeCollisions (narrow phase on every pair) at the points k / n of every
-    edge, n = ceil(|edge| / resolution): True where free."""
-    model, geom = robot.model, robot.collision_model
-    data, gdata = model.createData(), geom.createData()
-    out = []
-    for a, b in zip(path[:-1], path[1:]):  # noqa: RUF007
-        n = max(1, int(np.ceil(np.linalg.norm(b - a) / resolution - 1e-12)))
-        for t in np.arange(n + 1) / n:
-            q = a + t * (b - a)
-            out.append(not pin.computeCollisions(model, data, geom, gdata, q, True))
-    return np.asarray(out)
 
 
 @pytest.mark.parametrize(
@@ -56,10 +41,10 @@ def test_rrt_connect_solves_within_one_second(scenario: str, index: int) -> None
         for path in (res.path, short.path):
             # The promise: every edge is free at the resolution delta = 0.03 rad (slide 3:32),
             # checked by Pinocchio without our broad phase, batching or lazy passes.
-            assert _reference_free(robot, path, 0.03).all()
+            assert reference_free(robot, path, 0.03).all()
             # Four times finer, a path may graze an obstacle between two checked points, but
             # only there: a planner that skipped the fine pass would cross obstacles.
-            assert _reference_free(robot, path, 0.0075).mean() > 0.98
+            assert reference_free(robot, path, 0.0075).mean() > 0.98
 
 
 def test_lazy_fine_pass_rejects_paths_that_the_coarse_pass_accepts() -> None:
@@ -73,7 +58,7 @@ def test_lazy_fine_pass_rejects_paths_that_the_coarse_pass_accepts() -> None:
         res = rrt_connect(space, req.start, req.goal, opts)
         assert res.success
         total += res.log["lazy_rejections"]
-        assert _reference_free(robot, res.path, 0.03).all()
+        assert reference_free(robot, res.path, 0.03).all()
     assert total > 0  # the coarse pass alone would have returned colliding paths
 
 
@@ -121,7 +106,7 @@ def test_trapped_tree_takes_the_other_trees_turns(native: bool) -> None:
             )
             res = rrt_connect(space, req.start, req.goal, opts)
             assert res.success
-            assert _reference_free(robot, res.path, 0.03).mean() > 0.98
+            assert reference_free(robot, res.path, 0.03).mean() > 0.98
             goal, start = res.log["goal_tree_nodes"], res.log["start_tree_nodes"]
             share[priority].append(goal / (goal + start))
             turns[priority] += res.log["trapped_turns"]

@@ -17,13 +17,12 @@ from types import ModuleType
 from typing import Any
 
 import numpy as np
-import pinocchio as pin
 import pytest
 
 from taskspace.model import Robot
 from taskspace.planning.rrt_connect import rrt_connect
 from taskspace.planning.scene_loader import motionbenchmaker_panda
-from tests.planning._mbm import ROOT, SKIP_REASON
+from tests.planning._mbm import ROOT, SKIP_REASON, reference_free
 
 pytestmark = pytest.mark.skipif(ROOT is None, reason=SKIP_REASON)
 
@@ -41,19 +40,6 @@ def suite() -> ModuleType:
 @pytest.fixture(scope="module")
 def robot() -> Robot:
     return motionbenchmaker_panda()
-
-
-def _reference_free(robot: Robot, path: np.ndarray, resolution: float) -> np.ndarray:
-    """Pinocchio's computeCollisions (every pair's narrow phase) at the points k / n of every
-    edge, n = ceil(|edge| / resolution): True where free."""
-    model, geom = robot.model, robot.collision_model
-    data, gdata = model.createData(), geom.createData()
-    out = []
-    for a, b in zip(path[:-1], path[1:]):  # noqa: RUF007
-        n = max(1, int(np.ceil(np.linalg.norm(b - a) / resolution - 1e-12)))
-        for t in np.arange(n + 1) / n:
-            out.append(not pin.computeCollisions(model, data, geom, gdata, a + t * (b - a), True))
-    return np.asarray(out)
 
 
 @pytest.mark.parametrize(("scenario", "index"), [("table_pick", 1), ("bookshelf_small", 2)])
@@ -95,7 +81,7 @@ def test_first_plan_is_the_headline_planned_before_the_mesh_row(
     res = calls[0][3]
     assert res.success
     assert first["length"] == pytest.approx(res.path_length, rel=1e-12)
-    assert _reference_free(robot, res.path, suite.RESOLUTION).all()
+    assert reference_free(robot, res.path, suite.RESOLUTION).all()
 
 
 def test_scene_setup_is_kept_out_of_the_ratios(

@@ -619,14 +619,20 @@ class SphereFilter {
   // the link are ignored by the caller).
   std::uint64_t link_obstacles(std::size_t li, int l) const {
     const LinkF& L = links_[li];
-    const F4 cx = splat(L.world.x[l]), cy = splat(L.world.y[l]), cz = splat(L.world.z[l]);
+    return box_bits(L.world.x[l], L.world.y[l], L.world.z[l], L.radius);
+  }
+
+  // Bit b set when the sphere (c, radius + binfl_ of b) touches obstacle b's box, 4 obstacles
+  // per vector operation.
+  std::uint64_t box_bits(float x, float y, float z, float radius) const {
+    const F4 cx = splat(x), cy = splat(y), cz = splat(z);
     const F4 zero = {};
     std::uint64_t bits = 0;
     for (std::size_t b = 0; b < blo_[0].size(); ++b) {
       const F4 dx = vmax(vmax(blo_[0][b] - cx, cx - bhi_[0][b]), zero);
       const F4 dy = vmax(vmax(blo_[1][b] - cy, cy - bhi_[1][b]), zero);
       const F4 dz = vmax(vmax(blo_[2][b] - cz, cz - bhi_[2][b]), zero);
-      const F4 rr = L.radius + binfl_[b];
+      const F4 rr = radius + binfl_[b];
       const unsigned m = lanes_of(dx * dx + dy * dy + dz * dz <= rr * rr);
       bits |= static_cast<std::uint64_t>(m) << (4 * b);
     }
@@ -649,18 +655,7 @@ class SphereFilter {
     d2 = kLaneMask[act & 15u] ? d2 : F4{};
     const float m01 = std::max(d2[0], d2[1]), m23 = std::max(d2[2], d2[3]);
     const float radius = L.radius + std::sqrt(std::max(m01, m23)) + static_cast<float>(eps_);
-    const F4 cx = splat(c[0]), cy = splat(c[1]), cz = splat(c[2]);
-    const F4 zero = {};
-    std::uint64_t bits = 0;
-    for (std::size_t b = 0; b < blo_[0].size(); ++b) {
-      const F4 dx = vmax(vmax(blo_[0][b] - cx, cx - bhi_[0][b]), zero);
-      const F4 dy = vmax(vmax(blo_[1][b] - cy, cy - bhi_[1][b]), zero);
-      const F4 dz = vmax(vmax(blo_[2][b] - cz, cz - bhi_[2][b]), zero);
-      const F4 rr = radius + binfl_[b];
-      const unsigned m = lanes_of(dx * dx + dy * dy + dz * dz <= rr * rr);
-      bits |= static_cast<std::uint64_t>(m) << (4 * b);
-    }
-    return bits;
+    return box_bits(c[0], c[1], c[2], radius);
   }
 
   // Lanes where link li's bounding sphere touches obstacle ob's inflated box: link_obstacles'
