@@ -29,6 +29,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 from _sphere_reference import PairClearances, mesh_collides
+from scipy.spatial import ConvexHull
 
 from taskspace._native import planning_kernel
 from taskspace.model import Robot
@@ -148,14 +149,14 @@ DISABLED = {
 class Scene:
     """A robot with obstacles, its compiled checker with spheres, the references."""
 
-    def __init__(self, name: str) -> None:
+    def __init__(self, name: str, extra: list[Obstacle] | None = None) -> None:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # example-robot-data's missing limits...
             if name.startswith("skew_arm"):
                 self.robot = _skew_arm(unaligned=name.endswith("unaligned"))
             else:
                 self.robot = Robot.load(name, convex_collision=True)
-        self.robot.add_obstacles(OBSTACLES[name.removesuffix("_unaligned")])
+        self.robot.add_obstacles(OBSTACLES[name.removesuffix("_unaligned")] + (extra or []))
         self.robot.disable_collision_pairs(DISABLED.get(name, []))
         self.space = ConfigurationSpace.from_robot(
             self.robot, edge=EdgeCheckOptions(resolution=0.03)
@@ -366,6 +367,57 @@ def test_compiled_rrt_connect_paths_are_free(scenes: dict[str, Scene], name: str
     for a, b in itertools.pairwise(path):
         n = max(1, int(np.ceil(np.abs(b - a).max() / 0.01)))
         assert not any(scene.mesh(a + t * (b - a)) for t in np.linspace(0.0, 1.0, n + 1))
+
+
+def _convex_obstacle(name: str, seed: int, position: Any) -> Obstacle:
+    """A convex hull of random points (coal.Convex) as an obstacle."""
+    points = np.random.default_rng(seed).uniform(-0.06, 0.06, (20, 3))
+    hull = ConvexHull(points).simplices.astype(np.int64)
+    mesh = coal.BVHModelOBBRSS()
+    mesh.beginModel(len(hull), len(points))
+    mesh.addVertices(points)
+    mesh.addTriangles(hull)
+    mesh.endModel()
+    mesh.buildConvexHull(True, "Qt")
+    return Obstacle(name, mesh.convex, pin.SE3(np.eye(3), np.asarray(position, dtype=float)))
+
+
+def test_more_than_64_obstacles_and_other_shapes(scenes: dict[str, Scene]) -> None:
+    """The UR5 with 70 obstacles (the kernel's link masks hold 64 static partners, the filter's
+    per-link units 64 obstacles: the others are always tested), among them a capsule and a
+    convex hull (coal's sphere tests): the spheres-only answers are the reference's, the
+    filter is conservative, "spheres" and the exact checker are Pinocchio's."""
+    if "ur5_many" not in scenes:
+        # small cubes on the half sphere of radius 0.9 m (the UR5 reaches 0.95 m)
+        rng = np.random.default_rng(18)
+        out = rng.standard_normal((64, 3))
+        out[:, 2] = np.abs(out[:, 2])
+        out *= 0.9 / np.linalg.norm(out, axis=1)[:, None]
+        extra = [Obstacle.box(f"cube{i}", [0.04] * 3, tuple(p)) for i, p in enumerate(out)]
+        extra += [
+            Obstacle(
+                "capsule", coal.Capsule(0.04, 0.3), pin.SE3(np.eye(3), np.array([0.3, 0.3, 0.3]))
+            ),
+            _convex_obstacle("hull", 19, (-0.35, -0.2, 0.45)),
+        ]
+        scenes["ur5_many"] = Scene("ur5", extra)
+    scene = scenes["ur5_many"]
+    kernel = scene.kernel
+    assert len(scene.robot.world) == 70
+    allq, n_random = _test_set(scene, 20)
+    clearance = scene.clearances(allq)
+    colliding, decided = _reference_flags(clearance)
+    flags = kernel.collisions_with(allq, SPHERES_ONLY).astype(bool)
+    assert np.all(flags[decided] == colliding[decided])
+    assert decided.sum() >= len(allq) - 16 - 6
+    assert 0 < colliding[:n_random].sum() < n_random
+    depth = clearance[n_random : n_random + 16].min(axis=1)
+    assert np.all(depth <= BAND_GJK + BAND_PRIMITIVE) and np.all(depth > -BAND_GJK), depth
+    filtered = kernel.sphere_filter_flags(allq).astype(bool)
+    assert np.all(filtered[colliding]) and np.all(filtered[flags])
+    mesh = np.array([scene.mesh(q) for q in allq])
+    np.testing.assert_array_equal(kernel.collisions_with(allq, SPHERES).astype(bool), mesh)
+    np.testing.assert_array_equal(kernel.collisions_with(allq, MESH).astype(bool), mesh)
 
 
 def test_unaligned_joint_uses_pinocchio_kinematics_with_the_same_answers(
