@@ -6,7 +6,8 @@ products with placement entries exactly 0 or 1), a single-precision filter (sphe
 and the double-precision sphere test. The MotionBenchMaker Panda's joint placements are axis
 permutations; here the robots are UR5 (placements with entries 4.9e-12 from rounded pi/2),
 Baxter (two arms on one torso: a branching tree, placements turned by 45 degrees, prismatic
-finger joints), Unitree Z1 (joints about x, y and z), an arm built here with prismatic joints
+finger joints), Unitree Z1 (joints about x, y and z), SO-100 on a fixed base (placements
+turned by 0.23 and 1 rad about x), an arm built here with prismatic joints
 and joint placements turned by arbitrary and by tiny angles (entries between 1e-4 and 1e-3),
 the same arm with an unaligned revolute joint (the kernel's Pinocchio kinematics), and the
 Kinova arm (continuous joints, nq != nv: no compiled checker). References, independent of the
@@ -50,7 +51,7 @@ OFF, TRUSTED = 0, 2  # CollisionKernel.set_sphere_filter: double only; filter (d
 # where the kernel and the reference may legitimately differ: a primitive or self pair
 # within 1e-9 m of touching (rounding), another shape within GJK's tolerance (1e-6 m)
 BAND_PRIMITIVE, BAND_GJK = 1e-9, 1e-6
-ROBOTS = ["ur5", "baxter", "z1", "skew_arm"]
+ROBOTS = ["ur5", "baxter", "z1", "so100", "skew_arm"]
 
 
 def _rotation(axis: Any, angle: float) -> np.ndarray:
@@ -131,6 +132,11 @@ OBSTACLES = {
         Obstacle.sphere("ball", 0.06, (-0.2, 0.25, 0.35)),
         Obstacle.cylinder("post", 0.03, 0.5, (0.15, -0.3, 0.25)),
     ],
+    "so100": [
+        Obstacle.box("block", [0.08, 0.06, 0.05], (0.08, -0.2, 0.12)),
+        Obstacle.sphere("ball", 0.03, (-0.1, -0.15, 0.25)),
+        Obstacle.cylinder("post", 0.015, 0.3, (0.1, -0.05, 0.15)),
+    ],
     "skew_arm": [
         Obstacle.box("block", [0.2, 0.2, 0.1], (0.35, 0.1, 0.6)),
         Obstacle.sphere("ball", 0.08, (-0.25, 0.2, 0.7)),
@@ -155,7 +161,8 @@ class Scene:
             if name.startswith("skew_arm"):
                 self.robot = _skew_arm(unaligned=name.endswith("unaligned"))
             else:
-                self.robot = Robot.load(name, convex_collision=True)
+                base = "fixed" if name == "so100" else None  # its loader's free flyer off
+                self.robot = Robot.load(name, convex_collision=True, base=base)
         self.robot.add_obstacles(OBSTACLES[name.removesuffix("_unaligned")] + (extra or []))
         self.robot.disable_collision_pairs(DISABLED.get(name, []))
         self.space = ConfigurationSpace.from_robot(
