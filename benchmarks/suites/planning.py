@@ -72,7 +72,8 @@ Measurements formerly kept in ``taskspace.planning.rrt_connect``'s docstring (ol
     the path's length in the same call (a failed endpoint is then re-checked here for the error
     message), so a plan is one kernel call and a few Python objects (about 25-40 us of Python per
     plan, was 70-110 us). Measured on the 313
-    valid MotionBenchMaker Panda problems (2026-11-25, ``benchmarks/results/planning_full.json``):
+    valid MotionBenchMaker Panda problems (2026-11-25; ``benchmarks/results/planning_full.json``
+    now holds the latest full run):
     313 solved within 1 s, median 0.56 ms (per scenario 0.35-0.75 ms, cage 3.3 ms); this module
     with the same compiled checker 1.70 ms; OMPL's RRTConnect at the same range calling the same
     checker through Python 3.29 ms (0.17x; per scenario 0.11-0.23x, cage 0.24x). OMPL's time is
