@@ -106,3 +106,46 @@ def mesh_collides(robot: Any) -> Any:
         return bool(pin.computeCollisions(model, data, geom, gdata, q, True))
 
     return collides
+
+
+def first_sphere_contacts(kernel: Any, qs: np.ndarray, rng: Any, count: int) -> np.ndarray:
+    """Configurations bisected (kernel, filter off, double precision) to within 1e-12 of the
+    first sphere contact on segments free -> colliding: the colliding ends. ``qs`` must hold
+    both free and colliding rows for the spheres (checker 2)."""
+    off, trusted, spheres_only = 0, 2, 2  # set_sphere_filter modes; the kernel's checker code
+    kernel.set_sphere_filter(off)
+    try:
+        flags = kernel.collisions_with(qs, spheres_only).astype(bool)
+        free, hit = qs[~flags], qs[flags]
+        assert len(free) and len(hit)
+        out = []
+        for k in range(count):
+            a, b = free[k % len(free)], hit[rng.integers(len(hit))]
+            lo, hi = 0.0, 1.0
+            while hi - lo > 1e-12:
+                mid = 0.5 * (lo + hi)
+                if kernel.collisions_with((a + mid * (b - a))[None], spheres_only)[0]:
+                    hi = mid
+                else:
+                    lo = mid
+            out.append(a + hi * (b - a))
+        return np.array(out)
+    finally:
+        kernel.set_sphere_filter(trusted)
+
+
+def last_step_pairs(kernel: Any, free: np.ndarray, hit: np.ndarray, count: int) -> np.ndarray:
+    """For k < count, the segment free[k] -> hit[k] bisected (the kernel's "spheres only"
+    answers, checker 2) to the last representable step before sphere contact: its two ends,
+    one row each (the free one first)."""
+    edge = []
+    for k in range(count):
+        a, b = free[k], hit[k]
+        lo, hi = 0.0, 1.0
+        while np.nextafter(lo, 1.0) < hi and (mid := 0.5 * (lo + hi)) not in (lo, hi):
+            if kernel.collisions_with((a + mid * (b - a))[None], 2)[0]:
+                hi = mid
+            else:
+                lo = mid
+        edge += [a + lo * (b - a), a + hi * (b - a)]
+    return np.array(edge)

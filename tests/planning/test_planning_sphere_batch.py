@@ -24,7 +24,7 @@ import numpy as np
 import pytest
 from _mbm import ROOT, SKIP_REASON
 from _sphere_reference import PairClearances as SphereReference
-from _sphere_reference import mesh_collides
+from _sphere_reference import first_sphere_contacts, last_step_pairs, mesh_collides
 
 from taskspace._native import planning_kernel
 from taskspace.planning.configuration_space import (
@@ -67,29 +67,6 @@ def _near_configurations(robot: Any, rng: Any, n: int) -> np.ndarray:
     return np.clip(base, lo, hi)
 
 
-def _first_sphere_contacts(kernel: Any, qs: np.ndarray, rng: Any, count: int) -> np.ndarray:
-    """Configurations bisected (kernel, filter off, double precision) to within 1e-12 of the
-    first sphere contact on segments free -> colliding: the colliding ends."""
-    kernel.set_sphere_filter(OFF)
-    try:
-        flags = kernel.collisions_with(qs, SPHERES_ONLY).astype(bool)
-        free, hit = qs[~flags], qs[flags]
-        out = []
-        for k in range(count):
-            a, b = free[k % len(free)], hit[rng.integers(len(hit))]
-            lo, hi = 0.0, 1.0
-            while hi - lo > 1e-12:
-                mid = 0.5 * (lo + hi)
-                if kernel.collisions_with((a + mid * (b - a))[None], SPHERES_ONLY)[0]:
-                    hi = mid
-                else:
-                    lo = mid
-            out.append(a + hi * (b - a))
-        return np.array(out)
-    finally:
-        kernel.set_sphere_filter(TRUSTED)
-
-
 @pytest.mark.parametrize("scenario", ["bookshelf_tall", "table_pick", "cage"])
 def test_filter_against_the_double_sphere_test_and_the_meshes(robot: Any, scenario: str) -> None:
     """Random configurations and configurations around first contact: where the filter clears
@@ -103,7 +80,7 @@ def test_filter_against_the_double_sphere_test_and_the_meshes(robot: Any, scenar
     assert 1e-6 < eps < 1e-4
     rng = np.random.default_rng(3)
     qs = _near_configurations(robot, rng, 160)
-    contacts = _first_sphere_contacts(kernel, qs, rng, 12)
+    contacts = first_sphere_contacts(kernel, qs, rng, 12)
     shifted = (
         contacts + rng.standard_normal(contacts.shape) * np.repeat([1e-6, 1e-5, 1e-4], 4)[:, None]
     )
@@ -129,7 +106,7 @@ def test_first_contacts_are_never_cleared(robot: Any, scenario: str) -> None:
     ref = SphereReference(robot, space.checker.sphere_model())
     rng = np.random.default_rng(5)
     qs = _near_configurations(robot, rng, 120)
-    contacts = _first_sphere_contacts(kernel, qs, rng, 40)
+    contacts = first_sphere_contacts(kernel, qs, rng, 40)
     prim = np.array([ref.clearance(q) for q in contacts])
     depth = prim.min(axis=1)
     # at contact (both tests agree): the kernel counts a sphere within GJK's tolerance (1e-6 m)
@@ -153,7 +130,7 @@ def test_filter_on_gives_the_double_path_answers(robot: Any, scenario: str) -> N
     eps = kernel.sphere_filter_eps()
     rng = np.random.default_rng(8)
     qs = _near_configurations(robot, rng, 300)
-    contacts = _first_sphere_contacts(kernel, qs, rng, 20)
+    contacts = first_sphere_contacts(kernel, qs, rng, 20)
     allq = np.vstack([qs, contacts])
     flags = {}
     for mode in (OFF, CONFIRMED, TRUSTED):
@@ -225,17 +202,7 @@ def test_sse2_and_avx2_kinematics_agree(robot: Any, scenario: str) -> None:
     kernel.set_sphere_filter(OFF)
     flags = kernel.collisions_with(qs, SPHERES_ONLY).astype(bool)
     free, hit = qs[~flags], qs[flags]
-    edge = []
-    for k in range(20):
-        a, b = free[k], hit[k]
-        lo, hi = 0.0, 1.0
-        while np.nextafter(lo, 1.0) < hi and (mid := 0.5 * (lo + hi)) not in (lo, hi):
-            if kernel.collisions_with((a + mid * (b - a))[None], SPHERES_ONLY)[0]:
-                hi = mid
-            else:
-                lo = mid
-        edge += [a + lo * (b - a), a + hi * (b - a)]
-    allq = np.vstack([qs, np.array(edge)])
+    allq = np.vstack([qs, last_step_pairs(kernel, free, hit, 20)])
     out = {}
     for level in (1, 2):
         kernel.set_simd(level)

@@ -29,7 +29,12 @@ import coal
 import numpy as np
 import pinocchio as pin
 import pytest
-from _sphere_reference import PairClearances, mesh_collides
+from _sphere_reference import (
+    PairClearances,
+    first_sphere_contacts,
+    last_step_pairs,
+    mesh_collides,
+)
 from scipy.spatial import ConvexHull
 
 from taskspace._native import planning_kernel
@@ -181,28 +186,8 @@ class Scene:
         return np.random.default_rng(seed).uniform(self.lo, self.hi, (n, self.robot.nq))
 
     def first_contacts(self, qs: np.ndarray, seed: int, count: int) -> np.ndarray:
-        """Configurations bisected (kernel, filter off, double) to within 1e-12 of the first
-        sphere contact on segments free -> colliding: the colliding ends."""
-        kernel, rng = self.kernel, np.random.default_rng(seed)
-        kernel.set_sphere_filter(OFF)
-        try:
-            flags = kernel.collisions_with(qs, SPHERES_ONLY).astype(bool)
-            free, hit = qs[~flags], qs[flags]
-            assert len(free) and len(hit)
-            out = []
-            for k in range(count):
-                a, b = free[k % len(free)], hit[rng.integers(len(hit))]
-                lo, hi = 0.0, 1.0
-                while hi - lo > 1e-12:
-                    mid = 0.5 * (lo + hi)
-                    if kernel.collisions_with((a + mid * (b - a))[None], SPHERES_ONLY)[0]:
-                        hi = mid
-                    else:
-                        lo = mid
-                out.append(a + hi * (b - a))
-            return np.array(out)
-        finally:
-            kernel.set_sphere_filter(TRUSTED)
+        """Configurations within 1e-12 of the first sphere contact (first_sphere_contacts)."""
+        return first_sphere_contacts(self.kernel, qs, np.random.default_rng(seed), count)
 
     def clearances(self, qs: np.ndarray) -> np.ndarray:
         """Per row: the reference's smallest sphere clearance to primitives and self pairs,
@@ -316,17 +301,8 @@ def test_sse2_and_avx2_give_the_same_flags(scenes: dict[str, Scene], name: str) 
     finally:
         kernel.set_sphere_filter(TRUSTED)
     free, hit_rows = qs[~hit], qs[hit]
-    edge = []
-    for k in range(min(10, len(free), len(hit_rows))):
-        a, b = free[k], hit_rows[k]
-        lo, hi = 0.0, 1.0
-        while np.nextafter(lo, 1.0) < hi and (mid := 0.5 * (lo + hi)) not in (lo, hi):
-            if kernel.collisions_with((a + mid * (b - a))[None], SPHERES_ONLY)[0]:
-                hi = mid
-            else:
-                lo = mid
-        edge += [a + lo * (b - a), a + hi * (b - a)]
-    allq = np.vstack([qs, np.array(edge)])
+    count = min(10, len(free), len(hit_rows))
+    allq = np.vstack([qs, last_step_pairs(kernel, free, hit_rows, count)])
     out = {}
     try:
         for level in (1, 2):
