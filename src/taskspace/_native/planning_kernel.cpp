@@ -1772,7 +1772,6 @@ class CollisionKernel {
   __attribute__((always_inline)) static inline Batch column_term(const BatchPose& P,
                                                                  const FkJoint& f, int c, int r) {
     const int n = f.n_terms[c];
-    if (n == 0) return Batch{};
     Batch acc = {};
     for (int j = 0; j < n; ++j) {
       const FkJoint::Term& t = f.terms[c][j];
@@ -2337,8 +2336,8 @@ struct Result {
   double t_run = 0, t_endpoints = 0, t_line = 0, t_nearest = 0, t_verify = 0, t_recheck = 0;
   // The nearest-neighbour scans and the fine pass, timed in ticks of phase_ticks (a few per
   // iteration: a clock read each cost 2 % of a plan) and turned into seconds at the end in
-  // proportion to the whole run: tk_run the ticks of run() from its start.
-  std::uint64_t tk_nearest = 0, tk_verify = 0, tk_run = 0;
+  // proportion to the whole run (RRTConnect::run).
+  std::uint64_t tk_nearest = 0, tk_verify = 0;
 };
 
 // A cheap monotonic tick counter for the phase times: the time-stamp counter on x86-64
@@ -2652,9 +2651,9 @@ class RRTConnect {
            GilRelease* gil) {
     const std::uint64_t tk0 = phase_ticks();
     plan(qs, qg, max_iterations, time_limit, gil);
-    res.tk_run = phase_ticks() - tk0;
+    const std::uint64_t tk_run = phase_ticks() - tk0;
     // the phases timed in ticks, in seconds: their share of the run's ticks times t_run
-    const double per_tick = res.tk_run > 0 ? res.t_run / static_cast<double>(res.tk_run) : 0.0;
+    const double per_tick = tk_run > 0 ? res.t_run / static_cast<double>(tk_run) : 0.0;
     res.t_nearest = per_tick * static_cast<double>(res.tk_nearest);
     res.t_verify = per_tick * static_cast<double>(res.tk_verify);
   }

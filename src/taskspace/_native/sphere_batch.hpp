@@ -665,9 +665,10 @@ class SphereFilter {
     const LinkF& L = links_[li];
     const std::size_t b = static_cast<std::size_t>(ob) / 4, j = static_cast<std::size_t>(ob) % 4;
     const F4 zero = {};
-    const F4 dx = vmax(vmax(splat(blo_[0][b][j]) - L.world.x, L.world.x - splat(bhi_[0][b][j])), zero);
-    const F4 dy = vmax(vmax(splat(blo_[1][b][j]) - L.world.y, L.world.y - splat(bhi_[1][b][j])), zero);
-    const F4 dz = vmax(vmax(splat(blo_[2][b][j]) - L.world.z, L.world.z - splat(bhi_[2][b][j])), zero);
+    const V3& c = L.world;
+    const F4 dx = vmax(vmax(splat(blo_[0][b][j]) - c.x, c.x - splat(bhi_[0][b][j])), zero);
+    const F4 dy = vmax(vmax(splat(blo_[1][b][j]) - c.y, c.y - splat(bhi_[1][b][j])), zero);
+    const F4 dz = vmax(vmax(splat(blo_[2][b][j]) - c.z, c.z - splat(bhi_[2][b][j])), zero);
     const F4 rr = splat(L.radius + binfl_[b][j]);
     return lanes_of(dx * dx + dy * dy + dz * dz <= rr * rr);
   }
