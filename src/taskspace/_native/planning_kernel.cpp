@@ -773,6 +773,7 @@ class CollisionKernel {
   // Pinocchio's forwardKinematics otherwise (same placements up to rounding).
   void setup_kinematics() {
     fk_.clear();
+    batch_pose_.clear();  // kinematics_batch sets the universe's placement again
     fast_fk_ = true;
     for (pinocchio::JointIndex j = 1; j < static_cast<pinocchio::JointIndex>(model_.njoints); ++j) {
       const std::string type = model_.joints[j].shortname();
@@ -781,14 +782,15 @@ class CollisionKernel {
       f.idx_q = model_.joints[j].idx_q();
       f.R0 = model_.jointPlacements[j].rotation();
       f.t0 = model_.jointPlacements[j].translation();
-      for (int c = 0; c < 4; ++c)
-        for (int k = 0; k < 3; ++k) {
-          const double v = c < 3 ? f.R0(k, c) : f.t0[k];
-          if (v != 0.0) f.terms[c][f.n_terms[c]++] = FkJoint::Term{k, v, v == 1.0};
-        }
+      for (int k = 0; k < 3; ++k) {
+        for (int c = 0; c < 3; ++c) f.R0c[3 * c + k] = f.R0(k, c);
+        f.t0c[k] = f.t0[k];
+      }
       if (type == "JointModelRX" || type == "JointModelRY" || type == "JointModelRZ") {
         f.kind = 0;
         f.axis = type.back() - 'X';
+        f.turn[0] = (f.axis + 1) % 3;
+        f.turn[1] = (f.axis + 2) % 3;
       } else if (type == "JointModelPX" || type == "JointModelPY" || type == "JointModelPZ") {
         f.kind = 1;
         f.axis = type.back() - 'X';
@@ -882,6 +884,8 @@ class CollisionKernel {
   // 16-byte alignment (not the vector's 32): the AVX2 kinematics then load unaligned, since
   // the vectors holding BatchPose (batch_pose_) guarantee 16 bytes only (seen: vmovapd faults)
   typedef double Batch __attribute__((vector_size(kBatch * sizeof(double)), aligned(16)));
+  typedef std::uint64_t BatchBits
+      __attribute__((vector_size(kBatch * sizeof(std::uint64_t)), aligned(16)));
   struct BatchPose {
     Batch R[9];  // R[r + 3 * c]
     Batch t[3];
@@ -907,7 +911,10 @@ class CollisionKernel {
       }
       return;
     }
-    const Batch j = (x * kTwoOverPi + kRound) - kRound;
+    // y = x 2/pi + 1.5 2^52 holds the nearest integer j in its low mantissa bits (ulp 1, the
+    // mantissa 2^51 + j for |j| < 2^51): its two lowest bits are j mod 4 (two's complement)
+    const Batch y = x * kTwoOverPi + kRound;
+    const Batch j = y - kRound;
     const Batch r = (x - j * kPio2Hi) - j * kPio2Lo;
     const Batch z = r * r;
     Batch ps = z * 1.58962301576546568060e-10 - 2.50507477628578072866e-8;
@@ -922,23 +929,19 @@ class CollisionKernel {
     pc = pc * z - 1.38888888888730564116e-3;
     pc = pc * z + 4.16666666666665929218e-2;
     const Batch cr = (1.0 - 0.5 * z) + z * z * pc;
-    // quadrant q = j mod 4 (two's complement: -1 & 3 = 3): (sin, cos) = (sr, cr), (cr, -sr),
-    // (-sr, -cr), (-cr, sr) for q = 0..3, selected with bit operations (a switch per lane
-    // mispredicted: 20 % of this function's time)
-    for (int l = 0; l < kBatch; ++l) {
-      const std::uint64_t q = static_cast<std::uint64_t>(static_cast<long>(j[l])) & 3u;
-      std::uint64_t bs, bc;
-      std::memcpy(&bs, &sr[l], sizeof bs);
-      std::memcpy(&bc, &cr[l], sizeof bc);
-      const std::uint64_t swap = 0u - (q & 1u);  // all ones for q = 1, 3
-      const std::uint64_t os = ((bs & ~swap) | (bc & swap)) ^ ((q & 2u) << 62);
-      const std::uint64_t oc = ((bc & ~swap) | (bs & swap)) ^ (((q + 1u) & 2u) << 62);
-      double ds, dc;
-      std::memcpy(&ds, &os, sizeof ds);
-      std::memcpy(&dc, &oc, sizeof dc);
-      s[l] = ds;
-      c[l] = dc;
-    }
+    // quadrant q = j mod 4: (sin, cos) = (sr, cr), (cr, -sr), (-sr, -cr), (-cr, sr) for
+    // q = 0..3, selected with bit operations on all lanes at once (a switch per lane
+    // mispredicted; a scalar loop over the lanes cost a fifth of the batch's kinematics)
+    BatchBits q, bs, bc;
+    std::memcpy(&q, &y, sizeof q);
+    std::memcpy(&bs, &sr, sizeof bs);
+    std::memcpy(&bc, &cr, sizeof bc);
+    q &= 3u;
+    const BatchBits swap = BatchBits{} - (q & 1u);  // all ones for q = 1, 3
+    const BatchBits os = ((bs & ~swap) | (bc & swap)) ^ ((q & 2u) << 62);
+    const BatchBits oc = ((bc & ~swap) | (bs & swap)) ^ (((q + 1u) & 2u) << 62);
+    std::memcpy(&s, &os, sizeof s);
+    std::memcpy(&c, &oc, sizeof c);
   }
 
   // Joint placements of kBatch configurations (lane l: the nq coordinates at q[l]).
@@ -991,12 +994,14 @@ class CollisionKernel {
   int simd() const { return simd_; }
   __attribute__((always_inline)) inline void kinematics_batch_body(const double* const* q) {
     const std::size_t nj = fk_.size() + 1;
-    batch_pose_.resize(nj);
-    const auto& O = data_.oMi[0];
-    for (int r = 0; r < 3; ++r) {
-      for (int c = 0; c < 3; ++c)
-        for (int l = 0; l < kBatch; ++l) batch_pose_[0].R[r + 3 * c][l] = O.rotation()(r, c);
-      for (int l = 0; l < kBatch; ++l) batch_pose_[0].t[r][l] = O.translation()[r];
+    if (batch_pose_.size() != nj) {  // the universe's placement (never written below) once
+      batch_pose_.resize(nj);
+      const auto& O = data_.oMi[0];
+      for (int r = 0; r < 3; ++r) {
+        for (int c = 0; c < 3; ++c)
+          for (int l = 0; l < kBatch; ++l) batch_pose_[0].R[r + 3 * c][l] = O.rotation()(r, c);
+        for (int l = 0; l < kBatch; ++l) batch_pose_[0].t[r][l] = O.translation()[r];
+      }
     }
     for (std::size_t k = 0; k < fk_.size(); ++k) {
       const FkJoint& f = fk_[k];
@@ -1005,16 +1010,20 @@ class CollisionKernel {
       Batch v;
       for (int l = 0; l < kBatch; ++l) v[l] = q[l][f.idx_q];
       // parent * jointPlacement (R0 and t0 are the same for every lane): the sums of
-      // P.R[r + 3 k] * R0(k, c) over k in order, without the products with an entry 0 (a
-      // term +-0 leaves a sum unchanged but for the sign of a zero) or 1 (exact): joint
-      // placements are mostly axis permutations (the Panda's: 5 nonzero entries of 9)
+      // P.R[r + 3 k] * R0(k, c) over k = 0, 1, 2 in that order (Eigen's order: the scalar
+      // kinematics' values but for the sign of a zero, as a product with an entry 0 adds +-0),
+      // all nine products (no branch per term: the Panda's joint placements have entries
+      // 6e-17 beside their 0 and 1, so products with 0 or 1 are rare and not worth a test)
       for (int c = 0; c < 3; ++c)
-        for (int r = 0; r < 3; ++r) M.R[r + 3 * c] = column_term(P, f, c, r);
-      for (int r = 0; r < 3; ++r) M.t[r] = column_term(P, f, 3, r) + P.t[r];
+        for (int r = 0; r < 3; ++r)
+          M.R[r + 3 * c] = (P.R[r] * f.R0c[3 * c] + P.R[r + 3] * f.R0c[3 * c + 1]) +
+                           P.R[r + 6] * f.R0c[3 * c + 2];
+      for (int r = 0; r < 3; ++r)
+        M.t[r] = ((P.R[r] * f.t0c[0] + P.R[r + 3] * f.t0c[1]) + P.R[r + 6] * f.t0c[2]) + P.t[r];
       if (f.kind == 0) {  // revolute: columns b and d turn about the axis
         Batch c, s;
         batch_sincos(v, s, c);
-        const int a = f.axis, b = (a + 1) % 3, d = (a + 2) % 3;
+        const int b = f.turn[0], d = f.turn[1];
         for (int r = 0; r < 3; ++r) {
           const Batch cb = M.R[r + 3 * b], cd = M.R[r + 3 * d];
           M.R[r + 3 * b] = c * cb + s * cd;
@@ -1756,30 +1765,12 @@ class CollisionKernel {
   std::vector<double> static_box_[6];  // min x, y, z, max x, y, z of the static partners
   struct FkJoint {
     int parent = 0, idx_q = 0, kind = 0, axis = 2;  // kind 0 revolute, 1 prismatic
+    int turn[2] = {0, 1};                           // (axis + 1) % 3, (axis + 2) % 3
     coal::Matrix3s R0;
     coal::Vec3s t0;
-    // The nonzero terms of each column c of R0 (c = 0..2) and of t0 (c = 3), in row order:
-    // row k, value, exactly 1 (kinematics_batch skips the products with 0 and 1).
-    struct Term {
-      int k;
-      double v;
-      bool one;
-    };
-    int n_terms[4] = {0, 0, 0, 0};
-    Term terms[4][3];
+    double R0c[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};  // R0 column by column: R0(k, c) at 3 c + k
+    double t0c[3] = {0, 0, 0};
   };
-  // Row r of P.R times column c of R0 (c = 3: t0), the terms of f.terms[c] in order.
-  __attribute__((always_inline)) static inline Batch column_term(const BatchPose& P,
-                                                                 const FkJoint& f, int c, int r) {
-    const int n = f.n_terms[c];
-    Batch acc = {};
-    for (int j = 0; j < n; ++j) {
-      const FkJoint::Term& t = f.terms[c][j];
-      const Batch x = t.one ? P.R[r + 3 * t.k] : P.R[r + 3 * t.k] * t.v;
-      acc = j == 0 ? x : acc + x;
-    }
-    return acc;
-  }
 
   std::vector<FkJoint> fk_;
   std::vector<double> fk_cos_, fk_sin_;
