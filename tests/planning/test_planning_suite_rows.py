@@ -70,12 +70,26 @@ def test_first_plan_is_the_headline_planned_before_the_mesh_row(
     order = [(checker, validator, native) for checker, validator, native, _ in calls]
     assert order[0] == ("spheres_only", "spheres", True)
     assert ("mesh", "mesh", True) in order[1:]
-    assert len(calls) == len(suite.RRT_CONFIGURATIONS)
+    # every configuration once, the headline MIN_OF times in a row (its min row)
+    assert len(calls) == len(suite.RRT_CONFIGURATIONS) + suite.MIN_OF - 1
+    at = order.index(("spheres_only", "spheres", True), 1)
+    assert order[at : at + suite.MIN_OF] == [("spheres_only", "spheres", True)] * suite.MIN_OF
 
     # The same seeded plan as the headline's repeated row: the same checks and path.
     repeated = per[HEADLINE]
     assert first["checks"] == repeated["checks"]
     assert first["length"] == pytest.approx(repeated["length"], rel=1e-12)
+
+    # The min row: the same plan (checks, length) at its least wall time of the repeats.
+    assert suite.HEADLINE_MIN in suite.METHODS
+    assert f"taskspace {suite.HEADLINE_MIN}" in suite.OURS_RRT
+    least = per[suite.HEADLINE_MIN]
+    assert least["checks"] == repeated["checks"]
+    assert least["length"] == repeated["length"]
+    assert 0.0 < least["time"] <= repeated["time"]
+    repeats = [res for _, _, _, res in calls[at : at + suite.MIN_OF]]
+    assert all(r.collision_checks == repeated["checks"] for r in repeats)
+    assert least["time_s"] == min(r.time_s for r in repeats)
 
     # The first plan's path is free for Pinocchio at the suite's resolution.
     res = calls[0][3]
