@@ -497,6 +497,7 @@ class CollisionKernel {
       if (rows[i].empty()) missing += (missing.empty() ? "" : ", ") + geom_.geometryObjects[i].name;
     if (!missing.empty()) raise_invalid("moving geometry objects without spheres: " + missing);
     const auto lock = lock_with_gil(mutex_);
+    exact_pair_.assign(geom_.collisionPairs.size(), 0);  // (mark_exact_pairs)
     sph_begin_.assign(ng + 1, 0);
     sph_local_.clear();
     sph_r_.clear();
@@ -694,7 +695,8 @@ class CollisionKernel {
       } else {
         b = obj[gp.partner];
       }
-      in.pairs.push_back({obj[a], b, gp.partner_static, pair_margin_[j]});
+      in.pairs.push_back(
+          {obj[a], b, gp.partner_static, pair_margin_[j], exact_pair_[gp.pair] != 0});
     }
     if (!std::isfinite(scale)) return;
     in.scale = scale;
@@ -1512,6 +1514,50 @@ class CollisionKernel {
     return bp::make_tuple(free, clearance_checks_ - c0);
   }
 
+  // Self pairs whose spheres touch at every configuration of qs (rows) while their geometries
+  // (the exact checker's test) are apart at one of them at least: "spheres_only" then tests
+  // them as "spheres" does (coal's narrow phase where the spheres touch) instead of counting
+  // every touch a collision. Neighbouring links whose spheres' margin closes the gap between
+  // them (the Unitree Z1's) would otherwise make every configuration collide for
+  // "spheres_only". The answers stay conservative for the other pairs and are exact for these.
+  // Returns the pairs marked (collision pair indices); each call replaces the marks.
+  bp::list mark_exact_pairs(const Eigen::Ref<const RowMatrixXd>& qs) {
+    if (!has_spheres_) raise_invalid("mark_exact_pairs needs set_spheres first");
+    if (qs.cols() != model_.nq || qs.rows() == 0 || !qs.allFinite())
+      raise_invalid("qs must be finite rows of size nq = " + std::to_string(model_.nq));
+    const auto lock = lock_with_gil(mutex_);
+    std::fill(exact_pair_.begin(), exact_pair_.end(), 0);
+    // per group pair: 1 spheres touch at every row so far, 2 and the geometries apart at one
+    std::vector<char> state(group_pairs_.size(), 1);
+    for (Eigen::Index r = 0; r < qs.rows(); ++r) {
+      kinematics(qs.row(r).transpose());
+      next_stamp();
+      for (std::size_t i : moving_) place_bound(i);
+      for (const Group& g : groups_) {
+        if (geom_.geometryObjects[g.object].parentJoint == 0) continue;
+        for (std::size_t j = g.begin; j < g.end; ++j) {
+          const GroupPair& gp = group_pairs_[j];
+          if (gp.partner_static || !state[j]) {
+            state[j] = 0;
+            continue;
+          }
+          if (!sphere_pair_hits(g.object, gp.partner, gp.pair, false, kSpheresOnly))
+            state[j] = 0;
+          else if (!sphere_pair_hits(g.object, gp.partner, gp.pair, false, kSpheres))
+            state[j] = 2;
+        }
+      }
+    }
+    bp::list out;
+    for (std::size_t j = 0; j < group_pairs_.size(); ++j)
+      if (state[j] == 2) {
+        exact_pair_[group_pairs_[j].pair] = 1;
+        out.append(group_pairs_[j].pair);
+      }
+    setup_filter();  // its items carry the marks
+    return out;
+  }
+
   // For the tests: the certified radius of q along direction (t units, at most cap).
   double clearance_py(const VectorXd& q, const VectorXd& direction, double cap) {
     if (q.size() != model_.nq || direction.size() != model_.nq)
@@ -1671,7 +1717,7 @@ class CollisionKernel {
     }
     if (!hit) return false;
     ++stat_[b_static ? 4 : 1];
-    if (checker == kSpheresOnly) return true;
+    if (checker == kSpheresOnly && !(p < exact_pair_.size() && exact_pair_[p])) return true;
     ++stat_[b_static ? 5 : 2];
     place(a);
     if (!b_static) place(b);
@@ -1796,6 +1842,7 @@ class CollisionKernel {
   std::vector<std::size_t> pair_object_;  // per group pair: its moving object (setup_filter)
   std::vector<double> pair_margin_;  // per group pair: its security margin (>= 0)
   bool has_spheres_ = false;
+  std::vector<char> exact_pair_;  // per collision pair: "spheres_only" tests it as "spheres"
   double certified_margin_ = 0.0;
   // edge clearance certificates (setup_motion_bounds): per link x coordinate the motion bound
   // and the ancestor flag; per link pair x coordinate the rate of their spheres' distance;
@@ -3079,6 +3126,7 @@ BOOST_PYTHON_MODULE(_planning_kernel) {
       .add_property("certified_margin", &CollisionKernel::certified_margin)
       .add_property("sphere_count", &CollisionKernel::sphere_count)
       .def("sphere_stats", &CollisionKernel::sphere_stats)
+      .def("mark_exact_pairs", &CollisionKernel::mark_exact_pairs, bp::args("self", "qs"))
       .def("set_sphere_filter", &CollisionKernel::set_sphere_filter, bp::args("self", "mode"))
       .def("sphere_filter", &CollisionKernel::sphere_filter)
       .add_property("sphere_filter_mode", &CollisionKernel::sphere_filter_mode)

@@ -144,6 +144,7 @@ struct Input {
     int a, b;  // indices into objects (a) and objects or obstacles (b)
     bool b_static;
     double margin;
+    bool exact = false;  // the kernel tests it exactly: its touching spheres are not "sure"
   };
   std::vector<Link> links;
   std::vector<Object> objects;
@@ -214,7 +215,7 @@ class SphereFilter {
           static_units_.push_back(StaticUnit{la, p.b, 0.0f, {}});
           unit = &static_units_.back();
         }
-        unit->items.push_back(Item{p.a, -1, static_cast<float>(p.margin) + e, pair});
+        unit->items.push_back(Item{p.a, -1, static_cast<float>(p.margin) + e, pair, p.exact});
         unit->margin = std::max(unit->margin, static_cast<float>(p.margin) + e);
       } else {
         const int l0 = std::min(la, objects_[p.b].link), l1 = std::max(la, objects_[p.b].link);
@@ -225,7 +226,7 @@ class SphereFilter {
           self_units_.push_back(SelfUnit{l0, l1, 0.0f, {}});
           unit = &self_units_.back();
         }
-        unit->items.push_back(Item{p.a, p.b, static_cast<float>(p.margin) + e, pair});
+        unit->items.push_back(Item{p.a, p.b, static_cast<float>(p.margin) + e, pair, p.exact});
         unit->margin = std::max(unit->margin, static_cast<float>(p.margin) + e);
       }
     }
@@ -399,8 +400,8 @@ class SphereFilter {
 
   int units() const { return static_cast<int>(static_units_.size() + self_units_.size()); }
   // Lanes of the last run's mask found by a sphere test on a primitive or a self pair (not by
-  // the box of another shape): their spheres overlap within eps_ (float), so the double test
-  // finds them colliding unless they are within eps_ of touching.
+  // the box of another shape, not by a pair marked exact): their spheres overlap within eps_
+  // (float), so the double test finds them colliding unless they are within eps_ of touching.
   unsigned sure() const { return sure_; }
 
  private:
@@ -457,6 +458,7 @@ class SphereFilter {
     int a, b;      // object, partner object (self pairs) or -1
     float margin;  // the pair's margin + eps
     int pair;      // index into Input::pairs
+    bool exact;    // Input::Pair::exact: lanes it finds are not sure()
   };
   struct StaticUnit {
     int link, obstacle;
@@ -607,10 +609,10 @@ class SphereFilter {
       const unsigned h = static_item(o, u.items[i], near & ~hit);
       if (!h) continue;
       hit |= h;
+      if (o.type != 0 && !u.items[i].exact) sure_ |= h;
       for (unsigned m = h; m; m &= m - 1) item_at_[__builtin_ctz(m)] = static_cast<int>(i);
       if (hit == near) break;
     }
-    if (o.type != 0) sure_ |= hit;
     return hit;
   }
 
@@ -702,10 +704,10 @@ class SphereFilter {
       const unsigned h = self_item(u.items[i], near & ~hit);
       if (!h) continue;
       hit |= h;
+      if (!u.items[i].exact) sure_ |= h;
       for (unsigned m = h; m; m &= m - 1) item_at_[__builtin_ctz(m)] = static_cast<int>(i);
       if (hit == active) break;
     }
-    sure_ |= hit;
     return hit;
   }
 

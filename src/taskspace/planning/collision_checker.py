@@ -68,6 +68,8 @@ FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
 
 NATIVE_PAIR_CACHE = 1
+_EXACT_PAIR_SAMPLES = 16
+"""Random configurations on which :attr:`CollisionChecker.sphere_exact_pairs` are found."""
 """Colliding pairs remembered by the compiled checker and tested first (0 disables it)."""
 
 KERNEL_CHUNK = 4096
@@ -121,6 +123,9 @@ class CollisionCheckerOptions:
 _SPHERE_CACHE: weakref.WeakKeyDictionary[Any, Any] = weakref.WeakKeyDictionary()
 """Sphere models per robot (:meth:`CollisionChecker.sphere_model`): (collision model, key,
 model); the checkers of one robot (one per configuration space) share them."""
+
+_SAMPLES_CACHE: weakref.WeakKeyDictionary[Any, Any] = weakref.WeakKeyDictionary()
+"""Per robot: (model, the random configurations of :attr:`CollisionChecker.sphere_exact_pairs`)."""
 
 
 def _same_key(a: tuple[Any, ...], b: tuple[Any, ...]) -> bool:
@@ -190,6 +195,7 @@ class CollisionChecker:
         self._ngeoms = geom.ngeoms
         self._kernel = None
         self._kernel_checked = False
+        self._sphere_exact_pairs: tuple[tuple[str, str], ...] = ()
         self._world = robot.world
         self._world_version = robot.world.version
         self._geometry_model = geom
@@ -304,7 +310,43 @@ class CollisionChecker:
                 spheres.geometries.astype(np.int32),
                 spheres.certified_margin,
             )
+            robot = self.robot
+            cached = _SAMPLES_CACHE.get(robot)
+            if cached is None or cached[0] is not robot._model:
+                rng = np.random.default_rng(0)
+                qs = [robot.random_configuration(rng) for _ in range(_EXACT_PAIR_SAMPLES)]
+                cached = (robot._model, np.array(qs, dtype=float))
+                _SAMPLES_CACHE[robot] = cached
+            marked = kernel.mark_exact_pairs(cached[1])
+            geom = robot._collision_model
+            self._sphere_exact_pairs = tuple(
+                (
+                    geom.geometryObjects[geom.collisionPairs[p].first].name,
+                    geom.geometryObjects[geom.collisionPairs[p].second].name,
+                )
+                for p in marked
+            )
+            if marked:
+                logger.info(
+                    "sphere checker: %d self pairs whose spheres always touch are checked "
+                    "exactly by 'spheres_only': %s",
+                    len(marked),
+                    ", ".join(f"{a}-{b}" for a, b in self._sphere_exact_pairs),
+                )
         return kernel
+
+    @property
+    def sphere_exact_pairs(self) -> tuple[tuple[str, str], ...]:
+        """Self pairs (geometry names) the ``"spheres_only"`` checker tests exactly.
+
+        Pairs whose spheres touch at every one of :data:`_EXACT_PAIR_SAMPLES` random
+        configurations (seed 0) while their geometries are apart at one of them at least:
+        the spheres' margin closes the gap between these neighbouring links (e.g. three pairs
+        of the Unitree Z1), so counting their touch a collision would make every configuration
+        collide. ``"spheres_only"`` tests them as ``"spheres"`` does (coal's exact narrow
+        phase where their spheres touch). Set by :meth:`sphere_kernel`; empty before.
+        """
+        return self._sphere_exact_pairs
 
     @property
     def world_version(self) -> int:
