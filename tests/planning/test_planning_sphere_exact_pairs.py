@@ -19,6 +19,7 @@ import pinocchio as pin
 import pytest
 from _sphere_reference import PairClearances, mesh_collides
 
+from taskspace.errors import InvalidInputError
 from taskspace.model import Robot
 from taskspace.model.world import Obstacle
 from taskspace.planning.configuration_space import ConfigurationSpace, EdgeCheckOptions
@@ -135,3 +136,22 @@ def test_spheres_only_plans_on_the_z1(z1: tuple[Robot, ConfigurationSpace]):
         dense = space.interpolate_path(res.path, 0.01)
         assert not any(collides(q) for q in dense)  # Pinocchio's exact check
     assert alone >= 2
+
+
+def test_mark_exact_pairs_refuses_bad_configurations(z1: tuple[Robot, ConfigurationSpace]):
+    robot, space = z1
+    kernel = space.checker.sphere_kernel()
+    qs = np.random.default_rng(3).uniform(
+        robot.model.lowerPositionLimit, robot.model.upperPositionLimit, (200, robot.nq)
+    )
+    flags = kernel.collisions_with(qs, SPHERES_ONLY)
+    for bad in (
+        np.full((2, robot.nq), np.nan),
+        np.full((1, robot.nq), np.inf),
+        np.zeros((3, robot.nq + 1)),
+        np.zeros((0, robot.nq)),
+    ):
+        with pytest.raises(InvalidInputError, match="qs must be finite rows of size nq"):
+            kernel.mark_exact_pairs(bad)
+    # a refused call leaves the marks (the answers) as they were
+    np.testing.assert_array_equal(kernel.collisions_with(qs, SPHERES_ONLY), flags)
