@@ -162,6 +162,7 @@ class SphereFilter {
     ready_ = false;
     links_.clear();
     objects_.clear();
+    clusters_.clear();
     obs_.clear();
     sph_.clear();
     static_units_.clear();
@@ -177,10 +178,62 @@ class SphereFilter {
       of.center = f3(o.center);
       of.radius = static_cast<float>(o.radius);
       of.begin = static_cast<int>(sph_.size());
-      for (std::size_t k = 0; k + 3 < o.sph.size(); k += 4)
-        sph_.push_back(SphF{{static_cast<float>(o.sph[k]), static_cast<float>(o.sph[k + 1]),
-                             static_cast<float>(o.sph[k + 2])},
-                            static_cast<float>(o.sph[k + 3])});
+      // the spheres in order along the axis of their centres' largest spread, cut into
+      // clusters of kCluster neighbours, each with its bounding sphere (double, as the
+      // object's): a cluster away from the obstacle skips its spheres (same answers: a lane
+      // hits where any of the object's spheres hits, in any order)
+      const int n = static_cast<int>(o.sph.size() / 4);
+      std::vector<int> order(n);
+      double lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
+      for (int k = 0; k < n; ++k) {
+        order[k] = k;
+        for (int a = 0; a < 3; ++a) {
+          const double x = o.sph[4 * k + a];
+          lo[a] = k == 0 ? x : std::min(lo[a], x);
+          hi[a] = k == 0 ? x : std::max(hi[a], x);
+        }
+      }
+      int axis = 0;
+      for (int a = 1; a < 3; ++a)
+        if (hi[a] - lo[a] > hi[axis] - lo[axis]) axis = a;
+      std::stable_sort(order.begin(), order.end(), [&o, axis](int i, int j) {
+        return o.sph[4 * i + axis] < o.sph[4 * j + axis];
+      });
+      of.cbegin = static_cast<int>(clusters_.size());
+      for (int c0 = 0; c0 < n; c0 += kCluster) {
+        const int c1 = std::min(n, c0 + kCluster);
+        double blo[3], bhi[3];
+        for (int a = 0; a < 3; ++a) {
+          blo[a] = std::numeric_limits<double>::infinity();
+          bhi[a] = -blo[a];
+        }
+        for (int q = c0; q < c1; ++q) {
+          const double* sp = &o.sph[4 * order[q]];
+          for (int a = 0; a < 3; ++a) {
+            blo[a] = std::min(blo[a], sp[a] - sp[3]);
+            bhi[a] = std::max(bhi[a], sp[a] + sp[3]);
+          }
+        }
+        double mid[3], radius = 0.0;
+        for (int a = 0; a < 3; ++a) mid[a] = 0.5 * (blo[a] + bhi[a]);
+        for (int q = c0; q < c1; ++q) {
+          const double* sp = &o.sph[4 * order[q]];
+          const double d = std::sqrt((sp[0] - mid[0]) * (sp[0] - mid[0]) +
+                                     (sp[1] - mid[1]) * (sp[1] - mid[1]) +
+                                     (sp[2] - mid[2]) * (sp[2] - mid[2]));
+          radius = std::max(radius, d + sp[3]);
+        }
+        ClusterF cf{f3(mid), static_cast<float>(radius), static_cast<int>(sph_.size()), 0};
+        for (int q = c0; q < c1; ++q) {
+          const double* sp = &o.sph[4 * order[q]];
+          sph_.push_back(SphF{{static_cast<float>(sp[0]), static_cast<float>(sp[1]),
+                               static_cast<float>(sp[2])},
+                              static_cast<float>(sp[3])});
+        }
+        cf.end = static_cast<int>(sph_.size());
+        clusters_.push_back(cf);
+      }
+      of.cend = static_cast<int>(clusters_.size());
       of.end = static_cast<int>(sph_.size());
       objects_.push_back(of);
     }
@@ -251,6 +304,8 @@ class SphereFilter {
     }
     bound_stamp_.assign(objects_.size(), 0u);
     sph_stamp_.assign(objects_.size(), 0u);
+    clu_stamp_.assign(clusters_.size(), 0u);
+    clu_world_.assign(clusters_.size(), V3{});
     obj_world_.assign(objects_.size(), V3{});
     sph_world_.assign(sph_.size(), V3{});
     ready_ = true;
@@ -264,6 +319,7 @@ class SphereFilter {
     if (stamp_ == 0) {
       std::fill(bound_stamp_.begin(), bound_stamp_.end(), 0u);
       std::fill(sph_stamp_.begin(), sph_stamp_.end(), 0u);
+      std::fill(clu_stamp_.begin(), clu_stamp_.end(), 0u);
       stamp_ = 1;
     }
     for (LinkF& l : links_) {
@@ -442,8 +498,15 @@ class SphereFilter {
     int link;
     F3 center;
     float radius;
-    int begin, end;
+    int begin, end;    // its spheres (sph_), cluster after cluster
+    int cbegin, cend;  // its clusters (clusters_)
   };
+  struct ClusterF {
+    F3 center;
+    float radius;
+    int begin, end;  // its spheres (sph_)
+  };
+  static constexpr int kCluster = 4;
   struct SphF {
     float p[3];
     float r;
@@ -490,14 +553,27 @@ class SphereFilter {
     bound_stamp_[o] = stamp_;
     obj_world_[o] = place(links_[objects_[o].link], objects_[o].center);
   }
-  // Object o's sphere centres (once per load), only for an object whose bounding sphere
+  // Object o's cluster centres (once per load), only for an object whose bounding sphere
   // passed a test: most objects reached by the link level stop at their bounding sphere.
-  void place_spheres(int o) {
+  void place_clusters(int o) {
     if (sph_stamp_[o] == stamp_) return;
     sph_stamp_[o] = stamp_;
     const ObjectF& ob = objects_[o];
     const LinkF& l = links_[ob.link];
-    for (int s = ob.begin; s < ob.end; ++s) sph_world_[s] = place(l, sph_[s].p);
+    for (int c = ob.cbegin; c < ob.cend; ++c) clu_world_[c] = place(l, clusters_[c].center);
+  }
+  // The sphere centres of cluster c of object o (once per load).
+  void place_cluster_spheres(int o, int c) {
+    if (clu_stamp_[c] == stamp_) return;
+    clu_stamp_[c] = stamp_;
+    const LinkF& l = links_[objects_[o].link];
+    for (int s = clusters_[c].begin; s < clusters_[c].end; ++s)
+      sph_world_[s] = place(l, sph_[s].p);
+  }
+  // All of object o's sphere centres.
+  void place_spheres(int o) {
+    const ObjectF& ob = objects_[o];
+    for (int c = ob.cbegin; c < ob.cend; ++c) place_cluster_spheres(o, c);
   }
 
   // Lanes where the sphere (c, r) touches obstacle o's world box.
@@ -560,12 +636,19 @@ class SphereFilter {
     if (!m) return 0;
     if (o.type != 0) m &= prim_hits(o, obj_world_[it.a], ob.radius + rs);
     if (!m) return 0;
-    place_spheres(it.a);
+    place_clusters(it.a);
     unsigned hit = 0;
-    for (int s = ob.begin; s < ob.end && m; ++s) {
-      const unsigned h = m & prim_hits(o, sph_world_[s], sph_[s].r + rs);
-      hit |= h;
-      m &= ~h;
+    for (int c = ob.cbegin; c < ob.cend && m; ++c) {
+      const ClusterF& cl = clusters_[c];
+      unsigned mc = m & prim_hits(o, clu_world_[c], cl.radius + rs);
+      if (!mc) continue;
+      place_cluster_spheres(it.a, c);
+      for (int s = cl.begin; s < cl.end && mc; ++s) {
+        const unsigned h = mc & prim_hits(o, sph_world_[s], sph_[s].r + rs);
+        hit |= h;
+        mc &= ~h;
+        m &= ~h;
+      }
     }
     return hit;
   }
@@ -721,6 +804,9 @@ class SphereFilter {
   std::vector<SelfUnit> self_units_;
   std::vector<unsigned> bound_stamp_, sph_stamp_;  // load of the last place_bound / place_spheres
   std::vector<V3> obj_world_, sph_world_;
+  std::vector<ClusterF> clusters_;
+  std::vector<unsigned> clu_stamp_;  // load of the last place_cluster_spheres
+  std::vector<V3> clu_world_;        // cluster centres (place_clusters)
   bool by_link_ = false;
   std::vector<int> unit_of_;             // static unit of (link, obstacle), or -1
   std::vector<F4> blo_[3], bhi_[3], binfl_;  // obstacle boxes, 4 per block (link_obstacles)
