@@ -23,12 +23,16 @@
 //     10-20 % more kernel time in the planner);
 //  2. per moving object of the unit: its bounding sphere against the box and against the
 //     primitive (box, ball, cylinder, capsule: exact point distance in the obstacle's frame);
-//     the object's sphere centres are computed only when its bounding sphere passes (once
-//     per load: most objects the link level reaches stop here);
-//  3. per sphere of the object: against the primitive (or the box for other shapes: the
+//     the centres of its clusters (kCluster neighbouring spheres with their bounding sphere)
+//     are computed only when its bounding sphere passes (once per load: most objects the
+//     link level reaches stop here);
+//  3. per cluster of the object: its bounding sphere against the primitive (or the box),
+//     its sphere centres computed only when it passes (once per load);
+//  4. per sphere of the cluster: against the primitive (or the box for other shapes: the
 //     kernel then asks coal);
 //  self pairs: per (link, link) unit the two links' bounding spheres, per object pair the
-//  objects' bounding spheres, then sphere against sphere.
+//  objects' bounding spheres, then per cluster of a against b's bounding sphere and b's
+//  clusters, then sphere against sphere.
 // The unit that last made the first lane "maybe" is tested first (as the kernel's pair cache).
 // run() stops as soon as the lane given as `stop_lane` is in the mask (an edge needs its first
 // colliding configuration only: the kernel checks that lane exactly, returns when it collides,
@@ -570,11 +574,6 @@ class SphereFilter {
     for (int s = clusters_[c].begin; s < clusters_[c].end; ++s)
       sph_world_[s] = place(l, sph_[s].p);
   }
-  // All of object o's sphere centres.
-  void place_spheres(int o) {
-    const ObjectF& ob = objects_[o];
-    for (int c = ob.cbegin; c < ob.cend; ++c) place_cluster_spheres(o, c);
-  }
 
   // Lanes where the sphere (c, r) touches obstacle o's world box.
   static unsigned box_hits(const ObsF& o, const V3& c, float r) {
@@ -653,7 +652,8 @@ class SphereFilter {
     return hit;
   }
 
-  // Lanes of m where self item it may touch: the objects' bounding spheres, then sphere pairs.
+  // Lanes of m where self item it may touch: the objects' bounding spheres, per cluster of a
+  // against b's bounding sphere and clusters, then sphere pairs.
   unsigned self_item(const Item& it, unsigned m) {
     place_bound(it.a);
     place_bound(it.b);
@@ -661,21 +661,34 @@ class SphereFilter {
     const ObjectF& ob = objects_[it.b];
     m &= ball_hits(obj_world_[it.a], obj_world_[it.b], oa.radius + ob.radius + it.margin);
     if (!m) return 0;
-    place_spheres(it.a);
-    place_spheres(it.b);
+    place_clusters(it.a);
+    place_clusters(it.b);
     unsigned hit = 0;
-    // A sphere s of a farther than r_s + R_b + margin + eps_ from b's bounding centre touches
-    // none of b's spheres (each within R_b - r_t of that centre, up to float rounding far
-    // below eps_): the lanes where it is are skipped before the pair tests (same answers).
-    const float reach_b = ob.radius + it.margin + static_cast<float>(eps_);
-    for (int s = oa.begin; s < oa.end && m; ++s) {
-      unsigned ms = m & ball_hits(sph_world_[s], obj_world_[it.b], sph_[s].r + reach_b);
-      for (int t = ob.begin; t < ob.end && ms; ++t) {
-        const unsigned h =
-            ms & ball_hits(sph_world_[s], sph_world_[t], sph_[s].r + sph_[t].r + it.margin);
-        hit |= h;
-        ms &= ~h;
-        m &= ~h;
+    // Spheres s of cluster A and t of cluster B within r_s + r_t + margin of each other have
+    // centres of A and B within R_A + R_B + margin (each sphere inside its cluster's bounding
+    // sphere: |c_A - c_s| <= R_A - r_s); eps_ covers the float rounding of the placed centres
+    // (far below it), so the clusters tested out hold no touching pair (same answers).
+    const float e = static_cast<float>(eps_);
+    for (int ca = oa.cbegin; ca < oa.cend && m; ++ca) {
+      const ClusterF& A = clusters_[ca];
+      unsigned ma = m & ball_hits(clu_world_[ca], obj_world_[it.b],
+                                  A.radius + ob.radius + it.margin + e);
+      for (int cb = ob.cbegin; cb < ob.cend && ma; ++cb) {
+        const ClusterF& B = clusters_[cb];
+        unsigned mab =
+            ma & ball_hits(clu_world_[ca], clu_world_[cb], A.radius + B.radius + it.margin + e);
+        if (!mab) continue;
+        place_cluster_spheres(it.a, ca);
+        place_cluster_spheres(it.b, cb);
+        for (int s = A.begin; s < A.end && mab; ++s)
+          for (int t = B.begin; t < B.end && mab; ++t) {
+            const unsigned h =
+                mab & ball_hits(sph_world_[s], sph_world_[t], sph_[s].r + sph_[t].r + it.margin);
+            hit |= h;
+            mab &= ~h;
+            ma &= ~h;
+            m &= ~h;
+          }
       }
     }
     return hit;
@@ -802,7 +815,7 @@ class SphereFilter {
   std::vector<ObsF> obs_;
   std::vector<StaticUnit> static_units_;
   std::vector<SelfUnit> self_units_;
-  std::vector<unsigned> bound_stamp_, sph_stamp_;  // load of the last place_bound / place_spheres
+  std::vector<unsigned> bound_stamp_, sph_stamp_;  // load of the last place_bound / place_clusters
   std::vector<V3> obj_world_, sph_world_;
   std::vector<ClusterF> clusters_;
   std::vector<unsigned> clu_stamp_;  // load of the last place_cluster_spheres
