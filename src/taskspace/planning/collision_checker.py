@@ -165,6 +165,7 @@ class CollisionChecker:
         self._geom_data: Any = None
         self._kernel: Any = None
         self._kernel_checked = False
+        self._sphere_kernel: Any = None  # the kernel whose spheres are set (sphere_kernel)
         self._world: Any = None
         self._world_version = -1
         self._geometry_model: Any = None
@@ -237,6 +238,9 @@ class CollisionChecker:
         kernel is not built or the broad phase is disabled in the options.
         """
         self._sync()
+        kernel = self._kernel
+        if kernel is not None:  # built for this world (nq == nv: a robot keeps its model)
+            return kernel
         if self.robot.nq != self.robot.nv:  # the compiled checker takes plain vectors only
             self._kernel_checked = True
             return None
@@ -295,15 +299,17 @@ class CollisionChecker:
         ``None`` when the compiled checker is not available.
         """
         kernel = self.native_kernel()
-        if kernel is not None and not kernel.has_spheres:
-            spheres = self.sphere_model()
-            kernel.set_spheres(
-                spheres.centers,
-                spheres.radii,
-                spheres.joints.astype(np.int32),
-                spheres.geometries.astype(np.int32),
-                spheres.certified_margin,
-            )
+        if kernel is not None and kernel is not self._sphere_kernel:
+            if not kernel.has_spheres:  # (a kernel's spheres can be replaced, not removed)
+                spheres = self.sphere_model()
+                kernel.set_spheres(
+                    spheres.centers,
+                    spheres.radii,
+                    spheres.joints.astype(np.int32),
+                    spheres.geometries.astype(np.int32),
+                    spheres.certified_margin,
+                )
+            self._sphere_kernel = kernel
         return kernel
 
     @property
