@@ -17,6 +17,7 @@ from taskspace._native import planning_kernel, status
 from taskspace.errors import TaskspaceError
 from taskspace.planning.collision_checker import FunctionChecker
 from taskspace.planning.configuration_space import ConfigurationSpace, EdgeCheckOptions
+from taskspace.planning.limits import limit_log
 from taskspace.planning.rrt_connect import RRTConnectOptions, rrt_connect
 from taskspace.planning.scene_loader import motionbenchmaker_panda, motionbenchmaker_problems
 from tests.planning._mbm import ROOT, SKIP_REASON
@@ -162,3 +163,25 @@ def test_kernels_follow_the_world() -> None:
     for a, b in itertools.pairwise(res.path):  # dense checks along the path
         for t in np.linspace(0.0, 1.0, 12):
             assert not collides(a + t * (b - a))
+
+
+@pytest.mark.skipif(planning_kernel() is None, reason=f"native kernel: {status()}")
+@pytest.mark.skipif(ROOT is None, reason=SKIP_REASON)
+def test_native_log_has_limit_log_fields() -> None:
+    """The compiled plan's log holds limit_log's fields (values, types, place in the log)."""
+    robot = motionbenchmaker_panda()
+    req = motionbenchmaker_problems(ROOT, "bookshelf_small", [3])[0].apply(robot)
+    space = ConfigurationSpace.from_robot(robot, edge=EdgeCheckOptions(resolution=0.03))
+    stopped = set()
+    for fields in ({}, {"max_iterations": 1, "time_limit_s": None}, {"time_limit_s": 0.0}):
+        res = rrt_connect(space, req.start, req.goal, RRTConnectOptions(seed=2, **fields))
+        expected = limit_log(res.status, res.path_length, res.time_s)
+        got = {key: res.log[key] for key in expected}
+        assert got == expected
+        assert [type(v) for v in got["costs"] + got["cost_times"]] == [float] * (2 * res.success)
+        keys = list(res.log)
+        assert keys[keys.index("path_certified") + 1 : keys.index("kernel_run_us")] == list(
+            expected
+        )
+        stopped.add(res.log["stopped_by"])
+    assert stopped == {"first solution", "iterations", "time"}

@@ -548,6 +548,8 @@ def _native_kernel(space: ConfigurationSpace, opts: RRTConnectOptions) -> Any:
 
 
 _NATIVE_STATUS = (PlannerStatus.SOLVED, PlannerStatus.TIME_LIMIT, PlannerStatus.ITERATION_LIMIT)
+_NATIVE_STOPPED_BY = tuple(limit_log(status, 0.0, 0.0)["stopped_by"] for status in _NATIVE_STATUS)
+""":func:`~taskspace.planning.limits.limit_log`'s ``stopped_by`` of each kernel status code."""
 _START_INVALID, _GOAL_INVALID = 3, 4  # the kernel's codes for an invalid start or goal
 _SEED_MASK = (1 << 64) - 1
 _LONG_MAX = (1 << 63) - 1  # the kernel's iteration counts are C longs
@@ -676,7 +678,10 @@ def _rrt_connect_native(
             "spheres_fallback": float(fallback >= 0),
             "spheres_fallback_iteration": float(fallback),
             "path_certified": float(certified and success),
-            **limit_log(status, length, dt),
+            # limit_log(status, length, dt), written out (length and dt are floats)
+            "stopped_by": _NATIVE_STOPPED_BY[status_code],
+            "costs": [length] if success else [],
+            "cost_times": [dt] if success else [],
             "kernel_run_us": t_run,
             "kernel_endpoints_us": t_endpoints,
             "kernel_line_us": t_line,
