@@ -5,9 +5,11 @@ Each shortcut is compared with the full computation it stands for.
 
 from __future__ import annotations
 
+import gc
 import importlib
 import itertools
 import math
+import weakref
 
 import numpy as np
 import pinocchio as pin
@@ -147,9 +149,13 @@ def test_kernels_follow_the_world() -> None:
     assert checker.sphere_kernel() is kernel
     opts = RRTConnectOptions(seed=1, checker="spheres_only", validator="spheres")
     assert rrt_connect(space, req.start, req.goal, opts).success
+    old = weakref.ref(kernel)
+    del kernel
     other = problems[1].apply(robot)  # a new world: new kernels
     fresh = checker.native_kernel()
-    assert fresh is not kernel and not fresh.has_spheres
+    gc.collect()
+    assert old() is None  # the old world's kernel is not kept alive
+    assert not fresh.has_spheres
     assert checker.sphere_kernel() is fresh and fresh.has_spheres
     res = rrt_connect(space, other.start, other.goal, opts)
     assert res.success

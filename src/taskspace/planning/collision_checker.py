@@ -191,6 +191,7 @@ class CollisionChecker:
         self._ngeoms = geom.ngeoms
         self._kernel = None
         self._kernel_checked = False
+        self._sphere_kernel = None  # (not kept alive past its world)
         self._world = robot.world
         self._world_version = robot.world.version
         self._geometry_model = geom
