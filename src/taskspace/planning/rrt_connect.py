@@ -835,8 +835,10 @@ def _usual_settings(opts: RRTConnectOptions) -> _Settings | None:
     object per plan is common, and a compiled plan takes a fraction of a millisecond.
     """
     alpha = opts.step_size
-    checker = _CHECKER_CODES.get(opts.checker) if type(opts.checker) is str else None
-    validator = _VALIDATOR_CODES.get(opts.validator) if type(opts.validator) is str else None
+    name: Any = opts.checker
+    checker = _CHECKER_CODES.get(name) if type(name) is str else None
+    name = opts.validator
+    validator = _VALIDATOR_CODES.get(name) if type(name) is str else None
     cap = opts.max_iterations
     limit = opts.time_limit_s
     seed = opts.seed
