@@ -170,6 +170,7 @@ class CollisionChecker:
         self._geom_data: Any = None
         self._kernel: Any = None
         self._kernel_checked = False
+        self._sphere_kernel: Any = None  # the kernel whose spheres are set (sphere_kernel)
         self._world: Any = None
         self._world_version = -1
         self._geometry_model: Any = None
@@ -196,6 +197,7 @@ class CollisionChecker:
         self._kernel = None
         self._kernel_checked = False
         self._sphere_exact_pairs: tuple[tuple[str, str], ...] = ()
+        self._sphere_kernel = None  # (not kept alive past its world)
         self._world = robot.world
         self._world_version = robot.world.version
         self._geometry_model = geom
@@ -243,6 +245,9 @@ class CollisionChecker:
         kernel is not built or the broad phase is disabled in the options.
         """
         self._sync()
+        kernel = self._kernel
+        if kernel is not None:  # built for this world (nq == nv: a robot keeps its model)
+            return kernel
         if self.robot.nq != self.robot.nv:  # the compiled checker takes plain vectors only
             self._kernel_checked = True
             return None
@@ -301,39 +306,45 @@ class CollisionChecker:
         ``None`` when the compiled checker is not available.
         """
         kernel = self.native_kernel()
-        if kernel is not None and not kernel.has_spheres:
-            spheres = self.sphere_model()
-            kernel.set_spheres(
-                spheres.centers,
-                spheres.radii,
-                spheres.joints.astype(np.int32),
-                spheres.geometries.astype(np.int32),
-                spheres.certified_margin,
-            )
-            robot = self.robot
-            cached = _SAMPLES_CACHE.get(robot)
-            if cached is None or cached[0] is not robot._model:
-                rng = np.random.default_rng(0)
-                qs = [robot.random_configuration(rng) for _ in range(_EXACT_PAIR_SAMPLES)]
-                cached = (robot._model, np.array(qs, dtype=float))
-                _SAMPLES_CACHE[robot] = cached
-            marked = kernel.mark_exact_pairs(cached[1])
-            geom = robot._collision_model
-            self._sphere_exact_pairs = tuple(
-                (
-                    geom.geometryObjects[geom.collisionPairs[p].first].name,
-                    geom.geometryObjects[geom.collisionPairs[p].second].name,
+        if kernel is not None and kernel is not self._sphere_kernel:
+            if not kernel.has_spheres:  # (a kernel's spheres can be replaced, not removed)
+                spheres = self.sphere_model()
+                kernel.set_spheres(
+                    spheres.centers,
+                    spheres.radii,
+                    spheres.joints.astype(np.int32),
+                    spheres.geometries.astype(np.int32),
+                    spheres.certified_margin,
                 )
-                for p in marked
-            )
-            if marked:
-                logger.info(
-                    "sphere checker: %d self pairs whose spheres always touch are checked "
-                    "exactly by 'spheres_only': %s",
-                    len(marked),
-                    ", ".join(f"{a}-{b}" for a, b in self._sphere_exact_pairs),
-                )
+                self._mark_exact_pairs(kernel)
+            self._sphere_kernel = kernel
         return kernel
+
+    def _mark_exact_pairs(self, kernel: Any) -> None:
+        """Mark the kernel's self pairs of :attr:`sphere_exact_pairs` (after set_spheres)."""
+        robot = self.robot
+        cached = _SAMPLES_CACHE.get(robot)
+        if cached is None or cached[0] is not robot._model:
+            rng = np.random.default_rng(0)
+            qs = [robot.random_configuration(rng) for _ in range(_EXACT_PAIR_SAMPLES)]
+            cached = (robot._model, np.array(qs, dtype=float))
+            _SAMPLES_CACHE[robot] = cached
+        marked = kernel.mark_exact_pairs(cached[1])
+        geom = robot._collision_model
+        self._sphere_exact_pairs = tuple(
+            (
+                geom.geometryObjects[geom.collisionPairs[p].first].name,
+                geom.geometryObjects[geom.collisionPairs[p].second].name,
+            )
+            for p in marked
+        )
+        if marked:
+            logger.info(
+                "sphere checker: %d self pairs whose spheres always touch are checked "
+                "exactly by 'spheres_only': %s",
+                len(marked),
+                ", ".join(f"{a}-{b}" for a, b in self._sphere_exact_pairs),
+            )
 
     @property
     def sphere_exact_pairs(self) -> tuple[tuple[str, str], ...]:

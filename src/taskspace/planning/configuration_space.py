@@ -45,6 +45,9 @@ from taskspace.planning.joint_manifold import JointManifold
 from taskspace.planning.locked_joints import LockedJointChecker, LockedJoints
 
 FloatArray = npt.NDArray[np.float64]
+
+_FLOAT64 = np.dtype(np.float64)
+_UNIT_STRIDE = (_FLOAT64.itemsize,)  # the strides of a contiguous float64 vector
 IntArray = npt.NDArray[np.int64]
 
 
@@ -155,6 +158,9 @@ class ConfigurationSpace:
 
     _robot_metric: tuple[Robot, Any, Any, Any]
     """What :meth:`from_robot` was given: robot, weights, base box (spaces built on a robot)."""
+
+    _diameter: tuple[FloatArray, FloatArray, float] | None = None
+    """:meth:`bounds_diameter` of read-only bounds."""
 
     def __init__(
         self,
@@ -484,6 +490,21 @@ class ConfigurationSpace:
             return np.asarray(q0 + ts[:, None] * (q1 - q0), dtype=np.float64)
         return self._manifold.interpolate(q0, q1, t)
 
+    def bounds_diameter(self) -> tuple[FloatArray, FloatArray, float]:
+        """``(lower, upper, |upper - lower|)`` (the distance by ``math.dist`` [rad or m]).
+
+        The distance is kept while the bounds are the same read-only arrays (those of a space
+        built on a robot; a planner calls this at every plan).
+        """
+        lower, upper = self.lower, self.upper
+        kept = self._diameter
+        if kept is not None and kept[0] is lower and kept[1] is upper:
+            return kept
+        bounds = (lower, upper, math.dist(upper.tolist(), lower.tolist()))
+        if not (lower.flags.writeable or upper.flags.writeable):
+            self._diameter = bounds
+        return bounds
+
     @property
     def extent(self) -> float:
         """Diagonal of the box ``|upper - lower|`` [rad or m]."""
@@ -631,8 +652,17 @@ class ConfigurationSpace:
                 floats) is not finite.
             StaleModelError: as :meth:`check_endpoint`.
         """
-        if self._manifold is not None and self._manifold._follower is None:
-            self._manifold._sync()  # a bare model: its limits are compared, once per plan
+        manifold = self._manifold
+        if manifold is not None and manifold._follower is None:
+            manifold._sync()  # a bare model: its limits are compared, once per plan
+        if (
+            type(q) is np.ndarray
+            and q.dtype is _FLOAT64  # (else the check below)
+            and q.strides == _UNIT_STRIDE
+            and q.shape == self._lower.shape
+            and self.locked is None
+        ):
+            return q  # a contiguous float64 vector of size d
         q = self._free_coordinates(q, name)
         if (
             type(q) is np.ndarray

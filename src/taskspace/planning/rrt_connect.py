@@ -97,7 +97,6 @@ from __future__ import annotations
 
 import logging
 import math
-import operator
 import time
 from dataclasses import dataclass
 from typing import Any, NamedTuple
@@ -549,6 +548,8 @@ def _native_kernel(space: ConfigurationSpace, opts: RRTConnectOptions) -> Any:
 
 
 _NATIVE_STATUS = (PlannerStatus.SOLVED, PlannerStatus.TIME_LIMIT, PlannerStatus.ITERATION_LIMIT)
+_NATIVE_STOPPED_BY = tuple(limit_log(status, 0.0, 0.0)["stopped_by"] for status in _NATIVE_STATUS)
+""":func:`~taskspace.planning.limits.limit_log`'s ``stopped_by`` of each kernel status code."""
 _START_INVALID, _GOAL_INVALID = 3, 4  # the kernel's codes for an invalid start or goal
 _SEED_MASK = (1 << 64) - 1
 _LONG_MAX = (1 << 63) - 1  # the kernel's iteration counts are C longs
@@ -564,6 +565,7 @@ def _rrt_connect_native(
     q_goal: FloatArray,
     opts: RRTConnectOptions,
     settings: _Settings,
+    bounds: tuple[FloatArray, FloatArray, float],
     delta: float,
     delta_c: float,
     seed: int,
@@ -585,7 +587,8 @@ def _rrt_connect_native(
         q_start: start as a float vector of size d (:meth:`ConfigurationSpace.endpoint_vector`).
         q_goal: goal, as ``q_start``.
         opts: planner settings.
-        settings: ``opts`` validated (:func:`_settings`).
+        settings: ``opts`` validated (:func:`_validate`).
+        bounds: the space's bounds (:meth:`ConfigurationSpace.bounds_diameter`).
         delta: the space's resolution [rad or m].
         delta_c: the coarse resolution [rad or m].
         seed: seed of the kernel's random generator (>= 0).
@@ -606,8 +609,8 @@ def _rrt_connect_native(
             kernel,
             q_start,
             q_goal,
-            space.lower,
-            space.upper,
+            bounds[0],  # lower
+            bounds[1],  # upper
             settings.alpha,
             delta,
             delta_c,
@@ -675,7 +678,10 @@ def _rrt_connect_native(
             "spheres_fallback": float(fallback >= 0),
             "spheres_fallback_iteration": float(fallback),
             "path_certified": float(certified and success),
-            **limit_log(status, length, dt),
+            # limit_log(status, length, dt), written out (length and dt are floats)
+            "stopped_by": _NATIVE_STOPPED_BY[status_code],
+            "costs": [length] if success else [],
+            "cost_times": [dt] if success else [],
             "kernel_run_us": t_run,
             "kernel_endpoints_us": t_endpoints,
             "kernel_line_us": t_line,
@@ -784,7 +790,7 @@ def rrt_connect(
 
 
 class _Settings(NamedTuple):
-    """The validated options of a plan (:func:`_settings`)."""
+    """The validated options of a plan (:func:`_validate`)."""
 
     alpha: float
     """``step_size`` [rad or m]."""
@@ -810,6 +816,74 @@ def _validate(opts: RRTConnectOptions) -> _Settings:
         InvalidInputError: an invalid value (the message names the option).
         UnknownNameError: an unknown ``checker`` or ``validator``.
     """
+    settings = _usual_settings(opts)
+    if settings is not None:
+        return settings
+    return _checked_settings(opts)
+
+
+_CHECKER_CODES = {name: code for code, name in enumerate(CHECKERS)}
+_VALIDATOR_CODES = {name: code for code, name in enumerate(VALIDATORS)}
+
+
+def _usual_settings(opts: RRTConnectOptions) -> _Settings | None:
+    """:func:`_checked_settings` of usual options, else ``None``.
+
+    Usual: every field has its usual type (float, int, ``None``, str; each is read once) and
+    a valid value. The same settings as :func:`_checked_settings` (which gives the errors and
+    converts other types: numpy numbers, an int time limit) in fewer steps: a new options
+    object per plan is common, and a compiled plan takes a fraction of a millisecond.
+    """
+    alpha = opts.step_size
+    name: Any = opts.checker
+    checker = _CHECKER_CODES.get(name) if type(name) is str else None
+    name = opts.validator
+    validator = _VALIDATOR_CODES.get(name) if type(name) is str else None
+    cap = opts.max_iterations
+    limit = opts.time_limit_s
+    seed = opts.seed
+    local = opts.local_sampling
+    sigma = opts.local_sigma
+    trapped = opts.trapped_priority
+    fallback = opts.fallback_iterations
+    coarse = opts.coarse_resolution
+    if limit is None:
+        limit = math.inf
+    elif type(limit) is not float or not limit >= 0.0:  # NaN too
+        return None
+    if cap is None:
+        if limit == math.inf:  # no limit at all: refused
+            return None
+        cap = _LONG_MAX
+    elif type(cap) is not int or cap < 0:
+        return None
+    if fallback is None:
+        fallback = -1
+    elif type(fallback) is int and fallback >= 0:
+        fallback = min(fallback, _LONG_MAX)
+    else:
+        return None
+    if (
+        type(alpha) is not float
+        or not 0.0 < alpha < math.inf
+        or checker is None
+        or validator is None
+        or type(seed) is not int
+        or seed < 0
+        or type(local) is not float
+        or not 0.0 <= local <= 1.0
+        or type(sigma) is not float
+        or not 0.0 < sigma < math.inf
+        or type(trapped) is not float
+        or not 0.0 <= trapped <= 1.0
+        or not (coarse is None or (type(coarse) is float and 0.0 < coarse < math.inf))
+    ):
+        return None
+    return _Settings(alpha, min(cap, _LONG_MAX), limit, seed, coarse, fallback, checker, validator)
+
+
+def _checked_settings(opts: RRTConnectOptions) -> _Settings:
+    """:func:`_validate`'s checks one by one, in order, with their messages."""
     alpha = check_positive(opts.step_size, "step_size")
     if opts.checker not in CHECKERS:
         raise UnknownNameError("checker", str(opts.checker), CHECKERS)
@@ -840,37 +914,6 @@ def _validate(opts: RRTConnectOptions) -> _Settings:
     )
 
 
-_SETTINGS: dict[int, tuple[RRTConnectOptions, tuple[Any, ...], _Settings]] = {}
-"""Validated options by ``id``: the object, its field values when validated, its settings."""
-
-_SETTINGS_SIZE = 64
-"""The cache is emptied when it holds this many options objects."""
-
-
-def _settings(opts: RRTConnectOptions) -> _Settings:
-    """:func:`_validate`, once per options object that is used again.
-
-    A plan is often repeated with the same options object. The cache keeps the object and its
-    field values alive and compares the values by identity: a field changed behind the frozen
-    dataclass (``object.__setattr__``), even to an equal value of another type (``True`` for
-    ``1``), is validated again. Equal options in different objects are validated once each;
-    subclasses at every call.
-    """
-    if type(opts) is not RRTConnectOptions:
-        return _validate(opts)
-    got = _SETTINGS.get(id(opts))
-    if got is not None and got[0] is opts:
-        values = opts.__dict__.values()
-        if len(values) == len(got[1]) and all(map(operator.is_, values, got[1])):
-            return got[2]
-    values_now = tuple(opts.__dict__.values())  # before the checks: what they saw, or older
-    settings = _validate(opts)
-    if len(_SETTINGS) >= _SETTINGS_SIZE:
-        _SETTINGS.clear()
-    _SETTINGS[id(opts)] = (opts, values_now, settings)
-    return settings
-
-
 def _plan(
     space: ConfigurationSpace,
     start: Any,
@@ -887,12 +930,12 @@ def _plan(
     (:class:`~taskspace.planning.certify.FailedRegions`); the compiled planner certifies in
     the kernel when it can, else this module's planner runs.
     """
-    settings = _settings(opts)
+    settings = _validate(opts)  # at every call: the usual types are checked in a few steps
     alpha = settings.alpha
     delta = space.edge.resolution
     delta_c = delta if settings.coarse is None else max(delta, settings.coarse)
-    # (math.dist of lists: 2 us less than numpy's norm of the difference)
-    diameter = math.dist(space.upper.tolist(), space.lower.tolist())
+    bounds = space.bounds_diameter()
+    diameter = bounds[2]
     if diameter / min(alpha, delta) > _MAX_LINE_PIECES or delta_c / delta > _MAX_LINE_PIECES:
         raise InvalidInputError(
             f"step_size={alpha:g} and the space's resolution {delta:g} are too small for bounds "
@@ -915,7 +958,7 @@ def _plan(
         checker = settings.checker
         if checker and type(space.checker) is LockedJointChecker:
             checker = 0  # its kernel: exact checks ("mesh")
-        native = (q_start, q_goal, opts, settings, delta, delta_c, seed, t0)
+        native = (q_start, q_goal, opts, settings, bounds, delta, delta_c, seed, t0)
         result = _rrt_connect_native(space, kernel, checker, *native, 0, in_kernel, regions)
         if not result.log["sphere_recheck_failed"]:
             return result
