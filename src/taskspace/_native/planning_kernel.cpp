@@ -506,21 +506,20 @@ class CollisionKernel {
     for (std::size_t i = 0; i < ng; ++i) {
       sph_begin_[i] = static_cast<int>(sph_local_.size());
       if (rows[i].empty()) continue;
-      coal::Vec3s lo = coal::Vec3s::Constant(std::numeric_limits<double>::infinity());
-      coal::Vec3s hi = -lo;
       for (Eigen::Index k : rows[i]) {
-        const coal::Vec3s c = centers.row(k).transpose();
-        sph_local_.push_back(c);
+        sph_local_.push_back(centers.row(k).transpose());
         sph_r_.push_back(radii[k]);
-        lo = lo.cwiseMin(c - coal::Vec3s::Constant(radii[k]));
-        hi = hi.cwiseMax(c + coal::Vec3s::Constant(radii[k]));
       }
-      const coal::Vec3s mid = 0.5 * (lo + hi);
-      double r = 0.0;
-      for (Eigen::Index k : rows[i])
-        r = std::max(r, (coal::Vec3s(centers.row(k).transpose()) - mid).norm() + radii[k]);
-      bound_local_[i] = mid;
-      bound_r_[i] = r;
+      double mid[3];
+      const std::vector<Eigen::Index>& ks = rows[i];
+      bound_r_[i] = taskspace_sphere_batch::bounding_sphere(
+          static_cast<int>(ks.size()),
+          [&centers, &radii, &ks](int q) {
+            const Eigen::Index k = ks[q];
+            return std::array<double, 4>{centers(k, 0), centers(k, 1), centers(k, 2), radii[k]};
+          },
+          mid);
+      bound_local_[i] = coal::Vec3s(mid[0], mid[1], mid[2]);
     }
     sph_begin_[ng] = static_cast<int>(sph_local_.size());
     sph_world_.assign(sph_local_.size(), coal::Vec3s::Zero());

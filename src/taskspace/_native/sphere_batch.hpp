@@ -64,6 +64,7 @@
 #pragma once
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -117,6 +118,33 @@ inline F4 vsqrt(F4 x) {
 #endif
 }
 inline F4 to_float(const D4& d) { return __builtin_convertvector(d, F4); }
+
+// The bounding sphere of n spheres, sphere(q) giving the q-th as {x, y, z, r}: centre (mid) the
+// middle of their axis-aligned box, radius the largest distance from it plus the sphere's
+// radius (each sphere inside). The kernel's objects (set_spheres) and the filter's clusters.
+template <typename Sphere>
+double bounding_sphere(int n, Sphere&& sphere, double mid[3]) {
+  double lo[3], hi[3];
+  for (int a = 0; a < 3; ++a) {
+    lo[a] = std::numeric_limits<double>::infinity();
+    hi[a] = -lo[a];
+  }
+  for (int q = 0; q < n; ++q) {
+    const std::array<double, 4> s = sphere(q);
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = std::min(lo[a], s[a] - s[3]);
+      hi[a] = std::max(hi[a], s[a] + s[3]);
+    }
+  }
+  for (int a = 0; a < 3; ++a) mid[a] = 0.5 * (lo[a] + hi[a]);
+  double radius = 0.0;
+  for (int q = 0; q < n; ++q) {
+    const std::array<double, 4> s = sphere(q);
+    const double dx = s[0] - mid[0], dy = s[1] - mid[1], dz = s[2] - mid[2];
+    radius = std::max(radius, std::sqrt(dx * dx + dy * dy + dz * dz) + s[3]);
+  }
+  return radius;
+}
 
 // Static obstacle (a static partner of a moving object), as the kernel describes it.
 struct Obstacle {
@@ -206,27 +234,14 @@ class SphereFilter {
       of.cbegin = static_cast<int>(clusters_.size());
       for (int c0 = 0; c0 < n; c0 += kCluster) {
         const int c1 = std::min(n, c0 + kCluster);
-        double blo[3], bhi[3];
-        for (int a = 0; a < 3; ++a) {
-          blo[a] = std::numeric_limits<double>::infinity();
-          bhi[a] = -blo[a];
-        }
-        for (int q = c0; q < c1; ++q) {
-          const double* sp = &o.sph[4 * order[q]];
-          for (int a = 0; a < 3; ++a) {
-            blo[a] = std::min(blo[a], sp[a] - sp[3]);
-            bhi[a] = std::max(bhi[a], sp[a] + sp[3]);
-          }
-        }
-        double mid[3], radius = 0.0;
-        for (int a = 0; a < 3; ++a) mid[a] = 0.5 * (blo[a] + bhi[a]);
-        for (int q = c0; q < c1; ++q) {
-          const double* sp = &o.sph[4 * order[q]];
-          const double d = std::sqrt((sp[0] - mid[0]) * (sp[0] - mid[0]) +
-                                     (sp[1] - mid[1]) * (sp[1] - mid[1]) +
-                                     (sp[2] - mid[2]) * (sp[2] - mid[2]));
-          radius = std::max(radius, d + sp[3]);
-        }
+        double mid[3];
+        const double radius = bounding_sphere(
+            c1 - c0,
+            [&o, &order, c0](int q) {
+              const double* sp = &o.sph[4 * order[c0 + q]];
+              return std::array<double, 4>{sp[0], sp[1], sp[2], sp[3]};
+            },
+            mid);
         ClusterF cf{f3(mid), static_cast<float>(radius), static_cast<int>(sph_.size()), 0};
         for (int q = c0; q < c1; ++q) {
           const double* sp = &o.sph[4 * order[q]];
