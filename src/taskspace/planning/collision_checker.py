@@ -68,9 +68,10 @@ FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
 
 NATIVE_PAIR_CACHE = 1
+"""Colliding pairs remembered by the compiled checker and tested first (0 disables it)."""
+
 _EXACT_PAIR_SAMPLES = 16
 """Random configurations on which :attr:`CollisionChecker.sphere_exact_pairs` are found."""
-"""Colliding pairs remembered by the compiled checker and tested first (0 disables it)."""
 
 KERNEL_CHUNK = 4096
 """Rows per call of the compiled checker in a batch: it holds the GIL during a call, so a

@@ -507,8 +507,8 @@ class ConfigurationSpace:
 
     @property
     def extent(self) -> float:
-        """Diagonal of the box ``|upper - lower|`` [rad or m]."""
-        return float(np.linalg.norm(self.upper - self.lower))
+        """Diagonal of the box ``|upper - lower|`` [rad or m] (:meth:`bounds_diameter`)."""
+        return self.bounds_diameter()[2]
 
     @property
     def world_version(self) -> int | None:
