@@ -104,6 +104,24 @@ def slow_pid(item: Any, rng: np.random.Generator, context: Any) -> int:
     return os.getpid()
 
 
+def meeting_pid(item: Any, rng: np.random.Generator, context: Any) -> int:
+    """The worker's process id, once two workers have each started a task (item: folder, index).
+
+    Each task writes its process id into the folder and waits (at most 60 s) until two
+    different ids are there, so two tasks of a two-worker pool run on two processes even
+    when the second worker starts slowly on a loaded machine.
+    """
+    folder, index = Path(item[0]), item[1]
+    (folder / f"{index}.pid").write_text(str(os.getpid()))
+    deadline = time.monotonic() + 60.0
+    while time.monotonic() < deadline:
+        pids = {p.read_text() for p in folder.glob("*.pid")}
+        if len(pids - {""}) >= 2:
+            break
+        time.sleep(0.005)
+    return os.getpid()
+
+
 def dies_first_in_a_worker(driver_pid: int, folder: str) -> str:
     """A context factory that SIGKILLs the first worker process building it (marker file)."""
     marker = Path(folder) / "context-died"

@@ -196,11 +196,13 @@ def test_ctrl_c_stops_cleanly_and_keeps_what_was_written(tmp_path: Path) -> None
     assert str(proc.pid) not in {line.split()[1] for line in ps.splitlines()[1:] if line.split()}
 
 
-def test_executor_keeps_workers_and_contexts_between_runs() -> None:
+def test_executor_keeps_workers_and_contexts_between_runs(tmp_path: Path) -> None:
     with Executor(_opts("processes", workers=2, chunk_size=1)) as ex:
-        # 50 ms tasks start both workers (a process pool starts a worker only when none is
-        # idle, so instant tasks may all run on the first one)
-        started = set(ex.map(T.slow_pid, range(4), context=T.make_context).values)
+        # tasks that wait for each other start both workers (a process pool starts a worker
+        # only when none is idle; 50 ms sleeps were not enough on a loaded CI machine, where
+        # the first worker ran all four before the second had started)
+        meeting = [(str(tmp_path), i) for i in range(4)]
+        started = set(ex.map(T.meeting_pid, meeting, context=T.make_context).values)
         first = ex.map(T.context_pid, range(10), context=T.make_context).values
         second = ex.map(T.context_pid, range(10), context=T.make_context).values
     assert len(started) == 2
