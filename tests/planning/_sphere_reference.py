@@ -18,10 +18,20 @@ class PairClearances:
     coal's distance to other shapes (the pairs in ``generic``), sphere-sphere distances for the
     self pairs. Independent of the kernel's code."""
 
-    def __init__(self, robot: Any, spheres: Any) -> None:
+    def __init__(self, robot: Any, spheres: Any, exact: tuple[tuple[str, str], ...] = ()) -> None:
+        """``exact``: the self pairs (geometry names) the kernel tests exactly with
+        "spheres_only" (``CollisionChecker.sphere_exact_pairs``): their value is then -1 where
+        Pinocchio's ``computeCollision`` finds them colliding, else +1."""
         self.model, geom = robot.model, robot.collision_model
         self.data = self.model.createData()
         gdata = geom.createData()
+        self.geom, self.gdata = geom, geom.createData()
+        objs = geom.geometryObjects
+        self.exact = {
+            k
+            for k, p in enumerate(geom.collisionPairs)
+            if (objs[p.first].name, objs[p.second].name) in exact
+        }
         pin.updateGeometryPlacements(self.model, self.data, geom, gdata, pin.neutral(self.model))
         self.spheres = spheres
         static = {g for g, o in enumerate(geom.geometryObjects) if o.parentJoint == 0}
@@ -52,7 +62,12 @@ class PairClearances:
         c = self.spheres.world_centers(self.data)
         r = self.spheres.radii
         out = {}
+        if self.exact:
+            pin.updateGeometryPlacements(self.model, self.data, self.geom, self.gdata, q)
         for k, test in self.pairs:
+            if k in self.exact:
+                out[k] = -1.0 if pin.computeCollision(self.geom, self.gdata, k) else 1.0
+                continue
             if len(test) == 2:
                 s1, s2 = test
                 gap = np.linalg.norm(c[s1][:, None] - c[s2][None], axis=2)

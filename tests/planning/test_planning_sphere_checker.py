@@ -370,7 +370,10 @@ def test_paths_planned_with_spheres_are_exact_valid(robot: Any, scenario: str) -
             if only.success:
                 assert np.array_equal(only.path[0], req.start)
                 assert np.array_equal(only.path[-1], req.goal)
-                assert _dense_valid(ref, only.path, 0.01)
+                # valid at the space's resolution, as the exact checker's paths (between
+                # those points only certify=True proves it: the spheres' own bulge is no
+                # margin to count on, and tighter spheres leave less of it)
+                assert _dense_valid(ref, only.path, 0.03)
         certified = rrt_connect(
             space,
             req.start,

@@ -179,7 +179,9 @@ class Scene:
         )
         self.kernel = self.space.checker.sphere_kernel()
         assert self.kernel is not None
-        self.reference = PairClearances(self.robot, self.space.checker.sphere_model())
+        self.reference = PairClearances(
+            self.robot, self.space.checker.sphere_model(), self.space.checker.sphere_exact_pairs
+        )
         self.mesh = mesh_collides(self.robot)
         self.lo = self.robot.model.lowerPositionLimit
         self.hi = self.robot.model.upperPositionLimit

@@ -353,7 +353,7 @@ class CollisionChecker:
 
         Pairs whose spheres touch at every one of :data:`_EXACT_PAIR_SAMPLES` random
         configurations (seed 0) while their geometries are apart at one of them at least:
-        the spheres' margin closes the gap between these neighbouring links (e.g. three pairs
+        the spheres' margin closes the gap between these neighbouring links (e.g. two pairs
         of the Unitree Z1), so counting their touch a collision would make every configuration
         collide. ``"spheres_only"`` tests them as ``"spheres"`` does (coal's exact narrow
         phase where their spheres touch). Set by :meth:`sphere_kernel`; empty before.

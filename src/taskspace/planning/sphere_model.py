@@ -23,11 +23,17 @@ sphere primitive):
    the convex hull of the surface samples are added, so that a tube gets spheres through its
    middle rather than a ring of spheres around a hollow core. The hull contains the
    geometry's volume (for a non-convex mesh, more than it).
-3. **Spheres.** The samples are split recursively: starting from one cluster, the cluster
-   whose sphere is the largest is cut in two at the median of its longest bounding-box axis,
-   until there are ``spheres_per_geometry`` clusters (or the clusters are single points).
-   Each cluster's sphere has its bounding-box centre ``c`` and radius
-   ``max_i |p_i - c| + rho`` over its samples ``p_i``.
+3. **Spheres** (:func:`fit_spheres`), chosen to bulge out of the hull as little as possible
+   (the bulge is what makes the sphere checkers more conservative than the exact ones).
+   Candidate centres are the points ``c`` of a grid inside the hull, each with its depth
+   ``d(c)`` (distance to the nearest facet plane); for a bulge ``delta`` the candidate ball
+   has radius ``d(c) + delta`` and reaches at most ``delta`` beyond any facet plane. The
+   samples are covered greedily by such balls and ``delta`` is bisected to the smallest
+   that needs at most ``spheres_per_geometry`` of them. Each sample then goes to the chosen
+   ball it lies deepest in, and each sphere has that centre ``c`` and radius
+   ``max_i |p_i - c| + rho`` over its samples ``p_i``. (A geometry without volume gets
+   recursive median splits of its samples instead: slab-shaped clusters, whose spheres
+   reach far beyond the flat sides of a link.)
 4. **Guarantee.** Every sample is inside its cluster's sphere with a margin ``rho``, so every
    surface point ``x`` (within ``rho`` of some sample ``p``) satisfies
    ``|x - c| <= |p - c| + rho <= r``: the union of the spheres contains the whole surface, in
@@ -295,12 +301,126 @@ def interior_samples(points: FloatArray, spacing: float) -> FloatArray:
     return np.asarray(grid[inside], dtype=float)
 
 
-def fit_spheres(points: FloatArray, count: int, margin: float) -> tuple[FloatArray, FloatArray]:
+_MAX_CANDIDATES = 1500  # ball centres fit_spheres chooses from (grid spacing grows beyond)
+_MAX_TARGETS = 5000  # thinned points fit_spheres covers while choosing (all are covered after)
+_BISECTIONS = 12  # halvings of fit_spheres' bulge bracket (the bounding-box diagonal / 4096)
+
+
+def _thinned(points: FloatArray, spacing: float) -> FloatArray:
+    """One point (the first) of ``points`` per cell of a cubic grid of ``spacing`` [m]."""
+    cells = np.floor(points / spacing).astype(np.int64)
+    _, first = np.unique(cells, axis=0, return_index=True)
+    return points[np.sort(first)]
+
+
+def fit_spheres(
+    points: FloatArray, count: int, margin: float, hull_points: FloatArray | None = None
+) -> tuple[FloatArray, FloatArray]:
+    """At most ``count`` spheres containing every point with a margin, bulging little.
+
+    The balls are chosen to stick out of the convex hull ``H`` of ``hull_points`` (default
+    ``points``) as little as possible, since what they add to the geometry is what makes the
+    sphere checkers more conservative than the exact ones. Candidates: the points ``c`` of a
+    cubic grid inside ``H`` (spacing: the smallest extent of the points / 8, coarser when
+    that gives more than 1,500), each with its depth ``d(c)``, the distance to the nearest
+    facet plane of ``H``. For a bulge ``delta``, candidate ``c`` is the ball of radius
+    ``d(c) + delta``: it reaches at most ``delta`` beyond any facet plane. The points,
+    thinned to one per grid cell, are covered greedily (each time the candidate covering
+    the most uncovered ones), and ``delta`` is bisected (12 halvings of the bounding-box
+    diagonal) to the smallest for which ``count`` balls suffice. Every point is then given
+    to the chosen ball it lies deepest in, and each ball gets radius ``max |p - c| +
+    margin`` over its points: every point lies inside a ball with the margin. A geometry
+    that spans no volume, or has no grid point inside, gets recursive median splits
+    (:func:`_split_spheres`).
+
+    Args:
+        points: ``(n, 3)`` points [m] to contain (surface and interior samples), n >= 1.
+        count: largest number of spheres, >= 1.
+        margin: added to every radius [m], >= 0.
+        hull_points: points whose convex hull bounds the bulge (default ``points``).
+
+    Returns:
+        ``(centers (k, 3), radii (k,))``, ``1 <= k <= count``.
+    """
+    from scipy.spatial import ConvexHull, QhullError
+
+    try:
+        hull = ConvexHull(points if hull_points is None else hull_points)
+    except (QhullError, ValueError):
+        return _split_spheres(points, count, margin)
+    eq = hull.equations  # n . x + b <= 0 inside, |n| = 1
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    ext = hi - lo
+    spacing = max(float(ext.min()) / 8.0, 1e-3)
+    while True:
+        axes = [np.arange(lo[k] + 0.5 * spacing, hi[k], spacing) for k in range(3)]
+        if np.prod([a.size for a in axes]) <= 4 * _MAX_CANDIDATES:
+            grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+            depth = -(grid @ eq[:, :3].T + eq[:, 3]).max(axis=1)
+            if np.count_nonzero(depth > 0.0) <= _MAX_CANDIDATES:
+                break
+        spacing *= 1.25
+    candidates, depth = grid[depth > 0.0], depth[depth > 0.0]
+    if candidates.shape[0] == 0:
+        return _split_spheres(points, count, margin)
+    step = spacing
+    targets = _thinned(points, step)
+    while targets.shape[0] > _MAX_TARGETS:  # (a coarser grid on the thinned points)
+        step *= 1.25
+        targets = _thinned(targets, step)
+    # (C, T) distances (|c|^2 + |t|^2 - 2 c.t: no (C, T, 3) array; they only guide the choice)
+    square = (
+        np.einsum("ck,ck->c", candidates, candidates)[:, None]
+        + np.einsum("tk,tk->t", targets, targets)[None, :]
+        - 2.0 * candidates @ targets.T
+    )
+    reach = np.sqrt(np.maximum(square, 0.0)) + margin
+
+    def cover(delta: float) -> list[int] | None:
+        covers = reach <= (depth + delta)[:, None]
+        open_ = np.ones(targets.shape[0], dtype=bool)
+        chosen: list[int] = []
+        while open_.any():
+            gain = np.count_nonzero(covers[:, open_], axis=1)
+            best = int(gain.argmax())
+            if gain[best] == 0 or len(chosen) == count:
+                return None
+            chosen.append(best)
+            open_ &= ~covers[best]
+        return chosen
+
+    low, high = 0.0, float(np.linalg.norm(ext)) + margin
+    chosen = cover(high)  # one ball covers everything
+    if chosen is None:
+        return _split_spheres(points, count, margin)
+    for _ in range(_BISECTIONS):
+        mid = 0.5 * (low + high)
+        found = cover(mid)
+        if found is None:
+            low = mid
+        else:
+            high, chosen = mid, found
+    centers, ball = candidates[chosen], depth[chosen] + high
+    square = (
+        np.einsum("nk,nk->n", points, points)[:, None]
+        + np.einsum("sk,sk->s", centers, centers)[None, :]
+        - 2.0 * points @ centers.T
+    )
+    owner = np.argmin(np.sqrt(np.maximum(square, 0.0)) - ball, axis=1)
+    # the radii from the exact distances to the owners (the choice above may round)
+    offset = points - centers[owner]
+    radii = np.zeros(len(chosen))
+    np.maximum.at(radii, owner, np.sqrt(np.einsum("nk,nk->n", offset, offset)))
+    used = np.bincount(owner, minlength=len(chosen)) > 0
+    return centers[used], radii[used] + margin
+
+
+def _split_spheres(points: FloatArray, count: int, margin: float) -> tuple[FloatArray, FloatArray]:
     """Spheres containing every point with a margin, by recursive median splits.
 
     The cluster with the largest sphere is cut at the median of its longest bounding-box axis
     until there are ``count`` clusters; each sphere is centred on its cluster's bounding box
-    with radius ``max |p - c| + margin``.
+    with radius ``max |p - c| + margin``. (:func:`fit_spheres` for geometries without volume.)
 
     Args:
         points: ``(n, 3)`` points [m], n >= 1.
@@ -536,7 +656,7 @@ def _geometry_spheres(
     pts = _triangle_samples(tris, h)
     # the hull of the triangle corners is the hull of all the surface samples
     pts = np.concatenate([pts, interior_samples(tris.reshape(-1, 3), g)])
-    c, r = fit_spheres(pts, opts.spheres_per_geometry, h / math.sqrt(3.0))
+    c, r = fit_spheres(pts, opts.spheres_per_geometry, h / math.sqrt(3.0), tris.reshape(-1, 3))
     centers, radii = list(c), list(r)
     if isinstance(geom, coal.Capsule):  # the end caps
         for z in (-geom.halfLength, geom.halfLength):
