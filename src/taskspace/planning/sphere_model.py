@@ -316,8 +316,10 @@ _BISECTIONS = 12  # halvings of fit_spheres' bulge bracket (the bounding-box dia
 
 def _thinned(points: FloatArray, spacing: float) -> FloatArray:
     """One point (the first) of ``points`` per cell of a cubic grid of ``spacing`` [m]."""
-    cells = np.floor(points / spacing).astype(np.int64)
-    _, first = np.unique(cells, axis=0, return_index=True)
+    cells = np.floor((points - points.min(axis=0)) / spacing).astype(np.int64)
+    size = cells.max(axis=0) + 1
+    key = cells[:, 0] + size[0] * (cells[:, 1] + size[1] * cells[:, 2])  # one int per cell
+    _, first = np.unique(key, return_index=True)
     return points[np.sort(first)]
 
 
@@ -409,17 +411,21 @@ def fit_spheres(
         else:
             high, chosen = mid, found
     centers, ball = candidates[chosen], depth[chosen] + high
-    square = (
-        np.einsum("nk,nk->n", points, points)[:, None]
-        + np.einsum("sk,sk->s", centers, centers)[None, :]
-        - 2.0 * points @ centers.T
-    )
-    owner = np.argmin(np.sqrt(np.maximum(square, 0.0)) - ball, axis=1)
-    # the radii from the exact distances to the owners (the choice above may round)
-    offset = points - centers[owner]
     radii = np.zeros(len(chosen))
-    np.maximum.at(radii, owner, np.sqrt(np.einsum("nk,nk->n", offset, offset)))
-    used = np.bincount(owner, minlength=len(chosen)) > 0
+    owners = []
+    for k in range(0, points.shape[0], 1 << 16):  # (chunks: millions of samples on a big body)
+        p = points[k : k + (1 << 16)]
+        square = (
+            np.einsum("nk,nk->n", p, p)[:, None]
+            + np.einsum("sk,sk->s", centers, centers)[None, :]
+            - 2.0 * p @ centers.T
+        )
+        owner = np.argmin(np.sqrt(np.maximum(square, 0.0)) - ball, axis=1)
+        # the radii from the exact distances to the owners (the choice above may round)
+        offset = p - centers[owner]
+        np.maximum.at(radii, owner, np.sqrt(np.einsum("nk,nk->n", offset, offset)))
+        owners.append(owner)
+    used = np.bincount(np.concatenate(owners), minlength=len(chosen)) > 0
     return centers[used], radii[used] + margin
 
 
