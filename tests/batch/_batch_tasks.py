@@ -57,6 +57,14 @@ def slow(item: Any, rng: np.random.Generator, context: Any) -> int:
     return int(item)
 
 
+def slow_marking_pid(item: Any, rng: np.random.Generator, context: Any) -> int:
+    """``slow`` on item (folder, i), leaving a file named after the worker's process id."""
+    folder, i = item
+    (Path(folder) / f"{os.getpid()}.pid").touch()
+    time.sleep(0.05)
+    return int(i)
+
+
 def panda() -> Any:
     from taskspace.model import Robot
 

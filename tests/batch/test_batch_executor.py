@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import signal
 import subprocess
 import sys
@@ -18,6 +19,22 @@ from taskspace.batch import BatchError, BatchOptions, Executor, run_batch, task_
 from taskspace.errors import InvalidInputError, UnknownNameError
 
 HERE = Path(__file__).resolve().parent
+
+
+def _alive(pid: int) -> bool:
+    """The process exists and is not a zombie (an orphan waiting for an init that may not
+    reap it at once)."""
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+    except FileNotFoundError:
+        return False
+    except OSError:  # no /proc: ask the kernel
+        try:
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            return False
+        return True
+    return stat.rsplit(")", 1)[-1].split()[0] != "Z"
 
 
 def _opts(backend: str, **kw: object) -> BatchOptions:
@@ -163,6 +180,8 @@ def test_real_robot_ik_dataset_same_on_every_backend() -> None:
 
 def test_ctrl_c_stops_cleanly_and_keeps_what_was_written(tmp_path: Path) -> None:
     path = tmp_path / "runs.jsonl"
+    pids = tmp_path / "pids"
+    pids.mkdir()
     script = textwrap.dedent(
         f"""
         import sys
@@ -172,7 +191,8 @@ def test_ctrl_c_stops_cleanly_and_keeps_what_was_written(tmp_path: Path) -> None
         import _batch_tasks as T
         ex = Executor(BatchOptions(backend="processes", workers=2, chunk_size=1, progress=False))
         try:
-            ex.map(T.slow, range(2000), results_file={str(path)!r})
+            items = [({str(pids)!r}, i) for i in range(2000)]
+            ex.map(T.slow_marking_pid, items, results_file={str(path)!r})
         except KeyboardInterrupt:
             print("interrupted", flush=True)
             sys.exit(3)
@@ -190,10 +210,15 @@ def test_ctrl_c_stops_cleanly_and_keeps_what_was_written(tmp_path: Path) -> None
     rows = [json.loads(line) for line in path.read_text().splitlines()[1:]]
     assert len(rows) >= 5 and all(r["ok"] for r in rows)
     assert len(rows) < 2000
-    # no worker process outlives the driver
-    time.sleep(0.5)
-    ps = subprocess.run(["ps", "-eo", "pid,ppid,args"], capture_output=True, text=True).stdout
-    assert str(proc.pid) not in {line.split()[1] for line in ps.splitlines()[1:] if line.split()}
+    # no worker process outlives the driver (the workers' own ids: with "forkserver" they are
+    # not the driver's children, and an orphan's parent changes at once, so a look at the
+    # driver's children could never fail)
+    workers = {int(p.stem) for p in pids.glob("*.pid")}
+    assert workers and proc.pid not in workers
+    deadline = time.monotonic() + 60.0  # a hang bound
+    while time.monotonic() < deadline and any(_alive(pid) for pid in workers):
+        time.sleep(0.05)
+    assert not any(_alive(pid) for pid in workers), "workers outlived the interrupted driver"
 
 
 def test_executor_keeps_workers_and_contexts_between_runs(tmp_path: Path) -> None:

@@ -196,6 +196,8 @@ def test_sse2_and_avx2_kinematics_agree(robot: Any, scenario: str) -> None:
     the placements would flip some), on random ones and on edges, with and without the filter
     (13 and 22 obstacles)."""
     _, _, kernel = _space(robot, scenario)
+    initial = kernel.simd  # 1 under TASKSPACE_SIMD=sse2 even where AVX2 exists
+    kernel.set_simd(2)
     avx2 = kernel.simd == 2  # this processor has AVX2 (else both runs use SSE2)
     rng = np.random.default_rng(12)
     qs = _near_configurations(robot, rng, 200)
@@ -214,7 +216,7 @@ def test_sse2_and_avx2_kinematics_agree(robot: Any, scenario: str) -> None:
             row.append([kernel.first_invalid_on_edge(qs[k], qs[k + 1], 15, 2) for k in range(40)])
         row.append(kernel.sphere_filter_flags(allq))
         out[level] = row
-    kernel.set_simd(2)
+    kernel.set_simd(initial)
     kernel.set_sphere_filter(TRUSTED)
     for x, y in zip(out[1], out[2], strict=True):
         np.testing.assert_array_equal(x, y)

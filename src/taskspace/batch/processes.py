@@ -137,7 +137,19 @@ def run_processes(
                 while queue and len(in_flight) < 2 * workers:
                     chunk = queue.popleft()
                     chunk.attempts += 1
-                    in_flight[pool.submit(run_chunk, fn, key, factory, chunk.tasks, seed)] = chunk
+                    try:
+                        future = pool.submit(run_chunk, fn, key, factory, chunk.tasks, seed)
+                    except BrokenProcessPool:
+                        # a worker died since the last submission (e.g. while the caller
+                        # held this generator): this chunk never ran; it runs alone in the
+                        # next pool, the chunks in flight are sorted out below
+                        chunk.attempts -= 1
+                        suspects.append(chunk)
+                        broken = True
+                        break
+                    in_flight[future] = chunk
+                if broken:
+                    break
                 done, _ = wait(in_flight, return_when=FIRST_COMPLETED)
                 for future in done:
                     chunk = in_flight.pop(future)
