@@ -323,6 +323,17 @@ def _thinned(points: FloatArray, spacing: float) -> FloatArray:
     return points[np.sort(first)]
 
 
+def _distances(a: FloatArray, b: FloatArray) -> FloatArray:
+    """The ``(len(a), len(b))`` distances, by ``|a|^2 + |b|^2 - 2 a.b``.
+
+    No ``(n, m, 3)`` array; rounded at the scale of the squares: for choosing, not for radii.
+    """
+    square = (
+        np.einsum("ik,ik->i", a, a)[:, None] + np.einsum("jk,jk->j", b, b)[None, :] - 2.0 * a @ b.T
+    )
+    return np.asarray(np.sqrt(np.maximum(square, 0.0)))
+
+
 def fit_spheres(
     points: FloatArray, count: int, margin: float, hull_points: FloatArray | None = None
 ) -> tuple[FloatArray, FloatArray]:
@@ -378,13 +389,7 @@ def fit_spheres(
     while targets.shape[0] > _MAX_TARGETS:  # (a coarser grid on the thinned points)
         step *= 1.25
         targets = _thinned(targets, step)
-    # (C, T) distances (|c|^2 + |t|^2 - 2 c.t: no (C, T, 3) array; they only guide the choice)
-    square = (
-        np.einsum("ck,ck->c", candidates, candidates)[:, None]
-        + np.einsum("tk,tk->t", targets, targets)[None, :]
-        - 2.0 * candidates @ targets.T
-    )
-    reach = np.sqrt(np.maximum(square, 0.0)) + margin
+    reach = _distances(candidates, targets) + margin  # (C, T)
 
     def cover(delta: float) -> list[int] | None:
         covers = (reach <= (depth + delta)[:, None]).astype(np.float32)
@@ -412,20 +417,14 @@ def fit_spheres(
             high, chosen = mid, found
     centers, ball = candidates[chosen], depth[chosen] + high
     radii = np.zeros(len(chosen))
-    owners = []
+    used = np.zeros(len(chosen), dtype=bool)
     for k in range(0, points.shape[0], 1 << 16):  # (chunks: millions of samples on a big body)
         p = points[k : k + (1 << 16)]
-        square = (
-            np.einsum("nk,nk->n", p, p)[:, None]
-            + np.einsum("sk,sk->s", centers, centers)[None, :]
-            - 2.0 * p @ centers.T
-        )
-        owner = np.argmin(np.sqrt(np.maximum(square, 0.0)) - ball, axis=1)
+        owner = np.argmin(_distances(p, centers) - ball, axis=1)
         # the radii from the exact distances to the owners (the choice above may round)
         offset = p - centers[owner]
         np.maximum.at(radii, owner, np.sqrt(np.einsum("nk,nk->n", offset, offset)))
-        owners.append(owner)
-    used = np.bincount(np.concatenate(owners), minlength=len(chosen)) > 0
+        used[owner] = True
     return centers[used], radii[used] + margin
 
 
