@@ -58,3 +58,40 @@ def test_an_invalid_obstacle_keeps_the_earlier_ones_and_a_matching_data() -> Non
     q = robot.q_default.copy()
     q[0] = 0.0
     assert robot.is_collision_free(q) == _reference(robot, q)
+
+
+def test_collision_data_is_made_at_first_use_and_new_after_every_change() -> None:
+    # the robot's own GeometryData (about 2 us per pair to make) is made when a query needs
+    # it, not at each obstacle change; every change of the collision model gives a new one
+    robot = Robot.load("panda", convex_collision=True)
+    q = robot.q_default.copy()
+    first = robot.collision_data
+    assert robot.collision_data is first  # no change: the same data
+    seen = [first]
+
+    def fresh_and_right() -> None:
+        data = robot.collision_data
+        assert all(data is not old for old in seen)
+        seen.append(data)
+        geom = robot._collision_model
+        assert len(data.oMg) == geom.ngeoms
+        assert len(data.collisionResults) == len(geom.collisionPairs)
+        for x in (0.3, 0.6):
+            q[0] = x
+            assert robot.is_collision_free(q) == _reference(robot, q)
+
+    robot.add_obstacles([Obstacle.box("wall", [0.2, 1.0, 1.0], at(0.45, 0, 0.5))])
+    fresh_and_right()
+    robot.add_obstacle(Obstacle.sphere("ball", 0.1, at(0.0, 0.4, 0.6)))
+    fresh_and_right()
+    robot.remove_obstacle("wall")
+    fresh_and_right()
+    robot.disable_collision_pairs([robot.collision_pairs[0]])
+    fresh_and_right()
+    robot.clear_obstacles()
+    fresh_and_right()
+    # a query after a change without reading collision_data first
+    robot.add_obstacle(Obstacle.box("wall", [0.2, 1.0, 1.0], at(0.45, 0, 0.5)))
+    q[0] = 0.0
+    assert robot.is_collision_free(q) == _reference(robot, q)
+    assert bool(robot.colliding_pairs(q)) == (not _reference(robot, q))

@@ -159,3 +159,27 @@ def test_crashing_calls_raise_instead() -> None:
     )
     assert proc.returncode == 0, proc.stderr[-2000:]
     assert proc.stdout.split("\n")[:5] == ["refused True"] * 4 + ["stepped True"], proc.stdout
+
+
+def test_collision_data_follows_the_world_made_at_first_use() -> None:
+    # a state's GeometryData is made when first read or queried, for the world of that moment;
+    # read again after an obstacle change, it is a new one of the new collision model, and the
+    # distances are Pinocchio's on a fresh data
+    from taskspace.model import Obstacle
+
+    robot = Robot.load("panda", convex_collision=True)
+    state = robot.state(_q(robot, 3))
+    wall = pin.SE3(np.eye(3), np.r_[0.5, 0, 0.5])
+    robot.add_obstacle(Obstacle.box("wall", [0.2, 1.0, 1.0], wall))
+    geom = robot._collision_model
+    before = state.collision_data
+    assert len(before.oMg) == geom.ngeoms
+    assert len(before.distanceResults) == len(geom.collisionPairs)
+    assert state.collision_data is before  # no change: the same data
+    robot.add_obstacle(Obstacle.sphere("ball", 0.1, pin.SE3(np.eye(3), np.r_[0, 0.4, 0.6])))
+    after = state.collision_data
+    assert after is not before and len(after.distanceResults) == len(geom.collisionPairs)
+    got = [r.min_distance for r in state.distance_results()]
+    ref = geom.createData()
+    pin.computeDistances(robot._model, robot._model.createData(), geom, ref, state.q)
+    np.testing.assert_allclose(got, [r.min_distance for r in ref.distanceResults], atol=1e-9)

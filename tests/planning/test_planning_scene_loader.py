@@ -131,3 +131,35 @@ def test_motionbenchmaker_dir_is_the_argument_or_the_environment_only(
         motionbenchmaker_dir()
     with pytest.raises(ModelLoadError, match="does not exist"):
         motionbenchmaker_dir(tmp_path / "nope")
+
+
+def test_problems_read_their_files_once_apply_reads_none(tmp_path: Path) -> None:
+    # the problems hold their parsed scene and request: applying one reads no file (the
+    # planning suite times apply as part of a scene's set-up, its files read before)
+    folder = tmp_path / "box_panda"
+    folder.mkdir()
+    for name in ("scene0003.yaml", "request0003.yaml"):
+        (folder / name).write_bytes((ROOT / "box_panda" / name).read_bytes())
+    problem = motionbenchmaker_problems(tmp_path, "box", [3])[0]
+    robot = motionbenchmaker_panda()
+    expected = load_moveit_request(robot, folder / "request0003.yaml")
+    for name in ("scene0003.yaml", "request0003.yaml"):
+        (folder / name).unlink()
+    req = problem.apply(robot)
+    np.testing.assert_array_equal(req.start, expected.start)
+    np.testing.assert_array_equal(req.goal, expected.goal)
+    assert req.ignored_joints == expected.ignored_joints
+    assert req.group == expected.group != ""
+    assert [o.name for o in robot.world] == [o.name for o in problem.obstacles]
+
+
+def test_a_malformed_request_is_reported_when_the_problems_are_loaded(tmp_path: Path) -> None:
+    folder = tmp_path / "box_panda"
+    folder.mkdir()
+    (folder / "scene0001.yaml").write_bytes((ROOT / "box_panda" / "scene0001.yaml").read_bytes())
+    (folder / "request0001.yaml").write_text(
+        "start_state:\n  joint_state:\n    name: [a, b]\n    position: [0.0]\n"
+        "goal_constraints:\n  - joint_constraints: []\n"
+    )
+    with pytest.raises(ModelLoadError, match=r"request0001.yaml:3: start_state has 2 names, 1"):
+        motionbenchmaker_problems(tmp_path, "box", [1])

@@ -262,7 +262,9 @@ class Robot:
         self._q_shape = (self._nq,)
         self._v_shape = (self._nv,)
         self._data = model.createData()
-        self._collision_data = collision_model.createData()
+        # the robot's own collision data, made at its first use (None: not made since the
+        # collision model last changed; a GeometryData costs about 2 us per collision pair)
+        self._collision_data: Any = None
         self._guess_reset: Any = None  # the collision data whose cached GJK guess is off
         self._version = next(_ROBOT_VERSIONS)
         # every live State of this robot (edit_model re-evaluates them at the new values)
@@ -952,9 +954,19 @@ class Robot:
     def collision_data(self) -> pin.GeometryData:
         """The robot's own ``pin.GeometryData`` (read-only attribute).
 
-        Scratch space of :meth:`is_collision_free` and :meth:`colliding_pairs`.
+        Scratch space of :meth:`is_collision_free` and :meth:`colliding_pairs`, made at its
+        first use after each change of the collision model (obstacles, pairs, edits): a new
+        object then.
         """
-        return self._collision_data
+        with _DATA_LOCK:
+            return self._own_collision_data()
+
+    def _own_collision_data(self) -> Any:
+        """The robot's collision data, made now if the collision model changed (hold _DATA_LOCK)."""
+        data = self._collision_data
+        if data is None:
+            data = self._collision_data = self._collision_model.createData()
+        return data
 
     @contextlib.contextmanager
     def edit_model(self) -> Iterator[pin.Model]:
@@ -1105,7 +1117,7 @@ class Robot:
             )
         _copy_geometry_values(edited, original, self._robot_geometry_count)
         self._geometry_edits += 1
-        self._collision_data = original.createData()
+        self._collision_data = None
         self.world.mark_changed()
 
     def check_version(self, built_version: int, owner: str) -> None:
@@ -1460,14 +1472,14 @@ class Robot:
                 for rid in range(self._robot_geometry_count):
                     if self._collision_model.geometryObjects[rid].parentJoint != 0:
                         self._collision_model.addCollisionPair(pin.CollisionPair(rid, gid))
-        finally:  # the data matches the model, also after an invalid obstacle
-            self._collision_data = self._collision_model.createData()
+        finally:  # the data will match the model, also after an invalid obstacle
+            self._collision_data = None
 
     def remove_obstacle(self, name: str) -> Obstacle:
         """Remove the obstacle ``name`` (raises UnknownNameError listing the obstacles)."""
         obstacle = self._world._remove(name)
         self._collision_model.removeGeometryObject(name)
-        self._collision_data = self._collision_model.createData()
+        self._collision_data = None
         return obstacle
 
     def clear_obstacles(self) -> None:
@@ -1475,7 +1487,7 @@ class Robot:
         for obstacle in list(self.world):
             self._collision_model.removeGeometryObject(obstacle.name)
             self._world._remove(obstacle.name)
-        self._collision_data = self._collision_model.createData()
+        self._collision_data = None
 
     def disable_collision_pairs(self, pairs: Iterable[tuple[str, str]]) -> None:
         """Stop checking pairs of robot geometries (names as in :attr:`collision_pairs`).
@@ -1529,7 +1541,7 @@ class Robot:
                 model.addCollisionPair(cp)
             elif not enable and model.existCollisionPair(cp):
                 model.removeCollisionPair(cp)
-        self._collision_data = model.createData()
+        self._collision_data = None
         self.world.mark_changed()
 
     @property
@@ -1547,7 +1559,7 @@ class Robot:
         same pair at another configuration (see ``taskspace.model.collision_requests``); done
         here rather than at each world change so that adding obstacles stays cheap.
         """
-        data = self._collision_data
+        data = self._own_collision_data()
         if self._guess_reset is not data:
             self._guess_reset = without_cached_guess(data)
         return data
@@ -1819,7 +1831,7 @@ def prune_collision_pairs(
     rate, common = _self_collision_rate(robot, geom_data, kept, index, rate_samples, options.seed)
     for first, second in default + always:
         collision.removeCollisionPair(pin.CollisionPair(first, second))
-    robot._collision_data = collision.createData()
+    robot._collision_data = None  # made again at its next use
     robot.world.mark_changed()  # the pairs changed (also what robot.collision_model hands out)
     result = PrunedCollisionPairs(
         adjacent=tuple(adjacent),

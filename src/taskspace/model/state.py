@@ -106,7 +106,9 @@ class State:
         # them once saves building a new Python object at each access.
         self._com_ref: FloatArray = self._data.com[0]
         self._placements: dict[int, pin.SE3] = {}
-        self._collision_data = robot._collision_model.createData()
+        # made at the first distance query or read (a GeometryData costs about 2 us per
+        # collision pair: most states never query distances)
+        self._collision_data: Any = None
         self._guess_reset: Any = None  # the data whose cached GJK guess is off (lazily)
         self._collision_version = robot.world.version
         self._distance_handles: tuple[Any, list[Any]] | None = None
@@ -145,11 +147,23 @@ class State:
         self._collision_version = self._robot.world.version
         self._distances_done = False
 
+    def _get_collision_data(self) -> Any:
+        data = self._collision_data
+        version = self._robot.world._version
+        if data is None or version != self._collision_version:
+            # not made yet, or made for an earlier world: made for the current one (as the
+            # distance queries would)
+            data = self._collision_data = self._robot._collision_model.createData()
+            self._collision_version = version
+            self._distances_done = False
+        return data
+
     collision_data = property(
-        operator.attrgetter("_collision_data"),
+        _get_collision_data,
         _set_collision_data,
         doc="The ``pin.GeometryData`` of ``robot.collision_model`` used by the distance "
-        "queries; it may be replaced only by another data of the same collision model.",
+        "queries (made at the first use, and again after a change of the robot's world); it "
+        "may be replaced only by another data of the same collision model.",
     )
 
     # ------------------------------------------------------------------ update
@@ -390,7 +404,8 @@ class State:
             return
         geom = robot._collision_model
         if (
-            version != self._collision_version
+            self._collision_data is None
+            or version != self._collision_version
             or len(self._collision_data.oMg) != geom.ngeoms
             or len(self._collision_data.distanceResults) != len(geom.collisionPairs)
         ):

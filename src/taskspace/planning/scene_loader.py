@@ -184,16 +184,23 @@ def _to_configuration(
     return q
 
 
-def load_moveit_request(robot: Robot, path: str | Path) -> PlanningRequest:
-    """Start and goal configurations of a MoveIt motion-plan request YAML.
+@dataclass(frozen=True)
+class _MoveItRequestFile:
+    """What :func:`load_moveit_request` reads from a request YAML (before any robot)."""
 
-    Args:
-        robot: the robot model (joint names must match the request's).
-        path: ``requestNNNN.yaml``.
+    names: list[str]
+    positions: list[Any]
+    state_at: str
+    """``file:line`` of the start state (for error messages)."""
+    goal_names: list[str]
+    goal_values: list[Any]
+    goal_at: str
+    """``file:line`` of the goal's joint constraints."""
+    group: str
 
-    Raises:
-        ModelLoadError: missing file or fields, no joint constraint.
-    """
+
+def _read_moveit_request(path: str | Path) -> _MoveItRequestFile:
+    """Parse a MoveIt motion-plan request YAML (see :func:`load_moveit_request`)."""
     data, lines = _read_yaml(path)
     try:
         js = data["start_state"]["joint_state"]
@@ -210,8 +217,6 @@ def load_moveit_request(robot: Robot, path: str | Path) -> PlanningRequest:
         raise ModelLoadError(
             f"{state_at}: start_state has {len(names)} names, {len(positions)} values"
         )
-    ignored: set[str] = set()
-    start = _to_configuration(robot, [str(n) for n in names], positions, ignored, state_at)
     goal_names: list[str] = []
     goal_values: list[Any] = []
     for k, c in enumerate(constraints):
@@ -222,19 +227,46 @@ def load_moveit_request(robot: Robot, path: str | Path) -> PlanningRequest:
             )
         goal_names.append(str(c["joint_name"]))
         goal_values.append(c["position"])
+    return _MoveItRequestFile(
+        names=[str(n) for n in names],
+        positions=positions,
+        state_at=state_at,
+        goal_names=goal_names,
+        goal_values=goal_values,
+        goal_at=lines.where("goal_constraints", 0, "joint_constraints"),
+        group=str(data.get("group_name", "")),
+    )
+
+
+def _request_on(robot: Robot, request: _MoveItRequestFile) -> PlanningRequest:
+    """The start and goal of a parsed request on ``robot``'s model."""
+    ignored: set[str] = set()
+    start = _to_configuration(robot, request.names, request.positions, ignored, request.state_at)
     goal = start.copy()
-    goal_at = lines.where("goal_constraints", 0, "joint_constraints")
-    goal_from = _to_configuration(robot, goal_names, goal_values, ignored, goal_at)
-    for name in goal_names:
-        if name in set(robot.joint_names):
+    goal_from = _to_configuration(
+        robot, request.goal_names, request.goal_values, ignored, request.goal_at
+    )
+    known = set(robot.joint_names)
+    for name in request.goal_names:
+        if name in known:
             idx = robot._model.joints[robot.joint_id(name)].idx_q
             goal[idx] = goal_from[idx]
     return PlanningRequest(
-        start=start,
-        goal=goal,
-        ignored_joints=sorted(ignored),
-        group=str(data.get("group_name", "")),
+        start=start, goal=goal, ignored_joints=sorted(ignored), group=request.group
     )
+
+
+def load_moveit_request(robot: Robot, path: str | Path) -> PlanningRequest:
+    """Start and goal configurations of a MoveIt motion-plan request YAML.
+
+    Args:
+        robot: the robot model (joint names must match the request's).
+        path: ``requestNNNN.yaml``.
+
+    Raises:
+        ModelLoadError: missing file or fields, no joint constraint.
+    """
+    return _request_on(robot, _read_moveit_request(path))
 
 
 @dataclass
@@ -254,10 +286,15 @@ class MotionBenchMakerProblem:
     scene_path: Path
     request_path: Path
     obstacles: list[Obstacle]
+    _request: _MoveItRequestFile | None = field(default=None, repr=False, compare=False)
+    """The request file as read by :func:`motionbenchmaker_problems` (None: read at
+    :meth:`request`), so that applying a problem reads no file."""
 
     def request(self, robot: Robot) -> PlanningRequest:
         """Start and goal on ``robot``'s model."""
-        return load_moveit_request(robot, self.request_path)
+        if self._request is None:
+            return load_moveit_request(robot, self.request_path)
+        return _request_on(robot, self._request)
 
     def apply(self, robot: Robot) -> PlanningRequest:
         """Replace ``robot``'s obstacles by this scene's and return the request."""
@@ -336,7 +373,8 @@ def motionbenchmaker_problems(
         indices: problem numbers to load (default: every scene file found).
 
     Raises:
-        ModelLoadError: the scenario directory does not exist or a file is missing.
+        ModelLoadError: the scenario directory does not exist, or a file is missing or
+            malformed (the scenes and requests are read here).
     """
     base = Path(root)
     folder = next((d for d in (base / f"{scenario}_panda", base / scenario) if d.is_dir()), None)
@@ -360,6 +398,7 @@ def motionbenchmaker_problems(
                 scene_path=scene,
                 request_path=request,
                 obstacles=load_moveit_scene(scene),
+                _request=_read_moveit_request(request),
             )
         )
     return problems
