@@ -1461,6 +1461,11 @@ class Robot:
 
         The collision data is made once for all of them, not once per obstacle.
         """
+        model = self._collision_model
+        objs = model.geometryObjects
+        # the robot geometries on moving joints (each Python access to a geometry object is a
+        # Boost call: read once for all obstacles)
+        moving = [rid for rid in range(self._robot_geometry_count) if objs[rid].parentJoint != 0]
         try:
             for obstacle in obstacles:
                 self._world._add(obstacle)
@@ -1468,10 +1473,9 @@ class Robot:
                 shape = obstacle.geometry.clone()
                 geom = pin.GeometryObject(obstacle.name, 0, 0, obstacle.placement, shape)
                 geom.meshColor = np.asarray(obstacle.color, dtype=float)
-                gid = self._collision_model.addGeometryObject(geom)
-                for rid in range(self._robot_geometry_count):
-                    if self._collision_model.geometryObjects[rid].parentJoint != 0:
-                        self._collision_model.addCollisionPair(pin.CollisionPair(rid, gid))
+                gid = model.addGeometryObject(geom)
+                for rid in moving:
+                    model.addCollisionPair(pin.CollisionPair(rid, gid))
         finally:  # the data will match the model, also after an invalid obstacle
             self._collision_data = None
 
