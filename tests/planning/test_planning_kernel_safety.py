@@ -276,8 +276,10 @@ def test_two_threads_plan_as_sequential_runs(plate: tuple[Robot, np.ndarray, np.
         assert got.iterations == ref.iterations  # type: ignore[attr-defined]
     # the GIL is released: a plan in the main thread runs while a long one runs in a thread
     blocked = _pinned(plate)
+    # (4 s: the main thread's set-up and plan below must end before it, also on a loaded
+    # machine that stalls this process for a second or two)
     long_plan = threading.Thread(
-        target=rrt_connect, args=(blocked, q0, q1, RRTConnectOptions(time_limit_s=1.5))
+        target=rrt_connect, args=(blocked, q0, q1, RRTConnectOptions(time_limit_s=4.0))
     )
     long_plan.start()
     time.sleep(0.1)  # with a kernel that holds the GIL this returns after the long plan
