@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from taskspace._validation import FloatArray, as_float_array, as_scalar, check_positive
+from taskspace._validation import FloatArray, as_float_array, as_scalar, check_int, check_positive
 from taskspace.errors import InvalidInputError, UnknownNameError
 
 SIDES = ("left", "right")
@@ -37,6 +37,14 @@ def _side(side: str) -> str:
     if side not in SIDES:
         raise UnknownNameError("side", side, SIDES)
     return side
+
+
+def check_steps(n_steps: Any, what: str = "walk") -> int:
+    """``n_steps`` as an int if it is an integer ``>= 2`` (``3.0`` accepted, ``True`` refused)."""
+    n = check_int(n_steps, "n_steps")
+    if n < 2:
+        raise InvalidInputError(f"a {what} needs n_steps >= 2, got {n_steps}")
+    return n
 
 
 def other_side(side: str) -> str:
@@ -306,9 +314,8 @@ def straight_walk(
     timing: StepTiming | None = None,
 ) -> FootstepPlan:
     """``n_steps`` steps forward along x (the last one brings the feet together)."""
-    if n_steps < 2:
-        raise InvalidInputError(f"a walk needs n_steps >= 2, got {n_steps}")
-    xs = step_length * np.arange(n_steps)
+    n_steps = check_steps(n_steps)
+    xs = as_scalar(step_length, "step_length") * np.arange(n_steps)
     poses = np.column_stack([xs, np.zeros(n_steps), np.zeros(n_steps)])
     return footsteps_along_poses(
         poses, step_width=step_width, first_swing=first_swing, timing=timing
@@ -328,8 +335,7 @@ def arc_walk(
     The arc starts at the origin heading along x; ``angle > 0`` turns left (center at
     ``(0, radius)``). The foot on the outside of the turn steps first.
     """
-    if n_steps < 2:
-        raise InvalidInputError(f"a walk needs n_steps >= 2, got {n_steps}")
+    n_steps = check_steps(n_steps)
     r = check_positive(radius, "radius")
     phi = np.linspace(0.0, as_scalar(angle, "angle"), n_steps)
     sign = 1.0 if angle >= 0 else -1.0
@@ -350,8 +356,7 @@ def turn_in_place(
     timing: StepTiming | None = None,
 ) -> FootstepPlan:
     """Turn on the spot by ``angle`` [rad] in ``n_steps`` steps (left turn: left foot first)."""
-    if n_steps < 2:
-        raise InvalidInputError(f"a turn needs n_steps >= 2, got {n_steps}")
+    n_steps = check_steps(n_steps, "turn")
     yaw = np.linspace(0.0, as_scalar(angle, "angle"), n_steps)
     poses = np.column_stack([np.zeros(n_steps), np.zeros(n_steps), yaw])
     return footsteps_along_poses(

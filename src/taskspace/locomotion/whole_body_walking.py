@@ -59,6 +59,7 @@ from taskspace.locomotion.footsteps import (
     FootstepPlan,
     PhaseKind,
     StepTiming,
+    check_steps,
     footsteps_along_poses,
 )
 from taskspace.locomotion.lipm import CartTable
@@ -168,8 +169,7 @@ def plan_from_robot(
     The body advances ``step_length`` [m] and turns ``yaw_per_step`` [rad] per step; the
     feet keep their current lateral distance.
     """
-    if n_steps < 2:
-        raise InvalidInputError(f"a walk needs n_steps >= 2, got {n_steps}")
+    n_steps = check_steps(n_steps)
     pl = robot.frame_placement(q, feet[0]).translation
     pr = robot.frame_placement(q, feet[1]).translation
     width = float(np.linalg.norm(pl[:2] - pr[:2]))
