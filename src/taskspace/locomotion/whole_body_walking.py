@@ -166,15 +166,18 @@ def plan_from_robot(
 ) -> FootstepPlan:
     """A walk from the robot's current feet: ``n_steps`` steps (the last closes the feet).
 
-    The body advances ``step_length`` [m] and turns ``yaw_per_step`` [rad] per step; the
-    feet keep their current lateral distance.
+    The body starts between the feet, heading perpendicular to the line from the right foot
+    to the left one (so the plan's initial feet are the robot's, whatever its yaw), then
+    advances ``step_length`` [m] and turns ``yaw_per_step`` [rad] per step; the feet keep
+    their current lateral distance.
     """
     n_steps = check_steps(n_steps)
     pl = robot.frame_placement(q, feet[0]).translation
     pr = robot.frame_placement(q, feet[1]).translation
-    width = float(np.linalg.norm(pl[:2] - pr[:2]))
+    across = pl[:2] - pr[:2]  # right foot -> left foot: the body's +y
+    width = float(np.linalg.norm(across))
     mid = 0.5 * (pl[:2] + pr[:2])
-    poses = [(mid[0], mid[1], 0.0)]
+    poses = [(mid[0], mid[1], math.atan2(-float(across[0]), float(across[1])))]
     for _ in range(n_steps - 1):
         x, y, yaw = poses[-1]
         yaw_next = yaw + yaw_per_step
