@@ -53,12 +53,16 @@ class ContactWrench:
     force: FloatArray
     torque: FloatArray
 
+    def __post_init__(self) -> None:
+        # finite 3-vectors (copies), whichever way the wrench is made: a NaN force would
+        # otherwise give a NaN ZMP silently
+        for name in ("point", "force", "torque"):
+            object.__setattr__(self, name, as_vector(getattr(self, name), 3, name).copy())
+
     @staticmethod
     def point_force(point: Any, force: Any) -> ContactWrench:
         """A pure force at a point (a point contact)."""
-        return ContactWrench(
-            as_vector(point, 3, "point").copy(), as_vector(force, 3, "force").copy(), np.zeros(3)
-        )
+        return ContactWrench(point, force, np.zeros(3))
 
     @staticmethod
     def from_local(placement: pin.SE3, wrench: Any) -> ContactWrench:
@@ -92,8 +96,20 @@ def total_wrench(wrenches: Sequence[ContactWrench]) -> tuple[FloatArray, FloatAr
     """``(f, tau_O)``: the sum of the contact forces and their moment about the origin."""
     if not wrenches:
         raise InvalidInputError("no contact wrenches: the ZMP needs at least one contact")
-    f = np.sum([w.force for w in wrenches], axis=0)
-    tau = np.sum([w.moment_about_origin() for w in wrenches], axis=0)
+    for i, w in enumerate(wrenches):
+        if not isinstance(w, ContactWrench):
+            raise InvalidInputError(
+                f"wrenches[{i}] must be a ContactWrench (ContactWrench.point_force(point, "
+                f"force), ContactWrench.from_local(placement, wrench)), got {type(w).__name__}"
+            )
+    with np.errstate(over="ignore", invalid="ignore"):
+        f = np.sum([w.force for w in wrenches], axis=0)
+        tau = np.sum([w.moment_about_origin() for w in wrenches], axis=0)
+    if not (np.isfinite(f).all() and np.isfinite(tau).all()):
+        raise InvalidInputError(
+            "the contact wrenches' total force or moment overflows (inf): the forces or "
+            "points are too large (give them in N and m)"
+        )
     return f, tau
 
 

@@ -1,0 +1,39 @@
+"""Stability and ZMP helpers given bad inputs (audit of session 30): a named error, never NaN."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from taskspace.errors import InvalidInputError
+from taskspace.locomotion import (
+    ContactWrench,
+    total_wrench,
+    zmp_from_wrenches,
+)
+
+
+def test_contact_wrench_made_directly_is_checked_like_its_factories():
+    # by hand: two vertical forces of 10 N and 30 N at x = 0 and x = 0.4: ZMP at x = 0.3
+    wrenches = [
+        ContactWrench([0.0, 0.0, 0.0], [0.0, 0.0, 10.0], [0.0, 0.0, 0.0]),
+        ContactWrench(np.array([0.4, 0.2, 0.0], dtype=np.float32), (0, 0, 30), np.zeros(3)),
+    ]
+    assert zmp_from_wrenches(wrenches) == pytest.approx([0.3, 0.15, 0.0], abs=1e-7)
+    assert wrenches[1].point.dtype == np.float64
+    for bad in (
+        dict(point=np.zeros(3), force=[0.0, 0.0, np.nan], torque=np.zeros(3)),
+        dict(point=np.zeros(3), force=[0.0, 0.0, 1.0], torque=[np.inf, 0.0, 0.0]),
+        dict(point=np.zeros(2), force=[0.0, 0.0, 1.0], torque=np.zeros(3)),
+    ):
+        with pytest.raises(InvalidInputError):
+            ContactWrench(**bad)
+
+
+def test_total_wrench_names_a_wrong_item_and_an_overflow():
+    good = ContactWrench.point_force([0.0, 0.0, 0.0], [0.0, 0.0, 10.0])
+    with pytest.raises(InvalidInputError, match=r"wrenches\[1\] must be a ContactWrench"):
+        total_wrench([good, ([0.0, 0.0, 0.0], [0.0, 0.0, 10.0])])
+    huge = ContactWrench.point_force([0.0, 0.0, 0.0], [0.0, 0.0, 1e308])
+    with pytest.raises(InvalidInputError, match="overflows"):
+        zmp_from_wrenches([huge, huge])
