@@ -8,6 +8,7 @@ import pytest
 from taskspace.errors import InvalidInputError
 from taskspace.locomotion import (
     ContactWrench,
+    SupportPolygon,
     total_wrench,
     zmp_from_wrenches,
 )
@@ -37,3 +38,14 @@ def test_total_wrench_names_a_wrong_item_and_an_overflow():
     huge = ContactWrench.point_force([0.0, 0.0, 0.0], [0.0, 0.0, 1e308])
     with pytest.raises(InvalidInputError, match="overflows"):
         zmp_from_wrenches([huge, huge])
+
+
+def test_margin_of_a_point_with_too_few_coordinates_is_a_named_error():
+    square = SupportPolygon.from_points([[0, 0], [1, 0], [1, 1], [0, 1]])
+    assert square.margin([0.5, 0.25]) == pytest.approx(0.25)
+    assert square.margin([0.5, 0.25, 9.0]) == pytest.approx(0.25)
+    for bad in ([0.5], [0.5, 0.5, 0.0, 1.0]):
+        with pytest.raises(InvalidInputError, match="ground point"):
+            square.margin(bad)
+        with pytest.raises(InvalidInputError, match="ground point"):
+            square.contains(bad)

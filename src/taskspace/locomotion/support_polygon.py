@@ -122,8 +122,16 @@ class SupportPolygon:
         return normal, np.einsum("ij,ij->i", normal, v)
 
     def margin(self, point: Any) -> float:
-        """Signed distance [m] of a ground point to the boundary (positive inside)."""
-        p = as_vector(point, None, "point")[:2]
+        """Signed distance [m] of a ground point to the boundary (positive inside).
+
+        ``point`` is ``(x, y)`` or ``(x, y, z)`` (``z`` ignored).
+        """
+        p = as_vector(point, None, "point")
+        if p.shape[0] not in (2, 3):
+            raise InvalidInputError(
+                f"point must be a ground point (x, y) or (x, y, z), got {p.shape[0]} entries"
+            )
+        p = p[:2]
         v = self.vertices
         if v.shape[0] == 1:
             return -float(np.linalg.norm(p - v[0]))
