@@ -9,8 +9,12 @@ from taskspace.errors import InvalidInputError
 from taskspace.locomotion import (
     ContactWrench,
     SupportPolygon,
+    straight_walk,
+    support_polygon_at,
+    support_polygons,
     total_wrench,
     zmp_from_wrenches,
+    zmp_reference,
 )
 
 
@@ -49,3 +53,15 @@ def test_margin_of_a_point_with_too_few_coordinates_is_a_named_error():
             square.margin(bad)
         with pytest.raises(InvalidInputError, match="ground point"):
             square.contains(bad)
+
+
+def test_reference_at_a_nan_time_is_a_named_error():
+    plan = straight_walk(3)
+    assert zmp_reference(plan, [0.0, 1e6]).shape == (2, 2)
+    for call in (
+        lambda: zmp_reference(plan, [0.0, np.nan]),
+        lambda: support_polygons(plan, [np.inf]),
+        lambda: support_polygon_at(plan, float("nan")),
+    ):
+        with pytest.raises(InvalidInputError):
+            call()

@@ -16,7 +16,13 @@ from typing import Any
 
 import numpy as np
 
-from taskspace._validation import FloatArray, as_float_array, check_positive
+from taskspace._validation import (
+    FloatArray,
+    as_float_array,
+    as_scalar,
+    check_finite,
+    check_positive,
+)
 from taskspace.locomotion.footsteps import FootstepPlan, Phase
 from taskspace.locomotion.support_polygon import SupportPolygon
 
@@ -43,9 +49,16 @@ def _phase_index(phases: list[Phase], t: FloatArray) -> np.ndarray:
     return np.minimum(np.searchsorted(ends, t, side="right"), len(phases) - 1)
 
 
+def _times(times: Any) -> FloatArray:
+    """``times`` [s] as a finite flat float array (a NaN time has no phase)."""
+    t = as_float_array(times, "times").ravel()
+    check_finite(t, "times")
+    return t
+
+
 def zmp_reference(plan: FootstepPlan, times: Any) -> FloatArray:
     """(T, 2) reference ZMP [m] at ``times`` [s] (held at its final value after the end)."""
-    t = as_float_array(times, "times").ravel()
+    t = _times(times)
     phases = plan.phases()
     idx = _phase_index(phases, t)
     out = np.empty((t.size, 2))
@@ -64,7 +77,7 @@ def support_polygon_at(
     """The support polygon at time ``t`` [s]."""
     sole = sole or SoleSize()
     phases = plan.phases()
-    ph = phases[int(_phase_index(phases, np.array([t]))[0])]
+    ph = phases[int(_phase_index(phases, np.array([as_scalar(t, "t")]))[0])]
     pts = np.vstack([f.sole_corners(sole.length, sole.width) for f in ph.stance])
     return SupportPolygon.from_points(pts)
 
@@ -74,7 +87,7 @@ def support_polygons(
 ) -> list[SupportPolygon]:
     """Support polygons at ``times`` (one polygon object per phase, shared)."""
     sole = sole or SoleSize()
-    t = as_float_array(times, "times").ravel()
+    t = _times(times)
     phases = plan.phases()
     polys = [
         SupportPolygon.from_points(
