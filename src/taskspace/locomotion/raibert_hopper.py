@@ -289,11 +289,21 @@ def simulate_hopper(
     t_start = time.perf_counter()
     duration = check_positive(duration, "duration")
     if callable(desired_speed):
-        speed = desired_speed
+        command = desired_speed
+
+        def speed(t_now: float) -> float:
+            # the command's value, named when it is not a finite number (a NaN command would
+            # reach scipy's integrator as a bare "y0 must be finite")
+            value = command(t_now)
+            try:
+                return as_scalar(value, "desired_speed(t)")
+            except InvalidInputError as exc:
+                raise InvalidInputError(f"{exc} (at t = {t_now:.6g} s)") from None
+
     else:
         constant = as_scalar(desired_speed, "desired_speed")
 
-        def speed(_t: float) -> float:
+        def speed(t_now: float) -> float:
             return constant
 
     if initial_state is None:
