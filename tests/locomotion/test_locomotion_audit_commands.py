@@ -7,7 +7,9 @@ import pytest
 
 from taskspace.errors import InvalidInputError
 from taskspace.locomotion import (
+    CartTable,
     HopperParameters,
+    PreviewController,
     RaibertOptions,
     simulate_hopper,
 )
@@ -23,3 +25,13 @@ def test_hopper_names_a_speed_command_that_returns_nan():
     # a command that fails later, at a later apex, is named with its time
     with pytest.raises(InvalidInputError, match=r"at t = "):
         simulate_hopper(params, options, lambda t: 0.5 if t < 0.3 else np.inf, 2.0)
+
+
+def test_preview_simulation_refuses_a_nan_initial_state():
+    controller = PreviewController(CartTable())
+    reference = np.zeros((20, 2))
+    assert np.isfinite(controller.simulate(reference, np.zeros((3, 2))).com).all()
+    start = np.zeros((3, 2))
+    start[1, 0] = np.nan
+    with pytest.raises(InvalidInputError, match="initial_state"):
+        controller.simulate(reference, start)

@@ -31,7 +31,7 @@ from typing import Any
 
 import numpy as np
 
-from taskspace._validation import FloatArray, as_float_array, check_positive
+from taskspace._validation import FloatArray, as_float_array, check_finite, check_positive
 from taskspace.control.riccati import solve_discrete_riccati
 from taskspace.errors import InvalidInputError, ShapeError
 from taskspace.locomotion.footsteps import FootstepPlan
@@ -146,6 +146,7 @@ class PreviewController:
             x = as_float_array(initial_state, "initial_state").copy()
             if x.shape != (3, 2):
                 raise ShapeError("initial_state", (3, 2), tuple(x.shape))
+            check_finite(x, "initial_state")
         T, N = r.shape[0], self.horizon
         padded = np.vstack([r, np.repeat(r[-1:], N + 1, axis=0)])
         dr = np.diff(padded, axis=0)  # dr[k] = r_{k+1} - r_k
