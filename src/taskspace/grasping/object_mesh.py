@@ -37,8 +37,23 @@ class TriangleMesh:
         f = np.asarray(self.faces)
         if v.ndim != 2 or v.shape[1] != 3 or not np.all(np.isfinite(v)):
             raise InvalidInputError(f"vertices must be finite (V, 3), got {v.shape}")
-        if f.ndim != 2 or f.shape[1] != 3 or f.size == 0 or f.min() < 0 or f.max() >= len(v):
-            raise InvalidInputError("faces must be (F, 3) indices of vertices")
+        # integer indices only: floats were truncated (2.5 -> 2) and booleans taken as 0/1
+        # silently, strings failed inside numpy; integral floats (from a loader) are fine
+        integral = f.dtype.kind in "iu" or (
+            f.dtype.kind == "f" and bool(np.all(np.isfinite(f))) and bool(np.all(f == np.round(f)))
+        )
+        if (
+            not integral
+            or f.ndim != 2
+            or f.shape[1] != 3
+            or f.size == 0
+            or f.min() < 0
+            or f.max() >= len(v)
+        ):
+            raise InvalidInputError(
+                f"faces must be (F, 3) integer indices of the {len(v)} vertices, got "
+                f"shape {f.shape} of dtype {f.dtype}"
+            )
         object.__setattr__(self, "vertices", v)
         object.__setattr__(self, "faces", f.astype(np.int64))
 
