@@ -17,7 +17,7 @@ its functions keep their state local to the call, so both may be used from sever
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -25,6 +25,7 @@ import numpy as np
 
 from taskspace._validation import FloatArray, as_float_array, as_scalar, as_vector, check_finite
 from taskspace.errors import InvalidInputError, ShapeError
+from taskspace.locomotion.foot import FootGeometry
 
 
 def _convex_hull(points: FloatArray) -> FloatArray:
@@ -156,14 +157,31 @@ def support_polygon(
     Args:
         robot: a :class:`~taskspace.model.Robot`.
         q: configuration.
-        feet: the :class:`~taskspace.locomotion.foot.FootGeometry` of every active contact.
+        feet: the :class:`~taskspace.locomotion.foot.FootGeometry` of every active contact
+            (a list, one foot, or the dict of :func:`~taskspace.locomotion.foot.robot_feet`).
         ground_height: when given, refuse vertices farther than 5 mm from this height [m].
 
     Raises:
         InvalidInputError: no feet, or a vertex away from the ground.
     """
+    if isinstance(feet, FootGeometry):
+        feet = [feet]
+    elif isinstance(feet, Mapping):  # robot_feet(name): the feet by side
+        feet = list(feet.values())
+    elif isinstance(feet, (str, bytes)) or not isinstance(feet, Iterable):
+        raise InvalidInputError(
+            f"feet must be a list of FootGeometry (robot_feet(name).values() or "
+            f"FootGeometry(frame=..., vertices=...)), got {type(feet).__name__}"
+        )
+    feet = list(feet)
     if not feet:
         raise InvalidInputError("a support polygon needs at least one foot in contact")
+    for i, foot in enumerate(feet):
+        if not isinstance(foot, FootGeometry):
+            raise InvalidInputError(
+                f"feet[{i}] must be a FootGeometry (the foot frame and its contact vertices, "
+                f"e.g. robot_feet(name)['left']), got {type(foot).__name__} {foot!r}"
+            )
     pts = np.vstack([f.vertices_in_world(robot.frame_placement(q, f.frame)) for f in feet])
     if ground_height is not None:
         off = np.abs(pts[:, 2] - ground_height)
