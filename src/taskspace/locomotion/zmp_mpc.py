@@ -38,8 +38,8 @@ from typing import Any
 import numpy as np
 from scipy.linalg.lapack import dpotrf, dpotrs
 
-from taskspace._validation import FloatArray, as_float_array, check_positive
-from taskspace.errors import InvalidInputError, SolverError
+from taskspace._validation import FloatArray, as_float_array, check_finite, check_positive
+from taskspace.errors import InvalidInputError, ShapeError, SolverError
 from taskspace.locomotion.footsteps import FootstepPlan
 from taskspace.locomotion.lipm import CartTable, LipmTrajectory
 from taskspace.locomotion.preview_control import (
@@ -349,6 +349,11 @@ class ZmpMpc:
                 "constrain_zmp needs one support polygon per reference sample "
                 "(or ZmpMpcOptions(constrain_zmp=False))"
             )
+        if initial_state is not None:
+            x0 = as_float_array(initial_state, "initial_state")
+            if x0.shape != (3, 2):  # a (2, 3) or (6,) state was reshaped silently
+                raise ShapeError("initial_state", (3, 2), tuple(x0.shape))
+            check_finite(x0, "initial_state")
         with self._lock:
             return self._simulate(r, polygons, constrain, initial_state)
 
