@@ -247,6 +247,23 @@ class ZmpMpc:
         u -= np.einsum("kmj,kj->km", Ah, p)
         return out
 
+    def _margin_hint(self, polygons: list[SupportPolygon]) -> str:
+        """Why a step may be infeasible: a polygon narrower than twice ``zmp_margin``."""
+        margin = self.options.zmp_margin
+        if margin <= 0.0:
+            return ""
+        seen: dict[int, float] = {}
+        for poly in polygons:
+            if id(poly) not in seen:
+                seen[id(poly)] = _inradius(poly)
+        if not seen or min(seen.values()) >= margin:
+            return ""
+        return (
+            f": zmp_margin = {margin:g} m exceeds the inradius {min(seen.values()):.4g} m of a "
+            "support polygon of the horizon (the largest distance a ZMP can keep from all its "
+            "edges); lower zmp_margin or use larger soles"
+        )
+
     def _halfspaces(self, poly: SupportPolygon, k: int) -> tuple[FloatArray, FloatArray]:
         """``poly.halfspaces()``, computed once per polygon object (a walk repeats them)."""
         entry = self._halfspaces_entry(poly, k)
@@ -414,7 +431,10 @@ class ZmpMpc:
             if quick is None:
                 res = self._solver.solve(problem)
                 if not res.success:
-                    raise SolverError(f"ZMP MPC QP failed at step {k} ({res.status.value})")
+                    raise SolverError(
+                        f"ZMP MPC QP failed at step {k} ({res.status.value})"
+                        + self._margin_hint(polys[k + 1 : k + N + 1] if polys else [])
+                    )
                 sol, status, step_kkt = res.x, res.status, res.kkt
             else:
                 sol, status = quick[0], QPStatus.UNCONSTRAINED
@@ -445,6 +465,24 @@ class ZmpMpc:
             times,
             tuple(k for k in kkts if k is not None),
         )
+
+
+def _inradius(poly: SupportPolygon) -> float:
+    """Radius [m] of the largest disk inside a polygon (0 when it has no interior)."""
+    if poly.is_degenerate:
+        return 0.0
+    from scipy.optimize import linprog
+
+    A, b = poly.halfspaces()
+    # max rho s.t. a_i^T p + rho <= b_i (unit a_i): variables (p_x, p_y, rho)
+    res = linprog(
+        [0.0, 0.0, -1.0],
+        A_ub=np.column_stack([A, np.ones(len(b))]),
+        b_ub=b,
+        bounds=[(None, None), (None, None), (0.0, None)],
+        method="highs",
+    )
+    return float(res.x[2]) if res.status == 0 else 0.0
 
 
 def mpc_walking_pattern(
