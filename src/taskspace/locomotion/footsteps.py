@@ -367,6 +367,16 @@ def turn_in_place(
     )
 
 
+def check_plan(plan: Any) -> FootstepPlan:
+    """``plan`` if it is a :class:`FootstepPlan`, else a named :class:`InvalidInputError`."""
+    if not isinstance(plan, FootstepPlan):
+        raise InvalidInputError(
+            f"plan must be a FootstepPlan (straight_walk, arc_walk, turn_in_place, "
+            f"footsteps_along_poses...), got {type(plan).__name__}"
+        )
+    return plan
+
+
 def plan_from_footsteps(
     initial: tuple[Footstep, Footstep], steps: Sequence[Footstep], timing: StepTiming | None = None
 ) -> FootstepPlan:

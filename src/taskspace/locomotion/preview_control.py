@@ -34,7 +34,7 @@ import numpy as np
 from taskspace._validation import FloatArray, as_float_array, check_finite, check_positive
 from taskspace.control.riccati import solve_discrete_riccati
 from taskspace.errors import InvalidInputError, ShapeError
-from taskspace.locomotion.footsteps import FootstepPlan
+from taskspace.locomotion.footsteps import FootstepPlan, check_plan
 from taskspace.locomotion.lipm import CartTable, LipmTrajectory
 from taskspace.locomotion.zmp_reference import zmp_reference
 
@@ -206,7 +206,7 @@ def preview_walking_pattern(
     """CoM trajectory for a footstep plan by preview control (reference from the plan)."""
     t0 = time.perf_counter()
     model = model or CartTable()
-    times = model.sample_times(plan.duration)
+    times = model.sample_times(check_plan(plan).duration)
     ref = zmp_reference(plan, times)
     traj = PreviewController(model, options).simulate(ref)
     return WalkingPattern(plan, traj, time.perf_counter() - t0)

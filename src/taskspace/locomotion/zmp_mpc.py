@@ -40,7 +40,7 @@ from scipy.linalg.lapack import dpotrf, dpotrs
 
 from taskspace._validation import FloatArray, as_float_array, check_finite, check_positive
 from taskspace.errors import InvalidInputError, ShapeError, SolverError
-from taskspace.locomotion.footsteps import FootstepPlan
+from taskspace.locomotion.footsteps import FootstepPlan, check_plan
 from taskspace.locomotion.lipm import CartTable, LipmTrajectory
 from taskspace.locomotion.preview_control import (
     PreviewController,
@@ -494,7 +494,7 @@ def mpc_walking_pattern(
     """CoM trajectory of a footstep plan by ZMP MPC (reference and polygons from the plan)."""
     t0 = time.perf_counter()
     model = model or CartTable(dt=0.05)
-    times = model.sample_times(plan.duration)
+    times = model.sample_times(check_plan(plan).duration)
     ref = zmp_reference(plan, times)
     polys = support_polygons(plan, times, sole)
     res = ZmpMpc(model, options).simulate(ref, polys)

@@ -23,7 +23,7 @@ from taskspace._validation import (
     check_finite,
     check_positive,
 )
-from taskspace.locomotion.footsteps import FootstepPlan, Phase
+from taskspace.locomotion.footsteps import FootstepPlan, Phase, check_plan
 from taskspace.locomotion.support_polygon import SupportPolygon
 
 
@@ -49,6 +49,11 @@ def _phase_index(phases: list[Phase], t: FloatArray) -> np.ndarray:
     return np.minimum(np.searchsorted(ends, t, side="right"), len(phases) - 1)
 
 
+def _phases(plan: Any) -> list[Phase]:
+    """The phases of ``plan`` (checked to be a :class:`FootstepPlan`)."""
+    return check_plan(plan).phases()
+
+
 def _times(times: Any) -> FloatArray:
     """``times`` [s] as a finite flat float array (a NaN time has no phase)."""
     t = as_float_array(times, "times").ravel()
@@ -59,7 +64,7 @@ def _times(times: Any) -> FloatArray:
 def zmp_reference(plan: FootstepPlan, times: Any) -> FloatArray:
     """(T, 2) reference ZMP [m] at ``times`` [s] (held at its final value after the end)."""
     t = _times(times)
-    phases = plan.phases()
+    phases = _phases(plan)
     idx = _phase_index(phases, t)
     out = np.empty((t.size, 2))
     for k, ph in enumerate(phases):
@@ -76,7 +81,7 @@ def support_polygon_at(
 ) -> SupportPolygon:
     """The support polygon at time ``t`` [s]."""
     sole = sole or SoleSize()
-    phases = plan.phases()
+    phases = _phases(plan)
     ph = phases[int(_phase_index(phases, np.array([as_scalar(t, "t")]))[0])]
     pts = np.vstack([f.sole_corners(sole.length, sole.width) for f in ph.stance])
     return SupportPolygon.from_points(pts)
@@ -88,7 +93,7 @@ def support_polygons(
     """Support polygons at ``times`` (one polygon object per phase, shared)."""
     sole = sole or SoleSize()
     t = _times(times)
-    phases = plan.phases()
+    phases = _phases(plan)
     polys = [
         SupportPolygon.from_points(
             np.vstack([f.sole_corners(sole.length, sole.width) for f in ph.stance])
