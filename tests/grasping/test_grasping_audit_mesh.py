@@ -25,3 +25,16 @@ def test_faces_must_be_integer_indices():
     ):
         with pytest.raises(InvalidInputError, match="faces"):
             TriangleMesh(box.vertices, bad)
+
+
+def test_ray_exit_names_rays_of_the_wrong_shape():
+    box = box_mesh([0.1, 0.2, 0.3])
+    t, face = box.ray_exit([[0.0, 0.0, 0.0]], [[1.0, 0.0, 0.0]])
+    assert t == pytest.approx([0.05]) and face[0] >= 0  # the face at x = 0.05, by hand
+    for origins, directions in (
+        (np.zeros(3), np.array([1.0, 0.0, 0.0])),  # one ray as (3,): was an IndexError
+        (np.zeros((2, 3)), np.ones((1, 3))),
+        (np.zeros((1, 3)), np.array([[np.nan, 0.0, 0.0]])),
+    ):
+        with pytest.raises(InvalidInputError):
+            box.ray_exit(origins, directions)

@@ -14,7 +14,13 @@ import coal
 import numpy as np
 import numpy.typing as npt
 
-from taskspace._validation import as_float_array, as_vector, check_count, check_positive
+from taskspace._validation import (
+    as_float_array,
+    as_matrix,
+    as_vector,
+    check_count,
+    check_positive,
+)
 from taskspace.errors import InvalidInputError
 
 FloatArray = npt.NDArray[np.float64]
@@ -105,6 +111,8 @@ class TriangleMesh:
             ``(t, face)``: ray parameter of the last crossing (NaN when the ray misses) and the
             face crossed there (-1 when it misses).
         """
+        origins = as_matrix(origins, (None, 3), "origins")
+        directions = as_matrix(directions, (origins.shape[0], 3), "directions")
         t = self.triangles  # (F, 3, 3)
         e1, e2 = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]
         d = directions[:, None, :]  # (R, 1, 3)
