@@ -59,6 +59,7 @@ from taskspace.locomotion.footsteps import (
     FootstepPlan,
     PhaseKind,
     StepTiming,
+    check_plan,
     check_steps,
     footsteps_along_poses,
 )
@@ -236,6 +237,7 @@ def walking_reference(
     c0 = np.asarray(state.com()).copy()
     foot_frames = {"left": opts.feet[0], "right": opts.feet[1]}
     foot0 = {s: robot.frame_placement(q0, f) for s, f in foot_frames.items()}
+    _check_plan_starts_on_feet(check_plan(plan), foot0)
     ground = {s: float(foot0[s].translation[2]) for s in foot0}
     pelvis0 = robot.frame_placement(q0, opts.pelvis).rotation.copy()
     model = CartTable(com_height=float(c0[2] - np.mean(list(ground.values()))), dt=opts.dt)
@@ -414,12 +416,41 @@ def _swing_trajectory(phase: Any, clearance: float, height: float) -> SwingTraje
     )
 
 
+#: How far [m] a plan's initial footstep may be from the robot's foot at its default posture.
+PLAN_START_TOLERANCE = 0.01
+
+
+def _check_plan_starts_on_feet(plan: FootstepPlan, foot0: Mapping[str, pin.SE3]) -> None:
+    """Refuse a plan whose initial feet are not where the robot's feet stand.
+
+    The stance contacts are the robot's real feet while the ZMP reference and the swing
+    targets come from the plan: a plan made for other feet (``straight_walk``'s default
+    ``step_width``, another robot) put the ZMP reference outside the real support and the
+    simulation diverged, ending in a NotFiniteError deep inside the walk.
+    """
+    for foot in plan.initial:
+        actual = np.asarray(foot0[foot.side].translation[:2])
+        off = float(np.linalg.norm(foot.position - actual))
+        if off > PLAN_START_TOLERANCE:
+            raise InvalidInputError(
+                f"the plan's initial {foot.side} foot is at ({foot.x:.4f}, {foot.y:.4f}) m but the "
+                f"robot's {foot.side} foot stands at ({actual[0]:.4f}, {actual[1]:.4f}) m in its "
+                f"default posture ({off:.4f} m away, tolerance {PLAN_START_TOLERANCE} m): make "
+                "the plan from the robot's feet (plan_from_robot(robot, robot.q_default, ...))"
+            )
+
+
 def _yaw_rotation(yaw: float) -> FloatArray:
     return np.asarray(pin.rpy.rpyToMatrix(0.0, 0.0, yaw))
 
 
 def walk(robot: Any, plan: FootstepPlan, options: WalkingOptions | None = None) -> WalkingResult:
-    """Simulate ``robot`` walking ``plan`` from its default posture (see the module docstring)."""
+    """Simulate ``robot`` walking ``plan`` from its default posture (see the module docstring).
+
+    Raises:
+        InvalidInputError: the plan's initial feet are more than :data:`PLAN_START_TOLERANCE`
+            from the robot's feet in its default posture (make it with :func:`plan_from_robot`).
+    """
     opts = options or WalkingOptions()
     q0 = robot.q_default.copy()
     v0 = np.zeros(robot.nv)
@@ -427,6 +458,7 @@ def walk(robot: Any, plan: FootstepPlan, options: WalkingOptions | None = None) 
     c0 = np.asarray(state.com()).copy()
     foot_frames = {"left": opts.feet[0], "right": opts.feet[1]}
     foot0 = {s: robot.frame_placement(q0, f) for s, f in foot_frames.items()}
+    _check_plan_starts_on_feet(check_plan(plan), foot0)
     ground = {s: float(foot0[s].translation[2]) for s in foot0}
     # CoM reference from preview control of the ZMP reference
     model = CartTable(com_height=float(c0[2] - np.mean(list(ground.values()))), dt=opts.dt)
