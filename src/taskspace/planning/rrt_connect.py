@@ -294,7 +294,19 @@ class _LinePlanner:
         self._full: dict[int, tuple[FloatArray, IntArray]] = {}
         self._sequences: dict[int, tuple[FloatArray, IntArray]] = {}
         self.full_n = self.segments(alpha)
-        self.full_u = self.pattern(self.full_n)
+        self._full_u: FloatArray | None = None
+
+    @property
+    def full_u(self) -> FloatArray:
+        """The pattern of a full step, made at the first line longer than ``alpha``.
+
+        Not before: a step far longer than any line (``step_size=1e9`` for "no step limit")
+        would make a pattern of ``alpha / delta`` points that no line uses.
+        """
+        u = self._full_u
+        if u is None:
+            u = self._full_u = self.pattern(self.full_n)
+        return u
 
     def segments(self, length: float) -> int:
         return max(1, math.ceil(length / self.delta - 1e-12))
@@ -394,7 +406,9 @@ def _grow(
     t, steps, ends, n_segments = lines.plan(dist, max_steps, end_known_valid)
     # one group per step: the full steps have lines.full_u.size points each, the last step
     # as many or fewer
-    bounds = [*range(lines.full_u.size, t.size, lines.full_u.size), t.size]
+    bounds = [t.size]  # one step (no full step, or EXTEND's one)
+    if steps is not None:
+        bounds = [*range(lines.full_u.size, t.size, lines.full_u.size), t.size]
     bad, stop = budget.first_invalid(space.first_invalid, space.interpolate(q0, target, t), bounds)
     late = bad < 0 and stop < t.size
     if bad < 0 and not late:
