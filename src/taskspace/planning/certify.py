@@ -161,6 +161,27 @@ class MotionBound:
         return out
 
 
+def _robot(robot: Any, who: str) -> Robot:
+    """``robot`` if it is a :class:`Robot`, else a clear error (a space, a Pinocchio model...).
+
+    Raises:
+        InvalidInputError: not a Robot; for a planning space, the message says which robot
+            and configurations to give instead.
+    """
+    if isinstance(robot, Robot):
+        return robot
+    hint = ""
+    if hasattr(robot, "full_configurations") and hasattr(robot, "checker"):  # a space
+        hint = (
+            ": give the robot the space was built on (ConfigurationSpace.from_robot(robot)), "
+            "with the robot's configurations (space.full_configurations(path) for a space "
+            "with locked joints)"
+        )
+    elif isinstance(robot, pin.Model):
+        hint = ": it needs the collision geometry and obstacles of a taskspace Robot"
+    raise InvalidInputError(f"{who} takes a taskspace Robot, got {type(robot).__name__}{hint}")
+
+
 def motion_bound(robot: Robot, path: Any = None) -> MotionBound:
     """The :class:`MotionBound` of ``robot``.
 
@@ -172,8 +193,10 @@ def motion_bound(robot: Robot, path: Any = None) -> MotionBound:
 
     Raises:
         InvalidInputError: a joint type whose motion cannot be bounded (composite, mimic),
-            or a prismatic joint without finite limits and no ``path``.
+            or a prismatic joint without finite limits and no ``path``; ``robot`` is not a
+            :class:`Robot`.
     """
+    robot = _robot(robot, "motion_bound")
     model = robot._model
     gm = robot._collision_model
     extent = np.zeros(model.njoints)  # how far a prismatic joint can displace its child
@@ -366,6 +389,7 @@ def certify_path(
         spheres: the robot's sphere model for the compiled certifier's lower bounds, or a
             function returning it (see :func:`native_certifier`).
     """
+    robot = _robot(robot, "certify_path")
     arr = as_float_array(path, "path")
     if arr.ndim != 2 or arr.shape[1] != robot.nq or arr.shape[0] == 0:
         raise InvalidInputError(f"path must have shape (m, {robot.nq}), got {arr.shape}")

@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections import deque
 from collections.abc import Mapping
 from dataclasses import dataclass
 from functools import lru_cache
@@ -60,20 +59,38 @@ def bisection_order(n: int) -> IntArray:
 
     Args:
         n: number of segments (``n >= 1``; ``n = 1`` has no interior point).
+
+    Raises:
+        InvalidInputError: ``n > 2**30`` (a resolution far too small for the distance: the
+            order alone would take gigabytes; the compiled kernel's limit too).
     """
-    out: list[int] = []
-    queue: deque[tuple[int, int]] = deque([(0, n)])
-    while queue:
-        a, b = queue.popleft()
-        if b - a < 2:
-            continue
+    if n > _MAX_SEGMENTS:
+        raise InvalidInputError(
+            f"a line cut into {n:.4g} segments (more than 2^30): the resolution is too small "
+            "for the distance between these configurations (or the bounds too large); use a "
+            "larger resolution"
+        )
+    # one breadth-first level at a time: the intervals [a, b) of a level in queue order,
+    # each with b - a >= 2 giving its midpoint, then its halves [a, mid), [mid, b)
+    a = np.zeros(1, dtype=np.int64)
+    b = np.full(1, max(int(n), 0), dtype=np.int64)
+    levels = []
+    while True:
+        keep = b - a >= 2
+        a, b = a[keep], b[keep]
+        if a.size == 0:
+            break
         mid = (a + b) // 2
-        out.append(mid)
-        queue.append((a, mid))
-        queue.append((mid, b))
-    arr = np.asarray(out, dtype=np.int64)
+        levels.append(mid)
+        a = np.stack([a, mid], axis=1).ravel()
+        b = np.stack([mid, b], axis=1).ravel()
+    arr = np.concatenate(levels) if levels else np.empty(0, dtype=np.int64)
     arr.flags.writeable = False
     return arr
+
+
+_MAX_SEGMENTS = 1 << 30
+""":func:`bisection_order`'s largest ``n``."""
 
 
 @lru_cache(maxsize=1024)
@@ -189,6 +206,13 @@ class ConfigurationSpace:
         if np.any(hi <= lo):
             bad = np.flatnonzero(hi <= lo).tolist()
             raise InvalidInputError(f"upper must be > lower in every coordinate; not at {bad}")
+        diameter = math.dist(hi.tolist(), lo.tolist())
+        if not math.isfinite(diameter * diameter):
+            raise InvalidInputError(
+                "the bounds are too large: the squared distance between lower and upper "
+                f"(nearest-neighbour searches) overflows a float (lower {lo.min():.3g}, "
+                f"upper {hi.max():.3g})"
+            )
         self._manifold = manifold
         self._lower = lo
         self._upper = hi

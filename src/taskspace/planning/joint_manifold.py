@@ -21,7 +21,8 @@ uses Pinocchio's own operations:
 
 :meth:`JointManifold.difference` is vectorized over rows in NumPy (closed-form logarithms of
 SO(2), SE(2), SO(3) and SE(3)) and agrees with ``pinocchio.difference``; interpolation calls
-``pinocchio.interpolate``.
+``pinocchio.interpolate``, except for continuous joints: their angle is turned in closed form
+(Pinocchio's SO(2) interpolation stays at ``q0`` between opposite angles).
 
 Thread safety: a :class:`JointManifold` only reads its limits, which it derives again (in the
 calling thread) after :meth:`~taskspace.model.Robot.set_limits`; threads may share one, each
@@ -352,6 +353,17 @@ class JointManifold:
         out = np.empty((ts.size, self.nq))
         for k, tk in enumerate(ts.tolist()):
             out[k] = pin.interpolate(model, q0, q1, tk)
+        if self._circ_q.size:
+            # Continuous joints in closed form, q0's angle + t (q1 (-) q0): pinocchio's SO(2)
+            # interpolate returns q0 for every t when the angles are within ~1e-6 of opposite
+            # (its difference is then pi), an edge of length pi that never moves
+            c = self._circ_q
+            c0, s0 = q0[c], q0[c + 1]
+            turn = ts[:, None] * _angle(c0, s0, q1[c], q1[c + 1])[None, :]
+            norm = np.hypot(c0, s0)
+            cos, sin = np.cos(turn), np.sin(turn)
+            out[:, c] = (c0 * cos - s0 * sin) / norm
+            out[:, c + 1] = (s0 * cos + c0 * sin) / norm
         return out
 
     def sample(self, rng: np.random.Generator, n: int) -> FloatArray:

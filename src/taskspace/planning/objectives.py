@@ -315,7 +315,7 @@ class MechanicalWork(OptimizationObjective):
     its lower bound is 0 (moving where gravity does no work is free).
 
     On a model with continuous joints, a planar or a floating base (``nq != nv``) the
-    segment is the geodesic ``q(t) = a (+) t (b (-) a)`` (``pinocchio.interpolate``), the
+    segment is the geodesic ``q(t) = a (+) t (b (-) a)`` (``pinocchio.integrate``), the
     pieces' ends ``p_k = q(k / n)``, midpoints ``m_k = q((k + 1/2) / n)`` and displacements
     ``p_{k+1} (-) p_k`` (``pinocchio.difference``, size ``nv``; ``tau_g`` is the generalized
     gravity force of the same velocity coordinates), ``n`` from the length of ``b (-) a``.
@@ -401,8 +401,11 @@ class MechanicalWork(OptimizationObjective):
         )
         out = np.empty(a.shape[0])
         for i, n in enumerate(self._counts(lengths).tolist()):
-            ends = [pin.interpolate(model, a[i], b[i], k / n) for k in range(n + 1)]
-            mids = [pin.interpolate(model, a[i], b[i], (k + 0.5) / n) for k in range(n)]
+            # a (+) t (b (-) a) by integrate: pinocchio.interpolate stays at a on a continuous
+            # joint whose angles at a and b are opposite (its difference is then pi)
+            v = pin.difference(model, a[i], b[i])
+            ends = [pin.integrate(model, a[i], (k / n) * v) for k in range(n + 1)]
+            mids = [pin.integrate(model, a[i], ((k + 0.5) / n) * v) for k in range(n)]
             steps = np.array([pin.difference(model, ends[k], ends[k + 1]) for k in range(n)])
             tau = self.torques(np.asarray(mids))
             out[i] = float(np.abs(np.einsum("ij,ij->i", tau, steps)).sum())

@@ -294,7 +294,19 @@ class _LinePlanner:
         self._full: dict[int, tuple[FloatArray, IntArray]] = {}
         self._sequences: dict[int, tuple[FloatArray, IntArray]] = {}
         self.full_n = self.segments(alpha)
-        self.full_u = self.pattern(self.full_n)
+        self._full_u: FloatArray | None = None
+
+    @property
+    def full_u(self) -> FloatArray:
+        """The pattern of a full step, made at the first line longer than ``alpha``.
+
+        Not before: a step far longer than any line (``step_size=1e9`` for "no step limit")
+        would make a pattern of ``alpha / delta`` points that no line uses.
+        """
+        u = self._full_u
+        if u is None:
+            u = self._full_u = self.pattern(self.full_n)
+        return u
 
     def segments(self, length: float) -> int:
         return max(1, math.ceil(length / self.delta - 1e-12))
@@ -394,7 +406,9 @@ def _grow(
     t, steps, ends, n_segments = lines.plan(dist, max_steps, end_known_valid)
     # one group per step: the full steps have lines.full_u.size points each, the last step
     # as many or fewer
-    bounds = [*range(lines.full_u.size, t.size, lines.full_u.size), t.size]
+    bounds = [t.size]  # one step (no full step, or EXTEND's one)
+    if steps is not None:
+        bounds = [*range(lines.full_u.size, t.size, lines.full_u.size), t.size]
     bad, stop = budget.first_invalid(space.first_invalid, space.interpolate(q0, target, t), bounds)
     late = bad < 0 and stop < t.size
     if bad < 0 and not late:
@@ -738,7 +752,8 @@ def rrt_connect(
             :class:`~taskspace.planning.GoalRegion` (e.g. :class:`taskspace.ik.PoseGoalRegion`,
             :class:`taskspace.ik.FeatureGoalRegion`), as OMPL's goal states and sampleable
             goal regions: every goal configuration (for a region: its valid samples, 20
-            drawn first, one more every 64 iterations, up to 32) is a root of the goal tree,
+            drawn first, one more every 64 iterations, up to 32; when none of the first 20
+            is valid, one more per iteration until one is) is a root of the goal tree,
             and the path ends at whichever the trees connect to (``log["goal_states"]``). A
             start inside the region is a one-point path. Goal sets plan with the Python
             planner (the compiled one takes one goal).
@@ -985,6 +1000,13 @@ def _plan(
             goals = region_samples(space, region, rng, REGION_FIRST_ATTEMPTS, deadline)
     else:
         goals = [space.check_endpoint(goal, "goal")]
+    searched = 0  # iterations spent drawing a first goal state when the first draws gave none
+    if region is not None and not goals and not region.contains(q_start):
+        # no tree can grow towards the region before one of its samples is valid: one more
+        # draw per iteration, under the limits
+        while not goals and not budget.exhausted(searched):
+            searched += 1
+            goals = region_samples(space, region, rng, 1, deadline)
     metric = None if space.is_euclidean else space.distances
     lines = _LinePlanner(alpha, delta, delta_c)
     status = PlannerStatus.ITERATION_LIMIT
@@ -1010,8 +1032,9 @@ def _plan(
     if region is not None and region.contains(q_start):
         path = q_start[None, :].copy()
         status = PlannerStatus.SOLVED
-    elif not goals:
-        status = PlannerStatus.NO_PATH  # a region none of whose samples was valid
+    elif not goals:  # a region none of whose samples was valid within the limits (as rrt)
+        status = PlannerStatus.NO_PATH
+        iterations = searched
     elif direct >= 0:
         path = np.stack([q_start, goals[direct]])
         status = PlannerStatus.SOLVED
@@ -1023,12 +1046,13 @@ def _plan(
         local = opts.local_sampling
         trapped = opts.trapped_priority
         samples = space.sample_uniform(rng, block)
-        for iterations in range(1, max_iterations + 1):
+        iterations = searched
+        for iterations in range(searched + 1, max_iterations + 1):
             if budget.out_of_time():
                 status = PlannerStatus.TIME_LIMIT
                 break
-            j = (iterations - 1) % block
-            if j == 0 and iterations > 1:
+            j = (iterations - searched - 1) % block
+            if j == 0 and iterations > searched + 1:
                 samples = space.sample_uniform(rng, block)
             q_rand = samples[j]
             if region is not None and iterations % _REGION_EVERY == 0 and len(goals) < 32:

@@ -470,7 +470,7 @@ def _plan(
     result_tree = Tree(tree.nodes[: tree.n].copy(), tree.parents[: tree.n].copy())
     goal_node, _ = best_goal()
     success = goal_node >= 0
-    path = result_tree.path_to(goal_node) if success else np.zeros((0, d))
+    path = result_tree.path_to(goal_node) if success else np.zeros((0, space.dim))
     log: dict[str, Any] = {
         "tree_size": float(tree.n),
         "first_solution_s": cost_times[0] if cost_times else math.inf,
