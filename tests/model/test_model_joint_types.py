@@ -205,6 +205,24 @@ def test_continuous_joint_goes_the_short_way(name: str) -> None:
     assert robot.difference(q0, q1)[0] == pytest.approx(2 * math.pi - 6.0, abs=1e-12)
 
 
+@pytest.mark.parametrize("name", sorted(UNIT_COMPLEX))
+@pytest.mark.parametrize("gap", [math.pi, math.pi - 1e-9, -(math.pi - 1e-9), math.pi - 1e-7])
+def test_continuous_joint_turns_between_opposite_angles(name: str, gap: float) -> None:
+    """Independent reference: the angle moves by t times the gap (pin.interpolate stays at q0)."""
+    robot = _robot(name)
+    q0 = robot.neutral()
+    q1 = robot.neutral()
+    q0[0:2] = (math.cos(0.4), math.sin(0.4))
+    q1[0:2] = (math.cos(0.4 + gap), math.sin(0.4 + gap))
+    turned = abs(robot.difference(q0, q1)[0])
+    assert turned == pytest.approx(abs(gap), abs=1e-6)
+    for t in (0.25, 0.5, 0.75):
+        q = robot.interpolate(q0, q1, t)
+        assert math.hypot(q[0], q[1]) == pytest.approx(1.0, abs=1e-12)
+        moved = abs(math.remainder(_angle(q, 0) - 0.4, 2 * math.pi))
+        assert moved == pytest.approx(t * turned, abs=1e-6)
+
+
 def test_limits_apply_to_bounded_joints_only() -> None:
     robot = _robot("rx_bounded")
     q = robot.neutral()

@@ -1387,8 +1387,9 @@ class Robot:
     def interpolate(self, q0: Any, q1: Any, t: float) -> FloatArray:
         """Configuration a fraction ``t`` of the way from ``q0`` to ``q1`` on the manifold.
 
-        ``q(t) = q0 (+) t (q1 (-) q0)`` (``pin.interpolate``): geodesic on rotations, the
-        shorter way round on continuous joints, straight on the other coordinates.
+        ``q(t) = q0 (+) t (q1 (-) q0)`` (``pin.integrate`` of ``t pin.difference``): geodesic
+        on rotations, the shorter way round on continuous joints (either way between opposite
+        angles, where ``pin.interpolate`` stays at ``q0``), straight on the other coordinates.
 
         Args:
             q0: start configuration.
@@ -1399,7 +1400,8 @@ class Robot:
         b = self.check_configuration(q1, "q1")
         if not (isinstance(t, (int, float, np.floating, np.integer)) and math.isfinite(t)):
             raise InvalidInputError(f"t must be a finite number, got {t!r}")
-        return np.asarray(pin.interpolate(self._model, a, b, float(t)))
+        model = self._model
+        return np.asarray(pin.integrate(model, a, float(t) * pin.difference(model, a, b)))
 
     def distance(self, q0: Any, q1: Any) -> float:
         """Length of the tangent vector from ``q0`` to ``q1``: ``||q1 (-) q0||`` [rad and m].

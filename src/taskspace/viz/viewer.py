@@ -742,7 +742,10 @@ class Viewer:
             i = min(math.floor(s), qs.shape[0] - 2) if qs.shape[0] > 1 else 0
             alpha = s - i
             if qs.shape[0] > 1:
-                q = pin.interpolate(robot._model, qs[i], qs[i + 1], alpha)
+                # q_i (+) alpha (q_i+1 (-) q_i): pin.interpolate stays at q_i on a continuous
+                # joint between opposite angles
+                model = robot._model
+                q = pin.integrate(model, qs[i], alpha * pin.difference(model, qs[i], qs[i + 1]))
             else:
                 q = qs[0]
             with animation.at_frame(self.vis, frame) as anim_frame:
