@@ -61,3 +61,35 @@ def test_a_huge_step_is_planned_like_one_longer_than_every_line() -> None:
     ]
     assert all(r.status is PlannerStatus.SOLVED for r in runs)
     assert np.array_equal(runs[0].path, runs[1].path)
+
+
+def test_the_compiled_planner_takes_a_step_longer_than_the_bounds() -> None:
+    # the kernel refused step_size=1e9 ("alpha and delta are too small": 1e9 / 0.03 checks
+    # per full step); a step beyond the bounds' diameter plans as the diameter: same trees
+    import pinocchio as pin
+
+    from taskspace.model import Obstacle, Robot
+    from taskspace.planning.configuration_space import ConfigurationSpace, EdgeCheckOptions
+
+    robot = Robot.load("panda", convex_collision=True)
+    robot.add_obstacle(
+        Obstacle.box("wall", [0.1, 1.0, 0.6], pin.SE3(np.eye(3), np.r_[0.45, 0, 0.5]))
+    )
+    space = ConfigurationSpace.from_robot(robot, edge=EdgeCheckOptions(resolution=0.03))
+    start = robot.q_default.copy()
+    goal = start.copy()
+    goal[0] += 1.2
+    diameter = space.bounds_diameter()[2]
+    paths = []
+    for step in (1e9, diameter):
+        r = rrt_connect(space, start, goal, RRTConnectOptions(step_size=step, seed=3))
+        assert r.success and r.log["native"] == 1.0
+        paths.append(r.path)
+    np.testing.assert_array_equal(paths[0], paths[1])
+    reference = robot.model.createData(), robot.collision_model.createData()
+    for a, b in itertools.pairwise(paths[0]):
+        for t in np.linspace(0.0, 1.0, max(2, int(np.ceil(np.linalg.norm(b - a) / 0.01)) + 1)):
+            q = a + t * (b - a)
+            assert not pin.computeCollisions(
+                robot.model, reference[0], robot.collision_model, reference[1], q, True
+            )

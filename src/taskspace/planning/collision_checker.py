@@ -321,6 +321,15 @@ class CollisionChecker:
             self._sphere_kernel = kernel
         return kernel
 
+    def sphere_kernel_ready(self) -> None:
+        """:meth:`sphere_kernel` unless it was built for the current world (a cheap check).
+
+        Planners call it before their clock starts (the sphere model's fit is set-up).
+        """
+        self._sync()
+        if self._sphere_kernel is None:
+            self.sphere_kernel()
+
     def _mark_exact_pairs(self, kernel: Any) -> None:
         """Mark the kernel's self pairs of :attr:`sphere_exact_pairs` (after set_spheres)."""
         robot = self.robot
