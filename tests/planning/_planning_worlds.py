@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 
 from taskspace.planning.collision_checker import FunctionChecker
@@ -27,3 +29,16 @@ def wall_space(resolution: float = 0.05, boxes: np.ndarray = WALL) -> Configurat
         FunctionChecker(box_free(boxes), lambda q: f"point {q} is inside a box"),
         edge=EdgeCheckOptions(resolution=resolution),
     )
+
+
+def free_densely(path: np.ndarray, boxes: np.ndarray = WALL, step: float = 1e-3) -> bool:
+    """Every point of every edge of ``path`` outside the boxes, checked every ``step``.
+
+    The boxes themselves are the reference (not a planner's checker).
+    """
+    free = box_free(boxes)
+    for a, b in itertools.pairwise(path):
+        n = max(2, int(np.ceil(np.linalg.norm(b - a) / step)) + 1)
+        if not free(a + np.linspace(0.0, 1.0, n)[:, None] * (b - a)).all():
+            return False
+    return True

@@ -10,16 +10,13 @@ is NO_PATH once the limits are spent, as RRT says. The paths are checked every
 
 from __future__ import annotations
 
-import itertools
-
 import numpy as np
 import pytest
 
 from taskspace.planning.planner_result import PlannerStatus
 from taskspace.planning.rrt_connect import RRTConnectOptions, rrt_connect
-from tests.planning._planning_worlds import WALL, box_free, wall_space
+from tests.planning._planning_worlds import free_densely, wall_space
 
-FREE = box_free(WALL)
 START = [1.0, 2.0]  # the straight line to the region crosses the wall
 
 
@@ -41,14 +38,6 @@ class _StingyDisc:
         return np.array([9.0 + r * np.cos(angle), 2.0 + r * np.sin(angle)])
 
 
-def _free_densely(path: np.ndarray) -> bool:
-    for a, b in itertools.pairwise(path):
-        n = max(2, int(np.ceil(np.linalg.norm(b - a) / 1e-3)) + 1)
-        if not FREE(a + np.linspace(0.0, 1.0, n)[:, None] * (b - a)).all():
-            return False
-    return True
-
-
 @pytest.mark.parametrize("fails", [20, 25, 300])
 def test_a_region_valid_only_after_its_first_samples_is_reached(fails: int) -> None:
     region = _StingyDisc(fails)
@@ -58,7 +47,7 @@ def test_a_region_valid_only_after_its_first_samples_is_reached(fails: int) -> N
     assert result.status is PlannerStatus.SOLVED
     assert np.array_equal(result.path[0], START)
     assert region.contains(result.path[-1])
-    assert _free_densely(result.path)
+    assert free_densely(result.path)
     assert result.iterations > fails - 20  # the draws after the first 20 count
 
 

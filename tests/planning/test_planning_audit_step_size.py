@@ -17,17 +17,7 @@ import pytest
 
 from taskspace.planning.planner_result import PlannerStatus
 from taskspace.planning.rrt_connect import RRTConnectOptions, rrt_connect
-from tests.planning._planning_worlds import WALL, box_free, wall_space
-
-FREE = box_free(WALL)
-
-
-def _free_densely(path: np.ndarray) -> bool:
-    for a, b in itertools.pairwise(path):
-        n = max(2, int(np.ceil(np.linalg.norm(b - a) / 1e-3)) + 1)
-        if not FREE(a + np.linspace(0.0, 1.0, n)[:, None] * (b - a)).all():
-            return False
-    return True
+from tests.planning._planning_worlds import free_densely, wall_space
 
 
 @pytest.mark.parametrize(("seed", "resolution"), [(0, 0.05), (1, 0.049), (2, 0.051)])
@@ -50,7 +40,7 @@ def test_a_step_longer_than_the_bounds_plans_in_little_memory(seed: int, resolut
     assert peak < 8e6
     assert result.status is PlannerStatus.SOLVED
     assert np.array_equal(result.path[0], start) and np.array_equal(result.path[-1], goal)
-    assert _free_densely(result.path)
+    assert free_densely(result.path)
 
 
 def test_a_huge_step_is_planned_like_one_longer_than_every_line() -> None:
