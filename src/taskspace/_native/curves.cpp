@@ -597,6 +597,10 @@ PyObject* distances(PyObject* const* args, Py_ssize_t nargs, Distance dist) {
     double x, y, phi;
     to_local(sp, gp, r, &x, &y, &phi);
     o[i] = dist(x, y, phi) * r;
+    if (!std::isfinite(o[i])) {  // NaN/inf poses (or coordinates too large): Python says why
+      Py_DECREF(out);
+      Py_RETURN_NONE;
+    }
   }
   return out;
 }

@@ -38,7 +38,7 @@ import numpy.typing as npt
 from taskspace._native import planning_kernel
 from taskspace._validation import check_positive
 from taskspace.errors import ShapeError, SolverError
-from taskspace.planning.se2 import CurvePath, check_pose, to_local
+from taskspace.planning.se2 import CurvePath, check_pose, finite_distances, pose_arrays, to_local
 
 logger = logging.getLogger(__name__)
 
@@ -239,26 +239,21 @@ def dubins_distance(start: Any, goal: Any, radius: float) -> FloatArray:
 
     Returns:
         Distances ``(N,)`` [m] (shape ``(1,)`` for single poses).
+
+    Raises:
+        NotFiniteError: NaN or inf in a pose.
     """
     out = _native_distance(start, goal, radius)
     if out is not None:
         return out  # type: ignore[no-any-return]
     r = _check_radius(radius)
-    s, g = _pose_arrays(start, goal)
+    s, g = pose_arrays(start, goal)
     out = _native_distance(s, g, r)
     if out is not None:
         return out  # type: ignore[no-any-return]
-    return dubins_distance_numpy(s, g, r)
-
-
-def _pose_arrays(start: Any, goal: Any) -> tuple[FloatArray, FloatArray]:
-    """``start`` and ``goal`` as float arrays ``(N, 3)``, broadcast against each other."""
-    s = np.atleast_2d(np.asarray(start, dtype=float))
-    g = np.atleast_2d(np.asarray(goal, dtype=float))
-    if s.shape[-1] != 3 or g.shape[-1] != 3:
-        raise ShapeError("start/goal", (-1, 3), tuple(s.shape if s.shape[-1] != 3 else g.shape))
-    s, g = np.broadcast_arrays(s, g)
-    return s, g
+    with np.errstate(over="ignore", invalid="ignore"):  # (finite_distances says why)
+        out = dubins_distance_numpy(s, g, r)
+    return finite_distances(out)
 
 
 def dubins_distance_numpy(start: Any, goal: Any, radius: float) -> FloatArray:

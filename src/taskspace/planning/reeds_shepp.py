@@ -42,7 +42,7 @@ import numpy.typing as npt
 from taskspace._native import planning_kernel
 from taskspace._validation import check_positive
 from taskspace.errors import ShapeError, SolverError
-from taskspace.planning.se2 import CurvePath, check_pose, to_local
+from taskspace.planning.se2 import CurvePath, check_pose, finite_distances, pose_arrays, to_local
 
 logger = logging.getLogger(__name__)
 
@@ -410,21 +410,21 @@ def reeds_shepp_distance(start: Any, goal: Any, radius: float) -> FloatArray:
 
     Returns:
         Distances ``(N,)`` [m].
+
+    Raises:
+        NotFiniteError: NaN or inf in a pose.
     """
     out = _native_distance(start, goal, radius)
     if out is not None:
         return out  # type: ignore[no-any-return]
     r = check_positive(radius, "radius")
-    s = np.atleast_2d(np.asarray(start, dtype=float))
-    g = np.atleast_2d(np.asarray(goal, dtype=float))
-    if s.shape[-1] != 3 or g.shape[-1] != 3:
-        bad = s.shape if s.shape[-1] != 3 else g.shape
-        raise ShapeError("start/goal", (-1, 3), tuple(bad))
-    s, g = np.broadcast_arrays(s, g)
+    s, g = pose_arrays(start, goal)
     out = _native_distance(s, g, r)
     if out is not None:
         return out  # type: ignore[no-any-return]
-    return reeds_shepp_distance_numpy(s, g, r)
+    with np.errstate(over="ignore", invalid="ignore"):  # (finite_distances says why)
+        out = reeds_shepp_distance_numpy(s, g, r)
+    return finite_distances(out)
 
 
 def reeds_shepp_distance_numpy(start: Any, goal: Any, radius: float) -> FloatArray:

@@ -28,7 +28,7 @@ import numpy as np
 import numpy.typing as npt
 
 from taskspace._native import planning_kernel
-from taskspace._validation import as_vector, check_positive
+from taskspace._validation import as_vector, check_finite, check_positive
 from taskspace.errors import InvalidInputError, ShapeError
 
 FloatArray = npt.NDArray[np.float64]
@@ -353,3 +353,31 @@ class CurvePath:
 def check_pose(q: Any, name: str) -> FloatArray:
     """Validate a planar pose ``(x, y, theta)`` and return it as a float vector."""
     return as_vector(q, 3, name)
+
+
+def pose_arrays(start: Any, goal: Any) -> tuple[FloatArray, FloatArray]:
+    """``start`` and ``goal`` as finite float arrays ``(N, 3)``, broadcast against each other.
+
+    Raises:
+        ShapeError: not poses of 3 entries.
+        NotFiniteError: NaN or inf in a pose (the distances would be inf or NaN).
+    """
+    s = np.atleast_2d(np.asarray(start, dtype=float))
+    g = np.atleast_2d(np.asarray(goal, dtype=float))
+    if s.shape[-1] != 3 or g.shape[-1] != 3:
+        raise ShapeError("start/goal", (-1, 3), tuple(s.shape if s.shape[-1] != 3 else g.shape))
+    check_finite(s, "start")
+    check_finite(g, "goal")
+    s, g = np.broadcast_arrays(s, g)
+    return s, g
+
+
+def finite_distances(out: FloatArray) -> FloatArray:
+    """``out`` if every distance is finite, else an error (finite poses too large)."""
+    if not np.isfinite(out).all():
+        raise InvalidInputError(
+            "the poses are too far apart for the turning radius: a distance overflows "
+            f"({np.count_nonzero(~np.isfinite(out))} of {out.size}); use a larger radius or "
+            "smaller coordinates"
+        )
+    return out
