@@ -90,6 +90,36 @@ def bisection_order(n: int) -> IntArray:
 
 
 _MAX_SEGMENTS = 1 << 30
+
+_MAX_INTERPOLATED_BYTES = 1 << 31
+"""The largest path :func:`interpolated_counts` lets a subdivision build (2 GiB)."""
+
+
+def interpolated_counts(
+    lengths: list[float], step: float, dim: int, name: str = "resolution"
+) -> list[int]:
+    """Pieces per segment, ``ceil(length / step)`` (at least 1), of a path cut every ``step``.
+
+    Args:
+        lengths: the segments' lengths [rad or m].
+        step: the largest distance between the new waypoints (> 0).
+        dim: coordinates per waypoint.
+        name: the caller's name of ``step``, for the message.
+
+    Raises:
+        InvalidInputError: the path would take more than 2 GiB (a step far too small for
+            the lengths), rather than numpy's MemoryError.
+    """
+    ratios = [length / step for length in lengths]
+    total = sum(ratios) + len(ratios) + 1.0
+    if not total * dim * 8.0 <= _MAX_INTERPOLATED_BYTES:  # (also inf)
+        raise InvalidInputError(
+            f"{name}={step:g} would cut the path into about {total:.3g} waypoints of {dim} "
+            f"coordinates (more than 2 GiB); use a larger {name}"
+        )
+    return [max(1, math.ceil(r - 1e-12)) for r in ratios]
+
+
 """:func:`bisection_order`'s largest ``n``."""
 
 
@@ -564,9 +594,10 @@ class ConfigurationSpace:
                 f"path must be a finite (m, {self.dim}) array, got shape {arr.shape}"
             )
         step = check_positive(resolution, "resolution")
+        pairs = list(itertools.pairwise(arr))
+        counts = interpolated_counts([self.distance(a, b) for a, b in pairs], step, self.dim)
         out = [arr[:1]]
-        for a, b in itertools.pairwise(arr):
-            k = max(1, math.ceil(self.distance(a, b) / step - 1e-12))
+        for (a, b), k in zip(pairs, counts):
             piece = self.interpolate(a, b, np.arange(1, k + 1) / k)
             piece[-1] = b  # exactly (pinocchio.interpolate may return -quaternion at t = 1)
             out.append(piece)

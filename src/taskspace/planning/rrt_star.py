@@ -31,7 +31,11 @@ import numpy as np
 from taskspace._validation import check_positive, check_seed
 from taskspace.errors import InvalidInputError
 from taskspace.planning.certify import FailedRegions, plan_certified
-from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray
+from taskspace.planning.configuration_space import (
+    ConfigurationSpace,
+    FloatArray,
+    interpolated_counts,
+)
 from taskspace.planning.goals import GoalRegion as GoalRegion  # re-exported (moved to goals)
 from taskspace.planning.goals import goal_states
 from taskspace.planning.limits import (
@@ -590,14 +594,19 @@ def interpolate(path: Any, resolution: float) -> FloatArray:
     original waypoints are kept. For a space on a joint manifold (continuous joints, planar or
     floating bases) use :meth:`ConfigurationSpace.interpolate_path`, which interpolates on
     the manifold.
+
+    Raises:
+        InvalidInputError: not a finite (m, d) path, a resolution <= 0, or one so small that
+            the path would take more than 2 GiB.
     """
     arr = np.atleast_2d(np.asarray(path, dtype=np.float64))
     if arr.ndim != 2 or arr.shape[0] == 0 or not np.all(np.isfinite(arr)):
         raise InvalidInputError(f"path must be a finite (m, d) array, got shape {arr.shape}")
     step = check_positive(resolution, "resolution")
+    pairs = list(itertools.pairwise(arr))
+    lengths = [float(np.linalg.norm(b - a)) for a, b in pairs]
     out = [arr[:1]]
-    for a, b in itertools.pairwise(arr):
-        k = max(1, math.ceil(float(np.linalg.norm(b - a)) / step - 1e-12))
+    for (a, b), k in zip(pairs, interpolated_counts(lengths, step, arr.shape[1])):
         t = np.arange(1, k + 1)[:, None] / k
         out.append(a + t * (b - a))
     return np.vstack(out)

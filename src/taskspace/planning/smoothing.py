@@ -42,7 +42,11 @@ import numpy as np
 
 from taskspace._validation import as_matrix, check_positive
 from taskspace.errors import InvalidInputError, PlanningError
-from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray
+from taskspace.planning.configuration_space import (
+    ConfigurationSpace,
+    FloatArray,
+    interpolated_counts,
+)
 from taskspace.planning.limits import Budget, planner_limits
 from taskspace.planning.rrt_star import interpolate
 from taskspace.planning.shortcut import _check_input
@@ -125,6 +129,8 @@ def smooth_bspline(
     t0 = time.perf_counter()
     checks0 = space.checks
     _check_input(space, arr, "smooth_bspline")
+    # each pass cuts the path every max_step: refuse one that would not fit in memory
+    interpolated_counts([space.path_length(arr)], step, space.dim, "max_step")
     budget = Budget(passes_cap, limit, time.perf_counter())
     before = space.path_length(arr)
     # Densified pieces are taken unchecked first (the final guard checks the whole path);
