@@ -261,6 +261,10 @@ class Robot:
         self._nv = int(model.nv)
         self._q_shape = (self._nq,)
         self._v_shape = (self._nv,)
+        # the fast finiteness test: x.dot(tiny) is finite exactly when x is (2^-1000 |x_i| <
+        # 2^24, so the sum cannot overflow; x.dot(x) did for |x| > 1e154, with a RuntimeWarning)
+        self._q_tiny = np.full(self._nq, 2.0**-1000)
+        self._v_tiny = np.full(self._nv, 2.0**-1000)
         self._data = model.createData()
         # the robot's own collision data, made at its first use (None: not made since the
         # collision model last changed; a GeometryData costs about 2 us per collision pair)
@@ -1272,7 +1276,7 @@ class Robot:
         """
         if type(q) is np.ndarray and q.dtype is _F64 and q.shape == self._q_shape:
             arr = q.copy()  # fast path for the common case
-            if not math.isfinite(arr.dot(arr)):
+            if not math.isfinite(arr.dot(self._q_tiny)):
                 check_finite(arr, name)
         else:
             arr = as_vector(q, self._nq, name)
@@ -1294,7 +1298,7 @@ class Robot:
         """Validate a tangent vector: shape (nv,), finite. Returns a float64 copy."""
         if type(v) is np.ndarray and v.dtype is _F64 and v.shape == self._v_shape:
             arr = v.copy()
-            if not math.isfinite(arr.dot(arr)):
+            if not math.isfinite(arr.dot(self._v_tiny)):
                 check_finite(arr, name)
             return arr
         arr = as_vector(v, self._nv, name)
