@@ -456,8 +456,10 @@ def certify_path(
         if least <= 0.0:
             return PathCertificate(False, least, 0, 0.0, queries)
     for s in range(arr.shape[0] - 1 if arr.shape[0] > 1 else 1):
-        q0 = arr[s]
-        q1 = arr[s + 1] if arr.shape[0] > 1 else arr[s]
+        # the robot's interpolation (interpolate_configurations): from normalized ends, whose
+        # SO(2) difference Pinocchio gets right
+        q0 = pin.normalize(model, arr[s])
+        q1 = pin.normalize(model, arr[s + 1] if arr.shape[0] > 1 else arr[s])
         delta = pin.difference(model, q0, q1)  # (nv,): joint motions, continuous joints too
         rates = pair_groups @ bound.group_rates(delta)  # [m] per unit t, per pair
         moving = active & (rates > 0.0)
