@@ -494,6 +494,7 @@ def _plan(
             "batches": float(batches),
             "expansions": float(expansions),
             "tree_size": float(tree_ids.size),
+            "goal_states": float(len(set(goal_ids))),
             "stopped_by": budget.stopped_by,
         },
     )

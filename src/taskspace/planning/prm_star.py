@@ -427,6 +427,7 @@ def _plan(
             "roadmap_edges": float(graph.edges()[0].shape[0]),
             "search_rounds": float(rounds),
             "expansion_nodes": float(expansion_nodes),
+            "goal_states": float(len(goal_ids)),
             "stopped_by": budget.stopped_by,
         },
     )
