@@ -53,10 +53,11 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
-from taskspace._validation import as_float_array, check_count, check_finite, check_positive
+from taskspace._validation import check_count, check_finite, check_positive
 from taskspace.errors import InvalidInputError
 from taskspace.model import Robot
 from taskspace.model.collision_requests import without_cached_guess
+from taskspace.planning.configuration_space import as_path
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -378,7 +379,8 @@ def certify_path(
     Args:
         robot: the robot with its collision pairs and obstacles (convex hulls make the
             distance queries fast).
-        path: waypoints ``(m, nq)``.
+        path: waypoints ``(m, nq)`` (a 1-D array as
+            :func:`~taskspace.planning.configuration_space.as_path` reads it).
         tolerance: the least distance [m] still counted as free.
         max_queries: a cap on distance evaluations over the whole path.
         deadline: a ``time.perf_counter()`` value [s]: the clock is read before each
@@ -390,11 +392,7 @@ def certify_path(
             function returning it (see :func:`native_certifier`).
     """
     robot = _robot(robot, "certify_path")
-    arr = as_float_array(path, "path")
-    if arr.ndim != 2 or arr.shape[1] != robot.nq or arr.shape[0] == 0:
-        raise InvalidInputError(f"path must have shape (m, {robot.nq}), got {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise InvalidInputError("path must be finite")
+    arr = as_path(path, robot.nq)
     if isinstance(tolerance, (bool, np.bool_)):
         raise InvalidInputError(f"tolerance must be a distance > 0 [m], got {tolerance!r}")
     check_positive(tolerance, "tolerance")

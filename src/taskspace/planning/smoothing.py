@@ -40,11 +40,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from taskspace._validation import as_matrix, check_positive
+from taskspace._validation import check_positive
 from taskspace.errors import InvalidInputError, PlanningError
 from taskspace.planning.configuration_space import (
     ConfigurationSpace,
     FloatArray,
+    as_path,
     interpolated_counts,
 )
 from taskspace.planning.limits import Budget, planner_limits
@@ -107,7 +108,8 @@ def smooth_bspline(
 
     Args:
         space: configuration space (its local planner checks every new segment).
-        path: waypoints from start to goal, shape (m, d), collision-free.
+        path: waypoints from start to goal, shape (m, d), collision-free (a 1-D array as
+            :func:`~taskspace.planning.configuration_space.as_path` reads it).
         options: settings.
 
     Returns:
@@ -119,9 +121,7 @@ def smooth_bspline(
             offending waypoint or edge).
     """
     opts = options or SmoothingOptions()
-    arr = as_matrix(np.atleast_2d(np.asarray(path, dtype=float)), (None, space.dim), "path")
-    if arr.shape[0] < 1:
-        raise InvalidInputError(f"path must have shape (m, {space.dim}) with m >= 1")
+    arr = as_path(path, space.dim)
     step = check_positive(opts.max_step, "max_step")
     passes_cap, limit = planner_limits(opts.max_iterations, opts.time_limit_s)
     if not 0.0 <= opts.min_change < 1.0:
