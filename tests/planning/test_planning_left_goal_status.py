@@ -127,3 +127,25 @@ def test_a_query_on_a_given_roadmap_says_no_path(region: str) -> None:
         assert not result.success
         assert result.status is PlannerStatus.NO_PATH
         assert result.log["goal_states"] == 0.0
+
+
+class _SamplesOutside:
+    """Contains the disc of radius 0.05 around (0.5, 0.8); its sampler returns (0.5, 0.6),
+    a free configuration outside it (a user's region whose sampler is wrong)."""
+
+    def contains(self, q: np.ndarray) -> bool:
+        return bool(np.linalg.norm(np.asarray(q) - [0.5, 0.8]) < 0.05)
+
+    def sample(self, rng: np.random.Generator) -> np.ndarray:
+        return np.array([0.5, 0.6])
+
+
+@pytest.mark.parametrize("name", PLANNERS)
+def test_a_sample_the_region_does_not_contain_is_never_a_goal(name: str) -> None:
+    """A solved path ends inside the region, checked by hand (rrt_star, bit_star, prm_star and
+    lazy_prm_star returned paths ending at the uncontained sample (0.5, 0.6))."""
+    result = _run(name, _SamplesOutside(), max_iterations=300, time_limit_s=None)
+    if result.success:
+        assert np.linalg.norm(result.path[-1] - [0.5, 0.8]) < 0.05
+    else:
+        assert result.status is PlannerStatus.ITERATION_LIMIT

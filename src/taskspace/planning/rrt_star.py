@@ -38,7 +38,7 @@ from taskspace.planning.configuration_space import (
     interpolated_counts,
 )
 from taskspace.planning.goals import GoalRegion as GoalRegion  # re-exported (moved to goals)
-from taskspace.planning.goals import goal_states
+from taskspace.planning.goals import goal_states, region_samples
 from taskspace.planning.limits import (
     Budget,
     edge_case,
@@ -354,9 +354,9 @@ def _plan(
         target = None
         if not math.isfinite(c_best) and rng.random() < opts.goal_bias:
             if region is not None:
-                sampled = region.sample(rng)
-                if sampled is not None and space.within_bounds(sampled) and space.is_valid(sampled):
-                    goals.append(np.asarray(sampled, dtype=np.float64))
+                sampled = region_samples(space, region, rng, 1)  # valid and contained
+                if sampled:
+                    goals.append(sampled[0])
                     target = goals[-1]
             elif goals:
                 target = goals[int(rng.integers(len(goals)))]
@@ -524,9 +524,9 @@ def _first_goal(
             return -1
         return int(space.distances(np.asarray(goals), q_start).argmin())
     for _ in range(3):
-        sampled = region.sample(rng)
-        if sampled is not None and space.within_bounds(sampled) and space.is_valid(sampled):
-            goals.append(np.asarray(sampled, dtype=np.float64))
+        sampled = region_samples(space, region, rng, 1)  # valid and contained
+        if sampled:
+            goals.append(sampled[0])
             return len(goals) - 1
     return -1
 
