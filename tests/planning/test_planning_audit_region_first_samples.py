@@ -4,8 +4,8 @@ Its docstring promises a region's valid samples "20 drawn first, one more every 
 iterations": when none of the first 20 was valid it returned NO_PATH at once, with 0
 iterations, though RRT, RRT*, BIT* and the PRMs* solve the same problem. It now draws one
 more sample per iteration until one is valid, under the limits; a region it can never sample
-is NO_PATH once the limits are spent, as RRT says. The paths are checked every
-1e-3 against the boxes themselves.
+ends with the limit spent (ITERATION_LIMIT or TIME_LIMIT, as every planner says). The paths
+are checked every 1e-3 against the boxes themselves.
 """
 
 from __future__ import annotations
@@ -51,21 +51,21 @@ def test_a_region_valid_only_after_its_first_samples_is_reached(fails: int) -> N
     assert result.iterations > fails - 20  # the draws after the first 20 count
 
 
-def test_a_region_never_sampled_is_no_path_after_the_iterations() -> None:
+def test_a_region_never_sampled_is_the_iteration_limit() -> None:
     region = _StingyDisc(10**9)
     result = rrt_connect(
         wall_space(), START, region, RRTConnectOptions(max_iterations=50, time_limit_s=None)
     )
-    assert result.status is PlannerStatus.NO_PATH
+    assert result.status is PlannerStatus.ITERATION_LIMIT
     assert result.iterations == 50 and region.calls == 20 + 50
     assert result.path.shape == (0, 2)
 
 
-def test_a_region_never_sampled_is_no_path_after_the_time_limit() -> None:
+def test_a_region_never_sampled_is_the_time_limit() -> None:
     region = _StingyDisc(10**9)
     result = rrt_connect(
         wall_space(), START, region, RRTConnectOptions(max_iterations=None, time_limit_s=0.05)
     )
-    assert result.status is PlannerStatus.NO_PATH
+    assert result.status is PlannerStatus.TIME_LIMIT
     assert result.time_s >= 0.05 and region.calls > 20  # it went on drawing until the limit
     assert result.path.shape == (0, 2)

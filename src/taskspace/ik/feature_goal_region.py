@@ -35,8 +35,11 @@ class FeatureGoalRegion:
     Args:
         feature: a feature whose value is a vector of size ``feature.dim`` (not a pose or
             an orientation: use :class:`~taskspace.ik.PoseGoalRegion` for those).
-        lower, upper: bounds, size ``feature.dim`` (or scalars for every coordinate);
-            ``-inf`` / ``inf`` leave a side open. Units: the feature's [m, rad, ...].
+        lower, upper: bounds, size ``feature.dim`` (or scalars for every coordinate),
+            ``lower < upper``; ``-inf`` / ``inf`` leave a side open. Units: the feature's
+            [m, rad, ...]. An equality (``lower == upper``) is refused: the IK reaches a
+            value only within its tolerance; give a band around it, a goal configuration,
+            or a :class:`~taskspace.ik.PoseGoalRegion` for a frame pose.
         attempts: IK attempts per :meth:`sample` before it gives up (returns ``None``).
         margin: IK targets lie at least this far inside each finite bound (a target on the
             boundary would be missed by the IK's own tolerance) [the feature's units].
@@ -79,6 +82,16 @@ class FeatureGoalRegion:
             raise InvalidInputError(f"bounds must be numbers with lower <= upper: {lo}, {hi}")
         if np.any(np.isposinf(lo)) or np.any(np.isneginf(hi)):
             raise InvalidInputError("lower cannot be +inf and upper cannot be -inf")
+        equal = np.flatnonzero(lo == hi)
+        if equal.size:
+            raise InvalidInputError(
+                f"lower == upper for coordinate(s) {equal.tolist()} (values "
+                f"{lo[equal].tolist()}): a region of zero width, which the IK reaches only "
+                "within its tolerance, so no sample of it would be contained (every planner "
+                "would spend its budget); give a band around the value (e.g. lower = v - 1e-3, "
+                "upper = v + 1e-3), a goal configuration (solve_ik to the value), or "
+                "taskspace.ik.PoseGoalRegion for a frame pose"
+            )
         margin = float(as_vector([margin], 1, "margin")[0])
         if margin < 0:
             raise InvalidInputError(f"margin must be >= 0, got {margin}")

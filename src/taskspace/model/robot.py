@@ -70,6 +70,7 @@ from typing import TYPE_CHECKING, Any
 
 import coal
 import numpy as np
+import numpy.typing as npt
 import pinocchio as pin
 
 from taskspace._validation import FloatArray, as_float_array, as_vector, check_finite
@@ -93,6 +94,7 @@ if TYPE_CHECKING:
 logger = logging.getLogger(__name__)
 
 _F64 = np.dtype(np.float64)
+IntArray = npt.NDArray[np.int64]
 
 QUATERNION_TOLERANCE = 1e-6
 """Largest accepted deviation of a quaternion's (or unit complex's) norm from 1."""
@@ -1391,7 +1393,8 @@ class Robot:
     def interpolate(self, q0: Any, q1: Any, t: float) -> FloatArray:
         """Configuration a fraction ``t`` of the way from ``q0`` to ``q1`` on the manifold.
 
-        ``q(t) = q0 (+) t (q1 (-) q0)`` (``pin.integrate`` of ``t pin.difference``): geodesic
+        ``q(t) = q0 (+) t (q1 (-) q0)`` by :func:`interpolate_configurations`, the
+        interpolation of the robot and of the planners (and their certification): geodesic
         on rotations, the shorter way round on continuous joints (either way between opposite
         angles, where ``pin.interpolate`` stays at ``q0``), straight on the other coordinates.
 
@@ -1404,8 +1407,7 @@ class Robot:
         b = self.check_configuration(q1, "q1")
         if not (isinstance(t, (int, float, np.floating, np.integer)) and math.isfinite(t)):
             raise InvalidInputError(f"t must be a finite number, got {t!r}")
-        model = self._model
-        return np.asarray(pin.integrate(model, a, float(t) * pin.difference(model, a, b)))
+        return interpolate_configurations(self._model, a, b, np.array([float(t)]))[0]
 
     def distance(self, q0: Any, q1: Any) -> float:
         """Length of the tangent vector from ``q0`` to ``q1``: ``||q1 (-) q0||`` [rad and m].
@@ -1605,6 +1607,64 @@ class Robot:
 # ---------------------------------------------------------------------- helpers
 BASES = ("fixed", "planar", "free_flyer")
 """Root joints :meth:`Robot.load` and :meth:`Robot.from_urdf` build (``base=``)."""
+
+
+def continuous_joint_indices(model: pin.Model) -> tuple[IntArray, IntArray]:
+    """``(idx_q, idx_v)`` of every continuous joint (its ``(cos, sin)`` pair and its angle)."""
+    joints = [
+        j
+        for j in model.joints[1:]
+        if j.shortname() in _UNIT_COMPLEX_JOINTS
+        or j.shortname() == "JointModelRevoluteUnboundedUnaligned"
+    ]
+    return (
+        np.array([j.idx_q for j in joints], dtype=np.int64),
+        np.array([j.idx_v for j in joints], dtype=np.int64),
+    )
+
+
+def interpolate_configurations(
+    model: pin.Model,
+    q0: FloatArray,
+    q1: FloatArray,
+    ts: FloatArray,
+    continuous: tuple[IntArray, IntArray] | None = None,
+) -> FloatArray:
+    """``q0 (+) t_k (q1 (-) q0)`` for each fraction ``t_k``: rows of shape (len(ts), nq).
+
+    The one interpolation of configurations in taskspace (:meth:`Robot.interpolate`, the
+    planners' :class:`~taskspace.planning.joint_manifold.JointManifold`, certification):
+    ``pin.integrate(q0, t pin.difference(q0, q1))`` on ``q0`` and ``q1`` normalized first
+    (``pin.normalize``), for every joint type, the angle of each continuous joint taken as
+    ``atan2(q0 x q1, q0 . q1)``. It equals ``pin.interpolate`` (to ~1e-13) except where
+    Pinocchio's SO(2) logarithm is wrong:
+
+    * opposite angles of a continuous joint: ``pin.interpolate`` stays at ``q0`` for every
+      ``t`` while ``pin.difference`` says pi; here the joint turns (the positive way);
+    * a unit complex ``(cos, sin)`` of a continuous or planar joint whose norm is not 1 to
+      rounding (an input within the accepted 1e-6): Pinocchio's logarithm returns 0 (or pi)
+      when ``q0 . q1 > 1`` (or ``< -1``), e.g. angles 1e-4 rad apart at norm ``1 + 1e-7``;
+      normalizing first leaves that rounding only within ~2e-8 rad of 0 and pi, which the
+      ``atan2`` removes for continuous joints (a planar joint keeps Pinocchio's SE(2)
+      logarithm: its yaw is off by at most ~2e-8 rad there).
+
+    Args:
+        model: the Pinocchio model.
+        q0: start configuration (size nq, unit parts normalized to 1e-6).
+        q1: end configuration.
+        ts: fractions (values outside [0, 1] extrapolate along the same geodesic).
+        continuous: :func:`continuous_joint_indices` of ``model`` (found again if omitted).
+    """
+    a = np.asarray(pin.normalize(model, q0))
+    b = np.asarray(pin.normalize(model, q1))
+    delta = np.asarray(pin.difference(model, a, b))
+    c, v = continuous_joint_indices(model) if continuous is None else continuous
+    if c.size:
+        delta[v] = np.arctan2(a[c] * b[c + 1] - a[c + 1] * b[c], a[c] * b[c] + a[c + 1] * b[c + 1])
+    out = np.empty((ts.shape[0], int(model.nq)))
+    for k, t in enumerate(ts.tolist()):
+        out[k] = pin.integrate(model, a, t * delta)
+    return out
 
 
 def _check_base(base: object) -> str | None:

@@ -384,7 +384,9 @@ def _plan(
                 if sampled is not None:
                     q = np.asarray(sampled, dtype=np.float64)
                     if q.shape == (d,) and space.within_bounds(q) and space.is_valid(q):
-                        goal_ids.append(int(S.add(q[None, :], *heuristics(q[None, :]))[0]))
+                        i = int(S.add(q[None, :], *heuristics(q[None, :]))[0])
+                        if region.contains(q):  # else an ordinary sample
+                            goal_ids.append(i)
             n = S.n
             S.old[:n] = S.in_tree[:n]
             tree_ids = np.flatnonzero(S.in_tree[:n])
@@ -494,6 +496,7 @@ def _plan(
             "batches": float(batches),
             "expansions": float(expansions),
             "tree_size": float(tree_ids.size),
+            "goal_states": float(len(set(goal_ids))),
             "stopped_by": budget.stopped_by,
         },
     )

@@ -53,10 +53,11 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
-from taskspace._validation import as_float_array, check_count, check_finite, check_positive
+from taskspace._validation import check_count, check_finite, check_positive
 from taskspace.errors import InvalidInputError
 from taskspace.model import Robot
 from taskspace.model.collision_requests import without_cached_guess
+from taskspace.planning.configuration_space import as_path
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -378,7 +379,8 @@ def certify_path(
     Args:
         robot: the robot with its collision pairs and obstacles (convex hulls make the
             distance queries fast).
-        path: waypoints ``(m, nq)``.
+        path: waypoints ``(m, nq)`` (a 1-D array as
+            :func:`~taskspace.planning.configuration_space.as_path` reads it).
         tolerance: the least distance [m] still counted as free.
         max_queries: a cap on distance evaluations over the whole path.
         deadline: a ``time.perf_counter()`` value [s]: the clock is read before each
@@ -390,11 +392,7 @@ def certify_path(
             function returning it (see :func:`native_certifier`).
     """
     robot = _robot(robot, "certify_path")
-    arr = as_float_array(path, "path")
-    if arr.ndim != 2 or arr.shape[1] != robot.nq or arr.shape[0] == 0:
-        raise InvalidInputError(f"path must have shape (m, {robot.nq}), got {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise InvalidInputError("path must be finite")
+    arr = as_path(path, robot.nq)
     if isinstance(tolerance, (bool, np.bool_)):
         raise InvalidInputError(f"tolerance must be a distance > 0 [m], got {tolerance!r}")
     check_positive(tolerance, "tolerance")
@@ -456,8 +454,10 @@ def certify_path(
         if least <= 0.0:
             return PathCertificate(False, least, 0, 0.0, queries)
     for s in range(arr.shape[0] - 1 if arr.shape[0] > 1 else 1):
-        q0 = arr[s]
-        q1 = arr[s + 1] if arr.shape[0] > 1 else arr[s]
+        # the robot's interpolation (interpolate_configurations): from normalized ends, whose
+        # SO(2) difference Pinocchio gets right
+        q0 = pin.normalize(model, arr[s])
+        q1 = pin.normalize(model, arr[s + 1] if arr.shape[0] > 1 else arr[s])
         delta = pin.difference(model, q0, q1)  # (nv,): joint motions, continuous joints too
         rates = pair_groups @ bound.group_rates(delta)  # [m] per unit t, per pair
         moving = active & (rates > 0.0)

@@ -31,7 +31,7 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
-from taskspace._validation import as_float_array, as_vector, check_positive
+from taskspace._validation import as_float_array, as_vector, check_finite, check_positive
 from taskspace.errors import InvalidInputError, PlanningError, ShapeError
 from taskspace.model.robot import Robot
 from taskspace.model.versioning import ModelFollower
@@ -511,8 +511,14 @@ class ConfigurationSpace:
         return self._manifold.distances(points, q)
 
     def path_length(self, path: FloatArray) -> float:
-        """Length ``sum_i d(q_i, q_{i+1})`` of a waypoint path in the space's metric [rad or m]."""
-        arr = np.atleast_2d(np.asarray(path, dtype=np.float64))
+        """Length ``sum_i d(q_i, q_{i+1})`` of a waypoint path in the space's metric [rad or m].
+
+        ``path``: waypoints (m, dim) (a 1-D array as :func:`as_path` reads it; no waypoint:
+        length 0).
+        """
+        arr = np.asarray(path, dtype=np.float64)
+        if arr.ndim != 2 or arr.shape[1] != self.dim:
+            arr = as_path(arr, self.dim)
         if arr.shape[0] < 2:
             return 0.0
         if self._manifold is None:
@@ -585,14 +591,11 @@ class ConfigurationSpace:
         """The path with points of the local paths inserted every ``resolution`` at most.
 
         Consecutive waypoints of the result are at most ``resolution`` apart in the space's
-        metric, on the manifold (Pinocchio's ``interpolate``) for a joint-manifold space; the
-        original waypoints are kept.
+        metric, on the manifold (:meth:`interpolate`) for a joint-manifold space; the original
+        waypoints are kept. ``path``: waypoints (m, dim), read by :func:`as_path` (a 1-D array
+        is m waypoints of a 1-D space, or one waypoint).
         """
-        arr = np.atleast_2d(np.asarray(path, dtype=np.float64))
-        if arr.ndim != 2 or arr.shape[1] != self.dim or not np.all(np.isfinite(arr)):
-            raise InvalidInputError(
-                f"path must be a finite (m, {self.dim}) array, got shape {arr.shape}"
-            )
+        arr = as_path(path, self.dim)
         step = check_positive(resolution, "resolution")
         pairs = list(itertools.pairwise(arr))
         counts = interpolated_counts([self.distance(a, b) for a, b in pairs], step, self.dim)
@@ -799,9 +802,53 @@ class ConfigurationSpace:
             self.edge = saved
 
 
+def as_path(path: Any, dim: int | None, name: str = "path") -> FloatArray:
+    """Waypoints ``(m, d)``, ``m >= 1``, finite: the one reading of a path by every function.
+
+    A 2-D array holds one waypoint per row. A 1-D array is ambiguous: with ``dim == 1`` its
+    ``n`` values are ``n`` waypoints (shape (n, 1)); with ``dim == n`` it is one waypoint
+    (shape (1, n)); any other 1-D array, and every 1-D array when the dimension is not known
+    (``dim=None``: :func:`~taskspace.planning.interpolate`, :func:`path_length`), is refused.
+
+    Args:
+        path: the waypoints.
+        dim: coordinates per waypoint (the space's ``dim``, the robot's ``nq``), or ``None``.
+        name: the argument's name, for the messages.
+
+    Raises:
+        InvalidInputError: not numbers, not finite, no waypoint, a shape other than
+            ``(m, dim)`` or a 1-D array it cannot read (the message names the shape to give).
+    """
+    arr = as_float_array(path, name)
+    if arr.ndim == 1 and dim is not None and arr.size > 0 and dim in (1, arr.size):
+        arr = arr.reshape(-1, 1) if dim == 1 else arr.reshape(1, -1)
+    d = "d" if dim is None else str(dim)
+    if arr.ndim == 1:
+        n = arr.size
+        raise InvalidInputError(
+            f"{name} must have shape (m, {d}) (one waypoint of {d} coordinates per row), got a "
+            f"1-D array of {n} values, which is ambiguous: give "
+            + (
+                f"[[q_1], ..., [q_{n}]] (np.reshape(path, (-1, 1))) for {n} waypoints of a 1-D "
+                f"space or [[q_1, ..., q_{n}]] for one waypoint of {n} coordinates"
+                if dim is None
+                else f"an (m, {dim}) array"
+            )
+        )
+    if arr.ndim != 2 or arr.shape[0] == 0 or (dim is not None and arr.shape[1] != dim):
+        raise InvalidInputError(
+            f"{name} must have shape (m, {d}) with m >= 1 (one waypoint per row), got shape "
+            f"{arr.shape}"
+        )
+    check_finite(arr, name)
+    return arr
+
+
 def path_length(path: FloatArray) -> float:
-    """Euclidean length ``sum_i |q_{i+1} - q_i|`` of a waypoint path [rad or m]."""
-    arr = np.atleast_2d(np.asarray(path, dtype=float))
+    """Euclidean length ``sum_i |q_{i+1} - q_i|`` of a waypoint path (m, d) [rad or m]."""
+    arr = np.asarray(path, dtype=float)
+    if arr.ndim != 2:
+        arr = as_path(arr, None)
     if arr.shape[0] < 2:
         return 0.0
     return float(np.linalg.norm(np.diff(arr, axis=0), axis=1).sum())

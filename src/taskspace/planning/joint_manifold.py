@@ -12,17 +12,19 @@ uses Pinocchio's own operations:
 * metric ``d(q0, q1) = |W (q1 (-) q0)|`` with per-velocity-coordinate weights ``W = diag(w)``
   (e.g. metres against radians of a floating base); it is symmetric because
   ``log(g^-1) = -log(g)``;
-* interpolation ``q(t) = q0 (+) t (q1 (-) q0)`` (``pinocchio.interpolate``), the geodesic of
-  each joint's group (a screw motion for a floating base), whose length in the metric is
-  ``t d(q0, q1)``;
+* interpolation ``q(t) = q0 (+) t (q1 (-) q0)`` (``pinocchio.integrate`` of ``t
+  pinocchio.difference``, :func:`~taskspace.model.robot.interpolate_configurations`), the
+  geodesic of each joint's group (a screw motion for a floating base), whose length in the
+  metric is ``t d(q0, q1)``;
 * uniform sampling: bounded coordinates uniform within their limits, angles of continuous and
   planar joints uniform on the circle, rotations uniform on SO(3) (a normalized Gaussian
   quaternion), the translation of a planar or floating base uniform in a box given by the user.
 
 :meth:`JointManifold.difference` is vectorized over rows in NumPy (closed-form logarithms of
-SO(2), SE(2), SO(3) and SE(3)) and agrees with ``pinocchio.difference``; interpolation calls
-``pinocchio.interpolate``, except for continuous joints: their angle is turned in closed form
-(Pinocchio's SO(2) interpolation stays at ``q0`` between opposite angles).
+SO(2), SE(2), SO(3) and SE(3)) and agrees with ``pinocchio.difference``; interpolation is
+the robot's own (:meth:`~taskspace.model.Robot.interpolate`), which equals
+``pinocchio.interpolate`` except where Pinocchio's is wrong (opposite angles of a continuous
+joint, unit complexes not normalized to rounding).
 
 Thread safety: a :class:`JointManifold` only reads its limits, which it derives again (in the
 calling thread) after :meth:`~taskspace.model.Robot.set_limits`; threads may share one, each
@@ -41,7 +43,7 @@ import pinocchio as pin
 
 from taskspace._validation import as_vector
 from taskspace.errors import InvalidInputError, StaleModelError
-from taskspace.model.robot import Robot
+from taskspace.model.robot import Robot, interpolate_configurations
 from taskspace.model.versioning import ModelFollower
 
 FloatArray = npt.NDArray[np.float64]
@@ -345,26 +347,16 @@ class JointManifold:
         return np.sqrt(np.einsum("ij,ij->i", diff, diff))
 
     def interpolate(self, q0: FloatArray, q1: FloatArray, t: Any) -> FloatArray:
-        """``q0 (+) t_k (q1 (-) q0)`` for each ``t_k`` (``pinocchio.interpolate``), (len(t), nq)."""
+        """``q0 (+) t_k (q1 (-) q0)`` for each ``t_k``, shape (len(t), nq).
+
+        :func:`~taskspace.model.robot.interpolate_configurations`, as
+        :meth:`Robot.interpolate <taskspace.model.Robot.interpolate>` (``q0 + t (q1 - q0)``,
+        the same arithmetic, when every joint is a vector joint).
+        """
         ts = np.atleast_1d(np.asarray(t, dtype=np.float64))
         if self.is_euclidean:
             return np.asarray(q0 + ts[:, None] * (q1 - q0), dtype=np.float64)
-        model = self._model
-        out = np.empty((ts.size, self.nq))
-        for k, tk in enumerate(ts.tolist()):
-            out[k] = pin.interpolate(model, q0, q1, tk)
-        if self._circ_q.size:
-            # Continuous joints in closed form, q0's angle + t (q1 (-) q0): pinocchio's SO(2)
-            # interpolate returns q0 for every t when the angles are within ~1e-6 of opposite
-            # (its difference is then pi), an edge of length pi that never moves
-            c = self._circ_q
-            c0, s0 = q0[c], q0[c + 1]
-            turn = ts[:, None] * _angle(c0, s0, q1[c], q1[c + 1])[None, :]
-            norm = np.hypot(c0, s0)
-            cos, sin = np.cos(turn), np.sin(turn)
-            out[:, c] = (c0 * cos - s0 * sin) / norm
-            out[:, c + 1] = (s0 * cos + c0 * sin) / norm
-        return out
+        return interpolate_configurations(self._model, q0, q1, ts, (self._circ_q, self._circ_v))
 
     def sample(self, rng: np.random.Generator, n: int) -> FloatArray:
         """``n`` uniform samples (see the module docstring), shape (n, nq)."""

@@ -51,6 +51,7 @@ import pinocchio as pin
 
 from taskspace._validation import as_vector, check_positive
 from taskspace.errors import InvalidInputError
+from taskspace.model.robot import interpolate_configurations
 from taskspace.planning.configuration_space import FloatArray
 
 
@@ -396,16 +397,16 @@ class MechanicalWork(OptimizationObjective):
     def _manifold_costs(self, a: FloatArray, b: FloatArray) -> FloatArray:
         """The work along the model's geodesics (Pinocchio's interpolate and difference)."""
         model = self.model
+        a = np.array([pin.normalize(model, x) for x in a])  # Pinocchio's SO(2) difference is
+        b = np.array([pin.normalize(model, y) for y in b])  # right on normalized inputs only
         lengths = np.array(
             [float(np.linalg.norm(pin.difference(model, x, y))) for x, y in zip(a, b)]
         )
         out = np.empty(a.shape[0])
         for i, n in enumerate(self._counts(lengths).tolist()):
-            # a (+) t (b (-) a) by integrate: pinocchio.interpolate stays at a on a continuous
-            # joint whose angles at a and b are opposite (its difference is then pi)
-            v = pin.difference(model, a[i], b[i])
-            ends = [pin.integrate(model, a[i], (k / n) * v) for k in range(n + 1)]
-            mids = [pin.integrate(model, a[i], ((k + 0.5) / n) * v) for k in range(n)]
+            # the robot's interpolation a (+) t (b (-) a) (interpolate_configurations)
+            ends = interpolate_configurations(model, a[i], b[i], np.arange(n + 1) / n)
+            mids = interpolate_configurations(model, a[i], b[i], (np.arange(n) + 0.5) / n)
             steps = np.array([pin.difference(model, ends[k], ends[k + 1]) for k in range(n)])
             tau = self.torques(np.asarray(mids))
             out[i] = float(np.abs(np.einsum("ij,ij->i", tau, steps)).sum())

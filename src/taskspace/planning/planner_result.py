@@ -22,11 +22,15 @@ class PlannerStatus(enum.Enum):
     SOLVED = "solved"
     """A collision-free path from start to goal was found."""
     TIME_LIMIT = "time_limit"
-    """The wall-clock budget ran out before a path was found."""
+    """The wall-clock budget ran out before a path was found (also when a goal region gave
+    no valid sample: ``log["goal_states"] == 0``; more time may find one)."""
     ITERATION_LIMIT = "iteration_limit"
-    """The iteration (sample) budget ran out before a path was found."""
+    """The iteration (sample) budget ran out before a path was found (also when a goal
+    region gave no valid sample: ``log["goal_states"] == 0``)."""
     NO_PATH = "no_path"
-    """The roadmap does not connect start and goal (PRM, Lazy PRM)."""
+    """A query on a given roadmap (:func:`~taskspace.planning.prm_query`,
+    :func:`~taskspace.planning.lazy_prm_query`): the roadmap does not connect start and goal
+    (nor reaches a goal region's valid samples)."""
     UNCERTIFIED = "uncertified"
     """Paths were found but none could be certified free between its checked points
     (``certify=True``); ``path`` holds the last one and ``log`` the failing segment."""

@@ -401,7 +401,8 @@ def _plan(
                 q = np.asarray(sampled, dtype=np.float64)
                 if q.shape == (d,) and space.within_bounds(q) and space.is_valid(q):
                     new = np.append(new, graph.add_nodes(q[None, :]))
-                    goal_ids.append(int(new[-1]))
+            # goals: the new nodes inside the region (a sample the region does not contain
+            # stays an ordinary node)
             goal_ids += [int(i) for i in new if region.contains(graph.nodes[i])]
             goal_ids = sorted(set(goal_ids))
     success = bool(best_ids)
@@ -427,6 +428,7 @@ def _plan(
             "roadmap_edges": float(graph.edges()[0].shape[0]),
             "search_rounds": float(rounds),
             "expansion_nodes": float(expansion_nodes),
+            "goal_states": float(len(goal_ids)),
             "stopped_by": budget.stopped_by,
         },
     )

@@ -218,8 +218,6 @@ def _plan(
             path = tree.freeze().path_to(i_goal)
             status = PlannerStatus.SOLVED
             break
-    if goal is not None and not goals and status is not PlannerStatus.SOLVED:
-        status = PlannerStatus.NO_PATH  # a region none of whose samples was valid
     dt = time.perf_counter() - t0
     success = status is PlannerStatus.SOLVED
     logger.debug("rrt %s in %.3f s, %d nodes", status.value, dt, len(tree.nn))

@@ -1055,8 +1055,8 @@ def _plan(
     if region is not None and region.contains(q_start):
         path = q_start[None, :].copy()
         status = PlannerStatus.SOLVED
-    elif not goals:  # a region none of whose samples was valid within the limits (as rrt)
-        status = PlannerStatus.NO_PATH
+    elif not goals:  # a region none of whose samples was valid within the limits
+        status = PlannerStatus.TIME_LIMIT if budget.stopped_by == "time" else status
         iterations = searched
     elif direct >= 0:
         path = np.stack([q_start, goals[direct]])

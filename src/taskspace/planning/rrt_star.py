@@ -34,10 +34,11 @@ from taskspace.planning.certify import FailedRegions, plan_certified
 from taskspace.planning.configuration_space import (
     ConfigurationSpace,
     FloatArray,
+    as_path,
     interpolated_counts,
 )
 from taskspace.planning.goals import GoalRegion as GoalRegion  # re-exported (moved to goals)
-from taskspace.planning.goals import goal_states
+from taskspace.planning.goals import goal_states, region_samples
 from taskspace.planning.limits import (
     Budget,
     edge_case,
@@ -353,9 +354,9 @@ def _plan(
         target = None
         if not math.isfinite(c_best) and rng.random() < opts.goal_bias:
             if region is not None:
-                sampled = region.sample(rng)
-                if sampled is not None and space.within_bounds(sampled) and space.is_valid(sampled):
-                    goals.append(np.asarray(sampled, dtype=np.float64))
+                sampled = region_samples(space, region, rng, 1)  # valid and contained
+                if sampled:
+                    goals.append(sampled[0])
                     target = goals[-1]
             elif goals:
                 target = goals[int(rng.integers(len(goals)))]
@@ -523,9 +524,9 @@ def _first_goal(
             return -1
         return int(space.distances(np.asarray(goals), q_start).argmin())
     for _ in range(3):
-        sampled = region.sample(rng)
-        if sampled is not None and space.within_bounds(sampled) and space.is_valid(sampled):
-            goals.append(np.asarray(sampled, dtype=np.float64))
+        sampled = region_samples(space, region, rng, 1)  # valid and contained
+        if sampled:
+            goals.append(sampled[0])
             return len(goals) - 1
     return -1
 
@@ -595,13 +596,18 @@ def interpolate(path: Any, resolution: float) -> FloatArray:
     floating bases) use :meth:`ConfigurationSpace.interpolate_path`, which interpolates on
     the manifold.
 
+    Args:
+        path: waypoints, shape (m, d), one per row. A 1-D array is refused (three values may
+            be three waypoints of a 1-D space or one waypoint): give ``[[0], [1], [2]]`` or
+            ``[[0, 1, 2]]``, or use :meth:`ConfigurationSpace.interpolate_path`, which knows
+            the dimension.
+        resolution: the largest distance between consecutive waypoints [rad or m].
+
     Raises:
-        InvalidInputError: not a finite (m, d) path, a resolution <= 0, or one so small that
-            the path would take more than 2 GiB.
+        InvalidInputError: not a finite (m, d) path (a 1-D one), a resolution <= 0, or one so
+            small that the path would take more than 2 GiB.
     """
-    arr = np.atleast_2d(np.asarray(path, dtype=np.float64))
-    if arr.ndim != 2 or arr.shape[0] == 0 or not np.all(np.isfinite(arr)):
-        raise InvalidInputError(f"path must be a finite (m, d) array, got shape {arr.shape}")
+    arr = as_path(path, None)
     step = check_positive(resolution, "resolution")
     pairs = list(itertools.pairwise(arr))
     lengths = [float(np.linalg.norm(b - a)) for a, b in pairs]

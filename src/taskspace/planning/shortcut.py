@@ -33,9 +33,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from taskspace._validation import as_matrix, check_count, check_seed, check_time_limit
-from taskspace.errors import InvalidInputError, PlanningError
-from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray
+from taskspace._validation import check_count, check_seed, check_time_limit
+from taskspace.errors import PlanningError
+from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray, as_path
 from taskspace.planning.limits import Budget
 
 
@@ -149,7 +149,8 @@ def shortcut_path(
 
     Args:
         space: configuration space (its local planner checks the segments).
-        path: waypoints from start to goal, shape (m, d), collision-free.
+        path: waypoints from start to goal, shape (m, d), collision-free (a 1-D array as
+            :func:`~taskspace.planning.configuration_space.as_path` reads it).
         options: settings.
         rng: random generator (default: ``np.random.default_rng(options.seed)``).
 
@@ -163,12 +164,7 @@ def shortcut_path(
             offending waypoint or edge).
     """
     opts = options or ShortcutOptions()
-    arr = as_matrix(np.atleast_2d(np.asarray(path, dtype=float)), (None, space.dim), "path")
-    arr = arr.copy()
-    if arr.shape[0] < 1:
-        raise InvalidInputError(
-            f"path must have shape (m, {space.dim}) with m >= 1, got {arr.shape}"
-        )
+    arr = as_path(path, space.dim).copy()
     max_iterations = check_count(opts.max_iterations, "max_iterations")
     time_limit = check_time_limit(opts.time_limit_s)
     rng = rng if rng is not None else np.random.default_rng(check_seed(opts.seed))

@@ -14,6 +14,12 @@ checks its edges; ``q_i'`` lies in the triangle ``q_{i-1} q_i q_{i+1}``, so the 
 gets longer. The input is checked first and a colliding input is refused, and the whole result
 is checked again before it is returned.
 
+Certification: those checks are at the space's resolution (as a planner's edges without
+``certify``), so a cut corner may graze an obstacle between checked points. For a path
+proven free between its points, certify the smoothed path
+(:func:`~taskspace.planning.certify.certify_path`) and keep the planner's certified path when
+the proof fails: the example of :func:`smooth_bspline`.
+
 Time limit: the passes read the clock before every checker call
 (:meth:`~taskspace.planning.limits.Budget.motion_valid`), so they stop one batch of an edge's
 points past the limit at most; a move whose segments were not both checked is dropped. The
@@ -40,11 +46,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from taskspace._validation import as_matrix, check_positive
+from taskspace._validation import check_positive
 from taskspace.errors import InvalidInputError, PlanningError
 from taskspace.planning.configuration_space import (
     ConfigurationSpace,
     FloatArray,
+    as_path,
     interpolated_counts,
 )
 from taskspace.planning.limits import Budget, planner_limits
@@ -107,7 +114,8 @@ def smooth_bspline(
 
     Args:
         space: configuration space (its local planner checks every new segment).
-        path: waypoints from start to goal, shape (m, d), collision-free.
+        path: waypoints from start to goal, shape (m, d), collision-free (a 1-D array as
+            :func:`~taskspace.planning.configuration_space.as_path` reads it).
         options: settings.
 
     Returns:
@@ -117,11 +125,24 @@ def smooth_bspline(
         InvalidInputError: ``path`` is not a finite (m, d) array, bad options.
         PlanningError: ``path`` leaves the bounds or collides (the message names the first
             offending waypoint or edge).
+
+    Example:
+        A smooth path proven free between its points (the smoothing checks its segments at
+        the space's resolution only): certify the smoothed path and keep the planner's
+        certified path when the proof fails::
+
+            result = rrt_connect(space, start, goal, RRTConnectOptions(certify=True))
+            smooth = smooth_bspline(space, result.path).path
+            if certify_path(robot, smooth).certified:
+                path = smooth
+            else:  # a cut corner closer to an obstacle than the tolerance
+                path = result.path  # certified by the planner
+
+        With ``locked_joints``, certify the robot's configurations:
+        ``certify_path(robot, space.locked.lift(smooth))``.
     """
     opts = options or SmoothingOptions()
-    arr = as_matrix(np.atleast_2d(np.asarray(path, dtype=float)), (None, space.dim), "path")
-    if arr.shape[0] < 1:
-        raise InvalidInputError(f"path must have shape (m, {space.dim}) with m >= 1")
+    arr = as_path(path, space.dim)
     step = check_positive(opts.max_step, "max_step")
     passes_cap, limit = planner_limits(opts.max_iterations, opts.time_limit_s)
     if not 0.0 <= opts.min_change < 1.0:
