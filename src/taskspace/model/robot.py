@@ -1424,10 +1424,18 @@ class Robot:
         return np.asarray(pin.integrate(self._model, qa, va * dt))
 
     def difference(self, q0: Any, q1: Any) -> FloatArray:
-        """Tangent vector ``v`` such that ``integrate(q0, v) = q1``."""
+        """Tangent vector ``v`` such that ``integrate(q0, v) = q1``.
+
+        :func:`configuration_difference`: ``pin.difference`` on the normalized
+        configurations, with each continuous joint's angle by ``atan2`` (Pinocchio's gives 0
+        for nearby angles whose unit complex is off unit norm by rounding-size amounts, e.g.
+        1e-7).
+        """
         a = self.check_configuration(q0, "q0")
         b = self.check_configuration(q1, "q1")
-        return np.asarray(pin.difference(self._model, a, b))
+        if not self._normalized_blocks:  # vector joints only: q1 - q0, Pinocchio's arithmetic
+            return np.asarray(pin.difference(self._model, a, b))
+        return configuration_difference(self._model, a, b)
 
     def state(self, q: Any = None, v: Any = None) -> State:
         """A :class:`~taskspace.model.state.State` at ``q`` (default posture if omitted)."""
@@ -1655,16 +1663,49 @@ def interpolate_configurations(
         ts: fractions (values outside [0, 1] extrapolate along the same geodesic).
         continuous: :func:`continuous_joint_indices` of ``model`` (found again if omitted).
     """
+    a, delta = _normalized_difference(model, q0, q1, continuous)
+    out = np.empty((ts.shape[0], int(model.nq)))
+    for k, t in enumerate(ts.tolist()):
+        out[k] = pin.integrate(model, a, t * delta)
+    return out
+
+
+def configuration_difference(
+    model: pin.Model,
+    q0: FloatArray,
+    q1: FloatArray,
+    continuous: tuple[IntArray, IntArray] | None = None,
+) -> FloatArray:
+    """``q1 (-) q0``: ``pin.difference`` on ``q0`` and ``q1`` normalized first, size nv.
+
+    The difference of :func:`interpolate_configurations` (so ``interpolate(q0, q1, 1)`` is
+    ``q0 (+) difference``), with each continuous joint's angle taken as ``atan2(q0 x q1, q0 .
+    q1)``: Pinocchio's SO(2) logarithm returns 0 (or pi) for unit complexes within the accepted
+    1e-6 of unit norm whose dot product rounds past 1 (or -1), e.g. angles 1e-4 rad apart at
+    norm ``1 + 1e-7``.
+
+    Args:
+        model: the Pinocchio model.
+        q0, q1: configurations (size nq, unit parts normalized to 1e-6).
+        continuous: :func:`continuous_joint_indices` of ``model`` (found again if omitted).
+    """
+    return _normalized_difference(model, q0, q1, continuous)[1]
+
+
+def _normalized_difference(
+    model: pin.Model,
+    q0: FloatArray,
+    q1: FloatArray,
+    continuous: tuple[IntArray, IntArray] | None,
+) -> tuple[FloatArray, FloatArray]:
+    """``(normalize(q0), configuration_difference(q0, q1))``."""
     a = np.asarray(pin.normalize(model, q0))
     b = np.asarray(pin.normalize(model, q1))
     delta = np.asarray(pin.difference(model, a, b))
     c, v = continuous_joint_indices(model) if continuous is None else continuous
     if c.size:
         delta[v] = np.arctan2(a[c] * b[c + 1] - a[c + 1] * b[c], a[c] * b[c] + a[c + 1] * b[c + 1])
-    out = np.empty((ts.shape[0], int(model.nq)))
-    for k, t in enumerate(ts.tolist()):
-        out[k] = pin.integrate(model, a, t * delta)
-    return out
+    return a, delta
 
 
 def _check_base(base: object) -> str | None:

@@ -40,6 +40,7 @@ from taskspace._validation import (
     check_positive,
 )
 from taskspace.errors import InvalidInputError, TaskspaceError, UnknownNameError
+from taskspace.model.robot import interpolate_configurations
 from taskspace.model.world import World, as_se3
 from taskspace.viz.meshcat_geometry import (
     geometry_aabb,
@@ -742,10 +743,9 @@ class Viewer:
             i = min(math.floor(s), qs.shape[0] - 2) if qs.shape[0] > 1 else 0
             alpha = s - i
             if qs.shape[0] > 1:
-                # q_i (+) alpha (q_i+1 (-) q_i): pin.interpolate stays at q_i on a continuous
-                # joint between opposite angles
-                model = robot._model
-                q = pin.integrate(model, qs[i], alpha * pin.difference(model, qs[i], qs[i + 1]))
+                # q_i (+) alpha (q_i+1 (-) q_i), the robot's interpolation (pin.interpolate
+                # stays at q_i on a continuous joint between opposite angles)
+                q = interpolate_configurations(robot._model, qs[i], qs[i + 1], np.array([alpha]))[0]
             else:
                 q = qs[0]
             with animation.at_frame(self.vis, frame) as anim_frame:
