@@ -694,6 +694,7 @@ class InverseDynamicsQP:
             self._in_blocks,
             [RowBlock("joint limits", 0, nv)],
             stacked=(self._G, self._lo, self._hi),
+            convex=True,  # the regularization plus the tasks' J^T W J (weights >= 0)
         )
         iq, iv = robot.limited_joints_q, robot.limited_joints_v
         self._limit_iq, self._limit_iv = _as_index(iq), _as_index(iv)

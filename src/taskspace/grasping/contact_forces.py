@@ -132,6 +132,7 @@ def balance_forces(
         u=hi,
         lb=np.zeros(k),
         ub=np.full(k, INF),
+        convex=True,  # F^T F + regularization I
     )
     result = (solver or QPSolver(QPSolverOptions())).solve(problem)
     if not result.success:

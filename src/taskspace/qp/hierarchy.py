@@ -622,6 +622,7 @@ class HierarchySolver:
                     box_ub,
                     in_blocks=blocks,
                     box_blocks=[RowBlock("bounds", 0, r_dim)],
+                    convex=True,  # the level's J^T W J in the nullspace basis, damped
                 )
                 result = self._solve_level(k, problem)
                 held_once = True

@@ -123,7 +123,8 @@ def kkt_residuals(
     pushes_up = w > 0.0
     # slack of the bound each multiplier pushes against, times the multiplier
     comp = float(np.minimum(np.abs(w), np.abs(np.where(pushes_up, above, below))).max(initial=0.0))
-    gap += float(np.where(pushes_up, hi, lo).dot(w))
+    # the bound each multiplier pushes against (a zero multiplier none: inf * 0 would be NaN)
+    gap += float(np.where(pushes_up, hi, np.where(w < 0.0, lo, 0.0)).dot(w))
     stationarity = Hx + p.g
     stationarity += force
     return KKTResiduals(
@@ -199,7 +200,7 @@ def stacked_kkt_residuals(
     below = lo - values
     pushes_up = w > 0.0
     comp = np.minimum(np.abs(w), np.abs(np.where(pushes_up, above, below)))
-    gap = xHx + gx + float(np.where(pushes_up, hi, lo).dot(w))
+    gap = xHx + gx + float(np.where(pushes_up, hi, np.where(w < 0.0, lo, 0.0)).dot(w))
     return KKTResiduals(
         primal=max(0.0, float(_max(above)), float(_max(below))),
         dual=float(_max(np.abs(stationarity))),

@@ -47,6 +47,11 @@ class QPProblem:
             equality rows with ``lo = hi = b``, unit rows for the finite box bounds), kept
             consistent with the other arrays by the builder (e.g. ``C`` and ``A`` as views
             into ``G``): :meth:`is_feasible` is then one product and two reductions.
+        convex: ``H`` is symmetric positive semi-definite by construction (``J^T W J`` with
+            ``W >= 0``, plus a damping): set by taskspace's own builders, for which the solver
+            skips :func:`~taskspace.qp.solver.check_convex` (one Cholesky factorization, 7-20
+            us). Left ``False`` (the default), the solver checks ``H`` and refuses a
+            non-convex QP, which no backend solves (they return a saddle or a maximum).
     """
 
     H: FloatArray
@@ -62,6 +67,7 @@ class QPProblem:
     in_blocks: list[RowBlock] = field(default_factory=list)
     box_blocks: list[RowBlock] = field(default_factory=list)
     stacked: tuple[FloatArray, FloatArray, FloatArray] | None = None
+    convex: bool = False
 
     @staticmethod
     def unconstrained(H: FloatArray, g: FloatArray) -> QPProblem:

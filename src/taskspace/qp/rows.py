@@ -478,7 +478,10 @@ class WeightedQPBuilder:
             (C, l, u), in_blocks = self.inequalities.fill(state, dt)
         else:
             C, l, u, in_blocks = self._empty_rows, self._empty, self._empty, []
-        return QPProblem(H, g, A, b, C, l, u, lb, ub, self._eq_blocks, in_blocks, box_blocks)
+        # H: sums of J^T W J (weights >= 0) and the damping: convex by construction
+        return QPProblem(
+            H, g, A, b, C, l, u, lb, ub, self._eq_blocks, in_blocks, box_blocks, convex=True
+        )
 
 
 __all__ = [

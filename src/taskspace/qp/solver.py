@@ -45,7 +45,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from scipy.linalg.lapack import dgesv, dposv
+from scipy.linalg.lapack import dgesv, dposv, dpotrf
 
 from taskspace._validation import FloatArray
 from taskspace.errors import InvalidInputError, NotFiniteError, SolverError, UnknownNameError
@@ -912,9 +912,12 @@ class KKTWorkspace:
         """
         try:
             if not p.A.shape[0]:
-                # Cholesky solve through LAPACK directly (np.linalg.solve costs 4x more on 7x7)
+                # Cholesky solve through LAPACK directly (np.linalg.solve costs 4x more on 7x7);
+                # it succeeds only for a positive definite H (also the convexity check)
                 _, x, info = dposv(p.H, -p.g)
                 return (x, np.zeros(0)) if info == 0 else None
+            if not p.convex:  # the KKT system's solution is a minimizer only for a convex QP
+                check_convex(p.H)
             n, m = p.n, p.n_eq
             if self._shape != (n, m):
                 self._shape = (n, m)
@@ -975,7 +978,8 @@ def _relaxed_problem(p: QPProblem, weight: float) -> QPProblem:
     u[r0 + k :] = p.ub[box_rows]
     lb = np.concatenate([np.full(n + m_eq, -INF), np.zeros(m_in + k)])
     ub = np.full(N, INF)
-    return QPProblem(H, g, A, np.asarray(p.b, dtype=float), C, l, u, lb, ub)
+    # diag(H, I): convex (p's H was checked, or is convex by construction, before relaxing)
+    return QPProblem(H, g, A, np.asarray(p.b, dtype=float), C, l, u, lb, ub, convex=True)
 
 
 _DOT_SIZE = 10_000
@@ -1013,6 +1017,64 @@ def check_problem_data(problem: QPProblem) -> None:
         bounds = (p.l, p.u, p.lb, p.ub)
     if not (_magnitudes_ok(data) and _bounds_ok(bounds)):
         _refuse(p)
+    lower, upper = bounds[0::2], bounds[1::2]  # (l, lb) or (lo,), (u, ub) or (hi,)
+    for name, arr in zip(("l", "lb"), lower):
+        if arr.size and not _max(arr) < INF:
+            rows = np.flatnonzero(arr >= INF)[:20].tolist()
+            raise InvalidInputError(
+                f"QP {name if p.stacked is None else 'lower bound'} entries {rows} are +inf: a "
+                "lower bound of +inf can never hold (the QP is infeasible); use -inf for no bound"
+            )
+    for name, arr in zip(("u", "ub"), upper):
+        if arr.size and not -_max(-arr) > -INF:
+            rows = np.flatnonzero(arr <= -INF)[:20].tolist()
+            raise InvalidInputError(
+                f"QP {name if p.stacked is None else 'upper bound'} entries {rows} are -inf: an "
+                "upper bound of -inf can never hold (the QP is infeasible); use +inf for no bound"
+            )
+    if not p.convex:
+        check_convex(p.H)
+
+
+CONVEXITY_TOLERANCE = 1e-9
+"""Relative tolerance of :func:`check_convex` (of the Hessian's largest diagonal entry)."""
+
+
+def check_convex(H: FloatArray) -> None:
+    """Refuse a Hessian that is not symmetric positive semi-definite (the QP is not convex).
+
+    Every backend solves convex QPs only: on an indefinite ``H`` they return a point where the
+    first-order (KKT) conditions hold, a saddle or a maximum, e.g. ``x = 0`` for ``H = -I`` in
+    a box, whose minimizers are the box's corners. With ``s`` the largest diagonal entry of
+    ``H`` (its largest entry in absolute value, for a PSD matrix on the diagonal):
+    ``|H - H^T| <= tol s`` entrywise and ``H + tol s I`` has a Cholesky factor
+    (``tol`` = :data:`CONVEXITY_TOLERANCE`; eigenvalues down to ``-tol s``, rounding of a
+    built ``J^T W J``, pass). One Cholesky factorization.
+
+    Raises:
+        InvalidInputError: ``H`` not symmetric, or with a negative eigenvalue beyond the
+            tolerance (the message gives the smallest eigenvalue).
+    """
+    n = H.shape[0]
+    if n == 0:
+        return
+    scale = float(_max(np.abs(H).ravel()))  # of a PSD matrix: its largest diagonal entry
+    tol = CONVEXITY_TOLERANCE * scale if scale > 0.0 else 1.0
+    asym = float(_max(np.abs(H - H.T).ravel()))
+    if not asym <= tol:
+        raise InvalidInputError(
+            f"QP H must be symmetric: |H - H^T| reaches {asym:.3g} (largest entry "
+            f"{scale:.3g}); pass (H + H.T) / 2 if the quadratic form x^T H x is what is meant"
+        )
+    shifted = H + tol * np.eye(n)
+    _, info = dpotrf(shifted, lower=0, overwrite_a=1, clean=0)
+    if info != 0:
+        least = float(np.linalg.eigvalsh(0.5 * (H + H.T))[0])
+        raise InvalidInputError(
+            f"QP H must be positive semi-definite (a convex QP), but its smallest eigenvalue "
+            f"is {least:.6g} (largest entry {scale:.6g}): the solvers would return a "
+            "stationary point (a saddle or a maximum), not a minimizer"
+        )
 
 
 def _magnitudes_ok(arrays: tuple[FloatArray, ...]) -> bool:
@@ -1094,6 +1156,7 @@ def validate_problem(problem: QPProblem) -> None:
 
 __all__ = [
     "BACKENDS",
+    "CONVEXITY_TOLERANCE",
     "MAX_QP_MAGNITUDE",
     "KKTWorkspace",
     "QPSolver",
@@ -1102,6 +1165,7 @@ __all__ = [
     "SolverError",
     "available_backends",
     "check_backend",
+    "check_convex",
     "check_problem_data",
     "unconstrained_minimizer",
     "validate_problem",
