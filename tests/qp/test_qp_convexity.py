@@ -121,3 +121,11 @@ def test_gap_finite_without_warning_for_infinite_bounds(backend: str) -> None:
     assert result.status is QPStatus.SOLVED
     np.testing.assert_allclose(result.x, [1.0, -0.3], atol=1e-7)
     assert result.kkt.duality_gap < 1e-6  # was NaN (inf * 0)
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_solve_relaxed_checks_too(backend: str) -> None:
+    """solve_relaxed is public: its relaxation diag(H, I) is convex only if H is."""
+    p = _qp(-np.eye(2), [0.0, 0.0], lb=[1, 1], ub=[0, 0])
+    with pytest.raises(InvalidInputError, match=r"positive semi-definite"):
+        _solver(backend).solve_relaxed(p)

@@ -446,7 +446,11 @@ class QPSolver:
         residuals of the original problem meet the tolerances, the result is ``SOLVED``;
         when they vanish but the residuals do not (the penalty leaves violations of order
         ``|z| / w``), it is ``INACCURATE``.
+
+        Raises:
+            InvalidInputError: ``problem``'s data, as :meth:`solve` refuses them.
         """
+        check_problem_data(problem)  # also H convex: the relaxation is marked convex
         relaxed, n = _relaxed_problem(problem, self.options.relaxation_weight), problem.n
         solver = QPSolver(
             QPSolverOptions(
