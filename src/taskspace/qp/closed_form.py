@@ -10,15 +10,57 @@
   limit ``rho_1 >> rho_2 >> ...`` (recursive nullspace projection).
 
 These are dense, direct and meant for checking the QP solvers, teaching and small problems.
+Every input is checked (shapes, finite values, metrics symmetric positive (semi-)definite); a
+singular system is an :class:`~taskspace.errors.InvalidInputError` saying which matrix.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
-from taskspace._validation import FloatArray
+from taskspace._validation import FloatArray, as_matrix, as_vector, check_positive
+from taskspace.errors import InvalidInputError
+
+_SYMMETRY_TOLERANCE = 1e-9
+"""Relative asymmetry accepted in a metric (of its largest entry)."""
+
+
+def _jacobian(J: Any, name: str = "J", columns: int | None = None) -> FloatArray:
+    """``J`` as a finite (d, n) matrix."""
+    return as_matrix(J, (None, columns), name)
+
+
+def _metric(M: Any, n: int, name: str, *, definite: bool) -> FloatArray:
+    """``M`` as a finite symmetric (n, n) matrix, positive definite (or semi-definite)."""
+    arr = as_matrix(M, (n, n), name)
+    if n == 0:
+        return arr
+    scale = float(np.abs(arr).max())
+    if float(np.abs(arr - arr.T).max()) > _SYMMETRY_TOLERANCE * scale:
+        raise InvalidInputError(
+            f"{name} must be symmetric, got |{name} - {name}^T| up to "
+            f"{float(np.abs(arr - arr.T).max()):.3g}"
+        )
+    least = float(np.linalg.eigvalsh(0.5 * (arr + arr.T))[0])
+    if least <= 0.0 if definite else least < -_SYMMETRY_TOLERANCE * max(scale, 1e-300):
+        kind = "definite" if definite else "semi-definite"
+        raise InvalidInputError(
+            f"{name} must be positive {kind} (a metric), but its smallest eigenvalue is {least:.6g}"
+        )
+    return arr
+
+
+def _solve(M: FloatArray, B: FloatArray, what: str) -> FloatArray:
+    """``M^-1 B``, or an InvalidInputError naming ``what`` when ``M`` is singular."""
+    try:
+        return np.asarray(np.linalg.solve(M, B))
+    except np.linalg.LinAlgError:
+        raise InvalidInputError(
+            f"{what} is singular: make the metric positive definite (or add damping)"
+        ) from None
 
 
 def weighted_pseudo_inverse(J: FloatArray, W: FloatArray, C: FloatArray) -> FloatArray:
@@ -28,28 +70,63 @@ def weighted_pseudo_inverse(J: FloatArray, W: FloatArray, C: FloatArray) -> Floa
         J: (d, n) Jacobian.
         W: (n, n) positive-definite metric on joint space.
         C: (d, d) positive-definite task precision.
+
+    Raises:
+        ShapeError, NotFiniteError: wrong shapes, NaN or inf.
+        InvalidInputError: ``W`` or ``C`` not symmetric positive definite.
     """
-    return np.asarray(np.linalg.solve(J.T @ C @ J + W, J.T @ C))
+    J = _jacobian(J)
+    d, n = J.shape
+    W = _metric(W, n, "W", definite=True)
+    C = _metric(C, d, "C", definite=True)
+    return _solve(J.T @ C @ J + W, J.T @ C, "J^T C J + W")
 
 
 def weighted_pseudo_inverse_woodbury(J: FloatArray, W: FloatArray, C: FloatArray) -> FloatArray:
-    """``J# = W^-1 J^T (J W^-1 J^T + C^-1)^-1``, equal to :func:`weighted_pseudo_inverse`."""
+    """``J# = W^-1 J^T (J W^-1 J^T + C^-1)^-1``, equal to :func:`weighted_pseudo_inverse`.
+
+    Arguments and errors as :func:`weighted_pseudo_inverse`.
+    """
+    J = _jacobian(J)
+    d, n = J.shape
+    W = _metric(W, n, "W", definite=True)
+    C = _metric(C, d, "C", definite=True)
     Winv_Jt = np.linalg.solve(W, J.T)
     return np.asarray(Winv_Jt @ np.linalg.inv(J @ Winv_Jt + np.linalg.inv(C)))
 
 
 def damped_pseudo_inverse(J: FloatArray, damping: float) -> FloatArray:
-    """Singularity-robust ``J^T (J J^T + lambda^2 I)^-1`` (C = I / lambda^2, W = I)."""
-    return np.asarray(J.T @ np.linalg.inv(J @ J.T + damping**2 * np.eye(J.shape[0])))
+    """Singularity-robust ``J^T (J J^T + lambda^2 I)^-1`` (C = I / lambda^2, W = I).
+
+    Args:
+        J: (d, n) Jacobian.
+        damping: ``lambda >= 0`` (0: the pseudo-inverse of a full-row-rank ``J``).
+
+    Raises:
+        ShapeError, NotFiniteError, InvalidInputError: a bad ``J``, ``damping`` negative or
+            not finite, ``J J^T`` singular with ``damping = 0``.
+    """
+    J = _jacobian(J)
+    lam = check_positive(damping, "damping", strict=False)
+    return _solve(J @ J.T + lam**2 * np.eye(J.shape[0]), J, "J J^T + damping^2 I").T
 
 
 def pseudo_inverse(J: FloatArray, rcond: float = 1e-10) -> FloatArray:
-    """Moore-Penrose pseudo-inverse ``J^T (J J^T)^-1`` (the limit C -> inf, W = I)."""
-    return np.asarray(np.linalg.pinv(J, rcond=rcond))
+    """Moore-Penrose pseudo-inverse ``J^T (J J^T)^-1`` (the limit C -> inf, W = I).
+
+    ``rcond``: singular values below ``rcond`` times the largest count as zero (>= 0).
+    """
+    J = _jacobian(J)
+    return np.asarray(np.linalg.pinv(J, rcond=check_positive(rcond, "rcond", strict=False)))
 
 
 def nullspace_projector(J: FloatArray, J_sharp: FloatArray) -> FloatArray:
-    """``I - J# J``: joint motions that (to first order) do not change the task."""
+    """``I - J# J``: joint motions that (to first order) do not change the task.
+
+    ``J``: (d, n); ``J_sharp``: (n, d), a generalized inverse of ``J``.
+    """
+    J = _jacobian(J)
+    J_sharp = as_matrix(J_sharp, (J.shape[1], J.shape[0]), "J_sharp")
     return np.asarray(np.eye(J.shape[1]) - J_sharp @ J)
 
 
@@ -70,10 +147,13 @@ def ik_step(
         W, C: metrics as in :func:`weighted_pseudo_inverse`.
         h: nullspace motion (``q0 - q'``); zero if omitted.
     """
+    J = _jacobian(J)
+    d, n = J.shape
+    err = as_vector(y_error, d, "y_error")
     Js = weighted_pseudo_inverse(J, W, C)
-    dq = Js @ y_error
+    dq = Js @ err
     if h is not None:
-        dq = dq + nullspace_projector(J, Js) @ h
+        dq = dq + nullspace_projector(J, Js) @ as_vector(h, n, "h")
     return np.asarray(dq)
 
 
@@ -89,11 +169,37 @@ def stacked_step(
         jacobians: task Jacobians ``J_i``.
         errors: ``phi_i(q0) - y_i*``.
         precisions: ``rho_i``.
-        W: joint-space metric.
+        W: joint-space metric (symmetric positive semi-definite; ``J^T J + W`` invertible).
     """
-    J = np.vstack([np.sqrt(r) * Ji for Ji, r in zip(jacobians, precisions)])
-    Phi = np.concatenate([np.sqrt(r) * e for e, r in zip(errors, precisions)])
-    return np.asarray(-np.linalg.solve(J.T @ J + W, J.T @ Phi))
+    Js, es, rhos = _levels(jacobians, errors, precisions, "errors")
+    W = _metric(W, Js[0].shape[1], "W", definite=False)
+    J = np.vstack([np.sqrt(r) * Ji for Ji, r in zip(Js, rhos)])
+    Phi = np.concatenate([np.sqrt(r) * e for e, r in zip(es, rhos)])
+    return -_solve(J.T @ J + W, J.T @ Phi, "J^T J + W")
+
+
+def _levels(
+    jacobians: Sequence[Any], vectors: Sequence[Any], precisions: Sequence[Any] | None, what: str
+) -> tuple[list[FloatArray], list[FloatArray], list[float]]:
+    """The tasks' Jacobians (d_i, n), their vectors (d_i,) and precisions (> 0), checked."""
+    if isinstance(jacobians, np.ndarray) and jacobians.ndim == 2:
+        raise InvalidInputError("jacobians must be a sequence of matrices, e.g. [J1, J2]")
+    Js = list(jacobians)
+    vs = list(vectors)
+    if not Js:
+        raise InvalidInputError("at least one task is needed (jacobians is empty)")
+    if len(vs) != len(Js) or (precisions is not None and len(precisions) != len(Js)):
+        raise InvalidInputError(
+            f"one entry per task: {len(Js)} jacobians, {len(vs)} {what}"
+            + ("" if precisions is None else f", {len(precisions)} precisions")
+        )
+    n = _jacobian(Js[0], "jacobians[0]").shape[1]
+    Js = [_jacobian(J, f"jacobians[{i}]", n) for i, J in enumerate(Js)]
+    vs = [as_vector(v, J.shape[0], f"{what}[{i}]") for i, (v, J) in enumerate(zip(vs, Js))]
+    rhos = [
+        check_positive(r, f"precisions[{i}]") for i, r in enumerate(precisions or [1.0] * len(Js))
+    ]
+    return Js, vs, rhos
 
 
 def hierarchical_step_regularized(
@@ -111,6 +217,10 @@ def hierarchical_step_regularized(
     ``W_k = W_{k+1} + rho_{k+1} J_{k+1}^T J_{k+1}`` (each level's metric carries the lower ones).
     With ``rho_1 >> rho_2 >> ...`` this tends to the strict hierarchy.
     """
+    jacobians, targets, precisions = _levels(jacobians, targets, precisions, "targets")
+    n = jacobians[0].shape[1]
+    W = _metric(W, n, "W", definite=False)
+    a = as_vector(a, n, "a")
     K = len(jacobians)
     metrics = [W] * K
     for k in range(K - 2, -1, -1):
@@ -119,7 +229,9 @@ def hierarchical_step_regularized(
     q = np.asarray(a, dtype=float)
     for k in range(K - 1, -1, -1):
         Jk = jacobians[k]
-        Js = np.linalg.solve(metrics[k] / precisions[k] + Jk.T @ Jk, Jk.T)
+        Js = _solve(
+            metrics[k] / precisions[k] + Jk.T @ Jk, Jk.T, f"level {k + 1}'s W_k / rho_k + J^T J"
+        )
         q = Js @ targets[k] + (np.eye(len(q)) - Js @ Jk) @ q
     return q
 
@@ -134,13 +246,15 @@ def hierarchical_step_exact(
     Singular values below the absolute ``tolerance`` count as zero (directions already used
     by higher levels leave round-off in ``J_k N_{k-1}`` that must not be inverted).
     """
+    jacobians, targets, _ = _levels(jacobians, targets, None, "targets")
+    tol = check_positive(tolerance, "tolerance", strict=False)
     n = jacobians[0].shape[1]
     q = np.zeros(n)
     N = np.eye(n)
     for Jk, yk in zip(jacobians, targets):
         JN = Jk @ N
         U, s, Vt = np.linalg.svd(JN, full_matrices=False)
-        keep = s > tolerance
+        keep = s > tol
         JN_pinv = (Vt[keep].T / s[keep]) @ U[:, keep].T
         q = q + JN_pinv @ (yk - Jk @ q)
         N = N - JN_pinv @ JN
