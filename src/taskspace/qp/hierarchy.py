@@ -22,13 +22,14 @@ import math
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 from scipy.linalg.lapack import dgeqp3, dgeqrf, dorgqr, dposv, dtrtrs
 
 from taskspace._validation import FloatArray
-from taskspace.errors import InvalidInputError
+from taskspace.errors import InvalidInputError, NotFiniteError, ShapeError
 from taskspace.qp.kkt import KKTResiduals, least_squares_kkt_residuals
 from taskspace.qp.problem import INF, QPProblem, RowBlock
 from taskspace.qp.result import QPResult, QPStatus
@@ -55,10 +56,108 @@ class HierarchyLevel:
     u: FloatArray | None = None
     damping: float | None = None
 
+    def __post_init__(self) -> None:
+        # array-likes (lists) as float arrays; a float64 array is kept as it is (no copy)
+        self.J = np.asarray(self.J, dtype=np.float64)
+        self.r = np.asarray(self.r, dtype=np.float64)
+        if self.C is not None:
+            self.C = np.asarray(self.C, dtype=np.float64)
+        if self.l is not None:
+            self.l = np.asarray(self.l, dtype=np.float64)
+        if self.u is not None:
+            self.u = np.asarray(self.u, dtype=np.float64)
+
     @property
     def n_in(self) -> int:
         """Number of inequality rows."""
         return 0 if self.C is None else int(self.C.shape[0])
+
+
+def _check_levels(
+    levels: Sequence[HierarchyLevel],
+    n: int,
+    lb: FloatArray | None,
+    ub: FloatArray | None,
+    C: FloatArray | None,
+    l: FloatArray | None,
+    u: FloatArray | None,
+    A: FloatArray | None,
+    b: FloatArray | None,
+) -> None:
+    """Shapes, finite rows and dampings of a cascade's input (HierarchySolver.solve).
+
+    Shapes, and one dot product for all the levels' ``J`` and ``r`` (NaN and inf show in the
+    sum of squares; the arrays are located only then): a level's bad ``J`` is named here, not
+    later as the QP's ``H``. Bounds may be infinite, not NaN (the QP checks those).
+    """
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 0:
+        raise InvalidInputError(f"n (number of variables) must be an integer >= 0, got {n!r}")
+    total = 0.0
+    for k, level in enumerate(levels):
+        if type(level) is not HierarchyLevel and not isinstance(level, HierarchyLevel):
+            raise InvalidInputError(f"levels[{k}] must be a HierarchyLevel, got {type(level)}")
+        J, r = level.J, level.r
+        if not (
+            type(J) is np.ndarray
+            and J.ndim == 2
+            and J.shape[1] == n
+            and type(r) is np.ndarray
+            and r.shape == (J.shape[0],)
+        ):
+            _refuse_level(k, level, n)
+        total += float(np.vdot(J, J)) + float(np.vdot(r, r))
+        if level.C is not None or level.l is not None or level.u is not None:
+            _check_rows(level.C, level.l, level.u, n, f"level {k} ('{level.name}')")
+        d = level.damping
+        if d is not None and not (
+            isinstance(d, (int, float, np.floating, np.integer)) and 0.0 <= d < math.inf
+        ):
+            raise InvalidInputError(
+                f"level {k} ('{level.name}'): damping must be finite and >= 0, got {d!r}"
+            )
+    if not math.isfinite(total):
+        for k, level in enumerate(levels):
+            for name in ("J", "r"):
+                arr = getattr(level, name).ravel()
+                if not np.isfinite(arr).all():
+                    raise NotFiniteError(
+                        f"level {k} ('{level.name}') {name}",
+                        np.flatnonzero(~np.isfinite(arr)).tolist()[:20],
+                    )
+    if C is not None or l is not None or u is not None:
+        _check_rows(C, l, u, n, "hard inequalities")
+    for name, arr in (("lb", lb), ("ub", ub)):
+        if arr is not None and not (type(arr) is np.ndarray and arr.shape == (n,)):
+            raise ShapeError(name, (n,), tuple(np.shape(arr)))
+    if (A is None) != (b is None):
+        raise InvalidInputError("hard equalities: A and b go together (got only one)")
+    if A is not None and b is not None:
+        if not (np.ndim(A) == 2 and np.shape(A)[1] == n):
+            raise ShapeError("A", (np.shape(b)[0] if np.ndim(b) else -1, n), tuple(np.shape(A)))
+        if np.shape(b) != (np.shape(A)[0],):
+            raise ShapeError("b", (np.shape(A)[0],), tuple(np.shape(b)))
+
+
+def _refuse_level(k: int, level: HierarchyLevel, n: int) -> None:
+    """Raise the ShapeError of level ``k``'s ``J`` or ``r``."""
+    what = f"level {k} ('{level.name}')"
+    J_shape = tuple(np.shape(level.J))
+    if len(J_shape) != 2 or J_shape[1] != n:
+        rows = J_shape[0] if J_shape else -1
+        raise ShapeError(f"{what} J", (rows, n), J_shape)
+    raise ShapeError(f"{what} r", (J_shape[0],), tuple(np.shape(level.r)))
+
+
+def _check_rows(C: Any, l: Any, u: Any, n: int, what: str) -> None:
+    """``C`` (m, n), ``l`` and ``u`` (m,), given together."""
+    if C is None or l is None or u is None:
+        raise InvalidInputError(f"{what}: C, l and u go together (got only some of them)")
+    m = np.shape(C)[0] if np.ndim(C) else -1
+    if np.ndim(C) != 2 or np.shape(C)[1] != n:
+        raise ShapeError(f"{what} C", (m, n), tuple(np.shape(C)))
+    for name, arr in (("l", l), ("u", u)):
+        if np.shape(arr) != (m,):
+            raise ShapeError(f"{what} {name}", (m,), tuple(np.shape(arr)))
 
 
 @dataclass
@@ -480,6 +579,7 @@ class HierarchySolver:
         """
         t0 = time.perf_counter()
         opts = self.options
+        _check_levels(levels, n, lb, ub, C, l, u, A, b)
         lb = np.full(n, -INF) if lb is None else lb
         ub = np.full(n, INF) if ub is None else ub
         # Fast path: the cascade of the equality rows alone (one SVD per level). When its
