@@ -7,7 +7,9 @@ positions of the foot frames on the ground. Per contact phase:
   the cart-table model at the robot's initial CoM height;
 * in single support the swing foot follows a :class:`SwingTrajectory` (position task with
   feed-forward velocity and acceleration) and keeps its initial orientation turned by the
-  footstep yaw; the stance foot is a rigid 6-D contact (friction cone, CoP in the sole);
+  change of yaw from its initial footstep (footstep yaws are absolute, world frame: a foot
+  lands at its footstep's yaw whatever the robot's initial heading); the stance foot is a
+  rigid 6-D contact (friction cone, CoP in the sole);
 * in double support both feet are contacts;
 * a pelvis orientation task (turning with the feet) and a posture task take the remaining
   freedom.
@@ -41,7 +43,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -240,6 +242,7 @@ def walking_reference(
     _check_plan_starts_on_feet(check_plan(plan), foot0)
     ground = {s: float(foot0[s].translation[2]) for s in foot0}
     pelvis0 = robot.frame_placement(q0, opts.pelvis).rotation.copy()
+    turn = _TurnFromStart(plan, foot0, pelvis0)
     model = CartTable(com_height=float(c0[2] - np.mean(list(ground.values()))), dt=opts.dt)
     n = math.ceil(plan.duration / opts.dt) + 1
     times: FloatArray = opts.dt * np.arange(n, dtype=np.float64)
@@ -263,14 +266,10 @@ def walking_reference(
         feet_end = {f.side: f for f in phase.stance}
         if phase.swing is not None:
             feet_end[phase.swing[1].side] = phase.swing[1]
-        heading = math.atan2(
-            sum(math.sin(f.yaw) for f in feet_end.values()),
-            sum(math.cos(f.yaw) for f in feet_end.values()),
-        )
-        pelvis[ks] = _yaw_rotation(heading) @ pelvis0
+        pelvis[ks] = turn.pelvis(feet_end.values())
         for foot in phase.stance:
             pos[foot.side][ks] = [foot.x, foot.y, ground[foot.side]]
-            rot[foot.side][ks] = _yaw_rotation(foot.yaw) @ foot0[foot.side].rotation
+            rot[foot.side][ks] = turn.foot(foot)
         side = ""
         if phase.kind is PhaseKind.SINGLE_SUPPORT and phase.swing is not None:
             land = phase.swing[1]
@@ -281,7 +280,7 @@ def walking_reference(
             pos[side][ks] = swing.position
             vel[side][ks] = swing.velocity
             acc[side][ks] = swing.acceleration
-            rot[side][ks] = _yaw_rotation(land.yaw) @ foot0[side].rotation
+            rot[side][ks] = turn.foot(land)
             swinging[side][ks] = True
         phases.append((phase.kind.value, phase.start, phase.end, side))
     return WalkingReference(
@@ -444,6 +443,37 @@ def _yaw_rotation(yaw: float) -> FloatArray:
     return np.asarray(pin.rpy.rpyToMatrix(0.0, 0.0, yaw))
 
 
+def _heading(feet: Iterable[Footstep]) -> float:
+    """The mean yaw of ``feet`` [rad] (on the circle)."""
+    yaws = [f.yaw for f in feet]
+    return math.atan2(sum(map(math.sin, yaws)), sum(map(math.cos, yaws)))
+
+
+class _TurnFromStart:
+    """Orientation targets of the feet and the pelvis for a plan's absolute footstep yaws.
+
+    The robot's feet stand as the plan's initial footsteps say (checked), so a foot landing at
+    yaw ``psi`` has turned by ``psi - psi_0`` from its initial footstep's yaw ``psi_0``: its
+    target is ``Rz(psi - psi_0) R_foot,0`` (``Rz(psi) R_foot,0`` counted the robot's initial
+    yaw twice: a robot facing 0.4 rad walked straight with its feet turned to 0.8). The pelvis
+    turns likewise with the mean yaw of the feet.
+    """
+
+    def __init__(self, plan: FootstepPlan, foot0: Mapping[str, pin.SE3], pelvis0: FloatArray):
+        self._yaw0 = {f.side: f.yaw for f in plan.initial}
+        self._rot0 = {side: np.asarray(M.rotation).copy() for side, M in foot0.items()}
+        self._heading0 = _heading(plan.initial)
+        self._pelvis0 = pelvis0
+
+    def foot(self, step: Footstep) -> FloatArray:
+        """Target rotation of the foot of ``step`` standing at ``step.yaw``."""
+        return _yaw_rotation(step.yaw - self._yaw0[step.side]) @ self._rot0[step.side]
+
+    def pelvis(self, feet: Iterable[Footstep]) -> FloatArray:
+        """Target rotation of the pelvis between ``feet``."""
+        return _yaw_rotation(_heading(feet) - self._heading0) @ self._pelvis0
+
+
 def walk(robot: Any, plan: FootstepPlan, options: WalkingOptions | None = None) -> WalkingResult:
     """Simulate ``robot`` walking ``plan`` from its default posture (see the module docstring).
 
@@ -485,6 +515,7 @@ def walk(robot: Any, plan: FootstepPlan, options: WalkingOptions | None = None) 
         name="pelvis",
     )
     pelvis0 = robot.frame_placement(q0, opts.pelvis).rotation.copy()
+    turn = _TurnFromStart(plan, foot0, pelvis0)
     posture = Task(F.JointConfiguration(robot), q0, weight=opts.posture_weight, kp=opts.posture_kp)
     weight = robot.mass * float(np.linalg.norm(robot._model.gravity.linear))
     swing_pos = {
@@ -556,17 +587,13 @@ def walk(robot: Any, plan: FootstepPlan, options: WalkingOptions | None = None) 
             land = phase.swing[1]
             side = land.side
             swing_traj = _swing_trajectory(phase, opts.clearance, ground[side])
-            swing_rot[side].set_target(_yaw_rotation(land.yaw) @ foot0[side].rotation)
+            swing_rot[side].set_target(turn.foot(land))
             swing_rot[side].set_reference(np.zeros(3), np.zeros(3))
         # the pelvis turns with the feet (mean heading of the feet at the end of the phase)
         feet_end = {f.side: f for f in phase.stance}
         if phase.swing is not None:
             feet_end[phase.swing[1].side] = phase.swing[1]
-        heading = math.atan2(
-            sum(math.sin(f.yaw) for f in feet_end.values()),
-            sum(math.cos(f.yaw) for f in feet_end.values()),
-        )
-        pelvis_task.set_target(_yaw_rotation(heading) @ pelvis0)
+        pelvis_task.set_target(turn.pelvis(feet_end.values()))
         t_phase0 = phase.start
         touchdown, lift_off = _transitions(all_phases, index, contacts, opts, weight, steps)
         for c in contacts.values():
