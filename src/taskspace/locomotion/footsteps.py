@@ -274,6 +274,29 @@ def _foot_at(pose: FloatArray, side: str, step_width: float) -> Footstep:
     return Footstep(side, pose[0] - s * off, pose[1] + c * off, pose[2])
 
 
+MAX_YAW_STEP = math.pi / 4
+"""Default largest turn of the body per step [rad] of :func:`turn_in_place` and
+:func:`arc_walk`. Turning in place by ``d`` in one step puts the swing foot's centre
+``step_width cos(d / 2)`` from the stance foot's, its sole turned by ``d`` against it: 0.92
+``step_width`` at 45 degrees, 0.71 at 90 degrees (0.14 m for a 0.2 m stance, less than a
+humanoid's foot length: the soles overlap)."""
+
+
+def _check_turn(angle: float, n_steps: int, max_yaw_step: Any, what: str) -> None:
+    """Refuse a turn of more than ``max_yaw_step`` per step, naming the steps needed."""
+    limit = check_positive(max_yaw_step, "max_yaw_step")
+    if n_steps < 2:
+        return  # check_steps / footsteps_along_poses name it
+    per_step = abs(angle) / (n_steps - 1)
+    if per_step > limit:
+        needed = math.ceil(abs(angle) / limit - 1e-12) + 1
+        raise InvalidInputError(
+            f"{what} turns {angle:.4g} rad in {n_steps} steps: {per_step:.4g} rad per step, "
+            f"more than max_yaw_step = {limit:.4g} rad (a foot would swing across the stance "
+            f"foot); use n_steps >= {needed} or raise max_yaw_step"
+        )
+
+
 def footsteps_along_poses(
     poses: Any,
     *,
@@ -329,15 +352,20 @@ def arc_walk(
     angle: float,
     step_width: float = 0.2,
     timing: StepTiming | None = None,
+    max_yaw_step: float = MAX_YAW_STEP,
 ) -> FootstepPlan:
     """``n_steps`` steps along a circular arc of ``radius`` [m] turning by ``angle`` [rad].
 
     The arc starts at the origin heading along x; ``angle > 0`` turns left (center at
-    ``(0, radius)``). The foot on the outside of the turn steps first.
+    ``(0, radius)``). The foot on the outside of the turn steps first. The body turns
+    ``angle / (n_steps - 1)`` per step, at most ``max_yaw_step`` [rad] (an
+    :class:`~taskspace.errors.InvalidInputError` names the ``n_steps`` needed).
     """
     n_steps = check_steps(n_steps)
     r = check_positive(radius, "radius")
-    phi = np.linspace(0.0, as_scalar(angle, "angle"), n_steps)
+    angle = as_scalar(angle, "angle")
+    _check_turn(angle, n_steps, max_yaw_step, "arc_walk")
+    phi = np.linspace(0.0, angle, n_steps)
     sign = 1.0 if angle >= 0 else -1.0
     poses = np.column_stack([r * np.sin(np.abs(phi)), sign * r * (1 - np.cos(phi)), phi])
     return footsteps_along_poses(
@@ -354,10 +382,18 @@ def turn_in_place(
     *,
     step_width: float = 0.2,
     timing: StepTiming | None = None,
+    max_yaw_step: float = MAX_YAW_STEP,
 ) -> FootstepPlan:
-    """Turn on the spot by ``angle`` [rad] in ``n_steps`` steps (left turn: left foot first)."""
+    """Turn on the spot by ``angle`` [rad] in ``n_steps`` steps (left turn: left foot first).
+
+    The body turns ``angle / (n_steps - 1)`` per step, at most ``max_yaw_step`` [rad]: a
+    larger turn swings a foot across the stance foot (an
+    :class:`~taskspace.errors.InvalidInputError` names the ``n_steps`` needed).
+    """
     n_steps = check_steps(n_steps, "turn")
-    yaw = np.linspace(0.0, as_scalar(angle, "angle"), n_steps)
+    angle = as_scalar(angle, "angle")
+    _check_turn(angle, n_steps, max_yaw_step, "turn_in_place")
+    yaw = np.linspace(0.0, angle, n_steps)
     poses = np.column_stack([np.zeros(n_steps), np.zeros(n_steps), yaw])
     return footsteps_along_poses(
         poses,
