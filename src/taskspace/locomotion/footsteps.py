@@ -59,7 +59,7 @@ class Footstep:
     Attributes:
         side: ``"left"`` or ``"right"``.
         x, y: position of the foot center on the ground [m].
-        yaw: heading of the foot [rad].
+        yaw: heading of the foot in the world [rad] (absolute, like x and y).
     """
 
     side: str
