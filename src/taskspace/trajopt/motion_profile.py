@@ -75,6 +75,19 @@ def _as_s(s: Any) -> FloatArray:
     return np.clip(arr, 0.0, 1.0)
 
 
+def _check_order(order: Any) -> int:
+    """``order`` as an int if it is a derivative order ``0..3``, else :class:`InvalidInputError`.
+
+    (An order outside ``0..3`` was answered silently: the sine profile's jerk for ``-1``.)
+    """
+    if isinstance(order, bool) or not isinstance(order, int | np.integer) or not 0 <= order <= 3:
+        raise InvalidInputError(
+            f"order must be an integer 0 (position), 1 (velocity), 2 (acceleration) or "
+            f"3 (jerk), got {order!r}"
+        )
+    return int(order)
+
+
 class MotionProfile(ABC):
     """A normalized motion profile ``MP: [0, 1] -> [0, 1]``, ``MP(0) = 0``, ``MP(1) = 1``.
 
@@ -94,6 +107,9 @@ class MotionProfile(ABC):
 
         Returns:
             Array with the shape of ``s``.
+
+        Raises:
+            InvalidInputError: ``order`` is not an integer in ``0..3``.
         """
 
     @property
@@ -161,7 +177,7 @@ class RampProfile(MotionProfile):
 
     def derivative(self, s: Any, order: int = 0) -> FloatArray:
         """``MP = s``, ``MP' = 1``, higher derivatives zero inside ``(0, 1)``."""
-        s = _as_s(s)
+        s, order = _as_s(s), _check_order(order)
         if order == 0:
             return s.copy()
         if order == 1:
@@ -185,7 +201,7 @@ class SineProfile(MotionProfile):
 
     def derivative(self, s: Any, order: int = 0) -> FloatArray:
         """Derivatives of ``1/2 (1 - cos(pi s))``."""
-        s = _as_s(s)
+        s, order = _as_s(s), _check_order(order)
         ps = np.pi * s
         if order == 0:
             return 0.5 * (1.0 - np.cos(ps))
@@ -218,7 +234,7 @@ class MinimumJerkProfile(MotionProfile):
 
     def derivative(self, s: Any, order: int = 0) -> FloatArray:
         """Derivatives of the quintic, evaluated by Horner's scheme."""
-        s = _as_s(s)
+        s, order = _as_s(s), _check_order(order)
         out = np.zeros_like(s)
         for c in reversed(self._COEFS[order]):
             out = out * s + c
@@ -260,7 +276,7 @@ class _PiecewiseProfile(MotionProfile):
 
     def derivative(self, s: Any, order: int = 0) -> FloatArray:
         """Piecewise-polynomial evaluation (segment found by binary search)."""
-        s = _as_s(s)
+        s, order = _as_s(s), _check_order(order)
         idx = np.clip(np.searchsorted(self._breaks, s, side="right") - 1, 0, len(self._coefs) - 1)
         # the local time never leaves its segment: the breaks are rounded to ~1e-16 near s = 1
         # (and the last one forced to 1), so a segment much shorter than that (an S-curve's
