@@ -29,10 +29,11 @@ from typing import Any
 
 import numpy as np
 
-from taskspace._validation import FloatArray, as_float_array, check_finite
+from taskspace._validation import FloatArray, as_float_array, as_scalar, check_finite
 from taskspace.errors import InvalidInputError, ShapeError
 from taskspace.estimation._inputs import call_model
 from taskspace.estimation._serialized import serialized
+from taskspace.estimation.angles import _indices
 from taskspace.estimation.resampling import get_resampler
 
 logger = logging.getLogger(__name__)
@@ -53,9 +54,10 @@ class ParticleFilterOptions:
             observation proposal (needs ``observation_sampler``).
         adaptive_mixture: use the augmented-MCL fraction ``max(0, 1 - w_fast / w_slow)``
             (capped by ``mixture_fraction``) instead of the fixed fraction.
-        alpha_slow: decay rate of the long-term average likelihood ``w_slow``.
-        alpha_fast: decay rate of the short-term average likelihood ``w_fast``.
-        angular_dims: state indices that are angles [rad] (circular mean in :meth:`estimate`).
+        alpha_slow: decay rate of the long-term average likelihood ``w_slow``, in ``(0, 1]``.
+        alpha_fast: decay rate of the short-term average likelihood ``w_fast``, in ``(0, 1]``.
+        angular_dims: state indices that are angles [rad] (circular mean in :meth:`estimate`);
+            an index or a sequence of distinct indices (negative ones count from the end).
     """
 
     resampling: str = "systematic"
@@ -138,10 +140,14 @@ class ParticleFilter:
         self.options = options or ParticleFilterOptions()
         o = self.options
         self._resample = get_resampler(o.resampling)
-        if not 0.0 <= o.ess_threshold <= 1.0:
+        if not 0.0 <= as_scalar(o.ess_threshold, "ess_threshold") <= 1.0:
             raise InvalidInputError(f"ess_threshold must be in [0, 1], got {o.ess_threshold}")
-        if not 0.0 <= o.mixture_fraction < 1.0:
+        if not 0.0 <= as_scalar(o.mixture_fraction, "mixture_fraction") < 1.0:
             raise InvalidInputError(f"mixture_fraction must be in [0, 1), got {o.mixture_fraction}")
+        for label in ("alpha_slow", "alpha_fast"):  # -1, NaN, 5 made the mixture meaningless
+            rate = getattr(o, label)
+            if not 0.0 < as_scalar(rate, label) <= 1.0:
+                raise InvalidInputError(f"{label} must be in (0, 1], got {rate!r}")
         if o.mixture_fraction > 0.0 and observation_sampler is None:
             raise InvalidInputError("mixture_fraction > 0 needs an observation_sampler")
         for label, fn in (
@@ -162,6 +168,17 @@ class ParticleFilter:
         if p.ndim != 2 or p.shape[0] < 1:
             raise ShapeError("particles", (-1, -1), tuple(p.shape))
         check_finite(p, "particles")
+        # checked here: out of range it was a bare IndexError in estimate(), after the run
+        dims = _indices(o.angular_dims, "angular_dims")
+        wrong = [i for i in dims if not -p.shape[1] <= i < p.shape[1]]
+        if wrong:
+            raise InvalidInputError(
+                f"angular_dims {wrong} are not indices of the {p.shape[1]}-D state"
+            )
+        normalized = [i % p.shape[1] for i in dims]
+        if len(set(normalized)) != len(normalized):
+            raise InvalidInputError(f"angular_dims has repeated indices: {dims}")
+        self._angular_dims = tuple(normalized)
         self.particles = p
         self.log_weights = np.full(p.shape[0], -np.log(p.shape[0]))
         self.motion_sampler = motion_sampler
@@ -285,7 +302,7 @@ class ParticleFilter:
         p = self.particles
         mean = w @ p
         diff = p - mean
-        for d in self.options.angular_dims:
+        for d in self._angular_dims:
             mean[d] = np.arctan2(w @ np.sin(p[:, d]), w @ np.cos(p[:, d]))
             diff[:, d] = np.angle(np.exp(1j * (p[:, d] - mean[d])))
         cov = (diff * w[:, None]).T @ diff
