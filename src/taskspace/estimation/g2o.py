@@ -6,7 +6,7 @@ Supported lines (angles in radians; information as the upper triangle, row by ro
 * ``VERTEX_XY id x y`` (landmark)
 * ``EDGE_SE2 i j dx dy dtheta I11 I12 I13 I22 I23 I33``
 * ``EDGE_SE2_XY i k x y I11 I12 I22`` (landmark ``k`` seen from pose ``i``)
-* ``FIX id``
+* ``FIX id`` (at most one fixed pose: FIX lines naming other vertices are refused)
 
 Vertex ids may be arbitrary integers; poses and landmarks are renumbered in file order.
 """
@@ -100,6 +100,11 @@ def read_g2o(path: str | Path) -> PoseGraph:
                 lm_id[ids[0]] = len(lms)
                 lms.append(values)
         elif tag == "FIX":
+            if fixed is not None and fixed[1] != ids[0]:  # the last FIX was kept silently
+                raise InvalidInputError(
+                    f"{where}: a second FIX (vertex {ids[0]}; line {fixed[0].rsplit(':', 1)[1]} "
+                    f"fixes vertex {fixed[1]}): a PoseGraph holds one pose fixed, keep one FIX line"
+                )
             fixed = (where, ids[0])
         else:
             raw_edges.append((where, tag, ids, values))
