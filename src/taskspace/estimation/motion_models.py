@@ -282,15 +282,21 @@ class KinematicCarModel:
         )
 
     def jacobians(self, x: Any, u: Any) -> tuple[FloatArray, FloatArray]:
-        """``F = df/dx`` ``(3, 3)`` and ``V = df/du`` ``(3, 2)``."""
+        """``F = df/dx`` ``(3, 3)`` and ``V = df/du`` ``(3, 2)``.
+
+        Of the mean, which clips the steering: beyond ``max_steering`` the heading does not
+        depend on ``delta`` (its column is 0 there) and the speed acts through the clipped
+        angle (the unclipped one gave a wrong ``V``, and a wrong EKF process noise, whenever
+        the command saturated).
+        """
         _, _, th = as_vector(x, 3, "x")
         v, d = as_vector(u, 2, "u")
         dt, L = self.dt, self.wheelbase
         c, s = np.cos(th), np.sin(th)
+        dc = float(np.clip(d, -self.max_steering, self.max_steering))
+        d_heading_d_delta = dt * v / (L * np.cos(dc) ** 2) if abs(d) <= self.max_steering else 0.0
         F = np.array([[1.0, 0.0, -dt * v * s], [0.0, 1.0, dt * v * c], [0.0, 0.0, 1.0]])
-        V = np.array(
-            [[dt * c, 0.0], [dt * s, 0.0], [dt * np.tan(d) / L, dt * v / (L * np.cos(d) ** 2)]]
-        )
+        V = np.array([[dt * c, 0.0], [dt * s, 0.0], [dt * np.tan(dc) / L, d_heading_d_delta]])
         return F, V
 
     def state_covariance(self, x: Any, u: Any) -> FloatArray:
