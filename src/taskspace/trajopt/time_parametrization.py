@@ -53,6 +53,7 @@ import numpy as np
 from taskspace._validation import (
     FloatArray,
     as_float_array,
+    as_scalar,
     check_count,
     check_finite,
     check_positive,
@@ -234,16 +235,17 @@ class TimeParametrizationResult:
         """Sample uniformly every ``dt`` [s] (the last sample is at ``duration``)."""
         if self.status is TimeParametrizationStatus.INFEASIBLE:
             raise InvalidInputError("cannot sample an infeasible time parametrization")
-        if not (dt > 0.0 and np.isfinite(dt)):
+        step = as_scalar(dt, "dt")  # a list or a string was a bare TypeError
+        if not step > 0.0:
             raise InvalidInputError(f"dt must be finite and > 0, got {dt!r}")
-        samples = self.duration / dt
+        samples = self.duration / step
         if not samples <= MAX_SAMPLES:  # np.arange(1e300) was a bare ValueError
             raise InvalidInputError(
                 f"sample(dt={dt!r}) would take {samples:.3g} samples over {self.duration:.6g} s "
                 f"(at most {MAX_SAMPLES:,}): use a larger dt"
             )
         n = int(np.ceil(samples - 1e-9))
-        return self.evaluate(np.minimum(np.arange(n + 1) * dt, self.duration))
+        return self.evaluate(np.minimum(np.arange(n + 1) * step, self.duration))
 
 
 def _evaluate_path(path: Spline | CallablePath, s: FloatArray) -> tuple[Any, Any, Any]:
