@@ -550,7 +550,13 @@ class PathProblem:
         T = self.horizon
         if times is None:
             return list(range(1, T + 1))
-        raw = [times] if isinstance(times, (int, np.integer)) else list(times)
+        raw: list[Any]
+        if isinstance(times, np.ndarray) and times.ndim == 0:
+            raw = [times.item()]
+        elif isinstance(times, Iterable) and not isinstance(times, (str, bytes)):
+            raw = list(times)
+        else:  # a scalar (2.5 was a bare "TypeError: 'float' object is not iterable")
+            raw = [times]
         out = []
         for t in raw:
             if isinstance(t, bool) or not isinstance(t, (int, np.integer)):
