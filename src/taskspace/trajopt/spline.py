@@ -225,6 +225,30 @@ def _cubic_hermite(h: FloatArray, q: FloatArray, v: FloatArray) -> FloatArray:
     return c
 
 
+def _interpolating(t: FloatArray, c: FloatArray, q: FloatArray, continuity: int) -> Spline:
+    """The spline of knots ``t`` and coefficients ``c``, checked to end each segment on ``q``.
+
+    The power-basis coefficient of ``(t - t_k)^r`` scales like ``q / h^r``: for knot spacings
+    ``h`` beyond ~1e100 the high-order ones underflowed to 0 (and for tiny ones overflowed),
+    and the spline missed its waypoints silently (knots ``(0, 1, 2, 3) * 1e150``: 0.5667
+    instead of 0.7125 at the middle). Refused with the spacings to rescale.
+    """
+    h = np.diff(t)[:, None]
+    with np.errstate(over="ignore", under="ignore", invalid="ignore", divide="ignore"):
+        end = c[:, -1, :]
+        for r in range(c.shape[1] - 2, -1, -1):
+            end = end * h + c[:, r, :]
+        scale = max(1.0, float(np.max(np.abs(q))))
+        ok = np.isfinite(c).all() and bool(np.all(np.abs(end - q[1:]) <= 1e-8 * scale))
+    if not ok:
+        raise InvalidInputError(
+            f"the knot spacings (from {float(h.min()):.3g} to {float(h.max()):.3g}) are beyond "
+            "what float64 power-basis coefficients of this spline can hold (it would miss its "
+            "waypoints): rescale the knots (for example to [0, 1]) and the waypoints' units"
+        )
+    return Spline(t, c, continuity=continuity)
+
+
 def cubic_spline(
     waypoints: Any,
     knots: Any = None,
@@ -275,7 +299,7 @@ def cubic_spline(
         ab[1, 0], ab[0, 1], rhs[0] = 1.0, 0.0, _end_vector(start_velocity, n, "start_velocity")
         ab[2, -2], ab[1, -1], rhs[-1] = 0.0, 1.0, _end_vector(end_velocity, n, "end_velocity")
     v = _banded_solve((1, 1), ab, rhs, "cubic spline")
-    return Spline(t, _cubic_hermite(h, q, v), continuity=2)
+    return _interpolating(t, _cubic_hermite(h, q, v), q, 2)
 
 
 def _quintic_hermite(h: FloatArray, q: FloatArray, v: FloatArray, a: FloatArray) -> FloatArray:
@@ -352,7 +376,7 @@ def quintic_spline(
             )
         v = _as_points(velocities, q.shape, "velocities")
         a = _as_points(accelerations, q.shape, "accelerations")
-        return Spline(t, _quintic_hermite(h, q, v, a), continuity=2)
+        return _interpolating(t, _quintic_hermite(h, q, v, a), q, 2)
 
     # C4 system: unknown x = (v_0, a_0, v_1, a_1, ..., v_m, a_m); row 2i: jerk, 2i+1: snap
     size = 2 * n_pts
@@ -398,7 +422,7 @@ def quintic_spline(
         put(rs, cap, ss * (24.0 / hr**2))
         rhs[rs] = -(ss * 360.0)[:, None] * (dpl / hl[:, None] ** 4 + dpr / hr[:, None] ** 4)
     x = _banded_solve((lo, up), ab, rhs, "quintic spline")
-    return Spline(t, _quintic_hermite(h, q, x[0::2], x[1::2]), continuity=4)
+    return _interpolating(t, _quintic_hermite(h, q, x[0::2], x[1::2]), q, 4)
 
 
 def _as_points(x: Any, shape: tuple[int, int], name: str) -> FloatArray:
