@@ -26,7 +26,14 @@ import pinocchio as pin
 
 from taskspace._validation import FloatArray, as_float_array, check_positive
 from taskspace.errors import InvalidInputError
-from taskspace.learning.dmp import DiscreteDMP, DMPOptions, _check_weights, _rollout_steps, _vector
+from taskspace.learning.dmp import (
+    DiscreteDMP,
+    DMPOptions,
+    _check_step,
+    _check_weights,
+    _rollout_steps,
+    _vector,
+)
 
 
 def _rotation(q: Any) -> FloatArray:
@@ -166,6 +173,7 @@ class OrientationDMP:
         """
         tau = self.tau
         dt, steps = _rollout_steps(dt, 1.5 * tau if duration is None else duration)
+        _check_step(dt, tau, self.options, goal_filter=False)
         R = self.R0.copy() if start is None else _rotation(start)
         g = self.goal.copy() if goal is None else _rotation(goal)
         w0 = self.initial_angular_velocity if angular_velocity0 is None else angular_velocity0
