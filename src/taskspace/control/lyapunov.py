@@ -48,9 +48,19 @@ def _solve_column(lhs: np.ndarray, rhs: np.ndarray) -> np.ndarray:
         return np.asarray(sla.solve_triangular(lhs, rhs))
 
 
-def _finish(X: np.ndarray) -> FloatArray:
+def _finish(X: np.ndarray, Q: FloatArray) -> FloatArray:
+    """Real part of ``X``; symmetrized only when ``Q`` is symmetric (to rounding).
+
+    A non-symmetric ``Q`` has a non-symmetric solution: symmetrizing it returned the solution
+    for ``(Q + Q^T) / 2`` instead.
+    """
     P = np.real(X)
-    return check_solution(0.5 * (P + P.T), "the Lyapunov solution P")
+    with np.errstate(over="ignore", invalid="ignore"):
+        asymmetry = float(np.max(np.abs(Q - Q.T))) if Q.size else 0.0
+        size = float(np.max(np.abs(Q))) if Q.size else 0.0
+    if asymmetry <= 1e-12 * size:
+        P = 0.5 * (P + P.T)
+    return check_solution(P, "the Lyapunov solution P")
 
 
 def solve_lyapunov(A: Any, Q: Any) -> FloatArray:
@@ -89,7 +99,7 @@ def solve_lyapunov(A: Any, Q: Any) -> FloatArray:
         Y[:, k] = _solve_column(lhs, rhs)
     with np.errstate(over="ignore", invalid="ignore"):
         X = U @ Y @ W.conj().T
-    return _finish(X)
+    return _finish(X, Q)
 
 
 def solve_discrete_lyapunov(A: Any, Q: Any) -> FloatArray:
@@ -120,7 +130,7 @@ def solve_discrete_lyapunov(A: Any, Q: Any) -> FloatArray:
         Y[:, k] = _solve_column(lhs, rhs)
     with np.errstate(over="ignore", invalid="ignore"):
         X = U @ Y @ W.conj().T
-    return _finish(X)
+    return _finish(X, Q)
 
 
 @dataclass

@@ -111,6 +111,42 @@ def _rollout_steps(dt: Any, duration: Any) -> tuple[float, int]:
     return step, round(span / step) + 1
 
 
+def _largest_step(options: DMPOptions, *, phase: bool = True, goal_filter: bool = True) -> float:
+    """Largest stable ``dt / tau`` of the semi-implicit Euler steps of a DMP.
+
+    With ``a = dt / tau``, ``c = alpha_z`` and ``k = alpha_z beta_z`` the error ``(y - g, z)`` of
+    the transformation system evolves by a matrix of determinant ``1 - a c`` and trace
+    ``2 - a c - a^2 k``; it decays iff ``a c < 2`` and ``4 - 2 a c - a^2 k > 0`` (Jury), i.e.
+    ``a < 4 (sqrt 2 - 1) / alpha_z`` for ``beta_z = alpha_z / 4``. The phase
+    ``x_{k+1} = (1 - a alpha_x) x_k`` must not change sign (``a <= 1 / alpha_x``) and the goal
+    filter must not overshoot (``a alpha_g < 2``).
+    """
+    c, k = options.alpha_z, options.alpha_z**2 / 4.0
+    limit = min(2.0 / c, (-c + np.sqrt(c * c + 4.0 * k)) / k)
+    if phase:
+        limit = min(limit, 1.0 / options.alpha_x)
+    if goal_filter:
+        limit = min(limit, 2.0 / options.alpha_g)
+    return float(limit)
+
+
+def _check_step(
+    dt: float, tau: float, options: DMPOptions, *, phase: bool = True, goal_filter: bool = True
+) -> None:
+    """Refuse a ``dt`` for which the Euler steps of a DMP diverge.
+
+    A silently wrong rollout otherwise: dt = 0.1 s with tau = 1 s ended at -8788 for a goal of 1.
+    """
+    limit = _largest_step(options, phase=phase, goal_filter=goal_filter)
+    if not dt < limit * tau:
+        raise InvalidInputError(
+            f"dt = {dt:g} s is too large for tau = {tau:g} s with alpha_z = {options.alpha_z:g}"
+            f", alpha_x = {options.alpha_x:g}, alpha_g = {options.alpha_g:g}: the Euler steps "
+            f"of the DMP diverge for dt >= {limit * tau:.4g} s; use a smaller dt (resample "
+            "the rollout afterwards if fewer samples are wanted)"
+        )
+
+
 @dataclass
 class DMPTrajectory:
     """A DMP rollout sampled every ``dt``.
@@ -246,6 +282,7 @@ class DiscreteDMP:
         """
         tau = self.tau if tau is None else check_positive(tau, "tau [s]")
         dt, steps = _rollout_steps(dt, 1.5 * tau if duration is None else duration)
+        _check_step(dt, tau, self.options)
         d = self.weights.shape[0]
         start = self.y0.copy() if y0 is None else _vector(y0, d, "y0")
         g_target = self.goal.copy() if goal is None else _vector(goal, d, "goal")
@@ -369,6 +406,7 @@ class RhythmicDMP:
         """
         tau = self.tau if tau is None else check_positive(tau, "tau [s]")
         dt, steps = _rollout_steps(dt, duration)
+        _check_step(dt, tau, self.options, phase=False, goal_filter=False)
         amplitude = as_scalar(amplitude, "amplitude")
         d = self.weights.shape[0]
         y = self.anchor.copy() if y0 is None else _vector(y0, d, "y0")

@@ -40,7 +40,7 @@ import pinocchio as pin
 from taskspace._validation import FloatArray, as_vector, check_positive
 from taskspace.errors import InvalidInputError
 from taskspace.features import FramePose
-from taskspace.learning.dmp import DiscreteDMP
+from taskspace.learning.dmp import DiscreteDMP, _check_step
 from taskspace.model.world import Obstacle
 from taskspace.tasks import Task
 
@@ -242,6 +242,7 @@ class DMPTaskTarget:
         The reported (and feed-forward) acceleration is the one integrated over the step.
         """
         check_positive(dt, "dt [s]")
+        _check_step(float(dt), self.tau, self.dmp.options)  # larger steps diverge silently
         with self._lock:
             return self._step(dt)
 

@@ -45,9 +45,18 @@ def feature_expectations(mdp: MDP, policy: Any, features: Any, start: Any) -> Fl
     """
     Phi = as_float_array(features, "features")
     d0 = as_float_array(start, "start")
-    if Phi.ndim != 2 or Phi.shape[0] != mdp.num_states or d0.shape != (mdp.num_states,):
+    S = mdp.num_states
+    if Phi.ndim != 2 or Phi.shape[0] != S or Phi.shape[1] < 1 or d0.shape != (S,):
         raise InvalidInputError(
-            f"features must be ({mdp.num_states} x k) and start ({mdp.num_states},)"
+            f"features must be ({S} x k) with k >= 1 and start ({S},), got {Phi.shape} and "
+            f"{d0.shape}"
+        )
+    check_finite(Phi, "features")
+    # a NaN start gave NaN expectations, an unnormalized one scaled them
+    if not (np.all(np.isfinite(d0)) and d0.min() >= 0 and abs(d0.sum() - 1.0) <= 1e-9):
+        raise InvalidInputError(
+            f"start must be a probability distribution over the {S} states (finite, >= 0, "
+            f"summing to 1), got {d0[:10].tolist()}"
         )
     cols = [evaluate_policy(_with_rewards(mdp, Phi[:, j]), policy) for j in range(Phi.shape[1])]
     return np.asarray(d0 @ np.stack(cols, axis=1), dtype=float)

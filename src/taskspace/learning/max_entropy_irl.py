@@ -36,7 +36,7 @@ import numpy as np
 import scipy.optimize
 import scipy.special
 
-from taskspace._validation import FloatArray, check_count, check_positive
+from taskspace._validation import FloatArray, as_float_array, check_count, check_positive
 from taskspace.errors import InvalidInputError
 from taskspace.optimal_control.mdp import MDP
 
@@ -153,7 +153,7 @@ def soft_value_iteration(mdp: MDP, state_rewards: Any, horizon: int) -> SoftPoli
         horizon: number of decisions ``T`` (>= 1).
     """
     S = mdp.num_states
-    r = np.asarray(state_rewards, dtype=float)
+    r = as_float_array(state_rewards, "state rewards")  # complex was cut to its real part
     if r.shape != (S,) or not np.all(np.isfinite(r)):
         raise InvalidInputError(f"state rewards must be a finite vector of size {S}")
     _check(mdp, np.zeros((S, 1)), np.full(S, 1.0 / S), horizon)
@@ -178,12 +178,28 @@ def expected_feature_counts(mdp: MDP, policy: SoftPolicy, features: Any, start: 
 
     Forward pass ``D_{t+1} = sum_a (D_t * pi_t(a | .)) P_a``, ``D_0 = d0``.
     """
-    T = policy.policy.shape[0]
+    if not isinstance(policy, SoftPolicy):
+        raise InvalidInputError(
+            f"policy must be a SoftPolicy (from soft_value_iteration), got {type(policy).__name__}"
+        )
+    pi = np.asarray(policy.policy)
+    shape = (mdp.num_states, mdp.num_actions)
+    if pi.ndim != 3 or pi.shape[1:] != shape or pi.shape[0] < 1:
+        # a policy of a 3-action MDP on a 2-action one dropped the third action's probability
+        raise InvalidInputError(
+            f"policy.policy must be T x {shape[0]} x {shape[1]} (horizon x states x actions of "
+            f"this MDP), got shape {pi.shape}: was the policy computed for another MDP?"
+        )
+    if not (np.all(np.isfinite(pi)) and np.allclose(pi.sum(axis=2), 1.0, atol=1e-9)):
+        raise InvalidInputError(
+            "policy.policy must hold finite action probabilities summing to 1 in every state"
+        )
+    T = pi.shape[0]
     Phi, D = _check(mdp, features, start, T)
     mu = np.zeros(Phi.shape[1])
     for t in range(T):
         D = sum(
-            (P.T @ (D * policy.policy[t, :, a]) for a, P in enumerate(mdp.transitions)),
+            (P.T @ (D * pi[t, :, a]) for a, P in enumerate(mdp.transitions)),
             np.zeros(mdp.num_states),
         )
         mu += D @ Phi
@@ -198,9 +214,9 @@ def demonstration_feature_counts(demonstrations: Sequence[Any], features: Any) -
             features are not counted, as in :func:`expected_feature_counts`).
         features: ``Phi`` (S x k).
     """
-    Phi = np.asarray(features, dtype=float)
-    if Phi.ndim != 2:
-        raise InvalidInputError(f"features must be an (S x k) array, got {Phi.shape}")
+    Phi = as_float_array(features, "features")
+    if Phi.ndim != 2 or not np.all(np.isfinite(Phi)):  # NaN features gave NaN counts
+        raise InvalidInputError(f"features must be a finite (S x k) array, got shape {Phi.shape}")
     if len(demonstrations) == 0:
         raise InvalidInputError("need at least one demonstration")
     total = np.zeros(Phi.shape[1])

@@ -26,7 +26,14 @@ import pinocchio as pin
 
 from taskspace._validation import FloatArray, as_float_array, check_positive
 from taskspace.errors import InvalidInputError
-from taskspace.learning.dmp import DiscreteDMP, DMPOptions, _check_weights, _rollout_steps, _vector
+from taskspace.learning.dmp import (
+    DiscreteDMP,
+    DMPOptions,
+    _check_step,
+    _check_weights,
+    _rollout_steps,
+    _vector,
+)
 
 
 def _rotation(q: Any) -> FloatArray:
@@ -52,7 +59,23 @@ def _rotation(q: Any) -> FloatArray:
 
 
 def quaternion(R: FloatArray) -> FloatArray:
-    """Unit quaternion ``(x, y, z, w)`` (Pinocchio's coefficient order) of a rotation."""
+    """Unit quaternion ``(x, y, z, w)`` (Pinocchio's coefficient order) of a rotation.
+
+    Raises:
+        InvalidInputError: ``R`` is not a finite 3 x 3 rotation matrix (orthonormal to 1e-6,
+            determinant +1): a NaN matrix gave a NaN quaternion, ``2 I`` one of norm 1.32 and
+            a reflection the quaternion of a half turn.
+    """
+    if isinstance(R, (str, bytes)):
+        raise InvalidInputError(f"R must be a 3 x 3 rotation matrix, got {type(R).__name__}")
+    arr = as_float_array(R, "R")
+    if arr.shape != (3, 3):
+        raise InvalidInputError(f"R must be a 3 x 3 rotation matrix, got shape {arr.shape}")
+    return _quaternion(_rotation(arr))
+
+
+def _quaternion(R: FloatArray) -> FloatArray:
+    """:func:`quaternion` without the checks (``R`` already a rotation)."""
     return np.asarray(pin.Quaternion(np.asarray(R)).coeffs(), dtype=float).copy()
 
 
@@ -150,6 +173,7 @@ class OrientationDMP:
         """
         tau = self.tau
         dt, steps = _rollout_steps(dt, 1.5 * tau if duration is None else duration)
+        _check_step(dt, tau, self.options, goal_filter=False)
         R = self.R0.copy() if start is None else _rotation(start)
         g = self.goal.copy() if goal is None else _rotation(goal)
         w0 = self.initial_angular_velocity if angular_velocity0 is None else angular_velocity0
@@ -163,7 +187,7 @@ class OrientationDMP:
         X = (1.0 - dt * o.alpha_x / tau) ** np.arange(steps)
         shape = self.weights @ self._phase.basis(X).T  # (3 x K)
         for k in range(steps):
-            Rs[k], Q[k], W[k] = R, quaternion(R), eta / tau
+            Rs[k], Q[k], W[k] = R, _quaternion(R), eta / tau
             f = D0 * shape[:, k]
             eta_d = (o.alpha_z * (beta * pin.log3(g @ R.T) - eta) + f) / tau
             eta = eta + dt * eta_d

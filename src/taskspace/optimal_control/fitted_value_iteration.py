@@ -33,6 +33,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from taskspace._validation import FloatArray, as_float_array, check_count, check_positive
+from taskspace.dynamics.simulation import memory_budget
 from taskspace.errors import InvalidInputError, ShapeError, TaskspaceError
 from taskspace.optimal_control.dynamic_programming import (
     DPResult,
@@ -44,6 +45,10 @@ from taskspace.optimal_control.mdp import MDP, make_mdp
 
 MAX_REFINEMENTS = 64
 """Largest ``FittedValueIterationOptions.refinements``."""
+
+MAX_GRID_BYTES = 8 * 2**30
+"""Cap on the (state, action) tables of :func:`fitted_value_iteration` (or half the available
+memory when less)."""
 
 Dynamics = Callable[[FloatArray, FloatArray], FloatArray]
 """``f(X, U)``: state derivatives (K x d) of states X (K x d) under actions U (K x m)."""
@@ -222,8 +227,22 @@ def fitted_value_iteration(
             f"round: 2^-{MAX_REFINEMENTS} of the action gap is below float64 precision), "
             f"got {refinements}"
         )
+    N, m, d = grid.size, U.shape[1], grid.dim
+    pairs = N * max(U.shape[0], 5**m if refinements else 1)
+    # states and successors of every (state, action) pair, its input and cost, and the sparse
+    # interpolation row (2^d weights and column indices); a 10^15-point grid was a bare
+    # MemoryError ("Unable to allocate 7.11 PiB")
+    needed = pairs * (16 * d + 8 * m + 8 + 12 * 2**d)
+    budget = memory_budget(MAX_GRID_BYTES)
+    if needed > budget:
+        raise InvalidInputError(
+            f"the grid ({' x '.join(str(k) for k in grid.shape)} = {N:,} points) with "
+            f"{pairs // N:,} actions per point would need at least {needed / 1e9:.3g} GB but the "
+            f"budget is {budget / 1e9:.3g} GB (half the available memory, at most "
+            f"{MAX_GRID_BYTES / 2**30:g} GiB): use a coarser grid (geometric_axis) or fewer "
+            "actions"
+        )
     X = grid.points()
-    N, m = X.shape[0], U.shape[1]
     goal = np.zeros(N, dtype=bool)
     if target is not None:
         goal = np.asarray(_call(target, "target", X))

@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 import scipy.sparse as sp
 
-from taskspace._validation import FloatArray, as_float_array, check_positive
+from taskspace._validation import FloatArray, as_float_array, as_scalar, check_positive
 from taskspace.errors import InvalidInputError
 
 
@@ -181,6 +181,10 @@ def make_grid(axes: Sequence[Any], *, periods: Sequence[float] | None = None) ->
     return StateGrid(axes=arrs, periods=per)
 
 
+MAX_GEOMETRIC_POINTS = 1_000_000
+"""Largest number of points on each side of a :func:`geometric_axis`."""
+
+
 def geometric_axis(
     half_width: float, smallest: float, ratio: float, *, center: float = 0.0
 ) -> FloatArray:
@@ -191,13 +195,30 @@ def geometric_axis(
     the relative interpolation error of a function like ``|x|^2`` is the same at every scale
     (used to resolve a value function near an equilibrium).
     """
-    check = [half_width > 0, 0 < smallest < half_width, ratio > 1]
-    if not all(check):
+    half_width = check_positive(half_width, "half_width")  # inf was a bare OverflowError
+    smallest = check_positive(smallest, "smallest")
+    ratio = check_positive(ratio, "ratio")
+    center = as_scalar(center, "center")  # NaN gave an axis of NaNs
+    if not (np.isfinite(center) and smallest < half_width and ratio > 1):
         raise InvalidInputError(
-            "need half_width > 0, 0 < smallest < half_width and ratio > 1 for a geometric axis"
+            "need half_width > 0, 0 < smallest < half_width, ratio > 1 and a finite center for "
+            f"a geometric axis, got half_width={half_width}, smallest={smallest}, "
+            f"ratio={ratio}, center={center}"
         )
     k = int(np.ceil(np.log(half_width / smallest) / np.log(ratio)))
+    if k + 1 > MAX_GEOMETRIC_POINTS:  # ratio = 1 + 1e-15 asked NumPy for 4.32 EiB
+        raise InvalidInputError(
+            f"a geometric axis from {smallest:g} to {half_width:g} with ratio {ratio!r} needs "
+            f"{k + 1:,} points per side (at most {MAX_GEOMETRIC_POINTS:,}): use a larger ratio "
+            "or a larger smallest spacing"
+        )
     pos = smallest * ratio ** np.arange(k + 1)
     pos = pos[pos < half_width * (1 - 1e-9)]
     pos = np.append(pos, half_width)
-    return np.concatenate([center - pos[::-1], [center], center + pos])
+    axis = np.concatenate([center - pos[::-1], [center], center + pos])
+    if np.any(np.diff(axis) <= 0):  # center = 1e300: every point rounds to the same float
+        raise InvalidInputError(
+            f"the spacing {smallest:g} is below the float resolution at center {center:g}: the "
+            "axis points would not be distinct; shift the coordinates or use a larger spacing"
+        )
+    return axis

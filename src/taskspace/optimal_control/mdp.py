@@ -20,7 +20,13 @@ from typing import Any
 import numpy as np
 import scipy.sparse as sp
 
-from taskspace._validation import FloatArray, as_float_array, as_scalar, check_positive
+from taskspace._validation import (
+    FloatArray,
+    as_float_array,
+    as_scalar,
+    check_count,
+    check_positive,
+)
 from taskspace.errors import InvalidInputError
 
 
@@ -276,10 +282,10 @@ def t_maze(
     """A deterministic T-maze: a stem from the start to the junction, then two rewarded arms.
 
     States: ``stem0`` (start) ... ``stem{stem-1}`` (the junction), ``left1`` ... ``left{k}``,
-    ``right1`` ... ``right{k}`` (the last cell of each arm is terminal and absorbing), and an
-    absorbing ``end`` state. Actions ``forward``, ``left``, ``right``: in the stem ``forward``
-    moves towards the junction, ``left``/``right`` at the junction enter the arms and move along
-    them; an impossible move stays in place. Entering an arm's terminal cell pays its reward.
+    ``right1`` ... ``right{k}`` (the last cell of each arm is terminal and absorbing). Actions
+    ``forward``, ``left``, ``right``: in the stem ``forward`` moves towards the junction,
+    ``left``/``right`` at the junction enter the arms and move along them; an impossible move
+    stays in place. Entering an arm's terminal cell pays its reward.
 
     A reconstruction: the lecture notes' T-maze exercise (Toussaint, Introduction to Robotics,
     2013/14, chapter 10 and the exercises) is not in the project's copy of the notes, which
@@ -292,8 +298,14 @@ def t_maze(
         left: (length, reward) of the left arm.
         right: (length, reward) of the right arm.
     """
-    if stem < 1 or left[0] < 1 or right[0] < 1:
-        raise InvalidInputError("the stem and the arms need at least one cell each")
+    # 2.5 or NaN cells were bare TypeErrors from range(), True a one-cell stem
+    stem = check_count(stem, "stem", minimum=1)
+    arms: list[tuple[int, float]] = []
+    for side, pair in (("left", left), ("right", right)):
+        if isinstance(pair, (str, bytes)) or not hasattr(pair, "__len__") or len(pair) != 2:
+            raise InvalidInputError(f"{side} must be a (length, reward) pair, got {pair!r}")
+        arms.append((check_count(pair[0], f"{side} arm length", minimum=1), pair[1]))
+    left, right = arms[0], arms[1]
     names = [f"stem{i}" for i in range(stem)]
     names += [f"left{i + 1}" for i in range(left[0])] + [f"right{i + 1}" for i in range(right[0])]
     index = {n: i for i, n in enumerate(names)}
