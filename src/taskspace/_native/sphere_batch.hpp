@@ -183,12 +183,22 @@ struct Input {
   std::vector<Obstacle> obstacles;
   std::vector<Pair> pairs;
   double scale = 1.0;  // S of the error bound (>= 1 m)
+  // The joint chain (joints 1..n; joint 0, the universe, at the identity): per joint its
+  // parent, kind (0 revolute, 1 prismatic) about or along axis (0 x, 1 y, 2 z), its
+  // coordinate in q and its placement in the parent (R0[r + 3 c], t0): the kernel's
+  // kinematics_batch, whose placements load_q computes in single precision.
+  struct Joint {
+    int parent, kind, axis, idx_q;
+    double R0[9], t0[3];
+  };
+  std::vector<Joint> chain;
 };
 
 class SphereFilter {
  public:
   bool ready() const { return ready_; }
   double eps() const { return eps_; }
+  double scale() const { return scale_; }  // S of the bound
 
   void setup(const Input& in) {
     ready_ = false;
@@ -201,7 +211,48 @@ class SphereFilter {
     self_units_.clear();
     last_unit_ = -1;
     const double u = std::ldexp(1.0, -24);
-    eps_ = 256.0 * u * std::max(1.0, in.scale);
+    // the chain's depth n (moving joints from the universe to the deepest joint): the bound
+    // of the header grows with it
+    joints_.clear();
+    std::vector<int> depth(in.chain.size() + 1, 0);
+    int n = 0;
+    for (std::size_t k = 0; k < in.chain.size(); ++k) {
+      const Input::Joint& j = in.chain[k];
+      JointF f;
+      f.parent = j.parent;
+      f.kind = j.kind;
+      f.axis = j.axis;
+      f.idx_q = j.idx_q;
+      f.turn[0] = (j.axis + 1) % 3;
+      f.turn[1] = (j.axis + 2) % 3;
+      for (int a = 0; a < 3; ++a) f.t0[a] = splat(static_cast<float>(j.t0[a]));
+      // a signed permutation (entries within 1e-12 of 0 or +-1, the Panda's rpy of multiples
+      // of pi/2 with their 6e-17): column c is +-column src[c] of the parent, exactly
+      f.perm = true;
+      for (int c = 0; c < 3; ++c) {
+        int ones = 0;
+        for (int r = 0; r < 3; ++r) {
+          const double x = j.R0[r + 3 * c];
+          if (std::abs(std::abs(x) - 1.0) < 1e-12) {
+            ++ones;
+            f.src[c] = r;
+            f.sign[c] = x > 0 ? 1.0f : -1.0f;
+          } else if (std::abs(x) >= 1e-12) {
+            f.perm = false;
+          }
+        }
+        if (ones != 1) f.perm = false;
+      }
+      for (int e = 0; e < 9; ++e) f.R0[e] = splat(static_cast<float>(j.R0[e]));
+      joints_.push_back(f);
+      depth[k + 1] = depth[j.parent] + 1;
+      n = std::max(n, depth[k + 1]);
+    }
+    poses_.assign(in.chain.size() + 1, PoseF{});
+    for (int a = 0; a < 3; ++a) poses_[0].R[4 * a] = splat(1.0f);
+    scale_ = std::max(1.0, in.scale);
+    depth_ = n;
+    eps_ = (140.0 * n + 342.0) * u * scale_;
     for (const auto& l : in.links)
       links_.push_back(LinkF{l.joint, f3(l.center), static_cast<float>(l.radius), {}, {}, {}});
     for (const auto& o : in.objects) {
@@ -287,7 +338,8 @@ class SphereFilter {
           static_units_.push_back(StaticUnit{la, p.b, 0.0f, {}});
           unit = &static_units_.back();
         }
-        unit->items.push_back(Item{p.a, -1, static_cast<float>(p.margin) + e, pair, p.exact});
+        unit->items.push_back(Item{p.a, -1, static_cast<float>(p.margin) + e,
+                                   static_cast<float>(p.margin) - e, pair, p.exact});
         unit->margin = std::max(unit->margin, static_cast<float>(p.margin) + e);
       } else {
         const int l0 = std::min(la, objects_[p.b].link), l1 = std::max(la, objects_[p.b].link);
@@ -298,7 +350,8 @@ class SphereFilter {
           self_units_.push_back(SelfUnit{l0, l1, 0.0f, {}});
           unit = &self_units_.back();
         }
-        unit->items.push_back(Item{p.a, p.b, static_cast<float>(p.margin) + e, pair, p.exact});
+        unit->items.push_back(Item{p.a, p.b, static_cast<float>(p.margin) + e,
+                                   static_cast<float>(p.margin) - e, pair, p.exact});
         unit->margin = std::max(unit->margin, static_cast<float>(p.margin) + e);
       }
     }
@@ -330,10 +383,11 @@ class SphereFilter {
     ready_ = true;
   }
 
-  // The link placements of the batch (Pose: R[9] (R[r + 3 c]) and t[3] of D4 lanes, indexed
-  // by joint), as floats, and the links' bounding sphere centres.
-  template <typename Pose>
-  void load(const std::vector<Pose>& poses) {
+  // The joint placements of kLanes configurations (lane l: the coordinates at q[l]) in
+  // single precision through the chain (parent * joint placement * joint motion, as the
+  // kernel's kinematics_batch in double; the header's bound), and the links' bounding sphere
+  // centres.
+  void load_q(const double* const* q) {
     ++stamp_;
     if (stamp_ == 0) {
       std::fill(bound_stamp_.begin(), bound_stamp_.end(), 0u);
@@ -341,12 +395,98 @@ class SphereFilter {
       std::fill(clu_stamp_.begin(), clu_stamp_.end(), 0u);
       stamp_ = 1;
     }
+    for (std::size_t k = 0; k < joints_.size(); ++k) {
+      const JointF& f = joints_[k];
+      const PoseF& P = poses_[f.parent];
+      PoseF& M = poses_[k + 1];
+      if (f.perm) {
+        for (int c = 0; c < 3; ++c)
+          for (int r = 0; r < 3; ++r) M.R[r + 3 * c] = f.sign[c] * P.R[r + 3 * f.src[c]];
+      } else {
+        for (int c = 0; c < 3; ++c)
+          for (int r = 0; r < 3; ++r)
+            M.R[r + 3 * c] = (P.R[r] * f.R0[3 * c] + P.R[r + 3] * f.R0[3 * c + 1]) +
+                             P.R[r + 6] * f.R0[3 * c + 2];
+      }
+      for (int r = 0; r < 3; ++r)
+        M.t[r] = ((P.R[r] * f.t0[0] + P.R[r + 3] * f.t0[1]) + P.R[r + 6] * f.t0[2]) + P.t[r];
+      D4 v;
+      for (int l = 0; l < kLanes; ++l) v[l] = q[l][f.idx_q];
+      if (f.kind == 0) {  // revolute: columns b and d turn about the axis
+        F4 s, c;
+        sincos4(v, s, c);
+        const int b = f.turn[0], d = f.turn[1];
+        for (int r = 0; r < 3; ++r) {
+          const F4 cb = M.R[r + 3 * b], cd = M.R[r + 3 * d];
+          M.R[r + 3 * b] = c * cb + s * cd;
+          M.R[r + 3 * d] = c * cd - s * cb;
+        }
+      } else {  // prismatic: along the axis column
+        const F4 vf = to_float(v);
+        for (int r = 0; r < 3; ++r) M.t[r] = M.t[r] + vf * M.R[r + 3 * f.axis];
+      }
+    }
     for (LinkF& l : links_) {
-      const Pose& P = poses[l.joint];
-      for (int k = 0; k < 9; ++k) l.R[k] = to_float(P.R[k]);
-      for (int a = 0; a < 3; ++a) l.t[a] = to_float(P.t[a]);
+      const PoseF& P = poses_[l.joint];
+      for (int k = 0; k < 9; ++k) l.R[k] = P.R[k];
+      for (int a = 0; a < 3; ++a) l.t[a] = P.t[a];
       l.world = place(l, l.center);
     }
+  }
+
+  // Lane l of joint j's placement of the last load_q: R (R[r + 3 c]) then t. Tests.
+  std::array<float, 12> placement(int j, int l) const {
+    std::array<float, 12> out{};
+    for (int k = 0; k < 9; ++k) out[k] = poses_[j].R[k][l];
+    for (int a = 0; a < 3; ++a) out[9 + a] = poses_[j].t[a][l];
+    return out;
+  }
+  int joints() const { return static_cast<int>(poses_.size()); }
+  int depth() const { return depth_; }  // n of the bound: moving joints on the longest chain
+
+  // Sines and cosines of the lanes of x in single precision: x = j pi/2 + r reduced in double
+  // (j the nearest integer, pi/2 in two parts, fdlibm's: j pi/2 exact for |j| < 2^20, r
+  // within 1e-16 |r|), r rounded to float, then Cephes' sinf / cosf polynomials on
+  // [-pi/4, pi/4] and the quadrant j mod 4. Absolute error below 2 u (u = 2^-24; tested
+  // against double on a dense grid). Lanes beyond |x| < 1e5 (or not finite) take std::sin /
+  // std::cos in double, rounded.
+  static void sincos4(const D4& x, F4& s, F4& c) {
+    constexpr double kTwoOverPi = 6.36619772367581382433e-01;
+    constexpr double kPio2Hi = 1.57079632673412561417e+00;  // first 33 bits of pi/2
+    constexpr double kPio2Lo = 6.07710050650619224932e-11;  // pi/2 - kPio2Hi
+    constexpr double kRound = 6755399441055744.0;           // 1.5 * 2^52: round to nearest
+    bool plain = true;
+    for (int l = 0; l < kLanes; ++l) plain = plain && std::abs(x[l]) < 1e5;
+    if (!plain) {
+      for (int l = 0; l < kLanes; ++l) {
+        s[l] = static_cast<float>(std::sin(x[l]));
+        c[l] = static_cast<float>(std::cos(x[l]));
+      }
+      return;
+    }
+    const D4 y = x * kTwoOverPi + kRound;  // j in the low mantissa bits (see kinematics_batch)
+    const D4 j = y - kRound;
+    const F4 r = to_float((x - j * kPio2Hi) - j * kPio2Lo);
+    const F4 z = r * r;
+    const F4 sr = ((-1.9515295891e-4f * z + 8.3321608736e-3f) * z - 1.6666654611e-1f) * z * r + r;
+    const F4 cr = ((2.443315711809948e-5f * z - 1.388731625493765e-3f) * z +
+                   4.166664568298827e-2f) *
+                      z * z -
+                  0.5f * z + 1.0f;
+    typedef std::uint64_t U4 __attribute__((vector_size(kLanes * sizeof(std::uint64_t))));
+    typedef unsigned V4 __attribute__((vector_size(kLanes * sizeof(unsigned))));
+    U4 yb;
+    __builtin_memcpy(&yb, &y, sizeof yb);
+    const V4 q = __builtin_convertvector(yb, V4) & 3u;
+    V4 bs, bc;
+    __builtin_memcpy(&bs, &sr, sizeof bs);
+    __builtin_memcpy(&bc, &cr, sizeof bc);
+    // (sin, cos) = (sr, cr), (cr, -sr), (-sr, -cr), (-cr, sr) for q = 0..3
+    const V4 swap = V4{} - (q & 1u);
+    const V4 os = ((bs & ~swap) | (bc & swap)) ^ ((q & 2u) << 30);
+    const V4 oc = ((bc & ~swap) | (bs & swap)) ^ (((q + 1u) & 2u) << 30);
+    __builtin_memcpy(&s, &os, sizeof s);
+    __builtin_memcpy(&c, &oc, sizeof c);
   }
 
   // Lanes (bits) of `active` that may collide; stops when `stop_lane` is among them. For each
@@ -475,8 +615,9 @@ class SphereFilter {
 
   int units() const { return static_cast<int>(static_units_.size() + self_units_.size()); }
   // Lanes of the last run's mask found by a sphere test on a primitive or a self pair (not by
-  // the box of another shape, not by a pair marked exact): their spheres overlap within eps_
-  // (float), so the double test finds them colliding unless they are within eps_ of touching.
+  // the box of another shape, not by a pair marked exact) that passes with the radii reduced
+  // by eps_ too (Item::inner): their spheres overlap by more than the bound, so the double
+  // test finds them colliding (the same answer).
   unsigned sure() const { return sure_; }
 
  private:
@@ -502,6 +643,17 @@ class SphereFilter {
   }
   struct V3 {
     F4 x, y, z;
+  };
+  struct PoseF {
+    F4 R[9], t[3];  // R[r + 3 c]
+  };
+  struct JointF {
+    int parent, kind, axis, idx_q;
+    int turn[2];
+    bool perm;           // R0 a signed permutation: column c = sign[c] * column src[c]
+    int src[3] = {0, 1, 2};
+    float sign[3] = {1, 1, 1};
+    F4 R0[9], t0[3];
   };
   struct F3 {
     float v[3];
@@ -539,6 +691,7 @@ class SphereFilter {
   struct Item {
     int a, b;      // object, partner object (self pairs) or -1
     float margin;  // the pair's margin + eps
+    float inner;   // the pair's margin - eps (sure(): colliding for the double test too)
     int pair;      // index into Input::pairs
     bool exact;    // Input::Pair::exact: lanes it finds are not sure()
   };
@@ -659,6 +812,10 @@ class SphereFilter {
       place_cluster_spheres(it.a, c);
       for (int s = cl.begin; s < cl.end && mc; ++s) {
         const unsigned h = mc & prim_hits(o, sph_world_[s], sph_[s].r + rs);
+        if (h && o.type != 0 && !it.exact) {
+          const float inner = sph_[s].r + it.inner + o.swept;
+          if (inner >= 0.0f) item_sure_ |= h & prim_hits(o, sph_world_[s], inner);
+        }
         hit |= h;
         mc &= ~h;
         m &= ~h;
@@ -699,6 +856,10 @@ class SphereFilter {
           for (int t = B.begin; t < B.end && mab; ++t) {
             const unsigned h =
                 mab & ball_hits(sph_world_[s], sph_world_[t], sph_[s].r + sph_[t].r + it.margin);
+            if (h && !it.exact) {
+              const float inner = sph_[s].r + sph_[t].r + it.inner;
+              if (inner >= 0.0f) item_sure_ |= h & ball_hits(sph_world_[s], sph_world_[t], inner);
+            }
             hit |= h;
             mab &= ~h;
             ma &= ~h;
@@ -717,10 +878,11 @@ class SphereFilter {
     const ObsF& o = obs_[u.obstacle];
     unsigned hit = 0;
     for (std::size_t i = 0; i < u.items.size(); ++i) {
+      item_sure_ = 0;
       const unsigned h = static_item(o, u.items[i], near & ~hit);
       if (!h) continue;
       hit |= h;
-      if (o.type != 0 && !u.items[i].exact) sure_ |= h;
+      sure_ |= item_sure_;
       for (unsigned m = h; m; m &= m - 1) item_at_[__builtin_ctz(m)] = static_cast<int>(i);
       if (hit == near) break;
     }
@@ -812,10 +974,11 @@ class SphereFilter {
     const SelfUnit& u = self_units_[k - ns];
     unsigned hit = 0;
     for (std::size_t i = 0; i < u.items.size(); ++i) {
+      item_sure_ = 0;
       const unsigned h = self_item(u.items[i], near & ~hit);
       if (!h) continue;
       hit |= h;
-      if (!u.items[i].exact) sure_ |= h;
+      sure_ |= item_sure_;
       for (unsigned m = h; m; m &= m - 1) item_at_[__builtin_ctz(m)] = static_cast<int>(i);
       if (hit == active) break;
     }
@@ -823,8 +986,11 @@ class SphereFilter {
   }
 
   bool ready_ = false;
-  double eps_ = 0.0;
+  double eps_ = 0.0, scale_ = 1.0;
+  int depth_ = 0;
   std::vector<LinkF> links_;
+  std::vector<JointF> joints_;  // the chain (Input::chain)
+  std::vector<PoseF> poses_;    // load_q: joint placements, lanes
   std::vector<ObjectF> objects_;
   std::vector<SphF> sph_;
   std::vector<ObsF> obs_;
@@ -839,6 +1005,7 @@ class SphereFilter {
   std::vector<int> unit_of_;             // static unit of (link, obstacle), or -1
   std::vector<F4> blo_[3], bhi_[3], binfl_;  // obstacle boxes, 4 per block (link_obstacles)
   unsigned stamp_ = 0, sure_ = 0;
+  unsigned item_sure_ = 0;  // static_item, self_item: lanes of a sphere hit within the inner margin
   int last_unit_ = -1;
   int first_unit_ = -1;      // the unit run tested first (last_unit_ then)
   int item_at_[kLanes] = {};  // static_leaves, unit_hits: the item where a lane hit
