@@ -1,9 +1,10 @@
 // Single-precision sphere filter for batches of configurations (#22 item 4; VAMP-style:
 // Thomason, Kingston and Kavraki, ICRA 2024). Included by planning_kernel.cpp.
 //
-// What it answers. For kLanes configurations whose joint placements come from the kernel's
-// batched kinematics (CollisionKernel::kinematics_batch, structure of arrays: one lane per
-// configuration), a bit mask of the lanes that MAY collide for the robot's spheres (the
+// What it answers. For kLanes configurations (q, one lane per configuration; load_q computes
+// their joint placements in single precision through the same chain as the kernel's
+// kinematics_batch, whose double placements the kernel then computes only for a batch with a
+// lane in the mask), a bit mask of the lanes that MAY collide for the robot's spheres (the
 // kernel's sphere checkers). A lane outside the mask is certainly free for the double-precision
 // sphere test of the kernel (spheres_placed): every test below is that test's, on the same
 // pairs, with the same margins, in single precision with every radius inflated by eps_ (the
@@ -40,25 +41,41 @@
 //
 // Rounding error bound (eps_). u = 2^-24 (float's unit roundoff); S >= 1 m bounds the absolute
 // value of every coordinate, radius and half-size involved (setup: the obstacles' translations
-// and extents, the links' reach from the joint placements plus their spheres). Higham's
-// gamma_n = n u / (1 - n u) < 1.01 n u for n u < 0.01.
-//  - Link pose: the double placements rounded to float: rotation entries within u (|R_ij| <= 1),
-//    translation within u S.
-//  - Sphere centre c = R p + t in float (p rounded: within u S): |c_float - c| <= |dR p| +
-//    |R dp| + gamma_3 (|R||p| + |t|) per coordinate <= 3 u S + u S + 3.03 u (2 S) < 11 u S.
-//    The double centre of the kernel carries its own error of about 1e-16 S: negligible here,
-//    accounted in the slack below.
-//  - Obstacle frame l = R_o^T (c - t_o) (R_o, t_o rounded likewise): the difference c - t_o
-//    within 11 u S + u S + u 2 S = 14 u S per coordinate, then the rotation adds
-//    gamma_3 (3 * 2 S) + 3 u (2 S) < 25 u S: |l_float - l| < 3 * 14 u S + 25 u S = 67 u S per
-//    coordinate (worst case over the three terms of each row).
-//  - Distance to the primitive: each of (|l_a| - h_a)+ moves by at most 67 u S + 2 u S (h_a
-//    rounded, the subtraction rounded), the norm of three such terms by sqrt(3) times that:
-//    < 120 u S; the squared sums and the compared square (r + eps)^2 add gamma_4 relative error
-//    on both sides of d^2 <= R^2, i.e. at most 2.1 u R < 5 u S on the distance.
-//  - Sphere-sphere and sphere-to-box (world frame) tests take the shorter chain (no rotation).
-// Total < 130 u S; eps_ = 256 u S (S = 4 m: 61 micrometres; twice the bound). Over it, a lane
-// the double test finds colliding (distance <= r) has float distance < r + eps_: never "free".
+// and extents; the links' reach: the sum of the joint placements' translations, a prismatic
+// joint's travel (its limits) included, plus the largest extent of a sphere about its joint).
+// Higham's gamma_n = n u / (1 - n u) < 1.01 n u for n u < 0.01; norms are Euclidean
+// (Frobenius for matrices), which a rotation preserves. n: the depth of the chain (moving
+// joints from the universe to the deepest joint; the Panda's 7).
+//  - Sine and cosine (sincos4): the reduction in double (error below 1e-15), r rounded to
+//    float (u |r|), Cephes' polynomials (about 1.5 u with their rounding): within 2 u each
+//    (tested on a dense grid).
+//  - Joint rotation R_k = R_{k-1} R0_k Rz(q_k), per joint at most e_R = 21 u added (Frobenius):
+//    the product with R0 (rounded to float: 3 u; 9 entries within gamma_3: 9.1 u; a signed
+//    permutation, the Panda's, is exact), the turn of columns b, d: c cb + s cd within
+//    gamma_2 (|c||cb| + |s||cd|) <= 2.02 u |(cb, cd)| per entry (Cauchy-Schwarz), 2.86 u over
+//    the two columns, plus the sine and cosine errors: 2 * 2 u * 2 = 8 u. The error carried
+//    from the parent is not amplified (times rotations; their own deviation from orthogonal,
+//    below 200 u, changes it by a relative 1e-5). Depth d: within 21 d u.
+//  - Joint translation t_k = R_{k-1} t0_k + t_{k-1} (+ q R e_axis, prismatic): the carried
+//    rotation error times |t0_k|, plus t0 rounded (u |t0|) and the sums and products
+//    (gamma_4 per coordinate on |t0| + S, sqrt 3 over three: 7 u (|t0| + S)): per joint
+//    (d-1) e_R |t0_k| + 8 u |t0_k| + 7 u S (twice for a prismatic joint's two steps). Summed,
+//    with sum |t0| <= S: depth d within (21 d + 14 d + 8) u S = (35 d + 8) u S.
+//  - Sphere centre c = R p + t in float: n e_R |p| + (the translation) + p rounded and the
+//    products and sums (sqrt 3 (u + gamma_3 2) S < 12.3 u S); with |p| + sum |t0| <= S:
+//    |c_float - c| < (21 n + 14 n + 20.3) u S = (35 n + 20.3) u S =: C.
+//  - Obstacle frame and distance (the old chain after the centre, with the centre's error
+//    now C: a rotation preserves it): l = R_o^T (c - t_o) within C + 67 u S, the distance
+//    to the primitive within C + 130 u S (the per-coordinate terms of 67 u S, sqrt 3 over
+//    the norm, the squared sums' gamma_4 on both sides of d^2 <= R^2: 5 u S).
+//  - Sphere-sphere tests (self pairs): two centres, each within C: 2 C + 10 u S.
+// Total < 2 C + 130 u S = (70 n + 170.6) u S; eps_ = (140 n + 342) u S, twice the bound (the
+// Panda, n = 7, S = 1.52 m on the MotionBenchMaker scenes: 0.12 mm; the measured errors of
+// the placements are about 4 u (rotation) and 4 u m (translation), tests/planning/
+// test_planning_float_kinematics.py). Over it,
+// a lane the double test finds colliding (distance <= r) has float distance < r + eps_: never
+// "free"; a lane whose float distance is below r - eps_ has double distance below r: colliding
+// for the double test too (sure(), the trusted "spheres only" lanes).
 // tests/planning/test_planning_sphere_batch.py checks it on configurations bisected to within
 // 1e-9 of first contact (without the inflation those fail).
 #pragma once
