@@ -253,7 +253,7 @@ class SphereFilter {
           if (std::abs(std::abs(x) - 1.0) < 1e-12) {
             ++ones;
             f.src[c] = r;
-            f.sign[c] = x > 0 ? 1.0f : -1.0f;
+            f.sign[c] = splat(x > 0 ? 1.0f : -1.0f);
           } else if (std::abs(x) >= 1e-12) {
             f.perm = false;
           }
@@ -271,7 +271,7 @@ class SphereFilter {
     depth_ = n;
     eps_ = (140.0 * n + 342.0) * u * scale_;
     for (const auto& l : in.links)
-      links_.push_back(LinkF{l.joint, f3(l.center), static_cast<float>(l.radius), {}, {}, {}});
+      links_.push_back(LinkF{l.joint, f3(l.center), static_cast<float>(l.radius), {}});
     for (const auto& o : in.objects) {
       ObjectF of;
       of.link = o.link;
@@ -417,8 +417,13 @@ class SphereFilter {
       const PoseF& P = poses_[f.parent];
       PoseF& M = poses_[k + 1];
       if (f.perm) {
-        for (int c = 0; c < 3; ++c)
-          for (int r = 0; r < 3; ++r) M.R[r + 3 * c] = f.sign[c] * P.R[r + 3 * f.src[c]];
+        for (int c = 0; c < 3; ++c) {
+          const F4* src = &P.R[3 * f.src[c]];
+          const F4 sign = f.sign[c];
+          M.R[3 * c] = sign * src[0];
+          M.R[3 * c + 1] = sign * src[1];
+          M.R[3 * c + 2] = sign * src[2];
+        }
       } else {
         for (int c = 0; c < 3; ++c)
           for (int r = 0; r < 3; ++r)
@@ -443,12 +448,7 @@ class SphereFilter {
         for (int r = 0; r < 3; ++r) M.t[r] = M.t[r] + vf * M.R[r + 3 * f.axis];
       }
     }
-    for (LinkF& l : links_) {
-      const PoseF& P = poses_[l.joint];
-      for (int k = 0; k < 9; ++k) l.R[k] = P.R[k];
-      for (int a = 0; a < 3; ++a) l.t[a] = P.t[a];
-      l.world = place(l, l.center);
-    }
+    for (LinkF& l : links_) l.world = place(l, l.center);
   }
 
   // Lane l of joint j's placement of the last load_q: R (R[r + 3 c]) then t. Tests.
@@ -669,7 +669,7 @@ class SphereFilter {
     int turn[2];
     bool perm;           // R0 a signed permutation: column c = sign[c] * column src[c]
     int src[3] = {0, 1, 2};
-    float sign[3] = {1, 1, 1};
+    F4 sign[3] = {{1, 1, 1, 1}, {1, 1, 1, 1}, {1, 1, 1, 1}};
     F4 R0[9], t0[3];
   };
   struct F3 {
@@ -679,8 +679,7 @@ class SphereFilter {
     int joint;
     F3 center;
     float radius;
-    F4 R[9], t[3];
-    V3 world;
+    V3 world;  // its bounding sphere's centre (its joint's placement: poses_)
   };
   struct ObjectF {
     int link;
@@ -727,14 +726,15 @@ class SphereFilter {
     return F3{{static_cast<float>(d[0]), static_cast<float>(d[1]), static_cast<float>(d[2])}};
   }
 
-  static V3 place(const LinkF& l, const float* p) {
+  V3 place(const LinkF& l, const float* p) const {
+    const PoseF& P = poses_[l.joint];
     V3 c;
-    c.x = l.R[0] * p[0] + l.R[3] * p[1] + l.R[6] * p[2] + l.t[0];
-    c.y = l.R[1] * p[0] + l.R[4] * p[1] + l.R[7] * p[2] + l.t[1];
-    c.z = l.R[2] * p[0] + l.R[5] * p[1] + l.R[8] * p[2] + l.t[2];
+    c.x = P.R[0] * p[0] + P.R[3] * p[1] + P.R[6] * p[2] + P.t[0];
+    c.y = P.R[1] * p[0] + P.R[4] * p[1] + P.R[7] * p[2] + P.t[1];
+    c.z = P.R[2] * p[0] + P.R[5] * p[1] + P.R[8] * p[2] + P.t[2];
     return c;
   }
-  static V3 place(const LinkF& l, const F3& p) { return place(l, p.v); }
+  V3 place(const LinkF& l, const F3& p) const { return place(l, p.v); }
 
   // Object o's bounding centre (once per load).
   void place_bound(int o) {
