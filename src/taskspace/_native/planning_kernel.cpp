@@ -918,9 +918,10 @@ class CollisionKernel {
   // edges (first_collision: rrt_connect's EXTEND, CONNECT and straight lines,
   // first_invalid_on_edge) and collisions_with.
   // Then (set_sphere_filter, default mode 2) the single-precision filter of sphere_batch.hpp
-  // tests the 4 lanes at once (sphere centres from the lanes' placements, no load_lane) and
-  // only the lanes it cannot clear go through load_lane and the double test, in order: see
-  // first_collision and sphere_batch.hpp (the rounding bound, the hierarchy).
+  // tests the 4 lanes at once (its own float placements from q, SphereFilter::load_q) and only
+  // the lanes it cannot clear go through load_lane and the double test, in order; the batch's
+  // double placements are computed then, once (defer_kinematics: most batches never need
+  // them). See first_collision and sphere_batch.hpp (the rounding bound, the hierarchy).
   static constexpr int kBatch = 4;
   // 16-byte alignment (not the vector's 32): the AVX2 kinematics then load unaligned, since
   // the vectors holding BatchPose (batch_pose_) guarantee 16 bytes only (seen: vmovapd faults)
