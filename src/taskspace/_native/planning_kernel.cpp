@@ -641,7 +641,12 @@ class CollisionKernel {
       if (geom_.geometryObjects[g.object].parentJoint == 0) return;
     sb::Input in;
     double scale = 1.0, reach = 0.0, far = 0.0;
-    for (const FkJoint& f : fk_) reach += f.t0.norm();
+    for (const FkJoint& f : fk_) {
+      reach += f.t0.norm();
+      if (f.kind == 1)  // a prismatic joint's travel (its limits)
+        reach += std::max(std::abs(model_.lowerPositionLimit[f.idx_q]),
+                          std::abs(model_.upperPositionLimit[f.idx_q]));
+    }
     for (const Link& l : links_) {
       in.links.push_back({l.joint, {l.center[0], l.center[1], l.center[2]}, l.radius});
       far = std::max(far, l.center.norm() + l.radius);
@@ -697,6 +702,13 @@ class CollisionKernel {
       in.pairs.push_back(
           {obj[a], b, gp.partner_static, pair_margin_[j], exact_pair_[gp.pair] != 0});
     }
+    for (std::size_t k = 0; k < fk_.size(); ++k) {
+      const FkJoint& f = fk_[k];
+      sb::Input::Joint j{f.parent, f.kind, f.axis, f.idx_q, {}, {}};
+      for (int e = 0; e < 9; ++e) j.R0[e] = f.R0c[e];
+      for (int a = 0; a < 3; ++a) j.t0[a] = f.t0c[a];
+      in.chain.push_back(j);
+    }
     if (!std::isfinite(scale)) return;
     in.scale = scale;
     filter_.setup(in);
@@ -711,10 +723,9 @@ class CollisionKernel {
   // The batched sphere checks: mode 0 tests every lane in double (the path before the
   // filter, for comparisons); 1 the single-precision filter, then the double test on the lanes
   // it cannot clear (the double path's answers); 2 (default) as 1, but for "spheres only" a
-  // lane whose spheres the filter finds overlapping a primitive or a self pair's spheres is
-  // colliding without the double test (conservative: it differs from the double test only
-  // within eps of touching, where it says colliding) in edge checks (first_collision: the
-  // planner, first_invalid_on_edge); collisions_with keeps the double test's answers. The
+  // lane whose spheres the filter finds overlapping a primitive or a self pair's spheres by
+  // more than its bound eps is colliding without the double test (filter_.sure(): the double
+  // test's answer) in edge checks (first_collision: the planner, first_invalid_on_edge). The
   // initial mode is the environment variable TASKSPACE_SPHERE_FILTER (0, 1 or 2) when set.
   void set_sphere_filter(int mode) {
     if (mode < 0 || mode > 2) raise_invalid("sphere filter mode must be 0, 1 or 2");
@@ -724,6 +735,10 @@ class CollisionKernel {
   int sphere_filter_mode() const { return filter_mode_; }
   bool sphere_filter() const { return filter_mode_ > 0 && filter_.ready(); }
   double sphere_filter_eps() const { return filter_.eps(); }
+  // S and n of the filter's rounding bound (sphere_batch.hpp: eps = (140 n + 342) u S).
+  bp::tuple sphere_filter_bound() const {
+    return bp::make_tuple(filter_.scale(), filter_.depth());
+  }
   int sphere_filter_units() const { return filter_.units(); }
 
   // The filter's raw answer for up to kBatch rows: flags 1 where it finds that the row may
@@ -733,6 +748,31 @@ class CollisionKernel {
     filter_batches(qs, [&](Eigen::Index s, int m, unsigned maybe) {
       for (int l = 0; l < m; ++l) out[s + l] = (maybe >> l) & 1u;
     });
+    return out;
+  }
+
+  // The filter's single-precision joint placements (load_q) of each row of qs: row r, columns
+  // 12 j .. 12 j + 11 joint j's R (row-major) then t. Tests.
+  RowMatrixXd sphere_filter_placements(const Eigen::Ref<const RowMatrixXd>& qs) {
+    check_cols(qs);
+    if (!has_spheres_ || !filter_.ready()) raise_invalid("the sphere filter is not set up");
+    const auto lock = lock_with_gil(mutex_);
+    const int nj = filter_.joints();
+    RowMatrixXd out(qs.rows(), 12 * nj);
+    const double* lanes[kBatch];
+    for (Eigen::Index s = 0; s < qs.rows(); s += kBatch) {
+      const int m = static_cast<int>(std::min<Eigen::Index>(kBatch, qs.rows() - s));
+      for (int l = 0; l < kBatch; ++l) lanes[l] = qs.row(s + std::min(l, m - 1)).data();
+      filter_.load_q(lanes);
+      for (int l = 0; l < m; ++l)
+        for (int j = 0; j < nj; ++j) {
+          const std::array<float, 12> p = filter_.placement(j, l);
+          for (int r = 0; r < 3; ++r) {
+            for (int c = 0; c < 3; ++c) out(s + l, 12 * j + 3 * r + c) = p[r + 3 * c];
+            out(s + l, 12 * j + 9 + r) = p[9 + r];
+          }
+        }
+    }
     return out;
   }
 
@@ -763,8 +803,8 @@ class CollisionKernel {
     for (Eigen::Index s = 0; s < qs.rows(); s += kBatch) {
       const int m = static_cast<int>(std::min<Eigen::Index>(kBatch, qs.rows() - s));
       for (int l = 0; l < kBatch; ++l) lanes[l] = qs.row(s + std::min(l, m - 1)).data();
-      kinematics_batch(lanes);
-      filter_.load(batch_pose_);
+      filter_.load_q(lanes);
+      defer_kinematics(lanes);
       per_batch(s, m, filter_.run((1u << m) - 1u, kBatch));
     }
   }
@@ -878,9 +918,10 @@ class CollisionKernel {
   // edges (first_collision: rrt_connect's EXTEND, CONNECT and straight lines,
   // first_invalid_on_edge) and collisions_with.
   // Then (set_sphere_filter, default mode 2) the single-precision filter of sphere_batch.hpp
-  // tests the 4 lanes at once (sphere centres from the lanes' placements, no load_lane) and
-  // only the lanes it cannot clear go through load_lane and the double test, in order: see
-  // first_collision and sphere_batch.hpp (the rounding bound, the hierarchy).
+  // tests the 4 lanes at once (its own float placements from q, SphereFilter::load_q) and only
+  // the lanes it cannot clear go through load_lane and the double test, in order; the batch's
+  // double placements are computed then, once (defer_kinematics: most batches never need
+  // them). See first_collision and sphere_batch.hpp (the rounding bound, the hierarchy).
   static constexpr int kBatch = 4;
   // 16-byte alignment (not the vector's 32): the AVX2 kinematics then load unaligned, since
   // the vectors holding BatchPose (batch_pose_) guarantee 16 bytes only (seen: vmovapd faults)
@@ -952,6 +993,7 @@ class CollisionKernel {
   // IEEE operations in the same order (no FMA: the target is "avx2" alone, and ISO C++
   // does not contract a * b + c), so their placements are bit-identical (tested).
   void kinematics_batch(const double* const* q) {
+    batch_pending_ = false;
 #if defined(__x86_64__) && defined(__GNUC__)
     if (simd_ == 2) {
       kinematics_batch_avx2(q);
@@ -1036,8 +1078,17 @@ class CollisionKernel {
     }
   }
 
-  // data_.oMi of lane l of the last kinematics_batch.
+  // The batch q (kBatch lanes, valid until the batch is done) whose double placements
+  // (kinematics_batch) are computed only when a lane needs them (load_lane): the filter
+  // (load_q, single precision) clears most batches entirely.
+  void defer_kinematics(const double* const* q) {
+    for (int l = 0; l < kBatch; ++l) batch_q_[l] = q[l];
+    batch_pending_ = true;
+  }
+
+  // data_.oMi of lane l of the last kinematics_batch (or of the deferred batch).
   void load_lane(int l) {
+    if (batch_pending_) kinematics_batch(batch_q_);
     for (std::size_t j = 1; j < batch_pose_.size(); ++j) {
       const BatchPose& B = batch_pose_[j];
       coal::Matrix3s R;
@@ -1091,8 +1142,8 @@ class CollisionKernel {
         fill(s + std::min(l, m - 1), x);  // unused lanes repeat the last point
         lanes[l] = x;
       }
-      kinematics_batch(lanes);
       if (!filter) {
+        kinematics_batch(lanes);
         for (int l = 0; l < m; ++l) {
           if (stop()) return s + l;
           ++checks_;
@@ -1104,7 +1155,8 @@ class CollisionKernel {
       // the filter, stopping when the first lane not yet decided may collide: that lane is
       // checked exactly (colliding: done; free: the filter again on the later lanes); lanes
       // the filter clears are free, the others are checked exactly, in order
-      filter_.load(batch_pose_);
+      filter_.load_q(lanes);
+      defer_kinematics(lanes);
       const unsigned all = (1u << m) - 1u;
       unsigned decided = 0;
       for (int first = 0; first < m;) {
@@ -1138,11 +1190,13 @@ class CollisionKernel {
     for (Eigen::Index s = 0; s < qs.rows(); s += kBatch) {
       const int m = static_cast<int>(std::min<Eigen::Index>(kBatch, qs.rows() - s));
       for (int l = 0; l < kBatch; ++l) lanes[l] = qs.row(s + std::min(l, m - 1)).data();
-      kinematics_batch(lanes);
       unsigned maybe = (1u << m) - 1u;  // without the filter: every lane in double
       if (filter) {
-        filter_.load(batch_pose_);
+        filter_.load_q(lanes);
+        defer_kinematics(lanes);
         maybe = filter_.run(maybe, kBatch);
+      } else {
+        kinematics_batch(lanes);
       }
       for (int l = 0; l < m; ++l) {
         ++checks_;
@@ -1820,6 +1874,8 @@ class CollisionKernel {
   std::vector<FkJoint> fk_;
   std::vector<double> fk_cos_, fk_sin_;
   std::vector<BatchPose> batch_pose_;     // kinematics_batch: joint placements, lanes
+  const double* batch_q_[kBatch] = {};      // defer_kinematics: the batch's configurations
+  bool batch_pending_ = false;            // batch_pose_ not yet computed for batch_q_
   std::vector<double> edge_buf_;          // first_collision: the batch's configurations
   VectorXd edge_x_;                       // first_collision: one configuration
   bool fast_fk_ = false;
@@ -3132,9 +3188,12 @@ BOOST_PYTHON_MODULE(_planning_kernel) {
       .def("set_simd", &CollisionKernel::set_simd, bp::args("self", "level"))
       .add_property("simd", &CollisionKernel::simd)
       .def("sphere_filter_eps", &CollisionKernel::sphere_filter_eps)
+      .def("sphere_filter_bound", &CollisionKernel::sphere_filter_bound)
       .def("sphere_filter_units", &CollisionKernel::sphere_filter_units)
       .def("sphere_filter_flags", &CollisionKernel::sphere_filter_flags, bp::args("self", "qs"))
       .def("sphere_filter_pairs", &CollisionKernel::sphere_filter_pairs, bp::args("self", "qs"))
+      .def("sphere_filter_placements", &CollisionKernel::sphere_filter_placements,
+           bp::args("self", "qs"))
       .def("reset_sphere_stats", &CollisionKernel::reset_sphere_stats)
       .def("collisions_with", &CollisionKernel::collisions_with,
            bp::args("self", "configurations", "checker"))

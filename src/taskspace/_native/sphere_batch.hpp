@@ -1,9 +1,10 @@
 // Single-precision sphere filter for batches of configurations (#22 item 4; VAMP-style:
 // Thomason, Kingston and Kavraki, ICRA 2024). Included by planning_kernel.cpp.
 //
-// What it answers. For kLanes configurations whose joint placements come from the kernel's
-// batched kinematics (CollisionKernel::kinematics_batch, structure of arrays: one lane per
-// configuration), a bit mask of the lanes that MAY collide for the robot's spheres (the
+// What it answers. For kLanes configurations (q, one lane per configuration; load_q computes
+// their joint placements in single precision through the same chain as the kernel's
+// kinematics_batch, whose double placements the kernel then computes only for a batch with a
+// lane in the mask), a bit mask of the lanes that MAY collide for the robot's spheres (the
 // kernel's sphere checkers). A lane outside the mask is certainly free for the double-precision
 // sphere test of the kernel (spheres_placed): every test below is that test's, on the same
 // pairs, with the same margins, in single precision with every radius inflated by eps_ (the
@@ -40,25 +41,41 @@
 //
 // Rounding error bound (eps_). u = 2^-24 (float's unit roundoff); S >= 1 m bounds the absolute
 // value of every coordinate, radius and half-size involved (setup: the obstacles' translations
-// and extents, the links' reach from the joint placements plus their spheres). Higham's
-// gamma_n = n u / (1 - n u) < 1.01 n u for n u < 0.01.
-//  - Link pose: the double placements rounded to float: rotation entries within u (|R_ij| <= 1),
-//    translation within u S.
-//  - Sphere centre c = R p + t in float (p rounded: within u S): |c_float - c| <= |dR p| +
-//    |R dp| + gamma_3 (|R||p| + |t|) per coordinate <= 3 u S + u S + 3.03 u (2 S) < 11 u S.
-//    The double centre of the kernel carries its own error of about 1e-16 S: negligible here,
-//    accounted in the slack below.
-//  - Obstacle frame l = R_o^T (c - t_o) (R_o, t_o rounded likewise): the difference c - t_o
-//    within 11 u S + u S + u 2 S = 14 u S per coordinate, then the rotation adds
-//    gamma_3 (3 * 2 S) + 3 u (2 S) < 25 u S: |l_float - l| < 3 * 14 u S + 25 u S = 67 u S per
-//    coordinate (worst case over the three terms of each row).
-//  - Distance to the primitive: each of (|l_a| - h_a)+ moves by at most 67 u S + 2 u S (h_a
-//    rounded, the subtraction rounded), the norm of three such terms by sqrt(3) times that:
-//    < 120 u S; the squared sums and the compared square (r + eps)^2 add gamma_4 relative error
-//    on both sides of d^2 <= R^2, i.e. at most 2.1 u R < 5 u S on the distance.
-//  - Sphere-sphere and sphere-to-box (world frame) tests take the shorter chain (no rotation).
-// Total < 130 u S; eps_ = 256 u S (S = 4 m: 61 micrometres; twice the bound). Over it, a lane
-// the double test finds colliding (distance <= r) has float distance < r + eps_: never "free".
+// and extents; the links' reach: the sum of the joint placements' translations, a prismatic
+// joint's travel (its limits) included, plus the largest extent of a sphere about its joint).
+// Higham's gamma_n = n u / (1 - n u) < 1.01 n u for n u < 0.01; norms are Euclidean
+// (Frobenius for matrices), which a rotation preserves. n: the depth of the chain (moving
+// joints from the universe to the deepest joint; the Panda's 7).
+//  - Sine and cosine (sincos4): the reduction in double (error below 1e-15), r rounded to
+//    float (u |r|), Cephes' polynomials (about 1.5 u with their rounding): within 2 u each
+//    (tested on a dense grid).
+//  - Joint rotation R_k = R_{k-1} R0_k Rz(q_k), per joint at most e_R = 21 u added (Frobenius):
+//    the product with R0 (rounded to float: 3 u; 9 entries within gamma_3: 9.1 u; a signed
+//    permutation, the Panda's, is exact), the turn of columns b, d: c cb + s cd within
+//    gamma_2 (|c||cb| + |s||cd|) <= 2.02 u |(cb, cd)| per entry (Cauchy-Schwarz), 2.86 u over
+//    the two columns, plus the sine and cosine errors: 2 * 2 u * 2 = 8 u. The error carried
+//    from the parent is not amplified (times rotations; their own deviation from orthogonal,
+//    below 200 u, changes it by a relative 1e-5). Depth d: within 21 d u.
+//  - Joint translation t_k = R_{k-1} t0_k + t_{k-1} (+ q R e_axis, prismatic): the carried
+//    rotation error times |t0_k|, plus t0 rounded (u |t0|) and the sums and products
+//    (gamma_4 per coordinate on |t0| + S, sqrt 3 over three: 7 u (|t0| + S)): per joint
+//    (d-1) e_R |t0_k| + 8 u |t0_k| + 7 u S (twice for a prismatic joint's two steps). Summed,
+//    with sum |t0| <= S: depth d within (21 d + 14 d + 8) u S = (35 d + 8) u S.
+//  - Sphere centre c = R p + t in float: n e_R |p| + (the translation) + p rounded and the
+//    products and sums (sqrt 3 (u + gamma_3 2) S < 12.3 u S); with |p| + sum |t0| <= S:
+//    |c_float - c| < (21 n + 14 n + 20.3) u S = (35 n + 20.3) u S =: C.
+//  - Obstacle frame and distance (the old chain after the centre, with the centre's error
+//    now C: a rotation preserves it): l = R_o^T (c - t_o) within C + 67 u S, the distance
+//    to the primitive within C + 130 u S (the per-coordinate terms of 67 u S, sqrt 3 over
+//    the norm, the squared sums' gamma_4 on both sides of d^2 <= R^2: 5 u S).
+//  - Sphere-sphere tests (self pairs): two centres, each within C: 2 C + 10 u S.
+// Total < 2 C + 130 u S = (70 n + 170.6) u S; eps_ = (140 n + 342) u S, twice the bound (the
+// Panda, n = 7, S = 1.52 m on the MotionBenchMaker scenes: 0.12 mm; the measured errors of
+// the placements are about 4 u (rotation) and 4 u m (translation), tests/planning/
+// test_planning_float_kinematics.py). Over it,
+// a lane the double test finds colliding (distance <= r) has float distance < r + eps_: never
+// "free"; a lane whose float distance is below r - eps_ has double distance below r: colliding
+// for the double test too (sure(), the trusted "spheres only" lanes).
 // tests/planning/test_planning_sphere_batch.py checks it on configurations bisected to within
 // 1e-9 of first contact (without the inflation those fail).
 #pragma once
@@ -183,12 +200,22 @@ struct Input {
   std::vector<Obstacle> obstacles;
   std::vector<Pair> pairs;
   double scale = 1.0;  // S of the error bound (>= 1 m)
+  // The joint chain (joints 1..n; joint 0, the universe, at the identity): per joint its
+  // parent, kind (0 revolute, 1 prismatic) about or along axis (0 x, 1 y, 2 z), its
+  // coordinate in q and its placement in the parent (R0[r + 3 c], t0): the kernel's
+  // kinematics_batch, whose placements load_q computes in single precision.
+  struct Joint {
+    int parent, kind, axis, idx_q;
+    double R0[9], t0[3];
+  };
+  std::vector<Joint> chain;
 };
 
 class SphereFilter {
  public:
   bool ready() const { return ready_; }
   double eps() const { return eps_; }
+  double scale() const { return scale_; }  // S of the bound
 
   void setup(const Input& in) {
     ready_ = false;
@@ -201,9 +228,50 @@ class SphereFilter {
     self_units_.clear();
     last_unit_ = -1;
     const double u = std::ldexp(1.0, -24);
-    eps_ = 256.0 * u * std::max(1.0, in.scale);
+    // the chain's depth n (moving joints from the universe to the deepest joint): the bound
+    // of the header grows with it
+    joints_.clear();
+    std::vector<int> depth(in.chain.size() + 1, 0);
+    int n = 0;
+    for (std::size_t k = 0; k < in.chain.size(); ++k) {
+      const Input::Joint& j = in.chain[k];
+      JointF f;
+      f.parent = j.parent;
+      f.kind = j.kind;
+      f.axis = j.axis;
+      f.idx_q = j.idx_q;
+      f.turn[0] = (j.axis + 1) % 3;
+      f.turn[1] = (j.axis + 2) % 3;
+      for (int a = 0; a < 3; ++a) f.t0[a] = splat(static_cast<float>(j.t0[a]));
+      // a signed permutation (entries within 1e-12 of 0 or +-1, the Panda's rpy of multiples
+      // of pi/2 with their 6e-17): column c is +-column src[c] of the parent, exactly
+      f.perm = true;
+      for (int c = 0; c < 3; ++c) {
+        int ones = 0;
+        for (int r = 0; r < 3; ++r) {
+          const double x = j.R0[r + 3 * c];
+          if (std::abs(std::abs(x) - 1.0) < 1e-12) {
+            ++ones;
+            f.src[c] = r;
+            f.sign[c] = splat(x > 0 ? 1.0f : -1.0f);
+          } else if (std::abs(x) >= 1e-12) {
+            f.perm = false;
+          }
+        }
+        if (ones != 1) f.perm = false;
+      }
+      for (int e = 0; e < 9; ++e) f.R0[e] = splat(static_cast<float>(j.R0[e]));
+      joints_.push_back(f);
+      depth[k + 1] = depth[j.parent] + 1;
+      n = std::max(n, depth[k + 1]);
+    }
+    poses_.assign(in.chain.size() + 1, PoseF{});
+    for (int a = 0; a < 3; ++a) poses_[0].R[4 * a] = splat(1.0f);
+    scale_ = std::max(1.0, in.scale);
+    depth_ = n;
+    eps_ = (140.0 * n + 342.0) * u * scale_;
     for (const auto& l : in.links)
-      links_.push_back(LinkF{l.joint, f3(l.center), static_cast<float>(l.radius), {}, {}, {}});
+      links_.push_back(LinkF{l.joint, f3(l.center), static_cast<float>(l.radius), {}});
     for (const auto& o : in.objects) {
       ObjectF of;
       of.link = o.link;
@@ -287,7 +355,8 @@ class SphereFilter {
           static_units_.push_back(StaticUnit{la, p.b, 0.0f, {}});
           unit = &static_units_.back();
         }
-        unit->items.push_back(Item{p.a, -1, static_cast<float>(p.margin) + e, pair, p.exact});
+        unit->items.push_back(Item{p.a, -1, static_cast<float>(p.margin) + e,
+                                   static_cast<float>(p.margin) - e, pair, p.exact});
         unit->margin = std::max(unit->margin, static_cast<float>(p.margin) + e);
       } else {
         const int l0 = std::min(la, objects_[p.b].link), l1 = std::max(la, objects_[p.b].link);
@@ -298,7 +367,8 @@ class SphereFilter {
           self_units_.push_back(SelfUnit{l0, l1, 0.0f, {}});
           unit = &self_units_.back();
         }
-        unit->items.push_back(Item{p.a, p.b, static_cast<float>(p.margin) + e, pair, p.exact});
+        unit->items.push_back(Item{p.a, p.b, static_cast<float>(p.margin) + e,
+                                   static_cast<float>(p.margin) - e, pair, p.exact});
         unit->margin = std::max(unit->margin, static_cast<float>(p.margin) + e);
       }
     }
@@ -330,10 +400,11 @@ class SphereFilter {
     ready_ = true;
   }
 
-  // The link placements of the batch (Pose: R[9] (R[r + 3 c]) and t[3] of D4 lanes, indexed
-  // by joint), as floats, and the links' bounding sphere centres.
-  template <typename Pose>
-  void load(const std::vector<Pose>& poses) {
+  // The joint placements of kLanes configurations (lane l: the coordinates at q[l]) in
+  // single precision through the chain (parent * joint placement * joint motion, as the
+  // kernel's kinematics_batch in double; the header's bound), and the links' bounding sphere
+  // centres.
+  void load_q(const double* const* q) {
     ++stamp_;
     if (stamp_ == 0) {
       std::fill(bound_stamp_.begin(), bound_stamp_.end(), 0u);
@@ -341,12 +412,98 @@ class SphereFilter {
       std::fill(clu_stamp_.begin(), clu_stamp_.end(), 0u);
       stamp_ = 1;
     }
-    for (LinkF& l : links_) {
-      const Pose& P = poses[l.joint];
-      for (int k = 0; k < 9; ++k) l.R[k] = to_float(P.R[k]);
-      for (int a = 0; a < 3; ++a) l.t[a] = to_float(P.t[a]);
-      l.world = place(l, l.center);
+    for (std::size_t k = 0; k < joints_.size(); ++k) {
+      const JointF& f = joints_[k];
+      const PoseF& P = poses_[f.parent];
+      PoseF& M = poses_[k + 1];
+      if (f.perm) {
+        for (int c = 0; c < 3; ++c) {
+          const F4* src = &P.R[3 * f.src[c]];
+          const F4 sign = f.sign[c];
+          M.R[3 * c] = sign * src[0];
+          M.R[3 * c + 1] = sign * src[1];
+          M.R[3 * c + 2] = sign * src[2];
+        }
+      } else {
+        for (int c = 0; c < 3; ++c)
+          for (int r = 0; r < 3; ++r)
+            M.R[r + 3 * c] = (P.R[r] * f.R0[3 * c] + P.R[r + 3] * f.R0[3 * c + 1]) +
+                             P.R[r + 6] * f.R0[3 * c + 2];
+      }
+      for (int r = 0; r < 3; ++r)
+        M.t[r] = ((P.R[r] * f.t0[0] + P.R[r + 3] * f.t0[1]) + P.R[r + 6] * f.t0[2]) + P.t[r];
+      D4 v;
+      for (int l = 0; l < kLanes; ++l) v[l] = q[l][f.idx_q];
+      if (f.kind == 0) {  // revolute: columns b and d turn about the axis
+        F4 s, c;
+        sincos4(v, s, c);
+        const int b = f.turn[0], d = f.turn[1];
+        for (int r = 0; r < 3; ++r) {
+          const F4 cb = M.R[r + 3 * b], cd = M.R[r + 3 * d];
+          M.R[r + 3 * b] = c * cb + s * cd;
+          M.R[r + 3 * d] = c * cd - s * cb;
+        }
+      } else {  // prismatic: along the axis column
+        const F4 vf = to_float(v);
+        for (int r = 0; r < 3; ++r) M.t[r] = M.t[r] + vf * M.R[r + 3 * f.axis];
+      }
     }
+    for (LinkF& l : links_) l.world = place(l, l.center);
+  }
+
+  // Lane l of joint j's placement of the last load_q: R (R[r + 3 c]) then t. Tests.
+  std::array<float, 12> placement(int j, int l) const {
+    std::array<float, 12> out{};
+    for (int k = 0; k < 9; ++k) out[k] = poses_[j].R[k][l];
+    for (int a = 0; a < 3; ++a) out[9 + a] = poses_[j].t[a][l];
+    return out;
+  }
+  int joints() const { return static_cast<int>(poses_.size()); }
+  int depth() const { return depth_; }  // n of the bound: moving joints on the longest chain
+
+  // Sines and cosines of the lanes of x in single precision: x = j pi/2 + r reduced in double
+  // (j the nearest integer, pi/2 in two parts, fdlibm's: j pi/2 exact for |j| < 2^20, r
+  // within 1e-16 |r|), r rounded to float, then Cephes' sinf / cosf polynomials on
+  // [-pi/4, pi/4] and the quadrant j mod 4. Absolute error below 2 u (u = 2^-24; tested
+  // against double on a dense grid). Lanes beyond |x| < 1e5 (or not finite) take std::sin /
+  // std::cos in double, rounded.
+  static void sincos4(const D4& x, F4& s, F4& c) {
+    constexpr double kTwoOverPi = 6.36619772367581382433e-01;
+    constexpr double kPio2Hi = 1.57079632673412561417e+00;  // first 33 bits of pi/2
+    constexpr double kPio2Lo = 6.07710050650619224932e-11;  // pi/2 - kPio2Hi
+    constexpr double kRound = 6755399441055744.0;           // 1.5 * 2^52: round to nearest
+    bool plain = true;
+    for (int l = 0; l < kLanes; ++l) plain = plain && std::abs(x[l]) < 1e5;
+    if (!plain) {
+      for (int l = 0; l < kLanes; ++l) {
+        s[l] = static_cast<float>(std::sin(x[l]));
+        c[l] = static_cast<float>(std::cos(x[l]));
+      }
+      return;
+    }
+    const D4 y = x * kTwoOverPi + kRound;  // j in the low mantissa bits (see kinematics_batch)
+    const D4 j = y - kRound;
+    const F4 r = to_float((x - j * kPio2Hi) - j * kPio2Lo);
+    const F4 z = r * r;
+    const F4 sr = ((-1.9515295891e-4f * z + 8.3321608736e-3f) * z - 1.6666654611e-1f) * z * r + r;
+    const F4 cr = ((2.443315711809948e-5f * z - 1.388731625493765e-3f) * z +
+                   4.166664568298827e-2f) *
+                      z * z -
+                  0.5f * z + 1.0f;
+    typedef std::uint64_t U4 __attribute__((vector_size(kLanes * sizeof(std::uint64_t))));
+    typedef unsigned V4 __attribute__((vector_size(kLanes * sizeof(unsigned))));
+    U4 yb;
+    __builtin_memcpy(&yb, &y, sizeof yb);
+    const V4 q = __builtin_convertvector(yb, V4) & 3u;
+    V4 bs, bc;
+    __builtin_memcpy(&bs, &sr, sizeof bs);
+    __builtin_memcpy(&bc, &cr, sizeof bc);
+    // (sin, cos) = (sr, cr), (cr, -sr), (-sr, -cr), (-cr, sr) for q = 0..3
+    const V4 swap = V4{} - (q & 1u);
+    const V4 os = ((bs & ~swap) | (bc & swap)) ^ ((q & 2u) << 30);
+    const V4 oc = ((bc & ~swap) | (bs & swap)) ^ (((q + 1u) & 2u) << 30);
+    __builtin_memcpy(&s, &os, sizeof s);
+    __builtin_memcpy(&c, &oc, sizeof c);
   }
 
   // Lanes (bits) of `active` that may collide; stops when `stop_lane` is among them. For each
@@ -475,8 +632,9 @@ class SphereFilter {
 
   int units() const { return static_cast<int>(static_units_.size() + self_units_.size()); }
   // Lanes of the last run's mask found by a sphere test on a primitive or a self pair (not by
-  // the box of another shape, not by a pair marked exact): their spheres overlap within eps_
-  // (float), so the double test finds them colliding unless they are within eps_ of touching.
+  // the box of another shape, not by a pair marked exact) that passes with the radii reduced
+  // by eps_ too (Item::inner): their spheres overlap by more than the bound, so the double
+  // test finds them colliding (the same answer).
   unsigned sure() const { return sure_; }
 
  private:
@@ -503,6 +661,17 @@ class SphereFilter {
   struct V3 {
     F4 x, y, z;
   };
+  struct PoseF {
+    F4 R[9], t[3];  // R[r + 3 c]
+  };
+  struct JointF {
+    int parent, kind, axis, idx_q;
+    int turn[2];
+    bool perm;           // R0 a signed permutation: column c = sign[c] * column src[c]
+    int src[3] = {0, 1, 2};
+    F4 sign[3] = {{1, 1, 1, 1}, {1, 1, 1, 1}, {1, 1, 1, 1}};
+    F4 R0[9], t0[3];
+  };
   struct F3 {
     float v[3];
   };
@@ -510,8 +679,7 @@ class SphereFilter {
     int joint;
     F3 center;
     float radius;
-    F4 R[9], t[3];
-    V3 world;
+    V3 world;  // its bounding sphere's centre (its joint's placement: poses_)
   };
   struct ObjectF {
     int link;
@@ -539,6 +707,7 @@ class SphereFilter {
   struct Item {
     int a, b;      // object, partner object (self pairs) or -1
     float margin;  // the pair's margin + eps
+    float inner;   // the pair's margin - eps (sure(): colliding for the double test too)
     int pair;      // index into Input::pairs
     bool exact;    // Input::Pair::exact: lanes it finds are not sure()
   };
@@ -557,14 +726,15 @@ class SphereFilter {
     return F3{{static_cast<float>(d[0]), static_cast<float>(d[1]), static_cast<float>(d[2])}};
   }
 
-  static V3 place(const LinkF& l, const float* p) {
+  V3 place(const LinkF& l, const float* p) const {
+    const PoseF& P = poses_[l.joint];
     V3 c;
-    c.x = l.R[0] * p[0] + l.R[3] * p[1] + l.R[6] * p[2] + l.t[0];
-    c.y = l.R[1] * p[0] + l.R[4] * p[1] + l.R[7] * p[2] + l.t[1];
-    c.z = l.R[2] * p[0] + l.R[5] * p[1] + l.R[8] * p[2] + l.t[2];
+    c.x = P.R[0] * p[0] + P.R[3] * p[1] + P.R[6] * p[2] + P.t[0];
+    c.y = P.R[1] * p[0] + P.R[4] * p[1] + P.R[7] * p[2] + P.t[1];
+    c.z = P.R[2] * p[0] + P.R[5] * p[1] + P.R[8] * p[2] + P.t[2];
     return c;
   }
-  static V3 place(const LinkF& l, const F3& p) { return place(l, p.v); }
+  V3 place(const LinkF& l, const F3& p) const { return place(l, p.v); }
 
   // Object o's bounding centre (once per load).
   void place_bound(int o) {
@@ -659,6 +829,10 @@ class SphereFilter {
       place_cluster_spheres(it.a, c);
       for (int s = cl.begin; s < cl.end && mc; ++s) {
         const unsigned h = mc & prim_hits(o, sph_world_[s], sph_[s].r + rs);
+        if (h && o.type != 0 && !it.exact) {
+          const float inner = sph_[s].r + it.inner + o.swept;
+          if (inner >= 0.0f) item_sure_ |= h & prim_hits(o, sph_world_[s], inner);
+        }
         hit |= h;
         mc &= ~h;
         m &= ~h;
@@ -699,6 +873,10 @@ class SphereFilter {
           for (int t = B.begin; t < B.end && mab; ++t) {
             const unsigned h =
                 mab & ball_hits(sph_world_[s], sph_world_[t], sph_[s].r + sph_[t].r + it.margin);
+            if (h && !it.exact) {
+              const float inner = sph_[s].r + sph_[t].r + it.inner;
+              if (inner >= 0.0f) item_sure_ |= h & ball_hits(sph_world_[s], sph_world_[t], inner);
+            }
             hit |= h;
             mab &= ~h;
             ma &= ~h;
@@ -717,10 +895,11 @@ class SphereFilter {
     const ObsF& o = obs_[u.obstacle];
     unsigned hit = 0;
     for (std::size_t i = 0; i < u.items.size(); ++i) {
+      item_sure_ = 0;
       const unsigned h = static_item(o, u.items[i], near & ~hit);
       if (!h) continue;
       hit |= h;
-      if (o.type != 0 && !u.items[i].exact) sure_ |= h;
+      sure_ |= item_sure_;
       for (unsigned m = h; m; m &= m - 1) item_at_[__builtin_ctz(m)] = static_cast<int>(i);
       if (hit == near) break;
     }
@@ -812,10 +991,11 @@ class SphereFilter {
     const SelfUnit& u = self_units_[k - ns];
     unsigned hit = 0;
     for (std::size_t i = 0; i < u.items.size(); ++i) {
+      item_sure_ = 0;
       const unsigned h = self_item(u.items[i], near & ~hit);
       if (!h) continue;
       hit |= h;
-      if (!u.items[i].exact) sure_ |= h;
+      sure_ |= item_sure_;
       for (unsigned m = h; m; m &= m - 1) item_at_[__builtin_ctz(m)] = static_cast<int>(i);
       if (hit == active) break;
     }
@@ -823,8 +1003,11 @@ class SphereFilter {
   }
 
   bool ready_ = false;
-  double eps_ = 0.0;
+  double eps_ = 0.0, scale_ = 1.0;
+  int depth_ = 0;
   std::vector<LinkF> links_;
+  std::vector<JointF> joints_;  // the chain (Input::chain)
+  std::vector<PoseF> poses_;    // load_q: joint placements, lanes
   std::vector<ObjectF> objects_;
   std::vector<SphF> sph_;
   std::vector<ObsF> obs_;
@@ -839,6 +1022,7 @@ class SphereFilter {
   std::vector<int> unit_of_;             // static unit of (link, obstacle), or -1
   std::vector<F4> blo_[3], bhi_[3], binfl_;  // obstacle boxes, 4 per block (link_obstacles)
   unsigned stamp_ = 0, sure_ = 0;
+  unsigned item_sure_ = 0;  // static_item, self_item: lanes of a sphere hit within the inner margin
   int last_unit_ = -1;
   int first_unit_ = -1;      // the unit run tested first (last_unit_ then)
   int item_at_[kLanes] = {};  // static_leaves, unit_hits: the item where a lane hit
