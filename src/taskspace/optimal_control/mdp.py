@@ -233,11 +233,16 @@ def grid_world(
     into a wall or off the grid stays in place. With ``slip > 0`` the move goes to one of the two
     perpendicular directions with probability ``slip / 2`` each.
 
+    ``layout``: the rows, top first (a list of strings), or one string whose lines are the
+    rows (``"S.G"`` is one row of three cells; two lines make two rows).
+
     Returns:
         The MDP and the map ``(row, col) -> state index``.
     """
     if not 0.0 <= slip <= 1.0:
         raise InvalidInputError(f"slip must be in [0, 1], got {slip}")
+    if isinstance(layout, str):  # iterating it would make each character a row
+        layout = layout.splitlines()
     cells: dict[tuple[int, int], int] = {}
     for r, line in enumerate(layout):
         for c, ch in enumerate(line):
