@@ -7,15 +7,7 @@ import pytest
 
 from taskspace.errors import InvalidInputError
 from taskspace.locomotion import plan_from_robot, straight_walk, walk, walking_reference
-from taskspace.locomotion.footsteps import StepTiming
-
-TIMING = StepTiming(
-    single_support=0.5,
-    double_support=0.2,
-    initial_double_support=0.6,
-    final_double_support=0.8,
-    weight_shift=0.3,
-)
+from tests.locomotion._walking import SHORT_TIMING as TIMING
 
 
 def test_a_plan_off_the_robots_feet_is_named(g1):

@@ -15,17 +15,9 @@ import pinocchio as pin
 import pytest
 
 from taskspace.locomotion import plan_from_robot, walk, walking_reference
-from taskspace.locomotion.footsteps import StepTiming
 from taskspace.model import Robot
-
-TIMING = StepTiming(
-    single_support=0.5,
-    double_support=0.2,
-    initial_double_support=0.6,
-    final_double_support=0.8,
-    weight_shift=0.3,
-)
-FEET = ("left_ankle_roll_link", "right_ankle_roll_link")
+from tests.locomotion._walking import G1_FEET as FEET
+from tests.locomotion._walking import SHORT_TIMING as TIMING
 
 
 def _yaw(R: np.ndarray) -> float:

@@ -3,9 +3,26 @@
 from __future__ import annotations
 
 import itertools
+from typing import Any
 
 import numpy as np
 
+from taskspace.planning import (
+    BITStarOptions,
+    PRMOptions,
+    PRMStarOptions,
+    RRTConnectOptions,
+    RRTOptions,
+    RRTStarOptions,
+    bit_star,
+    lazy_prm,
+    lazy_prm_star,
+    prm,
+    prm_star,
+    rrt,
+    rrt_connect,
+    rrt_star,
+)
 from taskspace.planning.collision_checker import FunctionChecker
 from taskspace.planning.configuration_space import ConfigurationSpace, EdgeCheckOptions
 
@@ -42,3 +59,16 @@ def free_densely(path: np.ndarray, boxes: np.ndarray = WALL, step: float = 1e-3)
         if not free(a + np.linspace(0.0, 1.0, n)[:, None] * (b - a)).all():
             return False
     return True
+
+
+# Every sampling planner with its options class: name -> (planner, options).
+PLANNERS: dict[str, tuple[Any, Any]] = {
+    "rrt": (rrt, RRTOptions),
+    "rrt_connect": (rrt_connect, RRTConnectOptions),
+    "rrt_star": (rrt_star, RRTStarOptions),
+    "bit_star": (bit_star, BITStarOptions),
+    "prm": (prm, PRMOptions),
+    "lazy_prm": (lazy_prm, PRMOptions),
+    "prm_star": (prm_star, PRMStarOptions),
+    "lazy_prm_star": (lazy_prm_star, PRMStarOptions),
+}

@@ -15,44 +15,19 @@ from __future__ import annotations
 
 import itertools
 import math
-from typing import Any
 
 import numpy as np
 import pinocchio as pin
 import pytest
 
 from taskspace.planning import (
-    BITStarOptions,
-    PRMOptions,
-    PRMStarOptions,
-    RRTConnectOptions,
-    RRTOptions,
-    RRTStarOptions,
-    bit_star,
-    lazy_prm,
-    lazy_prm_star,
-    prm,
-    prm_star,
-    rrt,
-    rrt_connect,
-    rrt_star,
     shortcut_path,
     smooth_bspline,
 )
 from taskspace.planning.collision_checker import FunctionChecker
 from taskspace.planning.configuration_space import ConfigurationSpace
 from taskspace.planning.joint_manifold import JointManifold
-
-PLANNERS: dict[str, tuple[Any, Any]] = {
-    "rrt": (rrt, RRTOptions),
-    "rrt_connect": (rrt_connect, RRTConnectOptions),
-    "rrt_star": (rrt_star, RRTStarOptions),
-    "bit_star": (bit_star, BITStarOptions),
-    "prm": (prm, PRMOptions),
-    "lazy_prm": (lazy_prm, PRMOptions),
-    "prm_star": (prm_star, PRMStarOptions),
-    "lazy_prm_star": (lazy_prm_star, PRMStarOptions),
-}
+from tests.planning._planning_worlds import PLANNERS
 
 
 def _in_wall(angle: np.ndarray, walls: list[tuple[float, float]]) -> np.ndarray:

@@ -10,32 +10,16 @@ with an empty ``(0, 2)`` path.
 from __future__ import annotations
 
 import math
-from typing import Any
 
 import numpy as np
 import pinocchio as pin
 import pytest
 
-from taskspace.planning import (
-    BITStarOptions,
-    PRMOptions,
-    PRMStarOptions,
-    RRTConnectOptions,
-    RRTOptions,
-    RRTStarOptions,
-    bit_star,
-    lazy_prm,
-    lazy_prm_star,
-    prm,
-    prm_star,
-    rrt,
-    rrt_connect,
-    rrt_star,
-)
 from taskspace.planning.collision_checker import FunctionChecker
 from taskspace.planning.configuration_space import ConfigurationSpace
 from taskspace.planning.joint_manifold import JointManifold
 from taskspace.planning.planner_result import PlannerStatus
+from tests.planning._planning_worlds import PLANNERS
 
 
 def _walled_wheel() -> ConfigurationSpace:
@@ -51,18 +35,6 @@ def _walled_wheel() -> ConfigurationSpace:
     return ConfigurationSpace(
         manifold.lower, manifold.upper, FunctionChecker(free), manifold=manifold
     )
-
-
-PLANNERS: dict[str, tuple[Any, Any]] = {
-    "rrt": (rrt, RRTOptions),
-    "rrt_connect": (rrt_connect, RRTConnectOptions),
-    "rrt_star": (rrt_star, RRTStarOptions),
-    "bit_star": (bit_star, BITStarOptions),
-    "prm": (prm, PRMOptions),
-    "lazy_prm": (lazy_prm, PRMOptions),
-    "prm_star": (prm_star, PRMStarOptions),
-    "lazy_prm_star": (lazy_prm_star, PRMStarOptions),
-}
 
 
 @pytest.mark.parametrize("name", PLANNERS)

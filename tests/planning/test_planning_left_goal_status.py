@@ -19,39 +19,17 @@ import numpy as np
 import pytest
 
 from taskspace.planning import (
-    BITStarOptions,
     PRMOptions,
-    PRMStarOptions,
-    RRTConnectOptions,
-    RRTOptions,
-    RRTStarOptions,
-    bit_star,
     build_lazy_prm,
     build_prm,
-    lazy_prm,
     lazy_prm_query,
-    lazy_prm_star,
-    prm,
     prm_query,
-    prm_star,
-    rrt,
-    rrt_connect,
-    rrt_star,
 )
 from taskspace.planning.collision_checker import FunctionChecker
 from taskspace.planning.configuration_space import ConfigurationSpace
 from taskspace.planning.planner_result import PlannerStatus
+from tests.planning._planning_worlds import PLANNERS
 
-PLANNERS: dict[str, tuple[Any, Any]] = {
-    "rrt": (rrt, RRTOptions),
-    "rrt_connect": (rrt_connect, RRTConnectOptions),
-    "rrt_star": (rrt_star, RRTStarOptions),
-    "bit_star": (bit_star, BITStarOptions),
-    "prm": (prm, PRMOptions),
-    "lazy_prm": (lazy_prm, PRMOptions),
-    "prm_star": (prm_star, PRMStarOptions),
-    "lazy_prm_star": (lazy_prm_star, PRMStarOptions),
-}
 CENTER = np.array([0.8, 0.8])
 START = [0.1, 0.1]
 

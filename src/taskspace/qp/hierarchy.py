@@ -94,7 +94,7 @@ def _check_levels(
         raise InvalidInputError(f"n (number of variables) must be an integer >= 0, got {n!r}")
     total = 0.0
     for k, level in enumerate(levels):
-        if type(level) is not HierarchyLevel and not isinstance(level, HierarchyLevel):
+        if not isinstance(level, HierarchyLevel):
             raise InvalidInputError(f"levels[{k}] must be a HierarchyLevel, got {type(level)}")
         J, r = level.J, level.r
         if not (
