@@ -13,6 +13,10 @@ The graph can be given as
 * a scipy sparse matrix (CSR or convertible) whose entry ``(i, j)`` is the cost of edge
   ``i -> j`` (explicitly stored zeros are zero-cost edges).
 
+Edge costs are non-negative numbers; ``+inf`` is an edge never taken; a negative or NaN cost,
+a start or goal that is not a node of an adjacency list or matrix and a NaN heuristic value
+are errors.
+
 The same functions serve grid planners and roadmaps (PRM).
 
 Thread safety: :class:`GraphSearchOptions` and :class:`SearchStatus` are immutable; the searches
@@ -35,7 +39,7 @@ from typing import Any
 
 import numpy as np
 
-from taskspace.errors import InvalidInputError, PlanningError
+from taskspace.errors import InvalidInputError, PlanningError, TaskspaceError
 
 logger = logging.getLogger(__name__)
 
@@ -69,6 +73,23 @@ class GraphSearchOptions:
 
     max_expansions: int | None = None
     heuristic_weight: float = 1.0
+
+    def __post_init__(self) -> None:
+        _check_options(self)
+
+
+def _check_options(options: GraphSearchOptions) -> None:
+    """Refuse a negative or non-integer ``max_expansions`` and a bad ``heuristic_weight``."""
+    cap = options.max_expansions
+    if cap is not None and (
+        isinstance(cap, bool) or not isinstance(cap, (int, np.integer)) or cap < 0
+    ):
+        raise InvalidInputError(f"max_expansions must be None or an integer >= 0, got {cap!r}")
+    w = options.heuristic_weight
+    if isinstance(w, bool) or not isinstance(w, (int, float, np.integer, np.floating)):
+        raise InvalidInputError(f"heuristic_weight must be a number, got {w!r}")
+    if not math.isfinite(w) or w < 0:
+        raise InvalidInputError(f"heuristic_weight must be finite and >= 0, got {w}")
 
 
 @dataclass
@@ -108,44 +129,90 @@ def as_neighbors(graph: Graph) -> Neighbors:
         ``neighbors(node) -> iterable of (neighbor, cost)``.
 
     Raises:
-        InvalidInputError: for unsupported graph types.
+        InvalidInputError: for unsupported graph types; (when called) for a node that is not
+            in an adjacency list or sparse matrix.
     """
+    return _graph(graph)[0]
+
+
+def _graph(graph: Graph) -> tuple[Neighbors, int | None]:
+    """:func:`as_neighbors` and the node count of integer-node graphs (``None``: a callable)."""
     if callable(graph):
-        return graph  # type: ignore[no-any-return]
+        return graph, None
     if hasattr(graph, "tocsr"):
         csr = graph.tocsr()
+        if csr.ndim != 2 or csr.shape[0] != csr.shape[1]:
+            raise InvalidInputError(
+                f"a sparse cost matrix must be square (n, n), got shape {csr.shape}"
+            )
         indptr = csr.indptr.tolist()
         indices = csr.indices.tolist()
         data = np.asarray(csr.data, dtype=float).tolist()
-        n = csr.shape[0]
+        n = int(csr.shape[0])
 
         def csr_neighbors(i: int) -> Iterable[tuple[int, float]]:
             if not 0 <= i < n:
-                return ()
+                raise InvalidInputError(f"node {i!r} is not a node of the graph (0..{n - 1})")
             a, b = indptr[i], indptr[i + 1]
             return zip(indices[a:b], data[a:b])
 
-        return csr_neighbors
-    if isinstance(graph, Sequence):
+        return csr_neighbors, n
+    if isinstance(graph, Sequence) and not isinstance(graph, (str, bytes)):
         adj = graph
+        n = len(adj)
 
         def list_neighbors(i: int) -> Iterable[tuple[int, float]]:
-            return adj[i] if 0 <= i < len(adj) else ()
+            if not 0 <= i < n:  # an edge to a node the list does not have
+                raise InvalidInputError(
+                    f"node {i!r} is not a node of the adjacency list (0..{n - 1})"
+                )
+            return adj[i]
 
-        return list_neighbors
+        return list_neighbors, n
     raise InvalidInputError(
         "graph must be a callable neighbors(node), an adjacency list or a scipy sparse "
         f"matrix, got {type(graph).__name__}"
     )
 
 
-def _as_heuristic(heuristic: Heuristic | None) -> Callable[[Any], float]:
+def _check_node(node: Any, n: int | None, name: str) -> None:
+    """A start or goal of an integer-node graph: an integer in ``0..n-1``."""
+    if n is None:
+        return
+    if isinstance(node, bool) or not isinstance(node, (int, np.integer)) or not 0 <= node < n:
+        raise InvalidInputError(
+            f"{name} must be a node of the graph: an integer in 0..{n - 1}, got {node!r}"
+        )
+
+
+def _as_heuristic(heuristic: Heuristic | None, n: int | None) -> Callable[[Any], float]:
     if heuristic is None:
         return lambda _n: 0.0
     if callable(heuristic):
         return heuristic
-    values = np.asarray(heuristic, dtype=float).tolist()
-    return lambda n: values[n]
+    arr = np.asarray(heuristic, dtype=float)
+    if arr.ndim != 1 or (n is not None and arr.size != n):
+        size = "one value per node" if n is None else f"{n} values, one per node"
+        raise InvalidInputError(f"a heuristic array must have {size}, got shape {arr.shape}")
+    if np.isnan(arr).any():
+        raise InvalidInputError(
+            f"the heuristic is NaN at nodes {np.flatnonzero(np.isnan(arr))[:10].tolist()}"
+        )
+    values: list[float] = arr.tolist()
+    count = len(values)
+
+    def h(node: Any) -> float:
+        if (
+            isinstance(node, bool)
+            or not isinstance(node, (int, np.integer))
+            or not (0 <= node < count)
+        ):
+            raise InvalidInputError(
+                f"the heuristic array has {count} values; node {node!r} has none"
+            )
+        return values[node]
+
+    return h
 
 
 def _reconstruct(parents: dict[Any, Any], start: Any, goal: Any) -> list[Any]:
@@ -164,12 +231,12 @@ def _search(
     options: GraphSearchOptions,
 ) -> GraphSearchResult:
     t0 = time.perf_counter()
-    if not math.isfinite(options.heuristic_weight) or options.heuristic_weight < 0:
-        raise InvalidInputError(
-            f"heuristic_weight must be finite and >= 0, got {options.heuristic_weight}"
-        )
-    neighbors = as_neighbors(graph)
-    h = _as_heuristic(heuristic)
+    _check_options(options)  # (also here: a frozen options object can be changed behind it)
+    neighbors, n = _graph(graph)
+    _check_node(start, n, "start")
+    if goal is not None:
+        _check_node(goal, n, "goal")
+    h = _as_heuristic(heuristic, n)
     w = float(options.heuristic_weight)
     limit = options.max_expansions if options.max_expansions is not None else math.inf
     g: dict[Any, float] = {start: 0.0}
@@ -177,6 +244,8 @@ def _search(
     closed: set[Any] = set()
     counter = itertools.count()
     h0 = w * h(start) if goal is not None else 0.0
+    if h0 != h0:
+        raise InvalidInputError(f"the heuristic is NaN at the start node {start!r}")
     # Ties on f are broken towards smaller h (deeper nodes), then FIFO.
     heap: list[tuple[float, float, int, Any]] = [(h0, h0, next(counter), start)]
     expanded = relaxed = 0
@@ -196,21 +265,37 @@ def _search(
         closed.add(node)
         expanded += 1
         g_node = g[node]
-        for nb, cost in neighbors(node):
-            if cost < 0:
-                raise InvalidInputError(
-                    f"edge {node!r} -> {nb!r} has negative cost {cost}; Dijkstra and A* "
-                    "need non-negative edge costs"
-                )
-            if nb in closed:
-                continue
-            g_new = g_node + cost
-            if g_new < g.get(nb, math.inf):
-                g[nb] = g_new
-                parents[nb] = node
-                relaxed += 1
-                hn = w * h(nb) if use_h else 0.0
-                push(heap, (g_new + hn, hn, next(counter), nb))
+        try:
+            for nb, cost in neighbors(node):
+                if not cost >= 0:  # negative or NaN (+inf: an edge never taken)
+                    kind = "negative" if cost < 0 else "NaN"
+                    raise InvalidInputError(
+                        f"edge {node!r} -> {nb!r} has {kind} cost {cost}; Dijkstra and A* "
+                        "need non-negative edge costs"
+                    )
+                if nb in closed:
+                    continue
+                g_new = g_node + cost
+                if g_new == math.inf and cost != math.inf:
+                    raise InvalidInputError(
+                        f"the path cost to node {nb!r} overflows (g = {g_node} plus an edge of "
+                        f"{cost}); scale the edge costs down"
+                    )
+                if g_new < g.get(nb, math.inf):
+                    g[nb] = g_new
+                    parents[nb] = node
+                    relaxed += 1
+                    hn = w * h(nb) if use_h else 0.0
+                    if hn != hn:
+                        raise InvalidInputError(f"the heuristic is NaN at node {nb!r}")
+                    push(heap, (g_new + hn, hn, next(counter), nb))
+        except TaskspaceError:
+            raise
+        except (TypeError, ValueError) as exc:
+            raise InvalidInputError(
+                f"neighbors({node!r}) failed or gave an item that is not a (neighbor, cost) "
+                f"pair with a numeric cost: {exc}"
+            ) from exc
     if status is SearchStatus.FOUND:
         path = _reconstruct(parents, start, goal)
         cost_out = g[goal]

@@ -22,6 +22,7 @@ from __future__ import annotations
 import enum
 import logging
 import math
+import operator
 import time
 from collections.abc import Iterable
 from dataclasses import dataclass
@@ -81,8 +82,15 @@ class OccupancyGrid:
             raise InvalidInputError(
                 f"occupied must be a non-empty 2-D array, got shape {occ.shape}"
             )
+        if occ.dtype.kind == "f" and np.isnan(occ).any():
+            raise InvalidInputError(
+                "occupied has NaN entries (NaN is neither free nor occupied) at cells "
+                f"{np.argwhere(np.isnan(occ))[:5].tolist()}"
+            )
         object.__setattr__(self, "occupied", occ.astype(bool))
         check_positive(self.resolution, "resolution")
+        origin = as_vector(self.origin, 2, "origin")
+        object.__setattr__(self, "origin", (float(origin[0]), float(origin[1])))
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -90,8 +98,8 @@ class OccupancyGrid:
         return (int(self.occupied.shape[0]), int(self.occupied.shape[1]))
 
     def in_bounds(self, cell: Any) -> bool:
-        """Whether ``cell = (row, col)`` lies inside the grid."""
-        r, c = int(cell[0]), int(cell[1])
+        """Whether ``cell = (row, col)`` (two integers) lies inside the grid."""
+        r, c = _cell(cell, "cell")
         return 0 <= r < self.shape[0] and 0 <= c < self.shape[1]
 
     def cell_of(self, point: Any) -> tuple[int, int]:
@@ -114,12 +122,7 @@ class OccupancyGrid:
         Raises:
             PlanningError: if the cell is outside the grid or occupied.
         """
-        try:
-            r, c = (int(v) for v in cell)
-        except (TypeError, ValueError) as exc:
-            raise InvalidInputError(
-                f"{name} must be a (row, col) pair of ints, got {cell!r}"
-            ) from exc
+        r, c = _cell(cell, name)
         if not self.in_bounds((r, c)):
             raise PlanningError(
                 f"{name} cell ({r}, {c}) is outside the grid of shape {self.shape} "
@@ -128,6 +131,21 @@ class OccupancyGrid:
         if self.occupied[r, c]:
             raise PlanningError(f"{name} cell ({r}, {c}) is inside an obstacle")
         return (r, c)
+
+
+def _cell(cell: Any, name: str) -> tuple[int, int]:
+    """``(row, col)`` of two integers (integral floats too: 3.0, not 3.5 nor NaN)."""
+    try:
+        if any(isinstance(v, (bool, np.bool_)) for v in cell):
+            raise TypeError("a bool is not a cell index")
+        r, c = (operator.index(v) if not isinstance(v, (float, np.floating)) else v for v in cell)
+        if r != int(r) or c != int(c):
+            raise ValueError
+        return (int(r), int(c))
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise InvalidInputError(
+            f"{name} must be a (row, col) pair of integers, got {cell!r}"
+        ) from exc
 
 
 class GridStatus(enum.Enum):
