@@ -31,7 +31,7 @@ from typing import Any, Literal
 import numpy as np
 import numpy.typing as npt
 
-from taskspace._validation import check_count
+from taskspace._validation import check_count, check_positive
 from taskspace.errors import PlanningError, UnknownNameError
 from taskspace.planning.polygon_world import PolygonWorld, SegmentHit
 
@@ -164,7 +164,7 @@ def _run(
     max_hits = check_count(options.max_hits, "max_hits", minimum=1)
     s = world.check_free_point(start, "start")
     g = world.check_free_point(goal, "goal")
-    tol = float(options.tolerance)
+    tol = check_positive(options.tolerance, "tolerance", strict=False)
     forward = options.turn == "right"  # stored edges keep the obstacle on the left
     path: list[FloatArray] = [s.copy()]
     hits: list[FloatArray] = []

@@ -184,6 +184,56 @@ class PolygonWorld:
         object.__setattr__(self, "loop_vertices", tuple(loops))
         object.__setattr__(self, "loop_first_edge", np.asarray(first, dtype=np.int64))
         object.__setattr__(self, "loop_polygon", np.asarray(lpoly, dtype=np.int64))
+        overlap = self._overlap()
+        if overlap is not None:
+            i, j, how = overlap
+            raise InvalidInputError(
+                f"polygons[{i}] and polygons[{j}] overlap ({how}): the obstacles of a "
+                "PolygonWorld must be disjoint (boundary following, the Bug algorithms, needs "
+                "one boundary per obstacle); merge them into one polygon"
+            )
+
+    def _overlap(self) -> tuple[int, int, str] | None:
+        """Two polygons whose boundaries cross or one inside the other, else ``None``.
+
+        Boundaries cross when two edges of different polygons intersect at a point interior
+        to both (strict orientation signs: touching at a vertex or along a line is allowed);
+        containment is tested on one vertex of each polygon (even-odd rule per polygon, so a
+        polygon inside another's hole is disjoint from it).
+        """
+        n_poly = len(self.polygons)
+        if n_poly < 2:
+            return None
+        e, ep = self.edges, self.edge_polygon
+        a, b = e[:, None, 0, :], e[:, None, 1, :]
+        c, d = e[None, :, 0, :], e[None, :, 1, :]
+
+        def orient(p: FloatArray, q: FloatArray, r: FloatArray) -> FloatArray:
+            return (q[..., 0] - p[..., 0]) * (r[..., 1] - p[..., 1]) - (q[..., 1] - p[..., 1]) * (
+                r[..., 0] - p[..., 0]
+            )
+
+        cross = (orient(a, b, c) * orient(a, b, d) < 0) & (orient(c, d, a) * orient(c, d, b) < 0)
+        cross &= ep[:, None] != ep[None, :]
+        if cross.any():
+            k, m = np.argwhere(cross)[0]
+            return int(min(ep[k], ep[m])), int(max(ep[k], ep[m])), "their boundaries cross"
+        firsts = np.array([p.loops[0][0] for p in self.polygons])
+        px, py = firsts[:, None, 0], firsts[:, None, 1]
+        a0, b0 = e[None, :, 0, :], e[None, :, 1, :]
+        straddle = (a0[..., 1] <= py) != (b0[..., 1] <= py)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            xcross = a0[..., 0] + (py - a0[..., 1]) * (b0[..., 0] - a0[..., 0]) / (
+                b0[..., 1] - a0[..., 1]
+            )
+        hits = straddle & (xcross > px)
+        for j in range(n_poly):
+            inside = np.sum(hits[:, ep == j], axis=1) % 2 == 1
+            inside[j] = False
+            if inside.any():
+                i = int(np.flatnonzero(inside)[0])
+                return min(i, j), max(i, j), f"polygons[{i}] lies inside polygons[{j}]"
+        return None
 
     # ------------------------------------------------------------------ queries
     def polygon_containing(self, points: Any) -> IntArray:

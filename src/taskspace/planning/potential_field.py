@@ -34,7 +34,14 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from taskspace._validation import as_vector, check_count, check_positive
+from taskspace._validation import (
+    as_float_array,
+    as_vector,
+    check_count,
+    check_finite,
+    check_positive,
+)
+from taskspace.errors import InvalidInputError
 from taskspace.planning.polygon_world import PolygonWorld
 
 logger = logging.getLogger(__name__)
@@ -106,6 +113,15 @@ class PotentialFieldResult:
     time_s: float
 
 
+def _points(points: Any) -> FloatArray:
+    """``(2,)`` or ``(N, 2)`` finite points as ``(N, 2)``."""
+    p = np.atleast_2d(as_float_array(points, "points"))
+    if p.ndim != 2 or p.shape[1] != 2:
+        raise InvalidInputError(f"points must have shape (2,) or (N, 2), got {np.shape(points)}")
+    check_finite(p, "points")
+    return p
+
+
 @dataclass(frozen=True)
 class PotentialField:
     """The potential ``U = U_att + U_rep`` of a goal in a polygon world (slide 3:15).
@@ -125,10 +141,12 @@ class PotentialField:
         o = self.options
         for name in ("zeta", "d_star", "eta", "q_star", "step_size", "max_step"):
             check_positive(getattr(o, name), name)
+        for name in ("goal_tolerance", "gradient_tolerance", "stall_distance"):
+            check_positive(getattr(o, name), name, strict=False)
 
     def attractive(self, points: Any) -> tuple[FloatArray, FloatArray]:
         """``U_att`` ``(N,)`` and its gradient ``(N, 2)`` at ``points`` ``(N, 2)``."""
-        p = np.atleast_2d(np.asarray(points, dtype=float))
+        p = _points(points)
         o = self.options
         diff = p - self.goal
         r = np.linalg.norm(diff, axis=1)
@@ -139,7 +157,7 @@ class PotentialField:
 
     def repulsive(self, points: Any) -> tuple[FloatArray, FloatArray]:
         """``U_rep`` ``(N,)`` and its gradient ``(N, 2)``; ``inf`` inside obstacles."""
-        p = np.atleast_2d(np.asarray(points, dtype=float))
+        p = _points(points)
         o = self.options
         dist, closest = self.world.closest_points(p)
         inside = self.world.contains(p)
@@ -173,11 +191,12 @@ def gradient_descent(field: PotentialField, start: Any) -> PotentialFieldResult:
         away from the goal (slide 3:16).
 
     Raises:
-        PlanningError: if ``start`` is out of bounds or inside an obstacle.
+        PlanningError: if ``start`` or the field's goal is out of bounds or inside an obstacle.
     """
     t0 = time.perf_counter()
     o = field.options
     q = field.world.check_free_point(start, "start")
+    field.world.check_free_point(field.goal, "goal")  # a goal in an obstacle is never reached
     pts = [q.copy()]
     status = PotentialStatus.ITERATION_LIMIT
     grad = field.gradient(q)[0]
