@@ -121,6 +121,7 @@ def se2_distance(q1: Any, q2: Any, *, rotation_weight: float = 1.0) -> Any:
     b = np.asarray(q2, dtype=float)
     if a.shape[-1:] != (3,) or b.shape[-1:] != (3,):
         raise ShapeError("q1/q2", (3,), tuple(a.shape if a.shape[-1:] != (3,) else b.shape))
+    check_positive(rotation_weight, "rotation_weight", strict=False)
     chord = angle_chord_distance(a[..., 2], b[..., 2])
     dx = a[..., 0] - b[..., 0]
     dy = a[..., 1] - b[..., 1]
@@ -198,6 +199,15 @@ def arc_pose(q: Any, curvature: Any, s: Any) -> FloatArray:
     q = np.asarray(q, dtype=float)
     k = np.asarray(curvature, dtype=float)
     s = np.asarray(s, dtype=float)
+    if q.shape[-1:] != (3,):
+        raise ShapeError("q", (3,), q.shape)
+    for value, name in ((q, "q"), (k, "curvature"), (s, "s")):
+        check_finite(value, name)
+    return _arc_pose(q, k, s)
+
+
+def _arc_pose(q: FloatArray, k: FloatArray | float, s: FloatArray | float) -> FloatArray:
+    """:func:`arc_pose` of float arrays, unchecked (callers with checked inputs)."""
     th0 = q[..., 2]
     half = 0.5 * k * s
     th = th0 + 2.0 * half
@@ -245,7 +255,7 @@ class CurvePath:
         poses = np.empty((len(self.word) + 1, 3))
         poses[0] = self.start
         for i, (k, ell) in enumerate(zip(self.curvatures, self.lengths)):
-            poses[i + 1] = arc_pose(poses[i], k, ell)
+            poses[i + 1] = _arc_pose(poses[i], k, ell)
         return poses
 
     @property
@@ -283,7 +293,7 @@ class CurvePath:
         local = s_arr - cum[idx]
         sign = np.sign(np.asarray(self.lengths, dtype=float))[idx]
         k = np.asarray(self.curvatures)[idx]
-        out = arc_pose(starts[idx], k, sign * local)
+        out = _arc_pose(starts[idx], k, sign * local)
         th = out[..., 2]
         out[..., 2] = np.where((th >= -np.pi) & (th < np.pi), th, wrap_angle(th))
         return out
@@ -368,7 +378,13 @@ def pose_arrays(start: Any, goal: Any) -> tuple[FloatArray, FloatArray]:
         raise ShapeError("start/goal", (-1, 3), tuple(s.shape if s.shape[-1] != 3 else g.shape))
     check_finite(s, "start")
     check_finite(g, "goal")
-    s, g = np.broadcast_arrays(s, g)
+    try:
+        s, g = np.broadcast_arrays(s, g)
+    except ValueError as exc:
+        raise InvalidInputError(
+            f"start and goal must hold one pose or the same number of poses, got shapes "
+            f"{s.shape} and {g.shape}"
+        ) from exc
     return s, g
 
 
