@@ -52,3 +52,10 @@ def test_mismatched_batches_are_named(distance) -> None:  # type: ignore[no-unty
         distance(np.zeros((3, 3)), np.ones((2, 3)), 1.0)
     # one start against a batch of goals broadcasts
     assert distance(np.zeros(3), np.ones((2, 3)), 1.0).shape == (2,)
+
+
+def test_car_duration_is_named() -> None:
+    from taskspace.planning.car import CarModel
+
+    with pytest.raises(NotFiniteError, match="duration"):
+        CarModel().integrate((0.0, 0.0, 0.0), (1.0, 0.2), float("nan"))

@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from taskspace._validation import as_vector, check_count, check_positive
+from taskspace._validation import as_vector, check_count, check_finite, check_positive
 from taskspace.errors import InvalidInputError, LimitError, PlanningError, UnknownNameError
 from taskspace.planning.polygon_world import PolygonWorld
 from taskspace.planning.se2 import arc_pose, wrap_angle
@@ -116,9 +116,9 @@ class CarModel:
         :func:`~taskspace.planning.se2.arc_pose`); the heading is wrapped to ``[-pi, pi)``.
         """
         u = self.check_controls(u)
-        out = arc_pose(
-            q, np.tan(u[..., 1]) / self.wheelbase, u[..., 0] * np.asarray(duration, float)
-        )
+        duration = np.asarray(duration, float)
+        check_finite(duration, "duration")
+        out = arc_pose(q, np.tan(u[..., 1]) / self.wheelbase, u[..., 0] * duration)
         out[..., 2] = wrap_angle(out[..., 2])
         return out
 
