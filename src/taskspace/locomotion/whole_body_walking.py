@@ -232,6 +232,10 @@ def walking_reference(
     The same preview-control CoM, swing trajectories, foot and pelvis orientation targets as
     :func:`walk`, sampled at ``k dt`` (a sample at a phase switch belongs to the next phase):
     what a peer controller needs to track the same walk.
+
+    Raises:
+        InvalidInputError: a plan that does not start on the robot's feet (positions or
+            yaws), as in :func:`walk`.
     """
     opts = options or WalkingOptions()
     q0 = robot.q_default.copy()
@@ -418,14 +422,21 @@ def _swing_trajectory(phase: Any, clearance: float, height: float) -> SwingTraje
 #: How far [m] a plan's initial footstep may be from the robot's foot at its default posture.
 PLAN_START_TOLERANCE = 0.01
 
+#: How far [rad] a plan's initial footstep yaw may be from the robot's foot yaw (the heading of
+#: the foot frame's x axis) at its default posture.
+PLAN_START_YAW_TOLERANCE = 0.05
+
 
 def _check_plan_starts_on_feet(plan: FootstepPlan, foot0: Mapping[str, pin.SE3]) -> None:
-    """Refuse a plan whose initial feet are not where the robot's feet stand.
+    """Refuse a plan whose initial feet are not where, or not facing as, the robot's feet.
 
     The stance contacts are the robot's real feet while the ZMP reference and the swing
     targets come from the plan: a plan made for other feet (``straight_walk``'s default
     ``step_width``, another robot) put the ZMP reference outside the real support and the
-    simulation diverged, ending in a NotFiniteError deep inside the walk.
+    simulation diverged, ending in a NotFiniteError deep inside the walk. The feet turn by the
+    plan's change of yaw from its initial footsteps, so an initial yaw that is not the
+    robot's (a plan for a robot facing another way) counted every turn from the wrong start,
+    silently (initial yaws 0.5 rad on a G1 facing 0: its feet turned to -0.5 rad).
     """
     for foot in plan.initial:
         actual = np.asarray(foot0[foot.side].translation[:2])
@@ -436,6 +447,17 @@ def _check_plan_starts_on_feet(plan: FootstepPlan, foot0: Mapping[str, pin.SE3])
                 f"robot's {foot.side} foot stands at ({actual[0]:.4f}, {actual[1]:.4f}) m in its "
                 f"default posture ({off:.4f} m away, tolerance {PLAN_START_TOLERANCE} m): make "
                 "the plan from the robot's feet (plan_from_robot(robot, robot.q_default, ...))"
+            )
+        R = np.asarray(foot0[foot.side].rotation)
+        yaw = math.atan2(float(R[1, 0]), float(R[0, 0]))
+        apart = abs(math.remainder(foot.yaw - yaw, 2.0 * math.pi))
+        if apart > PLAN_START_YAW_TOLERANCE:
+            raise InvalidInputError(
+                f"the plan's initial {foot.side} foot has yaw {foot.yaw:.4f} rad but the robot's "
+                f"{foot.side} foot faces {yaw:.4f} rad in its default posture ({apart:.4f} rad "
+                f"apart, tolerance {PLAN_START_YAW_TOLERANCE} rad): footstep yaws are absolute "
+                "(world frame); make the plan from the robot's feet "
+                "(plan_from_robot(robot, robot.q_default, ...))"
             )
 
 
@@ -479,7 +501,9 @@ def walk(robot: Any, plan: FootstepPlan, options: WalkingOptions | None = None) 
 
     Raises:
         InvalidInputError: the plan's initial feet are more than :data:`PLAN_START_TOLERANCE`
-            from the robot's feet in its default posture (make it with :func:`plan_from_robot`).
+            from the robot's feet in its default posture, or their yaws more than
+            :data:`PLAN_START_YAW_TOLERANCE` from the feet's (make it with
+            :func:`plan_from_robot`).
     """
     opts = options or WalkingOptions()
     q0 = robot.q_default.copy()
