@@ -40,8 +40,9 @@ def _batch(x: Any, last: int, name: str) -> FloatArray:
 def _check_ranges(z: FloatArray, name: str) -> None:
     """Refuse a negative measured range (column 0 of ``z`` ``(..., 2)``): a range is a distance.
 
-    A negative range put the landmark behind the robot (``inverse``) or was matched to the
-    landmark's mirror image; the message names the first offending row.
+    A negative range put a new landmark behind the robot (``inverse``, the first sighting in
+    EKF-SLAM and FastSLAM) and was fused as if it were a distance; the message names the first
+    offending row.
     """
     ranges = z[..., 0]
     if np.any(ranges < 0.0):
@@ -49,8 +50,7 @@ def _check_ranges(z: FloatArray, name: str) -> None:
         where = f"{name}[{', '.join(str(i) for i in (*index, 0))}]"
         raise InvalidInputError(
             f"{where} (range) must be >= 0 [m], got {float(ranges[index])!r}: a measured range "
-            "is a distance "
-            "(clip simulated noisy ranges at 0)"
+            "is a distance (clip simulated noisy ranges at 0)"
         )
 
 
