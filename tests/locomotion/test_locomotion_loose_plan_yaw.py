@@ -4,7 +4,9 @@ whose initial footsteps face another way was followed silently, its turns counte
 wrong start (G1 facing 0 given a straight plan whose initial feet say 0.5 rad: the reference
 turned both feet to -0.5 rad at their first steps).
 
-Reference: the foot frames' yaw from Pinocchio's placements (heading of their x axes).
+Reference: the robot's heading from Pinocchio's placements of its two feet (perpendicular to
+the line from the right foot to the left one, the convention of plan_from_robot); a robot whose
+foot frames point outwards (toe-out) keeps that heading, and its own plan is accepted.
 """
 
 from __future__ import annotations
@@ -46,20 +48,39 @@ def _turned(g1: Robot, yaw: float) -> Robot:
     )
 
 
-def _foot_yaw(robot: Robot, frame: str) -> float:
-    R = robot.frame_placement(robot.q_default, frame).rotation
-    return math.atan2(float(R[1, 0]), float(R[0, 0]))
+def _heading(robot: Robot) -> float:
+    left = robot.frame_placement(robot.q_default, FEET[0]).translation
+    right = robot.frame_placement(robot.q_default, FEET[1]).translation
+    return math.atan2(float(right[0] - left[0]), float(left[1] - right[1]))
+
+
+def _toe_out(g1: Robot, angle: float) -> Robot:
+    """G1 whose foot frames are turned outwards by ``angle`` about their z axes."""
+    model = g1.model.copy()
+    for frame, sign in zip(FEET, (1.0, -1.0)):
+        fid = model.getFrameId(frame)
+        placement = model.frames[fid].placement
+        placement.rotation = placement.rotation @ pin.rpy.rpyToMatrix(0.0, 0.0, sign * angle)
+        model.frames[fid].placement = placement
+    return Robot(
+        model,
+        g1.collision_model,
+        g1.visual_model,
+        name="g1_toe_out",
+        end_effectors=g1.end_effectors,
+        default_configuration=g1.q_default,
+    )
 
 
 def test_plan_facing_another_way_is_refused(g1: Robot) -> None:
     good = plan_from_robot(g1, g1.q_default, 2, step_length=0.08, timing=TIMING)
-    assert _foot_yaw(g1, FEET[0]) == pytest.approx(0.0, abs=1e-12)
+    assert _heading(g1) == pytest.approx(0.0, abs=1e-9)
     bad = _with_initial_yaw(good, 0.5)
     for call in (walk, walking_reference):
         with pytest.raises(
             InvalidInputError,
-            match=r"initial left foot has yaw 0\.5000 rad but the robot's left foot faces "
-            r"0\.0000 rad .*tolerance 0\.05 rad.*plan_from_robot",
+            match=r"initial left foot has yaw 0\.5000 rad but the robot faces -?0\.0000 rad "
+            r".*tolerance 0\.05 rad.*plan_from_robot",
         ):
             call(g1, bad)
 
@@ -67,9 +88,10 @@ def test_plan_facing_another_way_is_refused(g1: Robot) -> None:
 def test_turned_robot_given_an_unturned_plan_is_refused(g1: Robot) -> None:
     robot = _turned(g1, 0.4)
     plan = plan_from_robot(robot, robot.q_default, 2, step_length=0.08, timing=TIMING)
-    assert plan.initial[0].yaw == pytest.approx(_foot_yaw(robot, FEET[0]), abs=1e-9)
+    assert plan.initial[0].yaw == pytest.approx(_heading(robot), abs=1e-9)
+    assert _heading(robot) == pytest.approx(0.4, abs=1e-9)
     walking_reference(robot, plan)  # its own plan: accepted
-    with pytest.raises(InvalidInputError, match=r"yaw 0\.0000 rad .* faces 0\.4000 rad"):
+    with pytest.raises(InvalidInputError, match=r"yaw 0\.0000 rad but the robot faces 0\.4000 rad"):
         walking_reference(robot, _with_initial_yaw(plan, 0.0))
 
 
@@ -84,3 +106,13 @@ def test_yaws_within_tolerance_or_a_turn_apart_are_accepted(g1: Robot, offset: f
             np.testing.assert_allclose(
                 ref.foot_rotation[side], same.foot_rotation[side], atol=1e-12
             )
+
+
+def test_toe_out_robot_walks_its_own_plan(g1: Robot) -> None:
+    robot = _toe_out(g1, 0.2)
+    R = robot.frame_placement(robot.q_default, FEET[0]).rotation
+    assert math.atan2(float(R[1, 0]), float(R[0, 0])) == pytest.approx(0.2, abs=1e-9)
+    plan = plan_from_robot(robot, robot.q_default, 2, step_length=0.08, timing=TIMING)
+    assert plan.initial[0].yaw == pytest.approx(_heading(robot), abs=1e-9)
+    ref = walking_reference(robot, plan)  # refused when the foot frames' yaw was the reference
+    assert np.isfinite(ref.com).all()

@@ -422,8 +422,9 @@ def _swing_trajectory(phase: Any, clearance: float, height: float) -> SwingTraje
 #: How far [m] a plan's initial footstep may be from the robot's foot at its default posture.
 PLAN_START_TOLERANCE = 0.01
 
-#: How far [rad] a plan's initial footstep yaw may be from the robot's foot yaw (the heading of
-#: the foot frame's x axis) at its default posture.
+#: How far [rad] a plan's initial footstep yaw may be from the robot's heading at its default
+#: posture (perpendicular to the line from the right foot to the left one, as
+#: :func:`plan_from_robot` reads it).
 PLAN_START_YAW_TOLERANCE = 0.05
 
 
@@ -438,6 +439,9 @@ def _check_plan_starts_on_feet(plan: FootstepPlan, foot0: Mapping[str, pin.SE3])
     robot's (a plan for a robot facing another way) counted every turn from the wrong start,
     silently (initial yaws 0.5 rad on a G1 facing 0: its feet turned to -0.5 rad).
     """
+    # the robot's heading as plan_from_robot reads it (a toe-out foot frame does not turn it)
+    across = np.asarray(foot0["left"].translation[:2]) - np.asarray(foot0["right"].translation[:2])
+    heading = math.atan2(-float(across[0]), float(across[1]))
     for foot in plan.initial:
         actual = np.asarray(foot0[foot.side].translation[:2])
         off = float(np.linalg.norm(foot.position - actual))
@@ -448,16 +452,15 @@ def _check_plan_starts_on_feet(plan: FootstepPlan, foot0: Mapping[str, pin.SE3])
                 f"default posture ({off:.4f} m away, tolerance {PLAN_START_TOLERANCE} m): make "
                 "the plan from the robot's feet (plan_from_robot(robot, robot.q_default, ...))"
             )
-        R = np.asarray(foot0[foot.side].rotation)
-        yaw = math.atan2(float(R[1, 0]), float(R[0, 0]))
-        apart = abs(math.remainder(foot.yaw - yaw, 2.0 * math.pi))
+        apart = abs(math.remainder(foot.yaw - heading, 2.0 * math.pi))
         if apart > PLAN_START_YAW_TOLERANCE:
             raise InvalidInputError(
-                f"the plan's initial {foot.side} foot has yaw {foot.yaw:.4f} rad but the robot's "
-                f"{foot.side} foot faces {yaw:.4f} rad in its default posture ({apart:.4f} rad "
-                f"apart, tolerance {PLAN_START_YAW_TOLERANCE} rad): footstep yaws are absolute "
-                "(world frame); make the plan from the robot's feet "
-                "(plan_from_robot(robot, robot.q_default, ...))"
+                f"the plan's initial {foot.side} foot has yaw {foot.yaw:.4f} rad but the robot "
+                f"faces {heading:.4f} rad in its default posture (perpendicular to the line "
+                f"from its right foot to its left one; {apart:.4f} rad apart, tolerance "
+                f"{PLAN_START_YAW_TOLERANCE} rad): footstep yaws are absolute (world frame); "
+                "make the plan from the robot's feet (plan_from_robot(robot, robot.q_default, "
+                "...))"
             )
 
 
@@ -502,7 +505,7 @@ def walk(robot: Any, plan: FootstepPlan, options: WalkingOptions | None = None) 
     Raises:
         InvalidInputError: the plan's initial feet are more than :data:`PLAN_START_TOLERANCE`
             from the robot's feet in its default posture, or their yaws more than
-            :data:`PLAN_START_YAW_TOLERANCE` from the feet's (make it with
+            :data:`PLAN_START_YAW_TOLERANCE` from the robot's heading (make it with
             :func:`plan_from_robot`).
     """
     opts = options or WalkingOptions()
