@@ -37,13 +37,31 @@ def _batch(x: Any, last: int, name: str) -> FloatArray:
     return arr
 
 
+def _check_ranges(z: FloatArray, name: str) -> None:
+    """Refuse a negative measured range (column 0 of ``z`` ``(..., 2)``): a range is a distance.
+
+    A negative range put a new landmark behind the robot (``inverse``, the first sighting in
+    EKF-SLAM and FastSLAM) and was fused as if it were a distance; the message names the first
+    offending row.
+    """
+    ranges = z[..., 0]
+    if np.any(ranges < 0.0):
+        index = tuple(int(i) for i in np.unravel_index(int(np.argmax(ranges < 0.0)), ranges.shape))
+        where = f"{name}[{', '.join(str(i) for i in (*index, 0))}]"
+        raise InvalidInputError(
+            f"{where} (range) must be >= 0 [m], got {float(ranges[index])!r}: a measured range "
+            "is a distance (clip simulated noisy ranges at 0)"
+        )
+
+
 @dataclass(frozen=True)
 class LandmarkObservation:
     """Range-bearing measurements of several landmarks at one time step.
 
     Attributes:
         ids: ``(k,)`` landmark indices (ground-truth correspondences; -1 if unknown).
-        z: ``(k, 2)`` measured ``(range [m], bearing [rad])``.
+        z: ``(k, 2)`` measured ``(range [m], bearing [rad])``; ranges are >= 0 (the
+            estimators refuse a negative one).
     """
 
     ids: np.ndarray
@@ -54,7 +72,7 @@ def checked_observation(obs: Any, name: str = "obs") -> tuple[np.ndarray, FloatA
     """``(ids, z)`` of a :class:`LandmarkObservation`, validated.
 
     ``ids`` integers (``0.5`` was truncated to landmark 0) and ``z`` finite real ``(k, 2)``
-    with as many rows as ids (``zip`` dropped the extra ones silently).
+    with as many rows as ids (``zip`` dropped the extra ones silently) and ranges >= 0.
     """
     if not isinstance(obs, LandmarkObservation):
         raise InvalidInputError(
@@ -75,6 +93,7 @@ def checked_observation(obs: Any, name: str = "obs") -> tuple[np.ndarray, FloatA
     if z.ndim != 2 or z.shape[1] != 2 or z.shape[0] != ids.size:
         raise ShapeError(f"{name}.z (range, bearing) rows", (ids.size, 2), tuple(z.shape))
     check_finite(z, f"{name}.z")
+    _check_ranges(z, f"{name}.z")
     return ids, z
 
 
@@ -136,9 +155,14 @@ class RangeBearingModel:
 
     @staticmethod
     def inverse(x: Any, z: Any) -> FloatArray:
-        """Landmark position(s) from pose and measurement: ``p + r (cos(th + b), sin(th + b))``."""
+        """Landmark position(s) from pose and measurement: ``p + r (cos(th + b), sin(th + b))``.
+
+        Raises:
+            InvalidInputError: a negative range ``r`` (it placed the landmark behind the robot).
+        """
         X = _batch(x, 3, "x (poses)")
         Z = _batch(z, 2, "z (range, bearing)")
+        _check_ranges(Z, "z (range, bearing)")
         a = X[..., 2] + Z[..., 1]
         return np.stack(
             [X[..., 0] + Z[..., 0] * np.cos(a), X[..., 1] + Z[..., 0] * np.sin(a)], axis=-1
@@ -162,23 +186,42 @@ class RangeBearingModel:
 
         Returns:
             ``(N,)`` log-likelihoods (up to a constant).
+
+        Raises:
+            InvalidInputError: ``obs`` not a valid observation (a negative range among them),
+                or an id that is not a row of ``landmarks`` (``-1``, unknown, included).
         """
+        ids, z = checked_observation(obs)
         P = _batch(particles, 3, "particles")
-        L = _batch(landmarks, 2, "landmarks")[obs.ids]  # (k, 2)
+        landmark_map = _batch(landmarks, 2, "landmarks")
+        if ids.size and not (ids.min() >= 0 and ids.max() < landmark_map.shape[0]):
+            # -1 (unknown) read the last landmark silently; others were a bare IndexError
+            bad = int(ids[(ids < 0) | (ids >= landmark_map.shape[0])][0])
+            raise InvalidInputError(
+                f"obs.ids: landmark id {bad} is outside [0, {landmark_map.shape[0]}) (the "
+                "landmarks' rows; log_likelihood needs known correspondences)"
+            )
+        L = landmark_map[ids]  # (k, 2)
         zhat = self.predict(P[:, None, :], L[None, :, :])  # (N, k, 2)
-        d = self.residual(obs.z[None, :, :], zhat)
+        d = self.residual(z[None, :, :], zhat)
         return -0.5 * np.sum(
             (d[..., 0] / self.sigma_range) ** 2 + (d[..., 1] / self.sigma_bearing) ** 2, axis=1
         )
 
     def sample(self, x: Any, landmarks: Any, rng: np.random.Generator) -> LandmarkObservation:
-        """Simulate the visible landmarks' noisy measurements from the true pose ``x``."""
+        """Simulate the visible landmarks' noisy measurements from the true pose ``x``.
+
+        The noisy range is clipped at 0: a sensor reports no negative distance (and the
+        estimators refuse one), so a landmark closer than a few ``sigma_range`` has a range
+        distribution with an atom at 0 instead of the Gaussian's negative tail.
+        """
         xv = as_vector(x, 3, "x")
         L = as_matrix(landmarks, (None, 2), "landmarks")
         zt = self.predict(xv[None, :], L)
         visible = (zt[:, 0] <= self.max_range) & (np.abs(zt[:, 1]) <= 0.5 * self.field_of_view)
         ids = np.flatnonzero(visible)
         z = zt[ids] + rng.standard_normal((ids.size, 2)) * [self.sigma_range, self.sigma_bearing]
+        z[:, 0] = np.maximum(z[:, 0], 0.0)
         z[:, 1] = wrap_angle(z[:, 1])
         return LandmarkObservation(ids=ids, z=z)
 

@@ -232,6 +232,10 @@ def walking_reference(
     The same preview-control CoM, swing trajectories, foot and pelvis orientation targets as
     :func:`walk`, sampled at ``k dt`` (a sample at a phase switch belongs to the next phase):
     what a peer controller needs to track the same walk.
+
+    Raises:
+        InvalidInputError: a plan that does not start on the robot's feet (positions or
+            yaws), as in :func:`walk`.
     """
     opts = options or WalkingOptions()
     q0 = robot.q_default.copy()
@@ -418,15 +422,26 @@ def _swing_trajectory(phase: Any, clearance: float, height: float) -> SwingTraje
 #: How far [m] a plan's initial footstep may be from the robot's foot at its default posture.
 PLAN_START_TOLERANCE = 0.01
 
+#: How far [rad] a plan's initial footstep yaw may be from the robot's heading at its default
+#: posture (perpendicular to the line from the right foot to the left one, as
+#: :func:`plan_from_robot` reads it).
+PLAN_START_YAW_TOLERANCE = 0.05
+
 
 def _check_plan_starts_on_feet(plan: FootstepPlan, foot0: Mapping[str, pin.SE3]) -> None:
-    """Refuse a plan whose initial feet are not where the robot's feet stand.
+    """Refuse a plan whose initial feet are not where, or not facing as, the robot's feet.
 
     The stance contacts are the robot's real feet while the ZMP reference and the swing
     targets come from the plan: a plan made for other feet (``straight_walk``'s default
     ``step_width``, another robot) put the ZMP reference outside the real support and the
-    simulation diverged, ending in a NotFiniteError deep inside the walk.
+    simulation diverged, ending in a NotFiniteError deep inside the walk. The feet turn by the
+    plan's change of yaw from its initial footsteps, so an initial yaw that is not the
+    robot's (a plan for a robot facing another way) counted every turn from the wrong start,
+    silently (initial yaws 0.5 rad on a G1 facing 0: its feet turned to -0.5 rad).
     """
+    # the robot's heading as plan_from_robot reads it (a toe-out foot frame does not turn it)
+    across = np.asarray(foot0["left"].translation[:2]) - np.asarray(foot0["right"].translation[:2])
+    heading = math.atan2(-float(across[0]), float(across[1]))
     for foot in plan.initial:
         actual = np.asarray(foot0[foot.side].translation[:2])
         off = float(np.linalg.norm(foot.position - actual))
@@ -436,6 +451,16 @@ def _check_plan_starts_on_feet(plan: FootstepPlan, foot0: Mapping[str, pin.SE3])
                 f"robot's {foot.side} foot stands at ({actual[0]:.4f}, {actual[1]:.4f}) m in its "
                 f"default posture ({off:.4f} m away, tolerance {PLAN_START_TOLERANCE} m): make "
                 "the plan from the robot's feet (plan_from_robot(robot, robot.q_default, ...))"
+            )
+        apart = abs(math.remainder(foot.yaw - heading, 2.0 * math.pi))
+        if apart > PLAN_START_YAW_TOLERANCE:
+            raise InvalidInputError(
+                f"the plan's initial {foot.side} foot has yaw {foot.yaw:.4f} rad but the robot "
+                f"faces {heading:.4f} rad in its default posture (perpendicular to the line "
+                f"from its right foot to its left one; {apart:.4f} rad apart, tolerance "
+                f"{PLAN_START_YAW_TOLERANCE} rad): footstep yaws are absolute (world frame); "
+                "make the plan from the robot's feet (plan_from_robot(robot, robot.q_default, "
+                "...))"
             )
 
 
@@ -479,7 +504,9 @@ def walk(robot: Any, plan: FootstepPlan, options: WalkingOptions | None = None) 
 
     Raises:
         InvalidInputError: the plan's initial feet are more than :data:`PLAN_START_TOLERANCE`
-            from the robot's feet in its default posture (make it with :func:`plan_from_robot`).
+            from the robot's feet in its default posture, or their yaws more than
+            :data:`PLAN_START_YAW_TOLERANCE` from the robot's heading (make it with
+            :func:`plan_from_robot`).
     """
     opts = options or WalkingOptions()
     q0 = robot.q_default.copy()

@@ -67,6 +67,10 @@ logger = logging.getLogger(__name__)
 MAX_HORIZON = 100_000
 """Largest number of time slices ``T`` of a :class:`PathProblem`."""
 
+MIN_CONSTRAINT_TOLERANCE = 1e-12
+"""Smallest :attr:`PathOptimizationOptions.constraint_tolerance`: constraint values carry the
+rounding of the features' kinematics (~1e-16 relative), which a tolerance of 0 never accepted."""
+
 FINITE_DIFFERENCE_COEFFICIENTS: dict[int, tuple[float, ...]] = {
     1: (1.0, -1.0),
     2: (1.0, -2.0, 1.0),
@@ -128,9 +132,12 @@ class PathOptimizationStatus(enum.Enum):
     CONVERGED = "converged"
     """Inner iterations converged and every constraint holds within tolerance."""
     MAX_ITERATIONS = "max_iterations"
-    """The iteration budget ran out before convergence."""
+    """The iteration budget (``max_iterations`` or ``max_outer_iterations``) ran out before
+    convergence."""
     INFEASIBLE = "infeasible"
-    """The penalty reached its maximum with constraints still violated."""
+    """The penalty reached its maximum with constraints still violated (and the violation no
+    longer shrinking). With steps kept tiny by the options (``max_step`` or
+    ``initial_damping`` far from the defaults) the path may not have moved enough to tell."""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -139,17 +146,26 @@ class PathOptimizationOptions:
 
     Attributes:
         max_iterations: total Levenberg-Marquardt iterations (linear solves), all outer
-            iterations together.
-        max_outer_iterations: augmented Lagrangian (multiplier) updates.
+            iterations together; 0 returns the initial (repaired) path, status
+            ``MAX_ITERATIONS``.
+        max_outer_iterations: augmented Lagrangian (multiplier) updates; 0 stops after the
+            first inner loop (status ``CONVERGED`` only if it already meets the tolerance,
+            else ``MAX_ITERATIONS``).
         constraint_tolerance: largest accepted constraint violation, in the constraint's own
-            units ([m] for distances and positions, [rad] for angles and joint limits).
-        step_tolerance: the inner loop stops when ``max |dq| <`` this [rad or m].
-        cost_tolerance: ... or when the relative decrease of the objective is below this.
-        initial_penalty: initial penalty ``rho`` of the augmented Lagrangian.
-        penalty_growth: factor applied to ``rho`` when the violation did not shrink enough.
-        violation_decrease: ``rho`` grows unless the violation shrank by this factor.
-        max_penalty: largest ``rho``.
-        initial_damping: Levenberg-Marquardt damping relative to ``max diag(J^T J)``.
+            units ([m] for distances and positions, [rad] for angles and joint limits); at
+            least :data:`MIN_CONSTRAINT_TOLERANCE` (1e-12).
+        step_tolerance: the inner loop stops when ``max |dq| <`` this [rad or m] (0: never
+            on the step; a value above ``max_step`` ends every inner loop after one step).
+        cost_tolerance: ... or when the relative decrease of the objective is below this
+            (0: never on the decrease).
+        initial_penalty: initial penalty ``rho`` of the augmented Lagrangian (> 0).
+        penalty_growth: factor applied to ``rho`` when the violation did not shrink enough
+            (> 1).
+        violation_decrease: ``rho`` grows unless the violation shrank to this fraction of the
+            previous outer iteration's, in ``(0, 1]``.
+        max_penalty: largest ``rho``, at least ``initial_penalty`` (equal: a fixed penalty).
+        initial_damping: Levenberg-Marquardt damping relative to ``max diag(J^T J)`` (> 0:
+            after a rejected step the damping grows by factors from it).
         max_step: largest change of one joint in one iteration [rad or m] (trust region).
         repair: push the slices of the initial path that violate an inequality (e.g. that are
             in collision) out along the constraint gradient before optimizing.
@@ -1285,7 +1301,14 @@ def _terms(items: Any, kind: type, name: str) -> list[Any]:
 
 
 def _check_options(opts: PathOptimizationOptions) -> None:
-    """Iteration counts are integers (a float cap such as ``math.inf`` would never stop)."""
+    """Iteration counts are integers (a float cap such as ``math.inf`` would never stop).
+
+    Edges that solved another problem than asked are refused: ``constraint_tolerance`` below
+    :data:`MIN_CONSTRAINT_TOLERANCE` (0 reported INFEASIBLE at a violation of 3e-16),
+    ``initial_damping`` 0 (the damping grows by factors from it: a rejected step was retried
+    undamped until ``max_iterations``), ``max_penalty < initial_penalty`` (the penalty
+    started above its maximum) and ``violation_decrease > 1`` (no decrease).
+    """
     if not isinstance(opts, PathOptimizationOptions):
         raise InvalidInputError(
             f"options must be a PathOptimizationOptions, got {type(opts).__name__}"
@@ -1293,10 +1316,29 @@ def _check_options(opts: PathOptimizationOptions) -> None:
     check_count(opts.max_iterations, "max_iterations")
     check_count(opts.max_outer_iterations, "max_outer_iterations")
     check_count(opts.repair_iterations, "repair_iterations")
-    for name in ("constraint_tolerance", "step_tolerance", "cost_tolerance", "initial_damping"):
+    for name in ("constraint_tolerance", "step_tolerance", "cost_tolerance"):
         check_positive(getattr(opts, name), name, strict=False)
     for name in ("initial_penalty", "max_penalty", "max_step", "violation_decrease"):
         check_positive(getattr(opts, name), name)
+    check_positive(opts.initial_damping, "initial_damping")
+    if opts.constraint_tolerance < MIN_CONSTRAINT_TOLERANCE:
+        raise InvalidInputError(
+            f"constraint_tolerance must be >= {MIN_CONSTRAINT_TOLERANCE:g}, got "
+            f"{opts.constraint_tolerance!r}: violations below it are the rounding of the "
+            "features (an equality reached 3e-16, not 0), so the solver raised the penalty to "
+            "its maximum and reported INFEASIBLE"
+        )
+    if opts.max_penalty < opts.initial_penalty:
+        raise InvalidInputError(
+            f"max_penalty ({float(opts.max_penalty)!r}) must be >= initial_penalty "
+            f"({float(opts.initial_penalty)!r}): the penalty starts at initial_penalty and "
+            "grows up to max_penalty (equal values: a fixed penalty)"
+        )
+    if opts.violation_decrease > 1.0:
+        raise InvalidInputError(
+            f"violation_decrease must be in (0, 1], got {opts.violation_decrease!r}: the "
+            "penalty grows unless the violation shrank to this fraction of the previous one"
+        )
     if not opts.penalty_growth > 1.0 or not math.isfinite(opts.penalty_growth):
         raise InvalidInputError(
             f"penalty_growth must be finite and > 1, got {opts.penalty_growth!r}"
@@ -1338,7 +1380,10 @@ def optimize_path(
     Raises:
         ShapeError, NotFiniteError: bad ``initial_path``.
         InvalidInputError: a non-integer or negative iteration count, a NaN or negative
-            tolerance, penalty or damping.
+            tolerance, penalty or damping, or an edge listed in
+            :class:`PathOptimizationOptions` (``constraint_tolerance < 1e-12``,
+            ``initial_damping = 0``, ``max_penalty < initial_penalty``,
+            ``violation_decrease > 1``).
         SolverError: the banded factorization failed even with large damping.
     """
     if not isinstance(problem, PathProblem):

@@ -29,10 +29,12 @@ by its methods) and may be evaluated from several threads.
 
 from __future__ import annotations
 
+import functools
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from enum import Enum
-from typing import Any
+from typing import Any, ParamSpec
 
 import numpy as np
 from scipy.linalg import LinAlgError, solve_banded
@@ -47,6 +49,25 @@ from taskspace._validation import (
 from taskspace.errors import InvalidInputError, ShapeError, SolverError, UnknownNameError
 
 __all__ = ["BoundaryCondition", "Spline", "cubic_spline", "quintic_spline"]
+
+_P = ParamSpec("_P")
+
+
+def _refuse_quietly(build: Callable[_P, Spline]) -> Callable[_P, Spline]:
+    """Run a spline builder with numpy's floating-point warnings off.
+
+    Waypoints, velocities or knot spacings beyond float64 overflow (or underflow, or divide by
+    a zero spacing product) while the coefficients are computed; :func:`_interpolating` and
+    :func:`_banded_solve` then refuse the spline with an :class:`InvalidInputError`, which is
+    the only report the user gets (numpy's RuntimeWarnings came first, naming no input).
+    """
+
+    @functools.wraps(build)
+    def quiet(*args: _P.args, **kwargs: _P.kwargs) -> Spline:
+        with np.errstate(all="ignore"):
+            return build(*args, **kwargs)
+
+    return quiet
 
 
 class BoundaryCondition(str, Enum):
@@ -205,10 +226,34 @@ def _end_vector(x: Any, n: int, name: str) -> FloatArray:
     return as_vector(arr, n, name)
 
 
-def _banded_solve(lu: tuple[int, int], ab: FloatArray, rhs: FloatArray, what: str) -> FloatArray:
+def _beyond_float64(t: FloatArray, q: FloatArray, what: str) -> InvalidInputError:
+    """The error of a spline whose coefficients float64 cannot hold accurately."""
+    h = np.diff(t)
+    return InvalidInputError(
+        f"{what}: the knot spacings (from {float(h.min()):.3g} to {float(h.max()):.3g}) and "
+        f"data (waypoints up to |{float(np.max(np.abs(q))):.3g}|, with the given velocities "
+        "and accelerations) are beyond what float64 power-basis coefficients of this spline "
+        "can hold (it would miss its waypoints): rescale the knots (for example to [0, 1]) "
+        "and the waypoints' units"
+    )
+
+
+def _banded_solve(
+    lu: tuple[int, int], ab: FloatArray, rhs: FloatArray, what: str, t: FloatArray, q: FloatArray
+) -> FloatArray:
+    """Solve the banded system of a spline's knot derivatives.
+
+    The systems are nonsingular for strictly increasing knots (exact arithmetic): a system
+    that is not finite or singular in float64 comes from knot spacings or data beyond its
+    range (quintic spacings below ~1e-100 underflow its rows to 0) and is refused as such.
+    """
+    if not (np.isfinite(ab).all() and np.isfinite(rhs).all()):
+        raise _beyond_float64(t, q, what)
     try:
         sol: FloatArray = solve_banded(lu, ab, rhs, check_finite=False)
-    except (LinAlgError, ValueError) as exc:
+    except LinAlgError as exc:
+        raise _beyond_float64(t, q, f"{what} ({exc} in float64)") from exc
+    except ValueError as exc:
         raise SolverError(f"{what}: banded solve failed ({exc})") from exc
     return sol
 
@@ -232,23 +277,25 @@ def _interpolating(t: FloatArray, c: FloatArray, q: FloatArray, continuity: int)
     ``h`` beyond ~1e100 the high-order ones underflowed to 0 (and for tiny ones overflowed),
     and the spline missed its waypoints silently (knots ``(0, 1, 2, 3) * 1e150``: 0.5667
     instead of 0.7125 at the middle). Refused with the spacings to rescale.
+
+    Each segment's end ``sum_r c_r h^r`` must meet the next waypoint within ``1e-8`` times
+    ``max(1, max |q|, sum_r |c_r| h^r)``: the last term is the size of the terms summed,
+    whose rounding a fixed scale refused by luck (a quintic leaving ``(0, 1, 2)`` at
+    velocity 1e10 was refused, at 1e12 accepted).
     """
     h = np.diff(t)[:, None]
-    with np.errstate(over="ignore", under="ignore", invalid="ignore", divide="ignore"):
-        end = c[:, -1, :]
-        for r in range(c.shape[1] - 2, -1, -1):
-            end = end * h + c[:, r, :]
-        scale = max(1.0, float(np.max(np.abs(q))))
-        ok = np.isfinite(c).all() and bool(np.all(np.abs(end - q[1:]) <= 1e-8 * scale))
-    if not ok:
-        raise InvalidInputError(
-            f"the knot spacings (from {float(h.min()):.3g} to {float(h.max()):.3g}) are beyond "
-            "what float64 power-basis coefficients of this spline can hold (it would miss its "
-            "waypoints): rescale the knots (for example to [0, 1]) and the waypoints' units"
-        )
+    end = c[:, -1, :]
+    size = np.abs(end)
+    for r in range(c.shape[1] - 2, -1, -1):
+        end = end * h + c[:, r, :]
+        size = size * h + np.abs(c[:, r, :])
+    scale = np.maximum(max(1.0, float(np.max(np.abs(q)))), size)
+    if not (np.isfinite(c).all() and np.all(np.abs(end - q[1:]) <= 1e-8 * scale)):
+        raise _beyond_float64(t, q, "spline")
     return Spline(t, c, continuity=continuity)
 
 
+@_refuse_quietly
 def cubic_spline(
     waypoints: Any,
     knots: Any = None,
@@ -270,7 +317,8 @@ def cubic_spline(
         The spline, ``continuity = 2``.
 
     Raises:
-        InvalidInputError: bad shapes, non-finite values, non-increasing knots.
+        InvalidInputError: bad shapes, non-finite values, non-increasing knots, or knot
+            spacings and data whose coefficients float64 cannot hold (no numpy warning first).
         UnknownNameError: unknown boundary condition.
     """
     t, q = _validate(knots, waypoints)
@@ -298,7 +346,7 @@ def cubic_spline(
     else:
         ab[1, 0], ab[0, 1], rhs[0] = 1.0, 0.0, _end_vector(start_velocity, n, "start_velocity")
         ab[2, -2], ab[1, -1], rhs[-1] = 0.0, 1.0, _end_vector(end_velocity, n, "end_velocity")
-    v = _banded_solve((1, 1), ab, rhs, "cubic spline")
+    v = _banded_solve((1, 1), ab, rhs, "cubic spline", t, q)
     return _interpolating(t, _cubic_hermite(h, q, v), q, 2)
 
 
@@ -324,6 +372,7 @@ def _quintic_hermite(h: FloatArray, q: FloatArray, v: FloatArray, a: FloatArray)
     return c
 
 
+@_refuse_quietly
 def quintic_spline(
     waypoints: Any,
     knots: Any = None,
@@ -359,7 +408,9 @@ def quintic_spline(
         The spline.
 
     Raises:
-        InvalidInputError: bad shapes or values, or only one of velocities/accelerations given.
+        InvalidInputError: bad shapes or values, only one of velocities/accelerations given,
+            or knot spacings and data whose coefficients float64 cannot hold (no numpy
+            warning first).
     """
     t, q = _validate(knots, waypoints)
     n_pts, n = q.shape
@@ -421,7 +472,7 @@ def quintic_spline(
         put(rs, cvp, ss * (-168.0 / hr**3))
         put(rs, cap, ss * (24.0 / hr**2))
         rhs[rs] = -(ss * 360.0)[:, None] * (dpl / hl[:, None] ** 4 + dpr / hr[:, None] ** 4)
-    x = _banded_solve((lo, up), ab, rhs, "quintic spline")
+    x = _banded_solve((lo, up), ab, rhs, "quintic spline", t, q)
     return _interpolating(t, _quintic_hermite(h, q, x[0::2], x[1::2]), q, 4)
 
 
