@@ -159,7 +159,7 @@ def as_scalar(value: Any, name: str) -> float:
     """Return ``value`` as a finite float, or raise :class:`InvalidInputError`.
 
     Accepts Python and NumPy real numbers and one-element real arrays; refuses ``None``,
-    strings, complex numbers, NaN and inf.
+    booleans, strings, complex numbers, NaN and inf.
     """
     v = _to_float(value, name)
     if not math.isfinite(v):
@@ -188,7 +188,7 @@ def check_int(value: Any, name: str, *, minimum: int | None = None) -> int:
 
 def _to_float(value: Any, name: str) -> float:
     if isinstance(value, np.ndarray):
-        if value.size != 1 or value.dtype.kind not in "biuf":
+        if value.size != 1 or value.dtype.kind not in "iuf":
             raise InvalidInputError(
                 f"{name} must be a real number, got an array of shape {value.shape} and dtype "
                 f"{value.dtype}"
@@ -196,7 +196,8 @@ def _to_float(value: Any, name: str) -> float:
         value = value.reshape(()).item()
     if isinstance(value, (complex, np.complexfloating)):
         raise InvalidInputError(f"{name} must be a real number, got the complex {value!r}")
-    if isinstance(value, (str, bytes)) or value is None:
+    if isinstance(value, (str, bytes, bool, np.bool_)) or value is None:
+        # (a bool is a flag, not a number: gamma=True was taken as 1.0)
         raise InvalidInputError(f"{name} must be a number, got {value!r}")
     try:
         return float(value)
