@@ -26,6 +26,7 @@ from taskspace.trajopt import (
 WAYPOINTS = np.linspace(np.zeros(2), np.array([0.5, -0.3]), 4)
 
 
+@pytest.mark.filterwarnings("error::RuntimeWarning")  # valid inputs: no numpy overflow warning
 def test_time_scaling_reference() -> None:
     # c = 1e150: x = sdot^2 hit the internal cap 1e300 and the duration came back 27 % off
     # with SUCCESS; c = 1e-150 / path scale 1e-200: sdot^2 near underflow

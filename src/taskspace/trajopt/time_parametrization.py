@@ -304,7 +304,8 @@ def _static_bounds(
     # velocity limits: q'_i^2 x <= v_i^2 (a pure x-bound at every grid point)
     dq_abs = np.abs(dq)
     moving = dq_abs > 0.0
-    xv = np.min(np.where(moving, (vmax / np.where(moving, dq_abs, 1.0)) ** 2, _BIG), axis=1)
+    with np.errstate(over="ignore"):  # a nearly still joint: (v / q')^2 overflows to inf
+        xv = np.min(np.where(moving, (vmax / np.where(moving, dq_abs, 1.0)) ** 2, _BIG), axis=1)
     xv = np.minimum(xv, _BIG)
     # acceleration rows of segment k: at s_k, and (interpolation) at s_{k+1}
     alpha = [dq[:-1]]
