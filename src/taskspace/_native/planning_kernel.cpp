@@ -262,13 +262,18 @@ class CollisionKernel {
   // The model, geometry model and their data are Python objects (created by Pinocchio's
   // library, copies owned by taskspace's CollisionChecker); the kernel keeps references to
   // them so that they outlive it.
+  // geometry_data None: the kernel makes its own (lean_geometry_data), the usual case
+  // (CollisionChecker); a GeometryData of the geometry model is used as given.
   CollisionKernel(bp::object model, bp::object data, bp::object geom, bp::object gdata,
                   int cache_size)
       : py_{model, data, geom, gdata},
+        own_gdata_(gdata.is_none()
+                       ? lean_geometry_data(bp::extract<const GeometryModel&>(geom)())
+                       : nullptr),
         model_(bp::extract<const Model&>(model)),
         data_(bp::extract<Data&>(data)),
         geom_(bp::extract<const GeometryModel&>(geom)),
-        gdata_(bp::extract<GeometryData&>(gdata)) {
+        gdata_(own_gdata_ ? *own_gdata_ : static_cast<GeometryData&>(bp::extract<GeometryData&>(gdata))) {
     if (model_.nq != model_.nv) throw std::invalid_argument("the kernel needs nq == nv");
     if (gdata_.oMg.size() != geom_.geometryObjects.size())
       throw std::invalid_argument("geometry data does not belong to the geometry model");
@@ -2216,9 +2221,34 @@ class CollisionKernel {
   std::timed_mutex& mutex() { return mutex_; }
 
  private:
+  // The parts of Pinocchio's GeometryData(geom) the kernel uses: placements, active pairs,
+  // collision requests, results and functors (computeCollision, the broad-phase managers and
+  // their callback read nothing else), the same values as GeometryData(geom) gives them.
+  // Without the distance and contact-patch requests, results and functors it also builds
+  // (a GJK solver in each functor): a third of its work and memory per collision pair. A
+  // scene's set-up built and freed them for every pair (MotionBenchMaker Panda: 156-380 pairs).
+  static std::unique_ptr<GeometryData> lean_geometry_data(const GeometryModel& geom) {
+    auto gd = std::make_unique<GeometryData>();
+    const std::size_t np = geom.collisionPairs.size();
+    gd->oMg.resize(geom.geometryObjects.size());
+    gd->activeCollisionPairs.assign(np, true);
+    coal::CollisionRequest request(coal::NO_REQUEST, 1);
+    request.enable_cached_gjk_guess = true;  // (as GeometryData; the constructor turns it off)
+    gd->collisionRequests.assign(np, request);
+    gd->collisionResults.resize(np);
+    gd->collisionPairIndex = 0;
+    gd->collision_functors.reserve(np);
+    for (const auto& pair : geom.collisionPairs)
+      gd->collision_functors.emplace_back(geom.geometryObjects[pair.first],
+                                          geom.geometryObjects[pair.second]);
+    gd->fillInnerOuterObjectMaps(geom);
+    return gd;
+  }
+
   std::timed_mutex mutex_;
 
   bp::object py_[4];
+  std::unique_ptr<GeometryData> own_gdata_;  // (declared before gdata_: it may refer to it)
   const Model& model_;
   Data& data_;
   const GeometryModel& geom_;
