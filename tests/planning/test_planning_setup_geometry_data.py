@@ -129,6 +129,20 @@ def test_own_geometry_data_matches_pinocchio(
     np.testing.assert_array_equal(np.asarray(full.collisions(qs), dtype=bool), got)
 
 
+def test_managers_made_after_queries(
+    scene: tuple[Robot, np.ndarray, np.ndarray, np.ndarray],
+) -> None:
+    """Pinocchio's managers (modes 0 and 1) made when the mode is set, after queries of the
+    default mode (pairs) moved the placements: the same answers."""
+    robot, qs, expected, touching = scene
+    kernel = _kernel(robot)
+    assert kernel.mode == 2
+    _assert_exact(kernel.collisions(qs[::-1]), expected[::-1], touching[::-1])
+    for mode in (1, 0, 2, 0):
+        kernel.mode = mode
+        _assert_exact(kernel.collisions(qs), expected, touching)
+
+
 def test_own_geometry_data_spheres_checker(
     scene: tuple[Robot, np.ndarray, np.ndarray, np.ndarray],
 ) -> None:

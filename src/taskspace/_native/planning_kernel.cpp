@@ -299,12 +299,13 @@ class CollisionKernel {
       request.collision_distance_threshold =
           std::max(request.collision_distance_threshold, request.gjk_tolerance);
     }
-    manager_ = std::make_unique<Manager>(&model_, &geom_, &gdata_);
-    // One complete update of Pinocchio's managers: registers the active objects and computes
-    // their inflation (per pair settings), which later updates reuse.
+    // Pinocchio's managers (modes 0 and 1) are made when such a mode is set (make_manager).
+    // Their construction computes every geometry's local AABB (coal's CollisionObject), which
+    // the pair list below reads (degenerate geometries are left out): computed here.
+    for (const auto& obj : geom_.geometryObjects)
+      if (obj.geometry) obj.geometry->computeLocalAABB();
     const VectorXd q0 = VectorXd::Zero(model_.nq);  // any configuration: obstacles are static
     pinocchio::updateGeometryPlacements(model_, data_, geom_, gdata_, q0);
-    manager_->update(false);
     // The pair list of collides_pairs: the pairs Pinocchio's managers check (active, not
     // disabled, no degenerate geometry), each object's inflation as in the managers.
     const std::size_t ng = geom_.geometryObjects.size();
@@ -415,6 +416,16 @@ class CollisionKernel {
     }
   }
 
+  // Pinocchio's tree of broad-phase managers (modes 0 and 1), made at the first set_mode that
+  // needs it: the default mode (pairs) never uses it, and a scene's set-up paid for its
+  // construction (one manager per joint, each selecting among all pairs) and a complete update.
+  // That update registers the active objects and computes their inflation (per pair settings),
+  // which later updates reuse; the static objects' placements (any configuration) are set.
+  void make_manager() {
+    manager_ = std::make_unique<Manager>(&model_, &geom_, &gdata_);
+    manager_->update(false);
+  }
+
   int nq() const { return model_.nq; }
   long checks() const { return checks_; }
   void reset_checks() { checks_ = 0; }
@@ -425,6 +436,7 @@ class CollisionKernel {
   void set_mode(int mode) {
     if (mode < 0 || mode > 2) raise_invalid("mode must be 0, 1 or 2, got " + std::to_string(mode));
     const auto lock = lock_with_gil(mutex_);
+    if (mode != kPairs && !manager_) make_manager();
     mode_ = mode;
     cache_.clear();
   }
