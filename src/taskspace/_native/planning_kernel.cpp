@@ -1596,6 +1596,7 @@ class CollisionKernel {
     if (qs.cols() != model_.nq || qs.rows() == 0 || !qs.allFinite())
       raise_invalid("qs must be finite rows of size nq = " + std::to_string(model_.nq));
     const auto lock = lock_with_gil(mutex_);
+    const std::vector<char> before = exact_pair_;
     std::fill(exact_pair_.begin(), exact_pair_.end(), 0);
     // per group pair: 1 spheres touch at every row so far, 2 and the geometries apart at one
     std::vector<char> state(group_pairs_.size(), 1);
@@ -1624,7 +1625,9 @@ class CollisionKernel {
         exact_pair_[group_pairs_[j].pair] = 1;
         out.append(group_pairs_[j].pair);
       }
-    setup_filter();  // its items carry the marks
+    // the filter's items carry the marks: set up again when they changed (set_spheres set it
+    // up with the marks it left, none; a scene's set-up marks none on most robots)
+    if (exact_pair_ != before) setup_filter();
     return out;
   }
 
