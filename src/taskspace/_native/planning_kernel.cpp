@@ -262,13 +262,18 @@ class CollisionKernel {
   // The model, geometry model and their data are Python objects (created by Pinocchio's
   // library, copies owned by taskspace's CollisionChecker); the kernel keeps references to
   // them so that they outlive it.
+  // geometry_data None: the kernel makes its own (lean_geometry_data), the usual case
+  // (CollisionChecker); a GeometryData of the geometry model is used as given.
   CollisionKernel(bp::object model, bp::object data, bp::object geom, bp::object gdata,
                   int cache_size)
       : py_{model, data, geom, gdata},
+        own_gdata_(gdata.is_none()
+                       ? lean_geometry_data(bp::extract<const GeometryModel&>(geom)())
+                       : nullptr),
         model_(bp::extract<const Model&>(model)),
         data_(bp::extract<Data&>(data)),
         geom_(bp::extract<const GeometryModel&>(geom)),
-        gdata_(bp::extract<GeometryData&>(gdata)) {
+        gdata_(own_gdata_ ? *own_gdata_ : static_cast<GeometryData&>(bp::extract<GeometryData&>(gdata))) {
     if (model_.nq != model_.nv) throw std::invalid_argument("the kernel needs nq == nv");
     if (gdata_.oMg.size() != geom_.geometryObjects.size())
       throw std::invalid_argument("geometry data does not belong to the geometry model");
@@ -294,12 +299,13 @@ class CollisionKernel {
       request.collision_distance_threshold =
           std::max(request.collision_distance_threshold, request.gjk_tolerance);
     }
-    manager_ = std::make_unique<Manager>(&model_, &geom_, &gdata_);
-    // One complete update of Pinocchio's managers: registers the active objects and computes
-    // their inflation (per pair settings), which later updates reuse.
+    // Pinocchio's managers (modes 0 and 1) are made when such a mode is set (make_manager).
+    // Their construction computes every geometry's local AABB (coal's CollisionObject), which
+    // the pair list below reads (degenerate geometries are left out): computed here.
+    for (const auto& obj : geom_.geometryObjects)
+      if (obj.geometry) obj.geometry->computeLocalAABB();
     const VectorXd q0 = VectorXd::Zero(model_.nq);  // any configuration: obstacles are static
     pinocchio::updateGeometryPlacements(model_, data_, geom_, gdata_, q0);
-    manager_->update(false);
     // The pair list of collides_pairs: the pairs Pinocchio's managers check (active, not
     // disabled, no degenerate geometry), each object's inflation as in the managers.
     const std::size_t ng = geom_.geometryObjects.size();
@@ -410,6 +416,16 @@ class CollisionKernel {
     }
   }
 
+  // Pinocchio's tree of broad-phase managers (modes 0 and 1), made at the first set_mode that
+  // needs it: the default mode (pairs) never uses it, and a scene's set-up paid for its
+  // construction (one manager per joint, each selecting among all pairs) and a complete update.
+  // That update registers the active objects and computes their inflation (per pair settings),
+  // which later updates reuse; the static objects' placements (any configuration) are set.
+  void make_manager() {
+    manager_ = std::make_unique<Manager>(&model_, &geom_, &gdata_);
+    manager_->update(false);
+  }
+
   int nq() const { return model_.nq; }
   long checks() const { return checks_; }
   void reset_checks() { checks_ = 0; }
@@ -420,6 +436,7 @@ class CollisionKernel {
   void set_mode(int mode) {
     if (mode < 0 || mode > 2) raise_invalid("mode must be 0, 1 or 2, got " + std::to_string(mode));
     const auto lock = lock_with_gil(mutex_);
+    if (mode != kPairs && !manager_) make_manager();
     mode_ = mode;
     cache_.clear();
   }
@@ -1579,6 +1596,7 @@ class CollisionKernel {
     if (qs.cols() != model_.nq || qs.rows() == 0 || !qs.allFinite())
       raise_invalid("qs must be finite rows of size nq = " + std::to_string(model_.nq));
     const auto lock = lock_with_gil(mutex_);
+    const std::vector<char> before = exact_pair_;
     std::fill(exact_pair_.begin(), exact_pair_.end(), 0);
     // per group pair: 1 spheres touch at every row so far, 2 and the geometries apart at one
     std::vector<char> state(group_pairs_.size(), 1);
@@ -1607,7 +1625,9 @@ class CollisionKernel {
         exact_pair_[group_pairs_[j].pair] = 1;
         out.append(group_pairs_[j].pair);
       }
-    setup_filter();  // its items carry the marks
+    // the filter's items carry the marks: set up again when they changed (set_spheres set it
+    // up with the marks it left, none; a scene's set-up marks none on most robots)
+    if (exact_pair_ != before) setup_filter();
     return out;
   }
 
@@ -2216,9 +2236,34 @@ class CollisionKernel {
   std::timed_mutex& mutex() { return mutex_; }
 
  private:
+  // The parts of Pinocchio's GeometryData(geom) the kernel uses: placements, active pairs,
+  // collision requests, results and functors (computeCollision, the broad-phase managers and
+  // their callback read nothing else), the same values as GeometryData(geom) gives them.
+  // Without the distance and contact-patch requests, results and functors it also builds
+  // (a GJK solver in each functor): a third of its work and memory per collision pair. A
+  // scene's set-up built and freed them for every pair (MotionBenchMaker Panda: 156-380 pairs).
+  static std::unique_ptr<GeometryData> lean_geometry_data(const GeometryModel& geom) {
+    auto gd = std::make_unique<GeometryData>();
+    const std::size_t np = geom.collisionPairs.size();
+    gd->oMg.resize(geom.geometryObjects.size());
+    gd->activeCollisionPairs.assign(np, true);
+    coal::CollisionRequest request(coal::NO_REQUEST, 1);
+    request.enable_cached_gjk_guess = true;  // (as GeometryData; the constructor turns it off)
+    gd->collisionRequests.assign(np, request);
+    gd->collisionResults.resize(np);
+    gd->collisionPairIndex = 0;
+    gd->collision_functors.reserve(np);
+    for (const auto& pair : geom.collisionPairs)
+      gd->collision_functors.emplace_back(geom.geometryObjects[pair.first],
+                                          geom.geometryObjects[pair.second]);
+    gd->fillInnerOuterObjectMaps(geom);
+    return gd;
+  }
+
   std::timed_mutex mutex_;
 
   bp::object py_[4];
+  std::unique_ptr<GeometryData> own_gdata_;  // (declared before gdata_: it may refer to it)
   const Model& model_;
   Data& data_;
   const GeometryModel& geom_;

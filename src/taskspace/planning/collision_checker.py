@@ -261,8 +261,10 @@ class CollisionChecker:
                 return None
             model = self.robot._model.copy()
             geom = self.robot._collision_model.copy()
+            # geometry data None: the kernel makes the parts of a GeometryData it uses (without
+            # the distance and contact-patch functors of geom.createData(), 2/3 of its cost)
             self._kernel = module.CollisionKernel(
-                model, model.createData(), geom, geom.createData(), NATIVE_PAIR_CACHE
+                model, model.createData(), geom, None, NATIVE_PAIR_CACHE
             )
         return self._kernel
 
@@ -283,9 +285,20 @@ class CollisionChecker:
 
         geom = self.robot._collision_model
         objs = geom.geometryObjects
-        moving = tuple(i for i, o in enumerate(objs) if o.parentJoint != 0)
-        # what the spheres depend on: the moving objects, their geometry and placement
-        key = tuple((i, objs[i].name, objs[i].parentJoint, objs[i].placement) for i in moving)
+        # what the spheres depend on: the moving objects, their geometry and placement. Only
+        # the robot's geometries can move (obstacles are on the universe, joint 0, and follow
+        # them); each object read once (each Python access to one is a Boost call). The
+        # placement is copied: `obj.placement` refers to the object's own SE3 inside the
+        # model's vector, which a key must not alias (an in-place change would compare equal,
+        # and adding an obstacle may move the vector and leave it dangling)
+        key_list = []
+        for i in range(self.robot._robot_geometry_count):
+            obj = objs[i]
+            joint = obj.parentJoint
+            if joint != 0:
+                key_list.append((i, obj.name, joint, pin.SE3(obj.placement)))
+        key = tuple(key_list)
+        moving = [k[0] for k in key]
         edits = self.robot._geometry_edits  # shapes replaced by Robot.edit_collision_model
         cached = _SPHERE_CACHE.get(self.robot)
         if (
@@ -294,7 +307,7 @@ class CollisionChecker:
             or cached[3] != edits
             or not _same_key(cached[1], key)
         ):
-            cached = (geom, key, sphere_model(geom, list(moving)), edits)
+            cached = (geom, key, sphere_model(geom, moving), edits)
             _SPHERE_CACHE[self.robot] = cached
         return cached[2]
 

@@ -165,20 +165,36 @@ class PlanningRequest:
     group: str = ""
 
 
+def _joint_slots(robot: Robot) -> dict[str, tuple[int, int]]:
+    """Joint name -> (idx_q, nq) of every joint of ``robot``.
+
+    One read of the model's index vectors instead of a Boost call per joint and request.
+    """
+    model = robot._model
+    idx_qs, nqs = list(model.idx_qs), list(model.nqs)
+    return {name: (idx_qs[j], nqs[j]) for name, j in robot._joint_ids.items()}
+
+
 def _to_configuration(
-    robot: Robot, names: Sequence[str], values: Sequence[float], ignored: set[str], where: str
+    robot: Robot,
+    names: Sequence[str],
+    values: Sequence[float],
+    ignored: set[str],
+    where: str,
+    slots: dict[str, tuple[int, int]] | None = None,
 ) -> np.ndarray:
     q = robot.q_default.copy()
-    known = set(robot.joint_names)
+    slots = _joint_slots(robot) if slots is None else slots
     for name, value in zip(names, values):
-        if name not in known:
+        slot = slots.get(name) if isinstance(name, str) else None
+        if slot is None:
             ignored.add(name)
             continue
-        joint = robot._model.joints[robot.joint_id(name)]
-        if joint.nq != 1:
+        idx_q, nq = slot
+        if nq != 1:
             raise InvalidInputError(f"{where}: joint '{name}' is not a 1-DoF joint")
         try:
-            q[joint.idx_q] = as_scalar(value, f"position of joint '{name}'")
+            q[idx_q] = as_scalar(value, f"position of joint '{name}'")
         except InvalidInputError as exc:
             raise ModelLoadError(f"{where}: {exc}") from exc
     return q
@@ -241,16 +257,18 @@ def _read_moveit_request(path: str | Path) -> _MoveItRequestFile:
 def _request_on(robot: Robot, request: _MoveItRequestFile) -> PlanningRequest:
     """The start and goal of a parsed request on ``robot``'s model."""
     ignored: set[str] = set()
-    start = _to_configuration(robot, request.names, request.positions, ignored, request.state_at)
+    slots = _joint_slots(robot)
+    start = _to_configuration(
+        robot, request.names, request.positions, ignored, request.state_at, slots
+    )
     goal = start.copy()
     goal_from = _to_configuration(
-        robot, request.goal_names, request.goal_values, ignored, request.goal_at
+        robot, request.goal_names, request.goal_values, ignored, request.goal_at, slots
     )
-    known = set(robot.joint_names)
     for name in request.goal_names:
-        if name in known:
-            idx = robot._model.joints[robot.joint_id(name)].idx_q
-            goal[idx] = goal_from[idx]
+        slot = slots.get(name) if isinstance(name, str) else None
+        if slot is not None:
+            goal[slot[0]] = goal_from[slot[0]]
     return PlanningRequest(
         start=start, goal=goal, ignored_joints=sorted(ignored), group=request.group
     )
