@@ -117,10 +117,22 @@ def _reference_at(reference: JointReference, t: float, nq: int, nv: int) -> Refe
 
 
 def _require_fixed_base(robot: Robot, what: str) -> None:
+    """Refuse a floating base or passive joints: the controller's torque acts on every joint.
+
+    A passive joint (:attr:`Robot.passive_joints`, effort limit 0) got a torque silently: the
+    cart-pole's hinge was "tracked" in simulation by a motor it does not have.
+    """
     if robot.is_floating:
         raise InvalidInputError(
             f"{what} needs a fixed-base robot (every joint actuated); '{robot.name}' has a "
             "floating base: use taskspace.control.inverse_dynamics_qp with contacts"
+        )
+    if robot.passive_joints:
+        raise InvalidInputError(
+            f"{what} needs every joint actuated; '{robot.name}' has passive joints "
+            f"{list(robot.passive_joints)} (effort limit 0): use taskspace.control."
+            "inverse_dynamics_qp (unactuated rows), or LQR on linearize(robot, q_eq) (its "
+            "inputs are the actuated joints)"
         )
 
 

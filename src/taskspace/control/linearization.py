@@ -68,7 +68,15 @@ class LinearizedSystem:
 
 def _actuated_indices(robot: Robot, actuated: Sequence[str] | str | None) -> np.ndarray:
     if actuated is None:
-        return np.arange(robot.nv)
+        # the robot's actuated coordinates: all joints made the cart-pole's passive hinge an
+        # input, and an LQR designed on it used a motor the robot does not have
+        powered = np.flatnonzero(robot.effort_limits > 0)
+        if not powered.size:
+            raise InvalidInputError(
+                f"'{robot.name}' has no actuated joint (every effort limit is 0): name the "
+                f"inputs with actuated=[...]; joints: {', '.join(robot._model.names[1:])}"
+            )
+        return powered
     # One name is one joint (iterating "slider" looked up the joint 's').
     names: Any = [actuated] if isinstance(actuated, str) else actuated
     if isinstance(names, (bytes, bytearray)) or not isinstance(names, Iterable):
@@ -109,10 +117,13 @@ def linearize(
         tau_eq: equilibrium torques (nv) [N m]; default: gravity compensation
             ``G(q_eq)`` on the actuated joints, zero on the others.
         actuated: names of the actuated joints (``B`` has their columns only), or one name;
-            all joints if omitted. For the cart-pole: ``["slider"]`` or ``"slider"``.
+            if omitted, the robot's actuated joints (effort limit > 0: not the
+            :attr:`~taskspace.model.Robot.passive_joints`). For the cart-pole: ``["slider"]``,
+            ``"slider"`` or nothing (its hinge is passive).
 
     Raises:
-        InvalidInputError: floating-base robot, bad sizes, ``actuated`` not names.
+        InvalidInputError: floating-base robot, bad sizes, ``actuated`` not names, no
+            ``actuated`` given and no joint actuated.
         UnknownNameError: an actuated joint does not exist.
 
     Warns:
