@@ -28,6 +28,7 @@ import numpy as np
 import pinocchio as pin
 
 from taskspace._validation import FloatArray, as_vector
+from taskspace.dynamics.newton_euler import finite_result
 from taskspace.errors import InvalidInputError, TaskspaceWarning
 
 if TYPE_CHECKING:
@@ -123,7 +124,7 @@ def linearize(
 
     Raises:
         InvalidInputError: floating-base robot, bad sizes, ``actuated`` not names, no
-            ``actuated`` given and no joint actuated.
+            ``actuated`` given and no joint actuated, derivatives that overflow float64.
         UnknownNameError: an actuated joint does not exist.
 
     Warns:
@@ -160,6 +161,8 @@ def linearize(
             TaskspaceWarning,
             stacklevel=2,
         )
+    finite_result(ddq_dq, "linearize: da/dq", v_eq=v, tau_eq=tau)  # NaN A/B before
+    finite_result(ddq_dv, "linearize: da/dv", v_eq=v, tau_eq=tau)
     A = np.zeros((2 * nv, 2 * nv))
     A[:nv, nv:] = np.eye(nv)
     A[nv:, :nv] = ddq_dq

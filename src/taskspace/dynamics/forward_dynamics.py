@@ -19,6 +19,7 @@ import numpy as np
 import pinocchio as pin
 
 from taskspace._validation import FloatArray, as_vector, check_positive
+from taskspace.dynamics.newton_euler import finite_result
 from taskspace.errors import InvalidInputError
 
 if TYPE_CHECKING:
@@ -154,8 +155,10 @@ def forward_dynamics(
 
     Raises:
         ShapeError, NotFiniteError: wrong size or NaN/inf input.
+        InvalidInputError: the accelerations overflow float64 (``v = 1e300``; NaN before).
     """
     qa = robot.check_configuration(q)
     va = robot.check_velocity(v)
     ta = as_vector(tau, robot.nv, "tau")
-    return ForwardDynamics(robot, friction).acceleration(qa, va, ta)
+    a = ForwardDynamics(robot, friction).acceleration(qa, va, ta)
+    return finite_result(a, "forward dynamics", v=va, tau=ta)
