@@ -346,7 +346,20 @@ class InverseDynamicsQP:
         # kernel are derived from them; a changed set of tasks or contacts is a new controller
         self._tasks: tuple[Task, ...] = tuple(tasks)
         self._contacts: tuple[Contact, ...] = tuple(contacts)
+        if options is not None and not isinstance(options, InverseDynamicsOptions):
+            raise InvalidInputError(  # a dict raised a bare AttributeError
+                f"options must be an InverseDynamicsOptions, got {type(options).__name__}"
+            )
         self._options = options or InverseDynamicsOptions()
+        for t in self._tasks:
+            if not isinstance(t, Task):
+                raise InvalidInputError(f"tasks must be Task objects, got {type(t).__name__}")
+        for c in self._contacts:
+            if not isinstance(c, Contact):
+                raise InvalidInputError(
+                    "contacts must be Contact objects (Contact6D, PointContact), got "
+                    f"{type(c).__name__}"
+                )
         self._pressure_tasks: tuple[CenterOfPressureTask, ...] = tuple(pressure_tasks)
         for pt in self.pressure_tasks:
             if not isinstance(pt, CenterOfPressureTask):
@@ -878,9 +891,15 @@ class InverseDynamicsQP:
         native = self._native
         if native is not None:
             if state._model is not native.model:  # the kernel must never see another Data
+                namesake = (
+                    " (another Robot object of the same name)"
+                    if state.robot.name == self.robot.name
+                    else ""
+                )
                 raise InvalidInputError(
                     f"this controller is built for robot '{self.robot.name}'; the state belongs "
-                    f"to robot '{state.robot.name}': make the state with this robot's state(q, v)"
+                    f"to robot '{state.robot.name}'{namesake}: make the state with this robot's "
+                    "state(q, v)"
                 )
             if not state.has_velocity:
                 raise InvalidInputError(

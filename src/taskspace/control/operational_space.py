@@ -119,6 +119,16 @@ def _require_actuated(robot: Robot, what: str) -> None:
         )
 
 
+def _options(options: Any) -> OperationalSpaceOptions:
+    if options is None:
+        return OperationalSpaceOptions()
+    if not isinstance(options, OperationalSpaceOptions):  # a dict: bare AttributeError
+        raise InvalidInputError(
+            f"options must be an OperationalSpaceOptions, got {type(options).__name__}"
+        )
+    return options
+
+
 def operational_space_control(
     state: State, tasks: Sequence[Task], options: OperationalSpaceOptions | None = None
 ) -> OperationalSpaceResult:
@@ -140,7 +150,7 @@ def operational_space_control(
         SolverError: ``hard_tasks`` and the stacked tasks are rank-deficient (conflicting or
             singular).
     """
-    options = options or OperationalSpaceOptions()
+    options = _options(options)
     robot = state.robot
     _require_actuated(robot, "operational_space_control")
     tasks = list(tasks)
@@ -229,7 +239,7 @@ class OperationalSpaceController:
         _require_actuated(robot, "OperationalSpaceController")
         self.robot = robot
         self.tasks = list(tasks)
-        self.options = options or OperationalSpaceOptions()
+        self.options = _options(options)
         self.state = robot.state(robot.q_default, np.zeros(robot.nv))
         self.last_result: OperationalSpaceResult | None = None
         self._lock = threading.Lock()

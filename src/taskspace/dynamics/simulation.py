@@ -301,13 +301,17 @@ def simulate(
         diverged: ``success=False``, ``status=DIVERGED``).
 
     Raises:
-        InvalidInputError: bad ``T``, ``dt``, controller, integrator or initial state; a
+        InvalidInputError: bad ``T``, ``dt``, controller, options, integrator or initial state; a
             record (``N + 1`` rows of ``t, q, v, a, tau`` and energies) that would need more
             than half the available memory (checked before allocating).
         KeyboardInterrupt: Ctrl-C stops a long run between two steps.
         ShapeError, NotFiniteError: the controller returned a wrong-size or non-finite torque.
     """
-    options = options or SimulationOptions()
+    options = SimulationOptions() if options is None else options
+    if not isinstance(options, SimulationOptions):  # a dict raised a bare AttributeError
+        raise InvalidInputError(
+            f"options must be a SimulationOptions, got {type(options).__name__}"
+        )
     integrator = _integrator(options.integrator)
     T = check_positive(T, "T (duration [s])")
     dt = check_positive(dt, "dt (time step [s])")
