@@ -49,6 +49,17 @@ def _gain(value: Any, n: int, name: str) -> FloatArray:
     return arr
 
 
+def _as_arrays(model: pin.Model, q: Any, v: Any) -> tuple[FloatArray, FloatArray] | None:
+    """``q`` and ``v`` as float64 arrays after a failed call, ``None`` if they were already.
+
+    Raises the error naming a bad ``q`` or ``v``; lists (Boost's bare ArgumentError before)
+    come back as arrays for one more try.
+    """
+    qa = as_vector(q, model.nq, "q")
+    va = as_vector(v, model.nv, "v")
+    return None if qa is q and va is v else (qa, va)
+
+
 def _diagnose(model: pin.Model, q: Any, v: Any) -> None:
     """Raise the taskspace error naming a bad ``q`` or ``v``.
 
@@ -198,8 +209,10 @@ class ComputedTorqueController:
         try:
             out = self._desired_acceleration(t, q, v)
         except (TypeError, ValueError, RuntimeError):  # Boost ArgumentError is a TypeError
-            _diagnose(self._model, q, v)
-            raise
+            arrays = _as_arrays(self._model, q, v)
+            if arrays is None:
+                raise
+            return self.desired_acceleration(t, *arrays)
         return _finite_torque(self._model, out, q, v)
 
     def _desired_acceleration(self, t: float, q: FloatArray, v: FloatArray) -> FloatArray:
@@ -213,8 +226,10 @@ class ComputedTorqueController:
             a_star = self._desired_acceleration(t, q, v)
             tau = np.asarray(pin.rnea(self._model, self._data, q, v, a_star))
         except (TypeError, ValueError, RuntimeError):
-            _diagnose(self._model, q, v)
-            raise
+            arrays = _as_arrays(self._model, q, v)
+            if arrays is None:
+                raise
+            return self(t, *arrays)
         return _finite_torque(self._model, tau, q, v)
 
 
@@ -262,8 +277,10 @@ class JointPDController:
             if self.gravity_compensation:
                 tau = tau + np.asarray(pin.computeGeneralizedGravity(self._model, self._data, q))
         except (TypeError, ValueError, RuntimeError):
-            _diagnose(self._model, q, v)
-            raise
+            arrays = _as_arrays(self._model, q, v)
+            if arrays is None:
+                raise
+            return self(t, *arrays)
         return _finite_torque(self._model, np.asarray(tau), q, v)
 
 
