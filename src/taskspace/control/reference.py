@@ -117,9 +117,10 @@ class SampledReference:
     """A reference given by samples ``q_0..q_K`` every ``tau`` seconds (slide 5:30).
 
     Velocities and accelerations come from finite differences,
-    ``q''_k = (q_{k-1} + q_{k+1} - 2 q_k) / tau^2`` (slide 5:30) and
-    ``q'_k = (q_{k+1} - q_{k-1}) / (2 tau)`` (one-sided at the ends); between samples all three
-    are interpolated linearly; after the last sample the reference holds ``q_K`` at rest.
+    ``q''_k = (q_{k-1} + q_{k+1} - 2 q_k) / tau^2`` (slide 5:30; 0 at the first and the last
+    sample, which have one neighbour) and ``q'_k = (q_{k+1} - q_{k-1}) / (2 tau)`` (one-sided
+    at the ends); between samples all three are interpolated linearly; after the last sample
+    the reference holds ``q_K`` at rest.
 
     Args:
         samples: (K+1, n) positions [rad, m], K >= 2.
