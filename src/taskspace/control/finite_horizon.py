@@ -103,6 +103,14 @@ def _fastest_rate(A: FloatArray, G: FloatArray, Q: FloatArray, Qf: FloatArray) -
     return max(rho, quad) if math.isfinite(rho) and math.isfinite(quad) else math.inf
 
 
+def _steps_needed(T: float, rate: float) -> str:
+    """``"steps >= N"`` with ``N = ceil(T rate)``, or advice to rescale when N is absurd."""
+    n = T * rate
+    if not math.isfinite(n) or n > 1e9:
+        return f"more steps (T * rate = {n:.3g}) or rescale the problem (units, weights)"
+    return f"steps >= {math.ceil(n):,}"
+
+
 def _check_semidefinite(Ps: FloatArray, h: float, rate: float, T: float) -> None:
     """Refuse a cost-to-go table that left the positive semidefinite cone.
 
@@ -115,7 +123,7 @@ def _check_semidefinite(Ps: FloatArray, h: float, rate: float, T: float) -> None
     bad = np.flatnonzero(lam[:, 0] < -1e-8 * scale)
     if bad.size:
         k = int(bad.max())  # integrated backward: the first sample that went wrong
-        need = f"steps >= {math.ceil(T * rate):,}" if math.isfinite(rate) else "more steps"
+        need = _steps_needed(T, rate)
         raise SolverError(
             f"the cost-to-go P is not positive semidefinite at t = {k * h:.6g} s (smallest "
             f"eigenvalue {lam[k, 0]:.3g}): RK4 steps of {h:.3g} s are too long for this problem "
@@ -167,7 +175,7 @@ def solve_riccati_differential(
         warnings.warn(
             f"solve_riccati_differential: RK4 steps of {h:.3g} s are long for this problem "
             f"(fastest rate {rate:.3g} 1/s: h * rate = {h * rate:.3g} > 1), P may be far off; "
-            f"use steps >= {math.ceil(T * rate):,}",
+            f"use {_steps_needed(T, rate)}",
             TaskspaceWarning,
             stacklevel=2,
         )
