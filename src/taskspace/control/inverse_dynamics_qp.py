@@ -28,6 +28,7 @@ controller.
 from __future__ import annotations
 
 import enum
+import math
 import threading
 import time
 from collections.abc import Sequence
@@ -445,7 +446,7 @@ class InverseDynamicsQP:
             self._release()
 
     def remove_contact(
-        self, frame: str, transition_time: float = 0.0, dt: float | None = None
+        self, frame: str | Contact, transition_time: float = 0.0, dt: float | None = None
     ) -> None:
         """Remove the contact on ``frame``, at once or after a force transition (a lift-off).
 
@@ -459,7 +460,12 @@ class InverseDynamicsQP:
         take the load over gradually, as TSID's ``removeRigidContact(name,
         transition_duration)`` lowers the contact's maximum normal force; the step after the last
         one has no such contact. Each step's result lists the bound in ``releasing``.
+
+        ``frame`` may also be the :class:`~taskspace.constraints.Contact` itself (its frame is
+        used).
         """
+        if isinstance(frame, Contact):  # was "no active contact on frame <...object at 0x..>"
+            frame = frame.frame
         self._acquire()
         try:
             active = [c.frame for c in self._contacts]
@@ -484,7 +490,13 @@ class InverseDynamicsQP:
                     "(one call of solve advances the transition by dt)"
                 )
             step = check_positive(dt, "dt")
-            steps = max(1, round(T / step))
+            ratio = T / step
+            if not math.isfinite(ratio):  # round(inf): a bare OverflowError
+                raise InvalidInputError(
+                    f"transition_time / dt = {transition_time!r} / {dt!r} is not a finite "
+                    "number of control steps"
+                )
+            steps = max(1, round(ratio))
             _normal_index(contact)  # refuses contacts without one normal force variable
             top = contact.normal_force_limit
             last = self._last_forces.get(frame)
