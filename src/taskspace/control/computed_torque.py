@@ -31,8 +31,8 @@ from taskspace._validation import (
     check_finite,
     check_positive,
 )
-from taskspace.control.reference import JointReference, ReferencePoint, as_reference
-from taskspace.errors import InvalidInputError
+from taskspace.control.reference import ConstantReference, JointReference, ReferencePoint
+from taskspace.errors import InvalidInputError, ShapeError
 
 if TYPE_CHECKING:
     from taskspace.model.robot import Robot
@@ -47,6 +47,17 @@ def _gain(value: Any, n: int, name: str) -> FloatArray:
     if np.any(arr < 0):
         raise InvalidInputError(f"{name} must be >= 0, got {value!r}")
     return arr
+
+
+def _as_arrays(model: pin.Model, q: Any, v: Any) -> tuple[FloatArray, FloatArray] | None:
+    """``q`` and ``v`` as float64 arrays after a failed call, ``None`` if they were already.
+
+    Raises the error naming a bad ``q`` or ``v``; lists (Boost's bare ArgumentError before)
+    come back as arrays for one more try.
+    """
+    qa = as_vector(q, model.nq, "q")
+    va = as_vector(v, model.nv, "v")
+    return None if qa is q and va is v else (qa, va)
 
 
 def _diagnose(model: pin.Model, q: Any, v: Any) -> None:
@@ -68,11 +79,71 @@ def _finite_torque(model: pin.Model, tau: FloatArray, q: Any, v: Any) -> FloatAr
     return tau
 
 
+def _joint_reference(robot: Robot, reference: Any) -> JointReference:
+    """A callable reference as given, or a fixed target configuration checked as one.
+
+    The target is held with a zero velocity and acceleration of size ``nv``: a robot with a
+    continuous joint (``(cos, sin)``) has ``nv < nq`` (sizes ``nq`` raised numpy's bare
+    broadcast error at every call), and its unit complex numbers must be normalized.
+    """
+    if callable(reference):
+        return reference  # type: ignore[no-any-return]
+    try:
+        q = robot.check_configuration(reference, "reference")
+    except InvalidInputError as exc:
+        raise InvalidInputError(
+            "reference must be callable as reference(t) -> ReferencePoint or a target "
+            f"configuration of size nq = {robot.nq}: {exc}"
+        ) from exc
+    return ConstantReference(q, velocity_size=robot.nv)
+
+
+def _reference_at(reference: JointReference, t: float, nq: int, nv: int) -> ReferencePoint:
+    """``reference(t)``, its ``q`` of size ``nq`` and ``v``, ``a`` of size ``nv``.
+
+    Raises:
+        ShapeError: a wrong size (``v`` or ``a`` of size ``nq`` on a robot with continuous
+            joints raised numpy's bare broadcast error).
+        InvalidInputError: not a :class:`ReferencePoint`-like ``(q, v, a)``, or not finite.
+    """
+    ref = reference(t)
+    try:
+        if ref.q.shape == (nq,) and ref.v.shape == (nv,) and ref.a.shape == (nv,):
+            return ref
+    except AttributeError:
+        pass
+    if not all(hasattr(ref, name) for name in ("q", "v", "a")):
+        raise InvalidInputError(
+            f"reference(t) must return a ReferencePoint (q, v, a), got {type(ref).__name__}"
+        )
+    for name, size in (("q", nq), ("v", nv), ("a", nv)):
+        shape = np.shape(getattr(ref, name))
+        if shape != (size,):
+            raise ShapeError(f"reference(t).{name} at t={t:.6g}", (size,), shape)
+    return ReferencePoint(
+        as_vector(ref.q, nq, "reference(t).q"),
+        as_vector(ref.v, nv, "reference(t).v"),
+        as_vector(ref.a, nv, "reference(t).a"),
+    )
+
+
 def _require_fixed_base(robot: Robot, what: str) -> None:
+    """Refuse a floating base or passive joints: the controller's torque acts on every joint.
+
+    A passive joint (:attr:`Robot.passive_joints`, effort limit 0) got a torque silently: the
+    cart-pole's hinge was "tracked" in simulation by a motor it does not have.
+    """
     if robot.is_floating:
         raise InvalidInputError(
             f"{what} needs a fixed-base robot (every joint actuated); '{robot.name}' has a "
             "floating base: use taskspace.control.inverse_dynamics_qp with contacts"
+        )
+    if robot.passive_joints:
+        raise InvalidInputError(
+            f"{what} needs every joint actuated; '{robot.name}' has passive joints "
+            f"{list(robot.passive_joints)} (effort limit 0): use taskspace.control."
+            "inverse_dynamics_qp (unactuated rows), or LQR on linearize(robot, q_eq) (its "
+            "inputs are the actuated joints)"
         )
 
 
@@ -99,7 +170,8 @@ class ComputedTorqueController:
 
     Args:
         robot: a fixed-base robot (the model used for the inverse dynamics).
-        reference: ``reference(t) -> ReferencePoint`` or a fixed target configuration.
+        reference: ``reference(t) -> ReferencePoint`` (``q`` of size nq, ``v`` and ``a`` of
+            size nv) or a fixed target configuration (nq).
         kp: stiffness of the error dynamics, scalar or per joint [1/s^2].
         kd: damping of the error dynamics, scalar or per joint [1/s]; default
             ``2 sqrt(kp)`` (critical damping).
@@ -112,11 +184,12 @@ class ComputedTorqueController:
         _require_fixed_base(robot, "computed-torque control")
         self.robot = robot
         nv = robot.nv
-        self.reference: JointReference = as_reference(reference, robot.nq)
+        self.reference: JointReference = _joint_reference(robot, reference)
         self.kp = _gain(kp, nv, "kp [1/s^2]")
         self.kd = 2.0 * np.sqrt(self.kp) if kd is None else _gain(kd, nv, "kd [1/s]")
         self._model = robot._model
         self._data = robot._model.createData()
+        self._nq, self._nv = robot.nq, nv
 
     @staticmethod
     def from_wavelength(
@@ -136,12 +209,14 @@ class ComputedTorqueController:
         try:
             out = self._desired_acceleration(t, q, v)
         except (TypeError, ValueError, RuntimeError):  # Boost ArgumentError is a TypeError
-            _diagnose(self._model, q, v)
-            raise
+            arrays = _as_arrays(self._model, q, v)
+            if arrays is None:
+                raise
+            return self.desired_acceleration(t, *arrays)
         return _finite_torque(self._model, out, q, v)
 
     def _desired_acceleration(self, t: float, q: FloatArray, v: FloatArray) -> FloatArray:
-        ref: ReferencePoint = self.reference(t)
+        ref = _reference_at(self.reference, t, self._nq, self._nv)
         error = pin.difference(self._model, q, ref.q)
         return ref.a + self.kp * error + self.kd * (ref.v - v)
 
@@ -151,8 +226,10 @@ class ComputedTorqueController:
             a_star = self._desired_acceleration(t, q, v)
             tau = np.asarray(pin.rnea(self._model, self._data, q, v, a_star))
         except (TypeError, ValueError, RuntimeError):
-            _diagnose(self._model, q, v)
-            raise
+            arrays = _as_arrays(self._model, q, v)
+            if arrays is None:
+                raise
+            return self(t, *arrays)
         return _finite_torque(self._model, tau, q, v)
 
 
@@ -165,7 +242,8 @@ class JointPDController:
 
     Args:
         robot: a fixed-base robot.
-        reference: ``reference(t) -> ReferencePoint`` or a fixed target configuration.
+        reference: ``reference(t) -> ReferencePoint`` (``q`` of size nq, ``v`` and ``a`` of
+            size nv) or a fixed target configuration (nq).
         kp: joint stiffness, scalar or per joint [N m/rad].
         kd: joint damping, scalar or per joint [N m s/rad]; default ``2 sqrt(kp)``.
         gravity_compensation: add ``G(q) = NE(q, 0, 0)``.
@@ -183,23 +261,26 @@ class JointPDController:
         _require_fixed_base(robot, "joint PD control")
         self.robot = robot
         nv = robot.nv
-        self.reference: JointReference = as_reference(reference, robot.nq)
+        self.reference: JointReference = _joint_reference(robot, reference)
         self.kp = _gain(kp, nv, "kp [N m/rad]")
         self.kd = 2.0 * np.sqrt(self.kp) if kd is None else _gain(kd, nv, "kd [N m s/rad]")
         self.gravity_compensation = bool(gravity_compensation)
         self._model = robot._model
         self._data = robot._model.createData()
+        self._nq, self._nv = robot.nq, nv
 
     def __call__(self, t: float, q: FloatArray, v: FloatArray) -> FloatArray:
         """Torques [N m] at time ``t`` [s] (``q``, ``v`` checked as by the computed torque)."""
         try:
-            ref = self.reference(t)
+            ref = _reference_at(self.reference, t, self._nq, self._nv)
             tau = self.kp * pin.difference(self._model, q, ref.q) + self.kd * (ref.v - v)
             if self.gravity_compensation:
                 tau = tau + np.asarray(pin.computeGeneralizedGravity(self._model, self._data, q))
         except (TypeError, ValueError, RuntimeError):
-            _diagnose(self._model, q, v)
-            raise
+            arrays = _as_arrays(self._model, q, v)
+            if arrays is None:
+                raise
+            return self(t, *arrays)
         return _finite_torque(self._model, np.asarray(tau), q, v)
 
 

@@ -18,6 +18,8 @@ modifies its arrays.
 
 from __future__ import annotations
 
+import math
+import warnings
 from dataclasses import dataclass
 from typing import Any
 
@@ -26,7 +28,7 @@ import numpy as np
 from taskspace._validation import FloatArray, as_vector, check_count, check_positive
 from taskspace.control._linear import check_overflow, symmetric_psd, system
 from taskspace.dynamics.simulation import memory_budget
-from taskspace.errors import InvalidInputError, SolverError
+from taskspace.errors import InvalidInputError, SolverError, TaskspaceWarning
 
 MAX_TABLE_BYTES = 2 * 2**30
 """Largest table of cost-to-go matrices and gains allocated (2 GiB, or half the available
@@ -88,12 +90,57 @@ def _overflowed(P: FloatArray, where: str) -> SolverError:
     )
 
 
+def _fastest_rate(A: FloatArray, G: FloatArray, Q: FloatArray, Qf: FloatArray) -> float:
+    """A bound of the Riccati flow's rates [1/s].
+
+    The Hamiltonian's largest eigenvalue modulus, or ``2 |G| |Qf|`` (the quadratic term at
+    the start) when larger.
+    """
+    H = np.block([[A, -G], [-Q, -A.T]])
+    with np.errstate(over="ignore", invalid="ignore"):
+        rho = float(np.max(np.abs(np.linalg.eigvals(H))))
+        quad = 2.0 * float(np.linalg.norm(G, 2) * np.linalg.norm(Qf, 2))
+    return max(rho, quad) if math.isfinite(rho) and math.isfinite(quad) else math.inf
+
+
+def _steps_needed(T: float, rate: float) -> str:
+    """``"steps >= N"`` with ``N = ceil(T rate)``, or advice to rescale when N is absurd."""
+    n = T * rate
+    if not math.isfinite(n) or n > 1e9:
+        return f"more steps (T * rate = {n:.3g}) or rescale the problem (units, weights)"
+    return f"steps >= {math.ceil(n):,}"
+
+
+def _check_semidefinite(Ps: FloatArray, h: float, rate: float, T: float) -> None:
+    """Refuse a cost-to-go table that left the positive semidefinite cone.
+
+    With Q, Q_f >= 0 and R > 0 every exact P(t) is a cost-to-go, so >= 0; RK4 steps far too
+    long for the problem gave finite negative definite P (P(0) = -4.5e39 on diag(10, -3)
+    with 2 steps over 1 s), returned silently.
+    """
+    lam = np.linalg.eigvalsh(Ps)  # ascending per sample
+    scale = np.maximum(1.0, np.abs(lam).max(axis=1))
+    bad = np.flatnonzero(lam[:, 0] < -1e-8 * scale)
+    if bad.size:
+        k = int(bad.max())  # integrated backward: the first sample that went wrong
+        need = _steps_needed(T, rate)
+        raise SolverError(
+            f"the cost-to-go P is not positive semidefinite at t = {k * h:.6g} s (smallest "
+            f"eigenvalue {lam[k, 0]:.3g}): RK4 steps of {h:.3g} s are too long for this problem "
+            f"(fastest rate {rate:.3g} 1/s); use {need}"
+        )
+
+
 def solve_riccati_differential(
     A: Any, B: Any, Q: Any, R: Any, Qf: Any, horizon: float, steps: int = 1000
 ) -> FiniteHorizonLQR:
     """Integrate ``-P' = A^T P + P A - P B R^-1 B^T P + Q`` backward from ``P(T) = Q_f``.
 
-    Classical RK4 with ``steps`` equal steps in reversed time ``s = T - t``.
+    Classical RK4 with ``steps`` equal steps in reversed time ``s = T - t``. Its accuracy
+    needs ``h = T / steps`` below ``1 / rate``, ``rate`` the largest eigenvalue modulus of the
+    Hamiltonian ``[[A, -G], [-Q, -A^T]]`` (``G = B R^-1 B^T``) or ``2 |G| |Q_f|`` if larger:
+    a longer step warns (``h rate = 1.26`` left P(0) 0.8% off; at ``2.5`` P became indefinite,
+    which is an error).
 
     Args:
         A, B, Q, R, Qf: the problem (see the module docstring).
@@ -103,7 +150,11 @@ def solve_riccati_differential(
     Raises:
         InvalidInputError: bad inputs, a non-integer ``steps``, or a table larger than the
             memory budget (:data:`MAX_TABLE_BYTES`).
-        SolverError: ``P`` overflows (too large steps on a fast system, or huge weights).
+        SolverError: ``P`` overflows (too large steps on a fast system, or huge weights), or
+            leaves the positive semidefinite cone (steps far too long).
+
+    Warns:
+        TaskspaceWarning: ``h rate > 1`` (see above), with the number of steps needed.
     """
     A, B, Q, R, Qf = _inputs(A, B, Q, R, Qf)
     T = check_positive(horizon, "horizon [s]")
@@ -119,6 +170,15 @@ def solve_riccati_differential(
         return At @ P + P @ A - P @ G @ P + Q
 
     h = T / steps
+    rate = _fastest_rate(A, G, Q, Qf)
+    if h * rate > 1.0:  # P came back tens of % off (or finite and negative definite)
+        warnings.warn(
+            f"solve_riccati_differential: RK4 steps of {h:.3g} s are long for this problem "
+            f"(fastest rate {rate:.3g} 1/s: h * rate = {h * rate:.3g} > 1), P may be far off; "
+            f"use {_steps_needed(T, rate)}",
+            TaskspaceWarning,
+            stacklevel=2,
+        )
     Ps = np.empty((steps + 1, n, n))
     P = Qf.copy()
     Ps[steps] = P
@@ -133,6 +193,7 @@ def solve_riccati_differential(
             if not np.isfinite(P).all():  # a NaN P made every gain NaN, silently
                 raise _overflowed(P, f"t = {(k - 1) * h:.6g} s (step {steps - k + 1} of {steps})")
             Ps[k - 1] = P
+    _check_semidefinite(Ps, h, rate, T)
     K = np.linalg.solve(R, B.T @ Ps)  # R^-1 B^T P(t) for every sample
     return FiniteHorizonLQR(times=np.linspace(0.0, T, steps + 1), P=Ps, K=K, discrete=False)
 

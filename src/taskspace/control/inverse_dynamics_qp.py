@@ -28,6 +28,7 @@ controller.
 from __future__ import annotations
 
 import enum
+import math
 import threading
 import time
 from collections.abc import Sequence
@@ -346,7 +347,20 @@ class InverseDynamicsQP:
         # kernel are derived from them; a changed set of tasks or contacts is a new controller
         self._tasks: tuple[Task, ...] = tuple(tasks)
         self._contacts: tuple[Contact, ...] = tuple(contacts)
+        if options is not None and not isinstance(options, InverseDynamicsOptions):
+            raise InvalidInputError(  # a dict raised a bare AttributeError
+                f"options must be an InverseDynamicsOptions, got {type(options).__name__}"
+            )
         self._options = options or InverseDynamicsOptions()
+        for t in self._tasks:
+            if not isinstance(t, Task):
+                raise InvalidInputError(f"tasks must be Task objects, got {type(t).__name__}")
+        for c in self._contacts:
+            if not isinstance(c, Contact):
+                raise InvalidInputError(
+                    "contacts must be Contact objects (Contact6D, PointContact), got "
+                    f"{type(c).__name__}"
+                )
         self._pressure_tasks: tuple[CenterOfPressureTask, ...] = tuple(pressure_tasks)
         for pt in self.pressure_tasks:
             if not isinstance(pt, CenterOfPressureTask):
@@ -432,7 +446,7 @@ class InverseDynamicsQP:
             self._release()
 
     def remove_contact(
-        self, frame: str, transition_time: float = 0.0, dt: float | None = None
+        self, frame: str | Contact, transition_time: float = 0.0, dt: float | None = None
     ) -> None:
         """Remove the contact on ``frame``, at once or after a force transition (a lift-off).
 
@@ -446,7 +460,12 @@ class InverseDynamicsQP:
         take the load over gradually, as TSID's ``removeRigidContact(name,
         transition_duration)`` lowers the contact's maximum normal force; the step after the last
         one has no such contact. Each step's result lists the bound in ``releasing``.
+
+        ``frame`` may also be the :class:`~taskspace.constraints.Contact` itself (its frame is
+        used).
         """
+        if isinstance(frame, Contact):  # was "no active contact on frame <...object at 0x..>"
+            frame = frame.frame
         self._acquire()
         try:
             active = [c.frame for c in self._contacts]
@@ -471,7 +490,13 @@ class InverseDynamicsQP:
                     "(one call of solve advances the transition by dt)"
                 )
             step = check_positive(dt, "dt")
-            steps = max(1, round(T / step))
+            ratio = T / step
+            if not math.isfinite(ratio):  # round(inf): a bare OverflowError
+                raise InvalidInputError(
+                    f"transition_time / dt = {transition_time!r} / {dt!r} is not a finite "
+                    "number of control steps"
+                )
+            steps = max(1, round(ratio))
             _normal_index(contact)  # refuses contacts without one normal force variable
             top = contact.normal_force_limit
             last = self._last_forces.get(frame)
@@ -878,9 +903,15 @@ class InverseDynamicsQP:
         native = self._native
         if native is not None:
             if state._model is not native.model:  # the kernel must never see another Data
+                namesake = (
+                    " (another Robot object of the same name)"
+                    if state.robot.name == self.robot.name
+                    else ""
+                )
                 raise InvalidInputError(
                     f"this controller is built for robot '{self.robot.name}'; the state belongs "
-                    f"to robot '{state.robot.name}': make the state with this robot's state(q, v)"
+                    f"to robot '{state.robot.name}'{namesake}: make the state with this robot's "
+                    "state(q, v)"
                 )
             if not state.has_velocity:
                 raise InvalidInputError(

@@ -128,7 +128,7 @@ def simulate_with_contacts(
             contact), or a :class:`~taskspace.constraints.contact.Contact` (a
             :class:`~taskspace.constraints.contact.PointContact` is simulated as a 3-D point
             contact, any other as 6-D), whose friction cone is then checked at every step.
-        baumgarte: (Kp, Kd) of the contact drift stabilization.
+        baumgarte: (Kp, Kd) of the contact drift stabilization (finite, >= 0) [1/s^2, 1/s].
         raise_on_violation: raise :class:`ContactViolationError` as soon as a checked contact
             force leaves its cone by more than 1e-6 N (default: record it in
             ``ContactRollout.cone_violations``).
@@ -145,6 +145,19 @@ def simulate_with_contacts(
     """
     check_positive(duration, "duration")
     check_positive(dt, "dt")
+    if dt > duration:  # round(duration / dt) = 0 steps: one sample, silently
+        raise InvalidInputError(f"dt must not exceed duration, got dt={dt} > duration={duration}")
+    try:
+        kp_b, kd_b = (float(g) for g in baumgarte)
+    except (TypeError, ValueError):
+        raise InvalidInputError(
+            f"baumgarte must be two numbers (Kp, Kd), got {baumgarte!r}"
+        ) from None
+    if not (math.isfinite(kp_b) and math.isfinite(kd_b) and kp_b >= 0.0 and kd_b >= 0.0):
+        # NaN was reported as a diverged simulation; negative gains make the drift grow
+        raise InvalidInputError(
+            f"baumgarte gains (Kp, Kd) must be finite and >= 0, got {tuple(baumgarte)!r}"
+        )
     if not (isinstance(max_velocity, int | float) and max_velocity > 0):  # inf: no bound
         raise InvalidInputError(f"max_velocity must be > 0 (inf: no bound), got {max_velocity!r}")
     model = robot._model
@@ -184,8 +197,8 @@ def simulate_with_contacts(
             pin.LOCAL_WORLD_ALIGNED if point else pin.LOCAL,
         )
         params = cm.m_baumgarte_parameters
-        params.Kp = baumgarte[0]
-        params.Kd = baumgarte[1]
+        params.Kp = kp_b
+        params.Kd = kd_b
         cm.setBaumgarteCorrectorParameters(params)
         models.append(cm)
         dims.append(3 if point else 6)

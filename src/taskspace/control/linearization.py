@@ -3,14 +3,14 @@
 With the state ``x = (q (-) q_eq, v - v_eq)`` (tangent coordinates) and the input ``u``
 acting on the actuated joints through the selection ``S`` (``tau = tau_eq + S^T u``):
 
-``A = [[0, I], [da/dq, da/dv]]``,  ``B = [[0], [M^-1 S^T]]``
+``A = [[-1/2 ad(v_eq), I], [da/dq, da/dv]]``,  ``B = [[0], [M^-1 S^T]]``
 
 where ``da/dq``, ``da/dv`` and ``M^-1 = da/dtau`` are the derivatives of the forward dynamics
-``a = ABA(q, v, tau)`` (``pin.computeABADerivatives``, analytic, no finite differences).
+``a = ABA(q, v, tau)`` (``pin.computeABADerivatives``, analytic, no finite differences), and
+``-1/2 ad(v_eq)`` is the rate of ``q (-) q_eq`` on spherical and planar joints moving at
+``v_eq`` (zero at rest and on vector-space or continuous joints).
 
-Fixed-base robots only: for a floating base ``q' != v`` on the base (the ``A`` block
-``[0, I]`` would need the derivative of the exponential map) and the robot is not at an
-equilibrium without contacts.
+Fixed-base robots only: a floating robot is not at an equilibrium without contacts.
 
 Thread safety: :func:`linearize` builds its own Pinocchio data per call and may run from several
 threads; a :class:`LinearizedSystem` is plain data that its users only read, so it may be shared as
@@ -28,6 +28,7 @@ import numpy as np
 import pinocchio as pin
 
 from taskspace._validation import FloatArray, as_vector
+from taskspace.dynamics.newton_euler import finite_result
 from taskspace.errors import InvalidInputError, TaskspaceWarning
 
 if TYPE_CHECKING:
@@ -68,7 +69,15 @@ class LinearizedSystem:
 
 def _actuated_indices(robot: Robot, actuated: Sequence[str] | str | None) -> np.ndarray:
     if actuated is None:
-        return np.arange(robot.nv)
+        # the robot's actuated coordinates: all joints made the cart-pole's passive hinge an
+        # input, and an LQR designed on it used a motor the robot does not have
+        powered = np.flatnonzero(robot.effort_limits > 0)
+        if not powered.size:
+            raise InvalidInputError(
+                f"'{robot.name}' has no actuated joint (every effort limit is 0): name the "
+                f"inputs with actuated=[...]; joints: {', '.join(robot._model.names[1:])}"
+            )
+        return powered
     # One name is one joint (iterating "slider" looked up the joint 's').
     names: Any = [actuated] if isinstance(actuated, str) else actuated
     if isinstance(names, (bytes, bytearray)) or not isinstance(names, Iterable):
@@ -92,6 +101,25 @@ def _actuated_indices(robot: Robot, actuated: Sequence[str] | str | None) -> np.
     return np.asarray(sorted(set(idx)), dtype=int)
 
 
+def _moving_frame_block(model: pin.Model, v: FloatArray, out: FloatArray) -> None:
+    """Fill ``d/dx (Jlog(x) v)`` at ``x = 0`` (``-1/2 ad(v)``) on spherical and planar joints.
+
+    The rate of ``x_1 = q (-) q_eq`` is ``Jlog(x_1) v``; on a non-commutative joint moving at
+    ``v_eq`` its derivative is not zero (it was left 0: entries up to 0.45 missing at 1 rad/s).
+    Zero at rest and on vector-space and continuous joints.
+    """
+    for joint in model.joints[1:]:
+        kind, i = joint.shortname(), joint.idx_v
+        if kind == "JointModelSpherical":  # so(3): -1/2 [w]x
+            wx, wy, wz = v[i : i + 3]
+            out[i : i + 3, i : i + 3] = -0.5 * np.array(
+                [[0.0, -wz, wy], [wz, 0.0, -wx], [-wy, wx, 0.0]]
+            )
+        elif kind == "JointModelPlanar":  # se(2), v = (vx, vy, w): -1/2 ad(v)
+            vx, vy, w = v[i : i + 3]
+            out[i : i + 2, i : i + 3] = 0.5 * np.array([[0.0, w, -vy], [-w, 0.0, vx]])
+
+
 def linearize(
     robot: Robot,
     q_eq: Any,
@@ -109,10 +137,13 @@ def linearize(
         tau_eq: equilibrium torques (nv) [N m]; default: gravity compensation
             ``G(q_eq)`` on the actuated joints, zero on the others.
         actuated: names of the actuated joints (``B`` has their columns only), or one name;
-            all joints if omitted. For the cart-pole: ``["slider"]`` or ``"slider"``.
+            if omitted, the robot's actuated joints (effort limit > 0: not the
+            :attr:`~taskspace.model.Robot.passive_joints`). For the cart-pole: ``["slider"]``,
+            ``"slider"`` or nothing (its hinge is passive).
 
     Raises:
-        InvalidInputError: floating-base robot, bad sizes, ``actuated`` not names.
+        InvalidInputError: floating-base robot, bad sizes, ``actuated`` not names, no
+            ``actuated`` given and no joint actuated, derivatives that overflow float64.
         UnknownNameError: an actuated joint does not exist.
 
     Warns:
@@ -149,7 +180,10 @@ def linearize(
             TaskspaceWarning,
             stacklevel=2,
         )
+    finite_result(ddq_dq, "linearize: da/dq", v_eq=v, tau_eq=tau)  # NaN A/B before
+    finite_result(ddq_dv, "linearize: da/dv", v_eq=v, tau_eq=tau)
     A = np.zeros((2 * nv, 2 * nv))
+    _moving_frame_block(model, v, A[:nv, :nv])
     A[:nv, nv:] = np.eye(nv)
     A[nv:, :nv] = ddq_dq
     A[nv:, nv:] = ddq_dv

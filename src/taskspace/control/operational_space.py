@@ -13,8 +13,8 @@ feature (``phi'' = J q'' + Jdot v`` holds exactly), so the task acceleration fol
 acceleration is the PD law of slide 5:34, ``y''* = y''_ref + Kp (y_ref - y) + Kd (y'_ref - y')``,
 taken from each :class:`~taskspace.tasks.Task` (its ``kp``, ``kd``, target and reference).
 
-Fixed-base robots only (``u`` is the full joint torque). The QP version with torque limits
-and contacts is :mod:`taskspace.control.inverse_dynamics_qp`.
+Fixed-base robots with every joint actuated only (``u`` is the full joint torque). The QP
+version with torque limits and contacts is :mod:`taskspace.control.inverse_dynamics_qp`.
 
 Thread safety: :func:`operational_space_control` keeps its state local to the call (with a
 :class:`~taskspace.model.State` per thread); :class:`OperationalSpaceController` serializes its
@@ -103,6 +103,32 @@ def _torque_weight(options: OperationalSpaceOptions, nv: int) -> FloatArray:
     return h
 
 
+def _require_actuated(robot: Robot, what: str) -> None:
+    """Refuse a floating base or passive joints (``u`` is the torque of every joint)."""
+    if robot.is_floating:
+        raise InvalidInputError(
+            f"{what} needs a fixed-base robot; '{robot.name}' has a floating "
+            "base: use taskspace.control.inverse_dynamics_qp"
+        )
+    if robot.passive_joints:
+        # a torque on them was returned silently (the cart-pole's hinge has no motor)
+        raise InvalidInputError(
+            f"{what} needs every joint actuated; '{robot.name}' has passive joints "
+            f"{list(robot.passive_joints)} (effort limit 0): use taskspace.control."
+            "inverse_dynamics_qp (unactuated rows)"
+        )
+
+
+def _options(options: Any) -> OperationalSpaceOptions:
+    if options is None:
+        return OperationalSpaceOptions()
+    if not isinstance(options, OperationalSpaceOptions):  # a dict: bare AttributeError
+        raise InvalidInputError(
+            f"options must be an OperationalSpaceOptions, got {type(options).__name__}"
+        )
+    return options
+
+
 def operational_space_control(
     state: State, tasks: Sequence[Task], options: OperationalSpaceOptions | None = None
 ) -> OperationalSpaceResult:
@@ -119,18 +145,14 @@ def operational_space_control(
         The torques, the joint accelerations they produce and the per-task errors.
 
     Raises:
-        InvalidInputError: no tasks, floating-base robot, state without velocity, task of
-            another robot, non-positive ``H``.
+        InvalidInputError: no tasks, floating-base robot or passive joints, state without
+            velocity, task of another robot, non-positive ``H``.
         SolverError: ``hard_tasks`` and the stacked tasks are rank-deficient (conflicting or
             singular).
     """
-    options = options or OperationalSpaceOptions()
+    options = _options(options)
     robot = state.robot
-    if robot.is_floating:
-        raise InvalidInputError(
-            f"operational_space_control needs a fixed-base robot; '{robot.name}' has a floating "
-            "base: use taskspace.control.inverse_dynamics_qp"
-        )
+    _require_actuated(robot, "operational_space_control")
     tasks = list(tasks)
     if not tasks:
         raise InvalidInputError("operational_space_control needs at least one task")
@@ -214,9 +236,10 @@ class OperationalSpaceController:
         tasks: Sequence[Task],
         options: OperationalSpaceOptions | None = None,
     ) -> None:
+        _require_actuated(robot, "OperationalSpaceController")
         self.robot = robot
         self.tasks = list(tasks)
-        self.options = options or OperationalSpaceOptions()
+        self.options = _options(options)
         self.state = robot.state(robot.q_default, np.zeros(robot.nv))
         self.last_result: OperationalSpaceResult | None = None
         self._lock = threading.Lock()

@@ -59,7 +59,13 @@ class PIDGains:
         m = check_positive(mass, "mass [kg]")
         lam = check_positive(wavelength, "wavelength [s]")
         xi = check_positive(damping_ratio, "damping_ratio", strict=False)
-        return PIDGains(kp=m / lam**2, kd=2.0 * m * xi / lam, ki=ki)
+        kp, kd = m / lam / lam, 2.0 * m * xi / lam  # lam**2 underflowed: ZeroDivisionError
+        if not (math.isfinite(kp) and math.isfinite(kd) and kp > 0.0):
+            raise InvalidInputError(
+                f"mass {m!r} kg and wavelength {lam!r} s give gains kp = {kp:g}, kd = {kd:g} "
+                "outside the floats; rescale the mass or the wavelength"
+            )
+        return PIDGains(kp=kp, kd=kd, ki=ki)
 
     def wavelength(self, mass: float) -> float:
         """``lambda = sqrt(m / Kp)`` [s] of a point mass ``m`` under these gains."""

@@ -21,6 +21,7 @@ from taskspace._validation import (
     as_matrix,
     as_scalar,
     as_vector,
+    check_int,
     check_positive,
 )
 from taskspace.errors import InvalidInputError
@@ -46,11 +47,23 @@ JointReference = Callable[[float], ReferencePoint]
 
 
 class ConstantReference:
-    """Hold ``q*`` with zero velocity and acceleration (set-point regulation)."""
+    """Hold ``q*`` with zero velocity and acceleration (set-point regulation).
 
-    def __init__(self, q: Any) -> None:
+    Args:
+        q: the held position (n,) [rad, m].
+        velocity_size: size of the (zero) velocity and acceleration; ``None``: ``q``'s size.
+            A robot with continuous joints (``(cos, sin)`` per joint) or a floating base has
+            ``nv < nq``: give ``robot.nv``.
+    """
+
+    def __init__(self, q: Any, velocity_size: int | None = None) -> None:
         self.q = as_vector(q, None, "reference q")
-        self._zero = np.zeros(self.q.size)
+        n = (
+            self.q.size
+            if velocity_size is None
+            else check_int(velocity_size, "velocity_size", minimum=0)
+        )
+        self._zero = np.zeros(n)
 
     def __call__(self, t: float) -> ReferencePoint:
         """The constant reference."""
@@ -104,9 +117,10 @@ class SampledReference:
     """A reference given by samples ``q_0..q_K`` every ``tau`` seconds (slide 5:30).
 
     Velocities and accelerations come from finite differences,
-    ``q''_k = (q_{k-1} + q_{k+1} - 2 q_k) / tau^2`` (slide 5:30) and
-    ``q'_k = (q_{k+1} - q_{k-1}) / (2 tau)`` (one-sided at the ends); between samples all three
-    are interpolated linearly; after the last sample the reference holds ``q_K`` at rest.
+    ``q''_k = (q_{k-1} + q_{k+1} - 2 q_k) / tau^2`` (slide 5:30; 0 at the first and the last
+    sample, which have one neighbour) and ``q'_k = (q_{k+1} - q_{k-1}) / (2 tau)`` (one-sided
+    at the ends); between samples all three are interpolated linearly; after the last sample
+    the reference holds ``q_K`` at rest.
 
     Args:
         samples: (K+1, n) positions [rad, m], K >= 2.
@@ -146,12 +160,19 @@ class SampledReference:
         )
 
 
-def as_reference(reference: Any, size: int) -> JointReference:
-    """Accept a callable reference or a fixed target vector (held as :class:`ConstantReference`)."""
+def as_reference(reference: Any, size: int, velocity_size: int | None = None) -> JointReference:
+    """Accept a callable reference or a fixed target vector (held as :class:`ConstantReference`).
+
+    Args:
+        reference: ``reference(t) -> ReferencePoint``, or a target vector of ``size`` entries.
+        size: size of the target (the robot's ``nq``).
+        velocity_size: size of the target's zero velocity and acceleration (the robot's
+            ``nv``); ``None``: ``size``.
+    """
     if callable(reference):
         return reference  # type: ignore[no-any-return]
     try:
-        return ConstantReference(as_vector(reference, size, "reference"))
+        return ConstantReference(as_vector(reference, size, "reference"), velocity_size)
     except InvalidInputError as exc:
         raise InvalidInputError(
             f"reference must be callable as reference(t) -> ReferencePoint or a target vector "

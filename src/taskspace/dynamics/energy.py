@@ -13,6 +13,8 @@ from typing import TYPE_CHECKING, Any
 
 import pinocchio as pin
 
+from taskspace.dynamics.newton_euler import finite_result
+
 if TYPE_CHECKING:
     from taskspace.model.robot import Robot
 
@@ -24,10 +26,14 @@ def kinetic_energy(robot: Robot, q: Any, v: Any) -> float:
         robot: the robot.
         q: configuration (nq).
         v: velocity (nv) [rad/s, m/s].
+
+    Raises:
+        InvalidInputError: ``T`` overflows float64 (``v = 1e300``; NaN before).
     """
     qa = robot.check_configuration(q)
     va = robot.check_velocity(v)
-    return float(pin.computeKineticEnergy(robot._model, robot._model.createData(), qa, va))
+    T = float(pin.computeKineticEnergy(robot._model, robot._model.createData(), qa, va))
+    return float(finite_result(T, "kinetic energy", v=va))
 
 
 def potential_energy(robot: Robot, q: Any) -> float:

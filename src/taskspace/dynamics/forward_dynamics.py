@@ -19,6 +19,7 @@ import numpy as np
 import pinocchio as pin
 
 from taskspace._validation import FloatArray, as_vector, check_positive
+from taskspace.dynamics.newton_euler import finite_result
 from taskspace.errors import InvalidInputError
 
 if TYPE_CHECKING:
@@ -49,6 +50,15 @@ class JointFriction:
     def is_zero(self) -> bool:
         """No friction at all."""
         return not np.any(np.asarray(self.damping)) and not np.any(np.asarray(self.coulomb))
+
+
+LIE_GROUP_JOINTS = frozenset(
+    {"JointModelFreeFlyer", "JointModelSpherical", "JointModelPlanar", "JointModelComposite"}
+)
+"""Pinocchio joints whose ``integrate`` is not a sum in the tangent coordinates (SE(3), SO(3),
+SE(2); composite joints may hold one): :func:`~taskspace.dynamics.rk4_step` maps its stage
+velocities through ``dexp^-1`` there (``pin.dIntegrate``). The unit complex numbers of
+continuous joints (SO(2)) commute: their stages need nothing."""
 
 
 def _coefficients(value: Any, size: int, name: str) -> FloatArray:
@@ -95,6 +105,15 @@ class ForwardDynamics:
         self._smoothing = check_positive(friction.coulomb_smoothing, "coulomb_smoothing")
         self._has_friction = bool(np.any(self._damping) or np.any(self._coulomb))
         self._has_coulomb = bool(np.any(self._coulomb))
+        # joints whose configuration space is a non-commutative Lie group (q (+) v is not
+        # q + v in any chart): the RK4 stages need dexp^-1 there (see integrators._stage_rate)
+        # each with a model holding only that joint, whose dIntegrate is the joint's block
+        self._lie_joints: list[tuple[pin.Model, int, int, int]] = []
+        for j in self._model.joints[1:]:
+            if j.shortname() in LIE_GROUP_JOINTS:
+                alone = pin.Model()
+                alone.addJoint(0, j, pin.SE3.Identity(), "alone")
+                self._lie_joints.append((alone, j.idx_q, j.nq, j.idx_v))
 
     @property
     def model(self) -> pin.Model:
@@ -154,8 +173,10 @@ def forward_dynamics(
 
     Raises:
         ShapeError, NotFiniteError: wrong size or NaN/inf input.
+        InvalidInputError: the accelerations overflow float64 (``v = 1e300``; NaN before).
     """
     qa = robot.check_configuration(q)
     va = robot.check_velocity(v)
     ta = as_vector(tau, robot.nv, "tau")
-    return ForwardDynamics(robot, friction).acceleration(qa, va, ta)
+    a = ForwardDynamics(robot, friction).acceleration(qa, va, ta)
+    return finite_result(a, "forward dynamics", v=va, tau=ta)

@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from taskspace._validation import check_positive
+from taskspace.errors import InvalidInputError
 
 STANDARD_GRAVITY = 9.81
 """Gravity used by Pinocchio's default model [m/s^2]."""
@@ -40,6 +41,16 @@ def _array(x: Any, name: str) -> Any:
 
         raise NotFiniteError(name, [int(i) for i in np.flatnonzero(~np.isfinite(arr.ravel()))])
     return arr
+
+
+def _broadcast(a: Any, b: Any, names: str) -> None:
+    """Refuse arrays whose shapes do not broadcast (numpy's bare ValueError before)."""
+    try:
+        np.broadcast_shapes(np.shape(a), np.shape(b))
+    except ValueError:
+        raise InvalidInputError(
+            f"{names} must have broadcastable shapes, got shapes {np.shape(a)} and {np.shape(b)}"
+        ) from None
 
 
 def pendulum_torque(
@@ -66,6 +77,7 @@ def pendulum_torque(
     _check(mass, length, inertia, gravity)
     th = _array(theta, "theta")
     acc = _array(theta_ddot, "theta_ddot")
+    _broadcast(th, acc, "theta and theta_ddot")
     return (mass * length**2 + inertia) * acc + mass * gravity * length * np.sin(th)
 
 
@@ -82,6 +94,7 @@ def pendulum_acceleration(
     _check(mass, length, inertia, gravity)
     th = _array(theta, "theta")
     u = _array(torque, "torque")
+    _broadcast(th, u, "theta and torque")
     return (u - mass * gravity * length * np.sin(th)) / (mass * length**2 + inertia)
 
 
@@ -98,4 +111,5 @@ def pendulum_energy(
     _check(mass, length, inertia, gravity)
     th = _array(theta, "theta")
     w = _array(theta_dot, "theta_dot")
+    _broadcast(th, w, "theta and theta_dot")
     return 0.5 * (mass * length**2 + inertia) * w**2 - mass * gravity * length * np.cos(th)

@@ -23,6 +23,7 @@ import math
 import os
 import sys
 import time
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
@@ -33,7 +34,7 @@ import pinocchio as pin
 from taskspace._validation import FloatArray, as_vector, check_finite, check_positive
 from taskspace.dynamics.forward_dynamics import ForwardDynamics, JointFriction
 from taskspace.dynamics.integrators import STEPPERS, Integrator
-from taskspace.errors import InvalidInputError, ShapeError, TaskspaceError
+from taskspace.errors import InvalidInputError, ShapeError, TaskspaceError, TaskspaceWarning
 
 if TYPE_CHECKING:
     from taskspace.model.robot import Robot
@@ -109,7 +110,9 @@ class SimulationOptions:
         hold_control: zero-order hold of the controller output over each step (``True``), or
             evaluation of the controller at every integrator stage (``False``: a
             continuous-time law; the controller must then be stateless).
-        clip_torque: clip the controller output to the robot's effort limits.
+        clip_torque: clip the controller output to the robot's effort limits (0 on the
+            floating base and passive joints). Without clipping, a torque there is applied
+            as an external force and reported once per run (TaskspaceWarning).
         record_energy: compute the kinetic and potential energies at every sample.
         progress: show a tqdm progress bar; ``None`` shows it only when stderr is a TTY and
             the run has at least ``progress_min_steps`` steps.
@@ -271,6 +274,30 @@ def check_record_size(
         )
 
 
+def _warn_unactuated(robot: Robot, tau: FloatArray, unactuated: Any, t: float) -> None:
+    """Warn that the controller pushes coordinates without a motor (effort limit 0)."""
+    pushed = [int(i) for i in unactuated if tau[i] != 0.0]
+    base = [i for i in pushed if robot.is_floating and i < 6]
+    model = robot._model
+    joints = sorted(
+        {
+            str(model.names[j])
+            for j in range(1, model.njoints)
+            for i in pushed
+            if i not in base
+            and model.joints[j].idx_v <= i < model.joints[j].idx_v + model.joints[j].nv
+        }
+    )
+    what = (["the floating base"] if base else []) + [f"joint '{j}'" for j in joints]
+    warnings.warn(
+        f"simulate({robot.name}): the controller applies torque on {', '.join(what)} at "
+        f"t={t:.6g} s, which has no motor (effort limit 0); the simulation applies it as an "
+        "external force. Use SimulationOptions(clip_torque=True) to drop it.",
+        TaskspaceWarning,
+        stacklevel=4,
+    )
+
+
 def _show_progress(options: SimulationOptions, steps: int) -> bool:
     if options.progress is not None:
         return bool(options.progress)
@@ -301,13 +328,17 @@ def simulate(
         diverged: ``success=False``, ``status=DIVERGED``).
 
     Raises:
-        InvalidInputError: bad ``T``, ``dt``, controller, integrator or initial state; a
+        InvalidInputError: bad ``T``, ``dt``, controller, options, integrator or initial state; a
             record (``N + 1`` rows of ``t, q, v, a, tau`` and energies) that would need more
             than half the available memory (checked before allocating).
         KeyboardInterrupt: Ctrl-C stops a long run between two steps.
         ShapeError, NotFiniteError: the controller returned a wrong-size or non-finite torque.
     """
-    options = options or SimulationOptions()
+    options = SimulationOptions() if options is None else options
+    if not isinstance(options, SimulationOptions):  # a dict raised a bare AttributeError
+        raise InvalidInputError(
+            f"options must be a SimulationOptions, got {type(options).__name__}"
+        )
     integrator = _integrator(options.integrator)
     T = check_positive(T, "T (duration [s])")
     dt = check_positive(dt, "dt (time step [s])")
@@ -329,6 +360,10 @@ def simulate(
     zero = np.zeros(nv)
     lo = -robot.effort_limits
     hi = robot.effort_limits
+    # coordinates without a motor (floating base, passive joints): a torque there is an
+    # external force, applied as the equation says but reported once (it was silent)
+    unactuated = np.flatnonzero(hi == 0.0) if not options.clip_torque else np.zeros(0, int)
+    warned = [not unactuated.size]
 
     def control(t: float, qk: FloatArray, vk: FloatArray) -> FloatArray:
         if controller is None:
@@ -349,6 +384,9 @@ def simulate(
             check_finite(tau, f"controller torque at t={t:.6g}")
         if options.clip_torque:
             tau = np.clip(tau, lo, hi)
+        elif not warned[0] and np.any(tau[unactuated]):
+            warned[0] = True
+            _warn_unactuated(robot, tau, unactuated, t)
         return tau
 
     ts = np.arange(n_steps + 1, dtype=np.float64) * dt
