@@ -661,6 +661,8 @@ class Robot:
         scalar_v: list[int] = []
         linear_q: list[int] = []  # unbounded translations: sampled in a box
         self._free_translations: list[int] = []  # idx_q of free-flyer / planar positions
+        continuous_q: list[int] = []  # the (cos, sin) pair of each continuous joint
+        continuous_v: list[int] = []
         for jid in range(1, model.njoints):
             joint = model.joints[jid]
             short = joint.shortname()
@@ -675,6 +677,8 @@ class Robot:
                 self._normalized_blocks.append((joint.idx_q + 2, 2, jname))
             elif short in _UNIT_COMPLEX_JOINTS or short == "JointModelRevoluteUnboundedUnaligned":
                 self._normalized_blocks.append((joint.idx_q, 2, jname))
+                continuous_q.append(joint.idx_q)
+                continuous_v.append(joint.idx_v)
             elif joint.nq == joint.nv:
                 for k in range(joint.nq):
                     scalar_q.append(joint.idx_q + k)
@@ -688,6 +692,11 @@ class Robot:
                     "(RUB), spherical, planar, free-flyer and the other joints with nq = nv"
                 )
         self._linear_q = frozenset(linear_q)
+        # continuous_joint_indices(model), for interpolate/difference without a joint loop
+        self._continuous = (
+            np.array(continuous_q, dtype=np.int64),
+            np.array(continuous_v, dtype=np.int64),
+        )
         self.is_floating = (
             model.njoints > 1 and model.joints[1].shortname() == "JointModelFreeFlyer"
         )
@@ -1407,7 +1416,9 @@ class Robot:
         b = self.check_configuration(q1, "q1")
         if not (isinstance(t, (int, float, np.floating, np.integer)) and math.isfinite(t)):
             raise InvalidInputError(f"t must be a finite number, got {t!r}")
-        return interpolate_configurations(self._model, a, b, np.array([float(t)]))[0]
+        return interpolate_configurations(
+            self._model, a, b, np.array([float(t)]), self._continuous
+        )[0]
 
     def distance(self, q0: Any, q1: Any) -> float:
         """Length of the tangent vector from ``q0`` to ``q1``: ``||q1 (-) q0||`` [rad and m].
@@ -1435,7 +1446,7 @@ class Robot:
         b = self.check_configuration(q1, "q1")
         if not self._normalized_blocks:  # vector joints only: q1 - q0, Pinocchio's arithmetic
             return np.asarray(pin.difference(self._model, a, b))
-        return configuration_difference(self._model, a, b)
+        return configuration_difference(self._model, a, b, self._continuous)
 
     def state(self, q: Any = None, v: Any = None) -> State:
         """A :class:`~taskspace.model.state.State` at ``q`` (default posture if omitted)."""
