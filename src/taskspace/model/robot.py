@@ -85,7 +85,12 @@ from taskspace.errors import (
 )
 from taskspace.model.collision_requests import without_cached_guess
 from taskspace.model.registry import RobotSpec, example_robot_data_loaders, robot_spec
-from taskspace.model.urdf_check import srdf_problem, urdf_physical_problem, urdf_problem
+from taskspace.model.urdf_check import (
+    srdf_problem,
+    urdf_mimic_joints,
+    urdf_physical_problem,
+    urdf_problem,
+)
 from taskspace.model.world import Obstacle, World
 
 if TYPE_CHECKING:
@@ -276,6 +281,7 @@ class Robot:
         # every live State of this robot (edit_model re-evaluates them at the new values)
         self._states: weakref.WeakSet[Any] = weakref.WeakSet()
         self._setup_joint_structure()
+        self._warn_equal_limits()
         self._setup_actuation_limits(passive_joints)
         if default_configuration is None:
             default_configuration = pin.neutral(model)
@@ -481,6 +487,22 @@ class Robot:
         problem = urdf_physical_problem(path)
         if problem:
             raise ModelLoadError(f"cannot load URDF {problem}")
+        mimic = {
+            j: rule
+            for j, rule in urdf_mimic_joints(path).items()
+            if j not in locked_joints and model.existJointName(j)
+        }
+        if mimic:
+            warnings.warn(
+                ModelWarning(
+                    f"robot '{name or path.stem}': joints "
+                    f"{', '.join(f'{j} ({rule})' for j, rule in mimic.items())} mimic another "
+                    "joint in the URDF; taskspace models them as independent joints "
+                    "(Pinocchio's default), so nothing holds them at their mimic value: set "
+                    "them in every configuration, or lock them (locked_joints=[...])"
+                ),
+                stacklevel=2 if _posture is None else 3,
+            )
         if srdf is not None:
             if not Path(srdf).is_file():
                 raise ModelLoadError(f"SRDF file not found: {srdf}")
@@ -753,6 +775,23 @@ class Robot:
                 stacklevel=4,
             )
         return q
+
+    def _warn_equal_limits(self) -> None:
+        """A :class:`ModelWarning` naming the joints whose lower and upper limits are equal."""
+        lower = np.asarray(self._model.lowerPositionLimit)
+        upper = np.asarray(self._model.upperPositionLimit)
+        equal = [
+            f"{self._joint_name_at_q(int(i))}={lower[i]:.4g}"
+            for i in np.flatnonzero(np.isfinite(lower) & (lower == upper))
+        ]
+        if equal:
+            warnings.warn(
+                f"robot '{self.name}': joints with equal lower and upper limits "
+                f"({', '.join(equal)}) are treated as unlimited (a URDF's missing limits are "
+                "0, 0); to hold a joint at one value, lock it (locked_joints=[...])",
+                ModelWarning,
+                stacklevel=4,
+            )
 
     def _setup_actuation_limits(self, passive_joints: Sequence[str]) -> None:
         """Effort and velocity limits, with the documented choice for missing ones."""
@@ -1168,7 +1207,7 @@ class Robot:
         Args:
             lower: lower position limits (size nq) [rad or m], ``-inf`` where unlimited.
             upper: upper position limits (size nq) [rad or m], ``+inf`` where unlimited;
-                ``lower <= upper``. A floating base's seven entries stay ``-inf``/``+inf``.
+                ``lower < upper``. A floating base's seven entries stay ``-inf``/``+inf``.
             velocity: velocity limits (size nv, ``>= 0``) [rad/s or m/s], ``inf`` where
                 unlimited.
             effort: effort limits (size nv, ``>= 0``) [N m or N]; 0 makes a coordinate
@@ -1179,8 +1218,9 @@ class Robot:
 
         Raises:
             ShapeError: wrong sizes.
-            InvalidInputError: NaN, ``lower > upper``, negative velocity or effort limits, a
-                limited floating base or an actuated one.
+            InvalidInputError: NaN, ``lower > upper``, ``lower == upper`` where the limits
+                change (equal limits mean "no limit": lock a joint to hold it), negative
+                velocity or effort limits, a limited floating base or an actuated one.
         """
         model = self._model
         new_lower = self._lower if lower is None else self._limit_array(lower, self.nq, "lower")
@@ -1189,6 +1229,20 @@ class Robot:
         if bad.size:
             raise InvalidInputError(
                 f"lower limits above upper limits at configuration indices {bad[:10].tolist()}"
+            )
+        # lower == upper reads as "no limit given" (a URDF's default 0, 0): a range set here
+        # must be wider, or the joint would silently become unlimited
+        pinned = np.flatnonzero(
+            (new_lower == new_upper) & ((new_lower != self._lower) | (new_upper != self._upper))
+        )
+        if pinned.size:
+            names = sorted({self._joint_name_at_q(int(i)) for i in pinned})
+            raise InvalidInputError(
+                f"lower == upper at configuration indices {pinned[:10].tolist()} (joints "
+                f"{', '.join(names)}): equal limits mean 'no limit' to taskspace (a URDF's "
+                "missing limits are 0, 0); give a range (lower < upper), or lock the joint "
+                "to hold it at one value (Robot.load/from_urdf locked_joints, "
+                "taskspace.planning.LockedJoints)"
             )
         new_velocity = (
             self._velocity_limits

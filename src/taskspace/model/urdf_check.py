@@ -128,6 +128,20 @@ def urdf_problem(path: str | Path) -> str | None:
     return _physical(path, root)
 
 
+def urdf_mimic_joints(path: str | Path) -> dict[str, str]:
+    """Joints of a URDF that mimic another: name -> ``"= m * other + c"`` (its ``<mimic>``)."""
+    root, _ = _read(Path(path))
+    found: dict[str, str] = {}
+    for element in root.children if root is not None else []:
+        mimic = element.find("mimic") if element.tag == "joint" else None
+        if mimic is not None:
+            multiplier = mimic.attrs.get("multiplier", "1")
+            offset = mimic.attrs.get("offset", "0")
+            other = mimic.attrs.get("joint", "?")
+            found[element.attrs.get("name", "?")] = f"= {multiplier} * {other} + {offset}"
+    return found
+
+
 def urdf_physical_problem(path: str | Path) -> str | None:
     """The first value Pinocchio accepts but that is not physical, as ``file:line: ...``."""
     path = Path(path)
