@@ -73,7 +73,14 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
-from taskspace._validation import FloatArray, as_float_array, as_vector, check_finite
+from taskspace._validation import (
+    FloatArray,
+    as_float_array,
+    as_scalar,
+    as_vector,
+    check_finite,
+    check_positive,
+)
 from taskspace.errors import (
     InvalidInputError,
     LimitError,
@@ -613,7 +620,8 @@ class Robot:
             if jname not in locked_joints:
                 raise UnknownNameError("locked joint", jname, locked_joints)
             jid = model.getJointId(jname)
-            q_full[model.joints[jid].idx_q] = float(value)
+            # a NaN value placed the locked joint's links (and their geometry) at NaN
+            q_full[model.joints[jid].idx_q] = as_scalar(value, f"locked_values['{jname}']")
         if locked_joints:
             names = {n: i for i, n in enumerate(model.names) if i > 0}
             ids = []
@@ -1432,6 +1440,11 @@ class Robot:
             rng: random generator.
             base_box: half side of the box of unbounded translations [m].
         """
+        if not isinstance(rng, np.random.Generator):
+            raise InvalidInputError(
+                f"rng must be a numpy Generator (np.random.default_rng(seed)), got {rng!r}"
+            )
+        base_box = check_positive(base_box, "base_box")
         q = np.asarray(pin.neutral(self._model)).copy()
         lo = self._lower
         hi = self._upper
@@ -1483,10 +1496,19 @@ class Robot:
         return float(np.linalg.norm(self.difference(q0, q1)))
 
     def integrate(self, q: Any, v: Any, dt: float = 1.0) -> FloatArray:
-        """Configuration reached from ``q`` moving with velocity ``v`` for ``dt`` [s]."""
+        """Configuration reached from ``q`` moving with velocity ``v`` for ``dt`` [s].
+
+        Raises:
+            InvalidInputError: ``dt`` is not a finite number.
+            NotFiniteError: ``v * dt`` overflows (the configuration would hold inf or NaN).
+        """
         qa = self.check_configuration(q)
         va = self.check_velocity(v)
-        return np.asarray(pin.integrate(self._model, qa, va * dt))
+        step = dt if dt.__class__ is float and math.isfinite(dt) else as_scalar(dt, "dt")
+        with np.errstate(over="ignore"):  # an overflow is the error below, not a warning
+            out = np.asarray(pin.integrate(self._model, qa, va * step))
+        check_finite(out, "the integrated configuration (v * dt overflows)")
+        return out
 
     def difference(self, q0: Any, q1: Any) -> FloatArray:
         """Tangent vector ``v`` such that ``integrate(q0, v) = q1``.
