@@ -443,6 +443,12 @@ def cmd_snapshot(args: argparse.Namespace) -> int:
         raise CliError("give --png FILE and/or --html FILE")
     for flag, text in (("--png", args.png), ("--html", args.html)):
         _check_output_file(flag, text)
+    if args.png and not (16 <= args.width <= 4096 and 16 <= args.height <= 4096):
+        # before the robot is loaded and the HTML written (the PNG would fail after them)
+        raise CliError(
+            f"--width and --height must be within 16..4096 pixels each, got --width "
+            f"{args.width} --height {args.height}"
+        )
     robot = Robot.load(args.robot)
     q = robot.q_default if args.q is None else parse_configuration(args.q, robot.nq)
     from taskspace.viz import Viewer
@@ -594,8 +600,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--html", help="output static HTML file")
     p.add_argument("--geometry", choices=("visual", "collision"), default="visual")
     p.add_argument("--frames", action="store_true", help="draw end-effector triads")
-    p.add_argument("--width", type=int, default=640)
-    p.add_argument("--height", type=int, default=480)
+    p.add_argument("--width", type=int, default=640, help="PNG width, 16..4096 [px]")
+    p.add_argument("--height", type=int, default=480, help="PNG height, 16..4096 [px]")
     return parser
 
 

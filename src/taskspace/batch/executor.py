@@ -24,6 +24,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Literal
 
+import numpy as np
 from tqdm import tqdm
 
 from taskspace.batch.chunk import ChunkQueue
@@ -56,7 +57,7 @@ class BatchOptions:
         backend: ``"serial"`` (this process), ``"processes"`` (local worker processes) or
             ``"ray"`` (a Ray runtime: local, or a cluster through ``ray_address``).
         workers: worker processes (None: every core of this machine); for Ray, the actors
-            (at most, and with None all of, the cluster's CPUs) and the CPUs of the local
+            (at most, and with None all of, the cluster's free CPUs) and the CPUs of the local
             runtime it starts.
         chunk_size: tasks sent to a worker at once (None: one at first, then chosen so that
             a chunk takes at least ``min_chunk_seconds``, from the fastest task finished so
@@ -106,14 +107,25 @@ class BatchOptions:
             )
         if not isinstance(self.progress, bool):
             raise InvalidInputError(f"progress must be True or False, got {self.progress!r}")
-        if not isinstance(self.seed, int) or self.seed < 0:
+        if isinstance(self.seed, np.integer):  # numpy's integers are integers
+            object.__setattr__(self, "seed", int(self.seed))
+        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
             raise InvalidInputError(f"seed must be an integer >= 0, got {self.seed!r}")
-        if not (isinstance(self.min_chunk_seconds, (int, float)) and self.min_chunk_seconds >= 0):
+        if (
+            isinstance(self.min_chunk_seconds, bool)
+            or not isinstance(self.min_chunk_seconds, (int, float))
+            or not self.min_chunk_seconds >= 0
+        ):
             raise InvalidInputError(
                 f"min_chunk_seconds must be a number >= 0, got {self.min_chunk_seconds!r}"
             )
         if not math.isfinite(self.min_chunk_seconds):
             raise InvalidInputError("min_chunk_seconds must be finite")
+        if self.ray_address is not None and not isinstance(self.ray_address, str):
+            raise InvalidInputError(
+                "ray_address must be None (a local Ray runtime), 'auto' or 'ray://HOST:PORT', "
+                f"got {self.ray_address!r}"
+            )
         if self.start_method not in START_METHODS:
             raise UnknownNameError(
                 "start_method", self.start_method, ("forkserver", "spawn", "fork")
@@ -194,7 +206,13 @@ class Executor:
             raise InvalidInputError(
                 f"context must be a factory (a callable returning the context), got {context!r}"
             )
-        items = list(items)
+        try:
+            items = list(items)
+        except TypeError as exc:
+            raise InvalidInputError(
+                f"items must be an iterable of task inputs (a list, a range...), got "
+                f"{type(items).__name__}"
+            ) from exc
         if not self._running.acquire(blocking=False):
             raise ConcurrentUseError("Executor.map/as_completed (one run at a time per executor)")
         try:

@@ -7,7 +7,9 @@ clusters running Ray picks one: pass its ``"HOST:PORT"`` to be sure), and
 variable is honoured.
 
 The workers are actors (one CPU each, as many as the executor's workers and at most the
-cluster's CPUs), kept by the executor between runs like a process pool: each one imports the
+cluster's free CPUs: an actor waiting for a CPU that another executor's actors hold would
+hang the run, so with none free the run raises :class:`BatchError`), kept by the executor
+between runs like a process pool: each one imports the
 task's modules and builds the context (a robot, a scene) once, and a call to an actor goes
 straight to its process instead of through Ray's task scheduler. Each actor runs one chunk at a
 time, so the death of an actor is the fault of the chunk it ran: the actor is replaced, the
@@ -21,6 +23,7 @@ import contextlib
 import os
 import re
 import sys
+import time
 from collections import deque
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
@@ -199,8 +202,18 @@ class RayPool:
         self._job = job
         if not self.actors:
             cpus = int(ray.cluster_resources().get("CPU", 1))
+            wanted = max(1, min(self.workers or cpus, cpus))
+            # an actor waits for a free CPU: one that never comes (every CPU held by another
+            # executor's actors) would hang the run, so only free CPUs get actors
+            free = _free_cpus(ray, wanted)
+            if free < 1:
+                raise BatchError(
+                    f"the Ray cluster has no free CPU for this executor's workers: its {cpus} "
+                    "CPUs are held by other actors (e.g. the workers of another Executor still "
+                    "open: close() it, or use each executor in a with block)"
+                )
             cls = _actor_class(ray)
-            self.actors = [cls.remote() for _ in range(max(1, min(self.workers or cpus, cpus)))]
+            self.actors = [cls.remote() for _ in range(min(wanted, free))]
         # Each actor runs its calls in order: the set-up comes before the run's chunks. The
         # context is kept by key (worker_context), so a later run of the same one reuses it.
         self._run = (ray.put(fn), key, ray.put(factory), seed)
@@ -235,6 +248,20 @@ class RayPool:
                 ray.kill(actor, no_restart=True)
         except Exception:  # Ray already shut down: its actors went with it
             pass
+
+
+FREE_CPU_WAIT = 2.0
+"""How long a pool waits for the CPUs of actors just killed (Ray frees them asynchronously) [s]."""
+
+
+def _free_cpus(ray: Any, wanted: int, wait: float = FREE_CPU_WAIT) -> int:
+    """The CPUs of the cluster free now, waiting up to ``wait`` [s] for ``wanted`` of them."""
+    deadline = time.monotonic() + wait
+    while True:
+        free = int(ray.available_resources().get("CPU", 0))
+        if free >= wanted or time.monotonic() >= deadline:
+            return free
+        time.sleep(0.05)
 
 
 PIPELINE = 2

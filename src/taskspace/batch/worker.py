@@ -54,10 +54,15 @@ def run_chunk(
     tasks: Sequence[tuple[int, Any]],
     seed: int,
 ) -> list[TaskRecord]:
-    """Run ``fn`` on each ``(index, item)`` of a chunk; an exception fails its task only."""
+    """Run ``fn`` on each ``(index, item)`` of a chunk; an exception fails its task only.
+
+    ``SystemExit`` (a ``sys.exit`` or an argument parser inside the task) fails its task as
+    any exception does, on every backend (it ended the whole run before, and the serial
+    backend's program); ``KeyboardInterrupt`` still stops the run (Ctrl-C).
+    """
     try:
         context = worker_context(key, factory)
-    except Exception as exc:
+    except (Exception, SystemExit) as exc:
         tb = traceback.format_exc()
         return [
             TaskRecord(i, False, error=f"context factory failed: {exc!r}", traceback=tb, item=x)
@@ -68,7 +73,7 @@ def run_chunk(
         t0 = time.perf_counter()
         try:
             value = fn(item, task_rng(seed, index), context)
-        except Exception as exc:
+        except (Exception, SystemExit) as exc:
             out.append(
                 TaskRecord(
                     index,

@@ -73,7 +73,14 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
-from taskspace._validation import FloatArray, as_float_array, as_vector, check_finite
+from taskspace._validation import (
+    FloatArray,
+    as_float_array,
+    as_scalar,
+    as_vector,
+    check_finite,
+    check_positive,
+)
 from taskspace.errors import (
     InvalidInputError,
     LimitError,
@@ -85,7 +92,12 @@ from taskspace.errors import (
 )
 from taskspace.model.collision_requests import without_cached_guess
 from taskspace.model.registry import RobotSpec, example_robot_data_loaders, robot_spec
-from taskspace.model.urdf_check import srdf_problem, urdf_physical_problem, urdf_problem
+from taskspace.model.urdf_check import (
+    srdf_problem,
+    urdf_mimic_joints,
+    urdf_physical_problem,
+    urdf_problem,
+)
 from taskspace.model.world import Obstacle, World
 
 if TYPE_CHECKING:
@@ -276,6 +288,7 @@ class Robot:
         # every live State of this robot (edit_model re-evaluates them at the new values)
         self._states: weakref.WeakSet[Any] = weakref.WeakSet()
         self._setup_joint_structure()
+        self._warn_equal_limits()
         self._setup_actuation_limits(passive_joints)
         if default_configuration is None:
             default_configuration = pin.neutral(model)
@@ -481,6 +494,22 @@ class Robot:
         problem = urdf_physical_problem(path)
         if problem:
             raise ModelLoadError(f"cannot load URDF {problem}")
+        mimic = {
+            j: rule
+            for j, rule in urdf_mimic_joints(path).items()
+            if j not in locked_joints and model.existJointName(j)
+        }
+        if mimic:
+            warnings.warn(
+                ModelWarning(
+                    f"robot '{name or path.stem}': joints "
+                    f"{', '.join(f'{j} ({rule})' for j, rule in mimic.items())} mimic another "
+                    "joint in the URDF; taskspace models them as independent joints "
+                    "(Pinocchio's default), so nothing holds them at their mimic value: set "
+                    "them in every configuration, or lock them (locked_joints=[...])"
+                ),
+                stacklevel=2 if _posture is None else 3,
+            )
         if srdf is not None:
             if not Path(srdf).is_file():
                 raise ModelLoadError(f"SRDF file not found: {srdf}")
@@ -591,7 +620,8 @@ class Robot:
             if jname not in locked_joints:
                 raise UnknownNameError("locked joint", jname, locked_joints)
             jid = model.getJointId(jname)
-            q_full[model.joints[jid].idx_q] = float(value)
+            # a NaN value placed the locked joint's links (and their geometry) at NaN
+            q_full[model.joints[jid].idx_q] = as_scalar(value, f"locked_values['{jname}']")
         if locked_joints:
             names = {n: i for i, n in enumerate(model.names) if i > 0}
             ids = []
@@ -661,6 +691,8 @@ class Robot:
         scalar_v: list[int] = []
         linear_q: list[int] = []  # unbounded translations: sampled in a box
         self._free_translations: list[int] = []  # idx_q of free-flyer / planar positions
+        continuous_q: list[int] = []  # the (cos, sin) pair of each continuous joint
+        continuous_v: list[int] = []
         for jid in range(1, model.njoints):
             joint = model.joints[jid]
             short = joint.shortname()
@@ -675,6 +707,8 @@ class Robot:
                 self._normalized_blocks.append((joint.idx_q + 2, 2, jname))
             elif short in _UNIT_COMPLEX_JOINTS or short == "JointModelRevoluteUnboundedUnaligned":
                 self._normalized_blocks.append((joint.idx_q, 2, jname))
+                continuous_q.append(joint.idx_q)
+                continuous_v.append(joint.idx_v)
             elif joint.nq == joint.nv:
                 for k in range(joint.nq):
                     scalar_q.append(joint.idx_q + k)
@@ -688,6 +722,11 @@ class Robot:
                     "(RUB), spherical, planar, free-flyer and the other joints with nq = nv"
                 )
         self._linear_q = frozenset(linear_q)
+        # continuous_joint_indices(model), for interpolate/difference without a joint loop
+        self._continuous = (
+            np.array(continuous_q, dtype=np.int64),
+            np.array(continuous_v, dtype=np.int64),
+        )
         self.is_floating = (
             model.njoints > 1 and model.joints[1].shortname() == "JointModelFreeFlyer"
         )
@@ -744,6 +783,23 @@ class Robot:
                 stacklevel=4,
             )
         return q
+
+    def _warn_equal_limits(self) -> None:
+        """A :class:`ModelWarning` naming the joints whose lower and upper limits are equal."""
+        lower = np.asarray(self._model.lowerPositionLimit)
+        upper = np.asarray(self._model.upperPositionLimit)
+        equal = [
+            f"{self._joint_name_at_q(int(i))}={lower[i]:.4g}"
+            for i in np.flatnonzero(np.isfinite(lower) & (lower == upper))
+        ]
+        if equal:
+            warnings.warn(
+                f"robot '{self.name}': joints with equal lower and upper limits "
+                f"({', '.join(equal)}) are treated as unlimited (a URDF's missing limits are "
+                "0, 0); to hold a joint at one value, lock it (locked_joints=[...])",
+                ModelWarning,
+                stacklevel=4,
+            )
 
     def _setup_actuation_limits(self, passive_joints: Sequence[str]) -> None:
         """Effort and velocity limits, with the documented choice for missing ones."""
@@ -1159,7 +1215,7 @@ class Robot:
         Args:
             lower: lower position limits (size nq) [rad or m], ``-inf`` where unlimited.
             upper: upper position limits (size nq) [rad or m], ``+inf`` where unlimited;
-                ``lower <= upper``. A floating base's seven entries stay ``-inf``/``+inf``.
+                ``lower < upper``. A floating base's seven entries stay ``-inf``/``+inf``.
             velocity: velocity limits (size nv, ``>= 0``) [rad/s or m/s], ``inf`` where
                 unlimited.
             effort: effort limits (size nv, ``>= 0``) [N m or N]; 0 makes a coordinate
@@ -1170,8 +1226,9 @@ class Robot:
 
         Raises:
             ShapeError: wrong sizes.
-            InvalidInputError: NaN, ``lower > upper``, negative velocity or effort limits, a
-                limited floating base or an actuated one.
+            InvalidInputError: NaN, ``lower > upper``, ``lower == upper`` where the limits
+                change (equal limits mean "no limit": lock a joint to hold it), negative
+                velocity or effort limits, a limited floating base or an actuated one.
         """
         model = self._model
         new_lower = self._lower if lower is None else self._limit_array(lower, self.nq, "lower")
@@ -1180,6 +1237,20 @@ class Robot:
         if bad.size:
             raise InvalidInputError(
                 f"lower limits above upper limits at configuration indices {bad[:10].tolist()}"
+            )
+        # lower == upper reads as "no limit given" (a URDF's default 0, 0): a range set here
+        # must be wider, or the joint would silently become unlimited
+        pinned = np.flatnonzero(
+            (new_lower == new_upper) & ((new_lower != self._lower) | (new_upper != self._upper))
+        )
+        if pinned.size:
+            names = sorted({self._joint_name_at_q(int(i)) for i in pinned})
+            raise InvalidInputError(
+                f"lower == upper at configuration indices {pinned[:10].tolist()} (joints "
+                f"{', '.join(names)}): equal limits mean 'no limit' to taskspace (a URDF's "
+                "missing limits are 0, 0); give a range (lower < upper), or lock the joint "
+                "to hold it at one value (Robot.load/from_urdf locked_joints, "
+                "taskspace.planning.LockedJoints)"
             )
         new_velocity = (
             self._velocity_limits
@@ -1369,6 +1440,11 @@ class Robot:
             rng: random generator.
             base_box: half side of the box of unbounded translations [m].
         """
+        if not isinstance(rng, np.random.Generator):
+            raise InvalidInputError(
+                f"rng must be a numpy Generator (np.random.default_rng(seed)), got {rng!r}"
+            )
+        base_box = check_positive(base_box, "base_box")
         q = np.asarray(pin.neutral(self._model)).copy()
         lo = self._lower
         hi = self._upper
@@ -1407,7 +1483,9 @@ class Robot:
         b = self.check_configuration(q1, "q1")
         if not (isinstance(t, (int, float, np.floating, np.integer)) and math.isfinite(t)):
             raise InvalidInputError(f"t must be a finite number, got {t!r}")
-        return interpolate_configurations(self._model, a, b, np.array([float(t)]))[0]
+        return interpolate_configurations(
+            self._model, a, b, np.array([float(t)]), self._continuous
+        )[0]
 
     def distance(self, q0: Any, q1: Any) -> float:
         """Length of the tangent vector from ``q0`` to ``q1``: ``||q1 (-) q0||`` [rad and m].
@@ -1418,10 +1496,19 @@ class Robot:
         return float(np.linalg.norm(self.difference(q0, q1)))
 
     def integrate(self, q: Any, v: Any, dt: float = 1.0) -> FloatArray:
-        """Configuration reached from ``q`` moving with velocity ``v`` for ``dt`` [s]."""
+        """Configuration reached from ``q`` moving with velocity ``v`` for ``dt`` [s].
+
+        Raises:
+            InvalidInputError: ``dt`` is not a finite number.
+            NotFiniteError: ``v * dt`` overflows (the configuration would hold inf or NaN).
+        """
         qa = self.check_configuration(q)
         va = self.check_velocity(v)
-        return np.asarray(pin.integrate(self._model, qa, va * dt))
+        step = dt if dt.__class__ is float and math.isfinite(dt) else as_scalar(dt, "dt")
+        with np.errstate(over="ignore"):  # an overflow is the error below, not a warning
+            out = np.asarray(pin.integrate(self._model, qa, va * step))
+        check_finite(out, "the integrated configuration (v * dt overflows)")
+        return out
 
     def difference(self, q0: Any, q1: Any) -> FloatArray:
         """Tangent vector ``v`` such that ``integrate(q0, v) = q1``.
@@ -1435,7 +1522,7 @@ class Robot:
         b = self.check_configuration(q1, "q1")
         if not self._normalized_blocks:  # vector joints only: q1 - q0, Pinocchio's arithmetic
             return np.asarray(pin.difference(self._model, a, b))
-        return configuration_difference(self._model, a, b)
+        return configuration_difference(self._model, a, b, self._continuous)
 
     def state(self, q: Any = None, v: Any = None) -> State:
         """A :class:`~taskspace.model.state.State` at ``q`` (default posture if omitted)."""

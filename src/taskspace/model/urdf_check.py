@@ -128,6 +128,20 @@ def urdf_problem(path: str | Path) -> str | None:
     return _physical(path, root)
 
 
+def urdf_mimic_joints(path: str | Path) -> dict[str, str]:
+    """Joints of a URDF that mimic another: name -> ``"= m * other + c"`` (its ``<mimic>``)."""
+    root, _ = _read(Path(path))
+    found: dict[str, str] = {}
+    for element in root.children if root is not None else []:
+        mimic = element.find("mimic") if element.tag == "joint" else None
+        if mimic is not None:
+            multiplier = mimic.attrs.get("multiplier", "1")
+            offset = mimic.attrs.get("offset", "0")
+            other = mimic.attrs.get("joint", "?")
+            found[element.attrs.get("name", "?")] = f"= {multiplier} * {other} + {offset}"
+    return found
+
+
 def urdf_physical_problem(path: str | Path) -> str | None:
     """The first value Pinocchio accepts but that is not physical, as ``file:line: ...``."""
     path = Path(path)
@@ -173,7 +187,8 @@ def srdf_problem(path: str | Path) -> str | None:
     """The first problem of an SRDF file as ``file:line: problem``, or None.
 
     Problems: malformed XML, a root element other than ``<robot>``, a ``group_state`` joint
-    value that is not a number (Pinocchio skips that posture with a line on stdout). Links
+    value that is not a number (Pinocchio skips that posture with a line on stdout) or not
+    finite (Pinocchio reads ``nan`` as 0). Links
     and joints the model does not have are not problems: example-robot-data shares one SRDF
     between variants of a robot (talos, talos_arm...), and Pinocchio ignores them.
     """
@@ -188,9 +203,16 @@ def srdf_problem(path: str | Path) -> str | None:
             continue
         for joint in element.children:
             value = joint.attrs.get("value", "")
-            if joint.tag == "joint" and _numbers(value) in (None, []):
+            numbers = _numbers(value) if joint.tag == "joint" else [0.0]
+            if numbers in (None, []):
                 return (
                     f"{path}:{joint.line}: group_state '{element.attrs.get('name')}': joint "
                     f"'{joint.attrs.get('name')}' value {value!r} is not a number"
+                )
+            if numbers is not None and not all(math.isfinite(v) for v in numbers):
+                # Pinocchio read 'nan' as 0 (the posture silently at zero there)
+                return (
+                    f"{path}:{joint.line}: group_state '{element.attrs.get('name')}': joint "
+                    f"'{joint.attrs.get('name')}' value {value!r} is not finite"
                 )
     return None

@@ -745,7 +745,9 @@ class Viewer:
             if qs.shape[0] > 1:
                 # q_i (+) alpha (q_i+1 (-) q_i), the robot's interpolation (pin.interpolate
                 # stays at q_i on a continuous joint between opposite angles)
-                q = interpolate_configurations(robot._model, qs[i], qs[i + 1], np.array([alpha]))[0]
+                q = interpolate_configurations(
+                    robot._model, qs[i], qs[i + 1], np.array([alpha]), robot._continuous
+                )[0]
             else:
                 q = qs[0]
             with animation.at_frame(self.vis, frame) as anim_frame:
