@@ -250,7 +250,7 @@ def test_interpolation_steps_must_be_positive(panda: Robot) -> None:
     task = Task(Position(panda, TCP))
     with pytest.raises(InvalidInputError) as info:
         task_space_interpolation(panda, task, [0.3, 0.0, 0.5], panda.q_default, 0)
-    assert str(info.value) == "steps must be >= 1, got 0"
+    assert str(info.value) == "steps must be an integer >= 1, got 0"
     with pytest.raises(InvalidInputError) as info:
         joint_space_interpolation(panda, [task], panda.q_default, -2)
-    assert str(info.value) == "steps must be >= 1, got -2"
+    assert str(info.value) == "steps must be an integer >= 1, got -2"

@@ -18,10 +18,10 @@ from taskspace._validation import as_vector
 from taskspace.constraints.constraint import Constraint
 from taskspace.errors import InvalidInputError
 from taskspace.features.compiled import CompiledConstraint, compiled_term
+from taskspace.features.feature import Feature, require_vector_feature
 from taskspace.features.rows import INF, InequalityRows
 
 if TYPE_CHECKING:
-    from taskspace.features.feature import Feature
     from taskspace.model.state import State
 
 
@@ -43,6 +43,18 @@ class FeatureBounds(Constraint):
         gain: float = 1.0,
         name: str | None = None,
     ) -> None:
+        if not isinstance(feature, Feature):
+            raise InvalidInputError(
+                f"FeatureBounds needs a taskspace Feature, got {type(feature).__name__}"
+            )
+        require_vector_feature(
+            feature,
+            "FeatureBounds",
+            "bound a vector feature instead (Position, Vector, RelativePosition, "
+            "CenterOfMass...); for joint ranges use robot.set_limits and JointPositionLimits "
+            "(JointConfiguration's value is the whole q: bounded only with every joint and nq == "
+            "nv)",
+        )
         super().__init__(feature.robot, name or f"bounds on {feature.name}")
         self.feature = feature
         self.upper = upper  # each checked by __setattr__ (also when changed later)

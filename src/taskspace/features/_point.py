@@ -8,6 +8,7 @@ Drift at zero joint acceleration: ``a_p = a_o + alpha x r + omega x (omega x r)`
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -20,12 +21,20 @@ from taskspace.model.state import State
 def nonzero_vector(x: Any, name: str) -> FloatArray:
     """A finite 3-vector of norm > 1e-12 (a zero direction makes the feature constant)."""
     v = as_vector(x, 3, name)
-    if not float(v @ v) > 1e-24:
+    if not math.hypot(*v) > 1e-12:  # (v @ v overflowed with a RuntimeWarning for 1e300)
         raise InvalidInputError(
             f"{name} must be a non-zero direction, got {v.tolist()} (a zero vector makes the "
             "feature identically zero)"
         )
     return v
+
+
+def unit_vector(x: Any, name: str) -> FloatArray:
+    """:func:`nonzero_vector` scaled to unit length (directions of alignment features)."""
+    v = nonzero_vector(x, name)
+    scale = float(np.abs(v).max())  # |v / scale| in [1, sqrt 3]: no overflow for |v| ~ 1e300
+    v = v / scale
+    return v / float(np.sqrt(v @ v))
 
 
 def cross_columns(J_ang: FloatArray, r: FloatArray) -> FloatArray:

@@ -26,13 +26,15 @@ if TYPE_CHECKING:
 class Alignment(Feature):
     """``phi(q) = v*^T R_i(q) v``: 1 aligned, -1 anti-aligned, 0 orthogonal.
 
-    Jacobian ``v*^T J_vec(i, v)``.
+    Jacobian ``v*^T J_vec(i, v)``. Both vectors are normalized to unit length (the value is
+    the cosine of the angle between them, as the notes read it; with ``[0, 0, 2]`` and a
+    target of 1 it was the cosine times 2, reached at 60 degrees).
 
     Args:
         robot: the robot.
         frame: link i.
-        vector: attached vector ``v`` in i's coordinates.
-        reference: world reference vector ``v*``.
+        vector: attached vector ``v`` in i's coordinates (non-zero; normalized).
+        reference: world reference vector ``v*`` (non-zero; normalized).
     """
 
     dim = 1
@@ -40,8 +42,8 @@ class Alignment(Feature):
     def __init__(self, robot: Robot, frame: str, vector: Any, reference: Any) -> None:
         super().__init__(robot, f"alignment({frame})")
         self.frame_id = robot.frame_id(frame)
-        self.vector = _point.nonzero_vector(vector, "vector")
-        self.reference = _point.nonzero_vector(reference, "reference")
+        self.vector = _point.unit_vector(vector, "vector")
+        self.reference = _point.unit_vector(reference, "reference")
 
     def value(self, state: State) -> FloatArray:
         """Scalar product, shape (1,)."""

@@ -94,3 +94,32 @@ class Feature(abc.ABC):
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}('{self.name}', dim={self.dim})"
+
+
+def require_vector_feature(feature: Feature, owner: str, hint: str) -> None:
+    """Raise unless ``feature``'s value is a vector of size ``feature.dim``.
+
+    Bounds and goal regions compare the value with ``lower``/``upper`` entry by entry, which
+    has no meaning for a pose, an orientation, or a configuration with continuous or
+    free-flyer joints (``nq != nv``). The value is read at the robot's default posture.
+
+    Args:
+        feature: the feature to check.
+        owner: what needs the vector (named in the message), e.g. ``"FeatureBounds"``.
+        hint: what to use instead (ends the message).
+
+    Raises:
+        InvalidInputError: the value is not a float vector of shape ``(feature.dim,)``.
+    """
+    robot = feature.robot
+    value = feature.value(robot.state(robot.q_default))
+    if isinstance(value, np.ndarray) and value.shape == (feature.dim,):
+        return
+    shape = getattr(value, "shape", None)
+    what = f"shape {shape}" if isinstance(value, np.ndarray) else f"type {type(value).__name__}"
+    raise InvalidInputError(
+        f"{owner} needs a feature whose value is a vector of size dim; the value is not a "
+        f"vector of {feature!r}: {what}, not ({feature.dim},) (dim {feature.dim}; a pose, "
+        f"an orientation or the configuration of continuous or free-flyer joints is not "
+        f"compared entry by entry); {hint}"
+    )

@@ -24,16 +24,17 @@ if TYPE_CHECKING:
 
 
 class RelativeAlignment(Feature):
-    """``phi(q) = phi_vec(j, w)^T phi_vec(i, v)``.
+    """``phi(q) = phi_vec(j, w)^T phi_vec(i, v)``: 1 aligned, -1 anti-aligned, 0 orthogonal.
 
-    Jacobian ``phi_vec(j, w)^T J_vec(i, v) + phi_vec(i, v)^T J_vec(j, w)``.
+    Jacobian ``phi_vec(j, w)^T J_vec(i, v) + phi_vec(i, v)^T J_vec(j, w)``. Both vectors are
+    normalized to unit length (the value is the cosine of the angle between them).
 
     Args:
         robot: the robot.
         frame: link i.
-        vector: vector ``v`` on i (i's coordinates).
+        vector: vector ``v`` on i (i's coordinates; non-zero, normalized).
         reference_frame: link j.
-        reference_vector: vector ``w`` on j (j's coordinates).
+        reference_vector: vector ``w`` on j (j's coordinates; non-zero, normalized).
     """
 
     dim = 1
@@ -44,8 +45,8 @@ class RelativeAlignment(Feature):
         super().__init__(robot, f"relative_alignment({frame}|{reference_frame})")
         self.frame_id = robot.frame_id(frame)
         self.reference_id = robot.frame_id(reference_frame)
-        self.vector = _point.nonzero_vector(vector, "vector")
-        self.reference_vector = _point.nonzero_vector(reference_vector, "reference_vector")
+        self.vector = _point.unit_vector(vector, "vector")
+        self.reference_vector = _point.unit_vector(reference_vector, "reference_vector")
 
     def value(self, state: State) -> FloatArray:
         """Scalar product, shape (1,)."""

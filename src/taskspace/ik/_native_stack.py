@@ -34,7 +34,7 @@ import numpy as np
 
 from taskspace._native import ik_kernel
 from taskspace.constraints.constraint import Constraint
-from taskspace.errors import InvalidInputError
+from taskspace.errors import InvalidInputError, SolverError
 from taskspace.features.compiled import (
     IK_KINDS,
     CompiledConstraint,
@@ -150,8 +150,8 @@ DECLINED = {
     "its primal infeasibility test, which feasible problems with large multipliers can pass)",
     4: "the equality rows are linearly dependent (redundant or conflicting equality tasks)",
     5: "the compiled general step's KKT residuals exceed the solver's tolerances",
-    6: "the QP's Hessian M^T M + mu I is not positive definite (damping 0 and a "
-    "rank-deficient stack)",
+    6: "the QP's Hessian M^T M + mu I is not positive definite in floating point (damping 0 "
+    "and a rank-deficient stack, or weights so far apart that mu I is lost in M^T M)",
     -1: "a task has Levenberg-Marquardt damping (the kernel's damping is fixed)",
 }
 """Why the compiled weighted step declined (a kernel status, or -1), recorded on the Python
@@ -452,6 +452,11 @@ class NativeWeightedStack:
                     state._adopt(q_next, v_next if has_velocity else None)
             else:
                 status, iterations, objective, t_build, t_qp, _ = self._kernel_solve(*args)
+        except SolverError:
+            # the kernel's Cholesky of H failed (the state has not moved): the Python path's
+            # QP solver takes the same problem (a singular H is fine for it when the QP is)
+            self.declined = DECLINED[6]
+            return None
         except (TypeError, ValueError, RuntimeError):
             self.require_targets()
             raise

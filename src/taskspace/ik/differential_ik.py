@@ -31,7 +31,7 @@ import pinocchio as pin
 
 from taskspace._validation import FloatArray, check_positive
 from taskspace.constraints.constraint import Constraint
-from taskspace.errors import InvalidInputError
+from taskspace.errors import InvalidInputError, SolverError
 from taskspace.ik._native_stack import (
     GENERAL_ENGINES,
     MAX_ACTIVE_SET_ITERATIONS,
@@ -459,6 +459,8 @@ class DifferentialIK:
         if fast is not None:  # the armed step in one C call (see NativeWeightedStack.arm_advance)
             try:
                 result = fast(state, dt)
+            except SolverError:  # H not positive definite (not moved): the path below
+                result = False
             except (TypeError, ValueError, RuntimeError):
                 self._native.require_targets()  # type: ignore[union-attr]
                 raise
@@ -492,6 +494,9 @@ class DifferentialIK:
                             state._q,
                             dt if state._has_velocity else 0.0,
                         )
+                    except SolverError:  # H not positive definite (not moved)
+                        self._lean_dt = _NAN
+                        return self._advance(state, dt)
                     except (TypeError, ValueError, RuntimeError):
                         self._native.require_targets()  # type: ignore[union-attr]
                         raise
@@ -547,6 +552,9 @@ class DifferentialIK:
                         None,
                         None,
                     )
+                except SolverError:  # H not positive definite (not moved)
+                    self._lean_dt = _NAN
+                    return self._advance(state, dt)
                 except (TypeError, ValueError, RuntimeError):
                     native.require_targets()  # a task without a target: raises, naming it
                     raise

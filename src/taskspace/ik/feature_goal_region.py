@@ -22,7 +22,7 @@ import numpy.typing as npt
 
 from taskspace._validation import as_vector, check_count
 from taskspace.errors import InvalidInputError
-from taskspace.features.feature import Feature
+from taskspace.features.feature import Feature, require_vector_feature
 from taskspace.ik.solve_ik import SolveIKOptions, solve_ik
 from taskspace.tasks import Task
 
@@ -64,12 +64,12 @@ class FeatureGoalRegion:
                 f"feature must be a taskspace Feature, got {type(feature).__name__}"
             )
         robot = feature.robot
-        value = feature.value(robot.state(robot.q_default))
-        if not (isinstance(value, np.ndarray) and value.shape == (feature.dim,)):
-            raise InvalidInputError(
-                f"FeatureGoalRegion needs a vector feature; {feature!r} has values of type "
-                f"{type(value).__name__} (for a frame pose use taskspace.ik.PoseGoalRegion)"
-            )
+        require_vector_feature(
+            feature,
+            "FeatureGoalRegion",
+            "for a frame pose use taskspace.ik.PoseGoalRegion, for a configuration a goal "
+            "configuration",
+        )
         dim = feature.dim
         lo = np.full(dim, float(lower)) if np.ndim(lower) == 0 else np.asarray(lower, float)
         hi = np.full(dim, float(upper)) if np.ndim(upper) == 0 else np.asarray(upper, float)

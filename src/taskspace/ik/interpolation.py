@@ -14,10 +14,10 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from taskspace._validation import FloatArray
+from taskspace._validation import FloatArray, check_count
 from taskspace.constraints.constraint import Constraint
-from taskspace.errors import InvalidInputError
-from taskspace.features.frame_pose import FramePose
+from taskspace.features.joint_configuration import JointConfiguration
+from taskspace.features.orientation import Orientation
 from taskspace.ik.differential_ik import DifferentialIK
 from taskspace.ik.solve_ik import SolveIKOptions, solve_ik
 from taskspace.model.robot import Robot
@@ -43,8 +43,21 @@ class InterpolationResult:
 
 
 def _interpolate_target(task: Task, y0: object, yT: object, s: float) -> object:
-    if isinstance(task.feature, FramePose):
-        return pin.SE3.Interpolate(y0, yT, s)  # geodesic on SE(3)
+    """The target a fraction ``s`` of the way from ``y0`` to ``yT`` on the feature's values.
+
+    Geodesic on SE(3) for poses (frame and relative), on SO(3) for orientations, on the
+    configuration manifold (:meth:`Robot.interpolate`) for joint configurations, straight
+    for vectors: a straight line between two rotations, or between the (cos, sin) of a
+    continuous joint, is not a valid target (it was refused in the middle of the motion).
+    """
+    feature = task.feature
+    if isinstance(y0, pin.SE3):
+        return pin.SE3.Interpolate(y0, yT, s)
+    if isinstance(feature, Orientation):
+        R0 = np.asarray(y0)
+        return R0 @ pin.exp3(s * pin.log3(R0.T @ np.asarray(yT)))
+    if isinstance(feature, JointConfiguration):
+        return feature.robot.interpolate(y0, yT, s)
     return np.asarray(y0) + s * (np.asarray(yT) - np.asarray(y0))
 
 
@@ -74,8 +87,7 @@ def task_space_interpolation(
         extra_tasks: other tasks kept during the motion.
         constraints: constraints of each step.
     """
-    if steps < 1:
-        raise InvalidInputError(f"steps must be >= 1, got {steps}")
+    steps = check_count(steps, "steps", minimum=1)
     profile = profile or SineProfile()
     q = robot.check_configuration(q0, "q0")
     state = robot.state(q)
@@ -117,8 +129,7 @@ def joint_space_interpolation(
     (The metric ``W/T`` of the slide weighs the regularization; :func:`solve_ik` uses an
     adaptive Levenberg-Marquardt damping that vanishes at convergence.)
     """
-    if steps < 1:
-        raise InvalidInputError(f"steps must be >= 1, got {steps}")
+    steps = check_count(steps, "steps", minimum=1)
     profile = profile or SineProfile()
     q_start = robot.check_configuration(q0, "q0")
     result = solve_ik(robot, tasks, q_start, options=options)

@@ -12,6 +12,7 @@ meanwhile); :class:`SolveIKOptions` and :class:`SolveIKStatus` are immutable; a
 
 from __future__ import annotations
 
+import copy
 import enum
 import time
 from collections.abc import Sequence
@@ -50,7 +51,9 @@ class SolveIKOptions:
         position_tolerance: convergence threshold on position errors [m] (and on the norm of
             non-pose task errors).
         rotation_tolerance: convergence threshold on rotation errors [rad].
-        initial_damping: initial Levenberg-Marquardt damping ``mu``.
+        initial_damping: initial Levenberg-Marquardt damping ``mu`` (at least 1e-12, the
+            floor the damping keeps after every step, so a redundant robot's first step is
+            defined with 0 too) [1/rad^2].
         max_step: largest joint step per iteration [rad or m] (trust region).
         restarts: random restarts after a failed first attempt.
         backend: QP backend.
@@ -71,7 +74,8 @@ class SolveIKResult:
     """Result of :func:`solve_ik`.
 
     Attributes:
-        success: every task converged within tolerance.
+        success: every task converged within tolerance (in its directions of nonzero
+            weight).
         status: see :class:`SolveIKStatus`.
         q: final configuration (the best one found).
         iterations: total Gauss-Newton iterations (all attempts).
@@ -104,6 +108,8 @@ class _StepBox(Constraint):
 
 def _converged(tasks: Sequence[Task], errors: list[FloatArray], opts: SolveIKOptions) -> bool:
     for task, e in zip(tasks, errors):
+        # directions of weight 0 are not part of the objective: they need not converge
+        e = np.where(np.broadcast_to(np.asarray(task.sqrt_weight) > 0.0, e.shape), e, 0.0)
         if isinstance(task.feature, FramePose):
             if np.linalg.norm(e[:3]) > opts.position_tolerance:
                 return False
@@ -127,7 +133,10 @@ def solve_ik(
 
     Args:
         robot: the robot.
-        tasks: tasks with targets (gains are ignored: full Gauss-Newton steps).
+        tasks: tasks with targets (gains are ignored: full Gauss-Newton steps; the tasks
+            are not changed). Directions of weight 0 are not part of the objective and need
+            not reach the tolerances (``weight=[1, 1, 1, 0, 0, 0]`` on a frame pose asks for
+            its position only); ``errors`` still reports the whole residual.
         q0: initial configuration (default: the robot's default posture); with the default
             constraints, joints outside their position limits are first clipped into them.
         constraints: constraints (default: joint position limits).
@@ -165,35 +174,38 @@ def solve_ik(
         [JointPositionLimits(robot)] if constraints is None else list(constraints)
     )
     cons.append(_StepBox(robot, opts.max_step))
-    gains = [t.gain for t in tasks]
-    for t in tasks:
-        t.gain = 1.0
-    try:
-        total_iterations = 0
-        attempts = 0
-        best: SolveIKResult | None = None
-        for attempt in range(1 + opts.restarts):
-            if attempt > 0:
-                if rng is None:  # pragma: no cover - checked above
-                    raise InvalidInputError("restarts need an rng")
-                q_start = robot.random_configuration(rng)
-            result = _gauss_newton(robot, tasks, q_start, cons, opts)
-            total_iterations += result.iterations
-            attempts = attempt + 1
-            if best is None or sum(result.errors.values()) < sum(best.errors.values()):
-                best = result
-            if result.success:
-                best = result
-                break
-        if best is None:  # pragma: no cover - the loop runs at least once
-            raise RuntimeError("solve_ik ran no attempt")
-        best.iterations = total_iterations
-        best.attempts = attempts
-        best.solve_time = time.perf_counter() - t0
-        return best
-    finally:
-        for t, g in zip(tasks, gains):
-            t.gain = g
+    # full Gauss-Newton steps: the solver steps with copies of the tasks of gain 1 (the
+    # caller's tasks are only read: another thread may step with them meanwhile)
+    tasks = [_full_step_task(t) for t in tasks]
+    total_iterations = 0
+    attempts = 0
+    best: SolveIKResult | None = None
+    for attempt in range(1 + opts.restarts):
+        if attempt > 0:
+            if rng is None:  # pragma: no cover - checked above
+                raise InvalidInputError("restarts need an rng")
+            q_start = robot.random_configuration(rng)
+        result = _gauss_newton(robot, tasks, q_start, cons, opts)
+        total_iterations += result.iterations
+        attempts = attempt + 1
+        if best is None or sum(result.errors.values()) < sum(best.errors.values()):
+            best = result
+        if result.success:
+            best = result
+            break
+    if best is None:  # pragma: no cover - the loop runs at least once
+        raise RuntimeError("solve_ik ran no attempt")
+    best.iterations = total_iterations
+    best.attempts = attempts
+    best.solve_time = time.perf_counter() - t0
+    return best
+
+
+def _full_step_task(task: Task) -> Task:
+    """A shallow copy of ``task`` (same feature, target and weight) with gain 1."""
+    full = copy.copy(task)
+    full.gain = 1.0
+    return full
 
 
 def _gauss_newton(
@@ -203,7 +215,7 @@ def _gauss_newton(
     constraints: list[Constraint],
     opts: SolveIKOptions,
 ) -> SolveIKResult:
-    mu = opts.initial_damping
+    mu = max(opts.initial_damping, 1e-12)  # as after every step: H stays positive definite
     state = robot.state(q)
     trial = robot.state(q)
 
