@@ -15,36 +15,11 @@ import pytest
 
 from taskspace.control import linearize
 from taskspace.model import Robot
+from tests._lie_robots import two_body_robot
 
 
 def _robot(root: pin.JointModel, name: str) -> Robot:
-    model = pin.Model()
-    inf = np.full(root.nq, np.inf)
-    j1 = model.addJoint(
-        0,
-        root,
-        pin.SE3.Identity(),
-        "root",
-        np.full(root.nv, 10.0),
-        np.full(root.nv, 5.0),
-        -inf,
-        inf,
-    )
-    body = pin.Inertia.FromBox(1.0, 0.1, 0.2, 0.3)
-    model.appendBodyToJoint(j1, body, pin.SE3(np.eye(3), np.array([0.05, 0.02, -0.1])))
-    j2 = model.addJoint(
-        j1,
-        pin.JointModelRY(),
-        pin.SE3(np.eye(3), np.array([0.3, 0.1, 0.0])),
-        "elbow",
-        np.ones(1),
-        np.full(1, 5.0),
-        -np.full(1, 10.0),
-        np.full(1, 10.0),
-    )
-    model.appendBodyToJoint(j2, body, pin.SE3.Identity())
-    empty = pin.GeometryModel()
-    return Robot(model, empty, empty.copy(), name=name)
+    return two_body_robot(root, name)
 
 
 def _finite_differences(robot: Robot, q, v, tau):  # type: ignore[no-untyped-def]

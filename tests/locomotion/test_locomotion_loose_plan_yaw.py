@@ -24,6 +24,7 @@ from taskspace.locomotion.footsteps import FootstepPlan
 from taskspace.model import Robot
 from tests.locomotion._walking import G1_FEET as FEET
 from tests.locomotion._walking import SHORT_TIMING as TIMING
+from tests.locomotion._walking import turned
 
 
 def _with_initial_yaw(plan: FootstepPlan, yaw: float) -> FootstepPlan:
@@ -34,18 +35,7 @@ def _with_initial_yaw(plan: FootstepPlan, yaw: float) -> FootstepPlan:
 
 
 def _turned(g1: Robot, yaw: float) -> Robot:
-    q = g1.q_default.copy()
-    base = pin.XYZQUATToSE3(q[:7])
-    base.rotation = pin.rpy.rpyToMatrix(0.0, 0.0, yaw) @ base.rotation
-    q[:7] = pin.SE3ToXYZQUAT(base)
-    return Robot(
-        g1.model,
-        g1.collision_model,
-        g1.visual_model,
-        name="g1_turned",
-        end_effectors=g1.end_effectors,
-        default_configuration=q,
-    )
+    return turned(g1, yaw)
 
 
 def _heading(robot: Robot) -> float:

@@ -11,13 +11,13 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import pinocchio as pin
 import pytest
 
 from taskspace.locomotion import plan_from_robot, walk, walking_reference
 from taskspace.model import Robot
 from tests.locomotion._walking import G1_FEET as FEET
 from tests.locomotion._walking import SHORT_TIMING as TIMING
+from tests.locomotion._walking import turned
 
 
 def _yaw(R: np.ndarray) -> float:
@@ -25,19 +25,7 @@ def _yaw(R: np.ndarray) -> float:
 
 
 def _turned(g1: Robot, yaw: float) -> Robot:
-    """G1 whose default posture faces ``yaw`` (its base turned about the vertical)."""
-    q = g1.q_default.copy()
-    base = pin.XYZQUATToSE3(q[:7])
-    base.rotation = pin.rpy.rpyToMatrix(0.0, 0.0, yaw) @ base.rotation
-    q[:7] = pin.SE3ToXYZQUAT(base)
-    return Robot(
-        g1.model,
-        g1.collision_model,
-        g1.visual_model,
-        name="g1_turned",
-        end_effectors=g1.end_effectors,
-        default_configuration=q,
-    )
+    return turned(g1, yaw)
 
 
 @pytest.mark.parametrize(("yaw0", "turn"), [(0.4, 0.0), (0.4, 0.15), (-1.2, -0.1), (0.0, 0.1)])
