@@ -42,10 +42,20 @@ class CollisionDistance(Feature):
     Args:
         robot: the robot.
         pairs: (geometry name, geometry name) pairs to include (default: every checked pair).
+
+    Raises:
+        InvalidInputError: a robot without collision geometry, or malformed ``pairs``.
+        UnknownNameError: a pair that is not a collision pair of the robot.
     """
 
     def __init__(self, robot: Robot, pairs: Sequence[tuple[str, str]] | None = None) -> None:
         super().__init__(robot, "collision_distance")
+        if robot.robot_geometry_count == 0:
+            raise InvalidInputError(
+                f"robot {robot.name!r} has no collision geometry (loaded with geometry=False, "
+                "or its URDF has no collision elements): collision distances would have no "
+                "pair to measure, and a collision-avoidance constraint would add no row"
+            )
         all_pairs = robot.collision_pairs
         if pairs is None:
             self.pair_indices = np.arange(len(all_pairs))

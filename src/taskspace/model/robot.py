@@ -444,6 +444,10 @@ class Robot:
         """
         if not isinstance(geometry, bool):
             raise InvalidInputError(f"geometry must be True or False, got {geometry!r}")
+        if not isinstance(path, (str, os.PathLike)):
+            raise InvalidInputError(
+                f"path must be a URDF file path (str or Path), got {type(path).__name__}"
+            )
         path = Path(path)
         if not path.is_file():
             raise ModelLoadError(f"URDF file not found: {path}")
