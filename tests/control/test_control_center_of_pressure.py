@@ -13,7 +13,7 @@ from taskspace.control.inverse_dynamics_qp import (
     InverseDynamicsOptions,
     InverseDynamicsQP,
 )
-from taskspace.errors import TaskspaceError
+from taskspace.errors import InvalidInputError, TaskspaceError
 from taskspace.tasks import Task
 from tests.conftest import load_robot
 
@@ -126,3 +126,15 @@ def test_center_of_pressure_task_in_a_strict_hierarchy(priority: int) -> None:
     if priority == 1:
         assert res.residuals[0] == pytest.approx(base.residuals[0], abs=1e-9)
         assert len(res.level_results) == len(base.level_results) + 1
+
+
+def test_target_outside_the_sole_is_refused() -> None:
+    # a center of pressure lies on the sole (audit6: a 1 m target on a 0.1 m sole was taken)
+    robot = load_robot("talos")
+    contact = Contact6D(robot, "left_sole_link", half_length=0.1, half_width=0.05)
+    task = CenterOfPressureTask(contact, (0.1, -0.05))  # a corner: on the sole
+    with pytest.raises(InvalidInputError, match="outside the sole"):
+        CenterOfPressureTask(contact, (1.0, 0.0))
+    with pytest.raises(InvalidInputError, match="outside the sole"):
+        task.target = (0.0, 0.051)
+    assert task.target.tolist() == [0.1, -0.05]

@@ -193,7 +193,8 @@ class CenterOfPressureTask:
             driven.
         name: label.
 
-    ``target`` (``p*`` in the contact frame, x and y [m]), ``weight`` (precision, finite
+    ``target`` (``p*`` in the contact frame, x and y [m], on the sole:
+    ``|x| <= half_length``, ``|y| <= half_width``), ``weight`` (precision, finite
     and ``>= 0``) and ``priority`` (level in a strict hierarchy, an integer ``>= 0``, 0 the
     highest; ignored in weighted mode) are properties validated on assignment.
     """
@@ -237,7 +238,16 @@ class CenterOfPressureTask:
 
     @target.setter
     def target(self, value: object) -> None:
-        self._target = as_vector(value, 2, f"target of '{self.name}'")
+        target = as_vector(value, 2, f"target of '{self.name}'")
+        hx, hy = self.contact.half_length, self.contact.half_width
+        if abs(target[0]) > hx or abs(target[1]) > hy:
+            # a center of pressure is a point of the sole: no contact wrench has another
+            raise InvalidInputError(
+                f"target of '{self.name}' ({target[0]:g}, {target[1]:g}) m is outside the sole "
+                f"of contact '{self.contact.frame}' (|x| <= {hx:g}, |y| <= {hy:g} m): a center "
+                "of pressure lies on the sole"
+            )
+        self._target = target
 
     @property
     def weight(self) -> float:
