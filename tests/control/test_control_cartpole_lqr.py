@@ -67,6 +67,13 @@ def test_error_paths(robot_loader, talos) -> None:  # type: ignore[no-untyped-de
         warnings.simplefilter("error")
         with pytest.raises(TaskspaceWarning, match="not at an equilibrium"):
             linearize(robot, np.array([0.0, 0.3]), actuated=["slider"])
+        # moving in every coordinate and accelerating: no equilibrium either (before, a v_eq
+        # without a zero entry silenced the warning)
+        with pytest.raises(TaskspaceWarning, match="not at an equilibrium"):
+            linearize(robot, np.array([0.0, 0.3]), v_eq=np.array([0.1, 0.2]), actuated=["slider"])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # upright at rest: an equilibrium, no warning
+        linearize(robot, np.zeros(2), actuated=["slider"])
     sys = linearize(robot, np.zeros(2), actuated=["slider"])
     from taskspace.errors import ShapeError
 

@@ -172,7 +172,9 @@ def linearize(
     ddq_dq, ddq_dv, minv = pin.computeABADerivatives(model, data, q, v, tau)
     minv = np.triu(minv) + np.triu(minv, 1).T
     a_eq = np.asarray(data.ddq).copy()
-    if float(np.max(np.abs(a_eq))) > EQUILIBRIUM_TOLERANCE and np.any(v == 0):
+    # (a point is an equilibrium when a = 0; before, any v_eq without a zero entry silenced
+    # the warning, whatever the acceleration)
+    if float(np.max(np.abs(a_eq))) > EQUILIBRIUM_TOLERANCE:
         warnings.warn(
             f"linearize: ({robot.name}) is not at an equilibrium, |a(q_eq, v_eq, tau_eq)| = "
             f"{float(np.max(np.abs(a_eq))):.3g} rad/s^2; the linear model is the first-order "
