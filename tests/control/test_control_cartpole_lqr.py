@@ -79,3 +79,14 @@ def test_error_paths(robot_loader, talos) -> None:  # type: ignore[no-untyped-de
 
     with pytest.raises(ShapeError, match=r"K must have shape \(1, 4\)"):
         StateFeedbackController(robot, sys, np.zeros((2, 4)))
+
+
+def test_state_feedback_refuses_another_robots_linearization(robot_loader) -> None:  # type: ignore[no-untyped-def]
+    # audit6: StateFeedbackController(ur10, linearize(ur5, ...), K) was accepted (same nq)
+    ur5, ur10 = robot_loader("ur5"), robot_loader("ur10")
+    sys5 = linearize(ur5, ur5.q_default)
+    assert sys5.robot_name == "ur5"
+    K = np.zeros((ur5.nv, 2 * ur5.nv))
+    StateFeedbackController(ur5, sys5, K)
+    with pytest.raises(InvalidInputError, match="linearized on 'ur5', not on 'ur10'"):
+        StateFeedbackController(ur10, sys5, K)

@@ -50,6 +50,7 @@ class LinearizedSystem:
         tau_eq: torques holding the equilibrium (nv) [N m].
         actuated: velocity indices of the actuated joints (m,).
         equilibrium_acceleration: ``a(q_eq, v_eq, tau_eq)`` (nv); ~0 at an equilibrium.
+        robot_name: name of the robot it was linearized on (``None``: not recorded).
     """
 
     A: FloatArray
@@ -59,6 +60,7 @@ class LinearizedSystem:
     tau_eq: FloatArray
     actuated: np.ndarray
     equilibrium_acceleration: FloatArray
+    robot_name: str | None = None
 
     @property
     def selection(self) -> FloatArray:
@@ -199,4 +201,5 @@ def linearize(
         tau_eq=tau,
         actuated=idx,
         equilibrium_acceleration=a_eq,
+        robot_name=robot.name,
     )

@@ -38,6 +38,12 @@ class StateFeedbackController:
                 f"system must be the LinearizedSystem of linearize(robot, ...), got "
                 f"{type(system).__name__}"
             )
+        if system.robot_name is not None and system.robot_name != robot.name:
+            # (a ur5's linearization drove a ur10 of the same nq silently)
+            raise InvalidInputError(
+                f"system was linearized on '{system.robot_name}', not on '{robot.name}': "
+                "linearize this robot (its gains K were designed for the other one)"
+            )
         if system.q_eq.shape != (robot.nq,):
             raise InvalidInputError(
                 f"system was linearized on a robot with nq = {system.q_eq.shape[0]}, not on "
