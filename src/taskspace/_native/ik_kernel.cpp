@@ -858,6 +858,11 @@ class WeightedIKKernel {
         if (!kkt_check()) status = kMaxIterations;
       }
     }
+    // A step at the "unbounded" box sentinel (|dx| near kInf = 1e20) is not the QP's answer:
+    // the true step is larger (an absurd target, e.g. a position of 1e150 m). The Python path
+    // takes it and refuses it with its error (it came back SOLVED with the clipped step).
+    if (status != kMaxIterations && x_.size() > 0 && x_.cwiseAbs().maxCoeff() >= 0.5 * kInf)
+      status = kMaxIterations;
     out = x_;
     const auto t3 = std::chrono::steady_clock::now();
     const auto sec = [](auto a, auto b) { return std::chrono::duration<double>(b - a).count(); };
