@@ -188,7 +188,9 @@ def solve_ik(
         result = _gauss_newton(robot, tasks, q_start, cons, opts)
         total_iterations += result.iterations
         attempts = attempt + 1
-        if best is None or sum(result.errors.values()) < sum(best.errors.values()):
+        # the best attempt in the objective's sense: least final f(q) (the unweighted sum of
+        # error norms mixed metres and radians and counted directions of weight 0)
+        if best is None or result.cost_history[-1] < best.cost_history[-1]:
             best = result
         if result.success:
             best = result
