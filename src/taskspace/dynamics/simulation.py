@@ -266,12 +266,17 @@ def check_record_size(
     budget = memory_budget(MAX_RECORD_BYTES)
     if needed > budget:
         raise InvalidInputError(
-            f"{name}(T={T:g}, dt={dt:g}) would record {n_steps + 1:,} samples "
+            f"{name}(T={T:g}, dt={dt:g}) would record {_count(n_steps + 1)} samples "
             f"({needed / 1e9:.3g} GB) but the budget is {budget / 1e9:.3g} GB (half the "
             "available memory, at most "
             f"{MAX_RECORD_BYTES / 2**30:g} GiB); shorten T, increase dt, or run several shorter "
             "simulations from the last state"
         )
+
+
+def _count(n: int) -> str:
+    """``n`` with thousands separators, or as ``1.23e+300`` beyond 15 digits."""
+    return f"{n:,}" if n < 10**15 else f"{float(n):.3g}"
 
 
 def _warn_unactuated(robot: Robot, tau: FloatArray, unactuated: Any, t: float) -> None:
