@@ -6,6 +6,7 @@ import itertools
 from typing import Any
 
 import numpy as np
+import pinocchio as pin
 
 from taskspace.planning import (
     BITStarOptions,
@@ -72,3 +73,13 @@ PLANNERS: dict[str, tuple[Any, Any]] = {
     "prm_star": (prm_star, PRMStarOptions),
     "lazy_prm_star": (lazy_prm_star, PRMStarOptions),
 }
+
+
+def pinocchio_collision_flags(robot: Any, qs: np.ndarray) -> np.ndarray:
+    """Collision flags of every row: Pinocchio's narrow phase on every pair, fresh data."""
+    model, geom = robot._model, robot._collision_model
+    flags = []
+    for q in qs:
+        gdata = geom.createData()
+        flags.append(pin.computeCollisions(model, model.createData(), geom, gdata, q, True))
+    return np.array(flags, dtype=bool)

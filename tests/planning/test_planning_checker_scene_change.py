@@ -17,22 +17,13 @@ import pytest
 from taskspace._native import planning_kernel
 from taskspace.model import Obstacle, Robot
 from taskspace.planning.collision_checker import CollisionChecker, CollisionCheckerOptions
+from tests.planning._planning_worlds import pinocchio_collision_flags
 
 OPTIONS = {
     "kernel": CollisionCheckerOptions(),
     "broadphase_pool": CollisionCheckerOptions(native=False),
     "geometry_pool": CollisionCheckerOptions(native=False, broadphase=False),
 }
-
-
-def _reference(robot: Robot, qs: np.ndarray) -> np.ndarray:
-    """Collision flags of every row: Pinocchio's narrow phase on every pair, fresh data."""
-    model, geom = robot._model, robot._collision_model
-    flags = []
-    for q in qs:
-        gdata = geom.createData()
-        flags.append(pin.computeCollisions(model, model.createData(), geom, gdata, q, True))
-    return np.array(flags, dtype=bool)
 
 
 @pytest.fixture(scope="module")
@@ -66,7 +57,7 @@ def test_answers_follow_scene_changes(name: str, robot_and_configurations: Any) 
     seen = []
     for which in (0, 1, 0):  # queries, then a scene change, then queries again
         _scene(robot, which)
-        expected = _reference(robot, qs)
+        expected = pinocchio_collision_flags(robot, qs)
         seen.append(expected)
         assert np.array_equal(~checker.are_valid(qs), expected)
         assert [checker.is_valid(q) for q in qs[:20]] == (~expected[:20]).tolist()
@@ -85,10 +76,12 @@ def test_a_scene_change_builds_no_python_side_structures_for_the_compiled_checke
     checker = CollisionChecker(robot)
     checker.are_valid(qs[:10])
     _scene(robot, 1)
-    assert np.array_equal(~checker.are_valid(qs), _reference(robot, qs))
+    assert np.array_equal(~checker.are_valid(qs), pinocchio_collision_flags(robot, qs))
     # the compiled checker answered: Pinocchio's pool and data were never built
     assert checker._pool is None and checker._geometry_pool is None
     assert checker._geom_data is None and checker._data is None
     # a Python-side query builds them, on the current scene
-    pairs = checker.colliding_pairs(qs[int(np.flatnonzero(_reference(robot, qs))[0])])
+    pairs = checker.colliding_pairs(
+        qs[int(np.flatnonzero(pinocchio_collision_flags(robot, qs))[0])]
+    )
     assert pairs and checker._pool is not None and checker._geom_data is not None

@@ -22,6 +22,7 @@ from taskspace._native import planning_kernel
 from taskspace.model import Obstacle, Robot
 from taskspace.planning.collision_checker import NATIVE_PAIR_CACHE, CollisionChecker
 from tests.planning._mbm import ROOT, SKIP_REASON
+from tests.planning._planning_worlds import pinocchio_collision_flags
 
 MODULE = planning_kernel()
 pytestmark = pytest.mark.skipif(MODULE is None, reason="compiled planning kernel not built")
@@ -32,16 +33,6 @@ KERNEL_MODES = (0, 1, 2)  # Pinocchio's tree manager, the same with fast_update,
 def at(x: float, y: float, z: float) -> pin.SE3:
     """A placement at (x, y, z) [m], no rotation."""
     return pin.SE3(np.eye(3), np.array([x, y, z]))
-
-
-def _reference(robot: Robot, qs: np.ndarray) -> np.ndarray:
-    """Collision flags of every row: Pinocchio's narrow phase on every pair, fresh data."""
-    model, geom = robot._model, robot._collision_model
-    flags = []
-    for q in qs:
-        gdata = geom.createData()
-        flags.append(pin.computeCollisions(model, model.createData(), geom, gdata, q, True))
-    return np.array(flags, dtype=bool)
 
 
 def _touching(robot: Robot, qs: np.ndarray) -> np.ndarray:
@@ -88,13 +79,13 @@ def _configurations(robot: Robot, n: int, seed: int) -> np.ndarray:
     rng = np.random.default_rng(seed)
     lo, hi = robot.model.lowerPositionLimit, robot.model.upperPositionLimit
     qs = rng.uniform(lo, hi, (n, robot.nq))
-    flags = _reference(robot, qs)
+    flags = pinocchio_collision_flags(robot, qs)
     free, hit = qs[~flags], qs[flags]
     extra = []
     for a, b in zip(free[:15], hit[:15]):
         for _ in range(40):  # bisection on the segment a (free) - b (colliding)
             m = 0.5 * (a + b)
-            if _reference(robot, m[None, :])[0]:
+            if pinocchio_collision_flags(robot, m[None, :])[0]:
                 b = m
             else:
                 a = m
@@ -107,7 +98,7 @@ def scene(request: Any) -> tuple[Robot, np.ndarray, np.ndarray, np.ndarray]:
     robot = Robot.load("panda", convex_collision=request.param)
     _scene(robot)
     qs = _configurations(robot, 150, 11)
-    return robot, qs, _reference(robot, qs), _touching(robot, qs)
+    return robot, qs, pinocchio_collision_flags(robot, qs), _touching(robot, qs)
 
 
 @pytest.mark.parametrize("mode", KERNEL_MODES)
@@ -190,7 +181,9 @@ def test_checker_builds_no_full_geometry_data(monkeypatch: pytest.MonkeyPatch) -
     assert calls == []
     monkeypatch.undo()
     qs = _configurations(robot, 60, 5)
-    _assert_exact(~checker.are_valid(qs), _reference(robot, qs), _touching(robot, qs))
+    _assert_exact(
+        ~checker.are_valid(qs), pinocchio_collision_flags(robot, qs), _touching(robot, qs)
+    )
 
 
 @pytest.mark.skipif(ROOT is None, reason=SKIP_REASON)
@@ -209,7 +202,7 @@ def test_motionbenchmaker_scenes() -> None:
         for problem in motionbenchmaker_problems(ROOT, scen, [1, 2]):
             request = problem.apply(robot)
             qs = np.vstack([request.start, request.goal, rng.uniform(lo, hi, (40, robot.nq))])
-            expected, touching = _reference(robot, qs), _touching(robot, qs)
+            expected, touching = pinocchio_collision_flags(robot, qs), _touching(robot, qs)
             for mode in KERNEL_MODES:
                 kernel = _kernel(robot)
                 kernel.mode = mode

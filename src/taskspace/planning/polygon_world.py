@@ -219,20 +219,11 @@ class PolygonWorld:
             k, m = np.argwhere(cross)[0]
             return int(min(ep[k], ep[m])), int(max(ep[k], ep[m])), "their boundaries cross"
         firsts = np.array([p.loops[0][0] for p in self.polygons])
-        px, py = firsts[:, None, 0], firsts[:, None, 1]
-        a0, b0 = e[None, :, 0, :], e[None, :, 1, :]
-        straddle = (a0[..., 1] <= py) != (b0[..., 1] <= py)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            xcross = a0[..., 0] + (py - a0[..., 1]) * (b0[..., 0] - a0[..., 0]) / (
-                b0[..., 1] - a0[..., 1]
-            )
-        hits = straddle & (xcross > px)
-        for j in range(n_poly):
-            inside = np.sum(hits[:, ep == j], axis=1) % 2 == 1
-            inside[j] = False
-            if inside.any():
-                i = int(np.flatnonzero(inside)[0])
-                return min(i, j), max(i, j), f"polygons[{i}] lies inside polygons[{j}]"
+        inside = self._inside_each(firsts)  # (polygon's vertex, polygon)
+        np.fill_diagonal(inside, False)
+        if inside.any():
+            i, j = (int(k) for k in np.argwhere(inside)[0])
+            return min(i, j), max(i, j), f"polygons[{i}] lies inside polygons[{j}]"
         return None
 
     # ------------------------------------------------------------------ queries
@@ -252,6 +243,17 @@ class PolygonWorld:
         out = np.full(p.shape[0], -1, dtype=np.int64)
         if self.edges.shape[0] == 0:
             return out
+        inside = self._inside_each(p)
+        hit = inside.any(axis=1)
+        out[hit] = np.argmax(inside[hit], axis=1)  # the first polygon containing the point
+        return out
+
+    def _inside_each(self, p: FloatArray) -> BoolArray:
+        """``(N, n_polygons)`` booleans: point ``i`` inside polygon ``j``.
+
+        Even-odd ray casting to ``+x`` over the polygon's loops, holes included; a point on an
+        edge counts by the half-open convention ``y_a <= y < y_b``.
+        """
         a = self.edges[None, :, 0, :]
         b = self.edges[None, :, 1, :]
         px = p[:, None, 0]
@@ -261,10 +263,10 @@ class PolygonWorld:
         with np.errstate(divide="ignore", invalid="ignore"):
             xcross = a[..., 0] + (py - a[..., 1]) * (b[..., 0] - a[..., 0]) / dy
         crosses = straddle & (xcross > px)
+        inside = np.zeros((p.shape[0], len(self.polygons)), dtype=bool)
         for pi in range(len(self.polygons)):
-            odd = np.sum(crosses[:, self.edge_polygon == pi], axis=1) % 2 == 1
-            out[odd & (out < 0)] = pi
-        return out
+            inside[:, pi] = np.sum(crosses[:, self.edge_polygon == pi], axis=1) % 2 == 1
+        return inside
 
     def contains(self, points: Any) -> BoolArray:
         """``True`` where a point is inside some obstacle, shape ``(N,)``."""
