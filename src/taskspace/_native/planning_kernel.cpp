@@ -2299,6 +2299,10 @@ class CollisionKernel {
 std::vector<int> bisection_order(int n) {
   std::vector<int> out;
   std::vector<std::pair<int, int>> queue{{0, n}};
+  if (n > 1) {  // (n - 1 points, at most 2 (n - 1) + 1 intervals: no reallocation)
+    out.reserve(static_cast<std::size_t>(n) - 1);
+    queue.reserve(2 * static_cast<std::size_t>(n));
+  }
   for (std::size_t h = 0; h < queue.size(); ++h) {
     const int a = queue[h].first, b = queue[h].second;
     if (b - a < 2) continue;
@@ -2500,6 +2504,8 @@ class RRTConnect {
     a_.resize(d_);
     b_.resize(d_);
     x_.resize(d_);
+    cq0_.resize(d_);
+    cdelta_.resize(d_);
   }
 
   // True once the plan must stop: the time limit has passed, or a Python signal handler raised
@@ -2693,8 +2699,10 @@ class RRTConnect {
     const int whole = std::max(1, static_cast<int>(std::ceil(dist / alpha - 1e-12)));
     const int n_full = whole - 1;
     const double last = dist - n_full * alpha;
-    VectorXd q0 = Eigen::Map<const VectorXd>(t.node(i_near), d_);
-    VectorXd delta = Eigen::Map<const VectorXd>(target, d_) - q0;
+    VectorXd& q0 = cq0_;  // (members: no allocation per call)
+    VectorXd& delta = cdelta_;
+    q0 = Eigen::Map<const VectorXd>(t.node(i_near), d_);
+    delta = Eigen::Map<const VectorXd>(target, d_) - q0;
     int par = i_near;
     for (int s = 0; s < whole; ++s) {
       const bool final_step = s == n_full;
@@ -2999,7 +3007,7 @@ class RRTConnect {
   double local_, sigma_, trapped_;
   std::mt19937_64 rng_;
   int d_;
-  VectorXd a_, b_, x_, dir_;
+  VectorXd a_, b_, x_, dir_, cq0_, cdelta_;  // (cq0_, cdelta_: connect's)
   std::vector<double> ts_;  // fractions of the points of the line being checked
   struct VerifyPoint {
     double t;          // fraction on the edge

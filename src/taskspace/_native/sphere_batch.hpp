@@ -22,6 +22,10 @@
 //     vector operation (link_obstacles); then the (link, obstacle) units of the touched
 //     obstacles only (a batch often has 1-2 active lanes: testing every unit for 4 lanes cost
 //     10-20 % more kernel time in the planner);
+//     (each link only against the obstacles it can reach at all: make_reach)
+//  1b. per object group of the unit (a link's neighbouring objects under one sphere, e.g. a
+//     hand, each finger: make_groups): the group's sphere against the box and the primitive
+//     (self pairs: against the other link's sphere); its objects only when it passes;
 //  2. per moving object of the unit: its bounding sphere against the box and against the
 //     primitive (box, ball, cylinder, capsule: exact point distance in the obstacle's frame);
 //     the centres of its clusters (kCluster neighbouring spheres with their bounding sphere)
@@ -352,7 +356,7 @@ class SphereFilter {
         for (auto& s : static_units_)
           if (s.link == la && s.obstacle == p.b) unit = &s;
         if (!unit) {
-          static_units_.push_back(StaticUnit{la, p.b, 0.0f, {}});
+          static_units_.push_back(StaticUnit{la, p.b, 0.0f, {}, {}});
           unit = &static_units_.back();
         }
         unit->items.push_back(Item{p.a, -1, static_cast<float>(p.margin) + e,
@@ -364,7 +368,7 @@ class SphereFilter {
         for (auto& s : self_units_)
           if (s.la == l0 && s.lb == l1) unit = &s;
         if (!unit) {
-          self_units_.push_back(SelfUnit{l0, l1, 0.0f, {}});
+          self_units_.push_back(SelfUnit{l0, l1, 0.0f, {}, {}, {}});
           unit = &self_units_.back();
         }
         unit->items.push_back(Item{p.a, p.b, static_cast<float>(p.margin) + e,
@@ -372,6 +376,7 @@ class SphereFilter {
         unit->margin = std::max(unit->margin, static_cast<float>(p.margin) + e);
       }
     }
+    make_groups(in, e);
     // per link and obstacle its static unit; obstacle boxes in blocks of 4 (at most 64)
     by_link_ = obs_.size() <= 64;
     unit_of_.assign(links_.size() * obs_.size(), -1);
@@ -391,9 +396,12 @@ class SphereFilter {
       const float infl = u.margin + obs_[u.obstacle].swept;
       if (infl > binfl_[b][lane]) binfl_[b][lane] = infl;
     }
+    make_reach(in);
     bound_stamp_.assign(objects_.size(), 0u);
     sph_stamp_.assign(objects_.size(), 0u);
     clu_stamp_.assign(clusters_.size(), 0u);
+    grp_stamp_.assign(groups_.size(), 0u);
+    grp_world_.assign(groups_.size(), V3{});
     clu_world_.assign(clusters_.size(), V3{});
     obj_world_.assign(objects_.size(), V3{});
     sph_world_.assign(sph_.size(), V3{});
@@ -410,6 +418,7 @@ class SphereFilter {
       std::fill(bound_stamp_.begin(), bound_stamp_.end(), 0u);
       std::fill(sph_stamp_.begin(), sph_stamp_.end(), 0u);
       std::fill(clu_stamp_.begin(), clu_stamp_.end(), 0u);
+      std::fill(grp_stamp_.begin(), grp_stamp_.end(), 0u);
       stamp_ = 1;
     }
     for (std::size_t k = 0; k < joints_.size(); ++k) {
@@ -711,15 +720,32 @@ class SphereFilter {
     int pair;      // index into Input::pairs
     bool exact;    // Input::Pair::exact: lanes it finds are not sure()
   };
+  // A run of a unit's items whose grouped object lies in object group `group` (-1: no group
+  // test), `margin` the largest margin of its items (with eps): run tests the group's sphere
+  // before the items (a lane it clears is clear for every item of the span).
+  struct Span {
+    int group, begin, end;
+    float margin;
+  };
   struct StaticUnit {
     int link, obstacle;
     float margin;  // largest item margin (with eps)
     std::vector<Item> items;
+    std::vector<Span> spans;
+  };
+  // Neighbouring objects of one link under one bounding sphere (joint frame; the radius
+  // rounded up and increased by eps_): the level between a unit's link and its items.
+  struct GroupF {
+    int link;
+    F3 center;
+    float radius;
   };
   struct SelfUnit {
     int la, lb;
     float margin;
     std::vector<Item> items;
+    std::vector<Span> spans;
+    std::vector<int> other;  // per span: the link whose bounding sphere its group is tested against
   };
 
   static F3 f3(const double* d) {
@@ -735,6 +761,167 @@ class SphereFilter {
     return c;
   }
   V3 place(const LinkF& l, const F3& p) const { return place(l, p.v); }
+
+  // Group g's centre (once per load).
+  void place_group(int g) {
+    if (grp_stamp_[g] == stamp_) return;
+    grp_stamp_[g] = stamp_;
+    grp_world_[g] = place(links_[groups_[g].link], groups_[g].center);
+  }
+
+  // Object groups of each link with several objects (a hand with its fingers on the last
+  // joint: a unit of that link otherwise tests every object's bounding sphere whenever the
+  // link's sphere is near the obstacle): agglomerative, always merging the two groups of
+  // smallest common bounding sphere, while more than kGroups remain or one group's sphere
+  // contains the other's. Then each unit's items ordered by group (stable: the order of the
+  // pairs within a group), in spans; a self item is grouped by its object on a link with
+  // groups (its first object's link first), tested against the other link's sphere.
+  static constexpr int kGroups = 4;
+  void make_groups(const Input& in, float e) {
+    groups_.clear();
+    group_of_.assign(objects_.size(), -1);
+    struct G {
+      double c[3], r;
+      std::vector<int> objs;
+    };
+    for (int li = 0; li < static_cast<int>(links_.size()); ++li) {
+      std::vector<G> gs;
+      for (int o = 0; o < static_cast<int>(objects_.size()); ++o)
+        if (objects_[o].link == li) {
+          G g;
+          for (int a = 0; a < 3; ++a) g.c[a] = in.objects[o].center[a];
+          g.r = in.objects[o].radius;
+          g.objs = {o};
+          gs.push_back(g);
+        }
+      if (gs.size() < 2) continue;
+      auto merged = [](const G& a, const G& b, double c[3]) {
+        double d2 = 0.0;
+        for (int k = 0; k < 3; ++k) d2 += (b.c[k] - a.c[k]) * (b.c[k] - a.c[k]);
+        const double d = std::sqrt(d2);
+        if (d + b.r <= a.r) {
+          for (int k = 0; k < 3; ++k) c[k] = a.c[k];
+          return a.r;
+        }
+        if (d + a.r <= b.r) {
+          for (int k = 0; k < 3; ++k) c[k] = b.c[k];
+          return b.r;
+        }
+        const double r = 0.5 * (d + a.r + b.r);
+        for (int k = 0; k < 3; ++k) c[k] = a.c[k] + (r - a.r) / d * (b.c[k] - a.c[k]);
+        return r;
+      };
+      for (;;) {
+        std::size_t bi = 0, bj = 0;
+        double best = std::numeric_limits<double>::infinity(), bc[3] = {0, 0, 0};
+        for (std::size_t i = 0; i < gs.size(); ++i)
+          for (std::size_t j = i + 1; j < gs.size(); ++j) {
+            double c[3];
+            const double r = merged(gs[i], gs[j], c);
+            if (r < best) {
+              best = r;
+              bi = i;
+              bj = j;
+              for (int k = 0; k < 3; ++k) bc[k] = c[k];
+            }
+          }
+        const bool nested = best <= std::max(gs[bi].r, gs[bj].r);
+        if (gs.size() <= 1 || (static_cast<int>(gs.size()) <= kGroups && !nested)) break;
+        for (int k = 0; k < 3; ++k) gs[bi].c[k] = bc[k];
+        // (the merged sphere a hair larger: it contains both in exact arithmetic)
+        gs[bi].r = best * (1.0 + 1e-12) + 1e-12;
+        gs[bi].objs.insert(gs[bi].objs.end(), gs[bj].objs.begin(), gs[bj].objs.end());
+        gs.erase(gs.begin() + static_cast<std::ptrdiff_t>(bj));
+      }
+      if (gs.size() < 2) continue;
+      for (const G& g : gs) {
+        GroupF f{li, {{static_cast<float>(g.c[0]), static_cast<float>(g.c[1]),
+                       static_cast<float>(g.c[2])}},
+                 0.0f};
+        // float rounding of the centre (below 1e-7 |c|) and radius within eps_
+        f.radius = static_cast<float>(g.r) + e;
+        for (int o : g.objs) group_of_[o] = static_cast<int>(groups_.size());
+        groups_.push_back(f);
+      }
+    }
+    auto spans_of = [](std::vector<Item>& items, auto&& key, std::vector<Span>& spans) {
+      std::stable_sort(items.begin(), items.end(),
+                       [&key](const Item& a, const Item& b) { return key(a) < key(b); });
+      spans.clear();
+      for (int i = 0; i < static_cast<int>(items.size()); ++i) {
+        const int g = key(items[i]);
+        if (spans.empty() || spans.back().group != g)
+          spans.push_back(Span{g, i, i, 0.0f});
+        spans.back().end = i + 1;
+        spans.back().margin = std::max(spans.back().margin, items[i].margin);
+      }
+      // a span of one item: its own bounding sphere test is as good as the group's
+      for (Span& sp : spans)
+        if (sp.end - sp.begin < 2) sp.group = -1;
+    };
+    for (StaticUnit& u : static_units_)
+      spans_of(u.items, [this](const Item& it) { return group_of_[it.a]; }, u.spans);
+    for (SelfUnit& u : self_units_) {
+      auto key = [this](const Item& it) {
+        return group_of_[it.a] >= 0 ? group_of_[it.a] : group_of_[it.b];
+      };
+      spans_of(u.items, key, u.spans);
+      u.other.clear();
+      for (const Span& sp : u.spans) {
+        const int gl = sp.group >= 0 ? groups_[sp.group].link : -1;
+        u.other.push_back(gl == u.la ? u.lb : u.la);
+      }
+    }
+  }
+
+  // Per link, the obstacles its bounding sphere can reach at any configuration (link_reach_)
+  // and the blocks of 4 obstacles holding one (link_blocks_): box_bits tests only those. The
+  // link's bounding centre is within D = |its centre| + the sum of |t0| of the joints from its
+  // own up to (not including) the chain's first joint, whose origin p0 (its t0: its parent is
+  // the universe, at the identity) no revolute joint moves; an obstacle whose inflated box
+  // (binfl_) is farther than D + the link's radius from p0 is never touched (2 eps_ + 1 um
+  // over the float rounding of the centres). Chains with a prismatic joint: every obstacle.
+  void make_reach(const Input& in) {
+    const std::size_t nb = blo_[0].size();
+    link_reach_.assign(links_.size(), 0);
+    link_blocks_.assign(links_.size(), {});
+    for (std::size_t li = 0; li < links_.size(); ++li) {
+      double D = 0.0;
+      for (int a = 0; a < 3; ++a) D += double(in.links[li].center[a]) * in.links[li].center[a];
+      D = std::sqrt(D);
+      bool bounded = true;
+      const double* p0 = nullptr;
+      for (int j = in.links[li].joint; j > 0;) {
+        const Input::Joint& J = in.chain[j - 1];
+        if (J.kind != 0) bounded = false;
+        if (J.parent == 0) {
+          p0 = J.t0;
+          break;
+        }
+        D += std::sqrt(J.t0[0] * J.t0[0] + J.t0[1] * J.t0[1] + J.t0[2] * J.t0[2]);
+        j = J.parent;
+      }
+      if (!p0) bounded = false;
+      const double reach = D + in.links[li].radius + 2.0 * eps_ + 1e-6;
+      for (std::size_t ob = 0; ob < obs_.size() && ob < 64; ++ob) {
+        const std::size_t b = ob / 4, lane = ob % 4;
+        bool near = !bounded;
+        if (bounded) {
+          double d2 = 0.0;
+          for (int a = 0; a < 3; ++a) {
+            const double lo = blo_[a][b][lane], hi = bhi_[a][b][lane];
+            const double x = p0[a] < lo ? lo - p0[a] : (p0[a] > hi ? p0[a] - hi : 0.0);
+            d2 += x * x;
+          }
+          const double r = reach + binfl_[b][lane];
+          near = d2 <= r * r;
+        }
+        if (near) link_reach_[li] |= std::uint64_t{1} << ob;
+      }
+      for (std::size_t b = 0; b < nb; ++b)
+        if ((link_reach_[li] >> (4 * b)) & 15u) link_blocks_[li].push_back(static_cast<int>(b));
+    }
+  }
 
   // Object o's bounding centre (once per load).
   void place_bound(int o) {
@@ -894,13 +1081,24 @@ class SphereFilter {
     const StaticUnit& u = static_units_[k];
     const ObsF& o = obs_[u.obstacle];
     unsigned hit = 0;
-    for (std::size_t i = 0; i < u.items.size(); ++i) {
-      item_sure_ = 0;
-      const unsigned h = static_item(o, u.items[i], near & ~hit);
-      if (!h) continue;
-      hit |= h;
-      sure_ |= item_sure_;
-      for (unsigned m = h; m; m &= m - 1) item_at_[__builtin_ctz(m)] = static_cast<int>(i);
+    for (const Span& sp : u.spans) {
+      unsigned m = near & ~hit;
+      if (sp.group >= 0) {  // the group's sphere against the box and the primitive
+        place_group(sp.group);
+        const float r = groups_[sp.group].radius + sp.margin + o.swept;
+        m &= box_hits(o, grp_world_[sp.group], r);
+        if (m && o.type != 0) m &= prim_hits(o, grp_world_[sp.group], r);
+        if (!m) continue;
+      }
+      for (int i = sp.begin; i < sp.end && m; ++i) {
+        item_sure_ = 0;
+        const unsigned h = static_item(o, u.items[i], m);
+        if (!h) continue;
+        hit |= h;
+        m &= ~h;
+        sure_ |= item_sure_;
+        for (unsigned b = h; b; b &= b - 1) item_at_[__builtin_ctz(b)] = i;
+      }
       if (hit == near) break;
     }
     return hit;
@@ -911,16 +1109,16 @@ class SphereFilter {
   // the link are ignored by the caller).
   std::uint64_t link_obstacles(std::size_t li, int l) const {
     const LinkF& L = links_[li];
-    return box_bits(L.world.x[l], L.world.y[l], L.world.z[l], L.radius);
+    return box_bits(li, L.world.x[l], L.world.y[l], L.world.z[l], L.radius);
   }
 
   // Bit b set when the sphere (c, radius + binfl_ of b) touches obstacle b's box, 4 obstacles
   // per vector operation.
-  std::uint64_t box_bits(float x, float y, float z, float radius) const {
+  std::uint64_t box_bits(std::size_t li, float x, float y, float z, float radius) const {
     const F4 cx = splat(x), cy = splat(y), cz = splat(z);
     const F4 zero = {};
     std::uint64_t bits = 0;
-    for (std::size_t b = 0; b < blo_[0].size(); ++b) {
+    for (const int b : link_blocks_[li]) {
       const F4 dx = vmax(vmax(blo_[0][b] - cx, cx - bhi_[0][b]), zero);
       const F4 dy = vmax(vmax(blo_[1][b] - cy, cy - bhi_[1][b]), zero);
       const F4 dz = vmax(vmax(blo_[2][b] - cz, cz - bhi_[2][b]), zero);
@@ -928,7 +1126,7 @@ class SphereFilter {
       const unsigned m = lanes_of(dx * dx + dy * dy + dz * dz <= rr * rr);
       bits |= static_cast<std::uint64_t>(m) << (4 * b);
     }
-    return bits;
+    return bits & link_reach_[li];
   }
 
   // Bits of the obstacles whose inflated box the union sphere of link li's bounding spheres
@@ -947,7 +1145,7 @@ class SphereFilter {
     d2 = kLaneMask[act & 15u] ? d2 : F4{};
     const float m01 = std::max(d2[0], d2[1]), m23 = std::max(d2[2], d2[3]);
     const float radius = L.radius + std::sqrt(std::max(m01, m23)) + static_cast<float>(eps_);
-    return box_bits(c[0], c[1], c[2], radius);
+    return box_bits(li, c[0], c[1], c[2], radius);
   }
 
   // Lanes where link li's bounding sphere touches obstacle ob's inflated box: link_obstacles'
@@ -990,13 +1188,24 @@ class SphereFilter {
     if (!near) return 0;
     const SelfUnit& u = self_units_[k - ns];
     unsigned hit = 0;
-    for (std::size_t i = 0; i < u.items.size(); ++i) {
-      item_sure_ = 0;
-      const unsigned h = self_item(u.items[i], near & ~hit);
-      if (!h) continue;
-      hit |= h;
-      sure_ |= item_sure_;
-      for (unsigned m = h; m; m &= m - 1) item_at_[__builtin_ctz(m)] = static_cast<int>(i);
+    for (std::size_t s = 0; s < u.spans.size(); ++s) {
+      const Span& sp = u.spans[s];
+      unsigned m = near & ~hit;
+      if (sp.group >= 0) {  // the group's sphere against the other link's
+        place_group(sp.group);
+        const LinkF& L = links_[u.other[s]];
+        m &= ball_hits(grp_world_[sp.group], L.world, groups_[sp.group].radius + L.radius + sp.margin);
+        if (!m) continue;
+      }
+      for (int i = sp.begin; i < sp.end && m; ++i) {
+        item_sure_ = 0;
+        const unsigned h = self_item(u.items[i], m);
+        if (!h) continue;
+        hit |= h;
+        m &= ~h;
+        sure_ |= item_sure_;
+        for (unsigned b = h; b; b &= b - 1) item_at_[__builtin_ctz(b)] = i;
+      }
       if (hit == active) break;
     }
     return hit;
@@ -1016,10 +1225,16 @@ class SphereFilter {
   std::vector<unsigned> bound_stamp_, sph_stamp_;  // load of the last place_bound / place_clusters
   std::vector<V3> obj_world_, sph_world_;
   std::vector<ClusterF> clusters_;
+  std::vector<GroupF> groups_;       // object groups (make_groups)
+  std::vector<int> group_of_;        // per object: its group, or -1 (its link has one group)
+  std::vector<unsigned> grp_stamp_;  // load of the last place_group
+  std::vector<V3> grp_world_;        // group centres (place_group)
   std::vector<unsigned> clu_stamp_;  // load of the last place_cluster_spheres
   std::vector<V3> clu_world_;        // cluster centres (place_clusters)
   bool by_link_ = false;
   std::vector<int> unit_of_;             // static unit of (link, obstacle), or -1
+  std::vector<std::uint64_t> link_reach_;        // make_reach: obstacles a link can touch
+  std::vector<std::vector<int>> link_blocks_;    // make_reach: blocks with such an obstacle
   std::vector<F4> blo_[3], bhi_[3], binfl_;  // obstacle boxes, 4 per block (link_obstacles)
   unsigned stamp_ = 0, sure_ = 0;
   unsigned item_sure_ = 0;  // static_item, self_item: lanes of a sphere hit within the inner margin
