@@ -4,10 +4,13 @@ bare TypeError, or a ground check that silently passes."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
 from taskspace.errors import InvalidInputError
+from taskspace.locomotion import robot_feet, support_polygon
 from taskspace.locomotion.lipm import CartTable
 
 
@@ -21,3 +24,11 @@ def test_sample_times_covers_duration():
     t = CartTable(dt=0.25).sample_times(1.0)
     np.testing.assert_array_equal(t, [0.0, 0.25, 0.5, 0.75, 1.0])
     np.testing.assert_array_equal(CartTable(dt=0.25).sample_times(0), [0.0])
+
+
+@pytest.mark.parametrize("height", [math.nan, math.inf, "0"])
+def test_support_polygon_refuses_bad_ground_height(robot_loader, height):
+    robot = robot_loader("talos")
+    feet = list(robot_feet("talos").values())
+    with pytest.raises(InvalidInputError, match="ground_height"):
+        support_polygon(robot, robot.q_default, feet, ground_height=height)
