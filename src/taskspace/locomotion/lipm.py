@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from taskspace._validation import FloatArray, check_positive
+from taskspace._validation import FloatArray, as_scalar, check_positive
 from taskspace.errors import InvalidInputError
 
 MAX_SAMPLES = 1_000_000
@@ -52,8 +52,12 @@ class CartTable:
         """``0, dt, 2 dt, ...`` covering ``duration`` [s] (at most :data:`MAX_SAMPLES` samples).
 
         Raises:
-            InvalidInputError: the duration needs more than :data:`MAX_SAMPLES` samples of ``dt``.
+            InvalidInputError: the duration is not a finite number ``>= 0``, or it needs more
+                than :data:`MAX_SAMPLES` samples of ``dt``.
         """
+        duration = as_scalar(duration, "duration [s]")
+        if duration < 0.0:
+            raise InvalidInputError(f"duration must be a number of seconds >= 0, got {duration!r}")
         n = float(np.ceil(duration / self.dt)) + 1
         if not n <= MAX_SAMPLES:
             raise InvalidInputError(

@@ -184,6 +184,7 @@ def support_polygon(
             )
     pts = np.vstack([f.vertices_in_world(robot.frame_placement(q, f.frame)) for f in feet])
     if ground_height is not None:
+        ground_height = as_scalar(ground_height, "ground_height [m]")
         off = np.abs(pts[:, 2] - ground_height)
         if off.max() > 5e-3:
             raise InvalidInputError(
