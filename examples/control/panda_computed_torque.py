@@ -43,7 +43,7 @@ def main() -> None:
     for label, ctrl in controllers.items():
         traj = simulate(robot, ctrl, x0, T, 1e-3)
         trajectories[label] = traj
-        errors[label] = tracking_error(traj.t, traj.q, ref)
+        errors[label] = tracking_error(traj.t, traj.q, ref, robot=robot)
         print(f"{label}: max joint error {np.max(errors[label]):.4f} rad")
     times = traj.t
     fig = plot_tracking_errors(times, errors)

@@ -451,6 +451,13 @@ def cmd_snapshot(args: argparse.Namespace) -> int:
         )
     robot = Robot.load(args.robot)
     q = robot.q_default if args.q is None else parse_configuration(args.q, robot.nq)
+    if args.q is not None:
+        from taskspace.errors import LimitError
+
+        try:  # a configuration the robot cannot take is a usage error, not a picture
+            robot.check_limits(q, tolerance=1e-9, name="--q")
+        except LimitError as exc:
+            raise CliError(str(exc)) from None
     from taskspace.viz import Viewer
 
     viewer = Viewer(robot, q, geometry=args.geometry)
@@ -595,7 +602,10 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("snapshot", help="render a robot at a configuration to PNG/HTML")
     p.add_argument("robot", help="registry name (see `taskspace robots`)")
-    p.add_argument("--q", help='configuration, e.g. "0,0.1,0,-2,0,2,0.8" (default posture)')
+    p.add_argument(
+        "--q",
+        help='configuration within the joint limits, e.g. "0,0.1,0,-2,0,2,0.8" (default posture)',
+    )
     p.add_argument("--png", help="output PNG file")
     p.add_argument("--html", help="output static HTML file")
     p.add_argument("--geometry", choices=("visual", "collision"), default="visual")

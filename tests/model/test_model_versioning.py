@@ -63,7 +63,8 @@ def test_set_limits_changes_the_model_and_the_version() -> None:
     np.testing.assert_array_equal(robot.model.lowerPositionLimit, lower)
     np.testing.assert_array_equal(robot.model.upperPositionLimit, upper)
     np.testing.assert_array_equal(robot.model.velocityLimit, velocity)
-    np.testing.assert_array_equal(robot.lower_limits, lower)
+    # joint 7, no longer limited, reads -inf below too (the robot does not enforce its lower bound)
+    np.testing.assert_array_equal(robot.lower_limits, np.r_[lower[:6], -np.inf])
     assert robot.velocity_limits[0] == 0.25 and robot.effort_limits[2] == 0.0
     assert 6 not in robot.limited_joints_q.tolist() and 1 in robot.limited_joints_q.tolist()
     assert robot.passive_joints == ("panda_joint3",)

@@ -284,13 +284,49 @@ class JointPDController:
         return _finite_torque(self._model, np.asarray(tau), q, v)
 
 
-def tracking_error(times: Any, q: Any, reference: JointReference) -> FloatArray:
-    """Joint-space tracking error ``|q_ref(t_k) - q_k|_inf`` per sample [rad] (vector joints)."""
+def tracking_error(
+    times: Any, q: Any, reference: JointReference, robot: Robot | None = None
+) -> FloatArray:
+    """Joint-space tracking error ``|q_ref(t_k) (-) q_k|_inf`` per sample [rad, m].
+
+    ``(-)`` is Pinocchio's ``difference`` (the tangent-space error, ``nv`` entries), as the
+    controllers' own error: a continuous joint's error is its angle difference, not the
+    difference of its ``(cos, sin)`` entries, and a floating base's is its twist, not the
+    difference of its quaternions.
+
+    Args:
+        times: sample times (K,) [s].
+        q: configurations (K, nq), one row per time.
+        reference: the joint reference tracked.
+        robot: the robot whose configurations ``q`` are; needed when its configuration and
+            velocity sizes differ (continuous joints, a floating base). ``None``: the entries
+            of ``q`` are compared directly (vector joints only).
+
+    Raises:
+        InvalidInputError: ``q`` has not one row per time, or the reference's position and
+            velocity sizes differ (configuration entries that are not coordinates) and no
+            ``robot`` is given.
+    """
     ts = np.asarray(times, dtype=float)
     qs = np.asarray(q, dtype=float)
     if qs.ndim != 2 or qs.shape[0] != ts.size:
         raise InvalidInputError(f"q must have one row per time ({ts.size}), got shape {qs.shape}")
+    if robot is not None and qs.shape[1] != robot.nq:
+        raise InvalidInputError(
+            f"q must have {robot.nq} columns (robot {robot.name!r}'s nq), got shape {qs.shape}"
+        )
     out = np.empty(ts.size)
     for k, t in enumerate(ts):
-        out[k] = float(np.max(np.abs(reference(float(t)).q - qs[k]))) if qs.shape[1] else 0.0
+        ref = reference(float(t))
+        if robot is not None:
+            err = pin.difference(robot.model, qs[k], as_vector(ref.q, robot.nq, "reference q"))
+        elif ref.v.size != ref.q.size:
+            raise InvalidInputError(
+                f"the reference has {ref.q.size} position but {ref.v.size} velocity entries "
+                "(continuous joints or a floating base): pass robot= so that the error is "
+                "Pinocchio's difference, not a difference of (cos, sin) or quaternion entries"
+            )
+        else:
+            err = ref.q - qs[k]
+        out[k] = float(np.max(np.abs(err))) if np.size(err) else 0.0
     return out

@@ -747,6 +747,15 @@ class Robot:
         self._lower.flags.writeable = False
         self._upper.flags.writeable = False
         unbounded = sq[~finite]
+        # the limits users read: -inf/+inf on the scalar coordinates treated as unlimited
+        # (equal limits such as a URDF's missing (0, 0), spans of 1e10 or more), so that no
+        # reader clips or bounds them by values the robot does not enforce
+        self._lower_read = self._lower.copy()
+        self._upper_read = self._upper.copy()
+        self._lower_read[unbounded] = -np.inf
+        self._upper_read[unbounded] = np.inf
+        self._lower_read.flags.writeable = False
+        self._upper_read.flags.writeable = False
         linear = np.isin(unbounded, np.asarray(linear_q, dtype=int))
         self._unbounded_angles = unbounded[~linear]
         self._unbounded_lengths = np.concatenate(
@@ -939,13 +948,21 @@ class Robot:
 
     @property
     def lower_limits(self) -> FloatArray:
-        """Lower position limits (size nq, read-only) [rad or m]; -inf where unlimited."""
-        return self._lower
+        """Lower position limits (size nq, read-only) [rad or m].
+
+        ``-inf`` on the joint coordinates the robot treats as unlimited: no limits, equal
+        limits (a URDF's missing ``(0, 0)``, warned about on load) or a span of ``1e10`` or
+        more; the model's own value elsewhere (Pinocchio's on free-flyer and planar entries).
+        """
+        return self._lower_read
 
     @property
     def upper_limits(self) -> FloatArray:
-        """Upper position limits (size nq, read-only) [rad or m]; +inf where unlimited."""
-        return self._upper
+        """Upper position limits (size nq, read-only) [rad or m]; ``+inf`` where unlimited.
+
+        See :attr:`lower_limits`.
+        """
+        return self._upper_read
 
     @property
     def version(self) -> int:
