@@ -32,3 +32,13 @@ def test_support_polygon_refuses_bad_ground_height(robot_loader, height):
     feet = list(robot_feet("talos").values())
     with pytest.raises(InvalidInputError, match="ground_height"):
         support_polygon(robot, robot.q_default, feet, ground_height=height)
+
+
+@pytest.mark.parametrize("frame", [3, None, "", b"left_foot"])
+def test_foot_geometry_frame_must_be_a_name(frame: object) -> None:
+    """A foot frame that is not a name is refused at construction (it reached support_polygon
+    as UnknownNameError for '3')."""
+    from taskspace.locomotion.foot import FootGeometry
+
+    with pytest.raises(InvalidInputError, match="frame must be the name"):
+        FootGeometry(frame=frame, vertices=np.zeros((1, 3)))  # type: ignore[arg-type]

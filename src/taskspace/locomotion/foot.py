@@ -53,6 +53,11 @@ class FootGeometry:
     kind: ContactKind = ContactKind.SURFACE
 
     def __post_init__(self) -> None:
+        if not isinstance(self.frame, str) or not self.frame:
+            raise InvalidInputError(
+                "frame must be the name of a frame of the robot (a non-empty str), "
+                f"got {self.frame!r}"
+            )
         v = as_matrix(self.vertices, (None, 3), "vertices")
         if v.shape[0] < 1:
             raise InvalidInputError("a foot needs at least one contact vertex")
