@@ -368,7 +368,7 @@ class SphereFilter {
         for (auto& s : self_units_)
           if (s.la == l0 && s.lb == l1) unit = &s;
         if (!unit) {
-          self_units_.push_back(SelfUnit{l0, l1, 0.0f, {}, {}, {}});
+          self_units_.push_back(SelfUnit{l0, l1, 0.0f, {}, {}});
           unit = &self_units_.back();
         }
         unit->items.push_back(Item{p.a, p.b, static_cast<float>(p.margin) + e,
@@ -722,10 +722,12 @@ class SphereFilter {
   };
   // A run of a unit's items whose grouped object lies in object group `group` (-1: no group
   // test), `margin` the largest margin of its items (with eps): run tests the group's sphere
-  // before the items (a lane it clears is clear for every item of the span).
+  // before the items (a lane it clears is clear for every item of the span); self units:
+  // against the bounding sphere of link `other` (the unit's link that is not the group's).
   struct Span {
     int group, begin, end;
     float margin;
+    int other = -1;
   };
   struct StaticUnit {
     int link, obstacle;
@@ -745,7 +747,6 @@ class SphereFilter {
     float margin;
     std::vector<Item> items;
     std::vector<Span> spans;
-    std::vector<int> other;  // per span: the link whose bounding sphere its group is tested against
   };
 
   static F3 f3(const double* d) {
@@ -851,7 +852,7 @@ class SphereFilter {
       for (int i = 0; i < static_cast<int>(items.size()); ++i) {
         const int g = key(items[i]);
         if (spans.empty() || spans.back().group != g)
-          spans.push_back(Span{g, i, i, 0.0f});
+          spans.push_back(Span{g, i, i, 0.0f, -1});
         spans.back().end = i + 1;
         spans.back().margin = std::max(spans.back().margin, items[i].margin);
       }
@@ -866,11 +867,8 @@ class SphereFilter {
         return group_of_[it.a] >= 0 ? group_of_[it.a] : group_of_[it.b];
       };
       spans_of(u.items, key, u.spans);
-      u.other.clear();
-      for (const Span& sp : u.spans) {
-        const int gl = sp.group >= 0 ? groups_[sp.group].link : -1;
-        u.other.push_back(gl == u.la ? u.lb : u.la);
-      }
+      for (Span& sp : u.spans)
+        if (sp.group >= 0) sp.other = groups_[sp.group].link == u.la ? u.lb : u.la;
     }
   }
 
@@ -1188,12 +1186,11 @@ class SphereFilter {
     if (!near) return 0;
     const SelfUnit& u = self_units_[k - ns];
     unsigned hit = 0;
-    for (std::size_t s = 0; s < u.spans.size(); ++s) {
-      const Span& sp = u.spans[s];
+    for (const Span& sp : u.spans) {
       unsigned m = near & ~hit;
       if (sp.group >= 0) {  // the group's sphere against the other link's
         place_group(sp.group);
-        const LinkF& L = links_[u.other[s]];
+        const LinkF& L = links_[sp.other];
         m &= ball_hits(grp_world_[sp.group], L.world, groups_[sp.group].radius + L.radius + sp.margin);
         if (!m) continue;
       }
