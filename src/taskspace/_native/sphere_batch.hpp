@@ -1078,6 +1078,11 @@ class SphereFilter {
     if (!near) return 0;
     const StaticUnit& u = static_units_[k];
     const ObsF& o = obs_[u.obstacle];
+    if (o.type != 0) {  // the link's sphere against the primitive (the link level: its box)
+      const LinkF& L = links_[u.link];
+      near &= prim_hits(o, L.world, L.radius + u.margin + o.swept);
+      if (!near) return 0;
+    }
     unsigned hit = 0;
     for (const Span& sp : u.spans) {
       unsigned m = near & ~hit;
