@@ -55,6 +55,9 @@ from taskspace.qp.result import QPResult, QPStatus
 
 logger = logging.getLogger(__name__)
 
+# A constraint block is a culprit of a relaxed result when its largest violation exceeds this.
+RELAXED_VIOLATION = 1e-6
+
 BACKENDS = ("proxsuite", "daqp", "osqp", "quadprog")
 """Backend names accepted by :class:`QPSolver`."""
 
@@ -468,7 +471,7 @@ class QPSolver:
         inner = solver.solve(relaxed)
         x = inner.x[:n]
         violations = problem.violations(x)
-        culprits = [name for name, v in violations.items() if v > 1e-6]
+        culprits = [name for name, v in violations.items() if v > RELAXED_VIOLATION]
         y, z, z_box = _original_multipliers(problem, inner)
         kkt = kkt_residuals(problem, x, y, z, z_box)
         if not inner.success or not np.all(np.isfinite(x)):
