@@ -1022,7 +1022,12 @@ def check_problem_data(problem: QPProblem) -> None:
     else:
         data = (p.H, p.g, p.A, p.b, p.C)
         bounds = (p.l, p.u, p.lb, p.ub)
-    if not (_magnitudes_ok(data) and _bounds_ok(bounds)):
+    # (the sums of squares overflow, to inf, for entries beyond ~1.3e154: refused data, or
+    # bounds of 1e200 that mean "no bound"; NumPy's "overflow encountered in dot" warning
+    # is not for the user to see)
+    with np.errstate(over="ignore"):
+        ok = _magnitudes_ok(data) and _bounds_ok(bounds)
+    if not ok:
         _refuse(p)
     lower, upper = bounds[0::2], bounds[1::2]  # (l, lb) or (lo,), (u, ub) or (hi,)
     for name, arr in zip(("l", "lb"), lower):
