@@ -49,7 +49,7 @@ def test_weight_at_the_bound_solves(robot: Robot) -> None:
     assert MAX_WEIGHT == 1e20
     state = robot.state(robot.q_default)
     p0 = np.asarray(robot.frame_placement(robot.q_default, "tool0").translation)
-    target = p0 + [0.01, 0.0, 0.0]
+    target = p0 + np.array([0.01, 0.0, 0.0])
     task = Task(Position(robot, "tool0"), target, weight=MAX_WEIGHT, name="reach")
     q, result = DifferentialIK(robot, [task]).step(state, 0.01)
     assert result.success
