@@ -23,7 +23,16 @@ from taskspace.errors import (
 FloatArray = npt.NDArray[np.float64]
 
 
-_REJECTED_KINDS = {"c": "complex", "U": "text", "S": "bytes", "M": "datetime", "m": "timedelta"}
+# (a boolean array is a mask, not numbers: GraspContact(position=[True, False, True]) was
+# taken as (1, 0, 1))
+_REJECTED_KINDS = {
+    "b": "boolean",
+    "c": "complex",
+    "U": "text",
+    "S": "bytes",
+    "M": "datetime",
+    "m": "timedelta",
+}
 
 
 def as_float_array(x: Any, name: str) -> FloatArray:
@@ -40,7 +49,7 @@ def as_float_array(x: Any, name: str) -> FloatArray:
         A float64 array (``x`` itself when it already is one).
 
     Raises:
-        InvalidInputError: if ``x`` is ``None``, complex, text, or not numeric.
+        InvalidInputError: if ``x`` is ``None``, boolean, complex, text, or not numeric.
     """
     if isinstance(x, np.ndarray):
         if x.dtype == np.float64:
@@ -50,6 +59,8 @@ def as_float_array(x: Any, name: str) -> FloatArray:
         raise InvalidInputError(f"{name} must be an array of real numbers, got None")
     elif isinstance(x, (complex, np.complexfloating)):
         kind = "complex"
+    elif isinstance(x, (bool, np.bool_)):
+        kind = "boolean"
     elif isinstance(x, (str, bytes)):
         kind = "text"
     else:
@@ -83,6 +94,10 @@ def as_float_array(x: Any, name: str) -> FloatArray:
             if item is None:
                 raise InvalidInputError(
                     f"{name} must be an array of real numbers, got a None entry"
+                )
+            if isinstance(item, (bool, np.bool_)):
+                raise InvalidInputError(
+                    f"{name} must be real numbers, got a boolean entry {item!r}"
                 )
             if isinstance(item, (complex, np.complexfloating, str, bytes)):
                 what = "text" if isinstance(item, (str, bytes)) else "complex"

@@ -44,8 +44,10 @@ class Task:
             :meth:`set_target`.
         weight: precision ``rho`` (scalar, or one value per feature dimension) in a weighted
             stack; the relative weight inside a priority level in a hierarchy. Finite, in
-            ``[0, 1e100]`` (larger weights overflow the QP's Hessian; for strict precedence
-            use priority levels).
+            ``[0, 1e20]`` (:data:`MAX_WEIGHT`; it enters the QP's Hessian as
+            ``rho J^T J``: beyond 1e20 a weight-1 task is below double precision next to
+            it, and beyond 1e30 the QP refuses the Hessian; for strict precedence use
+            priority levels).
         gain: fraction of the error corrected per step, in (0, 1].
         priority: level in a strict hierarchy (0 = highest). Ignored by weighted solvers.
         kp: stiffness of the acceleration-level reference (inverse dynamics, operational
@@ -211,16 +213,20 @@ def _label(task: Task) -> str:
     return getattr(task, "name", "?")
 
 
-MAX_WEIGHT = 1e100
-"""Largest accepted task weight (``rho^2 |J|^2`` must stay far from float overflow)."""
-_MAX_SQRT_WEIGHT = 1e50
+MAX_WEIGHT = 1e20
+"""Largest accepted task weight ``rho``. It enters the QP's Hessian as ``rho J^T J``: next to
+a weight of 1e20 a weight-1 task (and the solvers' regularization, 1e-6 and below) is lost in
+double precision (1e-16 relative), and from 1e30 on the QP's magnitude check
+(:data:`taskspace.qp.solver.MAX_QP_MAGNITUDE`) refuses the Hessian without naming the task."""
+_MAX_SQRT_WEIGHT = 1e10
 
 
 def _bounded(task: Task, w: Any, name: str, limit: float) -> None:
     if np.any(np.asarray(w) > limit):
         raise InvalidInputError(
-            f"{name} must be <= {limit:g}, got {w}: larger values overflow the QP; use priority "
-            "levels (HierarchicalIK) for strict precedence"
+            f"{name} must be <= {limit:g}, got {w}: beyond it the other tasks are lost in "
+            "double precision next to this one (and from 1e30 on the QP refuses its Hessian); "
+            "use priority levels (HierarchicalIK) for strict precedence"
         )
 
 

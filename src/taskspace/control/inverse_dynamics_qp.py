@@ -49,7 +49,7 @@ from taskspace.qp.hierarchy import HierarchyLevel, HierarchyOptions, HierarchySo
 from taskspace.qp.problem import INF, QPProblem, RowBlock
 from taskspace.qp.result import QPResult, QPStatus
 from taskspace.qp.rows import TaskRowStack, combine_boxes
-from taskspace.qp.solver import QPSolver, QPSolverOptions
+from taskspace.qp.solver import RELAXED_VIOLATION, QPSolver, QPSolverOptions
 from taskspace.tasks import Task
 
 
@@ -990,6 +990,14 @@ class InverseDynamicsQP:
         out = self._result(state, result.x, result.success, status, t1 - t0, t2 - t1, None)
         out.residuals = result.residuals
         out.level_results = result.level_results
+        if not result.success:
+            # the hard blocks the cascade's point violates (the buffers of self._problem hold
+            # this step's A, b, C, l, u and bounds), as the weighted QP's relaxation names
+            # them, then the cascade's own diagnostics (rows no level could satisfy)
+            violations = self._problem.violations(result.x)
+            out.culprits = [name for name, v in violations.items() if v > RELAXED_VIOLATION] + list(
+                result.culprits
+            )
         return out
 
     def _hierarchy_levels(self) -> list[HierarchyLevel]:

@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pinocchio as pin
 
-from taskspace._validation import FloatArray, as_vector, check_positive
+from taskspace._validation import FloatArray, as_float_array, as_vector, check_positive
 from taskspace.dynamics.newton_euler import finite_result
 from taskspace.errors import InvalidInputError
 
@@ -34,11 +34,17 @@ class JointFriction:
 
     The Coulomb term is the smooth approximation of ``-coulomb * sign(v)`` (an ODE with a
     discontinuous right-hand side would break the error bounds of the integrators). Friction
-    acts on the joints only, never on a floating base (its first 6 velocity entries).
+    acts on the joints only, never on the base: a free-flyer (its first 6 velocity entries)
+    or a planar base (``Robot.load(..., base="planar")``: its first 3, x, y and yaw) moves
+    without joint friction. A coefficient vector has one entry per velocity coordinate of
+    the joints after the base (``robot.nv - 6``, ``robot.nv - 3`` or ``robot.nv``; a spherical
+    joint has 3).
 
     Attributes:
-        damping: viscous coefficient, scalar or one per joint [N m s/rad or N s/m].
-        coulomb: Coulomb friction magnitude, scalar or one per joint [N m or N].
+        damping: viscous coefficient, scalar or one per joint velocity coordinate
+            [N m s/rad or N s/m].
+        coulomb: Coulomb friction magnitude, scalar or one per joint velocity coordinate
+            [N m or N].
         coulomb_smoothing: velocity scale of the ``tanh`` smoothing [rad/s or m/s].
     """
 
@@ -61,12 +67,23 @@ velocities through ``dexp^-1`` there (``pin.dIntegrate``). The unit complex numb
 continuous joints (SO(2)) commute: their stages need nothing."""
 
 
-def _coefficients(value: Any, size: int, name: str) -> FloatArray:
-    arr = np.asarray(value, dtype=float)
+BASE_JOINTS = frozenset({"JointModelFreeFlyer", "JointModelPlanar"})
+"""Root joints that are a mobile base (no joint friction): free-flyer and planar."""
+
+
+def base_velocity_size(model: pin.Model) -> int:
+    """Velocity coordinates of the base: 6 (free-flyer), 3 (planar) or 0 (fixed)."""
+    if model.njoints > 1 and model.joints[1].shortname() in BASE_JOINTS:
+        return int(model.joints[1].nv)
+    return 0
+
+
+def _coefficients(value: Any, size: int, name: str, count: str) -> FloatArray:
+    arr = as_float_array(value, name)
     if arr.ndim == 0:
         arr = np.full(size, float(arr))
     else:
-        arr = as_vector(arr, size, name)
+        arr = as_vector(arr, size, f"{name} {count}")
     if not np.all(np.isfinite(arr)) or np.any(arr < 0.0):
         raise InvalidInputError(f"{name} must be finite and >= 0, got {value!r}")
     return arr
@@ -97,11 +114,16 @@ class ForwardDynamics:
         friction = friction or JointFriction()
         self.friction = friction
         nv = robot.nv
-        start = 6 if robot.is_floating else 0
+        start = base_velocity_size(robot._model)
         n_joints = nv - start
         self._start = start
-        self._damping = _coefficients(friction.damping, n_joints, "friction damping")
-        self._coulomb = _coefficients(friction.coulomb, n_joints, "friction coulomb")
+        what = (
+            f"(one per velocity coordinate of the joints after the {start}-dof base)"
+            if start
+            else "(one per velocity coordinate)"
+        )
+        self._damping = _coefficients(friction.damping, n_joints, "friction damping", what)
+        self._coulomb = _coefficients(friction.coulomb, n_joints, "friction coulomb", what)
         self._smoothing = check_positive(friction.coulomb_smoothing, "coulomb_smoothing")
         self._has_friction = bool(np.any(self._damping) or np.any(self._coulomb))
         self._has_coulomb = bool(np.any(self._coulomb))
@@ -126,7 +148,7 @@ class ForwardDynamics:
         return self._has_friction
 
     def friction_torque(self, v: FloatArray) -> FloatArray:
-        """``-damping v - coulomb tanh(v / smoothing)`` (zero on a floating base) [N m]."""
+        """``-damping v - coulomb tanh(v / smoothing)`` (zero on the base) [N m or N]."""
         out = np.zeros(self._model.nv)
         vj = v[self._start :]
         f = -self._damping * vj

@@ -17,6 +17,7 @@ its functions keep their state local to the call, so both may be used from sever
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -27,36 +28,78 @@ from taskspace._validation import FloatArray, as_float_array, as_scalar, as_vect
 from taskspace.errors import InvalidInputError, ShapeError
 from taskspace.locomotion.foot import FootGeometry
 
+# Sine of the turn angle below which three hull points count as collinear, and the distance
+# (relative to the extent of the points) below which two points count as one.
+_COLLINEAR_SINE = 1e-12
+_MERGE_DECIMALS = 12
+
+
+def _pow2_scale(x: FloatArray) -> float:
+    """A power of two ``s`` with ``max|x| / s`` in [0.5, 1) (1.0 for all zeros); x / s is exact."""
+    m = float(np.max(np.abs(x))) if x.size else 0.0
+    return math.ldexp(1.0, math.frexp(m)[1]) if m > 0.0 else 1.0
+
+
+def _local(points: FloatArray) -> tuple[FloatArray, FloatArray, float, float]:
+    """Points in a local frame of unit extent: ``points = (w0 + u * t) * s``.
+
+    ``s`` and ``t`` are powers of two, so that the hull, area, centroid and half-spaces are
+    computed without overflow or underflow for any finite coordinates (the differences
+    ``w - w0`` stay within [-2, 2] before their own rescaling to [-1, 1]).
+
+    Returns:
+        ``(u, w0, s, t)``.
+    """
+    s = _pow2_scale(points)
+    w = points / s
+    d = w - w[0]
+    t = _pow2_scale(d)
+    return d / t, w[0], s, t
+
 
 def _convex_hull(points: FloatArray) -> FloatArray:
-    """Counter-clockwise convex hull of 2-D points (Andrew's monotone chain), no collinear."""
-    pts = np.unique(np.round(points, 12), axis=0)
-    if pts.shape[0] <= 2:
-        return pts
-    order = np.lexsort((pts[:, 1], pts[:, 0]))
-    pts = pts[order]
+    """Counter-clockwise convex hull of 2-D points (Andrew's monotone chain), no collinear.
 
-    def half(seq: FloatArray) -> list[FloatArray]:
-        chain: list[FloatArray] = []
-        for p in seq:
+    Scale-invariant: the tests run on the points rescaled to unit extent (by powers of two),
+    with points closer than 1e-12 of the extent merged and turns below 1e-12 rad taken as
+    collinear, so a polygon of 1e-9 m is as well resolved as one of 1 m or 1e200 m. The
+    returned vertices are input points, unchanged.
+    """
+    u = _local(points)[0]
+    _, first = np.unique(np.round(u, _MERGE_DECIMALS), axis=0, return_index=True)
+    if first.shape[0] <= 2:
+        return points[first]
+    keep = first[np.lexsort((u[first, 1], u[first, 0]))]
+    uk = u[keep]
+
+    def half(order: range) -> list[int]:
+        chain: list[int] = []
+        for i in order:
+            p = uk[i]
             while len(chain) >= 2:
-                o, a = chain[-2], chain[-1]
-                cross = (a[0] - o[0]) * (p[1] - o[1]) - (a[1] - o[1]) * (p[0] - o[0])
-                if cross > 1e-14:
+                o, a = uk[chain[-2]], uk[chain[-1]]
+                oa, op = a - o, p - o
+                cross = oa[0] * op[1] - oa[1] * op[0]
+                if cross > _COLLINEAR_SINE * math.hypot(*oa) * math.hypot(*op):
                     break
                 chain.pop()
-            chain.append(p)
+            chain.append(i)
         return chain
 
-    lower, upper = half(pts), half(pts[::-1])
-    hull = np.array(lower[:-1] + upper[:-1])
-    return hull
+    n = uk.shape[0]
+    lower, upper = half(range(n)), half(range(n - 1, -1, -1))
+    return points[keep[np.array(lower[:-1] + upper[:-1])]]
 
 
 def _segment_distance(p: FloatArray, a: FloatArray, b: FloatArray) -> float:
+    """Distance [m] from ``p`` to the segment ``ab`` (no overflow for any finite input)."""
+    s = _pow2_scale(np.concatenate([p, a, b]))
+    p, a, b = p / s, a / s, b / s
     d = b - a
-    s = float(np.clip(float((p - a) @ d) / max(float(d @ d), 1e-300), 0.0, 1.0))
-    return float(np.linalg.norm(p - a - s * d))
+    dd = float(d @ d)
+    lam = 0.0 if dd == 0.0 else float(np.clip(float((p - a) @ d) / dd, 0.0, 1.0))
+    r = p - a - lam * d
+    return math.hypot(float(r[0]), float(r[1])) * s
 
 
 @dataclass(frozen=True)
@@ -72,7 +115,12 @@ class SupportPolygon:
 
     @staticmethod
     def from_points(points: Any) -> SupportPolygon:
-        """Convex hull of (n, 2) or (n, 3) points (the z coordinate is dropped)."""
+        """Convex hull of (n, 2) or (n, 3) points (the z coordinate is dropped).
+
+        Any finite coordinates [m]: the hull is scale-invariant (points closer than 1e-12 of
+        the points' extent are merged, turns below 1e-12 rad are straight) and its vertices
+        are input points. ``area`` is ``inf`` only when it exceeds the float range.
+        """
         pts = as_float_array(points, "points")
         if pts.ndim != 2 or pts.shape[1] not in (2, 3) or pts.shape[0] < 1:
             raise ShapeError("points", (-1, 2), tuple(pts.shape))
@@ -91,19 +139,23 @@ class SupportPolygon:
         """Area [m^2] (shoelace formula)."""
         if self.is_degenerate:
             return 0.0
-        x, y = self.vertices[:, 0], self.vertices[:, 1]
-        return float(0.5 * (x @ np.roll(y, -1) - y @ np.roll(x, -1)))
+        u, _, s, t = _local(self.vertices)
+        x, y = u[:, 0], u[:, 1]
+        # (in the local frame of unit extent; inf only when the area exceeds the float range)
+        return float(0.5 * (x @ np.roll(y, -1) - y @ np.roll(x, -1))) * t * t * s * s
 
     @property
     def centroid(self) -> FloatArray:
         """Area centroid [m] (vertex mean when degenerate)."""
+        u, w0, s, t = _local(self.vertices)
         if self.is_degenerate:
-            return np.asarray(self.vertices.mean(axis=0))
-        x, y = self.vertices[:, 0], self.vertices[:, 1]
+            return np.asarray((w0 + u.mean(axis=0) * t) * s)
+        x, y = u[:, 0], u[:, 1]
         xn, yn = np.roll(x, -1), np.roll(y, -1)
         cross = x * yn - xn * y
         a = cross.sum() / 2.0
-        return np.array([((x + xn) * cross).sum(), ((y + yn) * cross).sum()]) / (6.0 * a)
+        c = np.array([((x + xn) * cross).sum(), ((y + yn) * cross).sum()]) / (6.0 * a)
+        return np.asarray((w0 + c * t) * s)
 
     def halfspaces(self) -> tuple[FloatArray, FloatArray]:
         """``(A, b)`` with the polygon ``{p : A p <= b}`` and unit-norm rows of ``A``.
@@ -116,11 +168,12 @@ class SupportPolygon:
                 "a support polygon with fewer than 3 vertices has no half-space form; "
                 "check is_degenerate first"
             )
-        v = self.vertices
-        edge = np.roll(v, -1, axis=0) - v
+        u, w0, s, t = _local(self.vertices)
+        edge = np.roll(u, -1, axis=0) - u
         normal = np.column_stack([edge[:, 1], -edge[:, 0]])
-        normal /= np.linalg.norm(normal, axis=1)[:, None]
-        return normal, np.einsum("ij,ij->i", normal, v)
+        normal /= np.hypot(normal[:, 0], normal[:, 1])[:, None]
+        # b = n . v = (n . w0 + n . u t) s, in the local frame (no overflow of v's products)
+        return normal, (normal @ w0 + np.einsum("ij,ij->i", normal, u) * t) * s
 
     def margin(self, point: Any) -> float:
         """Signed distance [m] of a ground point to the boundary (positive inside).
@@ -135,7 +188,7 @@ class SupportPolygon:
         p = p[:2]
         v = self.vertices
         if v.shape[0] == 1:
-            return -float(np.linalg.norm(p - v[0]))
+            return -_segment_distance(p, v[0], v[0])
         if v.shape[0] == 2:
             return -_segment_distance(p, v[0], v[1])
         A, b = self.halfspaces()

@@ -55,6 +55,9 @@ from taskspace.qp.result import QPResult, QPStatus
 
 logger = logging.getLogger(__name__)
 
+# A constraint block is a culprit of a relaxed result when its largest violation exceeds this.
+RELAXED_VIOLATION = 1e-6
+
 BACKENDS = ("proxsuite", "daqp", "osqp", "quadprog")
 """Backend names accepted by :class:`QPSolver`."""
 
@@ -468,7 +471,7 @@ class QPSolver:
         inner = solver.solve(relaxed)
         x = inner.x[:n]
         violations = problem.violations(x)
-        culprits = [name for name, v in violations.items() if v > 1e-6]
+        culprits = [name for name, v in violations.items() if v > RELAXED_VIOLATION]
         y, z, z_box = _original_multipliers(problem, inner)
         kkt = kkt_residuals(problem, x, y, z, z_box)
         if not inner.success or not np.all(np.isfinite(x)):
@@ -1019,7 +1022,12 @@ def check_problem_data(problem: QPProblem) -> None:
     else:
         data = (p.H, p.g, p.A, p.b, p.C)
         bounds = (p.l, p.u, p.lb, p.ub)
-    if not (_magnitudes_ok(data) and _bounds_ok(bounds)):
+    # (the sums of squares overflow, to inf, for entries beyond ~1.3e154: refused data, or
+    # bounds of 1e200 that mean "no bound"; NumPy's "overflow encountered in dot" warning
+    # is not for the user to see)
+    with np.errstate(over="ignore"):
+        ok = _magnitudes_ok(data) and _bounds_ok(bounds)
+    if not ok:
         _refuse(p)
     lower, upper = bounds[0::2], bounds[1::2]  # (l, lb) or (lo,), (u, ub) or (hi,)
     for name, arr in zip(("l", "lb"), lower):

@@ -39,14 +39,27 @@ TARGET_HIGH = np.array([0.7, 0.4, 0.7])
 def _limits(robot: Any) -> tuple[int, np.ndarray, np.ndarray, np.ndarray, spaces.Box]:
     """Robot version, copied position and velocity limits, and the observation space.
 
-    The space bounds (q, tcp, target).
+    The space bounds (q, tcp, target); its ``q`` entries are ``-inf``/``+inf`` for a joint
+    without position limits. The actions are fractions of the velocity limits, so every joint
+    needs a finite one.
+
+    Raises:
+        InvalidInputError: a joint without a finite velocity limit (``v = a * inf`` made
+            the joint jump to its position limit in one step, and ``a = 0`` gave NaN).
     """
+    v_max = robot.velocity_limits.copy()
+    if not np.all(np.isfinite(v_max)):
+        bad = [robot.joint_names[i] for i in np.flatnonzero(~np.isfinite(v_max))]
+        raise InvalidInputError(
+            f"PandaReach needs a finite velocity limit on every joint (an action is a fraction "
+            f"of it); unlimited: {bad} (Robot.set_limits(velocity=...))"
+        )
     lower = robot.lower_limits.copy()
     upper = robot.upper_limits.copy()
     low = np.concatenate([lower, [-2.0] * 3, TARGET_LOW]).astype(np.float32)
     high = np.concatenate([upper, [2.0] * 3, TARGET_HIGH]).astype(np.float32)
     box = spaces.Box(low, high, dtype=np.float32)
-    return robot.version, lower, upper, robot.velocity_limits.copy(), box
+    return robot.version, lower, upper, v_max, box
 
 
 class PandaReachEnv(gym.Env[np.ndarray, np.ndarray]):
