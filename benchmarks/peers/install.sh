@@ -45,11 +45,12 @@ peer sb3 ${torch_wheel:-torch} stable-baselines3 "gymnasium==1.4.0" mujoco image
     "example-robot-data==5.0.0" "example-robot-data-loaders==5.0.0" pyyaml tqdm cma
 # VAMP (benchmarks/peers/vamp_planning.py): PyPI has only the source of vamp-planner, whose build
 # downloads header libraries from GitHub (CPM.cmake, nigh, pdqsort, SIMDxorshift) that no package
-# registry serves, so this script does not build it. An environment .venv-peers/vamp in which
-# `import vamp` works (vamp-planner built by hand, robot module panda) is completed with the
-# peer script's dependencies; without one the planning suite prints that VAMP was skipped.
+# registry serves, so this script does not build it: benchmarks/peers/build_vamp.sh does, from the
+# sdist and git copies of those sources (see its header). An environment .venv-peers/vamp in which
+# `import vamp` works is completed with the peer script's dependencies; without one the planning
+# suite prints that VAMP was skipped.
 if [ -x .venv-peers/vamp/bin/python ] && .venv-peers/vamp/bin/python -c "import vamp" 2>/dev/null; then
   peer vamp numpy scipy pin==4.1.0 coal==3.0.3 example-robot-data==5.0.0 example-robot-data-loaders==5.0.0 pyyaml
 else
-  echo "!! vamp could not be installed (needs vamp-planner built with the GitHub-only sources of nigh, pdqsort and SIMDxorshift)"
+  echo "!! vamp is not installed: build it with benchmarks/peers/build_vamp.sh (needs git copies of the GitHub-only sources of CPM.cmake, nigh, pdqsort, SIMDxorshift, nanobind, robin-map), then run this script again"
 fi
