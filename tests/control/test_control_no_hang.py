@@ -25,6 +25,7 @@ from taskspace.control.inverse_dynamics_qp_rollout import (
     simulate_with_contacts,
 )
 from taskspace.model import Robot
+from taskspace.model.state import State
 from taskspace.qp import QPStatus
 from taskspace.tasks import Task
 from tests.qp.test_qp_no_hang import _penalty_reference
@@ -37,12 +38,13 @@ def _fresh(name: str) -> Robot:
         return Robot.load(name, geometry=False)
 
 
-def test_infeasible_humanoid_step_is_relaxed_quickly_to_the_penalty_optimum() -> None:
-    # simple_humanoid standing on flat feet: its ankles are 0.25-0.42 rad outside their
-    # range, so the joint-limit bounds conflict with the contacts. The first solve took
-    # 2049-2331 proxsuite iterations and 2.7-32 s (its relaxation's Hessian was
-    # 1e14-conditioned); it is now daqp on the scaled relaxation, ~200 iterations.
-    robot = _fresh("simple_humanoid")
+def flat_footed_humanoid(
+    robot: Robot, options: InverseDynamicsOptions | None = None
+) -> tuple[InverseDynamicsQP, State, list[Contact6D]]:
+    """simple_humanoid on flat feet, its ankle pitch cancelling hip and knee: the ankles are
+    0.25-0.42 rad outside their range, so the joint-limit bounds conflict with the contacts.
+    Returns the controller (CoM and posture tasks, both feet in contact), the state, the contacts.
+    """
     q = robot.q_default.copy()
     for side in ("L", "R"):
         pitch = {
@@ -50,7 +52,6 @@ def test_infeasible_humanoid_step_is_relaxed_quickly_to_the_penalty_optimum() ->
             for j in ("HIP_P", "KNEE", "ANKLE_P")
         }
         q[pitch["ANKLE_P"]] = -(q[pitch["HIP_P"]] + q[pitch["KNEE"]])
-        assert q[pitch["ANKLE_P"]] < robot.lower_limits[pitch["ANKLE_P"]] - 0.2
     s = robot.state(q, np.zeros(robot.nv))
     contacts = [
         Contact6D(robot, f"{side}_ankle", half_length=0.05, half_width=0.03, friction=0.6)
@@ -59,7 +60,19 @@ def test_infeasible_humanoid_step_is_relaxed_quickly_to_the_penalty_optimum() ->
     com = Task(F.CenterOfMass(robot), kp=10.0)
     com.set_target_from_state(s)
     posture = Task(F.JointConfiguration(robot), q, weight=1e-2, kp=10.0)
-    ctrl = InverseDynamicsQP(robot, [com, posture], contacts)
+    return InverseDynamicsQP(robot, [com, posture], contacts, options=options), s, contacts
+
+
+def test_infeasible_humanoid_step_is_relaxed_quickly_to_the_penalty_optimum() -> None:
+    # simple_humanoid standing on flat feet: its ankles are 0.25-0.42 rad outside their
+    # range, so the joint-limit bounds conflict with the contacts. The first solve took
+    # 2049-2331 proxsuite iterations and 2.7-32 s (its relaxation's Hessian was
+    # 1e14-conditioned); it is now daqp on the scaled relaxation, ~200 iterations.
+    robot = _fresh("simple_humanoid")
+    ctrl, s, contacts = flat_footed_humanoid(robot)
+    for side in ("L", "R"):
+        ankle = robot.model.joints[robot.joint_id(f"{side}LEG_ANKLE_P")].idx_q
+        assert s.q[ankle] < robot.lower_limits[ankle] - 0.2
     res = ctrl.solve(s)
     assert res.status is InverseDynamicsStatus.RELAXED and not res.success
     assert res.qp is not None and res.qp.status is QPStatus.RELAXED

@@ -15,7 +15,6 @@ import numpy as np
 import pytest
 
 from taskspace import features as F
-from taskspace.constraints import Contact6D
 from taskspace.control.inverse_dynamics_qp import (
     InverseDynamicsOptions,
     InverseDynamicsQP,
@@ -23,29 +22,14 @@ from taskspace.control.inverse_dynamics_qp import (
 )
 from taskspace.model import Robot
 from taskspace.tasks import Task
+from tests.control.test_control_no_hang import flat_footed_humanoid
 
 
 def _humanoid(hierarchical: bool):  # type: ignore[no-untyped-def]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         robot = Robot.load("simple_humanoid", geometry=False)
-    q = robot.q_default.copy()
-    for side in ("L", "R"):
-        idx = {
-            j: robot.model.joints[robot.joint_id(f"{side}LEG_{j}")].idx_q
-            for j in ("HIP_P", "KNEE", "ANKLE_P")
-        }
-        q[idx["ANKLE_P"]] = -(q[idx["HIP_P"]] + q[idx["KNEE"]])
-    s = robot.state(q, np.zeros(robot.nv))
-    contacts = [
-        Contact6D(robot, f"{side}_ankle", half_length=0.05, half_width=0.03, friction=0.6)
-        for side in ("l", "r")
-    ]
-    com = Task(F.CenterOfMass(robot), kp=10.0)
-    com.set_target_from_state(s)
-    posture = Task(F.JointConfiguration(robot), q, weight=1e-2, kp=10.0)
-    options = InverseDynamicsOptions(hierarchical=hierarchical)
-    return InverseDynamicsQP(robot, [com, posture], contacts, options=options), s, contacts
+    return flat_footed_humanoid(robot, InverseDynamicsOptions(hierarchical=hierarchical))
 
 
 def _block_violations(ctrl, s, x):  # type: ignore[no-untyped-def]
