@@ -67,17 +67,6 @@ velocities through ``dexp^-1`` there (``pin.dIntegrate``). The unit complex numb
 continuous joints (SO(2)) commute: their stages need nothing."""
 
 
-BASE_JOINTS = frozenset({"JointModelFreeFlyer", "JointModelPlanar"})
-"""Root joints that are a mobile base (no joint friction): free-flyer and planar."""
-
-
-def base_velocity_size(model: pin.Model) -> int:
-    """Velocity coordinates of the base: 6 (free-flyer), 3 (planar) or 0 (fixed)."""
-    if model.njoints > 1 and model.joints[1].shortname() in BASE_JOINTS:
-        return int(model.joints[1].nv)
-    return 0
-
-
 def _coefficients(value: Any, size: int, name: str, count: str) -> FloatArray:
     arr = as_float_array(value, name)
     if arr.ndim == 0:
@@ -114,7 +103,7 @@ class ForwardDynamics:
         friction = friction or JointFriction()
         self.friction = friction
         nv = robot.nv
-        start = base_velocity_size(robot._model)
+        start = robot.base_nv
         n_joints = nv - start
         self._start = start
         what = (

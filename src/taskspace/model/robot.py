@@ -734,6 +734,14 @@ class Robot:
         self.is_floating = (
             model.njoints > 1 and model.joints[1].shortname() == "JointModelFreeFlyer"
         )
+        # velocity coordinates of a mobile base: the root joint's when it is a free-flyer (6)
+        # or planar (3: x, y, yaw), else 0 (joint friction and the like skip them)
+        root = model.joints[1] if model.njoints > 1 else None
+        self.base_nv = (
+            int(root.nv)
+            if root is not None and root.shortname() in ("JointModelFreeFlyer", "JointModelPlanar")
+            else 0
+        )
         sq = np.asarray(scalar_q, dtype=int)
         lower = np.asarray(model.lowerPositionLimit)[sq] if sq.size else np.empty(0)
         upper = np.asarray(model.upperPositionLimit)[sq] if sq.size else np.empty(0)
