@@ -195,7 +195,9 @@ def test_hard_row_in_the_span_of_the_hard_equalities_and_violated_is_reported() 
     result = HierarchySolver(_bare_cascade_options()).solve(levels, n, C=C, l=l, u=u, A=A, b=b)
     assert not result.success
     assert result.status is QPStatus.RELAXED
-    assert len(result.culprits) == 1 and "hard inequalities rows [0]" in result.culprits[0]
+    # the violated block's name (unnamed rows: "hard inequalities"), then the diagnosis
+    assert len(result.culprits) == 2 and result.culprits[0] == "hard inequalities"
+    assert "hard inequalities rows [0] vanish" in result.culprits[1]
     np.testing.assert_allclose(A @ result.x, b, atol=1e-9)
     assert result.x[2] == pytest.approx(0.5, abs=1e-7)  # the satisfiable row still holds
     assert result.level_results[0].status is QPStatus.SOLVED

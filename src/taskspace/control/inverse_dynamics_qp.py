@@ -968,7 +968,7 @@ class InverseDynamicsQP:
         nv, n = self.robot.nv, self.n
         M, h, Jc = self._dynamics(state)
         A, b, _ = self._equalities(state, M, h, Jc)
-        C, l, u, _ = self._inequalities(M, h, Jc)
+        C, l, u, in_blocks = self._inequalities(M, h, Jc)
         levels = self._hierarchy_levels()
         Jt, rt = self._level_rows.acceleration(state)
         scale = 1.0 / max(self._weight, 1e-9)
@@ -984,7 +984,9 @@ class InverseDynamicsQP:
                 block[:, self._force_cols[id(pt.contact)]] = np.sqrt(pt.weight) * scale * pt.rows()
         lb, ub = self._acceleration_bounds(state)
         t1 = time.perf_counter()
-        result = self._hierarchy.solve(levels, n, lb=lb, ub=ub, C=C, l=l, u=u, A=A, b=b)
+        result = self._hierarchy.solve(
+            levels, n, lb=lb, ub=ub, C=C, l=l, u=u, hard_names=in_blocks, A=A, b=b
+        )
         t2 = time.perf_counter()
         status = InverseDynamicsStatus.SOLVED if result.success else InverseDynamicsStatus.RELAXED
         out = self._result(state, result.x, result.success, status, t1 - t0, t2 - t1, None)
@@ -994,10 +996,12 @@ class InverseDynamicsQP:
             # the hard blocks the cascade's point violates (the buffers of self._problem hold
             # this step's A, b, C, l, u and bounds), as the weighted QP's relaxation names
             # them, then the cascade's own diagnostics (rows no level could satisfy)
+            # (the cascade names the same inequality blocks, and the bounds as "bounds")
             violations = self._problem.violations(result.x)
-            out.culprits = [name for name, v in violations.items() if v > RELAXED_VIOLATION] + list(
-                result.culprits
-            )
+            names = [name for name, v in violations.items() if v > RELAXED_VIOLATION]
+            out.culprits = names + [
+                c for c in result.culprits if c not in violations and c != "bounds"
+            ]
         return out
 
     def _hierarchy_levels(self) -> list[HierarchyLevel]:

@@ -10,7 +10,7 @@ from __future__ import annotations
 import threading
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import pinocchio as pin
@@ -52,6 +52,9 @@ class HierarchicalIKResult:
             ``native`` and ``hierarchy.status``: ``UNCONSTRAINED`` or ``SOLVED``).
         native_declined: why the compiled step declined and the Python cascade answered
             (empty when it answered or did not run).
+        culprits: when the step failed, the hard constraints (by name, ``"bounds"`` for the
+            box constraints together) its point violates, then the cascade's diagnostics
+            (``hierarchy.culprits``); empty on success.
     """
 
     success: bool
@@ -64,6 +67,7 @@ class HierarchicalIKResult:
     solve_time: float = 0.0
     native: bool = False
     native_declined: str = ""
+    culprits: list[str] = field(default_factory=list)
 
 
 _BACKOFF = frozenset(DECLINED[k] for k in (3, 4, 5))
@@ -384,6 +388,7 @@ class HierarchicalIK:
             t1 - t0,
             t2 - t1,
             native_declined=declined,
+            culprits=list(result.culprits),
         )
 
     def _residual_error(self, levels: list[HierarchyLevel]) -> None:

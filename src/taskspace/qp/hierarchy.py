@@ -33,7 +33,7 @@ from taskspace.errors import InvalidInputError, NotFiniteError, ShapeError
 from taskspace.qp.kkt import KKTResiduals, least_squares_kkt_residuals
 from taskspace.qp.problem import INF, QPProblem, RowBlock
 from taskspace.qp.result import QPResult, QPStatus
-from taskspace.qp.solver import QPSolver, QPSolverOptions
+from taskspace.qp.solver import RELAXED_VIOLATION, QPSolver, QPSolverOptions
 
 
 @dataclass
@@ -173,10 +173,14 @@ class HierarchyResult:
         nullspace_dims: dimension of the remaining freedom after each level.
         level_results: the QP result of each level.
         solve_time: total wall time [s].
-        culprits: hard or held inequality rows that no level could satisfy: projected onto a
-            level's freedom they vanish (they lie in the row space of the hard equalities or of
-            higher levels' equalities) while their bounds exclude the cascade's point, so they
-            stay violated (``success`` is then ``False``, ``status`` ``RELAXED``). Each entry
+        culprits: empty on success. Otherwise first the names of the hard inequality blocks
+            (``hard_names`` of :meth:`HierarchySolver.solve`, ``"hard inequalities"`` for
+            unnamed rows) and ``"bounds"`` that ``x`` violates by more than ``1e-6`` (as a
+            relaxed :class:`~taskspace.qp.QPResult` names its blocks), then one sentence per
+            set of hard or held inequality rows that no level could satisfy: projected onto a
+            level's freedom they vanish (they lie in the row space of the hard equalities or
+            of higher levels' equalities) while their bounds exclude the cascade's point, so
+            they stay violated (``success`` is then ``False``, ``status`` ``RELAXED``); it
             names the level, the row block, the rows and the violation.
     """
 
@@ -453,6 +457,59 @@ def _drop_vanished_rows(
     return idx[bad], float(np.maximum(lo_s, -hi_s)[bad].max(initial=0.0))
 
 
+def _hard_blocks(hard_names: Any, m: int) -> list[RowBlock]:
+    """The named blocks of the ``m`` hard inequality rows, rows in no block as one of their own.
+
+    Raises:
+        InvalidInputError: an entry that is not a :class:`RowBlock` of rows in ``[0, m)``.
+    """
+    if isinstance(hard_names, RowBlock) or not isinstance(hard_names, Sequence):
+        raise InvalidInputError(
+            f"hard_names must be a list of RowBlock, got {type(hard_names).__name__}"
+        )
+    covered = np.zeros(m, dtype=bool)
+    out: list[RowBlock] = []
+    for k, blk in enumerate(hard_names):
+        if not (
+            isinstance(blk, RowBlock)
+            and isinstance(blk.name, str)
+            and isinstance(blk.start, (int, np.integer))
+            and isinstance(blk.stop, (int, np.integer))
+            and 0 <= blk.start <= blk.stop <= m
+        ):
+            raise InvalidInputError(
+                f"hard_names[{k}] must be a RowBlock(name, start, stop) with "
+                f"0 <= start <= stop <= {m} (the number of hard inequality rows), got {blk!r}"
+            )
+        out.append(RowBlock(blk.name, int(blk.start), int(blk.stop)))
+        covered[blk.start : blk.stop] = True
+    gaps = np.flatnonzero(np.diff(np.concatenate([[0], (~covered).view(np.int8), [0]])))
+    out += [RowBlock("hard inequalities", int(a), int(b)) for a, b in zip(gaps[::2], gaps[1::2])]
+    return out
+
+
+def _violated_blocks(
+    x: FloatArray,
+    blocks: list[RowBlock],
+    C: FloatArray | None,
+    l: FloatArray | None,
+    u: FloatArray | None,
+    lb: FloatArray,
+    ub: FloatArray,
+) -> list[str]:
+    """Names of the hard blocks (then ``"bounds"``) violated at ``x`` by more than 1e-6."""
+    out: list[str] = []
+    if C is not None and l is not None and u is not None and C.shape[0]:
+        Cx = C @ x
+        v = np.maximum(l - Cx, Cx - u)
+        for blk in blocks:
+            if blk.name not in out and v[blk.start : blk.stop].max(initial=0.0) > RELAXED_VIOLATION:
+                out.append(blk.name)
+    if np.maximum(lb - x, x - ub).max(initial=0.0) > RELAXED_VIOLATION:
+        out.append("bounds")
+    return out
+
+
 def _affine_start(
     A: FloatArray | None, b: FloatArray | None, n: int, tol: float
 ) -> tuple[FloatArray, FloatArray | None]:
@@ -573,13 +630,17 @@ class HierarchySolver:
             n: number of variables.
             lb, ub: hard box bounds (default none).
             C, l, u: hard inequalities (default none).
-            hard_names: row blocks naming the hard inequalities (for diagnostics).
+            hard_names: row blocks naming the hard inequalities ``C`` (``[start, stop)`` rows;
+                rows in no block are named ``"hard inequalities"``). The level QPs carry these
+                names, so a relaxed level's ``culprits`` and the cascade's
+                :attr:`HierarchyResult.culprits` name the blocks at fault.
             A, b: hard equalities ``A x = b`` (consistent; held exactly by starting in the
                 affine set ``x0 + null(A)``), e.g. equations of motion and rigid contacts.
         """
         t0 = time.perf_counter()
         opts = self.options
         _check_levels(levels, n, lb, ub, C, l, u, A, b)
+        hard_blocks = _hard_blocks(hard_names, 0 if C is None else C.shape[0])
         lb = np.full(n, -INF) if lb is None else lb
         ub = np.full(n, INF) if ub is None else ub
         # Fast path: the cascade of the equality rows alone (one SVD per level). When its
@@ -676,6 +737,7 @@ class HierarchySolver:
                     Cx = Ch @ x
                     lo_h = np.minimum(lh - Cx, slack)
                     hi_h = np.maximum(uh - Cx, -slack)
+                    named = hard_blocks if j == 0 and C is not None else None
                     if Z is None:
                         block[:, :r_dim] = Ch
                     else:
@@ -688,11 +750,15 @@ class HierarchySolver:
                             np.sqrt(np.einsum("ij,ij->i", Ch, Ch)),
                             lo_h,
                             hi_h,
+                            named=named,
                         )
                     rows_C.append(block)
                     rows_l.append(lo_h)
                     rows_u.append(hi_h)
-                    blocks.append(RowBlock("held inequalities", row, row + Ch.shape[0]))
+                    if named is None:
+                        blocks.append(RowBlock(held_names[j], row, row + Ch.shape[0]))
+                    else:  # the hard rows under their own names
+                        blocks += [RowBlock(b.name, row + b.start, row + b.stop) for b in named]
                     row += Ch.shape[0]
                 if p:
                     assert level.C is not None and level.l is not None and level.u is not None
@@ -750,6 +816,10 @@ class HierarchySolver:
         if out.culprits:
             out.success = False
             out.status = order[max(worst, order.index(QPStatus.RELAXED))]
+        if not out.success:
+            # the hard blocks the cascade's point violates (as a relaxed QP names them),
+            # then the cascade's own diagnostics (rows no level could satisfy)
+            out.culprits[:0] = _violated_blocks(x, hard_blocks, C, l, u, lb, ub)
         return self._finish(out, levels, t0, None)
 
     def _drop_rows(
@@ -762,11 +832,13 @@ class HierarchySolver:
         lo: FloatArray,
         hi: FloatArray,
         rows: npt.NDArray[np.intp] | None = None,
+        named: list[RowBlock] | None = None,
     ) -> None:
         """Leave projected rows that vanish out of a level's QP (see ``row_tolerance``).
 
         ``P`` (a view of the level's constraint block), ``lo`` and ``hi`` are changed in place;
-        rows whose bounds exclude the current point are named in ``out.culprits``.
+        rows whose bounds exclude the current point are named in ``out.culprits`` (with the
+        names of their blocks in ``named``, the hard inequalities' ``hard_names``).
         """
         dropped = _drop_vanished_rows(
             P, np.broadcast_to(norms, P.shape[:1]), lo, hi, self.options.row_tolerance
@@ -774,8 +846,13 @@ class HierarchySolver:
         if dropped is None or not dropped[0].size:
             return
         idx = dropped[0] if rows is None else rows[dropped[0]]
+        names = ""
+        if named is not None:
+            hit = [b.name for b in named if ((idx >= b.start) & (idx < b.stop)).any()]
+            if hit != [block]:  # named blocks (not only the unnamed rows')
+                names = f" ({', '.join(dict.fromkeys(hit))})"
         out.culprits.append(
-            f"level {level!r}: {block} rows {idx.tolist()} vanish in the level's freedom "
+            f"level {level!r}: {block} rows {idx.tolist()}{names} vanish in the level's freedom "
             f"(they lie in the span of the hard equalities and higher levels' equalities) "
             f"but are violated by up to {dropped[1]:.3g}"
         )
