@@ -36,6 +36,50 @@ TARGET_LOW = np.array([0.3, -0.4, 0.2])
 TARGET_HIGH = np.array([0.7, 0.4, 0.7])
 
 
+def _check_robot(robot: Any, who: str) -> None:
+    """Refuse a robot other than a 7-joint arm of one-dof joints with the Panda's tool frame.
+
+    The env's state is ``q`` (7) moved by ``q + dt v`` with one velocity limit per entry: a
+    joint with several coordinates (free-flyer, spherical, planar) or whose ``nq`` differs
+    from its ``nv`` (continuous) breaks that (a free-flyer alone has ``nq = 7``). Pinocchio's
+    joints are read for the message.
+
+    Raises:
+        InvalidInputError: ``robot`` is not a :class:`Robot`, lacks ``panda_hand_tcp`` or has
+            other joints than 7 one-dof ones (named with their ``nq`` and ``nv``).
+    """
+    if not isinstance(robot, Robot):
+        raise InvalidInputError(f"{who} needs a taskspace Robot, got {type(robot).__name__}")
+    model = robot._model
+    multi = [
+        f"{model.names[j]} (nq={model.joints[j].nq}, nv={model.joints[j].nv})"
+        for j in range(1, model.njoints)
+        if model.joints[j].nq != 1 or model.joints[j].nv != 1
+    ]
+    if multi or robot.nv != 7 or robot.nq != 7 or "panda_hand_tcp" not in robot.frame_names:
+        detail = f"joints with other than one coordinate: {multi}" if multi else ""
+        if not detail:
+            detail = (
+                f"nq={robot.nq}, nv={robot.nv}"
+                if robot.nv != 7 or robot.nq != 7
+                else "no frame 'panda_hand_tcp'"
+            )
+        raise InvalidInputError(
+            f"{who} needs the registry's 'panda' robot (7 one-dof joints and the frame "
+            f"'panda_hand_tcp'); robot '{robot.name}' has {detail}"
+        )
+
+
+def _velocity_joint_names(robot: Robot) -> list[str]:
+    """The name of the joint of each velocity coordinate (Pinocchio's ``idx_v`` and ``nv``)."""
+    model = robot._model
+    names = [""] * model.nv
+    for j in range(1, model.njoints):
+        joint = model.joints[j]
+        names[joint.idx_v : joint.idx_v + joint.nv] = [model.names[j]] * joint.nv
+    return names
+
+
 def _limits(robot: Any) -> tuple[int, np.ndarray, np.ndarray, np.ndarray, spaces.Box]:
     """Robot version, copied position and velocity limits, and the observation space.
 
@@ -49,7 +93,8 @@ def _limits(robot: Any) -> tuple[int, np.ndarray, np.ndarray, np.ndarray, spaces
     """
     v_max = robot.velocity_limits.copy()
     if not np.all(np.isfinite(v_max)):
-        bad = [robot.joint_names[i] for i in np.flatnonzero(~np.isfinite(v_max))]
+        names = _velocity_joint_names(robot)
+        bad = list(dict.fromkeys(names[i] for i in np.flatnonzero(~np.isfinite(v_max))))
         raise InvalidInputError(
             f"PandaReach needs a finite velocity limit on every joint (an action is a fraction "
             f"of it); unlimited: {bad} (Robot.set_limits(velocity=...))"
@@ -84,8 +129,7 @@ class PandaReachEnv(gym.Env[np.ndarray, np.ndarray]):
         if render_mode is not None:
             raise InvalidInputError(f"render_mode {render_mode!r} is not supported; use None")
         self.robot = robot if robot is not None else Robot.load("panda")
-        if self.robot.nq != 7 or "panda_hand_tcp" not in self.robot.frame_names:
-            raise InvalidInputError("PandaReachEnv needs the registry's 'panda' robot (7 joints)")
+        _check_robot(self.robot, "PandaReachEnv")
         self.checker = CollisionChecker(self.robot)
         self.dt = float(dt)
         self.tolerance = float(tolerance)
@@ -198,10 +242,7 @@ class PandaReachVectorEnv(RobotVectorEnv):
     ) -> None:
         super().__init__(num_envs, dt, 1, max_episode_steps, render_mode)
         self.robot = robot if robot is not None else Robot.load("panda")
-        if self.robot.nq != 7 or "panda_hand_tcp" not in self.robot.frame_names:
-            raise InvalidInputError(
-                "PandaReachVectorEnv needs the registry's 'panda' robot (7 joints)"
-            )
+        _check_robot(self.robot, "PandaReachVectorEnv")
         self.checker = CollisionChecker(self.robot)
         self.tcp_position = BatchedFramePosition(self.robot._model, "panda_hand_tcp")
         self.tolerance = float(tolerance)
