@@ -76,7 +76,9 @@ class InverseDynamicsResult:
         residuals: per priority level, the task residual norm (hierarchical mode).
         level_results: per level of the cascade, its QP result with KKT residuals
             (hierarchical mode; empty levels solved without a QP are ``UNCONSTRAINED``).
-        culprits: constraint blocks at fault when the problem was relaxed.
+        culprits: constraint blocks at fault when the problem was relaxed (every block the
+            least-violating point violates; ``qp.conflict`` of the weighted QP: a minimal
+            conflicting subset).
         build_time, solve_time: wall times [s].
         compiled: the step was computed by the compiled kernel (``InverseDynamicsOptions.
             native``); ``qp.backend`` then says which of its solves answered.

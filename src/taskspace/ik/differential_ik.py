@@ -78,7 +78,9 @@ class IKStepResult:
         success: the QP was solved with every hard constraint satisfied.
         status: see :class:`IKStatus`.
         dq: the step (tangent vector, size nv) [rad, m].
-        culprits: constraints at fault when the hard constraints conflict.
+        culprits: constraints at fault when the hard constraints conflict (every one the
+            least-violating step violates; ``qp.conflict``: a minimal conflicting subset of
+            the QP's blocks).
         build_time, solve_time: wall times [s].
 
     ``velocity`` (``dq / dt``) and ``qp`` (the QP result) are properties: a solver may give

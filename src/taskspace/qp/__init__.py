@@ -11,6 +11,7 @@ from taskspace.qp.closed_form import (
     weighted_pseudo_inverse,
     weighted_pseudo_inverse_woodbury,
 )
+from taskspace.qp.conflict import conflicting_blocks
 from taskspace.qp.hierarchy import (
     HierarchyLevel,
     HierarchyOptions,
@@ -55,6 +56,7 @@ __all__ = [
     "available_backends",
     "combine_bounds",
     "combine_boxes",
+    "conflicting_blocks",
     "damped_pseudo_inverse",
     "hierarchical_step_exact",
     "hierarchical_step_regularized",

@@ -12,7 +12,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from taskspace._validation import FloatArray
+from taskspace.qp.conflict import conflicting_blocks
 from taskspace.qp.kkt import KKTResiduals
+from taskspace.qp.problem import QPProblem
 
 
 class QPStatus(enum.Enum):
@@ -53,7 +55,9 @@ class QPResult:
         iterations: backend iterations (0 for the unconstrained shortcut).
         solve_time: wall time of the solve [s].
         backend: name of the backend that produced ``x``.
-        culprits: constraint blocks violated by the least-violating solution (when relaxed).
+        culprits: constraint blocks violated by the least-violating solution (when relaxed);
+            the penalty spreads a conflict, so blocks dragged along are named too (see
+            :attr:`conflict`).
         violations: largest violation per constraint block.
         kkt: KKT residuals of ``(x, y, z, z_box)`` (primal, dual, complementarity, duality
             gap; NaN when not computed).
@@ -78,6 +82,26 @@ class QPResult:
     y: FloatArray = field(default_factory=_no_multipliers)
     z: FloatArray = field(default_factory=_no_multipliers)
     z_box: FloatArray = field(default_factory=_no_multipliers)
+    conflict_problem: QPProblem | None = field(default=None, repr=False, compare=False)
+    """A copy of a relaxed problem's constraints, for :attr:`conflict` (``None``: not relaxed)."""
+    _conflict: list[str] | None = field(default=None, repr=False, compare=False)
+
+    @property
+    def conflict(self) -> list[str]:
+        """A minimal set of conflicting constraint blocks of a ``RELAXED`` result (else empty).
+
+        The blocks conflict together, and leaving out any one of them makes the rest
+        feasible (:func:`~taskspace.qp.conflict.conflicting_blocks`, a deletion filter: one
+        feasibility LP per block, computed on first access). The blocks of :attr:`culprits`
+        are tried last, so the set lies within them whenever they conflict by themselves.
+        """
+        if self._conflict is None:
+            source = self.conflict_problem
+            self._conflict = (
+                [] if source is None else conflicting_blocks(source, prefer=self.culprits)
+            )
+            self.conflict_problem = None
+        return list(self._conflict)
 
     @property
     def primal_residual(self) -> float:
