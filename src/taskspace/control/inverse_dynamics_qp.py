@@ -1002,7 +1002,9 @@ class InverseDynamicsQP:
             violations = self._problem.violations(result.x)
             names = [name for name, v in violations.items() if v > RELAXED_VIOLATION]
             out.culprits = names + [
-                c for c in result.culprits if c not in violations and c != "bounds"
+                c
+                for c in result.culprits
+                if c not in violations and c not in ("bounds", "hard equalities")
             ]
         return out
 

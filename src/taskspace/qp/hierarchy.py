@@ -129,6 +129,8 @@ def _check_levels(
     for name, arr in (("lb", lb), ("ub", ub)):
         if arr is not None and not (type(arr) is np.ndarray and arr.shape == (n,)):
             raise ShapeError(name, (n,), tuple(np.shape(arr)))
+        if arr is not None:
+            _check_finite(arr, name, bounds=True)
     if (A is None) != (b is None):
         raise InvalidInputError("hard equalities: A and b go together (got only one)")
     if A is not None and b is not None:
@@ -136,6 +138,8 @@ def _check_levels(
             raise ShapeError("A", (np.shape(b)[0] if np.ndim(b) else -1, n), tuple(np.shape(A)))
         if np.shape(b) != (np.shape(A)[0],):
             raise ShapeError("b", (np.shape(A)[0],), tuple(np.shape(b)))
+        _check_finite(A, "hard equalities A", bounds=False)
+        _check_finite(b, "hard equalities b", bounds=False)
 
 
 def _refuse_level(k: int, level: HierarchyLevel, n: int) -> None:
@@ -158,6 +162,27 @@ def _check_rows(C: Any, l: Any, u: Any, n: int, what: str) -> None:
     for name, arr in (("l", l), ("u", u)):
         if np.shape(arr) != (m,):
             raise ShapeError(f"{what} {name}", (m,), tuple(np.shape(arr)))
+    _check_finite(C, f"{what} C", bounds=False)
+    _check_finite(l, f"{what} l", bounds=True)
+    _check_finite(u, f"{what} u", bounds=True)
+
+
+def _check_finite(arr: FloatArray, what: str, bounds: bool) -> None:
+    """Refuse NaN (and, unless ``bounds``, infinite) entries, naming the rows.
+
+    One dot product on the normal path (NaN and inf show in the sum of squares; bounds may
+    be infinite, so only NaN is refused there).
+    """
+    if not arr.size:
+        return
+    with np.errstate(over="ignore", invalid="ignore"):
+        total = float(np.vdot(arr, arr))
+    if math.isfinite(total) or (bounds and not math.isnan(total)):
+        return
+    bad = np.isnan(arr) if bounds else ~np.isfinite(arr)
+    if bad.any():
+        rows = np.flatnonzero(bad.reshape(arr.shape[0], -1).any(axis=1))
+        raise NotFiniteError(what, rows.tolist()[:20])
 
 
 @dataclass
@@ -457,6 +482,32 @@ def _drop_vanished_rows(
     return idx[bad], float(np.maximum(lo_s, -hi_s)[bad].max(initial=0.0))
 
 
+def _float_array(value: Any) -> FloatArray | None:
+    """``value`` as a float64 array (lists, int and float32 arrays; ``None`` stays ``None``).
+
+    Raises:
+        InvalidInputError: values that are not real numbers.
+    """
+    if value is None or (type(value) is np.ndarray and value.dtype == np.float64):
+        return value
+    try:
+        arr = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise InvalidInputError(
+            f"hard constraint data must be arrays of real numbers, got {type(value).__name__}"
+        ) from None
+    if np.iscomplexobj(value):
+        raise InvalidInputError("hard constraint data must be real, got complex numbers")
+    return arr
+
+
+def _inconsistent(out: HierarchyResult, status: QPStatus) -> None:
+    """Mark a cascade whose hard equalities ``A x = b`` have no solution (see ``solve``)."""
+    out.success = False
+    out.status = status if status in (QPStatus.RELAXED, QPStatus.FAILED) else QPStatus.RELAXED
+    out.culprits.insert(0, "hard equalities")
+
+
 def _hard_blocks(hard_names: Any, m: int) -> list[RowBlock]:
     """The named blocks of the ``m`` hard inequality rows, rows in no block as one of their own.
 
@@ -634,11 +685,22 @@ class HierarchySolver:
                 rows in no block are named ``"hard inequalities"``). The level QPs carry these
                 names, so a relaxed level's ``culprits`` and the cascade's
                 :attr:`HierarchyResult.culprits` name the blocks at fault.
-            A, b: hard equalities ``A x = b`` (consistent; held exactly by starting in the
-                affine set ``x0 + null(A)``), e.g. equations of motion and rigid contacts.
+            A, b: hard equalities ``A x = b`` (held exactly by starting in the affine set
+                ``x0 + null(A)``), e.g. equations of motion and rigid contacts. Inconsistent
+                ones (no solution: ``|A x0 - b| > 1e-6`` at their least-squares point ``x0``)
+                make the result ``RELAXED``, not a success, with ``"hard equalities"`` first
+                in its culprits.
+            The hard data may be lists or arrays of any real dtype. ``C``, ``A``, ``b`` must
+            be finite, the bounds ``l``, ``u``, ``lb``, ``ub`` not NaN (they may be infinite).
+
+        Raises:
+            NotFiniteError: NaN in any level's or the hard data (inf in ``J``, ``r``, ``C``,
+                ``A``, ``b``), naming the array and its rows.
+            ShapeError, InvalidInputError: arrays that do not fit ``n`` or each other.
         """
         t0 = time.perf_counter()
         opts = self.options
+        lb, ub, C, l, u, A, b = (_float_array(a) for a in (lb, ub, C, l, u, A, b))
         _check_levels(levels, n, lb, ub, C, l, u, A, b)
         hard_blocks = _hard_blocks(hard_names, 0 if C is None else C.shape[0])
         lb = np.full(n, -INF) if lb is None else lb
@@ -646,14 +708,25 @@ class HierarchySolver:
         # Fast path: the cascade of the equality rows alone (one SVD per level). When its
         # solution satisfies every inequality and bound, it is the constrained optimum too.
         x0, Z0 = _affine_start(A, b, n, opts.rank_tolerance)
+        # inconsistent hard equalities: x0 is their least-squares point (every level moves
+        # in null(A), so A x stays A x0): reported, never a success
+        inconsistent = (
+            A is not None
+            and b is not None
+            and b.size > 0
+            and not float(np.abs(A @ x0 - b).max()) <= RELAXED_VIOLATION
+        )
         shortcut = self._equality_cascade(levels, n, x0, Z0)
         violations = (
             None if shortcut is None else self._violations(shortcut[0], levels, lb, ub, C, l, u)
         )
         if shortcut is not None and violations is not None:
             x, dims, steps = shortcut
+            done = HierarchyResult(True, QPStatus.UNCONSTRAINED, x, nullspace_dims=dims)
+            if inconsistent:
+                _inconsistent(done, QPStatus.UNCONSTRAINED)
             return self._finish(
-                HierarchyResult(True, QPStatus.UNCONSTRAINED, x, nullspace_dims=dims),
+                done,
                 levels,
                 t0,
                 [_ClosedFormLevelResult(step, primal) for step, primal in zip(steps, violations)],
@@ -820,6 +893,8 @@ class HierarchySolver:
             # the hard blocks the cascade's point violates (as a relaxed QP names them),
             # then the cascade's own diagnostics (rows no level could satisfy)
             out.culprits[:0] = _violated_blocks(x, hard_blocks, C, l, u, lb, ub)
+        if inconsistent:
+            _inconsistent(out, out.status)
         return self._finish(out, levels, t0, None)
 
     def _drop_rows(

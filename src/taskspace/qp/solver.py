@@ -48,8 +48,19 @@ import numpy as np
 from scipy.linalg.lapack import dgesv, dposv, dpotrf
 
 from taskspace._validation import FloatArray
-from taskspace.errors import InvalidInputError, NotFiniteError, SolverError, UnknownNameError
-from taskspace.qp.kkt import equality_kkt_residuals, kkt_residuals, stacked_kkt_residuals
+from taskspace.errors import (
+    InvalidInputError,
+    NotFiniteError,
+    ShapeError,
+    SolverError,
+    UnknownNameError,
+)
+from taskspace.qp.kkt import (
+    KKTResiduals,
+    equality_kkt_residuals,
+    kkt_residuals,
+    stacked_kkt_residuals,
+)
 from taskspace.qp.problem import INF, QPProblem, RowBlock
 from taskspace.qp.result import QPResult, QPStatus
 
@@ -254,8 +265,17 @@ class QPSolver:
 
     # ------------------------------------------------------------------ public
     def solve(self, problem: QPProblem) -> QPResult:
-        """Solve ``problem`` (see the module docstring for the strategy)."""
+        """Solve ``problem`` (see the module docstring for the strategy).
+
+        Raises:
+            InvalidInputError: an array that is not a real numpy array, or bad data (see
+                :func:`check_problem_data`).
+            ShapeError: arrays that do not fit together.
+        """
         t0 = time.perf_counter()
+        check_structure(problem)
+        if not problem.n:
+            return _empty_result(problem)
         opts = self.options
         if opts.try_unconstrained:
             solved = self._kkt.solve_with_multipliers(problem)
@@ -923,6 +943,8 @@ class KKTWorkspace:
             if not p.A.shape[0]:
                 # Cholesky solve through LAPACK directly (np.linalg.solve costs 4x more on 7x7);
                 # it succeeds only for a positive definite H (also the convexity check)
+                if not p.n:
+                    return np.zeros(0), np.zeros(0)
                 _, x, info = dposv(p.H, -p.g)
                 return (x, np.zeros(0)) if info == 0 else None
             if not p.convex:  # the KKT system's solution is a minimizer only for a convex QP
@@ -1026,6 +1048,95 @@ def _block_of(blocks: list[RowBlock], row: int) -> str:
     return ""
 
 
+def _empty_result(p: QPProblem) -> QPResult:
+    """The solution of a QP without variables: ``x`` empty, its rows ``l <= 0 <= u``, ``0 = b``.
+
+    ``UNCONSTRAINED`` when the rows hold, else ``RELAXED`` naming the blocks they violate.
+    """
+    check_problem_data(p)
+    x = np.zeros(0)
+    violations = p.violations(x)
+    culprits = [name for name, v in violations.items() if v > RELAXED_VIOLATION]
+    worst = max(violations.values(), default=0.0)
+    kkt = KKTResiduals(worst, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0)
+    status = QPStatus.RELAXED if culprits else QPStatus.UNCONSTRAINED
+    return QPResult(
+        not culprits,
+        status,
+        x,
+        0.0,
+        backend="empty",
+        culprits=culprits,
+        violations=violations,
+        kkt=kkt,
+        y=np.zeros(p.n_eq),
+        z=np.zeros(p.n_in),
+        z_box=x,
+    )
+
+
+_REAL = frozenset("fiub")  # numpy dtype kinds a QP's arrays may have (float, int, unsigned, bool)
+_QP_ARRAYS = ("H", "g", "A", "b", "C", "l", "u", "lb", "ub")
+_F64 = np.dtype(np.float64)
+
+
+def check_structure(p: QPProblem) -> None:
+    """Refuse arrays that are not real numpy arrays or do not fit together.
+
+    ``g`` sets ``n``; ``H`` is ``(n, n)``, ``A`` ``(len(b), n)``, ``C`` ``(len(l), n)``, ``u``
+    like ``l``, ``lb`` and ``ub`` ``(n,)``, the vectors 1-D. The dtypes are looked at only
+    when ``H``, ``g``, ``A`` or ``C`` is not float64 (the builders' arrays are). A list, a
+    2-D ``g`` or a ``C`` of the wrong width otherwise reached NumPy or LAPACK (bare
+    ``TypeError``, ``ValueError`` or an f2py error) or broadcast silently.
+
+    Raises:
+        InvalidInputError: an array that is not a numpy array of real numbers.
+        ShapeError: the shapes do not fit together.
+    """
+    try:
+        g, l, H, A, b, C = p.g, p.l, p.H, p.A, p.b, p.C
+        n = g.shape[0]
+        m = l.shape[0]
+        ok = (
+            g.ndim == 1
+            and H.shape == (n, n)
+            and b.ndim == 1
+            and A.shape == (b.shape[0], n)
+            and l.ndim == 1
+            and C.shape == (m, n)
+            and p.u.shape == (m,)
+            and p.lb.shape == (n,)
+            and p.ub.shape == (n,)
+        )
+        if ok and not (H.dtype is _F64 and g.dtype is _F64 and C.dtype is _F64 and A.dtype is _F64):
+            ok = all(getattr(p, name).dtype.kind in _REAL for name in _QP_ARRAYS)
+    except (AttributeError, IndexError):  # not an array, or a 0-d g
+        ok = False
+    if not ok:
+        _refuse_structure(p)
+
+
+def _refuse_structure(p: QPProblem) -> None:
+    """Raise the error of :func:`check_structure`, naming the array."""
+    for name in _QP_ARRAYS:
+        arr = getattr(p, name)
+        if not isinstance(arr, np.ndarray):
+            raise InvalidInputError(
+                f"QP {name} must be a numpy array, got {type(arr).__name__} "
+                f"(use np.asarray({name}, dtype=float))"
+            )
+        if arr.dtype.kind not in _REAL:
+            raise InvalidInputError(
+                f"QP {name} must hold real numbers, got dtype {arr.dtype} "
+                f"(use np.asarray({name}, dtype=float))"
+            )
+    for name in ("g", "b", "l", "u", "lb", "ub"):
+        arr = getattr(p, name)
+        if arr.ndim != 1:
+            raise ShapeError(f"QP {name}", (-1,), arr.shape)
+    p.check()
+
+
 def check_problem_data(problem: QPProblem) -> None:
     """Refuse data no backend can solve in bounded time (called before every backend run).
 
@@ -1040,6 +1151,7 @@ def check_problem_data(problem: QPProblem) -> None:
         InvalidInputError: an entry beyond :data:`MAX_QP_MAGNITUDE`, with the same details.
     """
     p = problem
+    check_structure(p)
     if p.stacked is not None:  # A and C are rows of G, b, l, u and the box within lo, hi
         G, lo, hi = p.stacked
         data: tuple[FloatArray, ...] = (p.H, p.g, G, p.b)
