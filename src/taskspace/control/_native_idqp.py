@@ -18,6 +18,7 @@ task, positive regularizations.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
@@ -255,6 +256,11 @@ class NativeInverseDynamics:
         else:
             return None
         n, nv, n_eq, n_in = self.n, self.nv, self.n_eq, self.n_in
+        head = out[: n + nv]
+        if not math.isfinite(float(head.dot(head)) + primal + dual):
+            # (a state beyond ~1e150, e.g. v = 1e160: the kernel's squares overflow and its
+            # NaN residuals passed as certified, tau NaN): the Python path refuses the data
+            return None
         x = out[:n]
         tau = out[n : n + nv]
         y = out[n + nv : n + nv + n_eq]
