@@ -55,12 +55,27 @@ def _metric(M: Any, n: int, name: str, *, definite: bool) -> FloatArray:
 
 def _solve(M: FloatArray, B: FloatArray, what: str) -> FloatArray:
     """``M^-1 B``, or an InvalidInputError naming ``what`` when ``M`` is singular."""
+    _finite(M, what)
     try:
-        return np.asarray(np.linalg.solve(M, B))
+        return _finite(np.asarray(np.linalg.solve(M, B)), f"the solution with {what}")
     except np.linalg.LinAlgError:
         raise InvalidInputError(
             f"{what} is singular: make the metric positive definite (or add damping)"
         ) from None
+
+
+def _finite(arr: FloatArray, what: str) -> FloatArray:
+    """``arr``, or an InvalidInputError when it overflowed (finite inputs, inf or NaN results).
+
+    Inputs are finite when this runs: a non-finite product means entries whose squares
+    exceed double precision (``|J| > ~1e154``), where every formula here returns NaN.
+    """
+    if not np.isfinite(arr).all():
+        raise InvalidInputError(
+            f"{what} is not finite: the inputs' products overflow double precision (entries "
+            "beyond ~1e154 multiply to inf); scale the Jacobians, metrics and errors"
+        )
+    return arr
 
 
 def weighted_pseudo_inverse(J: FloatArray, W: FloatArray, C: FloatArray) -> FloatArray:
@@ -91,8 +106,9 @@ def weighted_pseudo_inverse_woodbury(J: FloatArray, W: FloatArray, C: FloatArray
     d, n = J.shape
     W = _metric(W, n, "W", definite=True)
     C = _metric(C, d, "C", definite=True)
-    Winv_Jt = np.linalg.solve(W, J.T)
-    return np.asarray(Winv_Jt @ np.linalg.inv(J @ Winv_Jt + np.linalg.inv(C)))
+    Winv_Jt = _solve(W, J.T, "W")
+    inner = _finite(J @ Winv_Jt + np.linalg.inv(C), "J W^-1 J^T + C^-1")
+    return _finite(np.asarray(Winv_Jt @ np.linalg.inv(inner)), "J#")
 
 
 def damped_pseudo_inverse(J: FloatArray, damping: float) -> FloatArray:
@@ -117,7 +133,8 @@ def pseudo_inverse(J: FloatArray, rcond: float = 1e-10) -> FloatArray:
     ``rcond``: singular values below ``rcond`` times the largest count as zero (>= 0).
     """
     J = _jacobian(J)
-    return np.asarray(np.linalg.pinv(J, rcond=check_positive(rcond, "rcond", strict=False)))
+    rcond = check_positive(rcond, "rcond", strict=False)
+    return _finite(np.asarray(np.linalg.pinv(J, rcond=rcond)), "J^+")
 
 
 def nullspace_projector(J: FloatArray, J_sharp: FloatArray) -> FloatArray:
@@ -127,7 +144,7 @@ def nullspace_projector(J: FloatArray, J_sharp: FloatArray) -> FloatArray:
     """
     J = _jacobian(J)
     J_sharp = as_matrix(J_sharp, (J.shape[1], J.shape[0]), "J_sharp")
-    return np.asarray(np.eye(J.shape[1]) - J_sharp @ J)
+    return _finite(np.asarray(np.eye(J.shape[1]) - J_sharp @ J), "I - J# J")
 
 
 def ik_step(
@@ -154,7 +171,7 @@ def ik_step(
     dq = Js @ err
     if h is not None:
         dq = dq + nullspace_projector(J, Js) @ as_vector(h, n, "h")
-    return np.asarray(dq)
+    return _finite(np.asarray(dq), "dq")
 
 
 def stacked_step(
@@ -175,7 +192,7 @@ def stacked_step(
     W = _metric(W, Js[0].shape[1], "W", definite=False)
     J = np.vstack([np.sqrt(r) * Ji for Ji, r in zip(Js, rhos)])
     Phi = np.concatenate([np.sqrt(r) * e for e, r in zip(es, rhos)])
-    return -_solve(J.T @ J + W, J.T @ Phi, "J^T J + W")
+    return -_solve(J.T @ J + W, _finite(J.T @ Phi, "J^T Phi"), "J^T J + W")
 
 
 def _levels(
@@ -233,7 +250,7 @@ def hierarchical_step_regularized(
             metrics[k] / precisions[k] + Jk.T @ Jk, Jk.T, f"level {k + 1}'s W_k / rho_k + J^T J"
         )
         q = Js @ targets[k] + (np.eye(len(q)) - Js @ Jk) @ q
-    return q
+    return _finite(q, "q")
 
 
 def hierarchical_step_exact(
@@ -258,4 +275,4 @@ def hierarchical_step_exact(
         JN_pinv = (Vt[keep].T / s[keep]) @ U[:, keep].T
         q = q + JN_pinv @ (yk - Jk @ q)
         N = N - JN_pinv @ JN
-    return q
+    return _finite(q, "q")
