@@ -41,7 +41,7 @@ from taskspace.ik._native_stack import supported as native_supported
 from taskspace.model.robot import Robot
 from taskspace.model.state import State
 from taskspace.qp.kkt import KKTResiduals, box_kkt_residuals
-from taskspace.qp.problem import QPProblem
+from taskspace.qp.problem import INF, QPProblem, RowBlock
 from taskspace.qp.result import QPResult, QPStatus
 from taskspace.qp.rows import WeightedQPBuilder
 from taskspace.qp.solver import QPSolver, QPSolverOptions
@@ -170,6 +170,22 @@ class IKStepResult:
             f"qp={self.qp!r}, culprits={self.culprits!r}, build_time={self.build_time!r}, "
             f"solve_time={self.solve_time!r})"
         )
+
+
+def _separate_boxes(p: QPProblem, boxes: list[tuple[str, FloatArray, FloatArray]]) -> QPProblem:
+    """``p`` with its merged box replaced by one block of unit rows per box constraint."""
+    n = p.n
+    eye = np.eye(n)
+    C = np.vstack([p.C, *[eye] * len(boxes)])
+    l = np.concatenate([p.l, *[lo for _, lo, _ in boxes]])
+    u = np.concatenate([p.u, *[hi for _, _, hi in boxes]])
+    blocks = list(p.in_blocks)
+    for k, (name, _, _) in enumerate(boxes):
+        start = p.n_in + k * n
+        blocks.append(RowBlock(name, start, start + n))
+    return QPProblem(
+        p.H, p.g, p.A, p.b, C, l, u, np.full(n, -INF), np.full(n, INF), p.eq_blocks, blocks, []
+    )
 
 
 # what the compiled armed advance fills (NativeWeightedStack.arm_advance): the class, its
@@ -707,14 +723,27 @@ class DifferentialIK:
         return IKStepResult(True, _IK_SOLVED, dq, None, qp, None, build_time, qp_time, dt=dt)
 
     def _culprits(self, problem: QPProblem, result: QPResult, state: State, dt: float) -> list[str]:
-        """Constraints violated by the least-violating step, each box against its own bounds."""
+        """Constraints violated by the least-violating step, each box against its own bounds.
+
+        The QP's box is the intersection of the box constraints; for ``result.conflict`` each
+        box constraint becomes rows of its own (so a minimal conflict names only the boxes
+        at fault, not all of them).
+        """
         box_names = {blk.name for blk in problem.box_blocks}
         out = [name for name in result.culprits if name not in box_names]
         x = result.x
+        boxes = []
         for c in self.constraints:
             box = c.bounds(state, dt)
-            if box is not None and np.maximum(box[0] - x, x - box[1]).max() > 1e-6:
+            if box is None:
+                continue
+            lo, hi = np.asarray(box[0], dtype=float), np.asarray(box[1], dtype=float)
+            boxes.append((c.name, lo, hi))
+            if np.maximum(lo - x, x - hi).max() > 1e-6:
                 out.append(c.name)
+        source = result.conflict_problem
+        if source is not None and boxes:
+            result.conflict_problem = _separate_boxes(source, boxes)
         return out
 
     def step(self, state: State, dt: float) -> tuple[FloatArray, IKStepResult]:
