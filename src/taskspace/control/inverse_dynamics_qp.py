@@ -789,6 +789,33 @@ class InverseDynamicsQP:
         self._box_hi[:] = hi
         return lb, ub
 
+    def _diagnose_bounds(self, state: State, exc: InvalidInputError) -> None:
+        """Name the joints whose limit bounds left the representable range (raise), if any.
+
+        A state far outside the robot's range (a velocity of 1e20 rad/s) puts the joint-limit
+        acceleration bounds beyond ``INF``: the QP then refused a lower bound of ``+inf`` or
+        an upper bound of ``-inf``, which says nothing of the state.
+        """
+        if not self.options.joint_limits:
+            return
+        lo, hi = self._box_lo, self._box_hi
+        bad = np.flatnonzero((lo >= INF) | (hi <= -INF) | ~np.isfinite(lo) | ~np.isfinite(hi))
+        if not bad.size:
+            return
+        model = self.robot._model
+        owner = {
+            model.joints[j].idx_v + k: model.names[j]
+            for j in range(1, model.njoints)
+            for k in range(model.joints[j].nv)
+        }
+        iv = np.arange(self.robot.nv)[self._limit_iv][bad]
+        names = list(dict.fromkeys(owner[int(i)] for i in iv))
+        raise InvalidInputError(
+            f"the joint-limit acceleration bounds of {names} are beyond {INF:g}: the state "
+            f"is far outside the robot's range (|v| up to {float(np.abs(state.v[iv]).max()):.3g}"
+            f" there, limits_horizon {self.options.limits_horizon:g} s); check the state"
+        ) from exc
+
     def build(self, state: State) -> QPProblem:
         """The weighted QP at ``state`` (needs the state's velocity).
 
@@ -951,7 +978,11 @@ class InverseDynamicsQP:
                 )
         problem = self._build(state)
         t1 = time.perf_counter()
-        result = self._solver.solve(problem)
+        try:
+            result = self._solver.solve(problem)
+        except InvalidInputError as exc:
+            self._diagnose_bounds(state, exc)
+            raise
         t2 = time.perf_counter()
         if result.success:
             status = InverseDynamicsStatus.SOLVED
@@ -986,9 +1017,13 @@ class InverseDynamicsQP:
                 block[:, self._force_cols[id(pt.contact)]] = np.sqrt(pt.weight) * scale * pt.rows()
         lb, ub = self._acceleration_bounds(state)
         t1 = time.perf_counter()
-        result = self._hierarchy.solve(
-            levels, n, lb=lb, ub=ub, C=C, l=l, u=u, hard_names=in_blocks, A=A, b=b
-        )
+        try:
+            result = self._hierarchy.solve(
+                levels, n, lb=lb, ub=ub, C=C, l=l, u=u, hard_names=in_blocks, A=A, b=b
+            )
+        except InvalidInputError as exc:
+            self._diagnose_bounds(state, exc)
+            raise
         t2 = time.perf_counter()
         status = InverseDynamicsStatus.SOLVED if result.success else InverseDynamicsStatus.RELAXED
         out = self._result(state, result.x, result.success, status, t1 - t0, t2 - t1, None)
