@@ -501,26 +501,47 @@ def time_parametrize(
     cap = xs
     iterations = 0
     status = TimeParametrizationStatus.SUCCESS
+    previous: tuple[FloatArray, ...] | None = None  # the last iterate meeting every limit
     while True:
         x, u, beta = _passes(cap, eU, fU, eL, fL, delta, x_start, x_end)
+        failure = ""
         if x is None:
-            return _infeasible(geo, s, n, xs, beta, t0, e + p)
-        sd = np.sqrt(x)
-        stuck = np.flatnonzero(sd[:-1] + sd[1:] <= 0.0)
-        if stuck.size:  # dt = 2 delta / 1e-300: a "successful" timing lasting 2e300 s
-            logger.warning(
-                "time_parametrize: path velocity 0 at both ends of grid segment(s) %s: the path "
-                "cannot move there (too few grid_points for zero start/end velocities, or "
-                "limits so small that sdot^2 underflows); reported infeasible",
-                stuck[:10].tolist(),
+            failure = "no timing within the velocity and acceleration limits"
+        elif x[-1] < x_end * (1.0 - 1e-9):
+            # the greedy forward pass reaches the largest end velocity there is: below the
+            # requested one it is unreachable (returned as SUCCESS, ending slower, before)
+            failure = (
+                f"the end path velocity {sd1:g} is not reachable (at most "
+                f"{float(_unscaled_rate(x[-1:], e + p)[0]):.6g} under the limits)"
             )
-            return _infeasible(geo, s, n, xs, beta, t0, e + p)
+        else:
+            sd = np.sqrt(x)
+            stuck = np.flatnonzero(sd[:-1] + sd[1:] <= 0.0)
+            if stuck.size:  # dt = 2 delta / 1e-300: a "successful" timing lasting 2e300 s
+                failure = (
+                    f"path velocity 0 at both ends of grid segment(s) {stuck[:10].tolist()}: the "
+                    "path cannot move there (too few grid_points for zero start/end velocities, "
+                    "or limits so small that sdot^2 underflows)"
+                )
+        if failure or x is None:
+            if previous is None:
+                logger.warning("time_parametrize: %s; reported infeasible", failure)
+                return _infeasible(geo, s, n, xs, beta, t0, e + p)
+            # a jerk slowdown left no timing with the given end velocities: the last iterate
+            # meets the velocity and acceleration limits and the end velocities, not the jerk
+            x, u, beta, sd, dt, u_full, qdd, qddd = previous
+            status = TimeParametrizationStatus.JERK_LIMIT_NOT_MET
+            logger.warning(
+                "jerk limit not met: after %d slowdown iterations %s", iterations, failure
+            )
+            break
         dt = 2.0 * delta / (sd[:-1] + sd[1:])
         u_full = np.append(u, u[-1])
         qdd = dq * u_full[:, None] + ddq * x[:, None]
         qddd = np.diff(qdd, axis=0) / dt[:, None]
         if jmax_s is None:
             break
+        previous = (x, u, beta, sd, dt, u_full, qdd, qddd)
         ratio = np.max(np.abs(qddd) / jmax_s, axis=1)
         if np.all(ratio <= 1.0 + opts.jerk_tolerance):
             break
