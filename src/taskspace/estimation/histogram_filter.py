@@ -60,8 +60,15 @@ def shift_transition_matrix(
         )
     shift = check_int(shift, "shift")  # 2.5 was a bare IndexError
     k = as_float_array(kernel, "kernel")
-    if k.ndim != 1 or k.size % 2 == 0 or (k < 0).any() or k.sum() <= 0:
-        raise InvalidInputError("kernel must be a 1-D non-negative array of odd length")
+    if k.ndim != 1 or k.size % 2 == 0 or not np.isfinite(k).all() or (k < 0).any():
+        raise InvalidInputError(
+            f"kernel must be a 1-D array of odd length of finite non-negative weights, got {k}"
+        )
+    if not k.max() > 0:
+        raise InvalidInputError("kernel weights sum to zero: the motion goes nowhere")
+    # divided by the largest first: [1e308, 1e308, 1] summed to inf and gave a zero matrix
+    # ([inf, 1, 1] NaN columns)
+    k = k / k.max()
     k = k / k.sum()
     c = k.size // 2
     T = np.zeros((num_cells, num_cells))
@@ -118,8 +125,9 @@ class HistogramFilter:
     def __init__(self, prior: Any) -> None:
         self._lock = threading.RLock()
         p = as_vector(prior, None, "prior")
-        if (p < 0).any() or p.sum() <= 0:
+        if (p < 0).any() or not p.max() > 0:
             raise InvalidInputError("prior must be non-negative with a positive sum")
+        p = p / p.max()  # first: [1e308, 1e308] summed to inf, the belief was all zeros
         self.belief = p / p.sum()
 
     @property

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import enum
 import logging
+import math
 import threading
 import time
 from collections.abc import Callable, Sequence
@@ -53,7 +54,11 @@ class ParticleFilterOptions:
         mixture_fraction: fraction of particles replaced after resampling by draws from the
             observation proposal (needs ``observation_sampler``).
         adaptive_mixture: use the augmented-MCL fraction ``max(0, 1 - w_fast / w_slow)``
-            (capped by ``mixture_fraction``) instead of the fixed fraction.
+            (capped by ``mixture_fraction``) instead of the fixed fraction. ``w_slow`` and
+            ``w_fast`` average the measurement likelihood ``sum_i w_i P(z | x_i)`` of the
+            predicted particles (Thrun's mean of ``P(z | x_i)`` when the weights are uniform),
+            kept as logarithms: a constant added to every log-likelihood leaves the fraction
+            unchanged.
         alpha_slow: decay rate of the long-term average likelihood ``w_slow``, in ``(0, 1]``.
         alpha_fast: decay rate of the short-term average likelihood ``w_fast``, in ``(0, 1]``.
         angular_dims: state indices that are angles [rad] (circular mean in :meth:`estimate`);
@@ -67,6 +72,13 @@ class ParticleFilterOptions:
     alpha_slow: float = 0.001
     alpha_fast: float = 0.1
     angular_dims: tuple[int, ...] = ()
+
+
+def _log_blend(log_w: float, log_new: float, alpha: float) -> float:
+    """``log((1 - alpha) w + alpha w_new)`` from ``log w`` and ``log w_new``."""
+    if alpha >= 1.0:
+        return log_new
+    return float(np.logaddexp(math.log1p(-alpha) + log_w, math.log(alpha) + log_new))
 
 
 class PFStatus(enum.Enum):
@@ -185,8 +197,10 @@ class ParticleFilter:
         self.log_likelihood = log_likelihood
         self.observation_sampler = observation_sampler
         self.rng = rng
-        self._w_slow = 0.0
-        self._w_fast = 0.0
+        # log w_slow, log w_fast (None until the first likelihood): w = exp(-800) underflowed
+        # to 0, the averages stayed 0 and the adaptive mixture never injected a particle
+        self._log_w_slow: float | None = None
+        self._log_w_fast: float | None = None
         self.num_resamples = 0
         self.num_injected = 0
 
@@ -242,27 +256,25 @@ class ParticleFilter:
             raise InvalidInputError("log_likelihood returned NaN or +inf")
         lw = self.log_weights + ll
         mx = float(lw.max())
+        # log sum_i w_i P(z | x_i): the likelihood of z given the predicted particles
+        log_w_avg = mx + math.log(float(np.sum(np.exp(lw - mx)))) if np.isfinite(mx) else -math.inf
         if not np.isfinite(mx):
             # Every particle is impossible: keep the predictive set (uniform weights).
             logger.warning("all particle weights are zero; resetting to uniform weights")
             lw = np.full(N, -np.log(N))
             mx = float(lw.max())
-        # Average likelihood of the predictive particles (for augmented MCL).
-        w_avg = (
-            float(np.exp(ll.max()) * np.mean(np.exp(ll - ll.max())))
-            if np.isfinite(ll.max())
-            else 0.0
-        )
         lw = lw - (mx + np.log(np.sum(np.exp(lw - mx))))
         self.log_weights = lw
         w = np.exp(lw)
         ess = float(1.0 / np.dot(w, w))
         o = self.options
         if o.adaptive_mixture:
-            if self._w_slow == 0.0:
-                self._w_slow = self._w_fast = w_avg
-            self._w_slow += o.alpha_slow * (w_avg - self._w_slow)
-            self._w_fast += o.alpha_fast * (w_avg - self._w_fast)
+            if self._log_w_slow is None or self._log_w_fast is None:
+                if math.isfinite(log_w_avg):
+                    self._log_w_slow = self._log_w_fast = log_w_avg
+            else:  # w += alpha (w_avg - w), in logarithms
+                self._log_w_slow = _log_blend(self._log_w_slow, log_w_avg, o.alpha_slow)
+                self._log_w_fast = _log_blend(self._log_w_fast, log_w_avg, o.alpha_fast)
         if ess < o.ess_threshold * N or o.ess_threshold >= 1.0:
             self.resample(z)
         return ess
@@ -278,8 +290,9 @@ class ParticleFilter:
         o = self.options
         if o.mixture_fraction > 0.0 and z is not None and self.observation_sampler is not None:
             frac = o.mixture_fraction
-            if o.adaptive_mixture and self._w_slow > 0.0:
-                frac = min(frac, max(0.0, 1.0 - self._w_fast / self._w_slow))
+            if o.adaptive_mixture and self._log_w_slow is not None and self._log_w_fast is not None:
+                ratio = math.exp(min(self._log_w_fast - self._log_w_slow, 0.0))
+                frac = min(frac, 1.0 - ratio)
             k = int(self.rng.binomial(N, frac)) if frac > 0.0 else 0
             if k > 0:
                 new = as_float_array(

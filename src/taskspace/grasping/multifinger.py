@@ -65,7 +65,8 @@ class MultiFingerCandidates:
         points: ``(N, k, 3)`` contact points [m].
         normals: ``(N, k, 3)`` inward unit normals.
         epsilon: Ferrari-Canny epsilon (L1) of each set (``> 0``) ``(N,)``.
-        center: the point torques are taken about (the mesh's vertex centroid) [m].
+        center: the point torques are taken about (the mesh's center of mass,
+            :attr:`TriangleMesh.centroid`) [m].
         options: the sampling settings.
         sampled: how many sets were drawn (the rest were too close or not in closure).
     """
@@ -100,7 +101,7 @@ def sample_multifinger_grasps(
     gaps = np.linalg.norm(points[:, :, None, :] - points[:, None, :, :], axis=-1)
     gaps[:, np.arange(k), np.arange(k)] = np.inf
     spaced = gaps.min(axis=(1, 2)) >= o.min_spacing
-    center = mesh.vertices.mean(axis=0)
+    center = mesh.centroid
     candidates = np.flatnonzero(spaced)
     scores = (
         grasp_epsilon_batch(

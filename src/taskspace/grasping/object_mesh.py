@@ -81,6 +81,28 @@ class TriangleMesh:
         t = self.triangles
         return 0.5 * np.linalg.norm(np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]), axis=1)
 
+    @property
+    def centroid(self) -> FloatArray:
+        """Center of mass ``(3,)`` of the enclosed solid at uniform density [m].
+
+        By the divergence theorem, from the tetrahedra joining a reference point ``o`` (the
+        vertex mean) to each face ``(a, b, c)``: signed volumes ``V_f = det(a-o, b-o, c-o) / 6``
+        and ``c = o + sum_f V_f (a + b + c - 3 o) / 4 / sum_f V_f``. The vertex mean itself is
+        not the center of mass when the tessellation is uneven (a finely meshed side pulls it
+        over). A mesh enclosing no volume (flat or open) gives the area-weighted centroid of
+        its surface.
+        """
+        t = self.triangles
+        o = self.vertices.mean(axis=0)
+        r = t - o
+        det = np.einsum("fi,fi->f", r[:, 0], np.cross(r[:, 1], r[:, 2]))
+        volume = float(det.sum())
+        extent = float(np.ptp(self.vertices, axis=0).max())
+        if abs(volume) > 1e-9 * extent**3:
+            return np.asarray(o + (det @ r.sum(axis=1)) / (4.0 * volume))
+        areas = self.areas
+        return np.asarray((areas @ t.mean(axis=1)) / areas.sum())
+
     def sample_surface(
         self, n: int, rng: np.random.Generator
     ) -> tuple[FloatArray, FloatArray, npt.NDArray[np.int64]]:

@@ -232,8 +232,11 @@ def task_wrench_scale(W: FloatArray, task_wrenches: FloatArray) -> float:
         return 0.0
     a, b = hull.equations[:, :-1], hull.equations[:, -1]
     reach = T @ a.T  # (tasks, facets): a^T t
-    with np.errstate(divide="ignore"):
-        limits = np.where(reach > 1e-15, -b[None, :] / reach, np.inf)
+    # relative to |t| (the facet normals are unit): an absolute 1e-15 dropped the binding
+    # facets of task wrenches of size ~1e-15 (k 14 % too large) and gave inf below
+    size = np.hypot.reduce(T, axis=1)[:, None]
+    with np.errstate(divide="ignore", over="ignore"):
+        limits = np.where(reach > 1e-15 * size, -b[None, :] / reach, np.inf)
     return float(limits.min())
 
 

@@ -82,7 +82,8 @@ class GraspCandidates:
         p1, p2: contact points ``(N, 3)`` [m].
         n1, n2: inward unit normals ``(N, 3)``.
         width: distance between the contacts ``(N,)`` [m].
-        epsilon: Ferrari-Canny epsilon (L1) of the two soft-finger contacts ``(N,)``.
+        epsilon: Ferrari-Canny epsilon (L1) of the two soft-finger contacts ``(N,)``, torques
+            about the mesh's center of mass (:attr:`TriangleMesh.centroid`).
         options: the sampling settings.
     """
 
@@ -152,7 +153,7 @@ def sample_antipodal_grasps(
             mu=o.mu,
             edges=o.edges,
             torsion=o.torsion,
-            center=mesh.vertices.mean(axis=0),
+            center=mesh.centroid,
         )
         if len(width)
         else np.zeros(0)

@@ -82,6 +82,7 @@ MAX_SAMPLES = 10_000_000
 
 PathFunction = Callable[[FloatArray], tuple[Any, Any, Any]]
 _BIG = 1e300
+_FLOAT_MAX = float(np.finfo(np.float64).max)
 
 
 @dataclass(frozen=True)
@@ -229,7 +230,8 @@ class TimeParametrizationResult:
         sd = np.maximum(self.s_dot[k] + u * tau, 0.0)
         s = np.clip(self.s[k] + self.s_dot[k] * tau + 0.5 * u * tau**2, self.s[k], self.s[k + 1])
         q, dq, ddq = _evaluate_path(self.path, s)
-        return TrajectorySample(t, q, dq * sd[:, None], dq * u[:, None] + ddq * (sd**2)[:, None])
+        rate = sd[:, None]  # (q'' sdot) sdot: sdot^2 overflows on a path parameter ~1e-200
+        return TrajectorySample(t, q, dq * rate, dq * u[:, None] + (ddq * rate) * rate)
 
     def sample(self, dt: float) -> TrajectorySample:
         """Sample uniformly every ``dt`` [s] (the last sample is at ``duration``)."""
@@ -324,8 +326,10 @@ def _static_bounds(
     pos = nz & (al > 0.0)
     neg = nz & (al < 0.0)
     # alpha > 0: u <= (c - beta x)/alpha, u >= (-c - beta x)/alpha; alpha < 0: swapped
-    eU = np.where(pos, c / safe, np.where(neg, -c / safe, _BIG))
-    eL = np.where(pos, -c / safe, np.where(neg, c / safe, -_BIG))
+    # (+-inf where a limit that does not bind, scaled to ~1e308, over a small alpha overflows)
+    with np.errstate(over="ignore"):
+        eU = np.where(pos, c / safe, np.where(neg, -c / safe, _BIG))
+        eL = np.where(pos, -c / safe, np.where(neg, c / safe, -_BIG))
     f = np.where(nz, be / safe, 0.0)
     fU = f
     fL = f.copy()
@@ -333,13 +337,13 @@ def _static_bounds(
     eL = np.concatenate([eL, np.zeros((eL.shape[0], 1))], axis=1)
     fL = np.concatenate([fL, (0.5 / delta)[:, None]], axis=1)
     # pure x-bounds from alpha == 0 rows: |beta| x <= c
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
         xz = np.where(~nz & (be != 0.0), c / np.abs(np.where(be != 0.0, be, 1.0)), _BIG)
     xs_seg = np.min(xz, axis=1)
     # Fourier-Motzkin: eL_i - fL_i x <= eU_j - fU_j x  =>  (fU_j - fL_i) x <= eU_j - eL_i
-    C = fU[:, None, :] - fL[:, :, None]
-    D = eU[:, None, :] - eL[:, :, None]
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+        C = fU[:, None, :] - fL[:, :, None]
+        D = eU[:, None, :] - eL[:, :, None]
         bound = np.where(C > 0.0, D / np.where(C > 0.0, C, 1.0), _BIG)
     xs_seg = np.minimum(xs_seg, bound.reshape(bound.shape[0], -1).min(axis=1))
     # the last grid point has no segment: only its velocity bound applies (its acceleration
@@ -468,42 +472,76 @@ def time_parametrize(
         raise InvalidInputError("max_velocity and max_acceleration are required")
     delta = np.diff(s)
     interp = disc is Discretization.INTERPOLATION
+    # Solve on the path parameter w = (s - s_0) / 2^p of length ~1 (exact: a power of two):
+    # q'(w) = 2^p q'(s), q''(w) = 2^2p q''(s), wdot = sdot / 2^p. On an interval of 1e-200
+    # (q' ~ 1e200) the products q' u overflowed: SUCCESS with a duration 20 % off.
+    p = _parameter_exponent(s1 - s0)
+    if p:
+        dq, ddq, delta = np.ldexp(dq, p), np.ldexp(ddq, 2 * p), np.ldexp(delta, -p)
     # Solve in the time t' = 2^e t that makes the path velocity ~1 (exact: powers of two):
     # limits v / 2^e, a / 2^2e, j / 2^3e; sdot = 2^e sdot', times t = t' / 2^e.
     # x = sdot^2 is capped at 1e300 internally and floored by underflow: limits near 1e150
     # returned SUCCESS with a duration 27 % off, limits near 1e-200 a fake 2e300 s timing.
-    e = _time_exponent(dq, ddq, vmax, amax)
+    e = _time_exponent(dq, ddq, vmax, amax, float(np.ldexp(s1 - s0, -p)))
     vmax_s, amax_s, jmax_s = vmax, amax, jmax
     x_start, x_end = sd0 * sd0, sd1 * sd1
     if e:
-        vmax_s, amax_s = np.ldexp(vmax, -e), np.ldexp(amax, -2 * e)
-        jmax_s = None if jmax is None else np.ldexp(jmax, -3 * e)
-        x_start, x_end = float(np.ldexp(sd0, -e)) ** 2, float(np.ldexp(sd1, -e)) ** 2
+        # the limit that does not bind may leave the floats once scaled (v = 1e-300 with
+        # a = 1e300): the largest float instead of inf, where it still does not bind
+        with np.errstate(over="ignore"):
+            vmax_s = np.minimum(np.ldexp(vmax, -e), _FLOAT_MAX)
+            amax_s = np.minimum(np.ldexp(amax, -2 * e), _FLOAT_MAX)
+            jmax_s = None if jmax is None else np.minimum(np.ldexp(jmax, -3 * e), _FLOAT_MAX)
+    if e or p:
+        with np.errstate(over="ignore"):  # inf: a start or end velocity beyond any limit
+            x_start = float(np.ldexp(sd0, -e - p)) ** 2
+            x_end = float(np.ldexp(sd1, -e - p)) ** 2
     xs, eU, fU, eL, fL = _static_bounds(dq, ddq, delta, vmax_s, amax_s, interp)
 
     cap = xs
     iterations = 0
     status = TimeParametrizationStatus.SUCCESS
+    previous: tuple[FloatArray, ...] | None = None  # the last iterate meeting every limit
     while True:
         x, u, beta = _passes(cap, eU, fU, eL, fL, delta, x_start, x_end)
+        failure = ""
         if x is None:
-            return _infeasible(geo, s, n, xs, beta, t0, e)
-        sd = np.sqrt(x)
-        stuck = np.flatnonzero(sd[:-1] + sd[1:] <= 0.0)
-        if stuck.size:  # dt = 2 delta / 1e-300: a "successful" timing lasting 2e300 s
-            logger.warning(
-                "time_parametrize: path velocity 0 at both ends of grid segment(s) %s: the path "
-                "cannot move there (too few grid_points for zero start/end velocities, or "
-                "limits so small that sdot^2 underflows); reported infeasible",
-                stuck[:10].tolist(),
+            failure = "no timing within the velocity and acceleration limits"
+        elif x[-1] < x_end * (1.0 - 1e-9):
+            # the greedy forward pass reaches the largest end velocity there is: below the
+            # requested one it is unreachable (returned as SUCCESS, ending slower, before)
+            failure = (
+                f"the end path velocity {sd1:g} is not reachable (at most "
+                f"{float(_unscaled_rate(x[-1:], e + p)[0]):.6g} under the limits)"
             )
-            return _infeasible(geo, s, n, xs, beta, t0, e)
+        else:
+            sd = np.sqrt(x)
+            stuck = np.flatnonzero(sd[:-1] + sd[1:] <= 0.0)
+            if stuck.size:  # dt = 2 delta / 1e-300: a "successful" timing lasting 2e300 s
+                failure = (
+                    f"path velocity 0 at both ends of grid segment(s) {stuck[:10].tolist()}: the "
+                    "path cannot move there (too few grid_points for zero start/end velocities, "
+                    "or limits so small that sdot^2 underflows)"
+                )
+        if failure or x is None:
+            if previous is None:
+                logger.warning("time_parametrize: %s; reported infeasible", failure)
+                return _infeasible(geo, s, n, xs, beta, t0, e + p)
+            # a jerk slowdown left no timing with the given end velocities: the last iterate
+            # meets the velocity and acceleration limits and the end velocities, not the jerk
+            x, u, beta, sd, dt, u_full, qdd, qddd = previous
+            status = TimeParametrizationStatus.JERK_LIMIT_NOT_MET
+            logger.warning(
+                "jerk limit not met: after %d slowdown iterations %s", iterations, failure
+            )
+            break
         dt = 2.0 * delta / (sd[:-1] + sd[1:])
         u_full = np.append(u, u[-1])
         qdd = dq * u_full[:, None] + ddq * x[:, None]
         qddd = np.diff(qdd, axis=0) / dt[:, None]
         if jmax_s is None:
             break
+        previous = (x, u, beta, sd, dt, u_full, qdd, qddd)
         ratio = np.max(np.abs(qddd) / jmax_s, axis=1)
         if np.all(ratio <= 1.0 + opts.jerk_tolerance):
             break
@@ -526,8 +564,10 @@ def time_parametrize(
             qdd, qddd = np.ldexp(qdd, 2 * e), np.ldexp(qddd, 3 * e)
     if not np.isfinite(times[-1]):
         logger.warning("time_parametrize: the duration overflows float64; reported infeasible")
-        return _infeasible(geo, s, n, xs, beta, t0, e)
+        return _infeasible(geo, s, n, xs, beta, t0, e + p)
     qd = dq * sd[:, None]
+    if p:  # back to the path parameter s
+        sd, u_full = np.ldexp(sd, p), np.ldexp(u_full, p)
     tol = 1.0 - opts.active_tolerance
     return TimeParametrizationResult(
         success=status is TimeParametrizationStatus.SUCCESS,
@@ -541,8 +581,8 @@ def time_parametrize(
         qd=qd,
         qdd=qdd,
         qddd=qddd,
-        velocity_limit=_unscaled_rate(xs, e),
-        controllable_limit=_unscaled_rate(beta, e),
+        velocity_limit=_unscaled_rate(xs, e + p),
+        controllable_limit=_unscaled_rate(beta, e + p),
         active_velocity=np.abs(qd) >= tol * vmax,
         active_acceleration=np.abs(qdd) >= tol * amax,
         jerk_iterations=iterations,
@@ -551,23 +591,39 @@ def time_parametrize(
     )
 
 
-def _time_exponent(dq: FloatArray, ddq: FloatArray, vmax: FloatArray, amax: FloatArray) -> int:
+def _time_exponent(
+    dq: FloatArray, ddq: FloatArray, vmax: FloatArray, amax: FloatArray, length: float
+) -> int:
     """``e`` such that in the time ``t' = 2^e t`` the path velocity is about 1.
 
-    The mean of ``log2(v / max|q'|)`` and ``log2(a / max|q''|) / 2`` (logs: no overflow).
+    The path velocity the limits allow is at most ``v / max|q'|`` (velocity) and
+    ``sqrt(a / max(max|q''|, max|q'| / L))`` (acceleration: the curvature term, and the speed
+    reached from rest over the path length ``L = s_1 - s_0``, the only one on a straight
+    path). ``e`` is the log2 of the smaller, the limit that binds (logs: no overflow). The mean
+    of the two logs (with no acceleration term on a straight line) took the scale of a limit
+    that does not bind: a straight path with ``v = 1e200``, ``a = 1`` scaled ``a`` to 0 and
+    was reported INFEASIBLE.
     """
     logs = []
     top_d, top_dd = float(np.abs(dq).max()), float(np.abs(ddq).max())
+    curvature = [math.log2(top_dd)] if top_dd > 0.0 else []
     if top_d > 0.0:  # min over Python floats: numpy's reduction dispatch costs ~5 us each
         logs.append(math.log2(min(vmax.tolist())) - math.log2(top_d))
-    if top_dd > 0.0:
-        logs.append(0.5 * (math.log2(min(amax.tolist())) - math.log2(top_dd)))
+        curvature.append(math.log2(top_d) - math.log2(length))  # log2(max|q'| / L)
+    if curvature:
+        logs.append(0.5 * (math.log2(min(amax.tolist())) - max(curvature)))
     if not logs:
         return 0
-    e = max(-1000, min(1000, round(sum(logs) / len(logs))))
+    e = max(-1000, min(1000, round(min(logs))))
     # path velocities within 2^+-64 of 1 are far from the 1e300 cap and from underflow:
     # solved unscaled (bit-identical to before, and no rescaling cost)
     return 0 if abs(e) <= 64 else e
+
+
+def _parameter_exponent(length: float) -> int:
+    """``p`` with ``(s_1 - s_0) / 2^p`` about 1, 0 for lengths within ``2^+-64`` of 1."""
+    p = round(math.log2(length))
+    return 0 if abs(p) <= 64 else p
 
 
 def _unscaled_rate(x: FloatArray, e: int) -> FloatArray:
