@@ -28,7 +28,7 @@ B = np.array([[0.0], [1.0]])
 def _double_integrator_care(q1: float, q2: float, r: float) -> np.ndarray:
     """Closed form of the CARE of x'' = u with Q = diag(q1, q2), R = r."""
     s = math.sqrt(q1 * r)
-    p22 = math.sqrt(r * (q2 + 2 * s))
+    p22 = math.sqrt(r) * math.sqrt(q2 + 2 * s)  # (r (q2 + 2 s) underflows at r = 1e-300)
     return np.array([[math.sqrt(q1) * math.sqrt(q2 + 2 * s), s], [s, p22]])
 
 
@@ -109,3 +109,16 @@ def test_lyapunov_opposite_eigenvalues_still_named() -> None:
     # and a spread within float64's reach is solved (diagonal: P = diag(1 / (2 |lambda|)))
     P = solve_lyapunov(np.diag([-1e11, -1.0]), np.eye(2))
     np.testing.assert_allclose(P, np.diag([5e-12, 0.5]), rtol=1e-14)
+
+
+@pytest.mark.parametrize(("q1", "r"), [(1e300, 1.0), (1.0, 1e-300), (1e200, 1e-100)])
+def test_lqr_wide_but_well_posed_weights_are_solved(q1: float, r: float) -> None:
+    # Q = diag(q1, 0): the closed-loop poles are sqrt(2)/2 (q1/r)^(1/4) (-1 +- i), one
+    # magnitude, but P spans 150 orders (1.4e225, 1e150, 1.4e75 for q1 = 1e300, r = 1): the
+    # symplectic balancing needs scales beyond 2^256, where it stopped (then "no stabilizing
+    # solution")
+    res = lqr(A, B, np.diag([q1, 0.0]), r)
+    assert res.success
+    np.testing.assert_allclose(res.P, _double_integrator_care(q1, 0.0, r), rtol=1e-12)
+    K = np.array([[math.sqrt(q1 / r), math.sqrt(2.0) * (q1 / r) ** 0.25]])
+    np.testing.assert_allclose(res.K, K, rtol=1e-12)

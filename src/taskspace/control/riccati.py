@@ -172,6 +172,12 @@ def _method(value: RiccatiMethod | str) -> RiccatiMethod:
 
 _gebal = sla.lapack.dgebal
 
+_MAX_BALANCE_EXPONENT = 500
+"""Largest ``|log2 d_i|`` of the symplectic balancing: ``d_i d_j`` stays a normal float64
+(``2^+-1000``), so ``P = D P' D`` loses no digits (overflow shows as a non-finite ``P``).
+Was 256: the double integrator with ``Q = diag(1e300, 0), R = 1`` (``P`` from 1e-225 to
+1e-75 after the cost scaling) needed 2^372 and was reported unsolvable."""
+
 
 def _symplectic_scaling(M: FloatArray) -> FloatArray | None:
     """Powers of two ``d`` (n): ``S = diag(d, 1/d)`` balances the 2n x 2n ``M`` (or None).
@@ -194,8 +200,8 @@ def _symplectic_scaling(M: FloatArray) -> FloatArray | None:
     # gebal's scales are powers of two; round() is half-to-even as scipy's np.round
     e = [math.frexp(v)[1] for v in values]
     exponent = [round(0.5 * (e[n + i] - e[i])) for i in range(n)]
-    if not any(exponent) or max(map(abs, exponent)) > 256:
-        return None  # balanced already; 2^+-256 keeps P' and P = D P' D representable
+    if not any(exponent) or max(map(abs, exponent)) > _MAX_BALANCE_EXPONENT:
+        return None  # balanced already, or beyond _MAX_BALANCE_EXPONENT
     return np.exp2(np.array(exponent, dtype=float))
 
 
