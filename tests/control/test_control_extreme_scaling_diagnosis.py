@@ -19,7 +19,7 @@ import scipy.linalg as sla
 
 from taskspace.control.lqr import dlqr, lqr
 from taskspace.control.lyapunov import solve_lyapunov
-from taskspace.errors import SolverError
+from taskspace.errors import InvalidInputError, SolverError
 
 A = np.array([[0.0, 1.0], [0.0, 0.0]])
 B = np.array([[0.0], [1.0]])
@@ -122,3 +122,20 @@ def test_lqr_wide_but_well_posed_weights_are_solved(q1: float, r: float) -> None
     np.testing.assert_allclose(res.P, _double_integrator_care(q1, 0.0, r), rtol=1e-12)
     K = np.array([[math.sqrt(q1 / r), math.sqrt(2.0) * (q1 / r) ** 0.25]])
     np.testing.assert_allclose(res.K, K, rtol=1e-12)
+
+
+def test_lqr_controllability_check_does_not_overflow() -> None:
+    # A near 1e200 with 3 states: [B, AB, A^2 B] overflows (A^2 B ~ 1e400) and lqr refused the
+    # (controllable) pair, "the controllability matrix overflows". The check runs on A / 2^e.
+    # Reference: A is stable and P ~ 1e-200, so the quadratic term P B R^-1 B^T P (~1e-400)
+    # is far below rounding and P is the Lyapunov solution 1e-200 P1, A1^T P1 + P1 A1 + Q = 0
+    # (scipy, on the moderate A1)
+    A1 = np.array([[-1.0, 1.0, 0.0], [0.0, -2.0, 1.0], [0.0, 0.0, -3.0]])
+    B3 = np.array([[0.0], [0.0], [1.0]])
+    res = lqr(1e200 * A1, B3, np.eye(3), 1.0)
+    assert res.success and res.stable
+    P1 = sla.solve_continuous_lyapunov(A1.T, -np.eye(3))
+    np.testing.assert_allclose(res.P, 1e-200 * P1, rtol=1e-12)
+    # an uncontrollable pair at that scale is still refused, its mode named at its scale
+    with pytest.raises(InvalidInputError, match=r"not controllable.*-3e\+200"):
+        lqr(1e200 * np.diag([-1.0, -2.0, -3.0]), [[1.0], [1.0], [0.0]], np.eye(3), 1.0)
