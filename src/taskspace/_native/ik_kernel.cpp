@@ -777,6 +777,22 @@ class WeightedIKKernel {
     }
   }
 
+  // g beyond taskspace.qp.solver.MAX_QP_MAGNITUDE (a target 1e31 m away): the Python path
+  // refuses such a QP (InvalidInputError naming the entries); the kernel declines it rather
+  // than answering (it came back SOLVED with a box-corner step where the Python path raised).
+  // NaN passes here (the step's finiteness check raises on it).
+  static constexpr double kMaxQpMagnitude = 1e30;
+  bool huge_gradient() const {
+    for (Eigen::Index i = 0; i < g_.size(); ++i)
+      if (std::abs(g_[i]) > kMaxQpMagnitude) return true;
+    return false;
+  }
+  Outcome declined_outcome(std::chrono::steady_clock::time_point t0,
+                           std::chrono::steady_clock::time_point t1) const {
+    const double build = std::chrono::duration<double>(t1 - t0).count();
+    return {kMaxIterations, 0, 0.0, build, 0.0, build};
+  }
+
   // solve() after its checks and the boxes (lb_, ub_): rows, H, g, the QP; the step in out.
   Outcome solve_from(std::chrono::steady_clock::time_point t0, const Model& model, Data& data,
                      const Eigen::Ref<const VectorXd>& q, bp::list& targets, double damping,
@@ -798,6 +814,7 @@ class WeightedIKKernel {
       st_D_.array() += damping;
       posture_terms<true>(model, q, targets);
       m_in_ = 0;
+      if (huge_gradient()) return declined_outcome(t0, t1);
       const bool have_min = struct_minimizer();
       if (have_min && inside(st_x_, lb_, ub_)) {
         ++st_count_[0];
@@ -827,6 +844,7 @@ class WeightedIKKernel {
       H_.diagonal().array() += damping;
       add_posture_terms(model, q, targets);
       H_.triangularView<Eigen::StrictlyUpper>() = H_.transpose();
+      if (huge_gradient()) return declined_outcome(t0, t1);
     }
     m_in_ = 0;
     if (!dampers_.empty()) {

@@ -13,6 +13,7 @@ do not modify it while another thread reads it.
 from __future__ import annotations
 
 import enum
+import math
 import time
 from dataclasses import dataclass, field
 from typing import Any
@@ -84,9 +85,21 @@ class LQRResult:
 
 
 def _check_pair(A: FloatArray, B: FloatArray, options: LQROptions, discrete: bool) -> None:
-    report = controllability(A, B, options.controllability_tolerance)
+    """Refuse an uncontrollable (or, when allowed, unstabilizable) pair.
+
+    The test runs on ``(2^-e A, B)`` with ``2^e`` the power of two nearest ``max |A|``
+    (exact; the Krylov columns ``A^k B`` only change scale, the PBH modes are scaled back):
+    the controllability matrix of a 3-state ``A`` near 1e200 overflowed (``A^2 B ~ 1e400``)
+    and the pair was refused "the controllability matrix overflows" whatever its rank.
+    """
+    top = float(np.max(np.abs(A)))
+    e = math.frexp(top)[1] if top > 0 else 0
+    report = controllability(np.ldexp(A, -e) if e else A, B, options.controllability_tolerance)
     if report.controllable:
         return
+    report.uncontrollable_modes = np.ldexp(report.uncontrollable_modes.real, e) + 1j * np.ldexp(
+        report.uncontrollable_modes.imag, e
+    )
     modes = ", ".join(f"{complex(lam):.4g}" for lam in report.uncontrollable_modes)
     if options.require_controllable:
         raise InvalidInputError(

@@ -63,6 +63,35 @@ def _finish(X: np.ndarray, Q: FloatArray) -> FloatArray:
     return check_solution(P, "the Lyapunov solution P")
 
 
+def _singular_continuous(lam_i: complex, lam_j: complex, pivot: float, scale: float) -> None:
+    """Raise the :class:`SolverError` of a too small pivot, naming its cause.
+
+    The pivot ``|lambda_i + lambda_j|`` is below ``SINGULARITY_TOLERANCE * max(1, |A|)``.
+    Opposite or imaginary-axis eigenvalues when the pivot is small next to the eigenvalues
+    themselves; otherwise the eigenvalues are fine but ``A`` spans too many orders of
+    magnitude: both are far below ``|A|`` (``A = diag(-1e20, -1)``: ``-1 + -1 = -2`` is
+    within the rounding of a Schur form of ``|A| = 1e20``), which was reported as "opposite
+    or imaginary-axis eigenvalues" too.
+    """
+    size = max(abs(lam_i), abs(lam_j))
+    pair = f"lambda_i = {lam_i:.4g}, lambda_j = {lam_j:.4g}"
+    if pivot <= SINGULARITY_TOLERANCE * size:
+        raise SolverError(
+            "A^T P + P A + Q = 0 has no unique solution: A has eigenvalues with "
+            f"lambda_i + lambda_j = 0 ({pair}; A must not have opposite or imaginary-axis "
+            "eigenvalues)"
+        )
+    raise SolverError(
+        "A^T P + P A + Q = 0 is too ill-conditioned for float64: A's eigenvalues span too many "
+        f"orders of magnitude: |lambda_i + lambda_j| = {pivot:.3g} ({pair}) is below "
+        f"{SINGULARITY_TOLERANCE:g} |A| = {SINGULARITY_TOLERANCE * scale:.3g} (|A| = "
+        f"{scale:.3g}), within what the rounding of A's Schur form can move to zero (condition "
+        f"number >= |A| / |lambda_i + lambda_j| = {scale / pivot:.3g}); the eigenvalues are not "
+        "opposite. Separate the fast and slow modes (solve them apart) or rescale the state "
+        "so that A's eigenvalues span fewer orders of magnitude"
+    )
+
+
 def solve_lyapunov(A: Any, Q: Any) -> FloatArray:
     """Solve ``A^T P + P A + Q = 0`` (Bartels-Stewart).
 
@@ -75,7 +104,9 @@ def solve_lyapunov(A: Any, Q: Any) -> FloatArray:
 
     Raises:
         SolverError: ``A`` has eigenvalues with ``lambda_i + lambda_j = 0`` (no unique
-            solution, e.g. a marginally stable or non-hyperbolic ``A``).
+            solution, e.g. a marginally stable or non-hyperbolic ``A``), or a sum
+            ``|lambda_i + lambda_j|`` below ``SINGULARITY_TOLERANCE * |A|`` (eigenvalues
+            spanning too many orders of magnitude: the message says which).
     """
     A = square(A, "A")
     n = A.shape[0]
@@ -90,10 +121,8 @@ def solve_lyapunov(A: Any, Q: Any) -> FloatArray:
         lhs = R + S[k, k] * eye
         pivots = np.abs(np.diag(lhs))
         if pivots.size and np.min(pivots) <= SINGULARITY_TOLERANCE * scale:
-            raise SolverError(
-                "A^T P + P A + Q = 0 has no unique solution: A has eigenvalues with "
-                "lambda_i + lambda_j = 0 (A must not have opposite or imaginary-axis eigenvalues)"
-            )
+            i = int(np.argmin(pivots))
+            _singular_continuous(complex(R[i, i]), complex(S[k, k]), float(pivots[i]), scale)
         with np.errstate(over="ignore", invalid="ignore"):
             rhs = F[:, k] - Y[:, :k] @ S[:k, k]
         Y[:, k] = _solve_column(lhs, rhs)

@@ -172,6 +172,12 @@ def _method(value: RiccatiMethod | str) -> RiccatiMethod:
 
 _gebal = sla.lapack.dgebal
 
+_MAX_BALANCE_EXPONENT = 500
+"""Largest ``|log2 d_i|`` of the symplectic balancing: ``d_i d_j`` stays a normal float64
+(``2^+-1000``), so ``P = D P' D`` loses no digits (overflow shows as a non-finite ``P``).
+Was 256: the double integrator with ``Q = diag(1e300, 0), R = 1`` (``P`` from 1e-225 to
+1e-75 after the cost scaling) needed 2^372 and was reported unsolvable."""
+
 
 def _symplectic_scaling(M: FloatArray) -> FloatArray | None:
     """Powers of two ``d`` (n): ``S = diag(d, 1/d)`` balances the 2n x 2n ``M`` (or None).
@@ -194,9 +200,116 @@ def _symplectic_scaling(M: FloatArray) -> FloatArray | None:
     # gebal's scales are powers of two; round() is half-to-even as scipy's np.round
     e = [math.frexp(v)[1] for v in values]
     exponent = [round(0.5 * (e[n + i] - e[i])) for i in range(n)]
-    if not any(exponent) or max(map(abs, exponent)) > 256:
-        return None  # balanced already; 2^+-256 keeps P' and P = D P' D representable
+    if not any(exponent) or max(map(abs, exponent)) > _MAX_BALANCE_EXPONENT:
+        return None  # balanced already, or beyond _MAX_BALANCE_EXPONENT
     return np.exp2(np.array(exponent, dtype=float))
+
+
+def _pbh_failures(A: FloatArray, M: FloatArray, modes: np.ndarray, *, rows: bool) -> list[complex]:
+    """The ``modes`` uncontrollable (``rows``: unobservable) through ``M`` (PBH test).
+
+    Eigenvalues at which ``[A - lambda I, M]`` (``rows``: ``[A - lambda I; M]``) loses rank.
+
+    The PBH test with the two blocks scaled separately by their largest entry (the rank is
+    unchanged), so that a ``G = B R^-1 B^T`` near 1e300 does not hide ``A``; relative rank
+    threshold ``1e3 n eps``.
+    """
+    n = A.shape[0]
+    eye = np.eye(n)
+    out = []
+    with np.errstate(over="ignore", invalid="ignore"):
+        sm = float(np.max(np.abs(M))) if M.size else 0.0
+        if sm == 0.0 or not math.isfinite(sm):
+            return [complex(lam) for lam in modes] if sm == 0.0 else []
+        for lam in modes:
+            D = A - lam * eye
+            sd = float(np.max(np.abs(D)))
+            D = D / sd if sd > 0 else D
+            block = np.vstack([D, M / sm]) if rows else np.hstack([D, M / sm])
+            if not np.all(np.isfinite(block)):
+                continue
+            sv = np.linalg.svd(block, compute_uv=False)
+            if sv.size < n or sv[n - 1] <= 1e3 * n * np.finfo(float).eps * sv[0]:
+                out.append(complex(lam))
+    return out
+
+
+def _no_solution_cause(
+    A: FloatArray,
+    G: FloatArray,
+    Q: FloatArray,
+    eigs: np.ndarray,
+    what: str,
+    discrete: bool,
+    subspace_cond: float | None = None,
+) -> str:
+    """Why the stable subspace was not found (the tail of the error message).
+
+    The mode that makes the problem unsolvable, or else the numerical cause. ``(A, B)``
+    stabilizable (``G = B R^-1 B^T`` has the range of ``B``) and no mode of ``A`` on the
+    stability boundary (imaginary axis, unit circle) unobservable through ``Q`` guarantee a
+    stabilizing solution: when the PBH tests say both hold, the failure is numerical.
+    Before, the double integrator with ``R = 1e-300`` (or ``Q = 1e300 I``) was reported
+    "no stabilizing solution (is (A, B) stabilizable and (A, Q) detectable?)" though both
+    hold: its Hamiltonian has eigenvalues +-1e150 and +-1, the latter below the rounding of
+    ``|H|`` (computed as 0).
+    """
+    try:
+        lam = np.linalg.eigvals(A)
+    except np.linalg.LinAlgError:
+        lam = np.zeros(0, dtype=complex)
+    unstable = lam[np.abs(lam) >= 1.0] if discrete else lam[lam.real >= 0.0]
+    with np.errstate(over="ignore", invalid="ignore"):
+        if discrete:
+            boundary = lam[np.abs(np.abs(lam) - 1.0) <= 1e-9 * np.maximum(1.0, np.abs(lam))]
+        else:
+            size = float(np.max(np.abs(A))) if A.size else 0.0
+            boundary = lam[np.abs(lam.real) <= 1e-9 * max(size, 1e-300)]
+    bad_b = _pbh_failures(A, G, unstable, rows=False)
+    bad_q = _pbh_failures(A, Q, boundary, rows=True)
+    fmt = lambda modes: ", ".join(f"{complex(m):.4g}" for m in modes)  # noqa: E731
+    if bad_b:
+        return (
+            f"no stabilizing solution: (A, B) is not stabilizable (unstable modes of A that B "
+            f"does not reach: [{fmt(bad_b)}])"
+        )
+    if bad_q:
+        where = "on the unit circle" if discrete else "on the imaginary axis"
+        return (
+            f"no stabilizing solution: modes of A {where} are not weighed by Q (unobservable "
+            f"through Q: [{fmt(bad_q)}]; add a weight on them to Q)"
+        )
+    mags = np.abs(eigs[np.isfinite(eigs)]) if eigs.size else np.zeros(0)
+    top = float(mags.max()) if mags.size else float("nan")
+    low = float(mags.min()) if mags.size else float("nan")
+    eps = float(np.finfo(float).eps)
+    head = (
+        "the problem is too ill-conditioned for float64: (A, B) is stabilizable and Q weighs "
+        "every mode of A on the stability boundary, so a stabilizing solution exists, but"
+    )
+    tail = (
+        "Bring the weights Q and R closer (their ratio sets the fastest poles) or the state's "
+        "scales (the entries of A, B) closer together"
+    )
+    side = "inside the unit circle" if discrete else "in the left half-plane"
+    if mags.size and low <= 1e3 * eps * top:
+        return (
+            f"{head} the {what}'s eigenvalues span more orders of magnitude than float64 "
+            f"resolves (|lambda| from {low:.3g} to {top:.3g}; below about {1e3 * eps * top:.3g} "
+            f"= 1e3 eps |lambda|max they are rounding noise, and so is whether they lie {side}): "
+            f"the closed-loop poles would span as much. {tail}"
+        )
+    if subspace_cond is not None:
+        return (
+            f"{head} P = X21 X11^-1 from the stable subspace is not determined in float64: X11 "
+            f"has condition number {subspace_cond:.3g} (P's own scales span about "
+            f"{math.log10(max(subspace_cond, 1.0)):.0f} orders of magnitude or more; the "
+            f"{what}'s eigenvalues have |lambda| from {low:.3g} to {top:.3g}). {tail}"
+        )
+    return (
+        f"{head} the {what}'s eigenvalues (|lambda| from {low:.3g} to {top:.3g}) are not "
+        f"separated {side} to float64 precision. {tail}"
+    )
 
 
 def _care_schur(A: FloatArray, G: FloatArray, Q: FloatArray) -> FloatArray:
@@ -207,21 +320,25 @@ def _care_schur(A: FloatArray, G: FloatArray, Q: FloatArray) -> FloatArray:
         S = np.concatenate([d, 1.0 / d])
         H = H * (S[:, None] / S[None, :])  # exact: powers of two
     try:
-        _, U, sdim = sla.schur(H, output="real", sort="lhp")
+        T, U, sdim = sla.schur(H, output="real", sort="lhp")
     except (ValueError, np.linalg.LinAlgError) as exc:  # overflow inside LAPACK
         raise SolverError(
             f"the ordered Schur form of the Hamiltonian failed ({exc}): rescale the problem "
             "(state and input units) so that A, B, Q and R have moderate entries"
         ) from exc
     if sdim != n:
+        cause = _no_solution_cause(A, G, Q, np.linalg.eigvals(T), "Hamiltonian", False)
         raise SolverError(
             f"the Hamiltonian matrix has {2 * n - sdim} eigenvalues with Re >= 0 instead of {n}: "
-            "no stabilizing solution (is (A, B) stabilizable and (A, Q) detectable?)"
+            f"{cause}"
         )
     U11, U21 = U[:n, :n], U[n:, :n]
-    if np.linalg.cond(U11) > 1e12:
+    cond = float(np.linalg.cond(U11))
+    if not cond <= 1e12:
+        cause = _no_solution_cause(A, G, Q, np.linalg.eigvals(T), "Hamiltonian", False, cond)
         raise SolverError(
-            "U11 of the stable invariant subspace is singular: no stabilizing solution"
+            f"U11 of the stable invariant subspace is singular (condition number {cond:.3g}): "
+            f"{cause}"
         )
     P = np.linalg.solve(U11.T, U21.T).T
     if d is not None:
@@ -306,7 +423,15 @@ def _dare_errors(
     with np.errstate(over="ignore", invalid="ignore"):
         BtPA = B.T @ P @ A
         AtPA = A.T @ P @ A
-        quad = BtPA.T @ np.linalg.solve(R + B.T @ P @ B, BtPA)
+        S = R + B.T @ P @ B
+        try:
+            quad = BtPA.T @ np.linalg.solve(S, BtPA)
+        except np.linalg.LinAlgError:  # a bare "Singular matrix" before (A ~ 1e100)
+            raise SolverError(
+                f"R + B^T P B is singular in float64 (|B^T P B| = {safe_norm(S - R):.3g} "
+                f"swamps |R| = {safe_norm(R):.3g}, or P is wrong): the DARE solution cannot be "
+                f"checked; {_RESCALE}"
+            ) from None
         r = safe_norm(Q + AtPA - quad - P)
         size = safe_norm(P)
         den = safe_norm(Q) + safe_norm(AtPA) + safe_norm(quad) + size
@@ -341,6 +466,49 @@ def _refine_discrete(
             break
         P, err, steps = P_new, err_new, k
     return P, steps
+
+
+def _dare_cause(
+    A: FloatArray,
+    B: FloatArray,
+    R: FloatArray,
+    G: FloatArray,
+    Q: FloatArray,
+    L: FloatArray,
+    N: FloatArray,
+    subspace_cond: float | None = None,
+) -> str:
+    """:func:`_no_solution_cause` for the DARE, first the size of its solution.
+
+    For an unstable ``A`` the solution grows like ``P ~ |A|^2 |R| / |B|^2`` (scalar:
+    ``p = a^2 r / b^2 + O(1)``): beyond float64 when ``|A|`` nears 1e154 (``dlqr(1e200, 1, 1,
+    1)`` has ``p = 1e400``; the QZ reordering failed and the message asked for a rescaling).
+    """
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        try:
+            rho = float(np.max(np.abs(np.linalg.eigvals(A))))
+            b = float(np.linalg.norm(B, 2))
+            r = float(np.max(np.linalg.eigvalsh(R)))
+        except np.linalg.LinAlgError:
+            rho, b, r = float("nan"), float("nan"), float("nan")
+        # in logarithms: the estimate itself overflows
+        log_p = (
+            2 * math.log10(rho) + math.log10(r) - 2 * math.log10(b)
+            if (rho > 1.0 and b > 0 and r > 0 and math.isfinite(rho * 0 + b * 0 + r * 0))
+            else -math.inf
+        )
+    if log_p > 308.0:
+        return (
+            f"the solution P is beyond float64: for the unstable A (spectral radius {rho:.3g}) "
+            f"P grows like rho(A)^2 |R| / |B|^2 ~ 1e{log_p:.0f} (largest float64 1.8e308); "
+            "rescale the state (smaller A entries: a shorter sampling time) or the weights"
+        )
+    try:
+        eigs = sla.eigvals(L, N)
+    except (ValueError, np.linalg.LinAlgError):
+        eigs = np.zeros(0, dtype=complex)
+    eigs = eigs[np.isfinite(eigs)]
+    return _no_solution_cause(A, G, Q, eigs, "symplectic pencil", True, subspace_cond)
 
 
 def solve_continuous_riccati(
@@ -466,18 +634,21 @@ def solve_discrete_riccati(
         _, _, alpha, beta, _, Z = sla.ordqz(L, N, sort="iuc", output="real")
     except (ValueError, np.linalg.LinAlgError) as exc:  # overflow or failed reordering
         raise SolverError(
-            f"the ordered QZ decomposition of the symplectic pencil failed ({exc}): {_RESCALE}"
+            f"the ordered QZ decomposition of the symplectic pencil failed ({exc}): "
+            f"{_dare_cause(A, B, R, G, Q, L, N)}"
         ) from exc
     stable = np.sum(np.abs(alpha) < np.abs(beta) * (1.0 - 1e-12))
     if stable != n:
         raise SolverError(
-            f"the symplectic pencil has {stable} stable eigenvalues instead of {n}: no "
-            "stabilizing solution (is (A, B) stabilizable and (A, Q) detectable?)"
+            f"the symplectic pencil has {stable} stable eigenvalues instead of {n}: "
+            f"{_dare_cause(A, B, R, G, Q, L, N)}"
         )
     Z11, Z21 = Z[:n, :n], Z[n:, :n]
-    if np.linalg.cond(Z11) > 1e12:
+    cond = float(np.linalg.cond(Z11))
+    if not cond <= 1e12:
         raise SolverError(
-            "Z11 of the stable deflating subspace is singular: no stabilizing solution"
+            f"Z11 of the stable deflating subspace is singular (condition number {cond:.3g}): "
+            f"{_dare_cause(A, B, R, G, Q, L, N, cond)}"
         )
     P = np.linalg.solve(Z11.T, Z21.T).T
     if d is not None:

@@ -19,7 +19,9 @@ one result (do not assign its fields while others read it).
 
 from __future__ import annotations
 
+import dataclasses
 import enum
+import math
 import threading
 import time
 from collections.abc import Iterable, Sequence
@@ -40,7 +42,7 @@ from taskspace.ik._native_stack import (
 from taskspace.ik._native_stack import supported as native_supported
 from taskspace.model.robot import Robot
 from taskspace.model.state import State
-from taskspace.qp.kkt import KKTResiduals, box_kkt_residuals
+from taskspace.qp.kkt import KKTResiduals, box_kkt_residuals, kkt_residuals
 from taskspace.qp.problem import INF, QPProblem, RowBlock
 from taskspace.qp.result import QPResult, QPStatus
 from taskspace.qp.rows import WeightedQPBuilder
@@ -60,6 +62,11 @@ _NO_Z = np.zeros(0)
 _NO_Z.flags.writeable = False
 
 
+FAILED_STEP_BOX_TOLERANCE = 1e-6
+"""Largest box violation [rad, m] of a failed QP's last iterate that a FAILED step keeps
+(clipped to the box); a larger one is replaced by the box's point nearest zero."""
+
+
 class IKStatus(enum.Enum):
     """Outcome of a differential IK step."""
 
@@ -77,7 +84,10 @@ class IKStepResult:
     Attributes:
         success: the QP was solved with every hard constraint satisfied.
         status: see :class:`IKStatus`.
-        dq: the step (tangent vector, size nv) [rad, m].
+        dq: the step (tangent vector, size nv) [rad, m]; when FAILED (no backend solved
+            the QP), a step within the hard box (the backend's last iterate clipped to it
+            when that was within 1e-6 rad of it, else the box's point nearest zero), not
+            necessarily within the inequality rows.
         culprits: constraints at fault when the hard constraints conflict (every one the
             least-violating step violates; ``qp.conflict``: a minimal conflicting subset of
             the QP's blocks).
@@ -674,6 +684,8 @@ class DifferentialIK:
         problem = self._build(state, dt)
         t1 = time.perf_counter()
         result = self.solver.solve(problem)
+        if not result.success and result.status is not QPStatus.RELAXED:
+            result = self._failed_step(problem, result)
         t2 = time.perf_counter()
         if result.success:
             status = IKStatus.SOLVED
@@ -686,6 +698,56 @@ class DifferentialIK:
         return IKStepResult(
             result.success, status, dq, None, result, culprits, t1 - t0, t2 - t1, dt=dt
         )
+
+    def _failed_step(self, problem: QPProblem, result: QPResult) -> QPResult:
+        """The answer to a QP the backends failed on (only on that path).
+
+        First the same QP with its objective divided by the power of two ``2^e`` nearest its
+        largest entry of ``H`` and ``g`` (exact: the minimizer is unchanged; the multipliers
+        and the objective are multiplied back): a target 1e20 m away gives ``|g| ~ 1e19``
+        next to ``|H| ~ 0.2`` and every backend failed (proxsuite returned ``|dq| ~ 1e13``),
+        where the compiled kernel's box-corner step meets the KKT conditions exactly. The
+        answer is accepted on its KKT residuals on the original problem (the solver's
+        ``eps_abs``, ``eps_rel``).
+
+        Else the failure's step respects the hard box: the backend's last iterate clipped to
+        the box when it is within :data:`FAILED_STEP_BOX_TOLERANCE` of it, else the box's
+        point nearest zero (zero when the box is empty). The backend's last iterate was
+        returned as it was: ``|dq| ~ 1e13``, far outside the velocity box. The inequality
+        rows are not guaranteed by it (the status says FAILED).
+        """
+        with np.errstate(over="ignore", invalid="ignore"):
+            top = max(
+                float(np.abs(problem.H).max(initial=0.0)), float(np.abs(problem.g).max(initial=0.0))
+            )
+        e = math.frexp(top)[1] if math.isfinite(top) and top > 0 else 0
+        if e > 1:
+            scaled = dataclasses.replace(
+                problem, H=np.ldexp(problem.H, -e), g=np.ldexp(problem.g, -e), stacked=None
+            )
+            retry = self.solver.solve(scaled)
+            if retry.success:
+                y, z, zb = (np.ldexp(m, e) for m in (retry.y, retry.z, retry.z_box))
+                if y.size == problem.n_eq and z.size == problem.n_in and zb.size == problem.n:
+                    kkt = kkt_residuals(problem, retry.x, y, z, zb)
+                    options = self.solver.options
+                    if kkt.within(options.eps_abs, options.eps_rel):
+                        retry.y, retry.z, retry.z_box, retry.kkt = y, z, zb, kkt
+                        retry.objective = math.ldexp(retry.objective, e)
+                        return retry
+        lb, ub = problem.lb, problem.ub
+        if not bool(np.all(lb <= ub)):  # an empty box (RELAXED normally): no step
+            result.x = np.zeros(problem.n)
+            return result
+        x = result.x
+        with np.errstate(over="ignore", invalid="ignore"):
+            near = (
+                bool(np.all(np.isfinite(x)))
+                and float(np.max(np.maximum(lb - x, x - ub), initial=0.0))
+                <= FAILED_STEP_BOX_TOLERANCE
+            )
+        result.x = np.clip(x if near else 0.0, lb, ub)
+        return result
 
     def _solve_native(self, state: State, dt: float, move: bool = False) -> IKStepResult | None:
         """The kernel's step (``move``: and the state moved, see :meth:`advance`)."""
