@@ -738,6 +738,11 @@ class ConfigurationSpace:
     def segments(self, q0: FloatArray, q1: FloatArray) -> int:
         """Number of segments ``n = max(1, ceil(d(q0, q1) / delta))``."""
         length = self.distance(q0, q1)
+        if not math.isfinite(length):  # (math.ceil's bare ValueError / OverflowError)
+            raise InvalidInputError(
+                f"the motion's length is not finite ({length}): NaN or inf in q0 or q1, or "
+                "configurations so far apart that their distance overflows"
+            )
         return max(1, math.ceil(length / self.edge.resolution - 1e-12))
 
     def motion_valid(self, q0: FloatArray, q1: FloatArray, *, check_end: bool = False) -> bool:
@@ -779,16 +784,21 @@ class ConfigurationSpace:
             size = min(cap, size * 4)
         return points, bounds
 
-    def path_valid(self, path: FloatArray, *, resolution: float | None = None) -> bool:
-        """Every waypoint and every edge of ``path`` (shape (m, d)) is in Q_free.
+    def path_valid(self, path: Any, *, resolution: float | None = None) -> bool:
+        """Every waypoint of ``path`` is inside the bounds and every waypoint and edge in Q_free.
 
         Args:
-            path: waypoints.
+            path: waypoints (m, dim), ``m >= 1``, finite (read by :func:`as_path`: a 1-D
+                array is m waypoints of a 1-D space or one waypoint).
             resolution: check edges at this resolution instead of the planner's.
+
+        Raises:
+            InvalidInputError: not a finite (m, dim) path; an empty path (a failed plan's
+                ``(0, d)`` path) is refused rather than called valid.
         """
-        arr = np.atleast_2d(np.asarray(path, dtype=float))
-        if arr.shape[1] != self.dim:
-            raise InvalidInputError(f"path must have shape (m, {self.dim}), got {arr.shape}")
+        arr = as_path(path, self.dim)
+        if self.outside_limits(arr).size:  # (a configuration outside the joint limits)
+            return False
         if self.checker.first_invalid(arr) >= 0:
             return False
         saved = self.edge
