@@ -304,7 +304,8 @@ class GridSearchOptions:
 
     Attributes:
         connectivity: 4 or 8 neighbours.
-        corner_cutting: allow a diagonal move between two occupied orthogonal neighbours.
+        corner_cutting: allow a diagonal move past occupied orthogonal cells (``False``: a
+            diagonal move needs both orthogonal cells it passes between free).
         heuristic_weight: A* weight ``w`` (1 = optimal).
         max_expansions: stop after this many expansions (``None`` = unlimited).
     """
@@ -323,7 +324,8 @@ def grid_neighbors(
     Args:
         grid: the occupancy grid.
         connectivity: 4 or 8.
-        corner_cutting: allow diagonal moves past two occupied orthogonal cells.
+        corner_cutting: allow diagonal moves past occupied orthogonal cells (``False``:
+            both orthogonal cells a diagonal move passes between must be free).
 
     Returns:
         ``(neighbors, padded_width)``: ``neighbors(k)`` yields ``(k', cost)`` with costs
