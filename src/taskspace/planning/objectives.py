@@ -463,6 +463,8 @@ class MechanicalWork(OptimizationObjective):
         if a.shape[1] != self.model.nq:
             raise InvalidInputError(
                 f"MechanicalWork: configurations must have size {self.model.nq}, got {a.shape[1]}"
+                " (a locked-joint space plans a reduced model: give MechanicalWork "
+                "space.planning_model)"
             )
         if not self._euclidean:
             return self._manifold_costs(a, b)
