@@ -46,7 +46,7 @@ from taskspace._validation import check_count, check_positive, check_seed
 from taskspace.errors import InvalidInputError
 from taskspace.planning.certify import certify_keeping
 from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray
-from taskspace.planning.goals import goal_states
+from taskspace.planning.goals import goal_states, region_sample
 from taskspace.planning.lazy_prm import LazyRoadmap, _check_edges
 from taskspace.planning.limits import Budget, edge_case, planner_limits, result_length
 from taskspace.planning.objectives import (
@@ -396,11 +396,9 @@ def _plan(
                 attempts[inner] = 1.0
                 successes[inner] = 0.0
         if region is not None:
-            sampled = region.sample(rng)
-            if sampled is not None:
-                q = np.asarray(sampled, dtype=np.float64)
-                if q.shape == (d,) and space.within_bounds(q) and space.is_valid(q):
-                    new = np.append(new, graph.add_nodes(q[None, :]))
+            q = region_sample(space, region, rng)
+            if q is not None and space.within_bounds(q) and space.is_valid(q):
+                new = np.append(new, graph.add_nodes(q[None, :]))
             # goals: the new nodes inside the region (a sample the region does not contain
             # stays an ordinary node)
             goal_ids += [int(i) for i in new if region.contains(graph.nodes[i])]
