@@ -1,4 +1,4 @@
-"""ConfigurationSpace.path_valid / motion_valid on inputs they were not designed around.
+"""ConfigurationSpace.path_valid / motion_valid / path_length on inputs not designed around.
 
 ``path_valid`` called a path through configurations outside the bounds (the joint limits)
 valid, and an empty path (a failed plan's) valid; a NaN motion raised math.ceil's bare
@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from taskspace.errors import InvalidInputError, NotFiniteError
-from taskspace.planning import ConfigurationSpace, FunctionChecker
+from taskspace.planning import ConfigurationSpace, FunctionChecker, path_length
 
 
 def disc_space() -> ConfigurationSpace:
@@ -51,3 +51,15 @@ def test_motion_valid_names_a_nan_motion() -> None:
     with pytest.raises(InvalidInputError, match="not finite"):
         space.motion_valid(np.array([0.1, 0.1]), np.array([np.nan, 0.1]))
     assert space.motion_valid(np.array([0.1, 0.1]), np.array([0.9, 0.1]))
+
+
+def test_path_lengths_refuse_nan() -> None:
+    space = disc_space()
+    bad = np.array([[0.0, 0.0], [np.nan, 1.0], [1.0, 1.0]])
+    with pytest.raises(NotFiniteError):
+        path_length(bad)  # was nan
+    with pytest.raises(NotFiniteError):
+        space.path_length(bad)  # was nan
+    good = np.array([[0.0, 0.0], [0.0, 1.0], [1.0, 1.0]])
+    assert path_length(good) == 2.0 and space.path_length(good) == 2.0
+    assert path_length(np.zeros((0, 2))) == 0.0 and space.path_length(np.zeros((0, 2))) == 0.0

@@ -517,8 +517,8 @@ class ConfigurationSpace:
         length 0).
         """
         arr = np.asarray(path, dtype=np.float64)
-        if arr.ndim != 2 or arr.shape[1] != self.dim:
-            arr = as_path(arr, self.dim)
+        if arr.ndim != 2 or arr.shape[1] != self.dim or not np.isfinite(arr).all():
+            arr = as_path(arr, self.dim)  # (refuses NaN and inf: a NaN length was returned)
         if arr.shape[0] < 2:
             return 0.0
         if self._manifold is None:
@@ -855,9 +855,14 @@ def as_path(path: Any, dim: int | None, name: str = "path") -> FloatArray:
 
 
 def path_length(path: FloatArray) -> float:
-    """Euclidean length ``sum_i |q_{i+1} - q_i|`` of a waypoint path (m, d) [rad or m]."""
+    """Euclidean length ``sum_i |q_{i+1} - q_i|`` of a waypoint path (m, d) [rad or m].
+
+    Raises:
+        InvalidInputError: not a finite (m, d) path (NaN or inf gave a NaN length); a path
+            without waypoints, shape (0, d), has length 0.
+    """
     arr = np.asarray(path, dtype=float)
-    if arr.ndim != 2:
+    if arr.ndim != 2 or not np.isfinite(arr).all():
         arr = as_path(arr, None)
     if arr.shape[0] < 2:
         return 0.0
