@@ -105,3 +105,16 @@ def test_clearance_max_clearance_numpy_scalar_and_bool() -> None:
     assert bound.cost_lower_bounds(np.zeros(2), np.array([3.0, 4.0]))[0] == pytest.approx(2.5)
     with pytest.raises(InvalidInputError, match="max_clearance"):
         Clearance(line_clearance, max_clearance=True)
+
+
+def test_clearance_max_clearance_must_bound_the_clearance() -> None:
+    # along x in [0, 2] the clearance x + 1 reaches 3 m: a max_clearance of 1.5 m made
+    # c_hat = L / (eps + 1.5) larger than the cost (an inadmissible bound: BIT*'s heuristic,
+    # informed pruning and the optimum test would cut the optimal path)
+    path = np.array([[0.0, 0.0], [2.0, 0.0]])
+    with pytest.raises(InvalidInputError, match="max_clearance"):
+        Clearance(line_clearance, max_clearance=1.5).path_cost(path)
+    bound = Clearance(line_clearance, resolution=1e-3, max_clearance=3.0)
+    cost = bound.path_cost(path)
+    assert cost == pytest.approx(math.log(3.01 / 1.01), rel=1e-6)
+    assert bound.cost_lower_bounds(path[0], path[1])[0] <= cost

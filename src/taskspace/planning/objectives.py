@@ -371,6 +371,14 @@ class Clearance(OptimizationObjective):
         d = np.asarray(self.clearance(points), dtype=np.float64).reshape(points.shape[0])
         if not np.all(np.isfinite(d)):
             raise InvalidInputError("clearance returned a value that is not finite")
+        if self.max_clearance < math.inf and np.any(d > self.max_clearance):
+            # c_hat = L / (epsilon + d_max) would exceed costs: BIT*'s heuristic, informed
+            # pruning and the optimum test would cut the optimal path without a word
+            raise InvalidInputError(
+                f"clearance returned {float(d.max()):g} m > max_clearance="
+                f"{self.max_clearance:g} m: max_clearance must bound every clearance (the "
+                "cost lower bound L / (epsilon + max_clearance) is then admissible)"
+            )
         return 1.0 / (self.epsilon + np.maximum(d, 0.0))
 
     def motion_costs(self, q0: FloatArray, q1: FloatArray) -> FloatArray:
