@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from taskspace.errors import InvalidInputError, NotFiniteError
-from taskspace.planning import ConfigurationSpace, FunctionChecker, path_length
+from taskspace.planning import ConfigurationSpace, EdgeCheckOptions, FunctionChecker, path_length
 
 
 def disc_space() -> ConfigurationSpace:
@@ -63,3 +63,20 @@ def test_path_lengths_refuse_nan() -> None:
     good = np.array([[0.0, 0.0], [0.0, 1.0], [1.0, 1.0]])
     assert path_length(good) == 2.0 and space.path_length(good) == 2.0
     assert path_length(np.zeros((0, 2))) == 0.0 and space.path_length(np.zeros((0, 2))) == 0.0
+
+
+@pytest.mark.parametrize("max_batch", [2.5, True, 0, "8"])
+def test_edge_max_batch_must_be_a_positive_integer(max_batch: object) -> None:
+    # 2.5 was accepted and raised a bare TypeError (slice indices) at the first edge check;
+    # True was a batch of 1
+    checker = FunctionChecker(lambda Q: np.ones(len(Q), bool))
+    edge = EdgeCheckOptions(resolution=0.01, max_batch=max_batch)  # type: ignore[arg-type]
+    with pytest.raises(InvalidInputError, match="max_batch"):
+        ConfigurationSpace([0, 0], [1, 1], checker, edge=edge)
+
+
+def test_edge_max_batch_numpy_integer() -> None:
+    checker = FunctionChecker(lambda Q: np.ones(len(Q), bool))
+    edge = EdgeCheckOptions(resolution=0.01, max_batch=np.int64(4))  # type: ignore[arg-type]
+    space = ConfigurationSpace([0, 0], [1, 1], checker, edge=edge)
+    assert space.motion_valid(np.zeros(2), np.ones(2))

@@ -31,7 +31,13 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
-from taskspace._validation import as_float_array, as_vector, check_finite, check_positive
+from taskspace._validation import (
+    as_float_array,
+    as_vector,
+    check_count,
+    check_finite,
+    check_positive,
+)
 from taskspace.errors import InvalidInputError, PlanningError, ShapeError
 from taskspace.model.robot import Robot
 from taskspace.model.versioning import ModelFollower
@@ -225,8 +231,8 @@ class ConfigurationSpace:
         self.checker = checker
         self.edge = edge or EdgeCheckOptions()
         check_positive(self.edge.resolution, "resolution")
-        if self.edge.max_batch < 1:
-            raise InvalidInputError(f"max_batch must be >= 1, got {self.edge.max_batch}")
+        # (an integer: 2.5 raised a bare TypeError from slicing at the first edge check)
+        check_count(self.edge.max_batch, "max_batch", minimum=1)
         self.names = names or [f"q[{i}]" for i in range(self._lower.size)]
         self.edge_checks = 0
 
@@ -354,8 +360,8 @@ class ConfigurationSpace:
         space.checker = checker
         space.edge = edge or EdgeCheckOptions()
         check_positive(space.edge.resolution, "resolution")
-        if space.edge.max_batch < 1:
-            raise InvalidInputError(f"max_batch must be >= 1, got {space.edge.max_batch}")
+        # (an integer: 2.5 raised a bare TypeError from slicing at the first edge check)
+        check_count(space.edge.max_batch, "max_batch", minimum=1)
         space.edge_checks = 0
 
         space._robot_metric = (robot, weights, base_lower, base_upper)
