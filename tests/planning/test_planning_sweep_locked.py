@@ -1,4 +1,4 @@
-"""Locked joints' values and MechanicalWork on a locked-joint space (sweep of session 35).
+"""Locked joints, metric weights and MechanicalWork on a locked-joint space (sweep 35).
 
 A bool value was locked at 1.0 rad, text raised NumPy's bare ValueError; MechanicalWork given
 the full robot on a locked-joint (Euclidean) space said only that the sizes differ.
@@ -44,3 +44,12 @@ def test_mechanical_work_on_a_locked_space_names_the_reduced_model(ur5: Robot) -
     full0, full1 = space.full_configurations(np.stack([q0, q1]))
     tau = pin.computeGeneralizedGravity(ur5.model, ur5.model.createData(), (full0 + full1) / 2)
     assert reduced == pytest.approx(abs(float(tau @ (full1 - full0))), rel=1e-10)
+
+
+def test_metric_weights_whose_distances_overflow_are_refused(ur5: Robot) -> None:
+    # the space was built, then every distance was inf: planners failed with errors about
+    # the motions (or, before the sweep, NumPy's / math's bare errors)
+    with pytest.raises(InvalidInputError, match="weights are too large"):
+        ConfigurationSpace.from_robot(ur5, weights=[1e300] * 6)
+    space = ConfigurationSpace.from_robot(ur5, weights=[2.0, 1, 1, 1, 1, 1])
+    assert space.distance(np.zeros(6), np.array([0.5, 0, 0, 0, 0, 0])) == pytest.approx(1.0)

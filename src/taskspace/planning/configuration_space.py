@@ -249,6 +249,15 @@ class ConfigurationSpace:
                 f"(nearest-neighbour searches) overflows a float (lower {lo.min():.3g}, "
                 f"upper {hi.max():.3g})"
             )
+        if manifold is not None:
+            with np.errstate(over="ignore", invalid="ignore"):
+                metric_diameter = float(manifold.distances(lo, hi)[0])
+            if not math.isfinite(metric_diameter * metric_diameter):
+                raise InvalidInputError(
+                    "the metric weights are too large: the weighted distance between lower "
+                    "and upper overflows a float (weights up to "
+                    f"{float(manifold.weights.max()):.3g})"
+                )
         self._manifold = manifold
         self._lower = lo
         self._upper = hi
@@ -326,7 +335,10 @@ class ConfigurationSpace:
                 root joint, x, y, z for a floating base); required for such robots.
             base_upper: upper corner of that box [m].
             weights: metric weights per velocity coordinate (size nv, or the free joints'
-                velocity size with ``locked_joints``; default 1).
+                velocity size with ``locked_joints``; default 1). The edge resolution is a
+                distance in this metric: weights below 1 space the checked points of an edge
+                further apart in the joints (``resolution / w`` [rad]); scale ``edge`` with
+                them.
             locked_joints: joint name -> value of joints held fixed (see
                 :mod:`taskspace.planning.locked_joints`: a number, an angle or ``(cos, sin)``
                 for a continuous joint, the joint's ``nq`` coordinates for a planar joint or a
