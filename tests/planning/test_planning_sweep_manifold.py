@@ -13,6 +13,7 @@ import pinocchio as pin
 import pytest
 
 from taskspace.errors import InvalidInputError
+from taskspace.planning import ConfigurationSpace, FunctionChecker
 from taskspace.planning.joint_manifold import JointManifold
 
 
@@ -55,3 +56,27 @@ def test_difference_reads_rotations_as_directions(root: object, box: int, rot: s
     np.testing.assert_allclose(
         manifold.distances(scaled0, scaled1), np.linalg.norm(reference, axis=1), atol=1e-9
     )
+
+
+def _wall_space(weights: list[float]) -> ConfigurationSpace:
+    model = pin.Model()
+    j1 = model.addJoint(0, pin.JointModelRX(), pin.SE3.Identity(), "a")
+    model.addJoint(j1, pin.JointModelRY(), pin.SE3.Identity(), "b")
+    model.lowerPositionLimit[:] = -1.0
+    model.upperPositionLimit[:] = 1.0
+    manifold = JointManifold(model, weights=weights)
+    # a wall 0.02 rad thick at q[0] = 0.3 (exact: the reference is the predicate itself)
+    checker = FunctionChecker(lambda Q: np.abs(Q[:, 0] - 0.3) > 0.01)
+    return ConfigurationSpace(manifold.lower, manifold.upper, checker, manifold=manifold)
+
+
+def test_small_metric_weights_do_not_coarsen_the_edge_checks() -> None:
+    space = _wall_space([0.05, 0.05])
+    # the edge's weighted length is 0.05: checked at resolution 0.03 of the metric it was cut
+    # in 2, its only interior point at q[0] = 0.5, and the wall at 0.3 was crossed unseen
+    assert not space.motion_valid(np.zeros(2), np.array([1.0, 0.0]))
+    assert not space.path_valid([[0.0, 0.0], [1.0, 0.0]])
+    assert space.motion_valid(np.zeros(2), np.array([0.25, 0.0]))
+    assert space.edge_resolution == pytest.approx(0.03 * 0.05)
+    # weights >= 1 keep the metric resolution as it was
+    assert _wall_space([1.0, 2.0]).edge_resolution == 0.03

@@ -298,6 +298,23 @@ class ConfigurationSpace:
     # joints and weights; limits that no longer fit the kind are refused by the bounds).
 
     @property
+    def edge_resolution(self) -> float:
+        """The local planner's spacing ``delta`` in the space's metric [rad or m].
+
+        ``edge.resolution`` itself, except with metric weights below 1: then
+        ``edge.resolution * min(w)``, so that the checked points of an edge are also at most
+        ``edge.resolution`` apart in the joints' own coordinates (``|W dq| >= min(w) |dq|``);
+        weights of 0.05 spaced them 20 times further apart and planned paths crossed thin
+        obstacles between them.
+        """
+        res = float(self.edge.resolution)
+        manifold = self._manifold
+        if manifold is None:
+            return res
+        w_min = float(np.min(manifold.weights))
+        return res * w_min if w_min < 1.0 else res
+
+    @property
     def model_version(self) -> int | None:
         """The robot version the bounds are for (``None``: not built on a robot).
 
@@ -335,10 +352,8 @@ class ConfigurationSpace:
                 root joint, x, y, z for a floating base); required for such robots.
             base_upper: upper corner of that box [m].
             weights: metric weights per velocity coordinate (size nv, or the free joints'
-                velocity size with ``locked_joints``; default 1). The edge resolution is a
-                distance in this metric: weights below 1 space the checked points of an edge
-                further apart in the joints (``resolution / w`` [rad]); scale ``edge`` with
-                them.
+                velocity size with ``locked_joints``; default 1). Weights below 1 do not
+                coarsen the edge checks: see :attr:`edge_resolution`.
             locked_joints: joint name -> value of joints held fixed (see
                 :mod:`taskspace.planning.locked_joints`: a number, an angle or ``(cos, sin)``
                 for a continuous joint, the joint's ``nq`` coordinates for a planar joint or a
@@ -761,7 +776,7 @@ class ConfigurationSpace:
                 f"the motion's length is not finite ({length}): NaN or inf in q0 or q1, or "
                 "configurations so far apart that their distance overflows"
             )
-        return max(1, math.ceil(length / self.edge.resolution - 1e-12))
+        return max(1, math.ceil(length / self.edge_resolution - 1e-12))
 
     def motion_valid(self, q0: FloatArray, q1: FloatArray, *, check_end: bool = False) -> bool:
         """Straight-line local planner (slide 3:32): is the segment ``q0 -> q1`` in Q_free?

@@ -232,7 +232,7 @@ def _plan(
     optimum_bound = optimum_lower_bound(cost_of, q_start, goals, region)
     d = space.dim
     k_prm = opts.gamma_factor * math.e * (1 + 1 / space.tangent_dim)
-    stride = max(1, math.floor(coarse / space.edge.resolution + 1e-9))
+    stride = max(1, math.floor(coarse / space.edge_resolution + 1e-9))
 
     expand = float(opts.expand_fraction)
     if not 0.0 <= expand <= 1.0:
@@ -290,7 +290,7 @@ def _plan(
                     lengths = np.linalg.norm(b_rows - a_rows, axis=1)
                 else:
                     lengths = space.manifold.distances(a_rows, b_rows)
-                points = np.cumsum(np.ceil(lengths / space.edge.resolution) + 1.0)
+                points = np.cumsum(np.ceil(lengths / space.edge_resolution) + 1.0)
                 lo, per_point = 0, math.inf
                 while lo < len(cost):
                     if budget.out_of_time():
@@ -487,7 +487,7 @@ def _bounce_walks(
     sources = rng.choice(n, size=walks, p=weights / total)
     ends: list[int] = []
     edges: list[tuple[int, int]] = []
-    delta = space.edge.resolution
+    delta = space.edge_resolution
     for v in sources.tolist():
         if budget.out_of_time():
             break
