@@ -45,7 +45,7 @@ import numpy.typing as npt
 from taskspace._validation import check_count, check_positive, check_seed
 from taskspace.planning.certify import FailedRegions, plan_certified
 from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray
-from taskspace.planning.goals import goal_states
+from taskspace.planning.goals import goal_states, region_sample
 from taskspace.planning.limits import (
     Budget,
     edge_case,
@@ -380,10 +380,9 @@ def _plan(
             if region is not None:
                 new = np.arange(S.n - fresh.shape[0], S.n)
                 goal_ids += [int(i) for i in new if region.contains(S.q[i])]
-                sampled = None if budget.out_of_time() else region.sample(rng)
-                if sampled is not None:
-                    q = np.asarray(sampled, dtype=np.float64)
-                    if q.shape == (d,) and space.within_bounds(q) and space.is_valid(q):
+                q = None if budget.out_of_time() else region_sample(space, region, rng)
+                if q is not None:
+                    if space.within_bounds(q) and space.is_valid(q):
                         i = int(S.add(q[None, :], *heuristics(q[None, :]))[0])
                         if region.contains(q):  # else an ordinary sample
                             goal_ids.append(i)

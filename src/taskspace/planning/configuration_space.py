@@ -31,7 +31,13 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
-from taskspace._validation import as_float_array, as_vector, check_finite, check_positive
+from taskspace._validation import (
+    as_float_array,
+    as_vector,
+    check_count,
+    check_finite,
+    check_positive,
+)
 from taskspace.errors import InvalidInputError, PlanningError, ShapeError
 from taskspace.model.robot import Robot
 from taskspace.model.versioning import ModelFollower
@@ -225,8 +231,8 @@ class ConfigurationSpace:
         self.checker = checker
         self.edge = edge or EdgeCheckOptions()
         check_positive(self.edge.resolution, "resolution")
-        if self.edge.max_batch < 1:
-            raise InvalidInputError(f"max_batch must be >= 1, got {self.edge.max_batch}")
+        # (an integer: 2.5 raised a bare TypeError from slicing at the first edge check)
+        check_count(self.edge.max_batch, "max_batch", minimum=1)
         self.names = names or [f"q[{i}]" for i in range(self._lower.size)]
         self.edge_checks = 0
 
@@ -243,6 +249,15 @@ class ConfigurationSpace:
                 f"(nearest-neighbour searches) overflows a float (lower {lo.min():.3g}, "
                 f"upper {hi.max():.3g})"
             )
+        if manifold is not None:
+            with np.errstate(over="ignore", invalid="ignore"):
+                metric_diameter = float(manifold.distances(lo, hi)[0])
+            if not math.isfinite(metric_diameter * metric_diameter):
+                raise InvalidInputError(
+                    "the metric weights are too large: the weighted distance between lower "
+                    "and upper overflows a float (weights up to "
+                    f"{float(manifold.weights.max()):.3g})"
+                )
         self._manifold = manifold
         self._lower = lo
         self._upper = hi
@@ -283,6 +298,23 @@ class ConfigurationSpace:
     # joints and weights; limits that no longer fit the kind are refused by the bounds).
 
     @property
+    def edge_resolution(self) -> float:
+        """The local planner's spacing ``delta`` in the space's metric [rad or m].
+
+        ``edge.resolution`` itself, except with metric weights below 1: then
+        ``edge.resolution * min(w)``, so that the checked points of an edge are also at most
+        ``edge.resolution`` apart in the joints' own coordinates (``|W dq| >= min(w) |dq|``);
+        weights of 0.05 spaced them 20 times further apart and planned paths crossed thin
+        obstacles between them.
+        """
+        res = float(self.edge.resolution)
+        manifold = self._manifold
+        if manifold is None:
+            return res
+        w_min = float(np.min(manifold.weights))
+        return res * w_min if w_min < 1.0 else res
+
+    @property
     def model_version(self) -> int | None:
         """The robot version the bounds are for (``None``: not built on a robot).
 
@@ -320,7 +352,8 @@ class ConfigurationSpace:
                 root joint, x, y, z for a floating base); required for such robots.
             base_upper: upper corner of that box [m].
             weights: metric weights per velocity coordinate (size nv, or the free joints'
-                velocity size with ``locked_joints``; default 1).
+                velocity size with ``locked_joints``; default 1). Weights below 1 do not
+                coarsen the edge checks: see :attr:`edge_resolution`.
             locked_joints: joint name -> value of joints held fixed (see
                 :mod:`taskspace.planning.locked_joints`: a number, an angle or ``(cos, sin)``
                 for a continuous joint, the joint's ``nq`` coordinates for a planar joint or a
@@ -354,8 +387,8 @@ class ConfigurationSpace:
         space.checker = checker
         space.edge = edge or EdgeCheckOptions()
         check_positive(space.edge.resolution, "resolution")
-        if space.edge.max_batch < 1:
-            raise InvalidInputError(f"max_batch must be >= 1, got {space.edge.max_batch}")
+        # (an integer: 2.5 raised a bare TypeError from slicing at the first edge check)
+        check_count(space.edge.max_batch, "max_batch", minimum=1)
         space.edge_checks = 0
 
         space._robot_metric = (robot, weights, base_lower, base_upper)
@@ -517,8 +550,8 @@ class ConfigurationSpace:
         length 0).
         """
         arr = np.asarray(path, dtype=np.float64)
-        if arr.ndim != 2 or arr.shape[1] != self.dim:
-            arr = as_path(arr, self.dim)
+        if arr.ndim != 2 or arr.shape[1] != self.dim or not np.isfinite(arr).all():
+            arr = as_path(arr, self.dim)  # (refuses NaN and inf: a NaN length was returned)
         if arr.shape[0] < 2:
             return 0.0
         if self._manifold is None:
@@ -738,7 +771,12 @@ class ConfigurationSpace:
     def segments(self, q0: FloatArray, q1: FloatArray) -> int:
         """Number of segments ``n = max(1, ceil(d(q0, q1) / delta))``."""
         length = self.distance(q0, q1)
-        return max(1, math.ceil(length / self.edge.resolution - 1e-12))
+        if not math.isfinite(length):  # (math.ceil's bare ValueError / OverflowError)
+            raise InvalidInputError(
+                f"the motion's length is not finite ({length}): NaN or inf in q0 or q1, or "
+                "configurations so far apart that their distance overflows"
+            )
+        return max(1, math.ceil(length / self.edge_resolution - 1e-12))
 
     def motion_valid(self, q0: FloatArray, q1: FloatArray, *, check_end: bool = False) -> bool:
         """Straight-line local planner (slide 3:32): is the segment ``q0 -> q1`` in Q_free?
@@ -779,16 +817,21 @@ class ConfigurationSpace:
             size = min(cap, size * 4)
         return points, bounds
 
-    def path_valid(self, path: FloatArray, *, resolution: float | None = None) -> bool:
-        """Every waypoint and every edge of ``path`` (shape (m, d)) is in Q_free.
+    def path_valid(self, path: Any, *, resolution: float | None = None) -> bool:
+        """Every waypoint of ``path`` is inside the bounds and every waypoint and edge in Q_free.
 
         Args:
-            path: waypoints.
+            path: waypoints (m, dim), ``m >= 1``, finite (read by :func:`as_path`: a 1-D
+                array is m waypoints of a 1-D space or one waypoint).
             resolution: check edges at this resolution instead of the planner's.
+
+        Raises:
+            InvalidInputError: not a finite (m, dim) path; an empty path (a failed plan's
+                ``(0, d)`` path) is refused rather than called valid.
         """
-        arr = np.atleast_2d(np.asarray(path, dtype=float))
-        if arr.shape[1] != self.dim:
-            raise InvalidInputError(f"path must have shape (m, {self.dim}), got {arr.shape}")
+        arr = as_path(path, self.dim)
+        if self.outside_limits(arr).size:  # (a configuration outside the joint limits)
+            return False
         if self.checker.first_invalid(arr) >= 0:
             return False
         saved = self.edge
@@ -845,9 +888,14 @@ def as_path(path: Any, dim: int | None, name: str = "path") -> FloatArray:
 
 
 def path_length(path: FloatArray) -> float:
-    """Euclidean length ``sum_i |q_{i+1} - q_i|`` of a waypoint path (m, d) [rad or m]."""
+    """Euclidean length ``sum_i |q_{i+1} - q_i|`` of a waypoint path (m, d) [rad or m].
+
+    Raises:
+        InvalidInputError: not a finite (m, d) path (NaN or inf gave a NaN length); a path
+            without waypoints, shape (0, d), has length 0.
+    """
     arr = np.asarray(path, dtype=float)
-    if arr.ndim != 2:
+    if arr.ndim != 2 or not np.isfinite(arr).all():
         arr = as_path(arr, None)
     if arr.shape[0] < 2:
         return 0.0

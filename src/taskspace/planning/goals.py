@@ -24,6 +24,7 @@ from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 
 import numpy as np
 
+from taskspace._validation import as_float_array
 from taskspace.errors import InvalidInputError
 
 if TYPE_CHECKING:
@@ -92,14 +93,42 @@ def region_samples(
     for _ in range(attempts):
         if time.perf_counter() > deadline:
             break
-        q = region.sample(rng)
+        q = region_sample(space, region, rng)
         if q is None:
             continue
-        q = np.asarray(q, dtype=np.float64)
-        if q.shape == (space.dim,) and space.within_bounds(q) and space.is_valid(q):
+        if space.within_bounds(q) and space.is_valid(q):
             if region.contains(q):
                 out.append(q)
     return out
+
+
+def region_sample(space: ConfigurationSpace, region: Any, rng: np.random.Generator) -> Any:
+    """``region.sample(rng)`` as a float vector of the space's size, or ``None``.
+
+    Raises:
+        InvalidInputError: a sample that is not ``None`` nor a finite vector of size
+            ``space.dim`` (such samples were skipped: the planner then ran to its limits
+            without a goal state and without a word of why).
+    """
+    q = region.sample(rng)
+    if q is None:
+        return None
+    who = f"the goal region's sample ({type(region).__name__}.sample)"
+    arr = as_float_array(q, who)
+    if arr.shape != (space.dim,) or not np.all(np.isfinite(arr)):
+        locked = getattr(space, "locked", None) is not None
+        raise InvalidInputError(
+            f"{who} must be None or a finite configuration of the space, shape "
+            f"({space.dim},); got "
+            + (f"shape {arr.shape}" if arr.shape != (space.dim,) else f"{arr.tolist()}")
+            + (
+                " (a locked-joint space plans the free joints' coordinates: the region must "
+                "sample and test those; space.full_configurations lifts them to the robot's)"
+                if locked
+                else ""
+            )
+        )
+    return arr
 
 
 REGION_FIRST_ATTEMPTS = 20

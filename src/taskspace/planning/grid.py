@@ -67,7 +67,8 @@ class OccupancyGrid:
     """A 2-D occupancy grid.
 
     Attributes:
-        occupied: boolean array ``(rows, cols)``, ``True`` for obstacle cells.
+        occupied: boolean array ``(rows, cols)``, ``True`` for obstacle cells (numbers 0 and
+            1 are taken as booleans; other values are refused: threshold them first).
         resolution: cell size ``h`` [m].
         origin: world coordinates ``(x0, y0)`` of the corner of cell ``(0, 0)`` [m].
     """
@@ -87,6 +88,21 @@ class OccupancyGrid:
                 "occupied has NaN entries (NaN is neither free nor occupied) at cells "
                 f"{np.argwhere(np.isnan(occ))[:5].tolist()}"
             )
+        if occ.dtype != np.bool_:
+            if occ.dtype.kind not in "iuf":
+                raise InvalidInputError(
+                    f"occupied must be booleans (True = obstacle) or 0/1, got dtype {occ.dtype}"
+                )
+            other = (occ != 0) & (occ != 1)
+            if other.any():
+                # (0.3 or 255 was an obstacle: an occupancy probability or an image read as
+                # "non-zero = occupied", where a threshold or black = obstacle was meant)
+                raise InvalidInputError(
+                    "occupied must be booleans (True = obstacle) or 0/1, got values such as "
+                    f"{np.unique(occ[other])[:5].tolist()} at cells "
+                    f"{np.argwhere(other)[:3].tolist()}; threshold it yourself, e.g. "
+                    "OccupancyGrid(probabilities > 0.5) or OccupancyGrid(image == 0)"
+                )
         object.__setattr__(self, "occupied", occ.astype(bool))
         check_positive(self.resolution, "resolution")
         origin = as_vector(self.origin, 2, "origin")
@@ -304,7 +320,8 @@ class GridSearchOptions:
 
     Attributes:
         connectivity: 4 or 8 neighbours.
-        corner_cutting: allow a diagonal move between two occupied orthogonal neighbours.
+        corner_cutting: allow a diagonal move past occupied orthogonal cells (``False``: a
+            diagonal move needs both orthogonal cells it passes between free).
         heuristic_weight: A* weight ``w`` (1 = optimal).
         max_expansions: stop after this many expansions (``None`` = unlimited).
     """
@@ -323,7 +340,8 @@ def grid_neighbors(
     Args:
         grid: the occupancy grid.
         connectivity: 4 or 8.
-        corner_cutting: allow diagonal moves past two occupied orthogonal cells.
+        corner_cutting: allow diagonal moves past occupied orthogonal cells (``False``:
+            both orthogonal cells a diagonal move passes between must be free).
 
     Returns:
         ``(neighbors, padded_width)``: ``neighbors(k)`` yields ``(k', cost)`` with costs

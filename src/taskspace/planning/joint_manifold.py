@@ -236,11 +236,18 @@ class JointManifold:
                 upper[b.idx_q + n_t : b.idx_q + b.nq] = 1.0
             else:
                 sl = slice(b.idx_q, b.idx_q + b.nq)
-                if not (np.all(np.isfinite(lower[sl])) and np.all(np.isfinite(upper[sl]))):
+                with np.errstate(over="ignore", invalid="ignore"):
+                    span = upper[sl] - lower[sl]
+                # (a range that overflows: Pinocchio's default limits of a joint added to a
+                # bare model are -+1.8e308, and sampling them raised numpy's OverflowError)
+                if not np.all(np.isfinite(span)):
                     raise InvalidInputError(
-                        f"joint '{b.name}' has no finite position limits; give the model "
-                        "limits (Robot.set_limits, or model.lowerPositionLimit / "
-                        "upperPositionLimit of a bare model) to plan with it"
+                        f"joint '{b.name}' has no finite position limits (lower = "
+                        f"{lower[sl].tolist()}, upper = {upper[sl].tolist()}: their range "
+                        "overflows a float; Pinocchio's default for a joint added to a bare "
+                        "model); give the model limits (Robot.set_limits, or "
+                        "model.lowerPositionLimit / upperPositionLimit of a bare model) to "
+                        "plan with it"
                     )
                 if not np.all(upper[sl] > lower[sl]):
                     # URDF's default range [0, 0] ("no limit" for the robot: its random
@@ -309,7 +316,11 @@ class JointManifold:
 
     # ------------------------------------------------------------------ operations
     def difference(self, q0: Any, q1: Any) -> FloatArray:
-        """``q1 (-) q0`` row by row (``pinocchio.difference``), shape (n, nv)."""
+        """``q1 (-) q0`` row by row (``pinocchio.difference``), shape (n, nv).
+
+        A (cos, sin) pair or quaternion off the unit circle or sphere is read as its
+        direction, as Pinocchio does (the base's rotation scaled the translation part).
+        """
         a, b = np.broadcast_arrays(np.atleast_2d(q0), np.atleast_2d(q1))
         out = np.empty((a.shape[0], self.nv))
         if self._vec_q.size:
@@ -323,7 +334,8 @@ class JointManifold:
             v = slice(blk.idx_v, blk.idx_v + blk.nv)
             if blk.kind == "planar":
                 th = _angle(qa[:, 2], qa[:, 3], qb[:, 2], qb[:, 3])
-                c, s = qa[:, 2], qa[:, 3]
+                norm = np.hypot(qa[:, 2], qa[:, 3])
+                c, s = qa[:, 2] / norm, qa[:, 3] / norm
                 dx, dy = qb[:, 0] - qa[:, 0], qb[:, 1] - qa[:, 1]
                 lx, ly = c * dx + s * dy, -s * dx + c * dy  # R0^T dp
                 small = np.abs(th) < 1e-9
@@ -336,7 +348,8 @@ class JointManifold:
                 out[:, v] = _quat_log(qa, qb)
             else:  # free flyer: log6(M0^-1 M1) = (v, omega)
                 omega = _quat_log(qa[:, 3:], qb[:, 3:])
-                p = _quat_rotate_inverse(qa[:, 3:], qb[:, :3] - qa[:, :3])
+                unit = qa[:, 3:] / np.linalg.norm(qa[:, 3:], axis=1)[:, None]
+                p = _quat_rotate_inverse(unit, qb[:, :3] - qa[:, :3])
                 out[:, blk.idx_v : blk.idx_v + 3] = _se3_v_inverse(omega, p)
                 out[:, blk.idx_v + 3 : blk.idx_v + 6] = omega
         return out

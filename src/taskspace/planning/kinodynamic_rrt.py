@@ -280,8 +280,35 @@ def kinodynamic_rrt(
         n += 1
         return n - 1
 
+    def at_goal(q: FloatArray) -> bool:  # ("controls": within the goal tolerances)
+        return bool(
+            np.linalg.norm(q[:2] - q_goal[:2]) <= opts.goal_position_tolerance
+            and angle_distance(q[2], q_goal[2]) <= opts.goal_angle_tolerance
+        )
+
+    def connect(i: int) -> bool:
+        """The exact curve from node ``i`` to the goal, added if free."""
+        nonlocal goal_node, t_steer
+        ts = time.perf_counter()
+        to_goal = curve(nodes[i], q_goal)
+        poses = to_goal.sample(opts.collision_step)
+        t_steer += time.perf_counter() - ts
+        if free(poses):
+            goal_node = add(q_goal.copy(), i, to_goal)
+            return True
+        return False
+
     it = 0
     cap, time_limit = planner_limits(opts.max_iterations, opts.time_limit_s)
+    # the start itself may reach the goal (start == goal: the empty motion, whatever the
+    # limits, as the other planners; the loop below tries the goal only from new nodes, which
+    # gave a detour out and back); else under the clock, as the loop's own attempts
+    in_time = np.array_equal(q_start, q_goal) or time.perf_counter() - t_start <= time_limit
+    if steering == "controls":
+        if at_goal(q_start):
+            goal_node, status, cap = 0, RRTStatus.REACHED, 0
+    elif in_time and float(metric(q_start, q_goal)[0]) <= opts.connect_distance and connect(0):
+        status, cap = RRTStatus.REACHED, 0
     for it in range(1, cap + 1):
         if time.perf_counter() - t_start > time_limit:
             status = RRTStatus.TIME_LIMIT
@@ -332,10 +359,7 @@ def kinodynamic_rrt(
         # try to finish
         q_new = nodes[new]
         if steering == "controls":
-            if (
-                np.linalg.norm(q_new[:2] - q_goal[:2]) <= opts.goal_position_tolerance
-                and angle_distance(q_new[2], q_goal[2]) <= opts.goal_angle_tolerance
-            ):
+            if at_goal(q_new):
                 goal_node = new
                 status = RRTStatus.REACHED
                 break
@@ -344,12 +368,7 @@ def kinodynamic_rrt(
             if time.perf_counter() - t_start > time_limit:  # before the goal curve's check
                 status = RRTStatus.TIME_LIMIT  # (the new node stays: its edge was checked)
                 break
-            ts = time.perf_counter()
-            to_goal = curve(q_new, q_goal)
-            poses = to_goal.sample(opts.collision_step)
-            t_steer += time.perf_counter() - ts
-            if free(poses):
-                goal_node = add(q_goal.copy(), new, to_goal)
+            if connect(new):
                 status = RRTStatus.REACHED
                 break
     segments: list[CurvePath] = []
@@ -361,10 +380,15 @@ def kinodynamic_rrt(
                 segments.append(e)
             i = parents[i]
         segments.reverse()
-        path = np.concatenate(
-            [s.sample(opts.collision_step)[(1 if j else 0) :] for j, s in enumerate(segments)]
-        )
-        controls = np.concatenate([s.controls(model.wheelbase, model.max_speed) for s in segments])
+        if segments:
+            path = np.concatenate(
+                [s.sample(opts.collision_step)[(1 if j else 0) :] for j, s in enumerate(segments)]
+            )
+            controls = np.concatenate(
+                [s.controls(model.wheelbase, model.max_speed) for s in segments]
+            )
+        else:  # the start is the goal ("controls" within its tolerances)
+            path, controls = q_start[None, :].copy(), np.zeros((0, 3))
         length = float(sum(s.length for s in segments))
     else:
         path = np.zeros((0, 3))

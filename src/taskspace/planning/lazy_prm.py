@@ -320,7 +320,7 @@ def _query(
     s = n
     targets = np.arange(n + 1, n + 1 + len(goals))
     kk = min(opts.k_neighbors, n)
-    stride = max(1, math.floor(coarse_resolution / space.edge.resolution + 1e-9))
+    stride = max(1, math.floor(coarse_resolution / space.edge_resolution + 1e-9))
     points = np.vstack([roadmap.nodes, q_start, *goals])
     extra_pairs = [[s, int(g)] for g in targets]
     for v in [s, *targets.tolist()]:

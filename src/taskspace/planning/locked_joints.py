@@ -30,6 +30,7 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
+from taskspace._validation import as_float_array
 from taskspace.errors import InvalidInputError, UnknownNameError
 from taskspace.planning.collision_checker import NATIVE_PAIR_CACHE, BoolArray, CollisionChecker
 
@@ -205,7 +206,8 @@ def _with_joint_frames(model: pin.Model) -> pin.Model:
 def _joint_value(model: pin.Model, joint: Any, name: str, value: Any) -> FloatArray:
     """The ``nq`` coordinates of a locked joint's value, validated."""
     short = joint.shortname()
-    arr = np.atleast_1d(np.asarray(value, dtype=np.float64))
+    # (numbers only: a bool was taken as 1.0, text raised NumPy's bare ValueError)
+    arr = np.atleast_1d(as_float_array(value, f"locked joint '{name}'"))
     if short in _CIRCLE and arr.size == 1:
         arr = np.array([math.cos(arr[0]), math.sin(arr[0])])
     if arr.shape != (joint.nq,):

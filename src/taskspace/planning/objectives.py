@@ -49,10 +49,14 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
-from taskspace._validation import as_vector, check_positive
+from taskspace._validation import _to_float, as_vector, check_positive
 from taskspace.errors import InvalidInputError
 from taskspace.model.robot import interpolate_configurations
-from taskspace.planning.configuration_space import FloatArray
+from taskspace.planning.configuration_space import (
+    _MAX_INTERPOLATED_BYTES,
+    FloatArray,
+    as_path,
+)
 
 
 class OptimizationObjective(abc.ABC):
@@ -102,13 +106,40 @@ class OptimizationObjective(abc.ABC):
             "metric), or override on_manifold"
         )
 
-    def motion_cost(self, q0: FloatArray, q1: FloatArray) -> float:
-        """Cost of one straight motion ``q0 -> q1``."""
-        return float(self.motion_costs(q0[None, :], q1[None, :])[0])
+    def motion_cost(self, q0: Any, q1: Any) -> float:
+        """Cost of one straight motion ``q0 -> q1`` (finite vectors of one size).
+
+        Raises:
+            InvalidInputError: not finite vectors of the same size.
+        """
+        if not (
+            q0.__class__ is np.ndarray
+            and q1.__class__ is np.ndarray
+            and q0.dtype == np.float64
+            and q1.dtype == np.float64
+            and q0.ndim == 1
+            and q0.shape == q1.shape
+        ):  # (float vectors, the planners' calls, skip the conversion)
+            q0 = as_vector(q0, None, "q0")
+            q1 = as_vector(q1, q0.size, "q1")
+        cost = float(self.motion_costs(q0[None, :], q1[None, :])[0])
+        if not math.isfinite(cost):  # NaN or inf coordinates: say so rather than return it
+            as_vector(q0, None, "q0")
+            as_vector(q1, None, "q1")
+        return cost
 
     def path_cost(self, path: Any) -> float:
-        """``J(path) = sum_i c(q_i, q_{i+1})`` of a waypoint path, shape (m, d)."""
-        arr = np.atleast_2d(np.asarray(path, dtype=np.float64))
+        """``J(path) = sum_i c(q_i, q_{i+1})`` of a waypoint path, shape (m, d), ``m >= 1``.
+
+        The path is read by :func:`~taskspace.planning.configuration_space.as_path`: a 1-D
+        array is refused as ambiguous (``m`` waypoints of a 1-D space, or one waypoint), as
+        are NaN or inf and a path without waypoints (a failed plan's ``(0, d)`` path has no
+        cost; its ``PlannerResult.cost`` is ``inf``). One waypoint costs 0.
+
+        Raises:
+            InvalidInputError: not a finite (m, d) path with ``m >= 1``.
+        """
+        arr = as_path(path, None)
         if arr.shape[0] < 2:
             return 0.0
         return float(self.motion_costs(arr[:-1], arr[1:]).sum())
@@ -117,6 +148,39 @@ class OptimizationObjective(abc.ABC):
 def _pairs(q0: FloatArray, q1: FloatArray) -> tuple[FloatArray, FloatArray]:
     a, b = np.broadcast_arrays(np.atleast_2d(q0), np.atleast_2d(q1))
     return a, b
+
+
+def piece_counts(
+    lengths: FloatArray, resolution: float, dim: int, who: str
+) -> npt.NDArray[np.int64]:
+    """Pieces per segment, ``max(1, ceil(L / resolution))``, of segments cut for a quadrature.
+
+    Args:
+        lengths: the segments' lengths [rad or m].
+        resolution: the largest piece length [rad or m] (``inf``: one piece per segment).
+        dim: coordinates per point (for the memory bound).
+        who: the objective's name, for the messages.
+
+    Raises:
+        InvalidInputError: a length that is not finite (coordinates so large that their
+            difference overflows), or more points than fit in 2 GiB (a resolution far too
+            small for the lengths) rather than a count that overflows int64 and silently
+            becomes one piece.
+    """
+    if not np.all(np.isfinite(lengths)):
+        raise InvalidInputError(
+            f"{who}: a segment length is not finite (configurations too far apart: their "
+            "difference overflows a float)"
+        )
+    ratios = lengths / resolution
+    total = float(ratios.sum()) + 2.0 * ratios.size
+    if not total * max(dim, 1) * 8.0 <= _MAX_INTERPOLATED_BYTES:
+        raise InvalidInputError(
+            f"{who}: resolution={resolution:g} would cut the segments (total length "
+            f"{float(lengths.sum()):.3g}) into about {total:.3g} pieces of {dim} coordinates "
+            "(more than 2 GiB); use a larger resolution"
+        )
+    return np.maximum(1, np.ceil(ratios - 1e-12).astype(np.int64))
 
 
 class PathLength(OptimizationObjective):
@@ -194,12 +258,35 @@ class MetricLength(OptimizationObjective):
     """
 
     def __init__(self, distances: Callable[[FloatArray, FloatArray], Any]) -> None:
+        if not callable(distances):
+            raise InvalidInputError(
+                "distances must be a function (Q0 (n, d), Q1 (n, d)) -> distances (n,), got "
+                f"{type(distances).__name__}"
+            )
         self.distances = distances
 
     def motion_costs(self, q0: FloatArray, q1: FloatArray) -> FloatArray:
-        """``distances(q0, q1)``."""
+        """``distances(q0, q1)``.
+
+        Raises:
+            InvalidInputError: ``distances`` returned other than ``n`` finite values ``>= 0``
+                (a metric; a negative or NaN cost would corrupt every comparison of the
+                planners and ``path_cost``).
+        """
         a, b = _pairs(q0, q1)
-        return np.asarray(self.distances(a, b), dtype=np.float64).reshape(a.shape[0])
+        d = np.asarray(self.distances(a, b), dtype=np.float64)
+        if d.size != a.shape[0]:
+            raise InvalidInputError(
+                f"MetricLength: distances returned {d.size} values for {a.shape[0]} pairs"
+            )
+        d = d.reshape(a.shape[0])
+        if not np.all(d >= 0.0) or not np.all(np.isfinite(d)):
+            bad = np.flatnonzero(~((d >= 0.0) & np.isfinite(d)))
+            raise InvalidInputError(
+                "MetricLength: distances must be finite and >= 0 (a metric), got "
+                f"{d[bad[:3]].tolist()} at pairs {bad[:3].tolist()}"
+            )
+        return d
 
     def cost_lower_bounds(self, q0: FloatArray, q1: FloatArray) -> FloatArray:
         """The motion cost (geodesics are shortest)."""
@@ -243,9 +330,10 @@ class Clearance(OptimizationObjective):
         self.clearance = clearance
         self.epsilon = check_positive(epsilon, "epsilon")
         self.resolution = check_positive(resolution, "resolution")
-        if not (isinstance(max_clearance, (int, float)) and max_clearance > 0):
+        d_max = _to_float(max_clearance, "max_clearance")  # (refuses bools and text)
+        if not d_max > 0:
             raise InvalidInputError(f"max_clearance must be > 0 [m], got {max_clearance!r}")
-        self.max_clearance = float(max_clearance)
+        self.max_clearance = d_max
         self._manifold: Any = None
 
     def on_manifold(self, manifold: Any) -> OptimizationObjective:
@@ -263,7 +351,7 @@ class Clearance(OptimizationObjective):
         """Lengths, piece counts, points (all segments), their owner and index ``k``."""
         m = self._manifold
         lengths = np.linalg.norm(b - a, axis=1) if m is None else m.distances(a, b)
-        counts = np.maximum(1, np.ceil(lengths / self.resolution - 1e-12).astype(np.int64))
+        counts = piece_counts(lengths, self.resolution, a.shape[1], "Clearance")
         owner = np.repeat(np.arange(a.shape[0]), counts + 1)
         starts = np.concatenate([[0], np.cumsum(counts + 1)[:-1]])
         k = np.arange(owner.size) - starts[owner]
@@ -283,6 +371,14 @@ class Clearance(OptimizationObjective):
         d = np.asarray(self.clearance(points), dtype=np.float64).reshape(points.shape[0])
         if not np.all(np.isfinite(d)):
             raise InvalidInputError("clearance returned a value that is not finite")
+        if self.max_clearance < math.inf and np.any(d > self.max_clearance):
+            # c_hat = L / (epsilon + d_max) would exceed costs: BIT*'s heuristic, informed
+            # pruning and the optimum test would cut the optimal path without a word
+            raise InvalidInputError(
+                f"clearance returned {float(d.max()):g} m > max_clearance="
+                f"{self.max_clearance:g} m: max_clearance must bound every clearance (the "
+                "cost lower bound L / (epsilon + max_clearance) is then admissible)"
+            )
         return 1.0 / (self.epsilon + np.maximum(d, 0.0))
 
     def motion_costs(self, q0: FloatArray, q1: FloatArray) -> FloatArray:
@@ -375,6 +471,8 @@ class MechanicalWork(OptimizationObjective):
         if a.shape[1] != self.model.nq:
             raise InvalidInputError(
                 f"MechanicalWork: configurations must have size {self.model.nq}, got {a.shape[1]}"
+                " (a locked-joint space plans a reduced model: give MechanicalWork "
+                "space.planning_model)"
             )
         if not self._euclidean:
             return self._manifold_costs(a, b)
@@ -392,7 +490,7 @@ class MechanicalWork(OptimizationObjective):
     def _counts(self, lengths: FloatArray) -> npt.NDArray[np.int64]:
         if self.resolution == math.inf:
             return np.ones(lengths.shape[0], dtype=np.int64)
-        return np.maximum(1, np.ceil(lengths / self.resolution - 1e-12).astype(np.int64))
+        return piece_counts(lengths, self.resolution, self.model.nq, "MechanicalWork")
 
     def _manifold_costs(self, a: FloatArray, b: FloatArray) -> FloatArray:
         """The work along the model's geodesics (Pinocchio's interpolate and difference)."""

@@ -46,7 +46,7 @@ from taskspace._validation import check_count, check_positive, check_seed
 from taskspace.errors import InvalidInputError
 from taskspace.planning.certify import certify_keeping
 from taskspace.planning.configuration_space import ConfigurationSpace, FloatArray
-from taskspace.planning.goals import goal_states
+from taskspace.planning.goals import goal_states, region_sample
 from taskspace.planning.lazy_prm import LazyRoadmap, _check_edges
 from taskspace.planning.limits import Budget, edge_case, planner_limits, result_length
 from taskspace.planning.objectives import (
@@ -232,7 +232,7 @@ def _plan(
     optimum_bound = optimum_lower_bound(cost_of, q_start, goals, region)
     d = space.dim
     k_prm = opts.gamma_factor * math.e * (1 + 1 / space.tangent_dim)
-    stride = max(1, math.floor(coarse / space.edge.resolution + 1e-9))
+    stride = max(1, math.floor(coarse / space.edge_resolution + 1e-9))
 
     expand = float(opts.expand_fraction)
     if not 0.0 <= expand <= 1.0:
@@ -290,7 +290,7 @@ def _plan(
                     lengths = np.linalg.norm(b_rows - a_rows, axis=1)
                 else:
                     lengths = space.manifold.distances(a_rows, b_rows)
-                points = np.cumsum(np.ceil(lengths / space.edge.resolution) + 1.0)
+                points = np.cumsum(np.ceil(lengths / space.edge_resolution) + 1.0)
                 lo, per_point = 0, math.inf
                 while lo < len(cost):
                     if budget.out_of_time():
@@ -396,11 +396,9 @@ def _plan(
                 attempts[inner] = 1.0
                 successes[inner] = 0.0
         if region is not None:
-            sampled = region.sample(rng)
-            if sampled is not None:
-                q = np.asarray(sampled, dtype=np.float64)
-                if q.shape == (d,) and space.within_bounds(q) and space.is_valid(q):
-                    new = np.append(new, graph.add_nodes(q[None, :]))
+            q = region_sample(space, region, rng)
+            if q is not None and space.within_bounds(q) and space.is_valid(q):
+                new = np.append(new, graph.add_nodes(q[None, :]))
             # goals: the new nodes inside the region (a sample the region does not contain
             # stays an ordinary node)
             goal_ids += [int(i) for i in new if region.contains(graph.nodes[i])]
@@ -489,7 +487,7 @@ def _bounce_walks(
     sources = rng.choice(n, size=walks, p=weights / total)
     ends: list[int] = []
     edges: list[tuple[int, int]] = []
-    delta = space.edge.resolution
+    delta = space.edge_resolution
     for v in sources.tolist():
         if budget.out_of_time():
             break

@@ -970,7 +970,7 @@ def _plan(
     """
     settings = _validate(opts)  # at every call: the usual types are checked in a few steps
     alpha = settings.alpha
-    delta = space.edge.resolution
+    delta = space.edge_resolution
     delta_c = delta if settings.coarse is None else max(delta, settings.coarse)
     bounds = space.bounds_diameter()
     diameter = bounds[2]

@@ -28,7 +28,7 @@ import numpy as np
 import numpy.typing as npt
 
 from taskspace._native import planning_kernel
-from taskspace._validation import as_vector, check_finite, check_positive
+from taskspace._validation import _to_float, as_float_array, as_vector, check_finite, check_positive
 from taskspace.errors import InvalidInputError, ShapeError
 
 FloatArray = npt.NDArray[np.float64]
@@ -277,7 +277,13 @@ class CurvePath:
 
         Returns:
             Pose(s) ``(..., 3)`` with wrapped headings.
+
+        Raises:
+            NotFiniteError: NaN or inf in ``s`` (distances outside ``[0, length]`` are
+                clipped to it; NaN has no place on the path).
         """
+        if not (s.__class__ is float and math.isfinite(s)):
+            check_finite(as_float_array(s, "s"), "s")
         out = _native_poses(self.start, self.word, self.lengths, self.radius, s)
         if out is not None:
             return out  # type: ignore[no-any-return]
@@ -312,7 +318,21 @@ class CurvePath:
         return self.pose_at(np.linspace(0.0, self.length, n + 1))
 
     def truncated(self, max_length: float) -> CurvePath:
-        """The first ``max_length`` metres of this path (the whole path if shorter)."""
+        """The first ``max_length`` metres of this path (the whole path if shorter).
+
+        Args:
+            max_length: travelled distance to keep [m], ``>= 0`` (``inf``: the whole path).
+
+        Raises:
+            InvalidInputError: ``max_length`` NaN or negative (NaN gave the whole path, a
+                negative length an empty one).
+        """
+        if max_length.__class__ is not float:
+            max_length = _to_float(max_length, "max_length")
+        if not max_length >= 0.0:
+            raise InvalidInputError(
+                f"max_length must be >= 0 [m] (inf: the whole path), got {max_length!r}"
+            )
         if max_length >= self.length:
             return self
         rest = max_length
