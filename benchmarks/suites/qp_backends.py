@@ -80,21 +80,6 @@ SUITE = "qp_backends"
 IK_FRAMES = {"panda": "panda_hand_tcp", "g1": "left_rubber_hand"}
 
 
-def _snapshot(p: QPProblem) -> QPProblem:
-    """A copy that later in-place builds do not change."""
-    return QPProblem(
-        p.H.copy(),
-        p.g.copy(),
-        p.A.copy(),
-        p.b.copy(),
-        p.C.copy(),
-        p.l.copy(),
-        p.u.copy(),
-        p.lb.copy(),
-        p.ub.copy(),
-    )
-
-
 def ik_problems(name: str, count: int) -> list[QPProblem]:
     """DifferentialIK QPs at random configurations toward random far targets."""
     robot = Robot.load(name)
@@ -112,7 +97,7 @@ def ik_problems(name: str, count: int) -> list[QPProblem]:
     for _ in range(count):
         state = robot.state(robot.random_configuration(rng))
         task.set_target(robot.frame_placement(robot.random_configuration(rng), frame).translation)
-        out.append(_snapshot(ik.build(state, 0.01)))
+        out.append(ik.build(state, 0.01).copy())
     return out
 
 
@@ -124,7 +109,7 @@ class _RecordingHierarchy(HierarchySolver):
         self.store = store
 
     def _solve_level(self, k: int, problem: QPProblem) -> Any:
-        self.store.append(_snapshot(problem))
+        self.store.append(problem.copy())
         return super()._solve_level(k, problem)
 
 
@@ -144,7 +129,7 @@ def id_problems(steps: int, hierarchical: bool) -> list[QPProblem]:
         com.set_target(c0 + np.array([0.0, 0.04 * np.sin(np.pi * k * dt), 0.0]))
         state.update(q, v)
         if not hierarchical:
-            store.append(_snapshot(ctrl.build(state)))
+            store.append(ctrl.build(state).copy())
         res = ctrl.solve(state)
         v = v + dt * res.a
         q = pin.integrate(robot.model, q, dt * v)
@@ -380,7 +365,7 @@ def general_sets(scene: str, steps: int) -> tuple[list[QPProblem], dict[str, dic
     for k in range(steps):
         target(k)
         state.update(q)
-        problems.append(_snapshot(python.build(state, dt)))
+        problems.append(python.build(state, dt).copy())
         dq = None
         warm_up.solve(state, dt)
         for (name, _, _), ik in zip(engines, solvers):

@@ -105,6 +105,27 @@ class QPProblem:
         """Whether any box bound is finite."""
         return bool(np.any(self.lb > -INF) or np.any(self.ub < INF))
 
+    def copy(self, *, objective: bool = True) -> QPProblem:
+        """A copy that later in-place builds do not change (arrays and row blocks copied).
+
+        ``objective=False`` leaves ``H`` out (an empty stand-in) and zeros ``g``: for what
+        depends on the constraints only (a relaxed result's conflict set).
+        """
+        return QPProblem(
+            self.H.copy() if objective else np.zeros((0, 0)),
+            self.g.copy() if objective else np.zeros(self.n),
+            self.A.copy(),
+            self.b.copy(),
+            self.C.copy(),
+            self.l.copy(),
+            self.u.copy(),
+            self.lb.copy(),
+            self.ub.copy(),
+            [RowBlock(b.name, b.start, b.stop) for b in self.eq_blocks],
+            [RowBlock(b.name, b.start, b.stop) for b in self.in_blocks],
+            [RowBlock(b.name, b.start, b.stop) for b in self.box_blocks],
+        )
+
     def structure(self) -> tuple[int, int, int]:
         """(n, n_eq, n_in): a backend workspace is reused while this does not change."""
         return self.n, self.n_eq, self.n_in

@@ -518,7 +518,7 @@ class QPSolver:
             z=z,
             z_box=z_box,
             # the constraints as they are now (a caller's buffers change at its next step)
-            conflict_problem=_constraints_copy(problem) if status is QPStatus.RELAXED else None,
+            conflict_problem=problem.copy(objective=False) if status is QPStatus.RELAXED else None,
         )
 
     # ------------------------------------------------------------------ backends
@@ -965,29 +965,6 @@ class KKTWorkspace:
             return (np.array(sol[:n]), np.array(sol[n:])) if info == 0 else None
         except (np.linalg.LinAlgError, ValueError):
             return None
-
-
-def _constraints_copy(p: QPProblem) -> QPProblem:
-    """``p``'s constraints and block names copied (for a relaxed result's ``conflict``).
-
-    ``H`` and ``g`` are left out (zero-sized stand-ins of the right length for ``g``): the
-    conflict does not depend on the objective.
-    """
-    n = p.n
-    return QPProblem(
-        np.zeros((0, 0)),
-        np.zeros(n),
-        p.A.copy(),
-        p.b.copy(),
-        p.C.copy(),
-        p.l.copy(),
-        p.u.copy(),
-        p.lb.copy(),
-        p.ub.copy(),
-        [RowBlock(b.name, b.start, b.stop) for b in p.eq_blocks],
-        [RowBlock(b.name, b.start, b.stop) for b in p.in_blocks],
-        [RowBlock(b.name, b.start, b.stop) for b in p.box_blocks],
-    )
 
 
 def _relaxed_problem(p: QPProblem, weight: float) -> QPProblem:
