@@ -156,18 +156,30 @@ def as_matrix(x: Any, shape: tuple[int | None, int | None], name: str) -> FloatA
     return arr
 
 
-def check_finite(arr: npt.NDArray[Any], name: str) -> None:
-    """Raise :class:`NotFiniteError` if ``arr`` has NaN or inf entries."""
+def check_finite(
+    arr: npt.NDArray[Any], name: str, *, allow_inf: bool = False, by_row: bool = False
+) -> None:
+    """Raise :class:`NotFiniteError` if ``arr`` has NaN or inf entries.
+
+    ``allow_inf``: only NaN is refused (bounds, where an infinite entry means "no bound").
+    ``by_row``: the error's indices are the rows (first axis) holding a bad entry, not the
+    flat indices of the entries.
+    """
     # Fast path: the sum of squares is finite when every entry is (a huge finite entry may
     # overflow it; the exact test below then decides). ``np.vdot``, not ``@``/``np.dot``:
     # those check the FPU flags afterwards and warned "overflow encountered in matmul" for
     # any finite entry above ~1e154; ``vdot`` is as fast and sets no warning.
     flat = arr.ravel()
-    if math.isfinite(float(np.vdot(flat, flat))):
+    total = float(np.vdot(flat, flat))
+    if math.isfinite(total) or (allow_inf and not math.isnan(total)):
         return
-    if not np.isfinite(arr).all():
-        bad = np.flatnonzero(~np.isfinite(arr.ravel()))
-        raise NotFiniteError(name, [int(i) for i in bad[:20]])
+    bad = np.isnan(arr) if allow_inf else ~np.isfinite(arr)
+    if bad.any():
+        if by_row and arr.ndim > 1:
+            where = np.flatnonzero(bad.reshape(arr.shape[0], -1).any(axis=1))
+        else:
+            where = np.flatnonzero(bad.ravel())
+        raise NotFiniteError(name, [int(i) for i in where[:20]])
 
 
 def as_scalar(value: Any, name: str) -> float:

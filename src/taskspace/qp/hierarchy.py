@@ -28,7 +28,7 @@ import numpy as np
 import numpy.typing as npt
 from scipy.linalg.lapack import dgeqp3, dgeqrf, dorgqr, dposv, dtrtrs
 
-from taskspace._validation import FloatArray
+from taskspace._validation import FloatArray, check_finite
 from taskspace.errors import InvalidInputError, NotFiniteError, ShapeError
 from taskspace.qp.kkt import KKTResiduals, least_squares_kkt_residuals
 from taskspace.qp.problem import INF, QPProblem, RowBlock
@@ -130,7 +130,7 @@ def _check_levels(
         if arr is not None and not (type(arr) is np.ndarray and arr.shape == (n,)):
             raise ShapeError(name, (n,), tuple(np.shape(arr)))
         if arr is not None:
-            _check_finite(arr, name, bounds=True)
+            check_finite(arr, name, allow_inf=True, by_row=True)
     if (A is None) != (b is None):
         raise InvalidInputError("hard equalities: A and b go together (got only one)")
     if A is not None and b is not None:
@@ -138,8 +138,8 @@ def _check_levels(
             raise ShapeError("A", (np.shape(b)[0] if np.ndim(b) else -1, n), tuple(np.shape(A)))
         if np.shape(b) != (np.shape(A)[0],):
             raise ShapeError("b", (np.shape(A)[0],), tuple(np.shape(b)))
-        _check_finite(A, "hard equalities A", bounds=False)
-        _check_finite(b, "hard equalities b", bounds=False)
+        check_finite(A, "hard equalities A", by_row=True)
+        check_finite(b, "hard equalities b")
 
 
 def _refuse_level(k: int, level: HierarchyLevel, n: int) -> None:
@@ -162,27 +162,9 @@ def _check_rows(C: Any, l: Any, u: Any, n: int, what: str) -> None:
     for name, arr in (("l", l), ("u", u)):
         if np.shape(arr) != (m,):
             raise ShapeError(f"{what} {name}", (m,), tuple(np.shape(arr)))
-    _check_finite(C, f"{what} C", bounds=False)
-    _check_finite(l, f"{what} l", bounds=True)
-    _check_finite(u, f"{what} u", bounds=True)
-
-
-def _check_finite(arr: FloatArray, what: str, bounds: bool) -> None:
-    """Refuse NaN (and, unless ``bounds``, infinite) entries, naming the rows.
-
-    One dot product on the normal path (NaN and inf show in the sum of squares; bounds may
-    be infinite, so only NaN is refused there).
-    """
-    if not arr.size:
-        return
-    with np.errstate(over="ignore", invalid="ignore"):
-        total = float(np.vdot(arr, arr))
-    if math.isfinite(total) or (bounds and not math.isnan(total)):
-        return
-    bad = np.isnan(arr) if bounds else ~np.isfinite(arr)
-    if bad.any():
-        rows = np.flatnonzero(bad.reshape(arr.shape[0], -1).any(axis=1))
-        raise NotFiniteError(what, rows.tolist()[:20])
+    check_finite(C, f"{what} C", by_row=True)
+    check_finite(l, f"{what} l", allow_inf=True)
+    check_finite(u, f"{what} u", allow_inf=True)
 
 
 @dataclass
