@@ -38,10 +38,24 @@ def robot() -> Any:
     return motionbenchmaker_panda()
 
 
-def _kernel(robot: Any, scenario: str, index: int) -> tuple[Any, Any]:
+def _levels() -> list[int]:
+    """The SIMD levels of this processor (the filter's builds: 1 SSE2, 2 AVX2 with FMA, 3
+    AVX-512), each tested against the bound."""
+    module = planning_kernel()
+    return list(range(1, module.CollisionKernel.max_simd + 1)) if module is not None else [1]
+
+
+LEVELS = _levels()
+
+
+def _kernel(robot: Any, scenario: str, index: int, level: int = 0) -> tuple[Any, Any]:
+    """The problem's request and a new sphere kernel, at SIMD level ``level`` (0: initial)."""
     req = motionbenchmaker_problems(ROOT, scenario, [index])[0].apply(robot)
     space = ConfigurationSpace.from_robot(robot, edge=EdgeCheckOptions(resolution=0.03))
     kernel = space.checker.sphere_kernel()
+    if level:
+        kernel.set_simd(level)
+        assert kernel.simd == level
     assert kernel.sphere_filter()
     return req, kernel
 
@@ -63,12 +77,13 @@ def _configurations(model: Any, rng: Any) -> np.ndarray:
     return np.vstack([random, corners, lo, hi, np.zeros(model.nq), far])
 
 
-def test_float_placements_against_pinocchio(robot: Any) -> None:
+@pytest.mark.parametrize("level", LEVELS)
+def test_float_placements_against_pinocchio(robot: Any, level: int) -> None:
     """Every joint placement of load_q against Pinocchio's forwardKinematics (double) within the
     stated bound, on random configurations, the limits' corners and far beyond the limits; the
     eps of the filter is the stated (140 n + 342) u S with S at least the chain's reach plus the
     spheres' extent (a bound halved or a sign flipped in the chain fails)."""
-    _, kernel = _kernel(robot, "box", 3)
+    _, kernel = _kernel(robot, "box", 3, level)
     model = robot.model
     data = model.createData()
     scale, n = kernel.sphere_filter_bound()
@@ -97,11 +112,12 @@ def test_float_placements_against_pinocchio(robot: Any) -> None:
     assert worst_r[-1] > 0.5 * U  # float, not double rounded
 
 
-def test_float_sines_and_cosines(robot: Any) -> None:
+@pytest.mark.parametrize("level", LEVELS)
+def test_float_sines_and_cosines(robot: Any, level: int) -> None:
     """The first joint (a revolute joint about z placed without rotation: its rotation is
     exactly (c, -s; s, c)) on a dense grid and at multiples of pi/2: the float sine and cosine
     within 2 u of the double ones."""
-    _, kernel = _kernel(robot, "box", 3)
+    _, kernel = _kernel(robot, "box", 3, level)
     model = robot.model
     assert model.joints[1].shortname() == "JointModelRZ"
     assert np.array_equal(model.jointPlacements[1].rotation, np.eye(3))

@@ -27,6 +27,7 @@ from _sphere_reference import PairClearances as SphereReference
 from _sphere_reference import first_sphere_contacts, last_step_pairs, mesh_collides
 
 from taskspace._native import planning_kernel
+from taskspace.errors import InvalidInputError
 from taskspace.planning.configuration_space import (
     ConfigurationSpace,
     EdgeCheckOptions,
@@ -189,16 +190,17 @@ def test_planner_paths_equal_with_and_without_the_filter(robot: Any) -> None:
 
 
 @pytest.mark.parametrize("scenario", ["table_pick", "bookshelf_thin"])
-def test_sse2_and_avx2_kinematics_agree(robot: Any, scenario: str) -> None:
-    """The batched kinematics compiled for SSE2 and for AVX2 (chosen at run time; set_simd(1)
-    forces SSE2, as TASKSPACE_SIMD=sse2) give the same answers, bit for bit: on configurations
-    bisected to the last representable step before sphere contact (a rounding difference in
-    the placements would flip some), on random ones and on edges, with and without the filter
-    (13 and 22 obstacles)."""
+def test_simd_levels_agree(robot: Any, scenario: str) -> None:
+    """The batched checks at every SIMD level of this processor (set_simd: 1 SSE2, 2 AVX2 with
+    FMA, 3 AVX-512; TASKSPACE_SIMD lowers the initial one) give the same answers, bit for bit:
+    on configurations bisected to the last representable step before sphere contact (a
+    rounding difference in the double placements would flip some), on random ones and on
+    edges, with and without the filter (13 and 22 obstacles). The filter's builds round
+    differently (FMA from level 2 on): their masks may differ, but each holds every
+    configuration the double test finds colliding."""
     _, _, kernel = _space(robot, scenario)
-    initial = kernel.simd  # 1 under TASKSPACE_SIMD=sse2 even where AVX2 exists
-    kernel.set_simd(2)
-    avx2 = kernel.simd == 2  # this processor has AVX2 (else both runs use SSE2)
+    initial = kernel.simd
+    levels = list(range(1, type(kernel).max_simd + 1))
     rng = np.random.default_rng(12)
     qs = _near_configurations(robot, rng, 200)
     kernel.set_sphere_filter(OFF)
@@ -206,22 +208,31 @@ def test_sse2_and_avx2_kinematics_agree(robot: Any, scenario: str) -> None:
     free, hit = qs[~flags], qs[flags]
     allq = np.vstack([qs, last_step_pairs(kernel, free, hit, 20)])
     out = {}
-    for level in (1, 2):
-        kernel.set_simd(level)
-        assert kernel.simd == (2 if level == 2 and avx2 else 1)
-        row = []
-        for mode in (OFF, TRUSTED):
-            kernel.set_sphere_filter(mode)
-            row += [kernel.collisions_with(allq, c) for c in (SPHERES, SPHERES_ONLY)]
-            row.append([kernel.first_invalid_on_edge(qs[k], qs[k + 1], 15, 2) for k in range(40)])
-        row.append(kernel.sphere_filter_flags(allq))
-        out[level] = row
-    kernel.set_simd(initial)
-    kernel.set_sphere_filter(TRUSTED)
-    for x, y in zip(out[1], out[2], strict=True):
-        np.testing.assert_array_equal(x, y)
+    masks = {}
+    try:
+        for level in levels:
+            kernel.set_simd(level)
+            assert kernel.simd == level
+            row = []
+            for mode in (OFF, TRUSTED):
+                kernel.set_sphere_filter(mode)
+                row += [kernel.collisions_with(allq, c) for c in (SPHERES, SPHERES_ONLY)]
+                edges = [kernel.first_invalid_on_edge(qs[k], qs[k + 1], 15, 2) for k in range(40)]
+                row.append(edges)
+            out[level] = row
+            masks[level] = kernel.sphere_filter_flags(allq).astype(bool)
+    finally:
+        kernel.set_simd(initial)
+        kernel.set_sphere_filter(TRUSTED)
+    for level in levels:
+        for x, y in zip(out[1], out[level], strict=True):
+            np.testing.assert_array_equal(x, y)
+        colliding = out[1][1].astype(bool)  # the double test, filter off
+        assert np.all(masks[level][colliding])
     boundary = out[1][1][len(qs) :]  # the double test at the two sides of each contact
     assert boundary[0::2].sum() == 0 and boundary[1::2].all()
+    with pytest.raises(InvalidInputError, match="simd level"):
+        kernel.set_simd(4)
 
 
 def test_fine_pass_checks_the_pending_edges_as_one_list(robot: Any) -> None:

@@ -291,13 +291,16 @@ def test_spheres_then_narrow_phase_is_pinocchio(scenes: dict[str, Scene], name: 
 
 
 @pytest.mark.parametrize("name", ROBOTS)
-def test_sse2_and_avx2_give_the_same_flags(scenes: dict[str, Scene], name: str) -> None:
-    """set_simd(1) (SSE2) and set_simd(2) (AVX2 where the processor has it): the same flags,
-    bit for bit, on random rows and on the two sides of the last representable step before
-    sphere contact, with and without the filter, and the same first colliding edge indices."""
+def test_simd_levels_give_the_same_answers(scenes: dict[str, Scene], name: str) -> None:
+    """Every SIMD level of this processor (set_simd: 1 SSE2, 2 AVX2 with FMA, 3 AVX-512): the
+    same answers, bit for bit, on random rows and on the two sides of the last representable
+    step before sphere contact, with and without the filter, and the same first colliding
+    edge indices; each level's filter mask holds every row the double test finds colliding
+    (the filter's builds round differently: FMA from level 2 on)."""
     scene = _scene(scenes, name)
     kernel = scene.kernel
     initial = kernel.simd
+    levels = list(range(1, type(kernel).max_simd + 1))
     qs = scene.random(14, 120)
     kernel.set_sphere_filter(OFF)
     try:
@@ -308,8 +311,9 @@ def test_sse2_and_avx2_give_the_same_flags(scenes: dict[str, Scene], name: str) 
     count = min(10, len(free), len(hit_rows))
     allq = np.vstack([qs, last_step_pairs(kernel, free, hit_rows, count)])
     out = {}
+    masks = {}
     try:
-        for level in (1, 2):
+        for level in levels:
             kernel.set_simd(level)
             row = []
             for mode in (OFF, TRUSTED):
@@ -318,14 +322,16 @@ def test_sse2_and_avx2_give_the_same_flags(scenes: dict[str, Scene], name: str) 
                 row.append(
                     [kernel.first_invalid_on_edge(qs[k], qs[k + 1], 15, 2) for k in range(20)]
                 )
-            row.append(kernel.sphere_filter_flags(allq))
             out[level] = row
+            masks[level] = kernel.sphere_filter_flags(allq).astype(bool)
     finally:
         kernel.set_simd(initial)
         kernel.set_sphere_filter(TRUSTED)
     assert kernel.simd == initial
-    for x, y in zip(out[1], out[2], strict=True):
-        np.testing.assert_array_equal(x, y)
+    for level in levels:
+        for x, y in zip(out[1], out[level], strict=True):
+            np.testing.assert_array_equal(x, y)
+        assert np.all(masks[level][out[1][1].astype(bool)])
     boundary = out[1][1][len(qs) :]  # the double test at the two sides of each contact
     assert boundary[0::2].sum() == 0 and boundary[1::2].all()
 

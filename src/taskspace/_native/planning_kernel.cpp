@@ -153,6 +153,126 @@
 #include <vector>
 
 #include "sphere_batch.hpp"
+#if defined(__x86_64__) && defined(__GNUC__)
+#include <immintrin.h>
+// The filter twice more (sphere_batch.hpp), chosen at run time with the kernel's SIMD level
+// (simd_levels.hpp below): for AVX2 with FMA and for AVX-512 (x86-64-v4's AVX-512 subsets).
+// GCC contracts a * b + c into one fused operation where FMA is enabled (C++ is not ISO C
+// there), so these two round differently from the SSE2 build, within the header's bound:
+// a fused a * b + c is rounded once, its error below that of the product then the sum, so
+// every step of the bound holds (tests/planning: the placements against Pinocchio and the
+// first contacts, at every level this processor has).
+#pragma GCC push_options
+#pragma GCC target("arch=x86-64-v3")
+#define TASKSPACE_SPHERE_BATCH_NS taskspace_sphere_batch_avx2
+#include "sphere_batch.hpp"
+#pragma GCC pop_options
+#pragma GCC push_options
+#pragma GCC target("arch=x86-64-v4")
+#define TASKSPACE_SPHERE_BATCH_NS taskspace_sphere_batch_avx512
+#include "sphere_batch.hpp"
+#pragma GCC pop_options
+#define TASKSPACE_SIMD_X86 1
+#endif
+
+namespace {
+// SIMD levels of the compiled planning code: 1 SSE2 (the x86-64 baseline; any other
+// processor: the portable code), 2 AVX2 with FMA, 3 AVX-512 (F, VL, BW, DQ). The level of
+// the processor, lowered by the environment variable TASKSPACE_SIMD ("sse2", "avx2",
+// "avx512") when set.
+int processor_simd_level() {
+  static const int level = [] {
+#ifdef TASKSPACE_SIMD_X86
+    __builtin_cpu_init();
+    if (__builtin_cpu_supports("x86-64-v4")) return 3;
+    return __builtin_cpu_supports("x86-64-v3") ? 2 : 1;
+#else
+    return 1;
+#endif
+  }();
+  return level;
+}
+int initial_simd_level() {
+  static const int level = [] {
+    int l = processor_simd_level();
+    if (const char* v = std::getenv("TASKSPACE_SIMD")) {
+      const std::string s(v);
+      if (s == "sse2") l = 1;
+      else if (s == "avx2") l = std::min(l, 2);
+    }
+    return l;
+  }();
+  return level;
+}
+
+// The sphere filter of the batched checks in its builds (sphere_batch.hpp): the input is kept
+// and the build of the current level set up with it when first used; calls go to that build.
+// The builds give the same answers for the kernel (a lane they clear is free for the double
+// test, a lane they find sure colliding collides for it: the header's bound); their masks may
+// differ where a float distance is within a rounding of the inflated radius.
+class SphereFilters {
+ public:
+#ifdef TASKSPACE_SIMD_X86
+#define TASKSPACE_FILTER_CALL(call) \
+  (level_ == 3 ? avx512_.call : level_ == 2 ? avx2_.call : plain_.call)
+#else
+#define TASKSPACE_FILTER_CALL(call) (plain_.call)
+#endif
+  void set_level(int level) {
+    level_ = level;
+    if (has_input_) setup_level();
+  }
+  void reset() {
+    has_input_ = false;
+    input_ = taskspace_sphere_batch::Input{};
+    plain_ = taskspace_sphere_batch::SphereFilter{};
+#ifdef TASKSPACE_SIMD_X86
+    avx2_ = taskspace_sphere_batch_avx2::SphereFilter{};
+    avx512_ = taskspace_sphere_batch_avx512::SphereFilter{};
+#endif
+  }
+  void setup(const taskspace_sphere_batch::Input& in) {
+    reset();
+    input_ = in;
+    has_input_ = true;
+    setup_level();
+  }
+  bool ready() const { return TASKSPACE_FILTER_CALL(ready()); }
+  double eps() const { return TASKSPACE_FILTER_CALL(eps()); }
+  double scale() const { return TASKSPACE_FILTER_CALL(scale()); }
+  int depth() const { return TASKSPACE_FILTER_CALL(depth()); }
+  int units() const { return TASKSPACE_FILTER_CALL(units()); }
+  int joints() const { return TASKSPACE_FILTER_CALL(joints()); }
+  void load_q(const double* const* q) { TASKSPACE_FILTER_CALL(load_q(q)); }
+  std::array<float, 12> placement(int j, int l) const {
+    return TASKSPACE_FILTER_CALL(placement(j, l));
+  }
+  unsigned run(unsigned active, int stop_lane) {
+    return TASKSPACE_FILTER_CALL(run(active, stop_lane));
+  }
+  unsigned sure() const { return TASKSPACE_FILTER_CALL(sure()); }
+  int first_pair(int lane) { return TASKSPACE_FILTER_CALL(first_pair(lane)); }
+  int next_pair() { return TASKSPACE_FILTER_CALL(next_pair()); }
+#undef TASKSPACE_FILTER_CALL
+
+ private:
+  void setup_level() {
+#ifdef TASKSPACE_SIMD_X86
+    if (level_ == 3 && !avx512_.ready()) avx512_.setup(input_);
+    if (level_ == 2 && !avx2_.ready()) avx2_.setup(input_);
+#endif
+    if (level_ == 1 && !plain_.ready()) plain_.setup(input_);
+  }
+  int level_ = 1;
+  bool has_input_ = false;
+  taskspace_sphere_batch::Input input_;
+  taskspace_sphere_batch::SphereFilter plain_;
+#ifdef TASKSPACE_SIMD_X86
+  taskspace_sphere_batch_avx2::SphereFilter avx2_;
+  taskspace_sphere_batch_avx512::SphereFilter avx512_;
+#endif
+};
+}  // namespace
 
 #if defined(__x86_64__) && defined(__GNUC__)
 #include <x86intrin.h>
@@ -652,7 +772,8 @@ class CollisionKernel {
   // static objects (checked exactly by spheres_placed).
   void setup_filter() {
     namespace sb = taskspace_sphere_batch;
-    filter_ = sb::SphereFilter{};
+    filter_.reset();
+    filter_.set_level(simd_);
     if (!fast_fk_) return;
     for (const Group& g : groups_)
       if (geom_.geometryObjects[g.object].parentJoint == 0) return;
@@ -1005,52 +1126,35 @@ class CollisionKernel {
 
   // Joint placements of kBatch configurations (lane l: the nq coordinates at q[l]).
   // Compiled twice: for SSE2 (the portable baseline) and for AVX2 (one register per Batch of
-  // 4 doubles instead of two), chosen at run time (simd_: __builtin_cpu_supports, the
-  // environment variable TASKSPACE_SIMD=sse2 or set_simd force SSE2). Both run the same
-  // IEEE operations in the same order (no FMA: the target is "avx2" alone, and ISO C++
-  // does not contract a * b + c), so their placements are bit-identical (tested).
+  // 4 doubles instead of two), chosen at run time (simd_ >= 2; see processor_simd_level).
+  // Both run the same IEEE operations in the same order (no FMA: the target is "avx2"
+  // alone), so their placements are bit-identical (tested).
   void kinematics_batch(const double* const* q) {
     batch_pending_ = false;
-#if defined(__x86_64__) && defined(__GNUC__)
-    if (simd_ == 2) {
+#ifdef TASKSPACE_SIMD_X86
+    if (simd_ >= 2) {
       kinematics_batch_avx2(q);
       return;
     }
 #endif
     kinematics_batch_body(q);
   }
-#if defined(__x86_64__) && defined(__GNUC__)
+#ifdef TASKSPACE_SIMD_X86
   __attribute__((target("avx2"))) void kinematics_batch_avx2(const double* const* q) {
     kinematics_batch_body(q);
   }
 #endif
-  // 2: AVX2 (when the processor has it), 1: SSE2.
-  static int initial_simd() {
-#if defined(__x86_64__) && defined(__GNUC__)
-    const char* v = std::getenv("TASKSPACE_SIMD");
-    if (v && std::string(v) == "sse2") return 1;
-    __builtin_cpu_init();
-    return __builtin_cpu_supports("avx2") ? 2 : 1;
-#else
-    return 1;
-#endif
-  }
+  // The SIMD level of the kernel's batched checks (1 SSE2, 2 AVX2 with FMA, 3 AVX-512; the
+  // batch kinematics use AVX2 from 2 on, the sphere filter the build of the level), at most
+  // the processor's: a higher level asked for gives the processor's.
   void set_simd(int level) {
-    if (level < 1 || level > 2) raise_invalid("simd level must be 1 (SSE2) or 2 (AVX2)");
+    if (level < 1 || level > 3)
+      raise_invalid("simd level must be 1 (SSE2), 2 (AVX2 with FMA) or 3 (AVX-512)");
     const auto lock = lock_with_gil(mutex_);
-    simd_ = level == 2 && initial_simd_level() == 2 ? 2 : 1;
+    simd_ = std::min(level, processor_simd_level());
+    filter_.set_level(simd_);
   }
-  static int initial_simd_level() {
-    static const int level = [] {
-#if defined(__x86_64__) && defined(__GNUC__)
-      __builtin_cpu_init();
-      return __builtin_cpu_supports("avx2") ? 2 : 1;
-#else
-      return 1;
-#endif
-    }();
-    return level;
-  }
+  static int max_simd() { return processor_simd_level(); }
   int simd() const { return simd_; }
   __attribute__((always_inline)) inline void kinematics_batch_body(const double* const* q) {
     const std::size_t nj = fk_.size() + 1;
@@ -1899,9 +2003,9 @@ class CollisionKernel {
   std::vector<double> edge_buf_;          // first_collision: the batch's configurations
   VectorXd edge_x_;                       // first_collision: one configuration
   bool fast_fk_ = false;
-  taskspace_sphere_batch::SphereFilter filter_;  // single-precision filter (setup_filter)
+  SphereFilters filter_;  // single-precision filter (setup_filter)
   int filter_mode_ = initial_filter_mode();
-  int simd_ = initial_simd();
+  int simd_ = initial_simd_level();
   static int initial_filter_mode() {
     const char* v = std::getenv("TASKSPACE_SPHERE_FILTER");
     if (v && (v[0] == '0' || v[0] == '1' || v[0] == '2') && v[1] == 0) return v[0] - '0';
@@ -2362,7 +2466,6 @@ struct Tree {
   // nearer than a node). An exact linear scan, as before: the same nearest node (the lowest
   // index among equal distances), about twice as fast (cage: 1.8 -> 0.9 ns per node).
   static constexpr int kLanes = 8;
-  typedef double Lanes __attribute__((vector_size(kLanes * sizeof(double))));
   int d;
   std::vector<double> q;  // node coordinates, row after row
   std::vector<double> cols;
@@ -2396,32 +2499,110 @@ struct Tree {
   }
 
   // Nearest alive node to x: (index, distance), the lowest index among equal distances.
+  // Per block the 8 squared distances sum (x_k - c_k)^2 over k = 0..d-1 in that order, lane
+  // by lane (the same IEEE operations in the SSE2 and AVX2 versions: the same node and
+  // distance); AVX2 is chosen at run time as for the batch kinematics (TASKSPACE_SIMD=sse2
+  // forces SSE2). Intrinsics with the 8 lanes in 4 or 2 registers: one vector of 8 doubles
+  // in GCC's vector extension went through memory at every coordinate.
   std::pair<int, double> nearest(const double* x) const {
+#ifdef TASKSPACE_SIMD_X86
+    if (initial_simd_level() >= 2) return nearest_avx2(x);
+    return nearest_sse2(x);
+#else
+    return nearest_generic(x);
+#endif
+  }
+
+ private:
+  // The lanes of block b (squared distances acc) after the block minimum m: the nearest so far.
+  void scan_block(int b, const double* acc, double m, int& best, double& best_d2) const {
+    if (!(m < best_d2)) return;
+    for (int l = 0; l < kLanes; ++l) {
+      if (acc[l] < best_d2) {
+        best_d2 = acc[l];
+        best = b * kLanes + l;
+      }
+    }
+  }
+#ifdef TASKSPACE_SIMD_X86
+  std::pair<int, double> nearest_sse2(const double* x) const {
     int best = -1;
     double best_d2 = std::numeric_limits<double>::infinity();
     const int nb = (size() + kLanes - 1) / kLanes;
     const double* c = cols.data();
+    alignas(16) double acc[kLanes];
     for (int b = 0; b < nb; ++b, c += static_cast<std::size_t>(d) * kLanes) {
-      Lanes acc = {};
+      __m128d a0 = _mm_setzero_pd(), a1 = a0, a2 = a0, a3 = a0;
       for (int k = 0; k < d; ++k) {
-        Lanes ck;
-        std::memcpy(&ck, c + k * kLanes, sizeof(ck));
-        const Lanes t = ck - x[k];
-        acc += t * t;
+        const double* ck = c + k * kLanes;
+        const __m128d xk = _mm_set1_pd(x[k]);
+        const __m128d t0 = _mm_sub_pd(_mm_loadu_pd(ck), xk);
+        const __m128d t1 = _mm_sub_pd(_mm_loadu_pd(ck + 2), xk);
+        const __m128d t2 = _mm_sub_pd(_mm_loadu_pd(ck + 4), xk);
+        const __m128d t3 = _mm_sub_pd(_mm_loadu_pd(ck + 6), xk);
+        a0 = _mm_add_pd(a0, _mm_mul_pd(t0, t0));
+        a1 = _mm_add_pd(a1, _mm_mul_pd(t1, t1));
+        a2 = _mm_add_pd(a2, _mm_mul_pd(t2, t2));
+        a3 = _mm_add_pd(a3, _mm_mul_pd(t3, t3));
       }
-      double m = acc[0];
-      for (int l = 1; l < kLanes; ++l) m = std::min(m, acc[l]);
-      if (!(m < best_d2)) continue;
-      for (int l = 0; l < kLanes; ++l) {
-        if (acc[l] < best_d2) {
-          best_d2 = acc[l];
-          best = b * kLanes + l;
-        }
-      }
+      __m128d m = _mm_min_pd(_mm_min_pd(a0, a1), _mm_min_pd(a2, a3));
+      m = _mm_min_sd(m, _mm_unpackhi_pd(m, m));
+      _mm_store_pd(acc, a0);
+      _mm_store_pd(acc + 2, a1);
+      _mm_store_pd(acc + 4, a2);
+      _mm_store_pd(acc + 6, a3);
+      scan_block(b, acc, _mm_cvtsd_f64(m), best, best_d2);
     }
     return {best, std::sqrt(best_d2)};
   }
+  __attribute__((target("avx2"))) std::pair<int, double> nearest_avx2(const double* x) const {
+    int best = -1;
+    double best_d2 = std::numeric_limits<double>::infinity();
+    const int nb = (size() + kLanes - 1) / kLanes;
+    const double* c = cols.data();
+    alignas(32) double acc[kLanes];
+    for (int b = 0; b < nb; ++b, c += static_cast<std::size_t>(d) * kLanes) {
+      __m256d a0 = _mm256_setzero_pd(), a1 = a0;
+      for (int k = 0; k < d; ++k) {
+        const double* ck = c + k * kLanes;
+        const __m256d xk = _mm256_set1_pd(x[k]);
+        const __m256d t0 = _mm256_sub_pd(_mm256_loadu_pd(ck), xk);
+        const __m256d t1 = _mm256_sub_pd(_mm256_loadu_pd(ck + 4), xk);
+        a0 = _mm256_add_pd(a0, _mm256_mul_pd(t0, t0));
+        a1 = _mm256_add_pd(a1, _mm256_mul_pd(t1, t1));
+      }
+      const __m256d m4 = _mm256_min_pd(a0, a1);
+      __m128d m = _mm_min_pd(_mm256_castpd256_pd128(m4), _mm256_extractf128_pd(m4, 1));
+      m = _mm_min_sd(m, _mm_unpackhi_pd(m, m));
+      _mm256_store_pd(acc, a0);
+      _mm256_store_pd(acc + 4, a1);
+      scan_block(b, acc, _mm_cvtsd_f64(m), best, best_d2);
+    }
+    return {best, std::sqrt(best_d2)};
+  }
+#else
+  std::pair<int, double> nearest_generic(const double* x) const {
+    int best = -1;
+    double best_d2 = std::numeric_limits<double>::infinity();
+    const int nb = (size() + kLanes - 1) / kLanes;
+    const double* c = cols.data();
+    double acc[kLanes];
+    for (int b = 0; b < nb; ++b, c += static_cast<std::size_t>(d) * kLanes) {
+      for (int l = 0; l < kLanes; ++l) acc[l] = 0.0;
+      for (int k = 0; k < d; ++k)
+        for (int l = 0; l < kLanes; ++l) {
+          const double t = c[k * kLanes + l] - x[k];
+          acc[l] += t * t;
+        }
+      double m = acc[0];
+      for (int l = 1; l < kLanes; ++l) m = std::min(m, acc[l]);
+      scan_block(b, acc, m, best, best_d2);
+    }
+    return {best, std::sqrt(best_d2)};
+  }
+#endif
 
+ public:
   std::vector<int> path_indices(int i) const {  // i up to the root
     std::vector<int> out{i};
     while (parent[out.back()] >= 0) out.push_back(parent[out.back()]);
@@ -3240,6 +3421,7 @@ BOOST_PYTHON_MODULE(_planning_kernel) {
       .add_property("sphere_filter_mode", &CollisionKernel::sphere_filter_mode)
       .def("set_simd", &CollisionKernel::set_simd, bp::args("self", "level"))
       .add_property("simd", &CollisionKernel::simd)
+      .add_static_property("max_simd", &CollisionKernel::max_simd)
       .def("sphere_filter_eps", &CollisionKernel::sphere_filter_eps)
       .def("sphere_filter_bound", &CollisionKernel::sphere_filter_bound)
       .def("sphere_filter_units", &CollisionKernel::sphere_filter_units)

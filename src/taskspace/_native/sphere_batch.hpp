@@ -82,7 +82,20 @@
 // for the double test too (sure(), the trusted "spheres only" lanes).
 // tests/planning/test_planning_sphere_batch.py checks it on configurations bisected to within
 // 1e-9 of first contact (without the inflation those fail).
-#pragma once
+// Included three times by planning_kernel.cpp: the plain build (namespace
+// taskspace_sphere_batch) and the same code under `#pragma GCC target` for x86-64-v3 (AVX2,
+// FMA) and x86-64-v4 (AVX-512) in namespaces taskspace_sphere_batch_avx2 / _avx512 (the
+// macro TASKSPACE_SPHERE_BATCH_NS), chosen at run time by the kernel. GCC fuses a * b + c
+// where FMA is enabled: one rounding instead of two, within every step of the bound above
+// (each fused step's error bound is at most the unfused one's), so every build's float tests
+// keep the bound, and the kernel's answers (the double test decides every lane the filter
+// does not clear) are the same. The set-up types (Input, Obstacle, bounding_sphere) are
+// defined once.
+#ifndef TASKSPACE_SPHERE_BATCH_NS
+#define TASKSPACE_SPHERE_BATCH_NS taskspace_sphere_batch
+#endif
+#ifndef TASKSPACE_SPHERE_BATCH_COMMON
+#define TASKSPACE_SPHERE_BATCH_COMMON
 
 #include <algorithm>
 #include <array>
@@ -97,48 +110,6 @@
 #endif
 
 namespace taskspace_sphere_batch {
-
-constexpr int kLanes = 4;
-typedef float F4 __attribute__((vector_size(kLanes * sizeof(float))));
-typedef int I4 __attribute__((vector_size(kLanes * sizeof(int))));
-typedef double D4 __attribute__((vector_size(kLanes * sizeof(double)), aligned(16)));
-
-inline unsigned lanes_of(I4 m) {
-#ifdef TASKSPACE_SPHERE_BATCH_SSE
-  __m128 v;
-  __builtin_memcpy(&v, &m, sizeof v);
-  return static_cast<unsigned>(_mm_movemask_ps(v));
-#else
-  unsigned b = 0;
-  for (int l = 0; l < kLanes; ++l) b |= (m[l] != 0 ? 1u : 0u) << l;
-  return b;
-#endif
-}
-inline F4 splat(float x) { return F4{x, x, x, x}; }
-// kLaneMask[m]: all ones in the lanes of bit mask m
-constexpr I4 kLaneMask[16] = {
-    {0, 0, 0, 0},   {-1, 0, 0, 0},   {0, -1, 0, 0},   {-1, -1, 0, 0},
-    {0, 0, -1, 0},  {-1, 0, -1, 0},  {0, -1, -1, 0},  {-1, -1, -1, 0},
-    {0, 0, 0, -1},  {-1, 0, 0, -1},  {0, -1, 0, -1},  {-1, -1, 0, -1},
-    {0, 0, -1, -1}, {-1, 0, -1, -1}, {0, -1, -1, -1}, {-1, -1, -1, -1}};
-inline F4 vmax(F4 a, F4 b) { return a > b ? a : b; }
-inline F4 vmin(F4 a, F4 b) { return a < b ? a : b; }
-inline F4 vabs(F4 a) { return vmax(a, -a); }
-inline F4 vsqrt(F4 x) {
-#ifdef TASKSPACE_SPHERE_BATCH_SSE
-  __m128 v;
-  __builtin_memcpy(&v, &x, sizeof v);
-  v = _mm_sqrt_ps(v);
-  F4 r;
-  __builtin_memcpy(&r, &v, sizeof r);
-  return r;
-#else
-  F4 r;
-  for (int l = 0; l < kLanes; ++l) r[l] = std::sqrt(x[l]);
-  return r;
-#endif
-}
-inline F4 to_float(const D4& d) { return __builtin_convertvector(d, F4); }
 
 // The bounding sphere of n spheres, sphere(q) giving the q-th as {x, y, z, r}: centre (mid) the
 // middle of their axis-aligned box, radius the largest distance from it plus the sphere's
@@ -214,6 +185,57 @@ struct Input {
   };
   std::vector<Joint> chain;
 };
+
+}  // namespace taskspace_sphere_batch
+#endif  // TASKSPACE_SPHERE_BATCH_COMMON
+
+namespace TASKSPACE_SPHERE_BATCH_NS {
+
+using taskspace_sphere_batch::bounding_sphere;
+using taskspace_sphere_batch::Input;
+using taskspace_sphere_batch::Obstacle;
+
+constexpr int kLanes = 4;
+typedef float F4 __attribute__((vector_size(kLanes * sizeof(float))));
+typedef int I4 __attribute__((vector_size(kLanes * sizeof(int))));
+typedef double D4 __attribute__((vector_size(kLanes * sizeof(double)), aligned(16)));
+
+inline unsigned lanes_of(I4 m) {
+#ifdef TASKSPACE_SPHERE_BATCH_SSE
+  __m128 v;
+  __builtin_memcpy(&v, &m, sizeof v);
+  return static_cast<unsigned>(_mm_movemask_ps(v));
+#else
+  unsigned b = 0;
+  for (int l = 0; l < kLanes; ++l) b |= (m[l] != 0 ? 1u : 0u) << l;
+  return b;
+#endif
+}
+inline F4 splat(float x) { return F4{x, x, x, x}; }
+// kLaneMask[m]: all ones in the lanes of bit mask m
+constexpr I4 kLaneMask[16] = {
+    {0, 0, 0, 0},   {-1, 0, 0, 0},   {0, -1, 0, 0},   {-1, -1, 0, 0},
+    {0, 0, -1, 0},  {-1, 0, -1, 0},  {0, -1, -1, 0},  {-1, -1, -1, 0},
+    {0, 0, 0, -1},  {-1, 0, 0, -1},  {0, -1, 0, -1},  {-1, -1, 0, -1},
+    {0, 0, -1, -1}, {-1, 0, -1, -1}, {0, -1, -1, -1}, {-1, -1, -1, -1}};
+inline F4 vmax(F4 a, F4 b) { return a > b ? a : b; }
+inline F4 vmin(F4 a, F4 b) { return a < b ? a : b; }
+inline F4 vabs(F4 a) { return vmax(a, -a); }
+inline F4 vsqrt(F4 x) {
+#ifdef TASKSPACE_SPHERE_BATCH_SSE
+  __m128 v;
+  __builtin_memcpy(&v, &x, sizeof v);
+  v = _mm_sqrt_ps(v);
+  F4 r;
+  __builtin_memcpy(&r, &v, sizeof r);
+  return r;
+#else
+  F4 r;
+  for (int l = 0; l < kLanes; ++l) r[l] = std::sqrt(x[l]);
+  return r;
+#endif
+}
+inline F4 to_float(const D4& d) { return __builtin_convertvector(d, F4); }
 
 class SphereFilter {
  public:
@@ -1248,4 +1270,5 @@ class SphereFilter {
   int walk_lane_ = 0;
 };
 
-}  // namespace taskspace_sphere_batch
+}  // namespace TASKSPACE_SPHERE_BATCH_NS
+#undef TASKSPACE_SPHERE_BATCH_NS
