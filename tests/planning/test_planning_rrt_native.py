@@ -153,6 +153,46 @@ def test_tree_nearest_is_exact(n: int) -> None:
     assert not np.isin(got, removed).any()
 
 
+_NEAREST_SCRIPT = """
+import numpy as np
+from taskspace._native import planning_kernel
+module = planning_kernel()
+for n in (1, 8, 9, 301):
+    rng = np.random.default_rng(n)
+    nodes = rng.uniform(-3.0, 3.0, (n, 7))
+    if n > 8:
+        nodes[n // 2] = nodes[n // 3]
+    k = (n - 1) // 3
+    removed = np.asarray(rng.choice(np.arange(1, n), size=k, replace=False) if n > 1 else [])
+    removed = removed.astype(np.int32)
+    queries = np.vstack([rng.uniform(-3.5, 3.5, (100, 7)), nodes])
+    got = module.tree_nearest(nodes, removed, queries)
+    alive = np.setdiff1d(np.arange(n), removed)
+    d2 = ((queries[:, None, :] - nodes[None, alive, :]) ** 2).sum(axis=2)
+    assert np.array_equal(got, alive[np.argmin(d2, axis=1)]), n
+print("ok")
+"""
+
+
+def test_tree_nearest_sse2_code_is_exact() -> None:
+    """The SSE2 version of the nearest-neighbour scan (the AVX2 one runs where the processor
+    has AVX2; TASKSPACE_SIMD=sse2, read once per process, forces SSE2) against a brute force,
+    in a new process."""
+    import subprocess
+    import sys
+
+    env = dict(os.environ, TASKSPACE_SIMD="sse2")
+    out = subprocess.run(
+        [sys.executable, "-c", _NEAREST_SCRIPT],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert out.stdout.strip() == "ok"
+
+
 def test_trivial_and_limited_problems_end(robot) -> None:  # type: ignore[no-untyped-def]
     space, start, goal = _space(robot, "cage", 3)
     # start == goal
