@@ -290,3 +290,48 @@ def test_a_robot_without_collision_pairs_is_certified(native: bool) -> None:
     path = np.stack([_planar(-0.5, 0.0, 0.0), _planar(0.5, 0.2, 2.0)])
     cert = certify_path(robot, path, native=native)
     assert cert.certified and cert.min_distance == math.inf
+
+
+@pytest.mark.parametrize("weights", [[1.0, 1.0, 0.05], [0.05, 0.05, 0.05], [0.3, 1.0, 0.5]])
+def test_weighted_balls_are_four_edge_checks_wide(planar, weights) -> None:  # type: ignore[no-untyped-def]
+    # The ball around a failure must hold the failed edge's checked points on either side of
+    # q(t) (the failure lies between them) and span 4 check spacings each way: the spacing is
+    # space.edge_resolution (edge.resolution * min(w) with weights below 1), not
+    # edge.resolution, which made balls 1 / min(w) times wider (with weights of 0.05, wider
+    # than the whole space: every re-planned edge certified).
+    robot, _ = planar
+    space = ConfigurationSpace.from_robot(
+        robot,
+        edge=EdgeCheckOptions(resolution=DELTA),
+        base_lower=[-1, -1],
+        base_upper=[1, 1],
+        weights=weights,
+    )
+    delta = space.edge_resolution
+    assert delta == pytest.approx(DELTA * min(min(weights), 1.0))
+    regions = FailedRegions(space, 1e-4)
+    a, b = _planar(-0.9, -0.5, 0.0), _planar(0.9, -0.5, 0.4)
+    regions.add(0, np.stack([a, b]), 0, 0.5)
+    c = regions.centers[0]
+    # the failed edge's checked points (the planar joint's interpolation is its exponential:
+    # metric distances along the edge are |t - 0.5| times its length)
+    n = space.segments(a, b)
+    checked = space.interpolate(a, b, np.arange(n + 1) / n)
+    d = np.array([space.distance(p, c) for p in checked])
+    length = space.distance(a, b)
+    assert d == pytest.approx(np.abs(np.arange(n + 1) / n - 0.5) * length, abs=1e-9)
+    inside = np.flatnonzero(d < regions.radius)
+    assert n >= 20 and 2 <= inside.size <= 2 * 4 + 1
+    assert {math.floor(n / 2), math.ceil(n / 2)} <= set(inside.tolist())
+    ((lo, hi),) = regions.crossings(a, b)
+    assert lo <= 0.5 <= hi
+    # a parallel edge 8 spacings away in y (in the metric: 8 delta times the weights of the
+    # base's local x, y at its angle), farther than radius + one spacing: outside
+    dy = 8 * delta / weights[1]
+    a2, b2 = a.copy(), b.copy()
+    a2[1] += dy
+    b2[1] += dy
+    ts, least = _inside(space, a2, b2, c, regions.radius)
+    assert ts.size == 0 and least > regions.radius + delta
+    assert regions.crossings(a2, b2) == []
+    assert regions.radius == pytest.approx(4 * delta)
