@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import warnings
 
 import coal
 import numpy as np
@@ -335,3 +336,49 @@ def test_weighted_balls_are_four_edge_checks_wide(planar, weights) -> None:  # t
     assert ts.size == 0 and least > regions.radius + delta
     assert regions.crossings(a2, b2) == []
     assert regions.radius == pytest.approx(4 * delta)
+
+
+def test_nearest_skips_disabled_points_on_a_manifold(planar) -> None:  # type: ignore[no-untyped-def]
+    # A disabled node's coordinates are zeros: a (cos, sin) pair of norm 0, which the planar
+    # metric turned into NaN with a RuntimeWarning at every query of the tree. Reference:
+    # space.distance to each live point, one at a time.
+    from taskspace.planning.nearest import GrowingNearest
+
+    _, space = planar
+    rng = np.random.default_rng(3)
+    nn = GrowingNearest(space.dim, capacity=4, metric=space.distances)
+    points = [space.sample_uniform(rng) for _ in range(12)]
+    for q in points:
+        nn.add(q)
+    nn.disable([2, 5, 6])
+    for _ in range(20):
+        q = space.sample_uniform(rng)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            i, d = nn.nearest(q)
+        ref = [(space.distance(p, q), j) for j, p in enumerate(points) if j not in (2, 5, 6)]
+        assert (d, i) == pytest.approx(min(ref))
+
+
+def test_rrt_connect_on_a_weighted_planar_base_warns_nothing() -> None:
+    # Thin posts: the lazy fine pass removes subtrees (disabled nodes), whose zeros reached the
+    # metric at the next nearest-neighbour queries (RuntimeWarnings, 48 in these 30 seeds).
+    robot = _base_robot(pin.JointModelPlanar(), "planar_disc_posts")
+    for k, y in enumerate(np.linspace(-0.9, 0.9, 7)):
+        robot.add_obstacle(Obstacle.box(f"post{k}", [0.001, 0.2, 0.2], [0.0, y, 0.0]))
+    space = ConfigurationSpace.from_robot(
+        robot,
+        edge=EdgeCheckOptions(resolution=DELTA),
+        base_lower=[-1, -1],
+        base_upper=[1, 1],
+        weights=[0.05] * 3,
+    )
+    for seed in range(30):
+        rng = np.random.default_rng(seed)
+        start = _planar(-0.5, rng.uniform(-0.9, 0.9), 0.0)
+        goal = _planar(0.5, rng.uniform(-0.9, 0.9), 0.0)
+        opts = RRTConnectOptions(seed=seed, max_iterations=20000, time_limit_s=None)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            result = rrt_connect(space, start, goal, opts)
+        assert result.success and np.isfinite(result.path).all()
