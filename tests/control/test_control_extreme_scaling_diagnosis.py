@@ -17,8 +17,10 @@ import numpy as np
 import pytest
 import scipy.linalg as sla
 
+from taskspace.control.controllability import controllability, controllability_matrix
 from taskspace.control.lqr import dlqr, lqr
 from taskspace.control.lyapunov import solve_lyapunov
+from taskspace.control.observability import observability
 from taskspace.errors import InvalidInputError, SolverError
 
 A = np.array([[0.0, 1.0], [0.0, 0.0]])
@@ -139,3 +141,52 @@ def test_lqr_controllability_check_does_not_overflow() -> None:
     # an uncontrollable pair at that scale is still refused, its mode named at its scale
     with pytest.raises(InvalidInputError, match=r"not controllable.*-3e\+200"):
         lqr(1e200 * np.diag([-1.0, -2.0, -3.0]), [[1.0], [1.0], [0.0]], np.eye(3), 1.0)
+
+
+_A1 = np.array([[-1.0, 1.0, 0.0], [0.0, -2.0, 1.0], [0.0, 0.0, -3.0]])
+
+
+@pytest.mark.parametrize("c", [1e120, 1e200, -1e250, 2.0**900])
+@pytest.mark.parametrize(
+    ("A1", "B1", "modes"),
+    [
+        (_A1, [[0.0], [0.0], [1.0]], []),  # controllable from the last state
+        (np.diag([-1.0, -2.0, -3.0]), [[1.0], [1.0], [0.0]], [-3.0]),  # x3 unreachable
+        # a repeated mode (listed once per eigenvalue)
+        (np.diag([-1.0, -1.0, -2.0]), [[1.0], [1.0], [1.0]], [-1.0, -1.0]),
+    ],
+)
+def test_controllability_of_a_huge_A_is_that_of_the_moderate_A(c, A1, B1, modes) -> None:  # type: ignore[no-untyped-def]
+    # The rank of [B, cAB, c^2 A^2 B] is that of [B, AB, A^2 B] (c != 0) and the modes scale
+    # by c. [B, AB, A^2 B] overflowed (A^2 B ~ 1e400) and controllability refused the pair
+    # ("overflows"). Reference: numpy's matrix_rank of the moderate controllability matrix,
+    # the analytic modes.
+    B1 = np.asarray(B1)
+    K = np.hstack([B1, A1 @ B1, A1 @ A1 @ B1])
+    rep = controllability(c * A1, B1)
+    assert rep.rank == np.linalg.matrix_rank(K)
+    assert rep.controllable == (not modes)
+    got = np.sort_complex(rep.uncontrollable_modes)
+    np.testing.assert_allclose(got, np.sort(c * np.array(modes, dtype=float)), rtol=1e-12)
+    obs = observability((c * A1).T, B1.T)
+    assert obs.rank == rep.rank
+
+
+def test_controllability_overflow_names_the_matrix_its_norm_and_the_scaling() -> None:
+    # The message said only "the controllability matrix ... overflows float64 (entries beyond
+    # 1.8e308): rescale the state or the time unit".
+    with pytest.raises(
+        InvalidInputError,
+        match=r"at A\^2 B: \|A\|_2 = 1e\+200, \|B\|_2 = 1\.73.*A / 2\^e.*exact",
+    ):
+        controllability_matrix(1e200 * np.eye(3), np.ones((3, 1)))
+    # A whose entries span more than the floats: 2^-e A would lose the small ones
+    A_wide = np.array([[1e200, 1e-200, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 2.0]])
+    with pytest.raises(InvalidInputError, match=r"A / 2\^665 would lose its smallest entries"):
+        controllability(A_wide, np.ones((3, 1)))
+    # B too large even for 2^-e A: the norms tell which
+    with pytest.raises(
+        InvalidInputError,
+        match=r"at A B: \|A\|_2 = 1\.83 \(after A / 2\^499\), \|B\|_2 = 1\.73e\+308",
+    ):
+        controllability(1e150 * np.ones((3, 3)), 1e308 * np.ones((3, 1)))

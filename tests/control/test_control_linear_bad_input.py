@@ -97,12 +97,17 @@ def test_acker_overflow_is_an_error_not_a_nan_gain() -> None:
 
 
 def test_controllability_matrix_overflow_is_an_error() -> None:
-    # powers of A beyond float64: a bare LinAlgError "SVD did not converge" before
+    # powers of A beyond float64: a bare LinAlgError "SVD did not converge" before; the
+    # message names the power, the norms and the scaling. controllability() tests 2^-e A
+    # instead (the same rank; here 1: N is 1e-200 of A, below any float64 rank tolerance).
     A_big = 1e200 * np.eye(3) + np.diag([1.0, 2.0], 1)
-    with pytest.raises(InvalidInputError, match="overflows"):
-        controllability(A_big, np.ones((3, 1)))
-    with pytest.raises(InvalidInputError, match="overflows"):
+    with pytest.raises(
+        InvalidInputError, match=r"overflows float64.* at A\^2 B: \|A\|_2 = 1e\+200"
+    ):
         controllability_matrix(A_big, np.ones((3, 1)))
+    rep = controllability(A_big, np.ones((3, 1)))
+    assert rep.rank == 1 and not rep.controllable
+    np.testing.assert_allclose(rep.uncontrollable_modes, [1e200] * 3, rtol=1e-15)
 
 
 def test_controllability_with_entries_near_1e300() -> None:

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import warnings
 
 import coal
 import numpy as np
@@ -290,3 +291,94 @@ def test_a_robot_without_collision_pairs_is_certified(native: bool) -> None:
     path = np.stack([_planar(-0.5, 0.0, 0.0), _planar(0.5, 0.2, 2.0)])
     cert = certify_path(robot, path, native=native)
     assert cert.certified and cert.min_distance == math.inf
+
+
+@pytest.mark.parametrize("weights", [[1.0, 1.0, 0.05], [0.05, 0.05, 0.05], [0.3, 1.0, 0.5]])
+def test_weighted_balls_are_four_edge_checks_wide(planar, weights) -> None:  # type: ignore[no-untyped-def]
+    # The ball around a failure must hold the failed edge's checked points on either side of
+    # q(t) (the failure lies between them) and span 4 check spacings each way: the spacing is
+    # space.edge_resolution (edge.resolution * min(w) with weights below 1), not
+    # edge.resolution, which made balls 1 / min(w) times wider (with weights of 0.05, wider
+    # than the whole space: every re-planned edge certified).
+    robot, _ = planar
+    space = ConfigurationSpace.from_robot(
+        robot,
+        edge=EdgeCheckOptions(resolution=DELTA),
+        base_lower=[-1, -1],
+        base_upper=[1, 1],
+        weights=weights,
+    )
+    delta = space.edge_resolution
+    assert delta == pytest.approx(DELTA * min(min(weights), 1.0))
+    regions = FailedRegions(space, 1e-4)
+    a, b = _planar(-0.9, -0.5, 0.0), _planar(0.9, -0.5, 0.4)
+    regions.add(0, np.stack([a, b]), 0, 0.5)
+    c = regions.centers[0]
+    # the failed edge's checked points (the planar joint's interpolation is its exponential:
+    # metric distances along the edge are |t - 0.5| times its length)
+    n = space.segments(a, b)
+    checked = space.interpolate(a, b, np.arange(n + 1) / n)
+    d = np.array([space.distance(p, c) for p in checked])
+    length = space.distance(a, b)
+    assert d == pytest.approx(np.abs(np.arange(n + 1) / n - 0.5) * length, abs=1e-9)
+    inside = np.flatnonzero(d < regions.radius)
+    assert n >= 20 and 2 <= inside.size <= 2 * 4 + 1
+    assert {math.floor(n / 2), math.ceil(n / 2)} <= set(inside.tolist())
+    ((lo, hi),) = regions.crossings(a, b)
+    assert lo <= 0.5 <= hi
+    # a parallel edge 8 spacings away in y (in the metric: 8 delta times the weights of the
+    # base's local x, y at its angle), farther than radius + one spacing: outside
+    dy = 8 * delta / weights[1]
+    a2, b2 = a.copy(), b.copy()
+    a2[1] += dy
+    b2[1] += dy
+    ts, least = _inside(space, a2, b2, c, regions.radius)
+    assert ts.size == 0 and least > regions.radius + delta
+    assert regions.crossings(a2, b2) == []
+    assert regions.radius == pytest.approx(4 * delta)
+
+
+def test_nearest_skips_disabled_points_on_a_manifold(planar) -> None:  # type: ignore[no-untyped-def]
+    # A disabled node's coordinates are zeros: a (cos, sin) pair of norm 0, which the planar
+    # metric turned into NaN with a RuntimeWarning at every query of the tree. Reference:
+    # space.distance to each live point, one at a time.
+    from taskspace.planning.nearest import GrowingNearest
+
+    _, space = planar
+    rng = np.random.default_rng(3)
+    nn = GrowingNearest(space.dim, capacity=4, metric=space.distances)
+    points = [space.sample_uniform(rng) for _ in range(12)]
+    for q in points:
+        nn.add(q)
+    nn.disable([2, 5, 6])
+    for _ in range(20):
+        q = space.sample_uniform(rng)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            i, d = nn.nearest(q)
+        ref = [(space.distance(p, q), j) for j, p in enumerate(points) if j not in (2, 5, 6)]
+        assert (d, i) == pytest.approx(min(ref))
+
+
+def test_rrt_connect_on_a_weighted_planar_base_warns_nothing() -> None:
+    # Thin posts: the lazy fine pass removes subtrees (disabled nodes), whose zeros reached the
+    # metric at the next nearest-neighbour queries (RuntimeWarnings, 48 in these 30 seeds).
+    robot = _base_robot(pin.JointModelPlanar(), "planar_disc_posts")
+    for k, y in enumerate(np.linspace(-0.9, 0.9, 7)):
+        robot.add_obstacle(Obstacle.box(f"post{k}", [0.001, 0.2, 0.2], [0.0, y, 0.0]))
+    space = ConfigurationSpace.from_robot(
+        robot,
+        edge=EdgeCheckOptions(resolution=DELTA),
+        base_lower=[-1, -1],
+        base_upper=[1, 1],
+        weights=[0.05] * 3,
+    )
+    for seed in range(30):
+        rng = np.random.default_rng(seed)
+        start = _planar(-0.5, rng.uniform(-0.9, 0.9), 0.0)
+        goal = _planar(0.5, rng.uniform(-0.9, 0.9), 0.0)
+        opts = RRTConnectOptions(seed=seed, max_iterations=20000, time_limit_s=None)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            result = rrt_connect(space, start, goal, opts)
+        assert result.success and np.isfinite(result.path).all()

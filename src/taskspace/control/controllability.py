@@ -19,7 +19,8 @@ from typing import Any
 import numpy as np
 
 from taskspace._validation import FloatArray
-from taskspace.control._linear import check_overflow, rank_tolerance, safe_norm, system
+from taskspace.control._linear import rank_tolerance, safe_norm, system
+from taskspace.errors import InvalidInputError
 
 
 @dataclass
@@ -54,18 +55,39 @@ def controllability_matrix(A: Any, B: Any) -> FloatArray:
     """``[B, A B, ..., A^{n-1} B]`` (n x n m).
 
     Raises:
-        InvalidInputError: a power ``A^k B`` overflows float64.
+        InvalidInputError: a power ``A^k B`` overflows float64 (the message names the first
+            ``k``, the norms of ``A`` and ``B``, and suggests a scaling).
     """
     A, B = system(A, B)
-    n = A.shape[0]
+    C, k = _krylov(A, B)
+    if k:
+        raise InvalidInputError(_overflow_message(A, B, k))
+    return C
+
+
+def _krylov(A: FloatArray, B: FloatArray) -> tuple[FloatArray, int]:
+    """``([B, A B, ..., A^{n-1} B], 0)``, or ``(partial, k)`` at the first ``A^k B`` not finite."""
     blocks = [B]
     with np.errstate(over="ignore", invalid="ignore"):
-        for _ in range(n - 1):
+        for k in range(1, A.shape[0]):
             blocks.append(A @ blocks[-1])
-    return check_overflow(
-        np.hstack(blocks),
-        "the controllability matrix [B, AB, ..., A^(n-1)B]",
-        "rescale the state or the time unit so that A has moderate entries",
+            if not np.isfinite(blocks[-1]).all():
+                return np.hstack(blocks), k
+    return np.hstack(blocks), 0
+
+
+def _overflow_message(A: FloatArray, B: FloatArray, k: int, a_note: str = "", why: str = "") -> str:
+    """Why ``[B, AB, ..., A^(n-1)B]`` overflows at ``A^k B``, with the sizes and the remedy."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        na, nb = _norm2(A), _norm2(B)
+    n = A.shape[0]
+    power = "A B" if k == 1 else f"A^{k} B"
+    return (
+        f"the controllability matrix [B, AB, ..., A^(n-1)B] overflows float64 (entries beyond "
+        f"1.8e308) at {power}: |A|_2 = {na:.3g}{a_note}, |B|_2 = {nb:.3g}, and its blocks grow "
+        f"like |A|^k |B| (k up to n - 1 = {n - 1}){why}; rescale the state or the time unit so "
+        "that A (and B) have moderate entries: A / 2^e, with 2^e a power of two near |A|, "
+        "is exact and keeps the rank (the modes scale by 2^-e)"
     )
 
 
@@ -94,6 +116,10 @@ def controllability(A: Any, B: Any, tolerance: float | None = None) -> Controlla
     ``A`` can differ by orders of magnitude); singular values below ``tolerance`` times the
     largest count as zero.
 
+    An ``A`` whose powers overflow float64 (a 3-state ``A`` near 1e200: ``A^2 B ~ 1e400``) is
+    tested as ``2^-e A`` (``2^e`` just above ``max |A|``): exact, the column-normalized
+    controllability matrix and the rank are the same, the modes are scaled back by ``2^e``.
+
     Args:
         A: system matrix (n x n).
         B: input matrix (n x m) (a vector is one input).
@@ -101,13 +127,22 @@ def controllability(A: Any, B: Any, tolerance: float | None = None) -> Controlla
 
     Raises:
         InvalidInputError: bad shapes or values, a tolerance outside ``[0, 1)`` (NaN made
-            every pair uncontrollable), or the controllability matrix overflows.
+            every pair uncontrollable), or the controllability matrix overflows even for
+            ``2^-e A`` (``B`` too large, or ``A``'s entries span more than the floats' range);
+            the message names the power ``A^k B``, the norms of ``A`` and ``B`` and the
+            scaling to apply.
     """
     A, B = system(A, B)
     n, m = B.shape
     user_tol = rank_tolerance(tolerance)
     tol = user_tol if user_tol is not None else max(n, m) * n * np.finfo(float).eps * 1e3
-    C = controllability_matrix(A, B)
+    C, k = _krylov(A, B)
+    e = 0
+    if k:  # the test on 2^-e A: the blocks A^j B scale by 2^-ej (exact), the modes by 2^-e
+        A, e = _scaled(A, B, k)
+        C, k = _krylov(A, B)
+        if k:  # (B too large)
+            raise InvalidInputError(_overflow_message(A, B, k, f" (after A / 2^{e})"))
     with np.errstate(over="ignore", invalid="ignore"):
         norms = safe_norm(C, axis=0)  # np.linalg.norm was inf for entries ~1e300 (column -> 0)
         # the two column blocks of the PBH test scaled separately (the rank is unchanged): one
@@ -123,14 +158,43 @@ def controllability(A: Any, B: Any, tolerance: float | None = None) -> Controlla
         sv = np.linalg.svd(pbh, compute_uv=False)
         if r < n or (sv.size >= n and sv[n - 1] <= tol):
             modes.append(lam)
+    found = np.asarray(modes, dtype=complex)
+    if e:  # (a mode beyond the floats, |lambda| > 1.8e308 for A near it, becomes inf)
+        with np.errstate(over="ignore", invalid="ignore"):
+            found = np.ldexp(found.real, e) + 1j * np.ldexp(found.imag, e)
     return ControllabilityResult(
         controllable=rank == n,
         rank=rank,
         n=n,
         singular_values=s,
-        uncontrollable_modes=np.asarray(modes, dtype=complex),
+        uncontrollable_modes=found,
         tolerance=tol,
     )
+
+
+def _scaled(A: FloatArray, B: FloatArray, k: int) -> tuple[FloatArray, int]:
+    """``(2^-e A, e)`` with ``2^e`` the power of two just above ``max |A|``.
+
+    Raises:
+        InvalidInputError: the scaling would make a nonzero entry subnormal or zero (A spans
+            more than the floats' range: the scaled test would not be exact).
+    """
+    top = float(np.max(np.abs(A)))
+    e = math.frexp(top)[1]
+    As = np.ldexp(A, -e)
+    nonzero = A != 0.0
+    if nonzero.any() and float(np.min(np.abs(As[nonzero]))) < np.finfo(float).tiny:
+        small = float(np.min(np.abs(A[nonzero])))
+        raise InvalidInputError(
+            _overflow_message(
+                A,
+                B,
+                k,
+                why=f"; A / 2^{e} would lose its smallest entries (|A_ij| from {small:.3g} to "
+                f"{top:.3g}: more than the floats' range)",
+            )
+        )
+    return As, e
 
 
 def is_controllable(A: Any, B: Any, tolerance: float | None = None) -> bool:

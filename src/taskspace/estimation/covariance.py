@@ -47,12 +47,16 @@ def as_covariance(
         bad = np.flatnonzero(~np.isfinite(arr.ravel()))
         raise NotFiniteError(name, [int(i) for i in bad[:20]])
     scale = max(1.0, float(np.max(np.abs(arr))) if arr.size else 1.0)
-    asym = float(np.max(np.abs(arr - arr.T))) if arr.size else 0.0
+    with np.errstate(over="ignore"):  # (entries near the float limit: inf, refused below)
+        asym = float(np.max(np.abs(arr - arr.T))) if arr.size else 0.0
     if asym > _SYM_RTOL * scale:
         raise InvalidInputError(
             f"{name} must be a symmetric covariance matrix; max |{name} - {name}^T| = {asym:.3g}"
         )
-    sym = 0.5 * (arr + arr.T)
+    with np.errstate(over="ignore"):
+        sym = 0.5 * (arr + arr.T)
+    if not np.isfinite(sym).all():  # entries above 9e307: the sum overflowed, not the mean
+        sym = 0.5 * arr + 0.5 * arr.T
     if sym.size:
         lam_min = float(np.linalg.eigvalsh(sym)[0])
         if positive_definite and lam_min <= 0.0:

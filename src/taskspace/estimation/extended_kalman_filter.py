@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from taskspace._validation import FloatArray, as_float_array
-from taskspace.errors import InvalidInputError
+from taskspace.errors import InvalidInputError, SolverError
 from taskspace.estimation._inputs import (
     as_measurement,
     as_noise_covariance,
@@ -38,7 +38,9 @@ from taskspace.estimation.filter_result import FilterResult
 from taskspace.estimation.kalman_filter import (
     KalmanFilterOptions,
     _finish,
+    _overflow,
     kalman_update,
+    propagate_covariance,
 )
 
 StateFn = Callable[[FloatArray, Any], FloatArray]
@@ -130,6 +132,7 @@ class ExtendedKalmanFilter:
         Raises:
             ShapeError, InvalidInputError: ``f`` or ``F_jacobian`` returned a wrong shape or
                 non-finite values (the belief is left unchanged).
+            SolverError: ``F P F^T + Q`` overflows the floats (the belief is left unchanged).
         """
         n = self.dim_x
         F = model_output(call_model(self.F_jacobian, "F_jacobian", self.x, u), (n, n), "F_jacobian")
@@ -138,8 +141,8 @@ class ExtendedKalmanFilter:
             x = model_output(
                 call_model(self.state_normalize, "state_normalize", x), (n,), "state_normalize"
             )
-        P = F @ self.P @ F.T + self.Q
-        self.x, self.P = checked_belief(x, 0.5 * (P + P.T), "prediction")
+        P = propagate_covariance(F, self.P, self.Q, "prediction")
+        self.x, self.P = checked_belief(x, P, "prediction")
         self._last_F = F
 
     @serialized
@@ -164,9 +167,15 @@ class ExtendedKalmanFilter:
             residual: ``residual(z, z_hat)`` of this measurement only (e.g. bearings:
                 :func:`~taskspace.estimation.angle_residual`).
 
+        Returns:
+            The NIS ``r^T S^-1 r`` (``inf`` beyond the floats).
+
         Raises:
             ShapeError, InvalidInputError: a wrong size, or a model returned non-finite
                 values (the belief is left unchanged).
+            SolverError: ``S`` is not positive definite, or ``S``, the updated mean or
+                covariance overflows the floats (named in the message; the belief is left
+                unchanged).
         """
         if z is None:
             return math.nan
@@ -189,7 +198,13 @@ class ExtendedKalmanFilter:
             Rm = as_noise_covariance(R, m, "R")
         zv = as_measurement(z, m, "z")
         H = model_output(call_model(H_fn, "H_jacobian", self.x), (m, self.dim_x), "H_jacobian")
-        r = model_output(call_model(res_fn, "residual", zv, zhat), (m,), "residual")
+        if res_fn is subtract:  # the default: an overflow is the update's, not a model's
+            with np.errstate(over="ignore", invalid="ignore"):
+                r = zv - zhat
+            if not np.isfinite(r).all():
+                raise _overflow("update", "the residual z - h(x)", {"z": zv, "h(x)": zhat})
+        else:
+            r = model_output(call_model(res_fn, "residual", zv, zhat), (m,), "residual")
         x, P, nis, ll = kalman_update(
             self.x, self.P, r, H, Rm, joseph_form=self.options.joseph_form
         )
@@ -211,6 +226,10 @@ class ExtendedKalmanFilter:
 
         ``None`` measurements skip the update. Returns the :class:`FilterResult` whose
         ``transition_jacobians`` feed the RTS smoother.
+
+        Raises:
+            SolverError: a step overflowed (the message names the step ``k``); the filter
+                keeps the belief of the step before.
         """
         t0 = time.perf_counter()
         T = len(measurements)
@@ -228,10 +247,16 @@ class ExtendedKalmanFilter:
         ll = 0.0
         updates = 0
         for k in range(T):
-            self.predict(None if controls is None else controls[k])
+            try:
+                self.predict(None if controls is None else controls[k])
+            except SolverError as exc:
+                raise SolverError(f"step {k}: {exc}") from exc
             pm[k], pc[k], Fs[k] = self.x, self.P, self._last_F
             if measurements[k] is not None:
-                nis[k] = self.update(measurements[k])
+                try:
+                    nis[k] = self.update(measurements[k])
+                except SolverError as exc:
+                    raise SolverError(f"step {k}: {exc}") from exc
                 ll += self._last_ll
                 updates += 1
             means[k], covs[k] = self.x, self.P

@@ -30,7 +30,6 @@ from taskspace.estimation._inputs import (
     as_measurement,
     as_noise_covariance,
     as_state,
-    checked_belief,
 )
 from taskspace.estimation._serialized import serialized
 from taskspace.estimation.covariance import as_covariance
@@ -39,6 +38,10 @@ from taskspace.estimation.filter_result import FilterResult, FilterStatus
 logger = logging.getLogger(__name__)
 
 _LOG_2PI = math.log(2.0 * math.pi)
+_CANCELLED = 1e-8
+"""Posterior/prior variance ratio below which a short-form update is redone in Joseph form."""
+_LOST = 1e-24
+"""Posterior/prior variance ratio below which even the Joseph form is refused."""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -55,17 +58,90 @@ class KalmanFilterOptions:
 
 
 def kalman_predict(
-    x: FloatArray, P: FloatArray, F: FloatArray, Q: FloatArray, Bu: FloatArray | None = None
+    x: FloatArray,
+    P: FloatArray,
+    F: FloatArray,
+    Q: FloatArray,
+    Bu: FloatArray | None = None,
+    *,
+    step: str = "prediction",
 ) -> tuple[FloatArray, FloatArray]:
     """Kalman prediction ``x^- = F x + B u``, ``P^- = F P F^T + Q`` (propagation, slide 6:10).
 
-    No validation: this is the inner-loop kernel; :class:`KalmanFilter` validates inputs.
+    No validation of the inputs: this is the inner-loop kernel; :class:`KalmanFilter`
+    validates them. ``step`` names the step in the error.
+
+    Raises:
+        SolverError: the predicted mean or covariance overflows the floats (e.g. ``F = 1e200
+            I``); the message names which and the largest entries of what made it.
     """
+    with np.errstate(over="ignore", invalid="ignore"):
+        return _predict(x, P, F, Q, Bu, step)
+
+
+def _predict(
+    x: FloatArray, P: FloatArray, F: FloatArray, Q: FloatArray, Bu: FloatArray | None, step: str
+) -> tuple[FloatArray, FloatArray]:
+    """:func:`kalman_predict` under the caller's ``np.errstate(over=, invalid="ignore")``."""
     xp = F @ x
     if Bu is not None:
         xp = xp + Bu
-    Pp = F @ P @ F.T + Q
-    return xp, 0.5 * (Pp + Pp.T)
+    FPFQ = F @ P @ F.T + Q
+    Pp = 0.5 * (FPFQ + FPFQ.T)
+    if not _finite(xp, Pp):
+        Pp = _halves(FPFQ)
+        if not _finite(xp):
+            sizes = {"F": F, "x": x} if Bu is None else {"F": F, "x": x, "B u": Bu}
+            raise _overflow(step, "the mean F x + B u", sizes)
+        if not _finite(Pp):
+            raise _overflow(step, "the covariance F P F^T + Q", {"F": F, "P": P, "Q": Q})
+    return xp, Pp
+
+
+def propagate_covariance(F: FloatArray, P: FloatArray, Q: FloatArray, step: str) -> FloatArray:
+    """``F P F^T + Q``, symmetrized (the prediction's covariance, slide 6:10).
+
+    Raises:
+        SolverError: it overflows the floats (``step`` names the step in the message).
+    """
+    with np.errstate(over="ignore", invalid="ignore"):
+        FPFQ = F @ P @ F.T + Q
+        Pp = 0.5 * (FPFQ + FPFQ.T)
+        if not _finite(Pp):
+            Pp = _halves(FPFQ)
+            if not _finite(Pp):
+                raise _overflow(step, "the covariance F P F^T + Q", {"F": F, "P": P, "Q": Q})
+    return Pp
+
+
+def _halves(A: FloatArray) -> FloatArray:
+    """``A / 2 + A^T / 2``: the symmetric part when ``A + A^T`` overflows (entries > 9e307)."""
+    return 0.5 * A + 0.5 * A.T
+
+
+def _finite(a: FloatArray, b: FloatArray | None = None) -> bool:
+    """Whether every entry of ``a`` (and ``b``) is finite.
+
+    The sums of squares first (one dot product each; a huge finite entry may overflow them,
+    the exact test then decides); call under ``np.errstate(over="ignore")``.
+    """
+    total = float(np.vdot(a, a)) if b is None else float(np.vdot(a, a)) + float(np.vdot(b, b))
+    if math.isfinite(total):
+        return True
+    return bool(np.isfinite(a).all()) and (b is None or bool(np.isfinite(b).all()))
+
+
+def _overflow(step: str, what: str, sizes: dict[str, FloatArray]) -> SolverError:
+    """The error of a step whose ``what`` is not finite, with the largest entries of ``sizes``."""
+    with np.errstate(invalid="ignore"):
+        largest = ", ".join(
+            f"{name} {float(np.max(np.abs(a), initial=0.0)):.3g}" for name, a in sizes.items()
+        )
+    return SolverError(
+        f"the {step} overflowed: {what} is not finite (largest entries: {largest}); the "
+        "belief is left unchanged; rescale the states and measurements (units) or check "
+        "the model"
+    )
 
 
 def kalman_update(
@@ -76,6 +152,7 @@ def kalman_update(
     R: FloatArray,
     *,
     joseph_form: bool = True,
+    step: str = "update",
 ) -> tuple[FloatArray, FloatArray, float, float]:
     """Kalman measurement update (Gaussian product, slide 6:10).
 
@@ -89,15 +166,39 @@ def kalman_update(
         H: ``(m, n)`` measurement matrix (Jacobian).
         R: ``(m, m)`` measurement noise covariance.
         joseph_form: choose the covariance update.
+        step: the step's name in errors.
 
     Returns:
-        Updated mean, updated covariance, NIS ``r^T S^-1 r`` and ``log N(r | 0, S)``.
+        Updated mean, updated covariance, NIS ``r^T S^-1 r`` and ``log N(r | 0, S)``. A NIS
+        beyond the floats (a residual some 1e154 standard deviations off) is ``inf`` and the
+        log-likelihood ``-inf``: the update itself is exact, any gate refuses it.
 
     Raises:
-        SolverError: if the innovation covariance ``S`` is not positive definite.
+        SolverError: if the innovation covariance ``S`` is not positive definite, or the
+            residual, ``S``, the updated mean or covariance overflows the floats (the
+            message names which and the largest entries of what made it; an ``S`` of inf
+            entries gave a zero gain: the measurement was ignored, with NIS 0).
     """
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        return _update(x, P, residual, H, R, joseph_form, step)
+
+
+def _update(
+    x: FloatArray,
+    P: FloatArray,
+    residual: FloatArray,
+    H: FloatArray,
+    R: FloatArray,
+    joseph_form: bool,
+    step: str,
+) -> tuple[FloatArray, FloatArray, float, float]:
+    """:func:`kalman_update` under the caller's ``np.errstate`` (over, invalid, divide ignored)."""
     PHt = P @ H.T
     S = H @ PHt + R
+    if not _finite(residual, S):
+        if not _finite(residual):
+            raise _overflow(step, "the residual r = z - H x", {"x": x, "H": H})
+        raise _overflow(step, "the innovation covariance S = H P H^T + R", {"H": H, "P": P, "R": R})
     try:
         L = np.linalg.cholesky(S)
     except np.linalg.LinAlgError as exc:
@@ -106,15 +207,47 @@ def kalman_update(
     Kt = np.linalg.solve(L.T, np.linalg.solve(L, PHt.T))
     K = Kt.T
     w = np.linalg.solve(L, residual)
-    nis = float(w @ w)
+    nis = float(np.vdot(w, w))  # (inf beyond the floats)
     loglik = -0.5 * nis - float(np.sum(np.log(np.diag(L)))) - 0.5 * residual.shape[0] * _LOG_2PI
     xn = x + K @ residual
     if joseph_form:
         IKH = np.eye(x.shape[0]) - K @ H
-        Pn = IKH @ P @ IKH.T + K @ R @ Kt
+        Pu = IKH @ P @ IKH.T + K @ R @ Kt
     else:
-        Pn = P - K @ S @ Kt
-    return xn, 0.5 * (Pn + Pn.T), nis, loglik
+        Pu = P - K @ S @ Kt
+    Pn = 0.5 * (Pu + Pu.T)
+    if math.isnan(nis) or not _finite(xn, Pn):
+        Pn = _halves(Pu)
+        if math.isnan(nis):
+            raise _overflow(step, "the NIS r^T S^-1 r", {"r": residual, "S": S})
+        if not _finite(xn):
+            raise _overflow(step, "the updated mean x + K r", {"x": x, "K": K, "r": residual})
+        if not _finite(Pn):
+            raise _overflow(step, "the updated covariance", {"P": P, "K": K, "R": R})
+    n = x.shape[0]
+    prior, post = P.ravel()[:: n + 1], Pn.ravel()[:: n + 1]
+    if not joseph_form and (post < _CANCELLED * prior).any():
+        # P - K S K^T cancels when the measurement dominates the prior (P = 1e16 R gave
+        # variances 0, 1e30 R gave -5.6e14): the Joseph form keeps K R K^T
+        IKH = np.eye(n) - K @ H
+        Pu = IKH @ P @ IKH.T + K @ R @ Kt
+        Pn = 0.5 * (Pu + Pu.T)
+        if not _finite(Pn):
+            Pn = _halves(Pu)
+            if not _finite(Pn):
+                raise _overflow(step, "the updated covariance", {"P": P, "K": K, "R": R})
+        post = Pn.ravel()[:: n + 1]
+    lost = post < _LOST * prior
+    if lost.any():  # (I - K H) is known to eps: its square to eps^2 of the prior
+        which = np.flatnonzero(lost)[:20].tolist()
+        raise SolverError(
+            f"the {step} loses every digit of the covariance: the measurement is more than "
+            f"1e12 times more precise than the predicted variances of x{which} (up to "
+            f"{float(prior[lost].max()):.3g}; P = 1e30 R gave 1.05 R instead of R); the "
+            "belief is left unchanged; rescale the states and measurements (units) or lower "
+            "the prior/process variances"
+        )
+    return xn, Pn, nis, loglik
 
 
 class KalmanFilter:
@@ -179,15 +312,19 @@ class KalmanFilter:
         Args:
             u: optional ``(p,)`` control (requires ``B``); a scalar or a column ``(p, 1)``
                 is accepted.
+
+        Raises:
+            SolverError: the predicted mean or covariance overflows the floats (named in
+                the message; the belief is left unchanged).
         """
-        Bu = None
+        uv = None
         if u is not None:
             if self.B is None:
                 raise InvalidInputError("a control u was given but the filter has no B matrix")
-            Bu = self.B @ as_measurement(u, self.B.shape[1], "u")
-        self.x, self.P = checked_belief(
-            *kalman_predict(self.x, self.P, self.F, self.Q, Bu), "prediction"
-        )
+            uv = as_measurement(u, self.B.shape[1], "u")
+        with np.errstate(over="ignore", invalid="ignore"):  # (overflows: named by _predict)
+            Bu = None if uv is None or self.B is None else self.B @ uv
+            self.x, self.P = _predict(self.x, self.P, self.F, self.Q, Bu, "prediction")
 
     @serialized
     def update(self, z: Any, R: Any | None = None, H: Any | None = None) -> float:
@@ -203,7 +340,13 @@ class KalmanFilter:
                 filter's ``H``.
 
         Returns:
-            The normalized innovation squared ``r^T S^-1 r`` (NaN without a measurement).
+            The normalized innovation squared ``r^T S^-1 r`` (NaN without a measurement,
+            ``inf`` beyond the floats).
+
+        Raises:
+            SolverError: ``S`` is not positive definite, or the residual, ``S``, the updated
+                mean or covariance overflows the floats (named in the message; the belief is
+                left unchanged).
         """
         if z is None:
             return math.nan
@@ -219,15 +362,12 @@ class KalmanFilter:
         else:
             Rm = as_noise_covariance(R, m, "R")
         zv = as_measurement(z, m, "z")
-        x, P, nis, _ = kalman_update(
-            self.x,
-            self.P,
-            zv - Hm @ self.x,
-            Hm,
-            Rm,
-            joseph_form=self.options.joseph_form,
-        )
-        self.x, self.P = checked_belief(x, P, "update")
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            # (overflows, of the residual too: named by _update)
+            x, P, nis, _ = _update(
+                self.x, self.P, zv - Hm @ self.x, Hm, Rm, self.options.joseph_form, "update"
+            )
+        self.x, self.P = x, P
         return nis
 
     @serialized
@@ -243,6 +383,10 @@ class KalmanFilter:
 
         Returns:
             The :class:`FilterResult` (the filter keeps the last belief).
+
+        Raises:
+            SolverError: a step overflowed (the message names the step ``k`` and what
+                overflowed); the filter keeps the belief of the step before.
         """
         t0 = time.perf_counter()
         zs = _as_measurement_list(measurements, self.dim_z)
@@ -260,22 +404,23 @@ class KalmanFilter:
         nis = np.full(T, np.nan)
         loglik = 0.0
         updates = 0
-        for k, z in enumerate(zs):
-            Bu = None if us is None or self.B is None else self.B @ us[k]
-            self.x, self.P = kalman_predict(self.x, self.P, self.F, self.Q, Bu)
-            pm[k], pc[k] = self.x, self.P
-            if z is not None:
-                self.x, self.P, nis[k], ll = kalman_update(
-                    self.x,
-                    self.P,
-                    z - self.H @ self.x,
-                    self.H,
-                    self.R,
-                    joseph_form=self.options.joseph_form,
-                )
-                loglik += ll
-                updates += 1
-            means[k], covs[k] = self.x, self.P
+        joseph = self.options.joseph_form
+        # one errstate for the loop (no user code runs in it): the steps name their overflows
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            for k, z in enumerate(zs):
+                Bu = None if us is None or self.B is None else self.B @ us[k]
+                step = f"prediction of step {k}"
+                self.x, self.P = _predict(self.x, self.P, self.F, self.Q, Bu, step)
+                pm[k], pc[k] = self.x, self.P
+                if z is not None:
+                    r = z - self.H @ self.x
+                    step = f"update of step {k}"
+                    self.x, self.P, nis[k], ll = _update(
+                        self.x, self.P, r, self.H, self.R, joseph, step
+                    )
+                    loglik += ll
+                    updates += 1
+                means[k], covs[k] = self.x, self.P
         return _finish(
             means,
             covs,

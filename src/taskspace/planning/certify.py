@@ -519,15 +519,17 @@ _certify_segment = certify_path
 the certified paths does not see the parts of edges certified during a re-plan)."""
 
 _REGION_RESOLUTIONS = 4.0
-"""Radius of a failed region, in units of the space's edge resolution."""
+"""Radius of a failed region, in units of the edge checks' spacing (the space's
+:attr:`~taskspace.planning.ConfigurationSpace.edge_resolution`, in its metric)."""
 
 
 class FailedRegions:
     """Where the certificates of earlier paths failed: a re-plan must prove its motions there.
 
     A certificate that fails at ``q(t)`` of segment ``s`` met a configuration closer to contact
-    than the tolerance (or in contact) which the planner's edge check, a test of points at the
-    space's resolution ``delta``, let through; a re-plan with another seed would let it through
+    than the tolerance (or in contact) which the planner's edge check, a test of points
+    ``delta`` apart in the space's metric (its ``edge_resolution``: ``edge.resolution``, scaled
+    down by metric weights below 1), let through; a re-plan with another seed would let it through
     again: the same straight start-goal line, the same shortcut, or another edge across the
     same thin spot. Each failure adds a ball (in the space's metric) around ``q(t)``; all
     balls have the radius ``radius = 4 delta 2^(k - 1)`` after ``k`` failures: a failure
@@ -559,7 +561,10 @@ class FailedRegions:
         self.robot, self.locked, self._checker = _certified_robot(space)
         self.tolerance = tolerance
         self.deadline = math.inf
-        self.base_radius = _REGION_RESOLUTIONS * float(space.edge.resolution)
+        # The spacing of the edge checks in the metric of the balls: edge.resolution scaled
+        # by metric weights below 1 (with edge.resolution itself, weights of 0.05 made balls
+        # 20 checks wider, up to the whole space: every re-planned edge certified).
+        self.base_radius = _REGION_RESOLUTIONS * float(space.edge_resolution)
         self.centers: FloatArray = np.empty((0, space.dim))
         self.failures: list[tuple[int, int, float]] = []
         self.certifications = 0

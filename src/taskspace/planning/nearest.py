@@ -36,6 +36,7 @@ class GrowingNearest:
         self._points = np.empty((max(1, capacity), dim))
         self._sq = np.empty(max(1, capacity))
         self._n = 0
+        self._disabled = 0
 
     def __len__(self) -> int:
         return self._n
@@ -63,18 +64,27 @@ class GrowingNearest:
     def disable(self, indices: list[int]) -> None:
         """Exclude the points ``indices`` from future queries (their coordinates become 0).
 
-        Their squared norm is set to inf, so they never rank first (unless all are excluded).
+        Their squared norm is set to inf, so they never rank first (unless all are excluded);
+        a ``metric`` is evaluated on the other points only.
         """
         idx = np.asarray(indices, dtype=np.int64)
         self._points[idx] = 0.0
         self._sq[idx] = np.inf
+        self._disabled = int(np.count_nonzero(np.isinf(self._sq[: self._n])))
 
     def nearest(self, q: FloatArray) -> tuple[int, float]:
         """Index of the stored point closest to ``q`` and the distance ``|q_i - q|``."""
         n = self._n
         points = self._points
         if self._metric is not None:
-            dist = np.where(np.isinf(self._sq[:n]), np.inf, self._metric(points[:n], q))
+            if not self._disabled:
+                dist = self._metric(points[:n], q)
+            else:  # the metric of the live points only: a disabled one's zeros are no
+                # configuration (a (cos, sin) pair of norm 0 gave NaN and RuntimeWarnings)
+                live = ~np.isinf(self._sq[:n])
+                dist = np.full(n, np.inf)
+                if live.any():
+                    dist[live] = self._metric(points[:n][live], q)
             i = int(dist.argmin())
             return i, float(dist[i])
         i = int((self._sq[:n] - 2.0 * (points[:n] @ q)).argmin())

@@ -1088,7 +1088,11 @@ def _plan(
                 turns += 1
             if local > 0.0 and 4 * len(tree_a.nn) < len(tree_b.nn) and rng.random() < local:
                 # T_a is trapped (typically in a tight goal region): aim near one of its nodes.
-                node = tree_a.nn.points[int(rng.integers(len(tree_a.nn)))]
+                i_node = int(rng.integers(len(tree_a.nn)))
+                if i_node in tree_a.removed:  # (its coordinates are zeros: no configuration)
+                    live = [j for j in range(len(tree_a.nn)) if j not in tree_a.removed]
+                    i_node = live[int(rng.integers(len(live)))]
+                node = tree_a.nn.points[i_node]
                 if space.is_euclidean:
                     q_rand = node + opts.local_sigma * rng.standard_normal(space.dim)
                     q_rand = np.clip(q_rand, space.lower, space.upper)
