@@ -108,3 +108,31 @@ def test_an_overflowing_prediction_names_the_covariance() -> None:
     with pytest.raises(SolverError, match=r"prediction overflowed: the covariance"):
         u.predict()
     np.testing.assert_array_equal(u.P, 1.7e308 * np.eye(2))
+
+
+@pytest.mark.parametrize("wrap", [False, True])
+def test_the_joseph_form_is_the_ukf_covariance_on_a_nonlinear_model(monkeypatch, wrap) -> None:  # type: ignore[no-untyped-def]
+    # the branch taken when P - K S K^T cancels is the same matrix in exact arithmetic:
+    # forced on a moderate nonlinear model (with a wrapping angle residual for the state),
+    # it must equal the direct formula to rounding
+    import taskspace.estimation.unscented_kalman_filter as ukf_module
+    from taskspace.estimation import angle_residual
+
+    def make() -> UnscentedKalmanFilter:
+        return UnscentedKalmanFilter(
+            lambda x, u: x,
+            lambda x: np.array([x[0] + 0.3 * x[0] ** 2 + np.sin(x[1]), x[1] * x[0]]),
+            0.01 * np.eye(2),
+            0.5 * np.eye(2),
+            [0.3, 3.0],
+            np.array([[1.0, 0.3], [0.3, 2.0]]),
+            residual_x=angle_residual(1) if wrap else None,
+        )
+
+    direct = make()
+    direct.update([1.0, 0.2])
+    monkeypatch.setattr(ukf_module, "_CANCELLED", np.inf)
+    joseph = make()
+    joseph.update([1.0, 0.2])
+    np.testing.assert_array_equal(joseph.x, direct.x)
+    np.testing.assert_allclose(joseph.P, direct.P, rtol=1e-12, atol=1e-14)

@@ -339,10 +339,12 @@ class UnscentedKalmanFilter:
         Under the caller's ``np.errstate``; every overflow raises a SolverError naming the
         quantity. ``P - K S K^T`` cancels when the measurement dominates the prior (P = 1e16 R
         gave variance 2 R instead of R): then the Joseph form ``(I - K H) P (I - K H)^T +
-        K (R + Lambda) K^T`` with the statistical linearization ``H = C^T P^-1`` and the
-        linearization error ``Lambda = sum W^c (e - H d)(e - H d)^T`` (the same matrix in
-        exact arithmetic, since ``S = H P H^T + Lambda + R``); an update losing every digit
-        (variances below 1e-24 of the prior) is refused as the Kalman filter's.
+        K R' K^T`` with the statistical linearization ``H = C^T P^-1`` and
+        ``R' = R + Lambda + H (P - P_sigma) H^T = S - H P H^T``, where
+        ``Lambda = sum W^c (e - H d)(e - H d)^T`` is the linearization error and
+        ``P_sigma = sum W^c d d^T`` (P for the default residual_x): the same matrix in
+        exact arithmetic, without the cancellation. An update losing every digit (variances
+        below 1e-24 of the prior) is refused as the Kalman filter's.
         """
         step = "update"
         m = E.shape[1]
@@ -377,8 +379,14 @@ class UnscentedKalmanFilter:
         if (post < _CANCELLED * prior).any():
             H = np.linalg.lstsq(self.P, C, rcond=None)[0].T
             G = E - D @ H.T
+            # R + Lambda + H (P - P_sigma) H^T = S - H P H^T; P_sigma = sum W^c d d^T is P
+            # for the subtraction (the term, rounding of order eps P, is left out), not for
+            # a wrapping residual_x
+            Reff = Rm + (G * wc[:, None]).T @ G
+            if self.residual_x is not subtract:
+                Reff = Reff + H @ (self.P - (D * wc[:, None]).T @ D) @ H.T
             IKH = np.eye(n) - Kt.T @ H
-            Pu = IKH @ self.P @ IKH.T + Kt.T @ (Rm + (G * wc[:, None]).T @ G) @ Kt
+            Pu = IKH @ self.P @ IKH.T + Kt.T @ Reff @ Kt
             P = 0.5 * Pu + 0.5 * Pu.T
             post = P.ravel()[:: n + 1]
         if not _finite(P):
