@@ -136,3 +136,13 @@ def test_the_joseph_form_is_the_ukf_covariance_on_a_nonlinear_model(monkeypatch,
     joseph.update([1.0, 0.2])
     np.testing.assert_array_equal(joseph.x, direct.x)
     np.testing.assert_allclose(joseph.P, direct.P, rtol=1e-12, atol=1e-14)
+
+
+def test_run_names_the_overflowing_prediction() -> None:
+    # run's statistical linearization F_k = C^T P^-1 overflowed first (a RuntimeWarning)
+    u = UnscentedKalmanFilter(
+        lambda x, u: 1e200 * x, lambda x: H @ x, Q, np.eye(1), [0.0, 0.0], 1e200 * np.eye(2)
+    )
+    with pytest.raises(SolverError, match=r"prediction overflowed: the covariance"):
+        u.run([None])
+    np.testing.assert_array_equal(u.P, 1e200 * np.eye(2))

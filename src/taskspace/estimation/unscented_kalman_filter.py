@@ -422,9 +422,18 @@ class UnscentedKalmanFilter:
             u = None if controls is None else controls[k]
             pts, wm, wc = sigma_points(self.x, self.P, self.options)
             Y = self._propagate(pts, u)
-            Cxy = ((pts - self.x) * wc[:, None]).T @ (Y - wm @ Y)
-            Fs[k] = np.linalg.lstsq(self.P, Cxy, rcond=None)[0].T
-            self.predict(u)
+            with np.errstate(over="ignore", invalid="ignore"):
+                Cxy = ((pts - self.x) * wc[:, None]).T @ (Y - wm @ Y)
+            x_prior, P_prior = self.x, self.P
+            self.predict(u)  # (raises first when the prediction overflows)
+            if not _finite(Cxy):
+                self.x, self.P = x_prior, P_prior
+                raise _overflow(
+                    "prediction",
+                    "the cross covariance sum W^c (chi - x)(f(chi) - x^-)^T of F_k",
+                    {"P": P_prior, "f(chi)": Y},
+                )
+            Fs[k] = np.linalg.lstsq(P_prior, Cxy, rcond=None)[0].T
             pm[k], pc[k] = self.x, self.P
             if measurements[k] is not None:
                 nis[k] = self.update(measurements[k])
