@@ -271,6 +271,46 @@ def test_pid_output_overflow_is_refused_and_state_kept() -> None:
     assert sat(0.0, 0.0, 1e308).tolist() == [-2.0]
 
 
+@pytest.mark.filterwarnings("error::RuntimeWarning")
+def test_pid_output_with_an_overflowing_term_is_the_exact_sum() -> None:
+    # before: kp e = 2e308 overflowed to +inf: the sum was +inf, clipped to +1, where the exact
+    # 2e308 - 1.7e308 - 1.7e308 = -1.4e308 saturates at -1 (SILENTLY WRONG sign); without a
+    # limit, a representable 3e307 was refused; RuntimeWarnings at pid.py:187
+    from fractions import Fraction
+
+    from taskspace.control import PIDController, PIDGains, PIDOptions
+    from taskspace.errors import InvalidInputError
+
+    gains = PIDGains(kp=1e308, kd=1.7e308, ki=1.7e308)
+    pid = PIDController(gains, [2.0], options=PIDOptions(output_limit=1.0, anti_windup=False))
+    pid(0.0, [2.0], [0.0])  # e = 0: the integral stays 0
+    pid.integral[:] = -1.0
+    exact = Fraction(1e308) * 2 - Fraction(1.7e308) * 1 - Fraction(1.7e308)  # by hand
+    assert exact < 0
+    assert pid(0.0, [0.0], [1.0]).tolist() == [-1.0]
+    pd = PIDController(PIDGains(kp=1e308, kd=1e308), [2.0])
+    by_hand = Fraction(1e308) * 2 - Fraction(1e308) * Fraction(1.7)  # kp e + kd (0 - v)
+    assert pd(0.0, [0.0], [1.7]).tolist() == [float(by_hand)]
+    # an integral beyond float64 is refused, the state kept
+    pi = PIDController(PIDGains(kp=0.0, ki=1e-300), [1e308])
+    pi(0.0, [-1e308], [0.0])
+    with pytest.raises(InvalidInputError, match="integral overflows"):
+        pi(1.0, [-1e308], [0.0])
+    assert pi.integral.tolist() == [0.0]
+
+
+@pytest.mark.filterwarnings("error::RuntimeWarning")
+def test_plan_motion_overflowing_distance_is_refused_without_a_warning() -> None:
+    # before: goal - start = inf raised a RuntimeWarning before the (right) refusal
+    from taskspace.errors import InvalidInputError
+    from taskspace.trajopt import plan_motion, synchronize
+
+    with pytest.raises(InvalidInputError, match="goal - start overflows"):
+        plan_motion(-1e308, 1e308, 1.0, profile="minimum_jerk")
+    with pytest.raises(InvalidInputError, match="goal - start overflows"):
+        synchronize([-1e308, 0.0], [1e308, 1.0], 1.0)
+
+
 # ---- features, IK, splines, viewer (D-fuzz, test_fuzz_api at 800 examples) ----------------
 
 

@@ -20,7 +20,7 @@ import scipy.linalg as sla
 from taskspace.control.controllability import controllability, controllability_matrix
 from taskspace.control.lqr import dlqr, lqr
 from taskspace.control.lyapunov import solve_lyapunov
-from taskspace.control.observability import observability
+from taskspace.control.observability import observability, observability_matrix
 from taskspace.errors import InvalidInputError, SolverError
 
 A = np.array([[0.0, 1.0], [0.0, 0.0]])
@@ -190,3 +190,34 @@ def test_controllability_overflow_names_the_matrix_its_norm_and_the_scaling() ->
         match=r"at A B: \|A\|_2 = 1\.83 \(after A / 2\^499\), \|B\|_2 = 1\.73e\+308",
     ):
         controllability(1e150 * np.ones((3, 3)), 1e308 * np.ones((3, 1)))
+
+
+def test_observability_overflow_names_its_own_matrix_norms_and_scaling() -> None:
+    # observability_matrix said only "overflows float64 (entries beyond 1.8e308): rescale ...";
+    # observability's refusals named "the controllability matrix [B, AB, ...]" and |B|.
+    with pytest.raises(
+        InvalidInputError,
+        match=r"observability matrix \[C; CA; \.\.\.; CA\^\(n-1\)\] overflows float64 .* at "
+        r"C A\^2: \|A\|_2 = 1e\+200, \|C\|_2 = 1\.73.*A / 2\^e.*exact",
+    ):
+        observability_matrix(1e200 * np.eye(3), np.ones((1, 3)))
+    A_wide = np.array([[1e200, 1e-200, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 2.0]])
+    with pytest.raises(
+        InvalidInputError, match=r"observability matrix .*A / 2\^665 would lose its smallest"
+    ):
+        observability(A_wide, np.ones((1, 3)))
+    with pytest.raises(
+        InvalidInputError,
+        match=r"observability matrix .* at C A: \|A\|_2 = 1\.83 \(after A / 2\^499\), "
+        r"\|C\|_2 = 1\.73e\+308",
+    ):
+        observability(1e150 * np.ones((3, 3)), 1e308 * np.ones((1, 3)))
+
+
+def test_observability_matrix_is_the_stack_of_the_powers() -> None:
+    # reference: C A^k by numpy's matrix_power, stacked
+    A = np.array([[0.5, 1.0, 0.0], [0.0, -2.0, 1.0], [3.0, 0.0, 1.5]])
+    C = np.array([[1.0, 0.0, 2.0], [0.0, 1.0, 0.0]])
+    ref = np.vstack([C @ np.linalg.matrix_power(A, k) for k in range(3)])
+    np.testing.assert_array_equal(observability_matrix(A, C), ref)
+    np.testing.assert_array_equal(observability_matrix(A, [1.0, 0.0, 2.0]), ref[::2])

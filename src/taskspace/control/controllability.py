@@ -76,18 +76,30 @@ def _krylov(A: FloatArray, B: FloatArray) -> tuple[FloatArray, int]:
     return np.hstack(blocks), 0
 
 
-def _overflow_message(A: FloatArray, B: FloatArray, k: int, a_note: str = "", why: str = "") -> str:
-    """Why ``[B, AB, ..., A^(n-1)B]`` overflows at ``A^k B``, with the sizes and the remedy."""
+def _overflow_message(
+    A: FloatArray, B: FloatArray, k: int, a_note: str = "", why: str = "", dual: bool = False
+) -> str:
+    """Why ``[B, AB, ..., A^(n-1)B]`` overflows at ``A^k B``, with the sizes and the remedy.
+
+    ``dual``: the caller's pair is ``(A^T, C^T)`` of the observability matrix
+    ``[C; CA; ...; CA^(n-1)]`` (the message names C and ``C A^k``; the 2-norms are the same).
+    """
     with np.errstate(over="ignore", invalid="ignore"):
         na, nb = _norm2(A), _norm2(B)
     n = A.shape[0]
-    power = "A B" if k == 1 else f"A^{k} B"
+    if dual:
+        what, name = "the observability matrix [C; CA; ...; CA^(n-1)]", "C"
+        power = "C A" if k == 1 else f"C A^{k}"
+    else:
+        what, name = "the controllability matrix [B, AB, ..., A^(n-1)B]", "B"
+        power = "A B" if k == 1 else f"A^{k} B"
+    grow = f"|{name}| |A|^k" if dual else f"|A|^k |{name}|"
     return (
-        f"the controllability matrix [B, AB, ..., A^(n-1)B] overflows float64 (entries beyond "
-        f"1.8e308) at {power}: |A|_2 = {na:.3g}{a_note}, |B|_2 = {nb:.3g}, and its blocks grow "
-        f"like |A|^k |B| (k up to n - 1 = {n - 1}){why}; rescale the state or the time unit so "
-        "that A (and B) have moderate entries: A / 2^e, with 2^e a power of two near |A|, "
-        "is exact and keeps the rank (the modes scale by 2^-e)"
+        f"{what} overflows float64 (entries beyond 1.8e308) at {power}: |A|_2 = {na:.3g}{a_note}, "
+        f"|{name}|_2 = {nb:.3g}, and its blocks grow like {grow} (k up to n - 1 = {n - 1}){why}; "
+        f"rescale the state or the time unit so that A (and {name}) have moderate entries: "
+        "A / 2^e, with 2^e a power of two near |A|, is exact and keeps the rank (the modes "
+        "scale by 2^-e)"
     )
 
 
@@ -133,16 +145,27 @@ def controllability(A: Any, B: Any, tolerance: float | None = None) -> Controlla
             scaling to apply.
     """
     A, B = system(A, B)
+    return _controllability(A, B, tolerance, dual=False)
+
+
+def _controllability(
+    A: FloatArray, B: FloatArray, tolerance: float | None, dual: bool
+) -> ControllabilityResult:
+    """:func:`controllability` of validated ``(A, B)``.
+
+    ``dual``: the refusals name the observability matrix of ``(A^T, B^T)`` (see
+    :func:`_overflow_message`).
+    """
     n, m = B.shape
     user_tol = rank_tolerance(tolerance)
     tol = user_tol if user_tol is not None else max(n, m) * n * np.finfo(float).eps * 1e3
     C, k = _krylov(A, B)
     e = 0
     if k:  # the test on 2^-e A: the blocks A^j B scale by 2^-ej (exact), the modes by 2^-e
-        A, e = _scaled(A, B, k)
+        A, e = _scaled(A, B, k, dual)
         C, k = _krylov(A, B)
         if k:  # (B too large)
-            raise InvalidInputError(_overflow_message(A, B, k, f" (after A / 2^{e})"))
+            raise InvalidInputError(_overflow_message(A, B, k, f" (after A / 2^{e})", dual=dual))
     with np.errstate(over="ignore", invalid="ignore"):
         norms = safe_norm(C, axis=0)  # np.linalg.norm was inf for entries ~1e300 (column -> 0)
         # the two column blocks of the PBH test scaled separately (the rank is unchanged): one
@@ -172,7 +195,7 @@ def controllability(A: Any, B: Any, tolerance: float | None = None) -> Controlla
     )
 
 
-def _scaled(A: FloatArray, B: FloatArray, k: int) -> tuple[FloatArray, int]:
+def _scaled(A: FloatArray, B: FloatArray, k: int, dual: bool) -> tuple[FloatArray, int]:
     """``(2^-e A, e)`` with ``2^e`` the power of two just above ``max |A|``.
 
     Raises:
@@ -192,6 +215,7 @@ def _scaled(A: FloatArray, B: FloatArray, k: int) -> tuple[FloatArray, int]:
                 k,
                 why=f"; A / 2^{e} would lose its smallest entries (|A_ij| from {small:.3g} to "
                 f"{top:.3g}: more than the floats' range)",
+                dual=dual,
             )
         )
     return As, e

@@ -29,8 +29,14 @@ import numpy as np
 import scipy.linalg as sla
 
 from taskspace._validation import FloatArray, as_float_array, as_matrix
-from taskspace.control._linear import check_overflow, rank_tolerance, square, system
-from taskspace.control.controllability import controllability, controllability_matrix
+from taskspace.control._linear import rank_tolerance, square, system
+from taskspace.control.controllability import (
+    _controllability,
+    _krylov,
+    _overflow_message,
+    controllability_matrix,
+)
+from taskspace.errors import InvalidInputError
 
 
 def _output(A: Any, C: Any) -> tuple[FloatArray, FloatArray]:
@@ -43,18 +49,19 @@ def _output(A: Any, C: Any) -> tuple[FloatArray, FloatArray]:
 
 
 def observability_matrix(A: Any, C: Any) -> FloatArray:
-    """``[C; C A; ...; C A^{n-1}]`` (n p x n); a vector ``C`` is one output row."""
+    """``[C; C A; ...; C A^{n-1}]`` (n p x n); a vector ``C`` is one output row.
+
+    The transpose of the controllability matrix of ``(A^T, C^T)`` (duality).
+
+    Raises:
+        InvalidInputError: a power ``C A^k`` overflows float64 (the message names the first
+            ``k``, the norms of ``A`` and ``C``, and suggests a scaling).
+    """
     A, C = _output(A, C)
-    n = A.shape[0]
-    blocks = [C]
-    with np.errstate(over="ignore", invalid="ignore"):
-        for _ in range(n - 1):
-            blocks.append(blocks[-1] @ A)
-    return check_overflow(
-        np.vstack(blocks),
-        "the observability matrix [C; CA; ...; CA^(n-1)]",
-        "rescale the state or the time unit so that A has moderate entries",
-    )
+    O, k = _krylov(A.T, C.T)
+    if k:
+        raise InvalidInputError(_overflow_message(A.T, C.T, k, dual=True))
+    return np.ascontiguousarray(O.T)
 
 
 @dataclass
@@ -93,9 +100,17 @@ def observability(A: Any, C: Any, tolerance: float | None = None) -> Observabili
         A: system matrix (n x n).
         C: output matrix (p x n) (a vector is one output).
         tolerance: relative rank threshold (see :func:`controllability`).
+
+    An ``A`` whose powers overflow float64 is tested as ``2^-e A`` (exact; see
+    :func:`controllability`, applied to ``(A^T, C^T)``).
+
+    Raises:
+        InvalidInputError: bad shapes or values, a tolerance outside ``[0, 1)``, or the
+            observability matrix overflows even for ``2^-e A``; the message names the power
+            ``C A^k``, the norms of ``A`` and ``C`` and the scaling to apply.
     """
     A, C = _output(A, C)
-    dual = controllability(A.T, C.T, tolerance)
+    dual = _controllability(A.T, C.T, tolerance, dual=True)
     return ObservabilityResult(
         observable=dual.controllable,
         rank=dual.rank,

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from fractions import Fraction
 from typing import Any
 
 import numpy as np
@@ -150,6 +151,36 @@ class PIDController:
         """PD control ``u = Kp (q* - q) + Kd (q'* - q')`` (slide 5:10)."""
         return PIDController(PIDGains(kp=kp, kd=kd), target, target_velocity)
 
+    def _output(self, q: FloatArray, v: FloatArray, e: FloatArray, dv: FloatArray) -> FloatArray:
+        """``kp e + kd dv + ki integral`` per joint; ``+-inf`` where the exact sum is beyond floats.
+
+        The float sum overflowed at an intermediate term: kp e = 2e308 (inf) plus
+        kd dv = -1.7e308 and ki I = -1.7e308 gave +inf, clipped to +output_limit, where the
+        exact -1.4e308 saturates at -output_limit. Such joints are recomputed exactly
+        (rational arithmetic on the float inputs: e and dv from the target and the measured
+        q, v, which are finite) and rounded once.
+        """
+        g = self.gains
+        with np.errstate(over="ignore", invalid="ignore"):
+            terms = (g.kp * e, g.kd * dv, g.ki * self.integral)
+            u = terms[0] + terms[1] + terms[2]
+            ok = np.isfinite(u) & np.isfinite(terms[0]) & np.isfinite(terms[1])
+            ok &= np.isfinite(terms[2])
+        if ok.all():
+            return u
+        kp, kd, ki = Fraction(g.kp), Fraction(g.kd), Fraction(g.ki)
+        for i in np.flatnonzero(~ok):
+            exact = (
+                kp * (Fraction(float(self.target[i])) - Fraction(float(q[i])))
+                + kd * (Fraction(float(self.target_velocity[i])) - Fraction(float(v[i])))
+                + ki * Fraction(float(self.integral[i]))
+            )
+            try:
+                u[i] = float(exact)
+            except OverflowError:
+                u[i] = math.inf if exact > 0 else -math.inf
+        return u
+
     def reset(self) -> None:
         """Clear the integral and the time of the previous call."""
         self.integral[:] = 0.0
@@ -161,7 +192,10 @@ class PIDController:
 
         Raises:
             InvalidInputError: time went backwards (the controller is stateful), or the
-                output overflows float64 (the controller's state is then left unchanged).
+                exact output (without ``output_limit``) or the integral (without
+                ``integral_limit``) is beyond float64 (the controller's state is then left
+                unchanged). A float sum that overflows at an intermediate term is recomputed
+                exactly, so a saturated output has the sign of the exact sum.
             ShapeError, NotFiniteError: bad ``q``/``v``.
         """
         n = self.target.size
@@ -178,13 +212,29 @@ class PIDController:
         t_prev, saturated = self._t_prev, self.saturated
         self._t_prev = t if self._t_prev is None else max(t, self._t_prev)
         g, opts = self.gains, self.options
-        e = self.target - qa
+        with np.errstate(over="ignore", invalid="ignore"):
+            e = self.target - qa  # (finite or overflowed: _output is exact either way)
+            dv = self.target_velocity - va
+            # e dt from halves: e overflowed (|q* - q| > 1.8e308) although e dt may not
+            step = (0.5 * self.target - 0.5 * qa) * dt * 2.0
         previous = self.integral.copy()
         if g.ki != 0.0 and dt > 0.0:
-            self.integral += e * dt
+            with np.errstate(over="ignore", invalid="ignore"):
+                self.integral += step
             if opts.integral_limit is not None:
                 np.clip(self.integral, -opts.integral_limit, opts.integral_limit, self.integral)
-        u = g.kp * e + g.kd * (self.target_velocity - va) + g.ki * self.integral
+            if not np.all(np.isfinite(self.integral)):
+                # an integral beyond float64 cannot be stored (ki times it is unknown)
+                self.integral[:] = previous
+                self._t_prev = t_prev
+                with np.errstate(over="ignore", invalid="ignore"):
+                    bad = np.flatnonzero(~np.isfinite(previous + step)).tolist()
+                raise InvalidInputError(
+                    f"the PID integral overflows float64 at joints {bad} (error "
+                    f"{e.tolist()!r}, dt={dt!r}): rescale the units or set "
+                    "options.integral_limit"
+                )
+        u = self._output(qa, va, e, dv)
         if opts.output_limit is not None:
             limit = opts.output_limit
             self.saturated = np.abs(u) > limit
@@ -193,7 +243,7 @@ class PIDController:
                 # output further into saturation
                 winding = self.saturated & (np.sign(e) == np.sign(u))
                 self.integral[winding] = previous[winding]
-                u = g.kp * e + g.kd * (self.target_velocity - va) + g.ki * self.integral
+                u = self._output(qa, va, e, dv)
             u = np.clip(u, -limit, limit)
         if not np.all(np.isfinite(u)):
             # gains times errors beyond float64 (e.g. kd = 1e308, v = 1e308): refuse instead

@@ -237,6 +237,17 @@ def _update(
             if not _finite(Pn):
                 raise _overflow(step, "the updated covariance", {"P": P, "K": K, "R": R})
         post = Pn.ravel()[:: n + 1]
+    _check_digits(step, prior, post)
+    return xn, Pn, nis, loglik
+
+
+def _check_digits(step: str, prior: FloatArray, post: FloatArray) -> None:
+    """Refuse an update whose variances ``post`` lost every digit of ``prior`` (diagonals).
+
+    Raises:
+        SolverError: ``post < 1e-24 prior`` somewhere: ``(I - K H)`` is known to eps, its
+            square to eps^2 of the prior.
+    """
     lost = post < _LOST * prior
     if lost.any():  # (I - K H) is known to eps: its square to eps^2 of the prior
         which = np.flatnonzero(lost)[:20].tolist()
@@ -247,7 +258,6 @@ def _update(
             "belief is left unchanged; rescale the states and measurements (units) or lower "
             "the prior/process variances"
         )
-    return xn, Pn, nis, loglik
 
 
 class KalmanFilter:

@@ -41,7 +41,18 @@ from taskspace.estimation._serialized import serialized
 from taskspace.estimation.angles import MeanFn, subtract, weighted_mean
 from taskspace.estimation.covariance import as_covariance
 from taskspace.estimation.filter_result import FilterResult
-from taskspace.estimation.kalman_filter import _finish
+from taskspace.estimation.kalman_filter import (
+    _CANCELLED,
+    _check_digits,
+    _finish,
+    _finite,
+    _halves,
+    _overflow,
+)
+
+# largest relative error of a sigma point's offset x +- L_i from the mean (x + L rounds to
+# eps |x|; 1e-4 keeps 4 digits of the square root: UTM northings 5e6 m need a std above 1e-5 m)
+_SPREAD = 1e-4
 
 StateFn = Callable[[FloatArray, Any], FloatArray]
 MeasFn = Callable[[FloatArray], FloatArray]
@@ -75,15 +86,34 @@ def sigma_points(
     lam = options.alpha**2 * (n + options.kappa) - n
     if n + lam <= 0.0:
         raise InvalidInputError(f"n + lambda must be > 0 (n={n}, lambda={lam}); raise alpha/kappa")
+    noise = np.zeros(n, dtype=bool)
+    c = math.sqrt(n + lam)  # sqrt((n + lambda) P) = c sqrt(P): (n + lambda) P overflowed near 1e308
     try:
-        L = np.linalg.cholesky((n + lam) * P)
+        L = c * np.linalg.cholesky(P)
     except np.linalg.LinAlgError:
         # PSD but singular covariance: symmetric square root from the eigendecomposition.
-        w, V = np.linalg.eigh((n + lam) * P)
+        w, V = np.linalg.eigh(P)
         if w[0] < -1e-9 * max(1.0, abs(w[-1])):
             raise SolverError(f"covariance is not PSD (eigenvalue {w[0]:.3g})") from None
-        L = V * np.sqrt(np.maximum(w, 0.0))
-    pts = np.vstack([x, x + L.T, x - L.T])
+        L = V * (c * np.sqrt(np.maximum(w, 0.0)))
+        noise = w <= n * np.finfo(float).eps * abs(w[-1])  # (directions of a singular P)
+    with np.errstate(over="ignore", invalid="ignore"):
+        pts = np.vstack([x, x + L.T, x - L.T])
+        if not _finite(pts):
+            raise _overflow("sigma points", "x +- sqrt((n + lambda) P)", {"x": x, "P": P})
+        # x + L rounds to x's precision: a spread below eps |x| is lost (x = 1e300 with
+        # P = I kept every point at x: the covariance silently became Q, the gain 0)
+        lost = np.abs((pts[1 : n + 1] - x) - L.T).max(axis=1, initial=0.0)
+        spread = np.abs(L.T).max(axis=1, initial=0.0)
+    bad = (lost > _SPREAD * spread) & ~noise
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise SolverError(
+            f"the sigma points x +- sqrt((n + lambda) P) lose the covariance: column {i} of the "
+            f"square root (largest entry {float(spread[i]):.3g}) is below the precision of the "
+            f"mean (largest entry {float(np.max(np.abs(x))):.3g}; relative error "
+            f"{float(lost[i] / spread[i]):.3g}); shift the state origin or rescale the states"
+        )
     wm = np.full(2 * n + 1, 0.5 / (n + lam))
     wc = wm.copy()
     wm[0] = lam / (n + lam)
@@ -195,6 +225,8 @@ class UnscentedKalmanFilter:
         Raises:
             ShapeError, InvalidInputError: ``f`` returned a wrong shape or non-finite values
                 at a sigma point (the belief is left unchanged).
+            SolverError: the sigma points lose the covariance (its square root below the
+                precision of the mean) or the covariance overflows (the message names it).
         """
         n = self.dim_x
         pts, wm, wc = sigma_points(self.x, self.P, self.options)
@@ -206,8 +238,18 @@ class UnscentedKalmanFilter:
                 for y in Y
             ]
         ).reshape(Y.shape)
-        P = (D * wc[:, None]).T @ D + self.Q
-        self.x, self.P = checked_belief(x, 0.5 * (P + P.T), "prediction")
+        with np.errstate(over="ignore", invalid="ignore"):
+            P = (D * wc[:, None]).T @ D + self.Q
+            Ps = 0.5 * (P + P.T)
+            if not _finite(Ps):
+                Ps = _halves(P)
+                if not _finite(Ps):
+                    raise _overflow(
+                        "prediction",
+                        "the covariance sum W^c d d^T + Q",
+                        {"P": self.P, "d": D, "Q": self.Q},
+                    )
+        self.x, self.P = checked_belief(x, Ps, "prediction")
 
     @serialized
     def update(
@@ -231,7 +273,12 @@ class UnscentedKalmanFilter:
         Raises:
             ShapeError, InvalidInputError: a wrong size, or ``h`` returned non-finite values
                 (the belief is left unchanged).
-            SolverError: the innovation covariance is not positive definite.
+            SolverError: the innovation covariance is not positive definite; the sigma points
+                lose the covariance; ``S``, the cross covariance, the mean or the covariance
+                overflow (the message names which); the update loses every digit of the
+                covariance (variances below 1e-24 of the prior, as the Kalman filter's).
+                The belief is left unchanged. Linear models give the Kalman filter's answer; the
+                sigma-point mean of ``h`` carries an error near ``eps sqrt(S)``.
         """
         if z is None:
             return math.nan
@@ -271,21 +318,81 @@ class UnscentedKalmanFilter:
                 for p in pts
             ]
         ).reshape(pts.shape)
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            x, P, nis, last_ll = self._correct(D, E, wc, Rm, zv, zhat, res_fn)
+        self.x, self.P = checked_belief(x, P, "update")
+        self._last_ll = last_ll
+        return nis
+
+    def _correct(
+        self,
+        D: FloatArray,
+        E: FloatArray,
+        wc: FloatArray,
+        Rm: FloatArray,
+        zv: FloatArray,
+        zhat: FloatArray,
+        res_fn: Residual,
+    ) -> tuple[FloatArray, FloatArray, float, float]:
+        """The update from the sigma-point deviations ``D`` (state) and ``E`` (measurement).
+
+        Under the caller's ``np.errstate``; every overflow raises a SolverError naming the
+        quantity. ``P - K S K^T`` cancels when the measurement dominates the prior (P = 1e16 R
+        gave variance 2 R instead of R): then the Joseph form ``(I - K H) P (I - K H)^T +
+        K R' K^T`` with the statistical linearization ``H = C^T P^-1`` and
+        ``R' = R + Lambda + H (P - P_sigma) H^T = S - H P H^T``, where
+        ``Lambda = sum W^c (e - H d)(e - H d)^T`` is the linearization error and
+        ``P_sigma = sum W^c d d^T`` (P for the default residual_x): the same matrix in
+        exact arithmetic, without the cancellation. An update losing every digit (variances
+        below 1e-24 of the prior) is refused as the Kalman filter's.
+        """
+        step = "update"
+        m = E.shape[1]
         S = (E * wc[:, None]).T @ E + Rm
         C = (D * wc[:, None]).T @ E
+        if not _finite(S, C):
+            if not _finite(S):
+                raise _overflow(
+                    step,
+                    "the innovation covariance S = sum W^c e e^T + R",
+                    {"h(sigma) - z_hat": E, "R": Rm},
+                )
+            raise _overflow(
+                step, "the cross covariance C = sum W^c d e^T", {"d": D, "h(sigma) - z_hat": E}
+            )
         try:
-            L = np.linalg.cholesky(0.5 * (S + S.T))
+            L = np.linalg.cholesky(0.5 * S + 0.5 * S.T)
         except np.linalg.LinAlgError as exc:
             raise SolverError(f"innovation covariance S is not positive definite: {exc}") from exc
         r = model_output(call_model(res_fn, "residual", zv, zhat), (m,), "residual")
         Kt = np.linalg.solve(L.T, np.linalg.solve(L, C.T))
         w = np.linalg.solve(L, r)
-        nis = float(w @ w)
+        nis = float(np.vdot(w, w))
         last_ll = -0.5 * nis - float(np.sum(np.log(np.diag(L)))) - 0.5 * m * math.log(2 * math.pi)
-        P = self.P - Kt.T @ S @ Kt
-        self.x, self.P = checked_belief(self.x + Kt.T @ r, 0.5 * (P + P.T), "update")
-        self._last_ll = last_ll
-        return nis
+        x = self.x + Kt.T @ r
+        if math.isnan(nis) or not _finite(x):
+            raise _overflow(step, "the updated mean x + K r", {"x": self.x, "K": Kt, "r": r})
+        Pu = self.P - Kt.T @ S @ Kt
+        P = 0.5 * Pu + 0.5 * Pu.T
+        n = self.dim_x
+        prior, post = self.P.ravel()[:: n + 1], P.ravel()[:: n + 1]
+        if (post < _CANCELLED * prior).any():
+            H = np.linalg.lstsq(self.P, C, rcond=None)[0].T
+            G = E - D @ H.T
+            # R + Lambda + H (P - P_sigma) H^T = S - H P H^T; P_sigma = sum W^c d d^T is P
+            # for the subtraction (the term, rounding of order eps P, is left out), not for
+            # a wrapping residual_x
+            Reff = Rm + (G * wc[:, None]).T @ G
+            if self.residual_x is not subtract:
+                Reff = Reff + H @ (self.P - (D * wc[:, None]).T @ D) @ H.T
+            IKH = np.eye(n) - Kt.T @ H
+            Pu = IKH @ self.P @ IKH.T + Kt.T @ Reff @ Kt
+            P = 0.5 * Pu + 0.5 * Pu.T
+            post = P.ravel()[:: n + 1]
+        if not _finite(P):
+            raise _overflow(step, "the updated covariance", {"P": self.P, "K": Kt, "R": Rm})
+        _check_digits(step, prior, post)
+        return x, P, nis, last_ll
 
     @serialized
     def run(
@@ -315,9 +422,18 @@ class UnscentedKalmanFilter:
             u = None if controls is None else controls[k]
             pts, wm, wc = sigma_points(self.x, self.P, self.options)
             Y = self._propagate(pts, u)
-            Cxy = ((pts - self.x) * wc[:, None]).T @ (Y - wm @ Y)
-            Fs[k] = np.linalg.lstsq(self.P, Cxy, rcond=None)[0].T
-            self.predict(u)
+            with np.errstate(over="ignore", invalid="ignore"):
+                Cxy = ((pts - self.x) * wc[:, None]).T @ (Y - wm @ Y)
+            x_prior, P_prior = self.x, self.P
+            self.predict(u)  # (raises first when the prediction overflows)
+            if not _finite(Cxy):
+                self.x, self.P = x_prior, P_prior
+                raise _overflow(
+                    "prediction",
+                    "the cross covariance sum W^c (chi - x)(f(chi) - x^-)^T of F_k",
+                    {"P": P_prior, "f(chi)": Y},
+                )
+            Fs[k] = np.linalg.lstsq(P_prior, Cxy, rcond=None)[0].T
             pm[k], pc[k] = self.x, self.P
             if measurements[k] is not None:
                 nis[k] = self.update(measurements[k])

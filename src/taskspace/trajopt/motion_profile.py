@@ -650,16 +650,21 @@ def plan_motion(
     See :func:`profile_for_limits` for the arguments and errors.
     """
     x0, x1 = as_vector([start, goal], 2, "start/goal")
-    distance = _distance(x1 - x0, "goal - start")
+    distance = _distance(x0, x1, "goal - start")
     shape, duration = profile_for_limits(
         profile, distance, max_velocity, max_acceleration, max_jerk
     )
     return PointToPointMotion(float(x0), float(x1), duration, shape)
 
 
-def _distance(d: Any, name: str) -> Any:
-    """``d`` (a goal minus a start) if finite; else the subtraction overflowed."""
+def _distance(start: Any, goal: Any, name: str) -> Any:
+    """``goal - start`` if finite; else the subtraction overflowed (refused, no RuntimeWarning).
+
+    ``start`` and ``goal`` are finite (checked by the caller), so a non-finite difference is
+    an overflow: the distance to travel is beyond float64, never a value to return.
+    """
     with np.errstate(over="ignore", invalid="ignore"):
+        d = goal - start
         finite_d = np.isfinite(d)
     if not np.all(finite_d):
         raise InvalidInputError(
@@ -787,7 +792,7 @@ def synchronize(
         raise InvalidInputError("max_velocity is required")
     a = _limit_vector(max_acceleration, n, "max_acceleration")
     j = _limit_vector(max_jerk, n, "max_jerk")
-    d = _distance(q1 - q0, "goal - start")
+    d = _distance(q0, q1, "goal - start")
     dist = np.abs(d)
     moving = dist > 0.0
 
