@@ -37,6 +37,7 @@ def _controller(robot: Robot, native: bool) -> InverseDynamicsQP:
     return InverseDynamicsQP(robot, [posture], options=InverseDynamicsOptions(native=native))
 
 
+@pytest.mark.filterwarnings("error::RuntimeWarning")  # refused without a bare numpy warning
 @pytest.mark.parametrize("speed", [1e160, 1e300])
 def test_overflowing_state_is_refused_on_both_paths(ur5: Robot, speed: float) -> None:
     state = ur5.state(ur5.q_default, np.full(ur5.nv, speed))

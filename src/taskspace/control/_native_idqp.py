@@ -257,7 +257,9 @@ class NativeInverseDynamics:
             return None
         n, nv, n_eq, n_in = self.n, self.nv, self.n_eq, self.n_in
         head = out[: n + nv]
-        if not math.isfinite(float(head.dot(head)) + primal + dual):
+        with np.errstate(over="ignore", invalid="ignore"):  # (the overflow is the answer)
+            size = float(head.dot(head))
+        if not math.isfinite(size + primal + dual):
             # (a state beyond ~1e150, e.g. v = 1e160: the kernel's squares overflow and its
             # NaN residuals passed as certified, tau NaN): the Python path refuses the data
             return None
