@@ -129,6 +129,20 @@ def test_swing_trajectory_ends_clearance_and_derivatives():
     assert np.abs(fd2[5:-5] - s.acceleration[5:-5]).max() < 1e-2
 
 
+@pytest.mark.parametrize(("z0", "z1"), [(0.0, 0.0), (0.2, 0.0), (0.0, 0.2), (0.5, 0.0), (0.1, 0.4)])
+def test_swing_height_between_ends_and_apex_as_documented(z0: float, z1: float) -> None:
+    """The height never dips below the lower end; the apex (clearance above the higher end) is
+    the highest point for equal heights, and is exceeded by at most 12 % of the height
+    difference otherwise (the module docstring's figures)."""
+    a, b = Footstep("left", 0.0, 0.0), Footstep("left", 0.3, 0.0)
+    swing = SwingTrajectory(a, b, 0.8, clearance=0.05, lift_height=z0, land_height=z1)
+    z = swing.sample(np.linspace(0.0, 0.8, 8001)).position[:, 2]
+    apex = max(z0, z1) + 0.05
+    assert z.min() >= min(z0, z1) - 1e-12
+    assert z[4000] == pytest.approx(apex, abs=1e-12)  # through the apex at mid-swing
+    assert z.max() <= apex + 0.12 * abs(z1 - z0) + 1e-12
+
+
 def test_swing_needs_same_side():
     with pytest.raises(InvalidInputError, match="one foot"):
         SwingTrajectory(Footstep("left", 0, 0), Footstep("right", 0, 0), 0.5)
