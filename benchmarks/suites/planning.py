@@ -188,7 +188,7 @@ Measurements formerly kept in ``taskspace.planning.rrt_connect``'s docstring (ol
     and x86-64-v4 (AVX-512), chosen at run time, and the trees' nearest-neighbour scan in
     SSE2/AVX2 intrinsics (GCC kept the 8-lane vector of doubles in memory). All 313 problems,
     least of 3 calls, alternating builds (three rounds): kernel median 106-108 -> 92-93 us (a
-    ``-march=native`` build: 92-93), wall 121 -> 106 us, mean 1,057 -> 830 us, same paths. Each
+    ``-march=native`` build: 92-93), wall 121 -> 106 us, mean 1,057 -> 830-870 us, same paths. Each
     part alone: "avx2" without FMA -3.5 %, with FMA -7 %, with BMI (tzcnt) and AVX-512 the rest.
     Not adopted: 8 configurations per batch in the AVX builds (kernel median +7-12 %: the
     hierarchy prunes less per batch; 147,586 of 152,673 edge checks have exactly 4 points).

@@ -13,7 +13,7 @@ import numpy as np
 from scipy.linalg import null_space
 from scipy.optimize import minimize
 
-from taskspace.qp import INF, QPProblem, RowBlock
+from taskspace.qp import INF, HierarchyLevel, QPProblem, RowBlock
 
 
 @dataclass
@@ -188,3 +188,19 @@ def lexicographic_reference(jacobians: list[np.ndarray], targets: list[np.ndarra
         Z = Z @ null_space(JZ, rcond=rcond)
     # least-norm point of x + range(Z)
     return x - Z @ (Z.T @ x)
+
+
+def vanished_hard_row() -> dict[str, np.ndarray]:
+    """A cascade whose hard row cannot hold in any level: ``A x = 1`` fixes ``x0 + x1``, the
+    hard row 0 asks ``x0 + x1 = 3`` (its row ``2 x0 + 2 x1`` vanishes in the null space of
+    ``A``); hard row 1 (``-0.5 <= x2 <= 0.5``) holds against the level pulling ``x2`` to 2,
+    so ``x2 = 0.5``. Keyword arguments of ``HierarchySolver.solve`` for n = 3, with the
+    level list under ``"levels"``."""
+    return {
+        "levels": [HierarchyLevel("pull", np.array([[0.0, 0.0, 1.0]]), np.array([2.0]))],
+        "A": np.array([[1.0, 1.0, 0.0]]),
+        "b": np.array([1.0]),
+        "C": np.array([[2.0, 2.0, 0.0], [0.0, 0.0, 1.0]]),
+        "l": np.array([3.0, -0.5]),
+        "u": np.array([3.0, 0.5]),
+    }

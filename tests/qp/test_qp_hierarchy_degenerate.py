@@ -21,6 +21,7 @@ from taskspace.model import Robot
 from taskspace.qp import INF, HierarchyLevel, HierarchySolver, QPStatus
 from taskspace.qp.hierarchy import CASCADE_SOLVER_OPTIONS, HierarchyOptions
 from taskspace.tasks import Task
+from tests.qp.problems_qp import vanished_hard_row
 
 
 def _degenerate_scene(
@@ -185,14 +186,11 @@ def test_vanished_rows_are_left_out_of_the_level_qp() -> None:
 
 def test_hard_row_in_the_span_of_the_hard_equalities_and_violated_is_reported() -> None:
     # A x = 1 fixes x0 + x1; the hard row 2 (x0 + x1) in [3, 3] cannot hold: reported, no hang
-    n = 3
-    A = np.array([[1.0, 1.0, 0.0]])
-    b = np.array([1.0])
-    C = np.array([[2.0, 2.0, 0.0], [0.0, 0.0, 1.0]])
-    l = np.array([3.0, -0.5])
-    u = np.array([3.0, 0.5])
-    levels = [HierarchyLevel("pull", np.array([[0.0, 0.0, 1.0]]), np.array([2.0]))]
-    result = HierarchySolver(_bare_cascade_options()).solve(levels, n, C=C, l=l, u=u, A=A, b=b)
+    data = vanished_hard_row()
+    A, b = data["A"], data["b"]
+    result = HierarchySolver(_bare_cascade_options()).solve(
+        data["levels"], 3, C=data["C"], l=data["l"], u=data["u"], A=A, b=b
+    )
     assert not result.success
     assert result.status is QPStatus.RELAXED
     # the violated block's name (unnamed rows: "hard inequalities"), then the diagnosis

@@ -21,6 +21,7 @@ from taskspace.qp.problem import RowBlock
 from taskspace.qp.result import QPStatus
 from taskspace.tasks import Task
 from tests.conftest import load_robot
+from tests.qp.problems_qp import vanished_hard_row
 
 
 def _violations(x, C, l, u, blocks):  # type: ignore[no-untyped-def]
@@ -74,14 +75,10 @@ def test_unnamed_rows_and_bounds() -> None:
 
 def test_vanished_row_diagnosis_names_its_block() -> None:
     # A x = 1 fixes x0 + x1; the hard row "sum" (x0 + x1 = 3) cannot hold in any level
-    A = np.array([[1.0, 1.0, 0.0]])
-    b = np.array([1.0])
-    C = np.array([[2.0, 2.0, 0.0], [0.0, 0.0, 1.0]])
-    l = np.array([3.0, -0.5])
-    u = np.array([3.0, 0.5])
-    levels = [HierarchyLevel("pull", np.array([[0.0, 0.0, 1.0]]), np.array([2.0]))]
+    data = vanished_hard_row()
+    levels = data.pop("levels")
     names = [RowBlock("sum", 0, 1), RowBlock("height", 1, 2)]
-    result = HierarchySolver().solve(levels, 3, C=C, l=l, u=u, hard_names=names, A=A, b=b)
+    result = HierarchySolver().solve(levels, 3, hard_names=names, **data)
     assert result.status is QPStatus.RELAXED
     assert result.culprits[0] == "sum" and len(result.culprits) == 2
     assert "hard inequalities rows [0] (sum) vanish" in result.culprits[1]
