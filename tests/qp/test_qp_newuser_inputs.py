@@ -115,3 +115,52 @@ def test_hierarchy_accepts_lists_for_the_hard_data() -> None:
     )
     assert result.success
     np.testing.assert_allclose(result.x, [1.0, -0.5], atol=1e-7)
+
+
+_BOOL_CHANGES = [
+    {"H": np.eye(3, dtype=bool)},
+    {"g": np.array([True, False, True])},
+    {"A": np.array([[True, False, False]]), "b": np.ones(1)},
+    {"A": np.array([[1.0, 0.0, 0.0]]), "b": np.array([True])},
+    {"C": np.eye(3, dtype=bool), "l": -np.ones(3), "u": np.ones(3)},
+    {"C": np.eye(3), "l": np.zeros(3, dtype=bool), "u": np.ones(3)},
+    {"C": np.eye(3), "l": -np.ones(3), "u": np.ones(3, dtype=bool)},
+    {"lb": np.zeros(3, dtype=bool)},
+    {"ub": np.array([True, True, False])},
+]
+
+
+@pytest.mark.parametrize("change", _BOOL_CHANGES, ids=lambda c: "+".join(c))
+@pytest.mark.parametrize("entry", ["solve", "solve_relaxed", "check_problem_data"])
+def test_qp_boolean_arrays_are_refused_naming_the_array(change: dict, entry: str) -> None:  # type: ignore[type-arg]
+    # before: a boolean H or C was solved as the 0/1 matrix (a success), a boolean bound met
+    # a bare NumPy TypeError ("numpy boolean negative ... is not supported")
+    from taskspace.qp.solver import check_problem_data
+
+    name = next(k for k, v in change.items() if v.dtype == bool)
+    call = {
+        "solve": QPSolver().solve,
+        "solve_relaxed": QPSolver().solve_relaxed,
+        "check_problem_data": check_problem_data,
+    }[entry]
+    with pytest.raises(InvalidInputError, match=f"QP {name} must hold real numbers, got a boolean"):
+        call(_qp(**change))
+
+
+def test_hierarchy_boolean_arrays_are_refused_naming_the_array() -> None:
+    # before: converted to 0/1 floats and solved (a boolean J, C or bound: a success)
+    with pytest.raises(
+        InvalidInputError, match="HierarchyLevel 'a' J must be real numbers, got boolean"
+    ):
+        HierarchyLevel("a", np.eye(2, dtype=bool), [3.0, 1.0])
+    with pytest.raises(InvalidInputError, match="'a' C must be real numbers, got boolean"):
+        HierarchyLevel("a", np.eye(2), [3.0, 1.0], C=np.eye(2, dtype=bool), l=[0, 0], u=[1, 1])
+    for kwargs, name in (
+        ({"C": np.eye(2, dtype=bool), "l": -np.ones(2), "u": np.ones(2)}, "C"),
+        ({"lb": np.array([True, False]), "ub": np.ones(2)}, "lb"),
+        ({"A": [[True, False]], "b": [0.5]}, "A"),
+    ):
+        with pytest.raises(
+            InvalidInputError, match=f"data {name} must be real numbers, got boolean"
+        ):
+            HierarchySolver().solve(_level(), 2, **kwargs)

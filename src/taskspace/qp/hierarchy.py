@@ -28,7 +28,7 @@ import numpy as np
 import numpy.typing as npt
 from scipy.linalg.lapack import dgeqp3, dgeqrf, dorgqr, dposv, dtrtrs
 
-from taskspace._validation import FloatArray, check_finite
+from taskspace._validation import FloatArray, as_float_array, check_finite
 from taskspace.errors import InvalidInputError, NotFiniteError, ShapeError
 from taskspace.qp.kkt import KKTResiduals, least_squares_kkt_residuals
 from taskspace.qp.problem import INF, QPProblem, RowBlock
@@ -57,15 +57,17 @@ class HierarchyLevel:
     damping: float | None = None
 
     def __post_init__(self) -> None:
-        # array-likes (lists) as float arrays; a float64 array is kept as it is (no copy)
-        self.J = np.asarray(self.J, dtype=np.float64)
-        self.r = np.asarray(self.r, dtype=np.float64)
+        # array-likes (lists) as float arrays; a float64 array is kept as it is (no copy);
+        # boolean, complex and text data refused (a boolean J was taken as the 0/1 matrix)
+        what = f"HierarchyLevel '{self.name}'"
+        self.J = as_float_array(self.J, f"{what} J")
+        self.r = as_float_array(self.r, f"{what} r")
         if self.C is not None:
-            self.C = np.asarray(self.C, dtype=np.float64)
+            self.C = as_float_array(self.C, f"{what} C")
         if self.l is not None:
-            self.l = np.asarray(self.l, dtype=np.float64)
+            self.l = as_float_array(self.l, f"{what} l")
         if self.u is not None:
-            self.u = np.asarray(self.u, dtype=np.float64)
+            self.u = as_float_array(self.u, f"{what} u")
 
     @property
     def n_in(self) -> int:
@@ -464,23 +466,16 @@ def _drop_vanished_rows(
     return idx[bad], float(np.maximum(lo_s, -hi_s)[bad].max(initial=0.0))
 
 
-def _float_array(value: Any) -> FloatArray | None:
+def _float_array(value: Any, name: str) -> FloatArray | None:
     """``value`` as a float64 array (lists, int and float32 arrays; ``None`` stays ``None``).
 
     Raises:
-        InvalidInputError: values that are not real numbers.
+        InvalidInputError: values that are not real numbers (boolean, complex, text, None),
+            naming the hard constraint data ``name``.
     """
     if value is None or (type(value) is np.ndarray and value.dtype == np.float64):
         return value
-    try:
-        arr = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise InvalidInputError(
-            f"hard constraint data must be arrays of real numbers, got {type(value).__name__}"
-        ) from None
-    if np.iscomplexobj(value):
-        raise InvalidInputError("hard constraint data must be real, got complex numbers")
-    return arr
+    return as_float_array(value, f"hard constraint data {name}")
 
 
 def _inconsistent(out: HierarchyResult, status: QPStatus) -> None:
@@ -682,7 +677,10 @@ class HierarchySolver:
         """
         t0 = time.perf_counter()
         opts = self.options
-        lb, ub, C, l, u, A, b = (_float_array(a) for a in (lb, ub, C, l, u, A, b))
+        lb, ub, C, l, u, A, b = (
+            _float_array(a, nm)
+            for a, nm in zip((lb, ub, C, l, u, A, b), ("lb", "ub", "C", "l", "u", "A", "b"))
+        )
         _check_levels(levels, n, lb, ub, C, l, u, A, b)
         hard_blocks = _hard_blocks(hard_names, 0 if C is None else C.shape[0])
         lb = np.full(n, -INF) if lb is None else lb

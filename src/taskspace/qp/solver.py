@@ -1052,7 +1052,9 @@ def _empty_result(p: QPProblem) -> QPResult:
     )
 
 
-_REAL = frozenset("fiub")  # numpy dtype kinds a QP's arrays may have (float, int, unsigned, bool)
+# numpy dtype kinds a QP's arrays may have (float, int, unsigned); not bool: a boolean array
+# is a mask passed by mistake, not numbers (as :func:`taskspace._validation.as_float_array`)
+_REAL = frozenset("fiu")
 _QP_ARRAYS = ("H", "g", "A", "b", "C", "l", "u", "lb", "ub")
 _F64 = np.dtype(np.float64)
 
@@ -1061,13 +1063,15 @@ def check_structure(p: QPProblem) -> None:
     """Refuse arrays that are not real numpy arrays or do not fit together.
 
     ``g`` sets ``n``; ``H`` is ``(n, n)``, ``A`` ``(len(b), n)``, ``C`` ``(len(l), n)``, ``u``
-    like ``l``, ``lb`` and ``ub`` ``(n,)``, the vectors 1-D. The dtypes are looked at only
-    when ``H``, ``g``, ``A`` or ``C`` is not float64 (the builders' arrays are). A list, a
-    2-D ``g`` or a ``C`` of the wrong width otherwise reached NumPy or LAPACK (bare
+    like ``l``, ``lb`` and ``ub`` ``(n,)``, the vectors 1-D. Float, signed and unsigned
+    integer dtypes are accepted; boolean, complex and object arrays are refused (a boolean
+    ``H`` or ``C`` was solved as the 0/1 matrix, a boolean bound met a bare ``TypeError``).
+    The dtypes are looked at only when some array is not float64 (the builders' arrays are).
+    A list, a 2-D ``g`` or a ``C`` of the wrong width otherwise reached NumPy or LAPACK (bare
     ``TypeError``, ``ValueError`` or an f2py error) or broadcast silently.
 
     Raises:
-        InvalidInputError: an array that is not a numpy array of real numbers.
+        InvalidInputError: an array that is not a numpy array of real numbers (or is boolean).
         ShapeError: the shapes do not fit together.
     """
     try:
@@ -1085,7 +1089,7 @@ def check_structure(p: QPProblem) -> None:
             and p.lb.shape == (n,)
             and p.ub.shape == (n,)
         )
-        if ok and not (H.dtype is _F64 and g.dtype is _F64 and C.dtype is _F64 and A.dtype is _F64):
+        if ok and not all(getattr(p, name).dtype is _F64 for name in _QP_ARRAYS):
             ok = all(getattr(p, name).dtype.kind in _REAL for name in _QP_ARRAYS)
     except (AttributeError, IndexError):  # not an array, or a 0-d g
         ok = False
@@ -1101,6 +1105,11 @@ def _refuse_structure(p: QPProblem) -> None:
             raise InvalidInputError(
                 f"QP {name} must be a numpy array, got {type(arr).__name__} "
                 f"(use np.asarray({name}, dtype=float))"
+            )
+        if arr.dtype.kind == "b":
+            raise InvalidInputError(
+                f"QP {name} must hold real numbers, got a boolean array (dtype bool): a "
+                f"mask is not numbers; if 0/1 is meant, use np.asarray({name}, dtype=float)"
             )
         if arr.dtype.kind not in _REAL:
             raise InvalidInputError(
