@@ -315,3 +315,65 @@ def test_floating_humanoid_rrt_star_with_locked_limbs(informed: bool) -> None:
     np.testing.assert_array_equal(full[0], start)
     np.testing.assert_array_equal(full[-1], goal)
     assert _dense_hits(robot, full, 0.02) == 0
+
+
+def test_goal_region_of_the_full_robot_is_refused_naming_the_locked_joints(
+    panda_table: Robot,
+) -> None:
+    # before: "... must be None or a finite configuration of the space, shape (5,); got shape
+    # (7,)" after an IK sample, naming neither the locked joints nor how to build the region
+    from taskspace.ik import PoseGoalRegion
+    from taskspace.planning.goals import goal_states
+
+    robot = panda_table
+    space = ConfigurationSpace.from_robot(robot, locked_joints=LOCKED)
+    q_goal = np.array([1.5, 0.9, 0.0, -1.5, 0.0, 1.8, -1.2])  # holds the locked values
+    pose = robot.frame_placement(q_goal, "panda_hand")
+    start = space.locked.reduce(np.array([-1.5, 0.9, 0.0, -1.5, 0.0, 1.8, -1.2]))  # type: ignore[union-attr]
+    full = PoseGoalRegion(robot, "panda_hand", pose)
+    for plan in (
+        lambda: rrt_connect(space, start, full, RRTConnectOptions(seed=0)),
+        lambda: rrt_star(space, start, full, RRTStarOptions(seed=0)),
+    ):
+        with pytest.raises(InvalidInputError) as info:
+            plan()
+        msg = str(info.value)
+        assert "nq = 7" in msg and "size 5" in msg
+        assert "locked joints (panda_joint2, panda_joint7" in msg
+        assert "space.planning_model" in msg and "reduced robot" in msg
+    # the recipe of the message: the region on the reduced robot is accepted, and at any free
+    # coordinates its frame errors are those of the full robot at the lifted configuration
+    reduced = Robot(
+        space.planning_model,
+        pin.GeometryModel(),
+        pin.GeometryModel(),
+        name="reduced",
+        default_configuration=start,
+    )
+    region = PoseGoalRegion(reduced, "panda_hand", pose)
+    assert goal_states(space, region) == ([], region)
+    free = np.vstack(
+        [space.locked.reduce(q_goal), space.sample_uniform(np.random.default_rng(2), 5)]
+    )  # type: ignore[union-attr]
+    for qf in free:
+        lifted = _assemble(robot.model, qf, {k: np.array([v]) for k, v in LOCKED.items()})
+        np.testing.assert_allclose(region.errors(qf), full.errors(lifted), atol=1e-12)
+    lifted = space.full_configurations(free[0])
+    assert region.contains(free[0]) and full.contains(lifted)
+    np.testing.assert_array_equal(lifted, q_goal)
+
+
+def test_region_sample_of_the_wrong_size_names_the_locked_joints(panda_table: Robot) -> None:
+    from taskspace.planning.goals import region_sample
+
+    space = ConfigurationSpace.from_robot(panda_table, locked_joints=LOCKED)
+
+    class FullSizeRegion:  # no robot attribute: found only at its first sample
+        def contains(self, q: np.ndarray) -> bool:
+            return False
+
+        def sample(self, rng: np.random.Generator) -> np.ndarray:
+            return np.zeros(7)
+
+    with pytest.raises(InvalidInputError, match=r"got shape \(7,\).*panda_joint2, panda_joint7"):
+        region_sample(space, FullSizeRegion(), np.random.default_rng(0))

@@ -69,6 +69,7 @@ def goal_states(space: ConfigurationSpace, goal: Any) -> tuple[list[FloatArray],
         InvalidInputError: an empty list of goals.
     """
     if isinstance(goal, GoalRegion):
+        _check_region_robot(space, goal)
         return [], goal
     arr = np.asarray(goal, dtype=np.float64) if not isinstance(goal, np.ndarray) else goal
     if arr.ndim == 2:
@@ -76,6 +77,41 @@ def goal_states(space: ConfigurationSpace, goal: Any) -> tuple[list[FloatArray],
             raise InvalidInputError("goal: an empty list of goal configurations")
         return [space.check_endpoint(g, f"goal[{i}]") for i, g in enumerate(arr)], None
     return [space.check_endpoint(goal, "goal")], None
+
+
+def locked_joints_hint(space: ConfigurationSpace) -> str:
+    """What a goal region of a space with locked joints must be ("" without locked joints)."""
+    locked = getattr(space, "locked", None)
+    if locked is None:
+        return ""
+    return (
+        f"this space has locked joints ({', '.join(locked.names)}, held at their values): its "
+        f"points are the {space.dim} coordinates of the free joints, not the robot's "
+        f"{locked.nq}, so the region must sample and test configurations of size {space.dim}: "
+        "build it on the reduced robot, e.g. PoseGoalRegion(taskspace.model.Robot("
+        "space.planning_model, pinocchio.GeometryModel(), pinocchio.GeometryModel(), "
+        "name='reduced'), frame, pose) (space.planning_model is the robot's model with the "
+        "locked joints welded; space.full_configurations lifts its points to the robot's)"
+    )
+
+
+def _check_region_robot(space: ConfigurationSpace, region: Any) -> None:
+    """Refuse a region built on a robot whose ``nq`` is not the space's size, before sampling.
+
+    E.g. a :class:`taskspace.ik.PoseGoalRegion` of the full robot for a space with locked
+    joints (its samples were refused only after an IK solve, without naming the joints).
+
+    Raises:
+        InvalidInputError: the sizes, the locked joints and how to build the region.
+    """
+    nq = getattr(getattr(region, "robot", None), "nq", None)
+    if not isinstance(nq, int) or nq == space.dim:
+        return
+    hint = locked_joints_hint(space)
+    raise InvalidInputError(
+        f"the goal region ({type(region).__name__}) is built on a robot with nq = {nq}, but "
+        f"the configurations of this space have size {space.dim}" + (f"; {hint}" if hint else "")
+    )
 
 
 def region_samples(
@@ -116,17 +152,12 @@ def region_sample(space: ConfigurationSpace, region: Any, rng: np.random.Generat
     who = f"the goal region's sample ({type(region).__name__}.sample)"
     arr = as_float_array(q, who)
     if arr.shape != (space.dim,) or not np.all(np.isfinite(arr)):
-        locked = getattr(space, "locked", None) is not None
+        hint = locked_joints_hint(space)
         raise InvalidInputError(
             f"{who} must be None or a finite configuration of the space, shape "
             f"({space.dim},); got "
             + (f"shape {arr.shape}" if arr.shape != (space.dim,) else f"{arr.tolist()}")
-            + (
-                " (a locked-joint space plans the free joints' coordinates: the region must "
-                "sample and test those; space.full_configurations lifts them to the robot's)"
-                if locked
-                else ""
-            )
+            + (f" ({hint})" if hint else "")
         )
     return arr
 
