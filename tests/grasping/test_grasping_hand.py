@@ -15,14 +15,17 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
+from benchmarks.ferrari_canny_reference import epsilon_reference
 from taskspace.errors import InvalidInputError, UnknownNameError
 from taskspace.grasping import (
     Finger,
     Hand,
     StartsInCollisionError,
+    TriangleMesh,
     close_hand,
     cylinder_mesh,
     force_closure,
+    primitive_wrenches,
     sample_hand_grasps,
     sphere_mesh,
 )
@@ -189,3 +192,23 @@ def test_linf_epsilon_of_many_contacts_is_refused_not_left_running():
         owners = np.asarray(owner)
         support = sum(np.maximum(0, (u @ W[owners == i].T).max(axis=1)) for i in range(10))
         assert linf <= support.min() + 1e-12  # the ball of radius epsilon is inside
+
+
+def test_epsilon_is_about_the_center_of_mass_wherever_the_mesh_origin_is(hand):
+    # before: moments about the mesh frame's origin: the same grasp of the same cylinder,
+    # its file's origin 6 cm off its center, scored 0.042 instead of 0.083
+    mesh = cylinder_mesh(0.03, 0.12)
+    d = np.array([0.05, -0.02, 0.03])
+    shifted = TriangleMesh(mesh.vertices + d, mesh.faces)
+    np.testing.assert_allclose(shifted.centroid, d, atol=1e-12)  # the axis midpoint, analytic
+    found = sample_hand_grasps(hand, mesh, 3, rng=np.random.default_rng(3))
+    found = [g for g in found if g.closure.closure]
+    assert found
+    for g in found:
+        # the same physical placement, the mesh described in the shifted frame
+        moved = close_hand(hand, shifted, g.object_pose * pin.SE3(np.eye(3), -d), approach=False)
+        assert moved.closure.closure and len(moved.contacts) == len(g.contacts)
+        # the textbook epsilon (one QP per hull facet) with moments about the analytic center
+        W, _ = primitive_wrenches(moved.contacts, edges=8, center=d)
+        assert moved.epsilon == pytest.approx(epsilon_reference(W), rel=1e-6)
+        assert moved.epsilon == pytest.approx(g.epsilon, rel=1e-9)

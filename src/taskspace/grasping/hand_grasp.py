@@ -168,7 +168,9 @@ class HandGrasp:
         object_pose: placement of the object in the palm frame.
         contacts: contacts in the object's frame (``frame`` is the touching link's geometry).
         closure: force-closure test of the contacts (LP, with certificate).
-        epsilon: Ferrari-Canny epsilon (L1) of the contacts (0 when not in closure).
+        epsilon: Ferrari-Canny epsilon (L1) of the contacts (0 when not in closure), torques
+            about the object's center of mass (:attr:`TriangleMesh.centroid`, uniform
+            density), as :func:`sample_antipodal_grasps` scores them.
         min_distance: smallest hand-object distance at the end [m] (>= 0: no penetration).
         touching: names of the fingers with at least one contact.
         self_collision: whether two hand links collide at ``q``.
@@ -386,7 +388,8 @@ def close_hand(
 
     Args:
         hand: the hand.
-        mesh: the object, in its own frame (moments are taken about its origin).
+        mesh: the object, in its own frame (moments are taken about its center of mass,
+            :attr:`TriangleMesh.centroid`, wherever the frame's origin is).
         object_pose: initial placement of the object in the palm frame (away from the hand
             when ``approach``).
         mu: friction coefficient of the point contacts.
@@ -454,7 +457,11 @@ def _evaluate(scene: _Scene, pose: pin.SE3, mu: float, tolerance: float, edges: 
     if contacts:
         closure = force_closure(contacts, edges=edges)
         epsilon = (
-            grasp_quality(contacts, edges=edges, linf=False).epsilon_l1 if closure.closure else 0.0
+            # torques about the center of mass, not the mesh frame's origin: the epsilon of
+            # the same grasp changed with where the mesh file put its origin
+            grasp_quality(contacts, edges=edges, center=scene.mesh.centroid, linf=False).epsilon_l1
+            if closure.closure
+            else 0.0
         )
     else:
         closure = ClosureResult(closure=False, certificate=None, margin=0.0, method="lp", rank=0)
