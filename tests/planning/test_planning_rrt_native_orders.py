@@ -45,9 +45,10 @@ def _key(res: Any) -> tuple[bytes, int, int, int]:
     return (res.path.tobytes(), res.collision_checks, res.iterations, res.edge_checks)
 
 
-# (resolution, coarse resolution): strides 5, 3, 1 (no lazy pass) and 10; the last: a full
-# step of 0.5 / 0.0004 = 1250 segments, above the 1024 the kernel keeps per thread
-CASES = ((0.03, 0.15), (0.03, 0.09), (0.03, None), (0.015, 0.15), (0.0004, 0.004))
+# (resolution, coarse resolution): strides 5, 3, 1 (no lazy pass), 10 and 7 (the kernel keeps
+# the orders of 4 strides per thread: the fifth's are the plan's own); the last: a full step of
+# 0.5 / 0.0004 = 1250 segments, above the 1024 kept per stride
+CASES = ((0.03, 0.15), (0.03, 0.09), (0.03, None), (0.015, 0.15), (0.03, 0.21), (0.0004, 0.004))
 
 
 def test_plans_do_not_depend_on_earlier_plans_or_the_thread(problem: tuple[Any, Any, Any]) -> None:

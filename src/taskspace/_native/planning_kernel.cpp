@@ -2420,9 +2420,11 @@ std::vector<int> bisection_order(int n) {
 }
 
 // Orders of at most kOrderCache segments are kept per thread across plans (a plan asked for
-// the same dozen or so again, each built with its vectors at every plan); longer lines are
-// built per call. At most about 4 MB per thread (every n up to the cap).
+// the same dozen or so again, each built with its vectors at every plan), for at most
+// kOrderStrides coarse strides; longer lines are built per plan. At most about 4 MB per
+// stride and 2 MB of bisection orders per thread (every n up to the cap; a plan uses a few).
 constexpr int kOrderCache = 1024;
+constexpr std::size_t kOrderStrides = 4;
 
 // bisection_order(n), the thread's kept copy for n <= kOrderCache, else built into scratch.
 const std::vector<int>& bisection_order_kept(int n, std::vector<int>& scratch) {
@@ -2456,23 +2458,26 @@ class LinePlanner {
   }
 
   // The orders of n segments: for n <= kOrderCache the thread's kept ones for this stride
-  // (built once per thread and stride: the cache is cleared when the stride changes), else
-  // this planner's. The reference stays valid for the plan (nothing kept is ever moved).
+  // (built once per thread and stride, for at most kOrderStrides strides), else this
+  // planner's. Nothing kept is ever moved or freed before the thread ends, so the reference
+  // stays valid (also if a Python signal handler polled during the plan plans in this thread).
   const Orders& orders(int n) {
-    thread_local int kept_stride = 0;
-    thread_local std::vector<std::unique_ptr<const Orders>> kept;
-    if (n > kOrderCache) {
-      std::unique_ptr<const Orders>& o = big_[n];
+    thread_local std::map<int, std::vector<std::unique_ptr<const Orders>>> kept;
+    std::vector<std::unique_ptr<const Orders>>* table = nullptr;
+    if (n <= kOrderCache) {
+      const auto it = kept.find(stride);
+      if (it != kept.end()) table = &it->second;
+      else if (kept.size() < kOrderStrides) table = &kept[stride];
+    }
+    if (table == nullptr) {  // a long line, or too many strides in this thread
+      std::unique_ptr<const Orders>& o = own_[n];
       if (!o) o = build(n);
       return *o;
     }
-    if (kept_stride != stride) {
-      kept.clear();
-      kept_stride = stride;
-    }
-    if (n >= static_cast<int>(kept.size())) kept.resize(static_cast<std::size_t>(n) + 1);
-    if (!kept[n]) kept[n] = build(n);
-    return *kept[n];
+    if (n >= static_cast<int>(table->size())) table->resize(static_cast<std::size_t>(n) + 1);
+    std::unique_ptr<const Orders>& o = (*table)[n];
+    if (!o) o = build(n);
+    return *o;
   }
 
   double alpha, delta;
@@ -2493,7 +2498,7 @@ class LinePlanner {
     }
     return o;
   }
-  std::map<int, std::unique_ptr<const Orders>> big_;  // orders of more than kOrderCache
+  std::map<int, std::unique_ptr<const Orders>> own_;  // orders this thread does not keep
 };
 
 // ---------------------------------------------------------------------------- trees
