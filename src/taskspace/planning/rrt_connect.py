@@ -25,7 +25,10 @@ collision checks.
 Lazy fine checking (coarse-to-fine, in the spirit of SBL, Sanchez and Latombe 2001): tree
 edges are checked eagerly only at a coarse resolution ``delta_c`` (nodes are always checked).
 When the trees connect, the interior points at the full resolution ``delta`` of the edges of
-the candidate path (and only those) are checked, in one call. If one is in collision, that
+the candidate path (and only those) are checked, in one call, edge after edge, each edge's in
+increasing order (neighbouring configurations in one batch of the compiled sphere checks,
+which then prune more: which edge collides first does not depend on the order within an
+edge, only the count of checks before it does). If one is in collision, that
 edge's child and its subtree are removed and the search goes on; otherwise the path is
 returned. Every edge of a returned path is therefore free at resolution ``delta``, the same
 guarantee as checking every tree edge at ``delta``, but the fine points of the many edges that
@@ -510,7 +513,9 @@ def _verify(
             _, fine = nested_orders(n, stride)
             if fine.size:
                 q0, q1 = points[tree.parents[i]], points[i]
-                chunks.append(space.interpolate(q0, q1, fine / n))
+                # in increasing order along the edge, as the compiled planner (which edge
+                # collides first does not depend on the order within an edge)
+                chunks.append(space.interpolate(q0, q1, np.sort(fine) / n))
                 owner.append(fine.size)
             else:
                 owner.append(0)
