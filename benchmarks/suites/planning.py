@@ -193,6 +193,17 @@ Measurements formerly kept in ``taskspace.planning.rrt_connect``'s docstring (ol
     Not adopted: 8 configurations per batch in the AVX builds (kernel median +7-12 %: the
     hierarchy prunes less per batch; 147,586 of 152,673 edge checks have exactly 4 points).
 
+    Per-plan constants (2026-11-29, stop 37): check orders kept per thread across plans, trees
+    with room for 64 nodes, ``-fno-math-errno``, the log's numbers as one tuple: all 313
+    problems, least of 24 calls (8 alternating rounds), kernel median 91.9 -> 88.8 us, wall
+    106.1 -> 101.8 us, same checks; the flag alone -1 % (6 rounds). Python per plan (a kernel
+    that returns at once): 10.1 -> 7.9 us; a trivial plan's call costs 2 us in the binding
+    (18 arguments, the planner's set-up, the arrays returned). Not adopted (no change in the
+    filter's time per row on the planner's batches, 25,932 rows): the joint placements of
+    ``load_q`` in locals (runtime column indices put them on the stack: +30 %; compile-time
+    ones: same time) and the obstacle boxes 8 / 16 per vector operation in the AVX2 / AVX-512
+    builds (``link_reach_`` leaves one or two blocks of 4 per link).
+
     Measured for the Python path (same problems, same checker, 2-core machine; see
     ``benchmarks/suites/planning.py``):
     the lazy coarse-to-fine checks need about 35 % fewer collision checks than checking every

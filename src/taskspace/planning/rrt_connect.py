@@ -25,7 +25,10 @@ collision checks.
 Lazy fine checking (coarse-to-fine, in the spirit of SBL, Sanchez and Latombe 2001): tree
 edges are checked eagerly only at a coarse resolution ``delta_c`` (nodes are always checked).
 When the trees connect, the interior points at the full resolution ``delta`` of the edges of
-the candidate path (and only those) are checked, in one call. If one is in collision, that
+the candidate path (and only those) are checked, in one call, edge after edge, each edge's in
+increasing order (neighbouring configurations in one batch of the compiled sphere checks,
+which then prune more: which edge collides first does not depend on the order within an
+edge, only the count of checks before it does). If one is in collision, that
 edge's child and its subtree are removed and the search goes on; otherwise the path is
 returned. Every edge of a returned path is therefore free at resolution ``delta``, the same
 guarantee as checking every tree edge at ``delta``, but the fine points of the many edges that
@@ -510,7 +513,9 @@ def _verify(
             _, fine = nested_orders(n, stride)
             if fine.size:
                 q0, q1 = points[tree.parents[i]], points[i]
-                chunks.append(space.interpolate(q0, q1, fine / n))
+                # in increasing order along the edge, as the compiled planner (which edge
+                # collides first does not depend on the order within an edge)
+                chunks.append(space.interpolate(q0, q1, np.sort(fine) / n))
                 owner.append(fine.size)
             else:
                 owner.append(0)
@@ -645,9 +650,8 @@ def _rrt_connect_native(
     except BaseException:  # also after Ctrl-C: the checks the kernel made are counted
         space.checker.checks += int(kernel.checks - kernel_checks0)
         raise
-    (status_code, path, iterations, edges, rejections, removed, turns, start_tree, goal_tree,
-     exact_checks, recheck_failed, length, fallback, phases, certified, checks,
-     region_counts) = out  # fmt: skip
+    (status_code, path, iterations, edges, checks, start_tree, goal_tree, length, region_counts,
+     numbers) = out  # fmt: skip
     space.checker.checks += checks  # the plan's collision checks
     if regions is not None:
         regions.certifications += region_counts[0]
@@ -656,10 +660,19 @@ def _rrt_connect_native(
         _raise_endpoint(space, q_start, q_goal, status_code)
     space.edge_checks += edges
     status = _NATIVE_STATUS[status_code]
-    success = status is PlannerStatus.SOLVED
     # the kernel's arrays: nodes (n, d) float64, parents (n,) int64
     trees = [Tree(*start_tree), Tree(*goal_tree)]
     dt = time.perf_counter() - t0
+    success = status is PlannerStatus.SOLVED
+    # the kernel's numbers, then limit_log(status, length, dt) written out (length and dt are
+    # floats), then the phase times (the log's order: limit_log's fields before the times)
+    costs = ([length], [dt]) if success else ([], [])
+    log = dict(
+        zip(
+            _NATIVE_LOG_KEYS,
+            (*numbers[:_LIMIT_AT], _NATIVE_STOPPED_BY[status_code], *costs, *numbers[_LIMIT_AT:]),
+        )
+    )
     if logger.isEnabledFor(logging.DEBUG):
         logger.debug(
             "rrt_connect (native) %s in %.3f s, %d iterations, %d+%d nodes, %d lazy rejections",
@@ -668,45 +681,45 @@ def _rrt_connect_native(
             iterations,
             trees[0].size,
             trees[1].size,
-            rejections,
+            log["lazy_rejections"],
         )
-    t_run, t_endpoints, t_line, t_nearest, t_fine_pass, t_recheck = phases  # [us]
-    return PlannerResult(  # positional arguments: 0.7 us less than keywords
-        success,
-        status,
-        path if success else np.empty((0, space.dim)),  # path
-        length if success else math.inf,  # path_length
-        iterations,
-        prior_checks + checks,  # collision_checks
-        edges,  # edge_checks
-        dt,  # time_s
-        trees,
-        {  # log
-            "start_tree_nodes": float(len(start_tree[1])),
-            "goal_tree_nodes": float(len(goal_tree[1])),
-            "lazy_rejections": float(rejections),
-            "nodes_removed": float(removed),
-            "trapped_turns": float(turns),
-            "native": 1.0,
-            "checker": float(checker),
-            "validator": float(settings.validator if checker else 0),
-            "exact_recheck_checks": float(exact_checks),
-            "sphere_recheck_failed": float(recheck_failed),
-            "spheres_fallback": float(fallback >= 0),
-            "spheres_fallback_iteration": float(fallback),
-            "path_certified": float(certified and success),
-            # limit_log(status, length, dt), written out (length and dt are floats)
-            "stopped_by": _NATIVE_STOPPED_BY[status_code],
-            "costs": [length] if success else [],
-            "cost_times": [dt] if success else [],
-            "kernel_run_us": t_run,
-            "kernel_endpoints_us": t_endpoints,
-            "kernel_line_us": t_line,
-            "kernel_nearest_us": t_nearest,
-            "kernel_fine_pass_us": t_fine_pass,
-            "kernel_recheck_us": t_recheck,
-        },
+    if success:
+        return PlannerResult(  # positional arguments: 0.7 us less than keywords
+            True, status, path, length, iterations, prior_checks + checks, edges, dt, trees, log
+        )
+    empty = np.empty((0, space.dim))
+    return PlannerResult(
+        False, status, empty, math.inf, iterations, prior_checks + checks, edges, dt, trees, log
     )
+
+
+_NATIVE_LOG_KEYS = (
+    "start_tree_nodes",
+    "goal_tree_nodes",
+    "lazy_rejections",
+    "nodes_removed",
+    "trapped_turns",
+    "native",
+    "checker",
+    "validator",
+    "exact_recheck_checks",
+    "sphere_recheck_failed",
+    "spheres_fallback",
+    "spheres_fallback_iteration",
+    "path_certified",
+    "stopped_by",
+    "costs",
+    "cost_times",
+    "kernel_run_us",
+    "kernel_endpoints_us",
+    "kernel_line_us",
+    "kernel_nearest_us",
+    "kernel_fine_pass_us",
+    "kernel_recheck_us",
+)
+"""The keys of the compiled plan's log: the kernel's numbers (floats, in this order) with
+:func:`~taskspace.planning.limits.limit_log`'s three fields at ``_LIMIT_AT``."""
+_LIMIT_AT = _NATIVE_LOG_KEYS.index("stopped_by")
 
 
 _KERNEL_MODULE: list[Any] = []
