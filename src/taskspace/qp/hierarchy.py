@@ -36,6 +36,11 @@ from taskspace.qp.result import QPResult, QPStatus
 from taskspace.qp.solver import RELAXED_VIOLATION, QPSolver, QPSolverOptions
 
 
+def _is_float64(value: Any) -> bool:
+    """``value`` is a float64 NumPy array (kept as it is)."""
+    return type(value) is np.ndarray and value.dtype == np.float64
+
+
 @dataclass
 class HierarchyLevel:
     """One priority level.
@@ -59,15 +64,20 @@ class HierarchyLevel:
     def __post_init__(self) -> None:
         # array-likes (lists) as float arrays; a float64 array is kept as it is (no copy);
         # boolean, complex and text data refused (a boolean J was taken as the 0/1 matrix)
-        what = f"HierarchyLevel '{self.name}'"
-        self.J = as_float_array(self.J, f"{what} J")
-        self.r = as_float_array(self.r, f"{what} r")
-        if self.C is not None:
-            self.C = as_float_array(self.C, f"{what} C")
-        if self.l is not None:
-            self.l = as_float_array(self.l, f"{what} l")
-        if self.u is not None:
-            self.u = as_float_array(self.u, f"{what} u")
+        # (checked only when not float64 already, the name made then: a level per IK step)
+        if not _is_float64(self.J):
+            self.J = as_float_array(self.J, self._field_name("J"))
+        if not _is_float64(self.r):
+            self.r = as_float_array(self.r, self._field_name("r"))
+        if self.C is not None and not _is_float64(self.C):
+            self.C = as_float_array(self.C, self._field_name("C"))
+        if self.l is not None and not _is_float64(self.l):
+            self.l = as_float_array(self.l, self._field_name("l"))
+        if self.u is not None and not _is_float64(self.u):
+            self.u = as_float_array(self.u, self._field_name("u"))
+
+    def _field_name(self, field: str) -> str:
+        return f"HierarchyLevel '{self.name}' {field}"
 
     @property
     def n_in(self) -> int:
