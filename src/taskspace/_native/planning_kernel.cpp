@@ -2426,24 +2426,31 @@ std::vector<int> bisection_order(int n) {
 constexpr int kOrderCache = 1024;
 constexpr std::size_t kOrderStrides = 4;
 
+// Entry n of a table of kept values, made by make() on first use (unique_ptr: an entry stays
+// where it is when the table grows).
+template <class T, class Make>
+const T& kept_entry(std::vector<std::unique_ptr<const T>>& table, int n, Make&& make) {
+  if (n >= static_cast<int>(table.size())) table.resize(static_cast<std::size_t>(n) + 1);
+  std::unique_ptr<const T>& entry = table[static_cast<std::size_t>(n)];
+  if (!entry) entry = make();
+  return *entry;
+}
+
 // bisection_order(n), the thread's kept copy for n <= kOrderCache, else built into scratch.
 const std::vector<int>& bisection_order_kept(int n, std::vector<int>& scratch) {
   if (n > kOrderCache) {
     scratch = bisection_order(n);
     return scratch;
   }
-  // (unique_ptr: a kept order stays where it is when the table grows)
   thread_local std::vector<std::unique_ptr<const std::vector<int>>> kept;
-  if (n >= static_cast<int>(kept.size())) kept.resize(static_cast<std::size_t>(n) + 1);
-  if (!kept[n]) kept[n] = std::make_unique<const std::vector<int>>(bisection_order(n));
-  return *kept[n];
+  return kept_entry(kept, n,
+                    [n] { return std::make_unique<const std::vector<int>>(bisection_order(n)); });
 }
 
 // Coarse and fine passes of n segments (nested_orders of the Python module).
 struct Orders {
   std::vector<double> pattern;  // EXTEND fractions: 1 (end point), then coarse k / n
-  std::vector<double> fine;     // fine fractions k / n (bisection order)
-  std::vector<double> fine_up;  // the fine fractions in increasing order (the lazy fine pass)
+  std::vector<double> fine;     // fine fractions k / n (k not a multiple of the stride), increasing
 };
 
 class LinePlanner {
@@ -2475,10 +2482,7 @@ class LinePlanner {
       if (!o) o = build(n);
       return *o;
     }
-    if (n >= static_cast<int>(table->size())) table->resize(static_cast<std::size_t>(n) + 1);
-    std::unique_ptr<const Orders>& o = (*table)[n];
-    if (!o) o = build(n);
-    return *o;
+    return kept_entry(*table, n, [this, n] { return build(n); });
   }
 
   double alpha, delta;
@@ -2494,10 +2498,8 @@ class LinePlanner {
     for (int k : bisection_order(n_coarse)) o->pattern.push_back(double(k * stride) / n);
     if (stride > 1) {
       o->fine.reserve(static_cast<std::size_t>(n));
-      for (int k : bisection_order(n))
+      for (int k = 1; k < n; ++k)
         if (k % stride != 0) o->fine.push_back(double(k) / n);
-      o->fine_up = o->fine;
-      std::sort(o->fine_up.begin(), o->fine_up.end());
     }
     return o;
   }
@@ -2976,7 +2978,7 @@ class RRTConnect {
   bool verify(Tree& t1, int leaf1, Tree& t2, int leaf2) {
     // The fine points of all pending edges go into one list, in the order of checking edge
     // after edge (tree 1's root outwards, then tree 2's), so that the batches of the sphere
-    // checkers are full across edges; each edge's in increasing order (fine_up: a batch's
+    // checkers are full across edges; each edge's in increasing order (Orders::fine: a batch's
     // configurations are neighbours, 0.03 rad apart instead of spread over the edge, so the
     // filter's union spheres are tight and its tests prune more: fine pass median -13 %;
     // which edge collides first does not depend on the order within an edge); first_collision_at checks in the list's order and
@@ -3000,7 +3002,7 @@ class RRTConnect {
         for (int k = 0; k < d_; ++k) vlines_.push_back(p1[k] - p0[k]);
         // the validator (also with a sphere checker: the fine points of the path are then
         // checked once, here, and path_valid_exact checks the coarse ones)
-        for (double u : lines_.orders(t.segments[i]).fine_up) vpts_.push_back({u, e});
+        for (double u : lines_.orders(t.segments[i]).fine) vpts_.push_back({u, e});
         vedges_.push_back({h, i, vpts_.size()});
       }
     }
@@ -3375,8 +3377,8 @@ bp::tuple rrt_connect(CollisionKernel& ck, const VectorXd& start, const VectorXd
   // _NATIVE_LOG_KEYS (one tuple: Python makes the dict in one call)
   const bool solved = r.status == kSolved;
   const double numbers[] = {
-      static_cast<double>(planner.start_ ? planner.start_->size() : 0),  // start_tree_nodes
-      static_cast<double>(planner.goal_ ? planner.goal_->size() : 0),    // goal_tree_nodes
+      static_cast<double>(planner.start_->size()),  // start_tree_nodes (run made both trees)
+      static_cast<double>(planner.goal_->size()),   // goal_tree_nodes
       static_cast<double>(r.rejections),                                   // lazy_rejections
       static_cast<double>(r.removed),                                      // nodes_removed
       static_cast<double>(r.trapped_turns),                                // trapped_turns

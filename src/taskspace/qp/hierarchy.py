@@ -483,7 +483,7 @@ def _float_array(value: Any, name: str) -> FloatArray | None:
         InvalidInputError: values that are not real numbers (boolean, complex, text, None),
             naming the hard constraint data ``name``.
     """
-    if value is None or (type(value) is np.ndarray and value.dtype == np.float64):
+    if value is None or _is_float64(value):
         return value
     return as_float_array(value, f"hard constraint data {name}")
 

@@ -1075,7 +1075,7 @@ def check_structure(p: QPProblem) -> None:
         ShapeError: the shapes do not fit together.
     """
     try:
-        g, l, H, A, b, C = p.g, p.l, p.H, p.A, p.b, p.C
+        g, l, H, A, b, C, u, lb, ub = p.g, p.l, p.H, p.A, p.b, p.C, p.u, p.lb, p.ub
         n = g.shape[0]
         m = l.shape[0]
         ok = (
@@ -1085,11 +1085,21 @@ def check_structure(p: QPProblem) -> None:
             and A.shape == (b.shape[0], n)
             and l.ndim == 1
             and C.shape == (m, n)
-            and p.u.shape == (m,)
-            and p.lb.shape == (n,)
-            and p.ub.shape == (n,)
+            and u.shape == (m,)
+            and lb.shape == (n,)
+            and ub.shape == (n,)
         )
-        if ok and not all(getattr(p, name).dtype is _F64 for name in _QP_ARRAYS):
+        if ok and not (  # (written out, not a generator over the names: every solve runs this)
+            H.dtype is _F64
+            and g.dtype is _F64
+            and A.dtype is _F64
+            and b.dtype is _F64
+            and C.dtype is _F64
+            and l.dtype is _F64
+            and u.dtype is _F64
+            and lb.dtype is _F64
+            and ub.dtype is _F64
+        ):
             ok = all(getattr(p, name).dtype.kind in _REAL for name in _QP_ARRAYS)
     except (AttributeError, IndexError):  # not an array, or a 0-d g
         ok = False
