@@ -148,7 +148,6 @@
 #include <map>
 #include <memory>
 #include <mutex>
-#include <random>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -2731,6 +2730,74 @@ inline std::uint64_t phase_ticks() {
 #endif
 }
 
+// The planner's random stream: xoshiro256++ (Blackman and Vigna, "Scrambled linear pseudorandom
+// number generators", ACM TOMS 2021), its state from the seed by splitmix64 as its authors
+// advise; unit() the top 53 bits (every double of [0, 1) that is a multiple of 2^-53, each
+// equally likely), below(n) Lemire's multiply-shift with rejection (exactly uniform),
+// normal() Marsaglia's polar method on unit() (the second value of a pair kept). Seeding is
+// four splitmix64 steps (std::mt19937_64 fills and twists 312 words first, and
+// std::uniform_real_distribution divides in long double per draw).
+class PlanRng {
+ public:
+  explicit PlanRng(std::uint64_t seed) {
+    for (std::uint64_t& w : s_) {
+      seed += 0x9e3779b97f4a7c15ULL;
+      std::uint64_t z = seed;
+      z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+      z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+      w = z ^ (z >> 31);
+    }
+  }
+  std::uint64_t next() {
+    const std::uint64_t r = rotl(s_[0] + s_[3], 23) + s_[0];
+    const std::uint64_t t = s_[1] << 17;
+    s_[2] ^= s_[0];
+    s_[3] ^= s_[1];
+    s_[1] ^= s_[2];
+    s_[0] ^= s_[3];
+    s_[2] ^= t;
+    s_[3] = rotl(s_[3], 45);
+    return r;
+  }
+  double unit() { return static_cast<double>(next() >> 11) * 0x1.0p-53; }
+  // uniform in {0, ..., n - 1} (n >= 1)
+  int below(int n) {
+    const std::uint64_t range = static_cast<std::uint64_t>(n);
+    unsigned __int128 m = static_cast<unsigned __int128>(next()) * range;
+    std::uint64_t low = static_cast<std::uint64_t>(m);
+    if (low < range) {
+      const std::uint64_t floor = (0 - range) % range;  // 2^64 mod n
+      while (low < floor) {
+        m = static_cast<unsigned __int128>(next()) * range;
+        low = static_cast<std::uint64_t>(m);
+      }
+    }
+    return static_cast<int>(m >> 64);
+  }
+  double normal() {
+    if (has_spare_) {
+      has_spare_ = false;
+      return spare_;
+    }
+    double u, v, r2;
+    do {
+      u = 2.0 * unit() - 1.0;
+      v = 2.0 * unit() - 1.0;
+      r2 = u * u + v * v;
+    } while (r2 >= 1.0 || r2 == 0.0);
+    const double f = std::sqrt(-2.0 * std::log(r2) / r2);
+    spare_ = v * f;
+    has_spare_ = true;
+    return u * f;
+  }
+
+ private:
+  static std::uint64_t rotl(std::uint64_t x, int k) { return (x << k) | (x >> (64 - k)); }
+  std::uint64_t s_[4];
+  double spare_ = 0.0;
+  bool has_spare_ = false;
+};
+
 class RRTConnect {
  public:
   RRTConnect(CollisionKernel& ck, const VectorXd& lower, const VectorXd& upper, double alpha,
@@ -2745,6 +2812,11 @@ class RRTConnect {
     x_.resize(d_);
     cq0_.resize(d_);
     cdelta_.resize(d_);
+    // (one allocation each instead of the doublings of a plan's first extensions and fine pass)
+    ts_.reserve(32);
+    vedges_.reserve(32);
+    vlines_.reserve(64 * static_cast<std::size_t>(d_));
+    vpts_.reserve(512);
   }
 
   // True once the plan must stop: the time limit has passed, or a Python signal handler raised
@@ -3091,8 +3163,6 @@ class RRTConnect {
     }
     Tree* ta = start_.get();
     Tree* tb = goal_.get();
-    std::uniform_real_distribution<double> unit(0.0, 1.0);
-    std::normal_distribution<double> normal(0.0, 1.0);
     VectorXd target(d_);
     while (res.iterations < max_iterations) {  // no overflow at max_iterations = LONG_MAX
       ticks_ |= 15;  // read the clock before every iteration
@@ -3105,18 +3175,17 @@ class RRTConnect {
         checker_ = kSpheres;
         res.fallback_iteration = res.iterations;
       }
-      if (trapped_ > 0.0 && 4 * tb->size() < ta->size() && unit(rng_) < trapped_) {
+      if (trapped_ > 0.0 && 4 * tb->size() < ta->size() && rng_.unit() < trapped_) {
         std::swap(ta, tb);  // the trapped tree takes the big tree's turn (swapped back below)
         ++res.trapped_turns;
       }
-      if (local_ > 0.0 && 4 * ta->size() < tb->size() && unit(rng_) < local_) {
+      if (local_ > 0.0 && 4 * ta->size() < tb->size() && rng_.unit() < local_) {
         // T_a is trapped (typically in a tight goal region): aim near one of its nodes.
-        std::uniform_int_distribution<int> pick(0, ta->size() - 1);
-        const double* node = ta->node(pick(rng_));
+        const double* node = ta->node(rng_.below(ta->size()));
         for (int k = 0; k < d_; ++k)
-          target[k] = std::clamp(node[k] + sigma_ * normal(rng_), lower_[k], upper_[k]);
+          target[k] = std::clamp(node[k] + sigma_ * rng_.normal(), lower_[k], upper_[k]);
       } else {
-        for (int k = 0; k < d_; ++k) target[k] = lower_[k] + (upper_[k] - lower_[k]) * unit(rng_);
+        for (int k = 0; k < d_; ++k) target[k] = lower_[k] + (upper_[k] - lower_[k]) * rng_.unit();
       }
       const int a_new = extend(*ta, target.data());
       if (a_new >= 0) {
@@ -3248,7 +3317,7 @@ class RRTConnect {
   LinePlanner lines_;
   std::vector<int> order_scratch_;  // bisection_order_kept of a line longer than the cache's
   double local_, sigma_, trapped_;
-  std::mt19937_64 rng_;
+  PlanRng rng_;
   int d_;
   VectorXd a_, b_, x_, dir_, cq0_, cdelta_;  // (cq0_, cdelta_: connect's)
   std::vector<double> ts_;  // fractions of the points of the line being checked
