@@ -3499,6 +3499,22 @@ bp::tuple set_clearance_tuning(double min_fraction, double max_fraction) {
 // Nearest node (Tree::nearest) of every query row in the tree whose nodes are the rows of
 // `nodes` (row 0 the root, every other row a child of the root) after the removal of the rows
 // in `removed` (> 0, with their subtrees: none here). For the tests (against a brute force).
+// The planner's random stream (PlanRng) from seed, for the tests: (n raw 64-bit draws as
+// Python ints, n unit() draws, n below(bound) draws, n normal() draws), each from a new
+// stream of that seed.
+bp::tuple plan_rng_draws(unsigned long seed, int n, int bound) {
+  if (n < 0 || bound < 1) raise_invalid("need n >= 0 and bound >= 1");
+  bp::list raw, unit, below, normal;
+  PlanRng a(seed), b(seed), c(seed), d(seed);
+  for (int i = 0; i < n; ++i) {
+    raw.append(static_cast<unsigned long long>(a.next()));
+    unit.append(b.unit());
+    below.append(c.below(bound));
+    normal.append(d.normal());
+  }
+  return bp::make_tuple(raw, unit, below, normal);
+}
+
 Eigen::VectorXi tree_nearest(const Eigen::Ref<const RowMatrixXd>& nodes,
                              const Eigen::VectorXi& removed,
                              const Eigen::Ref<const RowMatrixXd>& queries) {
@@ -3611,6 +3627,7 @@ BOOST_PYTHON_MODULE(_planning_kernel) {
   bp::scope().attr("CHECKER_CLEARANCE") = kClearance;
   register_path_certifier();
   bp::def("tree_nearest", &tree_nearest, bp::args("nodes", "removed", "queries"));
+  bp::def("plan_rng_draws", &plan_rng_draws, bp::args("seed", "n", "bound"));
   bp::def("set_clearance_tuning", &set_clearance_tuning,
           bp::args("min_fraction", "max_fraction"));
   bp::def("rrt_connect", &rrt_connect,
