@@ -47,10 +47,12 @@ def test_first_plan_is_the_headline_planned_before_the_mesh_row(
     suite: ModuleType, robot: Robot, monkeypatch: pytest.MonkeyPatch, scenario: str, index: int
 ) -> None:
     calls: list[tuple[str, str, bool, Any]] = []
+    seeds: list[int] = []
 
     def recording(space: Any, start: Any, goal: Any, options: Any) -> Any:
         res = rrt_connect(space, start, goal, options)
         calls.append((options.checker, options.validator, options.native, res))
+        seeds.append(options.seed)
         return res
 
     monkeypatch.setattr(suite, "rrt_connect", recording)
@@ -70,8 +72,10 @@ def test_first_plan_is_the_headline_planned_before_the_mesh_row(
     order = [(checker, validator, native) for checker, validator, native, _ in calls]
     assert order[0] == ("spheres_only", "spheres", True)
     assert ("mesh", "mesh", True) in order[1:]
-    # every configuration once, the headline MIN_OF times in a row (its min row)
-    assert len(calls) == len(suite.RRT_CONFIGURATIONS) + suite.MIN_OF - 1
+    # every configuration once, the headline MIN_OF times in a row (its min row), then MIN_OF
+    # times with each other seed of the seeds row
+    extra = (len(suite.SEED_OFFSETS) - 1) * suite.MIN_OF
+    assert len(calls) == len(suite.RRT_CONFIGURATIONS) + suite.MIN_OF - 1 + extra
     at = order.index(("spheres_only", "spheres", True), 1)
     assert order[at : at + suite.MIN_OF] == [("spheres_only", "spheres", True)] * suite.MIN_OF
 
@@ -90,6 +94,19 @@ def test_first_plan_is_the_headline_planned_before_the_mesh_row(
     repeats = [res for _, _, _, res in calls[at : at + suite.MIN_OF]]
     assert all(r.collision_checks == repeated["checks"] for r in repeats)
     assert least["time_s"] == min(r.time_s for r in repeats)
+
+    # The seeds row: right after the min row's calls, MIN_OF calls per other seed k + offset
+    # (same options otherwise), the problem solved with each seed.
+    seeded = calls[at + suite.MIN_OF : at + suite.MIN_OF + extra]
+    assert [c[:3] for c in seeded] == [("spheres_only", "spheres", True)] * extra
+    assert [seeds[at + suite.MIN_OF + j] for j in range(extra)] == [
+        1 + offset for offset in suite.SEED_OFFSETS[1:] for _ in range(suite.MIN_OF)
+    ]
+    spread = per[suite.HEADLINE_SEEDS]
+    assert spread["ok"] == 1.0 and all(c[3].success for c in seeded)
+    assert spread["time"] >= min(r.time_s for r in [*repeats, *(s[3] for s in seeded)])
+    assert spread["time"] < np.inf
+    assert f"taskspace {suite.HEADLINE_SEEDS}" in suite.OURS_RRT
 
     # The first plan's path is free for Pinocchio at the suite's resolution.
     res = calls[0][3]

@@ -148,7 +148,6 @@
 #include <map>
 #include <memory>
 #include <mutex>
-#include <random>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -2520,7 +2519,7 @@ struct Tree {
   std::vector<int> parent, segments;
   std::vector<char> pending, alive;
 
-  Tree(const VectorXd& root) : d(static_cast<int>(root.size())) {
+  Tree(const Eigen::Ref<const VectorXd>& root) : d(static_cast<int>(root.size())) {
     // room for a typical plan's tree (tens of nodes) without reallocations
     constexpr std::size_t kNodes = 64;
     q.reserve(kNodes * static_cast<std::size_t>(d));
@@ -2731,9 +2730,78 @@ inline std::uint64_t phase_ticks() {
 #endif
 }
 
+// The planner's random stream: xoshiro256++ (Blackman and Vigna, "Scrambled linear pseudorandom
+// number generators", ACM TOMS 2021), its state from the seed by splitmix64 as its authors
+// advise; unit() the top 53 bits (every double of [0, 1) that is a multiple of 2^-53, each
+// equally likely), below(n) Lemire's multiply-shift with rejection (exactly uniform),
+// normal() Marsaglia's polar method on unit() (the second value of a pair kept). Seeding is
+// four splitmix64 steps (std::mt19937_64 fills and twists 312 words first, and
+// std::uniform_real_distribution divides in long double per draw).
+class PlanRng {
+ public:
+  explicit PlanRng(std::uint64_t seed) {
+    for (std::uint64_t& w : s_) {
+      seed += 0x9e3779b97f4a7c15ULL;
+      std::uint64_t z = seed;
+      z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+      z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+      w = z ^ (z >> 31);
+    }
+  }
+  std::uint64_t next() {
+    const std::uint64_t r = rotl(s_[0] + s_[3], 23) + s_[0];
+    const std::uint64_t t = s_[1] << 17;
+    s_[2] ^= s_[0];
+    s_[3] ^= s_[1];
+    s_[1] ^= s_[2];
+    s_[0] ^= s_[3];
+    s_[2] ^= t;
+    s_[3] = rotl(s_[3], 45);
+    return r;
+  }
+  double unit() { return static_cast<double>(next() >> 11) * 0x1.0p-53; }
+  // uniform in {0, ..., n - 1} (n >= 1)
+  int below(int n) {
+    const std::uint64_t range = static_cast<std::uint64_t>(n);
+    unsigned __int128 m = static_cast<unsigned __int128>(next()) * range;
+    std::uint64_t low = static_cast<std::uint64_t>(m);
+    if (low < range) {
+      const std::uint64_t floor = (0 - range) % range;  // 2^64 mod n
+      while (low < floor) {
+        m = static_cast<unsigned __int128>(next()) * range;
+        low = static_cast<std::uint64_t>(m);
+      }
+    }
+    return static_cast<int>(m >> 64);
+  }
+  double normal() {
+    if (has_spare_) {
+      has_spare_ = false;
+      return spare_;
+    }
+    double u, v, r2;
+    do {
+      u = 2.0 * unit() - 1.0;
+      v = 2.0 * unit() - 1.0;
+      r2 = u * u + v * v;
+    } while (r2 >= 1.0 || r2 == 0.0);
+    const double f = std::sqrt(-2.0 * std::log(r2) / r2);
+    spare_ = v * f;
+    has_spare_ = true;
+    return u * f;
+  }
+
+ private:
+  static std::uint64_t rotl(std::uint64_t x, int k) { return (x << k) | (x >> (64 - k)); }
+  std::uint64_t s_[4];
+  double spare_ = 0.0;
+  bool has_spare_ = false;
+};
+
 class RRTConnect {
  public:
-  RRTConnect(CollisionKernel& ck, const VectorXd& lower, const VectorXd& upper, double alpha,
+  RRTConnect(CollisionKernel& ck, const Eigen::Ref<const VectorXd>& lower,
+             const Eigen::Ref<const VectorXd>& upper, double alpha,
              double delta, double delta_c, double local, double sigma, double trapped,
              std::uint64_t seed, int checker = kMesh, long fallback = -1,
              int validator = kMesh)
@@ -2745,12 +2813,23 @@ class RRTConnect {
     x_.resize(d_);
     cq0_.resize(d_);
     cdelta_.resize(d_);
+    // (one allocation each instead of the doublings of a plan's first extensions and fine pass)
+    ts_.reserve(32);
+    vedges_.reserve(32);
+    vlines_.reserve(64 * static_cast<std::size_t>(d_));
+    vpts_.reserve(512);
   }
 
   // True once the plan must stop: the time limit has passed, or a Python signal handler raised
   // (Ctrl-C: interrupted = true, the exception pending). Called before every collision check
   // and iteration; the clock is read every 16 calls, the signal handlers run every
   // kPollInterval (gil: the released GIL; nullptr = no polling).
+  // Every kNearestSample-th nearest-neighbour query is timed (two time-stamp reads cost about
+  // as much as a query on a small tree); the log's nearest time is their sum times
+  // kNearestSample (an estimate).
+  static constexpr unsigned kNearestSample = 8;
+  bool timed_nearest() { return ++nearest_calls_ % kNearestSample == 0; }
+
   bool stop() {
     if (stopped_) return true;
     if ((++ticks_ & 15) != 0) return false;
@@ -2804,7 +2883,7 @@ class RRTConnect {
   }
 
   // Straight line q0 -> q1 free at the full resolution (interior points, bisection order).
-  bool motion_valid(const VectorXd& q0, const VectorXd& q1) {
+  bool motion_valid(const Eigen::Ref<const VectorXd>& q0, const Eigen::Ref<const VectorXd>& q1) {
     const VectorXd dir = q1 - q0;
     if (certifying() && !root_colliding_[0] && !root_colliding_[1])
       return dir.norm() == 0.0 || edge_certified(q0.data(), dir.data(), 0.0, 1.0);
@@ -2901,9 +2980,10 @@ class RRTConnect {
 
   // EXTEND(T, target): new node index or -1.
   int extend(Tree& t, const double* target) {
-    const std::uint64_t t_n = phase_ticks();
+    const bool timed = timed_nearest();
+    const std::uint64_t t_n = timed ? phase_ticks() : 0;
     auto [i_near, dist] = t.nearest(target);
-    res.tk_nearest += phase_ticks() - t_n;
+    if (timed) res.tk_nearest += phase_ticks() - t_n;
     if (dist == 0.0) return -1;
     ++res.edge_checks;
     const double alpha = lines_.alpha;
@@ -3035,19 +3115,19 @@ class RRTConnect {
   // Plan (the GIL released: gil polls the signal handlers; nullptr: no polling). time_limit
   // [s]: negative or +inf = none; the deadline saturates (a limit beyond the clock's range,
   // about 292 years, is no limit) instead of overflowing.
-  void run(const VectorXd& qs, const VectorXd& qg, long max_iterations, double time_limit,
+  void run(const Eigen::Ref<const VectorXd>& qs, const Eigen::Ref<const VectorXd>& qg, long max_iterations, double time_limit,
            GilRelease* gil) {
     const std::uint64_t tk0 = phase_ticks();
     plan(qs, qg, max_iterations, time_limit, gil);
     const std::uint64_t tk_run = phase_ticks() - tk0;
     // the phases timed in ticks, in seconds: their share of the run's ticks times t_run
     const double per_tick = tk_run > 0 ? res.t_run / static_cast<double>(tk_run) : 0.0;
-    res.t_nearest = per_tick * static_cast<double>(res.tk_nearest);
+    res.t_nearest = per_tick * static_cast<double>(kNearestSample * res.tk_nearest);
     res.t_verify = per_tick * static_cast<double>(res.tk_verify);
   }
 
   // run() without the phases' conversion.
-  void plan(const VectorXd& qs, const VectorXd& qg, long max_iterations, double time_limit,
+  void plan(const Eigen::Ref<const VectorXd>& qs, const Eigen::Ref<const VectorXd>& qg, long max_iterations, double time_limit,
             GilRelease* gil) {
     const auto t0 = clock::now();
     gil_ = gil;
@@ -3091,11 +3171,9 @@ class RRTConnect {
     }
     Tree* ta = start_.get();
     Tree* tb = goal_.get();
-    std::uniform_real_distribution<double> unit(0.0, 1.0);
-    std::normal_distribution<double> normal(0.0, 1.0);
     VectorXd target(d_);
     while (res.iterations < max_iterations) {  // no overflow at max_iterations = LONG_MAX
-      ticks_ |= 15;  // read the clock before every iteration
+      if ((res.iterations & 3) == 0) ticks_ |= 15;  // the clock every 4 iterations (and 16 checks)
       if (stop()) break;
       ++res.iterations;
       if (checker_ == kSpheresOnly && fallback_ >= 0 && res.iterations > fallback_) {
@@ -3105,25 +3183,25 @@ class RRTConnect {
         checker_ = kSpheres;
         res.fallback_iteration = res.iterations;
       }
-      if (trapped_ > 0.0 && 4 * tb->size() < ta->size() && unit(rng_) < trapped_) {
+      if (trapped_ > 0.0 && 4 * tb->size() < ta->size() && rng_.unit() < trapped_) {
         std::swap(ta, tb);  // the trapped tree takes the big tree's turn (swapped back below)
         ++res.trapped_turns;
       }
-      if (local_ > 0.0 && 4 * ta->size() < tb->size() && unit(rng_) < local_) {
+      if (local_ > 0.0 && 4 * ta->size() < tb->size() && rng_.unit() < local_) {
         // T_a is trapped (typically in a tight goal region): aim near one of its nodes.
-        std::uniform_int_distribution<int> pick(0, ta->size() - 1);
-        const double* node = ta->node(pick(rng_));
+        const double* node = ta->node(rng_.below(ta->size()));
         for (int k = 0; k < d_; ++k)
-          target[k] = std::clamp(node[k] + sigma_ * normal(rng_), lower_[k], upper_[k]);
+          target[k] = std::clamp(node[k] + sigma_ * rng_.normal(), lower_[k], upper_[k]);
       } else {
-        for (int k = 0; k < d_; ++k) target[k] = lower_[k] + (upper_[k] - lower_[k]) * unit(rng_);
+        for (int k = 0; k < d_; ++k) target[k] = lower_[k] + (upper_[k] - lower_[k]) * rng_.unit();
       }
       const int a_new = extend(*ta, target.data());
       if (a_new >= 0) {
         const double* q_new = ta->node(a_new);
-        const std::uint64_t t_n = phase_ticks();
+        const bool timed = timed_nearest();
+        const std::uint64_t t_n = timed ? phase_ticks() : 0;
         auto [j_near, gap] = tb->nearest(q_new);
-        res.tk_nearest += phase_ticks() - t_n;
+        if (timed) res.tk_nearest += phase_ticks() - t_n;
         int b_new = j_near;
         bool reached = true;
         if (gap != 0.0) {
@@ -3213,7 +3291,7 @@ class RRTConnect {
   }
 
   // A start or goal: finite, inside the bounds and free for the exact checker (one check).
-  bool endpoint_valid(const VectorXd& q) {
+  bool endpoint_valid(const Eigen::Ref<const VectorXd>& q) {
     if (!q.allFinite()) return false;
     if ((q.array() < lower_.array()).any() || (q.array() > upper_.array()).any()) return false;
     return !ck_.collides(q, kMesh);
@@ -3242,13 +3320,14 @@ class RRTConnect {
   double region_r2_ = 0.0, region_tol_ = 0.0, region_near_ = 0.0, region_far_ = 0.0;
   PathCertifier* certifier_ = nullptr;
   unsigned ticks_ = 0;
+  unsigned nearest_calls_ = 0;  // (timed_nearest)
   clock::time_point deadline_, next_poll_;
   CollisionKernel& ck_;
   VectorXd lower_, upper_;
   LinePlanner lines_;
   std::vector<int> order_scratch_;  // bisection_order_kept of a line longer than the cache's
   double local_, sigma_, trapped_;
-  std::mt19937_64 rng_;
+  PlanRng rng_;
   int d_;
   VectorXd a_, b_, x_, dir_, cq0_, cdelta_;  // (cq0_, cdelta_: connect's)
   std::vector<double> ts_;  // fractions of the points of the line being checked
@@ -3313,8 +3392,10 @@ bp::tuple tree_tuple(const Tree& t) {
 // limit. Every other argument is checked (InvalidInputError); the plan runs with the GIL released
 // and the kernel locked (other threads may plan on other kernels meanwhile), polling Python's
 // signal handlers every kPollInterval: Ctrl-C stops it and raises KeyboardInterrupt.
-bp::tuple rrt_connect(CollisionKernel& ck, const VectorXd& start, const VectorXd& goal,
-                      const VectorXd& lower, const VectorXd& upper, double alpha, double delta,
+// (The vectors as Eigen::Ref: eigenpy maps a contiguous float64 array without a copy.)
+bp::tuple rrt_connect(CollisionKernel& ck, const Eigen::Ref<const VectorXd>& start,
+                      const Eigen::Ref<const VectorXd>& goal, const Eigen::Ref<const VectorXd>& lower,
+                      const Eigen::Ref<const VectorXd>& upper, double alpha, double delta,
                       double delta_c, double local, double sigma, double trapped,
                       long max_iterations, double time_limit, unsigned long seed,
                       int checker, long fallback_iterations, int validator,
@@ -3418,6 +3499,22 @@ bp::tuple set_clearance_tuning(double min_fraction, double max_fraction) {
 // Nearest node (Tree::nearest) of every query row in the tree whose nodes are the rows of
 // `nodes` (row 0 the root, every other row a child of the root) after the removal of the rows
 // in `removed` (> 0, with their subtrees: none here). For the tests (against a brute force).
+// The planner's random stream (PlanRng) from seed, for the tests: (n raw 64-bit draws as
+// Python ints, n unit() draws, n below(bound) draws, n normal() draws), each from a new
+// stream of that seed.
+bp::tuple plan_rng_draws(unsigned long seed, int n, int bound) {
+  if (n < 0 || bound < 1) raise_invalid("need n >= 0 and bound >= 1");
+  bp::list raw, unit, below, normal;
+  PlanRng a(seed), b(seed), c(seed), d(seed);
+  for (int i = 0; i < n; ++i) {
+    raw.append(static_cast<unsigned long long>(a.next()));
+    unit.append(b.unit());
+    below.append(c.below(bound));
+    normal.append(d.normal());
+  }
+  return bp::make_tuple(raw, unit, below, normal);
+}
+
 Eigen::VectorXi tree_nearest(const Eigen::Ref<const RowMatrixXd>& nodes,
                              const Eigen::VectorXi& removed,
                              const Eigen::Ref<const RowMatrixXd>& queries) {
@@ -3530,6 +3627,7 @@ BOOST_PYTHON_MODULE(_planning_kernel) {
   bp::scope().attr("CHECKER_CLEARANCE") = kClearance;
   register_path_certifier();
   bp::def("tree_nearest", &tree_nearest, bp::args("nodes", "removed", "queries"));
+  bp::def("plan_rng_draws", &plan_rng_draws, bp::args("seed", "n", "bound"));
   bp::def("set_clearance_tuning", &set_clearance_tuning,
           bp::args("min_fraction", "max_fraction"));
   bp::def("rrt_connect", &rrt_connect,

@@ -784,7 +784,8 @@ def rrt_connect(
         with ``certify``, ``certified``, ``min_distance`` [m] and ``certify_attempts``. The
         compiled planner adds its checker, validator and re-check counts and the wall time
         of its phases [us] (``kernel_run_us`` the whole call, ``kernel_endpoints_us``,
-        ``kernel_line_us`` the straight start-goal line, ``kernel_nearest_us``,
+        ``kernel_line_us`` the straight start-goal line, ``kernel_nearest_us`` (an
+        estimate: every 8th nearest-neighbour query timed, times 8),
         ``kernel_fine_pass_us``, ``kernel_recheck_us``; the tree growth is the rest).
 
     Set-up: with a sphere checker, the robot's sphere model and the compiled checker of the

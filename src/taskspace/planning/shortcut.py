@@ -212,10 +212,12 @@ def shortcut_path(
             continue
         # The pieces q_i1 -> p1 and p2 -> q_(i2+1) lie on free edges but are new segments whose
         # own points (k / n of each piece) were never checked: check them too, so that every
-        # segment of the result is free at the resolution delta.
-        free = budget.motion_valid(space, p1, p2)
+        # segment of the result is free at the resolution delta. So are the new waypoints p1
+        # and p2 themselves (check_end): they lie between the checked points of their edges,
+        # where an edge free at the resolution may still graze an obstacle.
+        free = budget.motion_valid(space, p1, p2, check_end=True)
         if free:
-            free = budget.motion_valid(space, arr[i1], p1)
+            free = budget.motion_valid(space, arr[i1], p1, check_end=True)
         if free:
             free = budget.motion_valid(space, p2, arr[i2 + 1])
         if free is None:
