@@ -48,11 +48,16 @@ SKBUILD_ARGS := $(if $(filter 1 ON on yes,$(NATIVE_ARCH)),-Ccmake.define.TASKSPA
 BUILD_REQUIRES = $(shell $(PY) -c "exec('try: import tomllib\\nexcept ImportError: from pip._vendor import tomli as tomllib'); \
 	print(' '.join(repr(r) for r in tomllib.load(open('pyproject.toml', 'rb'))['build-system']['requires']))")
 
+# --compile-bytecode: the packages' .pyc files written once here, as pip does by default (uv
+# does not). Without them, with PYTHONDONTWRITEBYTECODE=1 in the environment, every Python
+# process of the tests (each xdist worker, each demo, CLI and docs-build subprocess, each Ray
+# worker) compiled NumPy, SciPy, matplotlib, Ray... from source again: 20 s of collection in
+# each worker instead of 5.
 $(STAMP): pyproject.toml CMakeLists.txt cmake/build_info.json.in | $(UV)
 	@$(MAKE) --no-print-directory apt-tools
 	rm -f src/taskspace/_native/*.so src/taskspace/_native/.built  # modules of the old build.py
 	$(UV_PIP) $(BUILD_REQUIRES)
-	$(UV_PIP) --no-build-isolation $(SKBUILD_ARGS) -e ".[test,native]"
+	$(UV_PIP) --compile-bytecode --no-build-isolation $(SKBUILD_ARGS) -e ".[test,native]"
 	touch $(STAMP)
 
 # Rebuilds the kernels whose sources changed and shows whether they load.
@@ -79,8 +84,11 @@ lint: $(STAMP)
 typecheck: $(STAMP)
 	$(VENV)/bin/mypy
 
+# PYTHONDONTWRITEBYTECODE is cleared for the tests: the .pyc files of taskspace (src/) and of
+# the tests (pytest's rewritten asserts) are written once into their __pycache__ folders
+# (ignored by git) and read by the later processes instead of compiling the sources in each.
 pytest: $(STAMP) native chromium
-	TASKSPACE_REQUIRE_NATIVE=1 OPENBLAS_NUM_THREADS=1 $(PY) -m pytest -n $(PYTEST_WORKERS) --dist loadgroup -q
+	PYTHONDONTWRITEBYTECODE= TASKSPACE_REQUIRE_NATIVE=1 OPENBLAS_NUM_THREADS=1 $(PY) -m pytest -n $(PYTEST_WORKERS) --dist loadgroup -q
 
 test: lint typecheck pytest wheel-smoke
 
