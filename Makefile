@@ -88,7 +88,7 @@ typecheck: $(STAMP)
 # the tests (pytest's rewritten asserts) are written once into their __pycache__ folders
 # (ignored by git) and read by the later processes instead of compiling the sources in each.
 pytest: $(STAMP) native chromium
-	PYTHONDONTWRITEBYTECODE= TASKSPACE_REQUIRE_NATIVE=1 OPENBLAS_NUM_THREADS=1 $(PY) -m pytest -n $(PYTEST_WORKERS) --dist loadgroup -q
+	PYTHONDONTWRITEBYTECODE= TASKSPACE_REQUIRE_NATIVE=1 OPENBLAS_NUM_THREADS=1 $(PY) -m pytest -n $(PYTEST_WORKERS) --dist loadgroup -q --durations=25
 
 test: lint typecheck pytest wheel-smoke
 
