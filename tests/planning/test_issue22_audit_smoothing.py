@@ -97,3 +97,21 @@ def test_every_smoothed_segment_is_valid_at_the_resolution(max_step: float) -> N
     np.testing.assert_allclose(path[[0, -1]], PATH[[0, -1]])
     for a, b in itertools.pairwise(path):
         assert space.motion_valid(a, b), (max_step, a, b)
+
+
+def test_no_shortcut_waypoint_is_in_collision() -> None:
+    # The new waypoints p1 and p2 lie between the checked points of their edges: the local
+    # planner's segment check assumes its start valid and skips its end, so shortcut_path
+    # must check them itself (it kept a Panda finger in a can on a MotionBenchMaker path).
+    space = _space()
+    in_wall = 0  # runs whose cut points (shortcut_path's first draw) fell in the wall
+    for seed in range(200):
+        opts = ShortcutOptions(max_iterations=1, time_limit_s=None, greedy=False, seed=seed)
+        cuts = np.random.default_rng(seed).uniform(0.0, 2.0, 2)  # arc lengths on PATH
+        in_wall += int(any(WALL_X[0] < x < WALL_X[1] for x in cuts))
+        path = shortcut_path(space, PATH, opts).path
+        np.testing.assert_array_equal(path[[0, -1]], PATH[[0, -1]])
+        assert _free(path).all(), (seed, path)  # every waypoint free
+        for a, b in itertools.pairwise(path):
+            assert space.motion_valid(a, b), (seed, a, b)
+    assert in_wall >= 3  # the case was drawn (else the test would prove nothing)
