@@ -38,8 +38,9 @@ def _transfer(A, B, C, s):  # type: ignore[no-untyped-def]
     return C @ np.linalg.solve(s * np.eye(A.shape[0]) - A, B)
 
 
-@pytest.mark.parametrize("seed", range(4))
-def test_kalman_decomposition_structure(seed: int) -> None:
+def _hidden_system(seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[int]]:
+    """A system with known parts (1 or 2 states each) hidden by a random basis, and the parts'
+    sizes (co, cu, uo, uu)."""
     rng = np.random.default_rng(100 + seed)
     # Build a system with known parts (1 or 2 states each) and hide it by a random basis.
     sizes = [2, 1, 1, 2] if seed % 2 else [1, 2, 2, 1]
@@ -69,6 +70,12 @@ def test_kalman_decomposition_structure(seed: int) -> None:
     A = T @ Az @ np.linalg.inv(T)
     B = T @ Bz
     C = Cz @ np.linalg.inv(T)
+    return A, B, C, sizes
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_kalman_decomposition_structure(seed: int) -> None:
+    A, B, C, sizes = _hidden_system(seed)
     dec = kalman_decomposition(A, B, C)
     assert dec.sizes == tuple(sizes)
     # Ranks against python-control's controllability / observability matrices.
@@ -98,6 +105,33 @@ def test_kalman_decomposition_structure(seed: int) -> None:
     for s_ in (0.3 + 1.0j, 2.0, -0.7 + 0.1j):
         assert np.allclose(_transfer(Am, Bm, Cm, s_), _transfer(A, B, C, s_), atol=1e-8)
     assert np.allclose(np.linalg.inv(dec.T) @ A @ dec.T, a)
+
+
+@pytest.mark.parametrize("scale", [1e-12, 1e-6, 1e8, 1e50, 1e300])
+@pytest.mark.parametrize("seed", range(4))
+def test_kalman_decomposition_of_a_scaled_a_has_the_same_parts(seed: int, scale: float) -> None:
+    # The controllable and unobservable subspaces of (s A, B, C) are those of (A, B, C) for
+    # every s != 0 (the Krylov spaces of s A and A are the same): the parts' sizes are the
+    # constructed ones at every scale (a common scale of the controllability matrix made B
+    # vanish next to (s A)^2 B: sizes (0, 1, 1, 1) instead of (2, 0, 0, 1) from s = 1e50 on).
+    A, B, C, sizes = _hidden_system(seed)
+    dec = kalman_decomposition(scale * A, B, C)
+    assert dec.sizes == tuple(sizes)
+    p = {k: dec.part(k) for k in ("co", "cu", "uo", "uu")}
+    a = dec.A / scale  # T^-1 (s A) T / s
+    tol = 1e-7 * max(1.0, np.abs(a).max())
+    for r, col in [("co", "cu"), ("co", "uu"), ("uo", "co"), ("uo", "cu"), ("uu", "co")]:
+        assert np.abs(a[p[r], p[col]]).max(initial=0.0) < tol, (r, col)
+    assert np.abs(dec.B[p["uo"]]).max(initial=0.0) < 1e-7
+    assert np.abs(dec.C[:, p["cu"]]).max(initial=0.0) < 1e-7
+
+
+def test_a_small_chain_keeps_its_parts_at_every_scale() -> None:
+    # x1' = x2, x2' = u, x3' = -x3, y = x1: x1, x2 controllable and observable, x3 neither
+    A = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
+    for scale in (1e-12, 1.0, 1e50, 1e300):
+        dec = kalman_decomposition(scale * A, [[0.0], [1.0], [0.0]], [[1.0, 0.0, 0.0]])
+        assert dec.sizes == (2, 0, 0, 1), scale
 
 
 def test_part_names() -> None:

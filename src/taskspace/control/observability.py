@@ -29,12 +29,11 @@ import numpy as np
 import scipy.linalg as sla
 
 from taskspace._validation import FloatArray, as_float_array, as_matrix
-from taskspace.control._linear import rank_tolerance, square, system
+from taskspace.control._linear import rank_tolerance, safe_norm, square, system
 from taskspace.control.controllability import (
     _controllability,
     _krylov,
     _overflow_message,
-    controllability_matrix,
 )
 from taskspace.errors import InvalidInputError
 
@@ -161,6 +160,16 @@ class KalmanDecomposition:
         return self.A[s, s], self.B[s], self.C[:, s]
 
 
+def _unit_columns(M: FloatArray) -> FloatArray:
+    """``M`` with its nonzero columns scaled to unit 2-norm, its zero columns dropped.
+
+    The range is the same; no column vanishes next to a larger one in the SVD's threshold.
+    """
+    norms = safe_norm(M, axis=0)
+    keep = norms > 0
+    return M[:, keep] / norms[keep]
+
+
 def _range(M: FloatArray, tol: float) -> FloatArray:
     if M.size == 0:
         return np.zeros((M.shape[0], 0))
@@ -183,10 +192,20 @@ def kalman_decomposition(
     orthogonal complement within ``R``, ``T_uu`` the complement of ``R ∩ N`` within ``N``, and
     ``T_uo`` the orthogonal complement of all three.
 
+    The subspaces are those of ``2^-e A`` (``2^e`` the power of two just above ``max |A|``: an
+    exact scaling, and the subspaces of ``s A`` are those of ``A`` for every ``s != 0``), from
+    the controllability matrix with its columns normalized and the observability matrix with
+    its rows normalized (the powers ``A^k`` can differ by orders of magnitude); the blocks
+    ``A``, ``B``, ``C`` of the result are those of the given ``A``.
+
     Args:
         A: (n x n); B: (n x m); C: (p x n).
         tolerance: relative rank threshold of the SVDs in ``[0, 1)``; default
             ``n max(m, p) eps 1e3``.
+
+    Raises:
+        InvalidInputError: bad shapes or values, or ``B`` or ``C`` so large that the
+            controllability or observability matrix of ``2^-e A`` overflows.
     """
     A, B = system(A, B)
     A, C = _output(A, C)
@@ -194,12 +213,17 @@ def kalman_decomposition(
     p = C.shape[0]
     user_tol = rank_tolerance(tolerance)
     tol = user_tol if user_tol is not None else max(n, m, p) * n * np.finfo(float).eps * 1e3
-    Ctrb = controllability_matrix(A, B)
-    Obsv = observability_matrix(A, C)
-    scale_c = max(1.0, float(np.max(np.abs(Ctrb))))
-    scale_o = max(1.0, float(np.max(np.abs(Obsv))))
-    R = _range(Ctrb / scale_c, tol)
-    N = _null(Obsv / scale_o, n, tol)
+    top = float(np.max(np.abs(A))) if A.size else 0.0
+    unit_a = np.ldexp(A, -int(np.frexp(top)[1])) if top > 0.0 else A
+    note = " (after scaling A to max |A| < 1)"
+    Ctrb, k = _krylov(unit_a, B)
+    if k:
+        raise InvalidInputError(_overflow_message(unit_a, B, k, note))
+    Obsv_t, k = _krylov(unit_a.T, C.T)
+    if k:
+        raise InvalidInputError(_overflow_message(unit_a.T, C.T, k, note, dual=True))
+    R = _range(_unit_columns(Ctrb), tol)
+    N = _null(_unit_columns(Obsv_t).T, n, tol)
     eye = np.eye(n)
     # R ∩ N = null([I - R R^T; I - N N^T]).
     cu = _null(np.vstack([eye - R @ R.T, eye - N @ N.T]), n, 1e3 * n * np.finfo(float).eps)
