@@ -107,6 +107,11 @@ def test_first_plan_is_the_headline_planned_before_the_mesh_row(
     assert spread["time"] >= min(r.time_s for r in [*repeats, *(s[3] for s in seeded)])
     assert spread["time"] < np.inf
     assert f"taskspace {suite.HEADLINE_SEEDS}" in suite.OURS_RRT
+    # the new-seed row: the first calls of the other seeds, solved
+    fresh = per[suite.HEADLINE_NEW_SEED]
+    assert fresh["ok"] == 1.0 and np.isfinite(fresh["time"]) and fresh["time"] > 0.0
+    assert f"taskspace {suite.HEADLINE_NEW_SEED}" in suite.OURS_RRT
+    assert suite.HEADLINE_NEW_SEED in suite.METHODS
 
     # The first plan's path is free for Pinocchio at the suite's resolution.
     res = calls[0][3]
