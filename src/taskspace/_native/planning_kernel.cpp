@@ -286,6 +286,8 @@ using pinocchio::Model;
 using Eigen::MatrixXd;
 using Eigen::VectorXd;
 using RowMatrixXd = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+// A read-only vector argument: eigenpy maps a contiguous float64 array to it without a copy.
+using VecRef = Eigen::Ref<const VectorXd>;
 using Manager = pinocchio::TreeBroadPhaseManagerTpl<coal::NaiveCollisionManager>;
 
 namespace {
@@ -2519,7 +2521,7 @@ struct Tree {
   std::vector<int> parent, segments;
   std::vector<char> pending, alive;
 
-  Tree(const Eigen::Ref<const VectorXd>& root) : d(static_cast<int>(root.size())) {
+  Tree(const VecRef& root) : d(static_cast<int>(root.size())) {
     // room for a typical plan's tree (tens of nodes) without reallocations
     constexpr std::size_t kNodes = 64;
     q.reserve(kNodes * static_cast<std::size_t>(d));
@@ -2800,8 +2802,7 @@ class PlanRng {
 
 class RRTConnect {
  public:
-  RRTConnect(CollisionKernel& ck, const Eigen::Ref<const VectorXd>& lower,
-             const Eigen::Ref<const VectorXd>& upper, double alpha,
+  RRTConnect(CollisionKernel& ck, const VecRef& lower, const VecRef& upper, double alpha,
              double delta, double delta_c, double local, double sigma, double trapped,
              std::uint64_t seed, int checker = kMesh, long fallback = -1,
              int validator = kMesh)
@@ -2883,7 +2884,7 @@ class RRTConnect {
   }
 
   // Straight line q0 -> q1 free at the full resolution (interior points, bisection order).
-  bool motion_valid(const Eigen::Ref<const VectorXd>& q0, const Eigen::Ref<const VectorXd>& q1) {
+  bool motion_valid(const VecRef& q0, const VecRef& q1) {
     const VectorXd dir = q1 - q0;
     if (certifying() && !root_colliding_[0] && !root_colliding_[1])
       return dir.norm() == 0.0 || edge_certified(q0.data(), dir.data(), 0.0, 1.0);
@@ -3115,7 +3116,7 @@ class RRTConnect {
   // Plan (the GIL released: gil polls the signal handlers; nullptr: no polling). time_limit
   // [s]: negative or +inf = none; the deadline saturates (a limit beyond the clock's range,
   // about 292 years, is no limit) instead of overflowing.
-  void run(const Eigen::Ref<const VectorXd>& qs, const Eigen::Ref<const VectorXd>& qg, long max_iterations, double time_limit,
+  void run(const VecRef& qs, const VecRef& qg, long max_iterations, double time_limit,
            GilRelease* gil) {
     const std::uint64_t tk0 = phase_ticks();
     plan(qs, qg, max_iterations, time_limit, gil);
@@ -3127,7 +3128,7 @@ class RRTConnect {
   }
 
   // run() without the phases' conversion.
-  void plan(const Eigen::Ref<const VectorXd>& qs, const Eigen::Ref<const VectorXd>& qg, long max_iterations, double time_limit,
+  void plan(const VecRef& qs, const VecRef& qg, long max_iterations, double time_limit,
             GilRelease* gil) {
     const auto t0 = clock::now();
     gil_ = gil;
@@ -3291,7 +3292,7 @@ class RRTConnect {
   }
 
   // A start or goal: finite, inside the bounds and free for the exact checker (one check).
-  bool endpoint_valid(const Eigen::Ref<const VectorXd>& q) {
+  bool endpoint_valid(const VecRef& q) {
     if (!q.allFinite()) return false;
     if ((q.array() < lower_.array()).any() || (q.array() > upper_.array()).any()) return false;
     return !ck_.collides(q, kMesh);
@@ -3392,10 +3393,8 @@ bp::tuple tree_tuple(const Tree& t) {
 // limit. Every other argument is checked (InvalidInputError); the plan runs with the GIL released
 // and the kernel locked (other threads may plan on other kernels meanwhile), polling Python's
 // signal handlers every kPollInterval: Ctrl-C stops it and raises KeyboardInterrupt.
-// (The vectors as Eigen::Ref: eigenpy maps a contiguous float64 array without a copy.)
-bp::tuple rrt_connect(CollisionKernel& ck, const Eigen::Ref<const VectorXd>& start,
-                      const Eigen::Ref<const VectorXd>& goal, const Eigen::Ref<const VectorXd>& lower,
-                      const Eigen::Ref<const VectorXd>& upper, double alpha, double delta,
+bp::tuple rrt_connect(CollisionKernel& ck, const VecRef& start, const VecRef& goal,
+                      const VecRef& lower, const VecRef& upper, double alpha, double delta,
                       double delta_c, double local, double sigma, double trapped,
                       long max_iterations, double time_limit, unsigned long seed,
                       int checker, long fallback_iterations, int validator,
