@@ -167,13 +167,11 @@ def _controllability(
         if k:  # (B too large)
             raise InvalidInputError(_overflow_message(A, B, k, f" (after A / 2^{e})", dual=dual))
     with np.errstate(over="ignore", invalid="ignore"):
-        norms = safe_norm(C, axis=0)  # np.linalg.norm was inf for entries ~1e300 (column -> 0)
         # the two column blocks of the PBH test scaled separately (the rank is unchanged): one
         # common scale made B vanish next to an A near 1e300 (every mode "uncontrollable")
         scale_a = max(1.0, _norm2(A))
         scale_b = max(1.0, _norm2(B))
-    Cn = C[:, norms > 0] / norms[norms > 0]
-    rank, s = _rank(Cn, tol)
+    rank, s = _rank(_unit_columns(C), tol)
     modes = []
     for lam in np.linalg.eigvals(A):
         pbh = np.hstack([(A - lam * np.eye(n)) / scale_a, B / scale_b])
@@ -195,6 +193,34 @@ def _controllability(
     )
 
 
+def _unit_columns(M: FloatArray) -> FloatArray:
+    """``M`` with its nonzero columns scaled to unit 2-norm, its zero columns dropped.
+
+    The range is the same; no column vanishes next to a larger one in the SVD's threshold
+    (the powers ``A^k B`` can differ by orders of magnitude).
+    """
+    with np.errstate(over="ignore", invalid="ignore"):
+        norms = safe_norm(M, axis=0)  # np.linalg.norm was inf for entries ~1e300 (column -> 0)
+    keep = norms > 0
+    return np.asarray(M[:, keep] / norms[keep])
+
+
+def _unit_scale(A: FloatArray) -> tuple[FloatArray, int] | None:
+    """``(2^-e A, e)`` with ``2^e`` the power of two just above ``max |A|`` (exact).
+
+    ``None`` when ``A`` is zero or the scaling would make a nonzero entry subnormal or zero.
+    """
+    top = float(np.max(np.abs(A))) if A.size else 0.0
+    if top == 0.0:
+        return None
+    e = math.frexp(top)[1]
+    As = np.ldexp(A, -e)
+    nonzero = A != 0.0
+    if float(np.min(np.abs(As[nonzero]))) < np.finfo(float).tiny:
+        return None
+    return As, e
+
+
 def _scaled(A: FloatArray, B: FloatArray, k: int, dual: bool) -> tuple[FloatArray, int]:
     """``(2^-e A, e)`` with ``2^e`` the power of two just above ``max |A|``.
 
@@ -202,12 +228,11 @@ def _scaled(A: FloatArray, B: FloatArray, k: int, dual: bool) -> tuple[FloatArra
         InvalidInputError: the scaling would make a nonzero entry subnormal or zero (A spans
             more than the floats' range: the scaled test would not be exact).
     """
-    top = float(np.max(np.abs(A)))
-    e = math.frexp(top)[1]
-    As = np.ldexp(A, -e)
-    nonzero = A != 0.0
-    if nonzero.any() and float(np.min(np.abs(As[nonzero]))) < np.finfo(float).tiny:
-        small = float(np.min(np.abs(A[nonzero])))
+    scaled = _unit_scale(A)
+    if scaled is None:
+        top = float(np.max(np.abs(A)))
+        e = math.frexp(top)[1]
+        small = float(np.min(np.abs(A[A != 0.0])))
         raise InvalidInputError(
             _overflow_message(
                 A,
@@ -218,7 +243,7 @@ def _scaled(A: FloatArray, B: FloatArray, k: int, dual: bool) -> tuple[FloatArra
                 dual=dual,
             )
         )
-    return As, e
+    return scaled
 
 
 def is_controllable(A: Any, B: Any, tolerance: float | None = None) -> bool:

@@ -29,11 +29,13 @@ import numpy as np
 import scipy.linalg as sla
 
 from taskspace._validation import FloatArray, as_float_array, as_matrix
-from taskspace.control._linear import rank_tolerance, safe_norm, square, system
+from taskspace.control._linear import rank_tolerance, square, system
 from taskspace.control.controllability import (
     _controllability,
     _krylov,
     _overflow_message,
+    _unit_columns,
+    _unit_scale,
 )
 from taskspace.errors import InvalidInputError
 
@@ -160,16 +162,6 @@ class KalmanDecomposition:
         return self.A[s, s], self.B[s], self.C[:, s]
 
 
-def _unit_columns(M: FloatArray) -> FloatArray:
-    """``M`` with its nonzero columns scaled to unit 2-norm, its zero columns dropped.
-
-    The range is the same; no column vanishes next to a larger one in the SVD's threshold.
-    """
-    norms = safe_norm(M, axis=0)
-    keep = norms > 0
-    return M[:, keep] / norms[keep]
-
-
 def _range(M: FloatArray, tol: float) -> FloatArray:
     if M.size == 0:
         return np.zeros((M.shape[0], 0))
@@ -193,7 +185,9 @@ def kalman_decomposition(
     ``T_uo`` the orthogonal complement of all three.
 
     The subspaces are those of ``2^-e A`` (``2^e`` the power of two just above ``max |A|``: an
-    exact scaling, and the subspaces of ``s A`` are those of ``A`` for every ``s != 0``), from
+    exact scaling, and the subspaces of ``s A`` are those of ``A`` for every ``s != 0``; ``A``
+    itself when its entries span more than the floats' range and the scaling would not be
+    exact), from
     the controllability matrix with its columns normalized and the observability matrix with
     its rows normalized (the powers ``A^k`` can differ by orders of magnitude); the blocks
     ``A``, ``B``, ``C`` of the result are those of the given ``A``.
@@ -213,9 +207,9 @@ def kalman_decomposition(
     p = C.shape[0]
     user_tol = rank_tolerance(tolerance)
     tol = user_tol if user_tol is not None else max(n, m, p) * n * np.finfo(float).eps * 1e3
-    top = float(np.max(np.abs(A))) if A.size else 0.0
-    unit_a = np.ldexp(A, -int(np.frexp(top)[1])) if top > 0.0 else A
-    note = " (after scaling A to max |A| < 1)"
+    scaled = _unit_scale(A)  # (None: A zero, or spanning more than the floats' range)
+    unit_a = A if scaled is None else scaled[0]
+    note = " (after scaling A to max |A| < 1)" if scaled is not None else ""
     Ctrb, k = _krylov(unit_a, B)
     if k:
         raise InvalidInputError(_overflow_message(unit_a, B, k, note))
