@@ -20,7 +20,7 @@ from taskspace.errors import TaskspaceError
 from taskspace.planning.collision_checker import FunctionChecker
 from taskspace.planning.configuration_space import ConfigurationSpace, EdgeCheckOptions
 from taskspace.planning.limits import limit_log
-from taskspace.planning.rrt_connect import RRTConnectOptions, rrt_connect
+from taskspace.planning.rrt_connect import CHECKERS, RRTConnectOptions, rrt_connect
 from taskspace.planning.scene_loader import motionbenchmaker_panda, motionbenchmaker_problems
 from tests.planning._mbm import ROOT, SKIP_REASON
 
@@ -191,3 +191,32 @@ def test_native_log_has_limit_log_fields() -> None:
         )
         stopped.add(res.log["stopped_by"])
     assert stopped == {"first solution", "iterations", "time"}
+
+
+@pytest.mark.skipif(planning_kernel() is None, reason=f"native kernel: {status()}")
+@pytest.mark.skipif(ROOT is None, reason=SKIP_REASON)
+def test_native_log_is_a_new_dict_of_the_keys() -> None:
+    """The kernel makes the log (a copy of one dict of its keys): the keys of
+    ``_NATIVE_LOG_KEYS`` in order, floats but limit_log's fields, a new dict per plan (one
+    plan's log changed does not change the next one's)."""
+    module = planning_kernel()
+    assert module.RRT_CONNECT_LOG_KEYS == rrt_connect_module._NATIVE_LOG_KEYS
+    robot = motionbenchmaker_panda()
+    req = motionbenchmaker_problems(ROOT, "bookshelf_small", [3])[0].apply(robot)
+    space = ConfigurationSpace.from_robot(robot, edge=EdgeCheckOptions(resolution=0.03))
+    limit_keys = ("stopped_by", "costs", "cost_times")
+    logs = []
+    for checker, validator in (("mesh", "mesh"), ("spheres_only", "spheres")):
+        opts = RRTConnectOptions(seed=2, checker=checker, validator=validator)
+        for _ in range(2):
+            res = rrt_connect(space, req.start, req.goal, opts)
+            assert res.success
+            assert tuple(res.log) == rrt_connect_module._NATIVE_LOG_KEYS
+            assert all(type(v) is float for k, v in res.log.items() if k not in limit_keys)
+            assert res.log["start_tree_nodes"] == res.trees[0].size
+            assert res.log["native"] == 1.0 and res.log["checker"] == float(CHECKERS.index(checker))
+            logs.append(res.log)
+            res.log["native"] = -1.0  # the caller's dict: the next plan's is another
+            res.log["costs"].append(0.0)
+    assert len({id(log) for log in logs}) == len(logs)
+    assert all(len(log["costs"]) == 2 for log in logs)

@@ -3370,16 +3370,63 @@ bp::tuple tree_tuple(const Tree& t) {
   return bp::make_tuple(rows_array(t.q, t.d), parents);
 }
 
+// The keys of rrt_connect's log, in order (rrt_connect.py's _NATIVE_LOG_KEYS; the module's
+// RRT_CONNECT_LOG_KEYS, tested equal): the kernel's numbers with limit_log's three fields
+// (stopped_by, costs, cost_times: set in Python, which has their values) at kLogLimitAt.
+constexpr const char* kLogKeys[] = {
+    "start_tree_nodes", "goal_tree_nodes", "lazy_rejections", "nodes_removed", "trapped_turns",
+    "native", "checker", "validator", "exact_recheck_checks", "sphere_recheck_failed",
+    "spheres_fallback", "spheres_fallback_iteration", "path_certified", "stopped_by", "costs",
+    "cost_times", "kernel_run_us", "kernel_endpoints_us", "kernel_line_us", "kernel_nearest_us",
+    "kernel_fine_pass_us", "kernel_recheck_us"};
+constexpr int kLogSize = sizeof(kLogKeys) / sizeof(kLogKeys[0]);
+constexpr int kLogLimitAt = 13, kLogLimitFields = 3;
+
+// kLogKeys as interned Python strings, made once (with the GIL held) and kept.
+PyObject* const* log_keys() {
+  static PyObject* const* keys = [] {
+    auto* out = new PyObject*[kLogSize];
+    for (int i = 0; i < kLogSize; ++i) {
+      out[i] = PyUnicode_InternFromString(kLogKeys[i]);
+      if (out[i] == nullptr) bp::throw_error_already_set();
+    }
+    return out;
+  }();
+  return keys;
+}
+
+// A dict of kLogKeys (in order) to None, made once and kept: each plan's log is a copy (a
+// copy of a small dict copies its table, faster than inserting the keys one by one).
+PyObject* log_template() {
+  static PyObject* const tmpl = [] {
+    PyObject* dict = PyDict_New();
+    if (dict == nullptr) bp::throw_error_already_set();
+    PyObject* const* keys = log_keys();
+    for (int i = 0; i < kLogSize; ++i)
+      if (PyDict_SetItem(dict, keys[i], Py_None) < 0) bp::throw_error_already_set();
+    return dict;
+  }();
+  return tmpl;
+}
+
+// kLogKeys as a tuple of str (the module's RRT_CONNECT_LOG_KEYS).
+bp::tuple log_key_tuple() {
+  bp::list out;
+  for (int i = 0; i < kLogSize; ++i) out.append(bp::object(bp::handle<>(bp::borrowed(log_keys()[i]))));
+  return bp::tuple(out);
+}
+
 // Plan with RRT-Connect; returns (status, path (m, d), iterations, edge_checks, checks (the
 // collision checks of this plan, as CollisionKernel.checks counts them), (start nodes (n, d),
 // start parents (n,) int64), (goal nodes, goal parents), path_length,
 // (region_certifications, region_rejections): the edge parts inside failed regions certified
-// and refused, the log's numbers (floats, in the order of rrt_connect.py's _NATIVE_LOG_KEYS:
-// tree sizes, lazy rejections, nodes removed, trapped turns, 1 (native), checker, validator,
-// exact re-check checks, re-check failed, fallback (0/1) and its iteration (-1: none), path
-// certified (checker kClearance: every edge of the returned path certified free by
-// CollisionKernel::certify_edge, i.e. no fallback), phase times in us (run, endpoints,
-// straight line, nearest, fine pass, re-check)). regions (None: none): (centers (k, d), radius, certifier, tolerance, near, far)
+// and refused, the log (a new dict, keys kLogKeys in order; floats: tree sizes, lazy
+// rejections, nodes removed, trapped turns, 1 (native), checker, validator, exact re-check
+// checks, re-check failed, fallback (0/1) and its iteration (-1: none), path certified
+// (checker kClearance: every edge of the returned path certified free by
+// CollisionKernel::certify_edge, i.e. no fallback), then None for stopped_by, costs and
+// cost_times, then phase times in us (run, endpoints, straight line, nearest, fine pass,
+// re-check)). regions (None: none): (centers (k, d), radius, certifier, tolerance, near, far)
 // of the failed regions of earlier certificates (RRTConnect::set_regions).
 // checker kClearance (3): "spheres_only" with whole edges certified by clearance instead of
 // points (no lazy fine pass; after a fallback the plan goes on with kSpheres' point checks).
@@ -3453,8 +3500,8 @@ bp::tuple rrt_connect(CollisionKernel& ck, const VecRef& start, const VecRef& go
   }
   if (planner.interrupted) bp::throw_error_already_set();
   const Result& r = planner.res;
-  // the numbers of the result's log, as floats, in the order of rrt_connect.py's
-  // _NATIVE_LOG_KEYS (one tuple: Python makes the dict in one call)
+  // the result's log: the numbers as floats, keys in the order of kLogKeys (= rrt_connect.py's
+  // _NATIVE_LOG_KEYS); stopped_by, costs and cost_times are None (rrt_connect.py sets them)
   const bool solved = r.status == kSolved;
   const double numbers[] = {
       static_cast<double>(planner.start_->size()),  // start_tree_nodes (run made both trees)
@@ -3472,12 +3519,14 @@ bp::tuple rrt_connect(CollisionKernel& ck, const VecRef& start, const VecRef& go
       r.path_certified && solved ? 1.0 : 0.0,        // path_certified
       1e6 * r.t_run, 1e6 * r.t_endpoints, 1e6 * r.t_line, 1e6 * r.t_nearest,  // [us]
       1e6 * r.t_verify, 1e6 * r.t_recheck};
-  constexpr Py_ssize_t kNumbers = sizeof(numbers) / sizeof(numbers[0]);
-  bp::object log{bp::handle<>(PyTuple_New(kNumbers))};
-  for (Py_ssize_t i = 0; i < kNumbers; ++i) {
-    PyObject* x = PyFloat_FromDouble(numbers[i]);
-    if (x == nullptr) bp::throw_error_already_set();
-    PyTuple_SET_ITEM(log.ptr(), i, x);
+  static_assert(sizeof(numbers) / sizeof(numbers[0]) + kLogLimitFields == kLogSize,
+                "one number per key of kLogKeys but the three limit fields");
+  bp::object log{bp::handle<>(PyDict_Copy(log_template()))};  // (keys interned, values None)
+  PyObject* const* keys = log_keys();
+  for (int i = 0, k = 0; i < kLogSize; ++i) {
+    if (i == kLogLimitAt) i += kLogLimitFields;  // (left None)
+    bp::handle<> x(PyFloat_FromDouble(numbers[k++]));
+    if (PyDict_SetItem(log.ptr(), keys[i], x.get()) < 0) bp::throw_error_already_set();
   }
   return bp::make_tuple(r.status, rows_array(r.path, static_cast<int>(d)), r.iterations,
                         r.edge_checks, checks, tree_tuple(*planner.start_),
@@ -3571,6 +3620,7 @@ BOOST_PYTHON_MODULE(_planning_kernel) {
   if (taskspace_register_curves(bp::scope().ptr()) < 0) bp::throw_error_already_set();
   if (taskspace_register_grasp_epsilon(bp::scope().ptr()) < 0) bp::throw_error_already_set();
   bp::scope().attr("PINOCCHIO_VERSION") = std::string(PINOCCHIO_VERSION);
+  bp::scope().attr("RRT_CONNECT_LOG_KEYS") = log_key_tuple();
   bp::scope().attr("SOLVED") = kSolved;
   bp::scope().attr("TIME_LIMIT") = kTimeLimit;
   bp::scope().attr("ITERATION_LIMIT") = kIterationLimit;

@@ -334,14 +334,17 @@ class CollisionChecker:
             self._sphere_kernel = kernel
         return kernel
 
-    def sphere_kernel_ready(self) -> None:
-        """:meth:`sphere_kernel` unless it was built for the current world (a cheap check).
+    def sphere_kernel_ready(self) -> Any:
+        """:meth:`sphere_kernel`, built unless it was for the current world (a cheap check).
 
-        Planners call it before their clock starts (the sphere model's fit is set-up).
+        Planners call it before their clock starts (the sphere model's fit is set-up) and
+        use the kernel it returns (``None``: the compiled checker is not available).
         """
         self._sync()
-        if self._sphere_kernel is None:
-            self.sphere_kernel()
+        kernel = self._sphere_kernel  # (reset with the kernel when the world changes)
+        if kernel is None:
+            kernel = self.sphere_kernel()
+        return kernel
 
     def _mark_exact_pairs(self, kernel: Any) -> None:
         """Mark the kernel's self pairs of :attr:`sphere_exact_pairs` (after set_spheres)."""

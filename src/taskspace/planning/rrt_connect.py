@@ -651,7 +651,7 @@ def _rrt_connect_native(
         space.checker.checks += int(kernel.checks - kernel_checks0)
         raise
     (status_code, path, iterations, edges, checks, start_tree, goal_tree, length, region_counts,
-     numbers) = out  # fmt: skip
+     log) = out  # fmt: skip
     space.checker.checks += checks  # the plan's collision checks
     if regions is not None:
         regions.certifications += region_counts[0]
@@ -664,15 +664,15 @@ def _rrt_connect_native(
     trees = [Tree(*start_tree), Tree(*goal_tree)]
     dt = time.perf_counter() - t0
     success = status is PlannerStatus.SOLVED
-    # the kernel's numbers, then limit_log(status, length, dt) written out (length and dt are
-    # floats), then the phase times (the log's order: limit_log's fields before the times)
-    costs = ([length], [dt]) if success else ([], [])
-    log = dict(
-        zip(
-            _NATIVE_LOG_KEYS,
-            (*numbers[:_LIMIT_AT], _NATIVE_STOPPED_BY[status_code], *costs, *numbers[_LIMIT_AT:]),
-        )
-    )
+    # the kernel's log (a new dict, keys _NATIVE_LOG_KEYS in order) holds None for
+    # limit_log(status, length, dt)'s fields: written out here (length and dt are floats)
+    log["stopped_by"] = _NATIVE_STOPPED_BY[status_code]
+    if success:
+        log["costs"] = [length]
+        log["cost_times"] = [dt]
+    else:
+        log["costs"] = []
+        log["cost_times"] = []
     if logger.isEnabledFor(logging.DEBUG):
         logger.debug(
             "rrt_connect (native) %s in %.3f s, %d iterations, %d+%d nodes, %d lazy rejections",
@@ -717,9 +717,9 @@ _NATIVE_LOG_KEYS = (
     "kernel_fine_pass_us",
     "kernel_recheck_us",
 )
-"""The keys of the compiled plan's log: the kernel's numbers (floats, in this order) with
-:func:`~taskspace.planning.limits.limit_log`'s three fields at ``_LIMIT_AT``."""
-_LIMIT_AT = _NATIVE_LOG_KEYS.index("stopped_by")
+"""The keys of the compiled plan's log, in order (the kernel's ``RRT_CONNECT_LOG_KEYS``): the
+kernel's numbers (floats) with :func:`~taskspace.planning.limits.limit_log`'s three fields
+(``stopped_by``, ``costs``, ``cost_times``: ``None`` in the kernel's dict, set here)."""
 
 
 _KERNEL_MODULE: list[Any] = []
@@ -818,27 +818,35 @@ def rrt_connect(
     ``log`` (``certify_failures``).
     """
     opts = options or _DEFAULT_OPTIONS
+    kernel = None
     if opts.checker != "mesh" and opts.native:
-        _sphere_setup(space)  # once per robot and world, before the clock: set-up
+        kernel = _sphere_setup(space)  # once per robot and world, before the clock: set-up
     t0 = time.perf_counter()  # time_s counts the whole call, the validation included
     if not opts.certify:
-        return _plan(space, start, goal, opts, rng, t0)
+        return _plan(space, start, goal, opts, rng, t0, None, kernel)
     return plan_certified(
         space, opts, lambda o, r: _plan(space, start, goal, o, rng, time.perf_counter(), r)
     )
 
 
-def _sphere_setup(space: ConfigurationSpace) -> None:
+def _sphere_setup(space: ConfigurationSpace) -> Any:
     """Build the sphere checker of ``space`` if it is not built (:func:`rrt_connect`).
 
     The robot's sphere model (fitted in seconds for a robot the on-disk cache does not hold)
     and the compiled checker of a new world are set-up, as OMPL's ``setup()`` before
     ``solve()``: built before the plan's clock starts, so that a first plan is not spent on
     them (it ended with TIME_LIMIT after 0 iterations when the fit outlasted the limit).
+
+    Returns:
+        The sphere kernel (:meth:`~taskspace.planning.CollisionChecker.sphere_kernel`) of a
+        :class:`~taskspace.planning.CollisionChecker` on a Euclidean space: what
+        :func:`_native_kernel` gives for a sphere checker (unless ``partial_extend``);
+        ``None`` for other spaces or without the compiled checker.
     """
     checker = space.checker
     if type(checker) is CollisionChecker and space.is_euclidean:
-        checker.sphere_kernel_ready()
+        return checker.sphere_kernel_ready()
+    return None
 
 
 class _Settings(NamedTuple):
@@ -900,24 +908,26 @@ def _usual_settings(opts: RRTConnectOptions) -> _Settings | None:
     fallback = opts.fallback_iterations
     coarse = opts.coarse_resolution
     if limit is None:
-        limit = math.inf
+        limit = _INF
     elif type(limit) is not float or not limit >= 0.0:  # NaN too
         return None
     if cap is None:
-        if limit == math.inf:  # no limit at all: refused
+        if limit == _INF:  # no limit at all: refused
             return None
         cap = _LONG_MAX
     elif type(cap) is not int or cap < 0:
         return None
+    elif cap > _LONG_MAX:
+        cap = _LONG_MAX
     if fallback is None:
         fallback = -1
-    elif type(fallback) is int and fallback >= 0:
-        fallback = min(fallback, _LONG_MAX)
-    else:
+    elif type(fallback) is not int or fallback < 0:
         return None
+    elif fallback > _LONG_MAX:
+        fallback = _LONG_MAX
     if (
         type(alpha) is not float
-        or not 0.0 < alpha < math.inf
+        or not 0.0 < alpha < _INF
         or checker is None
         or validator is None
         or type(seed) is not int
@@ -925,13 +935,18 @@ def _usual_settings(opts: RRTConnectOptions) -> _Settings | None:
         or type(local) is not float
         or not 0.0 <= local <= 1.0
         or type(sigma) is not float
-        or not 0.0 < sigma < math.inf
+        or not 0.0 < sigma < _INF
         or type(trapped) is not float
         or not 0.0 <= trapped <= 1.0
-        or not (coarse is None or (type(coarse) is float and 0.0 < coarse < math.inf))
+        or not (coarse is None or (type(coarse) is float and 0.0 < coarse < _INF))
     ):
         return None
-    return _Settings(alpha, min(cap, _LONG_MAX), limit, seed, coarse, fallback, checker, validator)
+    # tuple.__new__: the NamedTuple without its Python-level __new__ (0.15 us less)
+    return _NEW_TUPLE(_Settings, (alpha, cap, limit, seed, coarse, fallback, checker, validator))
+
+
+_INF = math.inf
+_NEW_TUPLE = tuple.__new__
 
 
 def _checked_settings(opts: RRTConnectOptions) -> _Settings:
@@ -974,18 +989,21 @@ def _plan(
     rng: np.random.Generator | None,
     t0: float,
     regions: FailedRegions | None = None,
+    sphere_kernel: Any = None,
 ) -> PlannerResult:
     """:func:`rrt_connect` without certification (``t0``: its ``time.perf_counter()`` [s]).
 
     ``regions``: the failed regions of earlier certificates (a certified re-plan): every edge
     of the trees and the straight start-goal line must be certified inside them
     (:class:`~taskspace.planning.certify.FailedRegions`); the compiled planner certifies in
-    the kernel when it can, else this module's planner runs.
+    the kernel when it can, else this module's planner runs. ``sphere_kernel``: what
+    :func:`_sphere_setup` returned before the clock started (``None``: none or not called).
     """
     settings = _validate(opts)  # at every call: the usual types are checked in a few steps
     alpha = settings.alpha
     delta = space.edge_resolution
-    delta_c = delta if settings.coarse is None else max(delta, settings.coarse)
+    coarse = settings.coarse
+    delta_c = coarse if coarse is not None and coarse > delta else delta  # max(delta, coarse)
     bounds = space.bounds_diameter()
     diameter = bounds[2]
     if diameter / min(alpha, delta) > _MAX_LINE_PIECES or delta_c / delta > _MAX_LINE_PIECES:
@@ -994,10 +1012,14 @@ def _plan(
             f"of diameter {diameter:g}: a line would need more than 2^30 steps or checks; "
             "use larger values"
         )
-    max_iterations, time_limit = settings.max_iterations, settings.time_limit
     seed = settings.seed
     goal_set = is_goal_set(goal)  # several goals or a region: the Python planner
-    kernel = None if goal_set else _native_kernel(space, opts)
+    if goal_set:
+        kernel = None
+    elif sphere_kernel is not None:  # _native_kernel's answer, taken before the clock
+        kernel = None if opts.partial_extend else sphere_kernel
+    else:
+        kernel = _native_kernel(space, opts)
     in_kernel = None  # the failed regions as the kernel takes them
     if kernel is not None and regions is not None:
         in_kernel = regions.kernel_regions()
@@ -1010,8 +1032,10 @@ def _plan(
         checker = settings.checker
         if checker and type(space.checker) is LockedJointChecker:
             checker = 0  # its kernel: exact checks ("mesh")
-        native = (q_start, q_goal, opts, settings, bounds, delta, delta_c, seed, t0)
-        result = _rrt_connect_native(space, kernel, checker, *native, 0, in_kernel, regions)
+        result = _rrt_connect_native(
+            space, kernel, checker, q_start, q_goal, opts, settings, bounds, delta, delta_c,
+            seed, t0, 0, in_kernel, regions,
+        )  # fmt: skip
         if not result.log["sphere_recheck_failed"]:
             return result
         # the exact checker refused the sphere checker's path: plan again with it
@@ -1021,10 +1045,12 @@ def _plan(
         assert isinstance(space.checker, CollisionChecker)  # as _native_kernel requires
         kernel = space.checker.native_kernel()
         retry = _rrt_connect_native(
-            space, kernel, 0, *native, result.collision_checks, in_kernel, regions
-        )
+            space, kernel, 0, q_start, q_goal, opts, settings, bounds, delta, delta_c, seed, t0,
+            result.collision_checks, in_kernel, regions,
+        )  # fmt: skip
         retry.log["sphere_recheck_failed"] = 1.0
         return retry
+    max_iterations, time_limit = settings.max_iterations, settings.time_limit
     checks0, edges0 = space.checks, space.edge_checks
     q_start = space.check_endpoint(start, "start")
     rng = rng if rng is not None else np.random.default_rng(seed)
