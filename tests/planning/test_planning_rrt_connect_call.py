@@ -171,3 +171,23 @@ def test_time_s_counts_the_validation(problem, monkeypatch) -> None:  # type: ig
     assert res.success
     assert 0.02 <= res.time_s <= wall
     assert res.log["cost_times"] == [res.time_s]
+
+
+def test_mesh_checker_ignores_the_validator() -> None:
+    """``validator`` is ignored with ``checker="mesh"`` (documented): on a space whose kernel
+    has no spheres yet, ``validator="spheres"`` plans as ``"mesh"`` does. The kernel refused
+    it before ("the sphere checker needs set_spheres first") until a sphere plan had set
+    the spheres on that checker's kernel."""
+    robot = motionbenchmaker_panda()  # a new robot: its checker's kernel has no spheres
+    req = motionbenchmaker_problems(ROOT, "bookshelf_small", [3])[0].apply(robot)
+    space = ConfigurationSpace.from_robot(robot, edge=EdgeCheckOptions(resolution=0.03))
+    got = rrt_connect(space, req.start, req.goal, RRTConnectOptions(seed=2, validator="spheres"))
+    ref = rrt_connect(space, req.start, req.goal, RRTConnectOptions(seed=2))
+    assert got.success and ref.success
+    np.testing.assert_array_equal(got.path, ref.path)
+    assert (got.iterations, got.collision_checks, got.edge_checks) == (
+        ref.iterations,
+        ref.collision_checks,
+        ref.edge_checks,
+    )
+    assert got.log["validator"] == ref.log["validator"] == 0.0

@@ -3451,7 +3451,7 @@ bp::tuple rrt_connect(CollisionKernel& ck, const VecRef& start, const VecRef& go
   else ck.check_checker(checker);
   if (validator != kMesh && validator != kSpheres)
     raise_invalid("validator must be 0 (mesh) or 1 (spheres), got " + std::to_string(validator));
-  ck.check_checker(validator);
+  if (checker != kMesh) ck.check_checker(validator);  // (ignored by the mesh checker)
   if (start.size() != d || goal.size() != d || lower.size() != d || upper.size() != d)
     raise_invalid("start, goal, lower and upper must have size nq = " + std::to_string(d));
   if (!lower.allFinite() || !upper.allFinite()) raise_invalid("lower and upper must be finite");
