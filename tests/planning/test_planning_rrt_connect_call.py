@@ -191,3 +191,66 @@ def test_mesh_checker_ignores_the_validator() -> None:
         ref.edge_checks,
     )
     assert got.log["validator"] == ref.log["validator"] == 0.0
+
+
+def _same_plans(a, b) -> None:  # type: ignore[no-untyped-def]
+    """Two results of the kernel's rrt_connect are the same plan (all but the phase times)."""
+    assert a[0] == b[0] and a[2:5] == b[2:5] and a[7:9] == b[7:9]
+    np.testing.assert_array_equal(a[1], b[1])
+    for tree_a, tree_b in ((a[5], b[5]), (a[6], b[6])):
+        np.testing.assert_array_equal(tree_a[0], tree_b[0])
+        np.testing.assert_array_equal(tree_a[1], tree_b[1])
+    timed = {key for key in a[9] if key.endswith("_us")}
+    assert {k: v for k, v in a[9].items() if k not in timed} == {
+        k: v for k, v in b[9].items() if k not in timed
+    }
+
+
+def test_fast_entry_converts_as_the_checked_function(problem) -> None:  # type: ignore[no-untyped-def]
+    """The module's rrt_connect (converting the usual arguments itself) plans as the
+    Boost.Python function does, and hands every other call to it: keywords, other number and
+    array types, strided, byte-swapped and misaligned vectors, out-of-range integers."""
+    space, start, goal = problem
+    module = planning_kernel()
+    kernel = space.checker.sphere_kernel()
+    # (distinct values: two numbers swapped by the conversion would change the plan)
+    args = [kernel, start, goal, space.lower, space.upper, 0.5, 0.03, 0.15, 0.45, 0.55, 0.75]
+    args += [40, -1.0, 7, 2, 20, 1, None]  # iterations, no time limit, seed, checkers
+    reference = module._rrt_connect_checked(*args)
+    assert reference[2] > 0  # a plan with iterations, not the straight line
+    _same_plans(module.rrt_connect(*args), reference)
+    names = ["checker", "start", "goal", "lower", "upper", "alpha", "delta", "delta_c", "local"]
+    names += ["sigma", "trapped", "max_iterations", "time_limit", "seed", "collision_checker"]
+    names += ["fallback_iterations", "validator", "regions"]
+    _same_plans(module.rrt_connect(**dict(zip(names, args, strict=True))), reference)
+    wide = np.zeros((space.dim, 2))
+    wide[:, 0] = start
+    swapped = start.astype(">f8")
+    raw = np.zeros(8 * space.dim + 1, dtype=np.uint8)[1:]
+    misaligned = raw.view(np.float64)
+    misaligned[:] = start
+    assert not misaligned.flags.aligned
+    for index, value in ((1, wide[:, 0]), (1, misaligned), (5, np.float64(0.5))):
+        changed = list(args)  # (a strided view, a misaligned vector, a numpy float)
+        changed[index] = value
+        _same_plans(module.rrt_connect(*changed), reference)
+    for index, value in (
+        (1, swapped),  # (whatever eigenpy makes of it)
+        (1, list(start)),
+        (11, np.int64(40)),
+        (11, 1 << 70),
+        (13, np.uint64(7)),
+        (13, -1),
+        (13, 1 << 64),
+        (14, True),
+        (5, "0.5"),
+    ):
+        changed = list(args)
+        changed[index] = value
+        try:
+            expected = module._rrt_connect_checked(*changed)
+        except Exception as exc:  # (the checked function's error, whatever it is)
+            with pytest.raises(type(exc)):
+                module.rrt_connect(*changed)
+        else:
+            _same_plans(module.rrt_connect(*changed), expected)

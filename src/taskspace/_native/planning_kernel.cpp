@@ -3534,6 +3534,111 @@ bp::tuple rrt_connect(CollisionKernel& ck, const VecRef& start, const VecRef& go
                         bp::make_tuple(r.region_certifications, r.region_rejections), log);
 }
 
+// The module's rrt_connect: a plain CPython function (vectorcall) in front of the Boost.Python
+// function above (the module's _rrt_connect_checked), whose dispatch converted the 18
+// arguments in about 1 us per plan. The usual call (rrt_connect.py's: 18 positional
+// arguments, a CollisionKernel, 1-D float64 arrays of native byte order, aligned and
+// contiguous, exact floats and ints in range, regions anything) is converted here and calls
+// rrt_connect; every other call (keywords, fewer arguments, other types or layouts) goes to
+// the Boost.Python function unchanged, with its conversions and errors.
+PyObject* g_rrt_connect_checked = nullptr;  // the Boost.Python function (set at import)
+PyObject* g_ndarray = nullptr;              // numpy.ndarray (set at import)
+
+// An exact numpy.ndarray of shape (n,), float64 in native order, aligned, contiguous.
+bool fast_vector(PyObject* o, const double*& data, Eigen::Index& size) {
+  if (Py_TYPE(o) != reinterpret_cast<PyTypeObject*>(g_ndarray)) return false;
+  auto* a = reinterpret_cast<PyArrayObject*>(o);
+  if (PyArray_NDIM(a) != 1 || PyArray_TYPE(a) != NPY_DOUBLE || !PyArray_ISNOTSWAPPED(a) ||
+      !PyArray_ISALIGNED(a) || PyArray_STRIDE(a, 0) != static_cast<npy_intp>(sizeof(double)))
+    return false;
+  data = static_cast<const double*>(PyArray_DATA(a));
+  size = PyArray_DIM(a, 0);
+  return true;
+}
+
+bool fast_double(PyObject* o, double& x) {
+  if (!PyFloat_CheckExact(o)) return false;
+  x = PyFloat_AS_DOUBLE(o);
+  return true;
+}
+
+bool fast_long(PyObject* o, long& x) {
+  if (!PyLong_CheckExact(o)) return false;  // (bool and other int types: Boost.Python)
+  int overflow = 0;
+  x = PyLong_AsLongAndOverflow(o, &overflow);
+  if (x == -1 && PyErr_Occurred()) {  // (not for an exact int: cleared for the other path)
+    PyErr_Clear();
+    return false;
+  }
+  return overflow == 0;
+}
+
+bool fast_int(PyObject* o, int& x) {
+  long v = 0;
+  if (!fast_long(o, v) || v < std::numeric_limits<int>::min() ||
+      v > std::numeric_limits<int>::max())
+    return false;
+  x = static_cast<int>(v);
+  return true;
+}
+
+bool fast_unsigned_long(PyObject* o, unsigned long& x) {
+  if (!PyLong_CheckExact(o)) return false;
+  x = PyLong_AsUnsignedLong(o);  // (negative or too large: OverflowError, cleared)
+  if (x == static_cast<unsigned long>(-1) && PyErr_Occurred()) {
+    PyErr_Clear();
+    return false;
+  }
+  return true;
+}
+
+PyObject* rrt_connect_fast(PyObject*, PyObject* const* args, Py_ssize_t nargsf,
+                           PyObject* kwnames) {
+  const Py_ssize_t n = PyVectorcall_NARGS(nargsf);
+  const double* data[4] = {};
+  Eigen::Index size[4] = {};
+  double reals[7] = {};  // alpha, delta, delta_c, local, sigma, trapped, time_limit
+  long max_iterations = 0, fallback = 0;
+  unsigned long seed = 0;
+  int checker = 0, validator = 0;
+  void* ck = nullptr;
+  bool usual = kwnames == nullptr && n == 18;
+  for (int i = 0; usual && i < 4; ++i) usual = fast_vector(args[1 + i], data[i], size[i]);
+  for (int i = 0; usual && i < 6; ++i) usual = fast_double(args[5 + i], reals[i]);
+  usual = usual && fast_long(args[11], max_iterations) && fast_double(args[12], reals[6]) &&
+          fast_unsigned_long(args[13], seed) && fast_int(args[14], checker) &&
+          fast_long(args[15], fallback) && fast_int(args[16], validator);
+  if (usual) {
+    ck = bp::converter::get_lvalue_from_python(
+        args[0], bp::converter::registered<CollisionKernel>::converters);
+    usual = ck != nullptr;
+  }
+  if (!usual) return PyObject_Vectorcall(g_rrt_connect_checked, args, nargsf, kwnames);
+  try {
+    using Map = Eigen::Map<const VectorXd>;
+    const bp::object regions{bp::handle<>(bp::borrowed(args[17]))};
+    bp::tuple out = rrt_connect(
+        *static_cast<CollisionKernel*>(ck), VecRef(Map(data[0], size[0])),
+        VecRef(Map(data[1], size[1])), VecRef(Map(data[2], size[2])),
+        VecRef(Map(data[3], size[3])), reals[0], reals[1], reals[2], reals[3], reals[4],
+        reals[5], max_iterations, reals[6], seed, checker, fallback, validator, regions);
+    return bp::incref(out.ptr());
+  } catch (...) {
+    bp::handle_exception();  // (Boost.Python's translation, as for its own functions)
+    return nullptr;
+  }
+}
+
+PyMethodDef kRRTConnectMethods[] = {
+    {"rrt_connect", reinterpret_cast<PyCFunction>(reinterpret_cast<void (*)()>(rrt_connect_fast)),
+     METH_FASTCALL | METH_KEYWORDS,
+     "rrt_connect(checker, start, goal, lower, upper, alpha, delta, delta_c, local, sigma, "
+     "trapped, max_iterations, time_limit, seed, collision_checker=0, fallback_iterations=-1, "
+     "validator=0, regions=None) -> (status, path, iterations, edge_checks, checks, "
+     "(start nodes, parents), (goal nodes, parents), path_length, (region certifications, "
+     "rejections), log): see _rrt_connect_checked (the same function, any argument types)."},
+    {nullptr, nullptr, 0, nullptr}};
+
 // Benchmarks: the certified edges' min and max steps in units of the resolution (see
 // g_min_step_fraction); returns the previous values.
 bp::tuple set_clearance_tuning(double min_fraction, double max_fraction) {
@@ -3679,11 +3784,16 @@ BOOST_PYTHON_MODULE(_planning_kernel) {
   bp::def("plan_rng_draws", &plan_rng_draws, bp::args("seed", "n", "bound"));
   bp::def("set_clearance_tuning", &set_clearance_tuning,
           bp::args("min_fraction", "max_fraction"));
-  bp::def("rrt_connect", &rrt_connect,
+  bp::def("_rrt_connect_checked", &rrt_connect,
           (bp::arg("checker"), bp::arg("start"), bp::arg("goal"), bp::arg("lower"),
            bp::arg("upper"), bp::arg("alpha"), bp::arg("delta"), bp::arg("delta_c"),
            bp::arg("local"), bp::arg("sigma"), bp::arg("trapped"), bp::arg("max_iterations"),
            bp::arg("time_limit"), bp::arg("seed"), bp::arg("collision_checker") = kMesh,
            bp::arg("fallback_iterations") = -1L, bp::arg("validator") = kMesh,
            bp::arg("regions") = bp::object()));
+  // the module's rrt_connect: the fast entry in front of _rrt_connect_checked
+  g_rrt_connect_checked = bp::incref(bp::object(bp::scope().attr("_rrt_connect_checked")).ptr());
+  g_ndarray = bp::incref(bp::object(bp::import("numpy").attr("ndarray")).ptr());
+  if (PyModule_AddFunctions(bp::scope().ptr(), kRRTConnectMethods) < 0)
+    bp::throw_error_already_set();
 }

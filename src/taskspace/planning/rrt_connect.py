@@ -628,7 +628,7 @@ def _rrt_connect_native(
     alpha, diameter = settings.alpha, bounds[2]
     kernel_checks0 = kernel.checks
     try:
-        out = module.rrt_connect(  # positional arguments: 2.5 us less than keywords
+        out = module.rrt_connect(  # positional, usual types: the kernel's fast entry
             kernel,
             q_start,
             q_goal,
