@@ -3382,7 +3382,7 @@ constexpr const char* kLogKeys[] = {
 constexpr int kLogSize = sizeof(kLogKeys) / sizeof(kLogKeys[0]);
 constexpr int kLogLimitAt = 13, kLogLimitFields = 3;
 
-// kLogKeys as interned Python strings, made once (with the GIL held) and kept.
+// kLogKeys as interned Python strings, made once (at import, with the GIL held) and kept.
 PyObject* const* log_keys() {
   static PyObject* const* keys = [] {
     auto* out = new PyObject*[kLogSize];
@@ -3395,8 +3395,8 @@ PyObject* const* log_keys() {
   return keys;
 }
 
-// A dict of kLogKeys (in order) to None, made once and kept: each plan's log is a copy (a
-// copy of a small dict copies its table, faster than inserting the keys one by one).
+// A dict of kLogKeys (in order) to None, made once (at import) and kept: each plan's log is
+// a copy (a copy of a small dict copies its table, faster than inserting the keys one by one).
 PyObject* log_template() {
   static PyObject* const tmpl = [] {
     PyObject* dict = PyDict_New();
@@ -3412,7 +3412,8 @@ PyObject* log_template() {
 // kLogKeys as a tuple of str (the module's RRT_CONNECT_LOG_KEYS).
 bp::tuple log_key_tuple() {
   bp::list out;
-  for (int i = 0; i < kLogSize; ++i) out.append(bp::object(bp::handle<>(bp::borrowed(log_keys()[i]))));
+  for (int i = 0; i < kLogSize; ++i)
+    out.append(bp::object(bp::handle<>(bp::borrowed(log_keys()[i]))));
   return bp::tuple(out);
 }
 
@@ -3726,6 +3727,7 @@ BOOST_PYTHON_MODULE(_planning_kernel) {
   if (taskspace_register_grasp_epsilon(bp::scope().ptr()) < 0) bp::throw_error_already_set();
   bp::scope().attr("PINOCCHIO_VERSION") = std::string(PINOCCHIO_VERSION);
   bp::scope().attr("RRT_CONNECT_LOG_KEYS") = log_key_tuple();
+  (void)log_template();  // made at import (not at a first plan, which may race another)
   bp::scope().attr("SOLVED") = kSolved;
   bp::scope().attr("TIME_LIMIT") = kTimeLimit;
   bp::scope().attr("ITERATION_LIMIT") = kIterationLimit;
