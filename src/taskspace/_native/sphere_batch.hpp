@@ -1218,12 +1218,20 @@ class SphereFilter {
   // per vector operation.
   std::uint64_t box_bits(std::size_t li, float x, float y, float z, float radius) const {
     const F4 cx = splat(x), cy = splat(y), cz = splat(z);
+    return range_bits(li, cx, cy, cz, cx, cy, cz, radius);
+  }
+
+  // Bit b set when a sphere of the given radius centred anywhere in the box [lo, hi] (every
+  // coordinate splat over the lanes) touches obstacle b's box inflated by binfl_ of b: the
+  // distance between the two boxes (box_bits: lo = hi, a point).
+  std::uint64_t range_bits(std::size_t li, F4 lx, F4 ly, F4 lz, F4 hx, F4 hy, F4 hz,
+                           float radius) const {
     const F4 zero = {};
     std::uint64_t bits = 0;
     for (const int b : link_blocks_[li]) {
-      const F4 dx = vmax(vmax(blo_[0][b] - cx, cx - bhi_[0][b]), zero);
-      const F4 dy = vmax(vmax(blo_[1][b] - cy, cy - bhi_[1][b]), zero);
-      const F4 dz = vmax(vmax(blo_[2][b] - cz, cz - bhi_[2][b]), zero);
+      const F4 dx = vmax(vmax(blo_[0][b] - hx, lx - bhi_[0][b]), zero);
+      const F4 dy = vmax(vmax(blo_[1][b] - hy, ly - bhi_[1][b]), zero);
+      const F4 dz = vmax(vmax(blo_[2][b] - hz, lz - bhi_[2][b]), zero);
       const F4 rr = radius + binfl_[b];
       const unsigned m = lanes_of(dx * dx + dy * dy + dz * dz <= rr * rr);
       bits |= static_cast<std::uint64_t>(m) << (4 * b);
@@ -1231,23 +1239,29 @@ class SphereFilter {
     return bits & link_reach_[li];
   }
 
-  // Bits of the obstacles whose inflated box the union sphere of link li's bounding spheres
-  // in the lanes of `act` touches: centre c_u the centre of act's first lane, radius the
-  // link's radius + max over the lanes of |c_l - c_u| + eps_. Every bit link_obstacles(li, l)
-  // sets for a lane l of act is set here: |c_l - c_u| <= d_max, so the box within
-  // r + infl of c_l is within r + d_max + infl of c_u (triangle inequality), the float
-  // rounding of both tests (about 1e-6 m, see the header's bound) far below the eps_ added.
+  // Bits of the obstacles whose inflated box link li's bounding sphere touches in some lane of
+  // `act`: the sphere anywhere in the box of the lanes' centres (range_bits). Every bit
+  // link_obstacles(li, l) sets for a lane l of act is set here: per axis the gap between the
+  // boxes is at most the gap from lane l's centre (the box's bounds are lanes' coordinates,
+  // exactly), and the float operations are monotone, so the squared distance is at most lane
+  // l's, exactly.
   std::uint64_t link_union_obstacles(std::size_t li, unsigned act) const {
     const LinkF& L = links_[li];
-    const int l0 = __builtin_ctz(act);
-    const float c[3] = {L.world.x[l0], L.world.y[l0], L.world.z[l0]};
-    const F4 ex = L.world.x - c[0], ey = L.world.y - c[1], ez = L.world.z - c[2];
-    // squared distances of the lanes' centres to lane l0's, 0 in the lanes outside act
-    F4 d2 = ex * ex + ey * ey + ez * ez;
-    d2 = kLaneMask[act & 15u] ? d2 : F4{};
-    const float m01 = std::max(d2[0], d2[1]), m23 = std::max(d2[2], d2[3]);
-    const float radius = L.radius + std::sqrt(std::max(m01, m23)) + static_cast<float>(eps_);
-    return box_bits(li, c[0], c[1], c[2], radius);
+    const I4 in = kLaneMask[act & 15u];
+    const F4 inf = splat(std::numeric_limits<float>::infinity());
+    // the lanes' smallest and largest coordinates, in every lane (a butterfly of min / max)
+    auto lo = [&](const F4& v) {
+      F4 m = in ? v : inf;
+      m = vmin(m, __builtin_shufflevector(m, m, 2, 3, 0, 1));
+      return vmin(m, __builtin_shufflevector(m, m, 1, 0, 3, 2));
+    };
+    auto hi = [&](const F4& v) {
+      F4 m = in ? v : -inf;
+      m = vmax(m, __builtin_shufflevector(m, m, 2, 3, 0, 1));
+      return vmax(m, __builtin_shufflevector(m, m, 1, 0, 3, 2));
+    };
+    return range_bits(li, lo(L.world.x), lo(L.world.y), lo(L.world.z), hi(L.world.x),
+                      hi(L.world.y), hi(L.world.z), L.radius);
   }
 
   // Lanes where link li's bounding sphere touches obstacle ob's inflated box: link_obstacles'
