@@ -165,9 +165,9 @@ def test_planner_paths_equal_with_and_without_the_filter(robot: Any) -> None:
     """The planner with the filter: the same paths and check counts as without where the answers
     are the same ("spheres"; "spheres only" confirmed), with fewer double-precision sphere tests
     (the filter is used); trusted, "spheres only" plans paths that the meshes find free."""
-    mesh = mesh_collides(robot)
     for scenario in ("bookshelf_tall", "table_pick"):
         req, space, kernel = _space(robot, scenario)
+        mesh = mesh_collides(robot)  # with this scene's obstacles (not the previous test's)
         for checker, mode in (("spheres", TRUSTED), ("spheres_only", CONFIRMED)):
             out = {}
             for m in (OFF, mode):

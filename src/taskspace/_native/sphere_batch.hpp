@@ -292,6 +292,10 @@ class SphereFilter {
       n = std::max(n, depth[k + 1]);
     }
     poses_.assign(in.chain.size() + 1, PoseF{});
+    motion_.assign(2 * in.chain.size(), F4{});
+    serial_ = true;
+    for (std::size_t k = 0; k < in.chain.size(); ++k)
+      serial_ = serial_ && in.chain[k].parent == static_cast<int>(k);
     for (int a = 0; a < 3; ++a) poses_[0].R[4 * a] = splat(1.0f);
     scale_ = std::max(1.0, in.scale);
     depth_ = n;
@@ -443,40 +447,45 @@ class SphereFilter {
       std::fill(grp_stamp_.begin(), grp_stamp_.end(), 0u);
       stamp_ = 1;
     }
-    for (std::size_t k = 0; k < joints_.size(); ++k) {
+    // the joints' motions first (they do not depend on the chain): sines and cosines of the
+    // revolute joints, the float coordinate of the prismatic ones
+    const std::size_t nj = joints_.size();
+    std::size_t k = 0;
+    typedef Lanes<2 * kLanes> L2;
+    for (; k + 1 < nj; k += 2) {  // two revolute joints in one vector
       const JointF& f = joints_[k];
-      const PoseF& P = poses_[f.parent];
-      PoseF& M = poses_[k + 1];
-      if (f.perm) {
-        for (int c = 0; c < 3; ++c) {
-          const F4* src = &P.R[3 * f.src[c]];
-          const F4 sign = f.sign[c];
-          M.R[3 * c] = sign * src[0];
-          M.R[3 * c + 1] = sign * src[1];
-          M.R[3 * c + 2] = sign * src[2];
-        }
-      } else {
-        for (int c = 0; c < 3; ++c)
-          for (int r = 0; r < 3; ++r)
-            M.R[r + 3 * c] = (P.R[r] * f.R0[3 * c] + P.R[r + 3] * f.R0[3 * c + 1]) +
-                             P.R[r + 6] * f.R0[3 * c + 2];
+      const JointF& g = joints_[k + 1];
+      if (f.kind != 0 || g.kind != 0) break;
+      typename L2::D v;
+      for (int l = 0; l < kLanes; ++l) {
+        v[l] = q[l][f.idx_q];
+        v[l + kLanes] = q[l][g.idx_q];
       }
-      for (int r = 0; r < 3; ++r)
-        M.t[r] = ((P.R[r] * f.t0[0] + P.R[r + 3] * f.t0[1]) + P.R[r + 6] * f.t0[2]) + P.t[r];
+      typename L2::F s, c;
+      sincos_n<2 * kLanes>(v, s, c);
+      __builtin_memcpy(&motion_[2 * k], &s, sizeof(F4));
+      __builtin_memcpy(&motion_[2 * k + 1], &c, sizeof(F4));
+      __builtin_memcpy(&motion_[2 * k + 2], reinterpret_cast<const float*>(&s) + kLanes, sizeof(F4));
+      __builtin_memcpy(&motion_[2 * k + 3], reinterpret_cast<const float*>(&c) + kLanes, sizeof(F4));
+    }
+    for (; k < nj; ++k) {
+      const JointF& f = joints_[k];
       D4 v;
       for (int l = 0; l < kLanes; ++l) v[l] = q[l][f.idx_q];
-      if (f.kind == 0) {  // revolute: columns b and d turn about the axis
-        F4 s, c;
-        sincos4(v, s, c);
-        const int b = f.turn[0], d = f.turn[1];
-        for (int r = 0; r < 3; ++r) {
-          const F4 cb = M.R[r + 3 * b], cd = M.R[r + 3 * d];
-          M.R[r + 3 * b] = c * cb + s * cd;
-          M.R[r + 3 * d] = c * cd - s * cb;
-        }
-      } else {  // prismatic: along the axis column
-        const F4 vf = to_float(v);
-        for (int r = 0; r < 3; ++r) M.t[r] = M.t[r] + vf * M.R[r + 3 * f.axis];
+      if (f.kind == 0) {
+        sincos4(v, motion_[2 * k], motion_[2 * k + 1]);
+      } else {
+        motion_[2 * k] = to_float(v);
+      }
+    }
+    if (serial_) {
+      chain_serial();
+    } else {
+      for (std::size_t k = 0; k < nj; ++k) {
+        const JointF& f = joints_[k];
+        const PoseF& P = poses_[f.parent];
+        PoseF& M = poses_[k + 1];
+        joint_step(f, P.R, P.t, M.R, M.t, motion_[2 * k], motion_[2 * k + 1]);
       }
     }
     for (LinkF& l : links_) l.world = place(l, l.center);
@@ -498,41 +507,55 @@ class SphereFilter {
   // [-pi/4, pi/4] and the quadrant j mod 4. Absolute error below 2 u (u = 2^-24; tested
   // against double on a dense grid). Lanes beyond |x| < 1e5 (or not finite) take std::sin /
   // std::cos in double, rounded.
-  static void sincos4(const D4& x, F4& s, F4& c) {
+  static void sincos4(const D4& x, F4& s, F4& c) { sincos_n<kLanes>(x, s, c); }
+  // sincos4 on N lanes at once (the same operations lane by lane: the same values; the
+  // joints of load_q two at a time, 8 lanes).
+  template <int N>
+  struct Lanes {
+    typedef double D __attribute__((vector_size(N * sizeof(double))));
+    typedef float F __attribute__((vector_size(N * sizeof(float))));
+    typedef std::uint64_t U __attribute__((vector_size(N * sizeof(std::uint64_t))));
+    typedef unsigned V __attribute__((vector_size(N * sizeof(unsigned))));
+  };
+  template <int N>
+  static void sincos_n(const typename Lanes<N>::D& x, typename Lanes<N>::F& s,
+                       typename Lanes<N>::F& c) {
+    typedef typename Lanes<N>::D DN;
+    typedef typename Lanes<N>::F FN;
+    typedef typename Lanes<N>::U UN;
+    typedef typename Lanes<N>::V VN;
     constexpr double kTwoOverPi = 6.36619772367581382433e-01;
     constexpr double kPio2Hi = 1.57079632673412561417e+00;  // first 33 bits of pi/2
     constexpr double kPio2Lo = 6.07710050650619224932e-11;  // pi/2 - kPio2Hi
     constexpr double kRound = 6755399441055744.0;           // 1.5 * 2^52: round to nearest
     bool plain = true;
-    for (int l = 0; l < kLanes; ++l) plain = plain && std::abs(x[l]) < 1e5;
+    for (int l = 0; l < N; ++l) plain = plain && std::abs(x[l]) < 1e5;
     if (!plain) {
-      for (int l = 0; l < kLanes; ++l) {
+      for (int l = 0; l < N; ++l) {
         s[l] = static_cast<float>(std::sin(x[l]));
         c[l] = static_cast<float>(std::cos(x[l]));
       }
       return;
     }
-    const D4 y = x * kTwoOverPi + kRound;  // j in the low mantissa bits (see kinematics_batch)
-    const D4 j = y - kRound;
-    const F4 r = to_float((x - j * kPio2Hi) - j * kPio2Lo);
-    const F4 z = r * r;
-    const F4 sr = ((-1.9515295891e-4f * z + 8.3321608736e-3f) * z - 1.6666654611e-1f) * z * r + r;
-    const F4 cr = ((2.443315711809948e-5f * z - 1.388731625493765e-3f) * z +
+    const DN y = x * kTwoOverPi + kRound;  // j in the low mantissa bits (see kinematics_batch)
+    const DN j = y - kRound;
+    const FN r = __builtin_convertvector((x - j * kPio2Hi) - j * kPio2Lo, FN);
+    const FN z = r * r;
+    const FN sr = ((-1.9515295891e-4f * z + 8.3321608736e-3f) * z - 1.6666654611e-1f) * z * r + r;
+    const FN cr = ((2.443315711809948e-5f * z - 1.388731625493765e-3f) * z +
                    4.166664568298827e-2f) *
                       z * z -
                   0.5f * z + 1.0f;
-    typedef std::uint64_t U4 __attribute__((vector_size(kLanes * sizeof(std::uint64_t))));
-    typedef unsigned V4 __attribute__((vector_size(kLanes * sizeof(unsigned))));
-    U4 yb;
+    UN yb;
     __builtin_memcpy(&yb, &y, sizeof yb);
-    const V4 q = __builtin_convertvector(yb, V4) & 3u;
-    V4 bs, bc;
+    const VN q = __builtin_convertvector(yb, VN) & 3u;
+    VN bs, bc;
     __builtin_memcpy(&bs, &sr, sizeof bs);
     __builtin_memcpy(&bc, &cr, sizeof bc);
     // (sin, cos) = (sr, cr), (cr, -sr), (-sr, -cr), (-cr, sr) for q = 0..3
-    const V4 swap = V4{} - (q & 1u);
-    const V4 os = ((bs & ~swap) | (bc & swap)) ^ ((q & 2u) << 30);
-    const V4 oc = ((bc & ~swap) | (bs & swap)) ^ (((q + 1u) & 2u) << 30);
+    const VN swap = VN{} - (q & 1u);
+    const VN os = ((bs & ~swap) | (bc & swap)) ^ ((q & 2u) << 30);
+    const VN oc = ((bc & ~swap) | (bs & swap)) ^ (((q + 1u) & 2u) << 30);
     __builtin_memcpy(&s, &os, sizeof s);
     __builtin_memcpy(&c, &oc, sizeof c);
   }
@@ -703,6 +726,60 @@ class SphereFilter {
     F4 sign[3] = {{1, 1, 1, 1}, {1, 1, 1, 1}, {1, 1, 1, 1}};
     F4 R0[9], t0[3];
   };
+
+  // One joint of the chain: M = P * (R0, t0) * motion (s, c: the sine and cosine of a revolute
+  // joint's angle; s: the coordinate of a prismatic joint), the operations of the header's
+  // bound (a signed permutation R0: its columns copied with their signs, exactly).
+  static inline void joint_step(const JointF& f, const F4* PR, const F4* Pt, F4* MR, F4* Mt,
+                                const F4& s, const F4& c) {
+    if (f.perm) {
+      for (int col = 0; col < 3; ++col) {
+        const int src = f.src[col];
+        const F4 sign = f.sign[col];
+        for (int r = 0; r < 3; ++r)
+          MR[r + 3 * col] = sign * (src == 0 ? PR[r] : src == 1 ? PR[r + 3] : PR[r + 6]);
+      }
+    } else {
+      for (int col = 0; col < 3; ++col)
+        for (int r = 0; r < 3; ++r)
+          MR[r + 3 * col] = (PR[r] * f.R0[3 * col] + PR[r + 3] * f.R0[3 * col + 1]) +
+                            PR[r + 6] * f.R0[3 * col + 2];
+    }
+    for (int r = 0; r < 3; ++r)
+      Mt[r] = ((PR[r] * f.t0[0] + PR[r + 3] * f.t0[1]) + PR[r + 6] * f.t0[2]) + Pt[r];
+    if (f.kind == 0) {  // revolute: columns b and d turn about the axis
+      switch (f.axis) {
+        case 0: turn<1, 2>(MR, s, c); break;
+        case 1: turn<2, 0>(MR, s, c); break;
+        default: turn<0, 1>(MR, s, c); break;
+      }
+    } else {  // prismatic: along the axis column
+      for (int r = 0; r < 3; ++r) Mt[r] = Mt[r] + s * MR[r + 3 * f.axis];
+    }
+  }
+  template <int B, int D>
+  static inline void turn(F4* MR, const F4& s, const F4& c) {
+    for (int r = 0; r < 3; ++r) {
+      const F4 cb = MR[r + 3 * B], cd = MR[r + 3 * D];
+      MR[r + 3 * B] = c * cb + s * cd;
+      MR[r + 3 * D] = c * cd - s * cb;
+    }
+  }
+  // The chain when every joint's parent is the joint before it (serial_): the running pose in
+  // locals (registers) instead of reloaded from poses_ at each joint; the same operations.
+  void chain_serial() {
+    F4 R[9], t[3];
+    for (int e = 0; e < 9; ++e) R[e] = poses_[0].R[e];
+    for (int a = 0; a < 3; ++a) t[a] = poses_[0].t[a];
+    const std::size_t nj = joints_.size();
+    for (std::size_t k = 0; k < nj; ++k) {
+      F4 MR[9], Mt[3];
+      joint_step(joints_[k], R, t, MR, Mt, motion_[2 * k], motion_[2 * k + 1]);
+      PoseF& M = poses_[k + 1];
+      for (int e = 0; e < 9; ++e) M.R[e] = R[e] = MR[e];
+      for (int a = 0; a < 3; ++a) M.t[a] = t[a] = Mt[a];
+    }
+  }
   struct F3 {
     float v[3];
   };
@@ -1141,12 +1218,20 @@ class SphereFilter {
   // per vector operation.
   std::uint64_t box_bits(std::size_t li, float x, float y, float z, float radius) const {
     const F4 cx = splat(x), cy = splat(y), cz = splat(z);
+    return range_bits(li, cx, cy, cz, cx, cy, cz, radius);
+  }
+
+  // Bit b set when a sphere of the given radius centred anywhere in the box [lo, hi] (every
+  // coordinate splat over the lanes) touches obstacle b's box inflated by binfl_ of b: the
+  // distance between the two boxes (box_bits: lo = hi, a point).
+  std::uint64_t range_bits(std::size_t li, F4 lx, F4 ly, F4 lz, F4 hx, F4 hy, F4 hz,
+                           float radius) const {
     const F4 zero = {};
     std::uint64_t bits = 0;
     for (const int b : link_blocks_[li]) {
-      const F4 dx = vmax(vmax(blo_[0][b] - cx, cx - bhi_[0][b]), zero);
-      const F4 dy = vmax(vmax(blo_[1][b] - cy, cy - bhi_[1][b]), zero);
-      const F4 dz = vmax(vmax(blo_[2][b] - cz, cz - bhi_[2][b]), zero);
+      const F4 dx = vmax(vmax(blo_[0][b] - hx, lx - bhi_[0][b]), zero);
+      const F4 dy = vmax(vmax(blo_[1][b] - hy, ly - bhi_[1][b]), zero);
+      const F4 dz = vmax(vmax(blo_[2][b] - hz, lz - bhi_[2][b]), zero);
       const F4 rr = radius + binfl_[b];
       const unsigned m = lanes_of(dx * dx + dy * dy + dz * dz <= rr * rr);
       bits |= static_cast<std::uint64_t>(m) << (4 * b);
@@ -1154,23 +1239,29 @@ class SphereFilter {
     return bits & link_reach_[li];
   }
 
-  // Bits of the obstacles whose inflated box the union sphere of link li's bounding spheres
-  // in the lanes of `act` touches: centre c_u the centre of act's first lane, radius the
-  // link's radius + max over the lanes of |c_l - c_u| + eps_. Every bit link_obstacles(li, l)
-  // sets for a lane l of act is set here: |c_l - c_u| <= d_max, so the box within
-  // r + infl of c_l is within r + d_max + infl of c_u (triangle inequality), the float
-  // rounding of both tests (about 1e-6 m, see the header's bound) far below the eps_ added.
+  // Bits of the obstacles whose inflated box link li's bounding sphere touches in some lane of
+  // `act`: the sphere anywhere in the box of the lanes' centres (range_bits). Every bit
+  // link_obstacles(li, l) sets for a lane l of act is set here: per axis the gap between the
+  // boxes is at most the gap from lane l's centre (the box's bounds are lanes' coordinates,
+  // exactly), and the float operations are monotone, so the squared distance is at most lane
+  // l's, exactly.
   std::uint64_t link_union_obstacles(std::size_t li, unsigned act) const {
     const LinkF& L = links_[li];
-    const int l0 = __builtin_ctz(act);
-    const float c[3] = {L.world.x[l0], L.world.y[l0], L.world.z[l0]};
-    const F4 ex = L.world.x - c[0], ey = L.world.y - c[1], ez = L.world.z - c[2];
-    // squared distances of the lanes' centres to lane l0's, 0 in the lanes outside act
-    F4 d2 = ex * ex + ey * ey + ez * ez;
-    d2 = kLaneMask[act & 15u] ? d2 : F4{};
-    const float m01 = std::max(d2[0], d2[1]), m23 = std::max(d2[2], d2[3]);
-    const float radius = L.radius + std::sqrt(std::max(m01, m23)) + static_cast<float>(eps_);
-    return box_bits(li, c[0], c[1], c[2], radius);
+    const I4 in = kLaneMask[act & 15u];
+    const F4 inf = splat(std::numeric_limits<float>::infinity());
+    // the lanes' smallest and largest coordinates, in every lane (a butterfly of min / max)
+    auto lo = [&](const F4& v) {
+      F4 m = in ? v : inf;
+      m = vmin(m, __builtin_shufflevector(m, m, 2, 3, 0, 1));
+      return vmin(m, __builtin_shufflevector(m, m, 1, 0, 3, 2));
+    };
+    auto hi = [&](const F4& v) {
+      F4 m = in ? v : -inf;
+      m = vmax(m, __builtin_shufflevector(m, m, 2, 3, 0, 1));
+      return vmax(m, __builtin_shufflevector(m, m, 1, 0, 3, 2));
+    };
+    return range_bits(li, lo(L.world.x), lo(L.world.y), lo(L.world.z), hi(L.world.x),
+                      hi(L.world.y), hi(L.world.z), L.radius);
   }
 
   // Lanes where link li's bounding sphere touches obstacle ob's inflated box: link_obstacles'
@@ -1241,6 +1332,8 @@ class SphereFilter {
   std::vector<LinkF> links_;
   std::vector<JointF> joints_;  // the chain (Input::chain)
   std::vector<PoseF> poses_;    // load_q: joint placements, lanes
+  std::vector<F4> motion_;      // load_q: per joint its sine and cosine (prismatic: coordinate)
+  bool serial_ = false;         // every joint's parent is the joint before it (chain_serial)
   std::vector<ObjectF> objects_;
   std::vector<SphF> sph_;
   std::vector<ObsF> obs_;
