@@ -1249,16 +1249,14 @@ class SphereFilter {
     const LinkF& L = links_[li];
     const I4 in = kLaneMask[act & 15u];
     const F4 inf = splat(std::numeric_limits<float>::infinity());
-    // the lanes' smallest and largest coordinates, in every lane (a butterfly of min / max)
+    // the lanes' smallest and largest coordinates (exact), splat
     auto lo = [&](const F4& v) {
-      F4 m = in ? v : inf;
-      m = vmin(m, __builtin_shufflevector(m, m, 2, 3, 0, 1));
-      return vmin(m, __builtin_shufflevector(m, m, 1, 0, 3, 2));
+      const F4 m = in ? v : inf;
+      return splat(std::min(std::min(m[0], m[1]), std::min(m[2], m[3])));
     };
     auto hi = [&](const F4& v) {
-      F4 m = in ? v : -inf;
-      m = vmax(m, __builtin_shufflevector(m, m, 2, 3, 0, 1));
-      return vmax(m, __builtin_shufflevector(m, m, 1, 0, 3, 2));
+      const F4 m = in ? v : -inf;
+      return splat(std::max(std::max(m[0], m[1]), std::max(m[2], m[3])));
     };
     return range_bits(li, lo(L.world.x), lo(L.world.y), lo(L.world.z), hi(L.world.x),
                       hi(L.world.y), hi(L.world.z), L.radius);
