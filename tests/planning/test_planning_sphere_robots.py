@@ -459,3 +459,39 @@ def test_continuous_joints_take_the_python_path() -> None:
         assert not any(
             mesh(pin.interpolate(robot.model, a, b, t)) for t in np.linspace(0.0, 1.0, n + 1)
         )
+
+
+@pytest.mark.parametrize("name", ROBOTS)
+def test_float_placements_against_pinocchio(scenes: dict[str, Scene], name: str) -> None:
+    """The filter's single-precision joint placements (SphereFilter::load_q) against Pinocchio's
+    forwardKinematics in double, at every SIMD level: a serial chain (registers), a tree
+    (baxter: the general chain) and prismatic joints between revolute ones with turned joint
+    frames (skew_arm). Rotations within the header's 21 d u (Frobenius), translations within
+    its sphere-centre bound (35 n + 20.3) u S (u = 2^-24, d the joint's depth, n the chain's)."""
+    scene = _scene(scenes, name)
+    kernel, model = scene.kernel, scene.robot.model
+    data = model.createData()
+    scale, n = kernel.sphere_filter_bound()
+    depth = [0] * model.njoints
+    for j in range(1, model.njoints):
+        depth[j] = depth[model.parents[j]] + 1
+    assert n == max(depth)
+    u = 2.0**-24
+    qs = np.vstack([scene.random(5, 150), scene.lo, scene.hi, np.zeros(model.nq)])
+    initial = kernel.simd
+    try:
+        for level in range(1, type(kernel).max_simd + 1):
+            kernel.set_simd(level)
+            placements = kernel.sphere_filter_placements(qs)
+            assert placements.shape == (len(qs), 12 * model.njoints)
+            for q, row in zip(qs, placements, strict=True):
+                pin.forwardKinematics(model, data, q)
+                for j in range(1, model.njoints):
+                    m = data.oMi[j]
+                    rot = row[12 * j : 12 * j + 9].reshape(3, 3)
+                    assert np.linalg.norm(rot - m.rotation) <= 21.0 * depth[j] * u, (level, j)
+                    t = row[12 * j + 9 : 12 * j + 12]
+                    error = np.linalg.norm(t - m.translation)
+                    assert error <= (35.0 * n + 20.3) * u * scale, (level, j, error)
+    finally:
+        kernel.set_simd(initial)
