@@ -5,11 +5,13 @@ import numpy as np
 import pytest
 
 from taskspace.control import (
+    controllability,
     is_observable,
     kalman_decomposition,
     observability,
     observability_matrix,
 )
+from taskspace.control._linear import safe_norm
 from taskspace.errors import UnknownNameError
 
 
@@ -138,3 +140,45 @@ def test_part_names() -> None:
     dec = kalman_decomposition(np.eye(2), [[1.0], [0.0]], [[1.0, 0.0]])
     with pytest.raises(UnknownNameError, match="co, cu, uo, uu"):
         dec.part("xx")
+
+
+@pytest.mark.parametrize("scale", [1e-200, 1.0, 1e200])
+def test_kalman_decomposition_of_a_system_in_one_part(scale: float) -> None:
+    # A chain x1' = x2, x2' = x3, x3' = -x1 - 2 x2 - 3 x3: controllable from u (x3'), observable
+    # from y = x1; with B or C zero every state moves to the uncontrollable or unobservable
+    # parts. Fully controllable, I - R R^T is zero up to rounding: a threshold relative to
+    # its largest singular value kept them all and put the 3 states in "uo" (sizes (0, 0, 3,
+    # 0) at every scale before).
+    A = scale * np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [-1.0, -2.0, -3.0]])
+    B, C = np.array([[0.0], [0.0], [1.0]]), np.array([[1.0, 0.0, 0.0]])
+    zb, zc = np.zeros((3, 1)), np.zeros((1, 3))
+    assert kalman_decomposition(A, B, C).sizes == (3, 0, 0, 0)
+    assert kalman_decomposition(A, B, zc).sizes == (0, 3, 0, 0)
+    assert kalman_decomposition(A, zb, C).sizes == (0, 0, 3, 0)
+    assert kalman_decomposition(A, zb, zc).sizes == (0, 0, 0, 3)
+
+
+@pytest.mark.parametrize("scale", [1e-100, 1e-200, 1e-300, 1e-320])
+def test_tiny_a_keeps_its_rank_and_modes(scale: float) -> None:
+    # The Krylov columns of s A are s^k A^k B: for a tiny s their norms underflowed (A^2 B ~
+    # 1e-200 squared to 0: the column dropped, rank 2) or A^2 B itself did (~1e-400); the test
+    # now runs on 2^-e A (exact). Controllability and observability are those of A.
+    A0 = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [-1.0, -2.0, -3.0]])
+    B, C = np.array([[0.0], [0.0], [1.0]]), np.array([[1.0, 0.0, 0.0]])
+    ctrb = controllability(scale * A0, B)
+    assert ctrb.controllable and ctrb.rank == 3
+    assert ctrb.uncontrollable_modes.size == 0
+    obsv = observability(scale * A0, C)
+    assert obsv.rank == 3 and obsv.unobservable_modes.size == 0
+    # x3 decoupled and not driven: its mode -3 s is the one uncontrollable mode
+    A1, B1 = np.diag([-1.0, -2.0, -3.0]), np.array([[1.0], [1.0], [0.0]])
+    part = controllability(scale * A1, B1)
+    assert part.rank == 2
+    np.testing.assert_allclose(part.uncontrollable_modes.real / scale, [-3.0], rtol=1e-12)
+
+
+def test_safe_norm_of_tiny_entries() -> None:
+    # np.linalg.norm squares the entries: (3e-200, 4e-200) had norm 0
+    assert safe_norm(np.array([3e-200, 4e-200])) == pytest.approx(5e-200, rel=1e-15)
+    cols = safe_norm(np.array([[3e-200, 1.0], [4e-200, 0.0]]), axis=0)
+    np.testing.assert_allclose(cols, [5e-200, 1.0], rtol=1e-15)

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import numpy as np
@@ -92,21 +91,27 @@ def check_solution(P: FloatArray, what: str) -> FloatArray:
 
 
 def safe_norm(X: Any, axis: int | None = None) -> Any:
-    """Frobenius (or column, with ``axis=0``) norm without overflow: ``s |X / s|``, ``s = max|X|``.
+    """Frobenius (or column, with ``axis=0``) norm without overflow or underflow.
 
-    ``np.linalg.norm`` squares the entries: a matrix with entries near 1e300 had norm inf.
+    ``s |X / s|`` with ``s = max|X|`` where the plain norm would lose precision.
+
+    ``np.linalg.norm`` squares the entries: a matrix with entries near 1e300 had norm inf, one
+    whose entries are all below about 1e-154 norm 0 or a subnormal (a controllability column
+    ``A^2 B`` near 1e-200 was dropped as zero).
     """
     X = np.asarray(X)
     if X.size == 0:
         return 0.0 if axis is None else np.zeros(X.shape[1 - axis])
-    # the common case first (callers that may see huge entries hold np.errstate)
+    # the common case first (callers that may see huge entries hold np.errstate): the largest
+    # entry between 1e-150 and the overflow, whose square is a normal float
     direct = np.linalg.norm(X, axis=axis)
-    if axis is None:
-        if math.isfinite(direct):
-            return float(direct)
-    elif np.isfinite(direct).all():
-        return direct
     s = np.max(np.abs(X), axis=axis, keepdims=axis is not None)
+    if np.isfinite(direct).all() and not ((s > 0) & (s < _TINY_NORM)).any():
+        return float(direct) if axis is None else direct
     s = np.where(s > 0, s, 1.0)
     out = np.linalg.norm(X / s, axis=axis) * (s.ravel() if axis is not None else s)
     return float(out) if axis is None else out
+
+
+_TINY_NORM = 1e-150
+"""Below this largest entry, the squares in ``np.linalg.norm`` lose precision or vanish."""

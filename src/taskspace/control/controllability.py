@@ -130,7 +130,9 @@ def controllability(A: Any, B: Any, tolerance: float | None = None) -> Controlla
 
     An ``A`` whose powers overflow float64 (a 3-state ``A`` near 1e200: ``A^2 B ~ 1e400``) is
     tested as ``2^-e A`` (``2^e`` just above ``max |A|``): exact, the column-normalized
-    controllability matrix and the rank are the same, the modes are scaled back by ``2^e``.
+    controllability matrix and the rank are the same, the modes are scaled back by ``2^e``. So
+    is a tiny ``A`` (``max |A| < 2^-32``), whose powers would underflow (``A ~ 1e-200``:
+    ``A^2 B ~ 1e-400`` is zero in float64).
 
     Args:
         A: system matrix (n x n).
@@ -166,6 +168,13 @@ def _controllability(
         C, k = _krylov(A, B)
         if k:  # (B too large)
             raise InvalidInputError(_overflow_message(A, B, k, f" (after A / 2^{e})", dual=dual))
+    elif A.size and 0.0 < float(np.max(np.abs(A))) < _TINY_A:
+        # a tiny A: its powers underflow (A^2 B ~ 1e-400 for A ~ 1e-200: a controllable pair
+        # tested rank-deficient); 2^-e A with 2^e just above max |A| grows every entry (exact)
+        scaled = _unit_scale(A)
+        if scaled is not None:
+            A, e = scaled
+            C, _ = _krylov(A, B)
     with np.errstate(over="ignore", invalid="ignore"):
         # the two column blocks of the PBH test scaled separately (the rank is unchanged): one
         # common scale made B vanish next to an A near 1e300 (every mode "uncontrollable")
@@ -191,6 +200,10 @@ def _controllability(
         uncontrollable_modes=found,
         tolerance=tol,
     )
+
+
+_TINY_A = 2.0**-32
+"""Below this largest entry of ``A``, the Krylov and PBH tests run on ``2^-e A`` (exact)."""
 
 
 def _unit_columns(M: FloatArray) -> FloatArray:

@@ -174,6 +174,21 @@ def _null(M: FloatArray, n: int, tol: float) -> FloatArray:
     return np.asarray(sla.null_space(M, rcond=tol), dtype=float)
 
 
+def _null_abs(M: FloatArray, n: int, atol: float) -> FloatArray:
+    """Null space of ``M`` with an absolute threshold on its singular values.
+
+    For stacks of projector complements (``I - R R^T``: singular values 0 or the sines of
+    principal angles) a threshold relative to the largest singular value fails when the
+    projector is zero up to rounding (``R`` the whole space: every singular value ~1e-16 kept,
+    the null space empty).
+    """
+    if M.size == 0:
+        return np.eye(n)
+    _, s, vh = np.linalg.svd(M, full_matrices=True)
+    rank = int(np.sum(s > atol))
+    return np.asarray(vh[rank:].T, dtype=float)
+
+
 def kalman_decomposition(
     A: Any, B: Any, C: Any, tolerance: float | None = None
 ) -> KalmanDecomposition:
@@ -220,11 +235,13 @@ def kalman_decomposition(
     N = _null(_unit_columns(Obsv_t).T, n, tol)
     eye = np.eye(n)
     # R ∩ N = null([I - R R^T; I - N N^T]).
-    cu = _null(np.vstack([eye - R @ R.T, eye - N @ N.T]), n, 1e3 * n * np.finfo(float).eps)
-    co = _null(np.vstack([eye - R @ R.T, cu.T]), n, 1e3 * n * np.finfo(float).eps)
-    uu = _null(np.vstack([eye - N @ N.T, cu.T]), n, 1e3 * n * np.finfo(float).eps)
+    # (absolute thresholds: the stacks' singular values are sines of principal angles, or 0)
+    atol = 1e3 * n * np.finfo(float).eps
+    cu = _null_abs(np.vstack([eye - R @ R.T, eye - N @ N.T]), n, atol)
+    co = _null_abs(np.vstack([eye - R @ R.T, cu.T]), n, atol)
+    uu = _null_abs(np.vstack([eye - N @ N.T, cu.T]), n, atol)
     spanned = np.hstack([co, cu, uu])
-    uo = _null(spanned.T, n, 1e3 * n * np.finfo(float).eps) if spanned.shape[1] else np.eye(n)
+    uo = _null_abs(spanned.T, n, atol) if spanned.shape[1] else np.eye(n)
     T = np.hstack([co, cu, uo, uu])
     if T.shape[1] != n:
         from taskspace.errors import SolverError
