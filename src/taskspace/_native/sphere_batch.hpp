@@ -266,8 +266,6 @@ class SphereFilter {
       f.kind = j.kind;
       f.axis = j.axis;
       f.idx_q = j.idx_q;
-      f.turn[0] = (j.axis + 1) % 3;
-      f.turn[1] = (j.axis + 2) % 3;
       for (int a = 0; a < 3; ++a) f.t0[a] = splat(static_cast<float>(j.t0[a]));
       // a signed permutation (entries within 1e-12 of 0 or +-1, the Panda's rpy of multiples
       // of pi/2 with their 6e-17): column c is +-column src[c] of the parent, exactly
@@ -720,7 +718,6 @@ class SphereFilter {
   };
   struct JointF {
     int parent, kind, axis, idx_q;
-    int turn[2];
     bool perm;           // R0 a signed permutation: column c = sign[c] * column src[c]
     int src[3] = {0, 1, 2};
     F4 sign[3] = {{1, 1, 1, 1}, {1, 1, 1, 1}, {1, 1, 1, 1}};
